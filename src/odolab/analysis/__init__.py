@@ -1,0 +1,1 @@
+"""odolab.analysis (filled in by its issue)."""

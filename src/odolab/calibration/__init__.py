@@ -1,0 +1,1 @@
+"""odolab.calibration (filled in by its issue)."""

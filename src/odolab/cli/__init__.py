@@ -1,0 +1,36 @@
+"""The ``odolab`` command line: a thin shell over the library.
+
+Each module below adds its commands to the apps in :mod:`odolab.cli._apps`. Heavy imports happen
+inside the commands so that ``odolab --help`` stays instant. Every :class:`OdolabError` becomes
+one line on stderr and exit code 1; no traceback.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from odolab.cli import core, evaluate, lab, robot, sim, trials  # noqa: F401  (register commands)
+from odolab.cli._apps import app
+from odolab.errors import OdolabError
+
+__all__ = ["app", "main"]
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``odolab`` script; returns the exit code."""
+    try:
+        app(args=argv, prog_name="odolab", standalone_mode=True)
+    except OdolabError as err:
+        sys.stderr.write(f"odolab: error: {err}\n")
+        return 1
+    except SystemExit as exc:
+        code = exc.code
+        return code if isinstance(code, int) else (0 if code is None else 1)
+    except KeyboardInterrupt:
+        sys.stderr.write("odolab: interrupted\n")
+        return 130
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

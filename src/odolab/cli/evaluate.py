@@ -1,0 +1,3 @@
+"""CLI commands: evaluate (filled in by its issue)."""
+
+from __future__ import annotations

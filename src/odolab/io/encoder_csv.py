@@ -1,0 +1,72 @@
+"""Encoder log CSV: header ``t,left_ticks,right_ticks`` (s; raw counters, may wrap).
+
+Per-cycle increments are read too, with header ``t,dticks_left,dticks_right``: they are summed
+into counters that never wrap.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from odolab.encoders import as_tick_array
+from odolab.errors import LogFormatError
+from odolab.io._table import read_numeric_columns
+from odolab.trajectory import check_times
+from odolab.trials import EncoderLog
+
+__all__ = ["read_encoder_csv", "write_encoder_csv"]
+
+RAW = ("t", "left_ticks", "right_ticks")
+INCREMENTS = ("t", "dticks_left", "dticks_right")
+
+
+def read_encoder_csv(path: str | Path, *, modulus: int | None = None) -> EncoderLog:
+    """Read an encoder log; raw counters keep ``modulus`` (the robot's), increments get None."""
+    p = Path(path)
+    import pandas as pd
+
+    try:
+        header = [str(c).strip() for c in pd.read_csv(p, nrows=0, encoding="utf-8-sig").columns]
+    except FileNotFoundError as err:
+        raise LogFormatError(f"{p}: no such file") from err
+    except (pd.errors.EmptyDataError, UnicodeDecodeError) as err:
+        raise LogFormatError(f"{p}: empty or unreadable file; expected a header line") from err
+    increments = "dticks_left" in header and "left_ticks" not in header
+    cols = INCREMENTS if increments else RAW
+    data = read_numeric_columns(p, cols)
+    t = data["t"]
+    if t.size == 0:
+        raise LogFormatError(f"{p}: no samples after the header")
+    check_times(t, str(p), row_offset=2)
+    try:
+        left = as_tick_array(data[cols[1]], cols[1])
+        right = as_tick_array(data[cols[2]], cols[2])
+    except LogFormatError as err:
+        raise LogFormatError(f"{p}: {err} (line = index + 2)") from err
+    if increments:
+        left = np.cumsum(left)
+        right = np.cumsum(right)
+        left -= left[0]
+        right -= right[0]
+        return EncoderLog(t, left, right, None)
+    if modulus is not None:
+        for name, arr in (("left_ticks", left), ("right_ticks", right)):
+            out = (arr < 0) | (arr >= modulus)
+            if out.any():
+                i = int(np.argmax(out))
+                raise LogFormatError(
+                    f"{p}: line {i + 2}, column {name!r} is {arr[i]}, expected a counter value in "
+                    f"0..{modulus - 1} (encoder_modulus {modulus})"
+                )
+    return EncoderLog(t, left, right, modulus)
+
+
+def write_encoder_csv(log: EncoderLog, path: str | Path) -> Path:
+    """Write ``t,left_ticks,right_ticks`` (raw counters)."""
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    table = np.column_stack((log.t, log.left_ticks, log.right_ticks))
+    np.savetxt(p, table, fmt=("%.9f", "%d", "%d"), delimiter=",", header=",".join(RAW), comments="")
+    return p

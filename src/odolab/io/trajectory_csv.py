@@ -1,0 +1,91 @@
+"""Trajectory files: CSV with header ``t,x,y,theta,heading``, and TUM text.
+
+TUM format: one line per pose, ``timestamp tx ty tz qx qy qz qw`` (space separated, ``#``
+comments); planar poses have ``tz = qx = qy = 0`` and the yaw in the quaternion.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from odolab.errors import LogFormatError
+from odolab.io._table import read_numeric_columns
+from odolab.trajectory import Trajectory, check_times
+
+__all__ = [
+    "read_trajectory_csv",
+    "read_tum",
+    "write_trajectory",
+    "write_trajectory_csv",
+    "write_tum",
+]
+
+COLUMNS = ("t", "x", "y", "theta", "heading")
+TUM_COLUMNS = ("t", "tx", "ty", "tz", "qx", "qy", "qz", "qw")
+
+
+def write_trajectory_csv(traj: Trajectory, path: str | Path) -> Path:
+    """Write a trajectory CSV (full double precision)."""
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    table = np.column_stack((traj.t, traj.x, traj.y, traj.theta, traj.heading))
+    np.savetxt(p, table, fmt="%.17g", delimiter=",", header=",".join(COLUMNS), comments="")
+    return p
+
+
+def read_trajectory_csv(path: str | Path) -> Trajectory:
+    """Read a trajectory CSV; ``heading`` is optional (derived by unwrapping theta)."""
+    p = Path(path)
+    import pandas as pd
+
+    try:
+        header = [str(c).strip() for c in pd.read_csv(p, nrows=0).columns]
+    except FileNotFoundError as err:
+        raise LogFormatError(f"{p}: no such file") from err
+    except pd.errors.EmptyDataError as err:
+        raise LogFormatError(f"{p}: empty file; expected header {','.join(COLUMNS)}") from err
+    cols = COLUMNS if "heading" in header else COLUMNS[:4]
+    d = read_numeric_columns(p, cols)
+    check_times(d["t"], str(p), row_offset=2)
+    if "heading" in d:
+        return Trajectory.from_xyh(d["t"], d["x"], d["y"], d["heading"])
+    return Trajectory.from_xytheta(d["t"], d["x"], d["y"], d["theta"])
+
+
+def write_tum(traj: Trajectory, path: str | Path) -> Path:
+    """Write TUM text (planar: z = 0, quaternion about z)."""
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    half = 0.5 * traj.theta
+    zeros = np.zeros_like(traj.t)
+    table = np.column_stack(
+        (traj.t, traj.x, traj.y, zeros, zeros, zeros, np.sin(half), np.cos(half))
+    )
+    np.savetxt(p, table, fmt="%.17g", delimiter=" ")
+    return p
+
+
+def read_tum(path: str | Path) -> Trajectory:
+    """Read TUM text; yaw from the quaternion (roll and pitch are ignored)."""
+    p = Path(path)
+    d = read_numeric_columns(p, TUM_COLUMNS, sep=r"\s+", names=TUM_COLUMNS)
+    if d["t"].size == 0:
+        raise LogFormatError(f"{p}: no poses")
+    check_times(d["t"], str(p), row_offset=1)
+    qx, qy, qz, qw = d["qx"], d["qy"], d["qz"], d["qw"]
+    yaw = np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+    return Trajectory.from_xytheta(d["t"], d["tx"], d["ty"], yaw)
+
+
+def write_trajectory(
+    traj: Trajectory, path: str | Path, fmt: Literal["csv", "tum"] = "csv"
+) -> Path:
+    """Write in the named format."""
+    if fmt == "csv":
+        return write_trajectory_csv(traj, path)
+    if fmt == "tum":
+        return write_tum(traj, path)
+    raise LogFormatError(f"unknown trajectory format {fmt!r}; expected csv or tum")

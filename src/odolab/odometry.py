@@ -1,0 +1,362 @@
+"""Odometry: encoder counts to pose, streaming (one update per control cycle) and batch.
+
+Both implement the lab's control loop (Figs. 6-8): per cycle, the counter increments (rollover
+corrected), eqs. (3.1)-(3.4) for the wheel and body motion, (3.5)/(3.6) for the position step,
+then the heading update. Both keep the unwrapped ``heading`` as state and report ``theta`` as
+its wrap to (-pi, pi]; they perform the same floating-point operations in the same order, so
+their poses agree to rounding (far better than 1e-9).
+
+The batch version is one fused, compiled pass (numba) over the samples.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+from numpy.typing import ArrayLike, NDArray
+
+from odolab.encoders import EncoderUnwrapper, as_tick_array, default_max_dticks
+from odolab.errors import EncoderJumpError, LogFormatError
+from odolab.kinematics import Method, wrap_angle
+from odolab.params import RobotParams
+from odolab.trajectory import Pose, Trajectory, check_times
+
+__all__ = ["Odometry", "integrate", "integrate_increments"]
+
+_NO_LIMIT = -1
+_TWO_PI = 2.0 * math.pi
+
+
+@njit(cache=True, inline="always")
+def _wrap(h: float) -> float:  # pragma: no cover - compiled
+    a = h + math.pi
+    w = a - _TWO_PI * math.floor(a / _TWO_PI) - math.pi
+    if w <= -math.pi:
+        w += 2.0 * math.pi
+    return w
+
+
+@njit(cache=True, inline="always")
+def _chord(dth: float, arc: bool) -> float:  # pragma: no cover - compiled
+    if not arc:
+        return 1.0
+    u = 0.5 * dth
+    if abs(u) < 1e-4:
+        return 1.0 - u * u / 6.0
+    return math.sin(u) / u
+
+
+@njit(cache=True, inline="always")
+def _unwrap_diff(d: int, modulus: int, half: int) -> int:  # pragma: no cover - compiled
+    # |d| < modulus for counters in range; map d into [-half, modulus - half) without a division
+    if modulus > 0:
+        if d >= modulus - half:
+            d -= modulus
+            if d >= modulus - half:  # raw values outside 0..modulus-1: fall back to modulo
+                d = (d + half) % modulus - half
+        elif d < -half:
+            d += modulus
+            if d < -half:
+                d = (d + half) % modulus - half
+    return d
+
+
+@njit(cache=True)
+def _integrate_ticks(  # pragma: no cover - compiled
+    t, left, right, modulus, max_d, kl, kr, track, arc, x0, y0, h0, tout, x, y, theta, heading
+):
+    """Fused pass: time check, unwrap, (3.1)-(3.6). Returns (code, index, value); code 0 = ok,
+    1/2 = left/right jump, 3 = time not finite, 4 = time goes backwards."""
+    n = left.shape[0]
+    half = modulus // 2
+    xx = x0
+    yy = y0
+    hh = h0
+    if n > 0:
+        if not math.isfinite(t[0]):
+            return 3, 0, 0
+        tout[0] = t[0]
+        x[0] = xx
+        y[0] = yy
+        heading[0] = hh
+        theta[0] = _wrap(hh)
+    for i in range(1, n):
+        ti = t[i]
+        if not math.isfinite(ti):
+            return 3, i, 0
+        if ti < t[i - 1]:
+            return 4, i, 0
+        tout[i] = ti
+        dl = _unwrap_diff(left[i] - left[i - 1], modulus, half)
+        dr = _unwrap_diff(right[i] - right[i - 1], modulus, half)
+        if max_d >= 0:
+            if abs(dl) > max_d:
+                return 1, i, dl
+            if abs(dr) > max_d:
+                return 2, i, dr
+        dsl = dl * kl
+        dsr = dr * kr
+        ds = (dsr + dsl) * 0.5
+        dth = (dsr - dsl) / track
+        c = ds * _chord(dth, arc)
+        mid = hh + 0.5 * dth
+        xx = xx + c * math.cos(mid)
+        yy = yy + c * math.sin(mid)
+        hh = hh + dth
+        x[i] = xx
+        y[i] = yy
+        heading[i] = hh
+        theta[i] = _wrap(hh)
+    return 0, -1, 0
+
+
+@njit(cache=True)
+def _integrate_dticks(  # pragma: no cover - compiled
+    dleft, dright, kl, kr, track, arc, x0, y0, h0, x, y, theta, heading
+):
+    n = dleft.shape[0]
+    xx = x0
+    yy = y0
+    hh = h0
+    if n > 0:
+        x[0] = xx
+        y[0] = yy
+        heading[0] = hh
+        theta[0] = _wrap(hh)
+    for i in range(1, n):
+        dsl = dleft[i] * kl
+        dsr = dright[i] * kr
+        ds = (dsr + dsl) * 0.5
+        dth = (dsr - dsl) / track
+        c = ds * _chord(dth, arc)
+        mid = hh + 0.5 * dth
+        xx = xx + c * math.cos(mid)
+        yy = yy + c * math.sin(mid)
+        hh = hh + dth
+        x[i] = xx
+        y[i] = yy
+        heading[i] = hh
+        theta[i] = _wrap(hh)
+
+
+def _start_pose(start: tuple[float, float, float] | None) -> tuple[float, float, float]:
+    if start is None:
+        return 0.0, 0.0, 0.0
+    x0, y0, h0 = (float(v) for v in start)
+    if not all(math.isfinite(v) for v in (x0, y0, h0)):
+        raise LogFormatError(f"start pose must be finite numbers, got {start!r}")
+    return x0, y0, h0
+
+
+def _times(t: ArrayLike, n: int, source: str) -> NDArray[np.float64]:
+    tt = np.array(t, dtype=np.float64)  # a copy: the trajectory owns its arrays
+    if tt.ndim != 1 or tt.size != n:
+        raise LogFormatError(f"{source}: t has {tt.size} samples but the ticks have {n}")
+    check_times(tt, source)
+    return tt
+
+
+def integrate(
+    t: ArrayLike,
+    left_ticks: ArrayLike,
+    right_ticks: ArrayLike,
+    params: RobotParams,
+    method: Method | str = Method.MIDPOINT,
+    *,
+    start: tuple[float, float, float] | None = None,
+    max_dticks: int | None = None,
+    source: str = "encoder log",
+) -> Trajectory:
+    """Batch odometry from raw (possibly wrapping) counters; one pose per sample.
+
+    ``t``, ``left_ticks``, ``right_ticks``: shape (n,). The first pose is ``start``
+    (x, y, heading; default the origin) at ``t[0]``. ``max_dticks`` defaults to a quarter of
+    the counter range (see :func:`odolab.encoders.default_max_dticks`).
+    """
+    m = Method(method)
+    left = as_tick_array(left_ticks, "left_ticks")
+    right = as_tick_array(right_ticks, "right_ticks")
+    if left.size != right.size:
+        raise LogFormatError(f"{source}: left has {left.size} samples, right has {right.size}")
+    tin = np.asarray(t, dtype=np.float64)
+    if tin.ndim != 1 or tin.size != left.size:
+        raise LogFormatError(f"{source}: t has {tin.size} samples but the ticks have {left.size}")
+    if max_dticks is None:
+        max_dticks = default_max_dticks(params.encoder_modulus)
+    x0, y0, h0 = _start_pose(start)
+    n = left.size
+    tt, x, y, theta, heading = (np.empty(n) for _ in range(5))
+    code, i, d = _integrate_ticks(
+        tin,
+        left,
+        right,
+        params.encoder_modulus or 0,
+        _NO_LIMIT if max_dticks is None else int(max_dticks),
+        params.left_metres_per_tick,
+        params.right_metres_per_tick,
+        params.track_width,
+        m is Method.ARC,
+        x0,
+        y0,
+        h0,
+        tt,
+        x,
+        y,
+        theta,
+        heading,
+    )
+    if code in (1, 2):
+        name = ("left_ticks", "right_ticks")[code - 1]
+        raise EncoderJumpError(
+            f"{source}: {name} jumps by {d} counts between samples {i - 1} and {i} "
+            f"(t={tin[i]:g} s), more than the {max_dticks} counts per cycle that a wrap or "
+            "plausible motion allows"
+        )
+    if code in (3, 4):
+        check_times(tin, source)  # raises with the message
+    return Trajectory(tt, x, y, theta, heading)
+
+
+def integrate_increments(
+    t: ArrayLike,
+    dticks_left: ArrayLike,
+    dticks_right: ArrayLike,
+    params: RobotParams,
+    method: Method | str = Method.MIDPOINT,
+    *,
+    start: tuple[float, float, float] | None = None,
+    source: str = "encoder log",
+) -> Trajectory:
+    """Batch odometry from per-cycle increments (``dticks[i]`` = counts from sample i-1 to i).
+
+    ``dticks[0]`` is ignored (the first pose is ``start``). Increments may be fractional.
+    """
+    m = Method(method)
+    dl = np.asarray(dticks_left, dtype=np.float64)
+    dr = np.asarray(dticks_right, dtype=np.float64)
+    if dl.shape != dr.shape or dl.ndim != 1:
+        raise LogFormatError(f"{source}: left and right increments differ in shape")
+    for name, arr in (("dticks_left", dl), ("dticks_right", dr)):
+        bad = ~np.isfinite(arr)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise LogFormatError(f"{source}: {name}[{i}] is {arr[i]}, expected a finite number")
+    tt = _times(t, dl.size, source)
+    x0, y0, h0 = _start_pose(start)
+    n = dl.size
+    x, y, theta, heading = (np.empty(n) for _ in range(4))
+    _integrate_dticks(
+        dl,
+        dr,
+        params.left_metres_per_tick,
+        params.right_metres_per_tick,
+        params.track_width,
+        m is Method.ARC,
+        x0,
+        y0,
+        h0,
+        x,
+        y,
+        theta,
+        heading,
+    )
+    return Trajectory(tt, x, y, theta, heading)
+
+
+class Odometry:
+    """Streaming odometry: call :meth:`update` once per control cycle with the raw counters.
+
+    The first update sets the reference counts and returns the start pose. Each later update
+    returns the pose after that cycle, exactly as :func:`integrate` would for the same samples.
+    """
+
+    def __init__(
+        self,
+        params: RobotParams,
+        method: Method | str = Method.MIDPOINT,
+        *,
+        start: tuple[float, float, float] | None = None,
+        max_dticks: int | None = None,
+    ) -> None:
+        self.params = params
+        self.method = Method(method)
+        self._arc = self.method is Method.ARC
+        self._start = _start_pose(start)
+        if max_dticks is None:
+            max_dticks = default_max_dticks(params.encoder_modulus)
+        self.max_dticks = max_dticks
+        self._kl = params.left_metres_per_tick
+        self._kr = params.right_metres_per_tick
+        self._left = EncoderUnwrapper(params.encoder_modulus, max_dticks, "left_ticks")
+        self._right = EncoderUnwrapper(params.encoder_modulus, max_dticks, "right_ticks")
+        self.reset()
+
+    def reset(self, start: tuple[float, float, float] | None = None) -> None:
+        """Forget the counters and go back to the start pose (or a new one)."""
+        if start is not None:
+            self._start = _start_pose(start)
+        self._x, self._y, self._h = self._start
+        self._t: float | None = None
+        self._left.reset()
+        self._right.reset()
+        self.cycles = 0
+
+    @property
+    def pose(self) -> Pose:
+        """The current pose (t is nan before the first update)."""
+        t = math.nan if self._t is None else self._t
+        return Pose(t, self._x, self._y, _wrap_py(self._h), self._h)
+
+    def _check_time(self, t: float) -> float:
+        tf = float(t)
+        if not math.isfinite(tf):
+            raise LogFormatError(f"update time is {t!r}, expected a finite number of seconds")
+        if self._t is not None and tf < self._t:
+            raise LogFormatError(
+                f"update time goes backwards ({tf} after {self._t}); expected non-decreasing times"
+            )
+        return tf
+
+    def update(self, t: float, left_ticks: int, right_ticks: int) -> Pose:
+        """One control cycle from raw counter values; returns the new pose."""
+        tf = self._check_time(t)
+        dl = self._left.update(left_ticks)
+        try:
+            dr = self._right.update(right_ticks)
+        except EncoderJumpError:
+            self._left._index -= 1  # keep both counters' sample indexes in step
+            raise
+        return self._advance(tf, dl, dr)
+
+    def update_increments(self, t: float, dticks_left: float, dticks_right: float) -> Pose:
+        """One control cycle from counter increments since the last cycle."""
+        tf = self._check_time(t)
+        if self._t is None:
+            return self._advance(tf, 0.0, 0.0)
+        return self._advance(tf, float(dticks_left), float(dticks_right))
+
+    def _advance(self, t: float, dl: float, dr: float) -> Pose:
+        first = self._t is None
+        self._t = t
+        if not first:
+            dsl = dl * self._kl
+            dsr = dr * self._kr
+            ds = (dsr + dsl) * 0.5
+            dth = (dsr - dsl) / self.params.track_width
+            if self._arc:
+                u = 0.5 * dth
+                c = ds * ((1.0 - u * u / 6.0) if abs(u) < 1e-4 else math.sin(u) / u)
+            else:
+                c = ds
+            mid = self._h + 0.5 * dth
+            self._x = self._x + c * math.cos(mid)
+            self._y = self._y + c * math.sin(mid)
+            self._h = self._h + dth
+            self.cycles += 1
+        return Pose(t, self._x, self._y, _wrap_py(self._h), self._h)
+
+
+def _wrap_py(h: float) -> float:
+    return float(wrap_angle(h))

@@ -1,0 +1,160 @@
+"""Robot parameters: the kinematic constants odometry needs, validated, with TOML load/save.
+
+File format (TOML)::
+
+    [robot]
+    name = "jaguar-lite"
+    left_wheel_radius = 0.0835   # m, effective
+    right_wheel_radius = 0.0835  # m, effective
+    track_width = 0.56           # m, effective (2 * L_robot of the lab report)
+    ticks_per_rev = 380          # encoder counts per wheel revolution
+    encoder_modulus = 32768      # counter wraps to 0 after modulus-1; omit if it never wraps
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import tomli_w
+
+from odolab.errors import ParamsError
+
+__all__ = ["PRESETS", "RobotParams", "load_params", "params_from_mapping", "save_params"]
+
+_FIELDS = (
+    "name",
+    "left_wheel_radius",
+    "right_wheel_radius",
+    "track_width",
+    "ticks_per_rev",
+    "encoder_modulus",
+)
+_REQUIRED = ("left_wheel_radius", "right_wheel_radius", "track_width", "ticks_per_rev")
+
+
+@dataclass(frozen=True)
+class RobotParams:
+    """Kinematic parameters of a differential-drive or skid-steer robot (SI units).
+
+    ``track_width`` is the distance between the effective left and right contact lines, i.e.
+    ``2 * L_robot`` in the lab report. Radii are *effective* radii (what odometry should use),
+    which for tracks differ from what a ruler gives.
+    """
+
+    left_wheel_radius: float
+    right_wheel_radius: float
+    track_width: float
+    ticks_per_rev: float
+    encoder_modulus: int | None = None
+    name: str = "robot"
+
+    def __post_init__(self) -> None:
+        for key in ("left_wheel_radius", "right_wheel_radius", "track_width", "ticks_per_rev"):
+            value = getattr(self, key)
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise ParamsError(f"{key} must be a number, got {value!r}")
+            if not math.isfinite(value) or value <= 0:
+                raise ParamsError(f"{key} must be a positive finite number, got {value!r}")
+            object.__setattr__(self, key, float(value))
+        m = self.encoder_modulus
+        if m is not None and (isinstance(m, bool) or not isinstance(m, int) or m < 2):
+            raise ParamsError(f"encoder_modulus must be an integer >= 2 (or left out), got {m!r}")
+        if not isinstance(self.name, str) or not self.name:
+            raise ParamsError(f"name must be a non-empty string, got {self.name!r}")
+
+    @property
+    def left_metres_per_tick(self) -> float:
+        """Distance the left wheel rolls per encoder count (m), eq. (3.2) without the count."""
+        return 2.0 * math.pi * self.left_wheel_radius / self.ticks_per_rev
+
+    @property
+    def right_metres_per_tick(self) -> float:
+        """Distance the right wheel rolls per encoder count (m), eq. (3.1) without the count."""
+        return 2.0 * math.pi * self.right_wheel_radius / self.ticks_per_rev
+
+    def with_(self, **changes: Any) -> RobotParams:
+        """A copy with some fields changed (validated again)."""
+        return replace(self, **changes)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain dict in file order, without ``encoder_modulus`` when it is None."""
+        d = asdict(self)
+        out = {k: d[k] for k in _FIELDS if d[k] is not None}
+        if float(out["ticks_per_rev"]).is_integer():
+            out["ticks_per_rev"] = int(out["ticks_per_rev"])
+        return out
+
+
+def params_from_mapping(data: dict[str, Any], *, source: str = "parameters") -> RobotParams:
+    """Build :class:`RobotParams` from a ``[robot]`` mapping, naming ``source`` in any error."""
+    unknown = sorted(set(data) - set(_FIELDS))
+    if unknown:
+        raise ParamsError(
+            f"{source}: unknown key {unknown[0]!r} in [robot]; expected one of {', '.join(_FIELDS)}"
+        )
+    missing = [k for k in _REQUIRED if k not in data]
+    if missing:
+        raise ParamsError(f"{source}: missing key {missing[0]!r} in [robot]")
+    try:
+        return RobotParams(**data)
+    except ParamsError as err:
+        raise ParamsError(f"{source}: {err}") from err
+    except TypeError as err:  # pragma: no cover - guarded by the key checks above
+        raise ParamsError(f"{source}: {err}") from err
+
+
+def load_params(path_or_preset: str | Path) -> RobotParams:
+    """Load parameters from a TOML file, or return a preset by name (see :data:`PRESETS`)."""
+    key = str(path_or_preset)
+    if key in PRESETS and not Path(key).exists():
+        return PRESETS[key]
+    path = Path(path_or_preset)
+    if not path.exists():
+        raise ParamsError(
+            f"{path}: no such parameters file or preset; presets are {', '.join(sorted(PRESETS))}"
+        )
+    try:
+        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as err:
+        raise ParamsError(f"{path}: not valid TOML ({err})") from err
+    except (OSError, UnicodeDecodeError) as err:
+        raise ParamsError(f"{path}: cannot read ({err})") from err
+    if "robot" not in doc or not isinstance(doc["robot"], dict):
+        raise ParamsError(f"{path}: missing the [robot] table")
+    extra = sorted(k for k in doc if k not in ("robot", "provenance"))
+    if extra:
+        raise ParamsError(f"{path}: unknown table or key {extra[0]!r}; expected [robot]")
+    return params_from_mapping(doc["robot"], source=str(path))
+
+
+def save_params(
+    params: RobotParams, path: str | Path, *, provenance: dict[str, Any] | None = None
+) -> Path:
+    """Write ``params`` as TOML (and an optional ``[provenance]`` table); return the path."""
+    doc: dict[str, Any] = {"robot": params.to_dict()}
+    if provenance:
+        doc["provenance"] = provenance
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(tomli_w.dumps(doc), encoding="utf-8")
+    return path
+
+
+#: Nominal parameter sets. ``jaguar-lite``: wheel radius 0.0835 m and 380 counts per wheel
+#: revolution are the nominal figures seen in public Jaguar drivers (JAGUAR_PROTOCOL.md), the
+#: track width 0.56 m is 2 x L_robot = 2 x 0.28 m as the lab report measured with a ruler, and the
+#: counters are 15-bit. These are NOMINAL, not measured values: calibrate before trusting them.
+PRESETS: dict[str, RobotParams] = {
+    "jaguar-lite": RobotParams(
+        name="jaguar-lite",
+        left_wheel_radius=0.0835,
+        right_wheel_radius=0.0835,
+        track_width=0.56,
+        ticks_per_rev=380,
+        encoder_modulus=32768,
+    ),
+}

@@ -1,0 +1,1 @@
+"""odolab.report (filled in by its issue)."""

@@ -1,0 +1,1 @@
+"""odolab.robot (filled in by its issue)."""

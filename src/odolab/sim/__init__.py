@@ -1,0 +1,1 @@
+"""odolab.sim (filled in by its issue)."""

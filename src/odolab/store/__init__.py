@@ -1,0 +1,1 @@
+"""odolab.store (filled in by its issue)."""

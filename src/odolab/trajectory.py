@@ -1,0 +1,122 @@
+"""Poses and trajectories: time, planar position, wrapped ``theta`` and unwrapped ``heading``."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from odolab.errors import LogFormatError
+from odolab.kinematics import wrap_angle
+
+__all__ = ["Pose", "Trajectory", "check_times"]
+
+
+class Pose(NamedTuple):
+    """One pose: time (s), x, y (m), theta wrapped to (-pi, pi] and heading unwrapped (rad)."""
+
+    t: float
+    x: float
+    y: float
+    theta: float
+    heading: float
+
+
+def check_times(t: NDArray[np.float64], source: str = "t", *, row_offset: int = 0) -> None:
+    """Raise :class:`LogFormatError` if ``t`` has a non-finite value or goes backwards.
+
+    ``row_offset`` is added to indexes in the message (e.g. 2 for a CSV with a header, so the
+    message names the file's line number).
+    """
+    bad = ~np.isfinite(t)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise LogFormatError(f"{source}: time at line {i + row_offset} is {t[i]}, expected a number")
+    if t.size > 1:
+        back = np.diff(t) < 0
+        if back.any():
+            i = int(np.argmax(back)) + 1
+            raise LogFormatError(
+                f"{source}: time goes backwards at line {i + row_offset} "
+                f"({t[i]} after {t[i - 1]}); expected non-decreasing times"
+            )
+
+
+def _f64(a: ArrayLike, name: str) -> NDArray[np.float64]:
+    arr = np.asarray(a, dtype=np.float64)
+    if arr.ndim != 1:
+        raise LogFormatError(f"trajectory {name} must be 1-D, got shape {arr.shape}")
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """A planar trajectory as parallel numpy arrays, shape (n,) each."""
+
+    t: NDArray[np.float64]
+    x: NDArray[np.float64]
+    y: NDArray[np.float64]
+    theta: NDArray[np.float64]
+    heading: NDArray[np.float64]
+
+    def __post_init__(self) -> None:
+        n = None
+        for name in ("t", "x", "y", "theta", "heading"):
+            arr = _f64(getattr(self, name), name)
+            object.__setattr__(self, name, arr)
+            if n is None:
+                n = arr.size
+            elif arr.size != n:
+                raise LogFormatError(f"trajectory arrays differ in length: {name} has {arr.size}")
+
+    @classmethod
+    def from_xyh(
+        cls, t: ArrayLike, x: ArrayLike, y: ArrayLike, heading: ArrayLike
+    ) -> Trajectory:
+        """Build from an unwrapped heading; theta is derived by wrapping."""
+        h = _f64(heading, "heading")
+        return cls(_f64(t, "t"), _f64(x, "x"), _f64(y, "y"), wrap_angle(h), h)
+
+    @classmethod
+    def from_xytheta(
+        cls, t: ArrayLike, x: ArrayLike, y: ArrayLike, theta: ArrayLike
+    ) -> Trajectory:
+        """Build from a wrapped heading; heading is derived by unwrapping."""
+        th = _f64(theta, "theta")
+        return cls(_f64(t, "t"), _f64(x, "x"), _f64(y, "y"), wrap_angle(th), np.unwrap(th))
+
+    def __len__(self) -> int:
+        return int(self.t.size)
+
+    def __getitem__(self, index: int | slice | NDArray[np.bool_] | NDArray[np.int64]) -> Trajectory:
+        if isinstance(index, int):
+            index = slice(index, index + 1 if index != -1 else None)
+        return Trajectory(
+            self.t[index], self.x[index], self.y[index], self.theta[index], self.heading[index]
+        )
+
+    def pose(self, i: int) -> Pose:
+        """The i-th pose."""
+        return Pose(
+            float(self.t[i]),
+            float(self.x[i]),
+            float(self.y[i]),
+            float(self.theta[i]),
+            float(self.heading[i]),
+        )
+
+    @property
+    def final(self) -> Pose:
+        """The last pose."""
+        return self.pose(-1)
+
+    @property
+    def xy(self) -> NDArray[np.float64]:
+        """Positions, shape (n, 2)."""
+        return np.column_stack((self.x, self.y))
+
+    def path_length(self) -> float:
+        """Distance travelled along the positions (m)."""
+        return float(np.hypot(np.diff(self.x), np.diff(self.y)).sum())

@@ -1,0 +1,1 @@
+"""odolab.validation (filled in by its issue)."""
