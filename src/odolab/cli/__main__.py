@@ -1,0 +1,7 @@
+"""``python -m odolab.cli``."""
+
+import sys
+
+from odolab.cli import main
+
+sys.exit(main())
