@@ -46,12 +46,14 @@ def as_tick_array(values: ArrayLike, name: str = "ticks") -> NDArray[np.int64]:
     if off.any():
         i = int(np.argmax(off))
         raise LogFormatError(f"{name}[{i}] is {arr[i]}, expected an integer count")
-    return rounded.astype(np.int64)
+    ints: NDArray[np.int64] = rounded.astype(np.int64)
+    return ints
 
 
 def _wrap_diff(d: NDArray[np.int64], modulus: int) -> NDArray[np.int64]:
     half = modulus // 2
-    return np.mod(d + half, modulus) - half
+    out: NDArray[np.int64] = np.mod(d + half, modulus) - half
+    return out
 
 
 def dticks_from_ticks(

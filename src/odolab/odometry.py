@@ -6,17 +6,19 @@ then the heading update. Both keep the unwrapped ``heading`` as state and report
 its wrap to (-pi, pi]; they perform the same floating-point operations in the same order, so
 their poses agree to rounding (far better than 1e-9).
 
-The batch version is one fused, compiled pass (numba) over the samples.
+The batch version is compiled (numba): see :func:`integrate` for its three passes.
 """
 
 from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
-from numba import njit
+from numba import njit, prange
 from numpy.typing import ArrayLike, NDArray
 
+from odolab._fastmath import SINCOS_LIMIT, sincos_poly
 from odolab.encoders import EncoderUnwrapper, as_tick_array, default_max_dticks
 from odolab.errors import EncoderJumpError, LogFormatError
 from odolab.kinematics import Method, wrap_angle
@@ -25,7 +27,11 @@ from odolab.trajectory import Pose, Trajectory, check_times
 
 __all__ = ["Odometry", "integrate", "integrate_increments"]
 
+F64 = NDArray[np.float64]
+I64 = NDArray[np.int64]
 _NO_LIMIT = -1
+#: From this many samples on, the position pass runs on several threads.
+PARALLEL_MIN_SAMPLES = 200_000
 _TWO_PI = 2.0 * math.pi
 
 
@@ -64,81 +70,154 @@ def _unwrap_diff(d: int, modulus: int, half: int) -> int:  # pragma: no cover - 
 
 
 @njit(cache=True)
-def _integrate_ticks(  # pragma: no cover - compiled
-    t, left, right, modulus, max_d, kl, kr, track, arc, x0, y0, h0, tout, x, y, theta, heading
-):
-    """Fused pass: time check, unwrap, (3.1)-(3.6). Returns (code, index, value); code 0 = ok,
-    1/2 = left/right jump, 3 = time not finite, 4 = time goes backwards."""
+def _steps_from_ticks(  # pragma: no cover - compiled
+    t: F64,
+    left: I64,
+    right: I64,
+    modulus: int,
+    max_d: int,
+    kl: float,
+    kr: float,
+    track: float,
+    arc: bool,
+    h0: float,
+    tout: F64,
+    heading: F64,
+    step: F64,
+    mid: F64,
+) -> tuple[int, int, int, float]:
+    """Phase A (sequential, no trigonometry): time check, unwrap, eqs. (3.1)-(3.4), heading.
+
+    Writes each cycle's chord length into ``step`` and its mid-cycle heading into ``mid``.
+    Returns (code, index, value, largest |mid|); code 0 = ok, 1/2 = left/right jump,
+    3 = time not finite, 4 = time goes backwards."""
     n = left.shape[0]
     half = modulus // 2
-    xx = x0
-    yy = y0
     hh = h0
+    big = 0.0
     if n > 0:
         if not math.isfinite(t[0]):
-            return 3, 0, 0
+            return 3, 0, 0, big
         tout[0] = t[0]
-        x[0] = xx
-        y[0] = yy
         heading[0] = hh
-        theta[0] = _wrap(hh)
+        step[0] = 0.0
+        mid[0] = hh
     for i in range(1, n):
         ti = t[i]
         if not math.isfinite(ti):
-            return 3, i, 0
+            return 3, i, 0, big
         if ti < t[i - 1]:
-            return 4, i, 0
+            return 4, i, 0, big
         tout[i] = ti
         dl = _unwrap_diff(left[i] - left[i - 1], modulus, half)
         dr = _unwrap_diff(right[i] - right[i - 1], modulus, half)
         if max_d >= 0:
             if abs(dl) > max_d:
-                return 1, i, dl
+                return 1, i, dl, big
             if abs(dr) > max_d:
-                return 2, i, dr
+                return 2, i, dr, big
         dsl = dl * kl
         dsr = dr * kr
         ds = (dsr + dsl) * 0.5
         dth = (dsr - dsl) / track
-        c = ds * _chord(dth, arc)
-        mid = hh + 0.5 * dth
-        xx = xx + c * math.cos(mid)
-        yy = yy + c * math.sin(mid)
+        step[i] = ds * _chord(dth, arc)
+        m = hh + 0.5 * dth
+        mid[i] = m
+        big = max(big, abs(m))
         hh = hh + dth
-        x[i] = xx
-        y[i] = yy
         heading[i] = hh
-        theta[i] = _wrap(hh)
-    return 0, -1, 0
+    return 0, -1, 0, big
+
+
+@njit(cache=True, inline="always")
+def _rotate_one(
+    i: int, step: F64, mid: F64, heading: F64, theta: F64
+) -> None:  # pragma: no cover - compiled
+    sn, cs = sincos_poly(mid[i])
+    c = step[i]
+    step[i] = c * cs
+    mid[i] = c * sn
+    theta[i] = _wrap(heading[i])
 
 
 @njit(cache=True)
-def _integrate_dticks(  # pragma: no cover - compiled
-    dleft, dright, kl, kr, track, arc, x0, y0, h0, x, y, theta, heading
-):
-    n = dleft.shape[0]
+def _rotate_steps(
+    step: F64, mid: F64, heading: F64, theta: F64
+) -> None:  # pragma: no cover - compiled
+    """Phase B: step -> (dx, dy) in place, theta from heading. Independent per sample."""
+    for i in range(step.shape[0]):
+        _rotate_one(i, step, mid, heading, theta)
+
+
+@njit(cache=True, parallel=True)
+def _rotate_steps_parallel(
+    step: F64, mid: F64, heading: F64, theta: F64
+) -> None:  # pragma: no cover - compiled
+    """Phase B on all threads."""
+    for i in prange(step.shape[0]):
+        _rotate_one(i, step, mid, heading, theta)
+
+
+@njit(cache=True)
+def _rotate_steps_libm(
+    step: F64, mid: F64, heading: F64, theta: F64
+) -> None:  # pragma: no cover - compiled
+    """Phase B with libm's sin/cos, for headings beyond SINCOS_LIMIT."""
+    for i in range(step.shape[0]):
+        c = step[i]
+        m = mid[i]
+        step[i] = c * math.cos(m)
+        mid[i] = c * math.sin(m)
+        theta[i] = _wrap(heading[i])
+
+
+@njit(cache=True)
+def _accumulate(dx: F64, dy: F64, x0: float, y0: float) -> None:  # pragma: no cover - compiled
+    """Phase C: positions as running sums of the steps, in place (the streaming order)."""
+    n = dx.shape[0]
     xx = x0
     yy = y0
+    for i in range(n):
+        if i > 0:
+            xx = xx + dx[i]
+            yy = yy + dy[i]
+        dx[i] = xx
+        dy[i] = yy
+
+
+@njit(cache=True)
+def _steps_from_dticks(  # pragma: no cover - compiled
+    dleft: F64,
+    dright: F64,
+    kl: float,
+    kr: float,
+    track: float,
+    arc: bool,
+    h0: float,
+    heading: F64,
+    step: F64,
+    mid: F64,
+) -> float:
+    """Phase A for per-cycle increments (``dleft[0]``, ``dright[0]`` ignored)."""
+    n = dleft.shape[0]
     hh = h0
+    big = 0.0
     if n > 0:
-        x[0] = xx
-        y[0] = yy
         heading[0] = hh
-        theta[0] = _wrap(hh)
+        step[0] = 0.0
+        mid[0] = hh
     for i in range(1, n):
         dsl = dleft[i] * kl
         dsr = dright[i] * kr
         ds = (dsr + dsl) * 0.5
         dth = (dsr - dsl) / track
-        c = ds * _chord(dth, arc)
-        mid = hh + 0.5 * dth
-        xx = xx + c * math.cos(mid)
-        yy = yy + c * math.sin(mid)
+        step[i] = ds * _chord(dth, arc)
+        m = hh + 0.5 * dth
+        mid[i] = m
+        big = max(big, abs(m))
         hh = hh + dth
-        x[i] = xx
-        y[i] = yy
         heading[i] = hh
-        theta[i] = _wrap(hh)
+    return big
 
 
 def _start_pose(start: tuple[float, float, float] | None) -> tuple[float, float, float]:
@@ -168,12 +247,19 @@ def integrate(
     start: tuple[float, float, float] | None = None,
     max_dticks: int | None = None,
     source: str = "encoder log",
+    parallel: int | None = None,
 ) -> Trajectory:
     """Batch odometry from raw (possibly wrapping) counters; one pose per sample.
 
     ``t``, ``left_ticks``, ``right_ticks``: shape (n,). The first pose is ``start``
     (x, y, heading; default the origin) at ``t[0]``. ``max_dticks`` defaults to a quarter of
     the counter range (see :func:`odolab.encoders.default_max_dticks`).
+
+    Three compiled passes: (A) sequentially, time check, rollover, eqs. (3.1)-(3.4) and the
+    heading; (B) independently per sample, the position step (3.5)/(3.6), on ``parallel``
+    threads for long logs (default numba's thread count; ``PARALLEL_MIN_SAMPLES`` or more);
+    (C) the running sums of the steps, in the streaming order. Results equal
+    :class:`Odometry`'s to rounding.
     """
     m = Method(method)
     left = as_tick_array(left_ticks, "left_ticks")
@@ -188,7 +274,7 @@ def integrate(
     x0, y0, h0 = _start_pose(start)
     n = left.size
     tt, x, y, theta, heading = (np.empty(n) for _ in range(5))
-    code, i, d = _integrate_ticks(
+    code, i, d, largest = _steps_from_ticks(
         tin,
         left,
         right,
@@ -198,15 +284,14 @@ def integrate(
         params.right_metres_per_tick,
         params.track_width,
         m is Method.ARC,
-        x0,
-        y0,
         h0,
         tt,
+        heading,
         x,
         y,
-        theta,
-        heading,
     )
+    if code == 0:
+        _finish(x, y, heading, theta, x0, y0, largest, parallel)
     if code in (1, 2):
         name = ("left_ticks", "right_ticks")[code - 1]
         raise EncoderJumpError(
@@ -219,6 +304,27 @@ def integrate(
     return Trajectory(tt, x, y, theta, heading)
 
 
+def _finish(
+    x: NDArray[np.float64],
+    y: NDArray[np.float64],
+    heading: NDArray[np.float64],
+    theta: NDArray[np.float64],
+    x0: float,
+    y0: float,
+    largest_mid: float,
+    parallel: int | None,
+) -> None:
+    """Phases B and C: turn chord lengths (in x) at mid headings (in y) into positions."""
+    threads = numba.get_num_threads() if parallel is None else max(1, int(parallel))
+    if largest_mid >= SINCOS_LIMIT:
+        _rotate_steps_libm(x, y, heading, theta)
+    elif threads > 1 and x.size >= PARALLEL_MIN_SAMPLES:
+        _rotate_steps_parallel(x, y, heading, theta)
+    else:
+        _rotate_steps(x, y, heading, theta)
+    _accumulate(x, y, x0, y0)
+
+
 def integrate_increments(
     t: ArrayLike,
     dticks_left: ArrayLike,
@@ -228,6 +334,7 @@ def integrate_increments(
     *,
     start: tuple[float, float, float] | None = None,
     source: str = "encoder log",
+    parallel: int | None = None,
 ) -> Trajectory:
     """Batch odometry from per-cycle increments (``dticks[i]`` = counts from sample i-1 to i).
 
@@ -247,21 +354,19 @@ def integrate_increments(
     x0, y0, h0 = _start_pose(start)
     n = dl.size
     x, y, theta, heading = (np.empty(n) for _ in range(4))
-    _integrate_dticks(
+    largest = _steps_from_dticks(
         dl,
         dr,
         params.left_metres_per_tick,
         params.right_metres_per_tick,
         params.track_width,
         m is Method.ARC,
-        x0,
-        y0,
         h0,
+        heading,
         x,
         y,
-        theta,
-        heading,
     )
+    _finish(x, y, heading, theta, x0, y0, largest, parallel)
     return Trajectory(tt, x, y, theta, heading)
 
 

@@ -33,7 +33,9 @@ def check_times(t: NDArray[np.float64], source: str = "t", *, row_offset: int = 
     bad = ~np.isfinite(t)
     if bad.any():
         i = int(np.argmax(bad))
-        raise LogFormatError(f"{source}: time at line {i + row_offset} is {t[i]}, expected a number")
+        raise LogFormatError(
+            f"{source}: time at line {i + row_offset} is {t[i]}, expected a number"
+        )
     if t.size > 1:
         back = np.diff(t) < 0
         if back.any():
@@ -72,17 +74,13 @@ class Trajectory:
                 raise LogFormatError(f"trajectory arrays differ in length: {name} has {arr.size}")
 
     @classmethod
-    def from_xyh(
-        cls, t: ArrayLike, x: ArrayLike, y: ArrayLike, heading: ArrayLike
-    ) -> Trajectory:
+    def from_xyh(cls, t: ArrayLike, x: ArrayLike, y: ArrayLike, heading: ArrayLike) -> Trajectory:
         """Build from an unwrapped heading; theta is derived by wrapping."""
         h = _f64(heading, "heading")
         return cls(_f64(t, "t"), _f64(x, "x"), _f64(y, "y"), wrap_angle(h), h)
 
     @classmethod
-    def from_xytheta(
-        cls, t: ArrayLike, x: ArrayLike, y: ArrayLike, theta: ArrayLike
-    ) -> Trajectory:
+    def from_xytheta(cls, t: ArrayLike, x: ArrayLike, y: ArrayLike, theta: ArrayLike) -> Trajectory:
         """Build from a wrapped heading; heading is derived by unwrapping."""
         th = _f64(theta, "theta")
         return cls(_f64(t, "t"), _f64(x, "x"), _f64(y, "y"), wrap_angle(th), np.unwrap(th))

@@ -29,11 +29,13 @@ def odometry_cmd(
     params: Annotated[
         str, typer.Option("--params", "-p", help="Parameters TOML file or preset name.")
     ] = "jaguar-lite",
-    output: Annotated[Path, typer.Option("--output", "-o", help="Trajectory file to write.")] = Path(
-        "trajectory.csv"
-    ),
+    output: Annotated[
+        Path, typer.Option("--output", "-o", help="Trajectory file to write.")
+    ] = Path("trajectory.csv"),
     method: Annotated[MethodChoice, typer.Option(help="Pose step rule.")] = MethodChoice.midpoint,
-    fmt: Annotated[FormatChoice, typer.Option("--format", help="Output format.")] = FormatChoice.csv,
+    fmt: Annotated[
+        FormatChoice, typer.Option("--format", help="Output format.")
+    ] = FormatChoice.csv,
     start: Annotated[
         tuple[float, float, float] | None,
         typer.Option(help="Start pose X Y HEADING (m, m, rad); default the origin."),

@@ -14,7 +14,9 @@ __all__: list[str] = []
 
 @app.command("demo")
 def demo_cmd(
-    out: Annotated[Path, typer.Option("--out", help="Folder for the results.")] = Path("odolab-out"),
+    out: Annotated[Path, typer.Option("--out", help="Folder for the results.")] = Path(
+        "odolab-out"
+    ),
 ) -> None:
     """Run the lab end to end on the virtual Jaguar (for now: odometry of a hand-made square)."""
     import math

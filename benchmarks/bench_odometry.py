@@ -1,0 +1,109 @@
+"""Batch odometry speed: 10 million samples, compared with baselines measured in the same run.
+
+Prints samples per second and two ratios (lower is better):
+- floor: ``integrate`` time / the time numpy takes to copy arrays of the same input and output
+  size (3 input arrays read, 5 output arrays written): the memory-bandwidth floor;
+- loop:  ``integrate`` time / a plain per-sample Python loop of the lab's pseudocode (Figs. 6-8),
+  timed on a slice and scaled (a full 10-million-sample Python loop takes minutes).
+
+Usage: python benchmarks/bench_odometry.py [--samples N] [--repeats R]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import statistics
+import time
+
+import numpy as np
+
+from odolab import PRESETS, integrate
+
+
+def lab_pseudocode_loop(t, left, right, params):  # type: ignore[no-untyped-def]
+    """The lab's control loop, one Python iteration per sample (Figs. 6-8), with rollover."""
+    m = params.encoder_modulus
+    kl, kr, b = params.left_metres_per_tick, params.right_metres_per_tick, params.track_width
+    x = y = th = 0.0
+    xs, ys, ths = [0.0], [0.0], [0.0]
+    for i in range(1, len(t)):
+        dl = int(left[i]) - int(left[i - 1])
+        dr = int(right[i]) - int(right[i - 1])
+        if dl > m // 2:
+            dl -= m
+        elif dl < -m // 2:
+            dl += m
+        if dr > m // 2:
+            dr -= m
+        elif dr < -m // 2:
+            dr += m
+        dsl, dsr = dl * kl, dr * kr
+        dth = (dsr - dsl) / b
+        ds = (dsr + dsl) / 2
+        x += ds * math.cos(th + dth / 2)
+        y += ds * math.sin(th + dth / 2)
+        th += dth
+        if th > math.pi or th <= -math.pi:
+            th = (th + math.pi) % (2 * math.pi) - math.pi
+        xs.append(x)
+        ys.append(y)
+        ths.append(th)
+    return xs, ys, ths
+
+
+def best(fn, repeats: int) -> float:  # type: ignore[no-untyped-def]
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--samples", type=int, default=10_000_000)
+    ap.add_argument("--repeats", type=int, default=5)
+    args = ap.parse_args()
+    n = args.samples
+    params = PRESETS["jaguar-lite"]
+    rng = np.random.default_rng(0)
+    # a robot wandering at up to ~1 m/s, counters wrapping at 15 bits
+    left = np.cumsum(rng.integers(-10, 40, n)) % params.encoder_modulus
+    right = np.cumsum(rng.integers(-10, 40, n)) % params.encoder_modulus
+    t = np.arange(n) * 0.05
+
+    integrate(t[:1000], left[:1000], right[:1000], params)  # compile (or load the cache)
+    integrate(t, left, right, params)  # warm the thread pool and the allocator
+
+    def floor() -> None:
+        # the same bytes in and out as integrate: 3 arrays read, 5 float64 arrays written
+        outs = [np.empty(n) for _ in range(5)]
+        np.copyto(outs[0], t)
+        np.copyto(outs[1], left)
+        np.copyto(outs[2], right)
+        np.copyto(outs[3], t)
+        np.copyto(outs[4], t)
+
+    t_int, t_floor = [], []
+    for _ in range(args.repeats):  # interleave, so that noise hits both alike
+        t_int.append(best(lambda: integrate(t, left, right, params), 1))
+        t_floor.append(best(floor, 1))
+    k = min(n, 200_000)
+    t_loop = best(lambda: lab_pseudocode_loop(t[:k], left[:k], right[:k], params), 1) * (n / k)
+    ti, tf = min(t_int), min(t_floor)
+    print(f"samples: {n:,}")
+    print(
+        f"integrate: {ti:.3f} s (median {statistics.median(t_int):.3f}) -> {n / ti / 1e6:.1f} M samples/s"
+    )
+    print(f"memory floor (numpy copies, same in/out bytes): {tf:.3f} s")
+    print(f"python loop of the lab's pseudocode (scaled from {k:,}): {t_loop:.1f} s")
+    print(f"ratio to floor: {ti / tf:.2f}x   (target <= 3x)")
+    print(
+        f"python loop / floor: {t_loop / tf:.0f}x   integrate speed-up over the loop: {t_loop / ti:.0f}x"
+    )
+
+
+if __name__ == "__main__":
+    main()
