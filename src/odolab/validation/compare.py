@@ -114,7 +114,7 @@ class ValidationResult:
             "clock_offset_s": a.clock_offset,
             "clock_offset_meaning": "phone clock minus robot clock",
             "offset_correlation": None if math.isnan(a.correlation) else a.correlation,
-            "offset_search_s": list(a.searched),
+            "offset_search_s": [v if math.isfinite(v) else None for v in a.searched],
             "overlap_s": [a.overlap_start, a.overlap_end],
             "samples": int(self.t.size),
             "imu_rotation_rad": float(self.imu_heading[-1]),
