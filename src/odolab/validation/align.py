@@ -7,7 +7,10 @@ odometry's heading rate and the gyro's), resampled to a common grid, over the of
 ``nominal_offset +- max_offset``; the peak is refined to a fraction of a grid step by a parabola
 through its three highest points. Rates, not headings, are compared: a heading has an arbitrary
 zero and a scale error that grows with time, a rate only a scale error, which a correlation
-ignores.
+ignores. Each offset is scored by the correlation normalised by the two rates' energies inside
+the overlap (a cosine, exactly 1 where one rate is a multiple of the other): the plain,
+zero-padded correlation would favour offsets that overlap more, which shifts its peak (by
+seconds for a rotation at constant rate seen only in part by one log).
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import signal
+from scipy import ndimage, signal
 
 from odolab.errors import ImuLogError
 from odolab.validation.sensorlog import ImuLog
@@ -96,6 +99,8 @@ def find_clock_offset(
     max_offset: float = 30.0,
     grid_step: float | None = None,
     min_overlap: float = 1.0,
+    min_fraction: float = 0.5,
+    smooth: float = 0.1,
     robot_source: str = "encoder log",
 ) -> ClockAlignment:
     """Find the phone-minus-robot clock offset (s) by cross-correlating yaw rates.
@@ -104,7 +109,10 @@ def find_clock_offset(
     shape (n,). The offset is searched in ``nominal_offset +- max_offset`` (``max_offset`` = 0
     fixes it, ``math.inf`` allows any offset that leaves ``min_overlap`` seconds of overlap).
     ``grid_step`` (s) defaults to the finer of the two logs' median sample spacing, kept within
-    [1 ms, 50 ms]. Raises :class:`ImuLogError` if no allowed offset makes the logs overlap.
+    [1 ms, 50 ms]. Offsets are scored by the correlation normalised inside the overlap, among
+    those that overlap by at least ``min_fraction`` of the shorter log (where the bounds allow
+    any). Both rates are first smoothed by the same Gaussian of standard deviation ``smooth``
+    seconds (zero phase, so it shifts nothing; 0 = none). Raises :class:`ImuLogError` if no allowed offset makes the logs overlap.
     """
     if not (math.isfinite(nominal_offset) and max_offset >= 0):
         raise ImuLogError(
@@ -127,6 +135,9 @@ def find_clock_offset(
     nb = int(math.floor((imu.t[-1] - imu.t[0]) / h)) + 1
     a = rate_on_grid(robot_t, robot_heading, robot_t[0] + h * np.arange(na))
     b = _imu_rate_on_grid(imu, imu.t[0] + h * np.arange(nb))
+    if smooth > 0:  # the same zero-phase (symmetric) low-pass on both: no shift, less noise
+        a = ndimage.gaussian_filter1d(a, smooth / h, mode="nearest")
+        b = ndimage.gaussian_filter1d(b, smooth / h, mode="nearest")
     norm = float(np.linalg.norm(a) * np.linalg.norm(b))
     if norm == 0.0:
         raise ImuLogError(
@@ -144,11 +155,23 @@ def find_clock_offset(
     if not allowed.any():  # pragma: no cover - require_overlap makes this rare (grid rounding)
         require_overlap(robot_t, imu, lo, hi, min_overlap=min_overlap + h, robot_source=robot_source)
         raise ImuLogError(f"{imu.source}: no clock offset in [{lo:g}, {hi:g}] s fits the grid")
-    masked = np.where(allowed, c, -np.inf)
-    k = int(np.argmax(masked))
+    # the correlation normalised by the energies inside the overlap: a cosine, exactly 1 where
+    # one rate is a multiple of the other, for any overlap (no bias towards longer overlaps)
+    ca = np.concatenate(([0.0], np.cumsum(a * a)))
+    cb = np.concatenate(([0.0], np.cumsum(b * b)))
+    r0 = np.maximum(0, lags)
+    r1 = np.minimum(na, lags + nb)
+    energy = (ca[r1] - ca[r0]) * (cb[r1 - lags] - cb[r0 - lags])
+    solid = energy > 1e-9 * norm * norm  # where the FFT's rounding cannot dominate
+    local = np.where(solid, c * norm / np.sqrt(np.where(solid, energy, 1.0)), -np.inf)
+    # short overlaps match by chance: ask for half the shorter log where the bounds allow it
+    need = max(min_overlap, min_fraction * min(na, nb) * h)
+    long_enough = allowed & (overlap >= need)
+    fine = np.where(long_enough if long_enough.any() else allowed, local, -np.inf)
+    k = int(np.argmax(fine))
     delta = 0.0
-    if 0 < k < c.size - 1 and allowed[k - 1] and allowed[k + 1]:
-        y0, y1, y2 = c[k - 1], c[k], c[k + 1]
+    if 0 < k < c.size - 1 and np.isfinite(fine[k - 1]) and np.isfinite(fine[k + 1]):
+        y0, y1, y2 = fine[k - 1], fine[k], fine[k + 1]
         den = y0 - 2.0 * y1 + y2
         if den < 0:
             delta = float(np.clip(0.5 * (y0 - y2) / den, -0.5, 0.5))
@@ -156,4 +179,4 @@ def find_clock_offset(
     offset = min(max(offset, lo), hi)
     o0 = max(float(robot_t[0]), float(imu.t[0]) - offset)
     o1 = min(float(robot_t[-1]), float(imu.t[-1]) - offset)
-    return ClockAlignment(offset, float(c[k]), h, o0, o1, (lo, hi))
+    return ClockAlignment(offset, float(local[k]), h, o0, o1, (lo, hi))
