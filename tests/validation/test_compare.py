@@ -54,7 +54,8 @@ def test_no_imu_error_gives_zero_error_for_the_true_model(scenario) -> None:  # 
     assert r.new.max_abs < 2 * step
     # the old model's error is the scale error of the heading change, sample by sample
     np.testing.assert_allclose(
-        r.old.error, r.new.heading * (scenario.new.track_width / scenario.old.track_width - 1),
+        r.old.error,
+        r.new.heading * (scenario.new.track_width / scenario.old.track_width - 1),
         atol=3 * step,
     )
 
@@ -110,7 +111,9 @@ def test_plots_have_labels_units_and_legends(scenario, tmp_path: Path) -> None: 
     ax = plot_validation(r)
     assert "(rad)" in ax.get_ylabel() and "(s)" in ax.get_xlabel()
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
-    assert labels[0] == "IMU (phone)" and labels[1].startswith("old") and labels[2].startswith("new")
+    assert (
+        labels[0] == "IMU (phone)" and labels[1].startswith("old") and labels[2].startswith("new")
+    )
     fig = validation_figure(r)
     bottom = fig.axes[1]
     assert "error" in bottom.get_ylabel() and "(rad)" in bottom.get_ylabel()

@@ -161,8 +161,7 @@ def test_compass_fallback_flips_the_sign(tmp_path: Path) -> None:
 
 def test_gyro_only_is_integrated(tmp_path: Path) -> None:
     text = (
-        "gyroTimestamp_sinceReboot(s),gyroRotationZ(rad/s)\n"
-        "1.0,0.0\n1.5,1.0\n2.0,1.0\n3.0,-1.0\n"
+        "gyroTimestamp_sinceReboot(s),gyroRotationZ(rad/s)\n1.0,0.0\n1.5,1.0\n2.0,1.0\n3.0,-1.0\n"
     )
     imu = read_sensorlog(_write(tmp_path / "e.csv", text))
     # trapezoids: 0.25, 0.5, 0.0
@@ -184,7 +183,9 @@ def test_text_in_a_number_column_names_line_and_column(tmp_path: Path) -> None:
 
 def test_time_going_back_names_the_line(tmp_path: Path) -> None:
     text = "motionTimestamp_sinceReboot(s),motionYaw(rad)\n1.0,0.1\n\n2.0,0.2\n1.5,0.3\n"
-    with pytest.raises(ImuLogError, match=r"line 5, column 'motionTimestamp_sinceReboot\(s\)' goes"):
+    with pytest.raises(
+        ImuLogError, match=r"line 5, column 'motionTimestamp_sinceReboot\(s\)' goes"
+    ):
         read_sensorlog(_write(tmp_path / "i.csv", text))
 
 
@@ -193,7 +194,9 @@ def test_bad_logging_time_and_missing_stamp(tmp_path: Path) -> None:
     with pytest.raises(ImuLogError, match=r"line 3, column 'loggingTime\(txt\)' is 'yesterday'"):
         read_sensorlog(_write(tmp_path / "j.csv", text))
     text = "motionTimestamp_sinceReboot(s),motionYaw(rad)\n1.0,0.1\n,0.2\n"
-    with pytest.raises(ImuLogError, match=r"line 3, column 'motionTimestamp_sinceReboot\(s\)' is empty"):
+    with pytest.raises(
+        ImuLogError, match=r"line 3, column 'motionTimestamp_sinceReboot\(s\)' is empty"
+    ):
         read_sensorlog(_write(tmp_path / "k.csv", text))
 
 
@@ -214,7 +217,7 @@ def test_imu_log_checks_its_arrays() -> None:
 
 
 def test_writer_needs_a_time_zone(tmp_path: Path) -> None:
-    naive = datetime(2020, 1, 1)  # noqa: DTZ001
+    naive = datetime(2020, 1, 1)
     with pytest.raises(ImuLogError, match="time zone"):
         write_sensorlog(tmp_path / "x.csv", [0, 1], [0, 0], [0, 0], start_wallclock=naive)
     write_sensorlog(tmp_path / "y.csv", [0, 1], [0, 0], [0, 0], start_wallclock=datetime.now(UTC))

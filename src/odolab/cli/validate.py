@@ -1,4 +1,4 @@
-"""CLI command: ``odolab validate`` (old vs new parameters vs a phone IMU log, the lab's Fig. 21)."""
+"""CLI command: ``odolab validate``: old vs new parameters vs a phone IMU log (Fig. 21)."""
 
 from __future__ import annotations
 
@@ -21,7 +21,9 @@ class MethodChoice(StrEnum):
 @app.command("validate")
 def validate_cmd(
     encoder_log: Annotated[Path, typer.Argument(help="Encoder log CSV: t,left_ticks,right_ticks.")],
-    imu_log: Annotated[Path, typer.Argument(help="Phone IMU log in the SensorLog app's CSV format.")],
+    imu_log: Annotated[
+        Path, typer.Argument(help="Phone IMU log in the SensorLog app's CSV format.")
+    ],
     new: Annotated[
         str, typer.Option("--new", help="New (calibrated) parameters: TOML file or preset name.")
     ],

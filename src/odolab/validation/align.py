@@ -112,7 +112,8 @@ def find_clock_offset(
     [1 ms, 50 ms]. Offsets are scored by the correlation normalised inside the overlap, among
     those that overlap by at least ``min_fraction`` of the shorter log (where the bounds allow
     any). Both rates are first smoothed by the same Gaussian of standard deviation ``smooth``
-    seconds (zero phase, so it shifts nothing; 0 = none). Raises :class:`ImuLogError` if no allowed offset makes the logs overlap.
+    seconds (zero phase, so it shifts nothing; 0 = none). Raises :class:`ImuLogError` if no
+    allowed offset makes the logs overlap.
     """
     if not (math.isfinite(nominal_offset) and max_offset >= 0):
         raise ImuLogError(
@@ -131,8 +132,8 @@ def find_clock_offset(
         grid_step = min(max(spacing, 1e-3), 0.05)
     h = float(grid_step)
     # robot grid starts at robot_t[0]; phone grid starts at imu.t[0]; both step h
-    na = int(math.floor((robot_t[-1] - robot_t[0]) / h)) + 1
-    nb = int(math.floor((imu.t[-1] - imu.t[0]) / h)) + 1
+    na = math.floor((robot_t[-1] - robot_t[0]) / h) + 1
+    nb = math.floor((imu.t[-1] - imu.t[0]) / h) + 1
     a = rate_on_grid(robot_t, robot_heading, robot_t[0] + h * np.arange(na))
     b = _imu_rate_on_grid(imu, imu.t[0] + h * np.arange(nb))
     if smooth > 0:  # the same zero-phase (symmetric) low-pass on both: no shift, less noise
@@ -153,7 +154,9 @@ def find_clock_offset(
     overlap = (np.minimum(na, lags + nb) - np.maximum(0, lags)) * h
     allowed = (offsets >= lo - 0.5 * h) & (offsets <= hi + 0.5 * h) & (overlap >= min_overlap)
     if not allowed.any():  # pragma: no cover - require_overlap makes this rare (grid rounding)
-        require_overlap(robot_t, imu, lo, hi, min_overlap=min_overlap + h, robot_source=robot_source)
+        require_overlap(
+            robot_t, imu, lo, hi, min_overlap=min_overlap + h, robot_source=robot_source
+        )
         raise ImuLogError(f"{imu.source}: no clock offset in [{lo:g}, {hi:g}] s fits the grid")
     # the correlation normalised by the energies inside the overlap: a cosine, exactly 1 where
     # one rate is a multiple of the other, for any overlap (no bias towards longer overlaps)

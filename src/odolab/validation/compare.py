@@ -238,7 +238,9 @@ def plot_validation(
     old, new = result.old, result.new
     if kind == "heading":
         ax.plot(t, result.imu_heading, color="black", lw=2.0, label="IMU (phone)")
-        ax.plot(t, old.heading, color="tab:red", lw=1.3, ls="--", label=f"old model ({old.params.name})")
+        ax.plot(
+            t, old.heading, color="tab:red", lw=1.3, ls="--", label=f"old model ({old.params.name})"
+        )
         ax.plot(t, new.heading, color="tab:blue", lw=1.3, label=f"new model ({new.params.name})")
         ax.set_ylabel("heading change (rad)")
         ax.set_title("Heading: old vs new model vs IMU")

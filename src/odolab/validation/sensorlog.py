@@ -31,8 +31,8 @@ from odolab.errors import ImuLogError
 __all__ = [
     "ImuLog",
     "check_imu_log",
-    "read_sensorlog",
     "rate_aided_unwrap",
+    "read_sensorlog",
     "write_sensorlog",
 ]
 
@@ -305,8 +305,9 @@ def read_sensorlog(path: str | Path) -> ImuLog:
     )
     if not have_time or not (tab.has(_YAW[0]) or rate_choice or compass):
         raise ImuLogError(
-            f"{p}: missing columns; expected a heading (motionYaw(rad), motionRotationRateZ(rad/s), "
-            f"gyroRotationZ(rad/s) or locationTrueHeading(°)) and a time ({LOGGING_TIME} or "
+            f"{p}: missing columns; expected a heading (motionYaw(rad), "
+            f"motionRotationRateZ(rad/s), gyroRotationZ(rad/s) or locationTrueHeading(°)) and "
+            f"a time ({LOGGING_TIME} or "
             f"..._sinceReboot(s)), but the header has: {', '.join(tab.header)}"
         )
 
@@ -347,7 +348,14 @@ def read_sensorlog(path: str | Path) -> ImuLog:
         rate = None if rs is None else _interp_rate(t, rs[0], rs[1])
         yaw = rate_aided_unwrap(t, yaw_w, rate)
         return ImuLog(
-            t, yaw, rate, str(p), tab.name(_YAW[0]), None if rs is None else rs[2], tcol, wall_offset
+            t,
+            yaw,
+            rate,
+            str(p),
+            tab.name(_YAW[0]),
+            None if rs is None else rs[2],
+            tcol,
+            wall_offset,
         )
 
     rs = rate_series()
@@ -386,7 +394,9 @@ def _wall_text(start: datetime, seconds: FloatArray) -> list[str]:
     out = []
     for s in seconds:
         d = start + timedelta(seconds=float(s))
-        out.append(d.strftime("%Y-%m-%d %H:%M:%S.") + f"{d.microsecond // 1000:03d} " + d.strftime("%z"))
+        out.append(
+            d.strftime("%Y-%m-%d %H:%M:%S.") + f"{d.microsecond // 1000:03d} " + d.strftime("%z")
+        )
     return out
 
 

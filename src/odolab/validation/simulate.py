@@ -58,7 +58,7 @@ def simulate_phone_log(
         raise ImuLogError(f"rate_hz must be positive, got {rate_hz!r}")
     rng = np.random.default_rng(seed)
     step = 1.0 / rate_hz
-    t_robot = t[0] + step * np.arange(int(math.floor((t[-1] - t[0]) / step)) + 1)
+    t_robot = t[0] + step * np.arange(math.floor((t[-1] - t[0]) / step) + 1)
     # true rate at the phone's samples from a heading interpolated on a fine central difference
     eps = 0.25 * step
     lo = np.clip(t_robot - eps, t[0], t[-1])
@@ -117,14 +117,16 @@ def rotation_scenario(
     dt = 1.0 / control_hz
     cruise = max(2.0 * math.pi * turns / rate - ramp, 0.0)
     total = 2.0 * rest + 2.0 * ramp + cruise
-    t = dt * np.arange(int(math.ceil(total / dt)) + 1)
+    t = dt * np.arange(math.ceil(total / dt) + 1, dtype=np.float64)
     # trapezoidal rate profile: rest, ramp up, cruise, ramp down, rest
     u = t - rest
     profile = np.clip(np.minimum(u / ramp, (2.0 * ramp + cruise - u) / ramp), 0.0, 1.0)
     true_rate = rate * profile
     moving = profile > 0
     true_rate = true_rate + moving * slip_noise * rng.standard_normal(t.size)
-    heading = np.concatenate(([0.0], np.cumsum(0.5 * (true_rate[1:] + true_rate[:-1]) * dt)))
+    heading: FloatArray = np.concatenate(
+        ([0.0], np.cumsum(0.5 * (true_rate[1:] + true_rate[:-1]) * dt))
+    )
     # tracks: right forward, left back by track/2 * dheading (the truth uses the true track)
     arc = 0.5 * track * heading
     right = np.floor(arc / old.right_metres_per_tick).astype(np.int64)
