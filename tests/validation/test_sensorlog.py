@@ -221,3 +221,34 @@ def test_writer_needs_a_time_zone(tmp_path: Path) -> None:
     with pytest.raises(ImuLogError, match="time zone"):
         write_sensorlog(tmp_path / "x.csv", [0, 1], [0, 0], [0, 0], start_wallclock=naive)
     write_sensorlog(tmp_path / "y.csv", [0, 1], [0, 0], [0, 0], start_wallclock=datetime.now(UTC))
+
+
+def test_yaw_timed_by_logging_time_takes_the_gyro_on_the_same_clock(tmp_path: Path) -> None:
+    # motionYaw has no own clock here; the gyro's since-reboot clock must not be mixed with it
+    text = (
+        "loggingTime(txt),motionYaw(rad),gyroTimestamp_sinceReboot(s),gyroRotationZ(rad/s)\n"
+        "2020-01-01 00:00:00.000 +0000,0.0,50.0,1.0\n"
+        "2020-01-01 00:00:01.000 +0000,1.0,51.0,3.0\n"
+    )
+    imu = read_sensorlog(_write(tmp_path / "m.csv", text))
+    assert imu.time_column == "loggingTime(txt)"
+    assert imu.yaw_rate is not None
+    np.testing.assert_allclose(imu.yaw_rate, [1.0, 3.0])
+    np.testing.assert_allclose(imu.t, [1577836800.0, 1577836801.0])
+
+
+def test_gyro_only_gets_a_wall_clock_offset(tmp_path: Path) -> None:
+    text = (
+        "loggingTime(txt),gyroTimestamp_sinceReboot(s),gyroRotationZ(rad/s)\n"
+        "2020-01-01 00:00:00.000 +0000,50.0,1.0\n"
+        "2020-01-01 00:00:01.000 +0000,51.0,1.0\n"
+    )
+    imu = read_sensorlog(_write(tmp_path / "n.csv", text))
+    assert imu.wallclock_offset == pytest.approx(1577836800.0 - 50.0)
+    np.testing.assert_allclose(imu.yaw, [0.0, 1.0])
+
+
+def test_compass_without_its_clock_is_a_clear_error(tmp_path: Path) -> None:
+    text = "gyroTimestamp_sinceReboot(s),locationTrueHeading(°)\n1.0,10\n2.0,20\n"
+    with pytest.raises(ImuLogError, match=r"no time column for the heading.*header has: gyro"):
+        read_sensorlog(_write(tmp_path / "o.csv", text))

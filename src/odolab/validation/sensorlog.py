@@ -253,8 +253,9 @@ def _times_for(
             )
         return t, tab.name(time_base)
     if wall is None:
-        raise ImuLogError(  # pragma: no cover - guarded by the caller's column check
-            f"{tab.path}: no time column; expected {time_base} or {LOGGING_TIME}"
+        raise ImuLogError(
+            f"{tab.path}: no time column for the heading; expected {time_base}(s) or "
+            f"{LOGGING_TIME}, but the header has: {', '.join(tab.header)}"
         )
     return wall[rows], LOGGING_TIME
 
@@ -311,29 +312,35 @@ def read_sensorlog(path: str | Path) -> ImuLog:
             f"..._sinceReboot(s)), but the header has: {', '.join(tab.header)}"
         )
 
-    def rate_series() -> tuple[FloatArray, FloatArray, str] | None:
+    def offset_to_wall(rows: NDArray[np.bool_], t: FloatArray) -> float | None:
+        """Median of loggingTime - sensor time: turns the sensor clock into POSIX seconds."""
+        if wall is None:
+            return None
+        w = wall[rows]
+        ok = np.isfinite(w)
+        return float(np.median(w[ok] - t[ok])) if ok.any() else None
+
+    def rate_series(
+        wall_clock: bool,
+    ) -> tuple[FloatArray, FloatArray, str, str, float | None] | None:
+        """(t, rate, rate column, time column, wall offset) of the gyro, or None. With
+        ``wall_clock`` its times come from loggingTime (to match a heading timed by it)."""
         if rate_choice is None:
             return None
         base, tbase = rate_choice
-        if not tab.has(tbase) and wall is None:
-            return None
+        if wall_clock or not tab.has(tbase):
+            if wall is None:
+                return None
+            tbase = "(wall)"  # no header's base name has a parenthesis: use loggingTime
         rows = tab.present(base)
         if rows.sum() < 2:
             return None
         values = tab.numbers(base)[rows]
         tr, tcol = _times_for(tab, rows, tbase, wall)
         _check_increasing(tab, tr, rows, tcol)
+        offset = offset_to_wall(rows, tr)
         tr, values = _dedupe(tr, values)
-        return tr, values, tab.name(base)
-
-    wall_offset: float | None = None
-
-    def offset_to_wall(rows: NDArray[np.bool_], t: FloatArray) -> float | None:
-        if wall is None:
-            return None
-        w = wall[rows]
-        ok = np.isfinite(w)
-        return float(np.median(w[ok] - t[ok])) if ok.any() else None
+        return tr, values, tab.name(base), tcol, offset
 
     if tab.has(_YAW[0]) and (tab.has(_YAW[1]) or wall is not None):
         rows = tab.present(_YAW[0])
@@ -344,28 +351,16 @@ def read_sensorlog(path: str | Path) -> ImuLog:
         _check_increasing(tab, t, rows, tcol)
         wall_offset = offset_to_wall(rows, t)
         t, yaw_w = _dedupe(t, yaw_w)
-        rs = rate_series()
+        rs = rate_series(wall_clock=tcol == LOGGING_TIME)
         rate = None if rs is None else _interp_rate(t, rs[0], rs[1])
         yaw = rate_aided_unwrap(t, yaw_w, rate)
-        return ImuLog(
-            t,
-            yaw,
-            rate,
-            str(p),
-            tab.name(_YAW[0]),
-            None if rs is None else rs[2],
-            tcol,
-            wall_offset,
-        )
+        rcol = None if rs is None else rs[2]
+        return ImuLog(t, yaw, rate, str(p), tab.name(_YAW[0]), rcol, tcol, wall_offset)
 
-    rs = rate_series()
+    rs = rate_series(wall_clock=False)
     if rs is not None:
-        tr, rate, rcol = rs
+        tr, rate, rcol, tcol, wall_offset = rs
         yaw = np.concatenate(([0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * np.diff(tr))))
-        base, tbase = rate_choice  # type: ignore[misc]
-        rows = tab.present(base)
-        t_all, tcol = _times_for(tab, rows, tbase, wall)
-        wall_offset = offset_to_wall(rows, t_all)
         return ImuLog(tr, yaw, rate, str(p), f"integral of {rcol}", rcol, tcol, wall_offset)
 
     if compass is not None:
@@ -375,10 +370,10 @@ def read_sensorlog(path: str | Path) -> ImuLog:
             raise ImuLogError(f"{p}: column {tab.name(compass)!r} has fewer than 2 valid values")
         t, tcol = _times_for(tab, rows, _COMPASS_TIME, wall)
         _check_increasing(tab, t, rows, tcol)
-        wall_offset = 0.0 if tcol in (LOGGING_TIME, tab.by_base.get(_COMPASS_TIME)) else None
         t, deg = _dedupe(t, vals[rows])
         yaw = np.unwrap(-np.radians(deg))
-        return ImuLog(t, yaw, None, str(p), tab.name(compass), None, tcol, wall_offset)
+        # both of the compass's possible clocks are POSIX seconds
+        return ImuLog(t, yaw, None, str(p), tab.name(compass), None, tcol, 0.0)
 
     raise ImuLogError(  # pragma: no cover - the column check above makes this unreachable
         f"{p}: no usable heading column; the header has: {', '.join(tab.header)}"
