@@ -123,3 +123,23 @@ def test_plots_have_labels_units_and_legends(scenario, tmp_path: Path) -> None: 
     plt.close("all")
     with pytest.raises(ValueError, match="kind"):
         plot_validation(r, kind="nope")  # type: ignore[arg-type]
+
+
+def test_face_down_phone_is_detected_and_flip_fixes_it(scenario) -> None:  # type: ignore[no-untyped-def]
+    phone = simulate_phone_log(scenario.true_t, scenario.true_heading, clock_offset=1.5, seed=3)
+    down = phone.flipped()
+    with pytest.raises(ImuLogError, match=r"sign reversed.*--flip-imu"):
+        validate(scenario.encoder_log, down, scenario.old, scenario.new)
+    r = validate(scenario.encoder_log, down.flipped(), scenario.old, scenario.new)
+    assert r.clock_offset == pytest.approx(1.5, abs=0.01)
+    assert r.warnings == ()
+
+
+def test_unrelated_logs_give_a_low_correlation_warning(scenario) -> None:  # type: ignore[no-untyped-def]
+    rng = np.random.default_rng(11)
+    t = scenario.true_t
+    wander = np.cumsum(rng.standard_normal(t.size)) * 0.05  # a phone moved by hand, elsewhere
+    phone = simulate_phone_log(t, wander, clock_offset=0.0, seed=12)
+    r = validate(scenario.encoder_log, phone, scenario.old, scenario.new)
+    assert r.alignment.correlation < 0.8
+    assert any("correlate only" in w for w in r.warnings)

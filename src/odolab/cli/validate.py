@@ -47,6 +47,9 @@ def validate_cmd(
             help="Use the phone's loggingTime (POSIX s) instead of its since-reboot clock.",
         ),
     ] = False,
+    flip_imu: Annotated[
+        bool, typer.Option("--flip-imu", help="Negate the IMU's heading (phone face down).")
+    ] = False,
     method: Annotated[MethodChoice, typer.Option(help="Pose step rule.")] = MethodChoice.midpoint,
     plot: Annotated[
         Path | None, typer.Option(help="Write the figure (headings and errors) to this PNG.")
@@ -68,6 +71,8 @@ def validate_cmd(
     imu = read_sensorlog(imu_log)
     if wallclock:
         imu = imu.on_wallclock()
+    if flip_imu:
+        imu = imu.flipped()
     result = validate(
         enc,
         imu,
@@ -104,6 +109,8 @@ def validate_cmd(
             f"final {h.final:+.4f} rad, max |error| {h.max_abs:.4f} rad"
         )
     typer.echo(f"RMS new/old: {result.improvement:.3f}")
+    for w in result.warnings:
+        typer.echo(f"warning: {w}", err=True)
     if plot is not None:
         typer.echo(f"figure -> {plot}")
     if json_out is not None:

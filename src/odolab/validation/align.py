@@ -172,6 +172,13 @@ def find_clock_offset(
     long_enough = allowed & (overlap >= need)
     fine = np.where(long_enough if long_enough.any() else allowed, local, -np.inf)
     k = int(np.argmax(fine))
+    worst = float(np.min(np.where(np.isfinite(fine), fine, np.inf)))
+    if fine[k] < 0.5 and -worst > fine[k]:
+        raise ImuLogError(
+            f"{imu.source}: the IMU's yaw rate matches the odometry's best with its sign "
+            f"reversed (correlation {worst:.2f} against {float(fine[k]):.2f}); if the phone lay "
+            "face down, flip the IMU's heading (--flip-imu)"
+        )
     delta = 0.0
     if 0 < k < c.size - 1 and np.isfinite(fine[k - 1]) and np.isfinite(fine[k + 1]):
         y0, y1, y2 = fine[k - 1], fine[k], fine[k + 1]

@@ -33,6 +33,9 @@ __all__ = ["HeadingError", "ValidationResult", "plot_validation", "validate", "v
 
 FloatArray = NDArray[np.float64]
 
+#: Below this peak rate correlation the result carries a warning.
+LOW_CORRELATION = 0.8
+
 
 def _rms(e: FloatArray) -> float:
     return float(np.sqrt(np.mean(np.square(e))))
@@ -92,6 +95,7 @@ class ValidationResult:
     encoder_source: str
     imu_source: str
     imu_heading_column: str
+    warnings: tuple[str, ...] = ()
 
     @property
     def clock_offset(self) -> float:
@@ -121,6 +125,7 @@ class ValidationResult:
             "old": self.old.summary(),
             "new": self.new.summary(),
             "rms_ratio_new_over_old": self.improvement,
+            "warnings": list(self.warnings),
         }
         if series:
             out["series"] = {
@@ -204,6 +209,18 @@ def validate(
         h = np.interp(t, traj.t, traj.heading)
         h = h - h[0]
         errors.append(HeadingError(label, params, h, h - imu_h))
+    warnings = []
+    if not math.isnan(align.correlation) and align.correlation < LOW_CORRELATION:
+        warnings.append(
+            f"the yaw rates correlate only {align.correlation:.2f} at the clock offset found: "
+            "the logs may not record the same motion, or the offset search range is wrong"
+        )
+    old_total, imu_total = errors[0].heading[-1], imu_h[-1]
+    if abs(imu_total) > 0.5 and old_total * imu_total < 0:
+        warnings.append(
+            f"the IMU turned {imu_total:.2f} rad but the odometry {old_total:.2f} rad: opposite "
+            "senses; is the phone face down (flip the IMU)?"
+        )
     progress("done")
     return ValidationResult(
         t,
@@ -215,6 +232,7 @@ def validate(
         encoder_source,
         imu.source,
         imu.heading_column,
+        tuple(warnings),
     )
 
 
@@ -252,7 +270,7 @@ def plot_validation(
         ax.set_title("Heading error vs IMU")
     else:
         raise ValueError(f"kind must be 'heading' or 'error', got {kind!r}")
-    ax.set_xlabel(f"time since {result.t[0]:.2f} s on the robot clock (s)")
+    ax.set_xlabel("time from the start of the overlap (s)")
     ax.grid(True, alpha=0.3)
     ax.legend(loc="best")
     return ax

@@ -74,6 +74,20 @@ class ImuLog:
         """Time from the first to the last sample (s)."""
         return float(self.t[-1] - self.t[0])
 
+    def flipped(self) -> ImuLog:
+        """The same log with yaw and yaw rate negated: for a phone lying face down."""
+        rate = None if self.yaw_rate is None else -self.yaw_rate
+        return ImuLog(
+            self.t,
+            -self.yaw,
+            rate,
+            self.source,
+            f"-{self.heading_column}",
+            None if self.rate_column is None else f"-{self.rate_column}",
+            self.time_column,
+            self.wallclock_offset,
+        )
+
     def on_wallclock(self) -> ImuLog:
         """The same log with ``t`` in POSIX seconds (needs ``loggingTime(txt)`` in the file)."""
         if self.wallclock_offset is None:

@@ -144,16 +144,18 @@ def write_demo(
     outdir: str | Path,
     *,
     clock_offset: float = 2.0 * 3600.0 + 17.25,
+    turns: float = 10.0,
     seed: int = 0,
 ) -> dict[str, Path]:
     """Write a complete validation demo into ``outdir``: ``encoder.csv`` (robot clock),
     ``sensorlog.csv`` (a phone whose clock reads ``clock_offset`` s more), ``new.toml`` (the
-    corrected parameters; the old ones are the ``jaguar-lite`` preset). Returns the paths."""
+    corrected parameters; the old ones are the ``jaguar-lite`` preset). The robot turns in place
+    ``turns`` times (10 = the lab's 20 pi). Returns the paths."""
     from odolab.io import write_encoder_csv
 
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
-    sc = rotation_scenario(seed=seed)
+    sc = rotation_scenario(turns=turns, seed=seed)
     phone = simulate_phone_log(
         sc.true_t, sc.true_heading, clock_offset=clock_offset, bias=0.002, seed=seed + 1
     )
