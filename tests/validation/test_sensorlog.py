@@ -252,3 +252,24 @@ def test_compass_without_its_clock_is_a_clear_error(tmp_path: Path) -> None:
     text = "gyroTimestamp_sinceReboot(s),locationTrueHeading(°)\n1.0,10\n2.0,20\n"
     with pytest.raises(ImuLogError, match=r"no time column for the heading.*header has: gyro"):
         read_sensorlog(_write(tmp_path / "o.csv", text))
+
+
+def test_iso_logging_time_short_rows_and_repeated_names(tmp_path: Path) -> None:
+    text = (
+        "loggingTime(txt),motionYaw(rad),note(txt),note(txt)\n"
+        "2019-02-15T11:52:43.379+01:00,0.5,a,b\n"
+        "2019-02-15T11:52:43.479+01:00,0.6\n"  # a short row: the rest is empty
+        "2019-02-15T11:52:43.579+01:00,0.7,c,d\n"
+    )
+    imu = read_sensorlog(_write(tmp_path / "p.csv", text))
+    # 2019-02-15 10:52:43.379 UTC
+    assert imu.t[0] == pytest.approx(1550227963.379, abs=1e-6)
+    np.testing.assert_allclose(np.diff(imu.t), [0.1, 0.1], atol=1e-6)
+    np.testing.assert_allclose(imu.yaw, [0.5, 0.6, 0.7])
+
+
+def test_a_row_with_too_many_cells_is_one_line(tmp_path: Path) -> None:
+    text = "motionTimestamp_sinceReboot(s),motionYaw(rad)\n1.0,0.1\n2.0,0.2,9,9\n"
+    with pytest.raises(ImuLogError, match=r"not a readable CSV table.*line 3") as info:
+        read_sensorlog(_write(tmp_path / "q.csv", text))
+    assert "\n" not in str(info.value)

@@ -180,22 +180,28 @@ class _Table:
         self.sep = ";" if first.count(";") > first.count(",") else ","
         self.header = [c.strip() for c in next(csv.reader([first], delimiter=self.sep))]
         self.by_base: dict[str, str] = {}
-        for name in self.header:
-            self.by_base.setdefault(_base(name), name)
+        self._pos: dict[str, int] = {}
+        for j, name in enumerate(self.header):
+            if _base(name) not in self.by_base:
+                self.by_base[_base(name)] = name
+                self._pos[_base(name)] = j
         try:
-            self.frame = pd.read_csv(
+            frame = pd.read_csv(
                 path,
                 sep=self.sep,
+                header=None,
+                skiprows=1,
+                names=range(len(self.header)),
                 dtype=str,
                 keep_default_na=False,
                 skip_blank_lines=False,
                 encoding="utf-8-sig",
-                skipinitialspace=True,
                 index_col=False,
             )
         except (ValueError, pd.errors.ParserError) as err:
-            raise ImuLogError(f"{path}: not a readable CSV table ({err})") from err
-        self.frame.columns = pd.Index(self.header[: len(self.frame.columns)])
+            why = " ".join(str(err).split())
+            raise ImuLogError(f"{path}: not a readable CSV table ({why})") from err
+        self.frame = frame.fillna("")  # short rows: missing cells are empty cells
 
     def has(self, base: str) -> bool:
         return base in self.by_base
@@ -203,15 +209,17 @@ class _Table:
     def name(self, base: str) -> str:
         return self.by_base[base]
 
+    def _column(self, base: str) -> pd.Series[str]:
+        return self.frame.iloc[:, self._pos[base]].astype(str).str.strip()
+
     def present(self, base: str) -> NDArray[np.bool_]:
         """Rows whose cell in the column is not empty."""
-        col = self.frame[self.name(base)].str.strip()
-        return np.asarray(col.ne("").to_numpy(dtype=bool))
+        return np.asarray(self._column(base).ne("").to_numpy(dtype=bool))
 
     def numbers(self, base: str) -> FloatArray:
         """The column as float64; empty cells are nan; text is an error naming the line."""
         name = self.name(base)
-        col = self.frame[name].str.strip()
+        col = self._column(base)
         values = pd.to_numeric(col, errors="coerce").to_numpy(dtype=np.float64)
         bad = np.isnan(values) & col.ne("").to_numpy(dtype=bool)
         bad &= ~col.str.lower().isin(("nan", "-nan")).to_numpy(dtype=bool)
@@ -225,7 +233,7 @@ class _Table:
     def posix_times(self) -> FloatArray:
         """``loggingTime(txt)`` as POSIX seconds (nan where empty); bad text names the line."""
         name = self.name("loggingTime")
-        col = self.frame[name].str.strip()
+        col = self._column("loggingTime")
         filled = col.ne("").to_numpy(dtype=bool)
         parsed = pd.to_datetime(col, format="%Y-%m-%d %H:%M:%S.%f %z", utc=True, errors="coerce")
         if parsed[filled].isna().any():
