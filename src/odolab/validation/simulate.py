@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy import interpolate
 
 from odolab.errors import ImuLogError
 from odolab.params import PRESETS, RobotParams, save_params
@@ -47,8 +48,10 @@ def simulate_phone_log(
     The phone samples at ``rate_hz`` over the same span; its clock reads ``clock_offset``
     seconds more than the robot's (``t_phone = t_robot + clock_offset``). Its gyro is the true
     rate plus ``bias`` (rad/s) plus white noise of standard deviation ``gyro_noise`` (rad/s);
-    its yaw is the trapezoidal integral of that gyro from ``yaw0`` (random by default: yaw has
-    an arbitrary zero). All randomness comes from ``np.random.default_rng(seed)``.
+    its yaw is the integral of that gyro from ``yaw0`` (random by default: yaw has an arbitrary
+    zero): the true heading change plus the drift of the bias and of the integrated noise. The
+    truth is interpolated between its samples by a cubic spline. All randomness comes from
+    ``np.random.default_rng(seed)``.
     """
     t = np.asarray(true_t, dtype=np.float64)
     h = np.asarray(true_heading, dtype=np.float64)
@@ -59,14 +62,19 @@ def simulate_phone_log(
     rng = np.random.default_rng(seed)
     step = 1.0 / rate_hz
     t_robot = t[0] + step * np.arange(math.floor((t[-1] - t[0]) / step) + 1)
-    # true rate at the phone's samples from a heading interpolated on a fine central difference
-    eps = 0.25 * step
-    lo = np.clip(t_robot - eps, t[0], t[-1])
-    hi = np.clip(t_robot + eps, t[0], t[-1])
-    true_rate = (np.interp(hi, t, h) - np.interp(lo, t, h)) / (hi - lo)
-    gyro = true_rate + bias + gyro_noise * rng.standard_normal(t_robot.size)
+    # the truth between its samples: a cubic spline (exact for cubics; smooth rate)
+    spline = interpolate.CubicSpline(t, h)
+    true_rate = np.asarray(spline(t_robot, 1), dtype=np.float64)
+    noise = gyro_noise * rng.standard_normal(t_robot.size)
+    gyro = true_rate + bias + noise
     start = float(rng.uniform(-math.pi, math.pi)) if yaw0 is None else float(yaw0)
-    yaw = start + np.concatenate(([0.0], np.cumsum(0.5 * (gyro[1:] + gyro[:-1]) * step)))
+    # yaw = the integral of the gyro: the true heading change plus drift from bias and noise
+    drift = bias * (t_robot - t_robot[0]) + np.concatenate(
+        ([0.0], np.cumsum(0.5 * (noise[1:] + noise[:-1]) * step))
+    )
+    yaw = (
+        start + (np.asarray(spline(t_robot), dtype=np.float64) - float(spline(t_robot[0]))) + drift
+    )
     return ImuLog(
         t_robot + clock_offset,
         yaw,
