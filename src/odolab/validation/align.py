@@ -32,8 +32,9 @@ FloatArray = NDArray[np.float64]
 
 @dataclass(frozen=True)
 class ClockAlignment:
-    """The clock offset found (s, phone minus robot), the peak correlation (-1..1), the grid step
-    (s) and the overlap of the aligned logs on the robot clock (s)."""
+    """The clock offset found (s, phone minus robot), the peak rate correlation (-1..1; nan when
+    the offset was fixed), the grid step (s), the overlap of the aligned logs on the robot clock
+    (s) and the range of offsets searched (s)."""
 
     clock_offset: float
     correlation: float
