@@ -1,0 +1,117 @@
+"""CLI command: ``odolab validate``: old vs new parameters vs a phone IMU log (Fig. 21)."""
+
+from __future__ import annotations
+
+from enum import StrEnum
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from odolab.cli._apps import app
+
+__all__: list[str] = []
+
+
+class MethodChoice(StrEnum):
+    midpoint = "midpoint"
+    arc = "arc"
+
+
+@app.command("validate")
+def validate_cmd(
+    encoder_log: Annotated[Path, typer.Argument(help="Encoder log CSV: t,left_ticks,right_ticks.")],
+    imu_log: Annotated[
+        Path, typer.Argument(help="Phone IMU log in the SensorLog app's CSV format.")
+    ],
+    new: Annotated[
+        str, typer.Option("--new", help="New (calibrated) parameters: TOML file or preset name.")
+    ],
+    old: Annotated[
+        str, typer.Option("--old", help="Old parameters: TOML file or preset name.")
+    ] = "jaguar-lite",
+    offset: Annotated[
+        float,
+        typer.Option(help="Nominal clock offset, phone clock minus robot clock (s)."),
+    ] = 0.0,
+    max_offset: Annotated[
+        float,
+        typer.Option(
+            help="Search the clock offset within --offset +- this (s); 0 fixes it, inf = any."
+        ),
+    ] = 30.0,
+    wallclock: Annotated[
+        bool,
+        typer.Option(
+            "--wallclock",
+            help="Use the phone's loggingTime (POSIX s) instead of its since-reboot clock.",
+        ),
+    ] = False,
+    flip_imu: Annotated[
+        bool, typer.Option("--flip-imu", help="Negate the IMU's heading (phone face down).")
+    ] = False,
+    method: Annotated[MethodChoice, typer.Option(help="Pose step rule.")] = MethodChoice.midpoint,
+    plot: Annotated[
+        Path | None, typer.Option(help="Write the figure (headings and errors) to this PNG.")
+    ] = None,
+    json_out: Annotated[
+        Path | None, typer.Option("--json", help="Write the result (with time series) as JSON.")
+    ] = None,
+) -> None:
+    """Compare the heading of the old and the new parameters with a phone IMU's."""
+    import json
+
+    from odolab.io import read_encoder_csv
+    from odolab.params import load_params
+    from odolab.validation import read_sensorlog, validate, validation_figure
+
+    old_params = load_params(old)
+    new_params = load_params(new)
+    enc = read_encoder_csv(encoder_log, modulus=old_params.encoder_modulus)
+    imu = read_sensorlog(imu_log)
+    if wallclock:
+        imu = imu.on_wallclock()
+    if flip_imu:
+        imu = imu.flipped()
+    result = validate(
+        enc,
+        imu,
+        old_params,
+        new_params,
+        offset=offset,
+        max_offset=max_offset,
+        method=method.value,
+        encoder_source=str(encoder_log),
+    )
+    if plot is not None:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        plot.parent.mkdir(parents=True, exist_ok=True)
+        fig = validation_figure(result)
+        fig.savefig(plot, dpi=120)
+        plt.close(fig)
+    if json_out is not None:
+        json_out.parent.mkdir(parents=True, exist_ok=True)
+        json_out.write_text(json.dumps(result.to_dict(), indent=2) + "\n", encoding="utf-8")
+    a = result.alignment
+    corr = "" if a.correlation != a.correlation else f" (rate correlation {a.correlation:.3f})"
+    typer.echo(
+        f"clock offset {result.clock_offset:.4f} s (phone - robot){corr}; "
+        f"{result.t.size} IMU samples over {a.overlap_end - a.overlap_start:.2f} s; "
+        f"IMU rotation {result.imu_heading[-1]:.4f} rad"
+    )
+    for h in (result.old, result.new):
+        typer.echo(
+            f"{h.label} ({h.params.name}): RMS heading error {h.rms:.4f} rad, "
+            f"final {h.final:+.4f} rad, max |error| {h.max_abs:.4f} rad"
+        )
+    typer.echo(f"RMS new/old: {result.improvement:.3f}")
+    for w in result.warnings:
+        typer.echo(f"warning: {w}", err=True)
+    if plot is not None:
+        typer.echo(f"figure -> {plot}")
+    if json_out is not None:
+        typer.echo(f"result -> {json_out}")

@@ -1,0 +1,145 @@
+"""Old vs new vs IMU: the heading errors, RMS before and after, JSON, the figure."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from odolab.errors import ImuLogError
+from odolab.params import PRESETS
+from odolab.trials import EncoderLog
+from odolab.validation import (
+    plot_validation,
+    rotation_scenario,
+    simulate_phone_log,
+    validate,
+    validation_figure,
+)
+
+
+@pytest.fixture(scope="module")
+def scenario():  # type: ignore[no-untyped-def]
+    return rotation_scenario(seed=2)
+
+
+def test_rms_drops_with_the_corrected_track_width(scenario) -> None:  # type: ignore[no-untyped-def]
+    phone = simulate_phone_log(
+        scenario.true_t, scenario.true_heading, clock_offset=5.5, bias=0.002, seed=7
+    )
+    r = validate(scenario.encoder_log, phone, scenario.old, scenario.new)
+    assert r.clock_offset == pytest.approx(5.5, abs=0.01)
+    # nominal odometry over-estimates rotation by 1/0.875: ~18.8 rad turned, ~2.7 rad too much
+    total = r.imu_heading[-1]
+    assert total == pytest.approx(6 * math.pi, rel=0.01)
+    assert r.old.final == pytest.approx(total * (1 / 0.875 - 1), rel=0.03)
+    assert r.old.summary()["ratio_actual_over_predicted"] == pytest.approx(0.875, abs=0.003)
+    assert r.old.rms > 1.0
+    assert r.new.rms < 0.1
+    assert r.improvement < 0.1
+    assert r.old.error[0] == 0.0 and r.new.error[0] == 0.0
+    assert r.old.max_abs >= abs(r.old.final)
+
+
+def test_no_imu_error_gives_zero_error_for_the_true_model(scenario) -> None:  # type: ignore[no-untyped-def]
+    phone = simulate_phone_log(
+        scenario.true_t, scenario.true_heading, clock_offset=0.0, gyro_noise=0.0, seed=1
+    )
+    r = validate(scenario.encoder_log, phone, scenario.old, scenario.new, max_offset=0.0)
+    # only the encoder's quantization is left: one count is 2*pi*r/380/track*... < 3e-3 rad
+    step = scenario.new.right_metres_per_tick / (0.5 * scenario.new.track_width)
+    assert r.new.max_abs < 2 * step
+    # the old model's error is the scale error of the heading change, sample by sample
+    np.testing.assert_allclose(
+        r.old.error,
+        r.new.heading * (scenario.new.track_width / scenario.old.track_width - 1),
+        atol=3 * step,
+    )
+
+
+def test_same_params_give_the_same_errors(scenario) -> None:  # type: ignore[no-untyped-def]
+    phone = simulate_phone_log(scenario.true_t, scenario.true_heading, clock_offset=1.0, seed=4)
+    r = validate(scenario.encoder_log, phone, scenario.old, scenario.old)
+    np.testing.assert_array_equal(r.old.error, r.new.error)
+    assert r.improvement == pytest.approx(1.0)
+
+
+def test_wrapping_counters_and_params_without_modulus(scenario) -> None:  # type: ignore[no-untyped-def]
+    log = scenario.encoder_log
+    m = 32768
+    shifted = EncoderLog(log.t, (log.left_ticks + 32000) % m, (log.right_ticks + 32000) % m, m)
+    phone = simulate_phone_log(scenario.true_t, scenario.true_heading, clock_offset=0.3, seed=5)
+    new_no_mod = scenario.new.with_(encoder_modulus=None)
+    a = validate(log, phone, scenario.old, scenario.new)
+    b = validate(shifted, phone, scenario.old, new_no_mod)
+    np.testing.assert_allclose(b.new.error, a.new.error, atol=1e-12)
+
+
+def test_partial_overlap_and_no_overlap(scenario) -> None:  # type: ignore[no-untyped-def]
+    t, h = scenario.true_t, scenario.true_heading
+    keep = t > 12.0  # the phone started late: the comparison starts at the overlap
+    phone = simulate_phone_log(t[keep], h[keep], clock_offset=-2.0, seed=6)
+    r = validate(scenario.encoder_log, phone, scenario.old, scenario.new)
+    assert r.t[0] == pytest.approx(12.05, abs=0.02)
+    assert r.imu_heading[0] == 0.0
+    far = simulate_phone_log(t, h, clock_offset=500.0, seed=6)
+    with pytest.raises(ImuLogError, match="does not overlap"):
+        validate(scenario.encoder_log, far, scenario.old, scenario.new)
+
+
+def test_to_dict_is_strict_json(scenario) -> None:  # type: ignore[no-untyped-def]
+    phone = simulate_phone_log(scenario.true_t, scenario.true_heading, clock_offset=2.0, seed=8)
+    r = validate(
+        scenario.encoder_log, phone, scenario.old, scenario.new, max_offset=math.inf, method="arc"
+    )
+    d = json.loads(json.dumps(r.to_dict(), allow_nan=False))
+    assert d["method"] == "arc"
+    assert d["offset_search_s"] == [None, None]
+    assert d["old"]["rms_error_rad"] == pytest.approx(r.old.rms)
+    assert len(d["series"]["t_s"]) == r.t.size == len(d["series"]["new_error_rad"])
+    assert "series" not in r.to_dict(series=False)
+
+
+def test_plots_have_labels_units_and_legends(scenario, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    import matplotlib.pyplot as plt
+
+    phone = simulate_phone_log(scenario.true_t, scenario.true_heading, clock_offset=2.0, seed=9)
+    r = validate(scenario.encoder_log, phone, PRESETS["jaguar-lite"], scenario.new)
+    ax = plot_validation(r)
+    assert "(rad)" in ax.get_ylabel() and "(s)" in ax.get_xlabel()
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert (
+        labels[0] == "IMU (phone)" and labels[1].startswith("old") and labels[2].startswith("new")
+    )
+    fig = validation_figure(r)
+    bottom = fig.axes[1]
+    assert "error" in bottom.get_ylabel() and "(rad)" in bottom.get_ylabel()
+    assert [t.get_text()[:3] for t in bottom.get_legend().get_texts()] == ["old", "new"]
+    fig.savefig(tmp_path / "fig21.png", dpi=60)
+    assert (tmp_path / "fig21.png").stat().st_size > 1000
+    plt.close("all")
+    with pytest.raises(ValueError, match="kind"):
+        plot_validation(r, kind="nope")  # type: ignore[arg-type]
+
+
+def test_face_down_phone_is_detected_and_flip_fixes_it(scenario) -> None:  # type: ignore[no-untyped-def]
+    phone = simulate_phone_log(scenario.true_t, scenario.true_heading, clock_offset=1.5, seed=3)
+    down = phone.flipped()
+    with pytest.raises(ImuLogError, match=r"sign reversed.*--flip-imu"):
+        validate(scenario.encoder_log, down, scenario.old, scenario.new)
+    r = validate(scenario.encoder_log, down.flipped(), scenario.old, scenario.new)
+    assert r.clock_offset == pytest.approx(1.5, abs=0.01)
+    assert r.warnings == ()
+
+
+def test_unrelated_logs_give_a_low_correlation_warning(scenario) -> None:  # type: ignore[no-untyped-def]
+    rng = np.random.default_rng(11)
+    t = scenario.true_t
+    wander = np.cumsum(rng.standard_normal(t.size)) * 0.05  # a phone moved by hand, elsewhere
+    phone = simulate_phone_log(t, wander, clock_offset=0.0, seed=12)
+    r = validate(scenario.encoder_log, phone, scenario.old, scenario.new)
+    assert r.alignment.correlation < 0.8
+    assert any("correlate only" in w for w in r.warnings)
