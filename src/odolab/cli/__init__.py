@@ -9,7 +9,15 @@ from __future__ import annotations
 
 import sys
 
-from odolab.cli import core, evaluate, lab, robot, sim, trials  # noqa: F401  (register commands)
+from odolab.cli import (  # noqa: F401  (register commands)
+    core,
+    evaluate,
+    lab,
+    robot,
+    sim,
+    trials,
+    validate,
+)
 from odolab.cli._apps import app
 from odolab.errors import OdolabError
 
