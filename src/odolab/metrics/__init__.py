@@ -29,8 +29,22 @@ from odolab.metrics.pose_error import (
     rpe_errors,
     stats_from_errors,
 )
+from odolab.metrics.runs import (
+    RUN_OPTIONS,
+    Progress,
+    RunEvaluation,
+    evaluate_run,
+    evaluate_run_files,
+    parallel_map,
+)
 
 __all__ = [
+    "RUN_OPTIONS",
+    "Progress",
+    "RunEvaluation",
+    "evaluate_run",
+    "evaluate_run_files",
+    "parallel_map",
     "Alignment",
     "DeltaUnit",
     "Drift",
