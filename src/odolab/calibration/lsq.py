@@ -238,15 +238,25 @@ def calibrate_lsq(
         raise InsufficientDataError(
             f"{m} residuals for {x0.size} parameters; expected longer runs"
         )
-    sol = least_squares(
-        fun, x0, x_scale=x_scale, loss=o.loss, bounds=(lower, upper), diff_step=1e-7
-    )
+    steps = 1e-6 * x_scale
+
+    def jac(theta: FloatArray) -> FloatArray:
+        # central differences with steps fixed to each parameter's scale
+        cols = []
+        for k, h in enumerate(steps):
+            e = np.zeros_like(theta)
+            e[k] = h
+            cols.append((fun(theta + e) - fun(theta - e)) / (2.0 * h))
+        return np.column_stack(cols)
+
+    sol = least_squares(fun, x0, jac=jac, x_scale=x_scale, loss=o.loss, bounds=(lower, upper))
     if not sol.success:
         raise CalibrationError(f"least squares did not converge: {sol.message}")
-    jac = np.asarray(sol.jac, dtype=np.float64)
+    jmat = jac(sol.x)
     s2 = float(np.sum(sol.fun**2)) / (m - x0.size)
-    jtj = jac.T @ jac
-    if np.linalg.cond(jtj) > 1e14:
+    jtj = jmat.T @ jmat
+    norms = np.linalg.norm(jmat, axis=0)
+    if not np.all(norms > 0) or np.linalg.cond(jmat / norms) > 1e5:
         raise CalibrationError(
             "the runs do not determine both radii and the track width (singular Jacobian); "
             "expected runs with both straight driving and turning"
