@@ -80,7 +80,9 @@ def test_standard_errors_cover_the_truth_with_noise() -> None:
 
 def test_straight_driving_cannot_give_the_track_width() -> None:
     with pytest.raises(CalibrationError, match="singular Jacobian"):
-        calibrate_lsq([synthetic_run(1, turning=False)], NOMINAL, LsqOptions(fit_gt_yaw_offset=False))
+        calibrate_lsq(
+            [synthetic_run(1, turning=False)], NOMINAL, LsqOptions(fit_gt_yaw_offset=False)
+        )
 
 
 def test_no_overlap_with_ground_truth() -> None:
@@ -89,12 +91,17 @@ def test_no_overlap_with_ground_truth() -> None:
     assert gt is not None
     late = Trajectory.from_xyh(gt.t + 1000.0, gt.x, gt.y, gt.heading)
     shifted = OdometryRun("x", "late.csv", run.t, run.dticks_left, run.dticks_right, late)
-    with pytest.raises(InsufficientDataError, match="late.csv: odometry .* do not overlap in time"):
+    with pytest.raises(
+        InsufficientDataError, match=r"late\.csv: odometry .* do not overlap in time"
+    ):
         calibrate_lsq([shifted], NOMINAL)
 
 
 def squares(root: Path) -> list[Path]:
-    return [root / "square" / e for e in ("231220200029", "231220200040", "231220200045", "231220200048")]
+    return [
+        root / "square" / e
+        for e in ("231220200029", "231220200040", "231220200045", "231220200048")
+    ]
 
 
 def test_optiodom_squares_calibrate_and_help_held_out_runs(optiodom_dir: Path) -> None:
@@ -108,8 +115,14 @@ def test_optiodom_squares_calibrate_and_help_held_out_runs(optiodom_dir: Path) -
         d = v.to_dict()
         n, c = d["nominal"], d["calibrated"]
         by_kind.setdefault(d["kind"], []).append(
-            [n["endpoint_error"], c["endpoint_error"], n["drift_pct"], c["drift_pct"],
-             n["drift_deg_per_m"], c["drift_deg_per_m"]]
+            [
+                n["endpoint_error"],
+                c["endpoint_error"],
+                n["drift_pct"],
+                c["drift_pct"],
+                n["drift_deg_per_m"],
+                c["drift_deg_per_m"],
+            ]
         )
     assert set(by_kind) == {"circular", "free"}
     for kind, rows in by_kind.items():
@@ -123,8 +136,19 @@ def test_cli_calibrate_lsq(tmp_path: Path, optiodom_dir: Path) -> None:
     out = tmp_path / "new.toml"
     report = tmp_path / "report.json"
     held = optiodom_dir / "free" / "030120210001"
-    args = ["calibrate", "lsq", *map(str, squares(optiodom_dir)[2:]), "--validate", str(held),
-            "-o", str(out), "--json", str(report), "--workers", "1"]
+    args = [
+        "calibrate",
+        "lsq",
+        *map(str, squares(optiodom_dir)[2:]),
+        "--validate",
+        str(held),
+        "-o",
+        str(out),
+        "--json",
+        str(report),
+        "--workers",
+        "1",
+    ]
     assert main(args) == 0
     p = load_params(out)
     assert p.track_width == pytest.approx(0.2024, abs=0.003)

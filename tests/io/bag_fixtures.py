@@ -11,8 +11,8 @@ from odolab.trajectory import Trajectory
 
 
 def _stamp(types: dict, t: float):  # type: ignore[no-untyped-def]
-    sec = int(math.floor(t))
-    return types["builtin_interfaces/msg/Time"](sec=sec, nanosec=int(round((t - sec) * 1e9)))
+    sec = math.floor(t)
+    return types["builtin_interfaces/msg/Time"](sec=sec, nanosec=round((t - sec) * 1e9))
 
 
 def write_bag(

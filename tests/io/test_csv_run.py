@@ -23,7 +23,10 @@ from odolab.params import RobotParams
 from odolab.trajectory import Trajectory
 
 PARAMS = RobotParams(
-    left_wheel_radius=0.05, right_wheel_radius=0.05, track_width=0.3, ticks_per_rev=100,
+    left_wheel_radius=0.05,
+    right_wheel_radius=0.05,
+    track_width=0.3,
+    ticks_per_rev=100,
     encoder_modulus=1000,
 )
 

@@ -58,7 +58,7 @@ def test_bad_optiodom_paths(tmp_path: Path) -> None:
         read_optiodom_run(bad)
     run = tmp_path / "x_run-01.csv"
     run.write_text("0,0,0,0,0,0\n0.05,0,0,0,1,1\n")
-    with pytest.raises(LogFormatError, match="x_metadata.csv: no such OptiOdom metadata file"):
+    with pytest.raises(LogFormatError, match=r"x_metadata\.csv: no such OptiOdom metadata file"):
         read_optiodom_run(run)
     (tmp_path / "x_metadata.csv").write_text("type,diff\nngear,43.7\nencRes,64\nLi,0.2\n")
     with pytest.raises(LogFormatError, match="missing value 1 of key 'Di'"):

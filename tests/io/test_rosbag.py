@@ -17,8 +17,11 @@ from odolab.odometry import integrate_increments
 from odolab.params import RobotParams
 
 TRUE = RobotParams(
-    left_wheel_radius=0.101, right_wheel_radius=0.099, track_width=0.52,
-    ticks_per_rev=2 * math.pi, name="true",
+    left_wheel_radius=0.101,
+    right_wheel_radius=0.099,
+    track_width=0.52,
+    ticks_per_rev=2 * math.pi,
+    name="true",
 )
 NOMINAL = TRUE.with_(left_wheel_radius=0.1, right_wheel_radius=0.1, track_width=0.5, name="nom")
 

@@ -21,7 +21,7 @@ def random_drive(n: int, seed: int, *, t0: float = 0.0, dt: float = 0.05) -> Tra
 
 
 def noisy_copy(traj: Trajectory, seed: int, drift: float = 0.02) -> Trajectory:
-    """The same drive with a slowly growing heading drift and scale error (an odometry-like estimate)."""
+    """The same drive with heading drift and a scale error (an odometry-like estimate)."""
     rng = np.random.default_rng(seed)
     n = len(traj)
     dh = np.diff(traj.heading, prepend=traj.heading[0]) * (1.0 + drift) + rng.normal(0, 1e-3, n)
@@ -32,4 +32,3 @@ def noisy_copy(traj: Trajectory, seed: int, drift: float = 0.02) -> Trajectory:
     x = traj.x[0] + np.cumsum(ds * np.cos(h))
     y = traj.y[0] + np.cumsum(ds * np.sin(h))
     return Trajectory.from_xyh(traj.t, x, y, h)
-

@@ -22,8 +22,17 @@ def test_evaluate_gt_est_writes_json(tmp_path: Path) -> None:
     est_path = write_trajectory(est, tmp_path / "est.csv")
     out = tmp_path / "out.json"
     code = main(
-        ["evaluate", str(gt_path), str(est_path), "--delta", "0.5", "--delta-unit", "m",
-         "--json", str(out)]
+        [
+            "evaluate",
+            str(gt_path),
+            str(est_path),
+            "--delta",
+            "0.5",
+            "--delta-unit",
+            "m",
+            "--json",
+            str(out),
+        ]
     )
     assert code == 0
     doc = json.loads(out.read_text())
@@ -38,7 +47,10 @@ def test_evaluate_runs_in_parallel(tmp_path: Path, optiodom_dir: Path) -> None:
     folder = optiodom_dir / "free" / "030120210001"
     assert main(["evaluate", str(folder), "--format", "optiodom", "--json", str(out)]) == 0
     doc = json.loads(out.read_text())
-    assert [r["name"] for r in doc["runs"]] == ["free/030120210001/run-01", "free/030120210001/run-02"]
+    assert [r["name"] for r in doc["runs"]] == [
+        "free/030120210001/run-01",
+        "free/030120210001/run-02",
+    ]
     for r in doc["runs"]:
         assert 0.0 < r["drift"]["endpoint_error"] < 0.2
         assert r["params"]["track_width"] == 0.2

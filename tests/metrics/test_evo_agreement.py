@@ -6,6 +6,7 @@ import copy
 
 import numpy as np
 import pytest
+from metrics_drives import random_drive
 
 from odolab.metrics import (
     Alignment,
@@ -16,8 +17,6 @@ from odolab.metrics import (
     evaluate,
 )
 from odolab.trajectory import Trajectory
-
-from metrics_drives import random_drive
 
 evo_metrics = pytest.importorskip("evo.core.metrics")
 from evo.core import sync as evo_sync  # noqa: E402
@@ -88,7 +87,10 @@ def test_rpe_matches_evo(
     assert_stats(ours.rpe, theirs_t)
     assert_stats(ours.rpe_rot, theirs_r)
     m = evo_metrics.RPE(
-        R.translation_part, delta=d, delta_unit=evo_unit, all_pairs=all_pairs,
+        R.translation_part,
+        delta=d,
+        delta_unit=evo_unit,
+        all_pairs=all_pairs,
         pairs_from_reference=from_ref,
     )
     m.process_data((eref, eest))
@@ -152,9 +154,5 @@ def test_association_matches_evo(method: SyncMethod) -> None:
     ours = evaluate(ref, est, EvaluationOptions(sync=method, max_diff=0.02, delta=3))
     assert_stats(ours.ape, evo_ape(copy.deepcopy(eref), eest, R.translation_part))
     assert_stats(ours.ape_rot, evo_ape(eref, eest, R.rotation_angle_rad))
-    assert_stats(
-        ours.rpe, evo_rpe(eref, eest, R.translation_part, 3, Unit.frames, False)
-    )
-    assert_stats(
-        ours.rpe_rot, evo_rpe(eref, eest, R.rotation_angle_rad, 3, Unit.frames, False)
-    )
+    assert_stats(ours.rpe, evo_rpe(eref, eest, R.translation_part, 3, Unit.frames, False))
+    assert_stats(ours.rpe_rot, evo_rpe(eref, eest, R.rotation_angle_rad, 3, Unit.frames, False))

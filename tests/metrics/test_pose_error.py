@@ -94,7 +94,7 @@ def test_overlap_without_matching_stamps_suggests_interpolation() -> None:
 def test_interpolation_by_hand() -> None:
     ref = Trajectory.from_xyh([0.0, 1.0, 2.0], [0, 1, 2], [0, 0, 2], [0, 1, 3])
     est = Trajectory.from_xyh([0.5, 1.5], [9, 9], [9, 9], [0, 0])
-    r, e = associate(ref, est, method=SyncMethod.INTERPOLATE, max_diff=0.5)
+    r, _ = associate(ref, est, method=SyncMethod.INTERPOLATE, max_diff=0.5)
     np.testing.assert_allclose(r.x, [0.5, 1.5])
     np.testing.assert_allclose(r.y, [0.0, 1.0])
     np.testing.assert_allclose(r.heading, [0.5, 2.0])
@@ -105,7 +105,9 @@ offsets = st.floats(-50.0, 50.0)
 
 
 @given(angles, offsets, offsets, st.integers(0, 10_000))
-def test_rpe_and_aligned_ape_ignore_a_rigid_motion(a: float, tx: float, ty: float, seed: int) -> None:
+def test_rpe_and_aligned_ape_ignore_a_rigid_motion(
+    a: float, tx: float, ty: float, seed: int
+) -> None:
     ref = random_drive(120, seed=seed)
     est = noisy_copy(ref, seed=seed + 1)
     moved = transform_trajectory(est, Rigid2D(a, tx, ty))
@@ -124,5 +126,7 @@ def test_rpe_and_aligned_ape_ignore_a_rigid_motion(a: float, tx: float, ty: floa
 @given(st.integers(0, 10_000))
 def test_identical_trajectories_have_no_error(seed: int) -> None:
     ref = random_drive(80, seed=seed)
-    ev = evaluate(ref, ref, EvaluationOptions(delta=0.3, delta_unit=DeltaUnit.METRES, all_pairs=True))
+    ev = evaluate(
+        ref, ref, EvaluationOptions(delta=0.3, delta_unit=DeltaUnit.METRES, all_pairs=True)
+    )
     assert ev.ape.max == 0.0 and ev.rpe.max < 1e-12 and ev.rpe_rot.max < 1e-12

@@ -113,8 +113,12 @@ def _relative(
 
 
 def segment_residuals(
-    theta: FloatArray, run: PreparedRun, template: RobotParams, heading_scale: float,
-    method: Method = Method.MIDPOINT, gt_yaw_offset: float = 0.0,
+    theta: FloatArray,
+    run: PreparedRun,
+    template: RobotParams,
+    heading_scale: float,
+    method: Method = Method.MIDPOINT,
+    gt_yaw_offset: float = 0.0,
 ) -> FloatArray:
     """Residuals of one run (shape (3k,) for k segments) at parameters ``theta`` (shape (3,)).
 
@@ -128,9 +132,7 @@ def segment_residuals(
     )
     odo = integrate_increments(run.t, run.dticks_left, run.dticks_right, p, method)
     ox, oy, oh = _relative(odo.x, odo.y, odo.heading, run.starts, run.ends)
-    gx, gy, gh = _relative(
-        run.gt_x, run.gt_y, run.gt_heading + gt_yaw_offset, run.starts, run.ends
-    )
+    gx, gy, gh = _relative(run.gt_x, run.gt_y, run.gt_heading + gt_yaw_offset, run.starts, run.ends)
     return np.concatenate((ox - gx, oy - gy, heading_scale * (oh - gh)))
 
 
@@ -235,9 +237,7 @@ def calibrate_lsq(
     r0 = fun(x0)
     m = r0.size
     if m <= x0.size:
-        raise InsufficientDataError(
-            f"{m} residuals for {x0.size} parameters; expected longer runs"
-        )
+        raise InsufficientDataError(f"{m} residuals for {x0.size} parameters; expected longer runs")
     steps = 1e-6 * x_scale
 
     def jac(theta: FloatArray) -> FloatArray:
@@ -261,7 +261,7 @@ def calibrate_lsq(
             "the runs do not determine both radii and the track width (singular Jacobian); "
             "expected runs with both straight driving and turning"
         )
-    cov = np.linalg.inv(jtj) * s2
+    cov: FloatArray = np.asarray(np.linalg.inv(jtj) * s2, dtype=np.float64)
     theta = sol.x
     params = nominal.with_(
         left_wheel_radius=float(theta[0]),
@@ -365,9 +365,7 @@ def calibrate_lsq_files(
     )
     base = nominal or loaded[0][0].params
     if base is None:
-        raise CalibrationError(
-            f"{train[0]}: the log has no nominal parameters; expected --params"
-        )
+        raise CalibrationError(f"{train[0]}: the log has no nominal parameters; expected --params")
     result = calibrate_lsq([prep for _, prep in loaded], base, o)
     if not held:
         return result

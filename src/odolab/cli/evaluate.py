@@ -47,7 +47,8 @@ FormatOpt = Annotated[
     typer.Option("--format", "-f", help="Paths are runs of this format (else: GT EST files)."),
 ]
 ParamsOpt = Annotated[
-    str | None, typer.Option("--params", "-p", help="Parameters TOML or preset (default: the log's).")
+    str | None,
+    typer.Option("--params", "-p", help="Parameters TOML or preset (default: the log's)."),
 ]
 WorkersOpt = Annotated[int, typer.Option(help="Worker processes for many runs.")]
 JointTopicOpt = Annotated[str, typer.Option(help="Bags: JointState topic.")]
@@ -108,7 +109,9 @@ def evaluate_cmd(
     ],
     fmt: FormatOpt = None,
     params: ParamsOpt = None,
-    delta: Annotated[float | None, typer.Option(help="RPE step (default 1 frame; runs 1 m).")] = None,
+    delta: Annotated[
+        float | None, typer.Option(help="RPE step (default 1 frame; runs 1 m).")
+    ] = None,
     delta_unit: Annotated[
         DeltaUnitChoice | None, typer.Option("--delta-unit", help="Unit of --delta.")
     ] = None,
@@ -172,7 +175,9 @@ def evaluate_cmd(
                 "use --format for runs"
             )
         ev = evaluate(
-            read_trajectory(paths[0]), read_trajectory(paths[1]), options,
+            read_trajectory(paths[0]),
+            read_trajectory(paths[1]),
+            options,
             names=(str(paths[0]), str(paths[1])),
         )
         _write_json(ev.to_dict(), json_out)
@@ -183,7 +188,12 @@ def evaluate_cmd(
     ro = _read_options(robot, joint_topic, joints, gt_topic)
     with _progress_bar("evaluate") as report:
         results = evaluate_run_files(
-            paths, fmt.value, params=robot, options=options, read_options=ro, workers=workers,
+            paths,
+            fmt.value,
+            params=robot,
+            options=options,
+            read_options=ro,
+            workers=workers,
             progress=report,
         )
     _write_json({"runs": [r.to_dict() for r in results]}, json_out)
@@ -242,9 +252,14 @@ def calibrate_lsq_cmd(
     ro = _read_options(robot, joint_topic, joints, gt_topic)
     with _progress_bar("calibrate") as report:
         result = calibrate_lsq_files(
-            runs, fmt.value, nominal=robot, validate=validate or [],
+            runs,
+            fmt.value,
+            nominal=robot,
+            validate=validate or [],
             options=LsqOptions(segment_s=segment, fit_gt_yaw_offset=not no_gt_yaw_offset),
-            read_options=ro, workers=workers, progress=report,
+            read_options=ro,
+            workers=workers,
+            progress=report,
         )
     save_params(result.params, output, provenance=result.provenance())
     _write_json(result.to_dict(), json_out)
@@ -258,13 +273,17 @@ def _print_calibration(result: Any, output: Path) -> None:
     from rich.table import Table
 
     console = Console()
-    table = Table(title=f"least-squares calibration ({len(result.runs)} runs, "
-                  f"{result.segments} segments) -> {output}")
+    table = Table(
+        title=f"least-squares calibration ({len(result.runs)} runs, "
+        f"{result.segments} segments) -> {output}"
+    )
     for col in ("parameter", "nominal", "calibrated", "std error"):
         table.add_column(col, justify="right")
     for key, err in result.stderr.items():
         table.add_row(
-            key, f"{getattr(result.nominal, key):.6f}", f"{getattr(result.params, key):.6f}",
+            key,
+            f"{getattr(result.nominal, key):.6f}",
+            f"{getattr(result.params, key):.6f}",
             f"{err:.2e}",
         )
     console.print(table)

@@ -45,7 +45,12 @@ def read_csv_run(path: str | Path, options: ReadOptions | None = None) -> Odomet
     gt_path = Path(o.ground_truth) if o.ground_truth else ground_truth_beside(p)
     gt = read_trajectory(gt_path) if gt_path is not None else None
     return OdometryRun(
-        name=p.stem, source=str(p), t=log.t, dticks_left=dl, dticks_right=dr, ground_truth=gt,
+        name=p.stem,
+        source=str(p),
+        t=log.t,
+        dticks_left=dl,
+        dticks_right=dr,
+        ground_truth=gt,
         kind="csv",
     )
 

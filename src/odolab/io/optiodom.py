@@ -13,8 +13,6 @@ import csv
 import re
 from pathlib import Path
 
-import numpy as np
-
 from odolab.errors import LogFormatError, ParamsError
 from odolab.io._table import read_numeric_columns
 from odolab.io.run import OdometryRun, ReadOptions
@@ -126,8 +124,14 @@ class OptiOdomReader:
         from odolab.io.registry import read_trajectory
 
         return OdometryRun(
-            run.name, run.source, run.t, run.dticks_left, run.dticks_right,
-            read_trajectory(options.ground_truth), run.params, run.estimate, run.kind, run.meta,
+            run.name,
+            run.source,
+            run.t,
+            run.dticks_left,
+            run.dticks_right,
+            read_trajectory(options.ground_truth),
+            run.params,
+            run.estimate,
+            run.kind,
+            run.meta,
         )
-
-

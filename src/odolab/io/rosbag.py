@@ -54,7 +54,9 @@ def bag_topics(path: str | Path) -> dict[str, str]:
         reader.close()
 
 
-def _messages(reader: Any, path: Path, topic: str, types: tuple[str, ...]) -> Iterator[tuple[int, Any]]:
+def _messages(
+    reader: Any, path: Path, topic: str, types: tuple[str, ...]
+) -> Iterator[tuple[int, Any]]:
     conns = [c for c in reader.connections if c.topic == topic]
     if not conns:
         have = ", ".join(f"{c.topic} ({c.msgtype})" for c in reader.connections) or "none"
@@ -144,8 +146,15 @@ def read_bag(path: str | Path, options: ReadOptions | None = None) -> OdometryRu
 
         gt = read_trajectory(o.ground_truth)
     return OdometryRun(
-        name=p.stem, source=str(p), t=tt, dticks_left=dl, dticks_right=dr, ground_truth=gt,
-        estimate=est, kind="bag", meta={"ticks_per_rev": o.ticks_per_rev},
+        name=p.stem,
+        source=str(p),
+        t=tt,
+        dticks_left=dl,
+        dticks_right=dr,
+        ground_truth=gt,
+        estimate=est,
+        kind="bag",
+        meta={"ticks_per_rev": o.ticks_per_rev},
     )
 
 
@@ -169,7 +178,8 @@ class RosbagReader:
         if not path.is_dir():
             raise LogFormatError(f"{path}: no such bag")
         bags = sorted(
-            q for q in path.iterdir()
+            q
+            for q in path.iterdir()
             if q.suffix == ".bag" or (q.is_dir() and (q / "metadata.yaml").is_file())
         )
         if not bags:

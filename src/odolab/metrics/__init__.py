@@ -5,7 +5,13 @@ Planar (x, y, heading) only; every number agrees with ``evo`` on the same planar
 
 from __future__ import annotations
 
-from odolab.metrics.alignment import Alignment, Rigid2D, align, rigid_from_points, transform_trajectory
+from odolab.metrics.alignment import (
+    Alignment,
+    Rigid2D,
+    align,
+    rigid_from_points,
+    transform_trajectory,
+)
 from odolab.metrics.association import (
     SyncMethod,
     associate,
@@ -40,17 +46,14 @@ from odolab.metrics.runs import (
 
 __all__ = [
     "RUN_OPTIONS",
-    "Progress",
-    "RunEvaluation",
-    "evaluate_run",
-    "evaluate_run_files",
-    "parallel_map",
     "Alignment",
     "DeltaUnit",
     "Drift",
     "Evaluation",
     "EvaluationOptions",
+    "Progress",
     "Rigid2D",
+    "RunEvaluation",
     "Stats",
     "SyncMethod",
     "align",
@@ -59,9 +62,12 @@ __all__ = [
     "associate",
     "drift_per_distance",
     "evaluate",
+    "evaluate_run",
+    "evaluate_run_files",
     "interpolate_trajectory",
     "matching_time_indices",
     "pair_indices",
+    "parallel_map",
     "path_distances",
     "rigid_from_points",
     "rpe_errors",

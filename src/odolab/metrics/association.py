@@ -83,7 +83,7 @@ def associate(
     offset: float = 0.0,
     names: tuple[str, str] = ("reference", "estimate"),
 ) -> tuple[Trajectory, Trajectory]:
-    """Pair the poses of two trajectories by time; returns ``(reference, estimate)`` of equal length.
+    """Pair the poses of two trajectories by time: ``(reference, estimate)`` of equal length.
 
     ``offset`` (s) is added to the estimate's stamps for the matching only. Raises
     :class:`InsufficientDataError` when the trajectories do not overlap in time, or when no stamp

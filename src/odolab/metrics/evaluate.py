@@ -69,7 +69,9 @@ class Drift:
         return dict(self.__dict__)
 
 
-def drift_per_distance(reference: Trajectory, estimate: Trajectory, segment_m: float = 1.0) -> Drift:
+def drift_per_distance(
+    reference: Trajectory, estimate: Trajectory, segment_m: float = 1.0
+) -> Drift:
     """Drift of associated, aligned trajectories (equal length) per metre of reference path."""
     dist = path_distances(reference)
     length = float(dist[-1]) if dist.size else 0.0

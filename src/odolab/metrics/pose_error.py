@@ -33,8 +33,8 @@ __all__ = [
     "Stats",
     "ape_rotation",
     "ape_translation",
-    "path_distances",
     "pair_indices",
+    "path_distances",
     "rpe_errors",
     "stats_from_errors",
 ]
@@ -113,7 +113,9 @@ def path_distances(traj: Trajectory) -> FloatArray:
 
 
 @njit(cache=True)
-def _consecutive_by_path(x: FloatArray, y: FloatArray, delta: float) -> IntArray:  # pragma: no cover
+def _consecutive_by_path(
+    x: FloatArray, y: FloatArray, delta: float
+) -> IntArray:  # pragma: no cover
     n = x.shape[0]
     ids = np.empty(n, dtype=np.int64)
     k = 0
@@ -208,7 +210,8 @@ def pair_indices(
         i, j = ids[:-1], ids[1:]
     if i.size == 0:
         raise InsufficientDataError(
-            f"delta = {delta:g} {u.value} gives no pose pairs on {n} poses; expected a smaller delta"
+            f"delta = {delta:g} {u.value} gives no pose pairs on {n} poses; "
+            "expected a smaller delta"
         )
     return i, j
 

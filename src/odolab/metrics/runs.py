@@ -22,9 +22,9 @@ from odolab.metrics.pose_error import DeltaUnit
 from odolab.params import RobotParams
 
 __all__ = [
+    "RUN_OPTIONS",
     "Progress",
     "RunEvaluation",
-    "RUN_OPTIONS",
     "evaluate_run",
     "evaluate_run_files",
     "parallel_map",
