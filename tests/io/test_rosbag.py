@@ -108,3 +108,26 @@ def test_not_a_bag(tmp_path: Path) -> None:
     p.write_text("hello")
     with pytest.raises(LogFormatError, match="not a readable ROS 1 or ROS 2 bag"):
         read_bag(p)
+
+
+def test_cli_on_a_bag(bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    from odolab.cli import main
+    from odolab.params import load_params, save_params
+
+    nominal = save_params(NOMINAL, tmp_path / "nominal.toml")
+    out = tmp_path / "eval.json"
+    args = ["evaluate", str(bag), "--format", "bag", "-p", str(nominal), "--json", str(out)]
+    assert main(args) == 0
+    doc = json.loads(out.read_text())
+    assert doc["runs"][0]["ape"]["rmse"] > 0.1
+    new = tmp_path / "new.toml"
+    args = ["calibrate", "lsq", str(bag), "--format", "bag", "-p", str(nominal), "-o", str(new)]
+    assert main([*args, "--segment", "1.0", "--workers", "1"]) == 0
+    assert load_params(new).track_width == pytest.approx(0.52, abs=1e-5)
+    capsys.readouterr()
+    args = ["evaluate", str(bag), "--format", "bag", "-p", str(nominal), "--gt-topic", "/mocap"]
+    assert main(args) == 1
+    err = capsys.readouterr().err
+    assert "no ground-truth topic '/mocap' in the bag; it has /ground_truth" in err

@@ -137,7 +137,15 @@ def read_bag(path: str | Path, options: ReadOptions | None = None) -> OdometryRu
         dl = np.concatenate(([0.0], np.diff(np.unwrap(np.array(left))) * scale))
         dr = np.concatenate(([0.0], np.diff(np.unwrap(np.array(right))) * scale))
         topics = {c.topic for c in reader.connections}
-        gt = _poses(reader, p, o.ground_truth_topic) if o.ground_truth_topic in topics else None
+        meta: dict[str, float | str] = {"ticks_per_rev": o.ticks_per_rev}
+        gt = None
+        if o.ground_truth_topic in topics:
+            gt = _poses(reader, p, o.ground_truth_topic)
+        elif o.ground_truth is None:
+            have = ", ".join(f"{c.topic} ({c.msgtype})" for c in reader.connections)
+            meta["no_ground_truth"] = (
+                f"no ground-truth topic {o.ground_truth_topic!r} in the bag; it has {have}"
+            )
         est = _poses(reader, p, o.odometry_topic) if o.odometry_topic else None
     finally:
         reader.close()
@@ -154,7 +162,7 @@ def read_bag(path: str | Path, options: ReadOptions | None = None) -> OdometryRu
         ground_truth=gt,
         estimate=est,
         kind="bag",
-        meta={"ticks_per_rev": o.ticks_per_rev},
+        meta=meta,
     )
 
 

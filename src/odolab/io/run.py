@@ -101,5 +101,6 @@ class OdometryRun:
     def require_ground_truth(self) -> Trajectory:
         """The ground truth, or a :class:`LogFormatError` naming the run."""
         if self.ground_truth is None:
-            raise LogFormatError(f"{self.source}: no ground truth in this run; expected one")
+            why = self.meta.get("no_ground_truth", "no ground truth in this run; expected one")
+            raise LogFormatError(f"{self.source}: {why}")
         return self.ground_truth
