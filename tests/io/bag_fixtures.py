@@ -26,6 +26,7 @@ def write_bag(
     storage: str = "sqlite3",
     joint_names: tuple[str, str] = ("left_wheel_joint", "right_wheel_joint"),
     gt_topic: str = "/ground_truth",
+    gt_as_odometry: bool = False,
 ) -> Path:
     """A bag with /joint_states (JointState: wheel angles in rad) and PoseStamped ground truth."""
     from rosbags.typesys import Stores, get_typestore
@@ -64,7 +65,24 @@ def write_bag(
                     orientation=Quaternion(x=0.0, y=0.0, z=math.sin(h), w=math.cos(h)),
                 ),
             )
-            msgs.append((gt_topic, "geometry_msgs/msg/PoseStamped", float(gt.t[k]), ps))
+            if gt_as_odometry:
+                od = ty["nav_msgs/msg/Odometry"](
+                    header=ps.header,
+                    child_frame_id="base_link",
+                    pose=ty["geometry_msgs/msg/PoseWithCovariance"](
+                        pose=ps.pose, covariance=np.zeros(36)
+                    ),
+                    twist=ty["geometry_msgs/msg/TwistWithCovariance"](
+                        twist=ty["geometry_msgs/msg/Twist"](
+                            linear=ty["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0),
+                            angular=ty["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0),
+                        ),
+                        covariance=np.zeros(36),
+                    ),
+                )
+                msgs.append((gt_topic, "nav_msgs/msg/Odometry", float(gt.t[k]), od))
+            else:
+                msgs.append((gt_topic, "geometry_msgs/msg/PoseStamped", float(gt.t[k]), ps))
     msgs.sort(key=lambda m: m[2])
     if ros1:
         from rosbags.rosbag1 import Writer as Writer1

@@ -131,3 +131,15 @@ def test_cli_on_a_bag(bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert main(args) == 1
     err = capsys.readouterr().err
     assert "no ground-truth topic '/mocap' in the bag; it has /ground_truth" in err
+
+
+def test_odometry_messages_as_ground_truth_and_estimate(tmp_path: Path) -> None:
+    t, left, right = drive(n=200)
+    gt = integrate_increments(t, np.diff(left, prepend=0.0), np.diff(right, prepend=0.0), TRUE)
+    bag = write_bag(tmp_path / "odo", t, left, right, gt, gt_as_odometry=True, gt_topic="/odom")
+    run = read_bag(bag, ReadOptions(ground_truth_topic="/odom", odometry_topic="/odom"))
+    assert run.ground_truth is not None and run.estimate is not None
+    np.testing.assert_allclose(run.ground_truth.x, gt.x, atol=1e-12)
+    np.testing.assert_allclose(run.estimate.heading, gt.heading, atol=1e-9)
+    with pytest.raises(LogFormatError, match="carries sensor_msgs/msg/JointState; expected"):
+        read_bag(bag, ReadOptions(ground_truth_topic="/joint_states"))
