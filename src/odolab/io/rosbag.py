@@ -87,10 +87,10 @@ def _poses(reader: Any, path: Path, topic: str) -> Trajectory:
         yaw.append(math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z)))
     if len(t) < 2:
         raise LogFormatError(f"{path}: topic {topic!r} has {len(t)} poses; expected at least two")
-    return _sorted_trajectory(path, topic, np.array(t), np.array(x), np.array(y), np.array(yaw))
+    return _checked_trajectory(path, topic, np.array(t), np.array(x), np.array(y), np.array(yaw))
 
 
-def _sorted_trajectory(
+def _checked_trajectory(
     path: Path, topic: str, t: np.ndarray, x: np.ndarray, y: np.ndarray, yaw: np.ndarray
 ) -> Trajectory:
     back = np.diff(t) < 0
