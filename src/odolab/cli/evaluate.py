@@ -1,3 +1,305 @@
-"""CLI commands: evaluate (filled in by its issue)."""
+"""CLI commands: ``odolab evaluate`` (APE/RPE/drift) and ``odolab calibrate lsq``."""
 
 from __future__ import annotations
+
+import json
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from enum import StrEnum
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated, Any
+
+import typer
+
+from odolab.cli._apps import app, calibrate_app
+
+if TYPE_CHECKING:
+    from odolab.io.run import ReadOptions
+    from odolab.params import RobotParams
+
+__all__: list[str] = []
+
+
+class RunFormat(StrEnum):
+    csv = "csv"
+    optiodom = "optiodom"
+    bag = "bag"
+
+
+class DeltaUnitChoice(StrEnum):
+    frames = "frames"
+    m = "m"
+
+
+class AlignChoice(StrEnum):
+    none = "none"
+    origin = "origin"
+    se2 = "se2"
+
+
+class SyncChoice(StrEnum):
+    nearest = "nearest"
+    interpolate = "interpolate"
+
+
+FormatOpt = Annotated[
+    RunFormat | None,
+    typer.Option("--format", "-f", help="Paths are runs of this format (else: GT EST files)."),
+]
+ParamsOpt = Annotated[
+    str | None,
+    typer.Option("--params", "-p", help="Parameters TOML or preset (default: the log's)."),
+]
+WorkersOpt = Annotated[int, typer.Option(help="Worker processes for many runs.")]
+JointTopicOpt = Annotated[str, typer.Option(help="Bags: JointState topic.")]
+JointsOpt = Annotated[
+    tuple[str, str], typer.Option(help="Bags: LEFT RIGHT joint names in the JointState.")
+]
+GtTopicOpt = Annotated[str, typer.Option(help="Bags: ground truth (PoseStamped/Odometry) topic.")]
+
+
+@contextmanager
+def _progress_bar(label: str) -> Iterator[Callable[[int, int, str], None]]:
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    with Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        TextColumn("{task.fields[name]}"),
+        transient=True,
+    ) as bar:
+        task = bar.add_task(label, total=None, name="")
+
+        def report(done: int, total: int, name: str) -> None:
+            bar.update(task, completed=done, total=total, name=Path(name).name)
+
+        yield report
+
+
+def _read_options(
+    params: RobotParams | None, joint_topic: str, joints: tuple[str, str], gt_topic: str
+) -> ReadOptions:
+    import math
+
+    from odolab.io.run import ReadOptions
+
+    return ReadOptions(
+        joint_topic=joint_topic,
+        joint_names=joints,
+        ground_truth_topic=gt_topic,
+        ticks_per_rev=params.ticks_per_rev if params else 2.0 * math.pi,
+        modulus=params.encoder_modulus if params else None,
+    )
+
+
+def _write_json(doc: Any, path: Path | None) -> None:
+    if path is None:
+        return
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(doc, indent=2, allow_nan=True) + "\n", encoding="utf-8")
+
+
+@app.command("evaluate")
+def evaluate_cmd(
+    paths: Annotated[
+        list[Path],
+        typer.Argument(help="GT EST trajectory files (CSV/TUM), or runs with --format."),
+    ],
+    fmt: FormatOpt = None,
+    params: ParamsOpt = None,
+    delta: Annotated[
+        float | None, typer.Option(help="RPE step (default 1 frame; runs 1 m).")
+    ] = None,
+    delta_unit: Annotated[
+        DeltaUnitChoice | None, typer.Option("--delta-unit", help="Unit of --delta.")
+    ] = None,
+    all_pairs: Annotated[bool, typer.Option(help="RPE over all pairs, not consecutive.")] = False,
+    pairs_from_reference: Annotated[
+        bool | None, typer.Option(help="Choose RPE pairs on the reference (evo: on the estimate).")
+    ] = None,
+    align: Annotated[
+        AlignChoice | None, typer.Option(help="Alignment (default none; runs origin).")
+    ] = None,
+    sync: Annotated[
+        SyncChoice | None, typer.Option(help="Association (default nearest; runs interpolate).")
+    ] = None,
+    max_diff: Annotated[
+        float | None, typer.Option(help="Largest stamp difference to associate (s).")
+    ] = None,
+    drift_segment: Annotated[float, typer.Option(help="Path length per drift segment (m).")] = 1.0,
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write the numbers here.")] = None,
+    workers: WorkersOpt = 2,
+    joint_topic: JointTopicOpt = "/joint_states",
+    joints: JointsOpt = ("left_wheel_joint", "right_wheel_joint"),
+    gt_topic: GtTopicOpt = "/ground_truth",
+) -> None:
+    """APE, RPE (evo's definitions) and drift per distance: of EST against GT, or of runs."""
+    from dataclasses import replace
+
+    from odolab.errors import OdolabError
+    from odolab.metrics import (
+        RUN_OPTIONS,
+        Alignment,
+        DeltaUnit,
+        EvaluationOptions,
+        SyncMethod,
+    )
+    from odolab.params import load_params
+
+    base = RUN_OPTIONS if fmt is not None else EvaluationOptions()
+    changes: dict[str, Any] = {"all_pairs": all_pairs, "drift_delta_m": drift_segment}
+    if delta_unit is not None:
+        changes["delta_unit"] = DeltaUnit(delta_unit.value)
+        changes["delta"] = 1.0
+    if delta is not None:
+        changes["delta"] = delta
+    if align is not None:
+        changes["alignment"] = Alignment(align.value)
+    if sync is not None:
+        changes["sync"] = SyncMethod(sync.value)
+    if max_diff is not None:
+        changes["max_diff"] = max_diff
+    if pairs_from_reference is not None:
+        changes["pairs_from_reference"] = pairs_from_reference
+    options = replace(base, **changes)
+    robot = load_params(params) if params else None
+    if fmt is None:
+        from odolab.io import read_trajectory
+        from odolab.metrics import evaluate
+
+        if len(paths) != 2:
+            raise OdolabError(
+                f"evaluate takes GT EST (two trajectory files), got {len(paths)} paths; "
+                "use --format for runs"
+            )
+        ev = evaluate(
+            read_trajectory(paths[0]),
+            read_trajectory(paths[1]),
+            options,
+            names=(str(paths[0]), str(paths[1])),
+        )
+        _write_json(ev.to_dict(), json_out)
+        _print_table([(paths[1].name, ev)])
+        return
+    from odolab.metrics import evaluate_run_files
+
+    ro = _read_options(robot, joint_topic, joints, gt_topic)
+    with _progress_bar("evaluate") as report:
+        results = evaluate_run_files(
+            paths,
+            fmt.value,
+            params=robot,
+            options=options,
+            read_options=ro,
+            workers=workers,
+            progress=report,
+        )
+    _write_json({"runs": [r.to_dict() for r in results]}, json_out)
+    _print_table([(r.name, r.evaluation) for r in results])
+
+
+def _print_table(rows: list[tuple[str, Any]]) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title="trajectory error (translation m, rotation deg)")
+    for col in ("run", "APE rmse", "RPE rmse", "RPE rot rmse", "end err", "drift %", "deg/m"):
+        table.add_column(col, justify="right")
+    import math
+
+    for name, ev in rows:
+        table.add_row(
+            name,
+            f"{ev.ape.rmse:.4f}",
+            f"{ev.rpe.rmse:.4f}",
+            f"{math.degrees(ev.rpe_rot.rmse):.3f}",
+            f"{ev.drift.endpoint_error:.4f}",
+            f"{ev.drift.translation_pct:.2f}",
+            f"{ev.drift.rotation_deg_per_m:.3f}",
+        )
+    Console().print(table)
+
+
+@calibrate_app.command("lsq")
+def calibrate_lsq_cmd(
+    runs: Annotated[list[Path], typer.Argument(help="Runs (files or folders) with ground truth.")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")],
+    fmt: Annotated[RunFormat, typer.Option("--format", "-f", help="Run format.")] = (
+        RunFormat.optiodom
+    ),
+    params: ParamsOpt = None,
+    validate: Annotated[
+        list[Path] | None,
+        typer.Option("--validate", help="Held-out runs to compare nominal vs calibrated."),
+    ] = None,
+    segment: Annotated[float, typer.Option(help="Segment length (s) of the residuals.")] = 2.0,
+    no_gt_yaw_offset: Annotated[
+        bool, typer.Option(help="Do not estimate the ground truth's yaw mounting offset.")
+    ] = False,
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write the report here.")] = None,
+    workers: WorkersOpt = 2,
+    joint_topic: JointTopicOpt = "/joint_states",
+    joints: JointsOpt = ("left_wheel_joint", "right_wheel_joint"),
+    gt_topic: GtTopicOpt = "/ground_truth",
+) -> None:
+    """Least-squares wheel radii and track width from runs with ground truth."""
+    from odolab.calibration.lsq import LsqOptions, calibrate_lsq_files
+    from odolab.params import load_params, save_params
+
+    robot = load_params(params) if params else None
+    ro = _read_options(robot, joint_topic, joints, gt_topic)
+    with _progress_bar("calibrate") as report:
+        result = calibrate_lsq_files(
+            runs,
+            fmt.value,
+            nominal=robot,
+            validate=validate or [],
+            options=LsqOptions(segment_s=segment, fit_gt_yaw_offset=not no_gt_yaw_offset),
+            read_options=ro,
+            workers=workers,
+            progress=report,
+        )
+    save_params(result.params, output, provenance=result.provenance())
+    _write_json(result.to_dict(), json_out)
+    _print_calibration(result, output)
+
+
+def _print_calibration(result: Any, output: Path) -> None:
+    import math
+
+    from rich.console import Console
+    from rich.table import Table
+
+    console = Console()
+    table = Table(
+        title=f"least-squares calibration ({len(result.runs)} runs, "
+        f"{result.segments} segments) -> {output}"
+    )
+    for col in ("parameter", "nominal", "calibrated", "std error"):
+        table.add_column(col, justify="right")
+    for key, err in result.stderr.items():
+        table.add_row(
+            key,
+            f"{getattr(result.nominal, key):.6f}",
+            f"{getattr(result.params, key):.6f}",
+            f"{err:.2e}",
+        )
+    console.print(table)
+    if not result.validation:
+        return
+    val = Table(title="held-out runs: nominal -> calibrated")
+    for col in ("run", "end err (m)", "drift %", "deg/m"):
+        val.add_column(col, justify="right")
+    for v in result.validation:
+        n, c = v.nominal.evaluation.drift, v.calibrated.evaluation.drift
+        val.add_row(
+            v.nominal.name,
+            f"{n.endpoint_error:.4f} -> {c.endpoint_error:.4f}",
+            f"{n.translation_pct:.2f} -> {c.translation_pct:.2f}",
+            f"{n.rotation_deg_per_m:.3f} -> {c.rotation_deg_per_m:.3f}",
+        )
+    console.print(val)
+    if math.isfinite(result.rms_after):
+        console.print(f"residual rms {result.rms_before:.5f} -> {result.rms_after:.5f} m")

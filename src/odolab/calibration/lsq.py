@@ -1,0 +1,379 @@
+"""Least-squares calibration of wheel radii and track width from runs with ground truth.
+
+Parameters ``theta = (left_wheel_radius, right_wheel_radius, track_width)``. Each run is cut into
+segments of ``segment_s`` seconds; for a segment from sample i to j the residual is the odometry's
+relative motion minus the ground truth's, both in the segment's start frame::
+
+    r = [ R(h_i)^T (p_j - p_i) - R(g_i)^T (q_j - q_i),        (m, 2 values)
+          heading_scale * ((h_j - h_i) - (g_j - g_i)) ]       (rad -> m, 1 value)
+
+where p, h are odometry positions and heading (integrated with theta) and q, g the ground truth
+interpolated at the odometry stamps. ``heading_scale`` (m/rad, default half the nominal track
+width: the wheel travel that the heading error stands for) puts both kinds in metres.
+:func:`scipy.optimize.least_squares` minimises the sum of squares; standard errors come from the
+Jacobian at the solution, ``sqrt(diag((J^T J)^-1) s^2)`` with ``s^2 = sum r^2 / (m - 3)``: segments
+use disjoint encoder increments, so treating their residuals as independent is reasonable, but
+the numbers are only as good as that assumption.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from odolab.errors import CalibrationError, InsufficientDataError
+from odolab.io.registry import LogFormat, find_runs, read_run
+from odolab.io.run import OdometryRun, ReadOptions
+from odolab.kinematics import Method
+from odolab.metrics.association import interpolate_trajectory
+from odolab.metrics.runs import RUN_OPTIONS, Progress, RunEvaluation, evaluate_run, parallel_map
+from odolab.odometry import integrate_increments
+from odolab.params import RobotParams
+
+__all__ = [
+    "PARAM_NAMES",
+    "LsqCalibration",
+    "LsqOptions",
+    "PreparedRun",
+    "RunComparison",
+    "calibrate_lsq",
+    "calibrate_lsq_files",
+    "compare_runs",
+    "prepare_run",
+    "segment_residuals",
+]
+
+PARAM_NAMES = ("left_wheel_radius", "right_wheel_radius", "track_width")
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class LsqOptions:
+    """Settings of the fit."""
+
+    segment_s: float = 2.0
+    heading_scale: float | None = None
+    method: Method = Method.MIDPOINT
+    loss: str = "linear"
+    fit_gt_yaw_offset: bool = True
+
+
+@dataclass(frozen=True, eq=False)
+class PreparedRun:
+    """A run cut to its ground truth's time range, with ground truth at the odometry stamps."""
+
+    name: str
+    t: FloatArray
+    dticks_left: FloatArray
+    dticks_right: FloatArray
+    gt_x: FloatArray
+    gt_y: FloatArray
+    gt_heading: FloatArray
+    starts: NDArray[np.int64]
+    ends: NDArray[np.int64]
+
+
+def prepare_run(run: OdometryRun, segment_s: float = 2.0) -> PreparedRun:
+    """Keep the samples inside the ground truth's time range; cut into ``segment_s`` segments."""
+    gt = run.require_ground_truth()
+    inside = (run.t >= gt.t[0]) & (run.t <= gt.t[-1])
+    idx = np.flatnonzero(inside)
+    if idx.size < 2:
+        raise InsufficientDataError(
+            f"{run.source}: odometry ({run.t[0]:.6g}..{run.t[-1]:.6g} s) and ground truth "
+            f"({gt.t[0]:.6g}..{gt.t[-1]:.6g} s) do not overlap in time; expected overlapping logs"
+        )
+    t = run.t[idx[0] : idx[-1] + 1]
+    dl = run.dticks_left[idx[0] : idx[-1] + 1].copy()
+    dr = run.dticks_right[idx[0] : idx[-1] + 1].copy()
+    dl[0] = dr[0] = 0.0
+    g = interpolate_trajectory(gt, t)
+    edges = np.unique(np.searchsorted(t, np.arange(t[0], t[-1] + segment_s, segment_s)))
+    edges = edges[edges < t.size]
+    if edges[-1] != t.size - 1:
+        edges = np.append(edges, t.size - 1)
+    if edges.size < 2:
+        raise InsufficientDataError(f"{run.source}: too short for one {segment_s:g} s segment")
+    return PreparedRun(
+        run.name, t, dl, dr, g.x, g.y, g.heading, edges[:-1].copy(), edges[1:].copy()
+    )
+
+
+def _relative(
+    x: FloatArray, y: FloatArray, h: FloatArray, i: NDArray[np.int64], j: NDArray[np.int64]
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    c, s = np.cos(h[i]), np.sin(h[i])
+    dx, dy = x[j] - x[i], y[j] - y[i]
+    return c * dx + s * dy, -s * dx + c * dy, h[j] - h[i]
+
+
+def segment_residuals(
+    theta: FloatArray,
+    run: PreparedRun,
+    template: RobotParams,
+    heading_scale: float,
+    method: Method = Method.MIDPOINT,
+    gt_yaw_offset: float = 0.0,
+) -> FloatArray:
+    """Residuals of one run (shape (3k,) for k segments) at parameters ``theta`` (shape (3,)).
+
+    ``gt_yaw_offset`` (rad): the robot's forward axis as seen in the ground truth's body frame;
+    the ground-truth displacement is expressed in the frame at heading ``g_i + gt_yaw_offset``.
+    """
+    p = template.with_(
+        left_wheel_radius=float(theta[0]),
+        right_wheel_radius=float(theta[1]),
+        track_width=float(theta[2]),
+    )
+    odo = integrate_increments(run.t, run.dticks_left, run.dticks_right, p, method)
+    ox, oy, oh = _relative(odo.x, odo.y, odo.heading, run.starts, run.ends)
+    gx, gy, gh = _relative(run.gt_x, run.gt_y, run.gt_heading + gt_yaw_offset, run.starts, run.ends)
+    return np.concatenate((ox - gx, oy - gy, heading_scale * (oh - gh)))
+
+
+@dataclass(frozen=True)
+class RunComparison:
+    """A held-out run evaluated with the nominal and with the calibrated parameters."""
+
+    nominal: RunEvaluation
+    calibrated: RunEvaluation
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary (end-point error, drift, APE rmse for both)."""
+
+        def row(e: RunEvaluation) -> dict[str, float]:
+            d = e.evaluation.drift
+            return {
+                "endpoint_error": d.endpoint_error,
+                "endpoint_heading_error": d.endpoint_heading_error,
+                "drift_pct": d.translation_pct,
+                "drift_deg_per_m": d.rotation_deg_per_m,
+                "rpe_rmse": e.evaluation.rpe.rmse,
+                "ape_rmse": e.evaluation.ape.rmse,
+            }
+
+        return {
+            "name": self.nominal.name,
+            "kind": self.nominal.kind,
+            "nominal": row(self.nominal),
+            "calibrated": row(self.calibrated),
+        }
+
+
+@dataclass(frozen=True)
+class LsqCalibration:
+    """Result of :func:`calibrate_lsq`."""
+
+    params: RobotParams
+    nominal: RobotParams
+    stderr: dict[str, float]
+    covariance: FloatArray
+    rms_before: float
+    rms_after: float
+    runs: list[str]
+    segments: int
+    heading_scale: float
+    gt_yaw_offsets: list[float] = field(default_factory=list)
+    validation: list[RunComparison] = field(default_factory=list)
+
+    def provenance(self) -> dict[str, Any]:
+        """A ``[provenance]`` table for the saved parameters file."""
+        return {
+            "method": "least squares on segment relative motion (odolab calibrate lsq)",
+            "runs": self.runs,
+            "segments": self.segments,
+            "heading_scale_m_per_rad": self.heading_scale,
+            "residual_rms_before": self.rms_before,
+            "residual_rms_after": self.rms_after,
+            "stderr": self.stderr,
+            "gt_yaw_offsets_rad": self.gt_yaw_offsets,
+            "nominal": self.nominal.to_dict(),
+        }
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict."""
+        return {
+            "params": self.params.to_dict(),
+            **self.provenance(),
+            "validation": [v.to_dict() for v in self.validation],
+        }
+
+
+def calibrate_lsq(
+    runs: Sequence[OdometryRun | PreparedRun],
+    nominal: RobotParams,
+    options: LsqOptions | None = None,
+) -> LsqCalibration:
+    """Fit ``theta = (r_left, r_right, track_width)`` to the runs' ground truth (see the module)."""
+    from scipy.optimize import least_squares
+
+    o = options or LsqOptions()
+    prepared = [r if isinstance(r, PreparedRun) else prepare_run(r, o.segment_s) for r in runs]
+    if not prepared:
+        raise InsufficientDataError("no runs to calibrate on; expected at least one run")
+    scale = o.heading_scale if o.heading_scale is not None else nominal.track_width / 2.0
+    x0 = np.array([nominal.left_wheel_radius, nominal.right_wheel_radius, nominal.track_width])
+    n_off = len(prepared) if o.fit_gt_yaw_offset else 0
+    x0 = np.concatenate((x0, np.zeros(n_off)))
+    lower = np.concatenate((x0[:3] * 0.5, np.full(n_off, -0.5)))
+    upper = np.concatenate((x0[:3] * 2.0, np.full(n_off, 0.5)))
+    x_scale = np.concatenate((x0[:3], np.full(n_off, 0.01)))
+
+    def fun(theta: FloatArray) -> FloatArray:
+        return np.concatenate(
+            [
+                segment_residuals(
+                    theta[:3], r, nominal, scale, o.method, theta[3 + k] if n_off else 0.0
+                )
+                for k, r in enumerate(prepared)
+            ]
+        )
+
+    r0 = fun(x0)
+    m = r0.size
+    if m <= x0.size:
+        raise InsufficientDataError(f"{m} residuals for {x0.size} parameters; expected longer runs")
+    steps = 1e-6 * x_scale
+
+    def jac(theta: FloatArray) -> FloatArray:
+        # central differences with steps fixed to each parameter's scale
+        cols = []
+        for k, h in enumerate(steps):
+            e = np.zeros_like(theta)
+            e[k] = h
+            cols.append((fun(theta + e) - fun(theta - e)) / (2.0 * h))
+        return np.column_stack(cols)
+
+    sol = least_squares(fun, x0, jac=jac, x_scale=x_scale, loss=o.loss, bounds=(lower, upper))
+    if not sol.success:
+        raise CalibrationError(f"least squares did not converge: {sol.message}")
+    jmat = jac(sol.x)
+    s2 = float(np.sum(sol.fun**2)) / (m - x0.size)
+    jtj = jmat.T @ jmat
+    norms = np.linalg.norm(jmat, axis=0)
+    if not np.all(norms > 0) or np.linalg.cond(jmat / norms) > 1e5:
+        raise CalibrationError(
+            "the runs do not determine both radii and the track width (singular Jacobian); "
+            "expected runs with both straight driving and turning"
+        )
+    cov: FloatArray = np.asarray(np.linalg.inv(jtj) * s2, dtype=np.float64)
+    theta = sol.x
+    params = nominal.with_(
+        left_wheel_radius=float(theta[0]),
+        right_wheel_radius=float(theta[1]),
+        track_width=float(theta[2]),
+        name=f"{nominal.name}-lsq",
+    )
+    return LsqCalibration(
+        params=params,
+        nominal=nominal,
+        stderr={k: float(np.sqrt(cov[i, i])) for i, k in enumerate(PARAM_NAMES)},
+        covariance=cov[:3, :3],
+        rms_before=float(np.sqrt(np.mean(r0**2))),
+        rms_after=float(np.sqrt(np.mean(sol.fun**2))),
+        runs=[r.name for r in prepared],
+        segments=m // 3,
+        heading_scale=scale,
+        gt_yaw_offsets=[float(v) for v in theta[3:]],
+    )
+
+
+def compare_runs(
+    runs: Sequence[OdometryRun], nominal: RobotParams, calibrated: RobotParams
+) -> list[RunComparison]:
+    """Each run evaluated (end-point error, drift per metre) with both parameter sets."""
+    return [
+        RunComparison(
+            evaluate_run(r, nominal, RUN_OPTIONS), evaluate_run(r, calibrated, RUN_OPTIONS)
+        )
+        for r in runs
+    ]
+
+
+@dataclass(frozen=True)
+class _ReadJob:
+    path: Path
+    fmt: LogFormat
+    options: ReadOptions
+    segment_s: float
+
+
+def _read_and_prepare(job: _ReadJob) -> tuple[OdometryRun, PreparedRun]:
+    run = read_run(job.path, job.fmt, job.options)
+    return run, prepare_run(run, job.segment_s)
+
+
+@dataclass(frozen=True)
+class _CompareJob:
+    path: Path
+    fmt: LogFormat
+    options: ReadOptions
+    nominal: RobotParams
+    calibrated: RobotParams
+
+
+def _compare_job(job: _CompareJob) -> RunComparison:
+    run = read_run(job.path, job.fmt, job.options)
+    return compare_runs([run], job.nominal, job.calibrated)[0]
+
+
+def calibrate_lsq_files(
+    paths: Sequence[str | Path],
+    fmt: LogFormat | str,
+    *,
+    nominal: RobotParams | None = None,
+    validate: Sequence[str | Path] = (),
+    options: LsqOptions | None = None,
+    read_options: ReadOptions | None = None,
+    workers: int = 2,
+    progress: Progress | None = None,
+) -> LsqCalibration:
+    """Calibrate on every run under ``paths``; then compare nominal vs calibrated on ``validate``.
+
+    ``nominal`` defaults to the first run's own parameters (OptiOdom metadata). Reading and
+    validation run in ``workers`` processes; ``progress(done, total, name)`` is called per run.
+    """
+    o = options or LsqOptions()
+    ro = read_options or ReadOptions()
+    f = LogFormat(fmt)
+    train = find_runs(paths, f)
+    held = find_runs(validate, f) if validate else []
+    overlap = sorted(set(train) & set(held))
+    if overlap:
+        raise CalibrationError(
+            f"{overlap[0]} is both a calibration and a validation run; expected held-out runs"
+        )
+    total = len(train) + len(held)
+
+    def shifted(offset: int) -> Progress | None:
+        if progress is None:
+            return None
+        report = progress
+        return lambda done, _total, name: report(done + offset, total, name)
+
+    loaded = parallel_map(
+        _read_and_prepare,
+        [_ReadJob(p, f, ro, o.segment_s) for p in train],
+        workers=workers,
+        progress=shifted(0),
+        label=lambda j: str(j.path),
+    )
+    base = nominal or loaded[0][0].params
+    if base is None:
+        raise CalibrationError(f"{train[0]}: the log has no nominal parameters; expected --params")
+    result = calibrate_lsq([prep for _, prep in loaded], base, o)
+    if not held:
+        return result
+    comparisons = parallel_map(
+        _compare_job,
+        [_CompareJob(p, f, ro, base, result.params) for p in held],
+        workers=workers,
+        progress=shifted(len(train)),
+        label=lambda j: str(j.path),
+    )
+    return LsqCalibration(**{**result.__dict__, "validation": comparisons})

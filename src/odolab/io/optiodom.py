@@ -1,0 +1,137 @@
+"""OptiOdom runs (``data/optiodom``): 20 Hz wheel increments with motion-capture ground truth.
+
+Layout: ``<kind>/<id>/<id>_run-NN.csv`` with no header and columns
+``t, x_gt, y_gt, theta_gt, dticks_right, dticks_left`` (increments, RIGHT first; ground truth in
+the robot's start frame), and ``<kind>/<id>/<id>_metadata.csv`` with rows ``key,value,...``:
+``ngear`` x ``encRes`` = counts per wheel revolution, ``Di`` = wheel DIAMETERS (left, right; the
+radius is half), ``Li`` = track width, ``L`` = side of the square path (m).
+"""
+
+from __future__ import annotations
+
+import csv
+import re
+from pathlib import Path
+
+from odolab.errors import LogFormatError, ParamsError
+from odolab.io._table import read_numeric_columns
+from odolab.io.run import OdometryRun, ReadOptions
+from odolab.params import RobotParams
+from odolab.trajectory import Trajectory
+
+__all__ = ["OptiOdomReader", "find_optiodom_runs", "read_optiodom_metadata", "read_optiodom_run"]
+
+COLUMNS = ("t", "x_gt", "y_gt", "theta_gt", "dticks_right", "dticks_left")
+_RUN = re.compile(r"^(?P<id>.+)_run-(?P<nn>\d+)\.csv$")
+
+
+def read_optiodom_metadata(path: str | Path) -> dict[str, list[str]]:
+    """Rows of a ``<id>_metadata.csv`` as ``key -> [values]`` (empty cells dropped)."""
+    p = Path(path)
+    if not p.is_file():
+        raise LogFormatError(f"{p}: no such OptiOdom metadata file")
+    with p.open(newline="", encoding="utf-8-sig") as fh:
+        rows = list(csv.reader(fh))
+    return {r[0].strip(): [c.strip() for c in r[1:] if c.strip()] for r in rows if r and r[0]}
+
+
+def _number(meta: dict[str, list[str]], key: str, source: Path, index: int = 0) -> float:
+    try:
+        return float(meta[key][index])
+    except (KeyError, IndexError) as err:
+        raise LogFormatError(f"{source}: missing value {index + 1} of key {key!r}") from err
+    except ValueError as err:
+        raise LogFormatError(
+            f"{source}: key {key!r} value {meta[key][index]!r} is not a number"
+        ) from err
+
+
+def params_from_metadata(meta: dict[str, list[str]], source: Path, name: str) -> RobotParams:
+    """Nominal :class:`RobotParams` from OptiOdom metadata (radius = diameter / 2)."""
+    d_left = _number(meta, "Di", source, 0)
+    d_right = _number(meta, "Di", source, 1) if len(meta.get("Di", [])) > 1 else d_left
+    try:
+        return RobotParams(
+            left_wheel_radius=d_left / 2.0,
+            right_wheel_radius=d_right / 2.0,
+            track_width=_number(meta, "Li", source),
+            ticks_per_rev=_number(meta, "ngear", source) * _number(meta, "encRes", source),
+            name=name,
+        )
+    except ParamsError as err:
+        raise LogFormatError(f"{source}: {err}") from err
+
+
+def read_optiodom_run(path: str | Path) -> OdometryRun:
+    """One ``<id>_run-NN.csv`` with its ground truth and the nominal parameters of its metadata."""
+    p = Path(path)
+    m = _RUN.match(p.name)
+    if m is None:
+        raise LogFormatError(f"{p}: not an OptiOdom run file; expected a name like <id>_run-01.csv")
+    meta_path = p.with_name(f"{m['id']}_metadata.csv")
+    meta = read_optiodom_metadata(meta_path)
+    d = read_numeric_columns(p, COLUMNS, names=COLUMNS)
+    if d["t"].size < 2:
+        raise LogFormatError(f"{p}: {d['t'].size} samples; expected at least two")
+    t = d["t"]
+    gt = Trajectory.from_xytheta(t, d["x_gt"], d["y_gt"], d["theta_gt"])
+    kind = p.parent.parent.name
+    params = params_from_metadata(meta, meta_path, name=f"optiodom-{m['id']}")
+    info: dict[str, float | str] = {"experiment": m["id"], "run": int(m["nn"])}
+    if meta.get("L"):
+        info["side_length"] = _number(meta, "L", meta_path)
+    dl = d["dticks_left"].copy()
+    dr = d["dticks_right"].copy()
+    dl[0] = dr[0] = 0.0
+    return OdometryRun(
+        name=f"{kind}/{m['id']}/run-{m['nn']}",
+        source=str(p),
+        t=t,
+        dticks_left=dl,
+        dticks_right=dr,
+        ground_truth=gt,
+        params=params,
+        kind=kind,
+        meta=info,
+    )
+
+
+def find_optiodom_runs(path: str | Path) -> list[Path]:
+    """Run files under ``path`` (a run file, an experiment folder, a kind folder or the root)."""
+    p = Path(path)
+    if p.is_file():
+        return [p]
+    if not p.is_dir():
+        raise LogFormatError(f"{p}: no such OptiOdom run file or folder")
+    runs = sorted(q for q in p.rglob("*_run-*.csv") if _RUN.match(q.name))
+    if not runs:
+        raise LogFormatError(f"{p}: no OptiOdom runs (<id>_run-NN.csv) in this folder")
+    return runs
+
+
+class OptiOdomReader:
+    """Registry entry for :class:`odolab.io.registry.LogFormat` ``optiodom``."""
+
+    def find(self, path: Path) -> list[Path]:
+        """Run files under ``path``."""
+        return find_optiodom_runs(path)
+
+    def read(self, path: Path, options: ReadOptions) -> OdometryRun:
+        """Read one run (``options.ground_truth`` replaces the motion-capture trajectory)."""
+        run = read_optiodom_run(path)
+        if options.ground_truth is None:
+            return run
+        from odolab.io.registry import read_trajectory
+
+        return OdometryRun(
+            run.name,
+            run.source,
+            run.t,
+            run.dticks_left,
+            run.dticks_right,
+            read_trajectory(options.ground_truth),
+            run.params,
+            run.estimate,
+            run.kind,
+            run.meta,
+        )

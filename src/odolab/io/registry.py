@@ -1,0 +1,87 @@
+"""One registry of run readers, keyed by :class:`LogFormat`, each behind :class:`RunReader`.
+
+A *run* is one recorded drive: wheel increments and, where the log has it, ground truth and
+nominal parameters (:class:`odolab.io.run.OdometryRun`). Every format answers two questions: which
+runs lie under a path (``find``), and what one of them holds (``read``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from enum import StrEnum
+from pathlib import Path
+from typing import Protocol
+
+from odolab.errors import LogFormatError
+from odolab.io.csv_run import CsvRunReader
+from odolab.io.optiodom import OptiOdomReader
+from odolab.io.rosbag import RosbagReader
+from odolab.io.run import OdometryRun, ReadOptions
+from odolab.io.trajectory_csv import read_trajectory_csv, read_tum
+from odolab.trajectory import Trajectory
+
+__all__ = [
+    "READERS",
+    "LogFormat",
+    "RunReader",
+    "find_runs",
+    "read_run",
+    "read_trajectory",
+]
+
+
+class LogFormat(StrEnum):
+    """Formats of recorded runs."""
+
+    CSV = "csv"
+    OPTIODOM = "optiodom"
+    BAG = "bag"
+
+
+class RunReader(Protocol):
+    """What every run format provides."""
+
+    def find(self, path: Path) -> list[Path]:
+        """The runs at or under ``path`` (a file, or a folder of runs)."""
+        ...
+
+    def read(self, path: Path, options: ReadOptions) -> OdometryRun:
+        """One run."""
+        ...
+
+
+READERS: dict[LogFormat, RunReader] = {
+    LogFormat.CSV: CsvRunReader(),
+    LogFormat.OPTIODOM: OptiOdomReader(),
+    LogFormat.BAG: RosbagReader(),
+}
+
+
+def find_runs(paths: Iterable[str | Path], fmt: LogFormat | str) -> list[Path]:
+    """Every run at or under each of ``paths``, in order, without repeats."""
+    reader = READERS[LogFormat(fmt)]
+    out: list[Path] = []
+    seen: set[Path] = set()
+    for p in paths:
+        for run in reader.find(Path(p)):
+            if run not in seen:
+                seen.add(run)
+                out.append(run)
+    return out
+
+
+def read_run(
+    path: str | Path, fmt: LogFormat | str, options: ReadOptions | None = None
+) -> OdometryRun:
+    """Read one run in the given format."""
+    return READERS[LogFormat(fmt)].read(Path(path), options or ReadOptions())
+
+
+def read_trajectory(path: str | Path) -> Trajectory:
+    """A trajectory file by its extension: ``.csv`` (``t,x,y,theta[,heading]``), else TUM text."""
+    p = Path(path)
+    if not p.is_file():
+        raise LogFormatError(f"{p}: no such trajectory file")
+    if p.suffix.lower() == ".csv":
+        return read_trajectory_csv(p)
+    return read_tum(p)

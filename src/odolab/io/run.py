@@ -1,0 +1,106 @@
+"""One recorded run: wheel increments, optional ground truth, optional nominal parameters."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from odolab.errors import LogFormatError
+from odolab.kinematics import Method
+from odolab.params import RobotParams
+from odolab.trajectory import Trajectory, check_times
+
+__all__ = ["OdometryRun", "ReadOptions"]
+
+
+@dataclass(frozen=True)
+class ReadOptions:
+    """What a reader needs beyond the path (every field has a default).
+
+    * ``ground_truth``: a trajectory file (CSV or TUM) to use as ground truth, overriding what the
+      reader finds by itself.
+    * ``modulus``: encoder counter modulus for raw-counter CSV logs (None: they never wrap).
+    * Bags: ``joint_topic`` (sensor_msgs/JointState), ``joint_names`` (left, right),
+      ``ground_truth_topic`` (geometry_msgs/PoseStamped or nav_msgs/Odometry),
+      ``odometry_topic`` (nav_msgs/Odometry, read as an estimate), and ``ticks_per_rev``: wheel
+      angles (rad) become ticks as ``angle * ticks_per_rev / (2 pi)``; the default 2 pi makes one
+      tick one radian.
+    """
+
+    ground_truth: str | None = None
+    modulus: int | None = None
+    joint_topic: str = "/joint_states"
+    joint_names: tuple[str, str] = ("left_wheel_joint", "right_wheel_joint")
+    ground_truth_topic: str = "/ground_truth"
+    odometry_topic: str | None = None
+    ticks_per_rev: float = 2.0 * math.pi
+
+
+@dataclass(frozen=True, eq=False)
+class OdometryRun:
+    """A run as every reader returns it.
+
+    ``t`` (s), ``dticks_left``, ``dticks_right``: shape (n,), increments from sample i-1 to i
+    (``dticks[0]`` = 0). ``ground_truth``: the actual trajectory where the log has one (any
+    stamps; associate before comparing). ``params``: nominal parameters when the log carries them
+    (OptiOdom metadata). ``estimate``: a trajectory the robot itself logged (bags' Odometry).
+    """
+
+    name: str
+    source: str
+    t: NDArray[np.float64]
+    dticks_left: NDArray[np.float64]
+    dticks_right: NDArray[np.float64]
+    ground_truth: Trajectory | None = None
+    params: RobotParams | None = None
+    estimate: Trajectory | None = None
+    kind: str = ""
+    meta: dict[str, float | str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        t = np.asarray(self.t, dtype=np.float64)
+        dl = np.asarray(self.dticks_left, dtype=np.float64)
+        dr = np.asarray(self.dticks_right, dtype=np.float64)
+        if not (t.ndim == dl.ndim == dr.ndim == 1 and t.size == dl.size == dr.size):
+            raise LogFormatError(
+                f"{self.source}: t, dticks_left and dticks_right must be 1-D of one length, got "
+                f"{t.shape}, {dl.shape}, {dr.shape}"
+            )
+        if t.size < 2:
+            raise LogFormatError(f"{self.source}: {t.size} samples; expected at least two")
+        check_times(t, self.source)
+        object.__setattr__(self, "t", t)
+        object.__setattr__(self, "dticks_left", dl)
+        object.__setattr__(self, "dticks_right", dr)
+
+    def __len__(self) -> int:
+        return int(self.t.size)
+
+    def odometry(
+        self,
+        params: RobotParams | None = None,
+        method: Method | str = Method.MIDPOINT,
+        *,
+        start: tuple[float, float, float] | None = None,
+    ) -> Trajectory:
+        """Integrate the increments with ``params`` (default: the run's own nominal ones)."""
+        from odolab.odometry import integrate_increments
+
+        p = params or self.params
+        if p is None:
+            raise LogFormatError(
+                f"{self.source}: no robot parameters in the log; expected parameters (--params)"
+            )
+        return integrate_increments(
+            self.t, self.dticks_left, self.dticks_right, p, method, start=start, source=self.source
+        )
+
+    def require_ground_truth(self) -> Trajectory:
+        """The ground truth, or a :class:`LogFormatError` naming the run."""
+        if self.ground_truth is None:
+            why = self.meta.get("no_ground_truth", "no ground truth in this run; expected one")
+            raise LogFormatError(f"{self.source}: {why}")
+        return self.ground_truth

@@ -1,0 +1,76 @@
+"""Trajectory metrics with evo's definitions: association, alignment, APE, RPE, drift.
+
+Planar (x, y, heading) only; every number agrees with ``evo`` on the same planar trajectories.
+"""
+
+from __future__ import annotations
+
+from odolab.metrics.alignment import (
+    Alignment,
+    Rigid2D,
+    align,
+    rigid_from_points,
+    transform_trajectory,
+)
+from odolab.metrics.association import (
+    SyncMethod,
+    associate,
+    interpolate_trajectory,
+    matching_time_indices,
+)
+from odolab.metrics.evaluate import (
+    Drift,
+    Evaluation,
+    EvaluationOptions,
+    drift_per_distance,
+    evaluate,
+)
+from odolab.metrics.pose_error import (
+    DeltaUnit,
+    Stats,
+    ape_rotation,
+    ape_translation,
+    pair_indices,
+    path_distances,
+    rpe_errors,
+    stats_from_errors,
+)
+from odolab.metrics.runs import (
+    RUN_OPTIONS,
+    Progress,
+    RunEvaluation,
+    evaluate_run,
+    evaluate_run_files,
+    parallel_map,
+)
+
+__all__ = [
+    "RUN_OPTIONS",
+    "Alignment",
+    "DeltaUnit",
+    "Drift",
+    "Evaluation",
+    "EvaluationOptions",
+    "Progress",
+    "Rigid2D",
+    "RunEvaluation",
+    "Stats",
+    "SyncMethod",
+    "align",
+    "ape_rotation",
+    "ape_translation",
+    "associate",
+    "drift_per_distance",
+    "evaluate",
+    "evaluate_run",
+    "evaluate_run_files",
+    "interpolate_trajectory",
+    "matching_time_indices",
+    "pair_indices",
+    "parallel_map",
+    "path_distances",
+    "rigid_from_points",
+    "rpe_errors",
+    "stats_from_errors",
+    "transform_trajectory",
+]

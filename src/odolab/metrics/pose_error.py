@@ -1,0 +1,235 @@
+"""Absolute and relative pose errors (APE, RPE) with evo's definitions, vectorized, planar.
+
+For poses ``Q`` (reference) and ``P`` (estimate) as planar SE(3) elements:
+
+* APE: ``E_i = P_i^-1 Q_i``; translation part ``|p_i - q_i|``, rotation part the angle of
+  ``E_i`` = ``|wrap(heading_ref - heading_est)|`` in [0, pi].
+* RPE: ``E_ij = (Q_i^-1 Q_j)^-1 (P_i^-1 P_j)`` over index pairs (i, j); translation part
+  ``|R(P_i)^T (p_j - p_i) - R(Q_i)^T (q_j - q_i)|``, rotation part
+  ``|wrap((h_Pj - h_Pi) - (h_Qj - h_Qi))|``.
+
+The index pairs are chosen as ``evo.core.filters`` does: by frames, every ``delta``-th pose
+(consecutive) or every ``(i, i + delta)`` (all pairs); by metres, a new pose each time the path
+length since the previous one reaches ``delta`` (consecutive), or for every ``i`` the ``j`` whose
+path length from ``i`` is nearest ``delta``, kept if within ``rel_tol * delta`` (all pairs).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from enum import StrEnum
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from odolab.errors import InsufficientDataError, LogFormatError
+from odolab.kinematics import wrap_angle
+from odolab.trajectory import Trajectory
+
+__all__ = [
+    "DeltaUnit",
+    "Stats",
+    "ape_rotation",
+    "ape_translation",
+    "pair_indices",
+    "path_distances",
+    "rpe_errors",
+    "stats_from_errors",
+]
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+class DeltaUnit(StrEnum):
+    """Unit of the RPE step: poses (frames) or path length (metres)."""
+
+    FRAMES = "frames"
+    METRES = "m"
+
+
+@dataclass(frozen=True)
+class Stats:
+    """Summary of an error array: rmse, mean, median, std (population), min, max, and n."""
+
+    rmse: float
+    mean: float
+    median: float
+    std: float
+    min: float
+    max: float
+    n: int
+
+    def to_dict(self) -> dict[str, float | int]:
+        """Plain dict for JSON."""
+        return asdict(self)
+
+
+def stats_from_errors(errors: FloatArray, what: str = "errors") -> Stats:
+    """Statistics of ``errors`` (shape (n,), n >= 1) as evo computes them."""
+    e = np.asarray(errors, dtype=np.float64)
+    if e.size == 0:
+        raise InsufficientDataError(f"no {what} to summarise")
+    return Stats(
+        rmse=math.sqrt(float(np.mean(e * e))),
+        mean=float(np.mean(e)),
+        median=float(np.median(e)),
+        std=float(np.std(e)),
+        min=float(np.min(e)),
+        max=float(np.max(e)),
+        n=int(e.size),
+    )
+
+
+def _check_same_length(reference: Trajectory, estimate: Trajectory) -> None:
+    if len(reference) != len(estimate):
+        raise LogFormatError(
+            f"reference has {len(reference)} poses and estimate {len(estimate)}; associate them "
+            "first (expected equal lengths)"
+        )
+
+
+def ape_translation(reference: Trajectory, estimate: Trajectory) -> FloatArray:
+    """Position error per pose (m), shape (n,)."""
+    _check_same_length(reference, estimate)
+    dx = estimate.x - reference.x
+    dy = estimate.y - reference.y
+    return np.sqrt(dx * dx + dy * dy)
+
+
+def ape_rotation(reference: Trajectory, estimate: Trajectory) -> FloatArray:
+    """Heading error angle per pose (rad, in [0, pi]), shape (n,)."""
+    _check_same_length(reference, estimate)
+    return np.abs(wrap_angle(reference.heading - estimate.heading))
+
+
+def path_distances(traj: Trajectory) -> FloatArray:
+    """Accumulated path length at each pose (m), shape (n,), starting at 0."""
+    dx = np.diff(traj.x)
+    dy = np.diff(traj.y)
+    return np.concatenate((np.zeros(1), np.cumsum(np.sqrt(dx * dx + dy * dy))))
+
+
+@njit(cache=True)
+def _consecutive_by_path(
+    x: FloatArray, y: FloatArray, delta: float
+) -> IntArray:  # pragma: no cover
+    n = x.shape[0]
+    ids = np.empty(n, dtype=np.int64)
+    k = 0
+    if n > 0:
+        ids[0] = 0
+        k = 1
+    current = 0.0
+    for i in range(1, n):
+        dx = x[i] - x[i - 1]
+        dy = y[i] - y[i - 1]
+        current += math.sqrt(dx * dx + dy * dy)
+        if current >= delta:
+            ids[k] = i
+            k += 1
+            current = 0.0
+    return ids[:k]
+
+
+@njit(cache=True)
+def _all_pairs_by_path(dist: FloatArray, delta: float, tol: float) -> IntArray:  # pragma: no cover
+    n = dist.shape[0]
+    out = np.empty((max(n - 1, 0), 2), dtype=np.int64)
+    k = 0
+    for i in range(n - 1):
+        di = dist[i]
+        # g(j) = (dist[j] - dist[i]) - delta is non-decreasing in j: first j with g >= 0
+        lo = i + 1
+        hi = n
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if (dist[mid] - di) - delta >= 0.0:
+                hi = mid
+            else:
+                lo = mid + 1
+        best = -1
+        best_val = 0.0
+        if lo > i + 1:
+            j0 = lo - 1
+            g0 = (dist[j0] - di) - delta
+            # first index with the same value (argmin takes the first minimum)
+            a = i + 1
+            b = j0
+            while a < b:
+                mid = (a + b) // 2
+                if (dist[mid] - di) - delta >= g0:
+                    b = mid
+                else:
+                    a = mid + 1
+            best = a
+            best_val = abs(g0)
+        if lo < n:
+            g1 = (dist[lo] - di) - delta
+            if best < 0 or abs(g1) < best_val:
+                best = lo
+                best_val = abs(g1)
+        if best_val > tol:
+            continue
+        out[k, 0] = i
+        out[k, 1] = best
+        k += 1
+    return out[:k]
+
+
+def pair_indices(
+    traj: Trajectory,
+    delta: float,
+    unit: DeltaUnit | str = DeltaUnit.FRAMES,
+    *,
+    all_pairs: bool = False,
+    rel_tol: float = 0.1,
+) -> tuple[IntArray, IntArray]:
+    """Index pairs ``(i, j)`` (two arrays of shape (k,)) for RPE, chosen on ``traj`` as evo does."""
+    u = DeltaUnit(unit)
+    n = len(traj)
+    if not (delta > 0 and math.isfinite(delta)):
+        raise LogFormatError(f"delta must be a positive number, got {delta}")
+    if u is DeltaUnit.FRAMES:
+        if float(delta) != int(delta):
+            raise LogFormatError(f"delta must be a whole number of frames, got {delta}")
+        d = int(delta)
+        if all_pairs:
+            i = np.arange(max(n - d, 0), dtype=np.int64)
+            j = i + d
+        else:
+            ids = np.arange(0, n, d, dtype=np.int64)
+            i, j = ids[:-1], ids[1:]
+    elif all_pairs:
+        pairs = _all_pairs_by_path(path_distances(traj), float(delta), float(delta) * rel_tol)
+        i, j = pairs[:, 0].copy(), pairs[:, 1].copy()
+    else:
+        ids = _consecutive_by_path(traj.x, traj.y, float(delta))
+        i, j = ids[:-1], ids[1:]
+    if i.size == 0:
+        raise InsufficientDataError(
+            f"delta = {delta:g} {u.value} gives no pose pairs on {n} poses; "
+            "expected a smaller delta"
+        )
+    return i, j
+
+
+def rpe_errors(
+    reference: Trajectory, estimate: Trajectory, i: IntArray, j: IntArray
+) -> tuple[FloatArray, FloatArray]:
+    """RPE translation (m) and rotation (rad) errors over pairs ``(i, j)``, shapes (k,) each."""
+    _check_same_length(reference, estimate)
+
+    def rel(tr: Trajectory) -> tuple[FloatArray, FloatArray, FloatArray]:
+        c, s = np.cos(tr.heading[i]), np.sin(tr.heading[i])
+        dx = tr.x[j] - tr.x[i]
+        dy = tr.y[j] - tr.y[i]
+        return c * dx + s * dy, -s * dx + c * dy, tr.heading[j] - tr.heading[i]
+
+    qx, qy, qh = rel(reference)
+    px, py, ph = rel(estimate)
+    ex = px - qx
+    ey = py - qy
+    return np.sqrt(ex * ex + ey * ey), np.abs(wrap_angle(ph - qh))

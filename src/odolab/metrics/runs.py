@@ -1,0 +1,154 @@
+"""Evaluate recorded runs: integrate their wheel increments, compare with their ground truth.
+
+Many runs are read and evaluated in worker processes (``workers``, default 2); progress goes to an
+optional callback ``progress(done, total, name)``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, TypeVar
+
+from odolab.io.registry import LogFormat, find_runs, read_run
+from odolab.io.run import OdometryRun, ReadOptions
+from odolab.kinematics import Method
+from odolab.metrics.alignment import Alignment
+from odolab.metrics.association import SyncMethod
+from odolab.metrics.evaluate import Evaluation, EvaluationOptions, evaluate
+from odolab.metrics.pose_error import DeltaUnit
+from odolab.params import RobotParams
+
+__all__ = [
+    "RUN_OPTIONS",
+    "Progress",
+    "RunEvaluation",
+    "evaluate_run",
+    "evaluate_run_files",
+    "parallel_map",
+]
+
+Progress = Callable[[int, int, str], None]
+
+#: Defaults for runs: interpolate the ground truth at the odometry stamps, align the start poses,
+#: RPE over 1 m of path.
+RUN_OPTIONS = EvaluationOptions(
+    delta=1.0,
+    delta_unit=DeltaUnit.METRES,
+    sync=SyncMethod.INTERPOLATE,
+    max_diff=0.05,
+    alignment=Alignment.ORIGIN,
+    pairs_from_reference=True,
+)
+
+
+def _no_progress(done: int, total: int, name: str) -> None:
+    return None
+
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+
+def parallel_map(
+    func: Callable[[T], R],
+    items: Sequence[T],
+    *,
+    workers: int = 2,
+    progress: Progress | None = None,
+    label: Callable[[T], str] = str,
+) -> list[R]:
+    """``[func(x) for x in items]`` in ``workers`` processes (in order), reporting progress.
+
+    ``func`` must be a module-level function (it is pickled). With ``workers <= 1`` or a single
+    item everything runs here, in this process.
+    """
+    report = progress or _no_progress
+    total = len(items)
+    out: list[R] = []
+    if workers <= 1 or total <= 1:
+        for k, item in enumerate(items, start=1):
+            out.append(func(item))
+            report(k, total, label(item))
+        return out
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        for k, (item, result) in enumerate(zip(items, pool.map(func, items), strict=True), 1):
+            out.append(result)
+            report(k, total, label(item))
+    return out
+
+
+@dataclass(frozen=True)
+class RunEvaluation:
+    """One run's evaluation (odometry with ``params`` against its ground truth)."""
+
+    name: str
+    source: str
+    kind: str
+    params: RobotParams
+    evaluation: Evaluation
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict."""
+        return {
+            "name": self.name,
+            "source": self.source,
+            "kind": self.kind,
+            "params": self.params.to_dict(),
+            **self.evaluation.to_dict(),
+        }
+
+
+def evaluate_run(
+    run: OdometryRun,
+    params: RobotParams | None = None,
+    options: EvaluationOptions = RUN_OPTIONS,
+    method: Method | str = Method.MIDPOINT,
+) -> RunEvaluation:
+    """Integrate ``run`` with ``params`` (default its own nominal ones); compare to ground truth."""
+    p = params or run.params
+    est = run.odometry(p, method)
+    assert p is not None  # odometry() raised otherwise
+    ev = evaluate(
+        run.require_ground_truth(), est, options, names=(f"{run.source} ground truth", "odometry")
+    )
+    return RunEvaluation(run.name, run.source, run.kind, p, ev)
+
+
+@dataclass(frozen=True)
+class _Job:
+    path: Path
+    fmt: LogFormat
+    read_options: ReadOptions
+    params: RobotParams | None
+    options: EvaluationOptions
+    method: Method
+
+
+def _evaluate_job(job: _Job) -> RunEvaluation:
+    run = read_run(job.path, job.fmt, job.read_options)
+    return evaluate_run(run, job.params, job.options, job.method)
+
+
+def evaluate_run_files(
+    paths: Sequence[str | Path],
+    fmt: LogFormat | str,
+    *,
+    params: RobotParams | None = None,
+    options: EvaluationOptions = RUN_OPTIONS,
+    read_options: ReadOptions | None = None,
+    method: Method | str = Method.MIDPOINT,
+    workers: int = 2,
+    progress: Progress | None = None,
+) -> list[RunEvaluation]:
+    """Evaluate every run found under ``paths`` (see :func:`odolab.io.find_runs`)."""
+    runs = find_runs(paths, fmt)
+    jobs = [
+        _Job(p, LogFormat(fmt), read_options or ReadOptions(), params, options, Method(method))
+        for p in runs
+    ]
+    return parallel_map(
+        _evaluate_job, jobs, workers=workers, progress=progress, label=lambda j: str(j.path)
+    )

@@ -1,0 +1,164 @@
+"""Least-squares calibration: exact recovery on synthetic runs, standard errors, real OptiOdom."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from odolab.calibration.lsq import LsqOptions, calibrate_lsq, calibrate_lsq_files, prepare_run
+from odolab.cli import main
+from odolab.errors import CalibrationError, InsufficientDataError
+from odolab.io.run import OdometryRun
+from odolab.odometry import integrate_increments
+from odolab.params import RobotParams, load_params
+from odolab.trajectory import Trajectory
+
+TRUE = RobotParams(
+    left_wheel_radius=0.0418, right_wheel_radius=0.0421, track_width=0.203, ticks_per_rev=2796.8
+)
+NOMINAL = TRUE.with_(left_wheel_radius=0.042, right_wheel_radius=0.042, track_width=0.2)
+
+
+def synthetic_run(
+    seed: int, *, gt_yaw_offset: float = 0.0, noise: float = 0.0, turning: bool = True
+) -> OdometryRun:
+    """Ticks of a random drive; ground truth integrated with TRUE (plus optional noise)."""
+    rng = np.random.default_rng(seed)
+    n = 1200
+    t = 0.05 * np.arange(n)
+    v = np.repeat(rng.uniform(0.0, 60.0, n // 40), 40)
+    w = np.repeat(rng.uniform(-30.0, 30.0, n // 40), 40) if turning else np.zeros(n)
+    dl = np.round(v - w + rng.normal(0, 1.0, n))
+    dr = np.round(v + w + rng.normal(0, 1.0, n)) if turning else dl.copy()
+    dl[0] = dr[0] = 0.0
+    gt = integrate_increments(t, dl, dr, TRUE)
+    gx = gt.x + rng.normal(0, noise, n)
+    gy = gt.y + rng.normal(0, noise, n)
+    gh = gt.heading - gt_yaw_offset + rng.normal(0, noise, n)
+    truth = Trajectory.from_xyh(t, gx, gy, gh)
+    return OdometryRun(f"syn-{seed}", f"syn-{seed}", t, dl, dr, ground_truth=truth, kind="syn")
+
+
+def test_recovers_the_true_parameters_exactly() -> None:
+    runs = [synthetic_run(s) for s in range(3)]
+    cal = calibrate_lsq(runs, NOMINAL)
+    assert cal.params.left_wheel_radius == pytest.approx(0.0418, abs=1e-9)
+    assert cal.params.right_wheel_radius == pytest.approx(0.0421, abs=1e-9)
+    assert cal.params.track_width == pytest.approx(0.203, abs=1e-8)
+    assert cal.rms_after < 1e-9 < cal.rms_before
+    assert cal.segments == sum(len(prepare_run(r).starts) for r in runs)
+
+
+def test_recovers_a_ground_truth_yaw_offset() -> None:
+    runs = [synthetic_run(s, gt_yaw_offset=0.01 * (s + 1)) for s in range(2)]
+    cal = calibrate_lsq(runs, NOMINAL)
+    np.testing.assert_allclose(cal.gt_yaw_offsets, [0.01, 0.02], atol=1e-7)
+    assert cal.params.track_width == pytest.approx(0.203, abs=1e-7)
+    # without the nuisance parameter the offset biases the radii apart
+    biased = calibrate_lsq(runs, NOMINAL, LsqOptions(fit_gt_yaw_offset=False))
+    assert abs(biased.params.right_wheel_radius - 0.0421) > 1e-5
+
+
+def test_standard_errors_cover_the_truth_with_noise() -> None:
+    runs = [synthetic_run(s, noise=0.002) for s in range(4)]
+    cal = calibrate_lsq(runs, NOMINAL)
+    for key, true in (
+        ("left_wheel_radius", 0.0418),
+        ("right_wheel_radius", 0.0421),
+        ("track_width", 0.203),
+    ):
+        err = cal.stderr[key]
+        assert 0 < err < 0.01 * true
+        assert abs(getattr(cal.params, key) - true) < 4 * err, key
+    assert cal.covariance.shape == (3, 3)
+    np.testing.assert_allclose(np.sqrt(np.diag(cal.covariance)), list(cal.stderr.values()))
+
+
+def test_straight_driving_cannot_give_the_track_width() -> None:
+    with pytest.raises(CalibrationError, match="singular Jacobian"):
+        calibrate_lsq(
+            [synthetic_run(1, turning=False)], NOMINAL, LsqOptions(fit_gt_yaw_offset=False)
+        )
+
+
+def test_no_overlap_with_ground_truth() -> None:
+    run = synthetic_run(0)
+    gt = run.ground_truth
+    assert gt is not None
+    late = Trajectory.from_xyh(gt.t + 1000.0, gt.x, gt.y, gt.heading)
+    shifted = OdometryRun("x", "late.csv", run.t, run.dticks_left, run.dticks_right, late)
+    with pytest.raises(
+        InsufficientDataError, match=r"late\.csv: odometry .* do not overlap in time"
+    ):
+        calibrate_lsq([shifted], NOMINAL)
+
+
+def squares(root: Path) -> list[Path]:
+    return [
+        root / "square" / e
+        for e in ("231220200029", "231220200040", "231220200045", "231220200048")
+    ]
+
+
+def test_optiodom_squares_calibrate_and_help_held_out_runs(optiodom_dir: Path) -> None:
+    held = [optiodom_dir / "circular", optiodom_dir / "free"]
+    cal = calibrate_lsq_files(squares(optiodom_dir), "optiodom", validate=held, workers=2)
+    assert len(cal.runs) == 16
+    assert cal.params.track_width == pytest.approx(0.2024, abs=0.002)
+    assert cal.stderr["track_width"] < 0.001
+    by_kind: dict[str, list[list[float]]] = {}
+    for v in cal.validation:
+        d = v.to_dict()
+        n, c = d["nominal"], d["calibrated"]
+        by_kind.setdefault(d["kind"], []).append(
+            [
+                n["endpoint_error"],
+                c["endpoint_error"],
+                n["drift_pct"],
+                c["drift_pct"],
+                n["drift_deg_per_m"],
+                c["drift_deg_per_m"],
+            ]
+        )
+    assert set(by_kind) == {"circular", "free"}
+    for kind, rows in by_kind.items():
+        m = np.mean(rows, axis=0)
+        assert m[1] < m[0], f"{kind}: end-point error {m[0]:.4f} -> {m[1]:.4f}"
+        assert m[3] < m[2], f"{kind}: drift {m[2]:.3f} -> {m[3]:.3f} %"
+        assert m[5] < m[4], f"{kind}: drift {m[4]:.3f} -> {m[5]:.3f} deg/m"
+
+
+def test_cli_calibrate_lsq(tmp_path: Path, optiodom_dir: Path) -> None:
+    out = tmp_path / "new.toml"
+    report = tmp_path / "report.json"
+    held = optiodom_dir / "free" / "030120210001"
+    args = [
+        "calibrate",
+        "lsq",
+        *map(str, squares(optiodom_dir)[2:]),
+        "--validate",
+        str(held),
+        "-o",
+        str(out),
+        "--json",
+        str(report),
+        "--workers",
+        "1",
+    ]
+    assert main(args) == 0
+    p = load_params(out)
+    assert p.track_width == pytest.approx(0.2024, abs=0.003)
+    doc = json.loads(report.read_text())
+    assert len(doc["validation"]) == 2
+    assert set(doc["stderr"]) == {"left_wheel_radius", "right_wheel_radius", "track_width"}
+    assert math.isfinite(doc["residual_rms_after"])
+
+
+def test_validation_runs_must_be_held_out(optiodom_dir: Path) -> None:
+    sq = squares(optiodom_dir)[2]
+    with pytest.raises(CalibrationError, match="both a calibration and a validation run"):
+        calibrate_lsq_files([sq], "optiodom", validate=[sq], workers=1)

@@ -1,0 +1,66 @@
+"""``odolab evaluate``: GT EST files to JSON (numbers equal the library's), runs, bad input."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from metrics_drives import noisy_copy, random_drive
+
+from odolab.cli import main
+from odolab.io import write_trajectory
+from odolab.metrics import DeltaUnit, EvaluationOptions, evaluate
+
+STATS = ("rmse", "mean", "median", "std", "min", "max")
+
+
+def test_evaluate_gt_est_writes_json(tmp_path: Path) -> None:
+    ref = random_drive(400, seed=11)
+    est = noisy_copy(ref, seed=12)
+    gt_path = write_trajectory(ref, tmp_path / "gt.tum", "tum")
+    est_path = write_trajectory(est, tmp_path / "est.csv")
+    out = tmp_path / "out.json"
+    code = main(
+        [
+            "evaluate",
+            str(gt_path),
+            str(est_path),
+            "--delta",
+            "0.5",
+            "--delta-unit",
+            "m",
+            "--json",
+            str(out),
+        ]
+    )
+    assert code == 0
+    doc = json.loads(out.read_text())
+    want = evaluate(ref, est, EvaluationOptions(delta=0.5, delta_unit=DeltaUnit.METRES))
+    for key, stats in (("ape", want.ape), ("rpe", want.rpe), ("rpe_rot", want.rpe_rot)):
+        for s in STATS:
+            assert doc[key][s] == pytest.approx(getattr(stats, s), abs=1e-9)
+
+
+def test_evaluate_runs_in_parallel(tmp_path: Path, optiodom_dir: Path) -> None:
+    out = tmp_path / "runs.json"
+    folder = optiodom_dir / "free" / "030120210001"
+    assert main(["evaluate", str(folder), "--format", "optiodom", "--json", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert [r["name"] for r in doc["runs"]] == [
+        "free/030120210001/run-01",
+        "free/030120210001/run-02",
+    ]
+    for r in doc["runs"]:
+        assert 0.0 < r["drift"]["endpoint_error"] < 0.2
+        assert r["params"]["track_width"] == 0.2
+
+
+def test_evaluate_errors_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    a = write_trajectory(random_drive(30, seed=1), tmp_path / "a.tum", "tum")
+    b = write_trajectory(random_drive(30, seed=2, t0=50.0), tmp_path / "b.tum", "tum")
+    assert main(["evaluate", str(a), str(b)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "do not overlap in time" in err
+    assert main(["evaluate", str(a)]) == 1
+    assert "two trajectory files" in capsys.readouterr().err
