@@ -682,6 +682,8 @@ class Notebook:
         order += ["has_encoder_log", "campaign_date", "operator"]
         frame = frame[order]
         frame["has_encoder_log"] = frame["has_encoder_log"].astype(bool)
+        frame["params_version"] = frame["params_version"].astype("Int64")
+        frame["encoder_modulus"] = frame["encoder_modulus"].astype("Int64")
         for c in ("angle", "distance", "side", "speed", "measured_rotation", "measured_x",
                   "measured_y", "sigma_rotation", "sigma_xy", "true_t", "true_x", "true_y",
                   "true_theta", "true_heading"):  # fmt: skip
