@@ -16,7 +16,9 @@ int64s = hnp.arrays(np.int64, st.integers(0, 60), elements=st.integers(-(2**63),
 
 
 @given(data=st.data(), left=int64s)
-def test_round_trip_is_exact_for_any_int64_and_float64(data: st.DataObject, left: np.ndarray) -> None:
+def test_round_trip_is_exact_for_any_int64_and_float64(
+    data: st.DataObject, left: np.ndarray
+) -> None:
     n = left.size
     right = data.draw(hnp.arrays(np.int64, n, elements=st.integers(-(2**63), 2**63 - 1)))
     t = data.draw(hnp.arrays(np.float64, n, elements=st.floats(allow_nan=True)))

@@ -118,8 +118,8 @@ def test_two_processes_write_at_once(tmp_path: Path) -> None:
         """,
         str(db),
     )
-    out_r, err_r = robot.communicate(timeout=120)
-    out_p, err_p = person.communicate(timeout=120)
+    _, err_r = robot.communicate(timeout=120)
+    _, err_p = person.communicate(timeout=120)
     assert robot.returncode == 0, err_r
     assert person.returncode == 0, err_p
     with Notebook(db) as nb:

@@ -86,15 +86,26 @@ HEADER = ",".join(COLUMNS)
 
 def _good_rows() -> list[dict[str, str]]:
     base = dict.fromkeys(COLUMNS, "")
-    r1 = base | {"trial_id": "R1", "campaign": "rot-lab", "terrain": "lab", "kind": "rotation",
-                 "angle_rad": "62.83185307179586", "predicted_x_m": "0.01",
-                 "predicted_y_m": "-0.02", "predicted_heading_rad": "63.0",
-                 "robot": "jaguar-lite", "left_wheel_radius_m": "0.0835",
-                 "right_wheel_radius_m": "0.0835", "track_width_m": "0.56",
-                 "ticks_per_rev": "380", "encoder_modulus": "32768",
-                 "compass_initial_deg": "200", "compass_final_deg": "290", "turns": "8"}
-    r2 = r1 | {"trial_id": "R2", "compass_initial_deg": "", "compass_final_deg": "",
-               "turns": ""}
+    r1 = base | {
+        "trial_id": "R1",
+        "campaign": "rot-lab",
+        "terrain": "lab",
+        "kind": "rotation",
+        "angle_rad": "62.83185307179586",
+        "predicted_x_m": "0.01",
+        "predicted_y_m": "-0.02",
+        "predicted_heading_rad": "63.0",
+        "robot": "jaguar-lite",
+        "left_wheel_radius_m": "0.0835",
+        "right_wheel_radius_m": "0.0835",
+        "track_width_m": "0.56",
+        "ticks_per_rev": "380",
+        "encoder_modulus": "32768",
+        "compass_initial_deg": "200",
+        "compass_final_deg": "290",
+        "turns": "8",
+    }
+    r2 = r1 | {"trial_id": "R2", "compass_initial_deg": "", "compass_final_deg": "", "turns": ""}
     return [r1, r2]
 
 

@@ -461,9 +461,7 @@ def read_trials_csv(
                 parsed = _parse_row(row, raw_columns, lookup_params)
                 tid = parsed.trial.trial_id
                 if tid in first_line:
-                    raise row.fail(
-                        "trial_id", f"{tid!r} is a duplicate of line {first_line[tid]}"
-                    )
+                    raise row.fail("trial_id", f"{tid!r} is a duplicate of line {first_line[tid]}")
                 if tid in known_trial_ids:
                     raise row.fail("trial_id", f"{tid!r} is already in the notebook")
                 first_line[tid] = line

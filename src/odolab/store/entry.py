@@ -33,6 +33,7 @@ from odolab.trials import Measurement
 __all__ = [
     "COMPASS_SIGMA_RAD",
     "METERSTICK_SIGMA_M",
+    "check_compass_reading",
     "check_reading",
     "rotation_from_compass",
     "rotation_measurement_from_compass",
@@ -60,7 +61,8 @@ def check_reading(value: object, name: str) -> float:
     return x
 
 
-def _check_compass(value: object, name: str) -> float:
+def check_compass_reading(value: object, name: str = "compass reading") -> float:
+    """``value`` (deg) as a float if it is a compass reading in [0, 360), else refuse."""
     x = check_reading(value, name)
     if not 0.0 <= x < 360.0:
         raise StoreError(
@@ -108,8 +110,8 @@ def rotation_measurement_from_compass(
     ``max(pi, max_relative_error * |commanded_angle|)`` (a miscounted turn, a swapped reading):
     the message says which number of turns would fit.
     """
-    initial = _check_compass(initial_deg, "compass initial reading")
-    final = _check_compass(final_deg, "compass final reading")
+    initial = check_compass_reading(initial_deg, "compass initial reading")
+    final = check_compass_reading(final_deg, "compass final reading")
     n = _check_turns(turns)
     sigma = check_reading(sigma_reading_rad, "sigma_reading_rad")
     if sigma <= 0:
@@ -122,9 +124,7 @@ def rotation_measurement_from_compass(
     if commanded_angle is not None:
         cmd = check_reading(commanded_angle, "commanded angle")
         if cmd != 0 and (cmd > 0) != (direction == "ccw"):
-            raise StoreError(
-                f"direction {direction} contradicts the commanded angle {cmd:.4g} rad"
-            )
+            raise StoreError(f"direction {direction} contradicts the commanded angle {cmd:.4g} rad")
         tol = max(math.pi, max_relative_error * abs(cmd))
         if abs(rotation - cmd) > tol:
             frac = abs(rotation) - 2.0 * math.pi * n
@@ -178,6 +178,4 @@ def translation_measurement(
                 f"measured end point ({xv:g}, {yv:g}) m is {off:.3f} m from the commanded "
                 f"({d:g}, 0) m (more than {tol:.3f} m); check the signs and the unit (metres)"
             )
-    return Measurement(
-        instrument=instrument, x=xv, y=yv, sigma_xy=s, raw={"x_m": xv, "y_m": yv}
-    )
+    return Measurement(instrument=instrument, x=xv, y=yv, sigma_xy=s, raw={"x_m": xv, "y_m": yv})

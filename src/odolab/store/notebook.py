@@ -586,9 +586,7 @@ class Notebook:
         trial stays excluded (its measurement is still kept).
         """
         with self._write() as conn:
-            row = conn.execute(
-                "SELECT * FROM trials WHERE trial_id = ?", (trial_id,)
-            ).fetchone()
+            row = conn.execute("SELECT * FROM trials WHERE trial_id = ?", (trial_id,)).fetchone()
             if row is None:
                 raise StoreError(f"no trial {trial_id!r} in {self.path}")
             if row["instrument"] is not None and not replace:
@@ -705,9 +703,7 @@ class Notebook:
 
         where, args = self._filters(campaign, terrain, kind, status)
         rows = self._trial_rows(where, args)
-        pairs = [
-            (self._trial_from_row(r, with_log=False), int(r["params_version"])) for r in rows
-        ]
+        pairs = [(self._trial_from_row(r, with_log=False), int(r["params_version"])) for r in rows]
         write_trials_csv(path, pairs)
         return len(pairs)
 
