@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import sqlite3
 from pathlib import Path
@@ -9,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from odolab.errors import StoreError
-from odolab.store import Notebook
+from odolab.store import Notebook, rotation_measurement_from_compass
 from odolab.store.csvio import COLUMNS
 from odolab.trials import MotionKind
 
@@ -63,6 +64,11 @@ def test_json_export_then_import_gives_identical_records(tmp_path: Path) -> None
         trials = _filled(a)
         a.add_params_version(trials[0].params.with_(track_width=0.64), method="ratios",
                              source_trials=["T00000", "T00002"])  # fmt: skip
+        a.set_measurement("T00002", rotation_measurement_from_compass(1.0, 2.0, 3), replace=True)
+        trials[2] = dataclasses.replace(
+            trials[2], measured=rotation_measurement_from_compass(1.0, 2.0, 3)
+        )
+        history_a = a.measurement_history("T00002")
         a.export_json(tmp_path / "nb.json")
         versions_a = a.params_versions("jaguar-lite")
         campaigns_a = a.campaigns()
@@ -72,6 +78,7 @@ def test_json_export_then_import_gives_identical_records(tmp_path: Path) -> None
         assert [fingerprint(t) for t in b.load_trials()] == [fingerprint(t) for t in trials]
         assert b.params_versions("jaguar-lite") == versions_a
         assert b.campaigns() == campaigns_a
+        assert b.measurement_history("T00002") == history_a and len(history_a) == 1
         rows_b = b._conn.execute("SELECT * FROM trials ORDER BY rowid").fetchall()
         assert [tuple(r) for r in rows_b] == [tuple(r) for r in rows_a]
         # importing again: every id is taken, nothing changes

@@ -12,7 +12,7 @@ import pytest
 
 from odolab.errors import StoreError
 from odolab.store import Notebook, rotation_measurement_from_compass
-from odolab.trials import MotionKind, TrialStatus
+from odolab.trials import EncoderLog, MotionKind, TrialStatus
 
 from .conftest import JAGUAR, fingerprint, make_trials
 
@@ -149,3 +149,39 @@ def test_campaigns(nb: Notebook) -> None:
         nb.add_campaign("x", "spin", "lab")
     assert [c.name for c in nb.campaigns()] == ["sq"]
     assert nb.get_campaign("sq").notes == "UMBmark"
+
+
+def test_replaced_measurements_are_kept_in_the_history(nb: Notebook) -> None:
+    nb.add_trials(make_trials(2, measured_every=10**6))
+    first = rotation_measurement_from_compass(10.0, 340.0, 2)
+    second = rotation_measurement_from_compass(10.0, 330.0, 2)
+    nb.set_measurement("T00001", first)
+    assert nb.measurement_history("T00001") == []
+    nb.set_measurement("T00001", second, replace=True)
+    history = nb.measurement_history("T00001")
+    assert len(history) == 1
+    when, old = history[0]
+    assert old == first and when[:4].isdigit()
+    assert nb.get_trial("T00001").measured == second
+
+
+def test_repredict_from_the_stored_log(nb: Notebook) -> None:
+    # a pure in-place ccw rotation: 1000 counts back on the left, 1000 forward on the right,
+    # counters wrapping; heading = (d_right - d_left) / track = 2 * 1000 * m_per_tick / track
+    n = 101
+    right = (32000 + 10 * np.arange(n)) % 32768
+    left = (500 - 10 * np.arange(n)) % 32768
+    trial = make_trials(1)[0]
+    trial = dataclasses.replace(
+        trial, encoder_log=EncoderLog(np.arange(n) * 0.05, left, right, 32768)
+    )
+    nb.add_trial(trial)
+    mpt = 2 * math.pi * 0.0835 / 380
+    pose = nb.repredict("T00000", JAGUAR)
+    assert pose.heading == pytest.approx(2 * 1000 * mpt / 0.56, rel=1e-12)
+    assert pose.x == pytest.approx(0.0, abs=1e-12) and pose.y == pytest.approx(0.0, abs=1e-12)
+    wider = nb.repredict("T00000", JAGUAR.with_(track_width=1.12))
+    assert wider.heading == pytest.approx(pose.heading / 2, rel=1e-12)
+    nb.add_trials(make_trials(1, prefix="NOLOG"))
+    with pytest.raises(StoreError, match="no encoder log"):
+        nb.repredict("NOLOG00000", JAGUAR)

@@ -8,7 +8,9 @@ Layout::
      "campaigns": [{"name", "kind", "terrain", "date", "operator", "notes"}, ...],
      "trials": [{<every trials column>, "raw": {...}, "created", "updated",
                  "encoder_log": null | {"n", "modulus", "codec", "t", "left_ticks",
-                                        "right_ticks"}}, ...]}
+                                        "right_ticks"},
+                 "measurement_history": [{"replaced", "instrument", "measured_rotation", ...,
+                                          "raw": {...}}, ...]}, ...]}
 
 Numbers are written with Python's shortest round-tripping repr; encoder-log arrays are the stored
 compressed BLOBs in base64 (see :mod:`odolab.store.codec`).
@@ -19,7 +21,7 @@ from __future__ import annotations
 import base64
 import binascii
 import json
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -52,6 +54,7 @@ def write_notebook_json(
     params_versions: Sequence[dict[str, Any]],
     campaigns: Sequence[dict[str, Any]],
     trial_rows: Sequence[dict[str, Any]],
+    history: Mapping[str, Sequence[dict[str, Any]]] | None = None,
 ) -> Path:
     """Write rows as read from the database (trial rows joined with ``log_*`` columns)."""
     trials = []
@@ -70,6 +73,7 @@ def write_notebook_json(
                 "right_ticks": base64.b64encode(r["log_right"]).decode("ascii"),
             }
         rec["encoder_log"] = log
+        rec["measurement_history"] = list((history or {}).get(r["trial_id"], []))
         trials.append(rec)
     versions = []
     for pv in params_versions:

@@ -31,6 +31,7 @@ from odolab.store.records import (
     validate_trial,
 )
 from odolab.store.schema import SCHEMA_VERSION, connect, migrate
+from odolab.trajectory import Pose
 from odolab.trials import EncoderLog, Measurement, Trial, TrialStatus
 
 if TYPE_CHECKING:
@@ -94,10 +95,32 @@ _TRIAL_INSERT = (
     f"INSERT INTO trials ({', '.join(TRIAL_COLUMNS)}, created, updated) "
     f"VALUES ({', '.join(':' + c for c in TRIAL_COLUMNS)}, :created, :updated)"
 )
+_HISTORY_KEYS = (
+    "replaced",
+    "instrument",
+    "measured_rotation",
+    "measured_x",
+    "measured_y",
+    "sigma_rotation",
+    "sigma_xy",
+    "raw",
+)
 _LOG_INSERT = (
     "INSERT INTO encoder_logs (trial_id, n, modulus, codec, t, left_ticks, right_ticks) "
     "VALUES (?, ?, ?, ?, ?, ?, ?)"
 )
+
+
+def _measurement_from_row(r: sqlite3.Row) -> Measurement:
+    return Measurement(
+        instrument=r["instrument"],
+        rotation=r["measured_rotation"],
+        x=r["measured_x"],
+        y=r["measured_y"],
+        sigma_rotation=r["sigma_rotation"],
+        sigma_xy=r["sigma_xy"],
+        raw={str(k): float(v) for k, v in json.loads(r["raw"]).items()},
+    )
 
 
 class Notebook:
@@ -110,6 +133,8 @@ class Notebook:
         self.path = Path(path)
         if self.path.is_dir():
             raise StoreError(f"{self.path}: is a folder; expected a notebook file")
+        if not self.path.parent.is_dir():
+            raise StoreError(f"{self.path}: the folder {self.path.parent} does not exist")
         self._conn = connect(self.path, timeout=timeout)
         self._conn.row_factory = sqlite3.Row
         self._params_cache: dict[tuple[str, int], RobotParams] = {}
@@ -406,6 +431,7 @@ class Notebook:
         *,
         create_campaigns: bool,
         stamps: Sequence[tuple[str, str] | None] | None = None,
+        histories: Sequence[Sequence[dict[str, Any]]] | None = None,
     ) -> None:
         """Insert validated trials inside the caller's transaction."""
         now = _now()
@@ -458,6 +484,13 @@ class Notebook:
             if trial.encoder_log is not None:
                 enc = encode_log(trial.encoder_log)
                 conn.execute(_LOG_INSERT, (trial.trial_id, *enc))
+            for h in histories[i] if histories is not None else ():
+                conn.execute(
+                    "INSERT INTO measurement_history (trial_id, replaced, instrument, "
+                    "measured_rotation, measured_x, measured_y, sigma_rotation, sigma_xy, raw) "
+                    "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                    (trial.trial_id, *(h[k] for k in _HISTORY_KEYS[:-1]), json.dumps(h["raw"])),
+                )
 
     def add_trial(self, trial: Trial, *, create_campaign: bool = True) -> None:
         """Record one trial (see :meth:`add_trials`)."""
@@ -582,8 +615,8 @@ class Notebook:
     def set_measurement(self, trial_id: str, m: Measurement, *, replace: bool = False) -> None:
         """Record what was measured for ``trial_id``; its status becomes measured.
 
-        A trial already measured keeps its measurement unless ``replace`` is True. An excluded
-        trial stays excluded (its measurement is still kept).
+        A trial already measured keeps its measurement unless ``replace`` is True; the replaced
+        one is kept in the trial's :meth:`measurement_history`. An excluded trial stays excluded.
         """
         with self._write() as conn:
             row = conn.execute("SELECT * FROM trials WHERE trial_id = ?", (trial_id,)).fetchone()
@@ -595,6 +628,14 @@ class Notebook:
                     "to overwrite its measurement"
                 )
             rec = dict(row)
+            if row["instrument"] is not None:  # keep what is replaced
+                conn.execute(
+                    "INSERT INTO measurement_history (trial_id, replaced, instrument, "
+                    "measured_rotation, measured_x, measured_y, sigma_rotation, sigma_xy, raw) "
+                    "SELECT trial_id, ?, instrument, measured_rotation, measured_x, measured_y, "
+                    "sigma_rotation, sigma_xy, raw FROM trials WHERE trial_id = ?",
+                    (_now(), trial_id),
+                )
             params = self.get_params(rec["robot"], rec["params_version"])
             trial = trial_from_record(rec, params)
             status = trial.status if trial.status is TrialStatus.EXCLUDED else TrialStatus.MEASURED
@@ -642,6 +683,28 @@ class Notebook:
             )
             if cur.rowcount == 0:
                 raise StoreError(f"no trial {trial_id!r} in {self.path}")
+
+    def measurement_history(self, trial_id: str) -> list[tuple[str, Measurement]]:
+        """Measurements of ``trial_id`` that were replaced, oldest first, with when (ISO, UTC)."""
+        self.trial_params_version(trial_id)  # raises for an unknown trial
+        rows = self._conn.execute(
+            "SELECT * FROM measurement_history WHERE trial_id = ? ORDER BY id", (trial_id,)
+        ).fetchall()
+        return [(r["replaced"], _measurement_from_row(r)) for r in rows]
+
+    def repredict(self, trial_id: str, params: RobotParams, method: str = "midpoint") -> Pose:
+        """Final pose of ``trial_id``'s stored encoder log integrated with ``params``."""
+        from odolab.odometry import integrate
+
+        log = self.encoder_log(trial_id)
+        if log is None:
+            raise StoreError(f"trial {trial_id} has no encoder log to re-predict from")
+        if len(log) == 0:
+            raise StoreError(f"trial {trial_id}: its encoder log is empty")
+        traj = integrate(
+            log.t, log.left_ticks, log.right_ticks, params, method, source=f"trial {trial_id}"
+        )
+        return traj.final
 
     # -- analysis -------------------------------------------------------------------------------
 
@@ -751,6 +814,7 @@ class Notebook:
         batch_size: int,
         progress: Progress | None,
         create_campaigns: bool,
+        histories: Sequence[Sequence[dict[str, Any]]] | None = None,
     ) -> None:
         report = progress or _no_progress
         total = len(trials)
@@ -763,6 +827,7 @@ class Notebook:
                     versions[start:stop],
                     create_campaigns=create_campaigns,
                     stamps=None if stamps is None else stamps[start:stop],
+                    histories=None if histories is None else histories[start:stop],
                 )
             report(stop, total)
 
@@ -803,7 +868,12 @@ class Notebook:
             for r in self._conn.execute("SELECT * FROM campaigns ORDER BY rowid")
             if r["name"] in used_campaigns or not where
         ]
-        write_notebook_json(path, versions, campaigns, [dict(r) for r in rows])
+        history: dict[str, list[dict[str, Any]]] = {}
+        for h in self._conn.execute("SELECT * FROM measurement_history ORDER BY id"):
+            entry = {k: h[k] for k in _HISTORY_KEYS}
+            entry["raw"] = json.loads(h["raw"])
+            history.setdefault(h["trial_id"], []).append(entry)
+        write_notebook_json(path, versions, campaigns, [dict(r) for r in rows], history)
         return len(rows)
 
     def import_json(
@@ -851,6 +921,7 @@ class Notebook:
         trials: list[Trial] = []
         versions: list[int | None] = []
         stamps: list[tuple[str, str] | None] = []
+        histories: list[list[dict[str, Any]]] = []
         for i, rec in enumerate(doc.trials):
             where = f"{source}: trials[{i}]"
             tid = rec["trial_id"]
@@ -881,6 +952,11 @@ class Notebook:
             trials.append(trial)
             versions.append(int(key[1]))
             stamps.append((rec["created"], rec["updated"]) if rec.get("created") else None)
+            history = rec.get("measurement_history") or []
+            for j, h in enumerate(history):
+                if not isinstance(h, dict) or any(k not in h for k in _HISTORY_KEYS):
+                    raise StoreError(f"{where}.measurement_history[{j}]: malformed entry")
+            histories.append(history)
         with self._write() as conn:
             for pv in new_versions:
                 params = RobotParams(name=pv["robot"], **{k: pv[k] for k in PARAMS_FIELDS})
@@ -899,5 +975,5 @@ class Notebook:
                     "VALUES (?, ?, ?, ?, ?, ?)",
                     (c["name"], c["kind"], c["terrain"], c["date"], c["operator"], c["notes"]),
                 )
-        self._write_batches(trials, versions, stamps, batch_size, progress, False)
+        self._write_batches(trials, versions, stamps, batch_size, progress, False, histories)
         return len(trials)

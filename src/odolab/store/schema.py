@@ -6,7 +6,8 @@ Schema history:
   per parameter set, no provenance), ``trials`` (pointing at ``params_sets.id``), no encoder logs.
 - **v2** (current): ``robots``; ``params_versions`` numbered per robot with provenance (method,
   source trials, date, notes), never updated; ``campaigns``; ``trials`` pointing at
-  ``(robot, params_version)`` with created/updated stamps; ``encoder_logs`` (compressed arrays).
+  ``(robot, params_version)`` with created/updated stamps; ``encoder_logs`` (compressed arrays);
+  ``measurement_history`` (every measurement that was replaced, with when).
 
 A migration is a function run inside one ``BEGIN IMMEDIATE`` transaction with foreign keys off;
 ``PRAGMA foreign_key_check`` must come back empty before it commits.
@@ -115,6 +116,15 @@ CREATE TABLE trials_v2 (
     CHECK (status <> 'excluded' OR exclusion_reason IS NOT NULL),
     CHECK (status <> 'measured' OR instrument IS NOT NULL)
 );
+CREATE TABLE measurement_history (
+    id INTEGER PRIMARY KEY AUTOINCREMENT,
+    trial_id TEXT NOT NULL REFERENCES trials(trial_id) ON DELETE CASCADE,
+    replaced TEXT NOT NULL,
+    instrument TEXT NOT NULL,
+    measured_rotation REAL, measured_x REAL, measured_y REAL,
+    sigma_rotation REAL, sigma_xy REAL,
+    raw TEXT NOT NULL DEFAULT '{{}}'
+);
 CREATE TABLE encoder_logs (
     trial_id TEXT PRIMARY KEY REFERENCES trials(trial_id) ON DELETE CASCADE,
     n INTEGER NOT NULL,
@@ -130,6 +140,7 @@ _V2_INDEXES = """
 CREATE INDEX trials_campaign ON trials(campaign);
 CREATE INDEX trials_terrain_kind ON trials(terrain, kind);
 CREATE INDEX trials_params ON trials(robot, params_version);
+CREATE INDEX measurement_history_trial ON measurement_history(trial_id);
 """
 
 
