@@ -41,10 +41,11 @@ def test_sigkill_mid_import_keeps_every_committed_batch(tmp_path: Path) -> None:
         nb.add_trials(make_trials(5, prefix="KEEP", with_logs=True))
     proc = _python(
         """
-        import sys
+        import sys, time
         from odolab.store import Notebook
         def progress(done, total):
             print(done, flush=True)
+            time.sleep(0.005)  # a slow disk: leaves the parent time to kill mid-way
         with Notebook(sys.argv[1]) as nb:
             nb.import_csv(sys.argv[2], create_campaigns=True, batch_size=int(sys.argv[3]),
                           progress=progress)

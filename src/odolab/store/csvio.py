@@ -504,7 +504,7 @@ def write_trials_csv(path: str | Path, trials: Iterable[tuple[Trial, int | None]
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
     with p.open("w", newline="", encoding="utf-8") as fh:
-        w = csv.writer(fh, lineterminator="\n")
+        w = csv.writer(fh)  # "\r\n" ends rows, so a lone "\r" or "\n" in a cell is quoted
         w.writerow(header)
         for t, version in items:
             c, pr, m, tr, par = t.command, t.predicted, t.measured, t.true, t.params
