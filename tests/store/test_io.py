@@ -220,3 +220,47 @@ def test_params_by_version_only(tmp_path: Path) -> None:
         rows[1]["params_version"] = "9"
         with pytest.raises(StoreError, match="line 3, column 'params_version': version 9"):
             nb.import_csv(_write(tmp_path / "w.csv", rows))
+
+
+def test_semicolon_spreadsheet_with_bom(tmp_path: Path) -> None:
+    rows = _good_rows()
+    path = tmp_path / "excel.csv"
+    lines = [";".join(COLUMNS)] + [";".join(r[c] for c in COLUMNS) for r in rows]
+    path.write_bytes(b"\xef\xbb\xbf" + "\r\n".join(lines).encode())
+    with Notebook(tmp_path / "n.db") as nb:
+        nb.add_campaign("rot-lab", "rotation", "lab")
+        assert nb.import_csv(path) == 2
+        assert nb.get_trial("R1").command.angle == pytest.approx(20 * 3.141592653589793)
+        assert nb.params_versions("jaguar-lite")[0].method == "imported from excel.csv"
+
+
+def test_bad_json_is_refused_and_changes_nothing(tmp_path: Path) -> None:
+    db = tmp_path / "n.db"
+    with Notebook(db) as nb:
+        nb.add_trials(make_trials(3))
+        nb.export_json(tmp_path / "a.json")
+    before = _dump(db)
+    (tmp_path / "b.json").write_text('{"format": "something-else", "params_versions": [], '
+                                     '"campaigns": [], "trials": []}')  # fmt: skip
+    (tmp_path / "c.json").write_text("{not json")
+    text = (tmp_path / "a.json").read_text().replace('"trial_id": "T00001"', '"trial_id": "X"')
+    (tmp_path / "d.json").write_text(text.replace('"predicted_x": ', '"predicted_x": "abc", "_": '))
+    with Notebook(db) as nb:
+        with pytest.raises(StoreError, match="format is 'something-else'"):
+            nb.import_json(tmp_path / "b.json")
+        with pytest.raises(StoreError, match="not valid JSON"):
+            nb.import_json(tmp_path / "c.json")
+        with pytest.raises(StoreError, match=r"trials\[0\]: trial 'T00000' is already"):
+            nb.import_json(tmp_path / "d.json")
+    assert _dump(db) == before
+    with Notebook(tmp_path / "fresh.db") as nb:
+        with pytest.raises(
+            StoreError, match=r"trials\[0\]: key 'predicted_x' is 'abc'; expected a number"
+        ):
+            nb.import_json(tmp_path / "d.json")
+        assert nb.info().trials == 0
+
+
+def test_campaign_date_must_be_a_date(tmp_path: Path) -> None:
+    with Notebook(tmp_path / "n.db") as nb, pytest.raises(StoreError, match="YYYY-MM-DD"):
+        nb.add_campaign("c", "rotation", "lab", date="last tuesday")

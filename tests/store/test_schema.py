@@ -84,3 +84,27 @@ def test_foreign_sqlite_file_is_refused(tmp_path: Path) -> None:
     garbage.write_bytes(b"hello, this is not sqlite at all" * 20)
     with pytest.raises(StoreError, match=r"not a notebook database|cannot open"):
         Notebook(garbage)
+
+
+def test_v2_fixture_opens_with_everything(tmp_path: Path) -> None:
+    db = tmp_path / "v2.db"
+    shutil.copy(FIXTURES / "notebook_v2.db", db)
+    with Notebook(db) as nb:
+        assert nb.migrated_from == 2
+        assert nb.integrity_check() == "ok"
+        assert [(v.version, v.method, v.source_trials, v.notes)
+                for v in nb.params_versions("jaguar-lite")] == [
+            (1, "preset", (), ""), (2, "ratios", ("R01",), "sec VIII")]  # fmt: skip
+        r01 = nb.get_trial("R01")
+        # 20 deg ccw replaced an earlier 30 deg reading, which is kept in the history
+        assert r01.measured is not None
+        assert r01.measured.rotation == pytest.approx(math.radians(340.0))
+        (_, old), *_ = nb.measurement_history("R01")
+        assert old.rotation == pytest.approx(math.radians(330.0))
+        assert r01.encoder_log is not None and len(r01.encoder_log) == 41
+        assert int(r01.encoder_log.left_ticks[-1]) == (32700 - 25 * 40) % 32768
+        f01 = nb.get_trial("F01")
+        assert (f01.status, f01.exclusion_reason, f01.notes) == (
+            TrialStatus.EXCLUDED, "tape moved", "windy")  # fmt: skip
+        assert nb.get_campaign("fwd-grass").kind == "translation"
+        assert nb.trial_params_version("F01") == ("jaguar-lite", 1)

@@ -46,6 +46,8 @@ Columns (header: meaning; *required* ones are marked; the rest may be left out o
 =========================  =================================================================
 
 A numeric cell may carry its column's unit ("2.5 m", "12 deg"); any other unit is refused.
+Cells are separated by commas (or by semicolons or tabs, recognised from the header line);
+numbers use a decimal point.
 Every error names the file, the line and the column, and is raised before anything is written.
 """
 
@@ -439,7 +441,15 @@ def read_trials_csv(
     out: list[ParsedRow] = []
     first_line: dict[str, int] = {}
     with fh:
-        reader = csv.reader(fh)
+        try:
+            first = fh.readline()
+        except UnicodeDecodeError as err:
+            raise StoreError(f"{source}: line 1: not UTF-8 text ({err.reason})") from err
+        fh.seek(0)
+        # a spreadsheet saved in a locale with decimal commas separates with ';' (or a tab)
+        sep = ";" if first.count(";") > first.count(",") else ","
+        sep = "\t" if first.count("\t") > first.count(sep) else sep
+        reader = csv.reader(fh, delimiter=sep)
         try:
             header = [h.strip() for h in next(reader)]
         except StopIteration:

@@ -105,6 +105,9 @@ _HISTORY_KEYS = (
     "sigma_xy",
     "raw",
 )
+_TEXT_COLUMNS = {"trial_id", "campaign", "terrain", "kind", "direction", "robot", "instrument",
+                 "raw", "status", "exclusion_reason", "notes"}  # fmt: skip
+_NUMERIC_COLUMNS = tuple(c for c in TRIAL_COLUMNS if c not in _TEXT_COLUMNS)
 _LOG_INSERT = (
     "INSERT INTO encoder_logs (trial_id, n, modulus, codec, t, left_ticks, right_ticks) "
     "VALUES (?, ?, ?, ?, ?, ?, ?)"
@@ -390,6 +393,12 @@ class Notebook:
         day = date.isoformat() if isinstance(date, _dt.date) else date
         if day is None:
             day = _dt.datetime.now(_dt.UTC).date().isoformat()
+        try:
+            _dt.date.fromisoformat(day)
+        except (TypeError, ValueError):
+            raise StoreError(
+                f"campaign {name}: date {day!r} is not a date; expected YYYY-MM-DD"
+            ) from None
         with self._write() as conn:
             if conn.execute("SELECT 1 FROM campaigns WHERE name = ?", (name,)).fetchone():
                 raise StoreError(f"campaign {name!r} is already in {self.path}")
@@ -432,6 +441,7 @@ class Notebook:
         create_campaigns: bool,
         stamps: Sequence[tuple[str, str] | None] | None = None,
         histories: Sequence[Sequence[dict[str, Any]]] | None = None,
+        new_params_method: str = "recorded with a trial",
     ) -> None:
         """Insert validated trials inside the caller's transaction."""
         now = _now()
@@ -464,7 +474,7 @@ class Notebook:
                         conn,
                         trial.params,
                         version=None,
-                        method="recorded with a trial",
+                        method=new_params_method,
                         source_trials=(),
                         created=None,
                         notes=f"first used by trial {trial.trial_id}",
@@ -797,7 +807,15 @@ class Notebook:
         )
         trials = [p.trial for p in parsed]
         versions = [p.params_version for p in parsed]
-        self._write_batches(trials, versions, None, batch_size, progress, create_campaigns)
+        self._write_batches(
+            trials,
+            versions,
+            None,
+            batch_size,
+            progress,
+            create_campaigns,
+            new_params_method=f"imported from {Path(path).name}",
+        )
         return len(trials)
 
     def _lookup_params(self, robot: str, version: int) -> RobotParams | None:
@@ -815,6 +833,8 @@ class Notebook:
         progress: Progress | None,
         create_campaigns: bool,
         histories: Sequence[Sequence[dict[str, Any]]] | None = None,
+        *,
+        new_params_method: str = "recorded with a trial",
     ) -> None:
         report = progress or _no_progress
         total = len(trials)
@@ -828,6 +848,7 @@ class Notebook:
                     create_campaigns=create_campaigns,
                     stamps=None if stamps is None else stamps[start:stop],
                     histories=None if histories is None else histories[start:stop],
+                    new_params_method=new_params_method,
                 )
             report(stop, total)
 
@@ -930,6 +951,10 @@ class Notebook:
             known_ids.add(tid)
             if rec["campaign"] not in campaign_names:
                 raise StoreError(f"{where}: unknown campaign {rec['campaign']!r}")
+            for k in _NUMERIC_COLUMNS:
+                v = rec[k]
+                if v is not None and (isinstance(v, bool) or not isinstance(v, int | float)):
+                    raise StoreError(f"{where}: key {k!r} is {v!r}; expected a number or null")
             key = (rec["robot"], rec["params_version"])
             pv_doc = next(
                 (p for p in doc.params_versions if (p["robot"], p["version"]) == key), None
