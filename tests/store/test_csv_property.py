@@ -80,5 +80,6 @@ def test_csv_round_trip_is_exact(items: list[Trial]) -> None:
     with tempfile.TemporaryDirectory() as d:
         path = write_trials_csv(Path(d) / "t.csv", [(t, None) for t in items])
         back = read_trials_csv(path)
-    assert [fingerprint(p.trial) for p in back] == [fingerprint(t) for t in items]
+    # repr: exact to the bit, -0.0 included
+    assert repr([fingerprint(p.trial) for p in back]) == repr([fingerprint(t) for t in items])
     assert all(not math.isnan(p.trial.predicted.heading) for p in back)

@@ -152,6 +152,11 @@ class ParsedRow:
     params_version: int | None  #: a version known to the notebook with the row's values
 
 
+def _or_zero(value: float | None) -> float:
+    """``value``, or 0.0 when missing (keeping the sign of -0.0, unlike ``value or 0.0``)."""
+    return 0.0 if value is None else value
+
+
 class _Row:
     """Typed access to the cells of one row, every error naming the line and the column."""
 
@@ -258,9 +263,9 @@ def _parse_row(
     assert heading is not None
     theta = row.number("predicted_theta_rad")
     predicted = Pose(
-        row.number("predicted_t_s") or 0.0,
-        row.number("predicted_x_m", required=True) or 0.0,
-        row.number("predicted_y_m", required=True) or 0.0,
+        _or_zero(row.number("predicted_t_s")),
+        _or_zero(row.number("predicted_x_m", required=True)),
+        _or_zero(row.number("predicted_y_m", required=True)),
         float(wrap_angle(heading)) if theta is None else theta,
         heading,
     )
@@ -395,9 +400,9 @@ def _parse_row(
         th = true_vals["true_heading_rad"]
         assert th is not None
         true = Pose(
-            true_vals["true_t_s"] or 0.0,
-            true_vals["true_x_m"] or 0.0,
-            true_vals["true_y_m"] or 0.0,
+            _or_zero(true_vals["true_t_s"]),
+            _or_zero(true_vals["true_x_m"]),
+            _or_zero(true_vals["true_y_m"]),
             float(wrap_angle(th)) if true_vals["true_theta_rad"] is None
             else true_vals["true_theta_rad"],  # type: ignore[arg-type]
             th,
