@@ -1,3 +1,513 @@
-"""CLI commands: trials (filled in by its issue)."""
+"""CLI commands: the lab notebook (``odolab trials ...`` and ``odolab notebook ...``)."""
 
 from __future__ import annotations
+
+import math
+from enum import StrEnum
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated
+
+import typer
+
+from odolab.cli._apps import app, trials_app
+
+if TYPE_CHECKING:
+    from odolab.store import Notebook
+    from odolab.trials import Measurement, Trial
+
+__all__: list[str] = []
+
+notebook_app = typer.Typer(
+    help="The lab notebook file: create it, see what it holds.",
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+)
+app.add_typer(notebook_app, name="notebook")
+
+DbOption = Annotated[Path, typer.Option("--db", help="Notebook file (SQLite).", envvar="ODOLAB_DB")]
+_DB = Path("odolab.db")
+
+
+class KindChoice(StrEnum):
+    rotation = "rotation"
+    translation = "translation"
+    pivot = "pivot"
+    square = "square"
+    free = "free"
+
+
+class CampaignKind(StrEnum):
+    rotation = "rotation"
+    translation = "translation"
+    square = "square"
+    free = "free"
+
+
+class StatusChoice(StrEnum):
+    awaiting = "awaiting"
+    measured = "measured"
+    excluded = "excluded"
+
+
+def _open(db: Path, *, create: bool = False) -> Notebook:
+    """Open the notebook; only commands that add things may create a new file."""
+    from odolab.errors import StoreError
+    from odolab.store import Notebook
+
+    if not create and not db.exists():
+        raise StoreError(f"{db}: no such notebook; create it with `odolab notebook init --db {db}`")
+    return Notebook(db)
+
+
+def _fmt(value: float | None, spec: str = ".3f") -> str:
+    return (
+        ""
+        if value is None or (isinstance(value, float) and math.isnan(value))
+        else format(value, spec)
+    )
+
+
+def _describe_measurement(t: Trial) -> str:
+    m = t.measured
+    if m is None:
+        return ""
+    parts = []
+    if m.rotation is not None:
+        parts.append(f"rot {m.rotation:.3f} rad ({m.rotation / math.pi:.2f} pi)")
+    if m.x is not None:
+        parts.append(f"x {m.x:.3f} y {_fmt(m.y)} m")
+    return ", ".join(parts) + f" [{m.instrument}]"
+
+
+def _describe_prediction(t: Trial) -> str:
+    p = t.predicted
+    if t.command.kind.value in ("rotation", "pivot"):
+        return f"heading {p.heading:.3f} rad ({p.heading / math.pi:.2f} pi)"
+    return f"x {p.x:.3f} y {p.y:.3f} m, heading {p.heading:.3f} rad"
+
+
+# -- notebook ------------------------------------------------------------------------------------
+
+
+@notebook_app.command("init")
+def notebook_init(db: DbOption = _DB) -> None:
+    """Create a notebook (or migrate an older one) and say what it holds."""
+    with _open(db, create=True) as nb:
+        info = nb.info()
+    how = (
+        "created"
+        if info.migrated_from == 0
+        else (
+            f"migrated from schema {info.migrated_from}"
+            if info.migrated_from < info.schema_version
+            else "already up to date"
+        )
+    )
+    typer.echo(f"{db}: notebook schema {info.schema_version} ({how}), {info.trials} trials")
+
+
+@notebook_app.command("info")
+def notebook_info(db: DbOption = _DB) -> None:
+    """Counts of robots, parameter versions, campaigns and trials."""
+    with _open(db) as nb:
+        info = nb.info()
+        check = nb.integrity_check()
+        campaigns = nb.campaigns()
+    typer.echo(f"notebook {info.path} (schema {info.schema_version}, integrity {check})")
+    typer.echo(f"  robots {info.robots}, parameter versions {info.params_versions}")
+    status = ", ".join(f"{k} {v}" for k, v in sorted(info.by_status.items())) or "none"
+    typer.echo(f"  trials {info.trials} ({status}), encoder logs {info.encoder_logs}")
+    for c in campaigns:
+        typer.echo(f"  campaign {c.name}: {c.kind} on {c.terrain}, {c.date or ''} {c.operator}")
+
+
+# -- campaigns and parameter versions ------------------------------------------------------------
+
+
+@trials_app.command("campaign-add")
+def campaign_add(
+    name: Annotated[str, typer.Argument(help="Campaign name, e.g. rot-lab-2024-05.")],
+    kind: Annotated[CampaignKind, typer.Option(help="What its trials command.")],
+    terrain: Annotated[str, typer.Option(help="Where: lab, concrete, grass ...")],
+    date: Annotated[str | None, typer.Option(help="YYYY-MM-DD (default today).")] = None,
+    operator: Annotated[str, typer.Option(help="Who ran it.")] = "",
+    notes: Annotated[str, typer.Option(help="Free text.")] = "",
+    db: DbOption = _DB,
+) -> None:
+    """Add a campaign: a series of trials of one kind on one terrain."""
+    with _open(db, create=True) as nb:
+        nb.add_campaign(name, kind.value, terrain, date=date, operator=operator, notes=notes)
+    typer.echo(f"campaign {name} ({kind.value} on {terrain}) added to {db}")
+
+
+@trials_app.command("campaigns")
+def campaigns_cmd(db: DbOption = _DB) -> None:
+    """List the campaigns."""
+    with _open(db) as nb:
+        for c in nb.campaigns():
+            typer.echo(f"{c.name}\t{c.kind}\t{c.terrain}\t{c.date or ''}\t{c.operator}\t{c.notes}")
+
+
+@trials_app.command("params-add")
+def params_add(
+    source: Annotated[str, typer.Argument(help="Parameters TOML file or preset name.")],
+    method: Annotated[str, typer.Option(help="How they were obtained (preset, ratios ...).")],
+    source_trial: Annotated[
+        list[str] | None, typer.Option("--source-trial", help="A trial they come from (repeat).")
+    ] = None,
+    notes: Annotated[str, typer.Option(help="Free text.")] = "",
+    db: DbOption = _DB,
+) -> None:
+    """Add a new version of a robot's parameters (nothing is ever overwritten)."""
+    from odolab.params import load_params
+
+    params = load_params(source)
+    with _open(db, create=True) as nb:
+        v = nb.add_params_version(
+            params, method=method, source_trials=source_trial or (), notes=notes
+        )
+    typer.echo(f"{params.name} parameters version {v} ({method}) added to {db}")
+
+
+@trials_app.command("params-versions")
+def params_versions_cmd(
+    robot: Annotated[str, typer.Argument(help="Robot name, e.g. jaguar-lite.")],
+    db: DbOption = _DB,
+) -> None:
+    """List every version of a robot's parameters, with provenance."""
+    with _open(db) as nb:
+        versions = nb.params_versions(robot)
+    if not versions:
+        from odolab.errors import StoreError
+
+        raise StoreError(f"no parameters of robot {robot!r} in {db}")
+    for v in versions:
+        p = v.params
+        src = f" from {', '.join(v.source_trials)}" if v.source_trials else ""
+        typer.echo(
+            f"v{v.version}  {v.created}  {v.method}{src}: wheel radius L/R "
+            f"{p.left_wheel_radius:g}/{p.right_wheel_radius:g} m, track {p.track_width:g} m, "
+            f"{p.ticks_per_rev:g} ticks/rev{'  - ' + v.notes if v.notes else ''}"
+        )
+
+
+# -- trials --------------------------------------------------------------------------------------
+
+
+@trials_app.command("list")
+def list_cmd(
+    campaign: Annotated[str | None, typer.Option(help="Only this campaign.")] = None,
+    terrain: Annotated[str | None, typer.Option(help="Only this terrain.")] = None,
+    kind: Annotated[KindChoice | None, typer.Option(help="Only this kind.")] = None,
+    status: Annotated[StatusChoice | None, typer.Option(help="Only this status.")] = None,
+    db: DbOption = _DB,
+) -> None:
+    """The trials as a table."""
+    from rich.console import Console
+    from rich.table import Table
+
+    with _open(db) as nb:
+        trials = nb.load_trials(
+            campaign,
+            terrain,
+            kind.value if kind else None,
+            status.value if status else None,
+            with_logs=False,
+        )
+    table = Table(title=f"{len(trials)} trials in {db}")
+    for col in ("trial", "campaign", "terrain", "command", "predicted", "measured", "status"):
+        table.add_column(col)
+    from rich.markup import escape
+
+    for t in trials:
+        st = t.status.value + (f": {t.exclusion_reason}" if t.exclusion_reason else "")
+        table.add_row(
+            t.trial_id,
+            t.campaign,
+            t.terrain,
+            t.command.describe(),
+            _describe_prediction(t),
+            escape(_describe_measurement(t)),
+            escape(st),
+        )
+    Console(width=200).print(table)
+
+
+@trials_app.command("show")
+def show_cmd(
+    trial_id: Annotated[str, typer.Argument(help="Trial id.")], db: DbOption = _DB
+) -> None:
+    """Everything recorded about one trial."""
+    with _open(db) as nb:
+        t = nb.get_trial(trial_id)
+        robot, version = nb.trial_params_version(trial_id)
+    typer.echo(f"trial {t.trial_id}: {t.command.describe()} ({t.campaign}, {t.terrain})")
+    typer.echo(
+        f"  status: {t.status.value}" + (f" ({t.exclusion_reason})" if t.exclusion_reason else "")
+    )
+    p = t.predicted
+    typer.echo(
+        f"  predicted: x {p.x:.4f} m, y {p.y:.4f} m, theta {p.theta:.4f} rad, "
+        f"heading {p.heading:.4f} rad at t {p.t:g} s; parameters {robot} v{version}"
+    )
+    m = t.measured
+    if m is not None:
+        parts = []
+        if m.rotation is not None:
+            parts.append(f"rotation {m.rotation:.4f} rad ± {_fmt(m.sigma_rotation, '.3f')}")
+        if m.x is not None:
+            parts.append(f"x {m.x:.4f} y {_fmt(m.y, '.4f')} m ± {_fmt(m.sigma_xy, '.4f')}")
+        typer.echo(f"  measured ({m.instrument}): {', '.join(parts)}; raw {dict(m.raw)}")
+    if t.true is not None:
+        typer.echo(f"  true: x {t.true.x:.4f} y {t.true.y:.4f} m, heading {t.true.heading:.4f}")
+    if t.encoder_log is not None:
+        typer.echo(f"  encoder log: {len(t.encoder_log)} samples, modulus {t.encoder_log.modulus}")
+    if t.notes:
+        typer.echo(f"  notes: {t.notes}")
+
+
+def _measurement(
+    t: Trial,
+    initial: float | None,
+    final: float | None,
+    turns: int | None,
+    x: float | None,
+    y: float | None,
+    sigma: float | None,
+) -> Measurement:
+    """Build the measurement of ``t``; ask for what is missing when there is a terminal."""
+    from odolab.errors import StoreError
+    from odolab.store import (
+        COMPASS_SIGMA_RAD,
+        METERSTICK_SIGMA_M,
+        rotation_measurement_from_compass,
+        translation_measurement,
+    )
+    from odolab.store.entry import check_compass_reading
+
+    def ask_compass(text: str) -> float:
+        while True:
+            value: float = typer.prompt(text, type=float)
+            try:
+                return check_compass_reading(value, text.split(" (")[0])
+            except StoreError as err:
+                typer.echo(f"refused: {err}", err=True)
+
+    def ask_turns() -> int:
+        while True:
+            value: int = typer.prompt("whole turns counted", type=int)
+            if value >= 0:
+                return value
+            typer.echo("refused: turns must be 0 or more", err=True)
+
+    rotation = t.command.kind.value in ("rotation", "pivot")
+    given = (initial, final, turns) if rotation else (x, y)
+    interactive = any(v is None for v in given)
+    while True:
+        if rotation:
+            if initial is None:
+                initial = ask_compass("compass initial reading (deg, clockwise from north)")
+            if final is None:
+                final = ask_compass("compass final reading (deg)")
+            if turns is None:
+                turns = ask_turns()
+        else:
+            if x is None:
+                x = typer.prompt("x by meterstick (m, forward)", type=float)
+            if y is None:
+                y = typer.prompt("y by meterstick (m, to the left)", type=float)
+        try:
+            if rotation:
+                assert initial is not None and final is not None and turns is not None
+                direction = "cw" if t.command.direction == "cw" else None
+                return rotation_measurement_from_compass(
+                    initial,
+                    final,
+                    turns,  # type: ignore[arg-type]
+                    commanded_angle=t.command.angle,
+                    direction=direction,  # type: ignore[arg-type]
+                    sigma_reading_rad=sigma or COMPASS_SIGMA_RAD,
+                )
+            assert x is not None and y is not None
+            distance = t.command.distance if t.command.kind.value == "translation" else None
+            return translation_measurement(
+                x,
+                y,
+                sigma=sigma or METERSTICK_SIGMA_M,  # type: ignore[arg-type]
+                commanded_distance=distance,
+            )
+        except StoreError as err:
+            if not interactive:
+                raise StoreError(f"trial {t.trial_id}: {err}") from err
+            typer.echo(f"refused: {err}. Please enter the readings again.", err=True)
+            initial = final = turns = None
+            x = y = None
+
+
+@trials_app.command("measure")
+def measure_cmd(
+    trial_id: Annotated[str, typer.Argument(help="Trial id.")],
+    initial: Annotated[float | None, typer.Option(help="Compass before (deg).")] = None,
+    final: Annotated[float | None, typer.Option(help="Compass after (deg).")] = None,
+    turns: Annotated[int | None, typer.Option(help="Whole turns counted.")] = None,
+    x: Annotated[float | None, typer.Option(help="x by meterstick (m).")] = None,
+    y: Annotated[float | None, typer.Option(help="y by meterstick (m).")] = None,
+    sigma: Annotated[
+        float | None,
+        typer.Option(help="Uncertainty: of one compass reading (rad) or of x and y (m)."),
+    ] = None,
+    replace: Annotated[bool, typer.Option(help="Overwrite an earlier measurement.")] = False,
+    db: DbOption = _DB,
+) -> None:
+    """Enter what was measured: compass readings and turns, or x and y (asks what is missing)."""
+    with _open(db) as nb:
+        t = nb.get_trial(trial_id)
+        typer.echo(
+            f"trial {t.trial_id}: {t.command.describe()}; predicted {_describe_prediction(t)}"
+        )
+        m = _measurement(t, initial, final, turns, x, y, sigma)
+        nb.set_measurement(trial_id, m, replace=replace)
+        saved = nb.get_trial(trial_id)
+    typer.echo(f"trial {trial_id} measured: {_describe_measurement(saved)}")
+
+
+@trials_app.command("add")
+def add_cmd(
+    trial_id: Annotated[str, typer.Option("--id", help="New trial id.")],
+    campaign: Annotated[str, typer.Option(help="Campaign (must exist unless --create-campaign).")],
+    kind: Annotated[KindChoice, typer.Option(help="What was commanded.")],
+    predicted_heading: Annotated[
+        float, typer.Option(help="Odometry's final heading, unwrapped (rad).")
+    ] = 0.0,
+    predicted_x: Annotated[float, typer.Option(help="Odometry's final x (m).")] = 0.0,
+    predicted_y: Annotated[float, typer.Option(help="Odometry's final y (m).")] = 0.0,
+    terrain: Annotated[str | None, typer.Option(help="Default: the campaign's.")] = None,
+    angle: Annotated[float | None, typer.Option(help="Commanded angle (rad).")] = None,
+    angle_pi: Annotated[
+        float | None, typer.Option(help="Commanded angle in multiples of pi (e.g. 20).")
+    ] = None,
+    distance: Annotated[float | None, typer.Option(help="Commanded distance (m).")] = None,
+    robot: Annotated[str, typer.Option(help="Robot (preset name or one in the notebook).")] = (
+        "jaguar-lite"
+    ),
+    params_version: Annotated[
+        int | None, typer.Option(help="Parameter version used (default: the latest).")
+    ] = None,
+    initial: Annotated[float | None, typer.Option(help="Compass before (deg).")] = None,
+    final: Annotated[float | None, typer.Option(help="Compass after (deg).")] = None,
+    turns: Annotated[int | None, typer.Option(help="Whole turns counted.")] = None,
+    x: Annotated[float | None, typer.Option(help="x by meterstick (m).")] = None,
+    y: Annotated[float | None, typer.Option(help="y by meterstick (m).")] = None,
+    notes: Annotated[str, typer.Option(help="Free text.")] = "",
+    create_campaign: Annotated[bool, typer.Option(help="Create an unknown campaign.")] = False,
+    db: DbOption = _DB,
+) -> None:
+    """Record a trial typed by hand (and its measurement, when given), for scripts."""
+    import dataclasses
+
+    from odolab.errors import StoreError
+    from odolab.kinematics import wrap_angle
+    from odolab.params import PRESETS
+    from odolab.trajectory import Pose
+    from odolab.trials import Command, MotionKind, Trial, TrialStatus
+
+    if angle is not None and angle_pi is not None:
+        raise StoreError("give the commanded angle once: --angle (rad) or --angle-pi")
+    if angle_pi is not None:
+        angle = angle_pi * math.pi
+    with _open(db, create=True) as nb:
+        if params_version is not None:
+            params = nb.get_params(robot, params_version)
+        elif nb.latest_params_version(robot) is not None:
+            params = nb.latest_params(robot)
+        elif robot in PRESETS:
+            params = PRESETS[robot]
+        else:
+            raise StoreError(f"no parameters of robot {robot!r} in {db} and no such preset")
+        if terrain is None:
+            if campaign not in nb.campaign_names():
+                raise StoreError(f"unknown campaign {campaign!r}: give --terrain to create it")
+            terrain = nb.get_campaign(campaign).terrain
+        trial = Trial(
+            trial_id=trial_id,
+            campaign=campaign,
+            terrain=terrain,
+            command=Command(MotionKind(kind.value), angle=angle, distance=distance),
+            predicted=Pose(
+                0.0,
+                predicted_x,
+                predicted_y,
+                float(wrap_angle(predicted_heading)),
+                predicted_heading,
+            ),
+            params=params,
+            notes=notes,
+        )
+        readings = (initial, final, turns, x, y)
+        if any(v is not None for v in readings):
+            m = _measurement(trial, initial, final, turns, x, y, None)
+            trial = dataclasses.replace(trial, measured=m, status=TrialStatus.MEASURED)
+        nb.add_trial(trial, create_campaign=create_campaign)
+    typer.echo(
+        f"trial {trial_id} ({trial.command.describe()}) recorded in {db}: {trial.status.value}"
+    )
+
+
+@trials_app.command("exclude")
+def exclude_cmd(
+    trial_id: Annotated[str, typer.Argument(help="Trial id.")],
+    reason: Annotated[str, typer.Option(help="Why it is left out of the analysis.")],
+    db: DbOption = _DB,
+) -> None:
+    """Leave a trial out of the analysis (it is kept, with the reason)."""
+    with _open(db) as nb:
+        nb.exclude_trial(trial_id, reason)
+    typer.echo(f"trial {trial_id} excluded: {reason}")
+
+
+@trials_app.command("include")
+def include_cmd(
+    trial_id: Annotated[str, typer.Argument(help="Trial id.")], db: DbOption = _DB
+) -> None:
+    """Undo an exclusion."""
+    with _open(db) as nb:
+        nb.include_trial(trial_id)
+    typer.echo(f"trial {trial_id} included again")
+
+
+@trials_app.command("import")
+def import_cmd(
+    file: Annotated[Path, typer.Argument(help="A .csv (see docs/notebook.md) or .json file.")],
+    create_campaigns: Annotated[
+        bool, typer.Option(help="CSV: create campaigns the notebook does not know.")
+    ] = False,
+    batch_size: Annotated[int, typer.Option(help="Trials per transaction.")] = 1000,
+    db: DbOption = _DB,
+) -> None:
+    """Import trials; the whole file is checked before anything is written."""
+    with _open(db, create=True) as nb:
+        if file.suffix.lower() == ".json":
+            n = nb.import_json(file, batch_size=batch_size)
+        else:
+            n = nb.import_csv(file, create_campaigns=create_campaigns, batch_size=batch_size)
+    typer.echo(f"{n} trials imported from {file} into {db}")
+
+
+@trials_app.command("export")
+def export_cmd(
+    file: Annotated[Path, typer.Argument(help="A .csv or .json file to write.")],
+    campaign: Annotated[str | None, typer.Option(help="Only this campaign.")] = None,
+    terrain: Annotated[str | None, typer.Option(help="Only this terrain.")] = None,
+    kind: Annotated[KindChoice | None, typer.Option(help="Only this kind.")] = None,
+    status: Annotated[StatusChoice | None, typer.Option(help="Only this status.")] = None,
+    db: DbOption = _DB,
+) -> None:
+    """Export trials as CSV (a spreadsheet, no encoder logs) or JSON (everything)."""
+    k = kind.value if kind else None
+    s = status.value if status else None
+    with _open(db) as nb:
+        if file.suffix.lower() == ".json":
+            n = nb.export_json(file, campaign, terrain, k, s)
+        else:
+            n = nb.export_csv(file, campaign, terrain, k, s)
+    typer.echo(f"{n} trials exported from {db} to {file}")

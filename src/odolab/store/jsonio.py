@@ -1,0 +1,150 @@
+"""The notebook as one JSON document (everything, encoder logs included).
+
+Layout::
+
+    {"format": "odolab-notebook", "schema": 2,
+     "params_versions": [{"robot", "version", "left_wheel_radius", ..., "method",
+                          "source_trials": [...], "created", "notes"}, ...],
+     "campaigns": [{"name", "kind", "terrain", "date", "operator", "notes"}, ...],
+     "trials": [{<every trials column>, "raw": {...}, "created", "updated",
+                 "encoder_log": null | {"n", "modulus", "codec", "t", "left_ticks",
+                                        "right_ticks"},
+                 "measurement_history": [{"replaced", "instrument", "measured_rotation", ...,
+                                          "raw": {...}}, ...]}, ...]}
+
+Numbers are written with Python's shortest round-tripping repr; encoder-log arrays are the stored
+compressed BLOBs in base64 (see :mod:`odolab.store.codec`).
+"""
+
+from __future__ import annotations
+
+import base64
+import binascii
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from odolab.errors import StoreError
+from odolab.store.codec import EncodedLog, decode_log
+from odolab.store.records import PARAMS_FIELDS, TRIAL_COLUMNS
+from odolab.trials import EncoderLog
+
+__all__ = ["FORMAT", "NotebookDocument", "read_notebook_json", "write_notebook_json"]
+
+FORMAT = "odolab-notebook"
+_PV_KEYS = ("robot", "version", *PARAMS_FIELDS, "method", "source_trials", "created", "notes")
+_CAMPAIGN_KEYS = ("name", "kind", "terrain", "date", "operator", "notes")
+_LOG_KEYS = ("n", "modulus", "codec", "t", "left_ticks", "right_ticks")
+
+
+@dataclass
+class NotebookDocument:
+    """What a notebook JSON file holds, checked for shape."""
+
+    params_versions: list[dict[str, Any]] = field(default_factory=list)
+    campaigns: list[dict[str, Any]] = field(default_factory=list)
+    trials: list[dict[str, Any]] = field(default_factory=list)
+    logs: dict[str, EncoderLog] = field(default_factory=dict)
+
+
+def write_notebook_json(
+    path: str | Path,
+    params_versions: Sequence[dict[str, Any]],
+    campaigns: Sequence[dict[str, Any]],
+    trial_rows: Sequence[dict[str, Any]],
+    history: Mapping[str, Sequence[dict[str, Any]]] | None = None,
+) -> Path:
+    """Write rows as read from the database (trial rows joined with ``log_*`` columns)."""
+    trials = []
+    for r in trial_rows:
+        rec: dict[str, Any] = {k: r[k] for k in TRIAL_COLUMNS}
+        rec["raw"] = json.loads(r["raw"]) if isinstance(r["raw"], str) else r["raw"]
+        rec["created"], rec["updated"] = r["created"], r["updated"]
+        log = None
+        if r.get("log_codec") is not None:
+            log = {
+                "n": r["log_n"],
+                "modulus": r["log_modulus"],
+                "codec": r["log_codec"],
+                "t": base64.b64encode(r["log_t"]).decode("ascii"),
+                "left_ticks": base64.b64encode(r["log_left"]).decode("ascii"),
+                "right_ticks": base64.b64encode(r["log_right"]).decode("ascii"),
+            }
+        rec["encoder_log"] = log
+        rec["measurement_history"] = list((history or {}).get(r["trial_id"], []))
+        trials.append(rec)
+    versions = []
+    for pv in params_versions:
+        d = {k: pv[k] for k in _PV_KEYS}
+        if isinstance(d["source_trials"], str):
+            d["source_trials"] = json.loads(d["source_trials"])
+        versions.append(d)
+    doc = {
+        "format": FORMAT,
+        "schema": 2,
+        "params_versions": versions,
+        "campaigns": [{k: c[k] for k in _CAMPAIGN_KEYS} for c in campaigns],
+        "trials": trials,
+    }
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    p.write_text(json.dumps(doc, indent=1, allow_nan=False), encoding="utf-8")
+    return p
+
+
+def _need(obj: Any, keys: Sequence[str], where: str) -> dict[str, Any]:
+    if not isinstance(obj, dict):
+        raise StoreError(f"{where}: expected an object")
+    missing = [k for k in keys if k not in obj]
+    if missing:
+        raise StoreError(f"{where}: missing key {missing[0]!r}")
+    return obj
+
+
+def read_notebook_json(path: str | Path) -> NotebookDocument:
+    """Read and shape-check a notebook JSON file (values are checked on import)."""
+    p = Path(path)
+    try:
+        doc = json.loads(p.read_text(encoding="utf-8"))
+    except OSError as err:
+        raise StoreError(f"{p}: cannot read ({err.strerror or err})") from err
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        raise StoreError(f"{p}: not valid JSON ({err})") from err
+    _need(doc, ("format", "params_versions", "campaigns", "trials"), str(p))
+    if doc["format"] != FORMAT:
+        raise StoreError(f"{p}: format is {doc['format']!r}; expected {FORMAT!r}")
+    out = NotebookDocument()
+    for key, keys, dest in (
+        ("params_versions", _PV_KEYS, out.params_versions),
+        ("campaigns", _CAMPAIGN_KEYS, out.campaigns),
+        ("trials", (*TRIAL_COLUMNS, "encoder_log"), out.trials),
+    ):
+        items = doc[key]
+        if not isinstance(items, list):
+            raise StoreError(f"{p}: {key!r} must be a list")
+        for i, item in enumerate(items):
+            dest.append(_need(item, keys, f"{p}: {key}[{i}]"))
+    for i, rec in enumerate(out.trials):
+        log = rec["encoder_log"]
+        if log is None:
+            continue
+        where = f"{p}: trials[{i}].encoder_log"
+        _need(log, _LOG_KEYS, where)
+        try:
+            enc = EncodedLog(
+                int(log["n"]),
+                None if log["modulus"] is None else int(log["modulus"]),
+                str(log["codec"]),
+                base64.b64decode(log["t"], validate=True),
+                base64.b64decode(log["left_ticks"], validate=True),
+                base64.b64decode(log["right_ticks"], validate=True),
+            )
+        except (binascii.Error, TypeError, ValueError) as err:
+            raise StoreError(f"{where}: malformed ({err})") from err
+        try:
+            out.logs[str(rec["trial_id"])] = decode_log(enc)
+        except StoreError as err:
+            raise StoreError(f"{where}: {err}") from err
+    return out

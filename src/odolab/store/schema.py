@@ -1,0 +1,286 @@
+"""The notebook's SQLite schema, its migrations (``PRAGMA user_version``) and connection setup.
+
+Schema history:
+
+- **v1** (never released; kept as a fixture): ``campaigns``, ``params_sets`` (an autoincrement id
+  per parameter set, no provenance), ``trials`` (pointing at ``params_sets.id``), no encoder logs.
+- **v2** (current): ``robots``; ``params_versions`` numbered per robot with provenance (method,
+  source trials, date, notes), never updated; ``campaigns``; ``trials`` pointing at
+  ``(robot, params_version)`` with created/updated stamps; ``encoder_logs`` (compressed arrays);
+  ``measurement_history`` (every measurement that was replaced, with when).
+
+A migration is a function run inside one ``BEGIN IMMEDIATE`` transaction with foreign keys off;
+``PRAGMA foreign_key_check`` must come back empty before it commits.
+"""
+
+from __future__ import annotations
+
+import sqlite3
+from collections.abc import Callable
+from pathlib import Path
+
+from odolab.errors import StoreError
+
+__all__ = ["SCHEMA_V1", "SCHEMA_VERSION", "connect", "migrate"]
+
+#: The schema version this code writes.
+SCHEMA_VERSION = 2
+
+_KINDS = "('rotation','translation','pivot','square','free')"
+_STATUSES = "('awaiting','measured','excluded')"
+
+#: Version 1, kept so that tests can write a v1 notebook and migrate it.
+SCHEMA_V1 = f"""
+CREATE TABLE campaigns (
+    name TEXT PRIMARY KEY,
+    kind TEXT NOT NULL CHECK (kind IN ('rotation','translation','square','free')),
+    terrain TEXT NOT NULL,
+    date TEXT,
+    operator TEXT NOT NULL DEFAULT '',
+    notes TEXT NOT NULL DEFAULT ''
+);
+CREATE TABLE params_sets (
+    id INTEGER PRIMARY KEY AUTOINCREMENT,
+    robot TEXT NOT NULL,
+    left_wheel_radius REAL NOT NULL,
+    right_wheel_radius REAL NOT NULL,
+    track_width REAL NOT NULL,
+    ticks_per_rev REAL NOT NULL,
+    encoder_modulus INTEGER,
+    created TEXT NOT NULL
+);
+CREATE TABLE trials (
+    trial_id TEXT PRIMARY KEY,
+    campaign TEXT NOT NULL REFERENCES campaigns(name),
+    terrain TEXT NOT NULL,
+    kind TEXT NOT NULL CHECK (kind IN {_KINDS}),
+    angle REAL, distance REAL, side REAL, direction TEXT, speed REAL,
+    predicted_t REAL NOT NULL, predicted_x REAL NOT NULL, predicted_y REAL NOT NULL,
+    predicted_theta REAL NOT NULL, predicted_heading REAL NOT NULL,
+    params_id INTEGER NOT NULL REFERENCES params_sets(id),
+    instrument TEXT,
+    measured_rotation REAL, measured_x REAL, measured_y REAL,
+    sigma_rotation REAL, sigma_xy REAL,
+    raw TEXT NOT NULL DEFAULT '{{}}',
+    true_t REAL, true_x REAL, true_y REAL, true_theta REAL, true_heading REAL,
+    status TEXT NOT NULL CHECK (status IN {_STATUSES}),
+    exclusion_reason TEXT,
+    notes TEXT NOT NULL DEFAULT ''
+);
+"""
+
+_V2_TABLES = f"""
+CREATE TABLE robots (
+    name TEXT PRIMARY KEY,
+    created TEXT NOT NULL
+);
+CREATE TABLE params_versions (
+    robot TEXT NOT NULL REFERENCES robots(name),
+    version INTEGER NOT NULL CHECK (version >= 1),
+    left_wheel_radius REAL NOT NULL CHECK (left_wheel_radius > 0),
+    right_wheel_radius REAL NOT NULL CHECK (right_wheel_radius > 0),
+    track_width REAL NOT NULL CHECK (track_width > 0),
+    ticks_per_rev REAL NOT NULL CHECK (ticks_per_rev > 0),
+    encoder_modulus INTEGER,
+    method TEXT NOT NULL,
+    source_trials TEXT NOT NULL DEFAULT '[]',
+    created TEXT NOT NULL,
+    notes TEXT NOT NULL DEFAULT '',
+    PRIMARY KEY (robot, version)
+);
+CREATE TRIGGER params_versions_no_update BEFORE UPDATE ON params_versions
+BEGIN SELECT RAISE(ABORT, 'parameter versions are never changed; add a new version'); END;
+CREATE TRIGGER params_versions_no_delete BEFORE DELETE ON params_versions
+BEGIN SELECT RAISE(ABORT, 'parameter versions are never deleted'); END;
+CREATE TABLE trials_v2 (
+    trial_id TEXT PRIMARY KEY,
+    campaign TEXT NOT NULL REFERENCES campaigns(name),
+    terrain TEXT NOT NULL,
+    kind TEXT NOT NULL CHECK (kind IN {_KINDS}),
+    angle REAL, distance REAL, side REAL, direction TEXT, speed REAL,
+    predicted_t REAL NOT NULL, predicted_x REAL NOT NULL, predicted_y REAL NOT NULL,
+    predicted_theta REAL NOT NULL, predicted_heading REAL NOT NULL,
+    robot TEXT NOT NULL,
+    params_version INTEGER NOT NULL,
+    instrument TEXT,
+    measured_rotation REAL, measured_x REAL, measured_y REAL,
+    sigma_rotation REAL, sigma_xy REAL,
+    raw TEXT NOT NULL DEFAULT '{{}}',
+    true_t REAL, true_x REAL, true_y REAL, true_theta REAL, true_heading REAL,
+    status TEXT NOT NULL CHECK (status IN {_STATUSES}),
+    exclusion_reason TEXT,
+    notes TEXT NOT NULL DEFAULT '',
+    created TEXT NOT NULL,
+    updated TEXT NOT NULL,
+    FOREIGN KEY (robot, params_version) REFERENCES params_versions(robot, version),
+    CHECK (status <> 'excluded' OR exclusion_reason IS NOT NULL),
+    CHECK (status <> 'measured' OR instrument IS NOT NULL)
+);
+CREATE TABLE measurement_history (
+    id INTEGER PRIMARY KEY AUTOINCREMENT,
+    trial_id TEXT NOT NULL REFERENCES trials(trial_id) ON DELETE CASCADE,
+    replaced TEXT NOT NULL,
+    instrument TEXT NOT NULL,
+    measured_rotation REAL, measured_x REAL, measured_y REAL,
+    sigma_rotation REAL, sigma_xy REAL,
+    raw TEXT NOT NULL DEFAULT '{{}}'
+);
+CREATE TABLE encoder_logs (
+    trial_id TEXT PRIMARY KEY REFERENCES trials(trial_id) ON DELETE CASCADE,
+    n INTEGER NOT NULL,
+    modulus INTEGER,
+    codec TEXT NOT NULL,
+    t BLOB NOT NULL,
+    left_ticks BLOB NOT NULL,
+    right_ticks BLOB NOT NULL
+);
+"""
+
+_V2_INDEXES = """
+CREATE INDEX trials_campaign ON trials(campaign);
+CREATE INDEX trials_terrain_kind ON trials(terrain, kind);
+CREATE INDEX trials_params ON trials(robot, params_version);
+CREATE INDEX measurement_history_trial ON measurement_history(trial_id);
+"""
+
+
+def _create_v2(conn: sqlite3.Connection) -> None:
+    conn.execute(
+        """CREATE TABLE campaigns (
+            name TEXT PRIMARY KEY,
+            kind TEXT NOT NULL CHECK (kind IN ('rotation','translation','square','free')),
+            terrain TEXT NOT NULL,
+            date TEXT,
+            operator TEXT NOT NULL DEFAULT '',
+            notes TEXT NOT NULL DEFAULT ''
+        )"""
+    )
+    _run_script(conn, _V2_TABLES)
+    conn.execute("ALTER TABLE trials_v2 RENAME TO trials")
+    _run_script(conn, _V2_INDEXES)
+
+
+def _migrate_1_to_2(conn: sqlite3.Connection) -> None:
+    """v1 -> v2: number parameter sets per robot, add provenance, encoder logs, time stamps."""
+    conn.execute("ALTER TABLE params_sets RENAME TO params_sets_v1")
+    _run_script(conn, _V2_TABLES)
+    conn.execute(
+        "INSERT INTO robots (name, created) "
+        "SELECT robot, MIN(created) FROM params_sets_v1 GROUP BY robot"
+    )
+    conn.execute(
+        """INSERT INTO params_versions (robot, version, left_wheel_radius, right_wheel_radius,
+               track_width, ticks_per_rev, encoder_modulus, method, source_trials, created, notes)
+           SELECT robot, ROW_NUMBER() OVER (PARTITION BY robot ORDER BY id),
+               left_wheel_radius, right_wheel_radius, track_width, ticks_per_rev,
+               encoder_modulus, 'unknown (from schema v1)', '[]', created, ''
+           FROM params_sets_v1"""
+    )
+    conn.execute(
+        """INSERT INTO trials_v2
+           SELECT t.trial_id, t.campaign, t.terrain, t.kind, t.angle, t.distance, t.side,
+               t.direction, t.speed, t.predicted_t, t.predicted_x, t.predicted_y,
+               t.predicted_theta, t.predicted_heading, p.robot, p.version, t.instrument,
+               t.measured_rotation, t.measured_x, t.measured_y, t.sigma_rotation, t.sigma_xy,
+               t.raw, t.true_t, t.true_x, t.true_y, t.true_theta, t.true_heading, t.status,
+               COALESCE(t.exclusion_reason, CASE WHEN t.status = 'excluded'
+                   THEN 'excluded (no reason recorded in schema v1)' END),
+               t.notes, s.created, s.created
+           FROM trials AS t
+           JOIN params_sets_v1 AS s ON s.id = t.params_id
+           JOIN (SELECT id, robot, ROW_NUMBER() OVER (PARTITION BY robot ORDER BY id) AS version
+                 FROM params_sets_v1) AS p ON p.id = t.params_id
+           ORDER BY t.rowid"""
+    )
+    conn.execute("DROP TABLE trials")
+    conn.execute("DROP TABLE params_sets_v1")
+    conn.execute("ALTER TABLE trials_v2 RENAME TO trials")
+    _run_script(conn, _V2_INDEXES)
+
+
+#: MIGRATIONS[v] turns a version-v notebook into version v+1.
+MIGRATIONS: dict[int, Callable[[sqlite3.Connection], None]] = {1: _migrate_1_to_2}
+
+
+def _run_script(conn: sqlite3.Connection, script: str) -> None:
+    """Run ``;``-separated statements one by one (executescript would commit)."""
+    buf = ""
+    for line in script.splitlines(keepends=True):
+        buf += line
+        if sqlite3.complete_statement(buf):
+            conn.execute(buf)
+            buf = ""
+    if buf.strip():  # pragma: no cover - our scripts end with ';'
+        conn.execute(buf)
+
+
+def connect(path: str | Path, *, timeout: float = 30.0) -> sqlite3.Connection:
+    """Open ``path`` with WAL, foreign keys on and a busy timeout; autocommit mode.
+
+    Writes are then wrapped in explicit ``BEGIN IMMEDIATE ... COMMIT`` by the caller, so that a
+    writer waits for the lock up front (and the busy timeout applies) instead of failing on a
+    lock upgrade half way.
+    """
+    try:
+        conn = sqlite3.connect(str(path), timeout=timeout, isolation_level=None)
+        conn.execute(f"PRAGMA busy_timeout = {int(timeout * 1000)}")
+        mode = conn.execute("PRAGMA journal_mode = WAL").fetchone()[0]
+        if str(mode).lower() != "wal":
+            raise StoreError(f"{path}: cannot switch the notebook to WAL mode (got {mode!r})")
+        conn.execute("PRAGMA synchronous = NORMAL")
+        conn.execute("PRAGMA foreign_keys = ON")
+    except sqlite3.DatabaseError as err:
+        raise StoreError(f"{path}: not a notebook database ({err})") from err
+    return conn
+
+
+def migrate(conn: sqlite3.Connection, source: str = "notebook") -> int:
+    """Bring the database to :data:`SCHEMA_VERSION`; return the version it had before.
+
+    A new (empty) database gets the current schema. Each step runs in its own transaction.
+    """
+    try:
+        before = int(conn.execute("PRAGMA user_version").fetchone()[0])
+        if before > SCHEMA_VERSION:
+            raise StoreError(
+                f"{source}: written by a newer odolab (schema {before}); "
+                f"this one reads up to schema {SCHEMA_VERSION}"
+            )
+        if before == SCHEMA_VERSION:
+            return before
+        conn.execute("PRAGMA foreign_keys = OFF")
+        try:
+            conn.execute("BEGIN IMMEDIATE")
+            try:
+                # Read again under the write lock: another process may have migrated meanwhile.
+                version = int(conn.execute("PRAGMA user_version").fetchone()[0])
+                if version == 0:
+                    has_tables = conn.execute(
+                        "SELECT COUNT(*) FROM sqlite_master WHERE type = 'table'"
+                    ).fetchone()[0]
+                    if has_tables:
+                        raise StoreError(
+                            f"{source}: a SQLite database that is not an odolab notebook "
+                            "(user_version 0 but tables present)"
+                        )
+                    _create_v2(conn)
+                    version = SCHEMA_VERSION
+                while version < SCHEMA_VERSION:
+                    MIGRATIONS[version](conn)
+                    version += 1
+                bad = conn.execute("PRAGMA foreign_key_check").fetchall()
+                if bad:
+                    raise StoreError(
+                        f"{source}: migration to schema {SCHEMA_VERSION} left a broken reference "
+                        f"in table {bad[0][0]!r}; the notebook was not changed"
+                    )
+                conn.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
+                conn.execute("COMMIT")
+            except BaseException:
+                conn.execute("ROLLBACK")
+                raise
+        finally:
+            conn.execute("PRAGMA foreign_keys = ON")
+    except sqlite3.DatabaseError as err:
+        raise StoreError(f"{source}: cannot open or migrate the notebook ({err})") from err
+    return before
