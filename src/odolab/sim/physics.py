@@ -69,6 +69,8 @@ class TrueParams:
     differential turning. ``align_sigma`` (rad): sigma of the start heading offset of each run.
     ``speed_slip`` (s/m): fractional loss of effective radius per m/s of wheel speed.
     ``stop_slide`` (s^2/m): extra slide of each side at an abrupt stop per (m/s)^2.
+    ``terrain_radius_scale``: pairs (terrain name, factor) multiplying every effective radius on
+    that terrain (how this robot's tracks bite into it); terrains not named use 1.
     """
 
     left_radius_forward: float
@@ -82,11 +84,28 @@ class TrueParams:
     align_sigma: float = 0.0
     speed_slip: float = 0.0
     stop_slide: float = 0.0
+    terrain_radius_scale: tuple[tuple[str, float], ...] = ()
     name: str = "truth"
 
     def __post_init__(self) -> None:
+        pairs = []
+        for item in self.terrain_radius_scale:
+            if (
+                not isinstance(item, tuple)
+                or len(item) != 2
+                or not isinstance(item[0], str)
+                or isinstance(item[1], bool)
+                or not isinstance(item[1], int | float)
+                or not math.isfinite(item[1])
+                or item[1] <= 0
+            ):
+                raise SimError(
+                    f"terrain_radius_scale entries must be (terrain name, factor > 0), got {item!r}"
+                )
+            pairs.append((item[0], float(item[1])))
+        object.__setattr__(self, "terrain_radius_scale", tuple(pairs))
         for f in fields(self):
-            if f.name == "name":
+            if f.name in ("name", "terrain_radius_scale"):
                 continue
             value = getattr(self, f.name)
             if isinstance(value, bool) or not isinstance(value, int | float):
@@ -117,6 +136,10 @@ class TrueParams:
         )
         return replace(base, **changes)
 
+    def radius_scale_on(self, terrain: str) -> float:
+        """This robot's effective-radius factor on a terrain (1 where none is given)."""
+        return dict(self.terrain_radius_scale).get(terrain, 1.0)
+
     def with_(self, **changes: Any) -> TrueParams:
         """A copy with some fields changed (validated again)."""
         return replace(self, **changes)
@@ -130,7 +153,7 @@ class TrueParams:
 def kernel_params(truth: TrueParams, nominal: RobotParams, terrain: Terrain) -> NDArray[np.float64]:
     """The parameter vector of the compiled step, shape (14,), for one robot on one terrain."""
     p = np.zeros(_NPARAM)
-    s = terrain.radius_scale
+    s = terrain.radius_scale * truth.radius_scale_on(terrain.name)
     p[_RHO_LF] = truth.left_radius_forward / nominal.left_wheel_radius * s
     p[_RHO_LR] = truth.left_radius_reverse / nominal.left_wheel_radius * s
     p[_RHO_RF] = truth.right_radius_forward / nominal.right_wheel_radius * s
@@ -261,8 +284,8 @@ def _batch(  # type: ignore[no-untyped-def]  # pragma: no cover - compiled
             if p[11] == 0.0 and vl * vr < 0.0:
                 for _ in range(stall_reports):
                     k += 1
-                    out_l[i, k] = math.floor(pl)
-                    out_r[i, k] = math.floor(pr)
+                    out_l[i, k] = math.floor(pl + 0.5)
+                    out_r[i, k] = math.floor(pr + 0.5)
                 stalled = True
                 break
             target_l = pl + seg_l[i, j]
@@ -296,14 +319,14 @@ def _batch(  # type: ignore[no-untyped-def]  # pragma: no cover - compiled
                 if phase == spr:
                     phase = 0
                     k += 1
-                    out_l[i, k] = math.floor(pl)
-                    out_r[i, k] = math.floor(pr)
+                    out_l[i, k] = math.floor(pl + 0.5)
+                    out_r[i, k] = math.floor(pr + 0.5)
             x, y, h = _slide(x, y, h, vl, vr, p)
             if phase != 0:
                 phase = 0
                 k += 1
-                out_l[i, k] = math.floor(pl)
-                out_r[i, k] = math.floor(pr)
+                out_l[i, k] = math.floor(pl + 0.5)
+                out_r[i, k] = math.floor(pr + 0.5)
         out_len[i] = k + 1
         out_pose[i, 0] = x
         out_pose[i, 1] = y
@@ -504,8 +527,8 @@ class VirtualRobot:
 
     def encoder_counts(self) -> tuple[int, int]:
         """Raw counters (left, right), wrapped at the nominal encoder modulus."""
-        left = self._offset_l + math.floor(self._state[3])
-        right = self._offset_r + math.floor(self._state[4])
+        left = self._offset_l + math.floor(self._state[3] + 0.5)
+        right = self._offset_r + math.floor(self._state[4] + 0.5)
         m = self.nominal.encoder_modulus
         if m:
             return left % m, right % m

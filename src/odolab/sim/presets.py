@@ -13,8 +13,11 @@ radius`` per side and direction, nominal track ``b0`` and true track ``b``:
   ``D = 2 b * drift / (rho * (s1 + s2))``, forward 0.03 and reverse 0.09.
 - rotation actual/predicted 0.875 (counter-clockwise: right forward, left reverse):
   ``(rho_right_fwd + rho_left_rev) / 2 * b0 / b = 0.875``, so ``b`` follows (iterated with D).
+- x on concrete 0.920 and grass 0.904: ``terrain_radius_scale`` ``0.920 / 0.905`` and
+  ``0.904 / 0.905`` (every radius scales; the drift and rotation on tile are unchanged).
 - sigma of the total rotation 2.94 rad at 20 pi: mostly turn scrub,
-  ``var = k_scrub * 20 pi + (k_l rho_l + k_r rho_r) * (b0 * 20 pi / 2) / b**2 + 2 sigma_compass**2``.
+  ``var = k_scrub * A + (k_l rho_l + k_r rho_r) * (b0 * A / 2) / b**2 + 2 sigma_compass**2``
+  with ``A = 20 pi``.
 - sigma_y 0.07 m at 2.5 m: start misalignment (grows linearly with distance) plus the per-wheel
   random walk (grows with distance**1.5) plus the meterstick:
   ``sigma_y**2 = (rho s align_sigma)**2 + (k_l + k_r) (rho s)**3 / (3 b**2) + sigma_meter**2``;
@@ -42,6 +45,8 @@ class LabTargets:
     rotation_sigma: float = 2.94  #: rad, sample sigma of the total rotation at rotation_angle
     rotation_angle: float = 20.0 * math.pi
     x_ratio: float = 0.905
+    x_ratio_concrete: float = 0.920
+    x_ratio_grass: float = 0.904
     y_drift_forward: float = 0.03  #: y error / predicted x, forward
     y_drift_reverse: float = 0.09
     short_distance: float = 1.0  #: m, the protocol's short straight run (the lab's "1.1 m")
@@ -111,6 +116,10 @@ def derive_jaguar_lab(
         k_right=k_wheel,
         k_scrub=k_scrub,
         align_sigma=align,
+        terrain_radius_scale=(
+            ("concrete", targets.x_ratio_concrete / targets.x_ratio),
+            ("grass", targets.x_ratio_grass / targets.x_ratio),
+        ),
         name="jaguar-lab",
     )
 

@@ -3,10 +3,10 @@
 A :class:`Terrain` scales the robot's true behaviour (:class:`~odolab.sim.physics.TrueParams`,
 which describes the robot on the indoor lab tile):
 
-- ``radius_scale`` multiplies every effective wheel radius (sinkage and slip change how far a
-  track moves the robot per turn of its sprocket); the lab measured x actual/predicted 0.905 on
-  tile, 0.920 on concrete and 0.904 on grass, so concrete is ``0.920 / 0.905`` and grass
-  ``0.904 / 0.905``.
+- ``radius_scale`` multiplies every effective wheel radius for any robot (1 for the built-ins:
+  how much a given robot's tracks bite into a surface is a property of that robot, kept in
+  ``TrueParams.terrain_radius_scale``; ``jaguar-lab`` has concrete ``0.920 / 0.905`` and grass
+  ``0.904 / 0.905`` from the lab's x ratios).
 - ``slip_scale`` multiplies the per-wheel slip noise constants ``k_left`` and ``k_right``;
   ``scrub_scale`` multiplies the turn-scrub noise ``k_scrub``.
 - ``can_turn_in_place``: on concrete and grass a tracked robot's static friction is larger than
@@ -50,7 +50,6 @@ TERRAINS: dict[str, Terrain] = {
     "tile": Terrain("tile", description="indoor lab floor (the reference surface)"),
     "concrete": Terrain(
         "concrete",
-        radius_scale=0.920 / 0.905,
         slip_scale=2.0,
         can_turn_in_place=False,
         outdoor=True,
@@ -58,7 +57,6 @@ TERRAINS: dict[str, Terrain] = {
     ),
     "grass": Terrain(
         "grass",
-        radius_scale=0.904 / 0.905,
         slip_scale=4.0,
         scrub_scale=2.0,
         can_turn_in_place=False,
