@@ -433,7 +433,7 @@ def run_protocol(
     """
     report = progress or (lambda done, total: None)
     if terrain is not None:
-        get_terrain(terrain)
+        get_terrain(terrain, where="terrain override")
     specs = protocol.trials
     n = len(specs)
     rng = np.random.default_rng(seed)
