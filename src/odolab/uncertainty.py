@@ -95,7 +95,8 @@ def straight_line_covariance(
     The continuous limit of :func:`pose_covariance`: with ``k = k_left + k_right`` and
     ``d = |distance|``: ``var x = k d / 4``, ``var y = k d^3 / (3 b^2)``,
     ``var heading = k d / b^2``, ``cov(y, heading) = k d^2 / (2 b^2)``,
-    ``cov(x, heading) = (k_right - k_left) d / (2 b)``, ``cov(x, y) = (k_right - k_left) d^2 / (4 b)``
+    ``cov(x, heading) = (k_right - k_left) d / (2 b)``,
+    ``cov(x, y) = (k_right - k_left) d^2 / (4 b)``
     (signs of the cross terms for a forward run; y and heading flip sign in reverse).
     """
     _check_k(k_left, k_right, track_width)

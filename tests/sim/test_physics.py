@@ -21,7 +21,9 @@ NOM = PRESETS["jaguar-lite"]
 
 
 def _proto(*sets: dict[str, object], **head: object) -> object:
-    return parse_protocol({"protocol": {"campaign": "t", **head}, "trials": list(sets)}, "test.toml")
+    return parse_protocol(
+        {"protocol": {"campaign": "t", **head}, "trials": list(sets)}, "test.toml"
+    )
 
 
 @pytest.mark.parametrize("name", sorted(builtin_protocols()))
@@ -46,7 +48,11 @@ def test_radius_error_gives_distance_ratio(scale: float, dist: float, reverse: b
         right_radius_reverse=r,
     )
     proto = _proto(
-        {"motion": "translation", "distance": dist, "direction": "reverse" if reverse else "forward"}
+        {
+            "motion": "translation",
+            "distance": dist,
+            "direction": "reverse" if reverse else "forward",
+        }
     )
     (t,) = run_protocol(proto, truth, NOM)  # type: ignore[arg-type]
     assert t.true is not None

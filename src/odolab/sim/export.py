@@ -116,7 +116,7 @@ def write_trials_csv(trials: Sequence[Trial], path: str | Path) -> Path:
 
 
 def write_encoder_logs(trials: Sequence[Trial], directory: str | Path) -> list[Path]:
-    """Write each trial's encoder log as ``<directory>/<trial_id>.csv`` (t,left_ticks,right_ticks)."""
+    """Write each trial's encoder log as ``<directory>/<trial_id>.csv`` (raw counters)."""
     from odolab.io import write_encoder_csv
 
     folder = Path(directory)

@@ -42,7 +42,12 @@ from odolab.sim.physics import TrueParams
 
 __all__ = [
     "LAB_REPORT_SEED",
-    "TABLE_I", "TRUTH_PRESETS", "LabTargets", "derive_jaguar_lab", "predicted_sigma_y"]
+    "TABLE_I",
+    "TRUTH_PRESETS",
+    "LabTargets",
+    "derive_jaguar_lab",
+    "predicted_sigma_y",
+]
 
 
 @dataclass(frozen=True)
@@ -112,8 +117,8 @@ def derive_jaguar_lab(
     b = b0
     rho = targets.x_ratio
     d_fwd = d_rev = 0.0
-    out = np.arange(1, 11) * 0.5  # outdoor runs, 0.5 m to 5 m
-    indoor = np.array([s1, s2])
+    out = np.arange(1, 11, dtype=np.float64) * 0.5  # outdoor runs, 0.5 m to 5 m
+    indoor = np.array([s1, s2], dtype=np.float64)
     for _ in range(50):
         cos_corr = 1.0 - 0.5 * align**2  # mean cosine of the start misalignment
         arc_in = 0.5 * (_arc_factor(indoor, d_fwd / b) + _arc_factor(indoor, d_rev / b))

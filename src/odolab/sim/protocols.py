@@ -21,7 +21,7 @@ A protocol file::
     [[trials]]                       # a set of trials
     motion = "rotation"              # rotation | translation | pivot | square
     angle_pi = { from = 1, to = 20, step = 1 }   # or angle (rad); a number, list or range
-    direction = "ccw"                # rotation/pivot/square: ccw | cw; translation: forward | reverse
+    direction = "ccw"                # ccw | cw; a translation: forward | reverse
     repeats = 1
     # distance = [1.0, 2.5]          # translation (m, > 0)
     # side = 4.0                     # square (m)
@@ -460,10 +460,9 @@ def run_protocol(
         rng=rng,
     )
     modulus = nominal.encoder_modulus
+    offsets = np.zeros((n, 2), dtype=np.int64)
     if modulus:
         offsets = rng.integers(0, modulus, size=(n, 2))
-    else:
-        offsets = np.zeros((n, 2), dtype=np.int64)
     h0 = batch.start_heading
     fx, fy, fh = batch.final_pose.T
     # instruments, vectorized over all trials (only the relevant readings are kept per trial)
