@@ -21,6 +21,9 @@ def _builtin_names() -> list[str]:
         return []
 
 
+#: == odolab.sim.presets.LAB_REPORT_SEED (tested); a literal so that --help stays instant
+_LAB_REPORT_SEED = 641
+
 _PROTOCOL_HELP = "Protocol TOML file or built-in protocol: " + ", ".join(_builtin_names()) + "."
 
 
