@@ -176,6 +176,8 @@ def kernel_params(truth: TrueParams, nominal: RobotParams, terrain: Terrain) -> 
 
 @njit(cache=True, inline="always")
 def _arc(x, y, h, ds, dth):  # type: ignore[no-untyped-def]  # pragma: no cover - compiled
+    if ds == 0.0:
+        return x, y, h + dth
     u = 0.5 * dth
     c = ds * (1.0 - u * u / 6.0) if abs(u) < 1e-4 else ds * math.sin(u) / u
     mid = h + u
@@ -228,9 +230,9 @@ def _advance(state, p, vl, vr, dt, nsteps, rng):  # type: ignore[no-untyped-def]
     y = state[1]
     h = state[2]
     for _ in range(nsteps):
-        zl = rng.standard_normal()
-        zr = rng.standard_normal()
-        zs = rng.standard_normal()
+        zl = rng.standard_normal() if p[6] != 0.0 else 0.0
+        zr = rng.standard_normal() if p[7] != 0.0 else 0.0
+        zs = rng.standard_normal() if p[8] != 0.0 else 0.0
         x, y, h = _step(x, y, h, dnl, dnr, dt, p, zl, zr, zs)
         state[3] += tl
         state[4] += tr
@@ -311,9 +313,9 @@ def _batch(  # type: ignore[no-untyped-def]  # pragma: no cover - compiled
                         done_r = True
                     dr = nr - pr
                     pr = nr
-                zl = rng.standard_normal()
-                zr = rng.standard_normal()
-                zs = rng.standard_normal()
+                zl = rng.standard_normal() if p[6] != 0.0 else 0.0
+                zr = rng.standard_normal() if p[7] != 0.0 else 0.0
+                zs = rng.standard_normal() if p[8] != 0.0 else 0.0
                 x, y, h = _step(x, y, h, dl * p[12], dr * p[13], dt, p, zl, zr, zs)
                 phase += 1
                 if phase == spr:
@@ -366,7 +368,7 @@ def simulate_batch(
     *,
     align_sigma: NDArray[np.float64] | float = 0.0,
     report_rate: float = 20.0,
-    dt: float = 0.01,
+    dt: float = 0.025,
     stall_time: float = 2.0,
     rng: np.random.Generator,
 ) -> BatchResult:

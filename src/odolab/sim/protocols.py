@@ -7,7 +7,7 @@ A protocol file::
     description = "..."
     terrain = "tile"                 # default for every trial set
     report_rate = 20.0               # Hz, encoder reports
-    dt = 0.01                        # s, physics step (must divide 1 / report_rate)
+    dt = 0.025                       # s, physics step (must divide 1 / report_rate)
     linear_speed = 0.3               # m/s, wheel surface speed on straight runs
     turn_speed = 0.3                 # m/s, wheel surface speed when turning
 
@@ -126,7 +126,7 @@ class Protocol:
     description: str
     trials: tuple[TrialSpec, ...]
     report_rate: float = 20.0
-    dt: float = 0.01
+    dt: float = 0.025
     instruments: Instruments = field(default_factory=Instruments)
     source: str = "<protocol>"
 
@@ -279,7 +279,7 @@ def parse_protocol(doc: dict[str, Any], source: str = "<protocol>") -> Protocol:
         "turn_speed": _number(source, "[protocol] key 'turn_speed'", head.get("turn_speed", 0.3)),
     }
     rate = _number(source, "[protocol] key 'report_rate'", head.get("report_rate", 20.0))
-    dt = _number(source, "[protocol] key 'dt'", head.get("dt", 0.01))
+    dt = _number(source, "[protocol] key 'dt'", head.get("dt", 0.025))
     spr = 1.0 / (rate * dt)
     if abs(spr - round(spr)) > 1e-6 or round(spr) < 1:
         raise _err(
