@@ -463,6 +463,11 @@ def run_protocol(
     offsets = np.zeros((n, 2), dtype=np.int64)
     if modulus:
         offsets = rng.integers(0, modulus, size=(n, 2))
+    all_left = batch.ticks_left + offsets[:, :1]
+    all_right = batch.ticks_right + offsets[:, 1:]
+    if modulus:
+        np.mod(all_left, modulus, out=all_left)
+        np.mod(all_right, modulus, out=all_right)
     h0 = batch.start_heading
     fx, fy, fh = batch.final_pose.T
     # instruments, vectorized over all trials (only the relevant readings are kept per trial)
@@ -481,12 +486,7 @@ def run_protocol(
     for i, spec in enumerate(specs):
         m = int(batch.n_samples[i])
         t = np.arange(m, dtype=np.float64) / protocol.report_rate
-        left = batch.ticks_left[i, :m] + offsets[i, 0]
-        right = batch.ticks_right[i, :m] + offsets[i, 1]
-        if modulus:
-            left = np.mod(left, modulus)
-            right = np.mod(right, modulus)
-        log = EncoderLog(t, left.astype(np.int64), right.astype(np.int64), modulus)
+        log = EncoderLog(t, all_left[i, :m], all_right[i, :m], modulus)
         pred = integrate(t, log.left_ticks, log.right_ticks, nominal).final
         true = _pose(float(t[-1]), float(fx[i]), float(fy[i]), float(fh[i]))
         kind = spec.command.kind
