@@ -82,3 +82,12 @@ def test_pose_covariance_matches_closed_form_and_rotates() -> None:
     assert q[1, 1] == pytest.approx(p[-1, 0, 0], rel=1e-9)
     with pytest.raises(OdolabError, match="k_left"):
         pose_covariance(ds, ds, 0.5, -1.0, 0.0)
+
+
+def test_per_run_track_width_gives_error_proportional_to_angle() -> None:
+    sigma = 0.02
+    truth = TrueParams.from_nominal(NOM, track_sigma=sigma)
+    for angle in (math.pi, 8 * math.pi):
+        h = _final(truth, {"motion": "rotation", "angle": angle, "repeats": N}, seed=6)[:, 2]
+        # heading = predicted / (1 + e): sigma = predicted * sigma_e to first order
+        assert h.std(ddof=1) / h.mean() == pytest.approx(sigma, rel=REL)

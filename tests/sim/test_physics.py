@@ -126,7 +126,7 @@ def test_virtual_robot_matches_batch_without_noise() -> None:
 
 
 def test_virtual_robot_matches_batch_statistically() -> None:
-    truth = TrueParams.from_nominal(NOM, k_left=1e-3, k_right=2e-3, k_scrub=0.05)
+    truth = TrueParams.from_nominal(NOM, k_left=1e-3, k_right=2e-3, k_scrub=0.05, track_sigma=0.03)
     angle = 2 * math.pi
     proto = _proto({"motion": "rotation", "angle": angle, "repeats": 3000, "speed": 0.4})
     trials = run_protocol(proto, truth, NOM, seed=5)  # type: ignore[arg-type]

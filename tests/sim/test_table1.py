@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from odolab.params import PRESETS
@@ -43,3 +44,23 @@ def test_noise_model_sigmas() -> None:
     truth = TRUTH_PRESETS["jaguar-lab"]
     assert predicted_sigma_y(truth, TABLE_I.long_distance) == pytest.approx(0.07, abs=1e-9)
     assert predicted_sigma_y(truth, TABLE_I.short_distance) == pytest.approx(0.03, abs=0.005)
+
+
+@pytest.mark.parametrize(
+    ("preset", "growth"), [("jaguar-lab", 10**0.5), ("jaguar-lab-track", 10.0)]
+)
+def test_rotation_sigma_at_20pi_and_its_growth(preset: str, growth: float) -> None:
+    # both presets give Table I's 2.94 rad at 20 pi; they differ in how it grows with the angle
+    from odolab.sim.protocols import parse_protocol
+
+    n = 1500
+    doc = {
+        "protocol": {"campaign": "r"},
+        "trials": [{"motion": "rotation", "angle_pi": [2, 20], "repeats": n}],
+    }
+    trials = run_protocol(parse_protocol(doc, "r.toml"), TRUTH_PRESETS[preset], NOM, seed=8)
+    rot = np.array([t.measured.rotation for t in trials])  # type: ignore[union-attr]
+    s2, s20 = rot[:n].std(ddof=1), rot[n:].std(ddof=1)
+    rel = 4 / (2 * n) ** 0.5
+    assert s20 == pytest.approx(2.94, rel=rel)
+    assert s20 / s2 == pytest.approx(growth, rel=2 * rel)

@@ -45,7 +45,10 @@ def sim_run(
         Path, typer.Option("--output", "-o", help="Trials CSV to write (one row per trial).")
     ] = Path("trials.csv"),
     truth: Annotated[
-        str, typer.Option(help="True-behaviour preset of the virtual robot: jaguar-lab or ideal.")
+        str,
+        typer.Option(
+            help="True-behaviour preset of the virtual robot: jaguar-lab, jaguar-lab-track or ideal."
+        ),
     ] = "jaguar-lab",
     params: Annotated[
         str, typer.Option("--params", "-p", help="Nominal parameters (TOML file or preset).")

@@ -107,8 +107,17 @@ def derive_jaguar_lab(
     nominal: RobotParams | None = None,
     *,
     k_wheel: float = 2e-5,
+    rotation_noise: str = "scrub",
 ) -> TrueParams:
-    """True parameters that make the lab's protocols reproduce ``targets`` (see module doc)."""
+    """True parameters that make the lab's protocols reproduce ``targets`` (see module doc).
+
+    ``rotation_noise`` says what the random rotation error is: ``"scrub"`` (turn scrub, a random
+    walk: sigma grows like sqrt(angle); the ``jaguar-lab`` preset) or ``"track"`` (the effective
+    track width changes from run to run: sigma grows like the angle; ``jaguar-lab-track``).
+    Table I has only the 20 pi figure, so it cannot tell the two apart.
+    """
+    if rotation_noise not in ("scrub", "track"):
+        raise ValueError(f"rotation_noise must be 'scrub' or 'track', got {rotation_noise!r}")
     nom = nominal or PRESETS["jaguar-lite"]
     b0 = nom.track_width
     s1, s2 = targets.short_distance, targets.long_distance
@@ -141,7 +150,11 @@ def derive_jaguar_lab(
     rho_lr, rho_rr = rho + 0.5 * d_rev, rho - 0.5 * d_rev
     a = targets.rotation_angle
     wheel_var = k_wheel * (rho_lr + rho_rf) * (b0 * a / 2.0) / b**2
-    k_scrub = (targets.rotation_sigma**2 - wheel_var - 2 * targets.compass_sigma**2) / a
+    rot_var = targets.rotation_sigma**2 - wheel_var - 2 * targets.compass_sigma**2
+    k_scrub, track_sigma = rot_var / a, 0.0
+    if rotation_noise == "track":
+        k_scrub, track_sigma = 0.0, math.sqrt(rot_var) / (a * targets.rotation_ratio)
+        b *= 1.0 + track_sigma**2  # E[1 / (1 + e)] = 1 + sigma**2: keep the mean ratio 0.875
     r0l, r0r = nom.left_wheel_radius, nom.right_wheel_radius
     return TrueParams(
         left_radius_forward=rho_lf * r0l,
@@ -153,8 +166,9 @@ def derive_jaguar_lab(
         k_right=k_wheel,
         k_scrub=k_scrub,
         align_sigma=align,
+        track_sigma=track_sigma,
         terrain_radius_scale=(("concrete", scales[0]), ("grass", scales[1])),
-        name="jaguar-lab",
+        name="jaguar-lab" if rotation_noise == "scrub" else "jaguar-lab-track",
     )
 
 
@@ -162,4 +176,5 @@ def derive_jaguar_lab(
 TRUTH_PRESETS: dict[str, TrueParams] = {
     "ideal": TrueParams.from_nominal(PRESETS["jaguar-lite"]),
     "jaguar-lab": derive_jaguar_lab(),
+    "jaguar-lab-track": derive_jaguar_lab(rotation_noise="track"),
 }

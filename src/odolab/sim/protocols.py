@@ -455,6 +455,7 @@ def run_protocol(
         arr[3],
         nseg,
         align_sigma=truth.align_sigma,
+        track_sigma=truth.track_sigma,
         report_rate=protocol.report_rate,
         dt=protocol.dt,
         rng=rng,
