@@ -47,7 +47,8 @@ def sim_run(
     truth: Annotated[
         str,
         typer.Option(
-            help="True-behaviour preset of the virtual robot: jaguar-lab, jaguar-lab-track or ideal."
+            help="True-behaviour preset of the virtual robot: "
+            "jaguar-lab, jaguar-lab-track or ideal."
         ),
     ] = "jaguar-lab",
     params: Annotated[
