@@ -60,6 +60,7 @@ def sim_run(
     ] = None,
 ) -> None:
     """Run an experiment protocol on the virtual Jaguar and write the trials."""
+    from rich.console import Console
     from rich.progress import Progress
 
     from odolab.errors import SimError
@@ -74,7 +75,7 @@ def sim_run(
         )
     proto = load_protocol(protocol)
     nominal = load_params(params)
-    with Progress(transient=True) as bar:
+    with Progress(transient=True, console=Console(stderr=True)) as bar:
         task = bar.add_task(f"{proto.name}", total=len(proto))
         trials = run_protocol(
             proto,
