@@ -75,7 +75,8 @@ def sim_run(
         )
     proto = load_protocol(protocol)
     nominal = load_params(params)
-    with Progress(transient=True, console=Console(stderr=True)) as bar:
+    console = Console(stderr=True)
+    with Progress(transient=True, console=console, disable=not console.is_terminal) as bar:
         task = bar.add_task(f"{proto.name}", total=len(proto))
         trials = run_protocol(
             proto,
