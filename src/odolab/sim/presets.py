@@ -80,7 +80,12 @@ TABLE_I = LabTargets()
 LAB_REPORT_SEED = 796
 
 
-def predicted_sigma_y(truth: TrueParams, distance: float, meterstick_sigma: float = 0.003) -> float:
+def predicted_sigma_y(
+    truth: TrueParams,
+    distance: float,
+    meterstick_sigma: float = 0.003,
+    nominal: RobotParams | None = None,
+) -> float:
     """Model sigma of the y error of a straight tile run of predicted length ``distance`` (m)."""
     rho = 0.25 * (
         truth.left_radius_forward
@@ -88,7 +93,8 @@ def predicted_sigma_y(truth: TrueParams, distance: float, meterstick_sigma: floa
         + truth.left_radius_reverse
         + truth.right_radius_reverse
     )
-    rho /= PRESETS["jaguar-lite"].left_wheel_radius
+    nom = nominal or PRESETS["jaguar-lite"]
+    rho /= 0.5 * (nom.left_wheel_radius + nom.right_wheel_radius)
     d = rho * distance
     k = truth.k_left + truth.k_right
     var = (d * truth.align_sigma) ** 2 + k * d**3 / (3 * truth.track_width**2)
