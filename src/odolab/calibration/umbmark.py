@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -62,7 +62,7 @@ def e_max_syst(cw_errors: ArrayLike, ccw_errors: ArrayLike) -> float:
     return float(max(math.hypot(*cw), math.hypot(*ccw)))
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class UmbmarkResult:
     """UMBmark's errors, the corrected parameters and the benchmark figure."""
 
@@ -82,6 +82,8 @@ class UmbmarkResult:
     n_cw: int
     n_ccw: int
     calibration: CalibrationResult
+    cw_errors: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
+    ccw_errors: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -100,6 +102,8 @@ class UmbmarkResult:
             "side": self.side,
             "n_cw": self.n_cw,
             "n_ccw": self.n_ccw,
+            "cw_errors": self.cw_errors.tolist(),
+            "ccw_errors": self.ccw_errors.tolist(),
             "provenance": dict(self.calibration.provenance),
         }
 
@@ -183,6 +187,8 @@ def umbmark(
         n_cw=int(cw.shape[0]),
         n_ccw=int(ccw.shape[0]),
         calibration=CalibrationResult("umbmark", new, params, prov),
+        cw_errors=cw,
+        ccw_errors=ccw,
     )
 
 
