@@ -1,4 +1,6 @@
-"""The report's figures, answering the lab's Figs. 12-21. Each takes an optional ``ax`` and returns it.
+"""The report's figures, answering the lab's Figs. 12-21.
+
+Each takes an optional ``ax`` and returns it.
 
 Nothing here changes matplotlib's global state; callers choose the backend.
 """
@@ -55,13 +57,15 @@ def _title(m: MotionAnalysis) -> str:
 
 
 def plot_fit(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
-    """Data, the least-squares line with its slope CI, the ideal line, outliers (Figs. 12, 15-17)."""
+    """Data, least-squares line with its slope CI, ideal line, outliers (Figs. 12, 15-17)."""
     ax = _axes(ax)
     f = m.fit
     lo_hi = np.array([min(0.0, float(f.x.min())), max(0.0, float(f.x.max()))])
     ideal = lo_hi if m.motion in ("rotation", "pivot", "x") else np.zeros(2)
-    ideal_label = "ideal (actual = predicted)" if m.motion in ("rotation", "pivot", "x") else (
-        "ideal (no error)"
+    ideal_label = (
+        "ideal (actual = predicted)"
+        if m.motion in ("rotation", "pivot", "x")
+        else ("ideal (no error)")
     )
     ax.plot(lo_hi, ideal, color="tab:green", lw=1.2, label=ideal_label)
     ax.scatter(f.x, f.y, s=18, color="tab:blue", label=f"trials (n = {f.n})", zorder=3)
@@ -100,16 +104,17 @@ def plot_residuals(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
     ax.scatter(f.x, f.residuals, s=18, color="tab:blue", label="residual", zorder=3)
     if m.growth is not None:
         d = np.linspace(max(1e-6, float(np.abs(f.x).min()) * 0.8), float(np.abs(f.x).max()), 100)
-        sgn = 1.0 if np.median(f.x) >= 0 else -1.0
         band = 1.96 * m.growth.sigma_at(d)
-        ax.fill_between(
-            sgn * d,
-            -band,
-            band,
-            color="tab:orange",
-            alpha=0.2,
-            label=f"±1.96 σ, σ = {m.growth.a:.3g}·d^{m.growth.p:.2f}",
-        )
+        signs = [s for s in (1.0, -1.0) if np.any(np.sign(f.x) == s)]
+        for i, sgn in enumerate(signs):
+            ax.fill_between(
+                sgn * d,
+                -band,
+                band,
+                color="tab:orange",
+                alpha=0.2,
+                label=f"±1.96 σ, σ = {m.growth.a:.3g}·d^{m.growth.p:.2f}" if i == 0 else None,
+            )
     else:
         s = m.random.sd
         ax.axhspan(-1.96 * s, 1.96 * s, color="tab:orange", alpha=0.2, label="±1.96 σ")
@@ -130,7 +135,9 @@ def plot_histogram(
     ax = _axes(ax)
     e = group.errors
     bins = max(4, min(12, int(math.ceil(math.sqrt(e.size)) + 1)))
-    ax.hist(e, bins=bins, density=True, color="tab:blue", alpha=0.6, label=f"{label} (n = {e.size})")
+    ax.hist(
+        e, bins=bins, density=True, color="tab:blue", alpha=0.6, label=f"{label} (n = {e.size})"
+    )
     xs = np.linspace(e.min() - 2 * group.sd, e.max() + 2 * group.sd, 200)
     ax.plot(
         xs,
@@ -239,16 +246,14 @@ def plot_terrain_slopes(analysis: LabAnalysis, motion: str = "x", ax: Axes | Non
 
 
 def plot_error_ellipses(analysis: LabAnalysis, terrain: str, ax: Axes | None = None) -> Axes:
-    """x and y errors (predicted - actual) per repeated distance, with 95% ellipses (Figs. 18-19)."""
+    """x and y errors (predicted - actual) per repeated distance, 95% ellipses (Figs. 18-19)."""
     from matplotlib.patches import Ellipse
 
     ax = _axes(ax)
     xm = analysis.get("x", terrain)
     ex: dict[str, tuple[float, float]] = {}
     if xm is not None:
-        for tid, px, ax_, c in zip(
-            xm.fit.trial_ids, xm.fit.x, xm.fit.y, xm.commanded, strict=True
-        ):
+        for tid, px, ax_, c in zip(xm.fit.trial_ids, xm.fit.x, xm.fit.y, xm.commanded, strict=True):
             ex[tid] = (float(px - ax_), float(c))
     colors = ["tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:red", "tab:brown"]
     k = 0
@@ -359,9 +364,7 @@ def plot_umbmark(
             kw["facecolors"] = "none" if face == "none" else color
             ax.scatter(arr[:, 0], arr[:, 1], s=22, label=f"{d} {name}", **kw)
             cg = arr.mean(axis=0)
-            ax.scatter(
-                [cg[0]], [cg[1]], marker="+", s=120, color=color, label=f"c.g. {d} {name}"
-            )
+            ax.scatter([cg[0]], [cg[1]], marker="+", s=120, color=color, label=f"c.g. {d} {name}")
     ax.axhline(0, color="gray", lw=0.8)
     ax.axvline(0, color="gray", lw=0.8)
     ax.set_xlabel("x error, measured - odometry (m)")

@@ -12,6 +12,7 @@ import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -94,8 +95,10 @@ def summary_sentences(results: Mapping[str, Any]) -> list[str]:
         out.append(s + ".")
     for m in results["analysis"]["motions"]:
         if m["growth"] is not None:
-            out.append(f"Growth of σ with distance/angle, {m['motion']} on {m['terrain']}: "
-                       f"{m['growth']['verdict']}.")
+            out.append(
+                f"Growth of σ with distance/angle, {m['motion']} on {m['terrain']}: "
+                f"{m['growth']['verdict']}."
+            )
     for t in results["analysis"]["terrain_tests"]:
         out.append(t["verdict"][0].upper() + t["verdict"][1:] + ".")
     for name, c in results["calibration"].items():
@@ -135,8 +138,9 @@ class _Figure:
     b64: str = ""
 
 
-def _render(out: Path, fig_dir: Path, items: list[tuple[str, str, str, Callable[[Axes], Any]]]
-            ) -> list[_Figure]:
+def _render(
+    out: Path, fig_dir: Path, items: list[tuple[str, str, str, Callable[[Axes], Any]]]
+) -> list[_Figure]:
     from matplotlib.figure import Figure
 
     done: list[_Figure] = []
@@ -183,59 +187,102 @@ def write_report(
     for m in analysis.motions:
         key = f"{m.motion}_{m.terrain}".replace(" ", "_")
         unit = MOTIONS[m.motion]["unit"]
-        items.append((f"fit_{key}", f"{m.motion} on {m.terrain}: fit",
-                      "Trials, least-squares line (slope with 95% CI) and the ideal line.",
-                      lambda ax, m=m: F.plot_fit(m, ax)))
-        items.append((f"residuals_{key}", f"{m.motion} on {m.terrain}: residuals",
-                      "Residuals of the fit with the fitted ±1.96 σ(d) band.",
-                      lambda ax, m=m: F.plot_residuals(m, ax)))
+        items.append(
+            (
+                f"fit_{key}",
+                f"{m.motion} on {m.terrain}: fit",
+                "Trials, least-squares line (slope with 95% CI) and the ideal line.",
+                partial(F.plot_fit, m),
+            )
+        )
+        items.append(
+            (
+                f"residuals_{key}",
+                f"{m.motion} on {m.terrain}: residuals",
+                "Residuals of the fit with the fitted ±1.96 σ(d) band.",
+                partial(F.plot_residuals, m),
+            )
+        )
         if m.groups:
             g = max(m.groups, key=lambda g: (g.n, g.at))
-            items.append((f"histogram_{key}", f"{m.motion} on {m.terrain}: error histogram",
-                          f"Errors of the {g.n} trials at {g.at:.3g} {unit} with the fitted "
-                          "Gaussian and its 95% interval.",
-                          lambda ax, g=g, unit=unit: F.plot_histogram(g, unit, ax)))
+            items.append(
+                (
+                    f"histogram_{key}",
+                    f"{m.motion} on {m.terrain}: error histogram",
+                    f"Errors of the {g.n} trials at {g.at:.3g} {unit} with the fitted "
+                    "Gaussian and its 95% interval.",
+                    partial(F.plot_histogram, g, unit),
+                )
+            )
         if m.growth is not None:
-            items.append((f"growth_{key}", f"{m.motion} on {m.terrain}: growth of σ",
-                          "σ at each repeated distance/angle (95% CI), the ML fit σ = a·d^p "
-                          "and the candidate laws p = 0.5, 1, 1.5.",
-                          lambda ax, m=m: F.plot_growth(m, ax)))
+            items.append(
+                (
+                    f"growth_{key}",
+                    f"{m.motion} on {m.terrain}: growth of σ",
+                    "σ at each repeated distance/angle (95% CI), the ML fit σ = a·d^p "
+                    "and the candidate laws p = 0.5, 1, 1.5.",
+                    partial(F.plot_growth, m),
+                )
+            )
     for terrain in analysis.terrains:
         if analysis.get("x", terrain) and (
             analysis.get("y_forward", terrain) or analysis.get("y_reverse", terrain)
         ):
-            items.append((f"ellipses_{terrain}", f"End-point errors on {terrain}",
-                          "x and y errors of each trial, grouped by commanded distance, with "
-                          "95% covariance ellipses.",
-                          lambda ax, t=terrain: F.plot_error_ellipses(analysis, t, ax)))
+            items.append(
+                (
+                    f"ellipses_{terrain}",
+                    f"End-point errors on {terrain}",
+                    "x and y errors of each trial, grouped by commanded distance, with "
+                    "95% covariance ellipses.",
+                    partial(F.plot_error_ellipses, analysis, terrain),
+                )
+            )
     for t in analysis.terrain_tests:
-        items.append((f"terrains_{t.motion}", f"{t.motion}: terrains side by side",
-                      "Each terrain's trials and fit.",
-                      lambda ax, mo=t.motion: F.plot_terrains(analysis, mo, ax)))
-        items.append((f"terrain_slopes_{t.motion}", f"{t.motion}: slope per terrain",
-                      t.verdict(), lambda ax, mo=t.motion: F.plot_terrain_slopes(analysis, mo, ax)))
+        items.append(
+            (
+                f"terrains_{t.motion}",
+                f"{t.motion}: terrains side by side",
+                "Each terrain's trials and fit.",
+                partial(F.plot_terrains, analysis, t.motion),
+            )
+        )
+        items.append(
+            (
+                f"terrain_slopes_{t.motion}",
+                f"{t.motion}: slope per terrain",
+                t.verdict(),
+                partial(F.plot_terrain_slopes, analysis, t.motion),
+            )
+        )
     if analysis.params is not None:
-        news = {
-            n: (c.params if isinstance(c, CalibrationResult) else c.params)
-            for n, c in calibrations.items()
-        }
+        news = {n: c.params for n, c in calibrations.items()}
         if news:
             for motion in ("rotation", "x"):
                 if analysis.get(motion) is not None:
-                    items.append((f"calibration_{motion}", f"Old vs new parameters: {motion}",
-                                  "Predictions of the same trials re-scaled with each new "
-                                  "parameter set (both wheels alike).",
-                                  lambda ax, mo=motion, p=analysis.params, n=news:
-                                  F.plot_calibration_effect(analysis, p, n, mo, ax)))
+                    items.append(
+                        (
+                            f"calibration_{motion}",
+                            f"Old vs new parameters: {motion}",
+                            "Predictions of the same trials re-scaled with each new "
+                            "parameter set (both wheels alike).",
+                            partial(
+                                F.plot_calibration_effect, analysis, analysis.params, news, motion
+                            ),
+                        )
+                    )
     for name, c in calibrations.items():
         if isinstance(c, UmbmarkResult):
-            items.append((f"umbmark_{name}", f"UMBmark ({name})",
-                          f"Return-position errors and centres of gravity; E_max,syst = "
-                          f"{c.e_max_syst:.4g} m.",
-                          lambda ax, c=c: F.plot_umbmark(c.cw_errors, c.ccw_errors, ax)))
+            items.append(
+                (
+                    f"umbmark_{name}",
+                    f"UMBmark ({name})",
+                    f"Return-position errors and centres of gravity; E_max,syst = "
+                    f"{c.e_max_syst:.4g} m.",
+                    partial(F.plot_umbmark, c.cw_errors, c.ccw_errors),
+                )
+            )
     if validation_figure is not None:
-        items.append(("validation", "Validation", "Old vs new vs IMU.",
-                      lambda ax: validation_figure(ax)))
+        items.append(("validation", "Validation", "Old vs new vs IMU.", validation_figure))
     say(f"drawing {len(items)} figures")
     figs = _render(out, fig_dir, items)
     results["figures"] = {f.name: f"figures/{f.name}.png" for f in figs}
