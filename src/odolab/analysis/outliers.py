@@ -49,7 +49,7 @@ def miscounted_turns(
     predicted: ArrayLike,
     actual: ArrayLike,
     *,
-    k: float = 4.0,
+    k: float = 5.0,
     tolerance: float = 1.0,
 ) -> NDArray[np.bool_]:
     """Mask (shape (n,)) of rotation trials whose actual rotation is off by a whole turn.
