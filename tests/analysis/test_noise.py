@@ -25,7 +25,8 @@ def _translations(seed: int, k_r: float, k_l: float, n: int = 40) -> list:
 
 
 def test_loglik_equals_scipy_multivariate_normal() -> None:
-    recs = _translations(0, 2e-4, 1e-4, n=8) + [
+    recs = [
+        *_translations(0, 0.0002, 0.0001, n=8),
         record_rotation(0.3, 20.0, B, sigma=0.05),
         record_pivot(-0.2, 6.0, B, "right"),
     ]
