@@ -180,6 +180,14 @@ def plot_growth(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
             ax.plot(d, ref_s * (d / ref_d) ** p, color="gray", ls=ls, lw=1, label=f"p = {p:g}")
     ax.set_xscale("log")
     ax.set_yscale("log")
+    from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter
+
+    ticks = sorted({round(float(v), 3) for v in np.abs(f.x)})
+    if len(ticks) > 6:
+        ticks = [float(v) for v in np.geomspace(min(ticks), max(ticks), 5)]
+    ax.xaxis.set_major_locator(FixedLocator(ticks))
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:.3g}"))
+    ax.xaxis.set_minor_formatter(NullFormatter())
     ax.set_xlabel(f"|predicted| ({unit})")
     ax.set_ylabel(f"σ of the error ({unit})")
     ax.set_title(f"Growth of σ: {_title(m)}")

@@ -148,7 +148,7 @@ def _render(
         fig = Figure(figsize=(7.0, 4.6), dpi=110)
         ax = fig.add_subplot()
         draw(ax)
-        fig.subplots_adjust(left=0.11, right=0.97, bottom=0.12, top=0.92)
+        fig.subplots_adjust(left=0.13, right=0.97, bottom=0.12, top=0.92)
         path = fig_dir / f"{name}.png"
         fig.savefig(path)
         done.append(
