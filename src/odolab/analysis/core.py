@@ -195,30 +195,35 @@ def _analyse_series(
     cmd = np.asarray(s.commanded, dtype=np.float64)
     ids = list(s.ids)
     outliers: list[Outlier] = []
-    if motion in ("rotation", "pivot"):
-        flags = miscounted_turns(pred, act)
-        if flags.any():
-            keep = ~flags
-            probe = fit_line(pred[keep], act[keep], name=f"{motion} ({terrain})")
-            for i in np.flatnonzero(flags):
-                r = float(act[i] - probe.predict(pred[i]))
-                turns = round(r / (2 * math.pi))
-                outliers.append(
-                    Outlier(
-                        trial_id=ids[i],
-                        motion=motion,
-                        terrain=terrain,
-                        predicted=float(pred[i]),
-                        actual=float(act[i]),
-                        residual=r,
-                        reason=(
-                            f"residual {r:+.2f} rad is about {turns:+d} x 2 pi, far outside the "
-                            "scatter of the other trials: likely a miscounted turn"
-                        ),
-                    )
+    turns = (
+        miscounted_turns(pred, act)
+        if motion in ("rotation", "pivot")
+        else np.zeros(pred.size, dtype=bool)
+    )
+    flags = turns
+    if flags.any() and int((~flags).sum()) >= MIN_FIT_POINTS:
+        keep = ~flags
+        probe = fit_line(pred[keep], act[keep], name=f"{motion} ({terrain})")
+        for i in np.flatnonzero(flags):
+            r = float(act[i] - probe.predict(pred[i]))
+            n_turns = round(r / (2 * math.pi))
+            reason = (
+                f"residual {r:+.2f} rad is about {n_turns:+d} x 2 pi, far outside the "
+                "scatter of the other trials: likely a miscounted turn"
+            )
+            outliers.append(
+                Outlier(
+                    trial_id=ids[i],
+                    motion=motion,
+                    terrain=terrain,
+                    predicted=float(pred[i]),
+                    actual=float(act[i]),
+                    residual=r,
+                    reason=reason,
                 )
-            pred, act, cmd = pred[keep], act[keep], cmd[keep]
-            ids = [i for i, k in zip(ids, keep, strict=True) if k]
+            )
+        pred, act, cmd = pred[keep], act[keep], cmd[keep]
+        ids = [i for i, k in zip(ids, keep, strict=True) if k]
     label = f"{motion} ({terrain})"
     try:
         fit = fit_line(pred, act, name=label, trial_ids=ids)
