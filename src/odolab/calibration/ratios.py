@@ -85,6 +85,7 @@ def ratios(
     distance_ratio_ci95: tuple[float, float] | None = None,
     rotation_ratio_ci95: tuple[float, float] | None = None,
     source: str = "ratios given by hand",
+    terrain: str | None = None,
 ) -> CalibrationResult:
     """New parameters from the distance and rotation ratios (actual/predicted); see module doc."""
     qd = _check_ratio("distance ratio", distance_ratio)
@@ -99,6 +100,7 @@ def ratios(
         "method": "ratios",
         "created": _now(),
         "source": source,
+        **({"terrain": terrain} if terrain else {}),
         "from_params": params.name,
         "distance_ratio": qd,
         "rotation_ratio": qr,
@@ -153,6 +155,7 @@ def ratios_from_analysis(
                     f"analysis fits on {t}: x slope from {x.fit.n} trials, rotation slope "
                     f"from {rot.fit.n} trials"
                 ),
+                terrain=t,
             )
     where = f"terrain {terrain!r}" if terrain else "any one terrain"
     raise CalibrationError(

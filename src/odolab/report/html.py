@@ -54,6 +54,10 @@ def _jsonable(obj: Any) -> Any:
 def _fmt(v: Any, digits: int = 4) -> str:
     if v is None:
         return "-"
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(_fmt(x, digits) for x in v) + "]"
+    if isinstance(v, bool):
+        return str(v)
     if isinstance(v, float):
         if v == 0 or 1e-3 <= abs(v) < 1e5:
             return f"{v:.{digits}g}"
@@ -256,17 +260,31 @@ def write_report(
         )
     if analysis.params is not None:
         news = {n: c.params for n, c in calibrations.items()}
+        used = [
+            c.provenance.get("terrain")
+            for c in calibrations.values()
+            if isinstance(c, CalibrationResult)
+        ]
+        both = [
+            t for t in analysis.terrains if analysis.get("rotation", t) and analysis.get("x", t)
+        ]
+        cal_terrain = next((t for t in used if t), both[0] if both else None)
         if news:
             for motion in ("rotation", "x"):
-                if analysis.get(motion) is not None:
+                if analysis.get(motion, cal_terrain) is not None:
                     items.append(
                         (
                             f"calibration_{motion}",
-                            f"Old vs new parameters: {motion}",
+                            f"Old vs new parameters: {motion} ({cal_terrain})",
                             "Predictions of the same trials re-scaled with each new "
                             "parameter set (both wheels alike).",
                             partial(
-                                F.plot_calibration_effect, analysis, analysis.params, news, motion
+                                F.plot_calibration_effect,
+                                analysis,
+                                analysis.params,
+                                news,
+                                motion,
+                                terrain=cal_terrain,
                             ),
                         )
                     )
