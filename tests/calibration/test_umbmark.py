@@ -182,3 +182,53 @@ def test_cli_umbmark_from_csv(tmp_path: Path, capsys: pytest.CaptureFixture[str]
         == 1
     )
     assert "line 2" in capsys.readouterr().err
+
+
+def _square_trials(true: RobotParams, rng: np.random.Generator) -> list:
+    from odolab.trajectory import Pose
+    from odolab.trials import Command, EncoderLog, Measurement, MotionKind, Trial, TrialStatus
+
+    trials = []
+    for direction in ("cw", "ccw"):
+        for k in range(5):
+            dl, dr = _square_dticks(NOM, 2.0, direction, rng)
+            t = np.arange(dl.size) * 0.05
+            left = np.round(np.cumsum(dl)).astype(np.int64)
+            right = np.round(np.cumsum(dr)).astype(np.int64)
+            odo = integrate_increments(t, np.diff(left, prepend=0), np.diff(right, prepend=0), NOM)
+            real = integrate_increments(
+                t, np.diff(left, prepend=0), np.diff(right, prepend=0), true
+            )
+            end, tru = odo.final, real.final
+            trials.append(
+                Trial(
+                    trial_id=f"sq-{direction}-{k}",
+                    campaign="umbmark",
+                    terrain="tile",
+                    command=Command(MotionKind.SQUARE, side=2.0, direction=direction),
+                    predicted=Pose(end.t, end.x, end.y, end.theta, end.heading),
+                    params=NOM,
+                    measured=Measurement("tape", x=tru.x, y=tru.y, sigma_xy=0.002),
+                    encoder_log=EncoderLog(t, left, right),
+                    status=TrialStatus.MEASURED,
+                )
+            )
+    return trials
+
+
+def test_umbmark_from_square_trials_and_rerun_of_their_logs() -> None:
+    from odolab.calibration import umbmark_errors_from_trials
+
+    true = NOM.with_(
+        left_wheel_radius=0.0835 * 0.997, right_wheel_radius=0.0835 * 1.003, track_width=0.57
+    )
+    trials = _square_trials(true, np.random.default_rng(1))
+    cw, ccw, side = umbmark_errors_from_trials(trials)
+    assert side == 2.0 and cw.shape == (5, 2) and ccw.shape == (5, 2)
+    res = umbmark(cw, ccw, side, NOM)
+    res = res.with_after(*umbmark_errors_from_trials(trials, res.params)[:2])
+    assert res.e_max_syst_after is not None
+    assert res.e_max_syst_after <= res.e_max_syst / 5
+    assert res.calibration.provenance["e_max_syst_after"] == pytest.approx(res.e_max_syst_after)
+    with pytest.raises(CalibrationError, match="both directions"):
+        umbmark_errors_from_trials([t for t in trials if t.command.direction == "cw"])

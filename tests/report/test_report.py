@@ -24,7 +24,9 @@ def report(tmp_path_factory: pytest.TempPathFactory, analysis: LabAnalysis) -> P
     out = tmp_path_factory.mktemp("report")
     cals = {
         "ratios": ratios_from_analysis(analysis),
-        "umbmark": umbmark([[-0.11, -0.12], [-0.1, -0.1]], [[-0.05, 0.05]], 4.0, analysis.params),
+        "umbmark": umbmark(
+            [[-0.11, -0.12], [-0.1, -0.1]], [[-0.05, 0.05]], 4.0, analysis.params
+        ).with_after([[0.01, 0.0], [-0.01, 0.0]], [[0.0, 0.005]]),
     }
 
     def imu(ax):
@@ -49,6 +51,7 @@ def test_files_and_results_json(report: Path) -> None:
             assert "sigma_at" in row
     assert {r["motion"] for r in res["table1"]} >= {"rotation", "x", "y_forward", "y_reverse"}
     assert set(res["calibration"]) == {"ratios", "umbmark"}
+    assert res["calibration"]["umbmark"]["e_max_syst_after"] == pytest.approx(0.005)
     assert "track_width" in res["calibration"]["ratios"]["params"]
     for rel in res["figures"].values():
         png = report.parent / rel

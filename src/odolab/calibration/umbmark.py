@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -84,6 +84,21 @@ class UmbmarkResult:
     calibration: CalibrationResult
     cw_errors: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
     ccw_errors: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
+    #: return errors of the same runs re-integrated with the corrected parameters, if known
+    after: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+
+    @property
+    def e_max_syst_after(self) -> float | None:
+        """E_max,syst of the runs re-integrated with the corrected parameters (None: unknown)."""
+        return None if self.after is None else e_max_syst(*self.after)
+
+    def with_after(self, cw_errors: ArrayLike, ccw_errors: ArrayLike) -> UmbmarkResult:
+        """A copy that knows the return errors after correction (same runs, new parameters)."""
+        after = (_errors("cw_errors", cw_errors), _errors("ccw_errors", ccw_errors))
+        prov = dict(self.calibration.provenance)
+        prov["e_max_syst_after"] = e_max_syst(*after)
+        cal = CalibrationResult("umbmark", self.params, self.calibration.old_params, prov)
+        return replace(self, after=after, calibration=cal)
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -104,6 +119,9 @@ class UmbmarkResult:
             "n_ccw": self.n_ccw,
             "cw_errors": self.cw_errors.tolist(),
             "ccw_errors": self.ccw_errors.tolist(),
+            "e_max_syst_after": self.e_max_syst_after,
+            "cw_errors_after": None if self.after is None else self.after[0].tolist(),
+            "ccw_errors_after": None if self.after is None else self.after[1].tolist(),
             "provenance": dict(self.calibration.provenance),
         }
 
@@ -192,10 +210,31 @@ def umbmark(
     )
 
 
+def _predicted_xy(tr: Trial, params: RobotParams | None) -> tuple[float, float]:
+    if params is None:
+        return tr.predicted.x, tr.predicted.y
+    log = tr.encoder_log
+    if log is None:
+        raise CalibrationError(
+            f"trial {tr.trial_id}: re-predicting with new parameters needs its encoder log"
+        )
+    from odolab.odometry import integrate
+
+    modulus = log.modulus if log.modulus is not None else params.encoder_modulus
+    end = integrate(
+        log.t, log.left_ticks, log.right_ticks, params.with_(encoder_modulus=modulus)
+    ).final
+    return end.x, end.y
+
+
 def umbmark_errors_from_trials(
-    trials: Sequence[Trial],
+    trials: Sequence[Trial], params: RobotParams | None = None
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
-    """(cw_errors, ccw_errors, side) from measured square trials (measured - predicted)."""
+    """(cw_errors, ccw_errors, side) from measured square trials (measured - predicted).
+
+    With ``params``, each trial's encoder log is re-integrated with them and the errors are
+    measured minus that new prediction (the check after a calibration).
+    """
     cw: list[tuple[float, float]] = []
     ccw: list[tuple[float, float]] = []
     sides: set[float] = set()
@@ -205,7 +244,8 @@ def umbmark_errors_from_trials(
         m = tr.measured
         if m is None or m.x is None or m.y is None:
             continue
-        err = (m.x - tr.predicted.x, m.y - tr.predicted.y)
+        px, py = _predicted_xy(tr, params)
+        err = (m.x - px, m.y - py)
         direction = (tr.command.direction or "").lower()
         if direction == "cw":
             cw.append(err)

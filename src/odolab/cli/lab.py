@@ -133,7 +133,11 @@ def report_cmd(
     if analysis.square_trials and base is not None:
         try:
             cw, ccw, side = umbmark_errors_from_trials(analysis.square_trials)
-            calibrations["umbmark"] = umbmark(cw, ccw, side, base)
+            umb = umbmark(cw, ccw, side, base)
+            if all(t.encoder_log is not None for t in analysis.square_trials):
+                cw2, ccw2, _ = umbmark_errors_from_trials(analysis.square_trials, umb.params)
+                umb = umb.with_after(cw2, ccw2)
+            calibrations["umbmark"] = umb
         except CalibrationError as err:
             con.print(f"[yellow]no UMBmark calibration:[/] {err}")
     path = write_report(out, analysis, calibrations)

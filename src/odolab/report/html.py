@@ -295,8 +295,13 @@ def write_report(
                     f"umbmark_{name}",
                     f"UMBmark ({name})",
                     f"Return-position errors and centres of gravity; E_max,syst = "
-                    f"{c.e_max_syst:.4g} m.",
-                    partial(F.plot_umbmark, c.cw_errors, c.ccw_errors),
+                    f"{c.e_max_syst:.4g} m"
+                    + (
+                        f", after correction {c.e_max_syst_after:.4g} m."
+                        if c.e_max_syst_after is not None
+                        else "."
+                    ),
+                    partial(F.plot_umbmark, c.cw_errors, c.ccw_errors, after=c.after),
                 )
             )
     if validation_figure is not None:
