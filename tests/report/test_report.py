@@ -174,3 +174,24 @@ def test_cli_without_a_notebook_module(tmp_path: Path, monkeypatch, capsys) -> N
     db.write_bytes(b"")
     assert main(["analyze", "--db", str(db)]) == 1
     assert "not available" in capsys.readouterr().err
+
+
+def test_report_from_square_runs_only(tmp_path: Path) -> None:
+    """A notebook with only UMBmark squares: no fits, but the UMBmark section and figure."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).parents[1] / "calibration"))
+    from test_umbmark import NOM, _square_trials
+
+    from odolab.analysis import analyze_trials
+    from odolab.calibration import umbmark_errors_from_trials
+
+    trials = _square_trials(NOM.with_(track_width=0.57), np.random.default_rng(0))
+    analysis = analyze_trials(trials)
+    assert table1(analysis) == []
+    cw, ccw, side = umbmark_errors_from_trials(analysis.square_trials)
+    path = write_report(tmp_path, analysis, {"umbmark": umbmark(cw, ccw, side, NOM)})
+    res = json.loads((tmp_path / "results.json").read_text())
+    assert list(res["figures"]) == ["umbmark_umbmark"]
+    assert res["calibration"]["umbmark"]["e_b"] > 1.0
+    assert "UMBmark" in path.read_text()
