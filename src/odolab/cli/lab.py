@@ -94,6 +94,15 @@ def analyze_cmd(
     for m in analysis.motions:
         if m.growth is not None:
             con.print(f"growth of sigma, {m.motion} on {m.terrain}: {m.growth.verdict()}")
+    for kind, w in analysis.noise_by_kind.items():
+        con.print(
+            f"wheel noise from {kind} trials: k_r = {w.k_right:.3g} m "
+            f"[{w.k_right_ci95[0]:.3g}, {w.k_right_ci95[1]:.3g}], k_l = {w.k_left:.3g} m "
+            f"[{w.k_left_ci95[0]:.3g}, {w.k_left_ci95[1]:.3g}]"
+            + ("" if w.identifiable else " (only k_r + k_l is identifiable)")
+        )
+    if analysis.noise_note:
+        con.print(f"[yellow]note:[/] {analysis.noise_note}")
     for o in analysis.outliers:
         con.print(f"[yellow]outlier[/] {o.trial_id}: {o.reason}")
     for s in analysis.skipped:
