@@ -1,1 +1,25 @@
-"""odolab.calibration (filled in by its issue)."""
+"""Correct the kinematic model: ratios (the lab's section VIII, done right) and UMBmark.
+
+Each method returns a :class:`CalibrationResult` (new :class:`~odolab.params.RobotParams` plus a
+provenance dict) that ``save()`` writes as TOML with a ``[provenance]`` table.
+"""
+
+from __future__ import annotations
+
+from odolab.calibration.ratios import CalibrationResult, ratios, ratios_from_analysis
+from odolab.calibration.umbmark import (
+    UmbmarkResult,
+    e_max_syst,
+    umbmark,
+    umbmark_errors_from_trials,
+)
+
+__all__ = [
+    "CalibrationResult",
+    "UmbmarkResult",
+    "e_max_syst",
+    "ratios",
+    "ratios_from_analysis",
+    "umbmark",
+    "umbmark_errors_from_trials",
+]

@@ -1,13 +1,14 @@
-"""CLI commands: the lab's end-to-end job (``odolab demo``) and its steps."""
+"""CLI commands: the lab's end-to-end job (``odolab demo``) and its steps: ``analyze``,
+``report``, ``calibrate ratios``, ``calibrate umbmark``."""
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
-from odolab.cli._apps import app
+from odolab.cli._apps import app, calibrate_app
 
 __all__: list[str] = []
 
@@ -46,3 +47,220 @@ def demo_cmd(
         f"square of 1 m by odometry: closes at x={end.x:+.4f} m y={end.y:+.4f} m, "
         f"heading {end.heading:.4f} rad (2 pi = {2 * math.pi:.4f}); trajectory in {path}"
     )
+
+
+def _load_trials(db: Path) -> list[Any]:
+    """Trials from the lab notebook at ``db`` (lazy import: the store is optional here)."""
+    import importlib
+
+    from odolab.errors import OdolabError
+
+    if not db.exists():
+        raise OdolabError(f"{db}: no such lab notebook")
+    store = importlib.import_module("odolab.store")
+    notebook = getattr(store, "Notebook", None)
+    if notebook is None:
+        raise OdolabError(
+            f"{db}: the lab notebook (odolab.store.Notebook) is not available in this build"
+        )
+    return list(notebook(db).load_trials())
+
+
+def _console() -> Any:
+    from rich.console import Console
+
+    return Console()
+
+
+@app.command("analyze")
+def analyze_cmd(
+    db: Annotated[Path, typer.Option("--db", help="Lab notebook (SQLite) with the trials.")],
+    json_out: Annotated[
+        Path | None, typer.Option("--json", help="Also write the whole analysis as JSON here.")
+    ] = None,
+) -> None:
+    """Fit systematic and random error of every motion and terrain; print Table I."""
+    import json
+
+    from odolab.analysis import analyze_trials, table1
+    from odolab.report import table1_rich
+
+    trials = _load_trials(db)
+    analysis = analyze_trials(trials)
+    con = _console()
+    con.print(table1_rich(table1(analysis)))
+    for t in analysis.terrain_tests:
+        con.print(t.verdict())
+    for m in analysis.motions:
+        if m.growth is not None:
+            con.print(f"growth of sigma, {m.motion} on {m.terrain}: {m.growth.verdict()}")
+    for kind, w in analysis.noise_by_kind.items():
+        con.print(
+            f"wheel noise from {kind} trials: k_r = {w.k_right:.3g} m "
+            f"[{w.k_right_ci95[0]:.3g}, {w.k_right_ci95[1]:.3g}], k_l = {w.k_left:.3g} m "
+            f"[{w.k_left_ci95[0]:.3g}, {w.k_left_ci95[1]:.3g}]"
+            + ("" if w.identifiable else " (only k_r + k_l is identifiable)")
+        )
+    if analysis.noise_note:
+        con.print(f"[yellow]note:[/] {analysis.noise_note}")
+    for o in analysis.outliers:
+        con.print(f"[yellow]outlier[/] {o.trial_id}: {o.reason}")
+    for s in analysis.skipped:
+        con.print(f"[yellow]not enough data:[/] {s}")
+    if json_out is not None:
+        json_out.write_text(json.dumps(analysis.to_dict(), indent=2), encoding="utf-8")
+        con.print(f"analysis written to {json_out}")
+
+
+@app.command("report")
+def report_cmd(
+    db: Annotated[Path, typer.Option("--db", help="Lab notebook (SQLite) with the trials.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Folder for the report.")] = Path(
+        "odolab-report"
+    ),
+    params: Annotated[
+        str | None,
+        typer.Option("--params", "-p", help="Parameters to calibrate (default: the trials')."),
+    ] = None,
+) -> None:
+    """Write the lab report (HTML with figures, PNGs, results.json) and print Table I."""
+    from odolab.analysis import analyze_trials, table1
+    from odolab.calibration import ratios_from_analysis, umbmark, umbmark_errors_from_trials
+    from odolab.errors import CalibrationError
+    from odolab.params import load_params
+    from odolab.report import table1_rich, write_report
+
+    trials = _load_trials(db)
+    analysis = analyze_trials(trials)
+    base = load_params(params) if params else analysis.params
+    con = _console()
+    calibrations: dict[str, Any] = {}
+    try:
+        calibrations["ratios"] = ratios_from_analysis(analysis, base)
+    except CalibrationError as err:
+        con.print(f"[yellow]no ratios calibration:[/] {err}")
+    if analysis.square_trials and base is not None:
+        try:
+            cw, ccw, side = umbmark_errors_from_trials(analysis.square_trials)
+            umb = umbmark(cw, ccw, side, base)
+            if all(t.encoder_log is not None for t in analysis.square_trials):
+                cw2, ccw2, _ = umbmark_errors_from_trials(analysis.square_trials, umb.params)
+                umb = umb.with_after(cw2, ccw2)
+            calibrations["umbmark"] = umb
+        except CalibrationError as err:
+            con.print(f"[yellow]no UMBmark calibration:[/] {err}")
+    path = write_report(out, analysis, calibrations)
+    con.print(table1_rich(table1(analysis)))
+    for s in analysis.skipped:
+        con.print(f"[yellow]not enough data:[/] {s}")
+    con.print(f"report: {path}  (figures and results.json beside it)")
+
+
+@calibrate_app.command("ratios")
+def calibrate_ratios_cmd(
+    params: Annotated[str, typer.Option("--params", "-p", help="Parameters TOML or preset.")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")],
+    distance_ratio: Annotated[
+        float | None, typer.Option(help="actual/predicted distance (x fit slope).")
+    ] = None,
+    rotation_ratio: Annotated[
+        float | None, typer.Option(help="actual/predicted rotation (rotation fit slope).")
+    ] = None,
+    db: Annotated[
+        Path | None, typer.Option("--db", help="Take the ratios from this notebook's fits.")
+    ] = None,
+    terrain: Annotated[str | None, typer.Option(help="Terrain whose fits to use.")] = None,
+) -> None:
+    """New wheel radius = old x distance ratio; new track = old x distance/rotation ratio."""
+    from odolab.calibration import ratios, ratios_from_analysis
+    from odolab.errors import OdolabError
+    from odolab.params import load_params
+
+    base = load_params(params)
+    if distance_ratio is not None and rotation_ratio is not None:
+        result = ratios(base, distance_ratio, rotation_ratio)
+    elif distance_ratio is None and rotation_ratio is None:
+        if db is None:
+            raise OdolabError(
+                "calibrate ratios needs --distance-ratio and --rotation-ratio, or --db NOTEBOOK "
+                "to take them from the fits"
+            )
+        from odolab.analysis import analyze_trials
+
+        result = ratios_from_analysis(analyze_trials(_load_trials(db)), base, terrain=terrain)
+    else:
+        raise OdolabError("give both --distance-ratio and --rotation-ratio, or neither")
+    path = result.save(output)
+    p = result.params
+    typer.echo(
+        f"ratios: distance {result.provenance['distance_ratio']:.4g}, rotation "
+        f"{result.provenance['rotation_ratio']:.4g} -> wheel radius {p.left_wheel_radius:.5g} m, "
+        f"track width {p.track_width:.5g} m; written to {path}"
+    )
+
+
+@calibrate_app.command("umbmark")
+def calibrate_umbmark_cmd(
+    params: Annotated[str, typer.Option("--params", "-p", help="Parameters TOML or preset.")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")],
+    errors: Annotated[
+        Path | None,
+        typer.Option(help="CSV with header direction,x,y: return errors (measured - odometry)."),
+    ] = None,
+    side: Annotated[float | None, typer.Option(help="Square side (m), with --errors.")] = None,
+    db: Annotated[Path | None, typer.Option("--db", help="Use this notebook's squares.")] = None,
+) -> None:
+    """UMBmark (Borenstein & Feng): E_d, E_b, corrected radii and track, E_max,syst."""
+    from odolab.calibration import umbmark, umbmark_errors_from_trials
+    from odolab.errors import OdolabError
+    from odolab.params import load_params
+
+    base = load_params(params)
+    if errors is not None:
+        if side is None:
+            raise OdolabError("--errors needs --side (the square's side in m)")
+        cw, ccw = _read_umbmark_csv(errors)
+        result = umbmark(cw, ccw, side, base)
+    elif db is not None:
+        cw_a, ccw_a, sq_side = umbmark_errors_from_trials(_load_trials(db))
+        result = umbmark(cw_a, ccw_a, side or sq_side, base)
+    else:
+        raise OdolabError("calibrate umbmark needs --errors CSV --side L, or --db NOTEBOOK")
+    path = result.calibration.save(output)
+    p = result.params
+    typer.echo(
+        f"UMBmark: E_d = {result.e_d:.5f}, E_b = {result.e_b:.5f}, E_max,syst = "
+        f"{result.e_max_syst:.4g} m -> left/right radius {p.left_wheel_radius:.5g}/"
+        f"{p.right_wheel_radius:.5g} m, track width {p.track_width:.5g} m; written to {path}"
+    )
+
+
+def _read_umbmark_csv(path: Path) -> tuple[list[tuple[float, float]], list[tuple[float, float]]]:
+    import csv
+
+    from odolab.errors import OdolabError
+
+    cw: list[tuple[float, float]] = []
+    ccw: list[tuple[float, float]] = []
+    try:
+        with path.open(newline="", encoding="utf-8") as fh:
+            reader = csv.DictReader(fh)
+            if reader.fieldnames is None or not {"direction", "x", "y"} <= set(reader.fieldnames):
+                raise OdolabError(f"{path}: expected a header with direction,x,y")
+            for line, row in enumerate(reader, start=2):
+                d = (row["direction"] or "").strip().lower()
+                try:
+                    xy = (float(row["x"]), float(row["y"]))
+                except (TypeError, ValueError) as err:
+                    raise OdolabError(f"{path}, line {line}: x and y must be numbers (m)") from err
+                if d == "cw":
+                    cw.append(xy)
+                elif d == "ccw":
+                    ccw.append(xy)
+                else:
+                    raise OdolabError(
+                        f"{path}, line {line}: direction must be cw or ccw, got {d!r}"
+                    )
+    except OSError as err:
+        raise OdolabError(f"{path}: cannot read ({err})") from err
+    return cw, ccw

@@ -1,0 +1,261 @@
+"""Per-wheel noise constants ``k_r``, ``k_l`` of ``sigma**2 = k * |ds|``, by maximum likelihood.
+
+Model: each wheel's travelled distance carries a random error that grows like a random walk
+along the wheel's path, variance ``k * s`` after a path ``s`` (m**2 per m, so ``k`` is in m).
+With track width ``b``, linearised about the commanded motion, the random part of each
+trial's result (its residual from the systematic fit, actual side) is Gaussian, zero mean, with a
+covariance linear in ``(k_r, k_l)``:
+
+* in-place rotation by ``h`` (each wheel rolls ``s = |h| b / 2``):
+  ``var(rotation) = (k_r + k_l) |h| / (2 b)``;
+* pivot about a held track by ``h`` (the other rolls ``s = |h| b``):
+  ``var(rotation) = k_moving |h| / b``;
+* straight line of length ``d`` (sign ``sgn`` = +1 forward, -1 reverse), residuals (x, y):
+  ``var x = (k_r + k_l) d / 4``, ``var y = (k_r + k_l) d**3 / (3 b**2)``,
+  ``cov(x, y) = sgn (k_r - k_l) d**2 / (4 b)``.
+
+The instrument's variance (``sigma_rotation**2``, ``sigma_xy**2``) is added. The log-likelihood of
+all trials is maximised over ``log k_r, log k_l`` (scipy); 95% intervals are Wald intervals on the
+log scale from the numerical Hessian (statsmodels). Straight-line trials with both x and y
+measured, or pivots, separate the wheels; in-place rotations alone give only ``k_r + k_l`` (then
+``identifiable`` is False and ``k_r = k_l = (k_r + k_l) / 2``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from odolab.errors import InsufficientDataError
+
+__all__ = [
+    "NoiseRecord",
+    "WheelNoise",
+    "fit_wheel_noise",
+    "record_pivot",
+    "record_rotation",
+    "record_translation",
+]
+
+_Z95 = 1.959963984540054
+
+
+@dataclass(frozen=True, eq=False)
+class NoiseRecord:
+    """One trial's residual ``r`` (shape (m,)) with covariance ``k_r A_r + k_l A_l + M``."""
+
+    kind: str
+    r: NDArray[np.float64]
+    a_right: NDArray[np.float64]
+    a_left: NDArray[np.float64]
+    m: NDArray[np.float64]
+
+
+def record_rotation(
+    residual: float, heading: float, track_width: float, sigma: float = 0.0
+) -> NoiseRecord:
+    """In-place rotation by ``heading`` (rad); ``residual`` in rad."""
+    v = abs(heading) / (2.0 * track_width)
+    a = np.array([[v]])
+    return NoiseRecord("rotation", np.array([residual]), a, a.copy(), np.array([[sigma**2]]))
+
+
+def record_pivot(
+    residual: float, heading: float, track_width: float, moving: str, sigma: float = 0.0
+) -> NoiseRecord:
+    """Pivot by ``heading`` about the held track; ``moving`` is "right" or "left"."""
+    v = np.array([[abs(heading) / track_width]])
+    zero = np.zeros((1, 1))
+    a_r, a_l = (v, zero) if moving == "right" else (zero, v)
+    return NoiseRecord("pivot", np.array([residual]), a_r, a_l, np.array([[sigma**2]]))
+
+
+def record_translation(
+    distance: float,
+    track_width: float,
+    *,
+    residual_x: float | None,
+    residual_y: float | None,
+    sigma: float = 0.0,
+) -> NoiseRecord:
+    """Straight line of signed ``distance`` (m); residuals of actual x and actual y (m)."""
+    d = abs(distance)
+    sgn = 1.0 if distance >= 0 else -1.0
+    b = track_width
+    vx, vy, c = d / 4.0, d**3 / (3.0 * b**2), sgn * d**2 / (4.0 * b)
+    a_r = np.array([[vx, c], [c, vy]])
+    a_l = np.array([[vx, -c], [-c, vy]])
+    keep = [i for i, v in enumerate((residual_x, residual_y)) if v is not None]
+    if not keep:
+        raise InsufficientDataError("a translation noise record needs an x or a y residual")
+    r = np.array([(residual_x, residual_y)[i] for i in keep], dtype=np.float64)
+    idx = np.ix_(keep, keep)
+    return NoiseRecord("translation", r, a_r[idx], a_l[idx], np.eye(len(keep)) * sigma**2)
+
+
+class _Stack:
+    """Records stacked by residual dimension, for a vectorised log-likelihood."""
+
+    def __init__(self, records: list[NoiseRecord]) -> None:
+        self.parts: list[tuple[NDArray[np.float64], ...]] = []
+        for dim in sorted({rec.r.size for rec in records}):
+            sub = [rec for rec in records if rec.r.size == dim]
+            self.parts.append(
+                (
+                    np.stack([rec.r for rec in sub]),
+                    np.stack([rec.a_right for rec in sub]),
+                    np.stack([rec.a_left for rec in sub]),
+                    np.stack([rec.m for rec in sub]),
+                )
+            )
+
+    def loglik(self, k_r: float, k_l: float) -> float:
+        total = 0.0
+        for r, a_r, a_l, m in self.parts:
+            cov = k_r * a_r + k_l * a_l + m
+            sign, logdet = np.linalg.slogdet(cov)
+            if np.any(sign <= 0):
+                return -math.inf
+            sol = np.linalg.solve(cov, r[..., None])[..., 0]
+            quad = np.einsum("ij,ij->i", r, sol)
+            total += float(-0.5 * np.sum(r.shape[1] * math.log(2 * math.pi) + logdet + quad))
+        return total
+
+
+def _loglik(k_r: float, k_l: float, records: list[NoiseRecord]) -> float:
+    """Log-likelihood of ``records`` under ``(k_r, k_l)`` (sum of Gaussian log-densities)."""
+    return _Stack(records).loglik(k_r, k_l)
+
+
+@dataclass(frozen=True)
+class WheelNoise:
+    """ML estimates of ``k_r``, ``k_l`` (m) with 95% intervals, and per-motion sums."""
+
+    n_trials: int
+    k_right: float
+    k_left: float
+    k_right_ci95: tuple[float, float]
+    k_left_ci95: tuple[float, float]
+    k_sum: float
+    k_sum_ci95: tuple[float, float]
+    identifiable: bool
+    loglik: float
+    #: motion kind -> (k_r + k_l) fitted to that kind's trials alone
+    k_sum_by_kind: dict[str, float] = field(default_factory=dict)
+    #: p-value of the likelihood-ratio test "one k_r + k_l explains every kind of motion"
+    same_k_pvalue: float | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "n_trials": self.n_trials,
+            "k_right": self.k_right,
+            "k_left": self.k_left,
+            "k_right_ci95": list(self.k_right_ci95),
+            "k_left_ci95": list(self.k_left_ci95),
+            "k_sum": self.k_sum,
+            "k_sum_ci95": list(self.k_sum_ci95),
+            "identifiable": self.identifiable,
+            "loglik": self.loglik,
+            "k_sum_by_kind": dict(self.k_sum_by_kind),
+            "same_k_pvalue": self.same_k_pvalue,
+            "units": "m (variance m^2 per m of wheel travel)",
+        }
+
+
+def _fit_sum(records: list[NoiseRecord]) -> tuple[float, float, tuple[float, float]]:
+    """Fit one ``k = k_r + k_l`` (k_r = k_l = k/2); returns (k, loglik, ci95)."""
+    from scipy import optimize
+    from statsmodels.tools.numdiff import approx_hess3
+
+    stack = _Stack(records)
+
+    def nll(u: NDArray[np.float64]) -> float:
+        k = math.exp(float(u[0]))
+        v = -stack.loglik(k / 2, k / 2)
+        return v if math.isfinite(v) else 1e300
+
+    # starting value: moment estimate of k from the 1-D variances
+    ratios = [float(rec.r[0] ** 2 / (rec.a_right[0, 0] + rec.a_left[0, 0])) for rec in records]
+    k0 = max(float(np.mean(ratios)), 1e-12)
+    grid = np.log(k0) + np.linspace(-6, 6, 49)
+    u0 = grid[int(np.argmin([nll(np.array([g])) for g in grid]))]
+    res = optimize.minimize(nll, np.array([u0]), method="Nelder-Mead", options={"xatol": 1e-8})
+    u = float(res.x[0])
+    h = float(np.asarray(approx_hess3(np.array([u]), nll))[0, 0])
+    se = 1.0 / math.sqrt(h) if h > 0 else math.inf
+    return math.exp(u), -float(res.fun), (math.exp(u - _Z95 * se), math.exp(u + _Z95 * se))
+
+
+def fit_wheel_noise(records: list[NoiseRecord]) -> WheelNoise:
+    """Maximum-likelihood ``k_r``, ``k_l`` from residual records (see the module docstring)."""
+    from scipy import optimize, stats
+    from statsmodels.tools.numdiff import approx_hess3
+
+    if len(records) < 3:
+        raise InsufficientDataError(
+            f"the wheel noise constants need at least 3 measured trials, got {len(records)}"
+        )
+    k_sum, ll_sum, k_sum_ci = _fit_sum(records)
+
+    stack = _Stack(records)
+
+    def nll(u: NDArray[np.float64]) -> float:
+        v = -stack.loglik(math.exp(float(u[0])), math.exp(float(u[1])))
+        return v if math.isfinite(v) else 1e300
+
+    u0 = np.array([math.log(k_sum / 2)] * 2)
+    res = optimize.minimize(nll, u0, method="Nelder-Mead", options={"xatol": 1e-9, "fatol": 1e-12})
+    res = optimize.minimize(nll, res.x, method="Nelder-Mead", options={"xatol": 1e-9})
+    u = np.asarray(res.x, dtype=np.float64)
+    hess = np.asarray(approx_hess3(u, nll), dtype=np.float64)
+    eig = np.linalg.eigvalsh(hess)
+    identifiable = bool(eig.min() > 1e-6 * max(eig.max(), 1e-300) and eig.min() > 0)
+    by_kind: dict[str, float] = {}
+    same_p: float | None = None
+    kinds = sorted({rec.kind for rec in records})
+    if len(kinds) > 1:
+        ll_sep = 0.0
+        for kind in kinds:
+            sub = [rec for rec in records if rec.kind == kind]
+            k_kind, ll_kind, _ = _fit_sum(sub)
+            by_kind[kind] = k_kind
+            ll_sep += ll_kind
+        lr = max(0.0, 2.0 * (ll_sep - ll_sum))
+        same_p = float(stats.chi2.sf(lr, len(kinds) - 1))
+    else:
+        by_kind[kinds[0]] = k_sum
+    if not identifiable:
+        half = (k_sum_ci[0] / 2, k_sum_ci[1] / 2)
+        return WheelNoise(
+            n_trials=len(records),
+            k_right=k_sum / 2,
+            k_left=k_sum / 2,
+            k_right_ci95=half,
+            k_left_ci95=half,
+            k_sum=k_sum,
+            k_sum_ci95=k_sum_ci,
+            identifiable=False,
+            loglik=ll_sum,
+            k_sum_by_kind=by_kind,
+            same_k_pvalue=same_p,
+        )
+    cov = np.linalg.inv(hess)
+    se = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    k_r, k_l = math.exp(u[0]), math.exp(u[1])
+    return WheelNoise(
+        n_trials=len(records),
+        k_right=k_r,
+        k_left=k_l,
+        k_right_ci95=(math.exp(u[0] - _Z95 * se[0]), math.exp(u[0] + _Z95 * se[0])),
+        k_left_ci95=(math.exp(u[1] - _Z95 * se[1]), math.exp(u[1] + _Z95 * se[1])),
+        k_sum=k_sum,
+        k_sum_ci95=k_sum_ci,
+        identifiable=True,
+        loglik=-float(res.fun),
+        k_sum_by_kind=by_kind,
+        same_k_pvalue=same_p,
+    )

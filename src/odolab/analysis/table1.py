@@ -1,0 +1,68 @@
+"""Table I of the lab report, regenerated from the data with computed uncertainties.
+
+One row per motion and terrain. ``ratio`` is actual/predicted (slope of the fit) for rotation
+and x; for the y rows it is the y error (predicted - actual) per metre travelled, so a reverse
+run's slope against (negative) predicted x is negated. ``sigma`` is the sample standard deviation
+of the error over the trials repeated at ``sigma_at`` (m or rad; the farthest repeated distance
+or angle); ``sigmas`` lists every repeated distance.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from odolab.analysis.core import MOTIONS, LabAnalysis
+
+__all__ = ["table1"]
+
+
+def table1(analysis: LabAnalysis) -> list[dict[str, Any]]:
+    """Table I rows (JSON-able dicts), in report order."""
+    rows: list[dict[str, Any]] = []
+    for m in analysis.motions:
+        lo, hi = m.ratio_ci95
+        row: dict[str, Any] = {
+            "motion": m.motion,
+            "terrain": m.terrain,
+            "n": m.fit.n,
+            "ratio": m.ratio,
+            "ratio_ci95": [lo, hi],
+            "ratio_se": m.fit.slope_se,
+            "ratio_unit": MOTIONS[m.motion]["ratio_unit"],
+            "intercept": m.fit.intercept,
+            "intercept_ci95": list(m.fit.intercept_ci95),
+            "r2": m.fit.r2,
+            "residual_sd": m.random.sd,
+            "residual_sd_ci95": list(m.random.sd_ci95),
+            "unit": MOTIONS[m.motion]["unit"],
+        }
+        if m.motion in ("rotation", "pivot", "x"):
+            row["error_per_predicted"] = 1.0 - m.ratio
+            row["error_per_predicted_ci95"] = [1.0 - hi, 1.0 - lo]
+        else:
+            row["error_per_predicted"] = m.ratio
+            row["error_per_predicted_ci95"] = [lo, hi]
+        sig = sorted(m.groups, key=lambda g: g.at)
+        row["sigmas"] = [
+            {
+                "at": g.at,
+                "commanded": g.commanded,
+                "n": g.n,
+                "sigma": g.sd,
+                "sigma_ci95": list(g.sd_ci95),
+            }
+            for g in sig
+        ]
+        if sig:
+            g = sig[-1]
+            row["sigma"] = g.sd
+            row["sigma_ci95"] = list(g.sd_ci95)
+            row["sigma_at"] = g.at
+            row["sigma_n"] = g.n
+        if m.growth is not None:
+            row["growth_p"] = m.growth.p
+            row["growth_p_ci95"] = list(m.growth.p_ci95)
+        if m.outliers:
+            row["outliers"] = [o.trial_id for o in m.outliers]
+        rows.append(row)
+    return rows

@@ -1,0 +1,269 @@
+"""UMBmark (Borenstein & Feng, 1996): square runs clockwise and counter-clockwise.
+
+The robot drives a square of side ``L`` by odometry, ``n`` times each way, and the return
+position is measured. Errors are ``measured - odometry`` (x, y) in the start frame, x along the
+first leg, y to the left (a ccw square turns left). Two systematic errors dominate:
+
+* Type A, the track width: each 90 deg turn comes out short by ``alpha``
+  (``E_b = b_actual / b_nominal = (pi/2) / (pi/2 - alpha)``);
+* Type B, unequal wheel diameters: each straight leg curves by ``beta`` (left positive), a
+  circle of radius ``R = (L/2) / sin(beta/2)``, so ``E_d = D_R / D_L = (R + b/2) / (R - b/2)``.
+
+To first order the return errors' centres of gravity are ``x_cw = y_cw = -2L(alpha + beta)``
+and ``x_ccw = -y_ccw = 2L(beta - alpha)``, so, as in the paper,
+``alpha = (x_cw + x_ccw) / (-4L)``, ``beta = (x_cw - x_ccw) / (-4L)``, and from y
+``alpha = (y_cw - y_ccw) / (-4L)``, ``beta = (y_cw + y_ccw) / (-4L)``. Here both are used: alpha
+and beta are the least-squares solution of all four equations (the mean of the x and y
+estimates; each is also reported).
+
+Corrections: ``b_new = E_b b``; left and right radii multiplied by ``c_L = 2 / (E_d + 1)`` and
+``c_R = 2 / (1/E_d + 1)`` (their mean is kept). The benchmark is
+``E_max,syst = max(|cg_cw|, |cg_ccw|)``, the larger distance of the two centres of gravity from
+the origin.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from odolab.calibration.ratios import CalibrationResult, _now
+from odolab.errors import CalibrationError
+from odolab.params import RobotParams
+from odolab.trials import MotionKind, Trial, TrialStatus
+
+__all__ = ["UmbmarkResult", "e_max_syst", "umbmark", "umbmark_errors_from_trials"]
+
+
+def _errors(name: str, errors: ArrayLike) -> NDArray[np.float64]:
+    arr = np.asarray(errors, dtype=np.float64)
+    if arr.ndim == 1 and arr.size == 2:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != 2:
+        raise CalibrationError(
+            f"{name} must be an (n, 2) array of (x, y) return errors in m, got shape {arr.shape}"
+        )
+    if arr.shape[0] < 1:
+        raise CalibrationError(f"{name}: UMBmark needs at least one run in each direction, got 0")
+    if not np.all(np.isfinite(arr)):
+        raise CalibrationError(f"{name} contains NaN or infinite values")
+    return arr
+
+
+def e_max_syst(cw_errors: ArrayLike, ccw_errors: ArrayLike) -> float:
+    """UMBmark's measure of systematic odometry error (m): the larger |centre of gravity|."""
+    cw = _errors("cw_errors", cw_errors).mean(axis=0)
+    ccw = _errors("ccw_errors", ccw_errors).mean(axis=0)
+    return float(max(math.hypot(*cw), math.hypot(*ccw)))
+
+
+@dataclass(frozen=True, eq=False)
+class UmbmarkResult:
+    """UMBmark's errors, the corrected parameters and the benchmark figure."""
+
+    params: RobotParams
+    e_d: float
+    e_b: float
+    alpha: float
+    beta: float
+    alpha_from_x: float
+    alpha_from_y: float
+    beta_from_x: float
+    beta_from_y: float
+    cg_cw: tuple[float, float]
+    cg_ccw: tuple[float, float]
+    e_max_syst: float
+    side: float
+    n_cw: int
+    n_ccw: int
+    calibration: CalibrationResult
+    cw_errors: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
+    ccw_errors: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
+    #: return errors of the same runs re-integrated with the corrected parameters, if known
+    after: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+
+    @property
+    def e_max_syst_after(self) -> float | None:
+        """E_max,syst of the runs re-integrated with the corrected parameters (None: unknown)."""
+        return None if self.after is None else e_max_syst(*self.after)
+
+    def with_after(self, cw_errors: ArrayLike, ccw_errors: ArrayLike) -> UmbmarkResult:
+        """A copy that knows the return errors after correction (same runs, new parameters)."""
+        after = (_errors("cw_errors", cw_errors), _errors("ccw_errors", ccw_errors))
+        prov = dict(self.calibration.provenance)
+        prov["e_max_syst_after"] = e_max_syst(*after)
+        cal = CalibrationResult("umbmark", self.params, self.calibration.old_params, prov)
+        return replace(self, after=after, calibration=cal)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "params": self.params.to_dict(),
+            "e_d": self.e_d,
+            "e_b": self.e_b,
+            "alpha": self.alpha,
+            "beta": self.beta,
+            "alpha_from_x": self.alpha_from_x,
+            "alpha_from_y": self.alpha_from_y,
+            "beta_from_x": self.beta_from_x,
+            "beta_from_y": self.beta_from_y,
+            "cg_cw": list(self.cg_cw),
+            "cg_ccw": list(self.cg_ccw),
+            "e_max_syst": self.e_max_syst,
+            "side": self.side,
+            "n_cw": self.n_cw,
+            "n_ccw": self.n_ccw,
+            "cw_errors": self.cw_errors.tolist(),
+            "ccw_errors": self.ccw_errors.tolist(),
+            "e_max_syst_after": self.e_max_syst_after,
+            "cw_errors_after": None if self.after is None else self.after[0].tolist(),
+            "ccw_errors_after": None if self.after is None else self.after[1].tolist(),
+            "provenance": dict(self.calibration.provenance),
+        }
+
+
+def umbmark(
+    cw_errors: ArrayLike, ccw_errors: ArrayLike, side: float, params: RobotParams
+) -> UmbmarkResult:
+    """UMBmark from return errors (measured - odometry), each shape (n, 2), square ``side`` m."""
+    cw = _errors("cw_errors", cw_errors)
+    ccw = _errors("ccw_errors", ccw_errors)
+    L = float(side)
+    if not math.isfinite(L) or L <= 0:
+        raise CalibrationError(f"square side must be a positive length in m, got {side!r}")
+    xcw, ycw = (float(v) for v in cw.mean(axis=0))
+    xccw, yccw = (float(v) for v in ccw.mean(axis=0))
+    a_x = (xcw + xccw) / (-4 * L)
+    b_x = (xcw - xccw) / (-4 * L)
+    a_y = (ycw - yccw) / (-4 * L)
+    b_y = (ycw + yccw) / (-4 * L)
+    alpha, beta = 0.5 * (a_x + a_y), 0.5 * (b_x + b_y)
+    if abs(alpha) >= math.pi / 4 or abs(beta) >= math.pi / 4:
+        raise CalibrationError(
+            f"UMBmark errors are too large for its small-error model (alpha = {alpha:.3f} rad, "
+            f"beta = {beta:.3f} rad per 90 deg turn / leg); check the side ({L} m) and the sign "
+            "convention (measured - odometry, x along the first leg)"
+        )
+    b = params.track_width
+    e_b = (math.pi / 2) / (math.pi / 2 - alpha)
+    if abs(beta) < 1e-12:
+        e_d = 1.0
+    else:
+        radius = (L / 2) / math.sin(beta / 2)
+        e_d = (radius + b / 2) / (radius - b / 2)
+        if e_d <= 0:
+            raise CalibrationError(f"UMBmark gives a negative diameter ratio (beta = {beta:.3f})")
+    c_l = 2.0 / (e_d + 1.0)
+    c_r = 2.0 / (1.0 / e_d + 1.0)
+    new = params.with_(
+        left_wheel_radius=params.left_wheel_radius * c_l,
+        right_wheel_radius=params.right_wheel_radius * c_r,
+        track_width=b * e_b,
+        name=f"{params.name}-umbmark",
+    )
+    emax = e_max_syst(cw, ccw)
+    prov: dict[str, Any] = {
+        "method": "umbmark",
+        "created": _now(),
+        "reference": "Borenstein & Feng 1996, UMBmark",
+        "from_params": params.name,
+        "side": L,
+        "n_cw": int(cw.shape[0]),
+        "n_ccw": int(ccw.shape[0]),
+        "cg_cw": [xcw, ycw],
+        "cg_ccw": [xccw, yccw],
+        "alpha": alpha,
+        "beta": beta,
+        "e_b": e_b,
+        "e_d": e_d,
+        "e_max_syst_before": emax,
+        "convention": (
+            "errors = measured - odometry in the start frame (x along the first leg, y left); "
+            "track_width_new = E_b * track_width; left radius *= 2/(E_d+1); "
+            "right radius *= 2/(1/E_d+1)"
+        ),
+        "old": params.to_dict(),
+    }
+    return UmbmarkResult(
+        params=new,
+        e_d=e_d,
+        e_b=e_b,
+        alpha=alpha,
+        beta=beta,
+        alpha_from_x=a_x,
+        alpha_from_y=a_y,
+        beta_from_x=b_x,
+        beta_from_y=b_y,
+        cg_cw=(xcw, ycw),
+        cg_ccw=(xccw, yccw),
+        e_max_syst=emax,
+        side=L,
+        n_cw=int(cw.shape[0]),
+        n_ccw=int(ccw.shape[0]),
+        calibration=CalibrationResult("umbmark", new, params, prov),
+        cw_errors=cw,
+        ccw_errors=ccw,
+    )
+
+
+def _predicted_xy(tr: Trial, params: RobotParams | None) -> tuple[float, float]:
+    if params is None:
+        return tr.predicted.x, tr.predicted.y
+    log = tr.encoder_log
+    if log is None:
+        raise CalibrationError(
+            f"trial {tr.trial_id}: re-predicting with new parameters needs its encoder log"
+        )
+    from odolab.odometry import integrate
+
+    modulus = log.modulus if log.modulus is not None else params.encoder_modulus
+    end = integrate(
+        log.t, log.left_ticks, log.right_ticks, params.with_(encoder_modulus=modulus)
+    ).final
+    return end.x, end.y
+
+
+def umbmark_errors_from_trials(
+    trials: Sequence[Trial], params: RobotParams | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+    """(cw_errors, ccw_errors, side) from measured square trials (measured - predicted).
+
+    With ``params``, each trial's encoder log is re-integrated with them and the errors are
+    measured minus that new prediction (the check after a calibration).
+    """
+    cw: list[tuple[float, float]] = []
+    ccw: list[tuple[float, float]] = []
+    sides: set[float] = set()
+    for tr in trials:
+        if tr.command.kind is not MotionKind.SQUARE or tr.status is not TrialStatus.MEASURED:
+            continue
+        m = tr.measured
+        if m is None or m.x is None or m.y is None:
+            continue
+        px, py = _predicted_xy(tr, params)
+        err = (m.x - px, m.y - py)
+        direction = (tr.command.direction or "").lower()
+        if direction == "cw":
+            cw.append(err)
+        elif direction == "ccw":
+            ccw.append(err)
+        else:
+            raise CalibrationError(
+                f"trial {tr.trial_id}: a square needs direction 'cw' or 'ccw', got {direction!r}"
+            )
+        if tr.command.side is not None:
+            sides.add(round(float(tr.command.side), 6))
+    if not cw or not ccw:
+        raise CalibrationError(
+            "UMBmark needs measured square trials in both directions (at least 1 cw and 1 ccw; "
+            f"the method asks for 5 each), got {len(cw)} cw and {len(ccw)} ccw"
+        )
+    if len(sides) != 1:
+        raise CalibrationError(
+            f"UMBmark needs square trials of one side length, got {sorted(sides) or 'none'}"
+        )
+    return np.array(cw), np.array(ccw), sides.pop()

@@ -1,0 +1,384 @@
+"""The report's figures, answering the lab's Figs. 12-21.
+
+Each takes an optional ``ax`` and returns it.
+
+Nothing here changes matplotlib's global state; callers choose the backend.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from odolab.analysis.core import MOTIONS, LabAnalysis, MotionAnalysis
+from odolab.analysis.random import GroupSpread
+from odolab.params import RobotParams
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+
+__all__ = [
+    "plot_calibration_effect",
+    "plot_error_ellipses",
+    "plot_fit",
+    "plot_growth",
+    "plot_histogram",
+    "plot_residuals",
+    "plot_terrain_slopes",
+    "plot_terrains",
+    "plot_umbmark",
+]
+
+_CHI2_2DOF_95 = 5.991464547107979
+
+
+def _axes(ax: Axes | None) -> Axes:
+    if ax is not None:
+        return ax
+    import matplotlib.pyplot as plt
+
+    _, new = plt.subplots(figsize=(6.4, 4.4))
+    return new
+
+
+def _title(m: MotionAnalysis) -> str:
+    names = {
+        "rotation": "Rotation in place",
+        "pivot": "Pivot turn",
+        "x": "x translation",
+        "y_forward": "y drift, forward",
+        "y_reverse": "y drift, reverse",
+    }
+    return f"{names[m.motion]} ({m.terrain})"
+
+
+def plot_fit(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
+    """Data, least-squares line with its slope CI, ideal line, outliers (Figs. 12, 15-17)."""
+    ax = _axes(ax)
+    f = m.fit
+    lo_hi = np.array([min(0.0, float(f.x.min())), max(0.0, float(f.x.max()))])
+    ideal = lo_hi if m.motion in ("rotation", "pivot", "x") else np.zeros(2)
+    ideal_label = (
+        "ideal (actual = predicted)"
+        if m.motion in ("rotation", "pivot", "x")
+        else ("ideal (no error)")
+    )
+    ax.plot(lo_hi, ideal, color="tab:green", lw=1.2, label=ideal_label)
+    ax.scatter(f.x, f.y, s=18, color="tab:blue", label=f"trials (n = {f.n})", zorder=3)
+    lo, hi = f.slope_ci95
+    ax.plot(
+        lo_hi,
+        f.predict(lo_hi),
+        color="tab:red",
+        lw=1.5,
+        label=f"fit: slope {f.slope:.4f} [{lo:.4f}, {hi:.4f}], R² {f.r2:.3f}",
+    )
+    if m.outliers:
+        ax.scatter(
+            [o.predicted for o in m.outliers],
+            [o.actual for o in m.outliers],
+            marker="x",
+            s=50,
+            color="black",
+            label="outlier, left out",
+            zorder=4,
+        )
+    ax.set_xlabel(MOTIONS[m.motion]["x"])
+    ax.set_ylabel(MOTIONS[m.motion]["y"])
+    ax.set_title(_title(m))
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="best")
+    return ax
+
+
+def plot_residuals(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
+    """Residuals of the fit against the predicted value, with the fitted +-1.96 sigma(d) band."""
+    ax = _axes(ax)
+    f = m.fit
+    unit = MOTIONS[m.motion]["unit"]
+    ax.axhline(0.0, color="tab:red", lw=1)
+    ax.scatter(f.x, f.residuals, s=18, color="tab:blue", label="residual", zorder=3)
+    if m.growth is not None:
+        d = np.linspace(max(1e-6, float(np.abs(f.x).min()) * 0.8), float(np.abs(f.x).max()), 100)
+        band = 1.96 * m.growth.sigma_at(d)
+        signs = [s for s in (1.0, -1.0) if np.any(np.sign(f.x) == s)]
+        for i, sgn in enumerate(signs):
+            ax.fill_between(
+                sgn * d,
+                -band,
+                band,
+                color="tab:orange",
+                alpha=0.2,
+                label=f"±1.96 σ, σ = {m.growth.a:.3g}·d^{m.growth.p:.2f}" if i == 0 else None,
+            )
+    else:
+        s = m.random.sd
+        ax.axhspan(-1.96 * s, 1.96 * s, color="tab:orange", alpha=0.2, label="±1.96 σ")
+    ax.set_xlabel(MOTIONS[m.motion]["x"])
+    ax.set_ylabel(f"residual ({unit})")
+    ax.set_title(f"Residuals: {_title(m)}")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    return ax
+
+
+def plot_histogram(
+    group: GroupSpread, unit: str, ax: Axes | None = None, *, label: str = "error"
+) -> Axes:
+    """Histogram of the errors at one repeated distance/angle with the fitted Gaussian (Fig. 14)."""
+    from scipy import stats
+
+    ax = _axes(ax)
+    e = group.errors
+    bins = max(4, min(12, int(math.ceil(math.sqrt(e.size)) + 1)))
+    ax.hist(
+        e, bins=bins, density=True, color="tab:blue", alpha=0.6, label=f"{label} (n = {e.size})"
+    )
+    xs = np.linspace(e.min() - 2 * group.sd, e.max() + 2 * group.sd, 200)
+    ax.plot(
+        xs,
+        stats.norm.pdf(xs, group.mean_error, group.sd),
+        color="tab:red",
+        label=f"Gaussian: mean {group.mean_error:.3g}, σ {group.sd:.3g} {unit}",
+    )
+    lo, hi = group.interval95
+    ax.axvline(lo, color="gray", ls="--", lw=1, label=f"95%: [{lo:.3g}, {hi:.3g}]")
+    ax.axvline(hi, color="gray", ls="--", lw=1)
+    ax.set_xlabel(f"{label}, predicted - actual ({unit})")
+    ax.set_ylabel(f"probability density (1/{unit})")
+    pv = "" if group.normality is None else f", Shapiro p = {group.normality.pvalue:.2f}"
+    ax.set_title(f"Error at {group.at:.3g} {unit}{pv}")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    return ax
+
+
+def plot_growth(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
+    """sigma vs distance/angle (log-log): repeated groups with CIs, fitted a·d^p, p = .5, 1, 1.5."""
+    ax = _axes(ax)
+    unit = MOTIONS[m.motion]["unit"]
+    f = m.fit
+    ax.scatter(
+        np.abs(f.x), np.abs(f.residuals), s=10, color="lightgray", label="|residual| per trial"
+    )
+    if m.groups:
+        at = np.array([g.at for g in m.groups])
+        sd = np.array([g.sd for g in m.groups])
+        err = np.array([[g.sd - g.sd_ci95[0], g.sd_ci95[1] - g.sd] for g in m.groups]).T
+        ax.errorbar(at, sd, yerr=err, fmt="o", color="tab:blue", capsize=3, label="σ at repeats")
+    if m.growth is not None:
+        g = m.growth
+        d = np.geomspace(g.d_min, g.d_max, 50)
+        ax.plot(d, g.sigma_at(d), color="tab:red", label=g.verdict().split(":")[0])
+        ref_d = math.sqrt(g.d_min * g.d_max)
+        ref_s = float(g.sigma_at(ref_d)[()])
+        for p, ls in ((0.5, ":"), (1.0, "--"), (1.5, "-.")):
+            ax.plot(d, ref_s * (d / ref_d) ** p, color="gray", ls=ls, lw=1, label=f"p = {p:g}")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter
+
+    ticks = sorted({round(float(v), 3) for v in np.abs(f.x)})
+    if len(ticks) > 6:
+        ticks = [float(v) for v in np.geomspace(min(ticks), max(ticks), 5)]
+    ax.xaxis.set_major_locator(FixedLocator(ticks))
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:.3g}"))
+    ax.xaxis.set_minor_formatter(NullFormatter())
+    ax.set_xlabel(f"|predicted| ({unit})")
+    ax.set_ylabel(f"σ of the error ({unit})")
+    ax.set_title(f"Growth of σ: {_title(m)}")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7)
+    return ax
+
+
+def plot_terrains(analysis: LabAnalysis, motion: str = "x", ax: Axes | None = None) -> Axes:
+    """One motion's data and fits on every terrain, side by side in one axes (Fig. 20)."""
+    ax = _axes(ax)
+    ms = [m for m in analysis.motions if m.motion == motion]
+    xmax = max((float(np.abs(m.fit.x).max()) for m in ms), default=1.0)
+    xs = np.array([0.0, xmax]) if all(np.all(m.fit.x >= 0) for m in ms) else np.array([-xmax, xmax])
+    if motion in ("rotation", "pivot", "x"):
+        ax.plot(xs, xs, color="black", lw=1, ls=":", label="ideal")
+    colors = ["tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:brown"]
+    for i, m in enumerate(ms):
+        c = colors[i % len(colors)]
+        ax.scatter(m.fit.x, m.fit.y, s=14, color=c, alpha=0.8)
+        lo, hi = m.fit.slope_ci95
+        ax.plot(
+            xs,
+            m.fit.predict(xs),
+            color=c,
+            label=f"{m.terrain}: slope {m.fit.slope:.4f} [{lo:.4f}, {hi:.4f}]",
+        )
+    ax.set_xlabel(MOTIONS[motion]["x"])
+    ax.set_ylabel(MOTIONS[motion]["y"])
+    ax.set_title(f"{motion} on each terrain")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    return ax
+
+
+def plot_terrain_slopes(analysis: LabAnalysis, motion: str = "x", ax: Axes | None = None) -> Axes:
+    """Slope (actual/predicted) per terrain with 95% CIs: the terrain comparison at a glance."""
+    ax = _axes(ax)
+    ms = [m for m in analysis.motions if m.motion == motion]
+    y = np.arange(len(ms))
+    ratio = np.array([m.ratio for m in ms])
+    ci = np.array([m.ratio_ci95 for m in ms])
+    ax.errorbar(
+        ratio,
+        y,
+        xerr=np.abs(ci.T - ratio),
+        fmt="o",
+        capsize=4,
+        color="tab:blue",
+        label="slope, 95% CI",
+    )
+    ax.set_yticks(y, [m.terrain for m in ms])
+    test = next((t for t in analysis.terrain_tests if t.motion == motion), None)
+    if test is not None:
+        ax.set_title(
+            f"{motion}: F-test p = {test.pvalue:.3g}, partial η² = {test.partial_eta2:.2f}"
+        )
+    unit = MOTIONS[motion]["ratio_unit"]
+    ax.set_xlabel(f"ratio, actual/predicted ({unit})" if motion in ("x", "rotation") else unit)
+    ax.set_ylabel("terrain")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    return ax
+
+
+def plot_error_ellipses(analysis: LabAnalysis, terrain: str, ax: Axes | None = None) -> Axes:
+    """x and y errors (predicted - actual) per repeated distance, 95% ellipses (Figs. 18-19)."""
+    from matplotlib.patches import Ellipse
+
+    ax = _axes(ax)
+    xm = analysis.get("x", terrain)
+    ex: dict[str, tuple[float, float]] = {}
+    if xm is not None:
+        for tid, px, ax_, c in zip(xm.fit.trial_ids, xm.fit.x, xm.fit.y, xm.commanded, strict=True):
+            ex[tid] = (float(px - ax_), float(c))
+    colors = ["tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:red", "tab:brown"]
+    k = 0
+    for motion in ("y_forward", "y_reverse"):
+        ym = analysis.get(motion, terrain)
+        if ym is None:
+            continue
+        pts: dict[float, list[tuple[float, float]]] = {}
+        for tid, err_y in zip(ym.fit.trial_ids, ym.fit.y, strict=True):
+            if tid in ex:
+                e_x, c = ex[tid]
+                pts.setdefault(round(c, 3), []).append((e_x, float(err_y)))
+        for c, p in sorted(pts.items()):
+            arr = np.array(p)
+            color = colors[k % len(colors)]
+            k += 1
+            ax.scatter(arr[:, 0], arr[:, 1], s=16, color=color, label=f"{c:+g} m (n = {len(p)})")
+            if len(p) >= 3:
+                cov = np.cov(arr.T)
+                vals, vecs = np.linalg.eigh(cov)
+                angle = math.degrees(math.atan2(vecs[1, 1], vecs[0, 1]))
+                w, h = 2 * np.sqrt(np.maximum(vals[::-1], 0) * _CHI2_2DOF_95)
+                ax.add_patch(
+                    Ellipse(
+                        tuple(arr.mean(axis=0)), w, h, angle=angle, fill=False, color=color, lw=1.2
+                    )
+                )
+    ax.set_xlabel("x error, predicted - actual (m)")
+    ax.set_ylabel("y error, predicted - actual (m)")
+    ax.set_title(f"End-point errors and 95% ellipses ({terrain})")
+    ax.grid(alpha=0.3)
+    ax.axhline(0, color="gray", lw=0.8)
+    ax.axvline(0, color="gray", lw=0.8)
+    ax.legend(fontsize=8, title="commanded distance")
+    return ax
+
+
+def _scale_prediction(
+    motion: str, predicted: NDArray[np.float64], old: RobotParams, new: RobotParams
+) -> NDArray[np.float64]:
+    """Re-predict without logs: exact when both wheels scale alike (the ratios method)."""
+    r_old = 0.5 * (old.left_wheel_radius + old.right_wheel_radius)
+    r_new = 0.5 * (new.left_wheel_radius + new.right_wheel_radius)
+    if motion in ("rotation", "pivot"):
+        return predicted * (r_new / r_old) * (old.track_width / new.track_width)
+    return predicted * (r_new / r_old)
+
+
+def plot_calibration_effect(
+    analysis: LabAnalysis,
+    old: RobotParams,
+    new: Mapping[str, RobotParams],
+    motion: str,
+    ax: Axes | None = None,
+    *,
+    terrain: str | None = None,
+) -> Axes:
+    """Actual vs predicted with the old and each new parameter set (Fig. 21 without the IMU).
+
+    New predictions scale the old ones (both wheels alike), which is exact for ratio changes.
+    """
+    ax = _axes(ax)
+    m = analysis.get(motion, terrain)
+    if m is None:
+        return ax
+    f = m.fit
+    span = np.array([min(0.0, float(f.x.min())), max(0.0, float(f.x.max()))])
+    ax.plot(span, span, color="tab:green", lw=1.2, label="ideal")
+    ax.scatter(f.x, f.y, s=14, color="tab:red", label=f"old {old.name}: slope {f.slope:.3f}")
+    markers = ["o", "s", "^", "D"]
+    for i, (name, p) in enumerate(new.items()):
+        px = _scale_prediction(motion, f.x, old, p)
+        slope = float(np.polyfit(px, f.y, 1)[0])
+        ax.scatter(
+            px,
+            f.y,
+            s=14,
+            marker=markers[i % len(markers)],
+            facecolors="none",
+            edgecolors=f"C{i}",
+            label=f"new ({name}): slope {slope:.3f}",
+        )
+    ax.set_xlabel(MOTIONS[motion]["x"])
+    ax.set_ylabel(MOTIONS[motion]["y"])
+    ax.set_title(f"Old vs new parameters: {_title(m)}")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    return ax
+
+
+def plot_umbmark(
+    cw_errors: ArrayLike,
+    ccw_errors: ArrayLike,
+    ax: Axes | None = None,
+    *,
+    after: tuple[ArrayLike, ArrayLike] | None = None,
+) -> Axes:
+    """UMBmark return-position errors (measured - odometry) with centres of gravity."""
+    ax = _axes(ax)
+    sets: list[tuple[str, Any, Any, str]] = [
+        ("before", np.asarray(cw_errors), np.asarray(ccw_errors), "")
+    ]
+    if after is not None:
+        sets.append(("after", np.asarray(after[0]), np.asarray(after[1]), "none"))
+    for name, cw, ccw, face in sets:
+        for arr, color, d in ((cw, "tab:blue", "cw"), (ccw, "tab:red", "ccw")):
+            kw: dict[str, Any] = {"edgecolors": color}
+            kw["facecolors"] = "none" if face == "none" else color
+            ax.scatter(arr[:, 0], arr[:, 1], s=22, label=f"{d} {name}", **kw)
+            cg = arr.mean(axis=0)
+            ax.scatter([cg[0]], [cg[1]], marker="+", s=120, color=color, label=f"c.g. {d} {name}")
+    ax.axhline(0, color="gray", lw=0.8)
+    ax.axvline(0, color="gray", lw=0.8)
+    ax.set_xlabel("x error, measured - odometry (m)")
+    ax.set_ylabel("y error, measured - odometry (m)")
+    ax.set_title("UMBmark return-position errors")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    return ax

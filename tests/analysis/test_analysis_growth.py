@@ -1,0 +1,53 @@
+"""sigma = a * d**p by profile likelihood: against scipy densities, recovery, coverage."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from odolab.analysis import fit_growth
+from odolab.analysis.growth import profile_loglik
+from odolab.errors import InsufficientDataError
+
+
+def _sample(seed: int, p: float, n_per: int = 15) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    d = np.repeat([0.5, 1.1, 2.5, 5.0], n_per)
+    return d, rng.normal(0, 0.03 * d**p)
+
+
+def test_profile_loglik_is_the_gaussian_loglik_at_the_best_a() -> None:
+    d, r = _sample(0, 1.0)
+    p = 0.8
+    a = np.sqrt(np.mean(r**2 / d ** (2 * p)))
+    ref = np.sum(stats.norm.logpdf(r, 0, a * d**p))
+    assert profile_loglik(p, d, r) == pytest.approx(ref, rel=1e-12)
+
+
+def test_recovers_exponent_and_rejects_the_wrong_laws() -> None:
+    d, r = _sample(7, 1.5, n_per=200)
+    g = fit_growth(d, r)
+    assert g.p == pytest.approx(1.5, abs=0.08)
+    assert g.a == pytest.approx(0.03, rel=0.1)
+    assert g.compatible(1.5)
+    assert not g.compatible(0.5)
+    assert not g.compatible(1.0)
+    assert "compatible with p = 1.5" in g.verdict()
+
+
+def test_p_interval_covers_truth_about_95_percent() -> None:
+    n_seeds, hits = 300, 0
+    for seed in range(n_seeds):
+        d, r = _sample(seed, 1.0)
+        lo, hi = fit_growth(d, r).p_ci95
+        hits += lo <= 1.0 <= hi
+    # profile-likelihood interval, 60 residuals: close to nominal
+    assert 0.92 <= hits / n_seeds <= 0.98
+
+
+def test_needs_distances_apart() -> None:
+    with pytest.raises(InsufficientDataError, match="20% apart"):
+        fit_growth([2.5] * 6, [0.01, -0.02, 0.03, 0.0, 0.01, -0.01])
+    with pytest.raises(InsufficientDataError, match="at least 4"):
+        fit_growth([1.0, 2.0], [0.1, 0.2])

@@ -1,0 +1,55 @@
+"""Line fits against scipy, and the 95% interval's coverage over many seeds."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from odolab.analysis import MIN_FIT_POINTS, fit_line
+from odolab.errors import InsufficientDataError
+
+
+def test_fit_matches_scipy_linregress() -> None:
+    rng = np.random.default_rng(3)
+    x = np.linspace(1, 20, 15)
+    y = 0.875 * x + 0.3 + rng.normal(0, 0.5, x.size)
+    fit = fit_line(x, y, name="rotation")
+    ref = stats.linregress(x, y)
+    assert fit.slope == pytest.approx(ref.slope, rel=1e-12)
+    assert fit.intercept == pytest.approx(ref.intercept, rel=1e-12)
+    assert fit.slope_se == pytest.approx(ref.stderr, rel=1e-10)
+    assert fit.intercept_se == pytest.approx(ref.intercept_stderr, rel=1e-10)
+    assert fit.r2 == pytest.approx(ref.rvalue**2, rel=1e-12)
+    t = stats.t.ppf(0.975, x.size - 2)
+    assert fit.slope_ci95 == pytest.approx((ref.slope - t * ref.stderr, ref.slope + t * ref.stderr))
+    resid = y - (ref.intercept + ref.slope * x)
+    np.testing.assert_allclose(fit.residuals, resid, atol=1e-12)
+    assert fit.residual_sd == pytest.approx(np.sqrt(np.sum(resid**2) / (x.size - 2)))
+
+
+def test_slope_interval_covers_truth_95_percent_of_seeds() -> None:
+    truth, n_seeds, hits = 0.905, 400, 0
+    x = np.array([1.1] * 5 + [2.5] * 5 + [-1.1] * 5 + [-2.5] * 5)
+    for seed in range(n_seeds):
+        rng = np.random.default_rng(seed)
+        y = truth * x + rng.normal(0, 0.02, x.size)
+        lo, hi = fit_line(x, y).slope_ci95
+        hits += lo <= truth <= hi
+    # binomial(400, 0.95): sd 4.4 trials; 0.92..0.98 is about +-2.7 sd
+    assert 0.92 <= hits / n_seeds <= 0.98
+
+
+def test_too_few_trials_say_how_many_are_needed() -> None:
+    with pytest.raises(InsufficientDataError, match=f"at least {MIN_FIT_POINTS} measured trials"):
+        fit_line([1.0, 2.0], [0.9, 1.8], name="x (tile)")
+
+
+def test_constant_predicted_value_is_refused() -> None:
+    with pytest.raises(InsufficientDataError, match="two or more different"):
+        fit_line([2.5, 2.5, 2.5], [2.2, 2.3, 2.25])
+
+
+def test_nan_is_refused() -> None:
+    with pytest.raises(InsufficientDataError, match="NaN"):
+        fit_line([1.0, 2.0, np.nan], [1.0, 2.0, 3.0])
