@@ -11,6 +11,7 @@ import sys
 
 from odolab.cli import (  # noqa: F401  (register commands)
     core,
+    demo,
     evaluate,
     lab,
     robot,
