@@ -262,7 +262,7 @@ class ControlLoop:
                 reading = driver.latest
                 if fresh:
                     self.watchdog.feed(reading.t)
-                pose = odo.update(now, reading.left_ticks, reading.right_ticks)
+                pose = odo.update(now - t0, reading.left_ticks, reading.right_ticks)
                 log.append(pose, reading, fresh, now - deadline)
                 if k == 0 and motion is not None:
                     motion.start(pose, odo.params)
@@ -272,8 +272,8 @@ class ControlLoop:
                         lost_since = now
                         lost_events += 1
                         msg = f"link lost: no sensor data for {self.watchdog.timeout:g} s; stopping"
-                        events.append((now, msg))
-                        self.on_event(now, msg)
+                        events.append((now - t0, msg))
+                        self.on_event(now - t0, msg)
                     driver.stop()
                     if link_abort is not None and now - lost_since >= link_abort:
                         raise RobotLinkError(
@@ -284,8 +284,8 @@ class ControlLoop:
                 else:
                     if lost_since is not None:
                         lost_since = None
-                        events.append((now, "link back"))
-                        self.on_event(now, "link back")
+                        events.append((now - t0, "link back"))
+                        self.on_event(now - t0, "link back")
                     if phase == "moving":
                         assert motion is not None
                         step = motion.step(pose)
@@ -300,7 +300,7 @@ class ControlLoop:
                         driver.stop()
                     shown = phase
                 self.on_cycle(
-                    CycleInfo(k, now, pose, reading, fresh, lost_since is None, command, shown,
+                    CycleInfo(k, now - t0, pose, reading, fresh, lost_since is None, command, shown,
                               now - deadline)
                 )
                 k += 1
