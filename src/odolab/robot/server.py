@@ -164,6 +164,8 @@ class VirtualJaguar:
         self._rng = np.random.default_rng(seed)
         self._now: float | None = None
         self._next_report = math.inf
+        self._report_base = 0.0
+        self._report_n = 0
         self._next_ping = math.inf
         self._outbox: list[tuple[float, int, bytes, Address]] = []
         self._seq = 0
@@ -202,7 +204,9 @@ class VirtualJaguar:
                     self.stats.acks_received += 1
                     if self.peer != peer:
                         self.peer = peer
-                        self._next_report = self._now if self._now is not None else now
+                        self._report_base = self._now if self._now is not None else now
+                        self._report_n = 0
+                        self._next_report = self._report_base
                         interval = self.config.ping_interval
                         self._next_ping = now + interval if interval > 0 else math.inf
                 elif code == SystemCode.PING:
@@ -319,7 +323,8 @@ class VirtualJaguar:
             t = max(self._next_report, self._now)
             self._advance_to(t)
             self._queue(self._report(), self.peer, t)
-            self._next_report += period
+            self._report_n += 1  # absolute schedule: base + n * period, no summed drift
+            self._next_report = self._report_base + self._report_n * period
         self._advance_to(now)
         out: list[tuple[bytes, Address]] = []
         while self._outbox and self._outbox[0][0] <= now:
