@@ -1,0 +1,545 @@
+"""Physics of the virtual robot: a skid-steer robot whose true behaviour is not its nominal model.
+
+The motors turn each sprocket at the commanded rate, so the encoders count exactly what the
+nominal model asked for. The ground decides what the robot does with that: per physics step of
+``dt`` seconds, a wheel that turned by the nominal surface distance ``dn`` (m) moves its side of
+the robot by::
+
+    ds = dn * rho(side, direction) * (1 - speed_slip * |v|)  +  sqrt(k_side * |ds|) * N(0, 1)
+
+where ``rho = true effective radius / nominal radius`` for that side and direction of travel
+(times the terrain's ``radius_scale``), ``v`` the wheel surface speed and ``k_side`` the per-wheel
+slip constant (Chong & Kleeman; Siegwart et al.: variance ``k * |ds|``). The body then moves by
+the exact circular arc with::
+
+    ds_body = (ds_r + ds_l) / 2
+    dtheta  = (ds_r - ds_l) / track_width_true  +  sqrt(k_scrub * |dn_r - dn_l| / b_nom) * N(0, 1)
+
+The last term is turn scrub: when the tracks are driven differentially the track ends skid
+sideways, which adds heading noise per commanded radian of turning (zero on a straight run).
+At an abrupt stop each side slides on by ``stop_slide * v**2`` (no encoder counts). On a terrain
+that cannot turn in place, wheels commanded in opposite directions do not move at all (stall).
+
+A run also starts misaligned: the person who put the robot on the tape frame got its heading
+wrong by ``N(0, align_sigma)``; the true pose is reported in that tape frame.
+
+:class:`VirtualRobot` steps one robot in time (for the live control loop and the virtual Jaguar
+server). :func:`simulate_batch` runs many scripted trials at once (compiled loop over trials and
+steps, one random generator) with the very same step function.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields, replace
+from typing import Any
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from odolab.errors import SimError
+from odolab.params import RobotParams
+from odolab.sim.terrains import Terrain, get_terrain
+from odolab.trajectory import Pose
+
+__all__ = [
+    "BatchResult",
+    "TrueParams",
+    "VirtualRobot",
+    "kernel_params",
+    "simulate_batch",
+]
+
+# Layout of the per-trial parameter vector used by the compiled kernels.
+_RHO_LF, _RHO_LR, _RHO_RF, _RHO_RR = 0, 1, 2, 3
+_TRACK, _TRACK_NOM, _K_L, _K_R, _K_SCRUB = 4, 5, 6, 7, 8
+_SPEED_SLIP, _STOP_SLIDE, _CAN_TURN, _MPT_L, _MPT_R = 9, 10, 11, 12, 13
+_NPARAM = 14
+
+
+@dataclass(frozen=True)
+class TrueParams:
+    """The robot's true behaviour on the reference surface (indoor tile), SI units.
+
+    Radii are effective radii (the distance the robot's side moves per radian of sprocket
+    rotation), per side and per direction of travel. ``track_width`` is the effective track width
+    (skid-steer turning makes it wider than a ruler says). ``k_left``/``k_right`` (m): per-wheel
+    slip variance per metre rolled. ``k_scrub`` (rad): heading variance per commanded radian of
+    differential turning. ``align_sigma`` (rad): sigma of the start heading offset of each run.
+    ``speed_slip`` (s/m): fractional loss of effective radius per m/s of wheel speed.
+    ``stop_slide`` (s^2/m): extra slide of each side at an abrupt stop per (m/s)^2.
+    ``terrain_radius_scale``: pairs (terrain name, factor) multiplying every effective radius on
+    that terrain (how this robot's tracks bite into it); terrains not named use 1.
+    """
+
+    left_radius_forward: float
+    left_radius_reverse: float
+    right_radius_forward: float
+    right_radius_reverse: float
+    track_width: float
+    k_left: float = 0.0
+    k_right: float = 0.0
+    k_scrub: float = 0.0
+    align_sigma: float = 0.0
+    speed_slip: float = 0.0
+    stop_slide: float = 0.0
+    terrain_radius_scale: tuple[tuple[str, float], ...] = ()
+    name: str = "truth"
+
+    def __post_init__(self) -> None:
+        pairs = []
+        for item in self.terrain_radius_scale:
+            if (
+                not isinstance(item, tuple)
+                or len(item) != 2
+                or not isinstance(item[0], str)
+                or isinstance(item[1], bool)
+                or not isinstance(item[1], int | float)
+                or not math.isfinite(item[1])
+                or item[1] <= 0
+            ):
+                raise SimError(
+                    f"terrain_radius_scale entries must be (terrain name, factor > 0), got {item!r}"
+                )
+            pairs.append((item[0], float(item[1])))
+        object.__setattr__(self, "terrain_radius_scale", tuple(pairs))
+        for f in fields(self):
+            if f.name in ("name", "terrain_radius_scale"):
+                continue
+            value = getattr(self, f.name)
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise SimError(f"true parameter {f.name} must be a number, got {value!r}")
+            if not math.isfinite(value) or value < 0:
+                raise SimError(f"true parameter {f.name} must be finite and >= 0, got {value!r}")
+            object.__setattr__(self, f.name, float(value))
+        for key in (
+            "left_radius_forward",
+            "left_radius_reverse",
+            "right_radius_forward",
+            "right_radius_reverse",
+            "track_width",
+        ):
+            if getattr(self, key) <= 0:
+                raise SimError(f"true parameter {key} must be > 0")
+
+    @classmethod
+    def from_nominal(cls, nominal: RobotParams, **changes: Any) -> TrueParams:
+        """Truth equal to the nominal model (no noise), with optional changes."""
+        base = cls(
+            left_radius_forward=nominal.left_wheel_radius,
+            left_radius_reverse=nominal.left_wheel_radius,
+            right_radius_forward=nominal.right_wheel_radius,
+            right_radius_reverse=nominal.right_wheel_radius,
+            track_width=nominal.track_width,
+            name="ideal",
+        )
+        return replace(base, **changes)
+
+    def radius_scale_on(self, terrain: str) -> float:
+        """This robot's effective-radius factor on a terrain (1 where none is given)."""
+        return dict(self.terrain_radius_scale).get(terrain, 1.0)
+
+    def with_(self, **changes: Any) -> TrueParams:
+        """A copy with some fields changed (validated again)."""
+        return replace(self, **changes)
+
+    @property
+    def noiseless(self) -> TrueParams:
+        """The same systematic behaviour without any random term."""
+        return replace(self, k_left=0.0, k_right=0.0, k_scrub=0.0, align_sigma=0.0)
+
+
+def kernel_params(truth: TrueParams, nominal: RobotParams, terrain: Terrain) -> NDArray[np.float64]:
+    """The parameter vector of the compiled step, shape (14,), for one robot on one terrain."""
+    p = np.zeros(_NPARAM)
+    s = terrain.radius_scale * truth.radius_scale_on(terrain.name)
+    p[_RHO_LF] = truth.left_radius_forward / nominal.left_wheel_radius * s
+    p[_RHO_LR] = truth.left_radius_reverse / nominal.left_wheel_radius * s
+    p[_RHO_RF] = truth.right_radius_forward / nominal.right_wheel_radius * s
+    p[_RHO_RR] = truth.right_radius_reverse / nominal.right_wheel_radius * s
+    p[_TRACK] = truth.track_width
+    p[_TRACK_NOM] = nominal.track_width
+    p[_K_L] = truth.k_left * terrain.slip_scale
+    p[_K_R] = truth.k_right * terrain.slip_scale
+    p[_K_SCRUB] = truth.k_scrub * terrain.scrub_scale
+    p[_SPEED_SLIP] = truth.speed_slip
+    p[_STOP_SLIDE] = truth.stop_slide
+    p[_CAN_TURN] = 1.0 if terrain.can_turn_in_place else 0.0
+    p[_MPT_L] = nominal.left_metres_per_tick
+    p[_MPT_R] = nominal.right_metres_per_tick
+    return p
+
+
+# --------------------------------------------------------------------------- compiled physics
+
+
+@njit(cache=True, inline="always")
+def _arc(x, y, h, ds, dth):  # type: ignore[no-untyped-def]  # pragma: no cover - compiled
+    u = 0.5 * dth
+    c = ds * (1.0 - u * u / 6.0) if abs(u) < 1e-4 else ds * math.sin(u) / u
+    mid = h + u
+    return x + c * math.cos(mid), y + c * math.sin(mid), h + dth
+
+
+@njit(cache=True, inline="always")
+def _step(x, y, h, dnl, dnr, dt, p, zl, zr, zs):  # type: ignore[no-untyped-def]  # pragma: no cover
+    """One physics step: nominal wheel surface displacements dnl, dnr (m) -> new true pose."""
+    rl = p[0] if dnl >= 0.0 else p[1]
+    rr = p[2] if dnr >= 0.0 else p[3]
+    if p[9] != 0.0 and dt > 0.0:
+        rl *= max(0.0, 1.0 - p[9] * abs(dnl) / dt)
+        rr *= max(0.0, 1.0 - p[9] * abs(dnr) / dt)
+    dsl = dnl * rl
+    dsr = dnr * rr
+    if p[6] != 0.0:
+        dsl += math.sqrt(p[6] * abs(dsl)) * zl
+    if p[7] != 0.0:
+        dsr += math.sqrt(p[7] * abs(dsr)) * zr
+    dth = (dsr - dsl) / p[4]
+    if p[8] != 0.0:
+        dth += math.sqrt(p[8] * abs(dnr - dnl) / p[5]) * zs
+    return _arc(x, y, h, 0.5 * (dsl + dsr), dth)
+
+
+@njit(cache=True, inline="always")
+def _slide(x, y, h, vl, vr, p):  # type: ignore[no-untyped-def]  # pragma: no cover - compiled
+    """Abrupt stop from wheel speeds vl, vr (m/s): each side slides on by stop_slide * v^2."""
+    if p[10] == 0.0:
+        return x, y, h
+    dsl = math.copysign(p[10] * vl * vl, vl)
+    dsr = math.copysign(p[10] * vr * vr, vr)
+    return _arc(x, y, h, 0.5 * (dsl + dsr), (dsr - dsl) / p[4])
+
+
+@njit(cache=True)
+def _advance(state, p, vl, vr, dt, nsteps, rng):  # type: ignore[no-untyped-def]  # pragma: no cover
+    """Advance a single robot nsteps at dt with wheel speeds vl, vr (m/s).
+
+    state = [x, y, h, wheel_l_ticks, wheel_r_ticks]; returns True when stalled."""
+    stalled = p[11] == 0.0 and vl * vr < 0.0
+    if stalled:
+        return True
+    dnl = vl * dt
+    dnr = vr * dt
+    tl = dnl / p[12]
+    tr = dnr / p[13]
+    x = state[0]
+    y = state[1]
+    h = state[2]
+    for _ in range(nsteps):
+        zl = rng.standard_normal()
+        zr = rng.standard_normal()
+        zs = rng.standard_normal()
+        x, y, h = _step(x, y, h, dnl, dnr, dt, p, zl, zr, zs)
+        state[3] += tl
+        state[4] += tr
+    state[0] = x
+    state[1] = y
+    state[2] = h
+    return False
+
+
+@njit(cache=True)
+def _batch(  # type: ignore[no-untyped-def]  # pragma: no cover - compiled
+    P,
+    seg_l,
+    seg_r,
+    seg_vl,
+    seg_vr,
+    nseg,
+    h0,
+    spr,
+    dt,
+    stall_reports,
+    rng,
+    out_l,
+    out_r,
+    out_len,
+    out_pose,
+    out_stalled,
+):
+    """Scripted trials, one after the other, same step as :func:`_advance`.
+
+    Segment j of trial i turns the wheels by seg_l/seg_r ticks (integers, signed) at seg_vl/seg_vr
+    (m/s, signs as the ticks); the wheel stops exactly on its target count (the motor controller
+    stops by encoder). Every segment starts on a report instant; after its last wheel stops the
+    robot slides (abrupt stop) and stands still until the next report instant."""
+    n = P.shape[0]
+    for i in range(n):
+        p = P[i]
+        x = 0.0
+        y = 0.0
+        h = h0[i]
+        pl = 0.0
+        pr = 0.0
+        k = 0
+        out_l[i, 0] = 0
+        out_r[i, 0] = 0
+        phase = 0
+        stalled = False
+        for j in range(nseg[i]):
+            vl = seg_vl[i, j]
+            vr = seg_vr[i, j]
+            if p[11] == 0.0 and vl * vr < 0.0:
+                for _ in range(stall_reports):
+                    k += 1
+                    out_l[i, k] = math.floor(pl + 0.5)
+                    out_r[i, k] = math.floor(pr + 0.5)
+                stalled = True
+                break
+            target_l = pl + seg_l[i, j]
+            target_r = pr + seg_r[i, j]
+            sl = vl * dt / p[12]
+            sr = vr * dt / p[13]
+            done_l = seg_l[i, j] == 0 or sl == 0.0
+            done_r = seg_r[i, j] == 0 or sr == 0.0
+            while not (done_l and done_r):
+                dl = 0.0
+                dr = 0.0
+                if not done_l:
+                    nl = pl + sl
+                    if (sl > 0.0 and nl >= target_l) or (sl < 0.0 and nl <= target_l):
+                        nl = target_l
+                        done_l = True
+                    dl = nl - pl
+                    pl = nl
+                if not done_r:
+                    nr = pr + sr
+                    if (sr > 0.0 and nr >= target_r) or (sr < 0.0 and nr <= target_r):
+                        nr = target_r
+                        done_r = True
+                    dr = nr - pr
+                    pr = nr
+                zl = rng.standard_normal()
+                zr = rng.standard_normal()
+                zs = rng.standard_normal()
+                x, y, h = _step(x, y, h, dl * p[12], dr * p[13], dt, p, zl, zr, zs)
+                phase += 1
+                if phase == spr:
+                    phase = 0
+                    k += 1
+                    out_l[i, k] = math.floor(pl + 0.5)
+                    out_r[i, k] = math.floor(pr + 0.5)
+            x, y, h = _slide(x, y, h, vl, vr, p)
+            if phase != 0:
+                phase = 0
+                k += 1
+                out_l[i, k] = math.floor(pl + 0.5)
+                out_r[i, k] = math.floor(pr + 0.5)
+        out_len[i] = k + 1
+        out_pose[i, 0] = x
+        out_pose[i, 1] = y
+        out_pose[i, 2] = h
+        out_stalled[i] = stalled
+
+
+# --------------------------------------------------------------------------- batch API
+
+
+@dataclass(frozen=True, eq=False)
+class BatchResult:
+    """What :func:`simulate_batch` returns for n trials.
+
+    ``ticks_left``/``ticks_right``: shape (n, m) int64, continuous wheel counts (not wrapped,
+    starting at 0) at the report instants ``k / report_rate``; only the first ``n_samples[i]``
+    entries of row i are valid. ``final_pose``: (n, 3) true x, y, heading in the tape frame.
+    ``start_heading``: (n,) the start misalignment. ``stalled``: (n,) bool.
+    """
+
+    ticks_left: NDArray[np.int64]
+    ticks_right: NDArray[np.int64]
+    n_samples: NDArray[np.int64]
+    final_pose: NDArray[np.float64]
+    start_heading: NDArray[np.float64]
+    stalled: NDArray[np.bool_]
+    report_rate: float
+
+
+def simulate_batch(
+    params: NDArray[np.float64],
+    seg_ticks_left: NDArray[np.int64],
+    seg_ticks_right: NDArray[np.int64],
+    seg_speed_left: NDArray[np.float64],
+    seg_speed_right: NDArray[np.float64],
+    n_segments: NDArray[np.int64],
+    *,
+    align_sigma: NDArray[np.float64] | float = 0.0,
+    report_rate: float = 20.0,
+    dt: float = 0.01,
+    stall_time: float = 2.0,
+    rng: np.random.Generator,
+) -> BatchResult:
+    """Run n scripted trials at once (compiled; no Python loop per trial).
+
+    ``params``: (n, 14) from :func:`kernel_params`. ``seg_*``: (n, s) per-segment wheel tick
+    changes (signed integers) and wheel surface speeds (m/s, same signs); ``n_segments``: (n,).
+    ``dt`` must divide the report period. A trial whose wheels are told to turn in opposite
+    directions on a terrain that cannot turn in place stalls: its counters stand still for
+    ``stall_time`` seconds of reports, then it is abandoned.
+    """
+    P = np.ascontiguousarray(params, dtype=np.float64)
+    n = P.shape[0]
+    spr_f = 1.0 / (report_rate * dt)
+    spr = round(spr_f)
+    if spr < 1 or abs(spr - spr_f) > 1e-6:
+        raise SimError(
+            f"physics step dt={dt} s must divide the report period 1/{report_rate} s exactly"
+        )
+    seg_l = np.ascontiguousarray(seg_ticks_left, dtype=np.float64)
+    seg_r = np.ascontiguousarray(seg_ticks_right, dtype=np.float64)
+    vl = np.ascontiguousarray(seg_speed_left, dtype=np.float64)
+    vr = np.ascontiguousarray(seg_speed_right, dtype=np.float64)
+    nseg = np.ascontiguousarray(n_segments, dtype=np.int64)
+    if (np.sign(seg_l) * np.sign(vl) < 0).any() or (np.sign(seg_r) * np.sign(vr) < 0).any():
+        raise SimError("segment tick changes and wheel speeds must have the same signs")
+    moving = (seg_l != 0) & (vl == 0) | (seg_r != 0) & (vr == 0)
+    if moving.any():
+        raise SimError("a segment asks a wheel to turn at zero speed")
+    # upper bound of report samples per trial
+    mpt = np.stack([P[:, _MPT_L], P[:, _MPT_R]], axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        steps_l = np.where(vl != 0, np.abs(seg_l) * mpt[:, :1] / np.abs(vl) / dt, 0.0)
+        steps_r = np.where(vr != 0, np.abs(seg_r) * mpt[:, 1:] / np.abs(vr) / dt, 0.0)
+    steps = np.ceil(np.maximum(steps_l, steps_r)) + 2
+    cols = np.arange(seg_l.shape[1])[None, :] < nseg[:, None]
+    reports = np.where(cols, np.ceil(steps / spr) + 1, 0).sum(axis=1)
+    stall_reports = max(1, round(stall_time * report_rate))
+    m = int(reports.max(initial=0)) + stall_reports + 2
+    h0 = np.broadcast_to(np.asarray(align_sigma, dtype=np.float64), (n,)) * rng.standard_normal(n)
+    h0 = np.ascontiguousarray(h0)
+    out_l = np.zeros((n, m), dtype=np.int64)
+    out_r = np.zeros((n, m), dtype=np.int64)
+    out_len = np.zeros(n, dtype=np.int64)
+    out_pose = np.zeros((n, 3))
+    out_stalled = np.zeros(n, dtype=np.bool_)
+    _batch(
+        P, seg_l, seg_r, vl, vr, nseg, h0, spr, float(dt), stall_reports, rng,
+        out_l, out_r, out_len, out_pose, out_stalled,
+    )  # fmt: skip
+    return BatchResult(out_l, out_r, out_len, out_pose, h0, out_stalled, float(report_rate))
+
+
+# --------------------------------------------------------------------------- one robot in time
+
+
+class VirtualRobot:
+    """One virtual robot stepped in time, with the same physics as :func:`simulate_batch`.
+
+    ``set_wheel_speeds(left, right)`` commands wheel surface speeds (m/s, as the nominal model
+    understands them); ``advance(duration)`` integrates at ``dt``; ``encoder_counts()`` returns the
+    raw counters (wrapped at ``nominal.encoder_modulus``); ``true_pose`` is the true pose in the
+    tape frame (heading unwrapped). ``reset`` puts the robot at ``start`` with the start
+    misalignment drawn from ``truth.align_sigma`` (pass ``misalign=False`` to place it exactly).
+    """
+
+    def __init__(
+        self,
+        truth: TrueParams,
+        nominal: RobotParams,
+        terrain: str | Terrain = "tile",
+        *,
+        seed: int = 0,
+        dt: float = 0.001,
+    ) -> None:
+        if not (isinstance(dt, int | float) and math.isfinite(dt) and dt > 0):
+            raise SimError(f"physics step dt must be a positive number of seconds, got {dt!r}")
+        self.truth = truth
+        self.nominal = nominal
+        self.terrain = get_terrain(terrain)
+        self.dt = float(dt)
+        self._p = kernel_params(truth, nominal, self.terrain)
+        self._rng = np.random.default_rng(seed)
+        m = nominal.encoder_modulus
+        self._offset_l = int(self._rng.integers(0, m)) if m else 0
+        self._offset_r = int(self._rng.integers(0, m)) if m else 0
+        self._state = np.zeros(5)
+        self._vl = 0.0
+        self._vr = 0.0
+        self._time = 0.0
+        self._stalled = False
+        self.reset()
+
+    def reset(
+        self, start: tuple[float, float, float] = (0.0, 0.0, 0.0), *, misalign: bool = True
+    ) -> None:
+        """Stop, put the robot at ``start`` (x, y, heading) plus the start misalignment.
+
+        The time and the encoder counters keep running (a real robot's counters do)."""
+        x0, y0, h0 = (float(v) for v in start)
+        if not all(math.isfinite(v) for v in (x0, y0, h0)):
+            raise SimError(f"start pose must be finite numbers, got {start!r}")
+        if misalign and self.truth.align_sigma > 0:
+            h0 += self.truth.align_sigma * float(self._rng.standard_normal())
+        self._state[0:3] = (x0, y0, h0)
+        self._vl = 0.0
+        self._vr = 0.0
+        self._stalled = False
+
+    @property
+    def time(self) -> float:
+        """Simulated time (s)."""
+        return self._time
+
+    @property
+    def stalled(self) -> bool:
+        """True while the commanded wheel speeds cannot move the robot (turn in place outdoors)."""
+        return self._stalled
+
+    @property
+    def wheel_speeds(self) -> tuple[float, float]:
+        """The commanded (left, right) wheel surface speeds (m/s)."""
+        return self._vl, self._vr
+
+    def set_wheel_speeds(self, left: float, right: float) -> None:
+        """Command wheel surface speeds (m/s). Going to (0, 0) from motion is an abrupt stop."""
+        vl, vr = float(left), float(right)
+        if not (math.isfinite(vl) and math.isfinite(vr)):
+            raise SimError(f"wheel speeds must be finite, got {left!r}, {right!r}")
+        if vl == 0.0 and vr == 0.0 and (self._vl != 0.0 or self._vr != 0.0) and not self._stalled:
+            x, y, h = _slide(
+                self._state[0], self._state[1], self._state[2], self._vl, self._vr, self._p
+            )
+            self._state[0:3] = (x, y, h)
+        self._vl, self._vr = vl, vr
+        self._stalled = (not self.terrain.can_turn_in_place) and vl * vr < 0.0
+
+    def advance(self, duration: float) -> None:
+        """Integrate ``duration`` seconds at the fixed step (a shorter last step if needed)."""
+        d = float(duration)
+        if not math.isfinite(d) or d < 0:
+            raise SimError(f"advance duration must be a finite number >= 0, got {duration!r}")
+        n = math.floor(d / self.dt + 1e-9)
+        rest = d - n * self.dt
+        if n > 0:
+            self._stalled = bool(
+                _advance(self._state, self._p, self._vl, self._vr, self.dt, n, self._rng)
+            )
+        if rest > 1e-12 * self.dt:
+            self._stalled = bool(
+                _advance(self._state, self._p, self._vl, self._vr, rest, 1, self._rng)
+            )
+        self._time += d
+
+    def wheel_ticks(self) -> tuple[float, float]:
+        """Continuous (unwrapped, fractional) wheel positions in counts since construction."""
+        return float(self._state[3]), float(self._state[4])
+
+    def encoder_counts(self) -> tuple[int, int]:
+        """Raw counters (left, right), wrapped at the nominal encoder modulus."""
+        left = self._offset_l + math.floor(self._state[3] + 0.5)
+        right = self._offset_r + math.floor(self._state[4] + 0.5)
+        m = self.nominal.encoder_modulus
+        if m:
+            return left % m, right % m
+        return left, right
+
+    @property
+    def true_pose(self) -> Pose:
+        """The true pose now (tape frame; heading unwrapped)."""
+        x, y, h = (float(v) for v in self._state[0:3])
+        a = h + math.pi
+        theta = a - 2.0 * math.pi * math.floor(a / (2.0 * math.pi)) - math.pi
+        if theta <= -math.pi:
+            theta += 2.0 * math.pi
+        return Pose(self._time, x, y, theta, h)

@@ -1,0 +1,548 @@
+"""Experiment protocols as data (TOML) and the vectorized Monte Carlo that runs them.
+
+A protocol file::
+
+    [protocol]
+    campaign = "rotation-indoor"     # trial ids are "<campaign>-<index>"
+    description = "..."
+    terrain = "tile"                 # default for every trial set
+    report_rate = 20.0               # Hz, encoder reports
+    dt = 0.01                        # s, physics step (must divide 1 / report_rate)
+    linear_speed = 0.3               # m/s, wheel surface speed on straight runs
+    turn_speed = 0.3                 # m/s, wheel surface speed when turning
+
+    [instruments]                    # optional
+    compass_sigma = 0.05             # rad
+    compass_resolution_deg = 1.0
+    miscount_probability = 0.0       # chance the operator miscounts the turns by one
+    meterstick_sigma = 0.003         # m, indoors
+    tape_sigma = 0.005               # m, outdoors
+
+    [[trials]]                       # a set of trials
+    motion = "rotation"              # rotation | translation | pivot | square
+    angle_pi = { from = 1, to = 20, step = 1 }   # or angle (rad); a number, list or range
+    direction = "ccw"                # rotation/pivot/square: ccw | cw; translation: forward | reverse
+    repeats = 1
+    # distance = [1.0, 2.5]          # translation (m, > 0)
+    # side = 4.0                     # square (m)
+    # held = "left"                  # pivot: the track that stands still
+    # terrain = "grass"; campaign = "..."; speed = 0.3   (per set overrides)
+
+Trials are driven "by odometry": each motion is turned into wheel count targets with the
+nominal model (the first count at which the nominal odometry says the target is reached), the
+motor controller stops each wheel on its count, and the true robot does what the ground lets it.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from odolab.errors import SimError
+from odolab.kinematics import wrap_angle
+from odolab.odometry import integrate
+from odolab.params import RobotParams
+from odolab.sim.instruments import Compass, Instruments, Meterstick
+from odolab.sim.physics import TrueParams, kernel_params, simulate_batch
+from odolab.sim.terrains import get_terrain
+from odolab.trajectory import Pose
+from odolab.trials import Command, EncoderLog, Measurement, MotionKind, Trial, TrialStatus
+
+__all__ = [
+    "Protocol",
+    "TrialSpec",
+    "builtin_protocols",
+    "load_protocol",
+    "parse_protocol",
+    "run_protocol",
+    "segments_for",
+    "true_final_poses",
+]
+
+Progress = Callable[[int, int], None]
+
+_PROTOCOL_KEYS = {
+    "name",
+    "campaign",
+    "description",
+    "terrain",
+    "report_rate",
+    "dt",
+    "linear_speed",
+    "turn_speed",
+}
+_INSTRUMENT_KEYS = {
+    "compass_sigma",
+    "compass_resolution_deg",
+    "miscount_probability",
+    "meterstick_sigma",
+    "tape_sigma",
+}
+_SET_KEYS = {
+    "motion",
+    "angle",
+    "angle_pi",
+    "distance",
+    "side",
+    "direction",
+    "held",
+    "repeats",
+    "terrain",
+    "campaign",
+    "speed",
+}
+_MOTIONS = ("rotation", "translation", "pivot", "square")
+_DIRECTIONS = {
+    "rotation": ("ccw", "cw"),
+    "pivot": ("ccw", "cw"),
+    "square": ("ccw", "cw"),
+    "translation": ("forward", "reverse"),
+}
+
+
+@dataclass(frozen=True)
+class TrialSpec:
+    """One trial to run: the command, its terrain and campaign."""
+
+    command: Command
+    terrain: str
+    campaign: str
+
+
+@dataclass(frozen=True)
+class Protocol:
+    """A parsed protocol: settings and the expanded list of trials, in file order."""
+
+    name: str
+    campaign: str
+    description: str
+    trials: tuple[TrialSpec, ...]
+    report_rate: float = 20.0
+    dt: float = 0.01
+    instruments: Instruments = field(default_factory=Instruments)
+    source: str = "<protocol>"
+
+    def __len__(self) -> int:
+        return len(self.trials)
+
+
+# --------------------------------------------------------------------------- parsing
+
+
+def _err(source: str, where: str, message: str) -> SimError:
+    return SimError(f"{source}: {where}: {message}")
+
+
+def _number(source: str, where: str, value: Any, *, positive: bool = True) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise _err(source, where, f"expected a number, got {value!r}")
+    if positive and value <= 0:
+        raise _err(source, where, f"expected a number > 0, got {value!r}")
+    return float(value)
+
+
+def _values(source: str, where: str, value: Any) -> list[float]:
+    """A number, a list of numbers, or an inclusive range table {from, to, step}; all > 0."""
+    if isinstance(value, dict):
+        extra = sorted(set(value) - {"from", "to", "step"})
+        if extra or not {"from", "to", "step"} <= set(value):
+            raise _err(source, where, "a range must have exactly the keys from, to, step")
+        lo = _number(source, f"{where}.from", value["from"])
+        hi = _number(source, f"{where}.to", value["to"])
+        step = _number(source, f"{where}.step", value["step"])
+        if hi < lo:
+            raise _err(source, where, f"range goes down (from {lo} to {hi})")
+        count = math.floor((hi - lo) / step + 1e-9) + 1
+        return [lo + i * step for i in range(count)]
+    if isinstance(value, list):
+        if not value:
+            raise _err(source, where, "expected at least one value")
+        return [_number(source, f"{where}[{i}]", v) for i, v in enumerate(value)]
+    return [_number(source, where, value)]
+
+
+def _text(source: str, where: str, value: Any, choices: Sequence[str]) -> str:
+    if not isinstance(value, str) or value not in choices:
+        raise _err(source, where, f"got {value!r}; expected one of {', '.join(choices)}")
+    return value
+
+
+def _parse_set(source: str, index: int, spec: Any, defaults: dict[str, Any]) -> list[TrialSpec]:
+    where = f"[[trials]] #{index + 1}"
+    if not isinstance(spec, dict):
+        raise _err(source, where, "expected a table")
+    unknown = sorted(set(spec) - _SET_KEYS)
+    if unknown:
+        raise _err(
+            source,
+            f"{where} key {unknown[0]!r}",
+            f"unknown key; expected {', '.join(sorted(_SET_KEYS))}",
+        )
+    if "motion" not in spec:
+        raise _err(source, f"{where} key 'motion'", "missing")
+    motion = _text(source, f"{where} key 'motion'", spec["motion"], _MOTIONS)
+    kind = MotionKind(motion)
+    terrain = spec.get("terrain", defaults["terrain"])
+    get_terrain(str(terrain), where=f"{source}: {where} key 'terrain'")
+    if not isinstance(terrain, str):
+        raise _err(source, f"{where} key 'terrain'", f"expected a name, got {terrain!r}")
+    campaign = spec.get("campaign", defaults["campaign"])
+    if not isinstance(campaign, str) or not campaign:
+        raise _err(source, f"{where} key 'campaign'", "expected a non-empty string")
+    repeats = spec.get("repeats", 1)
+    if isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1:
+        raise _err(source, f"{where} key 'repeats'", f"expected an integer >= 1, got {repeats!r}")
+    choices = _DIRECTIONS[motion]
+    direction = _text(
+        source, f"{where} key 'direction'", spec.get("direction", choices[0]), choices
+    )
+    sign = 1.0 if direction in ("ccw", "forward") else -1.0
+    default_speed = (
+        defaults["linear_speed"] if kind is MotionKind.TRANSLATION else defaults["turn_speed"]
+    )
+    speed = _number(source, f"{where} key 'speed'", spec.get("speed", default_speed))
+
+    allowed = {
+        "rotation": {"angle", "angle_pi"},
+        "pivot": {"angle", "angle_pi", "held"},
+        "translation": {"distance"},
+        "square": {"side"},
+    }[motion]
+    for key in ("angle", "angle_pi", "distance", "side", "held"):
+        if key in spec and key not in allowed:
+            raise _err(source, f"{where} key {key!r}", f"does not apply to a {motion}")
+    commands: list[Command] = []
+    if kind in (MotionKind.ROTATION, MotionKind.PIVOT):
+        if ("angle" in spec) == ("angle_pi" in spec):
+            raise _err(source, f"{where} key 'angle'", "give exactly one of angle or angle_pi")
+        key = "angle" if "angle" in spec else "angle_pi"
+        scale = 1.0 if key == "angle" else math.pi
+        held = None
+        if kind is MotionKind.PIVOT:
+            held = _text(source, f"{where} key 'held'", spec.get("held", "left"), ("left", "right"))
+        for a in _values(source, f"{where} key {key!r}", spec[key]):
+            commands.append(
+                Command(kind, angle=sign * a * scale, direction=held or direction, speed=speed)
+            )
+    elif kind is MotionKind.TRANSLATION:
+        if "distance" not in spec:
+            raise _err(source, f"{where} key 'distance'", "missing")
+        for d in _values(source, f"{where} key 'distance'", spec["distance"]):
+            commands.append(Command(kind, distance=sign * d, speed=speed))
+    else:
+        if "side" not in spec:
+            raise _err(source, f"{where} key 'side'", "missing")
+        for s in _values(source, f"{where} key 'side'", spec["side"]):
+            commands.append(Command(kind, side=s, direction=direction, speed=speed))
+    return [TrialSpec(c, terrain, campaign) for c in commands for _ in range(repeats)]
+
+
+def parse_protocol(doc: dict[str, Any], source: str = "<protocol>") -> Protocol:
+    """Build a :class:`Protocol` from a parsed TOML document; errors name ``source`` and the key."""
+    extra = sorted(set(doc) - {"protocol", "instruments", "trials"})
+    if extra:
+        raise _err(
+            source,
+            f"key {extra[0]!r}",
+            "unknown table; expected [protocol], [instruments], [[trials]]",
+        )
+    head = doc.get("protocol")
+    if not isinstance(head, dict):
+        raise _err(source, "[protocol]", "missing table")
+    unknown = sorted(set(head) - _PROTOCOL_KEYS)
+    if unknown:
+        raise _err(
+            source,
+            f"[protocol] key {unknown[0]!r}",
+            f"unknown key; expected {', '.join(sorted(_PROTOCOL_KEYS))}",
+        )
+    name = head.get("name", Path(source).stem)
+    campaign = head.get("campaign", name)
+    if not isinstance(campaign, str) or not campaign:
+        raise _err(source, "[protocol] key 'campaign'", "expected a non-empty string")
+    terrain = head.get("terrain", "tile")
+    get_terrain(str(terrain), where=f"{source}: [protocol] key 'terrain'")
+    defaults = {
+        "terrain": terrain,
+        "campaign": campaign,
+        "linear_speed": _number(
+            source, "[protocol] key 'linear_speed'", head.get("linear_speed", 0.3)
+        ),
+        "turn_speed": _number(source, "[protocol] key 'turn_speed'", head.get("turn_speed", 0.3)),
+    }
+    rate = _number(source, "[protocol] key 'report_rate'", head.get("report_rate", 20.0))
+    dt = _number(source, "[protocol] key 'dt'", head.get("dt", 0.01))
+    spr = 1.0 / (rate * dt)
+    if abs(spr - round(spr)) > 1e-6 or round(spr) < 1:
+        raise _err(
+            source, "[protocol] key 'dt'", f"{dt} s does not divide the report period 1/{rate} s"
+        )
+    inst = doc.get("instruments", {})
+    if not isinstance(inst, dict):
+        raise _err(source, "[instruments]", "expected a table")
+    bad = sorted(set(inst) - _INSTRUMENT_KEYS)
+    if bad:
+        raise _err(
+            source,
+            f"[instruments] key {bad[0]!r}",
+            f"unknown key; expected {', '.join(sorted(_INSTRUMENT_KEYS))}",
+        )
+
+    def inum(key: str, default: float) -> float:
+        return _number(source, f"[instruments] key {key!r}", inst.get(key, default), positive=False)
+
+    try:
+        instruments = Instruments(
+            compass=Compass(
+                sigma=inum("compass_sigma", 0.05),
+                resolution_deg=inum("compass_resolution_deg", 1.0),
+                miscount_probability=inum("miscount_probability", 0.0),
+            ),
+            meterstick=Meterstick(sigma=inum("meterstick_sigma", 0.003)),
+            tape=Meterstick(sigma=inum("tape_sigma", 0.005)),
+        )
+    except SimError as err:
+        raise _err(source, "[instruments]", str(err)) from err
+    sets = doc.get("trials")
+    if not isinstance(sets, list) or not sets:
+        raise _err(source, "[[trials]]", "expected at least one [[trials]] table")
+    trials: list[TrialSpec] = []
+    for i, spec in enumerate(sets):
+        trials.extend(_parse_set(source, i, spec, defaults))
+    desc = head.get("description", "")
+    return Protocol(
+        name=str(name),
+        campaign=campaign,
+        description=str(desc),
+        trials=tuple(trials),
+        report_rate=rate,
+        dt=dt,
+        instruments=instruments,
+        source=source,
+    )
+
+
+def builtin_protocols() -> dict[str, str]:
+    """Built-in protocol names and their one-line descriptions."""
+    out: dict[str, str] = {}
+    folder = resources.files("odolab").joinpath("data/protocols")
+    for entry in sorted(folder.iterdir(), key=lambda e: e.name):
+        if entry.name.endswith(".toml"):
+            doc = tomllib.loads(entry.read_text(encoding="utf-8"))
+            out[entry.name[:-5]] = str(doc.get("protocol", {}).get("description", ""))
+    return out
+
+
+def load_protocol(name_or_path: str | Path) -> Protocol:
+    """A built-in protocol by name (see :func:`builtin_protocols`) or a protocol TOML file."""
+    key = str(name_or_path)
+    path = Path(key)
+    if path.exists():
+        source = str(path)
+        try:
+            text = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as err:
+            raise SimError(f"{path}: cannot read ({err})") from err
+    else:
+        entry = resources.files("odolab").joinpath(f"data/protocols/{key}.toml")
+        if not entry.is_file():
+            raise SimError(
+                f"{key}: no such protocol file or built-in protocol; built-ins are "
+                f"{', '.join(builtin_protocols())}"
+            )
+        source = f"{key}.toml"
+        text = entry.read_text(encoding="utf-8")
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise SimError(f"{source}: not valid TOML ({err})") from err
+    return parse_protocol(doc, source)
+
+
+# --------------------------------------------------------------------------- running
+
+
+def segments_for(command: Command, nominal: RobotParams) -> list[tuple[int, int, float, float]]:
+    """Wheel count targets and speeds of a command, driven by the nominal model.
+
+    Returns segments ``(dticks_left, dticks_right, speed_left, speed_right)``: each wheel turns by
+    the first whole count at which the nominal odometry says the target is reached.
+    """
+    ml, mr = nominal.left_metres_per_tick, nominal.right_metres_per_tick
+    b = nominal.track_width
+    v = float(command.speed or 0.3)
+
+    def counts(dist: float, mpt: float) -> int:
+        return math.ceil(abs(dist) / mpt - 1e-9)
+
+    def straight(d: float) -> tuple[int, int, float, float]:
+        s = 1 if d >= 0 else -1
+        return s * counts(d, ml), s * counts(d, mr), s * v, s * v
+
+    def turn(a: float) -> tuple[int, int, float, float]:
+        s = 1 if a >= 0 else -1
+        arc = abs(a) * b / 2.0
+        return -s * counts(arc, ml), s * counts(arc, mr), -s * v, s * v
+
+    kind = command.kind
+    if kind is MotionKind.TRANSLATION and command.distance is not None:
+        return [straight(command.distance)]
+    if kind is MotionKind.ROTATION and command.angle is not None:
+        return [turn(command.angle)]
+    if kind is MotionKind.PIVOT and command.angle is not None:
+        a = command.angle
+        s = 1 if a >= 0 else -1
+        arc = abs(a) * b
+        if command.direction == "right":  # right track held: the left one moves
+            return [(-s * counts(arc, ml), 0, -s * v, 0.0)]
+        return [(0, s * counts(arc, mr), 0.0, s * v)]
+    if kind is MotionKind.SQUARE and command.side is not None:
+        a = math.pi / 2 if command.direction != "cw" else -math.pi / 2
+        return [straight(command.side), turn(a)] * 4
+    raise SimError(f"cannot drive a {kind.value} command by odometry: {command!r}")
+
+
+def _pose(t: float, x: float, y: float, h: float) -> Pose:
+    return Pose(t, x, y, float(wrap_angle(h)), h)
+
+
+def run_protocol(
+    protocol: Protocol,
+    truth: TrueParams,
+    nominal: RobotParams,
+    *,
+    terrain: str | None = None,
+    seed: int = 0,
+    progress: Progress | None = None,
+) -> list[Trial]:
+    """Run every trial of ``protocol`` on the virtual robot (all at once) and measure it.
+
+    ``terrain`` overrides the protocol's terrains. Returns one :class:`~odolab.trials.Trial` per
+    trial, in protocol order: ``predicted`` = final pose of :func:`odolab.odometry.integrate`
+    over the trial's own encoder log with ``nominal``; ``measured`` = the instruments' reading;
+    ``true`` = the true final pose (tape frame); ``encoder_log`` = raw counters at the report rate.
+    A trial that stalled (turn in place where the ground does not allow it) is EXCLUDED.
+    """
+    report = progress or (lambda done, total: None)
+    if terrain is not None:
+        get_terrain(terrain)
+    specs = protocol.trials
+    n = len(specs)
+    rng = np.random.default_rng(seed)
+    terrains = [terrain or s.terrain for s in specs]
+    cache = {name: kernel_params(truth, nominal, get_terrain(name)) for name in set(terrains)}
+    P = np.stack([cache[name] for name in terrains]) if n else np.zeros((0, 14))
+    segs = [segments_for(s.command, nominal) for s in specs]
+    width = max((len(s) for s in segs), default=1)
+    arr = np.zeros((4, n, width))
+    nseg = np.zeros(n, dtype=np.int64)
+    for i, ss in enumerate(segs):
+        nseg[i] = len(ss)
+        arr[:, i, : len(ss)] = np.array(ss, dtype=np.float64).T
+    batch = simulate_batch(
+        P,
+        arr[0].astype(np.int64),
+        arr[1].astype(np.int64),
+        arr[2],
+        arr[3],
+        nseg,
+        align_sigma=truth.align_sigma,
+        report_rate=protocol.report_rate,
+        dt=protocol.dt,
+        rng=rng,
+    )
+    modulus = nominal.encoder_modulus
+    if modulus:
+        offsets = rng.integers(0, modulus, size=(n, 2))
+    else:
+        offsets = np.zeros((n, 2), dtype=np.int64)
+    h0 = batch.start_heading
+    fx, fy, fh = batch.final_pose.T
+    # instruments, vectorized over all trials (only the relevant readings are kept per trial)
+    readings = protocol.instruments.compass.read_rotation(h0, fh, rng)
+    stick = protocol.instruments.meterstick
+    tape = protocol.instruments.tape
+    outdoor = np.array([get_terrain(name).outdoor for name in terrains], dtype=bool)
+    xy_true = np.stack([fx, fy], axis=1)
+    xy_stick = stick.read(xy_true, rng)
+    xy_tape = tape.read(xy_true, rng)
+    xy = np.where(outdoor[:, None], xy_tape, xy_stick)
+    sig_rot = math.sqrt(2.0) * protocol.instruments.compass.sigma
+
+    counters: dict[str, int] = {}
+    out: list[Trial] = []
+    for i, spec in enumerate(specs):
+        m = int(batch.n_samples[i])
+        t = np.arange(m, dtype=np.float64) / protocol.report_rate
+        left = batch.ticks_left[i, :m] + offsets[i, 0]
+        right = batch.ticks_right[i, :m] + offsets[i, 1]
+        if modulus:
+            left = np.mod(left, modulus)
+            right = np.mod(right, modulus)
+        log = EncoderLog(t, left.astype(np.int64), right.astype(np.int64), modulus)
+        pred = integrate(t, log.left_ticks, log.right_ticks, nominal).final
+        true = _pose(float(t[-1]), float(fx[i]), float(fy[i]), float(fh[i]))
+        kind = spec.command.kind
+        if kind in (MotionKind.ROTATION, MotionKind.PIVOT):
+            meas = Measurement(
+                instrument="compass",
+                rotation=float(readings.rotation[i]),
+                sigma_rotation=sig_rot,
+                raw={
+                    "compass_initial_deg": float(readings.initial_deg[i]),
+                    "compass_final_deg": float(readings.final_deg[i]),
+                    "turns": float(readings.turns[i]),
+                },
+            )
+        else:
+            inst = "tape" if outdoor[i] else "meterstick"
+            meas = Measurement(
+                instrument=inst,
+                x=float(xy[i, 0]),
+                y=float(xy[i, 1]),
+                sigma_xy=(tape if outdoor[i] else stick).sigma,
+                raw={"x_m": float(xy[i, 0]), "y_m": float(xy[i, 1])},
+            )
+        idx = counters.get(spec.campaign, 0)
+        counters[spec.campaign] = idx + 1
+        stalled = bool(batch.stalled[i])
+        out.append(
+            Trial(
+                trial_id=f"{spec.campaign}-{idx:03d}",
+                campaign=spec.campaign,
+                terrain=terrains[i],
+                command=spec.command,
+                predicted=pred,
+                params=nominal,
+                measured=meas,
+                true=true,
+                encoder_log=log,
+                status=TrialStatus.EXCLUDED if stalled else TrialStatus.MEASURED,
+                exclusion_reason=(
+                    f"robot stalled: a tracked robot cannot turn in place on {terrains[i]}"
+                    if stalled
+                    else None
+                ),
+                notes=f"simulated ({truth.name}, seed {seed}); start misalignment {h0[i]:+.5f} rad",
+            )
+        )
+        report(i + 1, n)
+    return out
+
+
+def true_final_poses(trials: Sequence[Trial]) -> NDArray[np.float64]:
+    """True final (x, y, heading) of simulated trials, shape (n, 3)."""
+    rows = []
+    for t in trials:
+        if t.true is None:
+            raise SimError(f"trial {t.trial_id} has no true pose (not simulated)")
+        rows.append((t.true.x, t.true.y, t.true.heading))
+    return np.array(rows, dtype=np.float64).reshape(-1, 3)
