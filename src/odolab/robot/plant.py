@@ -1,9 +1,9 @@
 """What the virtual Jaguar board drives: a plant (the robot's physics), and a small ideal one.
 
 The board is written against :class:`Plant`, the agreed interface of
-``odolab.sim.physics.VirtualRobot``. :class:`IdealPlant` is an exact, slip-free
-differential drive with wrapping encoders: the fallback when the simulator is not installed,
-and a plant whose motion tests can compute by hand.
+``odolab.sim.physics.VirtualRobot`` (what :func:`make_plant` builds). :class:`IdealPlant` is an
+exact, slip-free, noise-free differential drive with wrapping encoders and arbitrary true
+parameters: a plant whose motion tests can compute by hand.
 """
 
 from __future__ import annotations
@@ -127,31 +127,23 @@ class IdealPlant:
 def make_plant(
     truth: Any, nominal: RobotParams, terrain: str = "tile", *, seed: int = 0
 ) -> Plant:
-    """A plant for ``truth``: the simulator's ``VirtualRobot`` when installed, else ideal.
+    """A plant for ``truth``: the simulator's :class:`odolab.sim.physics.VirtualRobot`.
 
-    ``truth`` is a name in ``odolab.sim.presets.TRUTH_PRESETS`` (e.g. "jaguar-lab", "ideal"), a
-    simulator ``TrueParams``, or a :class:`RobotParams` (then an :class:`IdealPlant` with those
-    parameters). Without the simulator, a name gives an ideal plant with the nominal parameters
-    (only "ideal" is accepted then).
+    ``truth`` is a name in ``odolab.sim.presets.TRUTH_PRESETS`` ("jaguar-lab", "ideal") or a
+    :class:`odolab.sim.physics.TrueParams`; a :class:`RobotParams` gives an :class:`IdealPlant`
+    with those (true) parameters instead.
     """
     if isinstance(truth, RobotParams):
         return IdealPlant(truth)
-    try:
-        import importlib
+    from odolab.sim.physics import TrueParams, VirtualRobot
+    from odolab.sim.presets import TRUTH_PRESETS
 
-        physics = importlib.import_module("odolab.sim.physics")
-        presets = importlib.import_module("odolab.sim.presets")
-    except ImportError:
-        if truth in ("ideal", None):
-            return IdealPlant(nominal)
-        raise SimError(
-            f"truth {truth!r} needs the simulator (odolab.sim.physics), which is not installed; "
-            "use 'ideal'"
-        ) from None
     if isinstance(truth, str):
-        table = presets.TRUTH_PRESETS
-        if truth not in table:
-            raise SimError(f"unknown truth preset {truth!r}; expected one of {', '.join(table)}")
-        truth = table[truth]
-    robot: Plant = physics.VirtualRobot(truth, nominal, terrain, seed=seed)
-    return robot
+        if truth not in TRUTH_PRESETS:
+            raise SimError(
+                f"unknown truth preset {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}"
+            )
+        truth = TRUTH_PRESETS[truth]
+    if not isinstance(truth, TrueParams):
+        raise SimError(f"truth must be a preset name or TrueParams, got {type(truth).__name__}")
+    return VirtualRobot(truth, nominal, terrain, seed=seed)

@@ -127,7 +127,7 @@ def run_motion(
     watchdog_timeout: float = 0.5,
     settle: float = 0.5,
     max_duration: float | None = None,
-    truth: Any = "ideal",
+    truth: Any = "jaguar-lab",
     terrain: str = "tile",
     seed: int = 0,
     board: BoardConfig | None = None,
@@ -170,7 +170,7 @@ def run_motion(
 
 def run_motion_simulated(
     motion: Command | Motion,
-    truth: Any = "ideal",
+    truth: Any = "jaguar-lab",
     nominal: RobotParams | None = None,
     terrain: str = "tile",
     seed: int = 0,
