@@ -50,8 +50,10 @@ class FakePlant:
         self._t += duration
 
     def encoder_counts(self) -> tuple[int, int]:
-        return (math.floor(self._sl / self.mpt + 1e-9) % 32768,
-                math.floor(self._sr / self.mpt + 1e-9) % 32768)
+        return (
+            math.floor(self._sl / self.mpt + 1e-9) % 32768,
+            math.floor(self._sr / self.mpt + 1e-9) % 32768,
+        )
 
 
 @pytest.fixture

@@ -24,8 +24,9 @@ def rig(
     truth: RobotParams = NOMINAL, clock: SimClock | None = None, **faults: float
 ) -> tuple[ControlLoop, VirtualJaguar, SimClock]:
     clock = clock or SimClock()
-    board = VirtualJaguar(IdealPlant(truth), BoardConfig.from_params(NOMINAL),
-                          faults=Faults(**faults), seed=3)
+    board = VirtualJaguar(
+        IdealPlant(truth), BoardConfig.from_params(NOMINAL), faults=Faults(**faults), seed=3
+    )
     driver = JaguarDriver(InProcessLink(board, clock.now), clock, driver_config_for(NOMINAL))
     return ControlLoop(driver, Odometry(NOMINAL), clock, rate=20.0), board, clock
 
@@ -57,7 +58,9 @@ def test_straight_reverse_and_cycle_times() -> None:
     res = loop.run(Straight(-0.5, speed=0.25))
     assert res.final.x <= -0.5
     assert res.final.x == pytest.approx(batch_final(res)[0], abs=1e-9)
-    assert board.plant.true_pose.x == pytest.approx(res.final.x, abs=2 * NOMINAL.left_metres_per_tick)
+    assert board.plant.true_pose.x == pytest.approx(
+        res.final.x, abs=2 * NOMINAL.left_metres_per_tick
+    )
     np.testing.assert_allclose(np.diff(res.log.t), 0.05, atol=1e-9)
     assert res.stats.period_error_max == pytest.approx(0.0, abs=1e-9)
     # one sensor packet every other cycle (10 Hz board, 20 Hz loop)
@@ -96,7 +99,7 @@ def test_timing_stats_by_hand() -> None:
 
 
 def test_watchdog_stops_within_timeout_plus_one_cycle() -> None:
-    loop, board, clock = rig()
+    loop, board, _clock = rig()
     cycles: list[CycleInfo] = []
 
     def on_cycle(info: CycleInfo) -> None:

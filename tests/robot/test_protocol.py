@@ -104,8 +104,12 @@ u16 = st.integers(0, 0xFFFF)
 
 
 @given(
-    st.tuples(u16, u16), st.tuples(u16, u16), st.integers(0, 255),
-    st.tuples(*[u16] * 6), st.tuples(*[u16] * 6), st.binary(max_size=20),
+    st.tuples(u16, u16),
+    st.tuples(u16, u16),
+    st.integers(0, 255),
+    st.tuples(*[u16] * 6),
+    st.tuples(*[u16] * 6),
+    st.binary(max_size=20),
 )
 def test_motor_sensor_round_trip(pos, vel, direction, pwm, cur, extra) -> None:  # type: ignore[no-untyped-def]
     s = MotorSensorData(pos, vel, direction, pwm, cur, extra)
@@ -126,7 +130,7 @@ def test_motor_command_round_trip(kind, values, time_ms) -> None:  # type: ignor
 
 
 def test_bad_values_raise() -> None:
-    with pytest.raises(ProtocolError, match="expected 0..32767"):
+    with pytest.raises(ProtocolError, match=r"expected 0\.\.32767"):
         encode_motor_command(MessageType.PWM_ALL, [40000 - 65536, 0, 0, 0, 0, 0])
     with pytest.raises(ProtocolError, match="expected 6"):
         encode_motor_command(MessageType.PWM_ALL, [PWM_STOP] * 2)

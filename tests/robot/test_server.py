@@ -118,7 +118,9 @@ def test_board_pings_its_peer(fake_plant: FakePlant) -> None:
     b.handle(ACK, PEER, 0.0)
     d = Decoder()
     pings = [
-        p for data, _ in b.step(3.5) for p in d.feed_datagram(data)
+        p
+        for data, _ in b.step(3.5)
+        for p in d.feed_datagram(data)
         if p.type == MessageType.SYSTEM and decode_system(p) is SystemCode.PING
     ]
     assert len(pings) == 3

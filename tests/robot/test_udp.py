@@ -53,8 +53,14 @@ def assert_loop_equals_batch(res: LoopResult) -> None:
 def total_dticks(res: LoopResult) -> tuple[int, int]:
     m = NOMINAL.encoder_modulus
     assert m is not None
-    d = [(b - a + m // 2) % m - m // 2 for a, b in zip(res.log.left_ticks, res.log.left_ticks[1:])]
-    e = [(b - a + m // 2) % m - m // 2 for a, b in zip(res.log.right_ticks, res.log.right_ticks[1:])]
+    d = [
+        (b - a + m // 2) % m - m // 2
+        for a, b in zip(res.log.left_ticks, res.log.left_ticks[1:], strict=False)
+    ]
+    e = [
+        (b - a + m // 2) % m - m // 2
+        for a, b in zip(res.log.right_ticks, res.log.right_ticks[1:], strict=False)
+    ]
     return sum(d), sum(e)
 
 
@@ -102,7 +108,7 @@ def test_ideal_truth_matches_prediction_over_udp() -> None:
 
 def test_loss_and_reordering_over_udp() -> None:
     faults = Faults(drop=0.2, jitter=0.15, duplicate=0.1, corrupt=0.1)
-    with udp_rig(TRUTH_PRESETS["ideal"], faults, seed=4) as (loop, server, plant):
+    with udp_rig(TRUTH_PRESETS["ideal"], faults, seed=4) as (loop, server, _plant):
         res = loop.run(Straight(1.2, speed=0.6), settle=0.3)
         stats = server.board.stats
     assert res.completed and res.final.x >= 1.2
@@ -115,7 +121,7 @@ def test_loss_and_reordering_over_udp() -> None:
 
 def test_silent_robot_is_stopped_within_watchdog_plus_cycle() -> None:
     cycles: list[CycleInfo] = []
-    with udp_rig(TRUTH_PRESETS["ideal"]) as (loop, server, plant):
+    with udp_rig(TRUTH_PRESETS["ideal"]) as (loop, server, _plant):
 
         def on_cycle(info: CycleInfo) -> None:
             cycles.append(info)

@@ -49,10 +49,15 @@ RateOpt = Annotated[float, typer.Option("--rate", help="Control loop rate, Hz.")
 ParamsOpt = Annotated[
     str, typer.Option("--params", "-p", help="Nominal parameters: TOML file or preset name.")
 ]
-ModeOpt = Annotated[ModeChoice, typer.Option("--mode", help="Drive commands: PWM (type 6) or velocity (type 27).")]
+ModeOpt = Annotated[
+    ModeChoice, typer.Option("--mode", help="Drive commands: PWM (type 6) or velocity (type 27).")
+]
 DecelOpt = Annotated[
     float,
-    typer.Option("--decel", help="Slow down over the last DECEL m (straight) or rad (turns); 0 = abrupt stop."),
+    typer.Option(
+        "--decel",
+        help="Slow down over the last DECEL m (straight) or rad (turns); 0 = abrupt stop.",
+    ),
 ]
 WatchdogOpt = Annotated[
     float, typer.Option("--watchdog", help="Stop when no sensor data arrives for this many s.")
@@ -67,10 +72,18 @@ TruthOpt = Annotated[
 TerrainOpt = Annotated[str, typer.Option("--terrain", help="Virtual Jaguar only: terrain.")]
 SeedOpt = Annotated[int, typer.Option("--seed", help="Virtual Jaguar only: random seed.")]
 LeftChOpt = Annotated[int, typer.Option("--left-channel", help="Board channel of the left track.")]
-RightChOpt = Annotated[int, typer.Option("--right-channel", help="Board channel of the right track.")]
-LeftSignOpt = Annotated[int, typer.Option("--left-encoder-sign", help="-1 if the left counter counts down forward.")]
-RightSignOpt = Annotated[int, typer.Option("--right-encoder-sign", help="-1 if the right counter counts down forward.")]
-MaxSpeedOpt = Annotated[float, typer.Option("--max-wheel-speed", help="m/s at full PWM (and the speed clip).")]
+RightChOpt = Annotated[
+    int, typer.Option("--right-channel", help="Board channel of the right track.")
+]
+LeftSignOpt = Annotated[
+    int, typer.Option("--left-encoder-sign", help="-1 if the left counter counts down forward.")
+]
+RightSignOpt = Annotated[
+    int, typer.Option("--right-encoder-sign", help="-1 if the right counter counts down forward.")
+]
+MaxSpeedOpt = Annotated[
+    float, typer.Option("--max-wheel-speed", help="m/s at full PWM (and the speed clip).")
+]
 QuietOpt = Annotated[bool, typer.Option("--quiet", "-q", help="No live view.")]
 
 
@@ -80,8 +93,11 @@ def _live_table(info: CycleInfo, rate: float, target: str) -> Any:
     table = Table(title=f"odolab robot: {target}", show_header=False)
     p = info.pose
     table.add_row("cycle", f"{info.index}  t={info.t:.2f} s  ({rate:g} Hz)")
-    table.add_row("pose", f"x={p.x:+.4f} m  y={p.y:+.4f} m  heading={p.heading:+.4f} rad "
-                  f"({math.degrees(p.heading):+.1f} deg)")
+    table.add_row(
+        "pose",
+        f"x={p.x:+.4f} m  y={p.y:+.4f} m  heading={p.heading:+.4f} rad "
+        f"({math.degrees(p.heading):+.1f} deg)",
+    )
     table.add_row("ticks", f"left={info.reading.left_ticks}  right={info.reading.right_ticks}")
     table.add_row("command", f"left={info.command[0]:+.3f} m/s  right={info.command[1]:+.3f} m/s")
     link = "[green]ok[/green]" if info.link_ok else "[bold red]LOST - stopping[/bold red]"
@@ -171,8 +187,10 @@ def _run(
     for line in events:
         typer.echo(line, err=True)
     p = run.trial.predicted
-    typer.echo(f"{target} on {run.robot}: predicted x={p.x:.4f} m y={p.y:.4f} m "
-               f"heading={p.heading:.4f} rad")
+    typer.echo(
+        f"{target} on {run.robot}: predicted x={p.x:.4f} m y={p.y:.4f} m "
+        f"heading={p.heading:.4f} rad"
+    )
     if run.trial.true is not None:
         q = run.trial.true
         typer.echo(f"true (virtual): x={q.x:.4f} m y={q.y:.4f} m heading={q.heading:.4f} rad")
@@ -182,7 +200,9 @@ def _run(
 
 @robot_app.command("rotate")
 def rotate_cmd(
-    turns: Annotated[float, typer.Option("--turns", help="Full turns (negative = clockwise).")] = 10.0,
+    turns: Annotated[
+        float, typer.Option("--turns", help="Full turns (negative = clockwise).")
+    ] = 10.0,
     speed: Annotated[float, typer.Option("--speed", help="Turn rate, rad/s.")] = 0.5,
     robot: RobotOpt = None,
     rate: RateOpt = 20.0,
@@ -205,15 +225,32 @@ def rotate_cmd(
     from odolab.trials import Command, MotionKind
 
     cmd = Command(MotionKind.ROTATION, angle=2.0 * math.pi * turns, speed=speed)
-    _run(cmd, robot=robot, rate=rate, params=params, mode=mode, decel=decel, watchdog=watchdog,
-         out=out, truth=truth, terrain=terrain, seed=seed, left_channel=left_channel,
-         right_channel=right_channel, left_encoder_sign=left_encoder_sign,
-         right_encoder_sign=right_encoder_sign, max_wheel_speed=max_wheel_speed, quiet=quiet)
+    _run(
+        cmd,
+        robot=robot,
+        rate=rate,
+        params=params,
+        mode=mode,
+        decel=decel,
+        watchdog=watchdog,
+        out=out,
+        truth=truth,
+        terrain=terrain,
+        seed=seed,
+        left_channel=left_channel,
+        right_channel=right_channel,
+        left_encoder_sign=left_encoder_sign,
+        right_encoder_sign=right_encoder_sign,
+        max_wheel_speed=max_wheel_speed,
+        quiet=quiet,
+    )
 
 
 @robot_app.command("drive")
 def drive_cmd(
-    distance: Annotated[float, typer.Option("--distance", help="Metres; negative = reverse.")] = 1.0,
+    distance: Annotated[
+        float, typer.Option("--distance", help="Metres; negative = reverse.")
+    ] = 1.0,
     speed: Annotated[float, typer.Option("--speed", help="Speed, m/s.")] = 0.3,
     robot: RobotOpt = None,
     rate: RateOpt = 20.0,
@@ -236,16 +273,35 @@ def drive_cmd(
     from odolab.trials import Command, MotionKind
 
     cmd = Command(MotionKind.TRANSLATION, distance=distance, speed=speed)
-    _run(cmd, robot=robot, rate=rate, params=params, mode=mode, decel=decel, watchdog=watchdog,
-         out=out, truth=truth, terrain=terrain, seed=seed, left_channel=left_channel,
-         right_channel=right_channel, left_encoder_sign=left_encoder_sign,
-         right_encoder_sign=right_encoder_sign, max_wheel_speed=max_wheel_speed, quiet=quiet)
+    _run(
+        cmd,
+        robot=robot,
+        rate=rate,
+        params=params,
+        mode=mode,
+        decel=decel,
+        watchdog=watchdog,
+        out=out,
+        truth=truth,
+        terrain=terrain,
+        seed=seed,
+        left_channel=left_channel,
+        right_channel=right_channel,
+        left_encoder_sign=left_encoder_sign,
+        right_encoder_sign=right_encoder_sign,
+        max_wheel_speed=max_wheel_speed,
+        quiet=quiet,
+    )
 
 
 @robot_app.command("pivot")
 def pivot_cmd(
-    degrees: Annotated[float, typer.Option("--degrees", help="Turn, degrees (ccw positive).")] = 90.0,
-    held: Annotated[TrackChoice, typer.Option("--held", help="The track that stays still.")] = TrackChoice.left,
+    degrees: Annotated[
+        float, typer.Option("--degrees", help="Turn, degrees (ccw positive).")
+    ] = 90.0,
+    held: Annotated[
+        TrackChoice, typer.Option("--held", help="The track that stays still.")
+    ] = TrackChoice.left,
     speed: Annotated[float, typer.Option("--speed", help="Turn rate, rad/s.")] = 0.5,
     robot: RobotOpt = None,
     rate: RateOpt = 20.0,
@@ -268,16 +324,33 @@ def pivot_cmd(
     from odolab.trials import Command, MotionKind
 
     cmd = Command(MotionKind.PIVOT, angle=math.radians(degrees), direction=held.value, speed=speed)
-    _run(cmd, robot=robot, rate=rate, params=params, mode=mode, decel=decel, watchdog=watchdog,
-         out=out, truth=truth, terrain=terrain, seed=seed, left_channel=left_channel,
-         right_channel=right_channel, left_encoder_sign=left_encoder_sign,
-         right_encoder_sign=right_encoder_sign, max_wheel_speed=max_wheel_speed, quiet=quiet)
+    _run(
+        cmd,
+        robot=robot,
+        rate=rate,
+        params=params,
+        mode=mode,
+        decel=decel,
+        watchdog=watchdog,
+        out=out,
+        truth=truth,
+        terrain=terrain,
+        seed=seed,
+        left_channel=left_channel,
+        right_channel=right_channel,
+        left_encoder_sign=left_encoder_sign,
+        right_encoder_sign=right_encoder_sign,
+        max_wheel_speed=max_wheel_speed,
+        quiet=quiet,
+    )
 
 
 @robot_app.command("square")
 def square_cmd(
     side: Annotated[float, typer.Option("--side", help="Side of the square, m.")] = 4.0,
-    direction: Annotated[DirectionChoice, typer.Option("--direction", help="cw or ccw.")] = DirectionChoice.ccw,
+    direction: Annotated[
+        DirectionChoice, typer.Option("--direction", help="cw or ccw.")
+    ] = DirectionChoice.ccw,
     speed: Annotated[float, typer.Option("--speed", help="Straight speed, m/s.")] = 0.3,
     robot: RobotOpt = None,
     rate: RateOpt = 20.0,
@@ -300,10 +373,25 @@ def square_cmd(
     from odolab.trials import Command, MotionKind
 
     cmd = Command(MotionKind.SQUARE, side=side, direction=direction.value, speed=speed)
-    _run(cmd, robot=robot, rate=rate, params=params, mode=mode, decel=decel, watchdog=watchdog,
-         out=out, truth=truth, terrain=terrain, seed=seed, left_channel=left_channel,
-         right_channel=right_channel, left_encoder_sign=left_encoder_sign,
-         right_encoder_sign=right_encoder_sign, max_wheel_speed=max_wheel_speed, quiet=quiet)
+    _run(
+        cmd,
+        robot=robot,
+        rate=rate,
+        params=params,
+        mode=mode,
+        decel=decel,
+        watchdog=watchdog,
+        out=out,
+        truth=truth,
+        terrain=terrain,
+        seed=seed,
+        left_channel=left_channel,
+        right_channel=right_channel,
+        left_encoder_sign=left_encoder_sign,
+        right_encoder_sign=right_encoder_sign,
+        max_wheel_speed=max_wheel_speed,
+        quiet=quiet,
+    )
 
 
 @robot_app.command("sim-server")
@@ -314,10 +402,14 @@ def sim_server_cmd(
     truth: TruthOpt = "jaguar-lab",
     terrain: TerrainOpt = "tile",
     seed: SeedOpt = 0,
-    report_rate: Annotated[float, typer.Option("--report-rate", help="Sensor packets per second.")] = 10.0,
+    report_rate: Annotated[
+        float, typer.Option("--report-rate", help="Sensor packets per second.")
+    ] = 10.0,
     max_wheel_speed: MaxSpeedOpt = 1.0,
     drop: Annotated[float, typer.Option("--drop", help="Probability of dropping a packet.")] = 0.0,
-    jitter: Annotated[float, typer.Option("--jitter", help="Random extra delay up to this many s.")] = 0.0,
+    jitter: Annotated[
+        float, typer.Option("--jitter", help="Random extra delay up to this many s.")
+    ] = 0.0,
 ) -> None:
     """Run a virtual Jaguar board (UDP) until Ctrl-C."""
     from odolab.params import load_params
@@ -340,5 +432,6 @@ def sim_server_cmd(
     finally:
         server.close()
         pose = plant.true_pose
-        typer.echo(f"true pose: x={pose.x:.4f} m y={pose.y:.4f} m heading={pose.heading:.4f} rad",
-                   err=True)
+        typer.echo(
+            f"true pose: x={pose.x:.4f} m y={pose.y:.4f} m heading={pose.heading:.4f} rad", err=True
+        )

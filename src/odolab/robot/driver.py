@@ -127,7 +127,12 @@ class ChannelMap:
                 f"channels left={self.left} right={self.right}: expected 0 and 1, one each "
                 "(the motor sensor packet reports encoders of motors 0 and 1 only)"
             )
-        for name in ("left_encoder_sign", "right_encoder_sign", "left_motor_sign", "right_motor_sign"):
+        for name in (
+            "left_encoder_sign",
+            "right_encoder_sign",
+            "left_motor_sign",
+            "right_motor_sign",
+        ):
             if getattr(self, name) not in (1, -1):
                 raise ProtocolError(f"{name} is {getattr(self, name)!r}, expected 1 or -1")
 
@@ -222,8 +227,9 @@ class JaguarDriver:
                     except ProtocolError:
                         self.stats.bad_sensor_packets += 1
                         continue
-                    self.latest = self._reading(sensor.encoder_position, sensor.encoder_velocity,
-                                                sensor.direction)
+                    self.latest = self._reading(
+                        sensor.encoder_position, sensor.encoder_velocity, sensor.direction
+                    )
                     self.stats.sensor_packets += 1
                     n += 1
                 elif packet.type == MessageType.SYSTEM:

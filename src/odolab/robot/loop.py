@@ -213,7 +213,7 @@ class ControlLoop:
         for _ in range(3):  # UDP may lose one; a stop is idempotent
             try:
                 self.driver.stop()
-            except Exception:  # noqa: S112 - keep trying; we are already failing
+            except Exception:
                 continue
 
     def run(
@@ -300,8 +300,17 @@ class ControlLoop:
                         driver.stop()
                     shown = phase
                 self.on_cycle(
-                    CycleInfo(k, now - t0, pose, reading, fresh, lost_since is None, command, shown,
-                              now - deadline)
+                    CycleInfo(
+                        k,
+                        now - t0,
+                        pose,
+                        reading,
+                        fresh,
+                        lost_since is None,
+                        command,
+                        shown,
+                        now - deadline,
+                    )
                 )
                 k += 1
                 if phase == "settling" and now - settle_start >= settle:

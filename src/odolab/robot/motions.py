@@ -111,7 +111,9 @@ class Straight:
         self._dir = (math.cos(pose.heading), math.sin(pose.heading))
 
     def step(self, pose: Pose) -> tuple[float, float] | None:
-        along = (pose.x - self._origin[0]) * self._dir[0] + (pose.y - self._origin[1]) * self._dir[1]
+        along = (pose.x - self._origin[0]) * self._dir[0] + (pose.y - self._origin[1]) * self._dir[
+            1
+        ]
         sign = 1.0 if self.distance >= 0 else -1.0
         remaining = abs(self.distance) - sign * along
         if remaining <= 0:
@@ -159,7 +161,7 @@ class Pivot:
         return (-self._sign * v, 0.0)
 
 
-class Sequence_:  # noqa: N801 - avoids shadowing typing.Sequence
+class Sequence_:
     """Motions one after another; each starts from the odometry pose where the last stopped."""
 
     def __init__(self, motions: Sequence[Motion]) -> None:
@@ -219,10 +221,24 @@ def motion_from_command(
 
     ``command.speed`` is used when ``speed``/``turn_speed`` are not given.
     """
-    lin = speed if speed is not None else (command.speed if command.kind in (
-        MotionKind.TRANSLATION, MotionKind.SQUARE) and command.speed else 0.3)
-    ang = turn_speed if turn_speed is not None else (command.speed if command.kind in (
-        MotionKind.ROTATION, MotionKind.PIVOT) and command.speed else 0.5)
+    lin = (
+        speed
+        if speed is not None
+        else (
+            command.speed
+            if command.kind in (MotionKind.TRANSLATION, MotionKind.SQUARE) and command.speed
+            else 0.3
+        )
+    )
+    ang = (
+        turn_speed
+        if turn_speed is not None
+        else (
+            command.speed
+            if command.kind in (MotionKind.ROTATION, MotionKind.PIVOT) and command.speed
+            else 0.5
+        )
+    )
     if command.kind is MotionKind.ROTATION and command.angle is not None:
         return Rotate(command.angle, ang, turn_decel)
     if command.kind is MotionKind.TRANSLATION and command.distance is not None:

@@ -124,9 +124,7 @@ class IdealPlant:
         return Pose(self._t, self._x, self._y, theta, self._h)
 
 
-def make_plant(
-    truth: Any, nominal: RobotParams, terrain: str = "tile", *, seed: int = 0
-) -> Plant:
+def make_plant(truth: Any, nominal: RobotParams, terrain: str = "tile", *, seed: int = 0) -> Plant:
     """A plant for ``truth``: the simulator's :class:`odolab.sim.physics.VirtualRobot`.
 
     ``truth`` is a name in ``odolab.sim.presets.TRUTH_PRESETS`` ("jaguar-lab", "ideal") or a

@@ -205,7 +205,9 @@ def encode_motor_command(
         raise ProtocolError(f"message type {int(k)} is not an all-channel motor command (4, 6, 27)")
     if len(values) != N_CHANNELS:
         raise ProtocolError(f"motor command has {len(values)} values, expected {N_CHANNELS}")
-    ints = [LEAVE_ALONE if v is None else _int16(v, f"channel {i} value") for i, v in enumerate(values)]
+    ints = [
+        LEAVE_ALONE if v is None else _int16(v, f"channel {i} value") for i, v in enumerate(values)
+    ]
     if k is MessageType.PWM_ALL:
         for i, v in enumerate(ints):
             if v != LEAVE_ALONE and not 0 <= v <= 32767:

@@ -25,6 +25,7 @@ Choices where JAGUAR_PROTOCOL.md leaves one (see docs/robot.md):
 
 from __future__ import annotations
 
+import contextlib
 import heapq
 import math
 import select
@@ -33,6 +34,7 @@ import threading
 import time
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
@@ -388,7 +390,9 @@ class VirtualJaguarServer:
             self._sock.bind((host, port))
         except OSError as err:
             self._sock.close()
-            raise RobotLinkError(f"cannot bind the virtual Jaguar to {host}:{port} ({err})") from err
+            raise RobotLinkError(
+                f"cannot bind the virtual Jaguar to {host}:{port} ({err})"
+            ) from err
         self._sock.setblocking(False)
         self.address: tuple[str, int] = self._sock.getsockname()
         self._lock = threading.Lock()
@@ -449,10 +453,8 @@ class VirtualJaguarServer:
                             self.board.handle(data, peer, now)
                     out = self.board.step(now)
                 for data, peer in out:
-                    try:
-                        sock.sendto(data, peer)  # type: ignore[arg-type]
-                    except OSError:
-                        pass
+                    with contextlib.suppress(OSError):
+                        sock.sendto(data, cast(tuple[str, int], peer))
         except Exception as err:  # keep the thread's failure for whoever checks
             self.error = err
 

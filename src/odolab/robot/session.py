@@ -23,7 +23,13 @@ from odolab.robot.driver import DriverConfig, JaguarDriver, Transport, UdpTransp
 from odolab.robot.loop import ControlLoop, CycleInfo, LoopResult, LoopStats
 from odolab.robot.motions import Motion, motion_from_command
 from odolab.robot.plant import Plant, make_plant
-from odolab.robot.server import BoardConfig, Faults, InProcessLink, VirtualJaguar, VirtualJaguarServer
+from odolab.robot.server import (
+    BoardConfig,
+    Faults,
+    InProcessLink,
+    VirtualJaguar,
+    VirtualJaguarServer,
+)
 from odolab.trajectory import Pose
 from odolab.trials import Command, Trial, TrialStatus
 
@@ -154,7 +160,9 @@ def run_motion(
         )  # fmt: skip
         return RobotRun(_trial(command, result, params, terrain, None, campaign), result, robot)
     plant = make_plant(truth, params, terrain, seed=seed)
-    jaguar = VirtualJaguar(plant, board or BoardConfig.from_params(params), faults=faults, seed=seed)
+    jaguar = VirtualJaguar(
+        plant, board or BoardConfig.from_params(params), faults=faults, seed=seed
+    )
     with VirtualJaguarServer(jaguar) as server:
         host, port = server.address
         result = _drive(
@@ -205,7 +213,9 @@ def run_motion_simulated(
 
             command = Command(MotionKind.FREE)
     plant = plant or make_plant(truth, nominal, terrain, seed=seed)
-    jaguar = VirtualJaguar(plant, board or BoardConfig.from_params(nominal), faults=faults, seed=seed)
+    jaguar = VirtualJaguar(
+        plant, board or BoardConfig.from_params(nominal), faults=faults, seed=seed
+    )
     clock = SimClock(plant.time)
     link = InProcessLink(jaguar, clock.now)
     config = driver_config or driver_config_for(nominal)

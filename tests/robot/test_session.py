@@ -1,0 +1,76 @@
+"""Runs end to end: simulated-time runs, saved folders, the CLI."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from odolab.cli import main
+from odolab.io import read_encoder_csv, read_trajectory_csv
+from odolab.odometry import integrate
+from odolab.params import PRESETS
+from odolab.robot.session import run_motion, run_motion_simulated, save_run
+from odolab.trials import Command, MotionKind, TrialStatus
+
+NOMINAL = PRESETS["jaguar-lite"]
+
+
+def test_twenty_pi_rotation_in_simulated_time_jaguar_lab() -> None:
+    trial, stats = run_motion_simulated(
+        Command(MotionKind.ROTATION, angle=20 * math.pi, speed=0.5), "jaguar-lab", NOMINAL, seed=2
+    )
+    assert trial.status is TrialStatus.AWAITING
+    assert trial.predicted.heading >= 20 * math.pi
+    assert trial.encoder_log is not None and len(trial.encoder_log) == stats.cycles
+    log = trial.encoder_log
+    traj = integrate(log.t, log.left_ticks, log.right_ticks, NOMINAL)
+    assert traj.heading[-1] == pytest.approx(trial.predicted.heading, abs=1e-9)
+    assert trial.true is not None
+    # the lab's rotation ratio, within the truth's random spread (sigma 2.94 rad at 20 pi)
+    assert trial.true.heading / trial.predicted.heading == pytest.approx(0.875, abs=0.15)
+    assert stats.duration > 120  # 20 pi at 0.5 rad/s, simulated
+
+
+def test_real_time_run_on_loopback_is_saved(tmp_path: Path) -> None:
+    run = run_motion(
+        Command(MotionKind.TRANSLATION, distance=0.3, speed=0.6), truth="ideal", settle=0.2
+    )
+    folder = save_run(run, tmp_path / "run")
+    enc = read_encoder_csv(folder / "encoders.csv", modulus=NOMINAL.encoder_modulus)
+    traj = integrate(enc.t, enc.left_ticks, enc.right_ticks, NOMINAL)
+    assert traj.x[-1] == pytest.approx(run.trial.predicted.x, abs=1e-9)
+    saved = read_trajectory_csv(folder / "predicted.csv")
+    assert saved.x[-1] == pytest.approx(run.trial.predicted.x, abs=1e-9)
+    doc = json.loads((folder / "run.json").read_text())
+    assert doc["command"] == {"kind": "translation", "distance": 0.3, "speed": 0.6}
+    assert doc["status"] == "awaiting" and doc["measured"] is None
+    assert doc["true"]["x"] == pytest.approx(run.trial.predicted.x, abs=0.002)
+
+
+def test_cli_drive_and_bad_robot_url(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "cli"
+    code = main(
+        [
+            "robot",
+            "drive",
+            "--distance",
+            "-0.2",
+            "--speed",
+            "0.5",
+            "--quiet",
+            "--truth",
+            "ideal",
+            "--out",
+            str(out),
+        ]
+    )
+    assert code == 0
+    text = capsys.readouterr().out
+    assert "translation -0.2 m" in text and "saved to" in text
+    assert (out / "encoders.csv").exists() and (out / "run.json").exists()
+    code = main(["robot", "rotate", "--turns", "1", "--robot", "tcp://127.0.0.1:1", "--quiet"])
+    assert code == 1
+    assert "udp://HOST:PORT" in capsys.readouterr().err
