@@ -385,6 +385,9 @@ class VirtualJaguarServer:
         port: int = 0,
     ) -> None:
         self.board = board
+        # warm up the plant (the simulator compiles its physics on the first step, which would
+        # otherwise stall the first reports): one millisecond with the wheels still
+        board.plant.advance(1e-3)
         self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
             self._sock.bind((host, port))
