@@ -25,7 +25,7 @@ import numpy as np
 
 from odolab.odometry import Odometry
 from odolab.params import PRESETS
-from odolab.robot.clock import RealClock
+from odolab.robot.clock import RealClock, set_realtime
 from odolab.robot.driver import JaguarDriver, UdpTransport
 from odolab.robot.loop import ControlLoop, LoopStats, timing_stats
 from odolab.robot.session import driver_config_for
@@ -100,53 +100,68 @@ def main() -> None:
     ap.add_argument("--sweep", type=float, default=3.0)
     ap.add_argument("--spin", type=float, default=0.0, help="RealClock spin (s)")
     ap.add_argument("--rates", default="50,100,200,500,1000,2000,5000")
+    ap.add_argument(
+        "--realtime", action="store_true", help="also run [1] and [2] in SCHED_FIFO (up to 2 kHz)"
+    )
     args = ap.parse_args()
     print("conditions:", conditions())
     proc, port = start_server()
     try:
-        rate = 20.0
-        print(f"\n[1] loop at {rate:g} Hz for {args.duration:g} s (spin {args.spin * 1e3:g} ms)")
-        s = run_loop(port, rate, args.duration, args.spin)
-        expected = s.duration * rate + 1
-        print(
-            f"  period error: p50 {s.period_error_p50 * 1e3:.3f} ms, "
-            f"p99 {s.period_error_p99 * 1e3:.3f} ms, max {s.period_error_max * 1e3:.3f} ms"
-        )
-        print(
-            f"  lateness: p50 {s.lateness_p50 * 1e3:.3f} ms, p99 {s.lateness_p99 * 1e3:.3f} ms, "
-            f"max {s.lateness_max * 1e3:.3f} ms; overruns {s.overruns}"
-        )
-        print(f"  cycles {s.cycles} over {s.duration:.3f} s (expected {expected:.1f})")
-        print(f"  sensor packets {s.sensor_packets}, link losses {s.link_lost_events}")
-        nb_cycles, nb_p99, nb_elapsed = naive_loop(port, rate, args.duration)
-        nb_expected = nb_elapsed * rate + 1
-        print(
-            f"  baseline (sleep one period after the work): {nb_cycles} cycles in "
-            f"{nb_elapsed:.3f} s (expected {nb_expected:.1f}, drift "
-            f"{nb_expected - nb_cycles:.1f} cycles), p99 period error {nb_p99 * 1e3:.3f} ms"
-        )
-        ratio = s.period_error_p99 / nb_p99 if nb_p99 > 0 else float("nan")
-        print(f"  p99 period error, absolute deadlines / baseline: {ratio:.3f}")
-        print(f"  conditions after: {conditions()}")
-
-        print(f"\n[2] rate sweep, {args.sweep:g} s per rate")
-        best = 0.0
-        for r in (float(x) for x in args.rates.split(",")):
-            st = run_loop(port, r, args.sweep, args.spin)
-            period = 1.0 / r
-            ok = st.overruns <= 0.01 * st.cycles and st.period_error_p99 < 0.5 * period
-            best = r if ok else best
-            print(
-                f"  {r:7.0f} Hz: {st.cycles:6d} cycles, overruns {st.overruns:5d} "
-                f"({100 * st.overruns / st.cycles:5.1f} %), period error p50 "
-                f"{st.period_error_p50 * 1e6:7.1f} us p99 {st.period_error_p99 * 1e6:8.1f} us "
-                f"max {st.period_error_max * 1e6:8.1f} us  {'sustained' if ok else 'NOT sustained'}"
-            )
-        print(f"\nhighest sustained rate: {best:g} Hz")
-        print(f"conditions: {conditions()}")
+        measure(port, args, "normal scheduling")
+        if args.realtime:
+            if set_realtime(True):
+                args.rates = ",".join(r for r in args.rates.split(",") if float(r) <= 2000)
+                measure(port, args, "SCHED_FIFO real-time scheduling")
+                set_realtime(False)
+            else:
+                print("\nSCHED_FIFO refused by the OS; no real-time figures")
     finally:
         proc.terminate()
         proc.wait(timeout=5)
+
+
+def measure(port: int, args: argparse.Namespace, label: str) -> None:
+    print(f"\n===== {label} =====")
+    rate = 20.0
+    print(f"\n[1] loop at {rate:g} Hz for {args.duration:g} s (spin {args.spin * 1e3:g} ms)")
+    s = run_loop(port, rate, args.duration, args.spin)
+    expected = s.duration * rate + 1
+    print(
+        f"  period error: p50 {s.period_error_p50 * 1e3:.3f} ms, "
+        f"p99 {s.period_error_p99 * 1e3:.3f} ms, max {s.period_error_max * 1e3:.3f} ms"
+    )
+    print(
+        f"  lateness: p50 {s.lateness_p50 * 1e3:.3f} ms, p99 {s.lateness_p99 * 1e3:.3f} ms, "
+        f"max {s.lateness_max * 1e3:.3f} ms; overruns {s.overruns}"
+    )
+    print(f"  cycles {s.cycles} over {s.duration:.3f} s (expected {expected:.1f})")
+    print(f"  sensor packets {s.sensor_packets}, link losses {s.link_lost_events}")
+    nb_cycles, nb_p99, nb_elapsed = naive_loop(port, rate, args.duration)
+    nb_expected = nb_elapsed * rate + 1
+    print(
+        f"  baseline (sleep one period after the work): {nb_cycles} cycles in "
+        f"{nb_elapsed:.3f} s (expected {nb_expected:.1f}, drift "
+        f"{nb_expected - nb_cycles:.1f} cycles), p99 period error {nb_p99 * 1e3:.3f} ms"
+    )
+    ratio = s.period_error_p99 / nb_p99 if nb_p99 > 0 else float("nan")
+    print(f"  p99 period error, absolute deadlines / baseline: {ratio:.3f}")
+    print(f"  conditions after: {conditions()}")
+
+    print(f"\n[2] rate sweep, {args.sweep:g} s per rate")
+    best = 0.0
+    for r in (float(x) for x in args.rates.split(",")):
+        st = run_loop(port, r, args.sweep, args.spin)
+        period = 1.0 / r
+        ok = st.overruns <= 0.01 * st.cycles and st.period_error_p99 < 0.5 * period
+        best = r if ok else best
+        print(
+            f"  {r:7.0f} Hz: {st.cycles:6d} cycles, overruns {st.overruns:5d} "
+            f"({100 * st.overruns / st.cycles:5.1f} %), period error p50 "
+            f"{st.period_error_p50 * 1e6:7.1f} us p99 {st.period_error_p99 * 1e6:8.1f} us "
+            f"max {st.period_error_max * 1e6:8.1f} us  {'sustained' if ok else 'NOT sustained'}"
+        )
+    print(f"\nhighest sustained rate ({label}): {best:g} Hz")
+    print(f"conditions: {conditions()}")
 
 
 if __name__ == "__main__":

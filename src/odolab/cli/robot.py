@@ -85,6 +85,9 @@ MaxSpeedOpt = Annotated[
     float, typer.Option("--max-wheel-speed", help="m/s at full PWM (and the speed clip).")
 ]
 QuietOpt = Annotated[bool, typer.Option("--quiet", "-q", help="No live view.")]
+RealtimeOpt = Annotated[
+    bool, typer.Option("--realtime", help="Run the loop in SCHED_FIFO where the OS allows it.")
+]
 
 
 def _live_table(info: CycleInfo, rate: float, target: str) -> Any:
@@ -124,6 +127,7 @@ def _run(
     right_encoder_sign: int,
     max_wheel_speed: float,
     quiet: bool,
+    realtime: bool,
 ) -> None:
     from rich.console import Console
     from rich.live import Live
@@ -176,6 +180,7 @@ def _run(
             seed=seed,
             on_cycle=on_cycle,
             on_event=on_event,
+            realtime=realtime,
         )
     finally:
         if live is not None:
@@ -220,6 +225,7 @@ def rotate_cmd(
     right_encoder_sign: RightSignOpt = 1,
     max_wheel_speed: MaxSpeedOpt = 1.0,
     quiet: QuietOpt = False,
+    realtime: RealtimeOpt = False,
 ) -> None:
     """Rotate in place by TURNS full turns (2*pi each), stopping when odometry says so."""
     from odolab.trials import Command, MotionKind
@@ -243,6 +249,7 @@ def rotate_cmd(
         right_encoder_sign=right_encoder_sign,
         max_wheel_speed=max_wheel_speed,
         quiet=quiet,
+        realtime=realtime,
     )
 
 
@@ -268,6 +275,7 @@ def drive_cmd(
     right_encoder_sign: RightSignOpt = 1,
     max_wheel_speed: MaxSpeedOpt = 1.0,
     quiet: QuietOpt = False,
+    realtime: RealtimeOpt = False,
 ) -> None:
     """Drive straight DISTANCE m (negative = reverse), stopping when odometry says so."""
     from odolab.trials import Command, MotionKind
@@ -291,6 +299,7 @@ def drive_cmd(
         right_encoder_sign=right_encoder_sign,
         max_wheel_speed=max_wheel_speed,
         quiet=quiet,
+        realtime=realtime,
     )
 
 
@@ -319,6 +328,7 @@ def pivot_cmd(
     right_encoder_sign: RightSignOpt = 1,
     max_wheel_speed: MaxSpeedOpt = 1.0,
     quiet: QuietOpt = False,
+    realtime: RealtimeOpt = False,
 ) -> None:
     """Pivot on one track by DEGREES, stopping when odometry says so."""
     from odolab.trials import Command, MotionKind
@@ -342,6 +352,7 @@ def pivot_cmd(
         right_encoder_sign=right_encoder_sign,
         max_wheel_speed=max_wheel_speed,
         quiet=quiet,
+        realtime=realtime,
     )
 
 
@@ -368,6 +379,7 @@ def square_cmd(
     right_encoder_sign: RightSignOpt = 1,
     max_wheel_speed: MaxSpeedOpt = 1.0,
     quiet: QuietOpt = False,
+    realtime: RealtimeOpt = False,
 ) -> None:
     """Drive the UMBmark square (four sides, four 90-degree turns in place) by odometry."""
     from odolab.trials import Command, MotionKind
@@ -391,6 +403,7 @@ def square_cmd(
         right_encoder_sign=right_encoder_sign,
         max_wheel_speed=max_wheel_speed,
         quiet=quiet,
+        realtime=realtime,
     )
 
 

@@ -7,10 +7,11 @@ for the time and sleeps on absolute deadlines, so swapping :class:`RealClock` fo
 
 from __future__ import annotations
 
+import os
 import time
 from typing import Protocol
 
-__all__ = ["Clock", "RealClock", "SimClock"]
+__all__ = ["Clock", "RealClock", "SimClock", "set_realtime"]
 
 
 class Clock(Protocol):
@@ -67,3 +68,19 @@ class SimClock:
         if dt < 0:
             raise ValueError("dt must be >= 0")
         self._t += float(dt)
+
+
+def set_realtime(enable: bool = True, priority: int = 10) -> bool:
+    """Put the calling thread in the SCHED_FIFO real-time class (or back to normal).
+
+    Returns False when the OS refuses (no privilege, not Linux); the loop then runs as a normal
+    thread. The loop sleeps between cycles, so a real-time loop does not starve the machine.
+    """
+    try:
+        if enable:
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+        else:
+            os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+    except (AttributeError, OSError, ValueError):
+        return False
+    return True

@@ -18,7 +18,7 @@ from typing import Any
 
 from odolab.odometry import Odometry
 from odolab.params import PRESETS, RobotParams
-from odolab.robot.clock import Clock, RealClock, SimClock
+from odolab.robot.clock import Clock, RealClock, SimClock, set_realtime
 from odolab.robot.driver import DriverConfig, JaguarDriver, Transport, UdpTransport, parse_robot_url
 from odolab.robot.loop import ControlLoop, CycleInfo, LoopResult, LoopStats
 from odolab.robot.motions import Motion, motion_from_command
@@ -103,8 +103,10 @@ def _drive(
     max_duration: float | None,
     on_cycle: Callable[[CycleInfo], None] | None,
     on_event: Callable[[float, str], None] | None,
+    realtime: bool = False,
 ) -> LoopResult:
     driver = JaguarDriver(transport, clock, config)
+    rt = realtime and set_realtime(True)
     try:
         loop = ControlLoop(
             driver,
@@ -120,6 +122,8 @@ def _drive(
         )
     finally:
         driver.close()
+        if rt:
+            set_realtime(False)
 
 
 def run_motion(
@@ -142,12 +146,14 @@ def run_motion(
     clock: Clock | None = None,
     on_cycle: Callable[[CycleInfo], None] | None = None,
     on_event: Callable[[float, str], None] | None = None,
+    realtime: bool = False,
 ) -> RobotRun:
     """Drive ``command`` by odometry over UDP in real time; return the run.
 
     ``robot``: "udp://HOST:PORT" of a board; None starts a virtual Jaguar on 127.0.0.1 (an
     OS-assigned port) whose plant is ``truth`` on ``terrain`` (see
     :func:`odolab.robot.plant.make_plant`), and the trial then carries the true pose.
+    ``realtime``: run the loop thread in SCHED_FIFO where the OS allows it.
     """
     params = params or PRESETS["jaguar-lite"]
     config = driver_config or driver_config_for(params)
@@ -156,7 +162,7 @@ def run_motion(
         host, port = parse_robot_url(robot)
         result = _drive(
             UdpTransport(host, port), clock, command, motion, params, config, rate,
-            watchdog_timeout, settle, max_duration, on_cycle, on_event,
+            watchdog_timeout, settle, max_duration, on_cycle, on_event, realtime,
         )  # fmt: skip
         return RobotRun(_trial(command, result, params, terrain, None, campaign), result, robot)
     plant = make_plant(truth, params, terrain, seed=seed)
@@ -167,7 +173,7 @@ def run_motion(
         host, port = server.address
         result = _drive(
             UdpTransport(host, port), clock, command, motion, params, config, rate,
-            watchdog_timeout, settle, max_duration, on_cycle, on_event,
+            watchdog_timeout, settle, max_duration, on_cycle, on_event, realtime,
         )  # fmt: skip
         time.sleep(0.05)  # let the board take the final stop before reading the truth
         true_pose = server.call(lambda b: b.plant.true_pose)
