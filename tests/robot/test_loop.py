@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from odolab.errors import RobotLinkError
 from odolab.odometry import Odometry, integrate
 from odolab.params import PRESETS, RobotParams
 from odolab.robot.clock import SimClock
@@ -169,3 +170,21 @@ def test_watchdog_unit() -> None:
     assert w.expired(0.0)
     w.feed(1.0)
     assert not w.expired(1.5) and w.expired(1.5001)
+
+
+class StuckPlant(IdealPlant):
+    """A robot that does not move whatever it is told (lifted off, or wheels blocked)."""
+
+    def set_wheel_speeds(self, left_mps: float, right_mps: float) -> None:
+        super().set_wheel_speeds(0.0, 0.0)
+
+
+def test_stalled_robot_is_stopped_and_reported() -> None:
+    clock = SimClock()
+    board = VirtualJaguar(StuckPlant(NOMINAL), BoardConfig.from_params(NOMINAL))
+    driver = JaguarDriver(InProcessLink(board, clock.now), clock, driver_config_for(NOMINAL))
+    loop = ControlLoop(driver, Odometry(NOMINAL), clock)
+    with pytest.raises(RobotLinkError, match="have not moved for 3 s"):
+        loop.run(Straight(1.0))
+    assert 3.0 < clock.now() < 3.3
+    assert driver.last_command == (0.0, 0.0)

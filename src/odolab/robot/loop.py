@@ -224,12 +224,16 @@ class ControlLoop:
         max_duration: float | None = None,
         max_cycles: int | None = None,
         link_abort: float | None = None,
+        stall_timeout: float | None = 3.0,
     ) -> LoopResult:
         """Drive ``motion`` to its end, then hold still for ``settle`` s while the odometry runs.
 
         Without a motion the loop holds the robot still (commanding stop every cycle) for
         ``max_duration`` s or ``max_cycles`` cycles. ``link_abort``: raise
         :class:`RobotLinkError` (after commanding stop) when the link stays lost that long.
+        ``stall_timeout``: raise :class:`RobotLinkError` (after commanding stop) when the motion
+        commands the wheels but, with sensor data arriving, the counters have not changed for
+        that long (a stalled or lifted-off robot, or a board that ignores the commands).
         """
         if motion is None and max_duration is None and max_cycles is None:
             raise SimError("a loop without a motion needs max_duration or max_cycles")
@@ -252,6 +256,8 @@ class ControlLoop:
             lost_since: float | None = None
             settle_start = math.nan
             pose = odo.pose
+            last_counts = (reading.left_ticks, reading.right_ticks)
+            last_change = clock.now()
             while True:
                 deadline = t0 + k * period
                 clock.sleep_until(deadline)
@@ -262,6 +268,10 @@ class ControlLoop:
                 reading = driver.latest
                 if fresh:
                     self.watchdog.feed(reading.t)
+                    counts = (reading.left_ticks, reading.right_ticks)
+                    if counts != last_counts or phase != "moving":
+                        last_counts = counts
+                        last_change = now
                 pose = odo.update(now - t0, reading.left_ticks, reading.right_ticks)
                 log.append(pose, reading, fresh, now - deadline)
                 if k == 0 and motion is not None:
@@ -284,10 +294,17 @@ class ControlLoop:
                 else:
                     if lost_since is not None:
                         lost_since = None
+                        last_change = now
                         events.append((now - t0, "link back"))
                         self.on_event(now - t0, "link back")
                     if phase == "moving":
                         assert motion is not None
+                        if stall_timeout is not None and now - last_change > stall_timeout:
+                            raise RobotLinkError(
+                                f"the robot's encoders have not moved for {stall_timeout:g} s "
+                                "while driving (stalled, or the board ignores the commands); "
+                                "stopped"
+                            )
                         step = motion.step(pose)
                         if step is None:
                             phase = "settling"
