@@ -86,7 +86,11 @@ MaxSpeedOpt = Annotated[
 ]
 QuietOpt = Annotated[bool, typer.Option("--quiet", "-q", help="No live view.")]
 RealtimeOpt = Annotated[
-    bool, typer.Option("--realtime", help="Run the loop in SCHED_FIFO where the OS allows it.")
+    bool,
+    typer.Option(
+        "--realtime/--no-realtime",
+        help="Run the loop thread in SCHED_FIFO where the OS allows it (else silently normal).",
+    ),
 ]
 
 
@@ -225,7 +229,7 @@ def rotate_cmd(
     right_encoder_sign: RightSignOpt = 1,
     max_wheel_speed: MaxSpeedOpt = 1.0,
     quiet: QuietOpt = False,
-    realtime: RealtimeOpt = False,
+    realtime: RealtimeOpt = True,
 ) -> None:
     """Rotate in place by TURNS full turns (2*pi each), stopping when odometry says so."""
     from odolab.trials import Command, MotionKind
@@ -275,7 +279,7 @@ def drive_cmd(
     right_encoder_sign: RightSignOpt = 1,
     max_wheel_speed: MaxSpeedOpt = 1.0,
     quiet: QuietOpt = False,
-    realtime: RealtimeOpt = False,
+    realtime: RealtimeOpt = True,
 ) -> None:
     """Drive straight DISTANCE m (negative = reverse), stopping when odometry says so."""
     from odolab.trials import Command, MotionKind
@@ -328,7 +332,7 @@ def pivot_cmd(
     right_encoder_sign: RightSignOpt = 1,
     max_wheel_speed: MaxSpeedOpt = 1.0,
     quiet: QuietOpt = False,
-    realtime: RealtimeOpt = False,
+    realtime: RealtimeOpt = True,
 ) -> None:
     """Pivot on one track by DEGREES, stopping when odometry says so."""
     from odolab.trials import Command, MotionKind
@@ -379,7 +383,7 @@ def square_cmd(
     right_encoder_sign: RightSignOpt = 1,
     max_wheel_speed: MaxSpeedOpt = 1.0,
     quiet: QuietOpt = False,
-    realtime: RealtimeOpt = False,
+    realtime: RealtimeOpt = True,
 ) -> None:
     """Drive the UMBmark square (four sides, four 90-degree turns in place) by odometry."""
     from odolab.trials import Command, MotionKind

@@ -18,7 +18,15 @@ from odolab.robot.driver import (
     parse_robot_url,
 )
 from odolab.robot.loop import ControlLoop, CycleInfo, CycleLog, LoopResult, LoopStats, Watchdog
-from odolab.robot.motions import Motion, Pivot, Rotate, Straight, motion_from_command, square
+from odolab.robot.motions import (
+    Motion,
+    MotionSequence,
+    Pivot,
+    Rotate,
+    Straight,
+    motion_from_command,
+    square,
+)
 from odolab.robot.plant import IdealPlant, Plant, make_plant
 from odolab.robot.server import (
     BoardConfig,
@@ -46,6 +54,7 @@ __all__ = [
     "LoopResult",
     "LoopStats",
     "Motion",
+    "MotionSequence",
     "Pivot",
     "Plant",
     "RealClock",

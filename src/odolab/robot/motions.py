@@ -20,9 +20,9 @@ from odolab.trials import Command, MotionKind
 
 __all__ = [
     "Motion",
+    "MotionSequence",
     "Pivot",
     "Rotate",
-    "Sequence_",
     "Straight",
     "motion_from_command",
     "square",
@@ -161,7 +161,7 @@ class Pivot:
         return (-self._sign * v, 0.0)
 
 
-class Sequence_:
+class MotionSequence:
     """Motions one after another; each starts from the odometry pose where the last stopped."""
 
     def __init__(self, motions: Sequence[Motion]) -> None:
@@ -196,7 +196,7 @@ def square(
     turn_speed: float = 0.5,
     decel: float = 0.0,
     turn_decel: float = 0.0,
-) -> Sequence_:
+) -> MotionSequence:
     """The UMBmark square: four times (straight ``side`` m, turn 90 degrees in place)."""
     if direction not in ("cw", "ccw"):
         raise SimError(f"square direction is {direction!r}, expected 'cw' or 'ccw'")
@@ -206,7 +206,7 @@ def square(
     for _ in range(4):
         steps.append(Straight(side, speed, decel))
         steps.append(Rotate(quarter, turn_speed, turn_decel))
-    return Sequence_(steps)
+    return MotionSequence(steps)
 
 
 def motion_from_command(
