@@ -7,11 +7,14 @@ import math
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from odolab.cli import main
 from odolab.io import read_encoder_csv, read_trajectory_csv
 from odolab.odometry import integrate
 from odolab.params import PRESETS
+from odolab.robot.plant import IdealPlant
 from odolab.robot.session import run_motion, run_motion_simulated, save_run
 from odolab.trials import Command, MotionKind, TrialStatus
 
@@ -74,3 +77,35 @@ def test_cli_drive_and_bad_robot_url(tmp_path: Path, capsys: pytest.CaptureFixtu
     code = main(["robot", "rotate", "--turns", "1", "--robot", "tcp://127.0.0.1:1", "--quiet"])
     assert code == 1
     assert "udp://HOST:PORT" in capsys.readouterr().err
+
+
+class OffsetPlant(IdealPlant):
+    """An ideal robot whose counters start at ``offset`` (left, right) instead of 0."""
+
+    def __init__(self, offset: tuple[int, int]) -> None:
+        super().__init__(NOMINAL)
+        self.offset = offset
+
+    def encoder_counts(self) -> tuple[int, int]:
+        left, right = super().encoder_counts()
+        return (left + self.offset[0]) % 32768, (right + self.offset[1]) % 32768
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 32767), st.integers(0, 32767))
+def test_rollover_anywhere_gives_the_same_prediction(left0: int, right0: int) -> None:
+    # 3 m in reverse is about 2173 counts: offsets below that wrap through 0
+    cmd = Command(MotionKind.TRANSLATION, distance=-3.0, speed=1.0)
+    trial, _ = run_motion_simulated(cmd, plant=OffsetPlant((left0, right0)))
+    ref, _ = run_motion_simulated(cmd, plant=OffsetPlant((20000, 20000)))
+    assert trial.predicted.x == pytest.approx(ref.predicted.x, abs=1e-12)
+    assert trial.predicted.heading == pytest.approx(0.0, abs=1e-12)
+
+
+def test_rollover_through_zero_really_happens() -> None:
+    cmd = Command(MotionKind.TRANSLATION, distance=-3.0, speed=1.0)
+    trial, _ = run_motion_simulated(cmd, plant=OffsetPlant((5, 32760)))
+    assert trial.encoder_log is not None
+    left = trial.encoder_log.left_ticks
+    assert left.max() > 30000 and left.min() < 10  # wrapped below 0
+    assert trial.predicted.x <= -3.0
