@@ -34,7 +34,7 @@ import threading
 import time
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass, field
-from typing import cast
+from typing import TypeVar, cast
 
 import numpy as np
 
@@ -64,6 +64,8 @@ __all__ = [
     "VirtualJaguar",
     "VirtualJaguarServer",
 ]
+
+_T = TypeVar("_T")
 
 LEFT_CHANNEL = 0
 RIGHT_CHANNEL = 1
@@ -97,7 +99,7 @@ class BoardConfig:
             left_metres_per_tick=params.left_metres_per_tick,
             right_metres_per_tick=params.right_metres_per_tick,
             modulus=min(params.encoder_modulus or 65536, 65536),
-            **changes,  # type: ignore[arg-type]
+            **changes,
         )
 
 
@@ -426,7 +428,7 @@ class VirtualJaguarServer:
         with self._lock:
             self.board.faults = faults
 
-    def call(self, fn: Callable[[VirtualJaguar], object]) -> object:
+    def call(self, fn: Callable[[VirtualJaguar], _T]) -> _T:
         """Run ``fn(board)`` under the server's lock (to read the plant safely)."""
         with self._lock:
             return fn(self.board)
