@@ -109,3 +109,26 @@ def test_rollover_through_zero_really_happens() -> None:
     left = trial.encoder_log.left_ticks
     assert left.max() > 30000 and left.min() < 10  # wrapped below 0
     assert trial.predicted.x <= -3.0
+
+
+def test_interrupted_run_is_saved_and_robot_stopped(tmp_path: Path) -> None:
+    from odolab.robot.loop import CycleInfo
+
+    def ctrl_c(info: CycleInfo) -> None:
+        if info.index == 12:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_motion(
+            Command(MotionKind.TRANSLATION, distance=2.0, speed=0.5),
+            truth="ideal",
+            on_cycle=ctrl_c,
+            save_to=tmp_path / "partial",
+        )
+    doc = json.loads((tmp_path / "partial" / "run.json").read_text())
+    assert doc["completed"] is False and doc["aborted"].startswith("aborted: KeyboardInterrupt")
+    assert doc["stats"]["cycles"] == 13
+    enc = read_encoder_csv(tmp_path / "partial" / "encoders.csv")
+    assert len(enc) == 13
+    # the board took the stop: the true robot is where the counters say, not further on
+    assert doc["true"]["x"] < 0.5

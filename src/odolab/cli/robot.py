@@ -139,7 +139,7 @@ def _run(
     from odolab.params import load_params
     from odolab.robot.driver import ChannelMap, CommandMode
     from odolab.robot.motions import motion_from_command
-    from odolab.robot.session import driver_config_for, run_motion, save_run
+    from odolab.robot.session import driver_config_for, run_motion
 
     nominal = load_params(params)
     config = driver_config_for(
@@ -168,6 +168,9 @@ def _run(
         if live is not None and (info.index % every == 0 or not info.link_ok):
             live.update(_live_table(info, rate, target))
 
+    folder = out or Path("runs") / "robot" / (
+        datetime.now(UTC).strftime("%Y%m%dT%H%M%S") + f"-{command.kind.value}"
+    )
     if live is not None:
         live.start()
     try:
@@ -185,14 +188,20 @@ def _run(
             on_cycle=on_cycle,
             on_event=on_event,
             realtime=realtime,
+            save_to=folder,
         )
+    except BaseException:
+        if live is not None:
+            live.stop()
+            live = None
+        for line in events:
+            typer.echo(line, err=True)
+        if (folder / "run.json").exists():
+            typer.echo(f"robot stopped; the partial run is saved to {folder}", err=True)
+        raise
     finally:
         if live is not None:
             live.stop()
-    folder = out or Path("runs") / "robot" / (
-        datetime.now(UTC).strftime("%Y%m%dT%H%M%S") + f"-{command.kind.value}"
-    )
-    save_run(run, folder)
     for line in events:
         typer.echo(line, err=True)
     p = run.trial.predicted

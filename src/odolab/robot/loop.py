@@ -172,6 +172,7 @@ class LoopResult:
     completed: bool  #: the motion reached its target (False: stopped by max_duration)
     final: Pose
     events: tuple[tuple[float, str], ...]
+    aborted: str = ""  #: why the run ended early ("" when it did not)
 
 
 def _noop_cycle(info: CycleInfo) -> None:
@@ -208,6 +209,8 @@ class ControlLoop:
         self.watchdog = Watchdog(watchdog_timeout)
         self.on_cycle = on_cycle or _noop_cycle
         self.on_event = on_event or _noop_event
+        #: what the last run had recorded when it failed (None after a run that ended normally)
+        self.partial: LoopResult | None = None
 
     def _safe_stop(self) -> None:
         for _ in range(3):  # UDP may lose one; a stop is idempotent
@@ -246,6 +249,8 @@ class ControlLoop:
         overruns = 0
         lost_events = 0
         completed = False
+        pose = odo.pose
+        self.partial = None
         try:
             reading = driver.latest if driver.latest is not None else driver.connect()
             self.watchdog.feed(reading.t)
@@ -255,7 +260,6 @@ class ControlLoop:
             phase = "holding" if motion is None else "moving"
             lost_since: float | None = None
             settle_start = math.nan
-            pose = odo.pose
             last_counts = (reading.left_ticks, reading.right_ticks)
             last_change = clock.now()
             while True:
@@ -339,15 +343,32 @@ class ControlLoop:
                     break
                 if clock.now() > t0 + k * period:
                     overruns += 1
-        except BaseException:
+        except BaseException as err:
             self._safe_stop()
+            self.partial = self._result(
+                log, wakes, overruns, lost_events, False, pose, events, f"aborted: {err!r}"
+            )
             raise
         self._safe_stop()
         if motion is None:
             completed = True
+        return self._result(log, wakes, overruns, lost_events, completed, pose, events, "")
+
+    def _result(
+        self,
+        log: CycleLog,
+        wakes: list[float],
+        overruns: int,
+        lost_events: int,
+        completed: bool,
+        pose: Pose,
+        events: list[tuple[float, str]],
+        aborted: str,
+    ) -> LoopResult:
         p50, p99, pmax = timing_stats(np.asarray(wakes), self.rate)
         late = np.asarray(log.lateness) if log.lateness else np.zeros(1)
         lp50, lp99 = np.percentile(late, [50, 99])
+        driver = self.driver
         ds = driver.stats
         stats = LoopStats(
             rate=self.rate,
@@ -367,4 +388,4 @@ class ControlLoop:
             decode_errors=driver.decode_errors,
             pings_answered=ds.pings_answered,
         )
-        return LoopResult(log, stats, completed, pose, tuple(events))
+        return LoopResult(log, stats, completed, pose, tuple(events), aborted)

@@ -7,6 +7,7 @@ so a 20*pi rotation takes a fraction of its real duration.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import time
@@ -16,6 +17,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+from odolab.errors import OdolabError
 from odolab.odometry import Odometry
 from odolab.params import PRESETS, RobotParams
 from odolab.robot.clock import Clock, RealClock, SimClock, set_realtime
@@ -75,7 +77,12 @@ def _trial(
     campaign: str,
 ) -> Trial:
     stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%S%fZ")
-    status = "" if result.completed else "motion stopped before its target (max duration)"
+    if result.aborted:
+        status = f"run {result.aborted}; the motion did not finish"
+    elif not result.completed:
+        status = "motion stopped before its target (max duration)"
+    else:
+        status = ""
     return Trial(
         trial_id=f"robot-{command.kind.value}-{stamp}",
         campaign=campaign,
@@ -104,9 +111,11 @@ def _drive(
     on_cycle: Callable[[CycleInfo], None] | None,
     on_event: Callable[[float, str], None] | None,
     realtime: bool = False,
+    on_abort: Callable[[LoopResult], object] | None = None,
 ) -> LoopResult:
     driver = JaguarDriver(transport, clock, config)
     rt = realtime and set_realtime(True)
+    loop: ControlLoop | None = None
     try:
         loop = ControlLoop(
             driver,
@@ -120,6 +129,12 @@ def _drive(
         return loop.run(
             motion or motion_from_command(command), settle=settle, max_duration=max_duration
         )
+    except BaseException:
+        if loop is not None and loop.partial is not None and on_abort is not None:
+            # keep what was recorded before the failure; a failure to save must not hide it
+            with contextlib.suppress(OSError, OdolabError):
+                on_abort(loop.partial)
+        raise
     finally:
         driver.close()
         if rt:
@@ -147,38 +162,54 @@ def run_motion(
     on_cycle: Callable[[CycleInfo], None] | None = None,
     on_event: Callable[[float, str], None] | None = None,
     realtime: bool = False,
+    save_to: str | Path | None = None,
 ) -> RobotRun:
     """Drive ``command`` by odometry over UDP in real time; return the run.
 
     ``robot``: "udp://HOST:PORT" of a board; None starts a virtual Jaguar on 127.0.0.1 (an
     OS-assigned port) whose plant is ``truth`` on ``terrain`` (see
     :func:`odolab.robot.plant.make_plant`), and the trial then carries the true pose.
-    ``realtime``: run the loop thread in SCHED_FIFO where the OS allows it.
+    ``realtime``: run the loop thread in SCHED_FIFO where the OS allows it. ``save_to``: save the
+    run there (:func:`save_run`), also when it fails part way (Ctrl-C, lost link, stall): what
+    was recorded up to the failure is kept.
     """
     params = params or PRESETS["jaguar-lite"]
     config = driver_config or driver_config_for(params)
     clock = clock or RealClock()
+
+    def finish(result: LoopResult, url: str, true_pose: Pose | None) -> RobotRun:
+        run = RobotRun(_trial(command, result, params, terrain, true_pose, campaign), result, url)
+        if save_to is not None:
+            save_run(run, save_to)
+        return run
+
     if robot is not None:
         host, port = parse_robot_url(robot)
         result = _drive(
             UdpTransport(host, port), clock, command, motion, params, config, rate,
             watchdog_timeout, settle, max_duration, on_cycle, on_event, realtime,
+            lambda partial: finish(partial, robot, None),
         )  # fmt: skip
-        return RobotRun(_trial(command, result, params, terrain, None, campaign), result, robot)
+        return finish(result, robot, None)
     plant = make_plant(truth, params, terrain, seed=seed)
     jaguar = VirtualJaguar(
         plant, board or BoardConfig.from_params(params), faults=faults, seed=seed
     )
     with VirtualJaguarServer(jaguar) as server:
         host, port = server.address
+        url = f"virtual (udp://{host}:{port})"
+
+        def abort(partial: LoopResult) -> None:
+            time.sleep(0.05)  # let the board take the stop before reading the truth
+            finish(partial, url, server.call(lambda b: b.plant.true_pose))
+
         result = _drive(
             UdpTransport(host, port), clock, command, motion, params, config, rate,
-            watchdog_timeout, settle, max_duration, on_cycle, on_event, realtime,
+            watchdog_timeout, settle, max_duration, on_cycle, on_event, realtime, abort,
         )  # fmt: skip
         time.sleep(0.05)  # let the board take the final stop before reading the truth
         true_pose = server.call(lambda b: b.plant.true_pose)
-    url = f"virtual (udp://{host}:{port})"
-    return RobotRun(_trial(command, result, params, terrain, true_pose, campaign), result, url)
+    return finish(result, url, true_pose)
 
 
 def run_motion_simulated(
@@ -259,6 +290,7 @@ def save_run(run: RobotRun, folder: str | Path) -> Path:
         "describe": trial.command.describe(),
         "params": trial.params.to_dict(),
         "completed": run.loop.completed,
+        "aborted": run.loop.aborted or None,
         "predicted": trial.predicted._asdict(),
         "true": trial.true._asdict() if trial.true is not None else None,
         "status": trial.status.value,
