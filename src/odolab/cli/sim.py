@@ -1,3 +1,112 @@
-"""CLI commands: sim (filled in by its issue)."""
+"""CLI commands: ``odolab sim run`` and ``odolab sim list`` (the virtual Jaguar)."""
 
 from __future__ import annotations
+
+from importlib import resources
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from odolab.cli._apps import sim_app
+
+__all__: list[str] = []
+
+
+def _builtin_names() -> list[str]:
+    folder = resources.files("odolab").joinpath("data/protocols")
+    try:
+        return sorted(e.name[:-5] for e in folder.iterdir() if e.name.endswith(".toml"))
+    except (FileNotFoundError, NotADirectoryError):  # pragma: no cover - broken install
+        return []
+
+
+#: == odolab.sim.presets.LAB_REPORT_SEED (tested); a literal so that --help stays instant
+_LAB_REPORT_SEED = 796
+
+_PROTOCOL_HELP = "Protocol TOML file or built-in protocol: " + ", ".join(_builtin_names()) + "."
+
+
+@sim_app.command("run")
+def sim_run(
+    protocol: Annotated[str, typer.Argument(help=_PROTOCOL_HELP)],
+    terrain: Annotated[
+        str | None,
+        typer.Option(help="Override the protocol's terrain: tile, concrete or grass."),
+    ] = None,
+    seed: Annotated[
+        int,
+        typer.Option(
+            help="Random seed (the same seed gives the same trials); the default is the "
+            "documented seed whose lab-report campaign reproduces the lab's Table I."
+        ),
+    ] = _LAB_REPORT_SEED,
+    output: Annotated[
+        Path, typer.Option("--output", "-o", help="Trials CSV to write (one row per trial).")
+    ] = Path("trials.csv"),
+    truth: Annotated[
+        str,
+        typer.Option(
+            help="True-behaviour preset of the virtual robot: "
+            "jaguar-lab, jaguar-lab-track or ideal."
+        ),
+    ] = "jaguar-lab",
+    params: Annotated[
+        str, typer.Option("--params", "-p", help="Nominal parameters (TOML file or preset).")
+    ] = "jaguar-lite",
+    encoder_dir: Annotated[
+        Path | None,
+        typer.Option(help="Also write each trial's encoder log as DIR/<trial_id>.csv."),
+    ] = None,
+) -> None:
+    """Run an experiment protocol on the virtual Jaguar and write the trials."""
+    from rich.console import Console
+    from rich.progress import Progress
+
+    from odolab.errors import SimError
+    from odolab.params import load_params
+    from odolab.sim.export import write_encoder_logs, write_trials_csv
+    from odolab.sim.presets import TRUTH_PRESETS
+    from odolab.sim.protocols import load_protocol, run_protocol
+
+    if truth not in TRUTH_PRESETS:
+        raise SimError(
+            f"--truth: unknown preset {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}"
+        )
+    proto = load_protocol(protocol)
+    nominal = load_params(params)
+    console = Console(stderr=True)
+    with Progress(transient=True, console=console, disable=not console.is_terminal) as bar:
+        task = bar.add_task(f"{proto.name}", total=len(proto))
+        trials = run_protocol(
+            proto,
+            TRUTH_PRESETS[truth],
+            nominal,
+            terrain=terrain,
+            seed=seed,
+            progress=lambda done, total: bar.update(task, completed=done),
+        )
+    write_trials_csv(trials, output)
+    if encoder_dir is not None:
+        write_encoder_logs(trials, encoder_dir)
+    stalled = sum(t.exclusion_reason is not None for t in trials)
+    typer.echo(
+        f"{len(trials)} trials of {proto.name} ({truth}, seed {seed}) -> {output}"
+        + (f"; {stalled} stalled (excluded)" if stalled else "")
+    )
+
+
+@sim_app.command("list")
+def sim_list() -> None:
+    """List the built-in protocols, terrains and true-behaviour presets."""
+    from odolab.sim.presets import TRUTH_PRESETS
+    from odolab.sim.protocols import builtin_protocols
+    from odolab.sim.terrains import TERRAINS
+
+    typer.echo("protocols:")
+    for name, desc in builtin_protocols().items():
+        typer.echo(f"  {name}: {desc}")
+    typer.echo("terrains:")
+    for name, t in TERRAINS.items():
+        typer.echo(f"  {name}: {t.description}")
+    typer.echo("truths: " + ", ".join(TRUTH_PRESETS))

@@ -83,7 +83,8 @@ class Compass:
             wrong = rng.random(h0.shape) < self.miscount_probability
             miss = np.where(wrong, rng.choice(np.array([-1, 1]), h0.shape), 0).astype(np.int64)
         turns = turns + miss
-        return CompassReadings(b0, b1, turns, _TWO_PI * turns + diff, miss)
+        rotation = np.asarray(_TWO_PI * turns + diff, dtype=np.float64)
+        return CompassReadings(b0, b1, turns, rotation, miss)
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,9 @@ At an abrupt stop each side slides on by ``stop_slide * v**2`` (no encoder count
 that cannot turn in place, wheels commanded in opposite directions do not move at all (stall).
 
 A run also starts misaligned: the person who put the robot on the tape frame got its heading
-wrong by ``N(0, align_sigma)``; the true pose is reported in that tape frame.
+wrong by ``N(0, align_sigma)``; the true pose is reported in that tape frame. Optionally the
+effective track width of a run differs from ``track_width`` by a factor ``1 + N(0, track_sigma)``
+(the ground under the robot changes between runs): rotation error proportional to the angle.
 
 :class:`VirtualRobot` steps one robot in time (for the live control loop and the virtual Jaguar
 server). :func:`simulate_batch` runs many scripted trials at once (compiled loop over trials and
@@ -67,6 +69,7 @@ class TrueParams:
     (skid-steer turning makes it wider than a ruler says). ``k_left``/``k_right`` (m): per-wheel
     slip variance per metre rolled. ``k_scrub`` (rad): heading variance per commanded radian of
     differential turning. ``align_sigma`` (rad): sigma of the start heading offset of each run.
+    ``track_sigma``: relative sigma of a per-run factor on the effective track width.
     ``speed_slip`` (s/m): fractional loss of effective radius per m/s of wheel speed.
     ``stop_slide`` (s^2/m): extra slide of each side at an abrupt stop per (m/s)^2.
     ``terrain_radius_scale``: pairs (terrain name, factor) multiplying every effective radius on
@@ -82,6 +85,7 @@ class TrueParams:
     k_right: float = 0.0
     k_scrub: float = 0.0
     align_sigma: float = 0.0
+    track_sigma: float = 0.0
     speed_slip: float = 0.0
     stop_slide: float = 0.0
     terrain_radius_scale: tuple[tuple[str, float], ...] = ()
@@ -147,7 +151,7 @@ class TrueParams:
     @property
     def noiseless(self) -> TrueParams:
         """The same systematic behaviour without any random term."""
-        return replace(self, k_left=0.0, k_right=0.0, k_scrub=0.0, align_sigma=0.0)
+        return replace(self, k_left=0.0, k_right=0.0, k_scrub=0.0, align_sigma=0.0, track_sigma=0.0)
 
 
 def kernel_params(truth: TrueParams, nominal: RobotParams, terrain: Terrain) -> NDArray[np.float64]:
@@ -176,6 +180,8 @@ def kernel_params(truth: TrueParams, nominal: RobotParams, terrain: Terrain) -> 
 
 @njit(cache=True, inline="always")
 def _arc(x, y, h, ds, dth):  # type: ignore[no-untyped-def]  # pragma: no cover - compiled
+    if ds == 0.0:
+        return x, y, h + dth
     u = 0.5 * dth
     c = ds * (1.0 - u * u / 6.0) if abs(u) < 1e-4 else ds * math.sin(u) / u
     mid = h + u
@@ -228,9 +234,9 @@ def _advance(state, p, vl, vr, dt, nsteps, rng):  # type: ignore[no-untyped-def]
     y = state[1]
     h = state[2]
     for _ in range(nsteps):
-        zl = rng.standard_normal()
-        zr = rng.standard_normal()
-        zs = rng.standard_normal()
+        zl = rng.standard_normal() if p[6] != 0.0 else 0.0
+        zr = rng.standard_normal() if p[7] != 0.0 else 0.0
+        zs = rng.standard_normal() if p[8] != 0.0 else 0.0
         x, y, h = _step(x, y, h, dnl, dnr, dt, p, zl, zr, zs)
         state[3] += tl
         state[4] += tr
@@ -311,9 +317,9 @@ def _batch(  # type: ignore[no-untyped-def]  # pragma: no cover - compiled
                         done_r = True
                     dr = nr - pr
                     pr = nr
-                zl = rng.standard_normal()
-                zr = rng.standard_normal()
-                zs = rng.standard_normal()
+                zl = rng.standard_normal() if p[6] != 0.0 else 0.0
+                zr = rng.standard_normal() if p[7] != 0.0 else 0.0
+                zs = rng.standard_normal() if p[8] != 0.0 else 0.0
                 x, y, h = _step(x, y, h, dl * p[12], dr * p[13], dt, p, zl, zr, zs)
                 phase += 1
                 if phase == spr:
@@ -345,6 +351,7 @@ class BatchResult:
     starting at 0) at the report instants ``k / report_rate``; only the first ``n_samples[i]``
     entries of row i are valid. ``final_pose``: (n, 3) true x, y, heading in the tape frame.
     ``start_heading``: (n,) the start misalignment. ``stalled``: (n,) bool.
+    ``track_width``: (n,) the effective track width of each run.
     """
 
     ticks_left: NDArray[np.int64]
@@ -353,6 +360,7 @@ class BatchResult:
     final_pose: NDArray[np.float64]
     start_heading: NDArray[np.float64]
     stalled: NDArray[np.bool_]
+    track_width: NDArray[np.float64]
     report_rate: float
 
 
@@ -365,8 +373,9 @@ def simulate_batch(
     n_segments: NDArray[np.int64],
     *,
     align_sigma: NDArray[np.float64] | float = 0.0,
+    track_sigma: float = 0.0,
     report_rate: float = 20.0,
-    dt: float = 0.01,
+    dt: float = 0.025,
     stall_time: float = 2.0,
     rng: np.random.Generator,
 ) -> BatchResult:
@@ -408,6 +417,9 @@ def simulate_batch(
     m = int(reports.max(initial=0)) + stall_reports + 2
     h0 = np.broadcast_to(np.asarray(align_sigma, dtype=np.float64), (n,)) * rng.standard_normal(n)
     h0 = np.ascontiguousarray(h0)
+    if track_sigma > 0:
+        P = P.copy()
+        P[:, _TRACK] *= np.maximum(1.0 + track_sigma * rng.standard_normal(n), 0.05)
     out_l = np.zeros((n, m), dtype=np.int64)
     out_r = np.zeros((n, m), dtype=np.int64)
     out_len = np.zeros(n, dtype=np.int64)
@@ -417,7 +429,9 @@ def simulate_batch(
         P, seg_l, seg_r, vl, vr, nseg, h0, spr, float(dt), stall_reports, rng,
         out_l, out_r, out_len, out_pose, out_stalled,
     )  # fmt: skip
-    return BatchResult(out_l, out_r, out_len, out_pose, h0, out_stalled, float(report_rate))
+    return BatchResult(
+        out_l, out_r, out_len, out_pose, h0, out_stalled, P[:, _TRACK].copy(), float(report_rate)
+    )
 
 
 # --------------------------------------------------------------------------- one robot in time
@@ -449,6 +463,7 @@ class VirtualRobot:
         self.terrain = get_terrain(terrain)
         self.dt = float(dt)
         self._p = kernel_params(truth, nominal, self.terrain)
+        self._base_track = float(self._p[_TRACK])
         self._rng = np.random.default_rng(seed)
         m = nominal.encoder_modulus
         self._offset_l = int(self._rng.integers(0, m)) if m else 0
@@ -471,6 +486,9 @@ class VirtualRobot:
             raise SimError(f"start pose must be finite numbers, got {start!r}")
         if misalign and self.truth.align_sigma > 0:
             h0 += self.truth.align_sigma * float(self._rng.standard_normal())
+        if self.truth.track_sigma > 0:
+            factor = max(1.0 + self.truth.track_sigma * float(self._rng.standard_normal()), 0.05)
+            self._p[_TRACK] = self._base_track * factor
         self._state[0:3] = (x0, y0, h0)
         self._vl = 0.0
         self._vr = 0.0

@@ -7,7 +7,7 @@ A protocol file::
     description = "..."
     terrain = "tile"                 # default for every trial set
     report_rate = 20.0               # Hz, encoder reports
-    dt = 0.01                        # s, physics step (must divide 1 / report_rate)
+    dt = 0.025                       # s, physics step (must divide 1 / report_rate)
     linear_speed = 0.3               # m/s, wheel surface speed on straight runs
     turn_speed = 0.3                 # m/s, wheel surface speed when turning
 
@@ -21,7 +21,7 @@ A protocol file::
     [[trials]]                       # a set of trials
     motion = "rotation"              # rotation | translation | pivot | square
     angle_pi = { from = 1, to = 20, step = 1 }   # or angle (rad); a number, list or range
-    direction = "ccw"                # rotation/pivot/square: ccw | cw; translation: forward | reverse
+    direction = "ccw"                # ccw | cw; a translation: forward | reverse
     repeats = 1
     # distance = [1.0, 2.5]          # translation (m, > 0)
     # side = 4.0                     # square (m)
@@ -126,7 +126,7 @@ class Protocol:
     description: str
     trials: tuple[TrialSpec, ...]
     report_rate: float = 20.0
-    dt: float = 0.01
+    dt: float = 0.025
     instruments: Instruments = field(default_factory=Instruments)
     source: str = "<protocol>"
 
@@ -279,7 +279,7 @@ def parse_protocol(doc: dict[str, Any], source: str = "<protocol>") -> Protocol:
         "turn_speed": _number(source, "[protocol] key 'turn_speed'", head.get("turn_speed", 0.3)),
     }
     rate = _number(source, "[protocol] key 'report_rate'", head.get("report_rate", 20.0))
-    dt = _number(source, "[protocol] key 'dt'", head.get("dt", 0.01))
+    dt = _number(source, "[protocol] key 'dt'", head.get("dt", 0.025))
     spr = 1.0 / (rate * dt)
     if abs(spr - round(spr)) > 1e-6 or round(spr) < 1:
         raise _err(
@@ -433,7 +433,7 @@ def run_protocol(
     """
     report = progress or (lambda done, total: None)
     if terrain is not None:
-        get_terrain(terrain)
+        get_terrain(terrain, where="terrain override")
     specs = protocol.trials
     n = len(specs)
     rng = np.random.default_rng(seed)
@@ -455,15 +455,20 @@ def run_protocol(
         arr[3],
         nseg,
         align_sigma=truth.align_sigma,
+        track_sigma=truth.track_sigma,
         report_rate=protocol.report_rate,
         dt=protocol.dt,
         rng=rng,
     )
     modulus = nominal.encoder_modulus
+    offsets = np.zeros((n, 2), dtype=np.int64)
     if modulus:
         offsets = rng.integers(0, modulus, size=(n, 2))
-    else:
-        offsets = np.zeros((n, 2), dtype=np.int64)
+    all_left = batch.ticks_left + offsets[:, :1]
+    all_right = batch.ticks_right + offsets[:, 1:]
+    if modulus:
+        np.mod(all_left, modulus, out=all_left)
+        np.mod(all_right, modulus, out=all_right)
     h0 = batch.start_heading
     fx, fy, fh = batch.final_pose.T
     # instruments, vectorized over all trials (only the relevant readings are kept per trial)
@@ -482,12 +487,7 @@ def run_protocol(
     for i, spec in enumerate(specs):
         m = int(batch.n_samples[i])
         t = np.arange(m, dtype=np.float64) / protocol.report_rate
-        left = batch.ticks_left[i, :m] + offsets[i, 0]
-        right = batch.ticks_right[i, :m] + offsets[i, 1]
-        if modulus:
-            left = np.mod(left, modulus)
-            right = np.mod(right, modulus)
-        log = EncoderLog(t, left.astype(np.int64), right.astype(np.int64), modulus)
+        log = EncoderLog(t, all_left[i, :m], all_right[i, :m], modulus)
         pred = integrate(t, log.left_ticks, log.right_ticks, nominal).final
         true = _pose(float(t[-1]), float(fx[i]), float(fy[i]), float(fh[i]))
         kind = spec.command.kind
