@@ -188,3 +188,23 @@ def test_stalled_robot_is_stopped_and_reported() -> None:
         loop.run(Straight(1.0))
     assert 3.0 < clock.now() < 3.3
     assert driver.last_command == (0.0, 0.0)
+
+
+def test_velocity_mode_drives_the_same() -> None:
+    from odolab.robot.driver import CommandMode
+
+    clock = SimClock()
+    board = VirtualJaguar(IdealPlant(NOMINAL), BoardConfig.from_params(NOMINAL))
+    cfg = driver_config_for(NOMINAL, mode=CommandMode.VELOCITY)
+    driver = JaguarDriver(InProcessLink(board, clock.now), clock, cfg)
+    loop = ControlLoop(driver, Odometry(NOMINAL), clock)
+    speeds: list[tuple[float, float]] = []
+    loop.on_cycle = lambda info: speeds.append(board.wheel_speeds)
+    res = loop.run(Straight(1.0, speed=0.5))
+    assert res.final.x >= 1.0
+    # 0.5 m/s is round(0.5 / metres per tick) = 362 counts/s on the wire
+    expected = 362 * NOMINAL.left_metres_per_tick
+    assert max(s[0] for s in speeds) == pytest.approx(expected, rel=1e-12)
+    assert board.plant.true_pose.x == pytest.approx(
+        res.final.x, abs=2 * NOMINAL.left_metres_per_tick
+    )

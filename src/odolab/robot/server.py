@@ -434,8 +434,10 @@ class VirtualJaguarServer:
             return fn(self.board)
 
     def serve_forever(self) -> None:
-        """Serve in the calling thread until :meth:`close` (or Ctrl-C)."""
+        """Serve in the calling thread until :meth:`close` (or Ctrl-C); re-raise a failure."""
         self._serve()
+        if self.error is not None:
+            raise RobotLinkError(f"the virtual Jaguar stopped: {self.error!r}") from self.error
 
     def _serve(self) -> None:
         sock = self._sock
