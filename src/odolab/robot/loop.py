@@ -1,0 +1,391 @@
+"""The fixed-rate control loop (the lab's Figs. 6-8), on absolute deadlines, with a watchdog.
+
+Cycle ``k`` is due at ``t0 + k / rate``: the loop sleeps until that deadline (never "period after
+the last wake-up"), so it does not drift; a late cycle runs at once and counts as an overrun. One
+cycle is: read what the board sent (update the encoder measurements), :meth:`Odometry.update`
+(predict the motion, update the global pose), log, then command the wheels. If no sensor packet
+arrived for ``watchdog_timeout`` seconds the link is declared lost and the loop commands stop
+every cycle until data returns. Any exception, Ctrl-C included, commands stop before it leaves.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from odolab.errors import RobotLinkError, SimError
+from odolab.odometry import Odometry
+from odolab.robot.clock import Clock
+from odolab.robot.driver import EncoderReading, JaguarDriver
+from odolab.robot.motions import Motion
+from odolab.trajectory import Pose, Trajectory
+from odolab.trials import EncoderLog
+
+__all__ = [
+    "ControlLoop",
+    "CycleInfo",
+    "CycleLog",
+    "LoopResult",
+    "LoopStats",
+    "Watchdog",
+    "timing_stats",
+]
+
+
+class Watchdog:
+    """Declares the link lost when nothing was fed for ``timeout`` seconds."""
+
+    def __init__(self, timeout: float = 0.5) -> None:
+        if not (math.isfinite(timeout) and timeout > 0):
+            raise RobotLinkError(f"watchdog timeout is {timeout!r}, expected a positive number")
+        self.timeout = float(timeout)
+        self.last_feed: float | None = None
+
+    def feed(self, t: float) -> None:
+        """Data arrived at ``t``."""
+        self.last_feed = t
+
+    def expired(self, now: float) -> bool:
+        """True when nothing arrived in the last ``timeout`` seconds (or ever)."""
+        return self.last_feed is None or now - self.last_feed > self.timeout
+
+
+@dataclass(frozen=True)
+class CycleInfo:
+    """What one cycle saw and did, for a live view."""
+
+    index: int
+    t: float
+    pose: Pose
+    reading: EncoderReading
+    fresh: bool  #: a new sensor packet arrived this cycle
+    link_ok: bool
+    command: tuple[float, float]
+    phase: str  #: "moving", "settling", "holding" or "link-lost"
+    lateness: float  #: s past the deadline when the cycle woke
+
+
+@dataclass
+class CycleLog:
+    """Per-cycle log: counters exactly as fed to the odometry, and the pose it returned."""
+
+    t: list[float] = field(default_factory=list)
+    left_ticks: list[int] = field(default_factory=list)
+    right_ticks: list[int] = field(default_factory=list)
+    x: list[float] = field(default_factory=list)
+    y: list[float] = field(default_factory=list)
+    theta: list[float] = field(default_factory=list)
+    heading: list[float] = field(default_factory=list)
+    fresh: list[bool] = field(default_factory=list)
+    lateness: list[float] = field(default_factory=list)
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    def append(self, pose: Pose, reading: EncoderReading, fresh: bool, lateness: float) -> None:
+        self.t.append(pose.t)
+        self.left_ticks.append(reading.left_ticks)
+        self.right_ticks.append(reading.right_ticks)
+        self.x.append(pose.x)
+        self.y.append(pose.y)
+        self.theta.append(pose.theta)
+        self.heading.append(pose.heading)
+        self.fresh.append(fresh)
+        self.lateness.append(lateness)
+
+    def encoder_log(self, modulus: int | None) -> EncoderLog:
+        """The counters as an :class:`EncoderLog` (shape (n,) arrays)."""
+        return EncoderLog(
+            np.asarray(self.t, dtype=np.float64),
+            np.asarray(self.left_ticks, dtype=np.int64),
+            np.asarray(self.right_ticks, dtype=np.int64),
+            modulus,
+        )
+
+    def trajectory(self) -> Trajectory:
+        """The loop's poses, one per cycle."""
+        return Trajectory(
+            np.asarray(self.t, dtype=np.float64),
+            np.asarray(self.x, dtype=np.float64),
+            np.asarray(self.y, dtype=np.float64),
+            np.asarray(self.theta, dtype=np.float64),
+            np.asarray(self.heading, dtype=np.float64),
+        )
+
+
+@dataclass(frozen=True)
+class LoopStats:
+    """Timing and link health of one loop run. Times in seconds.
+
+    ``period_error_*`` are statistics of |actual period - nominal period| between consecutive
+    wake-ups; ``lateness_*`` of (wake-up time - deadline). An overrun is a cycle whose work
+    ended after the next cycle's deadline.
+    """
+
+    rate: float
+    cycles: int
+    duration: float
+    period_error_p50: float
+    period_error_p99: float
+    period_error_max: float
+    lateness_p50: float
+    lateness_p99: float
+    lateness_max: float
+    overruns: int
+    sensor_packets: int
+    link_lost_events: int
+    stops_sent: int
+    commands_sent: int
+    decode_errors: int
+    pings_answered: int
+
+    def describe(self) -> str:
+        """One line for people."""
+        return (
+            f"{self.cycles} cycles at {self.rate:g} Hz in {self.duration:.2f} s; period error "
+            f"p50 {self.period_error_p50 * 1e3:.3f} ms, p99 {self.period_error_p99 * 1e3:.3f} ms, "
+            f"max {self.period_error_max * 1e3:.3f} ms; {self.overruns} overruns; "
+            f"{self.sensor_packets} sensor packets, {self.decode_errors} bad, "
+            f"{self.link_lost_events} link losses"
+        )
+
+
+def timing_stats(t_wake: NDArray[np.float64], rate: float) -> tuple[float, float, float]:
+    """(p50, p99, max) of |diff(t_wake) - 1/rate|; ``t_wake`` shape (n,). Zeros when n < 2."""
+    if t_wake.size < 2:
+        return 0.0, 0.0, 0.0
+    err = np.abs(np.diff(t_wake) - 1.0 / rate)
+    p50, p99 = np.percentile(err, [50, 99])
+    return float(p50), float(p99), float(err.max())
+
+
+@dataclass(frozen=True, eq=False)
+class LoopResult:
+    """What a loop run produced."""
+
+    log: CycleLog
+    stats: LoopStats
+    completed: bool  #: the motion reached its target (False: stopped by max_duration)
+    final: Pose
+    events: tuple[tuple[float, str], ...]
+    aborted: str = ""  #: why the run ended early ("" when it did not)
+
+
+def _noop_cycle(info: CycleInfo) -> None:
+    return None
+
+
+def _noop_event(t: float, message: str) -> None:
+    return None
+
+
+class ControlLoop:
+    """Runs motions at a fixed rate over a :class:`JaguarDriver` with a streaming odometry.
+
+    ``on_cycle`` is called after every cycle; ``on_event(t, message)`` on link loss/return.
+    """
+
+    def __init__(
+        self,
+        driver: JaguarDriver,
+        odometry: Odometry,
+        clock: Clock,
+        *,
+        rate: float = 20.0,
+        watchdog_timeout: float = 0.5,
+        on_cycle: Callable[[CycleInfo], None] | None = None,
+        on_event: Callable[[float, str], None] | None = None,
+    ) -> None:
+        if not (math.isfinite(rate) and rate > 0):
+            raise SimError(f"loop rate is {rate!r}, expected a positive number of Hz")
+        self.driver = driver
+        self.odometry = odometry
+        self.clock = clock
+        self.rate = float(rate)
+        self.watchdog = Watchdog(watchdog_timeout)
+        self.on_cycle = on_cycle or _noop_cycle
+        self.on_event = on_event or _noop_event
+        #: what the last run had recorded when it failed (None after a run that ended normally)
+        self.partial: LoopResult | None = None
+
+    def _safe_stop(self) -> None:
+        for _ in range(3):  # UDP may lose one; a stop is idempotent
+            try:
+                self.driver.stop()
+            except Exception:
+                continue
+
+    def run(
+        self,
+        motion: Motion | None = None,
+        *,
+        settle: float = 0.5,
+        max_duration: float | None = None,
+        max_cycles: int | None = None,
+        link_abort: float | None = None,
+        stall_timeout: float | None = 3.0,
+    ) -> LoopResult:
+        """Drive ``motion`` to its end, then hold still for ``settle`` s while the odometry runs.
+
+        Without a motion the loop holds the robot still (commanding stop every cycle) for
+        ``max_duration`` s or ``max_cycles`` cycles. ``link_abort``: raise
+        :class:`RobotLinkError` (after commanding stop) when the link stays lost that long.
+        ``stall_timeout``: raise :class:`RobotLinkError` (after commanding stop) when the motion
+        commands the wheels but, with sensor data arriving, the counters have not changed for
+        that long (a stalled or lifted-off robot, or a board that ignores the commands).
+        """
+        if motion is None and max_duration is None and max_cycles is None:
+            raise SimError("a loop without a motion needs max_duration or max_cycles")
+        driver = self.driver
+        clock = self.clock
+        odo = self.odometry
+        log = CycleLog()
+        events: list[tuple[float, str]] = []
+        wakes: list[float] = []
+        overruns = 0
+        lost_events = 0
+        completed = False
+        pose = odo.pose
+        self.partial = None
+        try:
+            reading = driver.latest if driver.latest is not None else driver.connect()
+            self.watchdog.feed(reading.t)
+            period = 1.0 / self.rate
+            t0 = clock.now()
+            k = 0
+            phase = "holding" if motion is None else "moving"
+            lost_since: float | None = None
+            settle_start = math.nan
+            last_counts = (reading.left_ticks, reading.right_ticks)
+            last_change = clock.now()
+            while True:
+                deadline = t0 + k * period
+                clock.sleep_until(deadline)
+                now = clock.now()
+                wakes.append(now)
+                fresh = driver.poll() > 0
+                assert driver.latest is not None
+                reading = driver.latest
+                if fresh:
+                    self.watchdog.feed(reading.t)
+                    counts = (reading.left_ticks, reading.right_ticks)
+                    if counts != last_counts or phase != "moving":
+                        last_counts = counts
+                        last_change = now
+                pose = odo.update(now - t0, reading.left_ticks, reading.right_ticks)
+                log.append(pose, reading, fresh, now - deadline)
+                if k == 0 and motion is not None:
+                    motion.start(pose, odo.params)
+                command = (0.0, 0.0)
+                if self.watchdog.expired(now):
+                    if lost_since is None:
+                        lost_since = now
+                        lost_events += 1
+                        msg = f"link lost: no sensor data for {self.watchdog.timeout:g} s; stopping"
+                        events.append((now - t0, msg))
+                        self.on_event(now - t0, msg)
+                    driver.stop()
+                    if link_abort is not None and now - lost_since >= link_abort:
+                        raise RobotLinkError(
+                            f"robot link lost for {now - lost_since:.2f} s (no sensor data); "
+                            "stopped and gave up"
+                        )
+                    shown = "link-lost"
+                else:
+                    if lost_since is not None:
+                        lost_since = None
+                        last_change = now
+                        events.append((now - t0, "link back"))
+                        self.on_event(now - t0, "link back")
+                    if phase == "moving":
+                        assert motion is not None
+                        if stall_timeout is not None and now - last_change > stall_timeout:
+                            raise RobotLinkError(
+                                f"the robot's encoders have not moved for {stall_timeout:g} s "
+                                "while driving (stalled, or the board ignores the commands); "
+                                "stopped"
+                            )
+                        step = motion.step(pose)
+                        if step is None:
+                            phase = "settling"
+                            settle_start = now
+                            driver.stop()
+                        else:
+                            command = step
+                            driver.set_wheel_speeds(*step)
+                    else:
+                        driver.stop()
+                    shown = phase
+                self.on_cycle(
+                    CycleInfo(
+                        k,
+                        now - t0,
+                        pose,
+                        reading,
+                        fresh,
+                        lost_since is None,
+                        command,
+                        shown,
+                        now - deadline,
+                    )
+                )
+                k += 1
+                if phase == "settling" and now - settle_start >= settle:
+                    completed = True
+                    break
+                if max_cycles is not None and k >= max_cycles:
+                    break
+                if max_duration is not None and now - t0 >= max_duration:
+                    break
+                if clock.now() > t0 + k * period:
+                    overruns += 1
+        except BaseException as err:
+            self._safe_stop()
+            self.partial = self._result(
+                log, wakes, overruns, lost_events, False, pose, events, f"aborted: {err!r}"
+            )
+            raise
+        self._safe_stop()
+        if motion is None:
+            completed = True
+        return self._result(log, wakes, overruns, lost_events, completed, pose, events, "")
+
+    def _result(
+        self,
+        log: CycleLog,
+        wakes: list[float],
+        overruns: int,
+        lost_events: int,
+        completed: bool,
+        pose: Pose,
+        events: list[tuple[float, str]],
+        aborted: str,
+    ) -> LoopResult:
+        p50, p99, pmax = timing_stats(np.asarray(wakes), self.rate)
+        late = np.asarray(log.lateness) if log.lateness else np.zeros(1)
+        lp50, lp99 = np.percentile(late, [50, 99])
+        driver = self.driver
+        ds = driver.stats
+        stats = LoopStats(
+            rate=self.rate,
+            cycles=len(log),
+            duration=(wakes[-1] - wakes[0]) if wakes else 0.0,
+            period_error_p50=p50,
+            period_error_p99=p99,
+            period_error_max=pmax,
+            lateness_p50=float(lp50),
+            lateness_p99=float(lp99),
+            lateness_max=float(late.max()),
+            overruns=overruns,
+            sensor_packets=ds.sensor_packets,
+            link_lost_events=lost_events,
+            stops_sent=ds.stops_sent,
+            commands_sent=ds.commands_sent,
+            decode_errors=driver.decode_errors,
+            pings_answered=ds.pings_answered,
+        )
+        return LoopResult(log, stats, completed, pose, tuple(events), aborted)

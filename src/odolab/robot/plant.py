@@ -1,0 +1,147 @@
+"""What the virtual Jaguar board drives: a plant (the robot's physics), and a small ideal one.
+
+The board is written against :class:`Plant`, the agreed interface of
+``odolab.sim.physics.VirtualRobot`` (what :func:`make_plant` builds). :class:`IdealPlant` is an
+exact, slip-free, noise-free differential drive with wrapping encoders and arbitrary true
+parameters: a plant whose motion tests can compute by hand.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Protocol
+
+from odolab.errors import SimError
+from odolab.params import RobotParams
+from odolab.trajectory import Pose
+
+__all__ = ["IdealPlant", "Plant", "make_plant"]
+
+
+class Plant(Protocol):
+    """The members of the virtual robot that the virtual Jaguar board uses."""
+
+    @property
+    def time(self) -> float:
+        """Simulated time (s)."""
+        ...
+
+    def set_wheel_speeds(self, left_mps: float, right_mps: float) -> None:
+        """Command the left and right wheel (track) speeds, m/s."""
+        ...
+
+    def advance(self, duration: float) -> None:
+        """Run the physics for ``duration`` seconds."""
+        ...
+
+    def encoder_counts(self) -> tuple[int, int]:
+        """Raw (wrapped) encoder counters, left and right."""
+        ...
+
+    @property
+    def true_pose(self) -> Pose:
+        """Where the robot really is."""
+        ...
+
+    @property
+    def stalled(self) -> bool:
+        """Whether a track is stalled."""
+        ...
+
+    def reset(self, start: Any = None) -> None:
+        """Back to the start (counters to 0)."""
+        ...
+
+
+class IdealPlant:
+    """Exact differential drive with the given (true) parameters: no slip, no noise, no lag.
+
+    A wheel commanded at ``v`` m/s rolls ``v * dt`` metres; its counter advances by that distance
+    over the wheel's metres per tick (floored) and wraps at ``encoder_modulus``. The pose follows
+    the exact arc for the true track width.
+    """
+
+    def __init__(self, truth: RobotParams) -> None:
+        self.truth = truth
+        self._modulus = truth.encoder_modulus
+        self.reset()
+
+    def reset(self, start: Any = None) -> None:
+        x, y, h = (0.0, 0.0, 0.0) if start is None else (float(v) for v in tuple(start)[-3:])
+        if start is not None and isinstance(start, Pose):
+            x, y, h = start.x, start.y, start.heading
+        self._t = 0.0
+        self._x, self._y, self._h = x, y, h
+        self._sl = 0.0
+        self._sr = 0.0
+        self._vl = 0.0
+        self._vr = 0.0
+
+    @property
+    def time(self) -> float:
+        return self._t
+
+    @property
+    def stalled(self) -> bool:
+        return False
+
+    def set_wheel_speeds(self, left_mps: float, right_mps: float) -> None:
+        if not (math.isfinite(left_mps) and math.isfinite(right_mps)):
+            raise SimError(f"wheel speeds must be finite, got {left_mps!r}, {right_mps!r}")
+        self._vl = float(left_mps)
+        self._vr = float(right_mps)
+
+    def advance(self, duration: float) -> None:
+        if duration < 0:
+            raise SimError(f"advance duration is {duration}, expected >= 0")
+        if duration == 0:
+            return
+        dl = self._vl * duration
+        dr = self._vr * duration
+        ds = 0.5 * (dl + dr)
+        dth = (dr - dl) / self.truth.track_width
+        u = 0.5 * dth
+        chord = ds * (1.0 - u * u / 6.0 if abs(u) < 1e-6 else math.sin(u) / u)
+        mid = self._h + u
+        self._x += chord * math.cos(mid)
+        self._y += chord * math.sin(mid)
+        self._h += dth
+        self._sl += dl
+        self._sr += dr
+        self._t += duration
+
+    def encoder_counts(self) -> tuple[int, int]:
+        left = math.floor(self._sl / self.truth.left_metres_per_tick)
+        right = math.floor(self._sr / self.truth.right_metres_per_tick)
+        if self._modulus is not None:
+            left %= self._modulus
+            right %= self._modulus
+        return left, right
+
+    @property
+    def true_pose(self) -> Pose:
+        theta = math.atan2(math.sin(self._h), math.cos(self._h))
+        return Pose(self._t, self._x, self._y, theta, self._h)
+
+
+def make_plant(truth: Any, nominal: RobotParams, terrain: str = "tile", *, seed: int = 0) -> Plant:
+    """A plant for ``truth``: the simulator's :class:`odolab.sim.physics.VirtualRobot`.
+
+    ``truth`` is a name in ``odolab.sim.presets.TRUTH_PRESETS`` ("jaguar-lab", "ideal") or a
+    :class:`odolab.sim.physics.TrueParams`; a :class:`RobotParams` gives an :class:`IdealPlant`
+    with those (true) parameters instead.
+    """
+    if isinstance(truth, RobotParams):
+        return IdealPlant(truth)
+    from odolab.sim.physics import TrueParams, VirtualRobot
+    from odolab.sim.presets import TRUTH_PRESETS
+
+    if isinstance(truth, str):
+        if truth not in TRUTH_PRESETS:
+            raise SimError(
+                f"unknown truth preset {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}"
+            )
+        truth = TRUTH_PRESETS[truth]
+    if not isinstance(truth, TrueParams):
+        raise SimError(f"truth must be a preset name or TrueParams, got {type(truth).__name__}")
+    return VirtualRobot(truth, nominal, terrain, seed=seed)

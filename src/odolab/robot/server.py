@@ -1,0 +1,473 @@
+"""The virtual Jaguar: a motion/sensor board that speaks the Jaguar protocol over a plant.
+
+:class:`VirtualJaguar` is the board's logic without sockets: ``handle`` a datagram from a peer,
+``step`` to a time and collect the datagrams due by then. It is driven by a clock, so it runs in
+real time behind a UDP socket (:class:`VirtualJaguarServer`) or in simulated time in-process
+(:class:`InProcessLink`). :class:`Faults` makes the link lossy for tests: drop, delay (with
+jitter, hence reordering), duplicate and corrupt outgoing packets, or go silent.
+
+Choices where JAGUAR_PROTOCOL.md leaves one (see docs/robot.md):
+
+- Channel 0 drives the left track, channel 1 the right; forward is positive for both, the
+  encoder counters of both count up when driving forward and wrap at 32768 (15 bits).
+- PWM (type 6): wheel speed = (pwm - 16384) / 16384 * ``max_wheel_speed``.
+- Velocity (type 27): the value is the wheel's encoder rate in counts per second, signed;
+  speed = value * metres per tick of the board's (nominal) wheel, clipped to ``max_wheel_speed``.
+- The optional time field of a PWM/velocity command is accepted and ignored (speeds change at
+  once); position commands (type 4) are counted and ignored.
+- Before the first ACK the board answers PINGs with ACK and ignores motor commands; an ACK makes
+  its sender the peer the board streams to (the latest ACK wins). It also pings its peer every
+  ``ping_interval`` seconds.
+- Encoder velocity fields: |counter change| over the last report interval, in counts per second;
+  direction bits: 1 when the counter went up (forward), 0 when it went down, unchanged when
+  it did not move (1 at start).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import heapq
+import math
+import select
+import socket
+import threading
+import time
+from collections.abc import Callable, Hashable
+from dataclasses import dataclass, field
+from typing import TypeVar, cast
+
+import numpy as np
+
+from odolab.errors import ProtocolError, RobotLinkError
+from odolab.params import RobotParams
+from odolab.robot.plant import Plant
+from odolab.robot.protocol import (
+    DES_PC,
+    LEAVE_ALONE,
+    N_CHANNELS,
+    PWM_STOP,
+    Decoder,
+    MessageType,
+    MotorSensorData,
+    SystemCode,
+    decode_motor_command,
+    decode_system,
+    encode_motor_sensor,
+    encode_system,
+)
+
+__all__ = [
+    "BoardConfig",
+    "BoardStats",
+    "Faults",
+    "InProcessLink",
+    "VirtualJaguar",
+    "VirtualJaguarServer",
+]
+
+_T = TypeVar("_T")
+
+LEFT_CHANNEL = 0
+RIGHT_CHANNEL = 1
+
+
+@dataclass(frozen=True)
+class BoardConfig:
+    """How the virtual board maps commands to wheel speeds and reports its encoders."""
+
+    report_rate: float = 10.0  #: motor sensor packets per second
+    max_wheel_speed: float = 1.0  #: m/s at full PWM (0 or 32767); also the velocity clip
+    left_metres_per_tick: float = 2.0 * math.pi * 0.0835 / 380
+    right_metres_per_tick: float = 2.0 * math.pi * 0.0835 / 380
+    modulus: int = 32768  #: encoder counters wrap here (15 bits)
+    ping_interval: float = 1.0  #: s between PINGs to the peer (0 = never)
+
+    def __post_init__(self) -> None:
+        for name in ("report_rate", "max_wheel_speed", "left_metres_per_tick"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise ProtocolError(f"board {name} is {v}, expected a positive number")
+        if not (math.isfinite(self.right_metres_per_tick) and self.right_metres_per_tick > 0):
+            raise ProtocolError("board right_metres_per_tick must be a positive number")
+        if not 2 <= self.modulus <= 65536:
+            raise ProtocolError(f"board modulus is {self.modulus}, expected 2..65536")
+
+    @classmethod
+    def from_params(cls, params: RobotParams, **changes: float) -> BoardConfig:
+        """A board whose velocity unit and counter modulus follow ``params`` (nominal)."""
+        return cls(
+            left_metres_per_tick=params.left_metres_per_tick,
+            right_metres_per_tick=params.right_metres_per_tick,
+            modulus=min(params.encoder_modulus or 65536, 65536),
+            **changes,
+        )
+
+
+@dataclass(frozen=True)
+class Faults:
+    """Link faults applied to the board's outgoing packets (probabilities per packet).
+
+    ``delay`` (s) is added to every packet, plus a uniform random ``jitter`` (s) in [0, jitter):
+    a jitter longer than the report period reorders packets.
+    """
+
+    drop: float = 0.0
+    duplicate: float = 0.0
+    corrupt: float = 0.0
+    delay: float = 0.0
+    jitter: float = 0.0
+    drop_incoming: float = 0.0  #: probability that a packet to the board is lost
+
+    def __post_init__(self) -> None:
+        for name in ("drop", "duplicate", "corrupt", "drop_incoming"):
+            p = getattr(self, name)
+            if not 0.0 <= p <= 1.0:
+                raise ProtocolError(f"fault {name} is {p}, expected a probability 0..1")
+        if self.delay < 0 or self.jitter < 0:
+            raise ProtocolError("fault delay and jitter must be >= 0 s")
+
+
+@dataclass
+class BoardStats:
+    """What the virtual board has done (counts)."""
+
+    received: int = 0
+    commands: int = 0
+    ignored_commands: int = 0  #: motor commands before an ACK, or of an unsupported type
+    pings_received: int = 0
+    acks_received: int = 0
+    pings_sent: int = 0
+    reports: int = 0  #: sensor packets generated (before faults)
+    sent: int = 0  #: datagrams delivered (after faults)
+    dropped: int = 0
+    duplicated: int = 0
+    corrupted: int = 0
+    decode: Decoder = field(default_factory=Decoder)
+
+
+Address = Hashable
+
+
+class VirtualJaguar:
+    """The board's logic over a :class:`Plant`, in the time of whoever calls it."""
+
+    def __init__(
+        self,
+        plant: Plant,
+        config: BoardConfig | None = None,
+        *,
+        faults: Faults | None = None,
+        seed: int = 0,
+    ) -> None:
+        self.plant = plant
+        self.config = config or BoardConfig()
+        self.faults = faults or Faults()
+        self.stats = BoardStats()
+        self.silent = False
+        self.peer: Address | None = None
+        self._rng = np.random.default_rng(seed)
+        self._now: float | None = None
+        self._next_report = math.inf
+        self._report_base = 0.0
+        self._report_n = 0
+        self._next_ping = math.inf
+        self._outbox: list[tuple[float, int, bytes, Address]] = []
+        self._seq = 0
+        self._speeds = (0.0, 0.0)
+        self._last_counts: tuple[int, int] | None = None
+        self._direction = 0b11
+        self._pwm = [PWM_STOP] * N_CHANNELS
+
+    # --- time ---------------------------------------------------------------------------
+
+    def _advance_to(self, t: float) -> None:
+        if self._now is None:
+            self._now = t
+            return
+        if t > self._now:
+            self.plant.advance(t - self._now)
+            self._now = t
+
+    @property
+    def wheel_speeds(self) -> tuple[float, float]:
+        """The commanded (left, right) wheel speeds, m/s."""
+        return self._speeds
+
+    # --- incoming -----------------------------------------------------------------------
+
+    def handle(self, datagram: bytes, peer: Address, now: float) -> None:
+        """Process one datagram from ``peer`` received at ``now``."""
+        self._advance_to(now)
+        if self.faults.drop_incoming and self._rng.random() < self.faults.drop_incoming:
+            return
+        for packet in self.stats.decode.feed_datagram(datagram):
+            self.stats.received += 1
+            if packet.type == MessageType.SYSTEM:
+                code = decode_system(packet)
+                if code == SystemCode.ACK:
+                    self.stats.acks_received += 1
+                    if self.peer != peer:
+                        self.peer = peer
+                        self._report_base = self._now if self._now is not None else now
+                        self._report_n = 0
+                        self._next_report = self._report_base
+                        interval = self.config.ping_interval
+                        self._next_ping = now + interval if interval > 0 else math.inf
+                elif code == SystemCode.PING:
+                    self.stats.pings_received += 1
+                    self._queue(encode_system(SystemCode.ACK, DES_PC), peer, now, faults=False)
+            elif packet.type in (MessageType.PWM_ALL, MessageType.VELOCITY_ALL):
+                if peer != self.peer:
+                    self.stats.ignored_commands += 1
+                    continue
+                try:
+                    cmd = decode_motor_command(packet)
+                except ProtocolError:
+                    self.stats.ignored_commands += 1
+                    continue
+                self.stats.commands += 1
+                self._apply(cmd.kind, cmd.values)
+            else:
+                self.stats.ignored_commands += 1
+
+    def _apply(self, kind: MessageType, values: tuple[int | None, ...]) -> None:
+        left, right = self._speeds
+        out = []
+        for ch, current in ((LEFT_CHANNEL, left), (RIGHT_CHANNEL, right)):
+            v = values[ch]
+            if v is None or v == LEAVE_ALONE:
+                out.append(current)
+                continue
+            if kind is MessageType.PWM_ALL:
+                self._pwm[ch] = v
+                speed = (v - PWM_STOP) / PWM_STOP * self.config.max_wheel_speed
+            else:
+                mpt = (
+                    self.config.left_metres_per_tick
+                    if ch == LEFT_CHANNEL
+                    else self.config.right_metres_per_tick
+                )
+                speed = v * mpt
+                self._pwm[ch] = self._pwm_of(speed)
+            vmax = self.config.max_wheel_speed
+            out.append(min(max(speed, -vmax), vmax))
+        self._speeds = (out[0], out[1])
+        self.plant.set_wheel_speeds(out[0], out[1])
+
+    def _pwm_of(self, speed: float) -> int:
+        p = round(PWM_STOP + speed / self.config.max_wheel_speed * PWM_STOP)
+        return int(min(max(p, 0), 32767))
+
+    # --- outgoing -----------------------------------------------------------------------
+
+    def _report(self) -> bytes:
+        m = self.config.modulus
+        left, right = self.plant.encoder_counts()
+        counts = (int(left) % m, int(right) % m)
+        period = 1.0 / self.config.report_rate
+        vel = [0, 0]
+        if self._last_counts is not None:
+            for i in (0, 1):
+                d = (counts[i] - self._last_counts[i] + m // 2) % m - m // 2
+                vel[i] = min(round(abs(d) / period), 0xFFFF)
+                if d > 0:
+                    self._direction |= 1 << i
+                elif d < 0:
+                    self._direction &= ~(1 << i)
+        self._last_counts = counts
+        self.stats.reports += 1
+        return encode_motor_sensor(
+            MotorSensorData(
+                encoder_position=counts,
+                encoder_velocity=(vel[0], vel[1]),
+                direction=self._direction,
+                pwm=tuple(self._pwm),
+            )
+        )
+
+    def _queue(self, data: bytes, peer: Address, t: float, *, faults: bool = True) -> None:
+        f = self.faults
+        copies = 1
+        if faults:
+            if self.silent:
+                self.stats.dropped += 1
+                return
+            if f.drop and self._rng.random() < f.drop:
+                self.stats.dropped += 1
+                return
+            if f.duplicate and self._rng.random() < f.duplicate:
+                copies = 2
+                self.stats.duplicated += 1
+        elif self.silent:
+            return
+        for _ in range(copies):
+            payload = data
+            if faults and f.corrupt and self._rng.random() < f.corrupt:
+                b = bytearray(data)
+                i = int(self._rng.integers(len(b)))
+                b[i] ^= int(self._rng.integers(1, 256))
+                payload = bytes(b)
+                self.stats.corrupted += 1
+            due = t + f.delay + (f.jitter * float(self._rng.random()) if f.jitter else 0.0)
+            self._seq += 1
+            heapq.heappush(self._outbox, (due, self._seq, payload, peer))
+
+    def step(self, now: float) -> list[tuple[bytes, Address]]:
+        """Run the board up to ``now``; return the datagrams due by then, in delivery order."""
+        if self._now is None:
+            self._now = now
+        period = 1.0 / self.config.report_rate
+        while self.peer is not None and min(self._next_report, self._next_ping) <= now:
+            if self._next_ping < self._next_report:
+                self._advance_to(self._next_ping)
+                self._queue(encode_system(SystemCode.PING, DES_PC), self.peer, self._next_ping)
+                self.stats.pings_sent += 1
+                self._next_ping += self.config.ping_interval
+                continue
+            t = max(self._next_report, self._now)
+            self._advance_to(t)
+            self._queue(self._report(), self.peer, t)
+            self._report_n += 1  # absolute schedule: base + n * period, no summed drift
+            self._next_report = self._report_base + self._report_n * period
+        self._advance_to(now)
+        out: list[tuple[bytes, Address]] = []
+        while self._outbox and self._outbox[0][0] <= now:
+            _, _, data, peer = heapq.heappop(self._outbox)
+            out.append((data, peer))
+            self.stats.sent += 1
+        return out
+
+    def next_event(self) -> float:
+        """The time of the next report, ping or delivery (inf when idle)."""
+        t = self._outbox[0][0] if self._outbox else math.inf
+        if self.peer is not None:
+            t = min(t, self._next_report, self._next_ping)
+        return t
+
+
+class InProcessLink:
+    """A driver transport wired straight to a :class:`VirtualJaguar`, in a clock's time.
+
+    ``send`` hands the datagram to the board at the clock's current time; ``receive`` steps the
+    board to the clock's time and returns what it sent to this link.
+    """
+
+    PEER = "in-process"
+
+    def __init__(self, board: VirtualJaguar, clock: Callable[[], float]) -> None:
+        self.board = board
+        self._clock = clock
+        self.closed = False
+
+    def send(self, data: bytes) -> None:
+        if self.closed:
+            return
+        self.board.handle(data, self.PEER, self._clock())
+
+    def receive(self) -> list[bytes]:
+        if self.closed:
+            return []
+        return [d for d, peer in self.board.step(self._clock()) if peer == self.PEER]
+
+    def close(self) -> None:
+        self.closed = True
+
+
+class VirtualJaguarServer:
+    """The virtual Jaguar behind a UDP socket, run by a background thread in real time.
+
+    Use as a context manager, or call :meth:`start` and :meth:`close`. Port 0 lets the OS pick;
+    :attr:`address` is the bound (host, port).
+    """
+
+    def __init__(
+        self,
+        board: VirtualJaguar,
+        host: str = "127.0.0.1",
+        port: int = 0,
+    ) -> None:
+        self.board = board
+        # warm up the plant (the simulator compiles its physics on the first step, which would
+        # otherwise stall the first reports): one millisecond with the wheels still
+        board.plant.advance(1e-3)
+        self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        try:
+            self._sock.bind((host, port))
+        except OSError as err:
+            self._sock.close()
+            raise RobotLinkError(
+                f"cannot bind the virtual Jaguar to {host}:{port} ({err})"
+            ) from err
+        self._sock.setblocking(False)
+        self.address: tuple[str, int] = self._sock.getsockname()
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self.error: BaseException | None = None
+
+    def __enter__(self) -> VirtualJaguarServer:
+        self.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def start(self) -> None:
+        """Start serving in a daemon thread."""
+        if self._thread is None:
+            self._thread = threading.Thread(target=self._serve, name="virtual-jaguar", daemon=True)
+            self._thread.start()
+
+    def set_silent(self, silent: bool) -> None:
+        """Stop (True) or resume (False) sending anything."""
+        with self._lock:
+            self.board.silent = silent
+
+    def set_faults(self, faults: Faults) -> None:
+        """Change the link faults while running."""
+        with self._lock:
+            self.board.faults = faults
+
+    def call(self, fn: Callable[[VirtualJaguar], _T]) -> _T:
+        """Run ``fn(board)`` under the server's lock (to read the plant safely)."""
+        with self._lock:
+            return fn(self.board)
+
+    def serve_forever(self) -> None:
+        """Serve in the calling thread until :meth:`close` (or Ctrl-C); re-raise a failure."""
+        self._serve()
+        if self.error is not None:
+            raise RobotLinkError(f"the virtual Jaguar stopped: {self.error!r}") from self.error
+
+    def _serve(self) -> None:
+        sock = self._sock
+        try:
+            while not self._stop.is_set():
+                now = time.perf_counter()
+                with self._lock:
+                    wait = min(self.board.next_event() - now, 0.01)
+                readable, _, _ = select.select([sock], [], [], max(wait, 0.0))
+                now = time.perf_counter()
+                with self._lock:
+                    if readable:
+                        while True:
+                            try:
+                                data, peer = sock.recvfrom(2048)
+                            except (BlockingIOError, InterruptedError):
+                                break
+                            except OSError:  # e.g. ICMP port unreachable from an old peer
+                                break
+                            self.board.handle(data, peer, now)
+                    out = self.board.step(now)
+                for data, peer in out:
+                    with contextlib.suppress(OSError):
+                        sock.sendto(data, cast(tuple[str, int], peer))
+        except Exception as err:  # keep the thread's failure for whoever checks
+            self.error = err
+
+    def close(self) -> None:
+        """Stop the thread and close the socket."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=2.0)
+        self._sock.close()
