@@ -243,13 +243,13 @@ def run_lab(
     progress("calibration", 0, 2)
     by_ratio = ratios_from_analysis(analysis, nominal, terrain="tile")
     squares = [t for t in trials if t.command.kind is MotionKind.SQUARE]
-    cw, ccw = umbmark_errors_from_trials(squares)
-    by_umbmark = umbmark(cw, ccw, square_side, nominal)
-    cw_after, ccw_after = umbmark_errors_from_trials(squares, by_umbmark.params)
+    cw, ccw, side = umbmark_errors_from_trials(squares)
+    by_umbmark = umbmark(cw, ccw, side, nominal)
+    cw_after, ccw_after, _ = umbmark_errors_from_trials(squares, by_umbmark.params)
     by_umbmark = by_umbmark.with_after(cw_after, ccw_after)
     calibrations = {"ratios": by_ratio, "umbmark": by_umbmark}
     params_files: dict[str, Path] = {}
-    for name, cal in calibrations.items():
+    for name, cal in (("ratios", by_ratio), ("umbmark", by_umbmark.calibration)):
         new = cal.params.with_(name=nominal.name)
         nb.add_params_version(
             new,
