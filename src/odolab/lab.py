@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import os
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
@@ -39,6 +38,19 @@ from odolab.params import PRESETS, RobotParams, save_params
 from odolab.trials import Command, Measurement, MotionKind, Trial, TrialStatus
 
 __all__ = ["LabResult", "Progress", "run_lab"]
+
+PHONE_CAMPAIGN = "imu-validation"
+
+#: The lab report's Table I, for comparison: (motion, terrain) -> (ratio, its stated
+#: uncertainty, [(sigma, at, uncertainty), ...]). y rows: error per metre travelled.
+LAB_REPORT_TABLE1: dict[tuple[str, str], tuple[float, float, list[tuple[float, float, float]]]] = {
+    ("rotation", "tile"): (0.875, 0.005, [(2.94, 20 * math.pi, 0.05)]),
+    ("x", "tile"): (0.905, 0.005, []),
+    ("x", "concrete"): (0.920, 0.005, []),
+    ("x", "grass"): (0.904, 0.005, []),
+    ("y_forward", "tile"): (0.03, 0.01, [(0.03, 1.1, 0.01), (0.07, 2.5, 0.01)]),
+    ("y_reverse", "tile"): (0.09, 0.01, [(0.03, 1.1, 0.01), (0.07, 2.5, 0.01)]),
+}
 
 #: progress(step, done, total): a step's name and how far it is
 Progress = Callable[[str, int, int], None]
@@ -86,7 +98,7 @@ def _new_run_folder(out: Path) -> Path:
     try:
         if latest.is_symlink() or latest.exists():
             latest.unlink()
-        os.symlink(folder.name, latest)
+        latest.symlink_to(folder.name)
     except OSError:  # a file system without links: the folder name is printed anyway
         pass
     return folder
@@ -137,6 +149,16 @@ def _measure_live(
     return out
 
 
+def _truth_recorder(plant: Any, times: list[float], headings: list[float]) -> Callable[[Any], None]:
+    """A loop callback that samples the plant's true heading every cycle (what a phone sees)."""
+
+    def on_cycle(info: Any) -> None:
+        times.append(float(info.t))
+        headings.append(float(plant.true_pose.heading))
+
+    return on_cycle
+
+
 def run_lab(
     out: str | Path = "odolab-out",
     *,
@@ -150,7 +172,13 @@ def run_lab(
 ) -> LabResult:
     """Run the whole lab on the virtual Jaguar; return where the results are."""
     from odolab.analysis import analyze_trials, table1
-    from odolab.calibration import ratios_from_analysis, umbmark, umbmark_errors_from_trials
+    from odolab.calibration import (
+        CalibrationResult,
+        UmbmarkResult,
+        ratios_from_analysis,
+        umbmark,
+        umbmark_errors_from_trials,
+    )
     from odolab.report import write_report
     from odolab.robot.plant import make_plant
     from odolab.robot.session import run_motion_simulated
@@ -202,19 +230,13 @@ def run_lab(
     live: list[Trial] = []
     starts: list[float] = []
     loop_stats: list[Any] = []
-    phone_truth: tuple[list[float], list[float]] = ([], [])
+    phone_t: list[float] = []
+    phone_h: list[float] = []
     for i, (trial_id, cmd) in enumerate(live_cmds):
         progress("live runs", i, len(live_cmds))
         plant = make_plant(true_params, nominal, "tile", seed=seed * 1000 + i)
         starts.append(plant.true_pose.heading)
-        is_phone = trial_id.startswith("imu")
-        t_series, h_series = phone_truth
-
-        def on_cycle(info: Any, plant: Any = plant, keep: bool = is_phone) -> None:
-            if keep:
-                t_series.append(info.t)
-                h_series.append(plant.true_pose.heading)
-
+        is_phone = cmd.kind is MotionKind.ROTATION
         trial, stats = run_motion_simulated(
             cmd,
             true_params,
@@ -223,8 +245,8 @@ def run_lab(
             seed=seed * 1000 + i,
             rate=rate,
             plant=plant,
-            campaign="umbmark" if cmd.kind is MotionKind.SQUARE else "imu-validation",
-            on_cycle=on_cycle,
+            campaign="umbmark" if cmd.kind is MotionKind.SQUARE else PHONE_CAMPAIGN,
+            on_cycle=_truth_recorder(plant, phone_t, phone_h) if is_phone else None,
         )
         live.append(replace(trial, trial_id=trial_id))
         loop_stats.append(stats)
@@ -234,7 +256,8 @@ def run_lab(
 
     # 4. analysis of everything in the notebook
     progress("analysis", 0, 1)
-    trials = nb.load_trials()
+    # the phone run validates a calibration; it is not one of the characterization trials
+    trials = [t for t in nb.load_trials() if t.campaign != PHONE_CAMPAIGN]
     analysis = analyze_trials(trials)
     rows = table1(analysis)
     progress("analysis", 1, 1)
@@ -247,26 +270,33 @@ def run_lab(
     by_umbmark = umbmark(cw, ccw, side, nominal)
     cw_after, ccw_after, _ = umbmark_errors_from_trials(squares, by_umbmark.params)
     by_umbmark = by_umbmark.with_after(cw_after, ccw_after)
-    calibrations = {"ratios": by_ratio, "umbmark": by_umbmark}
+    calibrations: dict[str, CalibrationResult | UmbmarkResult] = {
+        "ratios": by_ratio,
+        "umbmark": by_umbmark,
+    }
     params_files: dict[str, Path] = {}
     for name, cal in (("ratios", by_ratio), ("umbmark", by_umbmark.calibration)):
         new = cal.params.with_(name=nominal.name)
         nb.add_params_version(
             new,
             method=name,
-            source_trials=[t.trial_id for t in (squares if name == "umbmark" else trials)
-                           if t.status is TrialStatus.MEASURED],
+            source_trials=[
+                t.trial_id
+                for t in (squares if name == "umbmark" else trials)
+                if t.status is TrialStatus.MEASURED
+            ],
             notes=str(cal.provenance.get("source", "")),
         )
-        params_files[name] = save_params(new, folder / f"params-{name}.toml",
-                                         provenance=_toml_safe(cal.provenance))
+        params_files[name] = save_params(
+            new, folder / f"params-{name}.toml", provenance=_toml_safe(cal.provenance)
+        )
         progress("calibration", len(params_files), 2)
 
     # 6. validation against the phone (the lab's Fig. 21)
     progress("validation", 0, 1)
     phone_trial = live[-1]
     assert phone_trial.encoder_log is not None
-    t_true, h_true = (np.asarray(v) for v in phone_truth)
+    t_true, h_true = np.asarray(phone_t), np.asarray(phone_h)
     imu = simulate_phone_log(t_true, h_true, clock_offset=12.5, seed=seed)
     check = validate(
         phone_trial.encoder_log, imu, nominal, by_ratio.params, offset=12.5, max_offset=2.0
@@ -286,7 +316,7 @@ def run_lab(
     for motion in ("rotation", "x"):
         fit = after.get(motion, "tile")
         if fit is not None:
-            after_ratios[f"{motion}_tile"] = fit.fit.slope
+            after_ratios[f"{motion}_tile"] = fit.ratio
 
     # 8. report
     progress("report", 0, 1)

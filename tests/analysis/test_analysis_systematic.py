@@ -53,3 +53,23 @@ def test_constant_predicted_value_is_refused() -> None:
 def test_nan_is_refused() -> None:
     with pytest.raises(InsufficientDataError, match="NaN"):
         fit_line([1.0, 2.0, np.nan], [1.0, 2.0, 3.0])
+
+
+def test_through_origin_fit_matches_hand_formula() -> None:
+    """Table I's ratio: y = slope * x, slope = x.y / x.x, se = s / |x|, s^2 = RSS / (n - 1)."""
+    from scipy import stats
+
+    from odolab.analysis.systematic import fit_line
+
+    rng = np.random.default_rng(5)
+    x = np.linspace(1.0, 10.0, 12)
+    y = 0.9 * x + rng.normal(0, 0.05, x.size)
+    f = fit_line(x, y, through_origin=True)
+    slope = x @ y / (x @ x)
+    s2 = np.sum((y - slope * x) ** 2) / (x.size - 1)
+    se = np.sqrt(s2 / (x @ x))
+    t = stats.t.ppf(0.975, x.size - 1)
+    assert f.slope == pytest.approx(slope, rel=1e-12)
+    assert f.slope_se == pytest.approx(se, rel=1e-10)
+    assert f.slope_ci95 == pytest.approx((slope - t * se, slope + t * se), rel=1e-10)
+    assert f.intercept == 0.0 and f.df_resid == x.size - 1

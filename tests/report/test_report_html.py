@@ -80,7 +80,7 @@ def test_html_is_self_contained_and_matches_the_json(report: Path) -> None:
 def test_summary_numbers_come_from_the_analysis(report: Path, analysis: LabAnalysis) -> None:
     res = json.loads((report.parent / "results.json").read_text())
     rot = analysis.get("rotation")
-    assert any(f"{rot.fit.slope:.4g} rad/rad" in s for s in res["summary"])
+    assert any(f"{rot.ratio:.4g} rad/rad" in s for s in res["summary"])
 
 
 @pytest.mark.parametrize(
@@ -115,7 +115,7 @@ def test_calibration_effect_puts_new_predictions_on_the_ideal_line(analysis) -> 
         analysis, analysis.params, {"r": ratios_from_analysis(analysis).params}, "rotation", ax
     )
     label = [t.get_text() for t in ax.get_legend().get_texts() if t.get_text().startswith("new")]
-    slope = float(label[0].rsplit("slope ", 1)[1])
+    slope = float(label[0].rsplit("ratio ", 1)[1])
     assert slope == pytest.approx(1.0, abs=0.01)
 
 

@@ -78,15 +78,28 @@ class MotionAnalysis:
     growth_note: str | None
     outliers: list[Outlier]
     commanded: np.ndarray
+    #: rotation, pivot and x: the proportional fit ``actual = ratio * predicted`` (a scale
+    #: error moves nothing when nothing is commanded); None for the y rows
+    ratio_fit: LinearFit | None = None
+
+    @property
+    def _ratio_source(self) -> LinearFit:
+        return self.ratio_fit if self.ratio_fit is not None else self.fit
 
     @property
     def ratio(self) -> float:
-        """actual/predicted for rotation and x; error per metre travelled for y rows."""
-        return -self.fit.slope if self.motion == "y_reverse" else self.fit.slope
+        """actual/predicted for rotation and x (proportional fit); error per metre travelled
+        for y rows (slope of the line with an intercept, as the lab fitted it)."""
+        slope = self._ratio_source.slope
+        return -slope if self.motion == "y_reverse" else slope
+
+    @property
+    def ratio_se(self) -> float:
+        return self._ratio_source.slope_se
 
     @property
     def ratio_ci95(self) -> tuple[float, float]:
-        lo, hi = self.fit.slope_ci95
+        lo, hi = self._ratio_source.slope_ci95
         return (-hi, -lo) if self.motion == "y_reverse" else (lo, hi)
 
     def to_dict(self) -> dict[str, Any]:
@@ -95,6 +108,7 @@ class MotionAnalysis:
             "terrain": self.terrain,
             "regression": {"x": MOTIONS[self.motion]["x"], "y": MOTIONS[self.motion]["y"]},
             "fit": self.fit.to_dict(),
+            "ratio_fit": None if self.ratio_fit is None else self.ratio_fit.to_dict(arrays=False),
             "ratio": self.ratio,
             "ratio_ci95": list(self.ratio_ci95),
             "random": self.random.to_dict(),
@@ -228,6 +242,13 @@ def _analyse_series(
     try:
         fit = fit_line(pred, act, name=label, trial_ids=ids)
         rnd = random_error(fit.residuals, fit.df_resid)
+        ratio_fit = (
+            fit_line(
+                pred, act, name=f"{label}, through the origin", trial_ids=ids, through_origin=True
+            )
+            if motion in ("rotation", "pivot", "x")
+            else None
+        )
     except InsufficientDataError as err:
         skipped.append(str(err))
         return None
@@ -249,6 +270,7 @@ def _analyse_series(
         growth_note=note,
         outliers=outliers,
         commanded=cmd,
+        ratio_fit=ratio_fit,
     )
 
 

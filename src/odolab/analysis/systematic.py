@@ -80,8 +80,12 @@ def fit_line(
     *,
     name: str = "fit",
     trial_ids: tuple[str, ...] | list[str] = (),
+    through_origin: bool = False,
 ) -> LinearFit:
     """OLS of ``y`` on ``x`` with an intercept. ``x``, ``y``: shape (n,), n >= 3.
+
+    With ``through_origin`` the model is ``y = slope * x`` (no intercept: intercept, its SE and
+    interval are 0, and R² is the uncentered one statsmodels gives for a model without constant).
 
     Raises :class:`InsufficientDataError` when there are too few points or ``x`` is constant.
     """
@@ -103,9 +107,30 @@ def fit_line(
             f"{name}: all {n} trials have the same predicted value; a slope needs trials at "
             "two or more different distances or angles"
         )
+    ids = tuple(trial_ids) if trial_ids else tuple(str(i) for i in range(n))
+    if through_origin:
+        res0 = sm.OLS(ya, xa[:, None]).fit()
+        ci0 = np.asarray(res0.conf_int(alpha=0.05))
+        return LinearFit(
+            name=name,
+            n=n,
+            slope=float(res0.params[0]),
+            intercept=0.0,
+            slope_se=float(res0.bse[0]),
+            intercept_se=0.0,
+            slope_ci95=(float(ci0[0, 0]), float(ci0[0, 1])),
+            intercept_ci95=(0.0, 0.0),
+            r2=float(res0.rsquared),
+            residual_sd=float(np.sqrt(res0.mse_resid)),
+            df_resid=round(float(res0.df_resid)),
+            x=xa,
+            y=ya,
+            fitted=np.asarray(res0.fittedvalues, dtype=np.float64),
+            residuals=np.asarray(res0.resid, dtype=np.float64),
+            trial_ids=ids,
+        )
     res = sm.OLS(ya, sm.add_constant(xa, has_constant="add")).fit()
     ci = np.asarray(res.conf_int(alpha=0.05))
-    ids = tuple(trial_ids) if trial_ids else tuple(str(i) for i in range(n))
     return LinearFit(
         name=name,
         n=n,

@@ -1,7 +1,8 @@
 """Table I of the lab report, regenerated from the data with computed uncertainties.
 
-One row per motion and terrain. ``ratio`` is actual/predicted (slope of the fit) for rotation
-and x; for the y rows it is the y error (predicted - actual) per metre travelled, so a reverse
+One row per motion and terrain. ``ratio`` is actual/predicted for rotation and x: the slope of
+the proportional fit ``actual = ratio * predicted`` (the line with an intercept is in the fits
+table, where its intercept tests that assumption); for the y rows it is the y error (predicted - actual) per metre travelled, so a reverse
 run's slope against (negative) predicted x is negated. ``sigma`` is the sample standard deviation
 of the error over the trials repeated at ``sigma_at`` (m or rad; the farthest repeated distance
 or angle); ``sigmas`` lists every repeated distance.
@@ -27,7 +28,7 @@ def table1(analysis: LabAnalysis) -> list[dict[str, Any]]:
             "n": m.fit.n,
             "ratio": m.ratio,
             "ratio_ci95": [lo, hi],
-            "ratio_se": m.fit.slope_se,
+            "ratio_se": m.ratio_se,
             "ratio_unit": MOTIONS[m.motion]["ratio_unit"],
             "intercept": m.fit.intercept,
             "intercept_ci95": list(m.fit.intercept_ci95),

@@ -147,10 +147,10 @@ def ratios_from_analysis(
         if rot is not None and x is not None:
             return ratios(
                 base,
-                x.fit.slope,
-                rot.fit.slope,
-                distance_ratio_ci95=x.fit.slope_ci95,
-                rotation_ratio_ci95=rot.fit.slope_ci95,
+                x.ratio,
+                rot.ratio,
+                distance_ratio_ci95=x.ratio_ci95,
+                rotation_ratio_ci95=rot.ratio_ci95,
                 source=(
                     f"analysis fits on {t}: x slope from {x.fit.n} trials, rotation slope "
                     f"from {rot.fit.n} trials"

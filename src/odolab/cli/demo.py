@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -26,9 +26,7 @@ def demo_cmd(
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from odolab.analysis.table1 import table1 as _unused  # noqa: F401  (fail early if missing)
     from odolab.lab import STEPS, run_lab
-    from odolab.report.table import table1_rich
 
     console = Console(stderr=True)
     with Progress(
@@ -49,7 +47,7 @@ def demo_cmd(
         result = run_lab(out, seed=seed, truth=truth, progress=progress)
 
     out_console = Console()
-    out_console.print(table1_rich(result.table1, title="Table I (virtual Jaguar, this run)"))
+    out_console.print(_compact_table1(result.table1))
     after = ", ".join(f"{k} {v:.4f}" for k, v in result.after_calibration.items())
     old_rms, new_rms = result.validation_rms
     out_console.print(f"after calibration (ratios), actual/predicted: {after}")
@@ -58,3 +56,30 @@ def demo_cmd(
         out_console.print(f"calibrated parameters ({name}): {path}")
     out_console.print(f"lab notebook: {result.notebook}")
     out_console.print(f"report: {result.report}")
+
+
+def _compact_table1(rows: list[dict[str, Any]]) -> Any:
+    """Table I as measured in this run, beside the lab report's own numbers."""
+    from rich.table import Table
+
+    from odolab.lab import LAB_REPORT_TABLE1
+
+    table = Table(title="Table I: this run (virtual Jaguar) vs the lab report")
+    for name in ("motion", "terrain", "n", "ratio [95% CI]", "lab", "sigma @", "lab sigma"):
+        table.add_column(name, justify="left" if name in ("motion", "terrain") else "right")
+    for r in rows:
+        ref = LAB_REPORT_TABLE1.get((r["motion"], r["terrain"]))
+        lo, hi = r["ratio_ci95"]
+        sig = "\n".join(
+            f"{s['sigma']:.3g} @ {abs(s['commanded']):.3g}" for s in r.get("sigmas", [])
+        )
+        table.add_row(
+            r["motion"],
+            r["terrain"],
+            str(r["n"]),
+            f"{r['ratio']:.4f} [{lo:.3f}, {hi:.3f}]",
+            f"{ref[0]:g} ± {ref[1]:g}" if ref else "-",
+            sig or "-",
+            "\n".join(f"{s:g} @ {at:.3g}" for s, at, _ in ref[2]) if ref and ref[2] else "-",
+        )
+    return table

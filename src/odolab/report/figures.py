@@ -330,11 +330,11 @@ def plot_calibration_effect(
     f = m.fit
     span = np.array([min(0.0, float(f.x.min())), max(0.0, float(f.x.max()))])
     ax.plot(span, span, color="tab:green", lw=1.2, label="ideal")
-    ax.scatter(f.x, f.y, s=14, color="tab:red", label=f"old {old.name}: slope {f.slope:.3f}")
+    ax.scatter(f.x, f.y, s=14, color="tab:red", label=f"old {old.name}: ratio {m.ratio:.3f}")
     markers = ["o", "s", "^", "D"]
     for i, (name, p) in enumerate(new.items()):
         px = _scale_prediction(motion, f.x, old, p)
-        slope = float(np.polyfit(px, f.y, 1)[0])
+        slope = float(px @ f.y / (px @ px))  # the proportional fit, as Table I's ratio
         ax.scatter(
             px,
             f.y,
@@ -342,7 +342,7 @@ def plot_calibration_effect(
             marker=markers[i % len(markers)],
             facecolors="none",
             edgecolors=f"C{i}",
-            label=f"new ({name}): slope {slope:.3f}",
+            label=f"new ({name}): ratio {slope:.3f}",
         )
     ax.set_xlabel(MOTIONS[motion]["x"])
     ax.set_ylabel(MOTIONS[motion]["y"])
