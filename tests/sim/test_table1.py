@@ -20,7 +20,7 @@ def campaign() -> dict[str, float]:
     trials = run_protocol(
         load_protocol("lab-report"), TRUTH_PRESETS["jaguar-lab"], NOM, seed=LAB_REPORT_SEED
     )
-    assert len(trials) == 78
+    assert len(trials) == 77  # 20 + 17 rotations, 20 indoor and 20 outdoor straight runs
     return table1(trials)
 
 
@@ -64,3 +64,10 @@ def test_rotation_sigma_at_20pi_and_its_growth(preset: str, growth: float) -> No
     rel = 4 / (2 * n) ** 0.5
     assert s20 == pytest.approx(2.94, rel=rel)
     assert s20 / s2 == pytest.approx(growth, rel=2 * rel)
+
+
+def test_cli_default_seed_is_the_documented_seed() -> None:
+    from odolab.cli.sim import _LAB_REPORT_SEED
+    from odolab.sim.presets import LAB_REPORT_SEED
+
+    assert _LAB_REPORT_SEED == LAB_REPORT_SEED

@@ -62,7 +62,7 @@ def _compact_table1(rows: list[dict[str, Any]]) -> Any:
     """Table I as measured in this run, beside the lab report's own numbers."""
     from rich.table import Table
 
-    from odolab.lab import LAB_REPORT_TABLE1
+    from odolab.lab import LAB_REPORT_TABLE1, LAB_REPORT_Y_SIGMA, pooled_y_sigmas
 
     table = Table(title="Table I: this run (virtual Jaguar) vs the lab report")
     for name in ("motion", "terrain", "n", "ratio [95% CI]", "lab", "sigma @", "lab sigma"):
@@ -81,5 +81,16 @@ def _compact_table1(rows: list[dict[str, Any]]) -> Any:
             f"{ref[0]:g} ± {ref[1]:g}" if ref else "-",
             sig or "-",
             "\n".join(f"{s:g} @ {at:.3g}" for s, at, _ in ref[2]) if ref and ref[2] else "-",
+        )
+    pooled = pooled_y_sigmas(rows)
+    if pooled:
+        table.add_row(
+            "y (both)",
+            "tile",
+            "",
+            "",
+            "",
+            "\n".join(f"{s:.3g} @ {d:g}" for d, s in pooled.items()),
+            "\n".join(f"{s:g} @ {at:g}" for s, at, _ in LAB_REPORT_Y_SIGMA),
         )
     return table

@@ -155,6 +155,8 @@ def calibrate_ratios_cmd(
     else:
         raise OdolabError("give both --distance-ratio and --rotation-ratio, or neither")
     path = result.save(output)
+    if db is not None:
+        _record_version(db, result, base, trials=None if distance_ratio is not None else "all")
     p = result.params
     typer.echo(
         f"ratios: distance {result.provenance['distance_ratio']:.4g}, rotation "
@@ -191,12 +193,34 @@ def calibrate_umbmark_cmd(
     else:
         raise OdolabError("calibrate umbmark needs --errors CSV --side L, or --db NOTEBOOK")
     path = result.calibration.save(output)
+    if db is not None and errors is None:
+        _record_version(db, result.calibration, base, trials="squares")
     p = result.params
     typer.echo(
         f"UMBmark: E_d = {result.e_d:.5f}, E_b = {result.e_b:.5f}, E_max,syst = "
         f"{result.e_max_syst:.4g} m -> left/right radius {p.left_wheel_radius:.5g}/"
         f"{p.right_wheel_radius:.5g} m, track width {p.track_width:.5g} m; written to {path}"
     )
+
+
+def _record_version(db: Path, result: Any, base: Any, *, trials: str | None) -> None:
+    """Add the calibration as a new parameter version of the robot in the notebook."""
+    from odolab.store import Notebook
+    from odolab.trials import MotionKind, TrialStatus
+
+    with Notebook(db) as nb:
+        used = [
+            t.trial_id
+            for t in nb.load_trials(status=TrialStatus.MEASURED, with_logs=False)
+            if trials == "all" or (trials == "squares" and t.command.kind is MotionKind.SQUARE)
+        ]
+        version = nb.add_params_version(
+            result.params.with_(name=base.name),
+            method=result.method,
+            source_trials=used,
+            notes=str(result.provenance.get("source", "")),
+        )
+    typer.echo(f"recorded in {db} as {base.name} parameters version {version}")
 
 
 def _read_umbmark_csv(path: Path) -> tuple[list[tuple[float, float]], list[tuple[float, float]]]:

@@ -66,6 +66,14 @@ OutOpt = Annotated[
     Path | None,
     typer.Option("--out", "-o", help="Folder for the run (default runs/robot/<time>-<motion>)."),
 ]
+DbOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--db",
+        help="Also record the run in this lab notebook (status: awaiting measurement).",
+        envvar="ODOLAB_DB",
+    ),
+]
 TruthOpt = Annotated[
     str, typer.Option("--truth", help="Virtual Jaguar only: true-parameter preset of the plant.")
 ]
@@ -122,6 +130,7 @@ def _run(
     decel: float,
     watchdog: float,
     out: Path | None,
+    db: Path | None,
     truth: str,
     terrain: str,
     seed: int,
@@ -214,6 +223,15 @@ def _run(
         typer.echo(f"true (virtual): x={q.x:.4f} m y={q.y:.4f} m heading={q.heading:.4f} rad")
     typer.echo(run.stats.describe())
     typer.echo(f"saved to {folder} (status: awaiting measurement)")
+    if db is not None:
+        from odolab.store import Notebook
+
+        with Notebook(db) as nb:
+            nb.add_trial(run.trial)
+        typer.echo(
+            f"recorded in {db} as {run.trial.trial_id}; enter the measurement with "
+            f"'odolab trials measure {run.trial.trial_id} --db {db}'"
+        )
 
 
 @robot_app.command("rotate")
@@ -229,6 +247,7 @@ def rotate_cmd(
     decel: DecelOpt = 0.0,
     watchdog: WatchdogOpt = 0.5,
     out: OutOpt = None,
+    db: DbOpt = None,
     truth: TruthOpt = "jaguar-lab",
     terrain: TerrainOpt = "tile",
     seed: SeedOpt = 0,
@@ -253,6 +272,7 @@ def rotate_cmd(
         decel=decel,
         watchdog=watchdog,
         out=out,
+        db=db,
         truth=truth,
         terrain=terrain,
         seed=seed,
@@ -279,6 +299,7 @@ def drive_cmd(
     decel: DecelOpt = 0.0,
     watchdog: WatchdogOpt = 0.5,
     out: OutOpt = None,
+    db: DbOpt = None,
     truth: TruthOpt = "jaguar-lab",
     terrain: TerrainOpt = "tile",
     seed: SeedOpt = 0,
@@ -303,6 +324,7 @@ def drive_cmd(
         decel=decel,
         watchdog=watchdog,
         out=out,
+        db=db,
         truth=truth,
         terrain=terrain,
         seed=seed,
@@ -332,6 +354,7 @@ def pivot_cmd(
     decel: DecelOpt = 0.0,
     watchdog: WatchdogOpt = 0.5,
     out: OutOpt = None,
+    db: DbOpt = None,
     truth: TruthOpt = "jaguar-lab",
     terrain: TerrainOpt = "tile",
     seed: SeedOpt = 0,
@@ -356,6 +379,7 @@ def pivot_cmd(
         decel=decel,
         watchdog=watchdog,
         out=out,
+        db=db,
         truth=truth,
         terrain=terrain,
         seed=seed,
@@ -383,6 +407,7 @@ def square_cmd(
     decel: DecelOpt = 0.0,
     watchdog: WatchdogOpt = 0.5,
     out: OutOpt = None,
+    db: DbOpt = None,
     truth: TruthOpt = "jaguar-lab",
     terrain: TerrainOpt = "tile",
     seed: SeedOpt = 0,
@@ -407,6 +432,7 @@ def square_cmd(
         decel=decel,
         watchdog=watchdog,
         out=out,
+        db=db,
         truth=truth,
         terrain=terrain,
         seed=seed,

@@ -22,7 +22,7 @@ def _builtin_names() -> list[str]:
 
 
 #: == odolab.sim.presets.LAB_REPORT_SEED (tested); a literal so that --help stays instant
-_LAB_REPORT_SEED = 796
+_LAB_REPORT_SEED = 4314  # = odolab.sim.presets.LAB_REPORT_SEED (tests guard it)
 
 _PROTOCOL_HELP = "Protocol TOML file or built-in protocol: " + ", ".join(_builtin_names()) + "."
 
@@ -58,6 +58,12 @@ def sim_run(
         Path | None,
         typer.Option(help="Also write each trial's encoder log as DIR/<trial_id>.csv."),
     ] = None,
+    db: Annotated[
+        Path | None,
+        typer.Option(
+            "--db", help="Also record the trials in this lab notebook.", envvar="ODOLAB_DB"
+        ),
+    ] = None,
 ) -> None:
     """Run an experiment protocol on the virtual Jaguar and write the trials."""
     from rich.console import Console
@@ -89,10 +95,16 @@ def sim_run(
     write_trials_csv(trials, output)
     if encoder_dir is not None:
         write_encoder_logs(trials, encoder_dir)
+    if db is not None:
+        from odolab.store import Notebook
+
+        with Notebook(db) as nb:
+            nb.add_trials(trials)
     stalled = sum(t.exclusion_reason is not None for t in trials)
     typer.echo(
         f"{len(trials)} trials of {proto.name} ({truth}, seed {seed}) -> {output}"
         + (f"; {stalled} stalled (excluded)" if stalled else "")
+        + (f"; recorded in {db}" if db is not None else "")
     )
 
 
