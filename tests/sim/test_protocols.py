@@ -98,11 +98,18 @@ def test_cli_sim_run_writes_csv(tmp_path: Path, capsys: pytest.CaptureFixture[st
     assert code == 0
     with out.open() as fh:
         rows = list(csv.DictReader(fh))
-    assert tuple(rows[0]) == TRIAL_COLUMNS
+    assert tuple(rows[0])[: len(TRIAL_COLUMNS)] == TRIAL_COLUMNS
     assert len(rows) == 20 and rows[0]["trial_id"] == "translation-indoor-000"
     trials = run_protocol(load_protocol("translation"), TRUTH_PRESETS["jaguar-lab"], NOM, seed=7)
-    assert float(rows[3]["measured_y"]) == trials[3].measured.y  # type: ignore[union-attr]
-    assert float(rows[3]["true_x"]) == trials[3].true.x  # type: ignore[union-attr]
+    assert float(rows[3]["measured_y_m"]) == trials[3].measured.y  # type: ignore[union-attr]
+    assert float(rows[3]["true_x_m"]) == trials[3].true.x  # type: ignore[union-attr]
+    # the same layout as the notebook's: it imports
+    from odolab.store import Notebook
+
+    with Notebook(tmp_path / "nb.db") as nb:
+        nb.import_csv(out, create_campaigns=True)
+        back = nb.get_trial("translation-indoor-003")
+    assert back.measured.y == trials[3].measured.y  # type: ignore[union-attr]
     assert len(list(enc.glob("*.csv"))) == 20
     assert "20 trials" in capsys.readouterr().out
 
@@ -125,7 +132,7 @@ def test_write_trials_csv_rotation_columns(tmp_path: Path) -> None:
     raw = trials[-1].measured.raw  # type: ignore[union-attr]
     assert float(rows[-1]["compass_initial_deg"]) == raw["compass_initial_deg"]
     assert int(rows[-1]["turns"]) == raw["turns"]
-    assert rows[-1]["measured_x"] == ""
+    assert rows[-1]["measured_x_m"] == ""
 
 
 def test_cli_default_seed_is_the_documented_one() -> None:

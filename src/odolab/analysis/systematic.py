@@ -108,38 +108,19 @@ def fit_line(
             "two or more different distances or angles"
         )
     ids = tuple(trial_ids) if trial_ids else tuple(str(i) for i in range(n))
-    if through_origin:
-        res0 = sm.OLS(ya, xa[:, None]).fit()
-        ci0 = np.asarray(res0.conf_int(alpha=0.05))
-        return LinearFit(
-            name=name,
-            n=n,
-            slope=float(res0.params[0]),
-            intercept=0.0,
-            slope_se=float(res0.bse[0]),
-            intercept_se=0.0,
-            slope_ci95=(float(ci0[0, 0]), float(ci0[0, 1])),
-            intercept_ci95=(0.0, 0.0),
-            r2=float(res0.rsquared),
-            residual_sd=float(np.sqrt(res0.mse_resid)),
-            df_resid=round(float(res0.df_resid)),
-            x=xa,
-            y=ya,
-            fitted=np.asarray(res0.fittedvalues, dtype=np.float64),
-            residuals=np.asarray(res0.resid, dtype=np.float64),
-            trial_ids=ids,
-        )
-    res = sm.OLS(ya, sm.add_constant(xa, has_constant="add")).fit()
+    design = xa[:, None] if through_origin else sm.add_constant(xa, has_constant="add")
+    res = sm.OLS(ya, design).fit()
     ci = np.asarray(res.conf_int(alpha=0.05))
+    k = 0 if through_origin else 1  # index of the slope among the coefficients
     return LinearFit(
         name=name,
         n=n,
-        slope=float(res.params[1]),
-        intercept=float(res.params[0]),
-        slope_se=float(res.bse[1]),
-        intercept_se=float(res.bse[0]),
-        slope_ci95=(float(ci[1, 0]), float(ci[1, 1])),
-        intercept_ci95=(float(ci[0, 0]), float(ci[0, 1])),
+        slope=float(res.params[k]),
+        intercept=0.0 if through_origin else float(res.params[0]),
+        slope_se=float(res.bse[k]),
+        intercept_se=0.0 if through_origin else float(res.bse[0]),
+        slope_ci95=(float(ci[k, 0]), float(ci[k, 1])),
+        intercept_ci95=(0.0, 0.0) if through_origin else (float(ci[0, 0]), float(ci[0, 1])),
         r2=float(res.rsquared),
         residual_sd=float(np.sqrt(res.mse_resid)),
         df_resid=round(float(res.df_resid)),
