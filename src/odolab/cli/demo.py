@@ -70,9 +70,7 @@ def _compact_table1(rows: list[dict[str, Any]]) -> Any:
     for r in rows:
         ref = LAB_REPORT_TABLE1.get((r["motion"], r["terrain"]))
         lo, hi = r["ratio_ci95"]
-        sig = "\n".join(
-            f"{s['sigma']:.3g} @ {abs(s['commanded']):.3g}" for s in r.get("sigmas", [])
-        )
+        sig = "\n".join(f"{s['sigma']:.3g} @ {s['commanded']:+.3g}" for s in r.get("sigmas", []))
         table.add_row(
             r["motion"],
             r["terrain"],
