@@ -11,7 +11,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from odolab.calibration import umbmark, umbmark_errors_from_trials, umbmark_iterated
+from odolab.calibration import (
+    UmbmarkResult,
+    umbmark,
+    umbmark_errors_from_trials,
+    umbmark_iterated,
+)
 from odolab.errors import CalibrationError
 from odolab.odometry import integrate_increments
 from odolab.params import PRESETS, RobotParams, load_params
@@ -59,7 +64,7 @@ def _square_trials(
     for direction in ("cw", "ccw"):
         for k in range(runs):
             dl, dr = _square_dticks(side, direction, rng)
-            t = np.arange(dl.size) * 0.05
+            t = np.asarray(np.arange(dl.size) * 0.05, dtype=np.float64)
             left = np.round(np.cumsum(dl)).astype(np.int64)
             right = np.round(np.cumsum(dr)).astype(np.int64)
             idl, idr = np.diff(left, prepend=0), np.diff(right, prepend=0)
@@ -81,7 +86,7 @@ def _square_trials(
     return trials
 
 
-def _single_step(trials: list[Trial], start: RobotParams):  # type: ignore[no-untyped-def]
+def _single_step(trials: list[Trial], start: RobotParams) -> UmbmarkResult:
     cw, ccw, side = umbmark_errors_from_trials(trials, start)
     one = umbmark(cw, ccw, side, start)
     return one.with_after(*umbmark_errors_from_trials(trials, one.params)[:2])
@@ -270,3 +275,35 @@ def test_saved_parameters_carry_the_iterations(tmp_path: Path) -> None:
     assert "umbmark-iterated" in text and "iterations" in text
     d = it.to_dict()
     assert d["e_b"] == it.e_b and d["e_max_syst_after"] == it.e_max_syst_after
+
+
+@pytest.mark.parametrize("with_logs", [True, False])
+def test_cli_iterates_when_the_notebook_has_logs(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], with_logs: bool
+) -> None:
+    from odolab.cli import main
+    from odolab.params import save_params
+    from odolab.store import Notebook
+
+    true = _truth(1.12, 1.01)
+    trials = _square_trials(true, runs=2)
+    if not with_logs:
+        trials = [replace(t, encoder_log=None) for t in trials]
+    db = tmp_path / "lab.db"
+    with Notebook(db) as nb:
+        nb.add_trials(trials)
+    nominal = save_params(NOM, tmp_path / "nom.toml")
+    out = tmp_path / "umb.toml"
+    code = main(["calibrate", "umbmark", "-p", str(nominal), "--db", str(db), "-o", str(out)])
+    assert code == 0
+    text = capsys.readouterr().out
+    got = load_params(out)
+    if with_logs:
+        assert "iterated on the encoder logs of 4 square trials" in text
+        assert got.track_width == pytest.approx(true.track_width, rel=1e-5)
+        assert "umbmark-iterated" in out.read_text()
+    else:
+        assert "single linearized step: 4 of 4 square trials have no encoder log" in text
+        cw, ccw, side = umbmark_errors_from_trials(trials)
+        assert got.track_width == pytest.approx(umbmark(cw, ccw, side, NOM).params.track_width)
+    assert "E_max,syst" in text
