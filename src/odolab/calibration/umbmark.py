@@ -29,8 +29,10 @@ stop when the step no longer changes them. Each step multiplies the track width 
 and the right/left diameter ratio by its ``E_d`` (``c_R / c_L = E_d``), so the cumulative
 ``E_b`` and ``E_d`` are the products of the steps'. The iteration's fixed point is where the
 re-integrated runs' centres of gravity show no alpha and no beta, which no linearization error
-can move: for a robot the model can describe, its true parameters. Like one step, it leaves
-the mean wheel radius (the scale, which closed squares barely see) where it was.
+can move: for a robot the model can describe, its true parameters, provided the starting mean
+wheel radius is the true one. Like one step, it leaves the mean wheel radius (the scale, which
+UMBmark does not calibrate) where it was, up to second order; the track it finds is the one that
+makes the turns right with that radius.
 """
 
 from __future__ import annotations
