@@ -12,6 +12,7 @@ from odolab.calibration.umbmark import (
     e_max_syst,
     umbmark,
     umbmark_errors_from_trials,
+    umbmark_iterated,
 )
 
 __all__ = [
@@ -22,4 +23,5 @@ __all__ = [
     "ratios_from_analysis",
     "umbmark",
     "umbmark_errors_from_trials",
+    "umbmark_iterated",
 ]

@@ -20,6 +20,19 @@ Corrections: ``b_new = E_b b``; left and right radii multiplied by ``c_L = 2 / (
 ``c_R = 2 / (1/E_d + 1)`` (their mean is kept). The benchmark is
 ``E_max,syst = max(|cg_cw|, |cg_ccw|)``, the larger distance of the two centres of gravity from
 the origin.
+
+Those formulas linearize around small errors. When the errors are large (a robot whose turns
+come out 10 deg short ends its 4 m squares metres from the start) one step corrects only part
+of them. :func:`umbmark_iterated` repeats the step on the same runs: re-integrate the square
+trials' encoder logs with the current parameters, take one UMBmark step relative to them, and
+stop when the step no longer changes them. Each step multiplies the track width by its ``E_b``
+and the right/left diameter ratio by its ``E_d`` (``c_R / c_L = E_d``), so the cumulative
+``E_b`` and ``E_d`` are the products of the steps'. The iteration's fixed point is where the
+re-integrated runs' centres of gravity show no alpha and no beta, which no linearization error
+can move: for a robot the model can describe, its true parameters, provided the starting mean
+wheel radius is the true one. Like one step, it leaves the mean wheel radius (the scale, which
+UMBmark does not calibrate) where it was, up to second order; the track it finds is the one that
+makes the turns right with that radius.
 """
 
 from __future__ import annotations
@@ -37,7 +50,13 @@ from odolab.errors import CalibrationError
 from odolab.params import RobotParams
 from odolab.trials import MotionKind, Trial, TrialStatus
 
-__all__ = ["UmbmarkResult", "e_max_syst", "umbmark", "umbmark_errors_from_trials"]
+__all__ = [
+    "UmbmarkResult",
+    "e_max_syst",
+    "umbmark",
+    "umbmark_errors_from_trials",
+    "umbmark_iterated",
+]
 
 
 def _errors(name: str, errors: ArrayLike) -> NDArray[np.float64]:
@@ -208,6 +227,140 @@ def umbmark(
         cw_errors=cw,
         ccw_errors=ccw,
     )
+
+
+def _iteration_entry(k: int, p: RobotParams, emax: float) -> dict[str, Any]:
+    return {
+        "iteration": k,
+        "left_wheel_radius": p.left_wheel_radius,
+        "right_wheel_radius": p.right_wheel_radius,
+        "track_width": p.track_width,
+        "e_max_syst": emax,
+    }
+
+
+def umbmark_iterated(
+    trials: Sequence[Trial],
+    params: RobotParams,
+    *,
+    max_iter: int = 50,
+    tol: float = 1e-9,
+) -> UmbmarkResult:
+    """UMBmark iterated to convergence on square trials that carry their encoder logs.
+
+    Starting from ``params``: re-integrate each measured square trial's encoder log with the
+    current parameters, take the return errors (measured - odometry), take one :func:`umbmark`
+    step relative to the current parameters; repeat until the step changes no parameter by more
+    than ``tol`` (relative), at most ``max_iter`` steps.
+
+    The result's ``params`` are the final parameters; ``e_d`` and ``e_b`` are cumulative,
+    relative to ``params`` (the products of the steps'; ``alpha`` and ``beta`` are the per-turn
+    and per-leg errors they imply with ``params``' track width); ``cg_cw``, ``cg_ccw``,
+    ``e_max_syst``, ``cw_errors``, ``ccw_errors`` and ``alpha_from_x`` ... ``beta_from_y`` are
+    those of the runs re-integrated with ``params`` (the first step's); ``after`` holds the
+    errors with the final parameters. ``calibration.provenance["iterations"]`` lists each
+    iterate (radii, track width, E_max,syst; the step taken from it).
+
+    Raises :class:`~odolab.errors.CalibrationError` when a square trial has no encoder log
+    (return errors typed in by hand allow only the single step, :func:`umbmark`), or when the
+    iteration does not converge in ``max_iter`` steps.
+    """
+    if isinstance(max_iter, bool) or not isinstance(max_iter, int) or max_iter < 1:
+        raise CalibrationError(f"max_iter must be a positive whole number, got {max_iter!r}")
+    if not math.isfinite(tol) or tol <= 0:
+        raise CalibrationError(f"tol must be a positive relative change, got {tol!r}")
+    squares = [
+        tr
+        for tr in trials
+        if tr.command.kind is MotionKind.SQUARE
+        and tr.status is TrialStatus.MEASURED
+        and tr.measured is not None
+        and tr.measured.x is not None
+        and tr.measured.y is not None
+    ]
+    missing = [tr.trial_id for tr in squares if tr.encoder_log is None]
+    if missing:
+        raise CalibrationError(
+            f"iterated UMBmark re-integrates each square trial's encoder log, but "
+            f"{len(missing)} of {len(squares)} measured square trials have none (first: "
+            f"{missing[0]}); with return errors alone use the single step, umbmark()"
+        )
+    base = params
+    current = params
+    cw, ccw, side = umbmark_errors_from_trials(squares, current)
+    first: UmbmarkResult | None = None
+    iterations: list[dict[str, Any]] = []
+    e_d = e_b = 1.0
+    change = math.inf
+    for k in range(max_iter):
+        step = umbmark(cw, ccw, side, current)
+        if first is None:
+            first = step
+        entry = _iteration_entry(k, current, step.e_max_syst)
+        entry.update(alpha=step.alpha, beta=step.beta, step_e_d=step.e_d, step_e_b=step.e_b)
+        iterations.append(entry)
+        e_d *= step.e_d
+        e_b *= step.e_b
+        new = step.params.with_(name=base.name)
+        change = max(
+            abs(new.left_wheel_radius / current.left_wheel_radius - 1.0),
+            abs(new.right_wheel_radius / current.right_wheel_radius - 1.0),
+            abs(new.track_width / current.track_width - 1.0),
+        )
+        current = new
+        cw, ccw, _ = umbmark_errors_from_trials(squares, current)
+        if change <= tol:
+            break
+    assert first is not None
+    iterations.append(_iteration_entry(len(iterations), current, e_max_syst(cw, ccw)))
+    if change > tol:
+        raise CalibrationError(
+            f"iterated UMBmark did not converge in {max_iter} steps (last relative parameter "
+            f"change {change:.3g}, tolerance {tol:.3g}; E_max,syst {iterations[0]['e_max_syst']:.4g}"
+            f" m -> {iterations[-1]['e_max_syst']:.4g} m); check the runs or raise max_iter"
+        )
+    final = current.with_(name=f"{base.name}-umbmark")
+    # the per-turn and per-leg errors that the cumulative E_b and E_d stand for
+    alpha = (math.pi / 2) * (1.0 - 1.0 / e_b)
+    half_b = base.track_width / 2
+    beta = 0.0
+    if e_d != 1.0:
+        radius = half_b * (e_d + 1.0) / (e_d - 1.0)
+        beta = 2.0 * math.asin(max(-1.0, min(1.0, (side / 2) / radius)))
+    prov = dict(first.calibration.provenance)
+    prov.update(
+        method="umbmark-iterated",
+        alpha=alpha,
+        beta=beta,
+        e_b=e_b,
+        e_d=e_d,
+        n_iterations=len(iterations) - 1,
+        tol=tol,
+        max_iter=max_iter,
+        first_step={
+            "alpha": first.alpha,
+            "beta": first.beta,
+            "e_d": first.e_d,
+            "e_b": first.e_b,
+            "params": first.params.to_dict(),
+        },
+        iterations=iterations,
+        convention=(
+            str(prov["convention"])
+            + "; iterated: each step re-integrates the encoder logs with the current parameters "
+            "and corrects them; cumulative E_b and E_d are the products of the steps'"
+        ),
+    )
+    result = replace(
+        first,
+        params=final,
+        e_d=e_d,
+        e_b=e_b,
+        alpha=alpha,
+        beta=beta,
+        calibration=CalibrationResult("umbmark", final, base, prov),
+    )
+    return result.with_after(cw, ccw)
 
 
 def _predicted_xy(tr: Trial, params: RobotParams | None) -> tuple[float, float]:

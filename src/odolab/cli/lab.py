@@ -176,25 +176,58 @@ def calibrate_umbmark_cmd(
     side: Annotated[float | None, typer.Option(help="Square side (m), with --errors.")] = None,
     db: Annotated[Path | None, typer.Option("--db", help="Use this notebook's squares.")] = None,
 ) -> None:
-    """UMBmark (Borenstein & Feng): E_d, E_b, corrected radii and track, E_max,syst."""
-    from odolab.calibration import umbmark, umbmark_errors_from_trials
+    """UMBmark (Borenstein & Feng): E_d, E_b, corrected radii and track, E_max,syst.
+
+    With --db and square trials that carry encoder logs, UMBmark is iterated (re-integrate the
+    logs with the corrected parameters, correct again) until the parameters stop changing; with
+    --errors (or squares without logs) it is the single linearized step.
+    """
+    from odolab.calibration import umbmark, umbmark_errors_from_trials, umbmark_iterated
     from odolab.errors import OdolabError
     from odolab.params import load_params
+    from odolab.trials import MotionKind, TrialStatus
 
     base = load_params(params)
+    how = ""
     if errors is not None:
         if side is None:
             raise OdolabError("--errors needs --side (the square's side in m)")
         cw, ccw = _read_umbmark_csv(errors)
         result = umbmark(cw, ccw, side, base)
     elif db is not None:
-        cw_a, ccw_a, sq_side = umbmark_errors_from_trials(_load_trials(db))
-        result = umbmark(cw_a, ccw_a, side or sq_side, base)
+        trials = _load_trials(db)
+        squares = [
+            t
+            for t in trials
+            if t.command.kind is MotionKind.SQUARE and t.status is TrialStatus.MEASURED
+        ]
+        no_log = [t for t in squares if t.encoder_log is None]
+        if squares and not no_log:
+            result = umbmark_iterated(squares, base)
+            if side is not None and abs(side - result.side) > 1e-6:
+                raise OdolabError(
+                    f"--side {side:g} m disagrees with the notebook's squares ({result.side:g} m)"
+                )
+            how = (
+                f"UMBmark iterated on the encoder logs of {len(squares)} square trials: "
+                f"converged in {result.calibration.provenance['n_iterations']} steps; "
+                f"E_max,syst {result.e_max_syst:.4g} m -> {result.e_max_syst_after:.4g} m "
+                "with the new parameters (same runs)"
+            )
+        else:
+            cw_a, ccw_a, sq_side = umbmark_errors_from_trials(trials)
+            result = umbmark(cw_a, ccw_a, side or sq_side, base)
+            how = (
+                f"UMBmark single linearized step: {len(no_log)} of {len(squares)} square trials "
+                "have no encoder log to iterate on"
+            )
     else:
         raise OdolabError("calibrate umbmark needs --errors CSV --side L, or --db NOTEBOOK")
     path = result.calibration.save(output)
     if db is not None and errors is None:
         _record_version(db, result.calibration, base, trials="squares")
+    if how:
+        typer.echo(how)
     p = result.params
     typer.echo(
         f"UMBmark: E_d = {result.e_d:.5f}, E_b = {result.e_b:.5f}, E_max,syst = "
