@@ -13,8 +13,10 @@ Steps, each reported through ``progress(step, done, total)``:
    on top are driven through the live stack: control loop, driver, Jaguar protocol codec and the
    virtual Jaguar board, in simulated time. They are measured and entered the same way.
 4. Analysis (systematic and random error, growth, terrains, outliers) and Table I.
-5. Calibration: ``ratios`` (the lab's section VIII, done right) and ``umbmark``; each is a new
-   parameter version in the notebook and a TOML file.
+5. Calibration: ``ratios`` (the lab's section VIII, done right), then ``umbmark`` (iterated on
+   the squares' encoder logs, starting from the ratios result: UMBmark fixes the track width and
+   the left/right diameter ratio, not the scale); each is a new parameter version in the
+   notebook and a TOML file.
 6. Validation (the lab's Fig. 21): the phone's log against the old and the new parameters.
 7. A re-run of the campaign with the calibrated parameters (same seed): the systematic ratios
    after calibration.
@@ -200,8 +202,7 @@ def run_lab(
         CalibrationResult,
         UmbmarkResult,
         ratios_from_analysis,
-        umbmark,
-        umbmark_errors_from_trials,
+        umbmark_iterated,
     )
     from odolab.report import write_report
     from odolab.robot.plant import make_plant
@@ -290,10 +291,9 @@ def run_lab(
     progress("calibration", 0, 2)
     by_ratio = ratios_from_analysis(analysis, nominal, terrain="tile")
     squares = [t for t in trials if t.command.kind is MotionKind.SQUARE]
-    cw, ccw, side = umbmark_errors_from_trials(squares)
-    by_umbmark = umbmark(cw, ccw, side, nominal)
-    cw_after, ccw_after, _ = umbmark_errors_from_trials(squares, by_umbmark.params)
-    by_umbmark = by_umbmark.with_after(cw_after, ccw_after)
+    # UMBmark corrects the track and the left/right diameter ratio, never the scale: start it
+    # from the ratios result, iterate on the squares' encoder logs until it converges
+    by_umbmark = umbmark_iterated(squares, by_ratio.params)
     calibrations: dict[str, CalibrationResult | UmbmarkResult] = {
         "ratios": by_ratio,
         "umbmark": by_umbmark,
