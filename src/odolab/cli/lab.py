@@ -89,7 +89,12 @@ def report_cmd(
 ) -> None:
     """Write the lab report (HTML with figures, PNGs, results.json) and print Table I."""
     from odolab.analysis import analyze_trials, table1
-    from odolab.calibration import ratios_from_analysis, umbmark, umbmark_errors_from_trials
+    from odolab.calibration import (
+        ratios_from_analysis,
+        umbmark,
+        umbmark_errors_from_trials,
+        umbmark_iterated,
+    )
     from odolab.errors import CalibrationError
     from odolab.params import load_params
     from odolab.report import table1_rich, write_report
@@ -105,11 +110,13 @@ def report_cmd(
         con.print(f"[yellow]no ratios calibration:[/] {err}")
     if analysis.square_trials and base is not None:
         try:
-            cw, ccw, side = umbmark_errors_from_trials(analysis.square_trials)
-            umb = umbmark(cw, ccw, side, base)
             if all(t.encoder_log is not None for t in analysis.square_trials):
-                cw2, ccw2, _ = umbmark_errors_from_trials(analysis.square_trials, umb.params)
-                umb = umb.with_after(cw2, ccw2)
+                # as the demo: iterate on the encoder logs, from the ratios result if any
+                start = calibrations["ratios"].params if "ratios" in calibrations else base
+                umb = umbmark_iterated(analysis.square_trials, start)
+            else:
+                cw, ccw, side = umbmark_errors_from_trials(analysis.square_trials)
+                umb = umbmark(cw, ccw, side, base)
             calibrations["umbmark"] = umb
         except CalibrationError as err:
             con.print(f"[yellow]no UMBmark calibration:[/] {err}")
