@@ -62,7 +62,7 @@ def full(tmp_path_factory: pytest.TempPathFactory, analysis: LabAnalysis, check)
 
 
 def _table(text: str, table_id: str) -> str:
-    m = re.search(rf'<table id="{table_id}">(.*?)</table>', text, re.S)
+    m = re.search(rf'<table id="{table_id}"[^>]*>(.*?)</table>', text, re.S)
     assert m is not None, table_id
     return html.unescape(m.group(1))
 
@@ -210,20 +210,21 @@ def test_terrain_slopes_show_slope_and_ratio(analysis: LabAnalysis) -> None:
 
 def test_fits_table_has_the_ratio_beside_the_slope(full: Path, analysis: LabAnalysis) -> None:
     text = html.unescape(full.read_text())
-    assert "ratio (through origin)" in text
+    fits = _table(text, "fits")
+    assert "ratio (through origin) [95% CI]" in fits
     for m in analysis.motions:
         row = re.search(
-            rf'<tr><td class="l">{re.escape(m.motion)} \({m.terrain}\)</td>(.*?)</tr>', text, re.S
+            rf'<tr><td class="l">{re.escape(m.motion)} \({m.terrain}\)</td>(.*?)</tr>', fits, re.S
         )
         assert row is not None
         cells = _cells(row.group(1))
-        assert cells[0] == _fmt(m.fit.slope, 5)
+        lo, hi = m.fit.slope_ci95
+        assert cells[0] == f"{_fmt(m.fit.slope, 5)} [{_fmt(lo, 5)}, {_fmt(hi, 5)}]"
         if m.ratio_fit is not None:
-            assert cells[6] == _fmt(m.ratio_fit.slope, 5)
             lo, hi = m.ratio_fit.slope_ci95
-            assert cells[7] == f"[{_fmt(lo, 5)}, {_fmt(hi, 5)}]"
+            assert cells[4] == f"{_fmt(m.ratio_fit.slope, 5)} [{_fmt(lo, 5)}, {_fmt(hi, 5)}]"
         else:
-            assert cells[6] == cells[7] == "-"
+            assert cells[4] == "-"
     note = text.split("<h2>Systematic error: fits</h2>", 1)[0].rsplit("</table>", 1)[1]
     assert "proportional fit" in note and "through the origin" in note
     assert "slope of the line with an intercept" in note and "per metre travelled" in note
