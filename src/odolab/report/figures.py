@@ -31,6 +31,7 @@ __all__ = [
     "plot_terrain_slopes",
     "plot_terrains",
     "plot_umbmark",
+    "ratio_fit_label",
 ]
 
 _CHI2_2DOF_95 = 5.991464547107979
@@ -45,6 +46,12 @@ def _axes(ax: Axes | None) -> Axes:
     return new
 
 
+def _headroom(ax: Axes, frac: float = 0.3) -> None:
+    """Raise the top of the y axis by ``frac`` of its span: room for the legend above the data."""
+    lo, hi = ax.get_ylim()
+    ax.set_ylim(lo, hi + frac * (hi - lo))
+
+
 def _title(m: MotionAnalysis) -> str:
     names = {
         "rotation": "Rotation in place",
@@ -56,8 +63,21 @@ def _title(m: MotionAnalysis) -> str:
     return f"{names[m.motion]} ({m.terrain})"
 
 
+def ratio_fit_label(m: MotionAnalysis) -> str:
+    """Legend label of the proportional fit (Table I's ratio), e.g.
+    ``"ratio (through origin) 0.875 [0.858, 0.892]"``; empty when ``m`` has none."""
+    if m.ratio_fit is None:
+        return ""
+    lo, hi = m.ratio_fit.slope_ci95
+    return f"ratio (through origin) {m.ratio_fit.slope:.3f} [{lo:.3f}, {hi:.3f}]"
+
+
 def plot_fit(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
-    """Data, least-squares line with its slope CI, ideal line, outliers (Figs. 12, 15-17)."""
+    """Data, least-squares line with its slope CI, ideal line, outliers (Figs. 12, 15-17).
+
+    Where ``m.ratio_fit`` exists (rotation, pivot, x) the proportional fit
+    ``actual = ratio * predicted`` (Table I's ratio) is drawn too, dashed.
+    """
     ax = _axes(ax)
     f = m.fit
     lo_hi = np.array([min(0.0, float(f.x.min())), max(0.0, float(f.x.max()))])
@@ -75,8 +95,21 @@ def plot_fit(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
         f.predict(lo_hi),
         color="tab:red",
         lw=1.5,
-        label=f"fit: slope {f.slope:.4f} [{lo:.4f}, {hi:.4f}], R² {f.r2:.3f}",
+        label=(
+            f"fit with intercept: slope {f.slope:.4f} [{lo:.4f}, {hi:.4f}], "
+            f"intercept {f.intercept:.3g} {MOTIONS[m.motion]['unit']}, R² {f.r2:.3f}"
+        ),
     )
+    if m.ratio_fit is not None:
+        rf = m.ratio_fit
+        ax.plot(
+            lo_hi,
+            rf.slope * lo_hi,
+            color="tab:purple",
+            lw=1.5,
+            ls="--",
+            label=ratio_fit_label(m),
+        )
     if m.outliers:
         ax.scatter(
             [o.predicted for o in m.outliers],
@@ -122,7 +155,8 @@ def plot_residuals(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
     ax.set_ylabel(f"residual ({unit})")
     ax.set_title(f"Residuals: {_title(m)}")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    _headroom(ax)
+    ax.legend(fontsize=8, loc="upper left")
     return ax
 
 
@@ -153,7 +187,9 @@ def plot_histogram(
     pv = "" if group.normality is None else f", Shapiro p = {group.normality.pvalue:.2f}"
     ax.set_title(f"Error at {group.at:.3g} {unit}{pv}")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.set_ylim(0.0, None)
+    _headroom(ax, 0.35)
+    ax.legend(fontsize=8, loc="upper left")
     return ax
 
 
@@ -183,8 +219,15 @@ def plot_growth(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
     from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter
 
     ticks = sorted({round(float(v), 3) for v in np.abs(f.x)})
-    if len(ticks) > 6:
-        ticks = [float(v) for v in np.geomspace(min(ticks), max(ticks), 5)]
+    if len(ticks) > 6:  # round numbers (1, 2, 5 per decade) inside the data's range
+        lo_t, hi_t = min(ticks), max(ticks)
+        ticks = [
+            float(m_ * 10.0**e)
+            for e in range(math.floor(math.log10(lo_t)), math.ceil(math.log10(hi_t)) + 1)
+            for m_ in (1.0, 2.0, 5.0)
+            if lo_t * 0.95 <= m_ * 10.0**e <= hi_t * 1.05
+        ]
+        ticks = sorted({*ticks, lo_t, hi_t}) if len(ticks) < 3 else ticks
     ax.xaxis.set_major_locator(FixedLocator(ticks))
     ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:.3g}"))
     ax.xaxis.set_minor_formatter(NullFormatter())
@@ -224,29 +267,51 @@ def plot_terrains(analysis: LabAnalysis, motion: str = "x", ax: Axes | None = No
 
 
 def plot_terrain_slopes(analysis: LabAnalysis, motion: str = "x", ax: Axes | None = None) -> Axes:
-    """Slope (actual/predicted) per terrain with 95% CIs: the terrain comparison at a glance."""
+    """Slope per terrain with 95% CIs: the terrain comparison at a glance.
+
+    The slopes of the lines with an intercept are what the terrain F-test compares; where the
+    motion has a proportional fit (rotation, pivot, x) its ratio (Table I's) is drawn beside.
+    """
     ax = _axes(ax)
     ms = [m for m in analysis.motions if m.motion == motion]
-    y = np.arange(len(ms))
+    y = np.arange(len(ms), dtype=float)
+    both = bool(ms) and all(m.ratio_fit is not None for m in ms)
+    if both:
+        slope = np.array([m.fit.slope for m in ms])
+        sci = np.array([m.fit.slope_ci95 for m in ms])
+        ax.errorbar(
+            slope,
+            y - 0.12,
+            xerr=np.abs(sci.T - slope),
+            fmt="o",
+            capsize=4,
+            color="tab:red",
+            label="slope with intercept (F-test), 95% CI",
+        )
     ratio = np.array([m.ratio for m in ms])
     ci = np.array([m.ratio_ci95 for m in ms])
     ax.errorbar(
         ratio,
-        y,
+        y + (0.12 if both else 0.0),
         xerr=np.abs(ci.T - ratio),
-        fmt="o",
+        fmt="s" if both else "o",
         capsize=4,
-        color="tab:blue",
-        label="slope, 95% CI",
+        color="tab:purple" if both else "tab:blue",
+        label="ratio (through origin), 95% CI" if both else "slope, 95% CI",
     )
     ax.set_yticks(y, [m.terrain for m in ms])
+    ax.set_ylim(-0.6, len(ms) - 0.4)
     test = next((t for t in analysis.terrain_tests if t.motion == motion), None)
     if test is not None:
         ax.set_title(
             f"{motion}: F-test p = {test.pvalue:.3g}, partial η² = {test.partial_eta2:.2f}"
         )
     unit = MOTIONS[motion]["ratio_unit"]
-    ax.set_xlabel(f"ratio, actual/predicted ({unit})" if motion in ("x", "rotation") else unit)
+    ax.set_xlabel(
+        f"actual/predicted ({unit})"
+        if motion in ("rotation", "pivot", "x")
+        else f"y error per metre travelled ({unit})"
+    )
     ax.set_ylabel("terrain")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
@@ -265,6 +330,7 @@ def plot_error_ellipses(analysis: LabAnalysis, terrain: str, ax: Axes | None = N
             ex[tid] = (float(px - ax_), float(c))
     colors = ["tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:red", "tab:brown"]
     k = 0
+    drawn = 0
     for motion in ("y_forward", "y_reverse"):
         ym = analysis.get(motion, terrain)
         if ym is None:
@@ -280,6 +346,7 @@ def plot_error_ellipses(analysis: LabAnalysis, terrain: str, ax: Axes | None = N
             k += 1
             ax.scatter(arr[:, 0], arr[:, 1], s=16, color=color, label=f"{c:+g} m (n = {len(p)})")
             if len(p) >= 3:
+                drawn += 1
                 cov = np.cov(arr.T)
                 vals, vecs = np.linalg.eigh(cov)
                 angle = math.degrees(math.atan2(vecs[1, 1], vecs[0, 1]))
@@ -291,11 +358,15 @@ def plot_error_ellipses(analysis: LabAnalysis, terrain: str, ax: Axes | None = N
                 )
     ax.set_xlabel("x error, predicted - actual (m)")
     ax.set_ylabel("y error, predicted - actual (m)")
-    ax.set_title(f"End-point errors and 95% ellipses ({terrain})")
+    ax.set_title(
+        f"End-point errors and 95% ellipses ({terrain})"
+        if drawn
+        else f"End-point errors, one trial per distance ({terrain})"
+    )
     ax.grid(alpha=0.3)
     ax.axhline(0, color="gray", lw=0.8)
     ax.axvline(0, color="gray", lw=0.8)
-    ax.legend(fontsize=8, title="commanded distance")
+    ax.legend(fontsize=7 if k > 6 else 8, title="commanded distance", ncol=2 if k > 6 else 1)
     return ax
 
 

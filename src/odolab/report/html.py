@@ -65,6 +65,199 @@ def _fmt(v: Any, digits: int = 4) -> str:
     return str(v)
 
 
+def _fixed(v: Any, digits: int = 3) -> str:
+    """A number with a fixed count of decimals (R² 0.9999 shows as 1.000, not 1); - for None."""
+    return f"{v:.{digits}f}" if _num(v) else "-"
+
+
+def _compact_json(v: Any) -> str:
+    return json.dumps(v, separators=(", ", ": "), ensure_ascii=False)
+
+
+def _num(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool)
+
+
+#: the keys of a validation dict (``ValidationResult.to_dict``) the validation table shows
+_VALIDATION_KEYS = {
+    "encoder_log",
+    "imu_log",
+    "imu_heading_column",
+    "method",
+    "clock_offset_s",
+    "clock_offset_meaning",
+    "offset_correlation",
+    "offset_search_s",
+    "overlap_s",
+    "samples",
+    "imu_rotation_rad",
+    "old",
+    "new",
+    "rms_ratio_new_over_old",
+    "warnings",
+    "series",
+}
+
+#: rows of the old/new table: (label, key in each parameter set's summary, digits)
+_SET_ROWS = (
+    ("predicted rotation (rad)", "predicted_rotation_rad", 4),
+    ("actual/predicted rotation (IMU)", "ratio_actual_over_predicted", 4),
+    ("RMS heading error (rad)", "rms_error_rad", 4),
+    ("final heading error (rad)", "final_error_rad", 4),
+    ("max |heading error| (rad)", "max_abs_error_rad", 4),
+)
+
+
+def _validation_view(v: Mapping[str, Any]) -> dict[str, Any]:
+    """What the Validation section shows, read from the results' ``validation`` dict.
+
+    A dict in :meth:`ValidationResult.to_dict` form gives a summary table, an old/new table
+    and the warnings; any other key is shown as compact JSON (nothing is dropped).
+    """
+    view: dict[str, Any] = {"summary": [], "sets": None, "warnings": [], "other": {}}
+    summary: list[tuple[str, str]] = view["summary"]
+    if _num(v.get("clock_offset_s")):
+        s = f"{_fmt(v['clock_offset_s'], 4)} s"
+        if v.get("clock_offset_meaning"):
+            s += f" ({v['clock_offset_meaning']})"
+        summary.append(("clock offset found", s))
+        corr = v.get("offset_correlation")
+        summary.append(
+            (
+                "yaw-rate correlation at that offset",
+                _fmt(corr, 3) if corr is not None else "- (offset fixed, not searched)",
+            )
+        )
+        lo_hi = v.get("offset_search_s")
+        if isinstance(lo_hi, list) and len(lo_hi) == 2:
+            summary.append(("offsets searched", f"{_fmt(lo_hi[0])} to {_fmt(lo_hi[1])} s"))
+    ov = v.get("overlap_s")
+    if isinstance(ov, list) and len(ov) == 2 and all(_num(x) for x in ov):
+        s = f"{_fmt(ov[1] - ov[0], 4)} s (robot time {_fmt(ov[0])} to {_fmt(ov[1])} s"
+        s += f", {v['samples']} IMU samples)" if _num(v.get("samples")) else ")"
+        summary.append(("overlap of the two logs", s))
+    if _num(v.get("imu_rotation_rad")):
+        summary.append(("rotation measured by the IMU", f"{_fmt(v['imu_rotation_rad'])} rad"))
+    for key, label in (
+        ("method", "integration method"),
+        ("encoder_log", "encoder log"),
+        ("imu_log", "IMU log"),
+        ("imu_heading_column", "IMU heading column"),
+    ):
+        if isinstance(v.get(key), str):
+            summary.append((label, v[key]))
+    old, new = v.get("old"), v.get("new")
+    if isinstance(old, Mapping) and isinstance(new, Mapping):
+        sets = [("old", old), ("new", new)]
+        rows: list[tuple[str, list[str]]] = []
+
+        def param(d: Mapping[str, Any], k: str) -> Any:
+            p = d.get("params")
+            return p.get(k) if isinstance(p, Mapping) else None
+
+        rows.append(("parameter set", [str(param(d, "name") or "-") for _, d in sets]))
+        for label, k in (
+            ("left / right wheel radius (m)", None),
+            ("track width (m)", "track_width"),
+        ):
+            if k is None:
+                rows.append(
+                    (
+                        label,
+                        [
+                            f"{_fmt(param(d, 'left_wheel_radius'), 6)} / "
+                            f"{_fmt(param(d, 'right_wheel_radius'), 6)}"
+                            for _, d in sets
+                        ],
+                    )
+                )
+            else:
+                rows.append((label, [_fmt(param(d, k), 6) for _, d in sets]))
+        for label, k, digits in _SET_ROWS:
+            rows.append((label, [_fmt(d.get(k), digits) for _, d in sets]))
+        view["sets"] = rows
+        if _num(v.get("rms_ratio_new_over_old")):
+            summary.append(
+                (
+                    "RMS heading error, new / old",
+                    f"{_fmt(v['rms_ratio_new_over_old'], 3)} (below 1: the new parameters "
+                    "follow the IMU better)",
+                )
+            )
+    elif old is not None or new is not None:
+        view["other"].update({k: v[k] for k in ("old", "new") if k in v})
+    w = v.get("warnings")
+    if isinstance(w, list):
+        view["warnings"] = [str(x) for x in w]
+    view["other"].update({k: _compact_json(x) for k, x in v.items() if k not in _VALIDATION_KEYS})
+    view["other"] = {
+        k: (x if isinstance(x, str) else _compact_json(x)) for k, x in view["other"].items()
+    }
+    return view
+
+
+_LIVE_LABELS = {
+    "runs": "runs driven through the live loop",
+    "cycles": "control cycles",
+    "rate_hz": "loop rate (Hz)",
+    "sensor_packets": "sensor packets decoded",
+    "decode_errors": "decode errors",
+    "overruns": "cycle overruns",
+}
+
+_RUN_LABELS = {
+    "seed": "random seed",
+    "truth": "simulated robot (truth preset)",
+    "notebook": "lab notebook",
+}
+
+
+def _split_key(key: str) -> tuple[str, str]:
+    """``"y_forward_tile"`` -> ``("y_forward", "tile")`` (the longest known motion prefix)."""
+    for motion in sorted(MOTIONS, key=len, reverse=True):
+        if key.startswith(motion + "_"):
+            return motion, key[len(motion) + 1 :].replace("_", " ")
+    return key, "-"
+
+
+def _extra_view(extra: Mapping[str, Any]) -> dict[str, Any]:
+    """What the report shows of ``extra``: known keys as tables, the rest as compact JSON."""
+    view: dict[str, Any] = {
+        "after": None,
+        "run": [],
+        "live": [],
+        "true_params": [],
+        "other": {},
+    }
+    for k, v in extra.items():
+        if (
+            k == "after_calibration"
+            and isinstance(v, Mapping)
+            and isinstance(v.get("ratios"), Mapping)
+        ):
+            rows = []
+            for key, r in v["ratios"].items():
+                motion, terrain = _split_key(str(key))
+                ok = "-" if not _num(r) else ("yes" if abs(r - 1.0) <= 0.01 else "no")
+                rows.append((motion, terrain, _fmt(r, 5), ok))
+            rest = {kk: vv for kk, vv in v.items() if kk not in ("method", "note", "ratios")}
+            view["after"] = {
+                "method": str(v.get("method", "-")),
+                "note": str(v.get("note", "")),
+                "rows": rows,
+                "other": {kk: _compact_json(vv) for kk, vv in rest.items()},
+            }
+        elif k in _RUN_LABELS and not isinstance(v, Mapping | list):
+            view["run"].append((_RUN_LABELS[k], _fmt(v, 6)))
+        elif k == "live_runs" and isinstance(v, Mapping):
+            view["live"] = [(_LIVE_LABELS.get(kk, kk), _fmt(vv, 6)) for kk, vv in v.items()]
+        elif k == "true_params" and isinstance(v, Mapping):
+            view["true_params"] = [(kk, _fmt(vv, 6)) for kk, vv in v.items()]
+        else:
+            view["other"][k] = _compact_json(v)
+    return view
+
+
 def _calib_dict(c: Calibration) -> dict[str, Any]:
     if isinstance(c, UmbmarkResult):
         d = c.to_dict()
@@ -195,7 +388,14 @@ def write_report(
             (
                 f"fit_{key}",
                 f"{m.motion} on {m.terrain}: fit",
-                "Trials, least-squares line (slope with 95% CI) and the ideal line.",
+                "Trials, least-squares line with an intercept (slope with 95% CI) and "
+                "the ideal line"
+                + (
+                    "; dashed: the proportional fit actual = ratio × predicted through the "
+                    "origin, Table I's ratio."
+                    if m.ratio_fit is not None
+                    else "."
+                ),
                 partial(F.plot_fit, m),
             )
         )
@@ -237,7 +437,7 @@ def write_report(
                     f"ellipses_{terrain}",
                     f"End-point errors on {terrain}",
                     "x and y errors of each trial, grouped by commanded distance, with "
-                    "95% covariance ellipses.",
+                    "95% covariance ellipses where a distance was repeated at least 3 times.",
                     partial(F.plot_error_ellipses, analysis, terrain),
                 )
             )
@@ -246,7 +446,7 @@ def write_report(
             (
                 f"terrains_{t.motion}",
                 f"{t.motion}: terrains side by side",
-                "Each terrain's trials and fit.",
+                "Each terrain's trials and its line with an intercept.",
                 partial(F.plot_terrains, analysis, t.motion),
             )
         )
@@ -254,7 +454,15 @@ def write_report(
             (
                 f"terrain_slopes_{t.motion}",
                 f"{t.motion}: slope per terrain",
-                t.verdict(),
+                t.verdict()
+                + (
+                    ". The F-test compares the slopes of the lines with an intercept; squares: "
+                    "the ratios through the origin (Table I)."
+                    if all(
+                        m.ratio_fit is not None for m in analysis.motions if m.motion == t.motion
+                    )
+                    else "."
+                ),
                 partial(F.plot_terrain_slopes, analysis, t.motion),
             )
         )
@@ -305,7 +513,14 @@ def write_report(
                 )
             )
     if validation_figure is not None:
-        items.append(("validation", "Validation", "Old vs new vs IMU.", validation_figure))
+        items.append(
+            (
+                "validation",
+                "Validation",
+                "The old and the new parameters against the IMU.",
+                validation_figure,
+            )
+        )
     say(f"drawing {len(items)} figures")
     figs = _render(out, fig_dir, items)
     results["figures"] = {f.name: f"figures/{f.name}.png" for f in figs}
@@ -316,7 +531,14 @@ def write_report(
         undefined=jinja2.StrictUndefined,
     )
     env.filters["fmt"] = _fmt
-    html = env.get_template("report.html.j2").render(r=results, figures=figs, motions=MOTIONS)
+    env.filters["fixed"] = _fixed
+    html = env.get_template("report.html.j2").render(
+        r=results,
+        figures=figs,
+        motions=MOTIONS,
+        val=_validation_view(results["validation"]) if results["validation"] else None,
+        ext=_extra_view(results["extra"]) if results["extra"] else None,
+    )
     path = out / "report.html"
     path.write_text(html, encoding="utf-8")
     say(f"report written to {path}")
