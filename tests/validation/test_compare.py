@@ -143,3 +143,39 @@ def test_unrelated_logs_give_a_low_correlation_warning(scenario) -> None:  # typ
     r = validate(scenario.encoder_log, phone, scenario.old, scenario.new)
     assert r.alignment.correlation < 0.8
     assert any("correlate only" in w for w in r.warnings)
+
+
+def test_smoothing_trades_timing_for_correlation_and_bad_values_are_refused() -> None:
+    """A skid-steer's true yaw rate jitters (a random walk in heading): smoothing both rates
+    raises their correlation, but the walk's slow wander then moves the peak: timing suffers."""
+    import math
+
+    import numpy as np
+    import pytest
+
+    from odolab.errors import ImuLogError
+    from odolab.params import PRESETS
+    from odolab.trials import EncoderLog
+    from odolab.validation import simulate_phone_log, validate
+
+    nominal = PRESETS["jaguar-lite"]
+    t = np.arange(0, 60, 0.05)
+    rate = np.where((t > 5) & (t < 25), 0.5, np.where((t > 30) & (t < 55), 1.0, 0.0))
+    ticks = np.cumsum(rate * 0.05) * (nominal.track_width / 2) / nominal.right_metres_per_tick
+    counts = np.rint(ticks).astype(np.int64)
+    log = EncoderLog(t, (-counts) % 32768, counts % 32768, 32768)
+    odo_heading = counts * nominal.right_metres_per_tick / (nominal.track_width / 2)
+    new = nominal.with_(track_width=nominal.track_width / 0.9)
+    clean = simulate_phone_log(t, 0.9 * odo_heading, clock_offset=4.0, seed=1)
+    exact = validate(log, clean, nominal, new, offset=4.0, max_offset=3.0)
+    assert exact.clock_offset == pytest.approx(4.0, abs=0.01)
+    assert exact.new.rms < 0.05 < exact.old.rms
+    walk = np.cumsum(np.random.default_rng(3).normal(0, 0.02, t.size))
+    jittery = simulate_phone_log(t, 0.9 * odo_heading + walk, clock_offset=4.0, seed=1)
+    sharp = validate(log, jittery, nominal, new, offset=4.0, max_offset=3.0, smooth=0.1)
+    blurred = validate(log, jittery, nominal, new, offset=4.0, max_offset=3.0, smooth=1.0)
+    assert blurred.alignment.correlation > sharp.alignment.correlation
+    assert abs(sharp.clock_offset - 4.0) < abs(blurred.clock_offset - 4.0)
+    for bad in (-1.0, math.nan):
+        with pytest.raises(ImuLogError, match="smooth"):
+            validate(log, clean, nominal, new, offset=4.0, smooth=bad)

@@ -40,6 +40,13 @@ def validate_cmd(
             help="Search the clock offset within --offset +- this (s); 0 fixes it, inf = any."
         ),
     ] = 30.0,
+    smooth: Annotated[
+        float,
+        typer.Option(
+            help="Low-pass both yaw rates (Gaussian sigma, s) before cross-correlating them. "
+            "More smoothing raises the correlation of noisy rates but blurs the timing."
+        ),
+    ] = 0.1,
     wallclock: Annotated[
         bool,
         typer.Option(
@@ -80,6 +87,7 @@ def validate_cmd(
         new_params,
         offset=offset,
         max_offset=max_offset,
+        smooth=smooth,
         method=method.value,
         encoder_source=str(encoder_log),
     )

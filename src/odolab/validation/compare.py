@@ -159,6 +159,7 @@ def validate(
     max_offset: float = 30.0,
     method: Method | str = "midpoint",
     min_overlap: float = 1.0,
+    smooth: float = 0.1,
     encoder_source: str = "encoder log",
     progress: Callable[[str], None] = _noop,
 ) -> ValidationResult:
@@ -186,6 +187,8 @@ def validate(
         for p in (old, new)
     ]
     progress("finding the clock offset between the phone and the robot")
+    if not (math.isfinite(smooth) and smooth >= 0):
+        raise ImuLogError(f"smooth is {smooth!r} s; expected a finite number >= 0")
     align = find_clock_offset(
         trajs[0].t,
         trajs[0].heading,
@@ -193,6 +196,7 @@ def validate(
         nominal_offset=offset,
         max_offset=max_offset,
         min_overlap=min_overlap,
+        smooth=smooth,
         robot_source=encoder_source,
     )
     t_robot = imu.t - align.clock_offset
@@ -212,8 +216,10 @@ def validate(
     warnings = []
     if not math.isnan(align.correlation) and align.correlation < LOW_CORRELATION:
         warnings.append(
-            f"the yaw rates correlate only {align.correlation:.2f} at the clock offset found: "
-            "the logs may not record the same motion, or the offset search range is wrong"
+            f"the yaw rates correlate only {align.correlation:.2f} at the clock offset found "
+            f"({align.clock_offset:+.2f} s): either the true yaw rate is noisy (tracks that "
+            "scrub), or the logs do not record the same motion, or the offset search range is "
+            "wrong; check the heading plot"
         )
     old_total, imu_total = errors[0].heading[-1], imu_h[-1]
     if abs(imu_total) > 0.5 and old_total * imu_total < 0:
