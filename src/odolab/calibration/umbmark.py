@@ -348,7 +348,7 @@ def umbmark_iterated(
         convention=(
             str(prov["convention"])
             + "; iterated: each step re-integrates the encoder logs with the current parameters "
-            "and corrects them; cumulative E_b and E_d are the products of the steps'"
+            "and corrects them; cumulative E_b and E_d are the products of the steps"
         ),
     )
     result = replace(

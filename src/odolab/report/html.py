@@ -54,6 +54,10 @@ def _jsonable(obj: Any) -> Any:
 def _fmt(v: Any, digits: int = 4) -> str:
     if v is None:
         return "-"
+    if isinstance(v, dict):
+        return ", ".join(f"{k}: {_fmt(x, digits)}" for k, x in v.items())
+    if isinstance(v, list | tuple) and v and all(isinstance(x, dict) for x in v):
+        return "\n".join(_fmt(x, digits) for x in v)  # one line each (pre-line cell)
     if isinstance(v, list | tuple):
         return "[" + ", ".join(_fmt(x, digits) for x in v) + "]"
     if isinstance(v, bool):
