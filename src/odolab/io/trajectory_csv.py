@@ -12,7 +12,7 @@ from typing import Literal
 import numpy as np
 
 from odolab.errors import LogFormatError
-from odolab.io._table import read_numeric_columns
+from odolab.io._table import data_line_numbers, read_numeric_columns
 from odolab.trajectory import Trajectory, check_times
 
 __all__ = [
@@ -41,15 +41,17 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
     p = Path(path)
     import pandas as pd
 
+    if p.exists() and not p.is_file():
+        raise LogFormatError(f"{p}: is not a file (a folder?); expected a trajectory CSV")
     try:
-        header = [str(c).strip() for c in pd.read_csv(p, nrows=0).columns]
+        header = [str(c).strip() for c in pd.read_csv(p, nrows=0, encoding="utf-8-sig").columns]
     except FileNotFoundError as err:
         raise LogFormatError(f"{p}: no such file") from err
-    except pd.errors.EmptyDataError as err:
+    except (pd.errors.EmptyDataError, UnicodeDecodeError) as err:
         raise LogFormatError(f"{p}: empty file; expected header {','.join(COLUMNS)}") from err
     cols = COLUMNS if "heading" in header else COLUMNS[:4]
     d = read_numeric_columns(p, cols)
-    check_times(d["t"], str(p), row_offset=2)
+    check_times(d["t"], str(p), line_of=lambda i: int(data_line_numbers(p)[i]))
     if "heading" in d:
         return Trajectory.from_xyh(d["t"], d["x"], d["y"], d["heading"])
     return Trajectory.from_xytheta(d["t"], d["x"], d["y"], d["theta"])
@@ -74,7 +76,9 @@ def read_tum(path: str | Path) -> Trajectory:
     d = read_numeric_columns(p, TUM_COLUMNS, sep=r"\s+", names=TUM_COLUMNS)
     if d["t"].size == 0:
         raise LogFormatError(f"{p}: no poses")
-    check_times(d["t"], str(p), row_offset=1)
+    check_times(
+        d["t"], str(p), line_of=lambda i: int(data_line_numbers(p, sep=r"\s+", has_header=False)[i])
+    )
     qx, qy, qz, qw = d["qx"], d["qy"], d["qz"], d["qw"]
     yaw = np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
     return Trajectory.from_xytheta(d["t"], d["tx"], d["ty"], yaw)
