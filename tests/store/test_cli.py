@@ -82,3 +82,22 @@ def test_import_export_and_versions(tmp_path: Path, capsys: pytest.CaptureFixtur
     assert main(["trials", "list", "--db", str(tmp_path / "none.db")]) == 1
     assert "no such notebook" in capsys.readouterr().err
     assert not (tmp_path / "none.db").exists()
+
+
+def test_calibrated_file_becomes_a_new_version_of_the_robot(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # docs/notebook.md: a calibration's TOML (named jaguar-lite-ratios) becomes version 2 of
+    # jaguar-lite when added with --robot
+    db = str(tmp_path / "lab.db")
+    new = str(tmp_path / "calibrated.toml")
+    assert main(["trials", "params-add", "jaguar-lite", "--method", "preset", "--db", db]) == 0
+    assert main(["calibrate", "ratios", "-p", "jaguar-lite", "--distance-ratio", "0.905",
+                 "--rotation-ratio", "0.875", "-o", new]) == 0  # fmt: skip
+    assert main(["trials", "params-add", new, "--robot", "jaguar-lite", "--method", "ratios",
+                 "--db", db]) == 0  # fmt: skip
+    assert "jaguar-lite parameters version 2 (ratios)" in capsys.readouterr().out
+    assert main(["trials", "params-versions", "jaguar-lite", "--db", db]) == 0
+    out = capsys.readouterr().out
+    assert "v2" in out and "ratios" in out
+    assert "0.0755675" in out  # 0.905 * 0.0835

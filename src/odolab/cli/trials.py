@@ -156,12 +156,21 @@ def params_add(
         list[str] | None, typer.Option("--source-trial", help="A trial they come from (repeat).")
     ] = None,
     notes: Annotated[str, typer.Option(help="Free text.")] = "",
+    robot: Annotated[
+        str | None,
+        typer.Option(
+            help="Robot whose new version they are (default: the name in the file, which a "
+            "calibration suffixes, e.g. jaguar-lite-ratios)."
+        ),
+    ] = None,
     db: DbOption = _DB,
 ) -> None:
     """Add a new version of a robot's parameters (nothing is ever overwritten)."""
     from odolab.params import load_params
 
     params = load_params(source)
+    if robot is not None:
+        params = params.with_(name=robot)
     with _open(db, create=True) as nb:
         v = nb.add_params_version(
             params, method=method, source_trials=source_trial or (), notes=notes
