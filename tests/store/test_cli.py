@@ -101,3 +101,19 @@ def test_calibrated_file_becomes_a_new_version_of_the_robot(
     out = capsys.readouterr().out
     assert "v2" in out and "ratios" in out
     assert "0.0755675" in out  # 0.905 * 0.0835
+
+
+def test_measure_refuses_a_measured_trial_before_asking(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    db = str(tmp_path / "lab.db")
+    run_ok("trials", "add", "--id", "R1", "--campaign", "rot", "--terrain", "tile", "--create-campaign", "--kind",
+           "rotation", "--angle-pi", "20", "--predicted-heading", "63.1", "--initial", "200",
+           "--final", "290", "--turns", "8", "--db", db)  # fmt: skip
+    result = CliRunner().invoke(app, ["trials", "measure", "R1", "--db", db], input="10\n")
+    assert result.exit_code != 0
+    assert "compass initial reading" not in result.output  # nothing asked
+    assert "already measured" in str(result.exception)
+    # with --replace the readings are asked for and the new one is kept
+    out = run_ok("trials", "measure", "R1", "--replace", "--db", db, input="200\n290\n9\n")
+    assert "19.50 pi" in out  # 9 turns + 270 deg = 19.5 pi

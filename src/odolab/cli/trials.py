@@ -371,6 +371,14 @@ def measure_cmd(
     """Enter what was measured: compass readings and turns, or x and y (asks what is missing)."""
     with _open(db) as nb:
         t = nb.get_trial(trial_id)
+        if t.measured is not None and not replace:
+            from odolab.errors import StoreError
+
+            # refuse before asking for the readings, not after they were typed
+            raise StoreError(
+                f"trial {trial_id} is already measured ({_describe_measurement(t)}); "
+                "give --replace to overwrite its measurement"
+            )
         typer.echo(
             f"trial {t.trial_id}: {t.command.describe()}; predicted {_describe_prediction(t)}"
         )
