@@ -233,7 +233,7 @@ def _times(t: ArrayLike, n: int, source: str) -> NDArray[np.float64]:
     tt = np.array(t, dtype=np.float64)  # a copy: the trajectory owns its arrays
     if tt.ndim != 1 or tt.size != n:
         raise LogFormatError(f"{source}: t has {tt.size} samples but the ticks have {n}")
-    check_times(tt, source)
+    check_times(tt, source, what="index")  # arrays: a 0-based index, not a file line
     return tt
 
 
@@ -300,7 +300,7 @@ def integrate(
             "plausible motion allows"
         )
     if code in (3, 4):
-        check_times(tin, source)  # raises with the message
+        check_times(tin, source, what="index")  # raises with the message
     return Trajectory(tt, x, y, theta, heading)
 
 

@@ -217,7 +217,7 @@ def test_jump_is_reported_not_integrated() -> None:
 
 
 def test_time_errors() -> None:
-    with pytest.raises(LogFormatError, match="time goes backwards at line 2"):
+    with pytest.raises(LogFormatError, match="time goes backwards at index 2"):
         integrate([0.0, 1.0, 0.5], [0, 1, 2], [0, 1, 2], P)
     with pytest.raises(LogFormatError, match="expected a number"):
         integrate([0.0, math.nan, 2.0], [0, 1, 2], [0, 1, 2], P)
