@@ -64,3 +64,20 @@ def test_tum_with_comment_header_names_its_line(tmp_path: Path) -> None:
 def test_a_folder_is_refused_in_one_sentence(tmp_path: Path, reader: object) -> None:
     with pytest.raises(LogFormatError, match="not a file"):
         reader(tmp_path)  # type: ignore[operator]
+
+
+def test_writing_to_a_folder_is_one_sentence(tmp_path: Path) -> None:
+    import numpy as np
+
+    from odolab.errors import ParamsError
+    from odolab.io.trajectory_csv import write_trajectory_csv, write_tum
+    from odolab.params import PRESETS, save_params
+    from odolab.trajectory import Trajectory
+
+    traj = Trajectory.from_xyh(np.array([0.0, 1.0]), np.zeros(2), np.zeros(2), np.zeros(2))
+    with pytest.raises(LogFormatError, match="cannot write the trajectory CSV"):
+        write_trajectory_csv(traj, tmp_path)
+    with pytest.raises(LogFormatError, match="cannot write the TUM trajectory"):
+        write_tum(traj, tmp_path)
+    with pytest.raises(ParamsError, match="cannot write the parameters"):
+        save_params(PRESETS["jaguar-lite"], tmp_path)

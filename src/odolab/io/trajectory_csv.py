@@ -6,6 +6,8 @@ comments); planar poses have ``tz = qx = qy = 0`` and the yaw in the quaternion.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Literal
 
@@ -27,12 +29,25 @@ COLUMNS = ("t", "x", "y", "theta", "heading")
 TUM_COLUMNS = ("t", "tx", "ty", "tz", "qx", "qy", "qz", "qw")
 
 
+@contextmanager
+def _writing(p: Path, what: str) -> Iterator[None]:
+    """Create the folder, and turn a failure to write into one sentence."""
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        yield
+    except OSError as err:
+        raise LogFormatError(
+            f"{p}: cannot write the {what} ({err.strerror or err}); expected a file name in a "
+            "writable folder"
+        ) from err
+
+
 def write_trajectory_csv(traj: Trajectory, path: str | Path) -> Path:
     """Write a trajectory CSV (full double precision)."""
     p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
     table = np.column_stack((traj.t, traj.x, traj.y, traj.theta, traj.heading))
-    np.savetxt(p, table, fmt="%.17g", delimiter=",", header=",".join(COLUMNS), comments="")
+    with _writing(p, "trajectory CSV"):
+        np.savetxt(p, table, fmt="%.17g", delimiter=",", header=",".join(COLUMNS), comments="")
     return p
 
 
@@ -60,13 +75,13 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
 def write_tum(traj: Trajectory, path: str | Path) -> Path:
     """Write TUM text (planar: z = 0, quaternion about z)."""
     p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
     half = 0.5 * traj.theta
     zeros = np.zeros_like(traj.t)
     table = np.column_stack(
         (traj.t, traj.x, traj.y, zeros, zeros, zeros, np.sin(half), np.cos(half))
     )
-    np.savetxt(p, table, fmt="%.17g", delimiter=" ")
+    with _writing(p, "TUM trajectory"):
+        np.savetxt(p, table, fmt="%.17g", delimiter=" ")
     return p
 
 
