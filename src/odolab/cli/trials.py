@@ -520,6 +520,9 @@ def export_cmd(
     db: DbOption = _DB,
 ) -> None:
     """Export trials as CSV (a spreadsheet, no encoder logs) or JSON (everything)."""
+    from odolab.cli._output import check_output_path
+
+    check_output_path(file, "trials export")
     k = kind.value if kind else None
     s = status.value if status else None
     with _open(db) as nb:
