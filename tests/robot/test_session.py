@@ -79,6 +79,19 @@ def test_cli_drive_and_bad_robot_url(tmp_path: Path, capsys: pytest.CaptureFixtu
     assert "udp://HOST:PORT" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize(
+    "args", [["drive", "--distance", "0"], ["rotate", "--turns", "0"], ["pivot", "--degrees", "0"]]
+)
+def test_cli_zero_motion_is_refused_before_driving(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], args: list[str]
+) -> None:
+    out = tmp_path / "zero"
+    code = main(["robot", *args, "--quiet", "--out", str(out), "--db", str(tmp_path / "l.db")])
+    assert code == 1
+    assert "other than 0" in capsys.readouterr().err
+    assert not out.exists() and not (tmp_path / "l.db").exists()  # nothing driven or recorded
+
+
 class OffsetPlant(IdealPlant):
     """An ideal robot whose counters start at ``offset`` (left, right) instead of 0."""
 

@@ -234,6 +234,14 @@ def _run(
         )
 
 
+def _check_nonzero(option: str, value: float) -> None:
+    """A zero (or non-finite) motion would record an empty trial: refuse it before connecting."""
+    from odolab.errors import SimError
+
+    if not math.isfinite(value) or value == 0:
+        raise SimError(f"{option} is {value:g}; expected a finite number other than 0")
+
+
 @robot_app.command("rotate")
 def rotate_cmd(
     turns: Annotated[
@@ -262,6 +270,7 @@ def rotate_cmd(
     """Rotate in place by TURNS full turns (2*pi each), stopping when odometry says so."""
     from odolab.trials import Command, MotionKind
 
+    _check_nonzero("--turns", turns)
     cmd = Command(MotionKind.ROTATION, angle=2.0 * math.pi * turns, speed=speed)
     _run(
         cmd,
@@ -314,6 +323,7 @@ def drive_cmd(
     """Drive straight DISTANCE m (negative = reverse), stopping when odometry says so."""
     from odolab.trials import Command, MotionKind
 
+    _check_nonzero("--distance", distance)
     cmd = Command(MotionKind.TRANSLATION, distance=distance, speed=speed)
     _run(
         cmd,
@@ -369,6 +379,7 @@ def pivot_cmd(
     """Pivot on one track by DEGREES, stopping when odometry says so."""
     from odolab.trials import Command, MotionKind
 
+    _check_nonzero("--degrees", degrees)
     cmd = Command(MotionKind.PIVOT, angle=math.radians(degrees), direction=held.value, speed=speed)
     _run(
         cmd,
