@@ -78,7 +78,9 @@ TruthOpt = Annotated[
     str, typer.Option("--truth", help="Virtual Jaguar only: true-parameter preset of the plant.")
 ]
 TerrainOpt = Annotated[str, typer.Option("--terrain", help="Virtual Jaguar only: terrain.")]
-SeedOpt = Annotated[int, typer.Option("--seed", help="Virtual Jaguar only: random seed.")]
+SeedOpt = Annotated[
+    int, typer.Option("--seed", min=0, help="Virtual Jaguar only: random seed (>= 0).")
+]
 LeftChOpt = Annotated[int, typer.Option("--left-channel", help="Board channel of the left track.")]
 RightChOpt = Annotated[
     int, typer.Option("--right-channel", help="Board channel of the right track.")

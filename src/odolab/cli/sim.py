@@ -37,8 +37,9 @@ def sim_run(
     seed: Annotated[
         int,
         typer.Option(
+            min=0,
             help="Random seed (the same seed gives the same trials); the default is the "
-            "documented seed whose lab-report campaign reproduces the lab's Table I."
+            "documented seed whose lab-report campaign reproduces the lab's Table I.",
         ),
     ] = _LAB_REPORT_SEED,
     output: Annotated[
