@@ -462,7 +462,9 @@ def square_cmd(
 @robot_app.command("sim-server")
 def sim_server_cmd(
     host: Annotated[str, typer.Option("--host", help="Address to listen on.")] = "127.0.0.1",
-    port: Annotated[int, typer.Option("--port", help="UDP port (0 = any free one).")] = 10001,
+    port: Annotated[
+        int, typer.Option("--port", min=0, max=65535, help="UDP port (0 = any free one).")
+    ] = 10001,
     params: ParamsOpt = "jaguar-lite",
     truth: TruthOpt = "jaguar-lab",
     terrain: TerrainOpt = "tile",
