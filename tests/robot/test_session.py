@@ -80,7 +80,13 @@ def test_cli_drive_and_bad_robot_url(tmp_path: Path, capsys: pytest.CaptureFixtu
 
 
 @pytest.mark.parametrize(
-    "args", [["drive", "--distance", "0"], ["rotate", "--turns", "0"], ["pivot", "--degrees", "0"]]
+    "args",
+    [
+        ["drive", "--distance", "0"],
+        ["rotate", "--turns", "0"],
+        ["pivot", "--degrees", "0"],
+        ["rotate", "--turns", "1", "--rate", "nan"],
+    ],
 )
 def test_cli_zero_motion_is_refused_before_driving(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], args: list[str]
@@ -88,7 +94,8 @@ def test_cli_zero_motion_is_refused_before_driving(
     out = tmp_path / "zero"
     code = main(["robot", *args, "--quiet", "--out", str(out), "--db", str(tmp_path / "l.db")])
     assert code == 1
-    assert "other than 0" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "other than 0" in err or "positive number of Hz" in err
     assert not out.exists() and not (tmp_path / "l.db").exists()  # nothing driven or recorded
 
 

@@ -152,6 +152,10 @@ def _run(
     from odolab.robot.motions import motion_from_command
     from odolab.robot.session import driver_config_for, run_motion
 
+    if not (math.isfinite(rate) and rate > 0):
+        from odolab.errors import SimError
+
+        raise SimError(f"--rate is {rate:g}; expected a positive number of Hz")
     nominal = load_params(params)
     config = driver_config_for(
         nominal,
