@@ -117,3 +117,15 @@ def test_measure_refuses_a_measured_trial_before_asking(
     # with --replace the readings are asked for and the new one is kept
     out = run_ok("trials", "measure", "R1", "--replace", "--db", db, input="200\n290\n9\n")
     assert "19.50 pi" in out  # 9 turns + 270 deg = 19.5 pi
+
+
+def test_add_with_a_nan_heading_is_one_line(tmp_path: Path) -> None:
+    db = str(tmp_path / "lab.db")
+    result = CliRunner().invoke(
+        app,
+        ["trials", "add", "--id", "B", "--campaign", "c", "--terrain", "tile",
+         "--create-campaign", "--kind", "rotation", "--angle-pi", "2",
+         "--predicted-heading", "nan", "--db", db],
+    )  # fmt: skip
+    assert result.exit_code != 0
+    assert "--predicted-heading" in str(result.exception)

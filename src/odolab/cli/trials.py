@@ -445,6 +445,11 @@ def add_cmd(
             if campaign not in nb.campaign_names():
                 raise StoreError(f"unknown campaign {campaign!r}: give --terrain to create it")
             terrain = nb.get_campaign(campaign).terrain
+        if not math.isfinite(predicted_heading):
+            raise StoreError(
+                f"trial {trial_id}: --predicted-heading is {predicted_heading}; expected a "
+                "finite number (rad)"
+            )
         trial = Trial(
             trial_id=trial_id,
             campaign=campaign,
