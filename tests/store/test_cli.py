@@ -129,3 +129,16 @@ def test_add_with_a_nan_heading_is_one_line(tmp_path: Path) -> None:
     )  # fmt: skip
     assert result.exit_code != 0
     assert "--predicted-heading" in str(result.exception)
+
+
+def test_compass_readings_for_a_translation_are_refused(tmp_path: Path) -> None:
+    db = str(tmp_path / "lab.db")
+    run_ok("trials", "add", "--id", "D", "--campaign", "c", "--terrain", "tile",
+           "--create-campaign", "--kind", "translation", "--distance", "1", "--predicted-x", "1",
+           "--db", db)  # fmt: skip
+    result = CliRunner().invoke(
+        app, ["trials", "measure", "D", "--initial", "10", "--final", "20", "--turns", "1",
+              "--db", db], input="0.9\n0.01\n")  # fmt: skip
+    assert result.exit_code != 0
+    assert "measured with --x and --y" in str(result.exception)
+    assert "x by meterstick" not in result.output  # nothing asked

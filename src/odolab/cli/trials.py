@@ -310,6 +310,13 @@ def _measurement(
             typer.echo("refused: turns must be 0 or more", err=True)
 
     rotation = t.command.kind.value in ("rotation", "pivot")
+    wrong = (x, y) if rotation else (initial, final, turns)
+    if any(v is not None for v in wrong):
+        # do not drop what was typed and then ask for something else
+        expected = "--initial, --final and --turns" if rotation else "--x and --y"
+        raise StoreError(
+            f"trial {t.trial_id} is a {t.command.kind.value}: it is measured with {expected}"
+        )
     given = (initial, final, turns) if rotation else (x, y)
     interactive = any(v is None for v in given)
     while True:
