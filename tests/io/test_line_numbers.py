@@ -81,3 +81,12 @@ def test_writing_to_a_folder_is_one_sentence(tmp_path: Path) -> None:
         write_tum(traj, tmp_path)
     with pytest.raises(ParamsError, match="cannot write the parameters"):
         save_params(PRESETS["jaguar-lite"], tmp_path)
+
+
+def test_a_line_of_empty_cells_is_a_row_not_a_blank_line(tmp_path: Path) -> None:
+    p = _write(tmp_path, "log.csv", "t,left_ticks,right_ticks\n0,0,0\n\n,,\n0.1,2,2\n")
+    with pytest.raises(LogFormatError, match=r"line 4, column 't' is empty"):
+        read_encoder_csv(p)
+    q = _write(tmp_path, "t.csv", "t,x,y,theta\n0,0,0,0\n,,,\n\n1,0,0,0\n0.5,0,0,0\n")
+    with pytest.raises(LogFormatError, match=r"line 3, column 't' is empty"):
+        read_trajectory_csv(q)

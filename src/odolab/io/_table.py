@@ -35,9 +35,9 @@ def _locate_bad_cell(
         for lineno, line in enumerate(fh, start=1):
             if has_header and lineno == 1:
                 continue
+            if not line.strip():
+                continue  # a blank line is no row (a line of empty cells is one)
             row = line.split() if whitespace else next(csv.reader([line], delimiter=sep), [])
-            if not row or all(not c.strip() for c in row):
-                continue
             if whitespace and row[0].startswith("#"):
                 continue
             for name, j in idx.items():
@@ -66,9 +66,7 @@ def data_line_numbers(
             if has_header and lineno == 1:
                 continue
             text = line.strip()
-            if not text or (sep != "," and text.startswith("#")):
-                continue
-            if sep == "," and not text.strip(","):
+            if not text or (sep == r"\s+" and text.startswith("#")):
                 continue
             lines.append(lineno)
     return np.asarray(lines, dtype=np.int64)
