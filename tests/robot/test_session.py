@@ -152,3 +152,14 @@ def test_interrupted_run_is_saved_and_robot_stopped(tmp_path: Path) -> None:
     assert len(enc) == 13
     # the board took the stop: the true robot is where the counters say, not further on
     assert doc["true"]["x"] < 0.5
+
+
+def test_cli_out_that_is_a_file_is_refused_before_driving(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    a_file = tmp_path / "run.csv"
+    a_file.write_text("x")
+    code = main(["robot", "rotate", "--turns", "1", "--quiet", "--out", str(a_file)])
+    assert code == 1
+    err = capsys.readouterr().err
+    assert "expected a folder for the run" in err and "robot stopped" not in err

@@ -186,6 +186,11 @@ def _run(
     folder = out or Path("runs") / "robot" / (
         datetime.now(UTC).strftime("%Y%m%dT%H%M%S") + f"-{command.kind.value}"
     )
+    if folder.exists() and not folder.is_dir():
+        from odolab.errors import SimError
+
+        # refuse before driving: a run that cannot be saved would be lost
+        raise SimError(f"{folder}: is a file; expected a folder for the run (--out)")
     if live is not None:
         live.start()
     try:
