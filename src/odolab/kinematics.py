@@ -86,6 +86,8 @@ def wrap_angle(angle: FloatOrArray) -> FloatOrArray:
         w = a - 2.0 * np.pi * np.floor(a / (2.0 * np.pi)) - np.pi
         w = np.where(w <= -np.pi, w + 2.0 * np.pi, w)
         return w.astype(np.float64)
+    if not math.isfinite(angle):
+        return math.nan  # as the array branch gives (math.floor would raise)
     a = angle + math.pi
     w = a - 2.0 * math.pi * math.floor(a / (2.0 * math.pi)) - math.pi
     if w <= -math.pi:

@@ -119,7 +119,13 @@ def _new_run_folder(out: Path) -> Path:
     while folder.exists():
         k += 1
         folder = out / f"{stamp}-{k}"
-    folder.mkdir(parents=True)
+    try:
+        folder.mkdir(parents=True)
+    except OSError as err:
+        raise OdolabError(
+            f"{out}: cannot create the run folder {folder.name} there ({err.strerror or err}); "
+            "expected a writable folder"
+        ) from err
     latest = out / "latest"
     try:
         if latest.is_symlink() or latest.exists():
@@ -215,6 +221,8 @@ def run_lab(
 
     nominal = nominal or PRESETS["jaguar-lite"]
     seed = LAB_REPORT_SEED if seed is None else seed
+    if seed < 0:
+        raise OdolabError(f"seed is {seed}; expected an integer >= 0")
     if truth not in TRUTH_PRESETS:
         raise OdolabError(
             f"unknown truth preset {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}"

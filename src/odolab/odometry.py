@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from odolab._fastmath import SINCOS_LIMIT, sincos_poly
 from odolab.encoders import EncoderUnwrapper, as_tick_array, default_max_dticks
-from odolab.errors import EncoderJumpError, LogFormatError
+from odolab.errors import EncoderJumpError, LogFormatError, OdolabError
 from odolab.kinematics import Method, wrap_angle
 from odolab.params import RobotParams
 from odolab.trajectory import Pose, Trajectory, check_times
@@ -30,6 +30,19 @@ __all__ = ["Odometry", "integrate", "integrate_increments"]
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
 _NO_LIMIT = -1
+
+
+def _check_max_dticks(max_dticks: int | None) -> None:
+    """A limit must be a positive whole count (a negative one would silently mean no limit)."""
+    if max_dticks is None:
+        return
+    if isinstance(max_dticks, bool) or int(max_dticks) != max_dticks or max_dticks < 1:
+        raise OdolabError(
+            f"max_dticks is {max_dticks!r}; expected a whole number of counts per cycle >= 1 "
+            "(or none for the default)"
+        )
+
+
 #: From this many samples on, the position pass runs on several threads.
 PARALLEL_MIN_SAMPLES = 200_000
 _TWO_PI = 2.0 * math.pi
@@ -233,7 +246,7 @@ def _times(t: ArrayLike, n: int, source: str) -> NDArray[np.float64]:
     tt = np.array(t, dtype=np.float64)  # a copy: the trajectory owns its arrays
     if tt.ndim != 1 or tt.size != n:
         raise LogFormatError(f"{source}: t has {tt.size} samples but the ticks have {n}")
-    check_times(tt, source)
+    check_times(tt, source, what="index")  # arrays: a 0-based index, not a file line
     return tt
 
 
@@ -269,6 +282,7 @@ def integrate(
     tin = np.asarray(t, dtype=np.float64)
     if tin.ndim != 1 or tin.size != left.size:
         raise LogFormatError(f"{source}: t has {tin.size} samples but the ticks have {left.size}")
+    _check_max_dticks(max_dticks)
     if max_dticks is None:
         max_dticks = default_max_dticks(params.encoder_modulus)
     x0, y0, h0 = _start_pose(start)
@@ -300,7 +314,7 @@ def integrate(
             "plausible motion allows"
         )
     if code in (3, 4):
-        check_times(tin, source)  # raises with the message
+        check_times(tin, source, what="index")  # raises with the message
     return Trajectory(tt, x, y, theta, heading)
 
 
@@ -389,6 +403,7 @@ class Odometry:
         self.method = Method(method)
         self._arc = self.method is Method.ARC
         self._start = _start_pose(start)
+        _check_max_dticks(max_dticks)
         if max_dticks is None:
             max_dticks = default_max_dticks(params.encoder_modulus)
         self.max_dticks = max_dticks

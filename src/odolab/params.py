@@ -139,8 +139,15 @@ def save_params(
     if provenance:
         doc["provenance"] = provenance
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(tomli_w.dumps(doc), encoding="utf-8")
+    text = tomli_w.dumps(doc)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text, encoding="utf-8")
+    except OSError as err:
+        raise ParamsError(
+            f"{path}: cannot write the parameters ({err.strerror or err}); expected a file name "
+            "in a writable folder"
+        ) from err
     return path
 
 

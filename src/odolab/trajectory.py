@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -24,24 +25,35 @@ class Pose(NamedTuple):
     heading: float
 
 
-def check_times(t: NDArray[np.float64], source: str = "t", *, row_offset: int = 0) -> None:
+def check_times(
+    t: NDArray[np.float64],
+    source: str = "t",
+    *,
+    row_offset: int = 0,
+    line_of: Callable[[int], int] | None = None,
+    what: str = "line",
+) -> None:
     """Raise :class:`LogFormatError` if ``t`` has a non-finite value or goes backwards.
 
     ``row_offset`` is added to indexes in the message (e.g. 2 for a CSV with a header, so the
-    message names the file's line number).
+    message names the file's line number); ``line_of`` (index -> line), when given, is used
+    instead, for files whose blank or comment lines make the offset vary. ``what`` names the
+    position in the message (``"sample"`` for sources without lines, such as a bag).
     """
+
+    def line(i: int) -> int:
+        return line_of(i) if line_of is not None else i + row_offset
+
     bad = ~np.isfinite(t)
     if bad.any():
         i = int(np.argmax(bad))
-        raise LogFormatError(
-            f"{source}: time at line {i + row_offset} is {t[i]}, expected a number"
-        )
+        raise LogFormatError(f"{source}: time at {what} {line(i)} is {t[i]}, expected a number")
     if t.size > 1:
         back = np.diff(t) < 0
         if back.any():
             i = int(np.argmax(back)) + 1
             raise LogFormatError(
-                f"{source}: time goes backwards at line {i + row_offset} "
+                f"{source}: time goes backwards at {what} {line(i)} "
                 f"({t[i]} after {t[i - 1]}); expected non-decreasing times"
             )
 

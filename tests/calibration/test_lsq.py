@@ -162,3 +162,23 @@ def test_validation_runs_must_be_held_out(optiodom_dir: Path) -> None:
     sq = squares(optiodom_dir)[2]
     with pytest.raises(CalibrationError, match="both a calibration and a validation run"):
         calibrate_lsq_files([sq], "optiodom", validate=[sq], workers=1)
+
+
+@pytest.mark.parametrize("bad", [0.0, -1.0, math.nan, math.inf])
+def test_segment_length_must_be_positive(bad: float, capsys: pytest.CaptureFixture[str]) -> None:
+    # --segment 0 used to reach numpy (np.arange with a zero step) and end in a traceback
+    with pytest.raises(CalibrationError, match="positive number of seconds"):
+        LsqOptions(segment_s=bad)
+    with pytest.raises(CalibrationError, match="positive number of seconds"):
+        prepare_run(OdometryRun(name="r", source="r", t=[0.0, 1.0], dticks_left=[0, 1],
+                                dticks_right=[0, 1]), bad)  # fmt: skip
+    with pytest.raises(CalibrationError, match="heading scale"):
+        LsqOptions(heading_scale=bad)
+
+
+def test_cli_segment_zero_is_one_line(
+    optiodom_dir: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run = optiodom_dir / "square" / "231220200029"
+    assert main(["calibrate", "lsq", str(run), "--segment", "0", "-o", "x.toml"]) == 1
+    assert "positive number of seconds" in capsys.readouterr().err

@@ -140,6 +140,11 @@ def test_bad_input_is_refused() -> None:
         umbmark(np.zeros((3, 2)), np.zeros((3, 2)), -1.0, NOM)
     with pytest.raises(CalibrationError, match="too large"):
         umbmark([[5.0, 5.0]], [[5.0, -5.0]], 1.0, NOM)
+    # a file with no ccw runs gives an empty list: say so, not "got shape (0,)"
+    with pytest.raises(CalibrationError, match="at least one run in each direction"):
+        umbmark([[0.1, 0.2]], [], 4.0, NOM)
+    with pytest.raises(CalibrationError, match="at least one run in each direction"):
+        umbmark(np.zeros((0, 2)), [[0.1, 0.2]], 4.0, NOM)
 
 
 def test_cli_umbmark_from_csv(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

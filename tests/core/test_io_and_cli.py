@@ -60,7 +60,7 @@ def test_trajectory_csv_and_tum_round_trip(tmp_path: Path) -> None:
         ("t,left_ticks\n0,1\n", "missing column 'right_ticks'"),
         ("t,left_ticks,right_ticks\n0,1,2\n0.05,,3\n", "line 3, column 'left_ticks' is empty"),
         ("t,left_ticks,right_ticks\n0,1,2\n0.05,abc,3\n", "line 3, column 'left_ticks' is 'abc'"),
-        ("t,left_ticks,right_ticks\n0,1,2\n0.05,nan,3\n", "line 3, column 'left_ticks' is empty"),
+        ("t,left_ticks,right_ticks\n0,1,2\n0.05,nan,3\n", "line 3, column 'left_ticks' is 'nan'"),
         ("t,left_ticks,right_ticks\n0,1,2\n0.05,2,3\n0.01,3,4\n", "time goes backwards at line 4"),
         ("t,left_ticks,right_ticks\n0,1,2\n0.05,40000,3\n", "expected a counter value in 0..32767"),
         ("", "empty or unreadable"),

@@ -63,3 +63,11 @@ def test_wrap_angle_boundaries() -> None:
     assert wrap_angle(-math.pi) == pytest.approx(math.pi)
     assert wrap_angle(3 * math.pi) == pytest.approx(math.pi)
     assert wrap_angle(20 * math.pi + 0.1) == pytest.approx(0.1)
+
+
+def test_wrap_angle_of_a_non_finite_float_is_nan_like_the_array_branch() -> None:
+    # math.floor(nan) used to raise ValueError here (a traceback from `trials add`)
+    for bad in (math.nan, math.inf, -math.inf):
+        assert math.isnan(wrap_angle(bad))
+        with np.errstate(invalid="ignore"):
+            assert np.isnan(wrap_angle(np.array([bad])))[0]

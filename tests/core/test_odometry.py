@@ -217,7 +217,7 @@ def test_jump_is_reported_not_integrated() -> None:
 
 
 def test_time_errors() -> None:
-    with pytest.raises(LogFormatError, match="time goes backwards at line 2"):
+    with pytest.raises(LogFormatError, match="time goes backwards at index 2"):
         integrate([0.0, 1.0, 0.5], [0, 1, 2], [0, 1, 2], P)
     with pytest.raises(LogFormatError, match="expected a number"):
         integrate([0.0, math.nan, 2.0], [0, 1, 2], [0, 1, 2], P)
@@ -241,3 +241,14 @@ def test_start_pose_and_empty() -> None:
     assert tr.x[-1] == pytest.approx(1.0)
     assert tr.y[-1] == pytest.approx(2.0 + 100 * P.left_metres_per_tick)
     assert len(integrate([], [], [], P)) == 0
+
+
+@pytest.mark.parametrize("bad", [0, -5, 2.5])
+def test_max_dticks_must_be_a_positive_count(bad: float) -> None:
+    # a negative limit used to mean "no limit" inside the compiled loop, silently
+    from odolab.errors import OdolabError
+
+    with pytest.raises(OdolabError, match="max_dticks"):
+        integrate([0.0, 1.0], [0, 100], [0, 100], P, max_dticks=bad)  # type: ignore[arg-type]
+    with pytest.raises(OdolabError, match="max_dticks"):
+        Odometry(P, max_dticks=bad)  # type: ignore[arg-type]

@@ -82,3 +82,13 @@ def test_trajectory_by_extension(tmp_path: Path) -> None:
         np.testing.assert_allclose(back.theta, tr.theta, atol=1e-12)
     with pytest.raises(LogFormatError, match="no such trajectory file"):
         read_trajectory(tmp_path / "missing.tum")
+
+
+def test_run_from_arrays_names_a_sample_not_a_line() -> None:
+    # a bag or arrays have no lines: the third sample (of 1, 2, 3) goes back
+    from odolab.io.run import OdometryRun
+
+    with pytest.raises(LogFormatError, match=r"time goes backwards at sample 3 ") as err:
+        OdometryRun(name="r", source="r.bag", t=[0.0, 1.0, 0.5], dticks_left=[0, 1, 1],
+                    dticks_right=[0, 1, 1])  # fmt: skip
+    assert "line" not in str(err.value)

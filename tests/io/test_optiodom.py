@@ -63,3 +63,14 @@ def test_bad_optiodom_paths(tmp_path: Path) -> None:
     (tmp_path / "x_metadata.csv").write_text("type,diff\nngear,43.7\nencRes,64\nLi,0.2\n")
     with pytest.raises(LogFormatError, match="missing value 1 of key 'Di'"):
         read_optiodom_run(run)
+
+
+def test_optiodom_time_going_back_names_the_file_line(tmp_path: Path) -> None:
+    (tmp_path / "x_metadata.csv").write_text(
+        "type,diff\nngear,43.7\nencRes,64\nLi,0.2\nDi,0.084,0.084\n"
+    )
+    run = tmp_path / "x_run-01.csv"
+    # no header: line 3 is the third sample, the one that goes back
+    run.write_text("0,0,0,0,0,0\n0.05,0,0,0,1,1\n0.01,0,0,0,1,1\n")
+    with pytest.raises(LogFormatError, match=r"x_run-01\.csv: time goes backwards at line 3 "):
+        read_optiodom_run(run)

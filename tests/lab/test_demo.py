@@ -101,3 +101,20 @@ def test_cli_chain_over_one_notebook(tmp_path: Path, capsys: pytest.CaptureFixtu
 def test_demo_rejects_unknown_truth(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["demo", "--out", str(tmp_path), "--truth", "jaguar-moon"]) == 1
     assert "unknown truth preset 'jaguar-moon'" in capsys.readouterr().err
+
+
+def test_demo_bad_out_and_seed_are_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from odolab.errors import OdolabError
+
+    a_file = tmp_path / "not-a-folder"
+    a_file.write_text("x")
+    with pytest.raises(OdolabError, match="cannot create the run folder"):
+        run_lab(a_file)
+    with pytest.raises(OdolabError, match="expected an integer >= 0"):
+        run_lab(tmp_path / "out", seed=-1)
+    assert main(["demo", "--out", str(a_file)]) == 1
+    last = capsys.readouterr().err.strip().splitlines()[-1]  # after the progress display
+    assert last.startswith("odolab: error: ") and "run folder" in last
+    assert main(["sim", "run", "umbmark", "--seed", "-1", "-o", str(tmp_path / "x.csv")]) == 2

@@ -64,3 +64,19 @@ def test_evaluate_errors_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixt
     assert err.count("\n") == 0 and "do not overlap in time" in err
     assert main(["evaluate", str(a)]) == 1
     assert "two trajectory files" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("bad", ["0", "-1", "nan"])
+def test_drift_segment_must_be_positive(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], bad: str
+) -> None:
+    # it used to be refused as "delta must be a positive number", naming the wrong option
+    gt = tmp_path / "gt.csv"
+    gt.write_text("t,x,y,theta\n0,0,0,0\n1,1,0,0\n2,2,0,0\n")
+    assert main(["evaluate", str(gt), str(gt), "--drift-segment", bad]) == 1
+    err = capsys.readouterr().err
+    assert "--drift-segment" in err and "delta" not in err
+
+
+def test_sim_server_port_out_of_range_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["robot", "sim-server", "--port", "99999"]) == 2

@@ -124,6 +124,9 @@ def test_bad_config_and_url() -> None:
     assert parse_robot_url("udp://127.0.0.1:10001") == ("127.0.0.1", 10001)
     with pytest.raises(RobotLinkError, match="udp://HOST:PORT"):
         parse_robot_url("tcp://x:1")
+    for bad in ("udp://127.0.0.1:99999", "udp://127.0.0.1:abc"):  # were ValueError tracebacks
+        with pytest.raises(RobotLinkError, match="bad port"):
+            parse_robot_url(bad)
 
 
 def test_close_stops_and_closes() -> None:

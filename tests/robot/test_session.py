@@ -79,6 +79,26 @@ def test_cli_drive_and_bad_robot_url(tmp_path: Path, capsys: pytest.CaptureFixtu
     assert "udp://HOST:PORT" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["drive", "--distance", "0"],
+        ["rotate", "--turns", "0"],
+        ["pivot", "--degrees", "0"],
+        ["rotate", "--turns", "1", "--rate", "nan"],
+    ],
+)
+def test_cli_zero_motion_is_refused_before_driving(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], args: list[str]
+) -> None:
+    out = tmp_path / "zero"
+    code = main(["robot", *args, "--quiet", "--out", str(out), "--db", str(tmp_path / "l.db")])
+    assert code == 1
+    err = capsys.readouterr().err
+    assert "other than 0" in err or "positive number of Hz" in err
+    assert not out.exists() and not (tmp_path / "l.db").exists()  # nothing driven or recorded
+
+
 class OffsetPlant(IdealPlant):
     """An ideal robot whose counters start at ``offset`` (left, right) instead of 0."""
 
@@ -132,3 +152,14 @@ def test_interrupted_run_is_saved_and_robot_stopped(tmp_path: Path) -> None:
     assert len(enc) == 13
     # the board took the stop: the true robot is where the counters say, not further on
     assert doc["true"]["x"] < 0.5
+
+
+def test_cli_out_that_is_a_file_is_refused_before_driving(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    a_file = tmp_path / "run.csv"
+    a_file.write_text("x")
+    code = main(["robot", "rotate", "--turns", "1", "--quiet", "--out", str(a_file)])
+    assert code == 1
+    err = capsys.readouterr().err
+    assert "expected a folder for the run" in err and "robot stopped" not in err

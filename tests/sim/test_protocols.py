@@ -140,3 +140,18 @@ def test_cli_default_seed_is_the_documented_one() -> None:
     from odolab.sim.presets import LAB_REPORT_SEED
 
     assert cli_sim._LAB_REPORT_SEED == LAB_REPORT_SEED
+
+
+def test_encoder_dir_that_is_a_file_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from odolab.sim.export import write_encoder_logs
+
+    a_file = tmp_path / "logs"
+    a_file.write_text("not a folder")
+    out = tmp_path / "t.csv"
+    assert main(["sim", "run", "umbmark", "-o", str(out), "--encoder-dir", str(a_file)]) == 1
+    err = capsys.readouterr().err
+    assert "expected a folder for --encoder-dir" in err and err.count("\n") == 1
+    with pytest.raises(SimError, match="expected a folder"):
+        write_encoder_logs([], a_file)

@@ -82,3 +82,63 @@ def test_import_export_and_versions(tmp_path: Path, capsys: pytest.CaptureFixtur
     assert main(["trials", "list", "--db", str(tmp_path / "none.db")]) == 1
     assert "no such notebook" in capsys.readouterr().err
     assert not (tmp_path / "none.db").exists()
+
+
+def test_calibrated_file_becomes_a_new_version_of_the_robot(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # docs/notebook.md: a calibration's TOML (named jaguar-lite-ratios) becomes version 2 of
+    # jaguar-lite when added with --robot
+    db = str(tmp_path / "lab.db")
+    new = str(tmp_path / "calibrated.toml")
+    assert main(["trials", "params-add", "jaguar-lite", "--method", "preset", "--db", db]) == 0
+    assert main(["calibrate", "ratios", "-p", "jaguar-lite", "--distance-ratio", "0.905",
+                 "--rotation-ratio", "0.875", "-o", new]) == 0  # fmt: skip
+    assert main(["trials", "params-add", new, "--robot", "jaguar-lite", "--method", "ratios",
+                 "--db", db]) == 0  # fmt: skip
+    assert "jaguar-lite parameters version 2 (ratios)" in capsys.readouterr().out
+    assert main(["trials", "params-versions", "jaguar-lite", "--db", db]) == 0
+    out = capsys.readouterr().out
+    assert "v2" in out and "ratios" in out
+    assert "0.0755675" in out  # 0.905 * 0.0835
+
+
+def test_measure_refuses_a_measured_trial_before_asking(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    db = str(tmp_path / "lab.db")
+    run_ok("trials", "add", "--id", "R1", "--campaign", "rot", "--terrain", "tile", "--create-campaign", "--kind",
+           "rotation", "--angle-pi", "20", "--predicted-heading", "63.1", "--initial", "200",
+           "--final", "290", "--turns", "8", "--db", db)  # fmt: skip
+    result = CliRunner().invoke(app, ["trials", "measure", "R1", "--db", db], input="10\n")
+    assert result.exit_code != 0
+    assert "compass initial reading" not in result.output  # nothing asked
+    assert "already measured" in str(result.exception)
+    # with --replace the readings are asked for and the new one is kept
+    out = run_ok("trials", "measure", "R1", "--replace", "--db", db, input="200\n290\n9\n")
+    assert "19.50 pi" in out  # 9 turns + 270 deg = 19.5 pi
+
+
+def test_add_with_a_nan_heading_is_one_line(tmp_path: Path) -> None:
+    db = str(tmp_path / "lab.db")
+    result = CliRunner().invoke(
+        app,
+        ["trials", "add", "--id", "B", "--campaign", "c", "--terrain", "tile",
+         "--create-campaign", "--kind", "rotation", "--angle-pi", "2",
+         "--predicted-heading", "nan", "--db", db],
+    )  # fmt: skip
+    assert result.exit_code != 0
+    assert "--predicted-heading" in str(result.exception)
+
+
+def test_compass_readings_for_a_translation_are_refused(tmp_path: Path) -> None:
+    db = str(tmp_path / "lab.db")
+    run_ok("trials", "add", "--id", "D", "--campaign", "c", "--terrain", "tile",
+           "--create-campaign", "--kind", "translation", "--distance", "1", "--predicted-x", "1",
+           "--db", db)  # fmt: skip
+    result = CliRunner().invoke(
+        app, ["trials", "measure", "D", "--initial", "10", "--final", "20", "--turns", "1",
+              "--db", db], input="0.9\n0.01\n")  # fmt: skip
+    assert result.exit_code != 0
+    assert "measured with --x and --y" in str(result.exception)
+    assert "x by meterstick" not in result.output  # nothing asked

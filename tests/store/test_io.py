@@ -264,3 +264,18 @@ def test_bad_json_is_refused_and_changes_nothing(tmp_path: Path) -> None:
 def test_campaign_date_must_be_a_date(tmp_path: Path) -> None:
     with Notebook(tmp_path / "n.db") as nb, pytest.raises(StoreError, match="YYYY-MM-DD"):
         nb.add_campaign("c", "rotation", "lab", date="last tuesday")
+
+
+def test_json_duplicate_inside_the_file_says_so(tmp_path: Path) -> None:
+    import json
+
+    with Notebook(tmp_path / "a.db") as a:
+        _filled(a)
+        a.export_json(tmp_path / "nb.json")
+    doc = json.loads((tmp_path / "nb.json").read_text())
+    doc["trials"][3]["trial_id"] = doc["trials"][1]["trial_id"]
+    (tmp_path / "dup.json").write_text(json.dumps(doc))
+    with Notebook(tmp_path / "b.db") as b:  # empty: "already in the notebook" would be wrong
+        with pytest.raises(StoreError, match=r"trials\[3\]: .* is a duplicate of trials\[1\]"):
+            b.import_json(tmp_path / "dup.json")
+        assert not b.trial_ids()  # nothing imported

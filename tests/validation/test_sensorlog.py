@@ -185,8 +185,9 @@ def test_time_going_back_names_the_line(tmp_path: Path) -> None:
     text = "motionTimestamp_sinceReboot(s),motionYaw(rad)\n1.0,0.1\n\n2.0,0.2\n1.5,0.3\n"
     with pytest.raises(
         ImuLogError, match=r"line 5, column 'motionTimestamp_sinceReboot\(s\)' goes"
-    ):
+    ) as err:
         read_sensorlog(_write(tmp_path / "i.csv", text))
+    assert "(1.5 after 2.0)" in str(err.value)  # plain numbers, not np.float64(...)
 
 
 def test_bad_logging_time_and_missing_stamp(tmp_path: Path) -> None:

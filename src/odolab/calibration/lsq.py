@@ -62,6 +62,15 @@ class LsqOptions:
     loss: str = "linear"
     fit_gt_yaw_offset: bool = True
 
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.segment_s) and self.segment_s > 0):
+            raise CalibrationError(
+                f"segment length is {self.segment_s!r} s; expected a positive number of seconds"
+            )
+        hs = self.heading_scale
+        if hs is not None and not (np.isfinite(hs) and hs > 0):
+            raise CalibrationError(f"heading scale is {hs!r} m/rad; expected a positive number")
+
 
 @dataclass(frozen=True, eq=False)
 class PreparedRun:
@@ -80,6 +89,10 @@ class PreparedRun:
 
 def prepare_run(run: OdometryRun, segment_s: float = 2.0) -> PreparedRun:
     """Keep the samples inside the ground truth's time range; cut into ``segment_s`` segments."""
+    if not (np.isfinite(segment_s) and segment_s > 0):
+        raise CalibrationError(
+            f"segment length is {segment_s!r} s; expected a positive number of seconds"
+        )
     gt = run.require_ground_truth()
     inside = (run.t >= gt.t[0]) & (run.t <= gt.t[-1])
     idx = np.flatnonzero(inside)

@@ -61,14 +61,14 @@ __all__ = [
 
 def _errors(name: str, errors: ArrayLike) -> NDArray[np.float64]:
     arr = np.asarray(errors, dtype=np.float64)
+    if arr.size == 0:
+        raise CalibrationError(f"{name}: UMBmark needs at least one run in each direction, got 0")
     if arr.ndim == 1 and arr.size == 2:
         arr = arr[None, :]
     if arr.ndim != 2 or arr.shape[1] != 2:
         raise CalibrationError(
             f"{name} must be an (n, 2) array of (x, y) return errors in m, got shape {arr.shape}"
         )
-    if arr.shape[0] < 1:
-        raise CalibrationError(f"{name}: UMBmark needs at least one run in each direction, got 0")
     if not np.all(np.isfinite(arr)):
         raise CalibrationError(f"{name} contains NaN or infinite values")
     return arr

@@ -18,7 +18,8 @@ def demo_cmd(
         Path, typer.Option("--out", help="Folder for the results (a new run folder inside).")
     ] = Path("odolab-out"),
     seed: Annotated[
-        int | None, typer.Option(help="Random seed (default: the documented lab-report seed).")
+        int | None,
+        typer.Option(min=0, help="Random seed (default: the documented lab-report seed)."),
     ] = None,
     truth: Annotated[str, typer.Option(help="True robot preset.")] = "jaguar-lab",
 ) -> None:

@@ -97,8 +97,9 @@ def _read_options(
 def _write_json(doc: Any, path: Path | None) -> None:
     if path is None:
         return
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(doc, indent=2, allow_nan=True) + "\n", encoding="utf-8")
+    from odolab.cli._output import write_output_text
+
+    write_output_text(path, json.dumps(doc, indent=2, allow_nan=True) + "\n", "JSON result")
 
 
 @app.command("evaluate")

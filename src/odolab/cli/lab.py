@@ -72,7 +72,9 @@ def analyze_cmd(
     for s in analysis.skipped:
         con.print(f"[yellow]not enough data:[/] {s}")
     if json_out is not None:
-        json_out.write_text(json.dumps(analysis.to_dict(), indent=2), encoding="utf-8")
+        from odolab.cli._output import write_output_text
+
+        write_output_text(json_out, json.dumps(analysis.to_dict(), indent=2), "analysis JSON")
         con.print(f"analysis written to {json_out}")
 
 

@@ -78,7 +78,9 @@ TruthOpt = Annotated[
     str, typer.Option("--truth", help="Virtual Jaguar only: true-parameter preset of the plant.")
 ]
 TerrainOpt = Annotated[str, typer.Option("--terrain", help="Virtual Jaguar only: terrain.")]
-SeedOpt = Annotated[int, typer.Option("--seed", help="Virtual Jaguar only: random seed.")]
+SeedOpt = Annotated[
+    int, typer.Option("--seed", min=0, help="Virtual Jaguar only: random seed (>= 0).")
+]
 LeftChOpt = Annotated[int, typer.Option("--left-channel", help="Board channel of the left track.")]
 RightChOpt = Annotated[
     int, typer.Option("--right-channel", help="Board channel of the right track.")
@@ -150,6 +152,10 @@ def _run(
     from odolab.robot.motions import motion_from_command
     from odolab.robot.session import driver_config_for, run_motion
 
+    if not (math.isfinite(rate) and rate > 0):
+        from odolab.errors import SimError
+
+        raise SimError(f"--rate is {rate:g}; expected a positive number of Hz")
     nominal = load_params(params)
     config = driver_config_for(
         nominal,
@@ -180,6 +186,11 @@ def _run(
     folder = out or Path("runs") / "robot" / (
         datetime.now(UTC).strftime("%Y%m%dT%H%M%S") + f"-{command.kind.value}"
     )
+    if folder.exists() and not folder.is_dir():
+        from odolab.errors import SimError
+
+        # refuse before driving: a run that cannot be saved would be lost
+        raise SimError(f"{folder}: is a file; expected a folder for the run (--out)")
     if live is not None:
         live.start()
     try:
@@ -234,6 +245,14 @@ def _run(
         )
 
 
+def _check_nonzero(option: str, value: float) -> None:
+    """A zero (or non-finite) motion would record an empty trial: refuse it before connecting."""
+    from odolab.errors import SimError
+
+    if not math.isfinite(value) or value == 0:
+        raise SimError(f"{option} is {value:g}; expected a finite number other than 0")
+
+
 @robot_app.command("rotate")
 def rotate_cmd(
     turns: Annotated[
@@ -262,6 +281,7 @@ def rotate_cmd(
     """Rotate in place by TURNS full turns (2*pi each), stopping when odometry says so."""
     from odolab.trials import Command, MotionKind
 
+    _check_nonzero("--turns", turns)
     cmd = Command(MotionKind.ROTATION, angle=2.0 * math.pi * turns, speed=speed)
     _run(
         cmd,
@@ -314,6 +334,7 @@ def drive_cmd(
     """Drive straight DISTANCE m (negative = reverse), stopping when odometry says so."""
     from odolab.trials import Command, MotionKind
 
+    _check_nonzero("--distance", distance)
     cmd = Command(MotionKind.TRANSLATION, distance=distance, speed=speed)
     _run(
         cmd,
@@ -369,6 +390,7 @@ def pivot_cmd(
     """Pivot on one track by DEGREES, stopping when odometry says so."""
     from odolab.trials import Command, MotionKind
 
+    _check_nonzero("--degrees", degrees)
     cmd = Command(MotionKind.PIVOT, angle=math.radians(degrees), direction=held.value, speed=speed)
     _run(
         cmd,
@@ -449,7 +471,9 @@ def square_cmd(
 @robot_app.command("sim-server")
 def sim_server_cmd(
     host: Annotated[str, typer.Option("--host", help="Address to listen on.")] = "127.0.0.1",
-    port: Annotated[int, typer.Option("--port", help="UDP port (0 = any free one).")] = 10001,
+    port: Annotated[
+        int, typer.Option("--port", min=0, max=65535, help="UDP port (0 = any free one).")
+    ] = 10001,
     params: ParamsOpt = "jaguar-lite",
     truth: TruthOpt = "jaguar-lab",
     terrain: TerrainOpt = "tile",

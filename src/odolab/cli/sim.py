@@ -37,8 +37,9 @@ def sim_run(
     seed: Annotated[
         int,
         typer.Option(
+            min=0,
             help="Random seed (the same seed gives the same trials); the default is the "
-            "documented seed whose lab-report campaign reproduces the lab's Table I."
+            "documented seed whose lab-report campaign reproduces the lab's Table I.",
         ),
     ] = _LAB_REPORT_SEED,
     output: Annotated[
@@ -81,6 +82,8 @@ def sim_run(
         )
     proto = load_protocol(protocol)
     nominal = load_params(params)
+    if encoder_dir is not None and encoder_dir.exists() and not encoder_dir.is_dir():
+        raise SimError(f"{encoder_dir}: is a file; expected a folder for --encoder-dir")
     console = Console(stderr=True)
     with Progress(transient=True, console=console, disable=not console.is_terminal) as bar:
         task = bar.add_task(f"{proto.name}", total=len(proto))

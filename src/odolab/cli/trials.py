@@ -156,12 +156,21 @@ def params_add(
         list[str] | None, typer.Option("--source-trial", help="A trial they come from (repeat).")
     ] = None,
     notes: Annotated[str, typer.Option(help="Free text.")] = "",
+    robot: Annotated[
+        str | None,
+        typer.Option(
+            help="Robot whose new version they are (default: the name in the file, which a "
+            "calibration suffixes, e.g. jaguar-lite-ratios)."
+        ),
+    ] = None,
     db: DbOption = _DB,
 ) -> None:
     """Add a new version of a robot's parameters (nothing is ever overwritten)."""
     from odolab.params import load_params
 
     params = load_params(source)
+    if robot is not None:
+        params = params.with_(name=robot)
     with _open(db, create=True) as nb:
         v = nb.add_params_version(
             params, method=method, source_trials=source_trial or (), notes=notes
@@ -301,6 +310,13 @@ def _measurement(
             typer.echo("refused: turns must be 0 or more", err=True)
 
     rotation = t.command.kind.value in ("rotation", "pivot")
+    wrong = (x, y) if rotation else (initial, final, turns)
+    if any(v is not None for v in wrong):
+        # do not drop what was typed and then ask for something else
+        expected = "--initial, --final and --turns" if rotation else "--x and --y"
+        raise StoreError(
+            f"trial {t.trial_id} is a {t.command.kind.value}: it is measured with {expected}"
+        )
     given = (initial, final, turns) if rotation else (x, y)
     interactive = any(v is None for v in given)
     while True:
@@ -362,6 +378,14 @@ def measure_cmd(
     """Enter what was measured: compass readings and turns, or x and y (asks what is missing)."""
     with _open(db) as nb:
         t = nb.get_trial(trial_id)
+        if t.measured is not None and not replace:
+            from odolab.errors import StoreError
+
+            # refuse before asking for the readings, not after they were typed
+            raise StoreError(
+                f"trial {trial_id} is already measured ({_describe_measurement(t)}); "
+                "give --replace to overwrite its measurement"
+            )
         typer.echo(
             f"trial {t.trial_id}: {t.command.describe()}; predicted {_describe_prediction(t)}"
         )
@@ -428,6 +452,11 @@ def add_cmd(
             if campaign not in nb.campaign_names():
                 raise StoreError(f"unknown campaign {campaign!r}: give --terrain to create it")
             terrain = nb.get_campaign(campaign).terrain
+        if not math.isfinite(predicted_heading):
+            raise StoreError(
+                f"trial {trial_id}: --predicted-heading is {predicted_heading}; expected a "
+                "finite number (rad)"
+            )
         trial = Trial(
             trial_id=trial_id,
             campaign=campaign,
@@ -503,6 +532,9 @@ def export_cmd(
     db: DbOption = _DB,
 ) -> None:
     """Export trials as CSV (a spreadsheet, no encoder logs) or JSON (everything)."""
+    from odolab.cli._output import check_output_path
+
+    check_output_path(file, "trials export")
     k = kind.value if kind else None
     s = status.value if status else None
     with _open(db) as nb:

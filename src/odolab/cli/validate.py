@@ -97,13 +97,16 @@ def validate_cmd(
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        plot.parent.mkdir(parents=True, exist_ok=True)
+        from odolab.cli._output import check_output_path
+
+        check_output_path(plot, "figure")
         fig = validation_figure(result)
         fig.savefig(plot, dpi=120)
         plt.close(fig)
     if json_out is not None:
-        json_out.parent.mkdir(parents=True, exist_ok=True)
-        json_out.write_text(json.dumps(result.to_dict(), indent=2) + "\n", encoding="utf-8")
+        from odolab.cli._output import write_output_text
+
+        write_output_text(json_out, json.dumps(result.to_dict(), indent=2) + "\n", "JSON result")
     a = result.alignment
     corr = "" if a.correlation != a.correlation else f" (rate correlation {a.correlation:.3f})"
     typer.echo(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import math
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -12,26 +13,63 @@ from numpy.typing import NDArray
 
 from odolab.errors import LogFormatError
 
-__all__ = ["read_numeric_columns"]
+__all__ = ["data_line_numbers", "read_numeric_columns"]
 
 
-def _locate_bad_cell(path: Path, header: list[str], wanted: Sequence[str], sep: str) -> str:
-    """Find the first cell of ``wanted`` columns that is not a number; describe it."""
-    with path.open(newline="", encoding="utf-8-sig") as fh:
-        reader = csv.reader(fh, delimiter=sep) if sep != r"\s+" else (ln.split() for ln in fh)
-        next(iter(reader), None)
+def _locate_bad_cell(
+    path: Path,
+    header: list[str],
+    wanted: Sequence[str],
+    sep: str,
+    *,
+    has_header: bool = True,
+    finite: bool = False,
+) -> str:
+    """Find the first cell of ``wanted`` columns that is not a (finite) number; describe it.
+
+    Line numbers count every physical line of the file, blank and comment lines included.
+    """
+    with path.open(newline="", encoding="utf-8-sig", errors="replace") as fh:
+        whitespace = sep == r"\s+"
         idx = {name: header.index(name) for name in wanted}
-        for lineno, row in enumerate(reader, start=2):
-            if not row or all(not c.strip() for c in row):
+        for lineno, line in enumerate(fh, start=1):
+            if has_header and lineno == 1:
+                continue
+            if not line.strip():
+                continue  # a blank line is no row (a line of empty cells is one)
+            row = line.split() if whitespace else next(csv.reader([line], delimiter=sep), [])
+            if whitespace and row[0].startswith("#"):
                 continue
             for name, j in idx.items():
                 cell = row[j].strip() if j < len(row) else ""
                 try:
-                    float(cell)
+                    ok = math.isfinite(float(cell)) or not finite
                 except ValueError:
+                    ok = False
+                if not ok:
                     shown = repr(cell) if cell else "empty"
                     return f"{path}: line {lineno}, column {name!r} is {shown}, expected a number"
     return f"{path}: could not parse as numbers"
+
+
+def data_line_numbers(
+    path: str | Path, *, sep: str = ",", has_header: bool = True
+) -> NDArray[np.int64]:
+    """Physical line number (from 1) of each data row, skipping what the reader skips.
+
+    Blank lines (and, for whitespace-separated files, ``#`` comment lines) are not rows, so a
+    row's index alone does not give its line; error messages use this to name the right line.
+    """
+    lines: list[int] = []
+    with Path(path).open(newline="", encoding="utf-8-sig", errors="replace") as fh:
+        for lineno, line in enumerate(fh, start=1):
+            if has_header and lineno == 1:
+                continue
+            text = line.strip()
+            if not text or (sep == r"\s+" and text.startswith("#")):
+                continue
+            lines.append(lineno)
+    return np.asarray(lines, dtype=np.int64)
 
 
 def read_numeric_columns(
@@ -50,6 +88,8 @@ def read_numeric_columns(
     p = Path(path)
     if not p.exists():
         raise LogFormatError(f"{p}: no such file")
+    if not p.is_file():
+        raise LogFormatError(f"{p}: is not a file (a folder?); expected a delimited text file")
     try:
         if names is None:
             head = pd.read_csv(p, sep=sep, nrows=0, encoding="utf-8-sig")
@@ -78,18 +118,17 @@ def read_numeric_columns(
             comment="#" if sep == r"\s+" else None,
         )
     except (ValueError, pd.errors.ParserError) as err:
-        raise LogFormatError(_locate_bad_cell(p, header, columns, sep)) from err
+        raise LogFormatError(
+            _locate_bad_cell(p, header, columns, sep, has_header=names is None)
+        ) from err
     out: dict[str, NDArray[np.float64]] = {}
-    first_line = 1 if names is not None else 2
     for name in columns:
         arr = frame[name].to_numpy(dtype=np.float64)
         if not allow_nan:
             bad = ~np.isfinite(arr)
             if bad.any():
-                i = int(np.argmax(bad))
-                what = "empty" if np.isnan(arr[i]) else str(arr[i])
                 raise LogFormatError(
-                    f"{p}: line {i + first_line}, column {name!r} is {what}, expected a number"
+                    _locate_bad_cell(p, header, [name], sep, has_header=names is None, finite=True)
                 )
         out[name] = arr
     return out

@@ -6,13 +6,15 @@ into counters that never wrap.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 from odolab.encoders import as_tick_array
 from odolab.errors import LogFormatError
-from odolab.io._table import read_numeric_columns
+from odolab.io._table import data_line_numbers, read_numeric_columns
 from odolab.trajectory import check_times
 from odolab.trials import EncoderLog
 
@@ -22,11 +24,26 @@ RAW = ("t", "left_ticks", "right_ticks")
 INCREMENTS = ("t", "dticks_left", "dticks_right")
 
 
+def _ticks(
+    p: Path, values: NDArray[np.float64], name: str, line_of: Callable[[int], int]
+) -> NDArray[np.int64]:
+    """The column as integer counts; a fractional value is refused naming its line."""
+    off = np.abs(values - np.rint(values)) > 1e-6
+    if off.any():
+        i = int(np.argmax(off))
+        raise LogFormatError(
+            f"{p}: line {line_of(i)}, column {name!r} is {values[i]}, expected an integer count"
+        )
+    return as_tick_array(values, name)
+
+
 def read_encoder_csv(path: str | Path, *, modulus: int | None = None) -> EncoderLog:
     """Read an encoder log; raw counters keep ``modulus`` (the robot's), increments get None."""
     p = Path(path)
     import pandas as pd
 
+    if p.exists() and not p.is_file():
+        raise LogFormatError(f"{p}: is not a file (a folder?); expected an encoder log CSV")
     try:
         header = [str(c).strip() for c in pd.read_csv(p, nrows=0, encoding="utf-8-sig").columns]
     except FileNotFoundError as err:
@@ -39,12 +56,13 @@ def read_encoder_csv(path: str | Path, *, modulus: int | None = None) -> Encoder
     t = data["t"]
     if t.size == 0:
         raise LogFormatError(f"{p}: no samples after the header")
-    check_times(t, str(p), row_offset=2)
-    try:
-        left = as_tick_array(data[cols[1]], cols[1])
-        right = as_tick_array(data[cols[2]], cols[2])
-    except LogFormatError as err:
-        raise LogFormatError(f"{p}: {err} (line = index + 2)") from err
+
+    def line_of(i: int) -> int:
+        return int(data_line_numbers(p)[i])
+
+    check_times(t, str(p), line_of=line_of)
+    left = _ticks(p, data[cols[1]], cols[1], line_of)
+    right = _ticks(p, data[cols[2]], cols[2], line_of)
     if increments:
         left = np.cumsum(left)
         right = np.cumsum(right)
@@ -57,7 +75,7 @@ def read_encoder_csv(path: str | Path, *, modulus: int | None = None) -> Encoder
             if out.any():
                 i = int(np.argmax(out))
                 raise LogFormatError(
-                    f"{p}: line {i + 2}, column {name!r} is {arr[i]}, expected a counter value in "
+                    f"{p}: line {line_of(i)}, column {name!r} is {arr[i]}, expected a counter value in "
                     f"0..{modulus - 1} (encoder_modulus {modulus})"
                 )
     return EncoderLog(t, left, right, modulus)

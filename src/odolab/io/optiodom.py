@@ -14,10 +14,10 @@ import re
 from pathlib import Path
 
 from odolab.errors import LogFormatError, ParamsError
-from odolab.io._table import read_numeric_columns
+from odolab.io._table import data_line_numbers, read_numeric_columns
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.params import RobotParams
-from odolab.trajectory import Trajectory
+from odolab.trajectory import Trajectory, check_times
 
 __all__ = ["OptiOdomReader", "find_optiodom_runs", "read_optiodom_metadata", "read_optiodom_run"]
 
@@ -74,6 +74,7 @@ def read_optiodom_run(path: str | Path) -> OdometryRun:
     if d["t"].size < 2:
         raise LogFormatError(f"{p}: {d['t'].size} samples; expected at least two")
     t = d["t"]
+    check_times(t, str(p), line_of=lambda i: int(data_line_numbers(p, has_header=False)[i]))
     gt = Trajectory.from_xytheta(t, d["x_gt"], d["y_gt"], d["theta_gt"])
     kind = p.parent.parent.name
     params = params_from_metadata(meta, meta_path, name=f"optiodom-{m['id']}")

@@ -71,7 +71,8 @@ class OdometryRun:
             )
         if t.size < 2:
             raise LogFormatError(f"{self.source}: {t.size} samples; expected at least two")
-        check_times(t, self.source)
+        # file readers check their times first and name the line; here only the sample (from 1)
+        check_times(t, self.source, row_offset=1, what="sample")
         object.__setattr__(self, "t", t)
         object.__setattr__(self, "dticks_left", dl)
         object.__setattr__(self, "dticks_right", dr)

@@ -6,13 +6,15 @@ comments); planar poses have ``tz = qx = qy = 0`` and the yaw in the quaternion.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Literal
 
 import numpy as np
 
 from odolab.errors import LogFormatError
-from odolab.io._table import read_numeric_columns
+from odolab.io._table import data_line_numbers, read_numeric_columns
 from odolab.trajectory import Trajectory, check_times
 
 __all__ = [
@@ -27,12 +29,25 @@ COLUMNS = ("t", "x", "y", "theta", "heading")
 TUM_COLUMNS = ("t", "tx", "ty", "tz", "qx", "qy", "qz", "qw")
 
 
+@contextmanager
+def _writing(p: Path, what: str) -> Iterator[None]:
+    """Create the folder, and turn a failure to write into one sentence."""
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        yield
+    except OSError as err:
+        raise LogFormatError(
+            f"{p}: cannot write the {what} ({err.strerror or err}); expected a file name in a "
+            "writable folder"
+        ) from err
+
+
 def write_trajectory_csv(traj: Trajectory, path: str | Path) -> Path:
     """Write a trajectory CSV (full double precision)."""
     p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
     table = np.column_stack((traj.t, traj.x, traj.y, traj.theta, traj.heading))
-    np.savetxt(p, table, fmt="%.17g", delimiter=",", header=",".join(COLUMNS), comments="")
+    with _writing(p, "trajectory CSV"):
+        np.savetxt(p, table, fmt="%.17g", delimiter=",", header=",".join(COLUMNS), comments="")
     return p
 
 
@@ -41,15 +56,17 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
     p = Path(path)
     import pandas as pd
 
+    if p.exists() and not p.is_file():
+        raise LogFormatError(f"{p}: is not a file (a folder?); expected a trajectory CSV")
     try:
-        header = [str(c).strip() for c in pd.read_csv(p, nrows=0).columns]
+        header = [str(c).strip() for c in pd.read_csv(p, nrows=0, encoding="utf-8-sig").columns]
     except FileNotFoundError as err:
         raise LogFormatError(f"{p}: no such file") from err
-    except pd.errors.EmptyDataError as err:
+    except (pd.errors.EmptyDataError, UnicodeDecodeError) as err:
         raise LogFormatError(f"{p}: empty file; expected header {','.join(COLUMNS)}") from err
     cols = COLUMNS if "heading" in header else COLUMNS[:4]
     d = read_numeric_columns(p, cols)
-    check_times(d["t"], str(p), row_offset=2)
+    check_times(d["t"], str(p), line_of=lambda i: int(data_line_numbers(p)[i]))
     if "heading" in d:
         return Trajectory.from_xyh(d["t"], d["x"], d["y"], d["heading"])
     return Trajectory.from_xytheta(d["t"], d["x"], d["y"], d["theta"])
@@ -58,13 +75,13 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
 def write_tum(traj: Trajectory, path: str | Path) -> Path:
     """Write TUM text (planar: z = 0, quaternion about z)."""
     p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
     half = 0.5 * traj.theta
     zeros = np.zeros_like(traj.t)
     table = np.column_stack(
         (traj.t, traj.x, traj.y, zeros, zeros, zeros, np.sin(half), np.cos(half))
     )
-    np.savetxt(p, table, fmt="%.17g", delimiter=" ")
+    with _writing(p, "TUM trajectory"):
+        np.savetxt(p, table, fmt="%.17g", delimiter=" ")
     return p
 
 
@@ -74,7 +91,9 @@ def read_tum(path: str | Path) -> Trajectory:
     d = read_numeric_columns(p, TUM_COLUMNS, sep=r"\s+", names=TUM_COLUMNS)
     if d["t"].size == 0:
         raise LogFormatError(f"{p}: no poses")
-    check_times(d["t"], str(p), row_offset=1)
+    check_times(
+        d["t"], str(p), line_of=lambda i: int(data_line_numbers(p, sep=r"\s+", has_header=False)[i])
+    )
     qx, qy, qz, qw = d["qx"], d["qy"], d["qz"], d["qw"]
     yaw = np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
     return Trajectory.from_xytheta(d["t"], d["tx"], d["ty"], yaw)

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from odolab.errors import LogFormatError
 from odolab.metrics.alignment import Alignment, Rigid2D, align
 from odolab.metrics.association import SyncMethod, associate
 from odolab.metrics.pose_error import (
@@ -73,6 +74,10 @@ def drift_per_distance(
     reference: Trajectory, estimate: Trajectory, segment_m: float = 1.0
 ) -> Drift:
     """Drift of associated, aligned trajectories (equal length) per metre of reference path."""
+    if not (segment_m > 0 and math.isfinite(segment_m)):
+        raise LogFormatError(
+            f"drift segment must be a positive length in m (--drift-segment), got {segment_m}"
+        )
     dist = path_distances(reference)
     length = float(dist[-1]) if dist.size else 0.0
     end_err = float(ape_translation(reference[-1:], estimate[-1:])[0])

@@ -60,9 +60,16 @@ class Transport(Protocol):
 def parse_robot_url(url: str) -> tuple[str, int]:
     """``udp://HOST:PORT`` -> (host, port)."""
     parsed = urlparse(url)
-    if parsed.scheme != "udp" or not parsed.hostname or parsed.port is None:
+    try:
+        port = parsed.port  # raises ValueError for a non-number or out of 0..65535
+    except ValueError as err:
+        raise RobotLinkError(
+            f"robot address {url!r} has a bad port ({err}); expected udp://HOST:PORT with a port "
+            "in 0..65535"
+        ) from err
+    if parsed.scheme != "udp" or not parsed.hostname or port is None:
         raise RobotLinkError(f"robot address {url!r} is not of the form udp://HOST:PORT")
-    return parsed.hostname, parsed.port
+    return parsed.hostname, port
 
 
 class UdpTransport:

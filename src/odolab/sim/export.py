@@ -34,6 +34,8 @@ def write_encoder_logs(trials: Sequence[Trial], directory: str | Path) -> list[P
     from odolab.io import write_encoder_csv
 
     folder = Path(directory)
+    if folder.exists() and not folder.is_dir():
+        raise SimError(f"{folder}: is a file; expected a folder for the encoder logs")
     out = []
     for t in trials:
         if t.encoder_log is not None:

@@ -937,6 +937,7 @@ class Notebook:
                     f"(kind/terrain {row['kind']}/{row['terrain']} vs {c['kind']}/{c['terrain']})"
                 )
         known_ids = self.trial_ids()
+        first_in_file: dict[str, int] = {}
         available = {(pv["robot"], pv["version"]) for pv in doc.params_versions}
         campaign_names = self.campaign_names() | {c["name"] for c in new_campaigns}
         trials: list[Trial] = []
@@ -946,9 +947,13 @@ class Notebook:
         for i, rec in enumerate(doc.trials):
             where = f"{source}: trials[{i}]"
             tid = rec["trial_id"]
+            if tid in first_in_file:
+                raise StoreError(
+                    f"{where}: trial {tid!r} is a duplicate of trials[{first_in_file[tid]}]"
+                )
             if tid in known_ids:
                 raise StoreError(f"{where}: trial {tid!r} is already in the notebook")
-            known_ids.add(tid)
+            first_in_file[tid] = i
             if rec["campaign"] not in campaign_names:
                 raise StoreError(f"{where}: unknown campaign {rec['campaign']!r}")
             for k in _NUMERIC_COLUMNS:

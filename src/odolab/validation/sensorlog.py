@@ -288,8 +288,8 @@ def _check_increasing(tab: _Table, t: FloatArray, rows: NDArray[np.bool_], colum
         k = int(np.argmax(back)) + 1
         line = int(np.flatnonzero(rows)[k]) + 2
         raise ImuLogError(
-            f"{tab.path}: line {line}, column {column!r} goes back in time ({t[k]!r} after "
-            f"{t[k - 1]!r}); expected increasing times"
+            f"{tab.path}: line {line}, column {column!r} goes back in time ({float(t[k])!r} after "
+            f"{float(t[k - 1])!r}); expected increasing times"
         )
 
 

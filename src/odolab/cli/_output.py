@@ -1,0 +1,32 @@
+"""Writing the CLI's output files: a path that cannot be written is one sentence, not a traceback."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from odolab.errors import OdolabError
+
+__all__ = ["OutputError", "check_output_path", "write_output_text"]
+
+
+class OutputError(OdolabError):
+    """An output file cannot be written (a folder, no permission, a full disk)."""
+
+
+def check_output_path(path: Path, what: str) -> None:
+    """Refuse a path that is a folder, and create the parent folder."""
+    if path.is_dir():
+        raise OutputError(f"{path}: is a folder; expected a file name for the {what}")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise OutputError(f"{path}: cannot create its folder for the {what} ({err})") from err
+
+
+def write_output_text(path: Path, text: str, what: str) -> None:
+    """Write ``text`` to ``path`` (UTF-8), creating its folder."""
+    check_output_path(path, what)
+    try:
+        path.write_text(text, encoding="utf-8")
+    except OSError as err:
+        raise OutputError(f"{path}: cannot write the {what} ({err.strerror or err})") from err

@@ -1,0 +1,92 @@
+"""Error messages name the file's physical line, even with blank and comment lines around."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from odolab.errors import LogFormatError
+from odolab.io.encoder_csv import read_encoder_csv
+from odolab.io.trajectory_csv import read_trajectory_csv, read_tum
+
+
+def _write(tmp_path: Path, name: str, text: str) -> Path:
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+def test_nan_after_blank_lines_names_its_line(tmp_path: Path) -> None:
+    # line 1 header, 2 data, 3 and 4 blank, 5 data, 6 the bad cell
+    p = _write(tmp_path, "log.csv", "t,left_ticks,right_ticks\n0,0,0\n\n\n0.05,1,1\n0.1,nan,2\n")
+    with pytest.raises(LogFormatError, match=r"line 6, column 'left_ticks' is 'nan'"):
+        read_encoder_csv(p)
+
+
+def test_text_cell_after_blank_line(tmp_path: Path) -> None:
+    p = _write(tmp_path, "log.csv", "t,left_ticks,right_ticks\n\n0,0,0\n0.1,x,2\n")
+    with pytest.raises(LogFormatError, match=r"line 4, column 'left_ticks' is 'x'"):
+        read_encoder_csv(p)
+
+
+def test_fractional_ticks_name_the_line_not_an_index(tmp_path: Path) -> None:
+    p = _write(tmp_path, "log.csv", "t,left_ticks,right_ticks\n0,0,0\n\n0.05,10.5,12\n")
+    with pytest.raises(LogFormatError, match=r"line 4, column 'left_ticks' is 10.5") as err:
+        read_encoder_csv(p)
+    assert "index" not in str(err.value)
+
+
+def test_counter_out_of_range_after_blank_line(tmp_path: Path) -> None:
+    p = _write(tmp_path, "log.csv", "t,left_ticks,right_ticks\n\n0,0,0\n0.05,40000,1\n")
+    with pytest.raises(LogFormatError, match=r"line 4, column 'left_ticks' is 40000"):
+        read_encoder_csv(p, modulus=32768)
+
+
+def test_time_backwards_after_blank_line(tmp_path: Path) -> None:
+    p = _write(tmp_path, "log.csv", "t,left_ticks,right_ticks\n0,0,0\n\n0.05,1,1\n0.04,2,2\n")
+    with pytest.raises(LogFormatError, match=r"backwards at line 5"):
+        read_encoder_csv(p)
+    q = _write(tmp_path, "traj.csv", "t,x,y,theta\n0,0,0,0\n\n1,0,0,0\n0.5,0,0,0\n")
+    with pytest.raises(LogFormatError, match=r"backwards at line 5"):
+        read_trajectory_csv(q)
+
+
+def test_tum_with_comment_header_names_its_line(tmp_path: Path) -> None:
+    p = _write(
+        tmp_path, "a.tum", "# timestamp tx ty tz qx qy qz qw\n1 0 0 0 0 0 0 1\n0.5 0 0 0 0 0 0 1\n"
+    )
+    with pytest.raises(LogFormatError, match=r"backwards at line 3"):
+        read_tum(p)
+
+
+@pytest.mark.parametrize("reader", [read_encoder_csv, read_trajectory_csv, read_tum])
+def test_a_folder_is_refused_in_one_sentence(tmp_path: Path, reader: object) -> None:
+    with pytest.raises(LogFormatError, match="not a file"):
+        reader(tmp_path)  # type: ignore[operator]
+
+
+def test_writing_to_a_folder_is_one_sentence(tmp_path: Path) -> None:
+    import numpy as np
+
+    from odolab.errors import ParamsError
+    from odolab.io.trajectory_csv import write_trajectory_csv, write_tum
+    from odolab.params import PRESETS, save_params
+    from odolab.trajectory import Trajectory
+
+    traj = Trajectory.from_xyh(np.array([0.0, 1.0]), np.zeros(2), np.zeros(2), np.zeros(2))
+    with pytest.raises(LogFormatError, match="cannot write the trajectory CSV"):
+        write_trajectory_csv(traj, tmp_path)
+    with pytest.raises(LogFormatError, match="cannot write the TUM trajectory"):
+        write_tum(traj, tmp_path)
+    with pytest.raises(ParamsError, match="cannot write the parameters"):
+        save_params(PRESETS["jaguar-lite"], tmp_path)
+
+
+def test_a_line_of_empty_cells_is_a_row_not_a_blank_line(tmp_path: Path) -> None:
+    p = _write(tmp_path, "log.csv", "t,left_ticks,right_ticks\n0,0,0\n\n,,\n0.1,2,2\n")
+    with pytest.raises(LogFormatError, match=r"line 4, column 't' is empty"):
+        read_encoder_csv(p)
+    q = _write(tmp_path, "t.csv", "t,x,y,theta\n0,0,0,0\n,,,\n\n1,0,0,0\n0.5,0,0,0\n")
+    with pytest.raises(LogFormatError, match=r"line 3, column 't' is empty"):
+        read_trajectory_csv(q)
