@@ -141,3 +141,17 @@ def test_cli_params_show(capsys: pytest.CaptureFixture[str]) -> None:
     out = capsys.readouterr().out
     assert "track_width = 0.56" in out and "[robot]" in out
     assert math.isclose(load_params("jaguar-lite").track_width, 0.56)
+
+
+def test_cli_turns_any_file_error_into_one_line(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import odolab.io
+
+    def denied(*args: object, **kwargs: object) -> None:
+        raise PermissionError(13, "Permission denied", "locked.csv")
+
+    monkeypatch.setattr(odolab.io, "read_encoder_csv", denied)
+    assert main(["odometry", "locked.csv"]) == 1
+    err = capsys.readouterr().err
+    assert err == "odolab: error: locked.csv: Permission denied\n"

@@ -32,6 +32,10 @@ def main(argv: list[str] | None = None) -> int:
     except OdolabError as err:
         sys.stderr.write(f"odolab: error: {err}\n")
         return 1
+    except OSError as err:  # a file the command could not read or write: one line, no traceback
+        where = f"{err.filename}: " if err.filename else ""
+        sys.stderr.write(f"odolab: error: {where}{err.strerror or err}\n")
+        return 1
     except SystemExit as exc:
         code = exc.code
         return code if isinstance(code, int) else (0 if code is None else 1)

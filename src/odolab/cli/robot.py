@@ -183,6 +183,11 @@ def _run(
         if live is not None and (info.index % every == 0 or not info.link_ok):
             live.update(_live_table(info, rate, target))
 
+    notebook = None
+    if db is not None:  # open (create, migrate) the notebook before driving: refuse a bad one now
+        from odolab.store import Notebook
+
+        notebook = Notebook(db)
     folder = out or Path("runs") / "robot" / (
         datetime.now(UTC).strftime("%Y%m%dT%H%M%S") + f"-{command.kind.value}"
     )
@@ -234,10 +239,8 @@ def _run(
         typer.echo(f"true (virtual): x={q.x:.4f} m y={q.y:.4f} m heading={q.heading:.4f} rad")
     typer.echo(run.stats.describe())
     typer.echo(f"saved to {folder} (status: awaiting measurement)")
-    if db is not None:
-        from odolab.store import Notebook
-
-        with Notebook(db) as nb:
+    if notebook is not None:
+        with notebook as nb:
             nb.add_trial(run.trial)
         typer.echo(
             f"recorded in {db} as {run.trial.trial_id}; enter the measurement with "
