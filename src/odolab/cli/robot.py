@@ -7,6 +7,7 @@ so that the measured pose can be entered afterwards.
 
 from __future__ import annotations
 
+import inspect
 import math
 from datetime import UTC, datetime
 from enum import StrEnum
@@ -248,6 +249,12 @@ def _run(
         )
 
 
+def _run_options(values: dict[str, Any]) -> dict[str, Any]:
+    """The options every motion command passes on to :func:`_run`, taken from its arguments."""
+    names = list(inspect.signature(_run).parameters)[1:]  # all but the command
+    return {name: values[name] for name in names}
+
+
 def _check_nonzero(option: str, value: float) -> None:
     """A zero (or non-finite) motion would record an empty trial: refuse it before connecting."""
     from odolab.errors import SimError
@@ -286,27 +293,7 @@ def rotate_cmd(
 
     _check_nonzero("--turns", turns)
     cmd = Command(MotionKind.ROTATION, angle=2.0 * math.pi * turns, speed=speed)
-    _run(
-        cmd,
-        robot=robot,
-        rate=rate,
-        params=params,
-        mode=mode,
-        decel=decel,
-        watchdog=watchdog,
-        out=out,
-        db=db,
-        truth=truth,
-        terrain=terrain,
-        seed=seed,
-        left_channel=left_channel,
-        right_channel=right_channel,
-        left_encoder_sign=left_encoder_sign,
-        right_encoder_sign=right_encoder_sign,
-        max_wheel_speed=max_wheel_speed,
-        quiet=quiet,
-        realtime=realtime,
-    )
+    _run(cmd, **_run_options(locals()))
 
 
 @robot_app.command("drive")
@@ -339,27 +326,7 @@ def drive_cmd(
 
     _check_nonzero("--distance", distance)
     cmd = Command(MotionKind.TRANSLATION, distance=distance, speed=speed)
-    _run(
-        cmd,
-        robot=robot,
-        rate=rate,
-        params=params,
-        mode=mode,
-        decel=decel,
-        watchdog=watchdog,
-        out=out,
-        db=db,
-        truth=truth,
-        terrain=terrain,
-        seed=seed,
-        left_channel=left_channel,
-        right_channel=right_channel,
-        left_encoder_sign=left_encoder_sign,
-        right_encoder_sign=right_encoder_sign,
-        max_wheel_speed=max_wheel_speed,
-        quiet=quiet,
-        realtime=realtime,
-    )
+    _run(cmd, **_run_options(locals()))
 
 
 @robot_app.command("pivot")
@@ -395,27 +362,7 @@ def pivot_cmd(
 
     _check_nonzero("--degrees", degrees)
     cmd = Command(MotionKind.PIVOT, angle=math.radians(degrees), direction=held.value, speed=speed)
-    _run(
-        cmd,
-        robot=robot,
-        rate=rate,
-        params=params,
-        mode=mode,
-        decel=decel,
-        watchdog=watchdog,
-        out=out,
-        db=db,
-        truth=truth,
-        terrain=terrain,
-        seed=seed,
-        left_channel=left_channel,
-        right_channel=right_channel,
-        left_encoder_sign=left_encoder_sign,
-        right_encoder_sign=right_encoder_sign,
-        max_wheel_speed=max_wheel_speed,
-        quiet=quiet,
-        realtime=realtime,
-    )
+    _run(cmd, **_run_options(locals()))
 
 
 @robot_app.command("square")
@@ -448,27 +395,7 @@ def square_cmd(
     from odolab.trials import Command, MotionKind
 
     cmd = Command(MotionKind.SQUARE, side=side, direction=direction.value, speed=speed)
-    _run(
-        cmd,
-        robot=robot,
-        rate=rate,
-        params=params,
-        mode=mode,
-        decel=decel,
-        watchdog=watchdog,
-        out=out,
-        db=db,
-        truth=truth,
-        terrain=terrain,
-        seed=seed,
-        left_channel=left_channel,
-        right_channel=right_channel,
-        left_encoder_sign=left_encoder_sign,
-        right_encoder_sign=right_encoder_sign,
-        max_wheel_speed=max_wheel_speed,
-        quiet=quiet,
-        realtime=realtime,
-    )
+    _run(cmd, **_run_options(locals()))
 
 
 @robot_app.command("sim-server")
