@@ -109,6 +109,7 @@ class LabResult:
     table1: list[dict[str, Any]]
     after_calibration: dict[str, float]
     validation_rms: tuple[float, float]
+    phone_log: Path | None = None  #: the phone's SensorLog CSV (for ``odolab validate``)
     loop: dict[str, Any] = field(default_factory=dict)
 
 
@@ -216,7 +217,7 @@ def run_lab(
     from odolab.sim.presets import LAB_REPORT_SEED, TRUTH_PRESETS
     from odolab.sim.protocols import load_protocol, run_protocol
     from odolab.store import Notebook
-    from odolab.validation import simulate_phone_log, validate
+    from odolab.validation import simulate_phone_log, validate, write_sensorlog
     from odolab.validation.compare import plot_validation
 
     nominal = nominal or PRESETS["jaguar-lite"]
@@ -320,7 +321,7 @@ def run_lab(
             notes=str(cal.provenance.get("source", "")),
         )
         params_files[name] = save_params(
-            new, folder / f"params-{name}.toml", provenance=_toml_safe(cal.provenance)
+            cal.params, folder / f"params-{name}.toml", provenance=_toml_safe(cal.provenance)
         )
         progress("calibration", len(params_files), 2)
 
@@ -335,6 +336,8 @@ def run_lab(
     t_true = np.concatenate([before, t_run, after])
     h_true = np.concatenate([np.full(200, h_run[0]), h_run, np.full(200, h_run[-1])])
     imu = simulate_phone_log(t_true, h_true, clock_offset=PHONE_CLOCK_OFFSET, seed=seed)
+    assert imu.yaw_rate is not None
+    phone_csv = write_sensorlog(folder / "phone-sensorlog.csv", imu.t, imu.yaw, imu.yaw_rate)
     check = validate(
         phone_trial.encoder_log,
         imu,
@@ -381,6 +384,8 @@ def run_lab(
         },
         "live_runs": loop_summary,
         "notebook": str(db),
+        "phone_log": str(phone_csv),
+        "phone_trial": phone_trial.trial_id,
     }
     html = write_report(
         folder,
@@ -401,6 +406,7 @@ def run_lab(
         table1=rows,
         after_calibration=after_ratios,
         validation_rms=(check.old.rms, check.new.rms),
+        phone_log=phone_csv,
         loop=loop_summary,
     )
 

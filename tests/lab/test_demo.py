@@ -118,3 +118,21 @@ def test_demo_bad_out_and_seed_are_one_line(
     last = capsys.readouterr().err.strip().splitlines()[-1]  # after the progress display
     assert last.startswith("odolab: error: ") and "run folder" in last
     assert main(["sim", "run", "umbmark", "--seed", "-1", "-o", str(tmp_path / "x.csv")]) == 2
+
+
+def test_validate_cli_on_the_demo_notebook_repeats_the_demo(
+    lab, capsys: pytest.CaptureFixture[str]
+) -> None:  # type: ignore[no-untyped-def]
+    """The phone's SensorLog file and the notebook's trial give the demo's own validation."""
+    result, _ = lab
+    out = result.folder / "check.json"
+    args = ["validate", "imu-rotation-20pi", str(result.phone_log), "--db", str(result.notebook)]
+    args += ["--new", str(result.params_files["ratios"]), "--offset", "12.5", "--max-offset", "5"]
+    assert main([*args, "--json", str(out)]) == 0
+    capsys.readouterr()
+    check = json.loads(out.read_text())
+    old, new = result.validation_rms
+    assert check["old"]["rms_error_rad"] == pytest.approx(old, rel=0.02)
+    assert check["new"]["rms_error_rad"] == pytest.approx(new, rel=0.02)
+    assert main([*args[:1], "no-such-trial", *args[2:]]) == 1
+    assert "no trial 'no-such-trial'" in capsys.readouterr().err

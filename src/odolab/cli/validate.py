@@ -20,7 +20,13 @@ class MethodChoice(StrEnum):
 
 @app.command("validate")
 def validate_cmd(
-    encoder_log: Annotated[Path, typer.Argument(help="Encoder log CSV: t,left_ticks,right_ticks.")],
+    encoder_log: Annotated[
+        Path,
+        typer.Argument(
+            help="Encoder log CSV (t,left_ticks,right_ticks), or with --db the id of a trial "
+            "in that notebook (its stored encoder log)."
+        ),
+    ],
     imu_log: Annotated[
         Path, typer.Argument(help="Phone IMU log in the SensorLog app's CSV format.")
     ],
@@ -28,8 +34,17 @@ def validate_cmd(
         str, typer.Option("--new", help="New (calibrated) parameters: TOML file or preset name.")
     ],
     old: Annotated[
-        str, typer.Option("--old", help="Old parameters: TOML file or preset name.")
-    ] = "jaguar-lite",
+        str | None,
+        typer.Option(
+            "--old",
+            help="Old parameters: TOML file or preset name (default: the trial's with --db, "
+            "else jaguar-lite).",
+        ),
+    ] = None,
+    db: Annotated[
+        Path | None,
+        typer.Option("--db", help="Lab notebook: ENCODER_LOG is then a trial id in it."),
+    ] = None,
     offset: Annotated[
         float,
         typer.Option(help="Nominal clock offset, phone clock minus robot clock (s)."),
@@ -72,9 +87,22 @@ def validate_cmd(
     from odolab.params import load_params
     from odolab.validation import read_sensorlog, validate, validation_figure
 
-    old_params = load_params(old)
     new_params = load_params(new)
-    enc = read_encoder_csv(encoder_log, modulus=old_params.encoder_modulus)
+    if db is not None:
+        from odolab.errors import ImuLogError
+        from odolab.store import Notebook
+
+        with Notebook(db) as nb:
+            trial = nb.get_trial(str(encoder_log))
+        if trial.encoder_log is None:
+            raise ImuLogError(f"{db}: trial {trial.trial_id} has no encoder log to validate")
+        enc = trial.encoder_log
+        old_params = load_params(old) if old is not None else trial.params
+        source = f"{db}: trial {trial.trial_id}"
+    else:
+        old_params = load_params(old or "jaguar-lite")
+        enc = read_encoder_csv(encoder_log, modulus=old_params.encoder_modulus)
+        source = str(encoder_log)
     imu = read_sensorlog(imu_log)
     if wallclock:
         imu = imu.on_wallclock()
@@ -89,7 +117,7 @@ def validate_cmd(
         max_offset=max_offset,
         smooth=smooth,
         method=method.value,
-        encoder_source=str(encoder_log),
+        encoder_source=source,
     )
     if plot is not None:
         import matplotlib
