@@ -7,17 +7,48 @@ and report. Units are SI (m, rad, s) throughout.
 
 from __future__ import annotations
 
+import importlib
+from typing import TYPE_CHECKING, Any
+
 from odolab.errors import (
     EncoderJumpError,
     LogFormatError,
     OdolabError,
     ParamsError,
 )
-from odolab.kinematics import Method, wrap_angle
-from odolab.odometry import Odometry, integrate, integrate_increments
 from odolab.params import PRESETS, RobotParams, load_params, save_params
-from odolab.trajectory import Pose, Trajectory
-from odolab.trials import Command, EncoderLog, Measurement, MotionKind, Trial, TrialStatus
+
+if TYPE_CHECKING:  # imported on first use (numpy, numba): `odolab --help` stays instant
+    from odolab.kinematics import Method, wrap_angle
+    from odolab.odometry import Odometry, integrate, integrate_increments
+    from odolab.trajectory import Pose, Trajectory
+    from odolab.trials import Command, EncoderLog, Measurement, MotionKind, Trial, TrialStatus
+
+_LAZY = {
+    "Method": "odolab.kinematics",
+    "wrap_angle": "odolab.kinematics",
+    "Odometry": "odolab.odometry",
+    "integrate": "odolab.odometry",
+    "integrate_increments": "odolab.odometry",
+    "Pose": "odolab.trajectory",
+    "Trajectory": "odolab.trajectory",
+    "Command": "odolab.trials",
+    "EncoderLog": "odolab.trials",
+    "Measurement": "odolab.trials",
+    "MotionKind": "odolab.trials",
+    "Trial": "odolab.trials",
+    "TrialStatus": "odolab.trials",
+}
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'odolab' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
 
 __version__ = "0.1.0"
 
