@@ -2,20 +2,15 @@
 
 from __future__ import annotations
 
-from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
 from odolab.cli._apps import app
+from odolab.cli.core import MethodChoice
 
 __all__: list[str] = []
-
-
-class MethodChoice(StrEnum):
-    midpoint = "midpoint"
-    arc = "arc"
 
 
 @app.command("validate")

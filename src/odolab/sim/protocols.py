@@ -141,6 +141,17 @@ def _err(source: str, where: str, message: str) -> SimError:
     return SimError(f"{source}: {where}: {message}")
 
 
+def _check_keys(source: str, where: str, table: dict[str, Any], allowed: set[str]) -> None:
+    """Refuse the first key of ``table`` that is not in ``allowed``, naming it."""
+    unknown = sorted(set(table) - allowed)
+    if unknown:
+        raise _err(
+            source,
+            f"{where} key {unknown[0]!r}",
+            f"unknown key; expected {', '.join(sorted(allowed))}",
+        )
+
+
 def _number(source: str, where: str, value: Any, *, positive: bool = True) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
         raise _err(source, where, f"expected a number, got {value!r}")
@@ -179,13 +190,7 @@ def _parse_set(source: str, index: int, spec: Any, defaults: dict[str, Any]) -> 
     where = f"[[trials]] #{index + 1}"
     if not isinstance(spec, dict):
         raise _err(source, where, "expected a table")
-    unknown = sorted(set(spec) - _SET_KEYS)
-    if unknown:
-        raise _err(
-            source,
-            f"{where} key {unknown[0]!r}",
-            f"unknown key; expected {', '.join(sorted(_SET_KEYS))}",
-        )
+    _check_keys(source, where, spec, _SET_KEYS)
     if "motion" not in spec:
         raise _err(source, f"{where} key 'motion'", "missing")
     motion = _text(source, f"{where} key 'motion'", spec["motion"], _MOTIONS)
@@ -257,13 +262,7 @@ def parse_protocol(doc: dict[str, Any], source: str = "<protocol>") -> Protocol:
     head = doc.get("protocol")
     if not isinstance(head, dict):
         raise _err(source, "[protocol]", "missing table")
-    unknown = sorted(set(head) - _PROTOCOL_KEYS)
-    if unknown:
-        raise _err(
-            source,
-            f"[protocol] key {unknown[0]!r}",
-            f"unknown key; expected {', '.join(sorted(_PROTOCOL_KEYS))}",
-        )
+    _check_keys(source, "[protocol]", head, _PROTOCOL_KEYS)
     name = head.get("name", Path(source).stem)
     campaign = head.get("campaign", name)
     if not isinstance(campaign, str) or not campaign:
@@ -288,13 +287,7 @@ def parse_protocol(doc: dict[str, Any], source: str = "<protocol>") -> Protocol:
     inst = doc.get("instruments", {})
     if not isinstance(inst, dict):
         raise _err(source, "[instruments]", "expected a table")
-    bad = sorted(set(inst) - _INSTRUMENT_KEYS)
-    if bad:
-        raise _err(
-            source,
-            f"[instruments] key {bad[0]!r}",
-            f"unknown key; expected {', '.join(sorted(_INSTRUMENT_KEYS))}",
-        )
+    _check_keys(source, "[instruments]", inst, _INSTRUMENT_KEYS)
 
     def inum(key: str, default: float) -> float:
         return _number(source, f"[instruments] key {key!r}", inst.get(key, default), positive=False)
