@@ -25,12 +25,20 @@ class FormatChoice(StrEnum):
 
 @app.command("odometry")
 def odometry_cmd(
-    log: Annotated[Path, typer.Argument(help="Encoder log CSV: t,left_ticks,right_ticks.")],
+    log: Annotated[
+        Path,
+        typer.Argument(
+            help="Encoder log: t,left_ticks,right_ticks (CSV, .parquet or .arrow/.feather)."
+        ),
+    ],
     params: Annotated[
         str, typer.Option("--params", "-p", help="Parameters TOML file or preset name.")
     ] = "jaguar-lite",
     output: Annotated[
-        Path, typer.Option("--output", "-o", help="Trajectory file to write.")
+        Path,
+        typer.Option(
+            "--output", "-o", help="Trajectory file to write (.csv, .parquet, .arrow/.feather)."
+        ),
     ] = Path("trajectory.csv"),
     method: Annotated[MethodChoice, typer.Option(help="Pose step rule.")] = MethodChoice.midpoint,
     fmt: Annotated[
@@ -44,13 +52,43 @@ def odometry_cmd(
         int | None,
         typer.Option(help="Largest plausible counter change per cycle (default modulus/4)."),
     ] = None,
+    chunk_rows: Annotated[
+        int,
+        typer.Option(
+            help="Rows per chunk: memory is bounded by it (0: the whole log in memory at once)."
+        ),
+    ] = 1_000_000,
 ) -> None:
-    """Integrate an encoder log into a trajectory (one pose per input row)."""
+    """Integrate an encoder log into a trajectory (one pose per input row), chunk by chunk."""
+    from odolab.errors import OdolabError
     from odolab.io import read_encoder_csv, write_trajectory
     from odolab.odometry import integrate
     from odolab.params import load_params
 
+    if chunk_rows < 0:
+        raise OdolabError(f"--chunk-rows is {chunk_rows}; expected a number of rows >= 1 (or 0)")
     robot = load_params(params)
+    if chunk_rows > 0 and fmt is FormatChoice.csv:
+        from odolab.cli._progress import progress_bar
+        from odolab.io.chunked import integrate_file
+
+        with progress_bar("odometry", unit="rows") as report:
+            res = integrate_file(
+                log,
+                output,
+                robot,
+                method.value,
+                start=start,
+                max_dticks=max_dticks,
+                chunk_rows=chunk_rows,
+                progress=report,
+            )
+        end = res.final
+        typer.echo(
+            f"{res.rows} poses -> {output}; final x={end.x:.4f} m y={end.y:.4f} m "
+            f"heading={end.heading:.4f} rad"
+        )
+        return
     enc = read_encoder_csv(log, modulus=robot.encoder_modulus)
     traj = integrate(
         enc.t,

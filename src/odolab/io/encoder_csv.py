@@ -1,7 +1,8 @@
 """Encoder log CSV: header ``t,left_ticks,right_ticks`` (s; raw counters, may wrap).
 
 Per-cycle increments are read too, with header ``t,dticks_left,dticks_right``: they are summed
-into counters that never wrap.
+into counters that never wrap. The same columns in a Parquet (``.parquet``) or Arrow IPC
+(``.arrow``, ``.feather``) file are read and written by extension (:mod:`odolab.io.tabular`).
 """
 
 from __future__ import annotations
@@ -14,7 +15,8 @@ from numpy.typing import NDArray
 
 from odolab.encoders import as_tick_array
 from odolab.errors import LogFormatError
-from odolab.io._table import data_line_numbers, read_numeric_columns
+from odolab.io._table import data_line_numbers
+from odolab.io.tabular import read_columns, read_header, table_format, write_columns
 from odolab.trajectory import check_times
 from odolab.trials import EncoderLog
 
@@ -25,14 +27,18 @@ INCREMENTS = ("t", "dticks_left", "dticks_right")
 
 
 def _ticks(
-    p: Path, values: NDArray[np.float64], name: str, line_of: Callable[[int], int]
+    p: Path,
+    values: NDArray[np.float64],
+    name: str,
+    line_of: Callable[[int], int],
+    where: str = "line",
 ) -> NDArray[np.int64]:
     """The column as integer counts; a fractional value is refused naming its line."""
     off = np.abs(values - np.rint(values)) > 1e-6
     if off.any():
         i = int(np.argmax(off))
         raise LogFormatError(
-            f"{p}: line {line_of(i)}, column {name!r} is {values[i]}, expected an integer count"
+            f"{p}: {where} {line_of(i)}, column {name!r} is {values[i]}, expected an integer count"
         )
     return as_tick_array(values, name)
 
@@ -44,25 +50,31 @@ def read_encoder_csv(path: str | Path, *, modulus: int | None = None) -> Encoder
 
     if p.exists() and not p.is_file():
         raise LogFormatError(f"{p}: is not a file (a folder?); expected an encoder log CSV")
+    text = table_format(p) == "csv"
     try:
-        header = [str(c).strip() for c in pd.read_csv(p, nrows=0, encoding="utf-8-sig").columns]
+        if text:
+            header = [str(c).strip() for c in pd.read_csv(p, nrows=0, encoding="utf-8-sig").columns]
+        else:
+            header = read_header(p)
     except FileNotFoundError as err:
         raise LogFormatError(f"{p}: no such file") from err
     except (pd.errors.EmptyDataError, UnicodeDecodeError) as err:
         raise LogFormatError(f"{p}: empty or unreadable file; expected a header line") from err
     increments = "dticks_left" in header and "left_ticks" not in header
     cols = INCREMENTS if increments else RAW
-    data = read_numeric_columns(p, cols)
+    data = read_columns(p, cols)
     t = data["t"]
     if t.size == 0:
         raise LogFormatError(f"{p}: no samples after the header")
 
-    def line_of(i: int) -> int:
-        return int(data_line_numbers(p)[i])
+    where = "line" if text else "row"
 
-    check_times(t, str(p), line_of=line_of)
-    left = _ticks(p, data[cols[1]], cols[1], line_of)
-    right = _ticks(p, data[cols[2]], cols[2], line_of)
+    def line_of(i: int) -> int:
+        return int(data_line_numbers(p)[i]) if text else i + 1
+
+    check_times(t, str(p), line_of=line_of, what=where)
+    left = _ticks(p, data[cols[1]], cols[1], line_of, where)
+    right = _ticks(p, data[cols[2]], cols[2], line_of, where)
     if increments:
         left = np.cumsum(left)
         right = np.cumsum(right)
@@ -75,16 +87,13 @@ def read_encoder_csv(path: str | Path, *, modulus: int | None = None) -> Encoder
             if out.any():
                 i = int(np.argmax(out))
                 raise LogFormatError(
-                    f"{p}: line {line_of(i)}, column {name!r} is {arr[i]}, expected a counter value in "
+                    f"{p}: {where} {line_of(i)}, column {name!r} is {arr[i]}, expected a counter value in "
                     f"0..{modulus - 1} (encoder_modulus {modulus})"
                 )
     return EncoderLog(t, left, right, modulus)
 
 
 def write_encoder_csv(log: EncoderLog, path: str | Path) -> Path:
-    """Write ``t,left_ticks,right_ticks`` (raw counters)."""
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    table = np.column_stack((log.t, log.left_ticks, log.right_ticks))
-    np.savetxt(p, table, fmt=("%.9f", "%d", "%d"), delimiter=",", header=",".join(RAW), comments="")
-    return p
+    """Write ``t,left_ticks,right_ticks`` (raw counters); CSV, Parquet or IPC by extension."""
+    columns = dict(zip(RAW, (log.t, log.left_ticks, log.right_ticks), strict=True))
+    return write_columns(path, columns, "encoder log")

@@ -17,6 +17,7 @@ from odolab.io.csv_run import CsvRunReader
 from odolab.io.optiodom import OptiOdomReader
 from odolab.io.rosbag import RosbagReader
 from odolab.io.run import OdometryRun, ReadOptions
+from odolab.io.tabular import BINARY_SUFFIXES
 from odolab.io.trajectory_csv import read_trajectory_csv, read_tum
 from odolab.trajectory import Trajectory
 
@@ -78,10 +79,11 @@ def read_run(
 
 
 def read_trajectory(path: str | Path) -> Trajectory:
-    """A trajectory file by its extension: ``.csv`` (``t,x,y,theta[,heading]``), else TUM text."""
+    """A trajectory file by its extension: ``.csv`` (``t,x,y,theta[,heading]``), Parquet or Arrow
+    IPC (``.parquet``, ``.arrow``, ``.feather``: the same columns), else TUM text."""
     p = Path(path)
     if not p.is_file():
         raise LogFormatError(f"{p}: no such trajectory file")
-    if p.suffix.lower() == ".csv":
+    if p.suffix.lower() in (".csv", *BINARY_SUFFIXES):
         return read_trajectory_csv(p)
     return read_tum(p)

@@ -1,5 +1,8 @@
 """Trajectory files: CSV with header ``t,x,y,theta,heading``, and TUM text.
 
+The same columns in Parquet (``.parquet``) or Arrow IPC (``.arrow``, ``.feather``) are read and
+written by extension (:mod:`odolab.io.tabular`); CSV numbers are the shortest round-trip text.
+
 TUM format: one line per pose, ``timestamp tx ty tz qx qy qz qw`` (space separated, ``#``
 comments); planar poses have ``tz = qx = qy = 0`` and the yaw in the quaternion.
 """
@@ -15,6 +18,7 @@ import numpy as np
 
 from odolab.errors import LogFormatError
 from odolab.io._table import data_line_numbers, read_numeric_columns
+from odolab.io.tabular import read_columns, read_header, table_format, write_columns
 from odolab.trajectory import Trajectory, check_times
 
 __all__ = [
@@ -43,12 +47,10 @@ def _writing(p: Path, what: str) -> Iterator[None]:
 
 
 def write_trajectory_csv(traj: Trajectory, path: str | Path) -> Path:
-    """Write a trajectory CSV (full double precision)."""
-    p = Path(path)
-    table = np.column_stack((traj.t, traj.x, traj.y, traj.theta, traj.heading))
-    with _writing(p, "trajectory CSV"):
-        np.savetxt(p, table, fmt="%.17g", delimiter=",", header=",".join(COLUMNS), comments="")
-    return p
+    """Write a trajectory table (shortest round-trip text; Parquet or IPC by extension)."""
+    columns = dict(zip(COLUMNS, (traj.t, traj.x, traj.y, traj.theta, traj.heading), strict=True))
+    what = "trajectory CSV" if table_format(path) == "csv" else "trajectory table"
+    return write_columns(path, columns, what)
 
 
 def read_trajectory_csv(path: str | Path) -> Trajectory:
@@ -58,6 +60,14 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
 
     if p.exists() and not p.is_file():
         raise LogFormatError(f"{p}: is not a file (a folder?); expected a trajectory CSV")
+    if table_format(p) != "csv":
+        header = read_header(p)
+        cols = COLUMNS if "heading" in header else COLUMNS[:4]
+        d = read_columns(p, cols)
+        check_times(d["t"], str(p), row_offset=1, what="row")
+        if "heading" in d:
+            return Trajectory.from_xyh(d["t"], d["x"], d["y"], d["heading"])
+        return Trajectory.from_xytheta(d["t"], d["x"], d["y"], d["theta"])
     try:
         header = [str(c).strip() for c in pd.read_csv(p, nrows=0, encoding="utf-8-sig").columns]
     except FileNotFoundError as err:
@@ -65,7 +75,7 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
     except (pd.errors.EmptyDataError, UnicodeDecodeError) as err:
         raise LogFormatError(f"{p}: empty file; expected header {','.join(COLUMNS)}") from err
     cols = COLUMNS if "heading" in header else COLUMNS[:4]
-    d = read_numeric_columns(p, cols)
+    d = read_columns(p, cols)
     check_times(d["t"], str(p), line_of=lambda i: int(data_line_numbers(p)[i]))
     if "heading" in d:
         return Trajectory.from_xyh(d["t"], d["x"], d["y"], d["heading"])

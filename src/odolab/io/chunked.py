@@ -1,0 +1,269 @@
+"""Odometry of logs larger than memory: read, integrate and write chunk by chunk.
+
+Built on the public :func:`odolab.odometry.integrate`: each chunk is integrated with the previous
+chunk's last counter sample prepended (so a rollover across the boundary is unwrapped as in one
+pass) and starting from the previous chunk's last pose (x, y and the unwrapped heading), then
+that repeated first pose is dropped. The poses equal the whole-file run's to rounding (the same
+operations in the same order). Memory is bounded by the chunk size.
+
+Errors name the file and line (CSV) or row (Parquet, IPC), as the whole-file reader does; the
+line numbers of a CSV are counted only when there is an error to report.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from odolab.errors import EncoderJumpError, LogFormatError
+from odolab.io._table import data_line_numbers
+from odolab.io.encoder_csv import INCREMENTS, RAW, _ticks
+from odolab.io.tabular import ChunkWriter, iter_columns, read_header, row_count, table_format
+from odolab.kinematics import Method
+from odolab.params import RobotParams
+from odolab.trajectory import Pose, Trajectory, check_times
+
+__all__ = [
+    "DEFAULT_CHUNK_ROWS",
+    "ChunkedOdometry",
+    "EncoderChunk",
+    "OdometryFileResult",
+    "integrate_file",
+    "iter_encoder_chunks",
+]
+
+#: Rows per chunk when none is given: about 100 MB of working memory.
+DEFAULT_CHUNK_ROWS = 1_000_000
+TRAJECTORY_COLUMNS = ("t", "x", "y", "theta", "heading")
+
+F64 = NDArray[np.float64]
+I64 = NDArray[np.int64]
+Progress = Callable[[int, int, str], None]
+
+
+@dataclass(frozen=True)
+class EncoderChunk:
+    """Rows ``row0 .. row0 + len - 1`` (0-based data rows) of an encoder log."""
+
+    row0: int
+    t: F64
+    left: I64
+    right: I64
+
+
+class _Lines:
+    """Data row index -> physical line (CSV, counted on first use) or row number from 1."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.text = table_format(path) == "csv"
+        self.where = "line" if self.text else "row"
+        self._lines: I64 | None = None
+
+    def __call__(self, row: int) -> int:
+        if not self.text:
+            return row + 1
+        if self._lines is None:
+            self._lines = data_line_numbers(self.path)
+        return int(self._lines[row])
+
+
+def iter_encoder_chunks(
+    path: str | Path, *, modulus: int | None = None, chunk_rows: int = DEFAULT_CHUNK_ROWS
+) -> Iterator[EncoderChunk]:
+    """An encoder log (raw counters or increments; CSV, Parquet or IPC) chunk by chunk.
+
+    The same checks as :func:`odolab.io.read_encoder_csv`, with the same messages: times finite
+    and non-decreasing (across chunks too), counts whole, raw counters within the modulus.
+    Increments are summed into counters that carry across chunks.
+    """
+    p = Path(path)
+    header = read_header(p)
+    increments = "dticks_left" in header and "left_ticks" not in header
+    cols = INCREMENTS if increments else RAW
+    lines = _Lines(p)
+    last_t: float | None = None
+    carry = np.zeros(2, dtype=np.int64)
+    any_rows = False
+    for row0, data in iter_columns(p, cols, chunk_rows=chunk_rows):
+        t = data["t"]
+        if t.size == 0:
+            continue
+        any_rows = True
+
+        def line_of(i: int, row0: int = row0) -> int:
+            return lines(row0 + i)
+
+        if last_t is None:
+            check_times(t, str(p), line_of=line_of, what=lines.where)
+        else:
+            check_times(
+                np.concatenate(([last_t], t)),
+                str(p),
+                line_of=lambda i, row0=row0: lines(row0 + i - 1),
+                what=lines.where,
+            )
+        last_t = float(t[-1])
+
+        left = _ticks(p, data[cols[1]], cols[1], line_of, lines.where)
+        right = _ticks(p, data[cols[2]], cols[2], line_of, lines.where)
+        if increments:
+            if row0 == 0:
+                left[0] = right[0] = 0  # the first increment is not motion
+            left = np.cumsum(left) + carry[0]
+            right = np.cumsum(right) + carry[1]
+            carry[:] = (left[-1], right[-1])
+        elif modulus is not None:
+            for name, arr in ((cols[1], left), (cols[2], right)):
+                out = (arr < 0) | (arr >= modulus)
+                if out.any():
+                    i = int(np.argmax(out))
+                    raise LogFormatError(
+                        f"{p}: {lines.where} {line_of(i)}, column {name!r} is {arr[i]}, expected "
+                        f"a counter value in 0..{modulus - 1} (encoder_modulus {modulus})"
+                    )
+        yield EncoderChunk(row0, t, left, right)
+    if not any_rows:
+        raise LogFormatError(f"{p}: no samples after the header")
+
+
+_SAMPLES = re.compile(r"between samples (\d+) and (\d+)")
+
+
+class ChunkedOdometry:
+    """Batch odometry fed chunk by chunk; ``feed`` returns each chunk's poses.
+
+    Equal to one :func:`odolab.odometry.integrate` call over the concatenated chunks (to
+    rounding), rollover across a boundary included.
+    """
+
+    def __init__(
+        self,
+        params: RobotParams,
+        method: Method | str = Method.MIDPOINT,
+        *,
+        start: tuple[float, float, float] | None = None,
+        max_dticks: int | None = None,
+        source: str = "encoder log",
+    ) -> None:
+        self.params = params
+        self.method = Method(method)
+        self.start = start
+        self.max_dticks = max_dticks
+        self.source = source
+        self.rows = 0
+        self._prev: tuple[float, int, int] | None = None
+        self._pose: Pose | None = None
+
+    @property
+    def pose(self) -> Pose | None:
+        """The last pose so far (None before the first sample)."""
+        return self._pose
+
+    def feed(self, t: F64, left: I64, right: I64) -> Trajectory:
+        """Integrate the next rows; returns their poses (one per row)."""
+        from odolab.odometry import integrate
+
+        n = len(t)
+        if self._prev is None or self._pose is None:
+            tt, ll, rr, start, skip = t, left, right, self.start, 0
+        else:
+            pt, pl, pr = self._prev
+            tt = np.concatenate(([pt], np.asarray(t, dtype=np.float64)))
+            ll = np.concatenate(([pl], np.asarray(left, dtype=np.int64)))
+            rr = np.concatenate(([pr], np.asarray(right, dtype=np.int64)))
+            start = (self._pose.x, self._pose.y, self._pose.heading)
+            skip = 1
+        offset = self.rows - skip  # global index of tt[0]
+        try:
+            traj = integrate(
+                tt,
+                ll,
+                rr,
+                self.params,
+                self.method,
+                start=start,
+                max_dticks=self.max_dticks,
+                source=self.source,
+            )
+        except EncoderJumpError as err:
+            text = _SAMPLES.sub(
+                lambda m: (
+                    f"between samples {int(m.group(1)) + offset} and {int(m.group(2)) + offset}"
+                ),
+                str(err),
+            )
+            raise EncoderJumpError(text) from err
+        if skip:
+            traj = traj[skip:]
+        if n:
+            self._prev = (float(t[-1]), int(left[-1]), int(right[-1]))
+            self._pose = traj.final
+        self.rows += n
+        return traj
+
+
+@dataclass(frozen=True)
+class OdometryFileResult:
+    """What :func:`integrate_file` did: poses written, the final pose, chunks."""
+
+    rows: int
+    final: Pose
+    chunks: int
+    output: Path
+
+
+def integrate_file(
+    log: str | Path,
+    output: str | Path,
+    params: RobotParams,
+    method: Method | str = Method.MIDPOINT,
+    *,
+    start: tuple[float, float, float] | None = None,
+    max_dticks: int | None = None,
+    chunk_rows: int = DEFAULT_CHUNK_ROWS,
+    progress: Progress | None = None,
+) -> OdometryFileResult:
+    """Encoder log file -> trajectory file (``t,x,y,theta,heading``), chunk by chunk.
+
+    Formats by extension (CSV, Parquet, Arrow IPC). ``progress(rows done, total rows or 0 when
+    unknown, name)`` is called after each chunk. The output is written beside under a temporary
+    name and renamed when complete: after an error, an existing ``output`` is left as it was.
+    """
+    src = Path(log)
+    out = Path(output)
+    if src.exists() and out.exists() and src.resolve() == out.resolve():
+        raise LogFormatError(f"{out}: is the input log; expected another file for the output")
+    total = row_count(src) or 0
+    odo = ChunkedOdometry(params, method, start=start, max_dticks=max_dticks, source=str(src))
+    chunks = 0
+    partial = out.with_name(f".{out.stem}.partial{out.suffix}")
+    try:
+        with ChunkWriter(partial, "trajectory", shown=out) as writer:
+            for chunk in iter_encoder_chunks(
+                src, modulus=params.encoder_modulus, chunk_rows=chunk_rows
+            ):
+                traj = odo.feed(chunk.t, chunk.left, chunk.right)
+                writer.write(
+                    dict(
+                        zip(
+                            TRAJECTORY_COLUMNS,
+                            (traj.t, traj.x, traj.y, traj.theta, traj.heading),
+                            strict=True,
+                        )
+                    )
+                )
+                chunks += 1
+                if progress is not None:
+                    progress(odo.rows, total, src.name)
+        partial.replace(out)
+    except BaseException:
+        partial.unlink(missing_ok=True)
+        raise
+    assert odo.pose is not None  # iter_encoder_chunks raised on an empty log
+    return OdometryFileResult(odo.rows, odo.pose, chunks, out)

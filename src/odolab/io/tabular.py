@@ -1,0 +1,429 @@
+"""Numeric tables in and out at library speed: CSV, Parquet and Arrow IPC, chosen by extension.
+
+``.parquet``/``.pq`` is Parquet, ``.arrow``/``.feather``/``.ipc`` is Arrow IPC (Feather v2),
+anything else is CSV. Whole files go through polars (measured fastest here for CSV read and
+write and Parquet write; see docs/scale.md); chunked reading and writing goes through pyarrow's
+streaming readers and writers, so memory is bounded by the chunk.
+
+CSV numbers are written as the shortest text that reads back to the same double (``0.05`` stays
+``0.05``). The fast CSV reader names no line: when it refuses a file, or the file has an empty
+cell or a blank line, the careful reader in :mod:`odolab.io._table` reads it again, so every
+error still names the file, line and column. Parquet and IPC files have no lines: their errors
+name the row (from 1) and column.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from pathlib import Path
+from types import TracebackType
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from odolab.errors import LogFormatError
+
+__all__ = [
+    "BINARY_SUFFIXES",
+    "ChunkWriter",
+    "TableFormat",
+    "iter_columns",
+    "read_columns",
+    "read_header",
+    "table_format",
+    "write_columns",
+]
+
+TableFormat = Literal["csv", "parquet", "ipc"]
+F64 = NDArray[np.float64]
+
+_PARQUET = (".parquet", ".pq")
+_IPC = (".arrow", ".feather", ".ipc")
+#: Suffixes of the binary table formats (everything else is CSV text).
+BINARY_SUFFIXES = _PARQUET + _IPC
+
+
+def table_format(path: str | Path) -> TableFormat:
+    """The table format of a file name, by its extension (CSV unless Parquet or Arrow IPC)."""
+    suffix = Path(path).suffix.lower()
+    if suffix in _PARQUET:
+        return "parquet"
+    if suffix in _IPC:
+        return "ipc"
+    return "csv"
+
+
+def _check_file(p: Path) -> None:
+    if not p.exists():
+        raise LogFormatError(f"{p}: no such file")
+    if not p.is_file():
+        raise LogFormatError(f"{p}: is not a file (a folder?); expected a table file")
+
+
+def _arrow_schema_names(p: Path, fmt: TableFormat) -> list[str]:
+    import pyarrow as pa
+    import pyarrow.ipc as ipc
+    import pyarrow.parquet as pq
+
+    try:
+        if fmt == "parquet":
+            return list(pq.read_schema(p).names)
+        with pa.memory_map(str(p)) as source:
+            return list(ipc.open_file(source).schema.names)
+    except (pa.ArrowException, OSError) as err:
+        kind = "Parquet" if fmt == "parquet" else "Arrow IPC"
+        raise LogFormatError(f"{p}: not a readable {kind} file ({err})") from err
+
+
+def read_header(path: str | Path) -> list[str]:
+    """Column names of a table file (CSV: the first line, stripped)."""
+    p = Path(path)
+    _check_file(p)
+    fmt = table_format(p)
+    if fmt != "csv":
+        return _arrow_schema_names(p, fmt)
+    import pandas as pd
+
+    try:
+        head = pd.read_csv(p, nrows=0, encoding="utf-8-sig")
+    except (pd.errors.EmptyDataError, UnicodeDecodeError) as err:
+        raise LogFormatError(f"{p}: empty or unreadable file; expected a header line") from err
+    return [str(c).strip() for c in head.columns]
+
+
+def _missing(p: Path, header: Sequence[str], columns: Sequence[str]) -> None:
+    missing = [c for c in columns if c not in header]
+    if missing:
+        raise LogFormatError(
+            f"{p}: missing column {missing[0]!r}; the header has {', '.join(header) or 'nothing'}"
+            f" but {', '.join(columns)} are expected"
+        )
+
+
+def _check_finite(p: Path, out: Mapping[str, F64], where: str, offset: int = 0) -> None:
+    for name, arr in out.items():
+        bad = ~np.isfinite(arr)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise LogFormatError(
+                f"{p}: {where} {i + 1 + offset}, column {name!r} is {arr[i]}, expected a number"
+            )
+
+
+def _fast_csv(p: Path, header: list[str], columns: Sequence[str]) -> dict[str, F64] | None:
+    """polars' reader; None where the careful reader must look (refused, empty cells)."""
+    import polars as pl
+
+    idx = [header.index(c) for c in columns]
+    try:
+        frame = pl.read_csv(
+            p,
+            columns=idx,
+            new_columns=[header[i] for i in idx] if len(set(header)) == len(header) else None,
+            schema_overrides=None,
+            infer_schema=False,
+            encoding="utf8",
+        ).select(pl.all().cast(pl.Float64, strict=True))
+    except Exception:  # any refusal: the careful reader names the line
+        return None
+    if frame.null_count().sum_horizontal().item() > 0 or frame.width != len(columns):
+        return None  # blank lines or empty cells: the careful reader's rules apply
+    out: dict[str, F64] = {}
+    for name, series in zip(columns, frame.get_columns(), strict=True):
+        out[name] = series.to_numpy(writable=False).astype(np.float64, copy=False)
+    return out
+
+
+def read_columns(
+    path: str | Path, columns: Sequence[str], *, allow_nan: bool = False
+) -> dict[str, F64]:
+    """Read the named columns of a table file as float64 arrays.
+
+    Every error is a :class:`LogFormatError` naming the file and, where there is one, the line
+    (CSV) or row (Parquet, IPC) and column.
+    """
+    p = Path(path)
+    fmt = table_format(p)
+    if fmt != "csv":
+        header = read_header(p)
+        _missing(p, header, columns)
+        chunks = list(iter_columns(p, columns, chunk_rows=None, allow_nan=allow_nan))
+        if not chunks:
+            return {c: np.empty(0) for c in columns}
+        return chunks[0][1]
+    from odolab.io._table import read_numeric_columns
+
+    header = read_header(p)
+    _missing(p, header, columns)
+    fast = _fast_csv(p, header, columns)
+    if fast is None:
+        return read_numeric_columns(p, columns, allow_nan=allow_nan)
+    if not allow_nan and not all(bool(np.isfinite(a).all()) for a in fast.values()):
+        return read_numeric_columns(p, columns, allow_nan=allow_nan)  # names the line
+    return fast
+
+
+def _arrow_to_f64(p: Path, batch: Any, columns: Sequence[str], row0: int) -> dict[str, F64]:
+    import pyarrow as pa
+
+    out: dict[str, F64] = {}
+    for name in columns:
+        col = batch.column(batch.schema.get_field_index(name))
+        if col.null_count:
+            i = int(np.argmax(np.asarray(col.is_null())))
+            raise LogFormatError(
+                f"{p}: row {row0 + i + 1}, column {name!r} is empty, expected a number"
+            )
+        try:
+            arr = col.to_numpy(zero_copy_only=False)
+        except pa.ArrowException as err:  # pragma: no cover - exotic types
+            raise LogFormatError(f"{p}: column {name!r} is not numeric ({err})") from err
+        if arr.dtype.kind not in "iuf":
+            raise LogFormatError(f"{p}: column {name!r} holds {col.type}, expected numbers")
+        out[name] = arr.astype(np.float64, copy=False)
+    return out
+
+
+def _rechunk(
+    blocks: Iterator[dict[str, F64]], columns: Sequence[str], chunk_rows: int | None
+) -> Iterator[dict[str, F64]]:
+    """Blocks of any size as chunks of exactly ``chunk_rows`` rows (the last one shorter)."""
+    if chunk_rows is None:
+        parts = list(blocks)
+        if parts:
+            yield {c: np.concatenate([b[c] for b in parts]) for c in columns}
+        return
+    pending: list[dict[str, F64]] = []
+    have = 0
+    for block in blocks:
+        pending.append(block)
+        have += len(block[columns[0]])
+        while have >= chunk_rows:
+            merged = {c: np.concatenate([b[c] for b in pending]) for c in columns}
+            yield {c: merged[c][:chunk_rows] for c in columns}
+            rest = {c: merged[c][chunk_rows:] for c in columns}
+            have -= chunk_rows
+            pending = [rest] if have else []
+    if have:
+        yield {c: np.concatenate([b[c] for b in pending]) for c in columns}
+
+
+def _csv_blocks(p: Path, header: list[str], columns: Sequence[str]) -> Iterator[Any]:
+    import pyarrow as pa
+    import pyarrow.csv as pcsv
+
+    types = {c: pa.float64() for c in columns}
+    try:
+        reader = pcsv.open_csv(
+            p,
+            read_options=pcsv.ReadOptions(column_names=header, skip_rows=1, block_size=1 << 22),
+            convert_options=pcsv.ConvertOptions(column_types=types, include_columns=list(columns)),
+        )
+        yield from reader
+    except pa.ArrowInvalid as err:
+        raise _CsvRefused from err
+
+
+class _CsvRefused(Exception):
+    """The streaming CSV reader refused a block; the careful reader names the line."""
+
+
+def iter_columns(
+    path: str | Path,
+    columns: Sequence[str],
+    *,
+    chunk_rows: int | None,
+    allow_nan: bool = False,
+) -> Iterator[tuple[int, dict[str, F64]]]:
+    """``(first row index, {column: float64 array})`` per chunk of ``chunk_rows`` rows.
+
+    ``chunk_rows=None`` yields the whole table at once. Memory is bounded by the chunk (plus one
+    block of the underlying reader: a Parquet row group, an IPC batch, 4 MiB of CSV).
+    """
+    p = Path(path)
+    if chunk_rows is not None and (chunk_rows < 1 or int(chunk_rows) != chunk_rows):
+        raise LogFormatError(f"chunk size is {chunk_rows!r}; expected a whole number of rows >= 1")
+    fmt = table_format(p)
+    header = read_header(p)
+    _missing(p, header, columns)
+    blocks: Iterator[dict[str, F64]]
+    blocks = _csv_chunks(p, header, columns) if fmt == "csv" else _arrow_chunks(p, fmt, columns)
+    row = 0
+    where = "line" if fmt == "csv" else "row"
+    for chunk in _rechunk(blocks, columns, chunk_rows):
+        if not allow_nan and fmt != "csv":
+            _check_finite(p, chunk, where, offset=row)
+        yield row, chunk
+        row += len(chunk[columns[0]])
+
+
+def _csv_chunks(p: Path, header: list[str], columns: Sequence[str]) -> Iterator[dict[str, F64]]:
+    """Streaming CSV blocks; anything unusual goes to the careful reader, which raises."""
+    from odolab.io._table import read_numeric_columns
+
+    try:
+        for batch in _csv_blocks(p, header, columns):
+            block = _arrow_to_f64_plain(batch, columns)
+            if any(not bool(np.isfinite(a).all()) for a in block.values()):
+                raise _CsvRefused
+            yield block
+    except (_CsvRefused, LogFormatError) as err:
+        read_numeric_columns(p, columns)  # raises naming the line
+        raise LogFormatError(  # pragma: no cover - the careful reader found nothing wrong
+            f"{p}: could not be read in chunks ({err}); expected a plain numeric CSV"
+        ) from err
+
+
+def _arrow_to_f64_plain(batch: Any, columns: Sequence[str]) -> dict[str, F64]:
+    out: dict[str, F64] = {}
+    for name in columns:
+        col = batch.column(batch.schema.get_field_index(name))
+        if col.null_count:
+            raise _CsvRefused
+        out[name] = col.to_numpy(zero_copy_only=False).astype(np.float64, copy=False)
+    return out
+
+
+def _arrow_chunks(p: Path, fmt: TableFormat, columns: Sequence[str]) -> Iterator[dict[str, F64]]:
+    import pyarrow as pa
+    import pyarrow.ipc as ipc
+    import pyarrow.parquet as pq
+
+    row = 0
+    try:
+        if fmt == "parquet":
+            pf = pq.ParquetFile(p)
+            batches: Iterator[Any] = pf.iter_batches(batch_size=1 << 16, columns=list(columns))
+            for batch in batches:
+                yield _arrow_to_f64(p, batch, columns, row)
+                row += batch.num_rows
+            return
+        with pa.memory_map(str(p)) as source:
+            reader = ipc.open_file(source)
+            for k in range(reader.num_record_batches):
+                batch = reader.get_batch(k).select(list(columns))
+                yield _arrow_to_f64(p, batch, columns, row)
+                row += batch.num_rows
+    except (pa.ArrowException, OSError) as err:
+        kind = "Parquet" if fmt == "parquet" else "Arrow IPC"
+        raise LogFormatError(f"{p}: not a readable {kind} file ({err})") from err
+
+
+def _frame(columns: Mapping[str, NDArray[Any]]) -> Any:
+    import polars as pl
+
+    return pl.DataFrame({k: np.asarray(v) for k, v in columns.items()})
+
+
+def _cannot_write(p: Path, what: str, err: BaseException) -> LogFormatError:
+    why = err.strerror if isinstance(err, OSError) and err.strerror else str(err)
+    return LogFormatError(
+        f"{p}: cannot write the {what} ({why}); expected a file name in a writable folder"
+    )
+
+
+def write_columns(path: str | Path, columns: Mapping[str, NDArray[Any]], what: str) -> Path:
+    """Write equal-length 1-D arrays as a table, in the format of the file's extension.
+
+    Float columns stay float64 (CSV: shortest round-trip text), integer columns stay int64.
+    """
+    p = Path(path)
+    with ChunkWriter(p, what) as writer:
+        writer.write(columns)
+    return p
+
+
+class ChunkWriter:
+    """Write a table chunk by chunk (same columns each time); one format per file extension.
+
+    Use as a context manager; the file is complete when it closes. Memory is one chunk.
+    """
+
+    def __init__(self, path: str | Path, what: str = "table", *, shown: Path | None = None) -> None:
+        self.path = Path(path)
+        self.shown = shown or self.path  # the name in error messages
+        self.what = what
+        self.format = table_format(self.path)
+        self.rows = 0
+        self._sink: Any = None
+        self._writer: Any = None
+
+    def __enter__(self) -> ChunkWriter:
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            if self.format == "csv":
+                self._sink = self.path.open("wb")
+        except OSError as err:
+            raise _cannot_write(self.shown, self.what, err) from err
+        return self
+
+    def write(self, columns: Mapping[str, NDArray[Any]]) -> None:
+        """Append one chunk (a mapping of column name to 1-D array)."""
+        try:
+            if self.format == "csv":
+                _frame(columns).write_csv(self._sink, include_header=self.rows == 0)
+            else:
+                self._write_arrow(columns)
+        except OSError as err:
+            raise _cannot_write(self.shown, self.what, err) from err
+        self.rows += len(next(iter(columns.values())))
+
+    def _write_arrow(self, columns: Mapping[str, NDArray[Any]]) -> None:
+        import pyarrow as pa
+        import pyarrow.ipc as ipc
+        import pyarrow.parquet as pq
+
+        table = pa.table({k: np.asarray(v) for k, v in columns.items()})
+        if self._writer is None:
+            if self.format == "parquet":
+                self._writer = pq.ParquetWriter(self.path, table.schema)
+            else:
+                self._sink = pa.OSFile(str(self.path), "wb")
+                self._writer = ipc.new_file(self._sink, table.schema)
+        self._writer.write_table(table)
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        try:
+            if self._writer is not None:
+                self._writer.close()
+            if self._sink is not None:
+                self._sink.close()
+        except OSError as err:
+            if exc is None:
+                raise _cannot_write(self.shown, self.what, err) from err
+
+
+def progress_of(
+    progress: Callable[[int, int, str], None] | None, total: int, name: str
+) -> Callable[[int], None]:
+    """A ``done -> None`` reporter from an optional ``progress(done, total, name)`` callback."""
+    if progress is None:
+        return lambda done: None
+    report = progress
+    return lambda done: report(done, total, name)
+
+
+def row_count(path: str | Path) -> int | None:
+    """Rows of a Parquet or IPC file from its metadata (None for CSV: unknown until read)."""
+    p = Path(path)
+    fmt = table_format(p)
+    if fmt == "csv":
+        return None
+    import pyarrow as pa
+    import pyarrow.ipc as ipc
+    import pyarrow.parquet as pq
+
+    with contextlib.suppress(pa.ArrowException, OSError):
+        if fmt == "parquet":
+            return int(pq.ParquetFile(p).metadata.num_rows)
+        with pa.memory_map(str(p)) as source:
+            reader = ipc.open_file(source)
+            return int(sum(reader.get_batch(k).num_rows for k in range(reader.num_record_batches)))
+    return None
