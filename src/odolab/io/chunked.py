@@ -99,13 +99,16 @@ def iter_encoder_chunks(
         def line_of(i: int, row0: int = row0) -> int:
             return lines(row0 + i)
 
+        def line_before(i: int, row0: int = row0) -> int:
+            return lines(row0 + i - 1)
+
         if last_t is None:
             check_times(t, str(p), line_of=line_of, what=lines.where)
         else:
             check_times(
                 np.concatenate(([last_t], t)),
                 str(p),
-                line_of=lambda i, row0=row0: lines(row0 + i - 1),
+                line_of=line_before,
                 what=lines.where,
             )
         last_t = float(t[-1])

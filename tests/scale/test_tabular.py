@@ -1,0 +1,125 @@
+"""Tabular I/O: CSV with shortest round-trip numbers, Parquet and Arrow IPC by extension."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+
+from odolab.errors import LogFormatError
+from odolab.io import read_encoder_csv, read_trajectory, write_encoder_csv, write_trajectory_csv
+from odolab.io.tabular import iter_columns, read_columns, table_format, write_columns
+from odolab.trajectory import Trajectory
+from odolab.trials import EncoderLog
+
+
+def test_format_by_extension() -> None:
+    assert table_format("a.parquet") == "parquet"
+    assert table_format("a.PQ") == "parquet"
+    assert table_format("a.arrow") == "ipc"
+    assert table_format("a.feather") == "ipc"
+    assert table_format("a.csv") == "csv"
+    assert table_format("a.txt") == "csv"
+
+
+def test_csv_numbers_are_the_shortest_round_trip_text(tmp_path: Path) -> None:
+    traj = Trajectory.from_xyh([0.0, 0.05, 0.1], [0.05, 0.1 + 0.2, 1e-20], [0, 0, 0], [0, 0, 0.5])
+    p = write_trajectory_csv(traj, tmp_path / "t.csv")
+    lines = p.read_text().splitlines()
+    assert lines[0] == "t,x,y,theta,heading"
+    assert lines[2].split(",")[:2] == ["0.05", "0.30000000000000004"]  # repr(0.1 + 0.2)
+    assert lines[3].split(",")[1] == "1e-20"
+    back = read_trajectory(p)
+    assert np.array_equal(back.x, traj.x)  # exact, not just close
+    assert np.array_equal(back.heading, traj.heading)
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet", ".arrow", ".feather"])
+def test_encoder_log_round_trip_every_format(tmp_path: Path, suffix: str) -> None:
+    rng = np.random.default_rng(3)
+    t = np.cumsum(rng.uniform(0.01, 0.1, 50))
+    left = rng.integers(0, 4096, 50)
+    right = rng.integers(0, 4096, 50)
+    p = write_encoder_csv(EncoderLog(t, left, right, 4096), tmp_path / f"log{suffix}")
+    back = read_encoder_csv(p, modulus=4096)
+    assert np.array_equal(back.t, t)
+    assert np.array_equal(back.left_ticks, left)
+    assert np.array_equal(back.right_ticks, right)
+
+
+def test_parquet_written_by_pyarrow_is_read_by_name(tmp_path: Path) -> None:
+    p = tmp_path / "gt.parquet"
+    pq.write_table(
+        pa.table({"heading": [0.0, 0.5], "extra": ["a", "b"], "t": [1.0, 2.0], "x": [0.0, 1.5],
+                  "y": [0.0, -2.0], "theta": [0.0, 0.5]}),
+        p,
+    )  # fmt: skip
+    traj = read_trajectory(p)
+    assert traj.t.tolist() == [1.0, 2.0]
+    assert traj.x.tolist() == [0.0, 1.5]
+    assert traj.heading.tolist() == [0.0, 0.5]
+
+
+def test_parquet_errors_name_file_row_and_column(tmp_path: Path) -> None:
+    p = tmp_path / "log.parquet"
+    pq.write_table(pa.table({"t": [0.0, 1.0, float("nan")], "left_ticks": [1, 2, 3],
+                             "right_ticks": [1, 2, 3]}), p)  # fmt: skip
+    with pytest.raises(LogFormatError, match=r"log\.parquet: row 3, column 't' is nan"):
+        read_encoder_csv(p)
+    q = tmp_path / "null.parquet"
+    pq.write_table(pa.table({"t": [0.0, 1.0], "left_ticks": [1, None], "right_ticks": [1, 2]}), q)
+    with pytest.raises(LogFormatError, match=r"null\.parquet: row 2, column 'left_ticks' is empty"):
+        read_encoder_csv(q)
+    r = tmp_path / "back.parquet"
+    pq.write_table(pa.table({"t": [0.0, 2.0, 1.0], "left_ticks": [1, 2, 3],
+                             "right_ticks": [1, 2, 3]}), r)  # fmt: skip
+    with pytest.raises(LogFormatError, match=r"time goes backwards at row 3"):
+        read_encoder_csv(r)
+    s = tmp_path / "missing.parquet"
+    pq.write_table(pa.table({"t": [0.0], "left_ticks": [1]}), s)
+    with pytest.raises(LogFormatError, match=r"missing column 'right_ticks'"):
+        read_encoder_csv(s)
+    bad = tmp_path / "junk.parquet"
+    bad.write_text("not parquet")
+    with pytest.raises(LogFormatError, match=r"junk\.parquet: not a readable Parquet file"):
+        read_encoder_csv(bad)
+
+
+def test_fast_reader_falls_back_to_the_careful_one_for_line_numbers(tmp_path: Path) -> None:
+    p = tmp_path / "log.csv"
+    p.write_text("t,left_ticks,right_ticks\n0,1,1\n\n0.1,2,2\n0.2,x,3\n")
+    with pytest.raises(LogFormatError, match=r"line 5, column 'left_ticks' is 'x'"):
+        read_encoder_csv(p)
+    q = tmp_path / "blank.csv"
+    q.write_text("t,left_ticks,right_ticks\n0,1,1\n\n0.1,2,2\n")
+    assert read_encoder_csv(q).t.tolist() == [0.0, 0.1]  # a blank line is no row
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet", ".arrow"])
+@pytest.mark.parametrize("chunk", [1, 3, 7, 100])
+def test_chunks_are_exact_rows_and_concatenate_to_the_table(
+    tmp_path: Path, suffix: str, chunk: int
+) -> None:
+    t = np.arange(23) * 0.1
+    p = write_columns(tmp_path / f"c{suffix}", {"t": t, "v": np.arange(23)}, "table")
+    rows = []
+    for row0, data in iter_columns(p, ["t", "v"], chunk_rows=chunk):
+        assert row0 == len(rows)
+        assert data["t"].size == min(chunk, 23 - row0)
+        rows.extend(data["v"].tolist())
+    assert rows == list(range(23))
+    assert np.array_equal(read_columns(p, ["t"])["t"], t)
+
+
+def test_writing_into_a_missing_parent_folder_creates_it(tmp_path: Path) -> None:
+    p = write_columns(tmp_path / "a" / "b.parquet", {"x": np.ones(2)}, "table")
+    assert pq.read_table(p).column("x").to_pylist() == [1.0, 1.0]
+
+
+def test_an_unwritable_target_is_one_sentence(tmp_path: Path) -> None:
+    (tmp_path / "dir.csv").mkdir()
+    with pytest.raises(LogFormatError, match=r"dir\.csv: cannot write the table"):
+        write_columns(tmp_path / "dir.csv", {"x": np.ones(2)}, "table")
