@@ -1,22 +1,25 @@
 """Evaluate recorded runs: integrate their wheel increments, compare with their ground truth.
 
-Many runs are read and evaluated in worker processes (``workers``, default 2); progress goes to an
-optional callback ``progress(done, total, name)``.
+Many runs are read and evaluated on Dask (:mod:`odolab.metrics.cluster`): a local cluster of
+``workers`` processes (default 2), or any cluster by its scheduler address; progress goes to an
+optional callback ``progress(done, total, name)``. :func:`evaluate_runs` keeps going past runs
+that fail and reports each failure with its run; :func:`evaluate_run_files` stops at the first.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypeVar
 
+from odolab.errors import OdolabError
 from odolab.io.registry import LogFormat, find_runs, read_run
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.kinematics import Method
 from odolab.metrics.alignment import Alignment
 from odolab.metrics.association import SyncMethod
+from odolab.metrics.cluster import Cluster, MapReport, Outcome, map_outcomes
 from odolab.metrics.evaluate import Evaluation, EvaluationOptions, evaluate
 from odolab.metrics.pose_error import DeltaUnit
 from odolab.params import RobotParams
@@ -27,6 +30,7 @@ __all__ = [
     "RunEvaluation",
     "evaluate_run",
     "evaluate_run_files",
+    "evaluate_runs",
     "parallel_map",
 ]
 
@@ -44,10 +48,6 @@ RUN_OPTIONS = EvaluationOptions(
 )
 
 
-def _no_progress(done: int, total: int, name: str) -> None:
-    return None
-
-
 T = TypeVar("T")
 R = TypeVar("R")
 
@@ -59,25 +59,23 @@ def parallel_map(
     workers: int = 2,
     progress: Progress | None = None,
     label: Callable[[T], str] = str,
+    cluster: Cluster | None = None,
 ) -> list[R]:
-    """``[func(x) for x in items]`` in ``workers`` processes (in order), reporting progress.
+    """``[func(x) for x in items]`` on Dask (in order), reporting progress; raises the first error.
 
-    ``func`` must be a module-level function (it is pickled). With ``workers <= 1`` or a single
-    item everything runs here, in this process.
+    ``cluster`` defaults to a local cluster of ``workers`` processes. ``func`` must be a
+    module-level function (it is pickled). With ``workers <= 1`` and no scheduler, or a single
+    item, everything runs here, in this process.
     """
-    report = progress or _no_progress
-    total = len(items)
-    out: list[R] = []
-    if workers <= 1 or total <= 1:
-        for k, item in enumerate(items, start=1):
-            out.append(func(item))
-            report(k, total, label(item))
-        return out
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        for k, (item, result) in enumerate(zip(items, pool.map(func, items), strict=True), 1):
-            out.append(result)
-            report(k, total, label(item))
-    return out
+    outcomes = map_outcomes(
+        func, items, cluster=cluster or Cluster(workers=workers), progress=progress, label=label
+    )
+    for o in outcomes:
+        if not o.ok:
+            if o.exception is not None:
+                raise o.exception
+            raise OdolabError(f"{o.label}: {o.error}")  # pragma: no cover - always kept
+    return [o.result for o in outcomes]  # type: ignore[misc]
 
 
 @dataclass(frozen=True)
@@ -142,6 +140,7 @@ def evaluate_run_files(
     method: Method | str = Method.MIDPOINT,
     workers: int = 2,
     progress: Progress | None = None,
+    cluster: Cluster | None = None,
 ) -> list[RunEvaluation]:
     """Evaluate every run found under ``paths`` (see :func:`odolab.io.find_runs`)."""
     runs = find_runs(paths, fmt)
@@ -150,5 +149,43 @@ def evaluate_run_files(
         for p in runs
     ]
     return parallel_map(
-        _evaluate_job, jobs, workers=workers, progress=progress, label=lambda j: str(j.path)
+        _evaluate_job,
+        jobs,
+        workers=workers,
+        progress=progress,
+        label=lambda j: str(j.path),
+        cluster=cluster,
+    )
+
+
+def evaluate_runs(
+    runs: Sequence[str | Path],
+    fmt: LogFormat | str,
+    *,
+    params: RobotParams | None = None,
+    options: EvaluationOptions = RUN_OPTIONS,
+    read_options: ReadOptions | None = None,
+    method: Method | str = Method.MIDPOINT,
+    cluster: Cluster | None = None,
+    progress: Progress | None = None,
+    report: MapReport | None = None,
+) -> list[Outcome[RunEvaluation]]:
+    """Evaluate each run file in ``runs`` (paths of runs, as :func:`find_runs` lists them).
+
+    One :class:`Outcome` per run, in order: a run that cannot be read or evaluated gets its
+    error, the others their evaluation.
+    """
+    jobs = [
+        _Job(
+            Path(p), LogFormat(fmt), read_options or ReadOptions(), params, options, Method(method)
+        )
+        for p in runs
+    ]
+    return map_outcomes(
+        _evaluate_job,
+        jobs,
+        cluster=cluster,
+        progress=progress,
+        label=lambda j: str(j.path),
+        report=report,
     )

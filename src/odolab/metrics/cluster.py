@@ -1,0 +1,218 @@
+"""Many runs on Dask distributed: a local cluster by default, any cluster by its address.
+
+:func:`map_outcomes` runs ``func`` on every item and returns one :class:`Outcome` per item, in
+order: the result, or the error of that item alone (one sentence), never losing the others. A
+worker that dies mid-run loses only time: the scheduler runs its tasks again elsewhere (Dask's
+``allowed-failures``), and the loss is reported in :attr:`MapReport.lost_workers`.
+
+``Cluster(workers=1)`` (or a single item) runs everything here, in this process, with no Dask.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import time
+import traceback
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from typing import Any, Generic, TypeVar
+
+from odolab.errors import OdolabError
+
+__all__ = ["Cluster", "MapReport", "Outcome", "map_outcomes"]
+
+T = TypeVar("T")
+R = TypeVar("R")
+Progress = Callable[[int, int, str], None]
+
+
+@dataclass(frozen=True)
+class Cluster:
+    """Where many runs are computed.
+
+    ``scheduler``: a Dask scheduler address (``tcp://HOST:PORT``); None starts a local cluster of
+    ``workers`` processes with one thread each (2 by default: this machine's cores), bound to
+    127.0.0.1, and stops it afterwards. ``workers <= 1`` with no scheduler: in this process.
+    ``timeout``: seconds to wait for the scheduler to answer.
+    """
+
+    scheduler: str | None = None
+    workers: int = 2
+    timeout: float = 30.0
+
+    def __post_init__(self) -> None:
+        if self.scheduler is not None and not self.scheduler.startswith(("tcp://", "tls://")):
+            raise OdolabError(
+                f"--scheduler is {self.scheduler!r}; expected an address like tcp://HOST:PORT"
+            )
+        if isinstance(self.workers, bool) or int(self.workers) != self.workers:
+            raise OdolabError(f"--workers is {self.workers!r}; expected a whole number >= 1")
+
+    @property
+    def local(self) -> bool:
+        """True when nothing leaves this process."""
+        return self.scheduler is None and self.workers <= 1
+
+    def describe(self) -> str:
+        """Short text for a terminal: where the work ran."""
+        if self.scheduler is not None:
+            return f"Dask cluster at {self.scheduler}"
+        if self.workers <= 1:
+            return "this process"
+        return f"local Dask cluster, {self.workers} worker processes"
+
+
+@dataclass(frozen=True)
+class Outcome(Generic[R]):
+    """One item's result, or its error (``error`` one sentence, ``kind`` the exception class)."""
+
+    label: str
+    result: R | None = None
+    error: str | None = None
+    kind: str | None = None
+    worker: str | None = None
+    exception: BaseException | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def ok(self) -> bool:
+        """True when the item has a result."""
+        return self.error is None
+
+
+@dataclass
+class MapReport:
+    """What happened on the cluster: where, how long, which workers were lost."""
+
+    where: str
+    seconds: float = 0.0
+    workers_seen: set[str] = field(default_factory=set)
+    lost_workers: list[str] = field(default_factory=list)
+
+    def loss_text(self) -> str:
+        """One sentence about lost workers ('' when none)."""
+        if not self.lost_workers:
+            return ""
+        return (
+            f"{len(self.lost_workers)} worker(s) lost during the run "
+            f"({', '.join(sorted(self.lost_workers))}); their runs were computed again elsewhere"
+        )
+
+
+def _describe(err: BaseException) -> str:
+    if isinstance(err, OdolabError):
+        return str(err)
+    text = str(err) or type(err).__name__
+    return f"{type(err).__name__}: {text}"
+
+
+def _worker_name() -> str | None:
+    try:
+        from distributed import get_worker
+
+        return str(get_worker().address)
+    except (ImportError, ValueError):
+        return None
+
+
+def _run_one(func: Callable[[T], R], item: T, label: str) -> Outcome[R]:
+    """Run ``func(item)`` and catch its error: one item's failure is that item's outcome."""
+    try:
+        return Outcome(label, func(item), worker=_worker_name())
+    except MemoryError:
+        raise
+    except Exception as err:
+        if not isinstance(err, OdolabError):
+            logging.getLogger("odolab").debug("%s failed:\n%s", label, traceback.format_exc())
+        return Outcome(label, None, _describe(err), type(err).__name__, _worker_name(), err)
+
+
+@contextmanager
+def _client(cluster: Cluster) -> Iterator[Any]:
+    from distributed import Client, LocalCluster
+
+    if cluster.scheduler is not None:
+        try:
+            client = Client(cluster.scheduler, timeout=cluster.timeout)
+        except OSError as err:
+            raise OdolabError(
+                f"no Dask scheduler answers at {cluster.scheduler} ({err}); expected "
+                "`dask scheduler` running there"
+            ) from err
+        with client:
+            yield client
+        return
+    with (
+        LocalCluster(
+            n_workers=int(cluster.workers),
+            threads_per_worker=1,
+            processes=True,
+            host="127.0.0.1",
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+        ) as local,
+        Client(local) as client,
+    ):
+        yield client
+
+
+def map_outcomes(
+    func: Callable[[T], R],
+    items: Sequence[T],
+    *,
+    cluster: Cluster | None = None,
+    progress: Progress | None = None,
+    label: Callable[[T], str] = str,
+    report: MapReport | None = None,
+) -> list[Outcome[R]]:
+    """``func`` on every item (in order), on ``cluster``; one :class:`Outcome` per item.
+
+    ``func`` must be importable by the workers (a module-level function). ``progress(done,
+    total, label)`` is called as results arrive. ``report`` (optional) is filled with where the
+    work ran, its duration and the workers lost on the way.
+    """
+    c = cluster or Cluster()
+    rep = report if report is not None else MapReport(c.describe())
+    rep.where = c.describe()
+    labels = [label(x) for x in items]
+    total = len(items)
+    t0 = time.perf_counter()
+    if c.local or (c.scheduler is None and total <= 1):
+        out: list[Outcome[R]] = []
+        for k, (item, name) in enumerate(zip(items, labels, strict=True), start=1):
+            out.append(_run_one(func, item, name))
+            if progress is not None:
+                progress(k, total, name)
+        rep.seconds = time.perf_counter() - t0
+        return out
+    from distributed import as_completed
+
+    with _client(c) as client:
+        start_workers = set(client.scheduler_info().get("workers", {}))
+        rep.workers_seen |= start_workers
+        futures = client.map(
+            _run_one,
+            [func] * total,
+            items,
+            labels,
+            pure=False,
+            key=[f"odolab-{os.getpid()}-{k}" for k in range(total)],
+        )
+        index = {f.key: k for k, f in enumerate(futures)}
+        results: list[Outcome[R] | None] = [None] * total
+        for done, fut in enumerate(as_completed(futures), start=1):
+            k = index[fut.key]
+            try:
+                results[k] = fut.result()
+            except Exception as err:  # the task itself failed for good (KilledWorker, ...)
+                results[k] = Outcome(labels[k], None, _describe(err), type(err).__name__, None, err)
+            if progress is not None:
+                progress(done, total, labels[k])
+            if done % 64 == 0 or done == total:
+                rep.workers_seen |= set(client.scheduler_info().get("workers", {}))
+        now = set(client.scheduler_info().get("workers", {}))
+        rep.workers_seen |= {o.worker for o in results if o is not None and o.worker}
+        rep.lost_workers = sorted(rep.workers_seen - now)
+    rep.seconds = time.perf_counter() - t0
+    return [o for o in results if o is not None]
