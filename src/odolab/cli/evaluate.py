@@ -50,7 +50,13 @@ ParamsOpt = Annotated[
     str | None,
     typer.Option("--params", "-p", help="Parameters TOML or preset (default: the log's)."),
 ]
-WorkersOpt = Annotated[int, typer.Option(help="Worker processes for many runs.")]
+WorkersOpt = Annotated[
+    int, typer.Option(help="Local Dask worker processes for many runs (1: in this process).")
+]
+SchedulerOpt = Annotated[
+    str | None,
+    typer.Option(help="Dask scheduler address tcp://HOST:PORT (default: a local cluster)."),
+]
 JointTopicOpt = Annotated[str, typer.Option(help="Bags: JointState topic.")]
 JointsOpt = Annotated[
     tuple[str, str], typer.Option(help="Bags: LEFT RIGHT joint names in the JointState.")
@@ -132,11 +138,20 @@ def evaluate_cmd(
     drift_segment: Annotated[float, typer.Option(help="Path length per drift segment (m).")] = 1.0,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write the numbers here.")] = None,
     workers: WorkersOpt = 2,
+    scheduler: SchedulerOpt = None,
+    results: Annotated[
+        Path | None,
+        typer.Option(help="Runs: the fleet table, one row per run (.parquet, .arrow or .csv)."),
+    ] = None,
     joint_topic: JointTopicOpt = "/joint_states",
     joints: JointsOpt = ("left_wheel_joint", "right_wheel_joint"),
     gt_topic: GtTopicOpt = "/ground_truth",
 ) -> None:
-    """APE, RPE (evo's definitions) and drift per distance: of EST against GT, or of runs."""
+    """APE, RPE (evo's definitions) and drift per distance: of EST against GT, or of runs.
+
+    Runs (--format) may be files, folders (searched recursively for CSV runs), quoted glob
+    patterns, thousands of them: they are evaluated on Dask (a local cluster, or --scheduler).
+    A run that fails is reported with its error; the others still get their results."""
     from dataclasses import replace
 
     from odolab.errors import OdolabError
@@ -184,21 +199,36 @@ def evaluate_cmd(
         _write_json(ev.to_dict(), json_out)
         _print_table([(paths[1].name, ev)])
         return
-    from odolab.metrics import evaluate_run_files
+    from odolab.cli._fleet import expand_runs, print_fleet, report_failures
+    from odolab.metrics.cluster import Cluster, MapReport
+    from odolab.metrics.runs import evaluate_runs
 
+    cluster = Cluster(scheduler=scheduler, workers=workers)
+    runs = expand_runs(paths, fmt.value)
     ro = _read_options(robot, joint_topic, joints, gt_topic)
+    rep = MapReport(cluster.describe())
     with _progress_bar("evaluate") as report:
-        results = evaluate_run_files(
-            paths,
+        outcomes = evaluate_runs(
+            runs,
             fmt.value,
             params=robot,
             options=options,
             read_options=ro,
-            workers=workers,
+            cluster=cluster,
             progress=report,
+            report=rep,
         )
-    _write_json({"runs": [r.to_dict() for r in results]}, json_out)
-    _print_table([(r.name, r.evaluation) for r in results])
+    done = [o.result for o in outcomes if o.result is not None]
+    _write_json({"runs": [r.to_dict() for r in done]}, json_out)
+    if results is not None:
+        from odolab.fleet.table import fleet_rows, write_fleet_table
+
+        write_fleet_table(fleet_rows(outcomes), results)
+    if len(outcomes) <= 20:
+        _print_table([(r.name, r.evaluation) for r in done])
+    else:
+        print_fleet(outcomes)
+    report_failures(outcomes, rep, results)
 
 
 def _print_table(rows: list[tuple[str, Any]]) -> None:

@@ -8,6 +8,7 @@ that fail and reports each failure with its run; :func:`evaluate_run_files` stop
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -87,6 +88,7 @@ class RunEvaluation:
     kind: str
     params: RobotParams
     evaluation: Evaluation
+    duration_s: float = math.nan  #: the log's time span (s)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict."""
@@ -112,7 +114,8 @@ def evaluate_run(
     ev = evaluate(
         run.require_ground_truth(), est, options, names=(f"{run.source} ground truth", "odometry")
     )
-    return RunEvaluation(run.name, run.source, run.kind, p, ev)
+    duration = float(run.t[-1] - run.t[0])
+    return RunEvaluation(run.name, run.source, run.kind, p, ev, duration)
 
 
 @dataclass(frozen=True)

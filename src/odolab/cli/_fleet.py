@@ -1,0 +1,137 @@
+"""Many runs in the terminal: expanding folders and globs, the fleet summary, failures."""
+
+from __future__ import annotations
+
+import glob
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from odolab.errors import OdolabError
+
+__all__ = ["expand_runs", "print_fleet", "report_failures"]
+
+_GLOB = set("*?[")
+
+
+def expand_runs(paths: Sequence[Path], fmt: str) -> list[Path]:
+    """Every run under ``paths``: files, folders, and glob patterns (quoted, ``**`` allowed).
+
+    CSV runs are searched for recursively in folders (``<robot>/<date>/run.csv`` layouts);
+    other formats find their runs as their reader does.
+    """
+    from odolab.io.registry import find_runs
+
+    out: list[Path] = []
+    seen: set[Path] = set()
+
+    def add(found: list[Path]) -> None:
+        for q in found:
+            if q not in seen:
+                seen.add(q)
+                out.append(q)
+
+    for p in paths:
+        text = str(p)
+        if not p.exists() and _GLOB & set(text):
+            matches = sorted(Path(m) for m in glob.glob(text, recursive=True))
+            if not matches:
+                raise OdolabError(f"{text}: no file matches this pattern; expected runs")
+            add(find_runs(matches, fmt) if fmt != "csv" else _csv_files(matches))
+        elif fmt == "csv" and p.is_dir():
+            found = _csv_files(sorted(p.rglob("*.csv")))
+            if not found:
+                raise OdolabError(f"{p}: no encoder CSV logs (*.csv) in this folder or below")
+            add(found)
+        else:
+            add(find_runs([p], fmt))
+    return out
+
+
+def _csv_files(paths: Sequence[Path]) -> list[Path]:
+    return [q for q in paths if q.is_file() and not q.stem.endswith("_gt")]
+
+
+def for_terminal(text: str) -> str:
+    """Control characters (escape sequences in file names) shown as ``\\xNN``, not obeyed."""
+    return "".join(c if c.isprintable() else f"\\x{ord(c):02x}" for c in text)
+
+
+def _f(value: Any, digits: int = 3) -> str:
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "-"
+    return f"{value:.{digits}f}"
+
+
+def print_fleet(outcomes: Sequence[Any], *, worst: int = 5) -> None:
+    """The fleet summary: per robot, per robot and day, and the worst runs."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from odolab.fleet.table import fleet_rows, summarize
+
+    s = summarize(fleet_rows(outcomes), worst=worst)
+    console = Console()
+    t = Table(title=f"fleet: {len(outcomes)} runs, per robot (drift in % of distance)")
+    for col in ("robot", "runs", "failed", "km", "drift % mean", "drift % max", "deg/m", "end %"):
+        t.add_column(col, justify="right")
+    for r in s.per_robot:
+        t.add_row(
+            for_terminal(str(r["robot"])),
+            str(r["runs"]),
+            str(r["failed"] or 0),
+            _f((r["metres"] or 0.0) / 1000.0),
+            _f(r["drift_pct_mean"], 2),
+            _f(r["drift_pct_max"], 2),
+            _f(r["deg_per_m_mean"], 3),
+            _f(r["endpoint_pct_mean"], 2),
+        )
+    console.print(t)
+    d = Table(title="per robot and day: drift % mean (runs)")
+    dates = sorted({str(r["date"]) for r in s.per_day})
+    robots = sorted({str(r["robot"]) for r in s.per_day})
+    cell = {(str(r["robot"]), str(r["date"])): r for r in s.per_day}
+    d.add_column("robot")
+    for day in dates:
+        d.add_column(for_terminal(day) or "(no date)", justify="right")
+    for robot in robots:
+        row = [for_terminal(robot)]
+        for day in dates:
+            c = cell.get((robot, day))
+            row.append(f"{_f(c['drift_pct_mean'], 2)} ({c['runs']})" if c else "")
+        d.add_row(*row)
+    console.print(d)
+    w = Table(title=f"worst {len(s.worst)} runs by drift")
+    for col in ("run", "robot", "date", "drift %", "end err m", "length m"):
+        w.add_column(col, justify="right")
+    for r in s.worst:
+        w.add_row(
+            for_terminal(str(r["source"])),
+            for_terminal(str(r["robot"])),
+            for_terminal(str(r["date"])),
+            _f(r["drift_pct"], 2),
+            _f(r["endpoint_error_m"], 3),
+            _f(r["length_m"], 1),
+        )
+    console.print(w)
+
+
+def report_failures(outcomes: Sequence[Any], report: Any, results: Path | None) -> None:
+    """Print each failed run with its error, the lost workers; raise when any run failed."""
+    from rich.console import Console
+
+    console = Console(stderr=True)
+    loss = report.loss_text()
+    if loss:
+        console.print(f"note: {for_terminal(loss)}", markup=False)
+    failed = [o for o in outcomes if not o.ok]
+    if not failed:
+        return
+    shown = failed[:20]
+    for o in shown:
+        console.print(f"failed: {for_terminal(str(o.error))}", markup=False, soft_wrap=True)
+    if len(failed) > len(shown):
+        console.print(f"... and {len(failed) - len(shown)} more failed runs", markup=False)
+    kept = f"; the other results are in {results}" if results is not None else ""
+    raise OdolabError(f"{len(failed)} of {len(outcomes)} runs failed (listed above){kept}")
