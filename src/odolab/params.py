@@ -9,19 +9,23 @@ File format (TOML)::
     track_width = 0.56           # m, effective (2 * L_robot of the lab report)
     ticks_per_rev = 380          # encoder counts per wheel revolution
     encoder_modulus = 32768      # counter wraps to 0 after modulus-1; omit if it never wraps
+
+    [model]                      # optional: the kinematic model (odolab.models); default "diff"
+    kind = "diff"
 """
 
 from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import asdict, dataclass, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import tomli_w
 
 from odolab.errors import ParamsError
+from odolab.models import DIFF_DRIVE, KinematicModel, ModelCoefficients, model_from_mapping
 
 __all__ = ["PRESETS", "RobotParams", "load_params", "params_from_mapping", "save_params"]
 
@@ -33,6 +37,8 @@ _FIELDS = (
     "ticks_per_rev",
     "encoder_modulus",
 )
+#: Top-level tables of a parameters file (other developers' tables are added here).
+_TABLES = ("robot", "model", "provenance")
 _REQUIRED = ("left_wheel_radius", "right_wheel_radius", "track_width", "ticks_per_rev")
 
 
@@ -51,6 +57,7 @@ class RobotParams:
     ticks_per_rev: float
     encoder_modulus: int | None = None
     name: str = "robot"
+    model: KinematicModel = DIFF_DRIVE
 
     def __post_init__(self) -> None:
         for key in ("left_wheel_radius", "right_wheel_radius", "track_width", "ticks_per_rev"):
@@ -65,6 +72,13 @@ class RobotParams:
             raise ParamsError(f"encoder_modulus must be an integer >= 2 (or left out), got {m!r}")
         if not isinstance(self.name, str) or not self.name:
             raise ParamsError(f"name must be a non-empty string, got {self.name!r}")
+        if not isinstance(self.model, KinematicModel):
+            raise ParamsError(f"model must be a kinematic model, got {self.model!r}")
+
+    @property
+    def coefficients(self) -> ModelCoefficients:
+        """The kinematic model's wheel-to-body coefficients for this robot (odolab.models)."""
+        return self.model.coefficients(self.track_width)
 
     @property
     def left_metres_per_tick(self) -> float:
@@ -81,16 +95,30 @@ class RobotParams:
         return replace(self, **changes)
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain dict in file order, without ``encoder_modulus`` when it is None."""
-        d = asdict(self)
+        """The ``[robot]`` table in file order, without ``encoder_modulus`` when it is None.
+
+        The kinematic model is not part of it: see :meth:`model_table`."""
+        d = {k: getattr(self, k) for k in _FIELDS}
         out = {k: d[k] for k in _FIELDS if d[k] is not None}
         if float(out["ticks_per_rev"]).is_integer():
             out["ticks_per_rev"] = int(out["ticks_per_rev"])
         return out
 
+    def model_table(self) -> dict[str, Any] | None:
+        """The ``[model]`` table (``kind`` first), or None for the default differential drive."""
+        if self.model == DIFF_DRIVE:
+            return None
+        return {"kind": self.model.kind, **self.model.to_dict()}
 
-def params_from_mapping(data: dict[str, Any], *, source: str = "parameters") -> RobotParams:
-    """Build :class:`RobotParams` from a ``[robot]`` mapping, naming ``source`` in any error."""
+
+def params_from_mapping(
+    data: dict[str, Any],
+    *,
+    source: str = "parameters",
+    model: dict[str, Any] | None = None,
+) -> RobotParams:
+    """Build :class:`RobotParams` from a ``[robot]`` mapping (and an optional ``[model]`` one),
+    naming ``source`` in any error."""
     unknown = sorted(set(data) - set(_FIELDS))
     if unknown:
         raise ParamsError(
@@ -99,8 +127,9 @@ def params_from_mapping(data: dict[str, Any], *, source: str = "parameters") -> 
     missing = [k for k in _REQUIRED if k not in data]
     if missing:
         raise ParamsError(f"{source}: missing key {missing[0]!r} in [robot]")
+    kinematic = DIFF_DRIVE if model is None else model_from_mapping(model, source=source)
     try:
-        return RobotParams(**data)
+        return RobotParams(**data, model=kinematic)
     except ParamsError as err:
         raise ParamsError(f"{source}: {err}") from err
     except TypeError as err:  # pragma: no cover - guarded by the key checks above
@@ -125,10 +154,13 @@ def load_params(path_or_preset: str | Path) -> RobotParams:
         raise ParamsError(f"{path}: cannot read ({err})") from err
     if "robot" not in doc or not isinstance(doc["robot"], dict):
         raise ParamsError(f"{path}: missing the [robot] table")
-    extra = sorted(k for k in doc if k not in ("robot", "provenance"))
+    extra = sorted(k for k in doc if k not in _TABLES)
     if extra:
-        raise ParamsError(f"{path}: unknown table or key {extra[0]!r}; expected [robot]")
-    return params_from_mapping(doc["robot"], source=str(path))
+        raise ParamsError(
+            f"{path}: unknown table or key {extra[0]!r}; expected [robot] and optionally "
+            "[model], [provenance]"
+        )
+    return params_from_mapping(doc["robot"], source=str(path), model=doc.get("model"))
 
 
 def save_params(
@@ -136,6 +168,9 @@ def save_params(
 ) -> Path:
     """Write ``params`` as TOML (and an optional ``[provenance]`` table); return the path."""
     doc: dict[str, Any] = {"robot": params.to_dict()}
+    model = params.model_table()
+    if model is not None:
+        doc["model"] = model
     if provenance:
         doc["provenance"] = provenance
     path = Path(path)
