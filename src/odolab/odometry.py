@@ -12,6 +12,7 @@ The batch version is compiled (numba): see :func:`integrate` for its three passe
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
@@ -24,6 +25,9 @@ from odolab.errors import EncoderJumpError, LogFormatError, OdolabError
 from odolab.kinematics import Method, body_motion, chord, step_pose, wrap, wrap_angle
 from odolab.params import RobotParams
 from odolab.trajectory import Pose, Trajectory, check_times
+
+if TYPE_CHECKING:
+    from odolab.uncertainty import CovarianceStepper
 
 __all__ = ["Odometry", "integrate", "integrate_increments"]
 
@@ -432,6 +436,7 @@ class Odometry:
         *,
         start: tuple[float, float, float] | None = None,
         max_dticks: int | None = None,
+        covariance: bool = False,
     ) -> None:
         self.params = params
         self.method = Method(method)
@@ -444,6 +449,11 @@ class Odometry:
         self._kl = params.left_metres_per_tick
         self._kr = params.right_metres_per_tick
         self._coef = params.coefficients
+        self._cov: CovarianceStepper | None = None
+        if covariance:  # needs params.noise; imported here: the plain path stays as it was
+            from odolab.uncertainty import CovarianceStepper
+
+            self._cov = CovarianceStepper(params, self.method)
         self._left = EncoderUnwrapper(params.encoder_modulus, max_dticks, "left_ticks")
         self._right = EncoderUnwrapper(params.encoder_modulus, max_dticks, "right_ticks")
         self.reset()
@@ -457,6 +467,17 @@ class Odometry:
         self._left.reset()
         self._right.reset()
         self.cycles = 0
+        if self._cov is not None:
+            self._cov.reset()
+
+    @property
+    def covariance(self) -> tuple[float, float, float, float, float, float]:
+        """The propagated covariance now, six terms in ``odolab.uncertainty.COV_COLUMNS``.
+
+        Only with ``covariance=True`` (and a ``[noise]`` table in the parameters)."""
+        if self._cov is None:
+            raise OdolabError("this Odometry was made without covariance=True")
+        return self._cov.terms
 
     @property
     def pose(self) -> Pose:
@@ -496,7 +517,11 @@ class Odometry:
         first = self._t is None
         self._t = t
         if not first:
-            fwd, side, dth = body_motion(*self._coef, dl * self._kl, dr * self._kr)
+            dsl = dl * self._kl
+            dsr = dr * self._kr
+            if self._cov is not None:
+                self._cov.step(self._h, dsl, dsr)
+            fwd, side, dth = body_motion(*self._coef, dsl, dsr)
             self._x, self._y, self._h = step_pose(
                 self._x, self._y, self._h, fwd, side, dth, self._arc
             )

@@ -12,6 +12,11 @@ File format (TOML)::
 
     [model]                      # optional: the kinematic model (odolab.models); default "diff"
     kind = "diff"
+
+    [noise]                      # optional: random error, var(ds) = k * |ds| per wheel
+    k_left = 1e-4                # m
+    k_right = 1e-4               # m
+    k_scrub = 0.0                # rad: heading variance per radian of commanded turning
 """
 
 from __future__ import annotations
@@ -27,7 +32,14 @@ import tomli_w
 from odolab.errors import ParamsError
 from odolab.models import DIFF_DRIVE, KinematicModel, ModelCoefficients, model_from_mapping
 
-__all__ = ["PRESETS", "RobotParams", "load_params", "params_from_mapping", "save_params"]
+__all__ = [
+    "PRESETS",
+    "NoiseParams",
+    "RobotParams",
+    "load_params",
+    "params_from_mapping",
+    "save_params",
+]
 
 _FIELDS = (
     "name",
@@ -38,7 +50,61 @@ _FIELDS = (
     "encoder_modulus",
 )
 #: Top-level tables of a parameters file (other developers' tables are added here).
-_TABLES = ("robot", "model", "provenance")
+_TABLES = ("robot", "model", "noise", "provenance")
+_NOISE_KEYS = ("k_left", "k_right", "k_scrub")
+#: Above this a per-metre slip variance means metres of error per metre driven: not odometry.
+_NOISE_MAX = 1.0
+
+
+@dataclass(frozen=True)
+class NoiseParams:
+    """Random error of odometry: per-wheel slip ``var(ds) = k * |ds|`` (Chong & Kleeman).
+
+    ``k_left``, ``k_right`` in metres (as :mod:`odolab.analysis.noise` estimates them);
+    ``k_scrub`` in radians: extra heading variance per radian of commanded turning
+    ``|ds_r - ds_l| / track_width`` (track scrub of skid-steer robots; 0 for wheels)."""
+
+    k_left: float
+    k_right: float
+    k_scrub: float = 0.0
+
+    def __post_init__(self) -> None:
+        for key in _NOISE_KEYS:
+            value = getattr(self, key)
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise ParamsError(f"[noise] {key} must be a number, got {value!r}")
+            if not math.isfinite(value) or value < 0 or value > _NOISE_MAX:
+                raise ParamsError(
+                    f"[noise] {key} must be a number from 0 to {_NOISE_MAX:g}, got {value!r}"
+                )
+            object.__setattr__(self, key, float(value))
+
+    def to_dict(self) -> dict[str, float]:
+        """The ``[noise]`` table (``k_scrub`` only when not zero)."""
+        out = {"k_left": self.k_left, "k_right": self.k_right}
+        if self.k_scrub:
+            out["k_scrub"] = self.k_scrub
+        return out
+
+
+def noise_from_mapping(data: Any, *, source: str = "parameters") -> NoiseParams:
+    """Build :class:`NoiseParams` from a ``[noise]`` table, naming ``source`` in any error."""
+    if not isinstance(data, dict):
+        raise ParamsError(f"{source}: [noise] must be a table, got {type(data).__name__}")
+    unknown = sorted(set(data) - set(_NOISE_KEYS))
+    if unknown:
+        raise ParamsError(
+            f"{source}: unknown key {unknown[0]!r} in [noise]; expected {', '.join(_NOISE_KEYS)}"
+        )
+    missing = [k for k in _NOISE_KEYS[:2] if k not in data]
+    if missing:
+        raise ParamsError(f"{source}: missing key {missing[0]!r} in [noise]")
+    try:
+        return NoiseParams(**data)
+    except ParamsError as err:
+        raise ParamsError(f"{source}: {err}") from err
+
+
 _REQUIRED = ("left_wheel_radius", "right_wheel_radius", "track_width", "ticks_per_rev")
 
 
@@ -58,6 +124,7 @@ class RobotParams:
     encoder_modulus: int | None = None
     name: str = "robot"
     model: KinematicModel = DIFF_DRIVE
+    noise: NoiseParams | None = None
 
     def __post_init__(self) -> None:
         for key in ("left_wheel_radius", "right_wheel_radius", "track_width", "ticks_per_rev"):
@@ -74,6 +141,8 @@ class RobotParams:
             raise ParamsError(f"name must be a non-empty string, got {self.name!r}")
         if not isinstance(self.model, KinematicModel):
             raise ParamsError(f"model must be a kinematic model, got {self.model!r}")
+        if self.noise is not None and not isinstance(self.noise, NoiseParams):
+            raise ParamsError(f"noise must be NoiseParams or None, got {self.noise!r}")
 
     @property
     def coefficients(self) -> ModelCoefficients:
@@ -116,9 +185,10 @@ def params_from_mapping(
     *,
     source: str = "parameters",
     model: dict[str, Any] | None = None,
+    noise: dict[str, Any] | None = None,
 ) -> RobotParams:
-    """Build :class:`RobotParams` from a ``[robot]`` mapping (and an optional ``[model]`` one),
-    naming ``source`` in any error."""
+    """Build :class:`RobotParams` from a ``[robot]`` mapping (and optional ``[model]`` and
+    ``[noise]`` ones), naming ``source`` in any error."""
     unknown = sorted(set(data) - set(_FIELDS))
     if unknown:
         raise ParamsError(
@@ -128,8 +198,9 @@ def params_from_mapping(
     if missing:
         raise ParamsError(f"{source}: missing key {missing[0]!r} in [robot]")
     kinematic = DIFF_DRIVE if model is None else model_from_mapping(model, source=source)
+    random = None if noise is None else noise_from_mapping(noise, source=source)
     try:
-        return RobotParams(**data, model=kinematic)
+        return RobotParams(**data, model=kinematic, noise=random)
     except ParamsError as err:
         raise ParamsError(f"{source}: {err}") from err
     except TypeError as err:  # pragma: no cover - guarded by the key checks above
@@ -158,9 +229,11 @@ def load_params(path_or_preset: str | Path) -> RobotParams:
     if extra:
         raise ParamsError(
             f"{path}: unknown table or key {extra[0]!r}; expected [robot] and optionally "
-            "[model], [provenance]"
+            "[model], [noise], [provenance]"
         )
-    return params_from_mapping(doc["robot"], source=str(path), model=doc.get("model"))
+    return params_from_mapping(
+        doc["robot"], source=str(path), model=doc.get("model"), noise=doc.get("noise")
+    )
 
 
 def save_params(
@@ -171,6 +244,8 @@ def save_params(
     model = params.model_table()
     if model is not None:
         doc["model"] = model
+    if params.noise is not None:
+        doc["noise"] = params.noise.to_dict()
     if provenance:
         doc["provenance"] = provenance
     path = Path(path)
