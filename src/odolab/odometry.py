@@ -20,7 +20,7 @@ from numba import njit, prange
 from numpy.typing import ArrayLike, NDArray
 
 from odolab._fastmath import SINCOS_LIMIT, sincos_poly
-from odolab.encoders import EncoderUnwrapper, as_tick_array, default_max_dticks
+from odolab.encoders import EncoderUnwrapper, as_tick_array, default_max_dticks, unwrap_diff
 from odolab.errors import EncoderJumpError, LogFormatError, OdolabError
 from odolab.kinematics import Method, body_motion, chord, step_pose, wrap, wrap_angle
 from odolab.params import RobotParams
@@ -49,21 +49,6 @@ def _check_max_dticks(max_dticks: int | None) -> None:
 
 #: From this many samples on, the position pass runs on several threads.
 PARALLEL_MIN_SAMPLES = 200_000
-
-
-@njit(cache=True, inline="always")
-def _unwrap_diff(d: int, modulus: int, half: int) -> int:  # pragma: no cover - compiled
-    # |d| < modulus for counters in range; map d into [-half, modulus - half) without a division
-    if modulus > 0:
-        if d >= modulus - half:
-            d -= modulus
-            if d >= modulus - half:  # raw values outside 0..modulus-1: fall back to modulo
-                d = (d + half) % modulus - half
-        elif d < -half:
-            d += modulus
-            if d < -half:
-                d = (d + half) % modulus - half
-    return d
 
 
 @njit(cache=True, inline="always")
@@ -144,8 +129,8 @@ def _steps_from_ticks(  # pragma: no cover - compiled
         if ti < t[i - 1]:
             return 4, i, 0, big
         tout[i] = ti
-        dl = _unwrap_diff(left[i] - left[i - 1], modulus, half)
-        dr = _unwrap_diff(right[i] - right[i - 1], modulus, half)
+        dl = unwrap_diff(left[i] - left[i - 1], modulus, half)
+        dr = unwrap_diff(right[i] - right[i - 1], modulus, half)
         if max_d >= 0:
             if abs(dl) > max_d:
                 return 1, i, dl, big

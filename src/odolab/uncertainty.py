@@ -30,8 +30,9 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from odolab.encoders import default_max_dticks, dticks_from_ticks
-from odolab.errors import LogFormatError, OdolabError, ParamsError
+from odolab._fastmath import SINCOS_LIMIT, sincos_poly
+from odolab.encoders import as_tick_array, default_max_dticks, unwrap_diff
+from odolab.errors import EncoderJumpError, LogFormatError, OdolabError, ParamsError
 from odolab.kinematics import Method, body_motion, chord, chord_derivative
 from odolab.params import NoiseParams, RobotParams
 
@@ -175,8 +176,11 @@ def _cov_step(  # pragma: no cover - compiled
     ch = chord(dth, arc)
     dch = chord_derivative(dth, arc)
     m = heading + 0.5 * dth
-    cs = math.cos(m)
-    sn = math.sin(m)
+    if abs(m) < SINCOS_LIMIT:
+        sn, cs = sincos_poly(m)
+    else:
+        cs = math.cos(m)
+        sn = math.sin(m)
     gx = fwd * cs - lat * sn
     gy = fwd * sn + lat * cs
     dx = ch * gx
@@ -251,6 +255,50 @@ def _propagate(  # pragma: no cover - compiled
         out[i, 5] = phh
 
 
+@njit(cache=True)
+def _propagate_ticks(  # pragma: no cover - compiled
+    left: NDArray[np.int64],
+    right: NDArray[np.int64],
+    modulus: int,
+    max_d: int,
+    kl: float,
+    kr: float,
+    c: NDArray[np.float64],
+    arc: bool,
+    k: NDArray[np.float64],
+    track: float,
+    h0: float,
+    out: NDArray[np.float64],
+) -> tuple[int, int, int]:
+    """As :func:`_propagate`, unwrapping raw counters on the way; returns (code, index, value)
+    with code 0 = ok, 1/2 = left/right jump larger than ``max_d``."""
+    n = left.shape[0]
+    if n == 0:
+        return 0, -1, 0
+    half = modulus // 2
+    pxx, pxy, pxh, pyy, pyh, phh = out[0, 0], out[0, 1], out[0, 2], out[0, 3], out[0, 4], out[0, 5]
+    h = h0
+    for i in range(1, n):
+        dl = unwrap_diff(left[i] - left[i - 1], modulus, half)
+        dr = unwrap_diff(right[i] - right[i - 1], modulus, half)
+        if max_d >= 0:
+            if abs(dl) > max_d:
+                return 1, i, dl
+            if abs(dr) > max_d:
+                return 2, i, dr
+        pxx, pxy, pxh, pyy, pyh, phh, h = _cov_step(
+            pxx, pxy, pxh, pyy, pyh, phh, h, dl * kl, dr * kr,
+            c, arc, k[0], k[1], k[2], track,
+        )  # fmt: skip
+        out[i, 0] = pxx
+        out[i, 1] = pxy
+        out[i, 2] = pxh
+        out[i, 3] = pyy
+        out[i, 4] = pyh
+        out[i, 5] = phh
+    return 0, -1, 0
+
+
 def _noise_of(params: RobotParams, noise: NoiseParams | None) -> NoiseParams:
     chosen = noise if noise is not None else params.noise
     if chosen is None:
@@ -309,16 +357,27 @@ def covariance_from_ticks(
     :func:`odolab.odometry.integrate` takes them; shape (n, 6)."""
     if max_dticks is None:
         max_dticks = default_max_dticks(params.encoder_modulus)
-    m = params.encoder_modulus
-    dl = dticks_from_ticks(left_ticks, m, max_dticks, name="left_ticks")
-    dr = dticks_from_ticks(right_ticks, m, max_dticks, name="right_ticks")
-    if dl.size != dr.size:
-        raise LogFormatError(f"left has {dl.size + 1} samples, right has {dr.size + 1}")
-    zero = np.zeros(1)
-    return propagate_covariance(
-        np.concatenate((zero, dl)), np.concatenate((zero, dr)), params, method,
-        noise=noise, heading0=heading0, cov0=cov0,
+    left = as_tick_array(left_ticks, "left_ticks")
+    right = as_tick_array(right_ticks, "right_ticks")
+    if left.size != right.size:
+        raise LogFormatError(f"left has {left.size} samples, right has {right.size}")
+    k = _noise_of(params, noise)
+    out = np.zeros((left.size, 6))
+    if left.size and cov0 is not None:
+        out[0] = covariance_terms(cov0)
+    code, i, d = _propagate_ticks(
+        left, right, params.encoder_modulus or 0, -1 if max_dticks is None else int(max_dticks),
+        params.left_metres_per_tick, params.right_metres_per_tick,
+        np.array(params.coefficients, dtype=np.float64), Method(method) is Method.ARC,
+        np.array([k.k_left, k.k_right, k.k_scrub]), params.track_width, float(heading0), out,
     )  # fmt: skip
+    if code:
+        name = ("left_ticks", "right_ticks")[code - 1]
+        raise EncoderJumpError(
+            f"{name} jumps by {d} counts between samples {i - 1} and {i}, more than the "
+            f"{max_dticks} counts per cycle that a wrap or plausible motion allows"
+        )
+    return out
 
 
 def covariance_terms(cov: ArrayLike) -> NDArray[np.float64]:
