@@ -35,7 +35,7 @@ def expand_runs(paths: Sequence[Path], fmt: str) -> list[Path]:
     for p in paths:
         text = str(p)
         if not p.exists() and _GLOB & set(text):
-            matches = sorted(Path(m) for m in glob.glob(text, recursive=True))
+            matches = sorted(Path(m) for m in glob.glob(text, recursive=True))  # noqa: PTH207
             if not matches:
                 raise OdolabError(f"{text}: no file matches this pattern; expected runs")
             add(find_runs(matches, fmt) if fmt != "csv" else _csv_files(matches))

@@ -13,6 +13,11 @@ from odolab.cli._apps import app, params_app
 __all__: list[str] = []
 
 
+#: Logs larger than this are integrated in chunks unless --chunk-rows says otherwise.
+AUTO_CHUNK_BYTES = 64 * 1024 * 1024
+DEFAULT_CHUNK_ROWS = 1_000_000
+
+
 class MethodChoice(StrEnum):
     midpoint = "midpoint"
     arc = "arc"
@@ -53,11 +58,12 @@ def odometry_cmd(
         typer.Option(help="Largest plausible counter change per cycle (default modulus/4)."),
     ] = None,
     chunk_rows: Annotated[
-        int,
+        int | None,
         typer.Option(
-            help="Rows per chunk: memory is bounded by it (0: the whole log in memory at once)."
+            help="Rows per chunk: memory is bounded by it (0: the whole log in memory at once; "
+            "default: chunks of 1,000,000 rows for logs over 64 MiB)."
         ),
-    ] = 1_000_000,
+    ] = None,
 ) -> None:
     """Integrate an encoder log into a trajectory (one pose per input row), chunk by chunk."""
     from odolab.errors import OdolabError
@@ -65,9 +71,12 @@ def odometry_cmd(
     from odolab.odometry import integrate
     from odolab.params import load_params
 
-    if chunk_rows < 0:
+    if chunk_rows is not None and chunk_rows < 0:
         raise OdolabError(f"--chunk-rows is {chunk_rows}; expected a number of rows >= 1 (or 0)")
     robot = load_params(params)
+    if chunk_rows is None:
+        big = log.is_file() and log.stat().st_size > AUTO_CHUNK_BYTES
+        chunk_rows = DEFAULT_CHUNK_ROWS if big else 0
     if chunk_rows > 0 and fmt is FormatChoice.csv:
         from odolab.cli._progress import progress_bar
         from odolab.io.chunked import integrate_file

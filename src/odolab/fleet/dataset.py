@@ -20,6 +20,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 from odolab.errors import OdolabError
 from odolab.io.encoder_csv import write_encoder_csv
@@ -137,7 +138,7 @@ def _drive(
     robot.reset(misalign=False)
     period = 1.0 / spec.rate
     n = round(spec.run_seconds * spec.rate) + 1
-    t = np.arange(n) * period
+    t: NDArray[np.float64] = np.arange(n, dtype=np.float64) * period
     left = np.empty(n, dtype=np.int64)
     right = np.empty(n, dtype=np.int64)
     x, y, h = np.empty(n), np.empty(n), np.empty(n)

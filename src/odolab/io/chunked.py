@@ -242,6 +242,11 @@ def integrate_file(
     out = Path(output)
     if src.exists() and out.exists() and src.resolve() == out.resolve():
         raise LogFormatError(f"{out}: is the input log; expected another file for the output")
+    if out.is_dir():
+        raise LogFormatError(
+            f"{out}: cannot write the trajectory (it is a folder); expected a file name in a "
+            "writable folder"
+        )
     total = row_count(src) or 0
     odo = ChunkedOdometry(params, method, start=start, max_dticks=max_dticks, source=str(src))
     chunks = 0
@@ -264,7 +269,13 @@ def integrate_file(
                 chunks += 1
                 if progress is not None:
                     progress(odo.rows, total, src.name)
-        partial.replace(out)
+        try:
+            partial.replace(out)
+        except OSError as err:
+            raise LogFormatError(
+                f"{out}: cannot write the trajectory ({err.strerror or err}); expected a file "
+                "name in a writable folder"
+            ) from err
     except BaseException:
         partial.unlink(missing_ok=True)
         raise
