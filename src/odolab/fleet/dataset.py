@@ -46,7 +46,7 @@ class FleetSpec:
     runs_per_day: int = 3
     run_seconds: float = 40.0
     wearing: int = 1
-    wear_per_day: float = 0.002
+    wear_per_day: float = 0.003
     rate: float = 20.0
     start_date: str = "2026-03-02"
     seed: int = 0
@@ -122,7 +122,7 @@ def _truths(spec: FleetSpec, nominal: RobotParams, rng: np.random.Generator) -> 
                 robot=f"robot-{k + 1:02d}",
                 left_radius=nominal.left_wheel_radius * (1.0 + rng.normal(0.0, 0.002)),
                 right_radius=nominal.right_wheel_radius * (1.0 + rng.normal(0.0, 0.002)),
-                track_width=nominal.track_width * (1.0 + abs(rng.normal(0.02, 0.01))),
+                track_width=nominal.track_width * (1.0 + abs(rng.normal(0.005, 0.003))),
                 wear_per_day=wear,
             )
         )
@@ -145,8 +145,8 @@ def _drive(
     t0 = robot.time
     seg_end = 0
     for i in range(n):
-        if i == seg_end:  # a new segment: straight or turn, 1-4 s
-            if rng.random() < 0.6:
+        if i == seg_end:  # a new segment: straight (always the first) or turn, 1-4 s
+            if i == 0 or rng.random() < 0.6:
                 v = rng.uniform(0.3, 1.0)
                 vl = vr = v
             else:
@@ -154,7 +154,7 @@ def _drive(
                 v = rng.uniform(0.0, 0.4)
                 vl, vr = v - w, v + w
             robot.set_wheel_speeds(vl, vr)
-            seg_end = i + int(rng.integers(round(spec.rate), round(4 * spec.rate)))
+            seg_end = i + int(rng.integers(round(2 * spec.rate), round(4 * spec.rate)))
         if i > 0:
             robot.advance(period)
         left[i], right[i] = robot.encoder_counts()

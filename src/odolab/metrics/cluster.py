@@ -125,7 +125,10 @@ def _run_one(func: Callable[[T], R], item: T, label: str) -> Outcome[R]:
     except Exception as err:
         if not isinstance(err, OdolabError):
             logging.getLogger("odolab").debug("%s failed:\n%s", label, traceback.format_exc())
-        return Outcome(label, None, _describe(err), type(err).__name__, _worker_name(), err)
+        text = _describe(err)
+        if label not in text:  # every failure names its run
+            text = f"{label}: {text}"
+        return Outcome(label, None, text, type(err).__name__, _worker_name(), err)
 
 
 @contextmanager
