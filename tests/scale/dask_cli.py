@@ -64,22 +64,10 @@ def dask_cluster(folder: Path, workers: int = 2, timeout: float = 60.0) -> Itera
             time.sleep(0.1)
         time.sleep(0.2)
         procs.address = json.loads(info.read_text())["address"]
+        args = ["worker", procs.address, "--nthreads", "1", "--no-nanny", "--no-dashboard"]
+        args += ["--host", "127.0.0.1", "--death-timeout", "30"]
         for _ in range(workers):
-            procs.workers.append(
-                _dask(
-                    "worker",
-                    procs.address,
-                    "--nthreads",
-                    "1",
-                    "--no-nanny",
-                    "--no-dashboard",
-                    "--host",
-                    "127.0.0.1",
-                    "--death-timeout",
-                    "30",
-                    log=log,
-                )  # fmt: skip
-            )
+            procs.workers.append(_dask(*args, log=log))
         with Client(procs.address, timeout=timeout) as client:
             client.wait_for_workers(workers, timeout=timeout)
         yield procs
