@@ -141,9 +141,16 @@ def _figures(columns: dict[str, list[Any]], verdicts: list[RobotVerdict]) -> dic
         sel = (robot == v.robot) & np.isfinite(drift) & (dates != "")
         days = sorted({str(d) for d in dates[sel]})
         means = [float(np.mean(drift[sel & (dates == d)])) for d in days]
-        style = {"linewidth": 2.5} if v.robot in flagged else {"linewidth": 1.0, "alpha": 0.6}
-        label = f"{v.robot} (recalibrate)" if v.robot in flagged else v.robot
-        ax.plot([pos[d] for d in days], means, marker="o", label=label, **style)
+        bold = v.robot in flagged
+        label = f"{v.robot} (recalibrate)" if bold else v.robot
+        ax.plot(
+            [pos[d] for d in days],
+            means,
+            marker="o",
+            label=label,
+            linewidth=2.5 if bold else 1.0,
+            alpha=1.0 if bold else 0.6,
+        )
     ax.set_xticks(range(len(all_days)), all_days, rotation=30, ha="right", fontsize=8)
     ax.set_ylabel("drift, mean per day (% of distance)")
     ax.set_title("odometry drift per robot and day")
