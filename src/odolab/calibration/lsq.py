@@ -31,6 +31,7 @@ from odolab.io.registry import LogFormat, find_runs, read_run
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.kinematics import Method
 from odolab.metrics.association import interpolate_trajectory
+from odolab.metrics.cluster import Cluster
 from odolab.metrics.runs import RUN_OPTIONS, Progress, RunEvaluation, evaluate_run, parallel_map
 from odolab.odometry import integrate_increments
 from odolab.params import RobotParams
@@ -345,11 +346,13 @@ def calibrate_lsq_files(
     read_options: ReadOptions | None = None,
     workers: int = 2,
     progress: Progress | None = None,
+    cluster: Cluster | None = None,
 ) -> LsqCalibration:
     """Calibrate on every run under ``paths``; then compare nominal vs calibrated on ``validate``.
 
     ``nominal`` defaults to the first run's own parameters (OptiOdom metadata). Reading and
-    validation run in ``workers`` processes; ``progress(done, total, name)`` is called per run.
+    validation run in ``workers`` processes (a local Dask cluster) or on ``cluster``;
+    ``progress(done, total, name)`` is called per run.
     """
     o = options or LsqOptions()
     ro = read_options or ReadOptions()
@@ -375,6 +378,7 @@ def calibrate_lsq_files(
         workers=workers,
         progress=shifted(0),
         label=lambda j: str(j.path),
+        cluster=cluster,
     )
     base = nominal or loaded[0][0].params
     if base is None:
@@ -388,5 +392,6 @@ def calibrate_lsq_files(
         workers=workers,
         progress=shifted(len(train)),
         label=lambda j: str(j.path),
+        cluster=cluster,
     )
     return LsqCalibration(**{**result.__dict__, "validation": comparisons})

@@ -10,7 +10,7 @@ from typing import Any
 
 from odolab.errors import OdolabError
 
-__all__ = ["expand_runs", "print_fleet", "report_failures"]
+__all__ = ["expand_logs", "expand_runs", "odometry_many", "print_fleet", "report_failures"]
 
 _GLOB = set("*?[")
 
@@ -107,7 +107,7 @@ def print_fleet(outcomes: Sequence[Any], *, worst: int = 5) -> None:
         w.add_column(col, justify="right")
     for r in s.worst:
         w.add_row(
-            for_terminal(str(r["source"])),
+            for_terminal(str(r["run"])),
             for_terminal(str(r["robot"])),
             for_terminal(str(r["date"])),
             _f(r["drift_pct"], 2),
@@ -135,3 +135,93 @@ def report_failures(outcomes: Sequence[Any], report: Any, results: Path | None) 
         console.print(f"... and {len(failed) - len(shown)} more failed runs", markup=False)
     kept = f"; the other results are in {results}" if results is not None else ""
     raise OdolabError(f"{len(failed)} of {len(outcomes)} runs failed (listed above){kept}")
+
+
+_LOG_SUFFIXES = (".csv", ".parquet", ".pq", ".arrow", ".feather", ".ipc")
+
+
+def expand_logs(paths: Sequence[Path]) -> list[Path]:
+    """Encoder logs: files, folders (recursively; not ``*_gt.*``), quoted glob patterns."""
+    out: list[Path] = []
+    seen: set[Path] = set()
+    for p in paths:
+        text = str(p)
+        if p.is_dir():
+            found = sorted(q for q in p.rglob("*") if q.suffix.lower() in _LOG_SUFFIXES)
+        elif not p.exists() and _GLOB & set(text):
+            found = sorted(Path(m) for m in glob.glob(text, recursive=True))  # noqa: PTH207
+            if not found:
+                raise OdolabError(f"{text}: no file matches this pattern; expected encoder logs")
+        elif p.is_file():
+            found = [p]
+        else:
+            raise OdolabError(f"{p}: no such encoder log, folder or pattern")
+        for q in found:
+            if q.is_file() and not q.stem.endswith("_gt") and q not in seen:
+                seen.add(q)
+                out.append(q)
+    if not out:
+        raise OdolabError(
+            f"no encoder logs ({', '.join(_LOG_SUFFIXES)}) under {', '.join(map(str, paths))}"
+        )
+    return out
+
+
+def odometry_many(
+    logs: Sequence[Path],
+    params: Any,
+    output: Path,
+    *,
+    method: str,
+    start: tuple[float, float, float] | None,
+    max_dticks: int | None,
+    chunk_rows: int,
+    workers: int,
+    scheduler: str | None,
+) -> None:
+    """``odolab odometry`` over many logs on Dask; one trajectory file per log under ``output``."""
+    import os
+
+    from rich.console import Console
+
+    from odolab.cli._progress import progress_bar
+    from odolab.io.chunked import OdometryJob, run_odometry_job
+    from odolab.metrics.cluster import Cluster, MapReport, map_outcomes
+
+    cluster = Cluster(scheduler=scheduler, workers=workers)
+    files = expand_logs(logs)
+    if output.suffix and not output.is_dir():
+        raise OdolabError(
+            f"--output {output} looks like a file; with many logs it must be a folder"
+        )
+    root = Path(os.path.commonpath([str(f.resolve().parent) for f in files]))
+    jobs = [
+        OdometryJob(
+            f,
+            output / f.resolve().relative_to(root),
+            params,
+            method,
+            start,
+            max_dticks,
+            chunk_rows,
+        )
+        for f in files
+    ]
+    rep = MapReport(cluster.describe())
+    with progress_bar("odometry", unit="logs") as report:
+        outcomes = map_outcomes(
+            run_odometry_job,
+            jobs,
+            cluster=cluster,
+            progress=report,
+            label=lambda j: str(j.log),
+            report=rep,
+        )
+    rows = sum(o.result.rows for o in outcomes if o.result is not None)
+    ok = sum(1 for o in outcomes if o.ok)
+    Console().print(
+        f"{ok} of {len(outcomes)} logs -> {for_terminal(str(output))} ({rows:,} poses; "
+        f"{rep.where}, {rep.seconds:.1f} s)",
+        markup=False,
+    )
+    report_failures(outcomes, rep, None)

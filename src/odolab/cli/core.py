@@ -30,10 +30,12 @@ class FormatChoice(StrEnum):
 
 @app.command("odometry")
 def odometry_cmd(
-    log: Annotated[
-        Path,
+    logs: Annotated[
+        list[Path],
         typer.Argument(
-            help="Encoder log: t,left_ticks,right_ticks (CSV, .parquet or .arrow/.feather)."
+            help="Encoder log: t,left_ticks,right_ticks (CSV, .parquet or .arrow/.feather); or "
+            "many logs, folders, quoted globs (then --output is a folder).",
+            metavar="LOG...",
         ),
     ],
     params: Annotated[
@@ -64,8 +66,18 @@ def odometry_cmd(
             "default: chunks of 1,000,000 rows for logs over 64 MiB)."
         ),
     ] = None,
+    workers: Annotated[
+        int, typer.Option(help="Many logs: local Dask worker processes (1: in this process).")
+    ] = 2,
+    scheduler: Annotated[
+        str | None,
+        typer.Option(help="Many logs: Dask scheduler tcp://HOST:PORT (default: a local cluster)."),
+    ] = None,
 ) -> None:
-    """Integrate an encoder log into a trajectory (one pose per input row), chunk by chunk."""
+    """Integrate an encoder log into a trajectory (one pose per input row), chunk by chunk.
+
+    With many logs (or a folder, or a quoted glob), each is integrated on Dask and written to
+    OUTPUT/<its path below the logs' common folder>, in its own format."""
     from odolab.errors import OdolabError
     from odolab.io import read_encoder_csv, write_trajectory
     from odolab.odometry import integrate
@@ -73,6 +85,26 @@ def odometry_cmd(
 
     if chunk_rows is not None and chunk_rows < 0:
         raise OdolabError(f"--chunk-rows is {chunk_rows}; expected a number of rows >= 1 (or 0)")
+    if (
+        len(logs) != 1
+        or logs[0].is_dir()
+        or (not logs[0].exists() and set("*?[") & set(str(logs[0])))
+    ):
+        from odolab.cli._fleet import odometry_many
+
+        odometry_many(
+            logs,
+            load_params(params),
+            output,
+            method=method.value,
+            start=start,
+            max_dticks=max_dticks,
+            chunk_rows=chunk_rows or DEFAULT_CHUNK_ROWS,
+            workers=workers,
+            scheduler=scheduler,
+        )
+        return
+    log = logs[0]
     robot = load_params(params)
     if chunk_rows is None:
         big = log.is_file() and log.stat().st_size > AUTO_CHUNK_BYTES

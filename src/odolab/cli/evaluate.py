@@ -271,14 +271,21 @@ def calibrate_lsq_cmd(
     ] = False,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write the report here.")] = None,
     workers: WorkersOpt = 2,
+    scheduler: SchedulerOpt = None,
     joint_topic: JointTopicOpt = "/joint_states",
     joints: JointsOpt = ("left_wheel_joint", "right_wheel_joint"),
     gt_topic: GtTopicOpt = "/ground_truth",
 ) -> None:
     """Least-squares wheel radii and track width from runs with ground truth."""
     from odolab.calibration.lsq import LsqOptions, calibrate_lsq_files
+    from odolab.cli._fleet import expand_runs
+    from odolab.metrics.cluster import Cluster
     from odolab.params import load_params, save_params
 
+    cluster = Cluster(scheduler=scheduler, workers=workers)
+    if any(not p.exists() for p in [*runs, *(validate or [])]):  # glob patterns
+        runs = expand_runs(runs, fmt.value)
+        validate = expand_runs(validate, fmt.value) if validate else validate
     robot = load_params(params) if params else None
     ro = _read_options(robot, joint_topic, joints, gt_topic)
     with _progress_bar("calibrate") as report:
@@ -291,6 +298,7 @@ def calibrate_lsq_cmd(
             read_options=ro,
             workers=workers,
             progress=report,
+            cluster=cluster,
         )
     save_params(result.params, output, provenance=result.provenance())
     _write_json(result.to_dict(), json_out)

@@ -33,8 +33,10 @@ __all__ = [
     "ChunkedOdometry",
     "EncoderChunk",
     "OdometryFileResult",
+    "OdometryJob",
     "integrate_file",
     "iter_encoder_chunks",
+    "run_odometry_job",
 ]
 
 #: Rows per chunk when none is given: about 100 MB of working memory.
@@ -281,3 +283,29 @@ def integrate_file(
         raise
     assert odo.pose is not None  # iter_encoder_chunks raised on an empty log
     return OdometryFileResult(odo.rows, odo.pose, chunks, out)
+
+
+@dataclass(frozen=True)
+class OdometryJob:
+    """One log to integrate into one trajectory file (sent to a Dask worker)."""
+
+    log: Path
+    output: Path
+    params: RobotParams
+    method: str = "midpoint"
+    start: tuple[float, float, float] | None = None
+    max_dticks: int | None = None
+    chunk_rows: int = DEFAULT_CHUNK_ROWS
+
+
+def run_odometry_job(job: OdometryJob) -> OdometryFileResult:
+    """:func:`integrate_file` for one job."""
+    return integrate_file(
+        job.log,
+        job.output,
+        job.params,
+        job.method,
+        start=job.start,
+        max_dticks=job.max_dticks,
+        chunk_rows=job.chunk_rows,
+    )
