@@ -15,6 +15,7 @@ __all__: list[str] = []
 
 #: Logs larger than this are integrated in chunks unless --chunk-rows says otherwise.
 AUTO_CHUNK_BYTES = 64 * 1024 * 1024
+AUTO_CHUNK_ROWS = 3_000_000  #: the same for Parquet and IPC logs, by their row count
 DEFAULT_CHUNK_ROWS = 1_000_000
 
 
@@ -107,7 +108,12 @@ def odometry_cmd(
     log = logs[0]
     robot = load_params(params)
     if chunk_rows is None:
-        big = log.is_file() and log.stat().st_size > AUTO_CHUNK_BYTES
+        from odolab.io.tabular import row_count
+
+        rows = row_count(log) if log.is_file() else None
+        big = (rows or 0) > AUTO_CHUNK_ROWS or (
+            rows is None and log.is_file() and log.stat().st_size > AUTO_CHUNK_BYTES
+        )
         chunk_rows = DEFAULT_CHUNK_ROWS if big else 0
     if chunk_rows > 0 and fmt is FormatChoice.csv:
         from odolab.cli._progress import progress_bar
@@ -141,6 +147,7 @@ def odometry_cmd(
         max_dticks=max_dticks,
         source=str(log),
     )
+    del enc  # the input's memory is free before the output is written
     write_trajectory(traj, output, fmt.value)  # type: ignore[arg-type]
     end = traj.final
     typer.echo(

@@ -34,6 +34,8 @@ def _ticks(
     where: str = "line",
 ) -> NDArray[np.int64]:
     """The column as integer counts; a fractional value is refused naming its line."""
+    if values.dtype.kind == "i":  # read as integers: nothing to check
+        return values.astype(np.int64, copy=False)
     off = np.abs(values - np.rint(values)) > 1e-6
     if off.any():
         i = int(np.argmax(off))
@@ -62,7 +64,7 @@ def read_encoder_csv(path: str | Path, *, modulus: int | None = None) -> Encoder
         raise LogFormatError(f"{p}: empty or unreadable file; expected a header line") from err
     increments = "dticks_left" in header and "left_ticks" not in header
     cols = INCREMENTS if increments else RAW
-    data = read_columns(p, cols)
+    data = read_columns(p, cols, integer=cols[1:])
     t = data["t"]
     if t.size == 0:
         raise LogFormatError(f"{p}: no samples after the header")

@@ -112,56 +112,100 @@ def _check_finite(p: Path, out: Mapping[str, F64], where: str, offset: int = 0) 
             )
 
 
-def _fast_csv(p: Path, header: list[str], columns: Sequence[str]) -> dict[str, F64] | None:
+def _fast_csv(
+    p: Path, header: list[str], columns: Sequence[str], integer: Sequence[str]
+) -> dict[str, NDArray[Any]] | None:
     """polars' reader; None where the careful reader must look (refused, empty cells)."""
     import polars as pl
 
+    if len(set(header)) != len(header):
+        return None  # duplicated names: the careful reader's rules apply
     idx = [header.index(c) for c in columns]
+    raw = pl.read_csv(p, n_rows=0, encoding="utf8-lossy").columns
+    if len(raw) != len(header):
+        return None
+    types = {
+        raw[i]: (pl.Int64 if c in integer else pl.Float64)
+        for i, c in zip(idx, columns, strict=True)
+    }
     try:
-        frame = pl.read_csv(
-            p,
-            columns=idx,
-            new_columns=[header[i] for i in idx] if len(set(header)) == len(header) else None,
-            schema_overrides=None,
-            infer_schema=False,
-            encoding="utf8",
-        ).select(pl.all().cast(pl.Float64, strict=True))
+        frame = pl.read_csv(p, columns=idx, schema_overrides=types, encoding="utf8")
     except Exception:  # any refusal: the careful reader names the line
         return None
-    if frame.null_count().sum_horizontal().item() > 0 or frame.width != len(columns):
+    if frame.width != len(columns) or frame.null_count().sum_horizontal().item() > 0:
         return None  # blank lines or empty cells: the careful reader's rules apply
-    out: dict[str, F64] = {}
+    return _numpy(frame, columns)
+
+
+def _numpy(frame: Any, columns: Sequence[str]) -> dict[str, NDArray[Any]]:
+    """Columns of a polars frame as numpy arrays (without a copy where the memory allows)."""
+    out: dict[str, NDArray[Any]] = {}
     for name, series in zip(columns, frame.get_columns(), strict=True):
-        out[name] = series.to_numpy(writable=False).astype(np.float64, copy=False)
+        arr = series.to_numpy()
+        out[name] = arr if arr.dtype.kind == "i" else arr.astype(np.float64, copy=False)
+    return out
+
+
+def _whole_binary(
+    p: Path, fmt: TableFormat, columns: Sequence[str], integer: Sequence[str], allow_nan: bool
+) -> dict[str, NDArray[Any]]:
+    """A whole Parquet or IPC table's columns (int64 where asked and stored as integers)."""
+    import polars as pl
+
+    try:
+        if fmt == "parquet":
+            frame = pl.read_parquet(p, columns=list(columns)).rechunk()
+        else:
+            frame = pl.read_ipc(p, columns=list(columns)).rechunk()
+    except (OSError, pl.exceptions.PolarsError) as err:
+        kind = "Parquet" if fmt == "parquet" else "Arrow IPC"
+        raise LogFormatError(f"{p}: not a readable {kind} file ({err})") from err
+    out: dict[str, NDArray[Any]] = {}
+    for name in columns:
+        col = frame[name]
+        if col.null_count():
+            i = int(col.is_null().arg_true()[0])
+            raise LogFormatError(f"{p}: row {i + 1}, column {name!r} is empty, expected a number")
+        if not col.dtype.is_numeric():
+            raise LogFormatError(f"{p}: column {name!r} holds {col.dtype}, expected numbers")
+        if name in integer and col.dtype.is_integer():
+            out[name] = col.cast(pl.Int64).to_numpy()
+        else:
+            out[name] = col.cast(pl.Float64).to_numpy()
+    del frame
+    if not allow_nan:
+        _check_finite(p, {k: v for k, v in out.items() if v.dtype.kind == "f"}, "row")
     return out
 
 
 def read_columns(
-    path: str | Path, columns: Sequence[str], *, allow_nan: bool = False
-) -> dict[str, F64]:
+    path: str | Path,
+    columns: Sequence[str],
+    *,
+    allow_nan: bool = False,
+    integer: Sequence[str] = (),
+) -> dict[str, NDArray[Any]]:
     """Read the named columns of a table file as float64 arrays.
 
-    Every error is a :class:`LogFormatError` naming the file and, where there is one, the line
-    (CSV) or row (Parquet, IPC) and column.
+    Columns named in ``integer`` come back as int64 where every value is written as an integer
+    (faster, exact); otherwise, as the others, float64. Every error is a
+    :class:`LogFormatError` naming the file and, where there is one, the line (CSV) or row
+    (Parquet, IPC) and column.
     """
     p = Path(path)
     fmt = table_format(p)
-    if fmt != "csv":
-        header = read_header(p)
-        _missing(p, header, columns)
-        chunks = list(iter_columns(p, columns, chunk_rows=None, allow_nan=allow_nan))
-        if not chunks:
-            return {c: np.empty(0) for c in columns}
-        return chunks[0][1]
-    from odolab.io._table import read_numeric_columns
-
     header = read_header(p)
     _missing(p, header, columns)
-    fast = _fast_csv(p, header, columns)
+    if fmt != "csv":
+        return _whole_binary(p, fmt, columns, integer, allow_nan)
+    from odolab.io._table import read_numeric_columns
+
+    fast = _fast_csv(p, header, columns, integer)
     if fast is None:
-        return read_numeric_columns(p, columns, allow_nan=allow_nan)
-    if not allow_nan and not all(bool(np.isfinite(a).all()) for a in fast.values()):
-        return read_numeric_columns(p, columns, allow_nan=allow_nan)  # names the line
+        return dict(read_numeric_columns(p, columns, allow_nan=allow_nan))
+    floats = [a for a in fast.values() if a.dtype.kind == "f"]
+    if not allow_nan and not all(bool(np.isfinite(a).all()) for a in floats):
+        return dict(read_numeric_columns(p, columns, allow_nan=allow_nan))  # names the line
     return fast
 
 
@@ -324,14 +368,23 @@ def _cannot_write(p: Path, what: str, err: BaseException) -> LogFormatError:
     )
 
 
+#: Rows per block when a whole table is written (bounds the writer's own copy).
+WRITE_BLOCK_ROWS = 1 << 20
+
+
 def write_columns(path: str | Path, columns: Mapping[str, NDArray[Any]], what: str) -> Path:
     """Write equal-length 1-D arrays as a table, in the format of the file's extension.
 
     Float columns stay float64 (CSV: shortest round-trip text), integer columns stay int64.
+    Written in blocks of ``WRITE_BLOCK_ROWS`` rows, so the extra memory is one block.
     """
     p = Path(path)
+    n = len(next(iter(columns.values()))) if columns else 0
     with ChunkWriter(p, what) as writer:
-        writer.write(columns)
+        for k in range(0, max(n, 1), WRITE_BLOCK_ROWS):
+            writer.write(
+                {name: np.asarray(v)[k : k + WRITE_BLOCK_ROWS] for name, v in columns.items()}
+            )
     return p
 
 
