@@ -262,7 +262,9 @@ def _csv_blocks(p: Path, header: list[str], columns: Sequence[str]) -> Iterator[
     try:
         reader = pcsv.open_csv(
             p,
-            read_options=pcsv.ReadOptions(column_names=header, skip_rows=1, block_size=1 << 22),
+            read_options=pcsv.ReadOptions(
+                column_names=header, skip_rows=1, block_size=1 << 20, use_threads=False
+            ),
             convert_options=pcsv.ConvertOptions(column_types=types, include_columns=list(columns)),
         )
         yield from reader
@@ -284,7 +286,7 @@ def iter_columns(
     """``(first row index, {column: float64 array})`` per chunk of ``chunk_rows`` rows.
 
     ``chunk_rows=None`` yields the whole table at once. Memory is bounded by the chunk (plus one
-    block of the underlying reader: a Parquet row group, an IPC batch, 4 MiB of CSV).
+    block of the underlying reader: a Parquet row group, an IPC batch, 1 MiB of CSV).
     """
     p = Path(path)
     if chunk_rows is not None and (chunk_rows < 1 or int(chunk_rows) != chunk_rows):
@@ -356,9 +358,10 @@ def _arrow_chunks(p: Path, fmt: TableFormat, columns: Sequence[str]) -> Iterator
 
 
 def _frame(columns: Mapping[str, NDArray[Any]]) -> Any:
+    """A polars frame over the arrays (numeric numpy arrays are not copied)."""
     import polars as pl
 
-    return pl.DataFrame({k: np.asarray(v) for k, v in columns.items()})
+    return pl.DataFrame({k: np.ascontiguousarray(v) for k, v in columns.items()})
 
 
 def _cannot_write(p: Path, what: str, err: BaseException) -> LogFormatError:
@@ -368,23 +371,27 @@ def _cannot_write(p: Path, what: str, err: BaseException) -> LogFormatError:
     )
 
 
-#: Rows per block when a whole table is written (bounds the writer's own copy).
-WRITE_BLOCK_ROWS = 1 << 20
-
-
 def write_columns(path: str | Path, columns: Mapping[str, NDArray[Any]], what: str) -> Path:
     """Write equal-length 1-D arrays as a table, in the format of the file's extension.
 
     Float columns stay float64 (CSV: shortest round-trip text), integer columns stay int64.
-    Written in blocks of ``WRITE_BLOCK_ROWS`` rows, so the extra memory is one block.
+    The arrays are handed to polars without a copy (numeric numpy arrays), then written at once.
     """
+    import polars as pl
+
     p = Path(path)
-    n = len(next(iter(columns.values()))) if columns else 0
-    with ChunkWriter(p, what) as writer:
-        for k in range(0, max(n, 1), WRITE_BLOCK_ROWS):
-            writer.write(
-                {name: np.asarray(v)[k : k + WRITE_BLOCK_ROWS] for name, v in columns.items()}
-            )
+    fmt = table_format(p)
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        frame = _frame(columns)
+        if fmt == "csv":
+            frame.write_csv(p)
+        elif fmt == "parquet":
+            frame.write_parquet(p)
+        else:
+            frame.write_ipc(p)
+    except (OSError, pl.exceptions.PolarsError) as err:
+        raise _cannot_write(p, what, err) from err
     return p
 
 
