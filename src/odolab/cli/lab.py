@@ -51,13 +51,15 @@ def analyze_cmd(
 
     trials = _load_trials(db)
     analysis = analyze_trials(trials)
+    from odolab.cli._output import markup_text as mt
+
     con = _console()
     con.print(table1_rich(table1(analysis)))
     for t in analysis.terrain_tests:
-        con.print(t.verdict())
+        con.print(mt(t.verdict()))
     for m in analysis.motions:
         if m.growth is not None:
-            con.print(f"growth of sigma, {m.motion} on {m.terrain}: {m.growth.verdict()}")
+            con.print(mt(f"growth of sigma, {m.motion} on {m.terrain}: {m.growth.verdict()}"))
     for kind, w in analysis.noise_by_kind.items():
         con.print(
             f"wheel noise from {kind} trials: k_r = {w.k_right:.3g} m "
@@ -66,11 +68,11 @@ def analyze_cmd(
             + ("" if w.identifiable else " (only k_r + k_l is identifiable)")
         )
     if analysis.noise_note:
-        con.print(f"[yellow]note:[/] {analysis.noise_note}")
+        con.print(f"[yellow]note:[/] {mt(analysis.noise_note)}")
     for o in analysis.outliers:
-        con.print(f"[yellow]outlier[/] {o.trial_id}: {o.reason}")
+        con.print(f"[yellow]outlier[/] {mt(o.trial_id)}: {mt(o.reason)}")
     for s in analysis.skipped:
-        con.print(f"[yellow]not enough data:[/] {s}")
+        con.print(f"[yellow]not enough data:[/] {mt(s)}")
     if json_out is not None:
         from odolab.cli._output import write_output_text
 
@@ -97,6 +99,7 @@ def report_cmd(
         umbmark_errors_from_trials,
         umbmark_iterated,
     )
+    from odolab.cli._output import markup_text
     from odolab.errors import CalibrationError
     from odolab.params import load_params
     from odolab.report import table1_rich, write_report
@@ -109,7 +112,7 @@ def report_cmd(
     try:
         calibrations["ratios"] = ratios_from_analysis(analysis, base)
     except CalibrationError as err:
-        con.print(f"[yellow]no ratios calibration:[/] {err}")
+        con.print(f"[yellow]no ratios calibration:[/] {markup_text(err)}")
     if analysis.square_trials and base is not None:
         try:
             if all(t.encoder_log is not None for t in analysis.square_trials):
@@ -121,11 +124,11 @@ def report_cmd(
                 umb = umbmark(cw, ccw, side, base)
             calibrations["umbmark"] = umb
         except CalibrationError as err:
-            con.print(f"[yellow]no UMBmark calibration:[/] {err}")
+            con.print(f"[yellow]no UMBmark calibration:[/] {markup_text(err)}")
     path = write_report(out, analysis, calibrations)
     con.print(table1_rich(table1(analysis)))
     for s in analysis.skipped:
-        con.print(f"[yellow]not enough data:[/] {s}")
+        con.print(f"[yellow]not enough data:[/] {markup_text(s)}")
     con.print(f"report: {path}  (figures and results.json beside it)")
 
 

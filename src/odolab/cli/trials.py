@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from odolab.cli._apps import app, trials_app
+from odolab.cli._output import term
 
 if TYPE_CHECKING:
     from odolab.store import Notebook
@@ -118,7 +119,9 @@ def notebook_info(db: DbOption = _DB) -> None:
     status = ", ".join(f"{k} {v}" for k, v in sorted(info.by_status.items())) or "none"
     typer.echo(f"  trials {info.trials} ({status}), encoder logs {info.encoder_logs}")
     for c in campaigns:
-        typer.echo(f"  campaign {c.name}: {c.kind} on {c.terrain}, {c.date or ''} {c.operator}")
+        typer.echo(
+            term(f"  campaign {c.name}: {c.kind} on {c.terrain}, {c.date or ''} {c.operator}")
+        )
 
 
 # -- campaigns and parameter versions ------------------------------------------------------------
@@ -137,7 +140,7 @@ def campaign_add(
     """Add a campaign: a series of trials of one kind on one terrain."""
     with _open(db, create=True) as nb:
         nb.add_campaign(name, kind.value, terrain, date=date, operator=operator, notes=notes)
-    typer.echo(f"campaign {name} ({kind.value} on {terrain}) added to {db}")
+    typer.echo(f"campaign {term(name)} ({kind.value} on {term(terrain)}) added to {db}")
 
 
 @trials_app.command("campaigns")
@@ -145,7 +148,8 @@ def campaigns_cmd(db: DbOption = _DB) -> None:
     """List the campaigns."""
     with _open(db) as nb:
         for c in nb.campaigns():
-            typer.echo(f"{c.name}\t{c.kind}\t{c.terrain}\t{c.date or ''}\t{c.operator}\t{c.notes}")
+            cells = (c.name, c.kind, c.terrain, c.date or "", c.operator, c.notes)
+            typer.echo("\t".join(term(x) for x in cells))
 
 
 @trials_app.command("params-add")
@@ -231,13 +235,13 @@ def list_cmd(
     for t in trials:
         st = t.status.value + (f": {t.exclusion_reason}" if t.exclusion_reason else "")
         table.add_row(
-            t.trial_id,
-            t.campaign,
-            t.terrain,
+            escape(term(t.trial_id)),
+            escape(term(t.campaign)),
+            escape(term(t.terrain)),
             t.command.describe(),
             _describe_prediction(t),
-            escape(_describe_measurement(t)),
-            escape(st),
+            escape(term(_describe_measurement(t))),
+            escape(term(st)),
         )
     Console(width=200).print(table)
 
@@ -250,9 +254,10 @@ def show_cmd(
     with _open(db) as nb:
         t = nb.get_trial(trial_id)
         robot, version = nb.trial_params_version(trial_id)
-    typer.echo(f"trial {t.trial_id}: {t.command.describe()} ({t.campaign}, {t.terrain})")
+    typer.echo(term(f"trial {t.trial_id}: {t.command.describe()} ({t.campaign}, {t.terrain})"))
     typer.echo(
-        f"  status: {t.status.value}" + (f" ({t.exclusion_reason})" if t.exclusion_reason else "")
+        f"  status: {t.status.value}"
+        + (f" ({term(t.exclusion_reason)})" if t.exclusion_reason else "")
     )
     p = t.predicted
     typer.echo(
@@ -272,7 +277,7 @@ def show_cmd(
     if t.encoder_log is not None:
         typer.echo(f"  encoder log: {len(t.encoder_log)} samples, modulus {t.encoder_log.modulus}")
     if t.notes:
-        typer.echo(f"  notes: {t.notes}")
+        typer.echo(f"  notes: {term(t.notes)}")
 
 
 def _measurement(
@@ -491,7 +496,7 @@ def exclude_cmd(
     """Leave a trial out of the analysis (it is kept, with the reason)."""
     with _open(db) as nb:
         nb.exclude_trial(trial_id, reason)
-    typer.echo(f"trial {trial_id} excluded: {reason}")
+    typer.echo(term(f"trial {trial_id} excluded: {reason}"))
 
 
 @trials_app.command("include")
