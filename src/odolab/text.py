@@ -92,8 +92,9 @@ def safe_terminal(text: object, *, limit: int | None = None) -> str:
 
 def quote_input(value: object, limit: int = MAX_ECHO_CHARS) -> str:
     """``value`` quoted for an error message: capped at ``limit`` characters, terminal-safe."""
-    text = value if isinstance(value, str) else repr(value)
-    return repr(shorten(text, limit))  # repr escapes control and invisible characters
+    if isinstance(value, str):
+        return repr(shorten(value, limit))  # repr escapes control and invisible characters
+    return safe_terminal(shorten(repr(value), limit))
 
 
 def safe_html(text: object) -> Markup:

@@ -101,4 +101,5 @@ def test_echoed_input_is_capped_and_quoted() -> None:
     assert shorten("a" * 6, 5) == "aaaaa... (6 characters)"
     q = quote_input("\x00" * 1_000_000)
     assert len(q) < 500 and "\x00" not in q and "1000000 characters" in q
-    assert quote_input(1e308) == "'1e+308'"
+    assert quote_input(1e308) == "1e+308"
+    assert quote_input(None) == "None"

@@ -444,6 +444,8 @@ def add_cmd(
         raise StoreError("give the commanded angle once: --angle (rad) or --angle-pi")
     if angle_pi is not None:
         angle = angle_pi * math.pi
+    if kind.value == "translation" and distance is None:  # import refuses the same
+        raise StoreError("a translation needs --distance (the commanded distance, m)")
     with _open(db, create=True) as nb:
         if params_version is not None:
             params = nb.get_params(robot, params_version)

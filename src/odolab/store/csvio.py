@@ -62,8 +62,8 @@ from pathlib import Path
 
 from odolab.errors import ParamsError, StoreError
 from odolab.kinematics import wrap_angle
-from odolab.params import RobotParams
-from odolab.store.entry import rotation_measurement_from_compass
+from odolab.params import RobotParams, check_param
+from odolab.store.entry import check_position, rotation_measurement_from_compass
 from odolab.trajectory import Pose
 from odolab.trials import Command, Measurement, MotionKind, Trial, TrialStatus
 
@@ -125,6 +125,7 @@ REQUIRED = (
 
 _RAW_COLUMNS = ("compass_initial_deg", "compass_final_deg", "turns")
 _PARAM_COLUMNS = ("left_wheel_radius_m", "right_wheel_radius_m", "track_width_m", "ticks_per_rev")
+_PARAM_KEYS = ("left_wheel_radius", "right_wheel_radius", "track_width", "ticks_per_rev")
 _UNITS = {"m", "cm", "mm", "km", "in", "ft", "rad", "deg", "degrees", "s", "ms", "min", "pi"}
 _UNIT_WORDS = {"m": "metres", "rad": "radians", "deg": "degrees", "s": "seconds"}
 _NUM_UNIT = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Za-z°]+)\s*$")
@@ -259,6 +260,8 @@ def _parse_row(
         direction=row.text("direction"),
         speed=row.number("speed"),
     )
+    if kind is MotionKind.TRANSLATION and command.distance is None:
+        raise row.fail("distance_m", "missing value (a translation needs its commanded distance)")
     heading = row.number("predicted_heading_rad", required=True)
     assert heading is not None
     theta = row.number("predicted_theta_rad")
@@ -277,6 +280,14 @@ def _parse_row(
     stored = lookup_params(robot, version) if version is not None else None
     values = {c: row.number(c, positive=True) for c in _PARAM_COLUMNS}
     modulus = row.integer("encoder_modulus", minimum=2)
+    # the same plausible ranges as every other way parameters are built (odolab.params)
+    for c, key in (*zip(_PARAM_COLUMNS, _PARAM_KEYS, strict=True), ("encoder_modulus", None)):
+        v = modulus if key is None else values[c]
+        if v is not None:
+            try:
+                check_param(key or "encoder_modulus", v)
+            except ParamsError as err:
+                raise row.fail(c, str(err)) from err
     if any(v is not None for v in values.values()) or stored is None:
         for c, v in values.items():
             if v is None:
@@ -327,6 +338,12 @@ def _parse_row(
     mx, my = row.number("measured_x_m"), row.number("measured_y_m")
     if (mx is None) != (my is None):
         raise row.fail("measured_y_m" if my is None else "measured_x_m", "missing value")
+    for c, v in (("measured_x_m", mx), ("measured_y_m", my)):
+        if v is not None:
+            try:
+                check_position(v, c)  # the range `trials add` and `trials measure` apply
+            except StoreError as err:
+                raise row.fail(c, str(err)) from err
     sigma_rot = row.number("sigma_rotation_rad")
     sigma_xy = row.number("sigma_xy_m")
     for c, v in (("sigma_rotation_rad", sigma_rot), ("sigma_xy_m", sigma_xy)):
