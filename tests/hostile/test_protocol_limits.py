@@ -37,7 +37,7 @@ def _sim(tmp_path: Path, text: str, capsys: pytest.CaptureFixture[str]) -> str:
     ("trials", "message"),
     [
         ('motion = "rotation"\nangle_pi = 20\nrepeats = 1000000000',
-         "[[trials]] #1 key 'repeats': 1000000000 repeats; expected at most 1000"),
+         "[[trials]] #1 key 'repeats': 1000000000 repeats; expected at most 10000"),
         ('motion = "rotation"\nangle_pi = { from = 1, to = 1e9, step = 1 }',
          "[[trials]] #1 key 'angle_pi'.to: 1e+09 pi is outside the allowed 0 to 100 pi"),
         ('motion = "rotation"\nangle = [1e9]',

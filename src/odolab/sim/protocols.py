@@ -29,7 +29,7 @@ A protocol file::
     # terrain = "grass"; campaign = "..."; speed = 0.3   (per set overrides)
 
 Size limits, checked while the file is read (before any trial exists) and named with the file
-and the key: at most 10,000 trials, 1,000 repeats per set, 1,000 values per list or range;
+and the key: at most 10,000 trials and repeats per set, 1,000 values per list or range;
 angles up to 100 pi rad (50 turns), distances up to 1,000 m, square sides up to 250 m, speeds
 from 0.01 to 5 m/s, a report rate from 0.1 to 1,000 Hz and a physics step from 0.1 ms to 1 s.
 Before the run, with the nominal parameters known, no trial may last more than an hour.
@@ -111,7 +111,7 @@ _MOTIONS = ("rotation", "translation", "pivot", "square")
 #: Size limits of a protocol (see the module docstring): a typo such as ``repeats = 1000000000``
 #: or ``angle_pi = { from = 1, to = 1e9, step = 1 }`` is one sentence, not an exhausted memory.
 MAX_TRIALS = 10_000
-MAX_REPEATS = 1_000
+MAX_REPEATS = 10_000
 MAX_VALUES = 1_000
 MAX_ANGLE_RAD = 100.0 * math.pi
 MAX_DISTANCE_M = 1_000.0
