@@ -50,6 +50,9 @@ _FIELDS = (
 )
 _REQUIRED = ("left_wheel_radius", "right_wheel_radius", "track_width", "ticks_per_rev")
 
+#: Largest parameters file read (bytes): it is read whole, so a wrong file is refused first.
+MAX_TOML_BYTES = 1_000_000
+
 #: Plausible physical range (inclusive) of each parameter, its unit and the word used in hints.
 #: Radii: a 2 mm micro-robot wheel to a 2 m mining-truck tyre. Track: 1 cm to 20 m. Counts per
 #: revolution: 1 (a reed switch) to 10^8 (a fine encoder behind a gearbox). Modulus: 2 to 2^63
@@ -176,6 +179,11 @@ def load_params(path_or_preset: str | Path) -> RobotParams:
             f"{path}: no such parameters file or preset; presets are {', '.join(sorted(PRESETS))}"
         )
     try:
+        if path.stat().st_size > MAX_TOML_BYTES:
+            raise ParamsError(
+                f"{path}: {path.stat().st_size:,} bytes; a parameters TOML is at most "
+                f"{MAX_TOML_BYTES:,} bytes (is it the right file?)"
+            )
         doc = tomllib.loads(path.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as err:
         raise ParamsError(f"{path}: not valid TOML ({err})") from err

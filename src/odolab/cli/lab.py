@@ -269,31 +269,6 @@ def _record_version(db: Path, result: Any, base: Any, *, trials: str | None) -> 
 
 
 def _read_umbmark_csv(path: Path) -> tuple[list[tuple[float, float]], list[tuple[float, float]]]:
-    import csv
+    from odolab.calibration.umbmark import read_umbmark_errors_csv
 
-    from odolab.errors import OdolabError
-
-    cw: list[tuple[float, float]] = []
-    ccw: list[tuple[float, float]] = []
-    try:
-        with path.open(newline="", encoding="utf-8") as fh:
-            reader = csv.DictReader(fh)
-            if reader.fieldnames is None or not {"direction", "x", "y"} <= set(reader.fieldnames):
-                raise OdolabError(f"{path}: expected a header with direction,x,y")
-            for line, row in enumerate(reader, start=2):
-                d = (row["direction"] or "").strip().lower()
-                try:
-                    xy = (float(row["x"]), float(row["y"]))
-                except (TypeError, ValueError) as err:
-                    raise OdolabError(f"{path}, line {line}: x and y must be numbers (m)") from err
-                if d == "cw":
-                    cw.append(xy)
-                elif d == "ccw":
-                    ccw.append(xy)
-                else:
-                    raise OdolabError(
-                        f"{path}, line {line}: direction must be cw or ccw, got {d!r}"
-                    )
-    except OSError as err:
-        raise OdolabError(f"{path}: cannot read ({err})") from err
-    return cw, ccw
+    return read_umbmark_errors_csv(path)

@@ -12,6 +12,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from odolab.errors import LogFormatError
+from odolab.io.limits import check_columns_unique, check_text_file, first_line_cells
 
 __all__ = ["data_line_numbers", "read_numeric_columns"]
 
@@ -79,17 +80,24 @@ def read_numeric_columns(
     sep: str = ",",
     names: Sequence[str] | None = None,
     allow_nan: bool = False,
+    checked: bool = False,
 ) -> dict[str, NDArray[np.float64]]:
     """Read the named columns of a delimited text file as float64 arrays.
 
     With ``names`` the file has no header and columns are given those names. Every error is a
-    :class:`LogFormatError` naming the file, and the line and column where there is one.
+    :class:`LogFormatError` naming the file, and the line and column where there is one. The
+    file's lines are checked first (:func:`odolab.io.limits.check_text_file`; ``checked``: the
+    caller already did) and a header that names a column twice is refused.
     """
     p = Path(path)
     if not p.exists():
         raise LogFormatError(f"{p}: no such file")
     if not p.is_file():
         raise LogFormatError(f"{p}: is not a file (a folder?); expected a delimited text file")
+    if not checked:
+        check_text_file(p, expected="a delimited text file")
+        if names is None:
+            check_columns_unique(p, first_line_cells(p, sep))
     try:
         if names is None:
             head = pd.read_csv(p, sep=sep, nrows=0, encoding="utf-8-sig")

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from odolab.errors import LogFormatError, ParamsError
 from odolab.io._table import data_line_numbers, read_numeric_columns
+from odolab.io.limits import check_text_file
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.params import RobotParams
 from odolab.trajectory import Trajectory, check_times
@@ -30,6 +31,7 @@ def read_optiodom_metadata(path: str | Path) -> dict[str, list[str]]:
     p = Path(path)
     if not p.is_file():
         raise LogFormatError(f"{p}: no such OptiOdom metadata file")
+    check_text_file(p, expected="an OptiOdom metadata CSV")
     with p.open(newline="", encoding="utf-8-sig") as fh:
         rows = list(csv.reader(fh))
     return {r[0].strip(): [c.strip() for c in r[1:] if c.strip()] for r in rows if r and r[0]}

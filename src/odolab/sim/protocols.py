@@ -443,6 +443,11 @@ def load_protocol(name_or_path: str | Path) -> Protocol:
     if path.exists():
         source = str(path)
         try:
+            if path.stat().st_size > 1_000_000:
+                raise SimError(
+                    f"{path}: {path.stat().st_size:,} bytes; a protocol TOML is at most "
+                    "1,000,000 bytes (is it the right file?)"
+                )
             text = path.read_text(encoding="utf-8")
         except (OSError, UnicodeDecodeError) as err:
             raise SimError(f"{path}: cannot read ({err})") from err

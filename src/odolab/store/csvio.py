@@ -454,8 +454,11 @@ def read_trials_csv(
     already stored (a row repeating one is an error). ``lookup_params(robot, version)`` gives a
     stored parameter version or None.
     """
+    from odolab.io.limits import check_text_file  # here: odolab.io brings pandas
+
     p = Path(path)
     source = str(p)
+    check_text_file(p, error=StoreError, expected="a trials CSV")
     try:
         fh = p.open(newline="", encoding="utf-8-sig")
     except OSError as err:
