@@ -121,3 +121,19 @@ def test_line_numbers_across_chunk_boundaries(tmp_path: Path) -> None:
     f.write_bytes(b"x\n" * 10 + b"\xc3")
     with pytest.raises(LogFormatError, match="line 11 ends in the middle of a UTF-8 character"):
         check_text_file(f)
+
+
+def test_echoed_input_is_capped(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    log = tmp_path / "enc.csv"
+    log.write_text("t,left_ticks,right_ticks\n0,0,0\n0.05," + "z" * 500_000 + ",1\n")
+    err = _fails(["odometry", str(log), "-o", str(tmp_path / "t.csv")], capsys)
+    assert f"{log}: line 3, column 'left_ticks' is 'zzz" in err
+    assert "... (500000 characters)', expected a number" in err
+    trials = tmp_path / "trials.csv"
+    trials.write_text(
+        "trial_id,campaign,terrain,kind,distance_m,predicted_x_m,predicted_y_m,"
+        "predicted_heading_rad,robot,left_wheel_radius_m,right_wheel_radius_m,track_width_m,"
+        "ticks_per_rev\nT1,c,lab,translation,1,1,0,0,jag,0.08,0.08,0.5,\x1b[2J" + "k" * 100_000
+    )
+    err = _fails(["trials", "import", str(trials), "--db", str(tmp_path / "lab.db")], capsys)
+    assert "\x1b" not in err and "(100004 characters)' is not a number" in err

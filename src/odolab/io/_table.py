@@ -13,6 +13,7 @@ from numpy.typing import NDArray
 
 from odolab.errors import LogFormatError
 from odolab.io.limits import check_columns_unique, check_text_file, first_line_cells
+from odolab.text import quote_input, safe_terminal, shorten
 
 __all__ = ["data_line_numbers", "read_numeric_columns"]
 
@@ -38,7 +39,10 @@ def _locate_bad_cell(
                 continue
             if not line.strip():
                 continue  # a blank line is no row (a line of empty cells is one)
-            row = line.split() if whitespace else next(csv.reader([line], delimiter=sep), [])
+            try:
+                row = line.split() if whitespace else next(csv.reader([line], delimiter=sep), [])
+            except csv.Error:  # a cell over csv's 128 KiB field limit (lines may have 1 MB)
+                row = line.rstrip("\r\n").split(sep)
             if whitespace and row[0].startswith("#"):
                 continue
             for name, j in idx.items():
@@ -48,7 +52,7 @@ def _locate_bad_cell(
                 except ValueError:
                     ok = False
                 if not ok:
-                    shown = repr(cell) if cell else "empty"
+                    shown = quote_input(cell) if cell else "empty"
                     return f"{path}: line {lineno}, column {name!r} is {shown}, expected a number"
     return f"{path}: could not parse as numbers"
 
@@ -109,7 +113,8 @@ def read_numeric_columns(
     missing = [c for c in columns if c not in header]
     if missing:
         raise LogFormatError(
-            f"{p}: missing column {missing[0]!r}; the header has {', '.join(header) or 'nothing'}"
+            f"{p}: missing column {missing[0]!r}; the header has "
+            f"{safe_terminal(shorten(', '.join(header), 200)) or 'nothing'}"
             f" but {', '.join(columns)} are expected"
         )
     try:

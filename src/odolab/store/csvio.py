@@ -64,6 +64,7 @@ from odolab.errors import ParamsError, StoreError
 from odolab.kinematics import wrap_angle
 from odolab.params import RobotParams, check_param
 from odolab.store.entry import check_position, rotation_measurement_from_compass
+from odolab.text import quote_input
 from odolab.trajectory import Pose
 from odolab.trials import Command, Measurement, MotionKind, Trial, TrialStatus
 
@@ -190,18 +191,21 @@ class _Row:
             m = _NUM_UNIT.match(cell)
             if m is None:
                 what = f"a number in {_UNIT_WORDS.get(unit, unit)}" if unit else "a number"
-                raise self.fail(column, f"{cell!r} is not a number; expected {what}") from None
+                raise self.fail(
+                    column, f"{quote_input(cell)} is not a number; expected {what}"
+                ) from None
             given = m.group(2).replace("°", "deg")
             if given != unit:
                 expected = f"{unit} ({_UNIT_WORDS.get(unit, unit)})" if unit else "no unit"
                 raise self.fail(
-                    column, f"{cell!r} has the wrong unit {given!r}; expected {expected}"
+                    column,
+                    f"{quote_input(cell)} has the wrong unit {quote_input(given)}; expected {expected}",
                 ) from None
             value = float(m.group(1))
         if not math.isfinite(value):
-            raise self.fail(column, f"{cell!r} is not a finite number")
+            raise self.fail(column, f"{quote_input(cell)} is not a finite number")
         if positive and value <= 0:
-            raise self.fail(column, f"{cell!r} must be positive")
+            raise self.fail(column, f"{quote_input(cell)} must be positive")
         return value
 
     def integer(self, column: str, *, minimum: int = 0) -> int | None:
@@ -210,7 +214,8 @@ class _Row:
             return None
         if not value.is_integer() or value < minimum:
             raise self.fail(
-                column, f"{self.cells[column].strip()!r}; expected a whole number >= {minimum}"
+                column,
+                f"{quote_input(self.cells[column].strip())}; expected a whole number >= {minimum}",
             )
         return int(value)
 
@@ -219,7 +224,7 @@ def _check_header(source: str, header: list[str]) -> None:
     seen: set[str] = set()
     for name in header:
         if name in seen:
-            raise StoreError(f"{source}: line 1, column {name!r} appears twice")
+            raise StoreError(f"{source}: line 1, column {quote_input(name)} appears twice")
         seen.add(name)
         if name in COLUMNS or (name.startswith("raw_") and len(name) > 4):
             continue
@@ -228,15 +233,17 @@ def _check_header(source: str, header: list[str]) -> None:
             good = _BASES[split[0]]
             unit = COLUMNS[good] or ""
             raise StoreError(
-                f"{source}: line 1, column {name!r} is in unit {split[1]!r}; expected "
+                f"{source}: line 1, column {quote_input(name)} is in unit {split[1]!r}; expected "
                 f"{good!r} ({_UNIT_WORDS.get(unit, unit)})"
             )
         raise StoreError(
-            f"{source}: line 1, unknown column {name!r}; see docs/notebook.md for the columns"
+            f"{source}: line 1, unknown column {quote_input(name)}; see docs/notebook.md for the columns"
         )
     for name in REQUIRED:
         if name not in seen:
-            raise StoreError(f"{source}: line 1, the required column {name!r} is missing")
+            raise StoreError(
+                f"{source}: line 1, the required column {quote_input(name)} is missing"
+            )
 
 
 def _parse_row(
@@ -249,7 +256,8 @@ def _parse_row(
         kind = MotionKind(str(kind_text))
     except ValueError:
         raise row.fail(
-            "kind", f"{kind_text!r}; expected one of {', '.join(k.value for k in MotionKind)}"
+            "kind",
+            f"{quote_input(kind_text)}; expected one of {', '.join(k.value for k in MotionKind)}",
         ) from None
     angle = row.number("angle_rad")
     command = Command(
@@ -398,7 +406,7 @@ def _parse_row(
         except ValueError:
             raise row.fail(
                 "status",
-                f"{status_text!r}; expected one of {', '.join(s.value for s in TrialStatus)}",
+                f"{quote_input(status_text)}; expected one of {', '.join(s.value for s in TrialStatus)}",
             ) from None
     if status is TrialStatus.EXCLUDED and reason is None:
         raise row.fail("exclusion_reason", "missing value (an excluded trial needs a reason)")
@@ -496,15 +504,17 @@ def read_trials_csv(
                 parsed = _parse_row(row, raw_columns, lookup_params)
                 tid = parsed.trial.trial_id
                 if tid in first_line:
-                    raise row.fail("trial_id", f"{tid!r} is a duplicate of line {first_line[tid]}")
+                    raise row.fail(
+                        "trial_id", f"{quote_input(tid)} is a duplicate of line {first_line[tid]}"
+                    )
                 if tid in known_trial_ids:
-                    raise row.fail("trial_id", f"{tid!r} is already in the notebook")
+                    raise row.fail("trial_id", f"{quote_input(tid)} is already in the notebook")
                 first_line[tid] = line
                 camp = parsed.trial.campaign
                 if known_campaigns is not None and camp not in known_campaigns:
                     raise row.fail(
                         "campaign",
-                        f"unknown campaign {camp!r}; add it first (odolab trials campaign-add) "
+                        f"unknown campaign {quote_input(camp)}; add it first (odolab trials campaign-add) "
                         "or import with --create-campaigns",
                     )
                 out.append(parsed)
