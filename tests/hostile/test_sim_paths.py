@@ -53,3 +53,14 @@ def test_a_hostile_campaign_cannot_write_outside_the_encoder_dir(
     logs = sorted(p for p in everything if p.suffix == ".csv" and p.name != "t.csv")
     assert len(logs) == 2 and all(p.parent == enc for p in logs)
     assert everything == {*logs, tmp_path / "work" / "t.csv", tmp_path / "work" / "p.toml"}
+
+
+def test_a_hostile_protocol_name_is_printed_as_text(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    proto = tmp_path / "p.toml"
+    body = PROTOCOL.format(campaign="c")
+    proto.write_text(body.replace("[protocol]\n", '[protocol]\nname = "[/]\\u001b[2J<b>"\n'))
+    assert main(["sim", "run", str(proto), "-o", str(tmp_path / "t.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "2 trials of [/]\\x1b[2J<b> (jaguar-lab" in out
