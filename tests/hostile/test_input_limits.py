@@ -137,3 +137,17 @@ def test_echoed_input_is_capped(tmp_path: Path, capsys: pytest.CaptureFixture[st
     )
     err = _fails(["trials", "import", str(trials), "--db", str(tmp_path / "lab.db")], capsys)
     assert "\x1b" not in err and "(100004 characters)' is not a number" in err
+
+
+def test_validate_refuses_a_binary_imu_log(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    enc = tmp_path / "enc.csv"
+    enc.write_text("t,left_ticks,right_ticks\n0,0,0\n0.05,1,1\n0.1,2,2\n")
+    imu = tmp_path / "phone.csv"
+    with imu.open("wb") as fh:
+        fh.truncate(GIB)
+    args = ["validate", str(enc), str(imu), "--new", "jaguar-lite"]
+    assert f"{imu}: line 1 has a NUL byte; expected a SensorLog CSV" in _fails(args, capsys)
+    imu.write_bytes(b"loggingTime(txt),motionYaw(rad)\n2024-01-01,\xb0\n")
+    assert f"{imu}: line 2 is not UTF-8 text (byte 0xb0)" in _fails(args, capsys)
