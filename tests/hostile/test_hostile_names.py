@@ -146,7 +146,10 @@ def test_an_error_message_never_carries_escape_sequences(
     db = tmp_path / "lab.db"
     with Notebook(db):
         pass
-    assert main(["trials", "show", f"nope{ANSI}{LONG}", "--db", str(db)]) == 1
+    assert (
+        main(["trials", "show", f"nope\nodolab: fake second line{ANSI}{LONG}", "--db", str(db)])
+        == 1
+    )
     err = capsys.readouterr().err
     assert "\x1b" not in err and "\x07" not in err and err.count("\n") == 1
     assert err.startswith("odolab: error: ") and len(err) < 2100
