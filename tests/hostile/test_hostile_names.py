@@ -24,6 +24,7 @@ SCRIPT = "<script>alert('x')</script>"
 IMG = '"><img src=x onerror=alert(1)>'
 ANSI = "\x1b[31mred\x1b[2J\x1b]0;owned\x07"
 LONG = "n" * 10_000
+ROBOT = f"{SCRIPT}{IMG}{ANSI}"  # a parameter-set name
 
 #: what a safe file name may contain (letters and digits of any script, - _ . + = @ ,)
 SAFE_NAME = re.compile(r"^[\w\-.+=@,]+$")
@@ -56,7 +57,7 @@ def _live_tags(html: str) -> list[str]:
 def hostile_db(tmp_path: Path) -> Path:
     """A notebook whose campaigns, terrains, trial ids, reasons and robot name are hostile."""
     rng = np.random.default_rng(5)
-    params = PRESETS["jaguar-lite"].with_(name=f"{SCRIPT}{IMG}")
+    params = PRESETS["jaguar-lite"].with_(name=ROBOT)
     rot = rotation_trials(rng, repeats_at_20pi=6)
     tra = translation_trials(rng, distances=(1.0, 2.0), repeats=4)
     trials = []
@@ -122,10 +123,12 @@ def test_trials_list_and_show_print_escape_sequences_as_text(
     assert main(["trials", "show", f"../../r3{ANSI}", "--db", str(hostile_db)]) == 0
     assert main(["notebook", "info", "--db", str(hostile_db)]) == 0
     assert main(["trials", "campaigns", "--db", str(hostile_db)]) == 0
+    assert main(["trials", "params-versions", ROBOT, "--db", str(hostile_db)]) == 0
     out = capsys.readouterr().out
     assert "\x1b" not in out and "\x07" not in out
     assert "trial ../../r3\\x1b[31mred\\x1b[2J\\x1b]0;owned\\x07" in out
     assert "status: excluded (<script>" in out
+    assert "parameters <script>alert('x')</script>\"><img src=x onerror=alert(1)>\\x1b[31m" in out
 
 
 def test_a_markup_like_terrain_does_not_break_analyze(

@@ -251,6 +251,7 @@ def calibrate_umbmark_cmd(
 def _record_version(db: Path, result: Any, base: Any, *, trials: str | None) -> None:
     """Add the calibration as a new parameter version of the robot in the notebook."""
     from odolab.store import Notebook
+    from odolab.text import safe_terminal
     from odolab.trials import MotionKind, TrialStatus
 
     with Notebook(db) as nb:
@@ -265,7 +266,7 @@ def _record_version(db: Path, result: Any, base: Any, *, trials: str | None) -> 
             source_trials=used,
             notes=str(result.provenance.get("source", "")),
         )
-    typer.echo(f"recorded in {db} as {base.name} parameters version {version}")
+    typer.echo(f"recorded in {db} as {safe_terminal(base.name)} parameters version {version}")
 
 
 def _read_umbmark_csv(path: Path) -> tuple[list[tuple[float, float]], list[tuple[float, float]]]:

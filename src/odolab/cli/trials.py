@@ -179,7 +179,7 @@ def params_add(
         v = nb.add_params_version(
             params, method=method, source_trials=source_trial or (), notes=notes
         )
-    typer.echo(f"{params.name} parameters version {v} ({method}) added to {db}")
+    typer.echo(f"{term(params.name)} parameters version {v} ({method}) added to {db}")
 
 
 @trials_app.command("params-versions")
@@ -198,9 +198,11 @@ def params_versions_cmd(
         p = v.params
         src = f" from {', '.join(v.source_trials)}" if v.source_trials else ""
         typer.echo(
-            f"v{v.version}  {v.created}  {v.method}{src}: wheel radius L/R "
-            f"{p.left_wheel_radius:g}/{p.right_wheel_radius:g} m, track {p.track_width:g} m, "
-            f"{p.ticks_per_rev:g} ticks/rev{'  - ' + v.notes if v.notes else ''}"
+            term(
+                f"v{v.version}  {v.created}  {v.method}{src}: wheel radius L/R "
+                f"{p.left_wheel_radius:g}/{p.right_wheel_radius:g} m, track {p.track_width:g} m, "
+                f"{p.ticks_per_rev:g} ticks/rev{'  - ' + v.notes if v.notes else ''}"
+            )
         )
 
 
@@ -262,7 +264,7 @@ def show_cmd(
     p = t.predicted
     typer.echo(
         f"  predicted: x {p.x:.4f} m, y {p.y:.4f} m, theta {p.theta:.4f} rad, "
-        f"heading {p.heading:.4f} rad at t {p.t:g} s; parameters {robot} v{version}"
+        f"heading {p.heading:.4f} rad at t {p.t:g} s; parameters {term(robot)} v{version}"
     )
     m = t.measured
     if m is not None:
@@ -271,7 +273,7 @@ def show_cmd(
             parts.append(f"rotation {m.rotation:.4f} rad ± {_fmt(m.sigma_rotation, '.3f')}")
         if m.x is not None:
             parts.append(f"x {m.x:.4f} y {_fmt(m.y, '.4f')} m ± {_fmt(m.sigma_xy, '.4f')}")
-        typer.echo(f"  measured ({m.instrument}): {', '.join(parts)}; raw {dict(m.raw)}")
+        typer.echo(term(f"  measured ({m.instrument}): {', '.join(parts)}; raw {dict(m.raw)}"))
     if t.true is not None:
         typer.echo(f"  true: x {t.true.x:.4f} y {t.true.y:.4f} m, heading {t.true.heading:.4f}")
     if t.encoder_log is not None:
@@ -392,12 +394,12 @@ def measure_cmd(
                 "give --replace to overwrite its measurement"
             )
         typer.echo(
-            f"trial {t.trial_id}: {t.command.describe()}; predicted {_describe_prediction(t)}"
+            term(f"trial {t.trial_id}: {t.command.describe()}; predicted {_describe_prediction(t)}")
         )
         m = _measurement(t, initial, final, turns, x, y, sigma)
         nb.set_measurement(trial_id, m, replace=replace)
         saved = nb.get_trial(trial_id)
-    typer.echo(f"trial {trial_id} measured: {_describe_measurement(saved)}")
+    typer.echo(term(f"trial {trial_id} measured: {_describe_measurement(saved)}"))
 
 
 @trials_app.command("add")
@@ -485,7 +487,8 @@ def add_cmd(
             trial = dataclasses.replace(trial, measured=m, status=TrialStatus.MEASURED)
         nb.add_trial(trial, create_campaign=create_campaign)
     typer.echo(
-        f"trial {trial_id} ({trial.command.describe()}) recorded in {db}: {trial.status.value}"
+        f"trial {term(trial_id)} ({trial.command.describe()}) recorded in {db}: "
+        f"{trial.status.value}"
     )
 
 
@@ -508,7 +511,7 @@ def include_cmd(
     """Undo an exclusion."""
     with _open(db) as nb:
         nb.include_trial(trial_id)
-    typer.echo(f"trial {trial_id} included again")
+    typer.echo(f"trial {term(trial_id)} included again")
 
 
 @trials_app.command("import")
