@@ -15,6 +15,7 @@ from odolab.cli import (  # noqa: F401  (register commands)
     evaluate,
     lab,
     robot,
+    serve,
     sim,
     trials,
     validate,

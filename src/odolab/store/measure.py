@@ -114,7 +114,7 @@ def build_measurement(
             final,  # type: ignore[arg-type]
             turns,  # type: ignore[arg-type]
             commanded_angle=t.command.angle,
-            direction=direction,
+            direction=direction,  # type: ignore[arg-type]
             sigma_reading_rad=sigma or COMPASS_SIGMA_RAD,  # type: ignore[arg-type]
         )
     distance = t.command.distance if t.command.kind.value == "translation" else None
