@@ -215,9 +215,7 @@ def test_upload_is_size_limited_and_validated(lab_db: Path, tmp_path: Path) -> N
     )
     assert bad.status_code == 400
     # the message names the upload (made safe), never a path on the server
-    assert (
-        "passwd.csv: " in bad.text and "/tmp" not in bad.text and "odolab-upload" not in bad.text
-    )
+    assert "passwd.csv: " in bad.text and "/tmp" not in bad.text and "odolab-upload" not in bad.text
     with Notebook(lab_db) as nb:
         assert len(nb.trial_ids()) == 10
 

@@ -531,7 +531,7 @@ def write_report(
     (out / "results.json").write_text(json.dumps(results, indent=2), encoding="utf-8")
     env = jinja2.Environment(
         loader=jinja2.PackageLoader("odolab.report", "templates"),
-        autoescape=jinja2.select_autoescape(["html"]),
+        autoescape=jinja2.select_autoescape(["html", "html.j2"]),  # the template is .html.j2
         undefined=jinja2.StrictUndefined,
     )
     env.filters["fmt"] = _fmt
