@@ -173,6 +173,14 @@ def _safe_upload_name(filename: str | None) -> str:
     return name or "upload.csv"
 
 
+def _status_of(err: StoreError) -> int:
+    """404 for an unknown trial, 409 for a measurement that needs ``replace``, else 400."""
+    text = str(err)
+    if text.startswith("no trial "):
+        return 404
+    return 409 if " is already measured " in text else 400
+
+
 class _FormError(Exception):
     """A form post refused before it reached the notebook (no CSRF token...)."""
 
@@ -629,17 +637,19 @@ def create_app(settings: ServeSettings) -> Starlette:
             replace = body.get("replace", False)
             if not isinstance(replace, bool):
                 raise StoreError(f"replace is {replace!r}; expected true or false")
-            await in_notebook(lambda nb: nb.get_trial(trial_id))
         except StoreError as err:
-            return error_json(err, 404 if str(err).startswith("no trial ") else 400)
+            return error_json(err)
         readings = {k: body.get(k) for k in _MEASUREMENT_KEYS if k != "replace"}
-        try:
-            saved = await in_notebook(
-                lambda nb: record_measurement(nb, trial_id, **readings, replace=replace)
-            )
-        except StoreError as err:
-            return error_json(err, 409 if "already measured" in str(err) else 400)
-        return JSONResponse(_trial_json(saved))
+
+        def save(nb: Notebook) -> tuple[int, dict[str, Any]]:
+            try:
+                saved = record_measurement(nb, trial_id, **readings, replace=replace)
+            except StoreError as err:
+                return _status_of(err), {"error": str(err)}
+            return 200, _trial_json(saved)
+
+        status, out = await in_notebook(save)
+        return JSONResponse(out, status_code=status)
 
     async def api_exclude(request: Request) -> Response:
         trial_id = request.path_params["trial_id"]
@@ -651,7 +661,7 @@ def create_app(settings: ServeSettings) -> Starlette:
             await in_notebook(lambda nb: nb.exclude_trial(trial_id, reason))
             return JSONResponse(_trial_json(await in_notebook(lambda nb: nb.get_trial(trial_id))))
         except StoreError as err:
-            return error_json(err, 404 if str(err).startswith("no trial ") else 400)
+            return error_json(err, _status_of(err))
 
     async def api_include(request: Request) -> Response:
         trial_id = request.path_params["trial_id"]
@@ -660,7 +670,7 @@ def create_app(settings: ServeSettings) -> Starlette:
             await in_notebook(lambda nb: nb.include_trial(trial_id))
             return JSONResponse(_trial_json(await in_notebook(lambda nb: nb.get_trial(trial_id))))
         except StoreError as err:
-            return error_json(err, 404 if str(err).startswith("no trial ") else 400)
+            return error_json(err, _status_of(err))
 
     async def api_table1(request: Request) -> Response:
         from odolab.analysis import table1
