@@ -59,6 +59,8 @@ class ServerInfo:
 
     def __init__(self, sock: socket.socket, settings: ServeSettings) -> None:
         host, port = sock.getsockname()[:2]
+        if host in ("0.0.0.0", "::"):  # every address: name this computer, as Jupyter does
+            host = socket.gethostname()
         shown = f"[{host}]" if ":" in host else host
         self.port: int = port
         self.base_url = f"http://{shown}:{port}"
