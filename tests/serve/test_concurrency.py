@@ -14,7 +14,7 @@ import httpx
 from odolab.serve import ServeSettings, run_in_thread
 from odolab.store import Notebook
 
-N = 8  # writes per writer and per kind
+N = 12  # writes per writer and per kind
 
 
 def _add_awaiting(db: Path) -> None:
@@ -29,6 +29,7 @@ CLI_WRITER = textwrap.dedent(
     import sys
     from odolab.cli import main
     db, n = sys.argv[1], int(sys.argv[2])
+    main(["trials", "show", "F1", "--db", db])  # imports done before the start
     print("ready", flush=True)
     sys.stdin.readline()  # start together with the HTTP clients
     codes = []
@@ -52,7 +53,8 @@ def test_cli_and_two_http_clients(lab_db: Path) -> None:
     )
     assert proc.stdout is not None and proc.stdin is not None
     try:
-        assert proc.stdout.readline().strip() == "ready"
+        while (line := proc.stdout.readline().strip()) != "ready":
+            assert line, "the CLI writer stopped before it was ready"
         statuses: dict[str, list[int]] = {"A": [], "B": []}
         with run_in_thread(ServeSettings(db=lab_db)) as info:
             start = threading.Barrier(2)
