@@ -250,22 +250,12 @@ def calibrate_umbmark_cmd(
 
 def _record_version(db: Path, result: Any, base: Any, *, trials: str | None) -> None:
     """Add the calibration as a new parameter version of the robot in the notebook."""
+    from odolab.calibration.record import record_calibration
     from odolab.store import Notebook
     from odolab.text import safe_terminal
-    from odolab.trials import MotionKind, TrialStatus
 
     with Notebook(db) as nb:
-        used = [
-            t.trial_id
-            for t in nb.load_trials(status=TrialStatus.MEASURED, with_logs=False)
-            if trials == "all" or (trials == "squares" and t.command.kind is MotionKind.SQUARE)
-        ]
-        version = nb.add_params_version(
-            result.params.with_(name=base.name),
-            method=result.method,
-            source_trials=used,
-            notes=str(result.provenance.get("source", "")),
-        )
+        version = record_calibration(nb, result, base, trials=trials)  # type: ignore[arg-type]
     typer.echo(f"recorded in {db} as {safe_terminal(base.name)} parameters version {version}")
 
 

@@ -536,7 +536,7 @@ def write_report(
     (out / "results.json").write_text(json.dumps(results, indent=2), encoding="utf-8")
     env = jinja2.Environment(
         loader=jinja2.PackageLoader("odolab.report", "templates"),
-        # the template is report.html.j2: select_autoescape(["html"]) never matched its ".j2"
+        # every template escaped (report.html.j2's ".j2" never matched select_autoescape(["html"]))
         autoescape=True,
         undefined=jinja2.StrictUndefined,
     )
