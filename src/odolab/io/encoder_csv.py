@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 from odolab.encoders import as_tick_array
 from odolab.errors import LogFormatError
 from odolab.io._table import data_line_numbers
+from odolab.io.limits import check_columns_unique, check_text_file, first_line_cells
 from odolab.io.tabular import read_columns, read_header, table_format, write_columns
 from odolab.trajectory import check_times
 from odolab.trials import EncoderLog
@@ -53,6 +54,9 @@ def read_encoder_csv(path: str | Path, *, modulus: int | None = None) -> Encoder
     if p.exists() and not p.is_file():
         raise LogFormatError(f"{p}: is not a file (a folder?); expected an encoder log CSV")
     text = table_format(p) == "csv"
+    if text:
+        check_text_file(p, expected="an encoder log CSV")
+        check_columns_unique(p, first_line_cells(p))
     try:
         if text:
             header = [str(c).strip() for c in pd.read_csv(p, nrows=0, encoding="utf-8-sig").columns]
@@ -64,7 +68,7 @@ def read_encoder_csv(path: str | Path, *, modulus: int | None = None) -> Encoder
         raise LogFormatError(f"{p}: empty or unreadable file; expected a header line") from err
     increments = "dticks_left" in header and "left_ticks" not in header
     cols = INCREMENTS if increments else RAW
-    data = read_columns(p, cols, integer=cols[1:])
+    data = read_columns(p, cols, integer=cols[1:], checked=True)
     t = data["t"]
     if t.size == 0:
         raise LogFormatError(f"{p}: no samples after the header")

@@ -94,12 +94,23 @@ def read_header(path: str | Path) -> list[str]:
 
 
 def _missing(p: Path, header: Sequence[str], columns: Sequence[str]) -> None:
+    from odolab.text import safe_terminal, shorten
+
     missing = [c for c in columns if c not in header]
     if missing:
         raise LogFormatError(
-            f"{p}: missing column {missing[0]!r}; the header has {', '.join(header) or 'nothing'}"
+            f"{p}: missing column {missing[0]!r}; the header has "
+            f"{safe_terminal(shorten(', '.join(header), 200)) or 'nothing'}"
             f" but {', '.join(columns)} are expected"
         )
+
+
+def _check_text(p: Path) -> None:
+    """The input limits of every text reader (:mod:`odolab.io.limits`), in one streaming pass."""
+    from odolab.io.limits import check_columns_unique, check_text_file, first_line_cells
+
+    check_text_file(p, expected="a delimited text file")
+    check_columns_unique(p, first_line_cells(p))
 
 
 def _check_finite(p: Path, out: Mapping[str, F64], where: str, offset: int = 0) -> None:
@@ -184,16 +195,21 @@ def read_columns(
     *,
     allow_nan: bool = False,
     integer: Sequence[str] = (),
+    checked: bool = False,
 ) -> dict[str, NDArray[Any]]:
     """Read the named columns of a table file as float64 arrays.
 
     Columns named in ``integer`` come back as int64 where every value is written as an integer
     (faster, exact); otherwise, as the others, float64. Every error is a
     :class:`LogFormatError` naming the file and, where there is one, the line (CSV) or row
-    (Parquet, IPC) and column.
+    (Parquet, IPC) and column. A CSV's lines are checked first (:mod:`odolab.io.limits`;
+    ``checked``: the caller already did).
     """
     p = Path(path)
     fmt = table_format(p)
+    if fmt == "csv" and not checked:
+        _check_file(p)
+        _check_text(p)
     header = read_header(p)
     _missing(p, header, columns)
     if fmt != "csv":
@@ -202,10 +218,10 @@ def read_columns(
 
     fast = _fast_csv(p, header, columns, integer)
     if fast is None:
-        return dict(read_numeric_columns(p, columns, allow_nan=allow_nan))
+        return dict(read_numeric_columns(p, columns, allow_nan=allow_nan, checked=True))
     floats = [a for a in fast.values() if a.dtype.kind == "f"]
     if not allow_nan and not all(bool(np.isfinite(a).all()) for a in floats):
-        return dict(read_numeric_columns(p, columns, allow_nan=allow_nan))  # names the line
+        return dict(read_numeric_columns(p, columns, allow_nan=allow_nan, checked=True))
     return fast
 
 
@@ -292,6 +308,9 @@ def iter_columns(
     if chunk_rows is not None and (chunk_rows < 1 or int(chunk_rows) != chunk_rows):
         raise LogFormatError(f"chunk size is {chunk_rows!r}; expected a whole number of rows >= 1")
     fmt = table_format(p)
+    if fmt == "csv":
+        _check_file(p)
+        _check_text(p)
     header = read_header(p)
     _missing(p, header, columns)
     blocks: Iterator[dict[str, F64]]
@@ -316,7 +335,7 @@ def _csv_chunks(p: Path, header: list[str], columns: Sequence[str]) -> Iterator[
                 raise _CsvRefused
             yield block
     except (_CsvRefused, LogFormatError) as err:
-        read_numeric_columns(p, columns)  # raises naming the line
+        read_numeric_columns(p, columns, checked=True)  # raises naming the line
         raise LogFormatError(  # pragma: no cover - the careful reader found nothing wrong
             f"{p}: could not be read in chunks ({err}); expected a plain numeric CSV"
         ) from err
