@@ -131,6 +131,11 @@ def _run_one(func: Callable[[T], R], item: T, label: str) -> Outcome[R]:
         return Outcome(label, None, text, type(err).__name__, _worker_name(), err)
 
 
+def _run_batch(func: Callable[[T], R], items: list[T], labels: list[str]) -> list[Outcome[R]]:
+    """Several items in one task, each with its own outcome."""
+    return [_run_one(func, item, name) for item, name in zip(items, labels, strict=True)]
+
+
 @contextmanager
 def _client(cluster: Cluster) -> Iterator[Any]:
     from distributed import Client, LocalCluster
@@ -168,12 +173,14 @@ def map_outcomes(
     progress: Progress | None = None,
     label: Callable[[T], str] = str,
     report: MapReport | None = None,
+    batch: int | None = None,
 ) -> list[Outcome[R]]:
     """``func`` on every item (in order), on ``cluster``; one :class:`Outcome` per item.
 
     ``func`` must be importable by the workers (a module-level function). ``progress(done,
     total, label)`` is called as results arrive. ``report`` (optional) is filled with where the
-    work ran, its duration and the workers lost on the way.
+    work ran, its duration and the workers lost on the way. ``batch``: items per Dask task
+    (default: up to 32, at least 4 tasks per worker).
     """
     c = cluster or Cluster()
     rep = report if report is not None else MapReport(c.describe())
@@ -194,26 +201,34 @@ def map_outcomes(
     with _client(c) as client:
         start_workers = set(client.scheduler_info().get("workers", {}))
         rep.workers_seen |= start_workers
+        # a few items per task: Dask's per-task cost (~ms) stays small beside the work; still
+        # several tasks per worker, so a lost worker's share is small and spread when recomputed
+        size = batch or max(1, min(32, total // (4 * max(1, len(start_workers)))))
+        spans = [(k, min(k + size, total)) for k in range(0, total, size)]
         futures = client.map(
-            _run_one,
-            [func] * total,
-            items,
-            labels,
+            _run_batch,
+            [func] * len(spans),
+            [list(items[a:b]) for a, b in spans],
+            [labels[a:b] for a, b in spans],
             pure=False,
-            key=[f"odolab-{os.getpid()}-{k}" for k in range(total)],
+            key=[f"odolab-{os.getpid()}-{id(items)}-{a}" for a, _ in spans],
         )
-        index = {f.key: k for k, f in enumerate(futures)}
+        index = {f.key: j for j, f in enumerate(futures)}
         results: list[Outcome[R] | None] = [None] * total
-        for done, fut in enumerate(as_completed(futures), start=1):
-            k = index[fut.key]
+        done = 0
+        for fut in as_completed(futures):
+            a, b = spans[index[fut.key]]
             try:
-                results[k] = fut.result()
+                results[a:b] = fut.result()
             except Exception as err:  # the task itself failed for good (KilledWorker, ...)
-                results[k] = Outcome(labels[k], None, _describe(err), type(err).__name__, None, err)
+                text, kind = _describe(err), type(err).__name__
+                results[a:b] = [
+                    Outcome(labels[k], None, text, kind, None, err) for k in range(a, b)
+                ]
+            done += b - a
             if progress is not None:
-                progress(done, total, labels[k])
-            if done % 64 == 0 or done == total:
-                rep.workers_seen |= set(client.scheduler_info().get("workers", {}))
+                progress(done, total, labels[b - 1])
+            rep.workers_seen |= set(client.scheduler_info().get("workers", {}))
         now = set(client.scheduler_info().get("workers", {}))
         rep.workers_seen |= {o.worker for o in results if o is not None and o.worker}
         rep.lost_workers = sorted(rep.workers_seen - now)
