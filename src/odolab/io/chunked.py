@@ -85,6 +85,10 @@ def iter_encoder_chunks(
     Increments are summed into counters that carry across chunks.
     """
     p = Path(path)
+    if table_format(p) == "csv" and p.is_file():
+        from odolab.io.limits import check_text_file
+
+        check_text_file(p, expected="an encoder log CSV")
     header = read_header(p)
     increments = "dticks_left" in header and "left_ticks" not in header
     cols = INCREMENTS if increments else RAW
