@@ -8,14 +8,14 @@ import pytest
 
 from odolab.errors import ProtocolError, RobotLinkError
 from odolab.robot.clock import SimClock
-from odolab.robot.driver import (
+from odolab.robot.jaguar.driver import (
     ChannelMap,
     CommandMode,
     DriverConfig,
     JaguarDriver,
     parse_robot_url,
 )
-from odolab.robot.protocol import (
+from odolab.robot.jaguar.protocol import (
     Decoder,
     MessageType,
     MotorSensorData,

@@ -10,7 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from odolab.errors import ProtocolError
-from odolab.robot.protocol import (
+from odolab.robot.jaguar.protocol import (
     PWM_STOP,
     Decoder,
     MessageType,

@@ -9,7 +9,7 @@ import pytest
 from odolab.errors import ProtocolError
 from odolab.params import PRESETS
 from odolab.robot.plant import IdealPlant
-from odolab.robot.protocol import (
+from odolab.robot.jaguar.protocol import (
     Decoder,
     MessageType,
     SystemCode,
@@ -18,7 +18,7 @@ from odolab.robot.protocol import (
     encode_motor_command,
     encode_system,
 )
-from odolab.robot.server import BoardConfig, Faults, VirtualJaguar
+from odolab.robot.jaguar.board import BoardConfig, Faults, VirtualJaguar
 
 from .conftest import FakePlant
 
