@@ -6,11 +6,12 @@ import struct
 
 import pytest
 
-from odolab.errors import ProtocolError, RobotLinkError
+from odolab.errors import RobotLinkError
+from odolab.robot.config import CommandMode
+from odolab.robot.errors import RobotConfigError
 from odolab.robot.clock import SimClock
 from odolab.robot.jaguar.driver import (
     ChannelMap,
-    CommandMode,
     DriverConfig,
     JaguarDriver,
     parse_robot_url,
@@ -28,19 +29,20 @@ from odolab.robot.jaguar.protocol import (
 
 
 class ScriptedTransport:
-    """Records what is sent; hands out queued datagrams on receive."""
+    """Records what is sent; hands out queued datagrams on receive, arrived at ``arrival``."""
 
-    def __init__(self) -> None:
+    def __init__(self, arrival: float = 0.0) -> None:
         self.sent: list[bytes] = []
         self.inbox: list[bytes] = []
+        self.arrival = arrival
         self.closed = False
 
     def send(self, data: bytes) -> None:
         self.sent.append(data)
 
-    def receive(self) -> list[bytes]:
+    def receive(self) -> list[tuple[bytes, float]]:
         out, self.inbox = self.inbox, []
-        return out
+        return [(d, self.arrival) for d in out]
 
     def close(self) -> None:
         self.closed = True
@@ -62,7 +64,7 @@ def test_connect_sends_ack_and_times_out() -> None:
 
 
 def test_ping_is_answered_and_sensor_parsed() -> None:
-    t = ScriptedTransport()
+    t = ScriptedTransport(arrival=2.5)  # arrived before the driver's clock (3.0) read it
     drv = JaguarDriver(t, SimClock(3.0))
     t.inbox = [
         encode_system(SystemCode.PING, des=0)
@@ -73,7 +75,7 @@ def test_ping_is_answered_and_sensor_parsed() -> None:
     assert drv.stats.pings_answered == 1
     assert decode_system(sent_packets(t)[0]) is SystemCode.ACK
     r = drv.latest
-    assert r is not None and (r.t, r.left_ticks, r.right_ticks) == (3.0, 101, 202)
+    assert r is not None and (r.t, r.left_ticks, r.right_ticks) == (2.5, 101, 202)
 
 
 def test_channel_map_and_encoder_sign() -> None:
@@ -117,9 +119,9 @@ def test_velocity_command_values_and_swapped_channels() -> None:
 
 
 def test_bad_config_and_url() -> None:
-    with pytest.raises(ProtocolError):
+    with pytest.raises(RobotConfigError):
         ChannelMap(left=0, right=0)
-    with pytest.raises(ProtocolError):
+    with pytest.raises(RobotConfigError):
         ChannelMap(left_encoder_sign=2)
     assert parse_robot_url("udp://127.0.0.1:10001") == ("127.0.0.1", 10001)
     with pytest.raises(RobotLinkError, match="udp://HOST:PORT"):

@@ -73,6 +73,7 @@ def test_hand_written_client_drives_the_virtual_jaguar() -> None:
         t_end = time.monotonic() + 1.0
         last = first[1]
         while time.monotonic() < t_end:
+            sock.sendto(frame(0x01, 6, data), server.address)  # within the command timeout
             got = unframe(sock.recv(256))
             if got is not None and got[0] == 0x7B:
                 last = got[1]

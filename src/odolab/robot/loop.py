@@ -75,6 +75,7 @@ class CycleInfo:
     command: tuple[float, float]
     phase: str  #: "moving", "settling", "holding" or "link-lost"
     lateness: float  #: s past the deadline when the cycle woke
+    data_age: float = 0.0  #: s since the newest sensor packet ARRIVED, at this cycle's wake-up
 
 
 @dataclass
@@ -341,6 +342,7 @@ class ControlLoop:
                         command,
                         shown,
                         now - deadline,
+                        now - (self.watchdog.last_feed if self.watchdog.last_feed is not None else t0),
                     )
                 )
                 k += 1
