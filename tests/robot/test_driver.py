@@ -7,9 +7,9 @@ import struct
 import pytest
 
 from odolab.errors import RobotLinkError
+from odolab.robot.clock import SimClock
 from odolab.robot.config import CommandMode
 from odolab.robot.errors import RobotConfigError
-from odolab.robot.clock import SimClock
 from odolab.robot.jaguar.driver import (
     ChannelMap,
     DriverConfig,

@@ -17,10 +17,10 @@ import pytest
 from odolab.odometry import Odometry
 from odolab.params import PRESETS
 from odolab.robot.clock import RealClock
+from odolab.robot.jaguar.board import BoardConfig, VirtualJaguar, VirtualJaguarServer
 from odolab.robot.jaguar.driver import JaguarDriver, UdpTransport
 from odolab.robot.loop import ControlLoop
 from odolab.robot.motions import Straight
-from odolab.robot.jaguar.board import BoardConfig, VirtualJaguar, VirtualJaguarServer
 from odolab.robot.session import driver_config_for
 from odolab.sim.physics import VirtualRobot
 from odolab.sim.presets import TRUTH_PRESETS

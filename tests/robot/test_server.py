@@ -6,10 +6,9 @@ import math
 
 import pytest
 
-from odolab.errors import ProtocolError
-from odolab.robot.errors import BoardConfigError
 from odolab.params import PRESETS
-from odolab.robot.plant import IdealPlant
+from odolab.robot.errors import BoardConfigError
+from odolab.robot.jaguar.board import BoardConfig, Faults, VirtualJaguar
 from odolab.robot.jaguar.protocol import (
     Decoder,
     MessageType,
@@ -19,7 +18,7 @@ from odolab.robot.jaguar.protocol import (
     encode_motor_command,
     encode_system,
 )
-from odolab.robot.jaguar.board import BoardConfig, Faults, VirtualJaguar
+from odolab.robot.plant import IdealPlant
 
 from .conftest import FakePlant
 

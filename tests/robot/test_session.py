@@ -14,8 +14,8 @@ from odolab.cli import main
 from odolab.io import read_encoder_csv, read_trajectory_csv
 from odolab.odometry import integrate
 from odolab.params import PRESETS
-from odolab.robot.plant import IdealPlant
 from odolab.robot.config import RunConfig
+from odolab.robot.plant import IdealPlant
 from odolab.robot.session import run_motion, run_motion_simulated, save_run
 from odolab.sim.plants import make_plant
 from odolab.trials import Command, MotionKind, TrialStatus
