@@ -48,7 +48,7 @@ def test_command_timeout_stops_the_motors_at_exactly_the_timeout() -> None:
     board.handle(FULL, A, 0.2)
     board.step(3.0)  # the host died after its command at 0.2 s
     assert board.wheel_speeds == (0.0, 0.0)
-    assert changes == [(0.2, "command"), (pytest.approx(0.7), "command timeout")]
+    assert changes == [(0.0, "peer"), (0.2, "command"), (pytest.approx(0.7), "command timeout")]
     # 0.5 s at V m/s, not 2.8 s
     assert plant.true_pose.x == pytest.approx(0.5 * V, abs=1e-12)
     assert board.stats.command_timeouts == 1
@@ -105,7 +105,9 @@ def test_watchdog_stop_reaches_the_board_within_watchdog_plus_one_cycle(
         plant,
         BoardConfig.from_params(NOMINAL, report_rate=report_rate, command_timeout=5.0),
         faults=Faults(silent_after=1.23),
-        on_speeds=lambda t, left, right, why: stops.append(t) if left == right == 0 else None,
+        on_speeds=lambda t, left, right, why: (
+            stops.append(t) if left == right == 0 and why == "command" else None
+        ),
     )
     clock = SimClock(0.0)
     driver = JaguarDriver(InProcessLink(board, clock.now), clock, driver_config_for(NOMINAL))

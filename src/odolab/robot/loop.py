@@ -342,7 +342,8 @@ class ControlLoop:
                         command,
                         shown,
                         now - deadline,
-                        now - (self.watchdog.last_feed if self.watchdog.last_feed is not None else t0),
+                        now
+                        - (self.watchdog.last_feed if self.watchdog.last_feed is not None else t0),
                     )
                 )
                 k += 1

@@ -192,8 +192,11 @@ class VirtualJaguar:
         on_speeds: Callable[[float, float, float, str], None] | None = None,
     ) -> None:
         self.plant = plant
-        #: called as ``on_speeds(t, left, right, why)`` whenever the wheel speeds change
+        #: called as ``on_speeds(t, left, right, why)`` whenever the wheel speeds change (why:
+        #: "command", "command timeout", "peer replaced"), and with the unchanged speeds on the
+        #: link events "peer" (a peer accepted) and "silent" (``Faults.silent_after`` began)
         self.on_speeds = on_speeds
+        self._silent_noted = False
         self.config = config or BoardConfig()
         self.faults = faults or Faults()
         self.stats = BoardStats()
@@ -242,8 +245,12 @@ class VirtualJaguar:
         if left == 0.0 and right == 0.0:
             self._pwm[LEFT_CHANNEL] = self._pwm[RIGHT_CHANNEL] = PWM_STOP
         self.plant.set_wheel_speeds(left, right)
+        self._note(why)
+
+    def _note(self, why: str, t: float | None = None) -> None:
         if self.on_speeds is not None:
-            self.on_speeds(self._now if self._now is not None else 0.0, left, right, why)
+            when = t if t is not None else (self._now if self._now is not None else 0.0)
+            self.on_speeds(when, self._speeds[0], self._speeds[1], why)
 
     @property
     def wheel_speeds(self) -> tuple[float, float]:
@@ -277,6 +284,7 @@ class VirtualJaguar:
                             self._first_ack = now
                         self._peer_heard = now
                         self._last_command = -math.inf
+                        self._note("peer", now)
                         self._report_base = self._now if self._now is not None else now
                         self._report_n = 0
                         self._next_report = self._report_base
@@ -365,6 +373,9 @@ class VirtualJaguar:
             and self._first_ack is not None
             and t >= self._first_ack + f.silent_after
         ):
+            if not self._silent_noted:
+                self._silent_noted = True
+                self._note("silent", self._first_ack + f.silent_after)
             self.stats.dropped += 1
             return
         if faults:

@@ -1,0 +1,217 @@
+"""The safety suite: the virtual Jaguar in its OWN process, the driver (the CLI) in another.
+
+Each test starts ``odolab robot sim-server --trace FILE`` (loopback, an OS-assigned port), drives
+it with ``odolab robot drive`` (or a small Python driver for the exception case), does something
+bad, and then reads, from the board's side, when its true wheel speeds went to zero. Times are
+the host's monotonic clock (``time.perf_counter`` = CLOCK_MONOTONIC on Linux), shared by both
+processes. Bounds (docs/robot.md, "Safety"): W = watchdog 0.5 s, P = one cycle 0.05 s, C =
+board command timeout 0.5 s, plus SLACK for scheduling both processes on a loaded machine.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+from odolab.robot.jaguar.protocol import SystemCode, encode_system
+
+pytestmark = pytest.mark.skipif(sys.platform != "linux", reason="needs a shared monotonic clock")
+
+W, P, C = 0.5, 0.05, 0.5
+SLACK = 0.15
+ODOLAB = [sys.executable, "-m", "odolab.cli"]
+
+
+@dataclass
+class Board:
+    proc: subprocess.Popen[str]
+    port: int
+    trace: Path
+
+    def lines(self) -> list[tuple[float, float, float, str]]:
+        out = []
+        for line in self.trace.read_text().splitlines():
+            if line and not line.startswith("#"):
+                t, left, right, why = line.split()
+                out.append((float(t), float(left), float(right), why))
+        return out
+
+    def summary(self) -> dict[str, int]:
+        for line in self.trace.read_text().splitlines():
+            if line.startswith("# received"):
+                words = line[2:].split()
+                return {k: int(v) for k, v in zip(words[::2], words[1::2], strict=True)}
+        raise AssertionError("the board wrote no summary")
+
+    def moving(self) -> bool:
+        rows = self.lines()
+        return bool(rows) and (rows[-1][1], rows[-1][2]) != (0.0, 0.0)
+
+    def stopped_at(self, after: float) -> float:
+        """When the wheels last went to zero (and stayed there), at or after ``after``."""
+        rows = self.lines()
+        assert rows and (rows[-1][1], rows[-1][2]) == (0.0, 0.0), rows[-3:]
+        last_move = max(i for i, r in enumerate(rows) if (r[1], r[2]) != (0.0, 0.0))
+        stop = next(r for r in rows[last_move + 1 :] if (r[1], r[2]) == (0.0, 0.0))
+        assert stop[0] >= after - 1e-3
+        return stop[0]
+
+
+@contextmanager
+def board(tmp_path: Path, *extra: str) -> Iterator[Board]:
+    trace = tmp_path / "board.trace"
+    proc = subprocess.Popen(
+        [*ODOLAB, "robot", "sim-server", "--port", "0", "--truth", "ideal"]
+        + ["--trace", str(trace), "--command-timeout", str(C), *extra],
+        stderr=subprocess.PIPE,
+        stdout=subprocess.DEVNULL,
+        text=True,
+    )
+    try:
+        assert proc.stderr is not None
+        line = proc.stderr.readline()
+        m = re.search(r"udp://127\.0\.0\.1:(\d+)", line)
+        assert m, line
+        yield Board(proc, int(m.group(1)), trace)
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        try:
+            proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:  # pragma: no cover - a hung board
+            proc.kill()
+            proc.wait()
+
+
+def drive(b: Board, tmp_path: Path, *extra: str) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [*ODOLAB, "robot", "drive", "--robot", f"udp://127.0.0.1:{b.port}", "--quiet"]
+        + ["--no-realtime", "--out", str(tmp_path / "run"), *extra],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+def wait_moving(b: Board, seconds: float = 0.5, timeout: float = 20.0) -> None:
+    """Until the board has been driving for ``seconds``."""
+    end = time.perf_counter() + timeout
+    while time.perf_counter() < end:
+        if b.moving() and time.perf_counter() - b.lines()[-1][0] >= seconds:
+            return
+        time.sleep(0.02)
+    raise AssertionError("the robot never started moving")
+
+
+def test_lost_link_stops_within_watchdog_plus_one_cycle(tmp_path: Path) -> None:
+    with board(tmp_path, "--silent-after", "1.5") as b:
+        drv = drive(b, tmp_path, "--distance", "5", "--speed", "0.5", "--link-timeout", "1")
+        _out, err = drv.communicate(timeout=60)
+    silent = next(r[0] for r in b.lines() if r[3] == "silent")
+    stop = b.stopped_at(silent)
+    assert stop - silent <= W + P + SLACK, (stop - silent, err)
+    assert drv.returncode == 1 and "--link-timeout 1 s" in err
+    assert "does not confirm that it stopped" in err
+    assert (tmp_path / "run" / "run.json").exists()
+
+
+def test_ctrl_c_stops_within_one_cycle(tmp_path: Path) -> None:
+    with board(tmp_path) as b:
+        drv = drive(b, tmp_path, "--distance", "5", "--speed", "0.5")
+        wait_moving(b)
+        t_int = time.perf_counter()
+        drv.send_signal(signal.SIGINT)
+        _out, err = drv.communicate(timeout=30)
+    stop = b.stopped_at(t_int)
+    assert stop - t_int <= P + SLACK, stop - t_int
+    assert drv.returncode == 130
+    assert "robot stopped (its sensor data confirms it)" in err
+    assert (tmp_path / "run" / "run.json").exists()
+
+
+DRIVER_WITH_A_BUG = """
+import sys, time
+from odolab.robot.config import RunConfig
+from odolab.robot.session import run_motion
+from odolab.trials import Command, MotionKind
+
+def bug(info):
+    if info.index == 30:
+        print(time.perf_counter(), flush=True)
+        raise RuntimeError("a bug in the caller")
+
+run_motion(Command(MotionKind.TRANSLATION, distance=5.0, speed=0.5),
+           robot=sys.argv[1], on_cycle=bug)
+"""
+
+
+def test_an_exception_stops_at_once(tmp_path: Path) -> None:
+    with board(tmp_path) as b:
+        drv = subprocess.run(
+            [sys.executable, "-c", DRIVER_WITH_A_BUG, f"udp://127.0.0.1:{b.port}"],
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+    t_raise = float(drv.stdout.split()[0])
+    stop = b.stopped_at(t_raise)
+    assert stop - t_raise <= SLACK, stop - t_raise
+    assert drv.returncode != 0 and "a bug in the caller" in drv.stderr
+
+
+def test_kill_9_of_the_driver_stops_within_the_command_timeout(tmp_path: Path) -> None:
+    with board(tmp_path) as b:
+        drv = drive(b, tmp_path, "--distance", "5", "--speed", "0.5")
+        wait_moving(b)
+        t_kill = time.perf_counter()
+        os.kill(drv.pid, signal.SIGKILL)
+        drv.wait(timeout=10)
+        time.sleep(C + 0.3)
+    rows = b.lines()
+    stop = b.stopped_at(t_kill)
+    assert rows[-1][3] == "command-timeout"
+    assert stop - t_kill <= C + SLACK, stop - t_kill
+    assert b.summary()["command_timeouts"] == 1
+
+
+def test_a_second_clients_ack_does_not_take_the_board(tmp_path: Path) -> None:
+    with board(tmp_path) as b:
+        drv = drive(b, tmp_path, "--distance", "1", "--speed", "0.5")
+        wait_moving(b, 0.3)
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+            sock.sendto(encode_system(SystemCode.ACK), ("127.0.0.1", b.port))
+            t_ack = time.perf_counter()
+            sock.settimeout(0.5)
+            with pytest.raises(TimeoutError):
+                sock.recv(2048)  # the stranger gets no sensor data
+        _out, err = drv.communicate(timeout=60)
+    assert drv.returncode == 0, err
+    assert "robot stopped (its sensor data confirms it)" in err
+    summary = b.summary()
+    assert summary["rejected_acks"] == 1 and summary["takeovers"] == 0
+    rows = b.lines()
+    stop = b.stopped_at(t_ack)
+    assert rows[-1][3] == "command" and stop > t_ack  # the driver's own stop at the end
+    assert sum(1 for r in rows if r[3] == "peer") == 1
+
+
+@pytest.mark.parametrize(
+    ("option", "value"), [("--max-wheel-speed", "-1"), ("--rate", "0.2"), ("--speed", "0")]
+)
+def test_invalid_option_sends_nothing(tmp_path: Path, option: str, value: str) -> None:
+    with board(tmp_path) as b:
+        drv = drive(b, tmp_path, "--distance", "0.3", option, value)
+        _out, err = drv.communicate(timeout=60)
+        time.sleep(0.2)
+    assert drv.returncode == 1 and option in err and err.count("\n") == 1
+    assert b.summary()["received"] == 0 and b.lines() == []
