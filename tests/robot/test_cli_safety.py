@@ -87,8 +87,17 @@ def test_invalid_option_is_refused_before_anything_is_sent(
     port = listener.getsockname()[1]
     out = tmp_path / "run"
     code = main(
-        ["robot", command, option, value, "--robot", f"udp://127.0.0.1:{port}", "--quiet"]
-        + ["--out", str(out)]
+        [
+            "robot",
+            command,
+            option,
+            value,
+            "--robot",
+            f"udp://127.0.0.1:{port}",
+            "--quiet",
+            "--out",
+            str(out),
+        ]
     )
     err = capsys.readouterr().err
     assert code == 1
@@ -137,8 +146,22 @@ def test_dead_board_quiet_cli_gives_up_after_link_timeout(
     out = tmp_path / "run"
     t0 = time.perf_counter()
     code = main(
-        ["robot", "drive", "--distance", "5", "--speed", "0.5", "--robot", f"udp://{host}:{port}"]
-        + ["--quiet", "--link-timeout", "1", "--out", str(out), "--no-realtime"]
+        [
+            "robot",
+            "drive",
+            "--distance",
+            "5",
+            "--speed",
+            "0.5",
+            "--robot",
+            f"udp://{host}:{port}",
+            "--quiet",
+            "--link-timeout",
+            "1",
+            "--out",
+            str(out),
+            "--no-realtime",
+        ]
     )
     elapsed = time.perf_counter() - t0
     err = capsys.readouterr().err
@@ -172,9 +195,20 @@ def test_second_clients_ack_does_not_take_the_board_during_a_cli_run(
     thread.start()
     try:
         code = main(
-            ["robot", "drive", "--distance", "0.6", "--speed", "0.5"]
-            + ["--robot", f"udp://{host}:{port}", "--quiet", "--out", str(tmp_path / "r")]
-            + ["--no-realtime"]
+            [
+                "robot",
+                "drive",
+                "--distance",
+                "0.6",
+                "--speed",
+                "0.5",
+                "--robot",
+                f"udp://{host}:{port}",
+                "--quiet",
+                "--out",
+                str(tmp_path / "r"),
+                "--no-realtime",
+            ]
         )
     finally:
         done.set()

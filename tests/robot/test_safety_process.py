@@ -72,8 +72,20 @@ class Board:
 def board(tmp_path: Path, *extra: str) -> Iterator[Board]:
     trace = tmp_path / "board.trace"
     proc = subprocess.Popen(
-        [*ODOLAB, "robot", "sim-server", "--port", "0", "--truth", "ideal"]
-        + ["--trace", str(trace), "--command-timeout", str(C), *extra],
+        [
+            *ODOLAB,
+            "robot",
+            "sim-server",
+            "--port",
+            "0",
+            "--truth",
+            "ideal",
+            "--trace",
+            str(trace),
+            "--command-timeout",
+            str(C),
+            *extra,
+        ],
         stderr=subprocess.PIPE,
         stdout=subprocess.DEVNULL,
         text=True,
@@ -95,8 +107,18 @@ def board(tmp_path: Path, *extra: str) -> Iterator[Board]:
 
 def drive(b: Board, tmp_path: Path, *extra: str) -> subprocess.Popen[str]:
     return subprocess.Popen(
-        [*ODOLAB, "robot", "drive", "--robot", f"udp://127.0.0.1:{b.port}", "--quiet"]
-        + ["--no-realtime", "--out", str(tmp_path / "run"), *extra],
+        [
+            *ODOLAB,
+            "robot",
+            "drive",
+            "--robot",
+            f"udp://127.0.0.1:{b.port}",
+            "--quiet",
+            "--no-realtime",
+            "--out",
+            str(tmp_path / "run"),
+            *extra,
+        ],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
