@@ -17,6 +17,8 @@ from odolab.robot.jaguar.driver import (
     parse_robot_url,
 )
 from odolab.robot.jaguar.protocol import (
+    STOP_PWM,
+    STOP_VELOCITY,
     Decoder,
     MessageType,
     MotorSensorData,
@@ -138,3 +140,42 @@ def test_close_stops_and_closes() -> None:
     drv.close()
     assert t.closed
     assert decode_motor_command(sent_packets(t)[-1]).values[:2] == (16384, 16384)
+
+
+@pytest.mark.parametrize("mode", [CommandMode.PWM, CommandMode.VELOCITY])
+@pytest.mark.parametrize("swap", [False, True])
+@pytest.mark.parametrize("signs", [(1, 1), (-1, 1), (1, -1), (-1, -1)])
+@pytest.mark.parametrize("vmax", [0.01, 1.0, 3.0])
+def test_stop_is_one_fixed_packet_whatever_the_settings(
+    mode: CommandMode, swap: bool, signs: tuple[int, int], vmax: float
+) -> None:
+    t = ScriptedTransport()
+    cfg = DriverConfig(
+        mode=mode,
+        max_wheel_speed=vmax,
+        channels=ChannelMap(
+            left=int(swap),
+            right=1 - int(swap),
+            left_motor_sign=signs[0],
+            right_motor_sign=signs[1],
+            left_encoder_sign=signs[1],
+            right_encoder_sign=signs[0],
+        ),
+    )
+    drv = JaguarDriver(t, SimClock(), cfg)
+    drv.set_wheel_speeds(0.7, -0.2)
+    drv.stop()
+    drv.close()
+    fixed = STOP_PWM if mode is CommandMode.PWM else STOP_VELOCITY
+    assert t.sent[1] == fixed and t.sent[2] == fixed
+    cmd = decode_motor_command(sent_packets(t)[1])
+    # hand-written values: PWM 16384 (stop) or velocity 0 on both track channels
+    assert cmd.values == ((16384, 16384) if mode is CommandMode.PWM else (0, 0)) + (None,) * 4
+
+
+def test_stop_packets_byte_for_byte() -> None:
+    # DES 01, SN 00, TYPE 06 / 1b, LEN 0c, values LE; CRC from the fact sheet's rule
+    assert STOP_PWM[:6] == bytes.fromhex("5e 02 01 00 06 0c")
+    assert STOP_PWM[6:18] == bytes.fromhex("0040 0040 0080 0080 0080 0080")
+    assert STOP_VELOCITY[4] == 27 and STOP_VELOCITY[6:10] == b"\x00\x00\x00\x00"
+    assert STOP_PWM[-2:] == STOP_VELOCITY[-2:] == b"\x5e\x0d"

@@ -366,15 +366,21 @@ class Decoder:
     an incomplete packet at its end counts as a bad length).
 
     ``destinations``: the DES bytes accepted (default: the PC 0x00 and the board 0x01; a driver
-    passes only ``{DES_PC}``, a board only ``{DES_BOARD}``). Only known message types
-    (:class:`MessageType`) are accepted. Everything else is counted and skipped byte by byte, so
+    passes only ``{DES_PC}``, a board only ``{DES_BOARD}``). ``types``: the TYPE bytes accepted
+    (default: the known message types, :class:`MessageType`; benchmarks pass all 256 to
+    measure the permissive decoder this one replaced). Everything else is counted and skipped byte by byte, so
     a fake STX in garbage can swallow a real packet only if its DES, TYPE, LEN, ETX and CRC all
     happen to be valid.
     """
 
-    def __init__(self, destinations: frozenset[int] | set[int] | None = None) -> None:
+    def __init__(
+        self,
+        destinations: frozenset[int] | set[int] | None = None,
+        types: frozenset[int] | set[int] | None = None,
+    ) -> None:
         self.stats = DecodeStats()
         self.destinations = _KNOWN_DESTINATIONS if destinations is None else frozenset(destinations)
+        self.types = _KNOWN_TYPES if types is None else frozenset(types)
         self._buf = bytearray()
 
     def reset(self) -> None:
@@ -420,7 +426,7 @@ class Decoder:
                 pos += 1
                 continue
             msg_type = buf[pos + 4]
-            if msg_type not in _KNOWN_TYPES:
+            if msg_type not in self.types:
                 st.unknown_type += 1
                 pos += 1
                 continue
