@@ -220,3 +220,41 @@ def test_second_clients_ack_does_not_take_the_board_during_a_cli_run(
     assert "robot stopped (its sensor data confirms it)" in captured.err
     assert board_server.call(lambda b: b.wheel_speeds) == (0.0, 0.0)
     assert board_server.call(lambda b: b.plant.true_pose.x) == pytest.approx(0.6, abs=0.06)
+
+
+class StuckPlant(IdealPlant):
+    """A robot whose tracks do not turn (lifted, blocked, or a board ignoring the commands)."""
+
+    def advance(self, duration: float) -> None:
+        self._t += duration
+
+
+def test_commands_without_effect_abort_the_cli_run(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    board = VirtualJaguar(StuckPlant(NOMINAL), BoardConfig.from_params(NOMINAL))
+    with VirtualJaguarServer(board, "127.0.0.1", 0) as server:
+        host, port = server.address
+        code = main(
+            [
+                "robot",
+                "drive",
+                "--distance",
+                "1",
+                "--robot",
+                f"udp://{host}:{port}",
+                "--quiet",
+                "--stall-timeout",
+                "0.5",
+                "--out",
+                str(tmp_path / "r"),
+                "--no-realtime",
+            ]
+        )
+        speeds = server.call(lambda b: b.wheel_speeds)
+    err = capsys.readouterr().err
+    assert code == 1
+    assert "have not moved for 0.5 s" in err
+    assert speeds == (0.0, 0.0)
+    # the counters never moved, so two equal reports after the stop confirm it honestly
+    assert "robot stopped (its sensor data confirms it)" in err

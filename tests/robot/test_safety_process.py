@@ -242,3 +242,19 @@ def test_invalid_option_sends_nothing(tmp_path: Path, option: str, value: str) -
         time.sleep(0.2)
     assert drv.returncode == 1 and option in err and err.count("\n") == 1
     assert b.summary()["received"] == 0 and b.lines() == []
+
+
+def test_ctrl_c_on_a_silent_board_does_not_claim_a_stop(tmp_path: Path) -> None:
+    with board(tmp_path, "--silent-after", "1.0") as b:
+        drv = drive(b, tmp_path, "--distance", "5", "--speed", "0.5", "--link-timeout", "30")
+        end = time.perf_counter() + 30
+        while not any(r[3] == "silent" for r in b.lines()) and time.perf_counter() < end:
+            time.sleep(0.05)
+        time.sleep(1.0)  # the driver has lost the link and is commanding stop every cycle
+        drv.send_signal(signal.SIGINT)
+        _out, err = drv.communicate(timeout=30)
+    assert drv.returncode == 130
+    assert "link lost" in err
+    assert "robot stopped (" not in err and "does not confirm that it stopped" in err
+    # (the stops did reach the board: it is still, but the driver could not know)
+    assert b.final_stop()[1] == "command"

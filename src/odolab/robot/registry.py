@@ -23,9 +23,9 @@ from odolab.robot.interface import Driver
 from odolab.robot.plant import PlantFactory
 from odolab.trajectory import Pose
 
-__all__ = ["DEFAULT_ROBOT", "LINKS", "LinkOpener", "RobotLink", "VirtualSpec", "open_link"]
+__all__ = ["DEFAULT_ROBOT_URL", "LINKS", "LinkOpener", "RobotLink", "VirtualSpec", "open_link"]
 
-DEFAULT_ROBOT = "sim://"
+DEFAULT_ROBOT_URL = "sim://"
 
 
 @dataclass(frozen=True)
@@ -76,7 +76,7 @@ LINKS: dict[str, LinkOpener] = {"udp": _jaguar_udp, "sim": _jaguar_virtual}
 
 def check_robot_url(url: str | None) -> str:
     """The URL (``sim://`` for None) if its scheme is registered; else :class:`RobotUrlError`."""
-    url = DEFAULT_ROBOT if url is None else url
+    url = DEFAULT_ROBOT_URL if url is None else url
     scheme = urlparse(url).scheme
     if scheme not in LINKS:
         raise RobotUrlError(
