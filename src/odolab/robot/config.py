@@ -58,9 +58,15 @@ def check_bound(bound: Bound, value: float) -> float:
     inside = math.isfinite(v) and (v > bound.lo if bound.lo_open else v >= bound.lo)
     if not (inside and v <= bound.hi):
         raise RobotConfigError(
-            f"{bound.option} is {value!r}; expected a number in {bound.describe()}"
+            f"{bound.option} is {_show(value)}; expected a number in {bound.describe()}"
         )
     return v
+
+
+def _show(value: object) -> str:
+    if isinstance(value, float | int) and not isinstance(value, bool):
+        return f"{value:g}"
+    return repr(value)
 
 
 #: The physical bounds of every numeric setting (field name -> bound). Rates below 5 Hz would
