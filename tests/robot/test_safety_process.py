@@ -261,9 +261,15 @@ def test_ctrl_c_on_a_silent_board_does_not_claim_a_stop(tmp_path: Path) -> None:
     with board(tmp_path, "--silent-after", "1.0") as b:
         drv = drive(b, tmp_path, "--distance", "5", "--speed", "0.5", "--link-timeout", "30")
         end = time.perf_counter() + 30
-        while not any(r[3] == "silent" for r in b.lines()) and time.perf_counter() < end:
+
+        def driver_stopped_after_silence() -> bool:
+            rows = b.lines()
+            i = next((k for k, r in enumerate(rows) if r[3] == "silent"), None)
+            return i is not None and any(r[3] == "command" for r in rows[i:])
+
+        while not driver_stopped_after_silence() and time.perf_counter() < end:
             time.sleep(0.05)
-        time.sleep(1.0)  # the driver has lost the link and is commanding stop every cycle
+        time.sleep(0.3)  # the driver has lost the link and is commanding stop every cycle
         drv.send_signal(signal.SIGINT)
         _out, err = drv.communicate(timeout=30)
     assert drv.returncode == 130
