@@ -10,9 +10,12 @@ from __future__ import annotations
 __all__ = [
     "CalibrationError",
     "EncoderJumpError",
+    "ExperimentError",
     "ImuLogError",
     "InsufficientDataError",
+    "InvalidTrialError",
     "LogFormatError",
+    "MeasurementError",
     "OdolabError",
     "ParamsError",
     "ProtocolError",
@@ -64,3 +67,23 @@ class CalibrationError(OdolabError):
 
 class ImuLogError(LogFormatError):
     """An IMU (SensorLog) log is malformed or does not overlap the encoder log."""
+
+
+class InvalidTrialError(StoreError):
+    """A trial record has a missing, malformed or implausible value.
+
+    ``field`` names the trial-record field (:data:`odolab.trials.TRIAL_FIELDS`) at fault, when
+    there is one, so that an importer can name its own column or key for it.
+    """
+
+    def __init__(self, message: str, field: str | None = None) -> None:
+        super().__init__(message)
+        self.field = field
+
+
+class MeasurementError(StoreError):
+    """Instrument readings (compass, turns, meterstick) are refused."""
+
+
+class ExperimentError(SimError):
+    """An experiment (protocol, trial set, campaign request) is invalid before anything runs."""

@@ -292,7 +292,7 @@ def _measurement(
         rotation_measurement_from_compass,
         translation_measurement,
     )
-    from odolab.store.entry import check_compass_reading
+    from odolab.measurement import check_compass_reading
 
     def ask_compass(text: str) -> float:
         while True:

@@ -10,7 +10,7 @@ See docs/notebook.md for the CLI (``odolab trials ...``, ``odolab notebook ...``
 
 from odolab.store.codec import decode_log, encode_log
 from odolab.store.csvio import read_trials_csv, write_trials_csv
-from odolab.store.entry import (
+from odolab.measurement import (
     COMPASS_SIGMA_RAD,
     METERSTICK_SIGMA_M,
     rotation_from_compass,
