@@ -15,7 +15,6 @@ __all__ = [
     "InsufficientDataError",
     "InvalidTrialError",
     "LogFormatError",
-    "MeasurementError",
     "OdolabError",
     "ParamsError",
     "ProtocolError",
@@ -79,10 +78,6 @@ class InvalidTrialError(StoreError):
     def __init__(self, message: str, field: str | None = None) -> None:
         super().__init__(message)
         self.field = field
-
-
-class MeasurementError(StoreError):
-    """Instrument readings (compass, turns, meterstick) are refused."""
 
 
 class ExperimentError(SimError):

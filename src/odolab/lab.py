@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from odolab.defaults import DEFAULT_ROBOT, DEFAULT_TRUTH
 from odolab.errors import OdolabError
 from odolab.params import PRESETS, RobotParams, save_params
 from odolab.trials import Command, Measurement, MotionKind, Trial, TrialStatus
@@ -196,7 +197,7 @@ def run_lab(
     out: str | Path = "odolab-out",
     *,
     seed: int | None = None,
-    truth: str = "jaguar-lab",
+    truth: str = DEFAULT_TRUTH,
     nominal: RobotParams | None = None,
     square_side: float = 4.0,
     square_runs: int = 5,
@@ -220,7 +221,7 @@ def run_lab(
     from odolab.validation import simulate_phone_log, validate, write_sensorlog
     from odolab.validation.compare import plot_validation
 
-    nominal = nominal or PRESETS["jaguar-lite"]
+    nominal = nominal or PRESETS[DEFAULT_ROBOT]
     seed = LAB_REPORT_SEED if seed is None else seed
     if seed < 0:
         raise OdolabError(f"seed is {seed}; expected an integer >= 0")
@@ -246,7 +247,7 @@ def run_lab(
         true_params,
         nominal,
         seed=seed,
-        progress=lambda d, t: progress("campaign", d, t),
+        progress=lambda d, t, _what: progress("campaign", d, t),
     )
     _record(nb, campaign)
 
@@ -354,7 +355,7 @@ def run_lab(
         true_params,
         by_ratio.params,
         seed=seed,
-        progress=lambda d, t: progress("re-run", d, t),
+        progress=lambda d, t, _what: progress("re-run", d, t),
     )
     after = analyze_trials(rerun)
     after_ratios: dict[str, float] = {}

@@ -19,9 +19,9 @@ Each reading has a standard uncertainty ``sigma_reading_rad`` (0.05 rad by defau
 report's compass figure); the difference of two readings has ``sqrt(2)`` times that. The whole
 turns are counted, hence exact.
 
-Every refusal is an :class:`~odolab.errors.MeasurementError` (a
-:class:`~odolab.errors.StoreError`) whose message says what was wrong. (This module was
-``odolab.store.entry``; the notebook stores measurements, this is how they are made.)
+Every refusal is an :class:`~odolab.errors.StoreError` whose message says what was wrong.
+(This module was ``odolab.store.entry``, which still re-exports it: the notebook stores
+measurements; this core module is how they are made from readings.)
 """
 
 from __future__ import annotations
@@ -29,11 +29,12 @@ from __future__ import annotations
 import math
 from typing import Literal
 
-from odolab.errors import MeasurementError
+from odolab.errors import StoreError
 from odolab.trials import MAX_POSITION_M, Measurement
 
 __all__ = [
     "COMPASS_SIGMA_RAD",
+    "MAX_POSITION_M",
     "METERSTICK_SIGMA_M",
     "check_compass_reading",
     "check_reading",
@@ -49,15 +50,15 @@ METERSTICK_SIGMA_M = 0.005
 
 
 def check_reading(value: object, name: str) -> float:
-    """``value`` as a finite float, or a :class:`MeasurementError` naming ``name``."""
+    """``value`` as a finite float, or a :class:`StoreError` naming ``name``."""
     if isinstance(value, bool):
-        raise MeasurementError(f"{name} must be a number, got {value!r}")
+        raise StoreError(f"{name} must be a number, got {value!r}")
     try:
         x = float(value)  # type: ignore[arg-type]
     except (TypeError, ValueError) as err:
-        raise MeasurementError(f"{name} must be a number, got {value!r}") from err
+        raise StoreError(f"{name} must be a number, got {value!r}") from err
     if not math.isfinite(x):
-        raise MeasurementError(f"{name} must be a finite number, got {value!r}")
+        raise StoreError(f"{name} must be a finite number, got {value!r}")
     return x
 
 
@@ -65,7 +66,7 @@ def check_compass_reading(value: object, name: str = "compass reading") -> float
     """``value`` (deg) as a float if it is a compass reading in [0, 360), else refuse."""
     x = check_reading(value, name)
     if not 0.0 <= x < 360.0:
-        raise MeasurementError(
+        raise StoreError(
             f"{name} is {x:g} deg; a compass reads from 0 up to (not including) 360 deg"
         )
     return x
@@ -74,7 +75,7 @@ def check_compass_reading(value: object, name: str = "compass reading") -> float
 def _check_turns(value: object) -> int:
     x = check_reading(value, "turns")
     if x < 0 or not x.is_integer():
-        raise MeasurementError(f"turns is {x:g}; expected a whole number of turns, 0 or more")
+        raise StoreError(f"turns is {x:g}; expected a whole number of turns, 0 or more")
     return int(x)
 
 
@@ -115,21 +116,21 @@ def rotation_measurement_from_compass(
     n = _check_turns(turns)
     sigma = check_reading(sigma_reading_rad, "sigma_reading_rad")
     if sigma <= 0:
-        raise MeasurementError(f"sigma_reading_rad must be positive, got {sigma:g}")
+        raise StoreError(f"sigma_reading_rad must be positive, got {sigma:g}")
     if direction is None:
         direction = "cw" if commanded_angle is not None and commanded_angle < 0 else "ccw"
     if direction not in ("ccw", "cw"):
-        raise MeasurementError(f"direction is {direction!r}; expected 'ccw' or 'cw'")
+        raise StoreError(f"direction is {direction!r}; expected 'ccw' or 'cw'")
     rotation = rotation_from_compass(initial, final, n, direction)
     if commanded_angle is not None:
         cmd = check_reading(commanded_angle, "commanded angle")
         if cmd != 0 and (cmd > 0) != (direction == "ccw"):
-            raise MeasurementError(f"direction {direction} contradicts the commanded angle {cmd:.4g} rad")
+            raise StoreError(f"direction {direction} contradicts the commanded angle {cmd:.4g} rad")
         tol = max(math.pi, max_relative_error * abs(cmd))
         if abs(rotation - cmd) > tol:
             frac = abs(rotation) - 2.0 * math.pi * n
             fit = max(0, round((abs(cmd) - frac) / (2.0 * math.pi)))
-            raise MeasurementError(
+            raise StoreError(
                 f"rotation of {rotation:.3f} rad ({n} turns + {math.degrees(frac):.1f} deg) is "
                 f"{abs(rotation - cmd):.3f} rad off the commanded {cmd:.3f} rad (more than "
                 f"{tol:.3f} rad); check the counted turns (about {fit} would fit) and the readings"
@@ -162,10 +163,10 @@ def translation_measurement(
     yv = check_reading(y, "y")
     s = check_reading(sigma, "sigma")
     if s <= 0:
-        raise MeasurementError(f"sigma must be positive, got {s:g} m")
+        raise StoreError(f"sigma must be positive, got {s:g} m")
     for name, v in (("x", xv), ("y", yv)):
         if abs(v) > MAX_POSITION_M:
-            raise MeasurementError(
+            raise StoreError(
                 f"{name} is {v:g} m; a meterstick position must be within {MAX_POSITION_M:g} m "
                 "(was it typed in cm or mm?)"
             )
@@ -174,7 +175,7 @@ def translation_measurement(
         tol = max(min_tolerance, max_relative_error * abs(d))
         off = math.hypot(xv - d, yv)
         if off > tol:
-            raise MeasurementError(
+            raise StoreError(
                 f"measured end point ({xv:g}, {yv:g}) m is {off:.3f} m from the commanded "
                 f"({d:g}, 0) m (more than {tol:.3f} m); check the signs and the unit (metres)"
             )

@@ -29,10 +29,12 @@ from typing import Any
 
 import tomli_w
 
+from odolab.defaults import DEFAULT_ROBOT
 from odolab.errors import ParamsError
 from odolab.models import DIFF_DRIVE, KinematicModel, ModelCoefficients, model_from_mapping
 
 __all__ = [
+    "DEFAULT_ROBOT",
     "PRESETS",
     "NoiseParams",
     "RobotParams",
@@ -266,8 +268,8 @@ def save_params(
 #: track width 0.56 m is 2 x L_robot = 2 x 0.28 m as the lab report measured with a ruler, and the
 #: counters are 15-bit. These are NOMINAL, not measured values: calibrate before trusting them.
 PRESETS: dict[str, RobotParams] = {
-    "jaguar-lite": RobotParams(
-        name="jaguar-lite",
+    DEFAULT_ROBOT: RobotParams(
+        name=DEFAULT_ROBOT,
         left_wheel_radius=0.0835,
         right_wheel_radius=0.0835,
         track_width=0.56,

@@ -18,6 +18,7 @@ from odolab.io._table import data_line_numbers, read_numeric_columns
 from odolab.trajectory import Trajectory, check_times
 
 __all__ = [
+    "read_trajectory",
     "read_trajectory_csv",
     "read_tum",
     "write_trajectory",
@@ -108,3 +109,13 @@ def write_trajectory(
     if fmt == "tum":
         return write_tum(traj, path)
     raise LogFormatError(f"unknown trajectory format {fmt!r}; expected csv or tum")
+
+
+def read_trajectory(path: str | Path) -> Trajectory:
+    """A trajectory file by its extension: ``.csv`` (``t,x,y,theta[,heading]``), else TUM text."""
+    p = Path(path)
+    if not p.is_file():
+        raise LogFormatError(f"{p}: no such trajectory file")
+    if p.suffix.lower() == ".csv":
+        return read_trajectory_csv(p)
+    return read_tum(p)

@@ -572,10 +572,13 @@ def write_trials_csv(path: str | Path, trials: Iterable[tuple[Trial, int | None]
     )
     header = [*COLUMNS, *(f"raw_{k}" for k in extra)]
     p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    with p.open("w", newline="", encoding="utf-8") as fh:
-        w = csv.writer(fh)  # "\r\n" ends rows, so a lone "\r" or "\n" in a cell is quoted
-        w.writerow(header)
-        for t, version in items:
-            w.writerow(_csv_row(t, version, extra))
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        with p.open("w", newline="", encoding="utf-8") as fh:
+            w = csv.writer(fh)  # "\r\n" ends rows, so a lone "\r" or "\n" in a cell is quoted
+            w.writerow(header)
+            for t, version in items:
+                w.writerow(_csv_row(t, version, extra))
+    except OSError as err:
+        raise StoreError(f"{p}: cannot write the trials CSV ({err.strerror or err})") from err
     return p

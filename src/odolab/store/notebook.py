@@ -20,8 +20,8 @@ from typing import TYPE_CHECKING, Any
 
 from odolab.errors import StoreError
 from odolab.params import RobotParams
-from odolab.store.codec import EncodedLog, decode_log, encode_log
 from odolab.progress import Progress, no_progress
+from odolab.store.codec import EncodedLog, decode_log, encode_log
 from odolab.store.records import (
     CAMPAIGN_KINDS,
     MEASUREMENT_COLUMNS,
@@ -40,6 +40,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
 __all__ = ["Campaign", "Notebook", "NotebookInfo", "ParamsVersion", "Progress"]
+
 
 def _now() -> str:
     return _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
