@@ -104,3 +104,33 @@ def test_bad_input_is_one_sentence(virtual_runs: list[OdometryRun]) -> None:
         run_nees(virtual_runs[0], params, segment_s=1000.0)
     with pytest.raises(InsufficientDataError, match="no NEES"):
         nees_summary([])
+
+
+def test_cli_fits_noise_and_judges_held_out_runs(optiodom_dir, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    import json
+
+    from typer.testing import CliRunner
+
+    from odolab.cli import app
+    from odolab.params import load_params
+
+    sessions = sorted((optiodom_dir / "square").iterdir())
+    train, held = sessions[0], sessions[1]
+    out = tmp_path / "noisy.toml"
+    runner = CliRunner()
+    res = runner.invoke(app, ["calibrate", "noise", str(train), "-o", str(out), "--segment", "5"])
+    assert res.exit_code == 0, res.output
+    noise = load_params(out).noise
+    assert noise is not None and 1e-7 < noise.k_left == noise.k_right < 1e-2
+    js = tmp_path / "e.json"
+    res = runner.invoke(
+        app,
+        ["evaluate", str(held), "--format", "optiodom", "--params", str(out), "--nees",
+         "--nees-segment", "5", "--json", str(js), "--workers", "1"],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    doc = json.loads(js.read_text())
+    assert doc["nees"]["summary"]["n"] > 10
+    assert "covariance" in res.output and "mean NEES" in res.output
+    res = runner.invoke(app, ["evaluate", str(held), "--format", "optiodom", "--nees"])
+    assert res.exit_code != 0  # the runs' own parameters have no [noise]

@@ -10,9 +10,11 @@ from __future__ import annotations
 import sys
 
 from odolab.cli import (  # noqa: F401  (register commands)
+    consistency,
     core,
     demo,
     evaluate,
+    export,
     lab,
     robot,
     sim,
