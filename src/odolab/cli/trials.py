@@ -340,7 +340,7 @@ def _measurement(
                 return rotation_measurement_from_compass(
                     initial,
                     final,
-                    turns,  # type: ignore[arg-type]
+                    turns,
                     commanded_angle=t.command.angle,
                     direction=direction,  # type: ignore[arg-type]
                     sigma_reading_rad=sigma or COMPASS_SIGMA_RAD,
@@ -350,7 +350,7 @@ def _measurement(
             return translation_measurement(
                 x,
                 y,
-                sigma=sigma or METERSTICK_SIGMA_M,  # type: ignore[arg-type]
+                sigma=sigma or METERSTICK_SIGMA_M,
                 commanded_distance=distance,
             )
         except StoreError as err:

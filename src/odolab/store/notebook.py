@@ -24,7 +24,7 @@ from odolab.progress import Progress, no_progress
 from odolab.store.codec import EncodedLog, decode_log, encode_log
 from odolab.store.records import (
     CAMPAIGN_KINDS,
-    MEASUREMENT_COLUMNS,
+    HISTORY_KEYS,
     PARAMS_FIELDS,
     TRIAL_COLUMNS,
     campaign_kind_for,
@@ -90,8 +90,6 @@ _TRIAL_INSERT = (
     f"INSERT INTO trials ({', '.join(TRIAL_COLUMNS)}, created, updated) "
     f"VALUES ({', '.join(':' + c for c in TRIAL_COLUMNS)}, :created, :updated)"
 )
-#: A replaced measurement as kept in ``measurement_history`` (and in the JSON export).
-HISTORY_KEYS = ("replaced", *MEASUREMENT_COLUMNS)
 _LOG_INSERT = (
     "INSERT INTO encoder_logs (trial_id, n, modulus, codec, t, left_ticks, right_ticks) "
     "VALUES (?, ?, ?, ?, ?, ?, ?)"

@@ -28,6 +28,7 @@ from odolab.trials import (
 
 __all__ = [
     "CAMPAIGN_KINDS",
+    "HISTORY_KEYS",
     "MEASUREMENT_COLUMNS",
     "NUMERIC_COLUMNS",
     "PARAMS_FIELDS",
@@ -51,6 +52,8 @@ MEASUREMENT_COLUMNS: tuple[str, ...] = (
     "sigma_xy",
     "raw",
 )
+#: A replaced measurement as kept in ``measurement_history`` (and in the JSON export).
+HISTORY_KEYS: tuple[str, ...] = ("replaced", *MEASUREMENT_COLUMNS)
 #: The numeric columns (the rest is text).
 NUMERIC_COLUMNS: tuple[str, ...] = tuple(f.name for f in TRIAL_FIELDS if f.numeric)
 

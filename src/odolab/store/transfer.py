@@ -19,7 +19,7 @@ from odolab.params import RobotParams
 from odolab.progress import Progress
 from odolab.store.csvio import read_trials_csv, write_trials_csv
 from odolab.store.jsonio import NotebookDocument, read_notebook_json, write_notebook_json
-from odolab.store.records import NUMERIC_COLUMNS, PARAMS_FIELDS, trial_from_record
+from odolab.store.records import HISTORY_KEYS, NUMERIC_COLUMNS, PARAMS_FIELDS, trial_from_record
 from odolab.trials import Trial, validate_trial
 
 if TYPE_CHECKING:
@@ -84,8 +84,6 @@ def export_json(
     status: str | Sequence[str] | None = None,
 ) -> int:
     """Write everything needed to rebuild the matching trials as JSON; return the count."""
-    from odolab.store.notebook import HISTORY_KEYS
-
     conn = nb._conn
     where, args = nb._filters(campaign, terrain, kind, status)
     rows = conn.execute(
@@ -185,8 +183,6 @@ def _trial_of(
     nb: Notebook, doc: NotebookDocument, rec: dict[str, Any], where: str
 ) -> tuple[Trial, int]:
     """The checked trial of one JSON record and its parameter version."""
-    from odolab.store.notebook import HISTORY_KEYS
-
     _check_types(rec, where)
     key = (rec["robot"], rec["params_version"])
     params = _params_for(nb, doc, key, where)
