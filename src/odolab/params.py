@@ -25,13 +25,14 @@ import math
 import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, overload
 
 import tomli_w
 
 from odolab.defaults import DEFAULT_ROBOT
 from odolab.errors import ParamsError
 from odolab.models import DIFF_DRIVE, KinematicModel, ModelCoefficients, model_from_mapping
+from odolab.writing import path_first
 
 __all__ = [
     "DEFAULT_ROBOT",
@@ -238,10 +239,28 @@ def load_params(path_or_preset: str | Path) -> RobotParams:
     )
 
 
+@overload
 def save_params(
+    path: str | Path, params: RobotParams, *, provenance: dict[str, Any] | None = None
+) -> Path: ...
+@overload
+def save_params(  # the old order
+    path: RobotParams, params: str | Path, *, provenance: dict[str, Any] | None = None
+) -> Path: ...
+def save_params(
+    path: str | Path | RobotParams,
+    params: RobotParams | str | Path,
+    *,
+    provenance: dict[str, Any] | None = None,
+) -> Path:
+    """Write ``params`` to ``path`` as TOML (and an optional ``[provenance]`` table)."""
+    p, entry = path_first(path, params, RobotParams, "save_params")
+    return _save_params(entry, p, provenance=provenance)
+
+
+def _save_params(
     params: RobotParams, path: str | Path, *, provenance: dict[str, Any] | None = None
 ) -> Path:
-    """Write ``params`` as TOML (and an optional ``[provenance]`` table); return the path."""
     doc: dict[str, Any] = {"robot": params.to_dict()}
     model = params.model_table()
     if model is not None:

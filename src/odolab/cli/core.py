@@ -63,7 +63,7 @@ def odometry_cmd(
         max_dticks=max_dticks,
         source=str(log),
     )
-    write_trajectory(traj, output, fmt.value)
+    write_trajectory(output, traj, fmt.value)
     end = traj.final
     typer.echo(
         f"{len(traj)} poses -> {output}; final x={end.x:.4f} m y={end.y:.4f} m "

@@ -100,7 +100,7 @@ def sim_run(
 
     write_trials_csv(output, [(t, None) for t in trials])
     if encoder_dir is not None:
-        write_encoder_logs(trials, encoder_dir)
+        write_encoder_logs(encoder_dir, trials)
     if db is not None:
         from odolab.store import Notebook
 
