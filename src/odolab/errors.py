@@ -10,7 +10,6 @@ from __future__ import annotations
 __all__ = [
     "CalibrationError",
     "EncoderJumpError",
-    "ExperimentError",
     "ImuLogError",
     "InsufficientDataError",
     "InvalidTrialError",
@@ -78,7 +77,3 @@ class InvalidTrialError(StoreError):
     def __init__(self, message: str, field: str | None = None) -> None:
         super().__init__(message)
         self.field = field
-
-
-class ExperimentError(SimError):
-    """An experiment (protocol, trial set, campaign request) is invalid before anything runs."""

@@ -40,6 +40,7 @@ __all__ = [
     "LsqCalibration",
     "LsqOptions",
     "PreparedRun",
+    "Provenance",
     "RunComparison",
     "calibrate_lsq",
     "calibrate_lsq_files",
@@ -178,6 +179,14 @@ class RunComparison:
         }
 
 
+class Provenance(dict[str, Any]):
+    """A ``[provenance]`` table. Calling it returns itself: compatibility with the time when
+    :attr:`LsqCalibration.provenance` was a method (``result.provenance()``)."""
+
+    def __call__(self) -> Provenance:
+        return self
+
+
 @dataclass(frozen=True)
 class LsqCalibration:
     """Result of :func:`calibrate_lsq`."""
@@ -194,25 +203,29 @@ class LsqCalibration:
     gt_yaw_offsets: list[float] = field(default_factory=list)
     validation: list[RunComparison] = field(default_factory=list)
 
-    def provenance(self) -> dict[str, Any]:
-        """A ``[provenance]`` table for the saved parameters file."""
-        return {
-            "method": "least squares on segment relative motion (odolab calibrate lsq)",
-            "runs": self.runs,
-            "segments": self.segments,
-            "heading_scale_m_per_rad": self.heading_scale,
-            "residual_rms_before": self.rms_before,
-            "residual_rms_after": self.rms_after,
-            "stderr": self.stderr,
-            "gt_yaw_offsets_rad": self.gt_yaw_offsets,
-            "nominal": self.nominal.to_dict(),
-        }
+    @property
+    def provenance(self) -> Provenance:
+        """A ``[provenance]`` table for the saved parameters file (a field, as in every other
+        calibration result; calling it, as when it was a method, still works)."""
+        return Provenance(
+            {
+                "method": "least squares on segment relative motion (odolab calibrate lsq)",
+                "runs": self.runs,
+                "segments": self.segments,
+                "heading_scale_m_per_rad": self.heading_scale,
+                "residual_rms_before": self.rms_before,
+                "residual_rms_after": self.rms_after,
+                "stderr": self.stderr,
+                "gt_yaw_offsets_rad": self.gt_yaw_offsets,
+                "nominal": self.nominal.to_dict(),
+            }
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict."""
         return {
             "params": self.params.to_dict(),
-            **self.provenance(),
+            **self.provenance,
             "validation": [v.to_dict() for v in self.validation],
         }
 
