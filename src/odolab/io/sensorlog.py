@@ -29,6 +29,8 @@ from numpy.typing import ArrayLike, NDArray
 from odolab.errors import ImuLogError
 
 __all__ = [
+    "DEFAULT_START",
+    "WRITTEN_COLUMNS",
     "ImuLog",
     "check_imu_log",
     "rate_aided_unwrap",

@@ -4,24 +4,5 @@ It is core (the CLI, the CSV import and the notebook all build measurements from
 it from there. This module only re-exports it.
 """
 
-from odolab.measurement import (
-    COMPASS_SIGMA_RAD,
-    MAX_POSITION_M,
-    METERSTICK_SIGMA_M,
-    check_compass_reading,
-    check_reading,
-    rotation_from_compass,
-    rotation_measurement_from_compass,
-    translation_measurement,
-)
-
-__all__ = [
-    "COMPASS_SIGMA_RAD",
-    "MAX_POSITION_M",
-    "METERSTICK_SIGMA_M",
-    "check_compass_reading",
-    "check_reading",
-    "rotation_from_compass",
-    "rotation_measurement_from_compass",
-    "translation_measurement",
-]
+from odolab.measurement import *  # noqa: F403
+from odolab.measurement import __all__ as __all__

@@ -757,7 +757,7 @@ class Notebook:
         """Write the matching trials as CSV (see :mod:`odolab.store.csvio`); return the count."""
         from odolab.store.transfer import export_csv
 
-        return export_csv(self, path, campaign, terrain, kind, status)
+        return export_csv(self, path, self._filters(campaign, terrain, kind, status))
 
     def import_csv(
         self,
@@ -796,7 +796,7 @@ class Notebook:
         """
         from odolab.store.transfer import export_json
 
-        return export_json(self, path, campaign, terrain, kind, status)
+        return export_json(self, path, self._filters(campaign, terrain, kind, status))
 
     def import_json(
         self, path: str | Path, *, batch_size: int = 1000, progress: Progress | None = None

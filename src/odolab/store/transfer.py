@@ -28,16 +28,13 @@ if TYPE_CHECKING:
 __all__ = ["export_csv", "export_json", "import_csv", "import_json"]
 
 
-def export_csv(
-    nb: Notebook,
-    path: str | Path,
-    campaign: str | None = None,
-    terrain: str | None = None,
-    kind: str | None = None,
-    status: str | Sequence[str] | None = None,
-) -> int:
-    """Write the matching trials of ``nb`` as CSV (:mod:`odolab.store.csvio`); return the count."""
-    where, args = nb._filters(campaign, terrain, kind, status)
+#: A ``WHERE`` clause on the trials (``t``) and its arguments, as built by the notebook.
+Selection = tuple[str, Sequence[Any]]
+
+
+def export_csv(nb: Notebook, path: str | Path, selection: Selection = ("", ())) -> int:
+    """Write the selected trials of ``nb`` as CSV (:mod:`odolab.store.csvio`); return the count."""
+    where, args = selection
     rows = nb._trial_rows(where, args)
     pairs = [(nb._trial_from_row(r, with_log=False), int(r["params_version"])) for r in rows]
     write_trials_csv(path, pairs)
@@ -75,17 +72,10 @@ def import_csv(
     return len(trials)
 
 
-def export_json(
-    nb: Notebook,
-    path: str | Path,
-    campaign: str | None = None,
-    terrain: str | None = None,
-    kind: str | None = None,
-    status: str | Sequence[str] | None = None,
-) -> int:
-    """Write everything needed to rebuild the matching trials as JSON; return the count."""
+def export_json(nb: Notebook, path: str | Path, selection: Selection = ("", ())) -> int:
+    """Write everything needed to rebuild the selected trials as JSON; return the count."""
     conn = nb._conn
-    where, args = nb._filters(campaign, terrain, kind, status)
+    where, args = selection
     rows = conn.execute(
         "SELECT t.*, e.n AS log_n, e.modulus AS log_modulus, e.codec AS log_codec, "
         "e.t AS log_t, e.left_ticks AS log_left, e.right_ticks AS log_right "

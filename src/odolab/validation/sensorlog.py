@@ -3,22 +3,5 @@
 A reader of a log format belongs with the other readers in :mod:`odolab.io`; import it from there.
 """
 
-from odolab.io.sensorlog import (
-    DEFAULT_START,
-    WRITTEN_COLUMNS,
-    ImuLog,
-    check_imu_log,
-    rate_aided_unwrap,
-    read_sensorlog,
-    write_sensorlog,
-)
-
-__all__ = [
-    "DEFAULT_START",
-    "WRITTEN_COLUMNS",
-    "ImuLog",
-    "check_imu_log",
-    "rate_aided_unwrap",
-    "read_sensorlog",
-    "write_sensorlog",
-]
+from odolab.io.sensorlog import *  # noqa: F403
+from odolab.io.sensorlog import __all__ as __all__
