@@ -21,7 +21,6 @@ from odolab.trials import Command, Measurement, MotionKind, Trial, TrialStatus, 
 from .conftest import fingerprint
 
 finite = st.floats(allow_nan=False, allow_infinity=False)
-positive = st.floats(min_value=1e-6, max_value=1e6)
 word = st.text(
     st.characters(blacklist_categories=("Cs", "Cc", "Zs", "Zl", "Zp")), min_size=1, max_size=12
 )
@@ -49,10 +48,11 @@ def maybe(name: str) -> st.SearchStrategy[float | None]:
 def trials(draw: st.DrawFn) -> Trial:
     kind = draw(st.sampled_from(list(MotionKind)))
     params = RobotParams(
-        left_wheel_radius=draw(positive),
-        right_wheel_radius=draw(positive),
-        track_width=draw(positive),
-        ticks_per_rev=draw(positive),
+        # within odolab.params.RANGES: every entry path refuses implausible parameters
+        left_wheel_radius=draw(st.floats(0.002, 2.0)),
+        right_wheel_radius=draw(st.floats(0.002, 2.0)),
+        track_width=draw(st.floats(0.01, 20.0)),
+        ticks_per_rev=draw(st.floats(1.0, 1e8)),
         encoder_modulus=draw(st.one_of(st.none(), st.integers(2, 2**40))),
         name=draw(word),
     )

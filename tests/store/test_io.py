@@ -175,7 +175,7 @@ def test_spreadsheet_rows_in_lab_terms(tmp_path: Path) -> None:
         ((2, "predicted_theta_rad", "7"),
          "line 3, column 'predicted_theta_rad': predicted_theta is 7 rad; expected -3.14159"),
         ((2, "kind", "translation"),
-         "line 3, column 'distance_m': a translation command needs its distance"),
+         "line 3, column 'distance_m': missing value (a translation needs its commanded distance)"),
         ((2, "angle_rad", ""), "line 3, column 'angle_rad': a rotation command needs its angle"),
         ((1, "sigma_rotation_rad", "5"),
          "line 2, column 'sigma_rotation_rad': sigma_rotation is 5 rad; expected 0 rad to 3.14159 rad"),
@@ -298,12 +298,15 @@ def _translation_row(**cells: str) -> dict[str, str]:
 @pytest.mark.parametrize(
     ("cells", "message"),
     [
-        ({"measured_x_m": "1e308", "measured_y_m": "0"},
-         "line 2, column 'measured_x_m': measured_x is 1e+308 m; expected -100 m to 100 m"),
-        ({"measured_x_m": "2.5", "measured_y_m": "-250 m"},
-         "line 2, column 'measured_y_m': measured_y is -250 m; expected -100 m to 100 m"),
-        ({"distance_m": ""}, "line 2, column 'distance_m': a translation command needs its distance"),
+        # (measured positions, parameters and a missing distance: tests/hostile/test_ranges.py)
+        ({"measured_x_m": "2.5", "measured_y_m": "0", "sigma_xy_m": "250"},
+         "line 2, column 'sigma_xy_m': sigma_xy is 250 m; expected 0 m to 100 m"),
         ({"speed": "1e9"}, "line 2, column 'speed': speed is 1e+09; expected -100 to 100"),
+        ({"distance_m": "-2e4"},
+         "line 2, column 'distance_m': distance is -20000 m; expected -10000 m to 10000 m"),
+        ({"true_x_m": "1", "true_y_m": "0", "true_heading_rad": "1e5"},
+         "line 2, column 'true_heading_rad': true_heading is 100000 rad; expected -10000 rad to "
+         "10000 rad"),
     ],
 )  # fmt: skip
 def test_csv_import_enforces_the_trial_record_ranges(
@@ -321,10 +324,10 @@ def test_csv_import_enforces_the_trial_record_ranges(
 @pytest.mark.parametrize(
     ("old", "new", "message"),
     [
-        ('"measured_x": 2.', '"measured_x": 1e308, "_": 2.',
-         r"trials\[0\], key 'measured_x': trial F00000: measured_x is 1e\+308 m; expected -100 m"),
-        ('"distance": 2.', '"distance": null, "_": 2.',
-         r"trials\[0\], key 'distance': trial F00000: a translation command needs its distance"),
+        ('"speed": 0.3', '"speed": 1e9',
+         r"trials\[0\], key 'speed': trial F00000: speed is 1e\+09; expected -100 to 100"),
+        ('"predicted_theta": ', '"predicted_theta": 7, "_": ',
+         r"trials\[0\], key 'predicted_theta': trial F00000: predicted_theta is 7 rad"),
     ],
 )  # fmt: skip
 def test_json_import_enforces_the_trial_record_ranges(

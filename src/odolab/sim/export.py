@@ -13,6 +13,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from odolab.errors import SimError
+from odolab.text import quote_input, safe_file_name
 from odolab.trials import Trial
 
 __all__ = ["write_encoder_logs"]
@@ -23,6 +24,9 @@ def write_encoder_logs(
 ) -> list[Path]:
     """Write each trial's encoder log as ``<directory>/<trial_id>.csv`` (raw counters).
 
+    The file name is :func:`odolab.text.safe_file_name` of the trial id: whatever the id (``/``,
+    ``..``, an absolute path), every file lands inside ``directory``. Two ids that would share a
+    file (``A`` and ``a`` on a case-insensitive disk) are refused before anything is written.
     (The old order ``(trials, directory)`` is still accepted, with a DeprecationWarning.)
     """
     from odolab.io import write_encoder_csv
@@ -40,8 +44,17 @@ def write_encoder_logs(
     folder = Path(directory)
     if folder.exists() and not folder.is_dir():
         raise SimError(f"{folder}: is a file; expected a folder for the encoder logs")
-    out = []
+    names: dict[str, str] = {}
+    todo = []
     for t in trials:
-        if t.encoder_log is not None:
-            out.append(write_encoder_csv(folder / f"{t.trial_id}.csv", t.encoder_log))
-    return out
+        if t.encoder_log is None:
+            continue
+        name = safe_file_name(t.trial_id, what="trial id", suffix=".csv")
+        other = names.setdefault(name.casefold(), t.trial_id)
+        if other != t.trial_id:
+            raise SimError(
+                f"{folder}: trial ids {quote_input(other)} and {quote_input(t.trial_id)} would "
+                "share one encoder log file; expected ids that differ in more than letter case"
+            )
+        todo.append((t.encoder_log, folder / name))
+    return [write_encoder_csv(path, log) for log, path in todo]

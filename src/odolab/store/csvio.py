@@ -66,9 +66,10 @@ from typing import TypeVar
 
 from odolab.errors import InvalidTrialError, ParamsError, StoreError
 from odolab.kinematics import wrap_angle
-from odolab.measurement import rotation_measurement_from_compass
-from odolab.params import RobotParams
+from odolab.measurement import check_position, rotation_measurement_from_compass
+from odolab.params import RobotParams, check_param
 from odolab.store.records import record_from_trial
+from odolab.text import quote_input
 from odolab.trajectory import Pose
 from odolab.trials import (
     TRIAL_FIELDS,
@@ -95,8 +96,11 @@ _PARAM_UNITS: dict[str, str] = {
 _RAW_UNITS: dict[str, str] = {"compass_initial_deg": "deg", "compass_final_deg": "deg", "turns": ""}
 _RAW_COLUMNS = tuple(_RAW_UNITS)
 _PARAM_COLUMNS = tuple(c for c in _PARAM_UNITS if c != "encoder_modulus")
+#: The column of each parameter -> its key in odolab.params (checked by ``check_param``).
+_PARAM_KEYS = {c: c.removesuffix("_m") for c in _PARAM_UNITS}
 _POSE = ("t", "x", "y", "theta", "heading")
 _E = TypeVar("_E", MotionKind, TrialStatus)
+_N = TypeVar("_N", int | None, float)
 
 
 def _fields(*names: str) -> dict[str, str | None]:
@@ -185,11 +189,14 @@ class _Row:
         m = _NUM_UNIT.match(cell)
         if m is None:
             what = f"a number in {_UNIT_WORDS.get(unit, unit)}" if unit else "a number"
-            raise self.fail(column, f"{cell!r} is not a number; expected {what}")
+            raise self.fail(column, f"{quote_input(cell)} is not a number; expected {what}")
         given = m.group(2).replace("°", "deg")
         if given != unit:
             expected = f"{unit} ({_UNIT_WORDS.get(unit, unit)})" if unit else "no unit"
-            raise self.fail(column, f"{cell!r} has the wrong unit {given!r}; expected {expected}")
+            raise self.fail(
+                column,
+                f"{quote_input(cell)} has the wrong unit {quote_input(given)}; expected {expected}",
+            )
         return float(m.group(1))
 
     def number(
@@ -202,9 +209,9 @@ class _Row:
             return None
         value = self._parse(column, cell)
         if not math.isfinite(value):
-            raise self.fail(column, f"{cell!r} is not a finite number")
+            raise self.fail(column, f"{quote_input(cell)} is not a finite number")
         if positive and value <= 0:
-            raise self.fail(column, f"{cell!r} must be positive")
+            raise self.fail(column, f"{quote_input(cell)} must be positive")
         return value
 
     def required_number(self, column: str) -> float:
@@ -218,7 +225,8 @@ class _Row:
             return None
         if not value.is_integer() or value < minimum:
             raise self.fail(
-                column, f"{self.cells[column].strip()!r}; expected a whole number >= {minimum}"
+                column,
+                f"{quote_input(self.cells[column].strip())}; expected a whole number >= {minimum}",
             )
         return int(value)
 
@@ -230,14 +238,14 @@ class _Row:
             return enum(text)
         except ValueError:
             expected = ", ".join(e.value for e in enum)
-            raise self.fail(column, f"{text!r}; expected one of {expected}") from None
+            raise self.fail(column, f"{quote_input(text)}; expected one of {expected}") from None
 
 
 def _check_header(source: str, header: list[str]) -> None:
     seen: set[str] = set()
     for name in header:
         if name in seen:
-            raise StoreError(f"{source}: line 1, column {name!r} appears twice")
+            raise StoreError(f"{source}: line 1, column {quote_input(name)} appears twice")
         seen.add(name)
         if name in COLUMNS or (name.startswith("raw_") and len(name) > 4):
             continue
@@ -246,15 +254,18 @@ def _check_header(source: str, header: list[str]) -> None:
             good = _BASES[split[0]]
             unit = COLUMNS[good] or ""
             raise StoreError(
-                f"{source}: line 1, column {name!r} is in unit {split[1]!r}; expected "
+                f"{source}: line 1, column {quote_input(name)} is in unit {split[1]!r}; expected "
                 f"{good!r} ({_UNIT_WORDS.get(unit, unit)})"
             )
         raise StoreError(
-            f"{source}: line 1, unknown column {name!r}; see docs/notebook.md for the columns"
+            f"{source}: line 1, unknown column {quote_input(name)}; see docs/notebook.md for the "
+            "columns"
         )
     for name in REQUIRED:
         if name not in seen:
-            raise StoreError(f"{source}: line 1, the required column {name!r} is missing")
+            raise StoreError(
+                f"{source}: line 1, the required column {quote_input(name)} is missing"
+            )
 
 
 # -- one row, one piece at a time ------------------------------------------------------------------
@@ -264,7 +275,7 @@ def _command(row: _Row) -> Command:
     kind = row.choice("kind", MotionKind)
     if kind is None:
         raise row.fail("kind", "missing value")
-    return Command(
+    command = Command(
         kind=kind,
         angle=row.number("angle_rad"),
         distance=row.number("distance_m"),
@@ -272,6 +283,9 @@ def _command(row: _Row) -> Command:
         direction=row.text("direction"),
         speed=row.number("speed"),
     )
+    if kind is MotionKind.TRANSLATION and command.distance is None:
+        raise row.fail("distance_m", "missing value (a translation needs its commanded distance)")
+    return command
 
 
 def _pose(row: _Row, prefix: str) -> Pose | None:
@@ -293,6 +307,16 @@ def _pose(row: _Row, prefix: str) -> Pose | None:
     )
 
 
+def _plausible(row: _Row, column: str, value: _N) -> _N:
+    """``value`` if it is in the plausible range of its parameter (:data:`odolab.params.RANGES`)."""
+    if value is not None:
+        try:
+            check_param(_PARAM_KEYS[column], value)
+        except ParamsError as err:
+            raise row.fail(column, str(err)) from err
+    return value
+
+
 def _params_by_value(row: _Row, robot: str, version: int | None, known: bool) -> RobotParams:
     values: dict[str, float] = {}
     for c in _PARAM_COLUMNS:
@@ -305,7 +329,7 @@ def _params_by_value(row: _Row, robot: str, version: int | None, known: bool) ->
                     f"parameter values are not all given ({c!r} is empty)",
                 )
             raise row.fail(c, "missing value")
-        values[c] = v
+        values[c] = _plausible(row, c, v)
     try:
         return RobotParams(
             name=robot,
@@ -313,7 +337,9 @@ def _params_by_value(row: _Row, robot: str, version: int | None, known: bool) ->
             right_wheel_radius=values["right_wheel_radius_m"],
             track_width=values["track_width_m"],
             ticks_per_rev=values["ticks_per_rev"],
-            encoder_modulus=row.integer("encoder_modulus", minimum=2),
+            encoder_modulus=_plausible(
+                row, "encoder_modulus", row.integer("encoder_modulus", minimum=2)
+            ),
         )
     except ParamsError as err:
         raise row.fail("robot", str(err)) from err
@@ -389,6 +415,12 @@ def _measurement(row: _Row, raw_columns: Sequence[str], command: Command) -> Mea
     mx, my = row.number("measured_x_m"), row.number("measured_y_m")
     if (mx is None) != (my is None):
         raise row.fail("measured_y_m" if my is None else "measured_x_m", "missing value")
+    for c, v in (("measured_x_m", mx), ("measured_y_m", my)):
+        try:
+            if v is not None:
+                check_position(v, c)  # the range `trials add` and `trials measure` apply
+        except StoreError as err:
+            raise row.fail(c, str(err)) from err
     sigma_rot, sigma_xy = _sigma(row, "sigma_rotation_rad"), _sigma(row, "sigma_xy_m")
     instrument = row.text("instrument")
     if rotation is None and "turns" in raw:
@@ -470,8 +502,11 @@ def read_trials_csv(
     already stored (a row repeating one is an error). ``lookup_params(robot, version)`` gives a
     stored parameter version or None.
     """
+    from odolab.io.limits import check_text_file  # here: odolab.io brings pandas
+
     p = Path(path)
     source = str(p)
+    check_text_file(p, error=StoreError, expected="a trials CSV")
     try:
         fh = p.open(newline="", encoding="utf-8-sig")
     except OSError as err:
@@ -509,15 +544,17 @@ def read_trials_csv(
                 parsed = _parse_row(row, raw_columns, lookup_params)
                 tid = parsed.trial.trial_id
                 if tid in first_line:
-                    raise row.fail("trial_id", f"{tid!r} is a duplicate of line {first_line[tid]}")
+                    raise row.fail(
+                        "trial_id", f"{quote_input(tid)} is a duplicate of line {first_line[tid]}"
+                    )
                 if tid in known_trial_ids:
-                    raise row.fail("trial_id", f"{tid!r} is already in the notebook")
+                    raise row.fail("trial_id", f"{quote_input(tid)} is already in the notebook")
                 first_line[tid] = line
                 camp = parsed.trial.campaign
                 if known_campaigns is not None and camp not in known_campaigns:
                     raise row.fail(
                         "campaign",
-                        f"unknown campaign {camp!r}; add it first (odolab trials campaign-add) "
+                        f"unknown campaign {quote_input(camp)}; add it first (odolab trials campaign-add) "
                         "or import with --create-campaigns",
                     )
                 out.append(parsed)
