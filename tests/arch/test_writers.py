@@ -55,3 +55,11 @@ def test_the_trial_writers_take_the_path_first(tmp_path: Path) -> None:
     assert write_encoder_logs(tmp_path / "logs", []) == []
     with pytest.warns(DeprecationWarning):
         assert write_encoder_logs([], tmp_path / "logs") == []
+
+
+def test_the_named_defaults_are_presets() -> None:
+    from odolab.defaults import DEFAULT_ROBOT, DEFAULT_TRUTH
+    from odolab.sim.presets import TRUTH_PRESETS
+
+    assert PRESETS[DEFAULT_ROBOT].name == DEFAULT_ROBOT
+    assert TRUTH_PRESETS[DEFAULT_TRUTH].name == DEFAULT_TRUTH

@@ -205,27 +205,29 @@ class LsqCalibration:
 
     @property
     def provenance(self) -> Provenance:
-        """A ``[provenance]`` table for the saved parameters file (a field, as in every other
-        calibration result; calling it, as when it was a method, still works)."""
-        return Provenance(
-            {
-                "method": "least squares on segment relative motion (odolab calibrate lsq)",
-                "runs": self.runs,
-                "segments": self.segments,
-                "heading_scale_m_per_rad": self.heading_scale,
-                "residual_rms_before": self.rms_before,
-                "residual_rms_after": self.rms_after,
-                "stderr": self.stderr,
-                "gt_yaw_offsets_rad": self.gt_yaw_offsets,
-                "nominal": self.nominal.to_dict(),
-            }
-        )
+        """The ``[provenance]`` table: a field, as in every other calibration result (calling it,
+        as when it was a method, still works)."""
+        return Provenance(self.provenance_table())
+
+    def provenance_table(self) -> dict[str, Any]:
+        """A ``[provenance]`` table for the saved parameters file."""
+        return {
+            "method": "least squares on segment relative motion (odolab calibrate lsq)",
+            "runs": self.runs,
+            "segments": self.segments,
+            "heading_scale_m_per_rad": self.heading_scale,
+            "residual_rms_before": self.rms_before,
+            "residual_rms_after": self.rms_after,
+            "stderr": self.stderr,
+            "gt_yaw_offsets_rad": self.gt_yaw_offsets,
+            "nominal": self.nominal.to_dict(),
+        }
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict."""
         return {
             "params": self.params.to_dict(),
-            **self.provenance,
+            **self.provenance(),
             "validation": [v.to_dict() for v in self.validation],
         }
 

@@ -37,12 +37,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.defaults import DEFAULT_ROBOT, DEFAULT_TRUTH
 from odolab.params import PRESETS, RobotParams
 from odolab.sim.physics import TrueParams
 
 __all__ = [
-    "DEFAULT_TRUTH",
     "LAB_REPORT_SEED",
     "TABLE_I",
     "TRUTH_PRESETS",
@@ -95,7 +93,7 @@ def predicted_sigma_y(
         + truth.left_radius_reverse
         + truth.right_radius_reverse
     )
-    nom = nominal or PRESETS[DEFAULT_ROBOT]
+    nom = nominal or PRESETS["jaguar-lite"]
     rho /= 0.5 * (nom.left_wheel_radius + nom.right_wheel_radius)
     d = rho * distance
     k = truth.k_left + truth.k_right
@@ -126,7 +124,7 @@ def derive_jaguar_lab(
     """
     if rotation_noise not in ("scrub", "track"):
         raise ValueError(f"rotation_noise must be 'scrub' or 'track', got {rotation_noise!r}")
-    nom = nominal or PRESETS[DEFAULT_ROBOT]
+    nom = nominal or PRESETS["jaguar-lite"]
     b0 = nom.track_width
     s1, s2 = targets.short_distance, targets.long_distance
     sm = targets.meterstick_sigma
@@ -176,13 +174,13 @@ def derive_jaguar_lab(
         align_sigma=align,
         track_sigma=track_sigma,
         terrain_radius_scale=(("concrete", scales[0]), ("grass", scales[1])),
-        name=DEFAULT_TRUTH if rotation_noise == "scrub" else f"{DEFAULT_TRUTH}-track",
+        name="jaguar-lab" if rotation_noise == "scrub" else "jaguar-lab-track",
     )
 
 
-#: Truth presets; the nominal model they pair with is ``odolab.params.PRESETS[DEFAULT_ROBOT]``.
+#: Truth presets; the nominal model they pair with is ``odolab.params.PRESETS["jaguar-lite"]``.
 TRUTH_PRESETS: dict[str, TrueParams] = {
-    "ideal": TrueParams.from_nominal(PRESETS[DEFAULT_ROBOT]),
-    DEFAULT_TRUTH: derive_jaguar_lab(),
-    f"{DEFAULT_TRUTH}-track": derive_jaguar_lab(rotation_noise="track"),
+    "ideal": TrueParams.from_nominal(PRESETS["jaguar-lite"]),
+    "jaguar-lab": derive_jaguar_lab(),
+    "jaguar-lab-track": derive_jaguar_lab(rotation_noise="track"),
 }
