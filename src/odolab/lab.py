@@ -35,7 +35,6 @@ from typing import Any
 
 import numpy as np
 
-from odolab.defaults import DEFAULT_ROBOT, DEFAULT_TRUTH
 from odolab.errors import OdolabError
 from odolab.params import PRESETS, RobotParams, save_params
 from odolab.trials import Command, Measurement, MotionKind, Trial, TrialStatus
@@ -197,7 +196,7 @@ def run_lab(
     out: str | Path = "odolab-out",
     *,
     seed: int | None = None,
-    truth: str = DEFAULT_TRUTH,
+    truth: str = "jaguar-lab",
     nominal: RobotParams | None = None,
     square_side: float = 4.0,
     square_runs: int = 5,
@@ -221,7 +220,7 @@ def run_lab(
     from odolab.validation import simulate_phone_log, validate, write_sensorlog
     from odolab.validation.compare import plot_validation
 
-    nominal = nominal or PRESETS[DEFAULT_ROBOT]
+    nominal = nominal or PRESETS["jaguar-lite"]
     seed = LAB_REPORT_SEED if seed is None else seed
     if seed < 0:
         raise OdolabError(f"seed is {seed}; expected an integer >= 0")
