@@ -619,6 +619,8 @@ def create_app(settings: ServeSettings) -> Starlette:
             body = await request.json()
         except ValueError as err:
             raise StoreError(f"the body is not valid JSON ({err})") from err
+        except RecursionError as err:  # [[[[...]]]] nested deeper than the parser recurses
+            raise StoreError("the body is not valid JSON (nested too deeply)") from err
         if not isinstance(body, dict):
             raise StoreError("the body must be a JSON object")
         return body
