@@ -220,6 +220,20 @@ def test_upload_is_size_limited_and_validated(lab_db: Path, tmp_path: Path) -> N
         assert len(nb.trial_ids()) == 10
 
 
+def test_an_upload_nested_too_deeply_is_a_sentence(lab_db: Path) -> None:
+    # the store's JSON reader recursed out: a 500 and a traceback on the server
+    c = client_for(lab_db)
+    r = c.post(
+        "/data/import",
+        data={"csrf": csrf_of(c.get("/data").text)},
+        files={"file": ("deep.json", b"[" * 100_000 + b"]" * 100_000, "application/json")},
+    )
+    assert r.status_code == 400
+    assert "deep.json: not valid JSON (nested too deeply)" in r.text
+    with Notebook(lab_db) as nb:
+        assert len(nb.trial_ids()) == 10
+
+
 def test_export_then_import_into_another_notebook(lab_db: Path, tmp_path: Path) -> None:
     from .conftest import cli
 
