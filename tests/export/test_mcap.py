@@ -228,3 +228,24 @@ def test_a_missing_notebook_is_refused_not_created(
     assert main(["export", "mcap", "--db", str(db), "--campaign", "c", "-o", str(out)]) == 1
     assert "nothere.db: no such notebook" in capsys.readouterr().err
     assert not db.exists() and not out.exists()
+
+
+def test_the_twist_is_the_chord_over_the_cycle(tmp_path: Path) -> None:
+    # the forward speed was the displacement along the heading at the cycle's start, short by
+    # cos(dtheta / 2) in every turn; the pose step moves along the middle heading
+    from odolab.export.mcap import stream_from_run_folder, write_mcap
+
+    out = tmp_path / "run.mcap"
+    write_mcap(out, stream_from_run_folder(_run_folder(tmp_path), PARAMS))
+    predicted = read_trajectory(tmp_path / "run" / "predicted.csv")
+    odom = _decoded(out)["/odom"]
+    dt = np.diff(predicted.t)
+    chord = np.hypot(np.diff(predicted.x), np.diff(predicted.y)) / dt
+    vx = np.array([m.twist.twist.linear.x for m in odom[1:]])  # type: ignore[attr-defined]
+    vy = np.array([m.twist.twist.linear.y for m in odom[1:]])  # type: ignore[attr-defined]
+    wz = np.array([m.twist.twist.angular.z for m in odom[1:]])  # type: ignore[attr-defined]
+    turning = np.abs(np.diff(predicted.heading)) > 0.05
+    assert turning.sum() > 10  # the test path turns
+    np.testing.assert_allclose(np.abs(vx), chord, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(vy, 0.0, atol=1e-9)  # a differential drive does not slide
+    np.testing.assert_allclose(wz, np.diff(predicted.heading) / dt, rtol=1e-12)

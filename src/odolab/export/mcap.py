@@ -136,26 +136,34 @@ def _twist_cov(var: NDArray[np.float64] | None) -> list[float]:
     return c
 
 
-def _body_twist(traj: Trajectory) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _body_twist(
+    traj: Trajectory,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Forward, sideways and yaw rate over each cycle (the first sample: 0): the displacement
+    in the body frame at the cycle's middle heading, which is the direction of the pose step's
+    chord (``heading + dtheta / 2``), so a turn's speed is not shortened by ``cos(dtheta / 2)``."""
     n = len(traj)
     vx = np.zeros(n)
+    vy = np.zeros(n)
     wz = np.zeros(n)
     if n > 1:
         dt = np.diff(traj.t)
         ok = dt > 0
         safe = np.where(ok, dt, 1.0)
-        dx, dy = np.diff(traj.x), np.diff(traj.y)
-        h = traj.heading[:-1]
-        vx[1:] = np.where(ok, (dx * np.cos(h) + dy * np.sin(h)) / safe, 0.0)
-        wz[1:] = np.where(ok, np.diff(traj.heading) / safe, 0.0)
-    return vx, wz
+        dx, dy, dh = np.diff(traj.x), np.diff(traj.y), np.diff(traj.heading)
+        m = traj.heading[:-1] + 0.5 * dh
+        c, s = np.cos(m), np.sin(m)
+        vx[1:] = np.where(ok, (dx * c + dy * s) / safe, 0.0)
+        vy[1:] = np.where(ok, (dy * c - dx * s) / safe, 0.0)
+        wz[1:] = np.where(ok, dh / safe, 0.0)
+    return vx, vy, wz
 
 
 def _messages(
     stream: OdometryStream, start_time: float, odom_frame: str, base_frame: str
 ) -> Iterator[tuple[str, float, dict[str, Any]]]:
     traj = stream.odometry
-    vx, wz = _body_twist(traj)
+    vx, vy, wz = _body_twist(traj)
     speeds = None
     if stream.wheel_angles is not None:
         speeds = np.zeros_like(stream.wheel_angles)
@@ -181,7 +189,7 @@ def _messages(
                 "pose": {"pose": pose, "covariance": _cov36(cov)},
                 "twist": {
                     "twist": {
-                        "linear": {"x": float(vx[i]), "y": 0.0, "z": 0.0},
+                        "linear": {"x": float(vx[i]), "y": float(vy[i]), "z": 0.0},
                         "angular": {"x": 0.0, "y": 0.0, "z": float(wz[i])},
                     },
                     "covariance": _twist_cov(tvar),
