@@ -305,6 +305,22 @@ def create_app(settings: ServeSettings) -> Starlette:
         saved = request.query_params.get("saved")
         return page(request, "trial.html.j2", values={}, error=None, saved=saved, **ctx)
 
+    async def trial_refused(
+        request: Request, trial_id: str, err: StoreError, values: dict[str, str | None]
+    ) -> Response:
+        """The trial page again with the refusal's sentence and the values typed (nothing
+        stored); the error page when the trial itself is unknown."""
+        try:
+            ctx = await in_notebook(lambda nb: trial_context(nb, trial_id))
+        except StoreError as err2:
+            return page(request, "error.html.j2", 404, error=str(err2))
+        return page(request, "trial.html.j2", 400, values=values, error=str(err), saved=None, **ctx)
+
+    def trial_saved(trial_id: str, text: str) -> Response:
+        """Back to the trial page (post/redirect/get), saying what was stored."""
+        query = urlencode({"id": trial_id, "saved": text})
+        return RedirectResponse(f"/trial?{query}", status_code=303)
+
     async def trial_measure(request: Request) -> Response:
         from odolab.store.measure import describe_measurement, record_measurement
 
@@ -324,15 +340,8 @@ def create_app(settings: ServeSettings) -> Starlette:
         try:
             text = await in_notebook(save)
         except StoreError as err:
-            try:
-                ctx = await in_notebook(lambda nb: trial_context(nb, trial_id))
-            except StoreError as err2:
-                return page(request, "error.html.j2", 404, error=str(err2))
-            return page(
-                request, "trial.html.j2", 400, values=values, error=str(err), saved=None, **ctx
-            )
-        query = urlencode({"id": trial_id, "saved": f"measured: {text}"})
-        return RedirectResponse(f"/trial?{query}", status_code=303)
+            return await trial_refused(request, trial_id, err, values)
+        return trial_saved(trial_id, f"measured: {text}")
 
     async def trial_exclude(request: Request) -> Response:
         try:
@@ -353,13 +362,8 @@ def create_app(settings: ServeSettings) -> Starlette:
         try:
             text = await in_notebook(act)
         except StoreError as err:
-            try:
-                ctx = await in_notebook(lambda nb: trial_context(nb, trial_id))
-            except StoreError as err2:
-                return page(request, "error.html.j2", 404, error=str(err2))
-            return page(request, "trial.html.j2", 400, values={}, error=str(err), saved=None, **ctx)
-        query = urlencode({"id": trial_id, "saved": text})
-        return RedirectResponse(f"/trial?{query}", status_code=303)
+            return await trial_refused(request, trial_id, err, {})
+        return trial_saved(trial_id, text)
 
     async def trial_plot(request: Request) -> Response:
         from odolab.serve.plots import run_png
