@@ -151,7 +151,7 @@ def test_huge_numbers_and_bad_joint_names_are_one_sentence(
 def test_provenance_cannot_add_yaml_keys(tmp_path: Path) -> None:
     # provenance keys and values are typed by people; a line break in them (\n, \r, NEL, U+2028:
     # all line breaks to a YAML reader) used to end the comment and add top-level keys
-    src = save_params(CALIBRATED, tmp_path / "cal.toml", provenance={"method": "ratios"})
+    src = save_params(tmp_path / "cal.toml", CALIBRATED, provenance={"method": "ratios"})
     src.write_text(
         src.read_text(encoding="utf-8")
         + '"evil\\nkey: 1\\nx" = "v"\nnote = "a\\rinjected: true\\u2028b: 2\\u0085c: 3"\n',

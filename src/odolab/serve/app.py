@@ -434,7 +434,7 @@ def create_app(settings: ServeSettings) -> Starlette:
                 "notes": pv.notes,
             }
             with tempfile.TemporaryDirectory(prefix="odolab-serve-") as tmp:
-                path = save_params(pv.params, Path(tmp) / "params.toml", provenance=provenance)
+                path = save_params(Path(tmp) / "params.toml", pv.params, provenance=provenance)
                 return path.read_bytes()
 
         try:
