@@ -285,3 +285,16 @@ def test_a_loopback_address_other_than_127_0_0_1_answers_to_itself(lab_db: Path)
     c = TestClient(create_app(s), base_url="http://127.0.0.2:8000")
     assert c.get("/").status_code == 200
     assert c.get("/", headers={"host": "attacker.example"}).status_code == 400
+
+
+def test_only_this_servers_redirect_can_say_saved(lab_db: Path) -> None:
+    # /trial?id=R1&saved=measured: x 0.9 m showed a green "measured" banner from any link
+    c = client_for(lab_db)
+    forged = c.get("/trial", params={"id": "R1", "saved": "measured: 90.0 deg (forged)"})
+    assert forged.status_code == 200 and "forged" not in forged.text
+    form = c.get("/trial?id=R1").text
+    r = c.post(
+        "/trial/exclude", data={"id": "R1", "reason": "wheel slipped", "csrf": csrf_of(form)}
+    )
+    assert r.status_code == 200  # followed the redirect
+    assert "excluded: wheel slipped" in r.text

@@ -10,6 +10,8 @@ server write at the same time. The rules for a measurement and their sentences a
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import hmac
 import math
 import re
 import secrets
@@ -303,6 +305,10 @@ def create_app(settings: ServeSettings) -> Starlette:
         except StoreError as err:
             return page(request, "error.html.j2", 404, error=str(err))
         saved = request.query_params.get("saved")
+        if saved is not None and not hmac.compare_digest(
+            saved_signature(trial_id, saved), request.query_params.get("sig", "")
+        ):
+            saved = None  # a link made elsewhere cannot show "measured: ..." on the page
         return page(request, "trial.html.j2", values={}, error=None, saved=saved, **ctx)
 
     async def trial_refused(
@@ -316,9 +322,16 @@ def create_app(settings: ServeSettings) -> Starlette:
             return page(request, "error.html.j2", 404, error=str(err2))
         return page(request, "trial.html.j2", 400, values=values, error=str(err), saved=None, **ctx)
 
+    def saved_signature(trial_id: str, text: str) -> str:
+        """HMAC of the confirmation shown after a post, under the server's secret."""
+        msg = f"saved\0{trial_id}\0{text}".encode()
+        return hmac.new(settings.secret, msg, hashlib.sha256).hexdigest()
+
     def trial_saved(trial_id: str, text: str) -> Response:
-        """Back to the trial page (post/redirect/get), saying what was stored."""
-        query = urlencode({"id": trial_id, "saved": text})
+        """Back to the trial page (post/redirect/get), saying what was stored; the message is
+        signed, so that only this server's redirect can show it."""
+        sig = saved_signature(trial_id, text)
+        query = urlencode({"id": trial_id, "saved": text, "sig": sig})
         return RedirectResponse(f"/trial?{query}", status_code=303)
 
     async def trial_measure(request: Request) -> Response:
