@@ -20,8 +20,9 @@ table (per-wheel slip ``var(ds) = k |ds|``) at a stated speed ``v`` (m/s) and od
   ``var y = k d^3 / (3 b^2)``, ``var yaw = k d / b^2`` with ``k = k_l + k_r``;
 * ``z``, ``roll``, ``pitch`` (not observed by planar odometry): :data:`UNOBSERVED` (1e6).
 
-The fixed values can only describe one motion; the propagated covariance (``odolab odometry
---covariance``, the ``/odom`` messages of ``odolab export mcap``) grows with the path as it should.
+The fixed values can only describe one motion; the propagated covariance
+(:func:`odolab.uncertainty.propagate_covariance`, the ``/odom`` messages of ``odolab export
+mcap``) grows with the path as it should.
 
 Models the controller cannot express (``extended`` with unequal weights, ``icr``): the file says
 so and gives the best differential-drive equivalent: radius multipliers from the rotation terms
