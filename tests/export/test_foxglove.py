@@ -62,9 +62,63 @@ def test_only_loopback() -> None:
         FoxgloveLive(host="192.168.1.5", port=0)
 
 
+def _varint(buf: bytes, i: int) -> tuple[int, int]:
+    value = shift = 0
+    while True:
+        b = buf[i]
+        value |= (b & 0x7F) << shift
+        i += 1
+        shift += 7
+        if not b & 0x80:
+            return value, i
+
+
+def _stamp_of(pose_in_frame: bytes) -> tuple[int, int]:
+    """(sec, nsec) of an encoded foxglove.PoseInFrame (protobuf: field 1 = Timestamp)."""
+    assert pose_in_frame[0] == 0x0A  # field 1, length-delimited
+    n, i = _varint(pose_in_frame, 1)
+    body = pose_in_frame[i : i + n]
+    fields = {1: 0, 2: 0}
+    j = 0
+    while j < len(body):
+        key, j = _varint(body, j)
+        fields[key >> 3], j = _varint(body, j)
+    return fields[1], fields[2]
+
+
+class _Recorder:
+    def __init__(self) -> None:
+        self.logged: list[tuple[bytes, int]] = []
+
+    def log(self, msg: object, log_time: int) -> None:
+        self.logged.append((msg.encode(), log_time))  # type: ignore[attr-defined]
+
+
+@pytest.mark.parametrize(
+    ("t", "stamp"),
+    [(1.25, (1, 250_000_000)), (0.9999999999, (1, 0)), (41.99999999995, (42, 0))],
+)
+def test_a_fraction_that_rounds_up_carries_into_the_seconds(
+    t: float, stamp: tuple[int, int]
+) -> None:
+    # the stamp was (0, 0) for t = 0.9999999999: the nanoseconds wrapped, the second was lost
+    with FoxgloveLive(port=0) as live:
+        rec = _Recorder()
+        live._pose = rec  # type: ignore[assignment]
+        live.publish(Pose(t, 0.5, -0.25, 0.1, 0.1))
+    assert _stamp_of(rec.logged[0][0]) == stamp
+    assert rec.logged[0][1] == round(t * 1e9)
+
+
 def test_a_port_in_use_is_one_sentence() -> None:
-    with FoxgloveLive(port=0) as first, pytest.raises(OdolabError, match="cannot serve Foxglove"):
-        FoxgloveLive(port=first.port)
+    import socket
+
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        with pytest.raises(OdolabError, match=rf"--foxglove-port {port}: cannot serve Foxglove"):
+            FoxgloveLive(port=port)
 
 
 def test_robot_drive_serves_the_live_run(tmp_path) -> None:  # type: ignore[no-untyped-def]

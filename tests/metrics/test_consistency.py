@@ -134,3 +134,27 @@ def test_cli_fits_noise_and_judges_held_out_runs(optiodom_dir, tmp_path) -> None
     assert "covariance" in res.output and "mean NEES" in res.output
     res = runner.invoke(app, ["evaluate", str(held), "--format", "optiodom", "--nees"])
     assert res.exit_code != 0  # the runs' own parameters have no [noise]
+
+
+def test_an_implausible_fit_names_the_piece_length(optiodom_dir) -> None:  # type: ignore[no-untyped-def]
+    # pieces of one sample: the fit said "[noise] k_left must be a number from 0 to 1, got 1e16"
+    run = read_run(find_runs([optiodom_dir / "square"], "optiodom")[0], "optiodom")
+    assert run.params is not None
+    with pytest.raises(InsufficientDataError, match=r"the noise fitted to pieces of 1e-09 s is "):
+        fit_noise_scale([run], run.params, segment_s=1e-9)
+
+
+def test_run_names_are_text_not_markup(optiodom_dir, tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    import shutil
+
+    from odolab.cli.consistency import print_nees
+
+    session = sorted((optiodom_dir / "square").iterdir())[1]
+    folder = tmp_path / "[red]sq" / session.name  # the run's name: "[red]sq/<session>/run-01"
+    folder.mkdir(parents=True)
+    for f in sorted(session.glob("*_metadata.csv")) + sorted(session.glob("*_run-01.csv")):
+        shutil.copy(f, folder)
+    run = read_run(find_runs([folder], "optiodom")[0], "optiodom")
+    assert run.params is not None and run.name.startswith("[red]sq")
+    print_nees([folder], "optiodom", run.params.with_(noise=NOISE), "midpoint", 10.0)
+    assert run.name in capsys.readouterr().out  # rich read it as a colour and dropped it

@@ -38,6 +38,7 @@ def print_nees(
     from rich.console import Console
     from rich.table import Table
 
+    from odolab.cli._output import markup_text
     from odolab.errors import ParamsError
     from odolab.metrics.consistency import nees_summary, run_nees
 
@@ -56,7 +57,7 @@ def print_nees(
         table.add_column(col, justify="right")
     for r in results:
         mean = f"{float(r.nees.mean()):.3g}" if r.nees.size else "-"
-        table.add_row(r.name, str(r.nees.size), mean, f"{r.gt_yaw_offset:.4f}")
+        table.add_row(markup_text(r.name), str(r.nees.size), mean, f"{r.gt_yaw_offset:.4f}")
     console = Console()
     console.print(table)
     lo, hi = summary.mean_bounds95

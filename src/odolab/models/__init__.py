@@ -91,7 +91,7 @@ def model_from_mapping(data: dict[str, Any], *, source: str = "parameters") -> K
     if not isinstance(data, dict):
         raise ParamsError(f"{source}: [model] must be a table, got {type(data).__name__}")
     kind = data.get("kind", DiffDrive.kind)
-    if kind not in MODELS:
+    if not isinstance(kind, str) or kind not in MODELS:
         raise ParamsError(
             f"{source}: unknown model kind {kind!r} in [model]; expected one of "
             f"{', '.join(sorted(MODELS))}"
