@@ -35,48 +35,28 @@ from typing import Any
 
 import numpy as np
 
+from odolab.analysis.reference import LAB_REPORT_TABLE1, LAB_REPORT_Y_SIGMA
+from odolab.analysis.table1 import pooled_y_sigmas
 from odolab.errors import OdolabError
 from odolab.params import PRESETS, RobotParams, save_params
 from odolab.trials import Command, Measurement, MotionKind, Trial, TrialStatus
 
-__all__ = ["LabResult", "Progress", "run_lab"]
+__all__ = [
+    "LAB_REPORT_TABLE1",
+    "LAB_REPORT_Y_SIGMA",
+    "LabResult",
+    "Progress",
+    "pooled_y_sigmas",
+    "run_lab",
+]
 
 PHONE_CAMPAIGN = "imu-validation"
+PHONE_CAMPAIGN_NOTES = (
+    "validation: a phone rode on this run to check the calibration (the lab's Fig. 21); "
+    "it is not one of the characterization trials"
+)
 #: the simulated phone's clock minus the robot's (s); the validation searches +-5 s around it
 PHONE_CLOCK_OFFSET = 12.5
-
-#: The lab report's Table I, for comparison: (motion, terrain) -> (ratio, its stated
-#: uncertainty, [(sigma, at, uncertainty), ...]). y rows: error per metre travelled.
-LAB_REPORT_TABLE1: dict[tuple[str, str], tuple[float, float, list[tuple[float, float, float]]]] = {
-    ("rotation", "tile"): (0.875, 0.005, [(2.94, 20 * math.pi, 0.05)]),
-    ("x", "tile"): (0.905, 0.005, []),
-    ("x", "concrete"): (0.920, 0.005, []),
-    ("x", "grass"): (0.904, 0.005, []),
-    ("y_forward", "tile"): (0.03, 0.01, []),
-    ("y_reverse", "tile"): (0.09, 0.01, []),
-}
-#: Table I's sigma of the y error, one figure for forward and reverse runs together (the lab
-#: pooled its 5 + 5 runs at each distance): (sigma, distance, uncertainty). Its 1.1 m is our 1 m.
-LAB_REPORT_Y_SIGMA: list[tuple[float, float, float]] = [(0.03, 1.1, 0.01), (0.07, 2.5, 0.01)]
-
-
-def pooled_y_sigmas(rows: list[dict[str, Any]], terrain: str = "tile") -> dict[float, float]:
-    """sigma of the y error at each repeated distance, pooled over forward and reverse runs.
-
-    From Table I rows (:func:`odolab.analysis.table1`): the pooled variance is the
-    degrees-of-freedom weighted mean of the two directions' group variances.
-    """
-    acc: dict[float, list[float]] = {}
-    for r in rows:
-        if r["terrain"] != terrain or r["motion"] not in ("y_forward", "y_reverse"):
-            continue
-        for g in r["sigmas"]:
-            d = round(abs(float(g["commanded"])), 6)
-            ss_df = acc.setdefault(d, [0.0, 0.0])
-            ss_df[0] += (g["n"] - 1) * g["sigma"] ** 2
-            ss_df[1] += g["n"] - 1
-    return {d: math.sqrt(ss / df) for d, (ss, df) in sorted(acc.items()) if df > 0}
-
 
 #: progress(step, done, total): a step's name and how far it is
 Progress = Callable[[str, int, int], None]
@@ -286,6 +266,9 @@ def run_lab(
         loop_stats.append(stats)
     progress("live runs", len(live_cmds), len(live_cmds))
     live = _measure_live(live, rng, starts)
+    # the phone run checks a calibration: its own campaign, marked so that no analysis of the
+    # notebook counts it among the characterization trials (Table I, the calibrations)
+    nb.add_campaign(PHONE_CAMPAIGN, "rotation", "tile", notes=PHONE_CAMPAIGN_NOTES)
     _record(nb, live)
 
     # 4. analysis of everything in the notebook

@@ -71,6 +71,7 @@ def sim_run(
     from rich.progress import Progress
 
     from odolab.errors import SimError
+    from odolab.numfmt import count
     from odolab.params import load_params
     from odolab.sim.export import write_encoder_logs, write_trials_csv
     from odolab.sim.presets import TRUTH_PRESETS
@@ -105,7 +106,7 @@ def sim_run(
             nb.add_trials(trials)
     stalled = sum(t.exclusion_reason is not None for t in trials)
     typer.echo(
-        f"{len(trials)} trials of {proto.name} ({truth}, seed {seed}) -> {output}"
+        f"{count(len(trials), 'trial')} of {proto.name} ({truth}, seed {seed}) -> {output}"
         + (f"; {stalled} stalled (excluded)" if stalled else "")
         + (f"; recorded in {db}" if db is not None else "")
     )

@@ -223,7 +223,9 @@ def list_cmd(
             status.value if status else None,
             with_logs=False,
         )
-    table = Table(title=f"{len(trials)} trials in {db}")
+    from odolab.numfmt import count
+
+    table = Table(title=f"{count(len(trials), 'trial')} in {db}")
     for col in ("trial", "campaign", "terrain", "command", "predicted", "measured", "status"):
         table.add_column(col)
     from rich.markup import escape
@@ -362,7 +364,10 @@ def _measurement(
 
 @trials_app.command("measure")
 def measure_cmd(
-    trial_id: Annotated[str, typer.Argument(help="Trial id.")],
+    trial_id: Annotated[
+        str | None,
+        typer.Argument(help="Trial id (default: the newest trial awaiting measurement)."),
+    ] = None,
     initial: Annotated[float | None, typer.Option(help="Compass before (deg).")] = None,
     final: Annotated[float | None, typer.Option(help="Compass after (deg).")] = None,
     turns: Annotated[int | None, typer.Option(help="Whole turns counted.")] = None,
@@ -377,6 +382,13 @@ def measure_cmd(
 ) -> None:
     """Enter what was measured: compass readings and turns, or x and y (asks what is missing)."""
     with _open(db) as nb:
+        if trial_id is None:
+            from odolab.errors import StoreError
+
+            waiting = nb.load_trials(status="awaiting", with_logs=False)
+            if not waiting:
+                raise StoreError(f"{db}: no trial is awaiting measurement; give the trial id")
+            trial_id = waiting[-1].trial_id
         t = nb.get_trial(trial_id)
         if t.measured is not None and not replace:
             from odolab.errors import StoreError
