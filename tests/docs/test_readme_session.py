@@ -70,14 +70,17 @@ def test_readme_hand_session_reaches_a_report(tmp_path: Path) -> None:
             robot_out = proc.stdout
     analyze = next(v for k, v in outputs.items() if k.startswith("odolab analyze"))
     # 37 + 20 simulated trials and the user's own run, said in words, then Table I
-    assert "using 58 measured trials from rotation-indoor (37), translation-indoor (20), robot (1)" in analyze
+    assert (
+        "using 58 measured trials from rotation-indoor (37), translation-indoor (20), robot (1)"
+        in analyze
+    )
     assert re.search(r"rotation\s+.*tile\s+.*38", analyze), analyze
     report = tmp_path / "report" / "report.html"
     assert report.exists() and (tmp_path / "report" / "results.json").exists()
     assert (tmp_path / "jaguar-calibrated.toml").exists()
 
 
-@pytest.mark.parametrize("line", ["export PATH=\"$PWD/.venv/bin:$PATH\""])
+@pytest.mark.parametrize("line", ['export PATH="$PWD/.venv/bin:$PATH"'])
 def test_readme_says_how_to_reach_the_installed_command(line: str) -> None:
     text = README.read_text(encoding="utf-8")
     assert line in text

@@ -142,9 +142,9 @@ def report_cmd(
         umbmark_errors_from_trials,
         umbmark_iterated,
     )
+    from odolab.cli._console import print_table
     from odolab.errors import CalibrationError
     from odolab.params import load_params
-    from odolab.cli._console import print_table
     from odolab.report import table1_rich, write_report
 
     con = _console()
@@ -187,9 +187,7 @@ def calibrate_ratios_cmd(
     ] = None,
     db: Annotated[
         Path | None,
-        typer.Option(
-            "--db", help="Take the ratios from this notebook's fits.", envvar="ODOLAB_DB"
-        ),
+        typer.Option("--db", help="Take the ratios from this notebook's fits.", envvar="ODOLAB_DB"),
     ] = None,
     terrain: Annotated[str | None, typer.Option(help="Terrain whose fits to use.")] = None,
     campaign: CampaignOpt = None,

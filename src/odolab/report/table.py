@@ -45,11 +45,7 @@ def table1_rich(rows: Sequence[dict[str, Any]], *, title: str = "Table I") -> Ta
         lo, hi = r["ratio_ci95"]
         elo, ehi = r.get("error_per_predicted_ci95", (lo, hi))
         sig = "\n".join(sigma_text(s, r["unit"]) for s in r.get("sigmas", []))
-        growth = (
-            numfmt.with_ci(r["growth_p"], *r["growth_p_ci95"])
-            if "growth_p" in r
-            else "-"
-        )
+        growth = numfmt.with_ci(r["growth_p"], *r["growth_p_ci95"]) if "growth_p" in r else "-"
         t.add_row(
             r["motion"],
             r["terrain"],
@@ -106,7 +102,9 @@ def table1_compare_rich(
             "",
             "",
             "",
-            "\n".join(f"{numfmt.plain(s, 3)} @ {numfmt.plain(d, strip=True)}" for d, s in pooled.items()),
+            "\n".join(
+                f"{numfmt.plain(s, 3)} @ {numfmt.plain(d, strip=True)}" for d, s in pooled.items()
+            ),
             "\n".join(
                 f"{numfmt.shortest(s)} ± {numfmt.shortest(u)} @ {numfmt.plain(at, strip=True)}"
                 for s, at, u in LAB_REPORT_Y_SIGMA
