@@ -47,13 +47,12 @@ def console(*, stderr: bool = False) -> Console:
 
 
 def _natural_width(con: Console, table: Table) -> int:
+    """The width ``table`` needs to show every cell on its own lines, unwrapped."""
+    import io
+
     from rich.console import Console
 
-    probe = Console(width=10_000, file=open(os.devnull, "w"))  # noqa: SIM115
-    try:
-        return probe.measure(table).maximum
-    finally:
-        probe.file.close()
+    return Console(width=10_000, file=io.StringIO()).measure(table).maximum
 
 
 def print_table(con: Console, table: Table) -> None:
