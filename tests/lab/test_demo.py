@@ -136,3 +136,81 @@ def test_validate_cli_on_the_demo_notebook_repeats_the_demo(
     assert check["new"]["rms_error_rad"] == pytest.approx(new, rel=0.02)
     assert main([*args[:1], "no-such-trial", *args[2:]]) == 1
     assert "no trial 'no-such-trial'" in capsys.readouterr().err
+
+
+def test_analyze_on_the_demo_notebook_reproduces_the_demos_table1(
+    lab, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:  # type: ignore[no-untyped-def]
+    """The phone run is its own (validation) campaign: analyze leaves it out and says so."""
+    result, _ = lab
+    out = tmp_path / "analysis.json"
+    assert main(["analyze", "--db", str(result.notebook), "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "left out: imu-validation (validation campaign" in text
+    assert "rotation-indoor (37)" in text and "umbmark (10)" in text
+    motions = {(m["motion"], m["terrain"]): m for m in json.loads(out.read_text())["motions"]}
+    for row in result.table1:
+        m = motions[(row["motion"], row["terrain"])]
+        assert m["ratio"] == row["ratio"]  # exactly: the same trials, the same fits
+        assert m["fit"]["n"] == row["n"]
+    assert motions[("rotation", "tile")]["fit"]["n"] == 37
+    # naming the validation campaign brings the phone run in (38 rotations)
+    args = ["analyze", "--db", str(result.notebook), "--json", str(out)]
+    assert main([*args, "--campaign", "rotation-indoor", "--campaign", "imu-validation"]) == 0
+    capsys.readouterr()
+    rot = next(m for m in json.loads(out.read_text())["motions"] if m["motion"] == "rotation")
+    assert rot["fit"]["n"] == 38
+    # calibrate ratios from the notebook gives the demo's own ratios calibration
+    new = tmp_path / "new.toml"
+    calib = ["calibrate", "ratios", "-p", "jaguar-lite", "--db", str(result.notebook)]
+    assert main([*calib, "-o", str(new)]) == 0
+    assert "left out: imu-validation" in capsys.readouterr().out
+    from odolab.params import load_params
+
+    assert load_params(str(new)).track_width == load_params(
+        str(result.params_files["ratios"])
+    ).track_width
+    # a campaign that is not there is one sentence, not an empty selection
+    assert main(["analyze", "--db", str(result.notebook), "--campaign", "rotation"]) == 1
+    err = capsys.readouterr().err
+    assert "--campaign rotation: no such campaign; expected one of rotation-indoor" in err
+
+
+def test_odolab_db_environment_variable_stands_for_db(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """docs/notebook.md: every notebook command takes --db FILE, or ODOLAB_DB."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("ODOLAB_DB", "env.db")
+    assert main(["notebook", "init"]) == 0
+    assert main(["sim", "run", "lab-report", "-o", "t.csv"]) == 0
+    assert main(["trials", "list", "--status", "measured"]) == 0
+    assert main(["analyze"]) == 0
+    # no ratios given: with ODOLAB_DB set they come from the notebook's fits
+    assert main(["calibrate", "ratios", "-p", "jaguar-lite", "-o", "new.toml"]) == 0
+    assert "recorded in env.db as jaguar-lite parameters version 2" in capsys.readouterr().out
+    assert main(["report", "--out", "rep"]) == 0
+    text = capsys.readouterr().out
+    assert "using 77 measured trials" in text
+    assert (tmp_path / "env.db").exists() and not (tmp_path / "odolab.db").exists()
+    assert (tmp_path / "rep" / "report.html").exists()
+
+
+def test_terminal_tables_never_cut_numbers(
+    lab, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:  # type: ignore[no-untyped-def]
+    """Not a terminal: as wide as needed; COLUMNS narrower than the table: plain blocks."""
+    result, _ = lab
+    rot = next(r for r in result.table1 if r["motion"] == "rotation")
+    whole = "0.875 [0.858, 0.892]"
+    lo, hi = rot["ratio_ci95"]
+    assert (f"{rot['ratio']:.3f}", f"{lo:.3f}", f"{hi:.3f}") == ("0.875", "0.858", "0.892")
+    monkeypatch.delenv("COLUMNS", raising=False)
+    assert main(["analyze", "--db", str(result.notebook)]) == 0
+    wide = capsys.readouterr().out
+    assert whole in wide and "…" not in wide
+    monkeypatch.setenv("COLUMNS", "50")
+    assert main(["analyze", "--db", str(result.notebook)]) == 0
+    narrow = capsys.readouterr().out
+    assert f"ratio [95% CI]: {whole}" in narrow and "…" not in narrow
+    assert max(len(line) for line in narrow.splitlines() if "ratio" in line) <= 50
