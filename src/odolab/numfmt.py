@@ -19,9 +19,13 @@ Every function returns text; none prints. Non-finite values are written ``nan``,
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import Any
 
 __all__ = [
+    "clean",
     "count",
+    "csv_lines",
     "decimals_for",
     "interval",
     "p_value",
@@ -124,3 +128,53 @@ def p_value(p: float) -> str:
 def count(n: int, noun: str, plural: str | None = None) -> str:
     """``1 trial``, ``2 trials``: a count with its noun in the right number."""
     return f"{n} {noun if n == 1 else (plural or noun + 's')}"
+
+
+def clean(x: float, sig: int = 12) -> float:
+    """``x`` rounded to ``sig`` significant digits: a value computed from exact inputs
+    (``0.0835 * 0.905``) without the last-bit noise of the arithmetic (``0.07556750000000001``
+    becomes ``0.0755675``). Twelve digits are far below any physical precision of a robot's
+    parameters and far above what a calibration's interval supports."""
+    x = float(x)
+    if not math.isfinite(x) or x == 0.0:
+        return x
+    return float(f"{x:.{sig}g}")
+
+
+def _column_text(values: Any) -> Any:
+    """Each float as the shortest text (up to 17 digits) that reads back as the same float."""
+    import numpy as np
+
+    a = np.asarray(values, dtype=np.float64)
+    out = np.char.mod("%.15g", a).astype("<U32")
+    bad = ~np.isfinite(a)
+    out[bad] = [repr(float(v)) for v in a[bad]]
+    for digits in (15, 16, 17):
+        fmt = f"%.{digits}g"
+        text = out if digits == 15 else np.char.mod(fmt, a)
+        if digits != 15:
+            out[wrong] = text[wrong]
+        wrong = np.isfinite(a) & (out.astype(np.float64) != a)
+        if not wrong.any():
+            break
+    return out
+
+
+def csv_lines(columns: Sequence[Any], *, sep: str = ",", integer: Sequence[bool] = ()) -> str:
+    """Rows of equally long numeric columns as text lines, every float in its shortest
+    round-trip form (``0.05``, not ``0.050000000000000003``); ``integer`` marks columns
+    written as integers. Ends with a newline when there is a row."""
+    import numpy as np
+
+    texts = []
+    for i, col in enumerate(columns):
+        if i < len(integer) and integer[i]:
+            texts.append(np.asarray(col, dtype=np.int64).astype(str))
+        else:
+            texts.append(_column_text(col))
+    if not texts or len(texts[0]) == 0:
+        return ""
+    line = texts[0].astype(object)
+    for t in texts[1:]:
+        line = line + sep + t.astype(object)
+    return "\n".join(line.tolist()) + "\n"

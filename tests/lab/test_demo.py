@@ -167,9 +167,10 @@ def test_analyze_on_the_demo_notebook_reproduces_the_demos_table1(
     assert "left out: imu-validation" in capsys.readouterr().out
     from odolab.params import load_params
 
-    assert load_params(str(new)).track_width == load_params(
-        str(result.params_files["ratios"])
-    ).track_width
+    assert (
+        load_params(str(new)).track_width
+        == load_params(str(result.params_files["ratios"])).track_width
+    )
     # a campaign that is not there is one sentence, not an empty selection
     assert main(["analyze", "--db", str(result.notebook), "--campaign", "rotation"]) == 1
     err = capsys.readouterr().err

@@ -237,7 +237,10 @@ def calibrate_lsq_cmd(
     ] = None,
     segment: Annotated[float, typer.Option(help="Segment length (s) of the residuals.")] = 2.0,
     no_gt_yaw_offset: Annotated[
-        bool, typer.Option(help="Do not estimate the ground truth's yaw mounting offset.")
+        bool,
+        typer.Option(
+            "--no-gt-yaw-offset", help="Do not estimate the ground truth's yaw mounting offset."
+        ),
     ] = False,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write the report here.")] = None,
     workers: WorkersOpt = 2,

@@ -345,6 +345,7 @@ def _measurement(
                     commanded_angle=t.command.angle,
                     direction=direction,  # type: ignore[arg-type]
                     sigma_reading_rad=sigma or COMPASS_SIGMA_RAD,
+                    predicted_angle=t.predicted.heading,
                 )
             assert x is not None and y is not None
             distance = t.command.distance if t.command.kind.value == "translation" else None

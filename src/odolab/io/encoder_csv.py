@@ -85,6 +85,8 @@ def write_encoder_csv(log: EncoderLog, path: str | Path) -> Path:
     """Write ``t,left_ticks,right_ticks`` (raw counters)."""
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
-    table = np.column_stack((log.t, log.left_ticks, log.right_ticks))
-    np.savetxt(p, table, fmt=("%.9f", "%d", "%d"), delimiter=",", header=",".join(RAW), comments="")
+    from odolab.numfmt import csv_lines
+
+    body = csv_lines((log.t, log.left_ticks, log.right_ticks), integer=(False, True, True))
+    p.write_text(",".join(RAW) + "\n" + body, encoding="utf-8")
     return p

@@ -43,11 +43,13 @@ def _writing(p: Path, what: str) -> Iterator[None]:
 
 
 def write_trajectory_csv(traj: Trajectory, path: str | Path) -> Path:
-    """Write a trajectory CSV (full double precision)."""
+    """Write a trajectory CSV (every float in its shortest round-trip form)."""
+    from odolab.numfmt import csv_lines
+
     p = Path(path)
-    table = np.column_stack((traj.t, traj.x, traj.y, traj.theta, traj.heading))
+    body = csv_lines((traj.t, traj.x, traj.y, traj.theta, traj.heading))
     with _writing(p, "trajectory CSV"):
-        np.savetxt(p, table, fmt="%.17g", delimiter=",", header=",".join(COLUMNS), comments="")
+        p.write_text(",".join(COLUMNS) + "\n" + body, encoding="utf-8")
     return p
 
 
@@ -77,11 +79,13 @@ def write_tum(traj: Trajectory, path: str | Path) -> Path:
     p = Path(path)
     half = 0.5 * traj.theta
     zeros = np.zeros_like(traj.t)
-    table = np.column_stack(
-        (traj.t, traj.x, traj.y, zeros, zeros, zeros, np.sin(half), np.cos(half))
+    from odolab.numfmt import csv_lines
+
+    body = csv_lines(
+        (traj.t, traj.x, traj.y, zeros, zeros, zeros, np.sin(half), np.cos(half)), sep=" "
     )
     with _writing(p, "TUM trajectory"):
-        np.savetxt(p, table, fmt="%.17g", delimiter=" ")
+        p.write_text(body, encoding="utf-8")
     return p
 
 
