@@ -149,14 +149,11 @@ def _column_text(values: Any) -> Any:
     out = np.char.mod("%.15g", a).astype("<U32")
     bad = ~np.isfinite(a)
     out[bad] = [repr(float(v)) for v in a[bad]]
-    for digits in (15, 16, 17):
-        fmt = f"%.{digits}g"
-        text = out if digits == 15 else np.char.mod(fmt, a)
-        if digits != 15:
-            out[wrong] = text[wrong]
+    for digits in (16, 17):
         wrong = np.isfinite(a) & (out.astype(np.float64) != a)
         if not wrong.any():
             break
+        out[wrong] = np.char.mod(f"%.{digits}g", a[wrong])
     return out
 
 
