@@ -99,7 +99,9 @@ def read_tum(path: str | Path) -> Trajectory:
         d["t"], str(p), line_of=lambda i: int(data_line_numbers(p, sep=r"\s+", has_header=False)[i])
     )
     qx, qy, qz, qw = d["qx"], d["qy"], d["qz"], d["qw"]
-    yaw = np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+    # the yaw of the rotation the quaternion stands for, whatever its length (TUM files keep
+    # 4 decimals, so |q| is 1 only to about 1e-4): both arguments scale with |q|^2
+    yaw = np.arctan2(2.0 * (qw * qz + qx * qy), qw * qw + qx * qx - qy * qy - qz * qz)
     return Trajectory.from_xytheta(d["t"], d["tx"], d["ty"], yaw)
 
 
