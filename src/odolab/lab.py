@@ -377,6 +377,7 @@ def run_lab(
         check.to_dict(series=False),
         validation_figure=lambda ax: plot_validation(check, ax=ax, kind="heading"),
         extra=extra,
+        reference=LAB_REPORT_TABLE1,
     )
     progress("report", 1, 1)
     nb.close()

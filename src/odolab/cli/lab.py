@@ -168,7 +168,13 @@ def report_cmd(
             calibrations["umbmark"] = umb
         except CalibrationError as err:
             con.print(f"[yellow]no UMBmark calibration:[/] {err}")
-    path = write_report(out, analysis, calibrations)
+    from odolab.analysis.reference import LAB_REPORT_TABLE1
+
+    # a Jaguar's report is set beside the Jaguar lab report's Table I
+    jaguar = base is not None and base.name.startswith("jaguar")
+    path = write_report(
+        out, analysis, calibrations, reference=LAB_REPORT_TABLE1 if jaguar else None
+    )
     print_table(con, table1_rich(table1(analysis)))
     for s in analysis.skipped:
         con.print(f"[yellow]not enough data:[/] {s}")
