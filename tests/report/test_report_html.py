@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+from odolab import numfmt
 from matplotlib.figure import Figure
 
 from odolab.analysis import LabAnalysis, table1
@@ -70,17 +72,19 @@ def test_html_is_self_contained_and_matches_the_json(report: Path) -> None:
     plain = html.unescape(text)
     for sentence in res["summary"]:
         assert sentence in plain
+    # one number rule: a ratio carries the digits its 95 % interval supports, everywhere
     for row in res["table1"]:
-        assert _fmt(row["ratio"]) in plain
-        assert _fmt(row["ratio_ci95"][0]) in plain
+        assert numfmt.with_ci(row["ratio"], *row["ratio_ci95"]) in plain
     new = res["calibration"]["ratios"]["params"]["track_width"]
-    assert _fmt(new, 6) in plain
+    assert f"track width {numfmt.plain(new, 5, strip=True)} m" in plain
+    assert '<meta name="viewport"' in text
 
 
 def test_summary_numbers_come_from_the_analysis(report: Path, analysis: LabAnalysis) -> None:
     res = json.loads((report.parent / "results.json").read_text())
     rot = analysis.get("rotation")
-    assert any(f"{rot.ratio:.4g} rad/rad" in s for s in res["summary"])
+    lo, hi = rot.ratio_ci95
+    assert any(f"{numfmt.with_ci(rot.ratio, lo, hi)} rad/rad" in s for s in res["summary"])
 
 
 @pytest.mark.parametrize(

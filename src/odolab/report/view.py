@@ -70,6 +70,8 @@ def fmt(v: Any, sig: int = 4) -> str:
     if isinstance(v, Mapping):
         return "; ".join(f"{k}: {fmt(x, sig)}" for k, x in v.items())
     if isinstance(v, list | tuple):
+        if v and all(isinstance(x, list | tuple) for x in v):  # pairs: "concrete 1.016; grass 0.998"
+            return "; ".join(" ".join(fmt(y, sig) for y in x) for x in v)
         return ", ".join(fmt(x, sig) for x in v)
     return str(v)
 
@@ -124,7 +126,7 @@ def _calibration_rows(c: Calibration) -> tuple[str, list[ParamRow]]:
             if isinstance(ci, list | tuple) and len(ci) == 2
             else numfmt.plain(new, 5)
         )
-        rows.append(ParamRow(label, numfmt.shortest(old), new_text, _pct(new, old)))
+        rows.append(ParamRow(label, numfmt.plain(old, 5, strip=True), new_text, _pct(new, old)))
     how = (
         "from the rotation and distance ratios (the lab's section VIII, done right)"
         if not isinstance(c, UmbmarkResult)
@@ -317,7 +319,7 @@ def provenance_rows(prov: Mapping[str, Any]) -> tuple[list[tuple[str, str]], lis
             for i, it in enumerate(v, start=1):
                 if isinstance(it, Mapping):
                     iterations.append(
-                        [str(i)] + [fmt(it.get(c), 6) for c in sorted(it) if c != "iteration"]
+                        [str(i)] + [fmt(it.get(c), 5) for c in sorted(it) if c != "iteration"]
                     )
             continue
         label = _PROV_LABELS.get(k, k.replace("_", " "))
