@@ -9,16 +9,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from odolab import numfmt
 from matplotlib.figure import Figure
 
+from odolab import numfmt
 from odolab.analysis import LabAnalysis, table1
 from odolab.calibration import ratios_from_analysis, umbmark
 from odolab.cli import main
 from odolab.report import figures as F
 from odolab.report import table1_rich, write_report
-from odolab.report.html import _fmt
 
 
 @pytest.fixture(scope="module")

@@ -42,7 +42,7 @@ def console(*, stderr: bool = False) -> Console:
         force_terminal=tty,
         no_color=not tty,
         highlight=False,
-        soft_wrap=not tty and _columns() is None,
+        soft_wrap=not tty,  # a file or a pipe: one line per line, whatever COLUMNS says
     )
 
 

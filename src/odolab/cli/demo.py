@@ -63,6 +63,9 @@ def demo_cmd(
         f"IMU validation: heading RMS error {numfmt.plain(old_rms, 3)} rad -> "
         f"{numfmt.plain(new_rms, 3)} rad"
     )
+    if result.phone_runs is not None:
+        for sentence in result.phone_runs.verdict():
+            out_console.print(f"  {sentence}", markup=False)
     for name, path in result.params_files.items():
         out_console.print(f"calibrated parameters ({name}): {path}", markup=False)
     out_console.print(f"lab notebook: {result.notebook}", markup=False)

@@ -368,6 +368,7 @@ def _figure_plan(
     analysis: LabAnalysis,
     calibrations: Mapping[str, Calibration],
     validation_figure: Callable[[Axes], Axes] | None,
+    extra_figures: Mapping[str, tuple[str, str, Callable[[Axes], Any]]] | None = None,
 ) -> list[_Plan]:
     plans = [p for m in analysis.motions for p in _motion_plans(m)]
     plans += _terrain_plans(analysis)
@@ -383,6 +384,8 @@ def _figure_plan(
                 (6.4, 4.2),
             )
         )
+    for name, (title, caption, draw) in (extra_figures or {}).items():
+        plans.append(_Plan(name, title, caption, draw, "validation", (6.4, 4.2)))
     return plans
 
 
@@ -448,6 +451,7 @@ def write_report(
     validation: Mapping[str, Any] | None = None,
     *,
     validation_figure: Callable[[Axes], Axes] | None = None,
+    extra_figures: Mapping[str, tuple[str, str, Callable[[Axes], Any]]] | None = None,
     extra: Mapping[str, Any] | None = None,
     reference: Mapping[tuple[str, str], Any] | None = None,
     progress: Progress | None = None,
@@ -455,7 +459,8 @@ def write_report(
     """Write ``report.html``, ``figures/*.png`` and ``results.json`` to ``out_dir``.
 
     ``validation`` is any JSON-able mapping (e.g. an IMU comparison's ``to_dict()``);
-    ``validation_figure`` draws its figure on a given axes; ``reference`` is a published
+    ``validation_figure`` draws its figure on a given axes, ``extra_figures`` (name -> title,
+    caption, draw) more figures beside it; ``reference`` is a published
     Table I to set beside this one (:data:`odolab.analysis.reference.LAB_REPORT_TABLE1`).
     Returns the HTML path.
     """
@@ -463,7 +468,7 @@ def write_report(
     calibrations = dict(calibrations or {})
     out, fig_dir = _report_folder(out_dir)
     results = build_results(analysis, calibrations, validation, extra)
-    plans = _figure_plan(analysis, calibrations, validation_figure)
+    plans = _figure_plan(analysis, calibrations, validation_figure, extra_figures)
     say(f"drawing {len(plans)} figures")
     figs = _render(fig_dir, plans)
     results["figures"] = {f.name: f"figures/{f.name}.png" for f in figs}

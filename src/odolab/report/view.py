@@ -70,7 +70,9 @@ def fmt(v: Any, sig: int = 4) -> str:
     if isinstance(v, Mapping):
         return "; ".join(f"{k}: {fmt(x, sig)}" for k, x in v.items())
     if isinstance(v, list | tuple):
-        if v and all(isinstance(x, list | tuple) for x in v):  # pairs: "concrete 1.016; grass 0.998"
+        if v and all(
+            isinstance(x, list | tuple) for x in v
+        ):  # pairs: "concrete 1.016; grass 0.998"
             return "; ".join(" ".join(fmt(y, sig) for y in x) for x in v)
         return ", ".join(fmt(x, sig) for x in v)
     return str(v)
@@ -368,6 +370,7 @@ _VALIDATION_SHOWN = {
     "rms_ratio_new_over_old",
     "warnings",
     "series",
+    "phone_runs",
 }
 
 
@@ -444,7 +447,42 @@ def validation_view(v: Mapping[str, Any]) -> dict[str, Any]:
         other.update({k: fmt(v[k]) for k in ("old", "new") if k in v})
     warnings = [str(x) for x in v.get("warnings") or []]
     other.update({k: fmt(x) for k, x in v.items() if k not in _VALIDATION_SHOWN})
-    return {"summary": summary, "sets": sets, "warnings": warnings, "other": other}
+    return {
+        "summary": summary,
+        "sets": sets,
+        "warnings": warnings,
+        "other": other,
+        "runs": _runs_view(v.get("phone_runs")),
+    }
+
+
+def _runs_view(r: Any) -> dict[str, Any] | None:
+    """Several phone runs (:class:`odolab.validation.runs.RunsSummary` as a dict)."""
+    if not isinstance(r, Mapping) or not isinstance(r.get("final_error_new_rad"), list):
+        return None
+    rows = []
+    for i, (a, o, n, s) in enumerate(
+        zip(
+            r.get("rotation_rad", []),
+            r["final_error_old_rad"],
+            r["final_error_new_rad"],
+            r.get("predicted_sigma_rad", []),
+            strict=False,
+        ),
+        start=1,
+    ):
+        inside = abs(n) <= 1.96 * s
+        rows.append(
+            [
+                Cell("run", str(i), "l"),
+                Cell("rotation (rad)", fmt(a, 4)),
+                Cell("final error, old (rad)", fmt(o, 3)),
+                Cell("final error, new (rad)", fmt(n, 3)),
+                Cell("predicted ±1.96 σ (rad)", f"±{fmt(1.96 * s, 3)}"),
+                Cell("new inside", "yes" if inside else "no", "yes" if inside else "no"),
+            ]
+        )
+    return {"verdict": [str(x) for x in r.get("verdict", [])], "rows": rows}
 
 
 _LIVE_LABELS = {
