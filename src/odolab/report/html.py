@@ -160,7 +160,12 @@ class _Plan:
 
 
 #: figure text legible when the figure is shown at 100 % of a phone's width
-_RC = {"font.size": 10, "axes.titlesize": 11, "axes.labelsize": 10, "legend.fontsize": 9}
+_RC: dict[str, Any] = {
+    "font.size": 10,
+    "axes.titlesize": 11,
+    "axes.labelsize": 10,
+    "legend.fontsize": 9,
+}
 
 
 def _legend_below(fig: Any, ax: Axes, size: tuple[float, float]) -> None:
@@ -194,7 +199,7 @@ def _render(fig_dir: Path, plans: list[_Plan]) -> list[_Figure]:
     from matplotlib.figure import Figure
 
     done: list[_Figure] = []
-    with mpl.rc_context(_RC):
+    with mpl.rc_context(_RC):  # type: ignore[arg-type]
         for p in plans:
             fig = Figure(figsize=p.size, dpi=120, layout="constrained")
             ax = fig.add_subplot()
