@@ -9,21 +9,37 @@ File format (TOML)::
     track_width = 0.56           # m, effective (2 * L_robot of the lab report)
     ticks_per_rev = 380          # encoder counts per wheel revolution
     encoder_modulus = 32768      # counter wraps to 0 after modulus-1; omit if it never wraps
+
+    [model]                      # optional: the kinematic model (odolab.models); default "diff"
+    kind = "diff"
+
+    [noise]                      # optional: random error, var(ds) = k * |ds| per wheel
+    k_left = 1e-4                # m
+    k_right = 1e-4               # m
+    k_scrub = 0.0                # rad: heading variance per radian of commanded turning
 """
 
 from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import asdict, dataclass, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import tomli_w
 
 from odolab.errors import ParamsError
+from odolab.models import DIFF_DRIVE, KinematicModel, ModelCoefficients, model_from_mapping
 
-__all__ = ["PRESETS", "RobotParams", "load_params", "params_from_mapping", "save_params"]
+__all__ = [
+    "PRESETS",
+    "NoiseParams",
+    "RobotParams",
+    "load_params",
+    "params_from_mapping",
+    "save_params",
+]
 
 _FIELDS = (
     "name",
@@ -33,6 +49,62 @@ _FIELDS = (
     "ticks_per_rev",
     "encoder_modulus",
 )
+#: Top-level tables of a parameters file (other developers' tables are added here).
+_TABLES = ("robot", "model", "noise", "provenance")
+_NOISE_KEYS = ("k_left", "k_right", "k_scrub")
+#: Above this a per-metre slip variance means metres of error per metre driven: not odometry.
+_NOISE_MAX = 1.0
+
+
+@dataclass(frozen=True)
+class NoiseParams:
+    """Random error of odometry: per-wheel slip ``var(ds) = k * |ds|`` (Chong & Kleeman).
+
+    ``k_left``, ``k_right`` in metres (as :mod:`odolab.analysis.noise` estimates them);
+    ``k_scrub`` in radians: extra heading variance per radian of commanded turning
+    ``|ds_r - ds_l| / track_width`` (track scrub of skid-steer robots; 0 for wheels)."""
+
+    k_left: float
+    k_right: float
+    k_scrub: float = 0.0
+
+    def __post_init__(self) -> None:
+        for key in _NOISE_KEYS:
+            value = getattr(self, key)
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise ParamsError(f"[noise] {key} must be a number, got {value!r}")
+            if not math.isfinite(value) or value < 0 or value > _NOISE_MAX:
+                raise ParamsError(
+                    f"[noise] {key} must be a number from 0 to {_NOISE_MAX:g}, got {value!r}"
+                )
+            object.__setattr__(self, key, float(value))
+
+    def to_dict(self) -> dict[str, float]:
+        """The ``[noise]`` table (``k_scrub`` only when not zero)."""
+        out = {"k_left": self.k_left, "k_right": self.k_right}
+        if self.k_scrub:
+            out["k_scrub"] = self.k_scrub
+        return out
+
+
+def noise_from_mapping(data: Any, *, source: str = "parameters") -> NoiseParams:
+    """Build :class:`NoiseParams` from a ``[noise]`` table, naming ``source`` in any error."""
+    if not isinstance(data, dict):
+        raise ParamsError(f"{source}: [noise] must be a table, got {type(data).__name__}")
+    unknown = sorted(set(data) - set(_NOISE_KEYS))
+    if unknown:
+        raise ParamsError(
+            f"{source}: unknown key {unknown[0]!r} in [noise]; expected {', '.join(_NOISE_KEYS)}"
+        )
+    missing = [k for k in _NOISE_KEYS[:2] if k not in data]
+    if missing:
+        raise ParamsError(f"{source}: missing key {missing[0]!r} in [noise]")
+    try:
+        return NoiseParams(**data)
+    except ParamsError as err:
+        raise ParamsError(f"{source}: {err}") from err
+
+
 _REQUIRED = ("left_wheel_radius", "right_wheel_radius", "track_width", "ticks_per_rev")
 
 
@@ -51,6 +123,8 @@ class RobotParams:
     ticks_per_rev: float
     encoder_modulus: int | None = None
     name: str = "robot"
+    model: KinematicModel = DIFF_DRIVE
+    noise: NoiseParams | None = None
 
     def __post_init__(self) -> None:
         for key in ("left_wheel_radius", "right_wheel_radius", "track_width", "ticks_per_rev"):
@@ -65,6 +139,15 @@ class RobotParams:
             raise ParamsError(f"encoder_modulus must be an integer >= 2 (or left out), got {m!r}")
         if not isinstance(self.name, str) or not self.name:
             raise ParamsError(f"name must be a non-empty string, got {self.name!r}")
+        if not isinstance(self.model, KinematicModel):
+            raise ParamsError(f"model must be a kinematic model, got {self.model!r}")
+        if self.noise is not None and not isinstance(self.noise, NoiseParams):
+            raise ParamsError(f"noise must be NoiseParams or None, got {self.noise!r}")
+
+    @property
+    def coefficients(self) -> ModelCoefficients:
+        """The kinematic model's wheel-to-body coefficients for this robot (odolab.models)."""
+        return self.model.coefficients(self.track_width)
 
     @property
     def left_metres_per_tick(self) -> float:
@@ -81,16 +164,31 @@ class RobotParams:
         return replace(self, **changes)
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain dict in file order, without ``encoder_modulus`` when it is None."""
-        d = asdict(self)
+        """The ``[robot]`` table in file order, without ``encoder_modulus`` when it is None.
+
+        The kinematic model is not part of it: see :meth:`model_table`."""
+        d = {k: getattr(self, k) for k in _FIELDS}
         out = {k: d[k] for k in _FIELDS if d[k] is not None}
         if float(out["ticks_per_rev"]).is_integer():
             out["ticks_per_rev"] = int(out["ticks_per_rev"])
         return out
 
+    def model_table(self) -> dict[str, Any] | None:
+        """The ``[model]`` table (``kind`` first), or None for the default differential drive."""
+        if self.model == DIFF_DRIVE:
+            return None
+        return {"kind": self.model.kind, **self.model.to_dict()}
 
-def params_from_mapping(data: dict[str, Any], *, source: str = "parameters") -> RobotParams:
-    """Build :class:`RobotParams` from a ``[robot]`` mapping, naming ``source`` in any error."""
+
+def params_from_mapping(
+    data: dict[str, Any],
+    *,
+    source: str = "parameters",
+    model: dict[str, Any] | None = None,
+    noise: dict[str, Any] | None = None,
+) -> RobotParams:
+    """Build :class:`RobotParams` from a ``[robot]`` mapping (and optional ``[model]`` and
+    ``[noise]`` ones), naming ``source`` in any error."""
     unknown = sorted(set(data) - set(_FIELDS))
     if unknown:
         raise ParamsError(
@@ -99,8 +197,10 @@ def params_from_mapping(data: dict[str, Any], *, source: str = "parameters") -> 
     missing = [k for k in _REQUIRED if k not in data]
     if missing:
         raise ParamsError(f"{source}: missing key {missing[0]!r} in [robot]")
+    kinematic = DIFF_DRIVE if model is None else model_from_mapping(model, source=source)
+    random = None if noise is None else noise_from_mapping(noise, source=source)
     try:
-        return RobotParams(**data)
+        return RobotParams(**data, model=kinematic, noise=random)
     except ParamsError as err:
         raise ParamsError(f"{source}: {err}") from err
     except TypeError as err:  # pragma: no cover - guarded by the key checks above
@@ -125,10 +225,15 @@ def load_params(path_or_preset: str | Path) -> RobotParams:
         raise ParamsError(f"{path}: cannot read ({err})") from err
     if "robot" not in doc or not isinstance(doc["robot"], dict):
         raise ParamsError(f"{path}: missing the [robot] table")
-    extra = sorted(k for k in doc if k not in ("robot", "provenance"))
+    extra = sorted(k for k in doc if k not in _TABLES)
     if extra:
-        raise ParamsError(f"{path}: unknown table or key {extra[0]!r}; expected [robot]")
-    return params_from_mapping(doc["robot"], source=str(path))
+        raise ParamsError(
+            f"{path}: unknown table or key {extra[0]!r}; expected [robot] and optionally "
+            "[model], [noise], [provenance]"
+        )
+    return params_from_mapping(
+        doc["robot"], source=str(path), model=doc.get("model"), noise=doc.get("noise")
+    )
 
 
 def save_params(
@@ -136,6 +241,11 @@ def save_params(
 ) -> Path:
     """Write ``params`` as TOML (and an optional ``[provenance]`` table); return the path."""
     doc: dict[str, Any] = {"robot": params.to_dict()}
+    model = params.model_table()
+    if model is not None:
+        doc["model"] = model
+    if params.noise is not None:
+        doc["noise"] = params.noise.to_dict()
     if provenance:
         doc["provenance"] = provenance
     path = Path(path)

@@ -10,11 +10,14 @@ from __future__ import annotations
 import sys
 
 from odolab.cli import (  # noqa: F401  (register commands)
+    consistency,
     core,
     demo,
     evaluate,
+    export,
     lab,
     robot,
+    serve,
     sim,
     trials,
     validate,

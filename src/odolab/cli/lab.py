@@ -310,17 +310,11 @@ def calibrate_umbmark_cmd(
 
 def _record_version(db: Path, result: Any, base: Any, *, trials: list[Any]) -> None:
     """Add the calibration as a new parameter version of the robot in the notebook."""
+    from odolab.calibration.record import record_calibration
     from odolab.store import Notebook
-    from odolab.trials import TrialStatus
 
-    used = [t.trial_id for t in trials if t.status is TrialStatus.MEASURED]
     with Notebook(db) as nb:
-        version = nb.add_params_version(
-            result.params.with_(name=base.name),
-            method=result.method,
-            source_trials=used,
-            notes=str(result.provenance.get("source", "")),
-        )
+        version = record_calibration(nb, result, base, trials=trials)
     typer.echo(f"recorded in {db} as {base.name} parameters version {version}")
 
 

@@ -68,15 +68,9 @@ def _fmt(value: float | None, spec: str = ".3f") -> str:
 
 
 def _describe_measurement(t: Trial) -> str:
-    m = t.measured
-    if m is None:
-        return ""
-    parts = []
-    if m.rotation is not None:
-        parts.append(f"rot {m.rotation:.3f} rad ({m.rotation / math.pi:.2f} pi)")
-    if m.x is not None:
-        parts.append(f"x {m.x:.3f} y {_fmt(m.y)} m")
-    return ", ".join(parts) + f" [{m.instrument}]"
+    from odolab.store.measure import describe_measurement
+
+    return describe_measurement(t)
 
 
 def _describe_prediction(t: Trial) -> str:
@@ -288,12 +282,6 @@ def _measurement(
 ) -> Measurement:
     """Build the measurement of ``t``; ask for what is missing when there is a terminal."""
     from odolab.errors import StoreError
-    from odolab.store import (
-        COMPASS_SIGMA_RAD,
-        METERSTICK_SIGMA_M,
-        rotation_measurement_from_compass,
-        translation_measurement,
-    )
     from odolab.store.entry import check_compass_reading
 
     def ask_compass(text: str) -> float:
@@ -311,16 +299,14 @@ def _measurement(
                 return value
             typer.echo("refused: turns must be 0 or more", err=True)
 
+    from odolab.store.measure import build_measurement, check_reading_names, measurement_for_trial
+
     rotation = t.command.kind.value in ("rotation", "pivot")
-    wrong = (x, y) if rotation else (initial, final, turns)
-    if any(v is not None for v in wrong):
-        # do not drop what was typed and then ask for something else
-        expected = "--initial, --final and --turns" if rotation else "--x and --y"
-        raise StoreError(
-            f"trial {t.trial_id} is a {t.command.kind.value}: it is measured with {expected}"
-        )
+    # do not drop what was typed and then ask for something else
+    check_reading_names(t, initial, final, turns, x, y)
     given = (initial, final, turns) if rotation else (x, y)
-    interactive = any(v is None for v in given)
+    if not any(v is None for v in given):
+        return measurement_for_trial(t, initial, final, turns, x, y, sigma)
     while True:
         if rotation:
             if initial is None:
@@ -335,29 +321,8 @@ def _measurement(
             if y is None:
                 y = typer.prompt("y by meterstick (m, to the left)", type=float)
         try:
-            if rotation:
-                assert initial is not None and final is not None and turns is not None
-                direction = "cw" if t.command.direction == "cw" else None
-                return rotation_measurement_from_compass(
-                    initial,
-                    final,
-                    turns,  # type: ignore[arg-type]
-                    commanded_angle=t.command.angle,
-                    direction=direction,  # type: ignore[arg-type]
-                    sigma_reading_rad=sigma or COMPASS_SIGMA_RAD,
-                    predicted_angle=t.predicted.heading,
-                )
-            assert x is not None and y is not None
-            distance = t.command.distance if t.command.kind.value == "translation" else None
-            return translation_measurement(
-                x,
-                y,
-                sigma=sigma or METERSTICK_SIGMA_M,  # type: ignore[arg-type]
-                commanded_distance=distance,
-            )
+            return build_measurement(t, initial, final, turns, x, y, sigma)
         except StoreError as err:
-            if not interactive:
-                raise StoreError(f"trial {t.trial_id}: {err}") from err
             typer.echo(f"refused: {err}. Please enter the readings again.", err=True)
             initial = final = turns = None
             x = y = None
@@ -391,14 +356,9 @@ def measure_cmd(
                 raise StoreError(f"{db}: no trial is awaiting measurement; give the trial id")
             trial_id = waiting[-1].trial_id
         t = nb.get_trial(trial_id)
-        if t.measured is not None and not replace:
-            from odolab.errors import StoreError
+        from odolab.store.measure import refuse_if_measured
 
-            # refuse before asking for the readings, not after they were typed
-            raise StoreError(
-                f"trial {trial_id} is already measured ({_describe_measurement(t)}); "
-                "give --replace to overwrite its measurement"
-            )
+        refuse_if_measured(t, replace)  # before asking for the readings, not after they were typed
         typer.echo(
             f"trial {t.trial_id}: {t.command.describe()}; predicted {_describe_prediction(t)}"
         )

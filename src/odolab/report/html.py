@@ -415,7 +415,7 @@ def _page(
 
     env = jinja2.Environment(
         loader=jinja2.PackageLoader("odolab.report", "templates"),
-        autoescape=True,
+        autoescape=jinja2.select_autoescape(["html", "html.j2"]),  # the template is .html.j2
         undefined=jinja2.StrictUndefined,
     )
     cal_views = []

@@ -51,7 +51,7 @@ from odolab.kinematics import wrap_angle
 from odolab.odometry import integrate
 from odolab.params import RobotParams
 from odolab.sim.instruments import Compass, Instruments, Meterstick
-from odolab.sim.physics import TrueParams, kernel_params, simulate_batch
+from odolab.sim.physics import _NPARAM, TrueParams, kernel_params, simulate_batch
 from odolab.sim.terrains import get_terrain
 from odolab.trajectory import Pose
 from odolab.trials import Command, EncoderLog, Measurement, MotionKind, Trial, TrialStatus
@@ -446,7 +446,7 @@ def run_protocol(
     rng = np.random.default_rng(seed)
     terrains = [terrain or s.terrain for s in specs]
     cache = {name: kernel_params(truth, nominal, get_terrain(name)) for name in set(terrains)}
-    P = np.stack([cache[name] for name in terrains]) if n else np.zeros((0, 14))
+    P = np.stack([cache[name] for name in terrains]) if n else np.zeros((0, _NPARAM))
     segs = [segments_for(s.command, nominal) for s in specs]
     width = max((len(s) for s in segs), default=1)
     arr = np.zeros((4, n, width))
