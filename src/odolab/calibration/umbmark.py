@@ -47,7 +47,6 @@ from numpy.typing import ArrayLike, NDArray
 
 from odolab.calibration.ratios import CalibrationResult, _now
 from odolab.errors import CalibrationError
-from odolab.numfmt import clean
 from odolab.params import RobotParams
 from odolab.trials import MotionKind, Trial, TrialStatus
 
@@ -320,12 +319,7 @@ def umbmark_iterated(
             f"change {change:.3g}, tolerance {tol:.3g}; E_max,syst {iterations[0]['e_max_syst']:.4g}"
             f" m -> {iterations[-1]['e_max_syst']:.4g} m); check the runs or raise max_iter"
         )
-    final = current.with_(
-        name=f"{base.name}-umbmark",
-        left_wheel_radius=clean(current.left_wheel_radius),
-        right_wheel_radius=clean(current.right_wheel_radius),
-        track_width=clean(current.track_width),
-    )
+    final = current.with_(name=f"{base.name}-umbmark")
     # the per-turn and per-leg errors that the cumulative E_b and E_d stand for
     alpha = (math.pi / 2) * (1.0 - 1.0 / e_b)
     half_b = base.track_width / 2
