@@ -65,3 +65,27 @@ def test_help_shows_flags_as_flags(capsys: pytest.CaptureFixture[str], monkeypat
     assert "--no-gt-yaw-offset" in text and "--no-no-" not in text
     assert not re.search(r"--help\s+<bool>", text)
     assert "<bool>" not in text
+
+
+def test_evaluate_prints_the_mean_rows_the_docs_quote(
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    optiodom_dir: Path,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """docs/real-logs.md quotes means per folder: the table ends with them, never cut."""
+    import json
+
+    monkeypatch.delenv("COLUMNS", raising=False)  # not a terminal: as wide as the table
+
+    out = tmp_path / "ev.json"
+    folder = optiodom_dir / "circular" / "250620202251"
+    assert main(["evaluate", str(folder), "--format", "optiodom", "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    runs = json.loads(out.read_text())["runs"]
+    drift = [r["drift"]["translation_pct"] for r in runs]
+    end = [r["drift"]["endpoint_error"] for r in runs]
+    group = runs[0]["name"].split("/")[0]
+    row = next(line for line in text.splitlines() if f"mean, {group} ({len(runs)} runs)" in line)
+    assert f"{sum(drift) / len(drift):.2f}" in row and f"{sum(end) / len(end):.4f}" in row
+    assert "…" not in text
