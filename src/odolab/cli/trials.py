@@ -206,7 +206,6 @@ def list_cmd(
     db: DbOption = _DB,
 ) -> None:
     """The trials as a table."""
-    from rich.console import Console
     from rich.table import Table
 
     with _open(db) as nb:
@@ -235,7 +234,9 @@ def list_cmd(
             escape(_describe_measurement(t)),
             escape(st),
         )
-    Console(width=200).print(table)
+    from odolab.cli._console import console, print_table
+
+    print_table(console(), table)
 
 
 @trials_app.command("show")
