@@ -10,6 +10,14 @@ File format (TOML)::
     ticks_per_rev = 380          # encoder counts per wheel revolution
     encoder_modulus = 32768      # counter wraps to 0 after modulus-1; omit if it never wraps
 
+Every value must lie in a plausible physical range (:data:`RANGES`): a wheel radius from 2 mm to
+2 m, a track width from 1 cm to 20 m, 1 to 10^8 counts per revolution, a modulus from 2 to 2^63.
+Whatever builds parameters (a TOML file, a notebook CSV or JSON import, a calibration) gets the
+same check; a value that looks like centimetres or millimetres is refused with the metres it
+probably meant ("a radius of 8.35 m looks like centimetres: 0.0835 m?").
+
+Optional tables::
+
     [model]                      # optional: the kinematic model (odolab.models); default "diff"
     kind = "diff"
 
@@ -31,11 +39,14 @@ import tomli_w
 
 from odolab.errors import ParamsError
 from odolab.models import DIFF_DRIVE, KinematicModel, ModelCoefficients, model_from_mapping
+from odolab.text import quote_input
 
 __all__ = [
     "PRESETS",
+    "RANGES",
     "NoiseParams",
     "RobotParams",
+    "check_param",
     "load_params",
     "params_from_mapping",
     "save_params",
@@ -107,6 +118,58 @@ def noise_from_mapping(data: Any, *, source: str = "parameters") -> NoiseParams:
 
 _REQUIRED = ("left_wheel_radius", "right_wheel_radius", "track_width", "ticks_per_rev")
 
+#: Largest parameters file read (bytes): it is read whole, so a wrong file is refused first.
+MAX_TOML_BYTES = 1_000_000
+
+#: Plausible physical range (inclusive) of each parameter, its unit and the word used in hints.
+#: Radii: a 2 mm micro-robot wheel to a 2 m mining-truck tyre. Track: 1 cm to 20 m. Counts per
+#: revolution: 1 (a reed switch) to 10^8 (a fine encoder behind a gearbox). Modulus: 2 to 2^63
+#: (a signed 64-bit counter).
+RANGES: dict[str, tuple[float, float, str, str]] = {
+    "left_wheel_radius": (0.002, 2.0, "m", "radius"),
+    "right_wheel_radius": (0.002, 2.0, "m", "radius"),
+    "track_width": (0.01, 20.0, "m", "track width"),
+    "ticks_per_rev": (1.0, 1e8, "counts per revolution", "count"),
+    "encoder_modulus": (2, 2**63, "", "modulus"),
+}
+
+
+def _hint(key: str, value: float) -> str:
+    """``"; a radius of 8.35 m looks like centimetres: 0.0835 m?"`` when a unit slip explains it."""
+    lo, hi, unit, word = RANGES[key]
+    if unit != "m":
+        return ""
+    for name, div in (("centimetres", 100.0), ("millimetres", 1000.0)):
+        if lo <= value / div <= hi:
+            return f"; a {word} of {value:.6g} m looks like {name}: {value / div:.6g} m?"
+    return ""
+
+
+def check_param(key: str, value: object) -> float | int:
+    """``value`` of parameter ``key`` if it is a number in its plausible range, else refuse.
+
+    Every path that builds :class:`RobotParams` (TOML, CSV, JSON, CLI) applies this same check,
+    through the constructor. The message names the key, the range and a likely unit slip.
+    """
+    lo, hi, unit, _ = RANGES[key]
+    if key == "encoder_modulus":
+        if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+            raise ParamsError(
+                f"encoder_modulus must be an integer >= 2 (at most 2^63) or left out, got "
+                f"{quote_input(value)}"
+            )
+        return value
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ParamsError(f"{key} must be a number, got {quote_input(value)}")
+    if not math.isfinite(value) or value <= 0:
+        raise ParamsError(f"{key} must be a positive finite number, got {quote_input(value)}")
+    if not lo <= value <= hi:
+        raise ParamsError(
+            f"{key} = {value:.6g} {unit} is outside the plausible {lo:g} to {hi:g} {unit}"
+            + _hint(key, float(value))
+        )
+    return float(value)
+
 
 @dataclass(frozen=True)
 class RobotParams:
@@ -128,17 +191,11 @@ class RobotParams:
 
     def __post_init__(self) -> None:
         for key in ("left_wheel_radius", "right_wheel_radius", "track_width", "ticks_per_rev"):
-            value = getattr(self, key)
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise ParamsError(f"{key} must be a number, got {value!r}")
-            if not math.isfinite(value) or value <= 0:
-                raise ParamsError(f"{key} must be a positive finite number, got {value!r}")
-            object.__setattr__(self, key, float(value))
-        m = self.encoder_modulus
-        if m is not None and (isinstance(m, bool) or not isinstance(m, int) or m < 2):
-            raise ParamsError(f"encoder_modulus must be an integer >= 2 (or left out), got {m!r}")
+            object.__setattr__(self, key, check_param(key, getattr(self, key)))
+        if self.encoder_modulus is not None:
+            check_param("encoder_modulus", self.encoder_modulus)
         if not isinstance(self.name, str) or not self.name:
-            raise ParamsError(f"name must be a non-empty string, got {self.name!r}")
+            raise ParamsError(f"name must be a non-empty string, got {quote_input(self.name)}")
         if not isinstance(self.model, KinematicModel):
             raise ParamsError(f"model must be a kinematic model, got {self.model!r}")
         if self.noise is not None and not isinstance(self.noise, NoiseParams):
@@ -218,6 +275,11 @@ def load_params(path_or_preset: str | Path) -> RobotParams:
             f"{path}: no such parameters file or preset; presets are {', '.join(sorted(PRESETS))}"
         )
     try:
+        if path.stat().st_size > MAX_TOML_BYTES:
+            raise ParamsError(
+                f"{path}: {path.stat().st_size:,} bytes; a parameters TOML is at most "
+                f"{MAX_TOML_BYTES:,} bytes (is it the right file?)"
+            )
         doc = tomllib.loads(path.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as err:
         raise ParamsError(f"{path}: not valid TOML ({err})") from err

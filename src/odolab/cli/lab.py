@@ -61,12 +61,13 @@ def _select(
 ) -> list[Any]:
     """The trials ``--campaign``/``--exclude-campaign`` select; says which on ``con``."""
     from odolab.analysis.selection import select_trials
+    from odolab.text import safe_terminal
 
     trials, validation = _load_trials(db, with_logs=with_logs)
     sel = select_trials(
         trials, campaigns=campaign or (), exclude=exclude or (), validation_campaigns=validation
     )
-    con.print(sel.describe(), markup=False)
+    con.print(safe_terminal(sel.describe()), markup=False)  # campaign names are user text
     return sel.trials
 
 
@@ -90,6 +91,7 @@ def analyze_cmd(
 
     from odolab.analysis import analyze_trials, table1
     from odolab.cli._console import print_table
+    from odolab.cli._output import markup_text as mt
     from odolab.report import table1_rich
 
     con = _console()
@@ -97,10 +99,10 @@ def analyze_cmd(
     analysis = analyze_trials(trials)
     print_table(con, table1_rich(table1(analysis)))
     for t in analysis.terrain_tests:
-        con.print(t.verdict())
+        con.print(mt(t.verdict()))
     for m in analysis.motions:
         if m.growth is not None:
-            con.print(f"growth of sigma, {m.motion} on {m.terrain}: {m.growth.verdict()}")
+            con.print(mt(f"growth of sigma, {m.motion} on {m.terrain}: {m.growth.verdict()}"))
     for kind, w in analysis.noise_by_kind.items():
         con.print(
             f"wheel noise from {kind} trials: k_r = {w.k_right:.3g} m "
@@ -109,11 +111,11 @@ def analyze_cmd(
             + ("" if w.identifiable else " (only k_r + k_l is identifiable)")
         )
     if analysis.noise_note:
-        con.print(f"[yellow]note:[/] {analysis.noise_note}")
+        con.print(f"[yellow]note:[/] {mt(analysis.noise_note)}")
     for o in analysis.outliers:
-        con.print(f"[yellow]outlier[/] {o.trial_id}: {o.reason}")
+        con.print(f"[yellow]outlier[/] {mt(o.trial_id)}: {mt(o.reason)}")
     for s in analysis.skipped:
-        con.print(f"[yellow]not enough data:[/] {s}")
+        con.print(f"[yellow]not enough data:[/] {mt(s)}")
     if json_out is not None:
         from odolab.cli._output import write_output_text
 
@@ -143,6 +145,7 @@ def report_cmd(
         umbmark_iterated,
     )
     from odolab.cli._console import print_table
+    from odolab.cli._output import markup_text
     from odolab.errors import CalibrationError
     from odolab.params import load_params
     from odolab.report import table1_rich, write_report
@@ -155,7 +158,7 @@ def report_cmd(
     try:
         calibrations["ratios"] = ratios_from_analysis(analysis, base)
     except CalibrationError as err:
-        con.print(f"[yellow]no ratios calibration:[/] {err}")
+        con.print(f"[yellow]no ratios calibration:[/] {markup_text(err)}")
     if analysis.square_trials and base is not None:
         try:
             if all(t.encoder_log is not None for t in analysis.square_trials):
@@ -167,7 +170,7 @@ def report_cmd(
                 umb = umbmark(cw, ccw, side, base)
             calibrations["umbmark"] = umb
         except CalibrationError as err:
-            con.print(f"[yellow]no UMBmark calibration:[/] {err}")
+            con.print(f"[yellow]no UMBmark calibration:[/] {markup_text(err)}")
     from odolab.analysis.reference import LAB_REPORT_TABLE1
 
     # a Jaguar's report is set beside the Jaguar lab report's Table I
@@ -177,7 +180,7 @@ def report_cmd(
     )
     print_table(con, table1_rich(table1(analysis)))
     for s in analysis.skipped:
-        con.print(f"[yellow]not enough data:[/] {s}")
+        con.print(f"[yellow]not enough data:[/] {markup_text(s)}")
     con.print(f"report: {path}  (figures and results.json beside it)")
 
 
@@ -312,38 +315,14 @@ def _record_version(db: Path, result: Any, base: Any, *, trials: list[Any]) -> N
     """Add the calibration as a new parameter version of the robot in the notebook."""
     from odolab.calibration.record import record_calibration
     from odolab.store import Notebook
+    from odolab.text import safe_terminal
 
     with Notebook(db) as nb:
         version = record_calibration(nb, result, base, trials=trials)
-    typer.echo(f"recorded in {db} as {base.name} parameters version {version}")
+    typer.echo(f"recorded in {db} as {safe_terminal(base.name)} parameters version {version}")
 
 
 def _read_umbmark_csv(path: Path) -> tuple[list[tuple[float, float]], list[tuple[float, float]]]:
-    import csv
+    from odolab.calibration.umbmark import read_umbmark_errors_csv
 
-    from odolab.errors import OdolabError
-
-    cw: list[tuple[float, float]] = []
-    ccw: list[tuple[float, float]] = []
-    try:
-        with path.open(newline="", encoding="utf-8") as fh:
-            reader = csv.DictReader(fh)
-            if reader.fieldnames is None or not {"direction", "x", "y"} <= set(reader.fieldnames):
-                raise OdolabError(f"{path}: expected a header with direction,x,y")
-            for line, row in enumerate(reader, start=2):
-                d = (row["direction"] or "").strip().lower()
-                try:
-                    xy = (float(row["x"]), float(row["y"]))
-                except (TypeError, ValueError) as err:
-                    raise OdolabError(f"{path}, line {line}: x and y must be numbers (m)") from err
-                if d == "cw":
-                    cw.append(xy)
-                elif d == "ccw":
-                    ccw.append(xy)
-                else:
-                    raise OdolabError(
-                        f"{path}, line {line}: direction must be cw or ccw, got {d!r}"
-                    )
-    except OSError as err:
-        raise OdolabError(f"{path}: cannot read ({err})") from err
-    return cw, ccw
+    return read_umbmark_errors_csv(path)

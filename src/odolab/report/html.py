@@ -36,6 +36,7 @@ from odolab.report.view import (
     validation_view,
     verdict,
 )
+from odolab.text import safe_file_name
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -205,10 +206,11 @@ def _render(fig_dir: Path, plans: list[_Plan]) -> list[_Figure]:
             ax = fig.add_subplot()
             p.draw(ax)
             _legend_below(fig, ax, p.size)
-            path = fig_dir / f"{p.name}.png"
+            name = safe_file_name(p.name, what="figure name")  # terrains are user text
+            path = fig_dir / f"{name}.png"
             fig.savefig(path)
             b64 = base64.b64encode(path.read_bytes()).decode("ascii")
-            done.append(_Figure(p.name, p.title, p.caption, b64, p.group))
+            done.append(_Figure(name, p.title, p.caption, b64, p.group))
     return done
 
 
@@ -415,7 +417,8 @@ def _page(
 
     env = jinja2.Environment(
         loader=jinja2.PackageLoader("odolab.report", "templates"),
-        autoescape=jinja2.select_autoescape(["html", "html.j2"]),  # the template is .html.j2
+        # every template escaped (report.html.j2's ".j2" never matched select_autoescape(["html"]))
+        autoescape=True,
         undefined=jinja2.StrictUndefined,
     )
     cal_views = []

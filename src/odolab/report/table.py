@@ -9,6 +9,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 from odolab import numfmt
+from odolab.text import safe_terminal
 
 if TYPE_CHECKING:
     from rich.table import Table
@@ -27,6 +28,7 @@ def sigma_text(s: dict[str, Any], unit: str = "") -> str:
 def table1_rich(rows: Sequence[dict[str, Any]], *, title: str = "Table I") -> Table:
     """Rows of :func:`odolab.analysis.table1` as a :class:`rich.table.Table`."""
     from rich.table import Table
+    from rich.text import Text
 
     t = Table(title=title)
     for name, justify in (
@@ -47,8 +49,8 @@ def table1_rich(rows: Sequence[dict[str, Any]], *, title: str = "Table I") -> Ta
         sig = "\n".join(sigma_text(s, r["unit"]) for s in r.get("sigmas", []))
         growth = numfmt.with_ci(r["growth_p"], *r["growth_p_ci95"]) if "growth_p" in r else "-"
         t.add_row(
-            r["motion"],
-            r["terrain"],
+            Text(safe_terminal(r["motion"])),  # user text: no markup, no escape sequences
+            Text(safe_terminal(r["terrain"])),
             str(r["n"]),
             numfmt.with_ci(r["ratio"], lo, hi),
             r["ratio_unit"],
@@ -65,6 +67,7 @@ def table1_compare_rich(
 ) -> Table:
     """Table I beside the Jaguar lab report's own numbers (and the pooled y sigma row)."""
     from rich.table import Table
+    from rich.text import Text
 
     from odolab.analysis.reference import LAB_REPORT_TABLE1, LAB_REPORT_Y_SIGMA
     from odolab.analysis.table1 import pooled_y_sigmas
@@ -81,8 +84,8 @@ def table1_compare_rich(
             for s in r.get("sigmas", [])
         )
         table.add_row(
-            r["motion"],
-            r["terrain"],
+            Text(safe_terminal(r["motion"])),  # user text: no markup, no escape sequences
+            Text(safe_terminal(r["terrain"])),
             str(r["n"]),
             numfmt.with_ci(r["ratio"], lo, hi),
             f"{numfmt.shortest(ref[0])} ± {numfmt.shortest(ref[1])}" if ref else "-",
