@@ -268,7 +268,7 @@ def _campaign(cfg: LabConfig, nb: Any, progress: Progress) -> list[Trial]:
         cfg.true_params,
         cfg.nominal,
         seed=cfg.seed,
-        progress=lambda d, t: progress("campaign", d, t),
+        progress=lambda d, t, _what: progress("campaign", d, t),
     )
     _record(nb, trials)
     return trials
@@ -452,7 +452,7 @@ def _rerun(cfg: LabConfig, new: RobotParams, progress: Progress) -> dict[str, fl
         cfg.true_params,
         new,
         seed=cfg.seed,
-        progress=lambda d, t: progress("re-run", d, t),
+        progress=lambda d, t, _what: progress("re-run", d, t),
     )
     after = analyze_trials(rerun)
     ratios: dict[str, float] = {}

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -26,11 +26,11 @@ from odolab.analysis.terrain import TerrainComparison, compare_terrains
 from odolab.errors import InsufficientDataError
 from odolab.numfmt import count
 from odolab.params import RobotParams
+from odolab.progress import Progress, steps
 from odolab.trials import MotionKind, Trial, TrialStatus
 
 __all__ = ["MOTIONS", "LabAnalysis", "MotionAnalysis", "Progress", "analyze_trials"]
 
-Progress = Callable[[str], None]
 
 #: The motions the lab fits, in report order, with what is regressed on what.
 MOTIONS: dict[str, dict[str, str]] = {
@@ -60,10 +60,6 @@ MOTIONS: dict[str, dict[str, str]] = {
         "ratio_unit": "m/m",
     },
 }
-
-
-def _noop(_: str) -> None:
-    return None
 
 
 @dataclass(frozen=True, eq=False)
@@ -320,7 +316,7 @@ def analyze_trials(trials: Sequence[Trial], *, progress: Progress | None = None)
     are listed in ``skipped`` (one sentence each, saying how many trials are needed). Raises
     :class:`InsufficientDataError` when not a single fit is possible.
     """
-    say = progress or _noop
+    say = steps(progress)
     trials = list(trials)
     measured = [t for t in trials if t.status is TrialStatus.MEASURED and t.measured is not None]
     excluded = [
