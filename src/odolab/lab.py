@@ -290,8 +290,8 @@ def _live_commands(cfg: LabConfig) -> list[tuple[str, Command]]:
 
 def _live_runs(cfg: LabConfig, nb: Any, progress: Progress) -> LiveRuns:
     """Step 3: squares and phone rotations through loop, driver, codec and virtual board."""
-    from odolab.robot.plant import make_plant
     from odolab.robot.session import run_motion_simulated
+    from odolab.sim.plants import make_plant
 
     cmds = _live_commands(cfg)
     live: list[Trial] = []
