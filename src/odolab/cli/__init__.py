@@ -14,6 +14,7 @@ from odolab.cli import (  # noqa: F401  (register commands)
     demo,
     evaluate,
     lab,
+    models,
     robot,
     sim,
     trials,
