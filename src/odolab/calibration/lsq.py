@@ -20,8 +20,10 @@ use disjoint encoder increments, so treating their residuals as independent is r
 the numbers are only as good as that assumption.
 
 A parameter the runs cannot determine (its Jacobian column is, within 1e-4 of its variance, a
-combination of the others: variance inflation above 1e4) stops the fit with one sentence naming
-it, its standard error and what data would determine it.
+combination of the others: variance inflation above 1e4; or its standard error is above 5 % of
+its size, for ``x_icr`` of a tenth of the track width) stops the fit with one sentence naming it,
+its standard error and what data would determine it (models other than the differential drive,
+which keeps its original sentence).
 """
 
 from __future__ import annotations
@@ -65,6 +67,9 @@ FloatArray = NDArray[np.float64]
 
 #: variance inflation factor above which a parameter counts as not determined by the runs
 _VIF_LIMIT = 1e4
+#: ... or a standard error above this fraction of the parameter's typical size
+#: (its value; 0.1 x the track width for x_icr)
+_SE_LIMIT = 0.05
 
 
 @dataclass(frozen=True)
@@ -415,7 +420,7 @@ def calibrate_lsq(
     s2 = float(np.sum(sol.fun**2)) / (m - x0.size)
     jtj = jmat.T @ jmat
     norms = np.linalg.norm(jmat, axis=0)
-    _check_identifiable(spec, jmat, norms, s2, k_model)
+    _check_identifiable(spec, jmat, norms, s2, k_model, x_scale[:k_model])
     cov: FloatArray = np.asarray(np.linalg.inv(jtj) * s2, dtype=np.float64)
     theta = sol.x
     params = spec.params(nominal, theta[:k_model]).with_(name=f"{nominal.name}-lsq")
@@ -438,7 +443,12 @@ def calibrate_lsq(
 
 
 def _check_identifiable(
-    spec: FitModel, jmat: FloatArray, norms: FloatArray, s2: float, k_model: int
+    spec: FitModel,
+    jmat: FloatArray,
+    norms: FloatArray,
+    s2: float,
+    k_model: int,
+    typical: FloatArray,
 ) -> None:
     """Raise one sentence when the runs do not determine a parameter (see the module)."""
     if spec.kind == "diff":  # the original sentence for the original model
@@ -458,14 +468,25 @@ def _check_identifiable(
     jn = jmat[:, nz] / norms[nz]
     ginv = np.linalg.pinv(jn.T @ jn)
     vif = np.diag(ginv)[:k_model]
-    worst = int(np.argmax(vif))
-    if vif[worst] > _VIF_LIMIT or not np.isfinite(vif[worst]):
-        se = math.sqrt(max(float(ginv[worst, worst]) * s2, 0.0)) / norms[worst]
-        raise CalibrationError(
-            f"{spec.names[worst]} is not identifiable without {spec.needs[worst]} "
-            f"(standard error {se:.3g}, variance inflated {vif[worst]:.3g} times by the other "
-            "parameters); expected runs that have them"
-        )
+    se = np.sqrt(np.maximum(vif * s2, 0.0)) / norms[:k_model]
+    bad = [
+        i
+        for i in range(k_model)
+        if not (np.isfinite(vif[i]) and vif[i] <= _VIF_LIMIT and se[i] <= _SE_LIMIT * typical[i])
+    ]
+    if not bad:
+        return
+    groups: dict[str, list[str]] = {}
+    for i in sorted(bad, key=lambda i: spec.names[i] != "x_icr"):  # x_icr's sentence first
+        groups.setdefault(spec.needs[i], []).append(f"{spec.names[i]} (standard error {se[i]:.3g})")
+    parts = [
+        f"{', '.join(names)} {'is' if len(names) == 1 else 'are'} not identifiable without {need}"
+        for need, names in groups.items()
+    ]
+    raise CalibrationError(
+        "; ".join(parts) + " (the other parameters explain the same motion); expected runs "
+        "that have them"
+    )
 
 
 def compare_runs(
