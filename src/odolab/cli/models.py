@@ -1,4 +1,5 @@
-"""CLI command ``odolab calibrate compare``: which kinematic model does my robot need?"""
+"""CLI commands ``odolab calibrate compare`` (which kinematic model does my robot need?) and
+``odolab sim questions`` (the lab's open questions on the virtual robot)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from odolab.cli._apps import calibrate_app
+from odolab.cli._apps import calibrate_app, sim_app
 from odolab.cli.evaluate import (
     GtTopicOpt,
     JointsOpt,
@@ -140,3 +141,62 @@ def _print_comparison(result: ModelComparison) -> None:
         )
         console.print(f"{s.model}: {values}")
     console.print(f"recommended: [bold]{result.recommended}[/bold] ({escape(result.reason)})")
+
+
+@sim_app.command("questions")
+def sim_questions_cmd(
+    experiments: Annotated[
+        list[str] | None,
+        typer.Argument(help="Experiment files or built-in names (default: every built-in)."),
+    ] = None,
+    truth: Annotated[
+        str, typer.Option(help="True-behaviour preset of the virtual robot.")
+    ] = "jaguar-lab-tracked",
+    params: ParamsOpt = None,
+    seed: Annotated[int, typer.Option(min=0, help="Random seed.")] = 0,
+    repeats: Annotated[
+        int | None, typer.Option(min=2, help="Repeats per condition (default: the file's).")
+    ] = None,
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write the answers here.")] = None,
+) -> None:
+    """Answer the lab's open questions on the virtual robot: effect sizes with 95 % CIs."""
+    from rich.console import Console
+    from rich.markup import escape
+
+    from odolab.analysis.questions import builtin_experiments, load_experiment, run_experiment
+    from odolab.cli._output import write_output_text
+    from odolab.errors import SimError
+    from odolab.params import load_params
+    from odolab.sim.presets import TRUTH_PRESETS
+
+    if truth not in TRUTH_PRESETS:
+        raise SimError(f"--truth: unknown preset {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}")
+    nominal = load_params(params or "jaguar-lite")
+    loaded = [load_experiment(e) for e in (experiments or sorted(builtin_experiments()))]
+    console = Console()
+    results = []
+    with _progress_bar("questions") as report:
+        for exp in loaded:
+            results.append(
+                run_experiment(
+                    exp, TRUTH_PRESETS[truth], nominal, seed=seed, repeats=repeats,
+                    progress=lambda done, total, name=exp.name: report(done, total, name),
+                )  # fmt: skip
+            )
+    for res in results:
+        console.print(f"[bold]{escape(res.experiment.question)}[/bold]")
+        for c in res.conditions:
+            if c.slip:
+                console.print(
+                    f"  {escape(c.label)}: slip {c.mean:.1f} % [{c.low:.1f}, {c.high:.1f}] "
+                    f"({len(c.slip)} runs" + (f", {c.stalled} stalled)" if c.stalled else ")")
+                )
+            else:
+                console.print(f"  {escape(c.label)}: stalled in all {c.stalled} runs")
+        for e in res.effects:
+            console.print(f"  -> {escape(e.sentence())}")
+        if res.trend is not None:
+            console.print(f"  -> {escape(res.trend.sentence())}")
+    if json_out is not None:
+        doc = [r.to_dict() for r in results]
+        write_output_text(json_out, json.dumps(doc, indent=2, allow_nan=True) + "\n", "JSON result")
