@@ -75,9 +75,7 @@ def test_icr_halves_the_held_out_error_of_the_best_diff_drive(synthetic) -> None
     result = compare_models(train, held, NOMINAL, n_boot=500)
     assert result.recommended == "icr"
     icr = result.score("icr").held_out["endpoint_error"].value
-    best_diff = min(
-        result.score(m).held_out["endpoint_error"].value for m in ("diff", "extended")
-    )
+    best_diff = min(result.score(m).held_out["endpoint_error"].value for m in ("diff", "extended"))
     assert best_diff >= 2.0 * icr
     ratio = result.score("diff").ratio_to_best
     assert ratio is not None and ratio.low > 1.0
@@ -156,7 +154,9 @@ def test_optiodom_compare_needs_a_held_out_gain(optiodom_dir: Path) -> None:
         diff.fit.params.track_width if diff.fit else 0.0, rel=0.01
     )
     # the 16 runs of the December squares: no held-out gain, so no ICR recommendation
-    part = compare_model_files(squares(optiodom_dir), "optiodom", validate=held, models=("diff", "icr"))
+    part = compare_model_files(
+        squares(optiodom_dir), "optiodom", validate=held, models=("diff", "icr")
+    )
     assert part.recommended == "diff"
     ratio = part.score("icr").ratio_to_best
     assert ratio is not None and ratio.value > 1.0

@@ -73,8 +73,17 @@ def test_turn_slip_effect_is_the_icr_spread() -> None:
 def test_speed_trend_and_stop_slide() -> None:
     truth = TrueParams.from_nominal(NOMINAL, speed_slip=0.1, stop_slide=0.05)
     sweep = _exp(
-        [{"label": f"{v}", "motion": "straight", "distance": 1.0, "speed": v,
-          "stop": "gradual", "decel": 0.5} for v in (0.1, 0.3, 0.5)],  # fmt: skip
+        [
+            {
+                "label": f"{v}",
+                "motion": "straight",
+                "distance": 1.0,
+                "speed": v,
+                "stop": "gradual",
+                "decel": 0.5,
+            }
+            for v in (0.1, 0.3, 0.5)
+        ],
         trend="speed",
     )
     res = run_experiment(sweep, truth, NOMINAL, seed=2)  # type: ignore[arg-type]
@@ -84,8 +93,14 @@ def test_speed_trend_and_stop_slide() -> None:
     stops = _exp(
         [
             {"label": "abrupt", "motion": "straight", "distance": 1.0, "speed": 0.5},
-            {"label": "gradual", "motion": "straight", "distance": 1.0, "speed": 0.5,
-             "stop": "gradual", "decel": 1.0},  # fmt: skip
+            {
+                "label": "gradual",
+                "motion": "straight",
+                "distance": 1.0,
+                "speed": 0.5,
+                "stop": "gradual",
+                "decel": 1.0,
+            },
         ],
         [{"a": "abrupt", "b": "gradual"}],
     )

@@ -117,7 +117,9 @@ def test_model_table_round_trip(tmp_path: Path, model: KinematicModel) -> None:
 
 def test_bad_model_tables_get_one_clear_sentence() -> None:
     with pytest.raises(ParamsError, match=r"x\.toml: \[model\] y_icr_left must be > 0 m"):
-        model_from_mapping({"kind": "icr", "y_icr_left": -0.1, "y_icr_right": -0.3}, source="x.toml")
+        model_from_mapping(
+            {"kind": "icr", "y_icr_left": -0.1, "y_icr_right": -0.3}, source="x.toml"
+        )
     with pytest.raises(ParamsError, match=r"y_icr_right must be < 0 m"):
         model_from_mapping({"kind": "icr", "y_icr_left": 0.3, "y_icr_right": 0.0}, source="x.toml")
     with pytest.raises(ParamsError, match=r"missing 1 required positional argument: 'y_icr_right'"):

@@ -206,14 +206,23 @@ class ExperimentResult:
                 for c in self.conditions
             ],
             "effects": [
-                {"a": e.a, "b": e.b, "difference_pct": e.difference, "ci95": [e.low, e.high],
-                 "answer": e.sentence()}  # fmt: skip
+                {
+                    "a": e.a,
+                    "b": e.b,
+                    "difference_pct": e.difference,
+                    "ci95": [e.low, e.high],
+                    "answer": e.sentence(),
+                }
                 for e in self.effects
             ],
             "trend": None
             if self.trend is None
-            else {"key": self.trend.key, "slope": self.trend.slope,
-                  "ci95": [self.trend.low, self.trend.high], "answer": self.trend.sentence()},  # fmt: skip
+            else {
+                "key": self.trend.key,
+                "slope": self.trend.slope,
+                "ci95": [self.trend.low, self.trend.high],
+                "answer": self.trend.sentence(),
+            },
         }
 
 
@@ -277,7 +286,9 @@ def parse_experiment(doc: dict[str, Any], source: str = "<experiment>") -> Exper
         effects.append((str(e["a"]), str(e["b"])))
     alternate = head.get("alternate", False)
     if not isinstance(alternate, bool):
-        raise _err(source, "[experiment] key 'alternate'", f"expected true or false, got {alternate!r}")
+        raise _err(
+            source, "[experiment] key 'alternate'", f"expected true or false, got {alternate!r}"
+        )
     sig = {k: _num(source, f"[experiment] key {k!r}", head[k], positive=True)
            for k in ("compass_sigma", "meterstick_sigma", "tape_sigma") if k in head}  # fmt: skip
     return Experiment(
@@ -334,7 +345,7 @@ def _condition(source: str, index: int, c: Any, speed: float) -> Condition:
     if stop == "gradual":
         kw["decel"] = _num(source, f"{where} key 'decel'", c.get("decel", 0.5), positive=True)
     elif "decel" in c:
-        raise _err(source, f"{where} key 'decel'", "applies only to stop = \"gradual\"")
+        raise _err(source, f"{where} key 'decel'", 'applies only to stop = "gradual"')
     return Condition(label, str(motion), **kw)
 
 
@@ -391,8 +402,9 @@ def legs_for(c: Condition, nominal: RobotParams) -> list[Leg]:
         if c.motion == "rotate":
             dl, dr = -a * half, a * half
         elif c.motion == "curve":
-            dl, dr = abs(a) * (c.radius - math.copysign(half, a)), abs(a) * (
-                c.radius + math.copysign(half, a)
+            dl, dr = (
+                abs(a) * (c.radius - math.copysign(half, a)),
+                abs(a) * (c.radius + math.copysign(half, a)),
             )
         else:  # pivot: the held track stands, the other travels angle * track
             width = 2.0 * half

@@ -253,7 +253,9 @@ def compare_models(
                     break
                 fold_params[f] = fold_fit.params
             if problem is None:
-                rows = [_metrics(r, fold_params[g]) for r, g in zip(test_runs, fold_of, strict=True)]
+                rows = [
+                    _metrics(r, fold_params[g]) for r, g in zip(test_runs, fold_of, strict=True)
+                ]
         else:
             rows = [_metrics(r, fit.params) for r in test_runs]
         if problem is not None:
@@ -299,9 +301,7 @@ def _recommend(
             lo, hi = np.percentile(boot, [2.5, 97.5])
             dbic = Estimate(s.bic - diff.bic, float(lo), float(hi))
         out.append(
-            ModelScore(
-                s.model, s.n_params, s.fit, None, s.per_run, s.held_out, s.bic, dbic, ratio
-            )
+            ModelScore(s.model, s.n_params, s.fit, None, s.per_run, s.held_out, s.bic, dbic, ratio)
         )
     chosen = best
     for s in out:

@@ -28,7 +28,6 @@ which keeps its original sentence).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -389,9 +388,14 @@ def calibrate_lsq(
     def per_run(theta: FloatArray) -> list[FloatArray]:
         return [
             segment_residuals(
-                theta[:k_model], r, nominal, scale, o.method,
-                theta[k_model + k] if n_off else 0.0, spec.kind,
-            )  # fmt: skip
+                theta[:k_model],
+                r,
+                nominal,
+                scale,
+                o.method,
+                theta[k_model + k] if n_off else 0.0,
+                spec.kind,
+            )
             for k, r in enumerate(prepared)
         ]
 

@@ -30,7 +30,9 @@ __all__: list[str] = []
 
 @calibrate_app.command("compare")
 def calibrate_compare_cmd(
-    runs: Annotated[list[Path], typer.Argument(help="Training runs (files or folders) with ground truth.")],
+    runs: Annotated[
+        list[Path], typer.Argument(help="Training runs (files or folders) with ground truth.")
+    ],
     fmt: Annotated[RunFormat, typer.Option("--format", "-f", help="Run format.")] = (
         RunFormat.optiodom
     ),
@@ -170,18 +172,28 @@ def sim_questions_cmd(
     from odolab.sim.presets import TRUTH_PRESETS
 
     if truth not in TRUTH_PRESETS:
-        raise SimError(f"--truth: unknown preset {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}")
+        raise SimError(
+            f"--truth: unknown preset {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}"
+        )
     nominal = load_params(params or "jaguar-lite")
     loaded = [load_experiment(e) for e in (experiments or sorted(builtin_experiments()))]
     console = Console()
     results = []
     with _progress_bar("questions") as report:
         for exp in loaded:
+
+            def step(done: int, total: int, name: str = exp.name) -> None:
+                report(done, total, name)
+
             results.append(
                 run_experiment(
-                    exp, TRUTH_PRESETS[truth], nominal, seed=seed, repeats=repeats,
-                    progress=lambda done, total, name=exp.name: report(done, total, name),
-                )  # fmt: skip
+                    exp,
+                    TRUTH_PRESETS[truth],
+                    nominal,
+                    seed=seed,
+                    repeats=repeats,
+                    progress=step,
+                )
             )
     for res in results:
         console.print(f"[bold]{escape(res.experiment.question)}[/bold]")

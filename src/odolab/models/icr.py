@@ -68,7 +68,9 @@ class IcrModel:
         from odolab.models import ModelCoefficients
 
         d = self.spread
-        return ModelCoefficients(-self.y_icr_right / d, self.y_icr_left / d, 1.0, 1.0, d, -self.x_icr)
+        return ModelCoefficients(
+            -self.y_icr_right / d, self.y_icr_left / d, 1.0, 1.0, d, -self.x_icr
+        )
 
     def to_dict(self) -> dict[str, float]:
         return {"y_icr_left": self.y_icr_left, "y_icr_right": self.y_icr_right, "x_icr": self.x_icr}

@@ -95,10 +95,7 @@ def questions_html(results: Sequence[ExperimentResult]) -> str:
     for res in results:
         rows = []
         for c in res.conditions:
-            if c.slip:
-                slip = f"{c.mean:.1f} [{c.low:.1f}, {c.high:.1f}]"
-            else:
-                slip = "stalled"
+            slip = f"{c.mean:.1f} [{c.low:.1f}, {c.high:.1f}]" if c.slip else "stalled"
             stalled = f"{c.stalled} / {c.n}"
             rows.append(
                 f"<tr><td>{escape(c.label)}</td><td>{escape(c.condition.terrain)}</td>"
@@ -123,7 +120,7 @@ def models_section_html(
     comparison: ModelComparison | None, questions: Sequence[ExperimentResult] = ()
 ) -> str:
     """The whole section (either part may be absent)."""
-    body = ["<section id=\"kinematic-model\"><h2>Kinematic model</h2>"]
+    body = ['<section id="kinematic-model"><h2>Kinematic model</h2>']
     if comparison is not None:
         body.append(model_comparison_html(comparison))
     if questions:
