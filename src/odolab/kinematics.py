@@ -34,6 +34,7 @@ __all__ = [
     "body_motion",
     "body_motion_from_wheel_displacements",
     "chord",
+    "chord_derivative",
     "chord_factor",
     "pose_step",
     "step_pose",
@@ -85,6 +86,17 @@ def chord(dtheta: float, arc: bool) -> float:  # pragma: no cover - compiled
     if abs(u) < SMALL_ANGLE:
         return 1.0 - u * u / 6.0
     return math.sin(u) / u
+
+
+@njit(cache=True, inline="always")
+def chord_derivative(dtheta: float, arc: bool) -> float:  # pragma: no cover - compiled
+    """d chord / d dtheta: 0 (midpoint) or ``(u cos u - sin u) / (2 u^2)`` (arc, series near 0)."""
+    if not arc:
+        return 0.0
+    u = 0.5 * dtheta
+    if abs(u) < SMALL_ANGLE:
+        return -u / 6.0
+    return 0.5 * (u * math.cos(u) - math.sin(u)) / (u * u)
 
 
 @njit(cache=True, inline="always")

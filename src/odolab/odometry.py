@@ -12,6 +12,7 @@ The batch version is compiled (numba): see :func:`integrate` for its three passe
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
@@ -19,11 +20,14 @@ from numba import njit, prange
 from numpy.typing import ArrayLike, NDArray
 
 from odolab._fastmath import SINCOS_LIMIT, sincos_poly
-from odolab.encoders import EncoderUnwrapper, as_tick_array, default_max_dticks
+from odolab.encoders import EncoderUnwrapper, as_tick_array, default_max_dticks, unwrap_diff
 from odolab.errors import EncoderJumpError, LogFormatError, OdolabError
 from odolab.kinematics import Method, body_motion, chord, step_pose, wrap, wrap_angle
 from odolab.params import RobotParams
 from odolab.trajectory import Pose, Trajectory, check_times
+
+if TYPE_CHECKING:
+    from odolab.uncertainty import CovarianceStepper
 
 __all__ = ["Odometry", "integrate", "integrate_increments"]
 
@@ -45,21 +49,6 @@ def _check_max_dticks(max_dticks: int | None) -> None:
 
 #: From this many samples on, the position pass runs on several threads.
 PARALLEL_MIN_SAMPLES = 200_000
-
-
-@njit(cache=True, inline="always")
-def _unwrap_diff(d: int, modulus: int, half: int) -> int:  # pragma: no cover - compiled
-    # |d| < modulus for counters in range; map d into [-half, modulus - half) without a division
-    if modulus > 0:
-        if d >= modulus - half:
-            d -= modulus
-            if d >= modulus - half:  # raw values outside 0..modulus-1: fall back to modulo
-                d = (d + half) % modulus - half
-        elif d < -half:
-            d += modulus
-            if d < -half:
-                d = (d + half) % modulus - half
-    return d
 
 
 @njit(cache=True, inline="always")
@@ -140,8 +129,8 @@ def _steps_from_ticks(  # pragma: no cover - compiled
         if ti < t[i - 1]:
             return 4, i, 0, big
         tout[i] = ti
-        dl = _unwrap_diff(left[i] - left[i - 1], modulus, half)
-        dr = _unwrap_diff(right[i] - right[i - 1], modulus, half)
+        dl = unwrap_diff(left[i] - left[i - 1], modulus, half)
+        dr = unwrap_diff(right[i] - right[i - 1], modulus, half)
         if max_d >= 0:
             if abs(dl) > max_d:
                 return 1, i, dl, big
@@ -432,6 +421,7 @@ class Odometry:
         *,
         start: tuple[float, float, float] | None = None,
         max_dticks: int | None = None,
+        covariance: bool = False,
     ) -> None:
         self.params = params
         self.method = Method(method)
@@ -444,6 +434,11 @@ class Odometry:
         self._kl = params.left_metres_per_tick
         self._kr = params.right_metres_per_tick
         self._coef = params.coefficients
+        self._cov: CovarianceStepper | None = None
+        if covariance:  # needs params.noise; imported here: the plain path stays as it was
+            from odolab.uncertainty import CovarianceStepper
+
+            self._cov = CovarianceStepper(params, self.method)
         self._left = EncoderUnwrapper(params.encoder_modulus, max_dticks, "left_ticks")
         self._right = EncoderUnwrapper(params.encoder_modulus, max_dticks, "right_ticks")
         self.reset()
@@ -457,6 +452,17 @@ class Odometry:
         self._left.reset()
         self._right.reset()
         self.cycles = 0
+        if self._cov is not None:
+            self._cov.reset()
+
+    @property
+    def covariance(self) -> tuple[float, float, float, float, float, float]:
+        """The propagated covariance now, six terms in ``odolab.uncertainty.COV_COLUMNS``.
+
+        Only with ``covariance=True`` (and a ``[noise]`` table in the parameters)."""
+        if self._cov is None:
+            raise OdolabError("this Odometry was made without covariance=True")
+        return self._cov.terms
 
     @property
     def pose(self) -> Pose:
@@ -496,7 +502,11 @@ class Odometry:
         first = self._t is None
         self._t = t
         if not first:
-            fwd, side, dth = body_motion(*self._coef, dl * self._kl, dr * self._kr)
+            dsl = dl * self._kl
+            dsr = dr * self._kr
+            if self._cov is not None:
+                self._cov.step(self._h, dsl, dsr)
+            fwd, side, dth = body_motion(*self._coef, dsl, dsr)
             self._x, self._y, self._h = step_pose(
                 self._x, self._y, self._h, fwd, side, dth, self._arc
             )
