@@ -60,3 +60,20 @@ def test_cli_sim_questions(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     assert "slips" in capsys.readouterr().out
     assert main(["sim", "questions", "stops", "--truth", "tank"]) == 1
     assert "--truth: unknown preset 'tank'" in capsys.readouterr().err
+
+
+def test_the_demo_on_the_tracked_jaguar_still_gives_table_1(tmp_path: Path) -> None:
+    from odolab.lab import LAB_REPORT_TABLE1, LAB_REPORT_Y_SIGMA, pooled_y_sigmas, run_lab
+
+    result = run_lab(tmp_path / "demo", truth="jaguar-lab-tracked")
+    rows = {(r["motion"], r["terrain"]): r for r in result.table1}
+    for key, (ratio, unc, sigmas) in LAB_REPORT_TABLE1.items():
+        assert abs(rows[key]["ratio"] - ratio) <= unc, (key, rows[key]["ratio"])
+        for sigma, at, s_unc in sigmas:
+            near = [g for g in rows[key]["sigmas"] if abs(abs(g["commanded"]) - at) < 0.2 * at]
+            assert near and all(abs(g["sigma"] - sigma) <= s_unc for g in near), (key, at)
+    pooled = pooled_y_sigmas(result.table1)
+    for (sigma, _at, s_unc), d in zip(LAB_REPORT_Y_SIGMA, sorted(pooled), strict=True):
+        assert abs(pooled[d] - sigma) <= s_unc, (d, pooled[d])
+    for name, ratio in result.after_calibration.items():
+        assert abs(ratio - 1.0) < 0.01, (name, ratio)
