@@ -10,10 +10,15 @@ the robot by::
 where ``rho = true effective radius / nominal radius`` for that side and direction of travel
 (times the terrain's ``radius_scale``), ``v`` the wheel surface speed and ``k_side`` the per-wheel
 slip constant (Chong & Kleeman; Siegwart et al.: variance ``k * |ds|``). The body then moves by
-the exact circular arc with::
+the exact circular arc with the true kinematic model (``TrueParams.model``, the differential drive
+of ``track_width_true`` unless told; :mod:`odolab.models`)::
 
-    ds_body = (ds_r + ds_l) / 2
-    dtheta  = (ds_r - ds_l) / track_width_true  +  sqrt(k_scrub * |dn_r - dn_l| / b_nom) * N(0, 1)
+    ds_body = w_l ds_l + w_r ds_r                      (= (ds_r + ds_l) / 2 for a diff drive)
+    dtheta  = (e_r ds_r - e_l ds_l) / (denominator * (1 - turn_slip * (1 - s)))
+              +  sqrt(k_scrub * |dn_r - dn_l| / b_nom) * N(0, 1)
+    lateral = model lateral * dtheta                   (-x_icr for an ICR vehicle)
+
+where ``s = |dn_r - dn_l| / (|dn_r| + |dn_l|)`` is the commanded turn ratio (1 in place).
 
 The last term is turn scrub: when the tracks are driven differentially the track ends skid
 sideways, which adds heading noise per commanded radian of turning (zero on a straight run).
