@@ -53,6 +53,7 @@ __all__ = [
     "LsqCalibration",
     "LsqOptions",
     "PreparedRun",
+    "Provenance",
     "RunComparison",
     "calibrate_lsq",
     "calibrate_lsq_files",
@@ -300,6 +301,14 @@ class RunComparison:
         }
 
 
+class Provenance(dict[str, Any]):
+    """A ``[provenance]`` table. Calling it returns itself: compatibility with the time when
+    :attr:`LsqCalibration.provenance` was a method (``result.provenance()``)."""
+
+    def __call__(self) -> Provenance:
+        return self
+
+
 @dataclass(frozen=True)
 class LsqCalibration:
     """Result of :func:`calibrate_lsq`."""
@@ -336,7 +345,13 @@ class LsqCalibration:
         """The same quantities in the nominal parameters (neutral for a model they lack)."""
         return fit_model(self.model).values(self.nominal)
 
-    def provenance(self) -> dict[str, Any]:
+    @property
+    def provenance(self) -> Provenance:
+        """The ``[provenance]`` table: a field, as in every other calibration result (calling it,
+        as when it was a method, still works)."""
+        return Provenance(self.provenance_table())
+
+    def provenance_table(self) -> dict[str, Any]:
         """A ``[provenance]`` table for the saved parameters file."""
         return {
             "method": "least squares on segment relative motion (odolab calibrate lsq)",
