@@ -108,7 +108,7 @@ def test_neutral_extra_parameters_give_the_differential_drive(
 @pytest.mark.parametrize("model", MODELS_UNDER_TEST[1:], ids=lambda m: m.kind)
 def test_model_table_round_trip(tmp_path: Path, model: KinematicModel) -> None:
     params = NOMINAL.with_(model=model)
-    path = save_params(params, tmp_path / "p.toml")
+    path = save_params(tmp_path / "p.toml", params)
     text = path.read_text()
     assert f'[model]\nkind = "{model.kind}"' in text
     assert load_params(path) == params
