@@ -11,6 +11,7 @@ from odolab.models import ExtendedDiffDrive, IcrModel
 from odolab.params import PRESETS, load_params
 from odolab.robot.session import run_motion_simulated
 from odolab.sim.physics import TrueParams
+from odolab.sim.plants import make_plant
 from odolab.trials import Command, MotionKind
 
 NOMINAL = PRESETS["jaguar-lite"]
@@ -35,7 +36,9 @@ def test_virtual_board_driven_by_an_icr_parameters_file(tmp_path: Path, angle: f
     assert params.model == ICR
     truth = TrueParams.from_nominal(params, model=ICR)  # the robot IS this tracked vehicle
     trial, stats = run_motion_simulated(
-        Command(MotionKind.ROTATION, angle=angle, speed=0.5), truth, params, seed=3
+        Command(MotionKind.ROTATION, angle=angle, speed=0.5),
+        nominal=params,
+        plant=make_plant(truth, params, seed=3),
     )
     assert stats.cycles > 10
     assert abs(trial.predicted.heading) >= abs(angle) - 1e-9  # stopped on the ICR odometry
@@ -52,7 +55,9 @@ def test_virtual_board_driven_by_an_icr_parameters_file(tmp_path: Path, angle: f
 def test_the_differential_drive_misjudges_the_same_tracked_robot(tmp_path: Path) -> None:
     truth = TrueParams.from_nominal(NOMINAL, model=ICR)
     trial, _ = run_motion_simulated(
-        Command(MotionKind.ROTATION, angle=math.pi, speed=0.5), truth, NOMINAL, seed=3
+        Command(MotionKind.ROTATION, angle=math.pi, speed=0.5),
+        nominal=NOMINAL,
+        plant=make_plant(truth, NOMINAL, seed=3),
     )
     assert trial.true is not None
     # diff odometry turns pi over 0.56 m of track; the vehicle turns over 0.58 m
@@ -67,7 +72,9 @@ def test_extended_model_drives_straight(tmp_path: Path) -> None:
     truth = TrueParams.from_nominal(NOMINAL, left_radius_forward=0.0835 * 0.95,
                                     right_radius_forward=0.0835 * 0.95)  # fmt: skip
     trial, _ = run_motion_simulated(
-        Command(MotionKind.TRANSLATION, distance=1.0, speed=0.4), truth, params, seed=1
+        Command(MotionKind.TRANSLATION, distance=1.0, speed=0.4),
+        nominal=params,
+        plant=make_plant(truth, params, seed=1),
     )
     assert trial.true is not None
     assert trial.predicted.x >= 1.0
