@@ -16,6 +16,7 @@ from odolab.cli import (  # noqa: F401  (register commands)
     evaluate,
     export,
     lab,
+    models,
     robot,
     serve,
     sim,

@@ -42,6 +42,12 @@ class SyncChoice(StrEnum):
     interpolate = "interpolate"
 
 
+class ModelChoice(StrEnum):
+    diff = "diff"
+    extended = "extended"
+    icr = "icr"
+
+
 FormatOpt = Annotated[
     RunFormat | None,
     typer.Option("--format", "-f", help="Paths are runs of this format (else: GT EST files)."),
@@ -305,8 +311,12 @@ def calibrate_lsq_cmd(
     joint_topic: JointTopicOpt = "/joint_states",
     joints: JointsOpt = ("left_wheel_joint", "right_wheel_joint"),
     gt_topic: GtTopicOpt = "/ground_truth",
+    model: Annotated[
+        ModelChoice,
+        typer.Option(help="Kinematic model to fit (docs/models.md): diff, extended or icr."),
+    ] = ModelChoice.diff,
 ) -> None:
-    """Least-squares wheel radii and track width from runs with ground truth."""
+    """Least-squares kinematic model (radii and track width, or ICRs) from runs with ground truth."""
     from odolab.calibration.lsq import LsqOptions, calibrate_lsq_files
     from odolab.params import load_params, save_params
 
@@ -318,7 +328,9 @@ def calibrate_lsq_cmd(
             fmt.value,
             nominal=robot,
             validate=validate or [],
-            options=LsqOptions(segment_s=segment, fit_gt_yaw_offset=not no_gt_yaw_offset),
+            options=LsqOptions(
+                segment_s=segment, fit_gt_yaw_offset=not no_gt_yaw_offset, model=model.value
+            ),
             read_options=ro,
             workers=workers,
             progress=report,
@@ -343,13 +355,9 @@ def _print_calibration(result: Any, output: Path) -> None:
     )
     for col in ("parameter", "nominal", "calibrated", "std error"):
         table.add_column(col, justify="right")
+    nominal, fitted = result.nominal_values, result.values
     for key, err in result.stderr.items():
-        table.add_row(
-            key,
-            f"{getattr(result.nominal, key):.6f}",
-            f"{getattr(result.params, key):.6f}",
-            f"{err:.2e}",
-        )
+        table.add_row(key, f"{nominal[key]:.6f}", f"{fitted[key]:.6f}", f"{err:.2e}")
     print_table(console, table)
     if not result.validation:
         return

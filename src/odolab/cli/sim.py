@@ -50,7 +50,7 @@ def sim_run(
         str,
         typer.Option(
             help="True-behaviour preset of the virtual robot: "
-            "jaguar-lab, jaguar-lab-track or ideal."
+            "jaguar-lab, jaguar-lab-track, jaguar-lab-tracked (an ICR vehicle) or ideal."
         ),
     ] = DEFAULT_TRUTH,
     params: Annotated[

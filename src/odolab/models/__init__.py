@@ -29,10 +29,14 @@ from typing import Any, ClassVar, NamedTuple, Protocol, runtime_checkable
 
 from odolab.errors import ParamsError
 from odolab.models.diff import DiffDrive
+from odolab.models.extended import ExtendedDiffDrive
+from odolab.models.icr import IcrModel
 
 __all__ = [
     "DIFF_DRIVE",
     "MODELS",
+    "ExtendedDiffDrive",
+    "IcrModel",
     "KinematicModel",
     "ModelCoefficients",
     "model_from_mapping",
@@ -83,7 +87,11 @@ class KinematicModel(Protocol):
 DIFF_DRIVE = DiffDrive()
 
 #: Every model by its ``kind`` in the TOML. A new model adds one line here.
-MODELS: dict[str, type[Any]] = {DiffDrive.kind: DiffDrive}
+MODELS: dict[str, type[Any]] = {
+    DiffDrive.kind: DiffDrive,
+    ExtendedDiffDrive.kind: ExtendedDiffDrive,
+    IcrModel.kind: IcrModel,
+}
 
 
 def model_from_mapping(data: dict[str, Any], *, source: str = "parameters") -> KinematicModel:
