@@ -36,6 +36,9 @@ DOCS = [
     "docs/robot.md",
     "docs/sim.md",
     "docs/validation.md",
+    "docs/models.md",
+    "docs/ros2.md",
+    "docs/serve.md",
 ]
 
 #: (document, start of the command line) -> why it is not run here
@@ -67,6 +70,20 @@ SKIP: dict[tuple[str, str], str] = {
         "reader is tested on generated bags in tests/io"
     ),
     ("docs/validation.md", "odolab validate ENCODER_LOG.csv IMU.csv"): "a usage synopsis",
+    ("docs/models.md", "odolab calibrate compare RUN..."): "a usage synopsis",
+    ("docs/models.md", "odolab calibrate lsq RUN..."): "a usage synopsis",
+    ("docs/models.md", "odolab sim questions stops"): (
+        "the built-in stops experiment with 50 repeats, a minute here; "
+        "tests/analysis run the experiments"
+    ),
+    ("docs/ros2.md", "odolab export mcap odolab-out/latest/runs/robot-rotation-..."): (
+        "the run folder's name holds its time; tests/export/test_mcap.py exports a robot run folder"
+    ),
+    ("docs/ros2.md", "odolab robot drive --distance 1 --params jaguar-calibrated.toml"): (
+        "drives in real time and serves until the run ends; tests/export/test_foxglove.py runs "
+        "it in simulated time"
+    ),
+    ("docs/serve.md", "odolab serve --db lab.db"): "a server that runs until Ctrl-C",
 }
 
 #: (document, start of the command line) -> what is typed at its questions
@@ -197,6 +214,20 @@ def _sim(folder: Path) -> None:
     )
 
 
+def _ros2(folder: Path) -> None:
+    _real_logs(folder)
+    (folder / "jaguar-calibrated.toml").write_text(
+        JAGUAR_TOML.replace("0.0835", "0.0756", 1), encoding="utf-8"
+    )
+    with (folder / "gt.tum").open("w") as fh:
+        for i in range(100):
+            fh.write(f"{0.1 * i!r} {0.03 * i!r} 0 0 0 0 0 1\n")
+    with (folder / "estimate.csv").open("w") as fh:
+        fh.write("t,x,y,theta\n")
+        for i in range(100):
+            fh.write(f"{0.1 * i!r},{0.029 * i!r},{0.0001 * i!r},0.0\n")
+
+
 def _validation(folder: Path) -> None:
     _odolab(folder, "demo", "--out", "odolab-out")
 
@@ -208,6 +239,7 @@ FIXTURES: dict[str, Callable[[Path], None]] = {
     "docs/real-logs.md": _real_logs,
     "docs/sim.md": _sim,
     "docs/validation.md": _validation,
+    "docs/ros2.md": _ros2,
 }
 
 

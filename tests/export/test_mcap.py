@@ -134,6 +134,16 @@ def test_notebook_campaign(tmp_path: Path) -> None:
     # each trial starts at the origin, ends where its prediction says
     last = msgs["/odom"][len(trials[0].encoder_log) - 1]  # type: ignore[arg-type]
     assert last.pose.pose.position.x == pytest.approx(trials[0].predicted.x, abs=1e-9)  # type: ignore[attr-defined]
+    # a campaign name that is not there is named with the ones that are
+    from odolab.errors import OdolabError
+
+    with pytest.raises(OdolabError, match="its campaigns: translation-indoor") as err:
+        runner.invoke(
+            app,
+            ["export", "mcap", "--db", str(db), "--campaign", "translation", "-o", str(out)],
+            catch_exceptions=False,
+        )
+    assert "no campaign 'translation' in" in str(err.value)
 
 
 def test_a_real_robot_run_folder(tmp_path: Path) -> None:

@@ -439,6 +439,10 @@ def stream_from_campaign(
 ) -> OdometryStream:
     """Every recorded trial of ``campaign``, one after the other (each from the origin, ``gap``
     seconds apart), with its own parameters unless ``params`` is given."""
+    names = notebook.campaign_names()
+    if campaign not in names:
+        known = ", ".join(sorted(names)) or "none"
+        raise OdolabError(f"no campaign {campaign!r} in {notebook.path}; its campaigns: {known}")
     trials = [tr for tr in notebook.load_trials(campaign=campaign) if tr.encoder_log is not None]
     if not trials:
         raise OdolabError(
