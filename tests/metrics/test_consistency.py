@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,7 +12,7 @@ from odolab.errors import InsufficientDataError, OdolabError
 from odolab.io.registry import find_runs, read_run
 from odolab.io.run import OdometryRun
 from odolab.metrics.consistency import fit_noise_scale, nees_summary, run_nees
-from odolab.params import PRESETS, NoiseParams
+from odolab.params import PRESETS, NoiseParams, save_params
 from odolab.sim.physics import TrueParams, VirtualRobot
 from odolab.trajectory import Trajectory
 
@@ -158,3 +159,26 @@ def test_run_names_are_text_not_markup(optiodom_dir, tmp_path, capsys) -> None: 
     assert run.params is not None and run.name.startswith("[red]sq")
     print_nees([folder], "optiodom", run.params.with_(noise=NOISE), "midpoint", 10.0)
     assert run.name in capsys.readouterr().out  # rich read it as a colour and dropped it
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--nees-segment", "nan"], "--nees-segment is nan; expected a positive number of seconds"),
+        (["--nees-segment", "0"], "--nees-segment is 0.0; expected a positive number"),
+        (["--params", "jaguar-lite"], "the parameters jaguar-lite have no [noise] table"),
+    ],
+)
+def test_cli_nees_options_are_checked_before_any_file_is_read(
+    tmp_path: Path, extra: list[str], message: str
+) -> None:
+    from typer.testing import CliRunner
+
+    from odolab.cli import app
+
+    missing = tmp_path / "no-such-folder"  # never opened: the options fail first
+    params = save_params(tmp_path / "n.toml", NOMINAL.with_(noise=NOISE))
+    args = ["evaluate", str(missing), "--format", "optiodom", "--nees", "--params", str(params)]
+    with pytest.raises(OdolabError) as err:
+        CliRunner().invoke(app, [*args, *extra], catch_exceptions=False)
+    assert message in str(err.value)

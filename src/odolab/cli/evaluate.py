@@ -176,6 +176,18 @@ def evaluate_cmd(
         changes["pairs_from_reference"] = pairs_from_reference
     options = replace(base, **changes)
     robot = load_params(params) if params else None
+    if nees:  # checked before any file is read: a typo costs nothing
+        import math
+
+        if not (math.isfinite(nees_segment) and nees_segment > 0):
+            raise OdolabError(
+                f"--nees-segment is {nees_segment}; expected a positive number of seconds"
+            )
+        if robot is not None and robot.noise is None:
+            raise OdolabError(
+                f"--nees: the parameters {params} have no [noise] table (k_left, k_right); "
+                "give --params with one (e.g. from `odolab calibrate noise`)"
+            )
     if fmt is None:
         from odolab.io import read_trajectory
         from odolab.metrics import evaluate

@@ -357,6 +357,10 @@ def stream_from_run_folder(
         raise LogFormatError(
             f"{meta}: cannot read ({getattr(err, 'strerror', None) or err})"
         ) from err
+    except RecursionError as err:
+        raise LogFormatError(
+            f"{meta}: JSON nested too deeply to read; expected the run.json odolab robot writes"
+        ) from err
     except json.JSONDecodeError as err:
         raise LogFormatError(
             f"{meta}: line {err.lineno}, column {err.colno}: not valid JSON ({err.msg})"
