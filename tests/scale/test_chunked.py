@@ -107,7 +107,7 @@ def test_file_in_chunks_equals_whole_file(tmp_path: Path, suffix: str) -> None:
     left = np.mod(np.cumsum(rng.integers(-20, 60, n)) + 900, MOD)
     right = np.mod(np.cumsum(rng.integers(-20, 60, n)), MOD)
     t = np.arange(n) * 0.05
-    log = write_encoder_csv(EncoderLog(t, left, right, MOD), tmp_path / f"log{suffix}")
+    log = write_encoder_csv(tmp_path / f"log{suffix}", EncoderLog(t, left, right, MOD))
     whole = integrate(t, left, right, params)
     out = tmp_path / f"traj{suffix}"
     res = integrate_file(log, out, params, chunk_rows=10)  # the log is 100x the chunk
@@ -146,7 +146,7 @@ def test_cli_odometry_chunked_equals_whole_and_keeps_output_on_error(tmp_path: P
     left = np.mod(np.arange(n) * 13 + 1000, MOD)
     right = np.mod(np.arange(n) * 11, MOD)
     t = np.arange(n) * 0.05
-    log = write_encoder_csv(EncoderLog(t, left, right, MOD), tmp_path / "log.csv")
+    log = write_encoder_csv(tmp_path / "log.csv", EncoderLog(t, left, right, MOD))
     toml = tmp_path / "p.toml"
     from odolab.params import save_params
 

@@ -27,7 +27,7 @@ def test_format_by_extension() -> None:
 
 def test_csv_numbers_are_the_shortest_round_trip_text(tmp_path: Path) -> None:
     traj = Trajectory.from_xyh([0.0, 0.05, 0.1], [0.05, 0.1 + 0.2, 1e-20], [0, 0, 0], [0, 0, 0.5])
-    p = write_trajectory_csv(traj, tmp_path / "t.csv")
+    p = write_trajectory_csv(tmp_path / "t.csv", traj)
     lines = p.read_text().splitlines()
     assert lines[0] == "t,x,y,theta,heading"
     assert lines[2].split(",")[:2] == ["0.05", "0.30000000000000004"]  # repr(0.1 + 0.2)
@@ -43,7 +43,7 @@ def test_encoder_log_round_trip_every_format(tmp_path: Path, suffix: str) -> Non
     t = np.cumsum(rng.uniform(0.01, 0.1, 50))
     left = rng.integers(0, 4096, 50)
     right = rng.integers(0, 4096, 50)
-    p = write_encoder_csv(EncoderLog(t, left, right, 4096), tmp_path / f"log{suffix}")
+    p = write_encoder_csv(tmp_path / f"log{suffix}", EncoderLog(t, left, right, 4096))
     back = read_encoder_csv(p, modulus=4096)
     assert np.array_equal(back.t, t)
     assert np.array_equal(back.left_ticks, left)

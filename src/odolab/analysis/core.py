@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -24,12 +24,13 @@ from odolab.analysis.random import GroupSpread, RandomError, group_spreads, rand
 from odolab.analysis.systematic import MIN_FIT_POINTS, LinearFit, fit_line
 from odolab.analysis.terrain import TerrainComparison, compare_terrains
 from odolab.errors import InsufficientDataError
+from odolab.numfmt import count
 from odolab.params import RobotParams
+from odolab.progress import Progress, steps
 from odolab.trials import MotionKind, Trial, TrialStatus
 
 __all__ = ["MOTIONS", "LabAnalysis", "MotionAnalysis", "Progress", "analyze_trials"]
 
-Progress = Callable[[str], None]
 
 #: The motions the lab fits, in report order, with what is regressed on what.
 MOTIONS: dict[str, dict[str, str]] = {
@@ -59,10 +60,6 @@ MOTIONS: dict[str, dict[str, str]] = {
         "ratio_unit": "m/m",
     },
 }
-
-
-def _noop(_: str) -> None:
-    return None
 
 
 @dataclass(frozen=True, eq=False)
@@ -319,7 +316,7 @@ def analyze_trials(trials: Sequence[Trial], *, progress: Progress | None = None)
     are listed in ``skipped`` (one sentence each, saying how many trials are needed). Raises
     :class:`InsufficientDataError` when not a single fit is possible.
     """
-    say = progress or _noop
+    say = steps(progress)
     trials = list(trials)
     measured = [t for t in trials if t.status is TrialStatus.MEASURED and t.measured is not None]
     excluded = [
@@ -328,7 +325,7 @@ def analyze_trials(trials: Sequence[Trial], *, progress: Progress | None = None)
         if t.status is TrialStatus.EXCLUDED
     ]
     by_id = {t.trial_id: t for t in measured}
-    say(f"{len(measured)} measured trials of {len(trials)}")
+    say(f"{count(len(measured), 'measured trial')} of {len(trials)}")
     series = _collect(measured)
     order = list(MOTIONS)
     motions: list[MotionAnalysis] = []
@@ -342,9 +339,10 @@ def analyze_trials(trials: Sequence[Trial], *, progress: Progress | None = None)
     if not motions and not squares:
         detail = f" ({'; '.join(skipped)})" if skipped else ""
         raise InsufficientDataError(
-            f"no fit possible from {len(measured)} measured trials: each motion and terrain "
-            f"needs at least {MIN_FIT_POINTS} measured trials at two or more distances or "
-            f"angles{detail}"
+            f"no fit possible from {count(len(measured), 'measured trial')}: each motion and "
+            f"terrain needs at least {MIN_FIT_POINTS} measured trials at two or more distances "
+            f"or angles{detail}; a protocol on the virtual Jaguar (`odolab sim run rotation "
+            "--db NOTEBOOK`) records enough in seconds"
         )
     tests: list[TerrainComparison] = []
     for motion in order:

@@ -9,6 +9,7 @@ from typing import Annotated
 import typer
 
 from odolab.cli._apps import app, params_app
+from odolab.defaults import DEFAULT_ROBOT
 
 __all__: list[str] = []
 
@@ -41,7 +42,7 @@ def odometry_cmd(
     ],
     params: Annotated[
         str, typer.Option("--params", "-p", help="Parameters TOML file or preset name.")
-    ] = "jaguar-lite",
+    ] = DEFAULT_ROBOT,
     output: Annotated[
         Path,
         typer.Option(
@@ -148,7 +149,7 @@ def odometry_cmd(
         source=str(log),
     )
     del enc  # the input's memory is free before the output is written
-    write_trajectory(traj, output, fmt.value)  # type: ignore[arg-type]
+    write_trajectory(output, traj, fmt.value)
     end = traj.final
     typer.echo(
         f"{len(traj)} poses -> {output}; final x={end.x:.4f} m y={end.y:.4f} m "

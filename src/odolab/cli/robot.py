@@ -9,17 +9,21 @@ from __future__ import annotations
 
 import inspect
 import math
+from collections.abc import Callable
 from datetime import UTC, datetime
 from enum import StrEnum
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any
+from types import SimpleNamespace
+from typing import TYPE_CHECKING, Annotated, Any, get_type_hints
 
 import typer
 
 from odolab.cli._apps import robot_app
 
 if TYPE_CHECKING:
+    from odolab.robot.config import RunConfig
     from odolab.robot.loop import CycleInfo
+    from odolab.robot.session import AbortReport
     from odolab.trials import Command
 
 __all__: list[str] = []
@@ -43,10 +47,12 @@ class TrackChoice(StrEnum):
 RobotOpt = Annotated[
     str | None,
     typer.Option(
-        "--robot", help="udp://HOST:PORT of the board; default: a virtual Jaguar on loopback."
+        "--robot",
+        help="udp://HOST:PORT of a Jaguar board, or sim:// (the default) for a virtual Jaguar "
+        "on loopback.",
     ),
 ]
-RateOpt = Annotated[float, typer.Option("--rate", help="Control loop rate, Hz.")]
+RateOpt = Annotated[float, typer.Option("--rate", help="Control loop rate, Hz (5..1000).")]
 ParamsOpt = Annotated[
     str, typer.Option("--params", "-p", help="Nominal parameters: TOML file or preset name.")
 ]
@@ -61,7 +67,32 @@ DecelOpt = Annotated[
     ),
 ]
 WatchdogOpt = Annotated[
-    float, typer.Option("--watchdog", help="Stop when no sensor data arrives for this many s.")
+    float,
+    typer.Option(
+        "--watchdog", help="Stop when no sensor data has arrived for this many s (0.05..2)."
+    ),
+]
+LinkTimeoutOpt = Annotated[
+    float,
+    typer.Option(
+        "--link-timeout",
+        help="Give up (robot stopped, exit 1, partial run saved) after no sensor data for this "
+        "many s (>= --watchdog, <= 60).",
+    ),
+]
+StallTimeoutOpt = Annotated[
+    float,
+    typer.Option(
+        "--stall-timeout",
+        help="Give up when the wheels are driven but the encoders do not move for this many s.",
+    ),
+]
+CommandTimeoutOpt = Annotated[
+    float,
+    typer.Option(
+        "--command-timeout",
+        help="Virtual Jaguar only: its motors stop when no motor command came for this many s.",
+    ),
 ]
 OutOpt = Annotated[
     Path | None,
@@ -92,10 +123,30 @@ LeftSignOpt = Annotated[
 RightSignOpt = Annotated[
     int, typer.Option("--right-encoder-sign", help="-1 if the right counter counts down forward.")
 ]
+LeftMotorOpt = Annotated[
+    int,
+    typer.Option(
+        "--left-motor-sign", help="-1 if a positive command drives the left track backward."
+    ),
+]
+RightMotorOpt = Annotated[
+    int,
+    typer.Option(
+        "--right-motor-sign", help="-1 if a positive command drives the right track backward."
+    ),
+]
 MaxSpeedOpt = Annotated[
-    float, typer.Option("--max-wheel-speed", help="m/s at full PWM (and the speed clip).")
+    float,
+    typer.Option("--max-wheel-speed", help="m/s at full PWM, and the speed clip (0 < v <= 3)."),
 ]
 QuietOpt = Annotated[bool, typer.Option("--quiet", "-q", help="No live view.")]
+FoxgloveOpt = Annotated[
+    bool,
+    typer.Option(
+        "--foxglove", help="Serve the run live to Foxglove (ws://127.0.0.1:PORT; loopback only)."
+    ),
+]
+FoxglovePortOpt = Annotated[int, typer.Option("--foxglove-port", help="Foxglove server port.")]
 RealtimeOpt = Annotated[
     bool,
     typer.Option(
@@ -123,66 +174,111 @@ def _live_table(info: CycleInfo, rate: float, target: str) -> Any:
     return table
 
 
+class _FoxgloveView:
+    """The live run in Foxglove: each cycle's pose, counters and (with ``[noise]``) covariance.
+
+    The covariance comes from a second streaming odometry fed the very counters the loop's
+    odometry gets (same compiled step, so the same poses)."""
+
+    def __init__(self, params: Any, port: int) -> None:
+        from odolab.export.foxglove import FoxgloveLive
+        from odolab.odometry import Odometry
+
+        self.live = FoxgloveLive(port=port)
+        self.odo = Odometry(params, covariance=True) if params.noise is not None else None
+        typer.echo(f"Foxglove: open ws://127.0.0.1:{self.live.port}", err=True)
+
+    def publish(self, info: CycleInfo) -> None:
+        ticks = (info.reading.left_ticks, info.reading.right_ticks)
+        cov = None
+        if self.odo is not None:
+            self.odo.update(info.t, *ticks)
+            cov = self.odo.covariance
+        self.live.publish(info.pose, ticks=ticks, covariance=cov)
+
+    def close(self) -> None:
+        self.live.close()
+
+
+def _confirm_line(confirmed: bool) -> str:
+    if confirmed:
+        return "robot stopped (its sensor data confirms it)"
+    return (
+        "stop commanded, but the robot's sensor data does not confirm that it stopped: "
+        "CHECK THE ROBOT"
+    )
+
+
 def _run(
     command: Command,
+    config: RunConfig,
     *,
     robot: str | None,
-    rate: float,
     params: str,
-    mode: ModeChoice,
-    decel: float,
-    watchdog: float,
     out: Path | None,
     db: Path | None,
     truth: str,
     terrain: str,
     seed: int,
-    left_channel: int,
-    right_channel: int,
-    left_encoder_sign: int,
-    right_encoder_sign: int,
-    max_wheel_speed: float,
     quiet: bool,
     realtime: bool,
+    foxglove: bool = False,
+    foxglove_port: int = 8765,
 ) -> None:
+    """Validate everything, then drive ``command`` with ``config``; nothing is sent before."""
     from rich.console import Console
     from rich.live import Live
 
+    from odolab.errors import RobotLinkError
     from odolab.params import load_params
-    from odolab.robot.driver import ChannelMap, CommandMode
-    from odolab.robot.motions import motion_from_command
-    from odolab.robot.session import driver_config_for, run_motion
+    from odolab.robot.config import check_motion
+    from odolab.robot.registry import check_robot_url
+    from odolab.robot.session import run_motion
 
-    if not (math.isfinite(rate) and rate > 0):
-        from odolab.errors import SimError
-
-        raise SimError(f"--rate is {rate:g}; expected a positive number of Hz")
+    url = check_robot_url(robot)
     nominal = load_params(params)
-    config = driver_config_for(
-        nominal,
-        channels=ChannelMap(
-            left=left_channel,
-            right=right_channel,
-            left_encoder_sign=left_encoder_sign,
-            right_encoder_sign=right_encoder_sign,
-        ),
-        mode=CommandMode(mode.value),
-        max_wheel_speed=max_wheel_speed,
-    )
-    motion = motion_from_command(command, decel=decel, turn_decel=decel)
+    check_motion(command, config, nominal)
+    plant = None
+    if url.startswith("sim:"):
+        from odolab.sim.plants import make_plant
+        from odolab.sim.presets import TRUTH_PRESETS
+        from odolab.sim.terrains import TERRAINS
+
+        if truth not in TRUTH_PRESETS:
+            from odolab.robot.errors import RobotConfigError
+
+            raise RobotConfigError(
+                f"--truth is {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}"
+            )
+        if terrain not in TERRAINS:
+            from odolab.robot.errors import RobotConfigError
+
+            raise RobotConfigError(
+                f"--terrain is {terrain!r}; expected one of {', '.join(TERRAINS)}"
+            )
+
+        def plant() -> Any:
+            return make_plant(truth, nominal, terrain, seed=seed)
+
     console = Console(stderr=True)
     target = command.describe()
     events: list[str] = []
 
     def on_event(t: float, message: str) -> None:
         events.append(f"t={t:.2f} s: {message}")
+        if quiet:  # no live view: say it at once, a lost link must not be silent
+            typer.echo(events[-1], err=True)
 
     live = Live(console=console, refresh_per_second=8, transient=False) if not quiet else None
-    every = max(1, round(rate / 8))
+    every = max(1, round(config.rate / 8))
+
+    view = _FoxgloveView(nominal, foxglove_port) if foxglove else None
 
     def on_cycle(info: CycleInfo) -> None:
         if live is not None and (info.index % every == 0 or not info.link_ok):
-            live.update(_live_table(info, rate, target))
+            live.update(_live_table(info, config.rate, target))
+        if view is not None:
+            view.publish(info)
 
     notebook = None
     if db is not None:  # open (create, migrate) the notebook before driving: refuse a bad one now
@@ -193,43 +289,48 @@ def _run(
         datetime.now(UTC).strftime("%Y%m%dT%H%M%S") + f"-{command.kind.value}"
     )
     if folder.exists() and not folder.is_dir():
-        from odolab.errors import SimError
+        from odolab.robot.errors import RobotConfigError
 
         # refuse before driving: a run that cannot be saved would be lost
-        raise SimError(f"{folder}: is a file; expected a folder for the run (--out)")
+        raise RobotConfigError(f"{folder}: is a file; expected a folder for the run (--out)")
+
+    def on_abort(report: AbortReport) -> None:
+        nonlocal live
+        if live is not None:
+            live.stop()
+            live = None
+        if not quiet:
+            for line in events:
+                typer.echo(line, err=True)
+        typer.echo(_confirm_line(report.stop_confirmed), err=True)
+        if report.saved_to is not None:
+            typer.echo(f"the partial run is saved to {report.saved_to}", err=True)
+
     if live is not None:
         live.start()
     try:
         run = run_motion(
             command,
-            robot=robot,
+            config=config,
+            robot=url,
             params=nominal,
-            rate=rate,
-            motion=motion,
-            driver_config=config,
-            watchdog_timeout=watchdog,
-            truth=truth,
-            terrain=terrain,
+            plant=plant,
             seed=seed,
+            terrain=terrain,
             on_cycle=on_cycle,
             on_event=on_event,
             realtime=realtime,
             save_to=folder,
+            on_abort=on_abort,
         )
-    except BaseException:
-        if live is not None:
-            live.stop()
-            live = None
-        for line in events:
-            typer.echo(line, err=True)
-        if (folder / "run.json").exists():
-            typer.echo(f"robot stopped; the partial run is saved to {folder}", err=True)
-        raise
     finally:
         if live is not None:
             live.stop()
-    for line in events:
-        typer.echo(line, err=True)
+        if view is not None:
+            view.close()
+    if not quiet:
+        for line in events:
+            typer.echo(line, err=True)
     p = run.trial.predicted
     typer.echo(
         f"{target} on {run.robot}: predicted x={p.x:.4f} m y={p.y:.4f} m "
@@ -247,90 +348,146 @@ def _run(
             f"recorded in {db} as {run.trial.trial_id}; enter the measurement with "
             f"'odolab trials measure {run.trial.trial_id} --db {db}'"
         )
+    if not run.stop_confirmed:
+        raise RobotLinkError(
+            "the run finished and stop was commanded, but the robot's sensor data does not "
+            "confirm that it stopped; check the robot"
+        )
+    typer.echo(_confirm_line(True), err=True)
 
 
-def _run_options(values: dict[str, Any]) -> dict[str, Any]:
-    """The options every motion command passes on to :func:`_run`, taken from its arguments."""
-    names = list(inspect.signature(_run).parameters)[1:]  # all but the command
-    return {name: values[name] for name in names}
+def _config(
+    *,
+    rate: float,
+    mode: ModeChoice,
+    max_wheel_speed: float,
+    watchdog: float,
+    link_timeout: float,
+    stall_timeout: float,
+    command_timeout: float,
+    decel: float,
+    left_channel: int,
+    right_channel: int,
+    left_encoder_sign: int,
+    right_encoder_sign: int,
+    left_motor_sign: int,
+    right_motor_sign: int,
+) -> RunConfig:
+    """The validated run configuration of the shared options (refused here, before driving)."""
+    from odolab.robot.config import CommandMode, RunConfig
+
+    return RunConfig(
+        rate=rate,
+        mode=CommandMode(mode.value),
+        max_wheel_speed=max_wheel_speed,
+        watchdog=watchdog,
+        link_timeout=link_timeout,
+        stall_timeout=stall_timeout,
+        command_timeout=command_timeout,
+        decel=decel,
+        left_channel=left_channel,
+        right_channel=right_channel,
+        left_encoder_sign=left_encoder_sign,
+        right_encoder_sign=right_encoder_sign,
+        left_motor_sign=left_motor_sign,
+        right_motor_sign=right_motor_sign,
+    )
 
 
-def _check_nonzero(option: str, value: float) -> None:
-    """A zero (or non-finite) motion would record an empty trial: refuse it before connecting."""
-    from odolab.errors import SimError
+#: The options every motion command takes after its own, in --help order: (name, type, default).
+#: Those named in ``_config`` make the RunConfig; the rest go to ``_run``.
+_SHARED_OPTIONS: tuple[tuple[str, Any, Any], ...] = (
+    ("robot", RobotOpt, None),
+    ("rate", RateOpt, 20.0),
+    ("params", ParamsOpt, "jaguar-lite"),
+    ("mode", ModeOpt, ModeChoice.pwm),
+    ("decel", DecelOpt, 0.0),
+    ("watchdog", WatchdogOpt, 0.5),
+    ("link_timeout", LinkTimeoutOpt, 5.0),
+    ("stall_timeout", StallTimeoutOpt, 3.0),
+    ("command_timeout", CommandTimeoutOpt, 0.5),
+    ("out", OutOpt, None),
+    ("db", DbOpt, None),
+    ("truth", TruthOpt, "jaguar-lab"),
+    ("terrain", TerrainOpt, "tile"),
+    ("seed", SeedOpt, 0),
+    ("left_channel", LeftChOpt, 0),
+    ("right_channel", RightChOpt, 1),
+    ("left_encoder_sign", LeftSignOpt, 1),
+    ("right_encoder_sign", RightSignOpt, 1),
+    ("left_motor_sign", LeftMotorOpt, 1),
+    ("right_motor_sign", RightMotorOpt, 1),
+    ("max_wheel_speed", MaxSpeedOpt, 1.0),
+    ("quiet", QuietOpt, False),
+    ("realtime", RealtimeOpt, True),
+    ("foxglove", FoxgloveOpt, False),
+    ("foxglove_port", FoxglovePortOpt, 8765),
+)
+_CONFIG_KEYS = frozenset(inspect.signature(_config).parameters)
 
-    if not math.isfinite(value) or value == 0:
-        raise SimError(f"{option} is {value:g}; expected a finite number other than 0")
+
+def _motion_command(name: str) -> Callable[[Callable[..., Command]], Callable[..., Command]]:
+    """Register ``build`` (its own options -> the Command; its docstring is the help) as
+    ``odolab robot NAME`` with the shared options after its own: validated, then driven."""
+
+    def register(build: Callable[..., Command]) -> Callable[..., Command]:
+        # the annotations are postponed strings; resolved here, the return type left out (it
+        # is imported only for type checking)
+        holder = SimpleNamespace(
+            __annotations__={k: v for k, v in build.__annotations__.items() if k != "return"}
+        )
+        hints = get_type_hints(holder, globalns=build.__globals__, include_extras=True)
+        own = [
+            p.replace(kind=inspect.Parameter.KEYWORD_ONLY, annotation=hints[p.name])
+            for p in inspect.signature(build).parameters.values()
+        ]
+        shared = [
+            inspect.Parameter(n, inspect.Parameter.KEYWORD_ONLY, annotation=a, default=d)
+            for n, a, d in _SHARED_OPTIONS
+        ]
+
+        def command(**options: Any) -> None:
+            cmd = build(**{p.name: options.pop(p.name) for p in own})
+            config = _config(**{k: options.pop(k) for k in _CONFIG_KEYS})
+            _run(cmd, config, **options)
+
+        command.__signature__ = inspect.Signature([*own, *shared])  # type: ignore[attr-defined]
+        command.__doc__ = build.__doc__
+        command.__name__ = command.__qualname__ = f"{build.__name__}_cmd"
+        robot_app.command(name)(command)
+        return build
+
+    return register
 
 
-@robot_app.command("rotate")
-def rotate_cmd(
+@_motion_command("rotate")
+def rotate(
     turns: Annotated[
         float, typer.Option("--turns", help="Full turns (negative = clockwise).")
     ] = 10.0,
     speed: Annotated[float, typer.Option("--speed", help="Turn rate, rad/s.")] = 0.5,
-    robot: RobotOpt = None,
-    rate: RateOpt = 20.0,
-    params: ParamsOpt = "jaguar-lite",
-    mode: ModeOpt = ModeChoice.pwm,
-    decel: DecelOpt = 0.0,
-    watchdog: WatchdogOpt = 0.5,
-    out: OutOpt = None,
-    db: DbOpt = None,
-    truth: TruthOpt = "jaguar-lab",
-    terrain: TerrainOpt = "tile",
-    seed: SeedOpt = 0,
-    left_channel: LeftChOpt = 0,
-    right_channel: RightChOpt = 1,
-    left_encoder_sign: LeftSignOpt = 1,
-    right_encoder_sign: RightSignOpt = 1,
-    max_wheel_speed: MaxSpeedOpt = 1.0,
-    quiet: QuietOpt = False,
-    realtime: RealtimeOpt = True,
-) -> None:
+) -> Command:
     """Rotate in place by TURNS full turns (2*pi each), stopping when odometry says so."""
     from odolab.trials import Command, MotionKind
 
-    _check_nonzero("--turns", turns)
-    cmd = Command(MotionKind.ROTATION, angle=2.0 * math.pi * turns, speed=speed)
-    _run(cmd, **_run_options(locals()))
+    return Command(MotionKind.ROTATION, angle=2.0 * math.pi * turns, speed=speed)
 
 
-@robot_app.command("drive")
-def drive_cmd(
+@_motion_command("drive")
+def drive(
     distance: Annotated[
         float, typer.Option("--distance", help="Metres; negative = reverse.")
     ] = 1.0,
     speed: Annotated[float, typer.Option("--speed", help="Speed, m/s.")] = 0.3,
-    robot: RobotOpt = None,
-    rate: RateOpt = 20.0,
-    params: ParamsOpt = "jaguar-lite",
-    mode: ModeOpt = ModeChoice.pwm,
-    decel: DecelOpt = 0.0,
-    watchdog: WatchdogOpt = 0.5,
-    out: OutOpt = None,
-    db: DbOpt = None,
-    truth: TruthOpt = "jaguar-lab",
-    terrain: TerrainOpt = "tile",
-    seed: SeedOpt = 0,
-    left_channel: LeftChOpt = 0,
-    right_channel: RightChOpt = 1,
-    left_encoder_sign: LeftSignOpt = 1,
-    right_encoder_sign: RightSignOpt = 1,
-    max_wheel_speed: MaxSpeedOpt = 1.0,
-    quiet: QuietOpt = False,
-    realtime: RealtimeOpt = True,
-) -> None:
+) -> Command:
     """Drive straight DISTANCE m (negative = reverse), stopping when odometry says so."""
     from odolab.trials import Command, MotionKind
 
-    _check_nonzero("--distance", distance)
-    cmd = Command(MotionKind.TRANSLATION, distance=distance, speed=speed)
-    _run(cmd, **_run_options(locals()))
+    return Command(MotionKind.TRANSLATION, distance=distance, speed=speed)
 
 
-@robot_app.command("pivot")
-def pivot_cmd(
+@_motion_command("pivot")
+def pivot(
     degrees: Annotated[
         float, typer.Option("--degrees", help="Turn, degrees (ccw positive).")
     ] = 90.0,
@@ -338,64 +495,25 @@ def pivot_cmd(
         TrackChoice, typer.Option("--held", help="The track that stays still.")
     ] = TrackChoice.left,
     speed: Annotated[float, typer.Option("--speed", help="Turn rate, rad/s.")] = 0.5,
-    robot: RobotOpt = None,
-    rate: RateOpt = 20.0,
-    params: ParamsOpt = "jaguar-lite",
-    mode: ModeOpt = ModeChoice.pwm,
-    decel: DecelOpt = 0.0,
-    watchdog: WatchdogOpt = 0.5,
-    out: OutOpt = None,
-    db: DbOpt = None,
-    truth: TruthOpt = "jaguar-lab",
-    terrain: TerrainOpt = "tile",
-    seed: SeedOpt = 0,
-    left_channel: LeftChOpt = 0,
-    right_channel: RightChOpt = 1,
-    left_encoder_sign: LeftSignOpt = 1,
-    right_encoder_sign: RightSignOpt = 1,
-    max_wheel_speed: MaxSpeedOpt = 1.0,
-    quiet: QuietOpt = False,
-    realtime: RealtimeOpt = True,
-) -> None:
+) -> Command:
     """Pivot on one track by DEGREES, stopping when odometry says so."""
     from odolab.trials import Command, MotionKind
 
-    _check_nonzero("--degrees", degrees)
-    cmd = Command(MotionKind.PIVOT, angle=math.radians(degrees), direction=held.value, speed=speed)
-    _run(cmd, **_run_options(locals()))
+    return Command(MotionKind.PIVOT, angle=math.radians(degrees), direction=held.value, speed=speed)
 
 
-@robot_app.command("square")
-def square_cmd(
+@_motion_command("square")
+def square(
     side: Annotated[float, typer.Option("--side", help="Side of the square, m.")] = 4.0,
     direction: Annotated[
         DirectionChoice, typer.Option("--direction", help="cw or ccw.")
     ] = DirectionChoice.ccw,
     speed: Annotated[float, typer.Option("--speed", help="Straight speed, m/s.")] = 0.3,
-    robot: RobotOpt = None,
-    rate: RateOpt = 20.0,
-    params: ParamsOpt = "jaguar-lite",
-    mode: ModeOpt = ModeChoice.pwm,
-    decel: DecelOpt = 0.0,
-    watchdog: WatchdogOpt = 0.5,
-    out: OutOpt = None,
-    db: DbOpt = None,
-    truth: TruthOpt = "jaguar-lab",
-    terrain: TerrainOpt = "tile",
-    seed: SeedOpt = 0,
-    left_channel: LeftChOpt = 0,
-    right_channel: RightChOpt = 1,
-    left_encoder_sign: LeftSignOpt = 1,
-    right_encoder_sign: RightSignOpt = 1,
-    max_wheel_speed: MaxSpeedOpt = 1.0,
-    quiet: QuietOpt = False,
-    realtime: RealtimeOpt = True,
-) -> None:
+) -> Command:
     """Drive the UMBmark square (four sides, four 90-degree turns in place) by odometry."""
     from odolab.trials import Command, MotionKind
 
-    cmd = Command(MotionKind.SQUARE, side=side, direction=direction.value, speed=speed)
-    _run(cmd, **_run_options(locals()))
+    return Command(MotionKind.SQUARE, side=side, direction=direction.value, speed=speed)
 
 
 @robot_app.command("sim-server")
@@ -409,34 +527,86 @@ def sim_server_cmd(
     terrain: TerrainOpt = "tile",
     seed: SeedOpt = 0,
     report_rate: Annotated[
-        float, typer.Option("--report-rate", help="Sensor packets per second.")
+        float, typer.Option("--report-rate", help="Sensor packets per second (0.5..1000).")
     ] = 10.0,
     max_wheel_speed: MaxSpeedOpt = 1.0,
+    command_timeout: Annotated[
+        float,
+        typer.Option(
+            "--command-timeout",
+            help="Motors stop when no valid motor command came for this many s (0.05..5).",
+        ),
+    ] = 0.5,
     drop: Annotated[float, typer.Option("--drop", help="Probability of dropping a packet.")] = 0.0,
     jitter: Annotated[
         float, typer.Option("--jitter", help="Random extra delay up to this many s.")
     ] = 0.0,
+    silent_after: Annotated[
+        float | None,
+        typer.Option(
+            "--silent-after", help="Fault: send nothing from this many s after the first ACK."
+        ),
+    ] = None,
+    trace: Annotated[
+        Path | None,
+        typer.Option(
+            "--trace",
+            help="Append a line per wheel-speed change: host monotonic time (s), left and "
+            "right speed (m/s), why.",
+        ),
+    ] = None,
 ) -> None:
-    """Run a virtual Jaguar board (UDP) until Ctrl-C."""
+    """Run a virtual Jaguar board (UDP) until Ctrl-C (or SIGTERM)."""
+    import signal
+
     from odolab.params import load_params
-    from odolab.robot.plant import make_plant
-    from odolab.robot.server import BoardConfig, Faults, VirtualJaguar, VirtualJaguarServer
+    from odolab.robot.jaguar.board import (
+        BoardConfig,
+        Faults,
+        VirtualJaguar,
+        VirtualJaguarServer,
+    )
+    from odolab.sim.plants import make_plant
 
     nominal = load_params(params)
-    plant = make_plant(truth, nominal, terrain, seed=seed)
     board = BoardConfig.from_params(
-        nominal, report_rate=report_rate, max_wheel_speed=max_wheel_speed
+        nominal,
+        report_rate=report_rate,
+        max_wheel_speed=max_wheel_speed,
+        command_timeout=command_timeout,
     )
-    jaguar = VirtualJaguar(plant, board, faults=Faults(drop=drop, jitter=jitter), seed=seed)
+    faults = Faults(drop=drop, jitter=jitter, silent_after=silent_after)
+    plant = make_plant(truth, nominal, terrain, seed=seed)
+    trace_file = trace.open("a", encoding="utf-8") if trace is not None else None
+
+    def on_speeds(t: float, left: float, right: float, why: str) -> None:
+        if trace_file is not None:
+            trace_file.write(f"{t:.6f} {left:.6f} {right:.6f} {why.replace(' ', '-')}\n")
+            trace_file.flush()
+
+    jaguar = VirtualJaguar(plant, board, faults=faults, seed=seed, on_speeds=on_speeds)
     server = VirtualJaguarServer(jaguar, host, port)
     h, p = server.address
     typer.echo(f"virtual Jaguar ({truth}) listening on udp://{h}:{p}; Ctrl-C to stop", err=True)
+
+    def on_term(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, on_term)
     try:
         server.serve_forever()
     except KeyboardInterrupt:
         pass
     finally:
         server.close()
+        if trace_file is not None:
+            st = jaguar.stats
+            trace_file.write(
+                f"# received {st.received} commands {st.commands} ignored {st.ignored_commands} "
+                f"rejected_acks {st.rejected_acks} takeovers {st.takeovers} "
+                f"command_timeouts {st.command_timeouts}\n"
+            )
+            trace_file.close()
         pose = plant.true_pose
         typer.echo(
             f"true pose: x={pose.x:.4f} m y={pose.y:.4f} m heading={pose.heading:.4f} rad", err=True

@@ -9,6 +9,7 @@ from typing import Annotated
 import typer
 
 from odolab.cli._apps import sim_app
+from odolab.defaults import DEFAULT_ROBOT, DEFAULT_TRUTH
 
 __all__: list[str] = []
 
@@ -49,12 +50,12 @@ def sim_run(
         str,
         typer.Option(
             help="True-behaviour preset of the virtual robot: "
-            "jaguar-lab, jaguar-lab-track or ideal."
+            "jaguar-lab, jaguar-lab-track, jaguar-lab-tracked (an ICR vehicle) or ideal."
         ),
-    ] = "jaguar-lab",
+    ] = DEFAULT_TRUTH,
     params: Annotated[
         str, typer.Option("--params", "-p", help="Nominal parameters (TOML file or preset).")
-    ] = "jaguar-lite",
+    ] = DEFAULT_ROBOT,
     encoder_dir: Annotated[
         Path | None,
         typer.Option(help="Also write each trial's encoder log as DIR/<trial_id>.csv."),
@@ -72,8 +73,9 @@ def sim_run(
 
     from odolab.cli._output import markup_text, term
     from odolab.errors import SimError
+    from odolab.numfmt import count
     from odolab.params import load_params
-    from odolab.sim.export import write_encoder_logs, write_trials_csv
+    from odolab.sim.export import write_encoder_logs
     from odolab.sim.presets import TRUTH_PRESETS
     from odolab.sim.protocols import load_protocol, run_protocol
 
@@ -94,11 +96,13 @@ def sim_run(
             nominal,
             terrain=terrain,
             seed=seed,
-            progress=lambda done, total: bar.update(task, completed=done),
+            progress=lambda done, total, what: bar.update(task, completed=done),
         )
-    write_trials_csv(trials, output)
+    from odolab.store.csvio import write_trials_csv
+
+    write_trials_csv(output, [(t, None) for t in trials])
     if encoder_dir is not None:
-        write_encoder_logs(trials, encoder_dir)
+        write_encoder_logs(encoder_dir, trials)
     if db is not None:
         from odolab.store import Notebook
 
@@ -106,7 +110,7 @@ def sim_run(
             nb.add_trials(trials)
     stalled = sum(t.exclusion_reason is not None for t in trials)
     typer.echo(
-        f"{len(trials)} trials of {term(proto.name)} ({truth}, seed {seed}) -> {output}"
+        f"{count(len(trials), 'trial')} of {term(proto.name)} ({truth}, seed {seed}) -> {output}"
         + (f"; {stalled} stalled (excluded)" if stalled else "")
         + (f"; recorded in {db}" if db is not None else "")
     )

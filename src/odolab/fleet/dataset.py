@@ -193,8 +193,8 @@ def simulate_fleet(
                 seed = s.seed * 1_000_003 + (r * s.days + day) * s.runs_per_day + k
                 log, gt = _drive(true_params, nominal, s, seed)
                 path = folder / f"run-{k + 1:03d}.csv"
-                write_encoder_csv(log, path)
-                write_trajectory_csv(gt, folder / f"run-{k + 1:03d}_gt.csv")
+                write_encoder_csv(path, log)
+                write_trajectory_csv(folder / f"run-{k + 1:03d}_gt.csv", gt)
                 paths.append(path)
                 done += 1
                 if progress is not None:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import overload
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,6 +21,7 @@ from odolab.io.limits import check_columns_unique, check_text_file, first_line_c
 from odolab.io.tabular import read_columns, read_header, table_format, write_columns
 from odolab.trajectory import check_times
 from odolab.trials import EncoderLog
+from odolab.writing import path_first
 
 __all__ = ["read_encoder_csv", "write_encoder_csv"]
 
@@ -99,7 +101,13 @@ def read_encoder_csv(path: str | Path, *, modulus: int | None = None) -> Encoder
     return EncoderLog(t, left, right, modulus)
 
 
-def write_encoder_csv(log: EncoderLog, path: str | Path) -> Path:
-    """Write ``t,left_ticks,right_ticks`` (raw counters); CSV, Parquet or IPC by extension."""
-    columns = dict(zip(RAW, (log.t, log.left_ticks, log.right_ticks), strict=True))
-    return write_columns(path, columns, "encoder log")
+@overload
+def write_encoder_csv(path: str | Path, log: EncoderLog) -> Path: ...
+@overload
+def write_encoder_csv(path: EncoderLog, log: str | Path) -> Path: ...  # the old order
+def write_encoder_csv(path: str | Path | EncoderLog, log: EncoderLog | str | Path) -> Path:
+    """Write ``t,left_ticks,right_ticks`` (raw counters) to ``path``; CSV (shortest round-trip
+    text), Parquet or Arrow IPC by extension."""
+    p, entry = path_first(path, log, EncoderLog, "write_encoder_csv")
+    columns = dict(zip(RAW, (entry.t, entry.left_ticks, entry.right_ticks), strict=True))
+    return write_columns(p, columns, "encoder log")

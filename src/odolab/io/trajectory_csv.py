@@ -12,17 +12,25 @@ from __future__ import annotations
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Literal
+from typing import Literal, overload
 
 import numpy as np
 
 from odolab.errors import LogFormatError
 from odolab.io._table import data_line_numbers, read_numeric_columns
 from odolab.io.limits import check_columns_unique, check_text_file, first_line_cells
-from odolab.io.tabular import read_columns, read_header, table_format, write_columns
+from odolab.io.tabular import (
+    BINARY_SUFFIXES,
+    read_columns,
+    read_header,
+    table_format,
+    write_columns,
+)
 from odolab.trajectory import Trajectory, check_times
+from odolab.writing import path_first
 
 __all__ = [
+    "read_trajectory",
     "read_trajectory_csv",
     "read_tum",
     "write_trajectory",
@@ -47,11 +55,19 @@ def _writing(p: Path, what: str) -> Iterator[None]:
         ) from err
 
 
-def write_trajectory_csv(traj: Trajectory, path: str | Path) -> Path:
-    """Write a trajectory table (shortest round-trip text; Parquet or IPC by extension)."""
-    columns = dict(zip(COLUMNS, (traj.t, traj.x, traj.y, traj.theta, traj.heading), strict=True))
-    what = "trajectory CSV" if table_format(path) == "csv" else "trajectory table"
-    return write_columns(path, columns, what)
+@overload
+def write_trajectory_csv(path: str | Path, traj: Trajectory) -> Path: ...
+@overload
+def write_trajectory_csv(path: Trajectory, traj: str | Path) -> Path: ...  # the old order
+def write_trajectory_csv(path: str | Path | Trajectory, traj: Trajectory | str | Path) -> Path:
+    """Write a trajectory table to ``path`` (every float in its shortest round-trip form; Parquet
+    or Arrow IPC by extension)."""
+    p, entry = path_first(path, traj, Trajectory, "write_trajectory_csv")
+    columns = dict(
+        zip(COLUMNS, (entry.t, entry.x, entry.y, entry.theta, entry.heading), strict=True)
+    )
+    what = "trajectory CSV" if table_format(p) == "csv" else "trajectory table"
+    return write_columns(p, columns, what)
 
 
 def read_trajectory_csv(path: str | Path) -> Trajectory:
@@ -85,16 +101,27 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
     return Trajectory.from_xytheta(d["t"], d["x"], d["y"], d["theta"])
 
 
-def write_tum(traj: Trajectory, path: str | Path) -> Path:
-    """Write TUM text (planar: z = 0, quaternion about z)."""
+@overload
+def write_tum(path: str | Path, traj: Trajectory) -> Path: ...
+@overload
+def write_tum(path: Trajectory, traj: str | Path) -> Path: ...  # the old order
+def write_tum(path: str | Path | Trajectory, traj: Trajectory | str | Path) -> Path:
+    """Write TUM text (planar: z = 0, quaternion about z) to ``path``."""
+    p, entry = path_first(path, traj, Trajectory, "write_tum")
+    return _write_tum(entry, p)
+
+
+def _write_tum(traj: Trajectory, path: str | Path) -> Path:
     p = Path(path)
     half = 0.5 * traj.theta
     zeros = np.zeros_like(traj.t)
-    table = np.column_stack(
-        (traj.t, traj.x, traj.y, zeros, zeros, zeros, np.sin(half), np.cos(half))
+    from odolab.numfmt import csv_lines
+
+    body = csv_lines(
+        (traj.t, traj.x, traj.y, zeros, zeros, zeros, np.sin(half), np.cos(half)), sep=" "
     )
     with _writing(p, "TUM trajectory"):
-        np.savetxt(p, table, fmt="%.17g", delimiter=" ")
+        p.write_text(body, encoding="utf-8")
     return p
 
 
@@ -108,16 +135,38 @@ def read_tum(path: str | Path) -> Trajectory:
         d["t"], str(p), line_of=lambda i: int(data_line_numbers(p, sep=r"\s+", has_header=False)[i])
     )
     qx, qy, qz, qw = d["qx"], d["qy"], d["qz"], d["qw"]
-    yaw = np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+    # the yaw of the rotation the quaternion stands for, whatever its length (TUM files keep
+    # 4 decimals, so |q| is 1 only to about 1e-4): both arguments scale with |q|^2
+    yaw = np.arctan2(2.0 * (qw * qz + qx * qy), qw * qw + qx * qx - qy * qy - qz * qz)
     return Trajectory.from_xytheta(d["t"], d["tx"], d["ty"], yaw)
 
 
+@overload
 def write_trajectory(
-    traj: Trajectory, path: str | Path, fmt: Literal["csv", "tum"] = "csv"
+    path: str | Path, traj: Trajectory, fmt: Literal["csv", "tum"] = "csv"
+) -> Path: ...
+@overload
+def write_trajectory(  # the old order
+    path: Trajectory, traj: str | Path, fmt: Literal["csv", "tum"] = "csv"
+) -> Path: ...
+def write_trajectory(
+    path: str | Path | Trajectory, traj: Trajectory | str | Path, fmt: Literal["csv", "tum"] = "csv"
 ) -> Path:
-    """Write in the named format."""
+    """Write ``traj`` to ``path`` in the named format."""
+    p, entry = path_first(path, traj, Trajectory, "write_trajectory")
     if fmt == "csv":
-        return write_trajectory_csv(traj, path)
+        return write_trajectory_csv(p, entry)
     if fmt == "tum":
-        return write_tum(traj, path)
+        return write_tum(p, entry)
     raise LogFormatError(f"unknown trajectory format {fmt!r}; expected csv or tum")
+
+
+def read_trajectory(path: str | Path) -> Trajectory:
+    """A trajectory file by its extension: ``.csv`` (``t,x,y,theta[,heading]``), Parquet or Arrow
+    IPC (``.parquet``, ``.arrow``, ``.feather``: the same columns), else TUM text."""
+    p = Path(path)
+    if not p.is_file():
+        raise LogFormatError(f"{p}: no such trajectory file")
+    if p.suffix.lower() in (".csv", *BINARY_SUFFIXES):
+        return read_trajectory_csv(p)
+    return read_tum(p)

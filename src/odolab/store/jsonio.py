@@ -106,8 +106,8 @@ def _need(obj: Any, keys: Sequence[str], where: str) -> dict[str, Any]:
 def _check_ranges(doc: NotebookDocument, source: str) -> None:
     """The range checks every other entry path applies: parameters, measured positions, and a
     translation's commanded distance (``odolab trials add`` and CSV import refuse the same)."""
+    from odolab.measurement import check_position
     from odolab.params import check_param
-    from odolab.store.entry import check_position
 
     for i, pv in enumerate(doc.params_versions):
         for key in PARAMS_FIELDS:
@@ -139,6 +139,10 @@ def read_notebook_json(path: str | Path) -> NotebookDocument:
         raise StoreError(f"{p}: cannot read ({err.strerror or err})") from err
     except (json.JSONDecodeError, UnicodeDecodeError) as err:
         raise StoreError(f"{p}: not valid JSON ({err})") from err
+    except RecursionError as err:
+        raise StoreError(
+            f"{p}: JSON nested too deeply to read; expected a notebook export (a few levels)"
+        ) from err
     _need(doc, ("format", "params_versions", "campaigns", "trials"), str(p))
     if doc["format"] != FORMAT:
         raise StoreError(f"{p}: format is {doc['format']!r}; expected {FORMAT!r}")
