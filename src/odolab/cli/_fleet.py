@@ -178,6 +178,7 @@ def odometry_many(
     chunk_rows: int,
     workers: int,
     scheduler: str | None,
+    covariance: bool = False,
 ) -> None:
     """``odolab odometry`` over many logs on Dask; one trajectory file per log under ``output``."""
     import os
@@ -204,6 +205,7 @@ def odometry_many(
             start,
             max_dticks,
             chunk_rows,
+            covariance,
         )
         for f in files
     ]

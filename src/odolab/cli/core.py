@@ -75,6 +75,14 @@ def odometry_cmd(
         str | None,
         typer.Option(help="Many logs: Dask scheduler tcp://HOST:PORT (default: a local cluster)."),
     ] = None,
+    covariance: Annotated[
+        bool,
+        typer.Option(
+            "--covariance",
+            help="Add each pose's covariance cov_xx,cov_xy,cov_xh,cov_yy,cov_yh,cov_hh "
+            "(m^2, m rad, rad^2), propagated from the parameters' [noise] table.",
+        ),
+    ] = False,
 ) -> None:
     """Integrate an encoder log into a trajectory (one pose per input row), chunk by chunk.
 
@@ -87,6 +95,19 @@ def odometry_cmd(
 
     if chunk_rows is not None and chunk_rows < 0:
         raise OdolabError(f"--chunk-rows is {chunk_rows}; expected a number of rows >= 1 (or 0)")
+    if covariance and fmt is not FormatChoice.csv:
+        raise OdolabError(
+            f"--covariance with --format {fmt.value}: TUM has no covariance columns; expected "
+            "--format csv (a .csv, .parquet or .arrow output)"
+        )
+    robot = load_params(params)
+    if covariance and robot.noise is None:
+        from odolab.errors import ParamsError
+
+        raise ParamsError(
+            f"--covariance: the parameters {params} have no [noise] table; expected one with "
+            "k_left and k_right (m), as `odolab calibrate noise RUNS -o P.toml` writes it"
+        )
     if (
         len(logs) != 1
         or logs[0].is_dir()
@@ -96,7 +117,7 @@ def odometry_cmd(
 
         odometry_many(
             logs,
-            load_params(params),
+            robot,
             output,
             method=method.value,
             start=start,
@@ -104,10 +125,10 @@ def odometry_cmd(
             chunk_rows=chunk_rows or DEFAULT_CHUNK_ROWS,
             workers=workers,
             scheduler=scheduler,
+            covariance=covariance,
         )
         return
     log = logs[0]
-    robot = load_params(params)
     if chunk_rows is None:
         from odolab.io.tabular import row_count
 
@@ -130,6 +151,7 @@ def odometry_cmd(
                 max_dticks=max_dticks,
                 chunk_rows=chunk_rows,
                 progress=report,
+                covariance=covariance,
             )
         end = res.final
         typer.echo(
@@ -148,8 +170,26 @@ def odometry_cmd(
         max_dticks=max_dticks,
         source=str(log),
     )
+    cov = None
+    if covariance:
+        from odolab.uncertainty import covariance_from_ticks
+
+        cov = covariance_from_ticks(
+            enc.left_ticks,
+            enc.right_ticks,
+            robot,
+            method.value,
+            max_dticks=max_dticks,
+            heading0=0.0 if start is None else start[2],
+        )
     del enc  # the input's memory is free before the output is written
-    write_trajectory(output, traj, fmt.value)
+    if cov is None:
+        write_trajectory(output, traj, fmt.value)
+    else:
+        from odolab.io.chunked import OdometryChunk
+        from odolab.io.tabular import write_columns
+
+        write_columns(output, OdometryChunk(traj, cov).columns(), "trajectory table")
     end = traj.final
     typer.echo(
         f"{len(traj)} poses -> {output}; final x={end.x:.4f} m y={end.y:.4f} m "

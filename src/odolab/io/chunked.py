@@ -6,6 +6,10 @@ pass) and starting from the previous chunk's last pose (x, y and the unwrapped h
 that repeated first pose is dropped. The poses equal the whole-file run's to rounding (the same
 operations in the same order). Memory is bounded by the chunk size.
 
+With ``covariance=True`` the pose covariance (:data:`odolab.uncertainty.COV_COLUMNS`, from the
+parameters' ``[noise]`` table) is propagated the same way: each chunk starts from the previous
+chunk's last covariance and heading, so the chunked covariance equals the whole-file one.
+
 Errors name the file and line (CSV) or row (Parquet, IPC), as the whole-file reader does; the
 line numbers of a CSV are counted only when there is an error to report.
 """
@@ -32,6 +36,7 @@ __all__ = [
     "DEFAULT_CHUNK_ROWS",
     "ChunkedOdometry",
     "EncoderChunk",
+    "OdometryChunk",
     "OdometryFileResult",
     "OdometryJob",
     "integrate_file",
@@ -144,11 +149,31 @@ def iter_encoder_chunks(
 _SAMPLES = re.compile(r"between samples (\d+) and (\d+)")
 
 
+@dataclass(frozen=True)
+class OdometryChunk:
+    """One chunk's poses and, when asked for, their covariance (n, 6) in ``COV_COLUMNS``."""
+
+    trajectory: Trajectory
+    covariance: F64 | None
+
+    def columns(self) -> dict[str, NDArray[np.float64]]:
+        """The output table's columns: ``t,x,y,theta,heading`` (then ``cov_xx .. cov_hh``)."""
+        tr = self.trajectory
+        out = dict(zip(TRAJECTORY_COLUMNS, (tr.t, tr.x, tr.y, tr.theta, tr.heading), strict=True))
+        if self.covariance is not None:
+            from odolab.uncertainty import COV_COLUMNS
+
+            out.update(zip(COV_COLUMNS, self.covariance.T, strict=True))
+        return out
+
+
 class ChunkedOdometry:
     """Batch odometry fed chunk by chunk; ``feed`` returns each chunk's poses.
 
     Equal to one :func:`odolab.odometry.integrate` call over the concatenated chunks (to
-    rounding), rollover across a boundary included.
+    rounding), rollover across a boundary included. With ``covariance=True``, :meth:`step` also
+    returns the covariance, equal to one :func:`odolab.uncertainty.covariance_from_ticks` call
+    (a :class:`odolab.errors.ParamsError` up front when ``params`` have no ``[noise]`` table).
     """
 
     def __init__(
@@ -159,8 +184,19 @@ class ChunkedOdometry:
         start: tuple[float, float, float] | None = None,
         max_dticks: int | None = None,
         source: str = "encoder log",
+        covariance: bool = False,
     ) -> None:
+        if covariance and params.noise is None:
+            from odolab.errors import ParamsError
+
+            raise ParamsError(
+                f"the parameters {params.name} have no [noise] table, which a covariance needs "
+                "(k_left, k_right in m): write one with `odolab calibrate noise RUNS -o P.toml` "
+                "or add it by hand"
+            )
         self.params = params
+        self.covariance = covariance
+        self._cov: F64 | None = None
         self.method = Method(method)
         self.start = start
         self.max_dticks = max_dticks
@@ -176,6 +212,10 @@ class ChunkedOdometry:
 
     def feed(self, t: F64, left: I64, right: I64) -> Trajectory:
         """Integrate the next rows; returns their poses (one per row)."""
+        return self.step(t, left, right).trajectory
+
+    def step(self, t: F64, left: I64, right: I64) -> OdometryChunk:
+        """Integrate the next rows; their poses and (``covariance=True``) covariance."""
         from odolab.odometry import integrate
 
         n = len(t)
@@ -208,13 +248,29 @@ class ChunkedOdometry:
                 str(err),
             )
             raise EncoderJumpError(text) from err
+        cov = None
+        if self.covariance:
+            from odolab.uncertainty import covariance_from_ticks
+
+            heading0 = 0.0 if start is None else float(start[2])
+            cov = covariance_from_ticks(
+                ll,
+                rr,
+                self.params,
+                self.method,
+                max_dticks=self.max_dticks,
+                heading0=heading0,
+                cov0=self._cov,
+            )[skip:]
+            if len(cov):
+                self._cov = cov[-1].copy()
         if skip:
             traj = traj[skip:]
         if n:
             self._prev = (float(t[-1]), int(left[-1]), int(right[-1]))
             self._pose = traj.final
         self.rows += n
-        return traj
+        return OdometryChunk(traj, cov)
 
 
 @dataclass(frozen=True)
@@ -237,8 +293,10 @@ def integrate_file(
     max_dticks: int | None = None,
     chunk_rows: int = DEFAULT_CHUNK_ROWS,
     progress: Progress | None = None,
+    covariance: bool = False,
 ) -> OdometryFileResult:
-    """Encoder log file -> trajectory file (``t,x,y,theta,heading``), chunk by chunk.
+    """Encoder log file -> trajectory file (``t,x,y,theta,heading``, then with ``covariance``
+    the six ``cov_xx .. cov_hh`` of :data:`odolab.uncertainty.COV_COLUMNS`), chunk by chunk.
 
     Formats by extension (CSV, Parquet, Arrow IPC). ``progress(rows done, total rows or 0 when
     unknown, name)`` is called after each chunk. The output is written beside under a temporary
@@ -254,7 +312,14 @@ def integrate_file(
             "writable folder"
         )
     total = row_count(src) or 0
-    odo = ChunkedOdometry(params, method, start=start, max_dticks=max_dticks, source=str(src))
+    odo = ChunkedOdometry(
+        params,
+        method,
+        start=start,
+        max_dticks=max_dticks,
+        source=str(src),
+        covariance=covariance,
+    )
     chunks = 0
     partial = out.with_name(f".{out.stem}.partial{out.suffix}")
     try:
@@ -262,16 +327,7 @@ def integrate_file(
             for chunk in iter_encoder_chunks(
                 src, modulus=params.encoder_modulus, chunk_rows=chunk_rows
             ):
-                traj = odo.feed(chunk.t, chunk.left, chunk.right)
-                writer.write(
-                    dict(
-                        zip(
-                            TRAJECTORY_COLUMNS,
-                            (traj.t, traj.x, traj.y, traj.theta, traj.heading),
-                            strict=True,
-                        )
-                    )
-                )
+                writer.write(odo.step(chunk.t, chunk.left, chunk.right).columns())
                 chunks += 1
                 if progress is not None:
                     progress(odo.rows, total, src.name)
@@ -300,6 +356,7 @@ class OdometryJob:
     start: tuple[float, float, float] | None = None
     max_dticks: int | None = None
     chunk_rows: int = DEFAULT_CHUNK_ROWS
+    covariance: bool = False
 
 
 def run_odometry_job(job: OdometryJob) -> OdometryFileResult:
@@ -312,4 +369,5 @@ def run_odometry_job(job: OdometryJob) -> OdometryFileResult:
         start=job.start,
         max_dticks=job.max_dticks,
         chunk_rows=job.chunk_rows,
+        covariance=job.covariance,
     )
