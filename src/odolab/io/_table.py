@@ -8,7 +8,6 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 from numpy.typing import NDArray
 
 from odolab.errors import LogFormatError
@@ -93,6 +92,8 @@ def read_numeric_columns(
     file's lines are checked first (:func:`odolab.io.limits.check_text_file`; ``checked``: the
     caller already did) and a header that names a column twice is refused.
     """
+    import pandas as pd  # here, not at the top: the fast readers never need it
+
     p = Path(path)
     if not p.exists():
         raise LogFormatError(f"{p}: no such file")

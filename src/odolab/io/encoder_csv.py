@@ -51,23 +51,13 @@ def _ticks(
 def read_encoder_csv(path: str | Path, *, modulus: int | None = None) -> EncoderLog:
     """Read an encoder log; raw counters keep ``modulus`` (the robot's), increments get None."""
     p = Path(path)
-    import pandas as pd
-
     if p.exists() and not p.is_file():
         raise LogFormatError(f"{p}: is not a file (a folder?); expected an encoder log CSV")
     text = table_format(p) == "csv"
     if text:
         check_text_file(p, expected="an encoder log CSV")
         check_columns_unique(p, first_line_cells(p))
-    try:
-        if text:
-            header = [str(c).strip() for c in pd.read_csv(p, nrows=0, encoding="utf-8-sig").columns]
-        else:
-            header = read_header(p)
-    except FileNotFoundError as err:
-        raise LogFormatError(f"{p}: no such file") from err
-    except (pd.errors.EmptyDataError, UnicodeDecodeError) as err:
-        raise LogFormatError(f"{p}: empty or unreadable file; expected a header line") from err
+    header = read_header(p)  # the header without pandas (its import is a second of a run)
     increments = "dticks_left" in header and "left_ticks" not in header
     cols = INCREMENTS if increments else RAW
     data = read_columns(p, cols, integer=cols[1:], checked=True)

@@ -84,13 +84,15 @@ def read_header(path: str | Path) -> list[str]:
     fmt = table_format(p)
     if fmt != "csv":
         return _arrow_schema_names(p, fmt)
-    import pandas as pd
+    from odolab.io.limits import first_line_cells
 
     try:
-        head = pd.read_csv(p, nrows=0, encoding="utf-8-sig")
-    except (pd.errors.EmptyDataError, UnicodeDecodeError) as err:
-        raise LogFormatError(f"{p}: empty or unreadable file; expected a header line") from err
-    return [str(c).strip() for c in head.columns]
+        header = first_line_cells(p)
+    except OSError as err:
+        raise LogFormatError(f"{p}: cannot read ({err.strerror or err})") from err
+    if not header:
+        raise LogFormatError(f"{p}: empty or unreadable file; expected a header line")
+    return header
 
 
 def _missing(p: Path, header: Sequence[str], columns: Sequence[str]) -> None:
