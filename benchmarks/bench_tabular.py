@@ -6,7 +6,8 @@
    - CSV -> CSV, ratio to a process where polars reads the input and writes an output of the
      same shape (acceptance: <= 1.5);
    - Parquet -> Parquet, ratio to a process where pyarrow reads the input and writes an output of
-     the same shape (acceptance: <= 1.2).
+     the same shape (acceptance: <= 1.2);
+   - the same with --covariance (six more columns): the cost of the covariance, end to end.
 3. Peak memory (VmHWM, the process's peak RSS, minus that of the same command on a 3-row log):
    - whole-file (--chunk-rows 0) on the 10 M-row log, ratio to the output arrays (5 x 8 bytes x
      rows; acceptance: <= 2);
@@ -188,6 +189,19 @@ def main() -> None:
             f"acceptance <= 1.2)   odolab chunks of 1 M {chunk_pq['wall']:6.2f} "
             f"(ratio {chunk_pq['wall'] / base_pq['wall']:.2f})"
         )
+        from odolab.params import PRESETS, NoiseParams, save_params
+
+        noisy = save_params(
+            d / "noisy.toml", PRESETS["jaguar-lite"].with_(noise=NoiseParams(1e-4, 2e-4))
+        )
+        cov = ("-p", str(noisy), "--covariance", "--chunk-rows", "0")
+        cov_csv = run(RUN, "odometry", str(csv), "-o", str(d / "v.csv"), *cov)
+        cov_pq = run(RUN, "odometry", str(parquet), "-o", str(d / "v.parquet"), *cov)
+        for name, r, plain in (("CSV", cov_csv, whole_csv), ("Parquet", cov_pq, whole_pq)):
+            print(
+                f"   --covariance, {name:7s} whole {r['wall']:6.2f} s = {r['wall'] / plain['wall']:.2f}"
+                " x without (11 columns instead of 5)"
+            )
 
         print("\n3. peak memory (max RSS minus the same command on a 3-row log)")
         floor = run(RUN, "odometry", str(tiny), "-o", str(d / "t.csv"))["rss"]
