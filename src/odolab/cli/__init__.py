@@ -13,6 +13,7 @@ from odolab.cli import (  # noqa: F401  (register commands)
     core,
     demo,
     evaluate,
+    groundtruth,
     lab,
     robot,
     sim,
