@@ -253,3 +253,15 @@ def test_cli_names_a_drive_without_turns(
     )  # fmt: skip
     assert code == 1
     assert NO_ROTATION in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_acceptance_two_hundred_seeds() -> None:
+    """Issue 15's acceptance: every parameter within 2 SE in >= 90 % of 200 seeds, standard
+    errors within 20 % of the Monte Carlo spread, and close to the Cramér-Rao bound."""
+    from bench_sensor_calibration import study
+
+    for name, row in study(200).items():
+        assert row["within_2se"] >= 0.9, name
+        assert 0.8 <= row["se_over_spread"] <= 1.2, name
+        assert row["crb_over_spread"] == pytest.approx(row["se_over_spread"], rel=0.05), name
