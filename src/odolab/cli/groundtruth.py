@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import math
+import statistics
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -171,4 +172,150 @@ def _print_sensor(result: SensorCalibration, output: Path) -> None:
     console.print(
         f"sensor noise per interval: x {sx:.4f} m, y {sy:.4f} m, theta "
         f"{math.degrees(sth):.3f} deg; time offset {result.time_offset:.3f} s"
+    )
+
+
+def _board(text: str, square: float, marker: float, dictionary: str) -> Any:
+    from odolab.tracking.charuco import BoardSpec
+
+    try:
+        sx, sy = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise OptionError(f"--board is {text!r}; expected COLSxROWS squares, e.g. 5x7") from None
+    return BoardSpec(sx, sy, square, marker, dictionary)
+
+
+@app.command("track")
+def track_cmd(
+    video: Annotated[Path, typer.Argument(help="Video of the floor and the robot.")],
+    floor: Annotated[Path, typer.Option(help="FLOOR.csv: id,x,y,yaw,size of floor markers.")],
+    robot_marker: Annotated[int, typer.Option(help="Id of the marker on the robot.")],
+    marker_size: Annotated[float, typer.Option(help="Robot marker's black square side (m).")],
+    marker_height: Annotated[float, typer.Option(help="Robot marker's height above floor (m).")],
+    camera: Annotated[Path, typer.Option(help="CAMERA.toml (odolab camera calibrate).")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="Track CSV to write.")],
+    marker_offset: Annotated[
+        tuple[float, float], typer.Option(help="DX DY: marker centre in the robot frame (m).")
+    ] = (0.0, 0.0),
+    dictionary: Annotated[str, typer.Option(help="ArUco dictionary.")] = "DICT_4X4_50",
+    encoders: Annotated[
+        Path | None,
+        typer.Option(help="Encoder log: put t on its clock (offset found from yaw rates)."),
+    ] = None,
+    params: Annotated[
+        str | None, typer.Option("--params", "-p", help="With --encoders: parameters.")
+    ] = None,
+    fmt: Annotated[
+        EncoderFormat, typer.Option("--format", "-f", help="Format of --encoders.")
+    ] = EncoderFormat.csv,
+    max_offset: Annotated[float, typer.Option(help="With --encoders: search +- (s).")] = 30.0,
+) -> None:
+    """Robot poses from a video: floor markers define the floor, the robot's marker its pose.
+    Writes t,x,y,theta,heading,quality (t from 0 at the first frame, or on the encoder clock)."""
+    from rich.console import Console
+
+    from odolab.cli._output import check_output_path
+    from odolab.tracking import load_camera, read_floor_csv
+    from odolab.tracking.tracker import TrackOptions, track_video, write_track_csv
+
+    options = TrackOptions(robot_marker, marker_size, marker_height, marker_offset, dictionary)
+    if encoders is not None and params is None:
+        raise OptionError("--encoders needs --params (the robot's nominal parameters)")
+    if not (math.isfinite(max_offset) and max_offset > 0):
+        raise OptionError(f"--max-offset is {max_offset!r}; expected a positive number of seconds")
+    cam = load_camera(camera)
+    markers = read_floor_csv(floor)
+    from odolab.tracking.markers import get_dictionary
+
+    get_dictionary(dictionary)
+    check_output_path(output, "track CSV")
+    result = track_video(video, markers, cam, options)
+    offset = 0.0
+    console = Console(stderr=True)
+    if encoders is not None and params is not None:
+        from odolab.io.registry import read_run
+        from odolab.io.run import ReadOptions
+        from odolab.params import load_params
+
+        nominal = load_params(params)
+        run = read_run(
+            encoders,
+            fmt.value,
+            ReadOptions(modulus=nominal.encoder_modulus, ticks_per_rev=nominal.ticks_per_rev),
+        )
+        odo = run.odometry(nominal)
+        offset = estimate_time_offset(
+            run.t, odo.heading, result.trajectory(), str(video), max_offset
+        )
+    write_track_csv(result, output, offset)
+    pos = result.camera_pose.position
+    console.print(
+        f"{video}: {result.frames - result.skipped} of {result.frames} frames tracked "
+        f"({result.skipped} without the robot's marker); floor markers seen "
+        f"{dict(sorted(result.floor_seen.items()))}; camera at ({pos[0]:.3f}, {pos[1]:.3f}, "
+        f"{pos[2]:.3f}) m, floor reprojection {result.camera_pose.reprojection_rms:.2f} px; "
+        f"median quality {statistics.median(result.quality.tolist()) * 1000:.1f} mm"
+        + (f"; video clock minus encoder clock {offset:.3f} s" if encoders else "")
+        + f" -> {output}"
+    )
+
+
+@app.command("markers")
+def markers_cmd(
+    ids: Annotated[list[int] | None, typer.Argument(help="Marker ids to print.")] = None,
+    size: Annotated[float, typer.Option(help="Black square side (m).")] = 0.2,
+    output: Annotated[Path, typer.Option("--output", "-o", help="Folder.")] = Path("markers"),
+    dictionary: Annotated[str, typer.Option(help="ArUco dictionary.")] = "DICT_4X4_50",
+    dpi: Annotated[int, typer.Option(help="PNG resolution (print at this, unscaled).")] = 300,
+    board: Annotated[
+        str | None, typer.Option(help="Also a ChArUco board COLSxROWS (e.g. 5x7).")
+    ] = None,
+    square: Annotated[float, typer.Option(help="Board square side (m).")] = 0.04,
+    board_marker: Annotated[float, typer.Option(help="Board marker side (m).")] = 0.03,
+) -> None:
+    """Write the markers to print (PNG at --dpi and PDF at true size), and a ChArUco board."""
+    from odolab.tracking.markers import write_marker_files
+
+    if not ids and board is None:
+        raise OptionError("no marker ids and no --board; expected something to print")
+    files = write_marker_files(list(ids or []), size, output, name=dictionary, dpi=dpi)
+    if board is not None:
+        import cv2
+
+        from odolab.tracking.charuco import board_image
+
+        spec = _board(board, square, board_marker, dictionary)
+        path = output / f"charuco_{spec.squares_x}x{spec.squares_y}.png"
+        output.mkdir(parents=True, exist_ok=True)
+        if not cv2.imwrite(str(path), board_image(spec, dpi)):
+            raise OptionError(f"{path}: cannot write the board image")
+        files.append(path)
+    for f in files:
+        typer.echo(str(f))
+
+
+@camera_app.command("calibrate")
+def camera_calibrate_cmd(
+    video: Annotated[Path, typer.Argument(help="Video of a ChArUco board.")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="CAMERA.toml to write.")],
+    board: Annotated[str, typer.Option(help="Board squares COLSxROWS.")] = "5x7",
+    square: Annotated[float, typer.Option(help="Board square side (m).")] = 0.04,
+    board_marker: Annotated[float, typer.Option(help="Board marker side (m).")] = 0.03,
+    dictionary: Annotated[str, typer.Option(help="ArUco dictionary.")] = "DICT_4X4_50",
+    step: Annotated[int, typer.Option(help="Use every STEP-th frame.")] = 5,
+) -> None:
+    """Camera intrinsics and distortion from a ChArUco board video -> CAMERA.toml."""
+    from odolab.cli._output import check_output_path
+    from odolab.tracking import save_camera
+    from odolab.tracking.charuco import calibrate_camera_video
+
+    spec = _board(board, square, board_marker, dictionary)
+    check_output_path(output, "camera file")
+    result = calibrate_camera_video(video, spec, step=step)
+    save_camera(result.camera, output, provenance=result.provenance())
+    c = result.camera
+    typer.echo(
+        f"{video}: {result.views} views of {result.frames} frames, reprojection rms "
+        f"{result.rms:.3f} px; fx {c.fx:.1f} fy {c.fy:.1f} cx {c.cx:.1f} cy {c.cy:.1f} px, "
+        f"k1 {c.k1:.4f} k2 {c.k2:.4f} -> {output}"
     )
