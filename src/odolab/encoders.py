@@ -10,6 +10,7 @@ backward between two consecutive samples is handled. A change whose magnitude ex
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from odolab.errors import EncoderJumpError, LogFormatError
@@ -19,6 +20,7 @@ __all__ = [
     "as_tick_array",
     "default_max_dticks",
     "dticks_from_ticks",
+    "unwrap_diff",
     "unwrap_ticks",
 ]
 
@@ -127,3 +129,19 @@ class EncoderUnwrapper:
             )
         self._last = value
         return d
+
+
+@njit(cache=True, inline="always")
+def unwrap_diff(d: int, modulus: int, half: int) -> int:  # pragma: no cover - compiled
+    """Compiled: a raw counter difference ``d`` mapped into [-half, modulus - half)."""
+    # |d| < modulus for counters in range; map d into [-half, modulus - half) without a division
+    if modulus > 0:
+        if d >= modulus - half:
+            d -= modulus
+            if d >= modulus - half:  # raw values outside 0..modulus-1: fall back to modulo
+                d = (d + half) % modulus - half
+        elif d < -half:
+            d += modulus
+            if d < -half:
+                d = (d + half) % modulus - half
+    return d

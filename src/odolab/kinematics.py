@@ -1,15 +1,21 @@
-"""The lab report's kinematic model as pure functions (eqs. 3.1-3.6).
+"""The kinematic model's one pose step, compiled once, used by every part of odolab.
 
 Convention: x forward, y left, heading counter-clockwise positive (radians). ``track_width`` is
-``2 * L_robot``. Every function works on floats or numpy arrays of the same shape (element-wise).
+``2 * L_robot``. Wheel (track) surface displacements ``ds_l``, ``ds_r`` (eqs. 3.1, 3.2) become a
+body motion ``(d_forward, d_lateral, d_theta)`` through the robot's kinematic model (a value from
+:mod:`odolab.models`; the lab's differential drive, eqs. 3.3, 3.4, by default), and the pose step
+moves the robot by the chord of the arc it drove in one cycle::
 
-The pose step moves the robot by the chord of the arc it drove in one cycle::
-
-    dx = ds * f(dtheta) * cos(heading + dtheta / 2)
-    dy = ds * f(dtheta) * sin(heading + dtheta / 2)
+    dx = f(dtheta) * (d_forward * cos(m) - d_lateral * sin(m))
+    dy = f(dtheta) * (d_forward * sin(m) + d_lateral * cos(m))      m = heading + dtheta / 2
 
 with ``f = 1`` for the lab's midpoint rule (3.5, 3.6) and ``f = sin(dtheta/2) / (dtheta/2)`` for
-the exact circular arc (the chord of an arc of length ``ds`` turning ``dtheta``).
+the exact circular arc (constant body velocity over the cycle). One small-angle rule,
+:data:`SMALL_ANGLE`, decides when the series ``1 - u^2/6`` replaces ``sin(u)/u``.
+
+:func:`body_motion` and :func:`step_pose` are numba-compiled and inlined into the batch kernels
+(:mod:`odolab.odometry`, :mod:`odolab.sim.physics`); called from Python (streaming odometry, the
+virtual board) they run the same compiled code, so every user agrees to rounding.
 """
 
 from __future__ import annotations
@@ -19,16 +25,27 @@ from enum import StrEnum
 from typing import TypeVar
 
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
 
 __all__ = [
+    "SMALL_ANGLE",
     "Method",
+    "body_motion",
     "body_motion_from_wheel_displacements",
+    "chord",
+    "chord_derivative",
     "chord_factor",
     "pose_step",
+    "step_pose",
     "wheel_displacements_from_dticks",
+    "wrap",
     "wrap_angle",
 ]
+
+#: Below this |dtheta/2| the arc's chord factor uses its series ``1 - u^2/6`` (error < 1e-17).
+SMALL_ANGLE = 1e-4
+_TWO_PI = 2.0 * math.pi
 
 FloatOrArray = TypeVar("FloatOrArray", float, NDArray[np.float64])
 
@@ -60,23 +77,94 @@ def body_motion_from_wheel_displacements(
     return (ds_right + ds_left) * 0.5, (ds_right - ds_left) / track_width
 
 
-def chord_factor(dtheta: float, method: Method | str) -> float:
-    """Ratio chord/arc length for one step: 1 for midpoint, ``sin(u)/u`` (u = dtheta/2) for arc."""
-    if Method(method) is Method.MIDPOINT:
+@njit(cache=True, inline="always")
+def chord(dtheta: float, arc: bool) -> float:  # pragma: no cover - compiled
+    """Ratio chord/arc length for one step: 1 (midpoint) or ``sin(u)/u``, ``u = dtheta/2`` (arc)."""
+    if not arc:
         return 1.0
     u = 0.5 * dtheta
-    if abs(u) < 1e-4:
+    if abs(u) < SMALL_ANGLE:
         return 1.0 - u * u / 6.0
     return math.sin(u) / u
 
 
-def pose_step(
-    x: float, y: float, heading: float, ds: float, dtheta: float, method: Method | str = "midpoint"
+@njit(cache=True, inline="always")
+def chord_derivative(dtheta: float, arc: bool) -> float:  # pragma: no cover - compiled
+    """d chord / d dtheta: 0 (midpoint) or ``(u cos u - sin u) / (2 u^2)`` (arc, series near 0)."""
+    if not arc:
+        return 0.0
+    u = 0.5 * dtheta
+    if abs(u) < SMALL_ANGLE:
+        return -u / 6.0
+    return 0.5 * (u * math.cos(u) - math.sin(u)) / (u * u)
+
+
+@njit(cache=True, inline="always")
+def body_motion(  # pragma: no cover - compiled
+    w_left: float,
+    w_right: float,
+    e_left: float,
+    e_right: float,
+    denominator: float,
+    lateral: float,
+    ds_left: float,
+    ds_right: float,
 ) -> tuple[float, float, float]:
-    """Eqs. (3.5), (3.6) and the heading update: the pose after one cycle (heading unwrapped)."""
-    c = ds * chord_factor(dtheta, method)
-    mid = heading + 0.5 * dtheta
-    return x + c * math.cos(mid), y + c * math.sin(mid), heading + dtheta
+    """(d_forward, d_lateral, d_theta) from wheel displacements and a model's six coefficients.
+
+    The coefficients are :class:`odolab.models.ModelCoefficients` in order; for the differential
+    drive this is eqs. (3.3), (3.4) with the same floating-point operations."""
+    dth = (e_right * ds_right - e_left * ds_left) / denominator
+    return w_left * ds_left + w_right * ds_right, lateral * dth, dth
+
+
+@njit(cache=True, inline="always")
+def step_pose(  # pragma: no cover - compiled
+    x: float, y: float, heading: float, forward: float, lateral: float, dtheta: float, arc: bool
+) -> tuple[float, float, float]:
+    """The pose after one cycle's body motion (heading unwrapped): eqs. (3.5), (3.6) generalised."""
+    c = chord(dtheta, arc)
+    m = heading + 0.5 * dtheta
+    cs = math.cos(m)
+    sn = math.sin(m)
+    fx = forward * c
+    fy = lateral * c
+    return x + (fx * cs - fy * sn), y + (fx * sn + fy * cs), heading + dtheta
+
+
+@njit(cache=True, inline="always")
+def wrap(angle: float) -> float:  # pragma: no cover - compiled
+    """Compiled :func:`wrap_angle` for one float."""
+    a = angle + math.pi
+    w = a - _TWO_PI * math.floor(a / _TWO_PI) - math.pi
+    if w <= -math.pi:
+        w += 2.0 * math.pi
+    return w
+
+
+def chord_factor(dtheta: float, method: Method | str) -> float:
+    """Ratio chord/arc length for one step: 1 for midpoint, ``sin(u)/u`` (u = dtheta/2) for arc."""
+    return float(chord(float(dtheta), Method(method) is Method.ARC))
+
+
+def pose_step(
+    x: float,
+    y: float,
+    heading: float,
+    ds: float,
+    dtheta: float,
+    method: Method | str = "midpoint",
+    lateral: float = 0.0,
+) -> tuple[float, float, float]:
+    """Eqs. (3.5), (3.6) and the heading update: the pose after one cycle (heading unwrapped).
+
+    ``ds`` is the forward motion of the body, ``lateral`` its sideways motion (models with a
+    lateral ICR offset), ``dtheta`` its heading change; all for one cycle."""
+    nx, ny, nh = step_pose(
+        float(x), float(y), float(heading), float(ds), float(lateral), float(dtheta),
+        Method(method) is Method.ARC,
+    )  # fmt: skip
+    return float(nx), float(ny), float(nh)
 
 
 def wrap_angle(angle: FloatOrArray) -> FloatOrArray:

@@ -12,6 +12,7 @@ The batch version is compiled (numba): see :func:`integrate` for its three passe
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
@@ -19,11 +20,14 @@ from numba import njit, prange
 from numpy.typing import ArrayLike, NDArray
 
 from odolab._fastmath import SINCOS_LIMIT, sincos_poly
-from odolab.encoders import EncoderUnwrapper, as_tick_array, default_max_dticks
+from odolab.encoders import EncoderUnwrapper, as_tick_array, default_max_dticks, unwrap_diff
 from odolab.errors import EncoderJumpError, LogFormatError, OdolabError
-from odolab.kinematics import Method, wrap_angle
+from odolab.kinematics import Method, body_motion, chord, step_pose, wrap, wrap_angle
 from odolab.params import RobotParams
 from odolab.trajectory import Pose, Trajectory, check_times
+
+if TYPE_CHECKING:
+    from odolab.uncertainty import CovarianceStepper
 
 __all__ = ["Odometry", "integrate", "integrate_increments"]
 
@@ -45,41 +49,46 @@ def _check_max_dticks(max_dticks: int | None) -> None:
 
 #: From this many samples on, the position pass runs on several threads.
 PARALLEL_MIN_SAMPLES = 200_000
-_TWO_PI = 2.0 * math.pi
 
 
 @njit(cache=True, inline="always")
-def _wrap(h: float) -> float:  # pragma: no cover - compiled
-    a = h + math.pi
-    w = a - _TWO_PI * math.floor(a / _TWO_PI) - math.pi
-    if w <= -math.pi:
-        w += 2.0 * math.pi
-    return w
+def _one_step(  # pragma: no cover - compiled
+    i: int,
+    dl: float,
+    dr: float,
+    kl: float,
+    kr: float,
+    c: F64,
+    arc: bool,
+    hh: float,
+    heading: F64,
+    step: F64,
+    lat: F64,
+    mid: F64,
+) -> float:
+    """Phase A for sample i: eqs. (3.1)-(3.4) through the model, the chord, the heading.
+
+    Writes the forward chord into ``step[i]``, the sideways one into ``lat[i]`` (when ``lat``
+    has samples: models with a lateral term), the mid-cycle heading into ``mid[i]``; returns
+    the new heading."""
+    fwd, side, dth = body_motion(c[0], c[1], c[2], c[3], c[4], c[5], dl * kl, dr * kr)
+    ch = chord(dth, arc)
+    step[i] = fwd * ch
+    if lat.shape[0] > 0:
+        lat[i] = side * ch
+    mid[i] = hh + 0.5 * dth
+    hh = hh + dth
+    heading[i] = hh
+    return hh
 
 
 @njit(cache=True, inline="always")
-def _chord(dth: float, arc: bool) -> float:  # pragma: no cover - compiled
-    if not arc:
-        return 1.0
-    u = 0.5 * dth
-    if abs(u) < 1e-4:
-        return 1.0 - u * u / 6.0
-    return math.sin(u) / u
-
-
-@njit(cache=True, inline="always")
-def _unwrap_diff(d: int, modulus: int, half: int) -> int:  # pragma: no cover - compiled
-    # |d| < modulus for counters in range; map d into [-half, modulus - half) without a division
-    if modulus > 0:
-        if d >= modulus - half:
-            d -= modulus
-            if d >= modulus - half:  # raw values outside 0..modulus-1: fall back to modulo
-                d = (d + half) % modulus - half
-        elif d < -half:
-            d += modulus
-            if d < -half:
-                d = (d + half) % modulus - half
-    return d
+def _first_step(h0: float, heading: F64, step: F64, lat: F64, mid: F64) -> None:  # pragma: no cover
+    heading[0] = h0
+    step[0] = 0.0
+    mid[0] = h0
+    if lat.shape[0] > 0:
+        lat[0] = 0.0
 
 
 @njit(cache=True)
@@ -91,17 +100,17 @@ def _steps_from_ticks(  # pragma: no cover - compiled
     max_d: int,
     kl: float,
     kr: float,
-    track: float,
+    c: F64,
     arc: bool,
     h0: float,
     tout: F64,
     heading: F64,
     step: F64,
+    lat: F64,
     mid: F64,
 ) -> tuple[int, int, int, float]:
-    """Phase A (sequential, no trigonometry): time check, unwrap, eqs. (3.1)-(3.4), heading.
+    """Phase A (sequential, no trigonometry): time check, unwrap, the model, the heading.
 
-    Writes each cycle's chord length into ``step`` and its mid-cycle heading into ``mid``.
     Returns (code, index, value, largest |mid|); code 0 = ok, 1/2 = left/right jump,
     3 = time not finite, 4 = time goes backwards."""
     n = left.shape[0]
@@ -112,9 +121,7 @@ def _steps_from_ticks(  # pragma: no cover - compiled
         if not math.isfinite(t[0]):
             return 3, 0, 0, big
         tout[0] = t[0]
-        heading[0] = hh
-        step[0] = 0.0
-        mid[0] = hh
+        _first_step(h0, heading, step, lat, mid)
     for i in range(1, n):
         ti = t[i]
         if not math.isfinite(ti):
@@ -122,23 +129,15 @@ def _steps_from_ticks(  # pragma: no cover - compiled
         if ti < t[i - 1]:
             return 4, i, 0, big
         tout[i] = ti
-        dl = _unwrap_diff(left[i] - left[i - 1], modulus, half)
-        dr = _unwrap_diff(right[i] - right[i - 1], modulus, half)
+        dl = unwrap_diff(left[i] - left[i - 1], modulus, half)
+        dr = unwrap_diff(right[i] - right[i - 1], modulus, half)
         if max_d >= 0:
             if abs(dl) > max_d:
                 return 1, i, dl, big
             if abs(dr) > max_d:
                 return 2, i, dr, big
-        dsl = dl * kl
-        dsr = dr * kr
-        ds = (dsr + dsl) * 0.5
-        dth = (dsr - dsl) / track
-        step[i] = ds * _chord(dth, arc)
-        m = hh + 0.5 * dth
-        mid[i] = m
-        big = max(big, abs(m))
-        hh = hh + dth
-        heading[i] = hh
+        hh = _one_step(i, float(dl), float(dr), kl, kr, c, arc, hh, heading, step, lat, mid)
+        big = max(big, abs(mid[i]))
     return 0, -1, 0, big
 
 
@@ -150,7 +149,7 @@ def _rotate_one(
     c = step[i]
     step[i] = c * cs
     mid[i] = c * sn
-    theta[i] = _wrap(heading[i])
+    theta[i] = wrap(heading[i])
 
 
 @njit(cache=True)
@@ -181,7 +180,26 @@ def _rotate_steps_libm(
         m = mid[i]
         step[i] = c * math.cos(m)
         mid[i] = c * math.sin(m)
-        theta[i] = _wrap(heading[i])
+        theta[i] = wrap(heading[i])
+
+
+@njit(cache=True)
+def _rotate_steps_lateral(
+    step: F64, lat: F64, mid: F64, heading: F64, theta: F64, poly: bool
+) -> None:  # pragma: no cover - compiled
+    """Phase B for models with sideways motion: (forward, lateral) chords -> (dx, dy)."""
+    for i in range(step.shape[0]):
+        m = mid[i]
+        if poly:
+            sn, cs = sincos_poly(m)
+        else:
+            sn = math.sin(m)
+            cs = math.cos(m)
+        fx = step[i]
+        fy = lat[i]
+        step[i] = fx * cs - fy * sn
+        mid[i] = fx * sn + fy * cs
+        theta[i] = wrap(heading[i])
 
 
 @njit(cache=True)
@@ -204,11 +222,12 @@ def _steps_from_dticks(  # pragma: no cover - compiled
     dright: F64,
     kl: float,
     kr: float,
-    track: float,
+    c: F64,
     arc: bool,
     h0: float,
     heading: F64,
     step: F64,
+    lat: F64,
     mid: F64,
 ) -> float:
     """Phase A for per-cycle increments (``dleft[0]``, ``dright[0]`` ignored)."""
@@ -216,21 +235,17 @@ def _steps_from_dticks(  # pragma: no cover - compiled
     hh = h0
     big = 0.0
     if n > 0:
-        heading[0] = hh
-        step[0] = 0.0
-        mid[0] = hh
+        _first_step(h0, heading, step, lat, mid)
     for i in range(1, n):
-        dsl = dleft[i] * kl
-        dsr = dright[i] * kr
-        ds = (dsr + dsl) * 0.5
-        dth = (dsr - dsl) / track
-        step[i] = ds * _chord(dth, arc)
-        m = hh + 0.5 * dth
-        mid[i] = m
-        big = max(big, abs(m))
-        hh = hh + dth
-        heading[i] = hh
+        hh = _one_step(i, dleft[i], dright[i], kl, kr, c, arc, hh, heading, step, lat, mid)
+        big = max(big, abs(mid[i]))
     return big
+
+
+def _model_arrays(params: RobotParams, n: int) -> tuple[F64, F64]:
+    """The model's six coefficients, and the lateral-chord array (empty without sideways motion)."""
+    c = np.array(params.coefficients, dtype=np.float64)
+    return c, np.empty(n if c[5] != 0.0 else 0)
 
 
 def _start_pose(start: tuple[float, float, float] | None) -> tuple[float, float, float]:
@@ -288,6 +303,7 @@ def integrate(
     x0, y0, h0 = _start_pose(start)
     n = left.size
     tt, x, y, theta, heading = (np.empty(n) for _ in range(5))
+    coef, lat = _model_arrays(params, n)
     code, i, d, largest = _steps_from_ticks(
         tin,
         left,
@@ -296,16 +312,17 @@ def integrate(
         _NO_LIMIT if max_dticks is None else int(max_dticks),
         params.left_metres_per_tick,
         params.right_metres_per_tick,
-        params.track_width,
+        coef,
         m is Method.ARC,
         h0,
         tt,
         heading,
         x,
+        lat,
         y,
     )
     if code == 0:
-        _finish(x, y, heading, theta, x0, y0, largest, parallel)
+        _finish(x, y, lat, heading, theta, x0, y0, largest, parallel)
     if code in (1, 2):
         name = ("left_ticks", "right_ticks")[code - 1]
         raise EncoderJumpError(
@@ -321,6 +338,7 @@ def integrate(
 def _finish(
     x: NDArray[np.float64],
     y: NDArray[np.float64],
+    lat: NDArray[np.float64],
     heading: NDArray[np.float64],
     theta: NDArray[np.float64],
     x0: float,
@@ -328,9 +346,12 @@ def _finish(
     largest_mid: float,
     parallel: int | None,
 ) -> None:
-    """Phases B and C: turn chord lengths (in x) at mid headings (in y) into positions."""
+    """Phases B and C: turn chord lengths (in x; sideways ones in lat) at mid headings (in y)
+    into positions."""
     threads = numba.get_num_threads() if parallel is None else max(1, int(parallel))
-    if largest_mid >= SINCOS_LIMIT:
+    if lat.size:
+        _rotate_steps_lateral(x, lat, y, heading, theta, largest_mid < SINCOS_LIMIT)
+    elif largest_mid >= SINCOS_LIMIT:
         _rotate_steps_libm(x, y, heading, theta)
     elif threads > 1 and x.size >= PARALLEL_MIN_SAMPLES:
         _rotate_steps_parallel(x, y, heading, theta)
@@ -368,19 +389,21 @@ def integrate_increments(
     x0, y0, h0 = _start_pose(start)
     n = dl.size
     x, y, theta, heading = (np.empty(n) for _ in range(4))
+    coef, lat = _model_arrays(params, n)
     largest = _steps_from_dticks(
         dl,
         dr,
         params.left_metres_per_tick,
         params.right_metres_per_tick,
-        params.track_width,
+        coef,
         m is Method.ARC,
         h0,
         heading,
         x,
+        lat,
         y,
     )
-    _finish(x, y, heading, theta, x0, y0, largest, parallel)
+    _finish(x, y, lat, heading, theta, x0, y0, largest, parallel)
     return Trajectory(tt, x, y, theta, heading)
 
 
@@ -398,6 +421,7 @@ class Odometry:
         *,
         start: tuple[float, float, float] | None = None,
         max_dticks: int | None = None,
+        covariance: bool = False,
     ) -> None:
         self.params = params
         self.method = Method(method)
@@ -409,6 +433,12 @@ class Odometry:
         self.max_dticks = max_dticks
         self._kl = params.left_metres_per_tick
         self._kr = params.right_metres_per_tick
+        self._coef = params.coefficients
+        self._cov: CovarianceStepper | None = None
+        if covariance:  # needs params.noise; imported here: the plain path stays as it was
+            from odolab.uncertainty import CovarianceStepper
+
+            self._cov = CovarianceStepper(params, self.method)
         self._left = EncoderUnwrapper(params.encoder_modulus, max_dticks, "left_ticks")
         self._right = EncoderUnwrapper(params.encoder_modulus, max_dticks, "right_ticks")
         self.reset()
@@ -422,6 +452,17 @@ class Odometry:
         self._left.reset()
         self._right.reset()
         self.cycles = 0
+        if self._cov is not None:
+            self._cov.reset()
+
+    @property
+    def covariance(self) -> tuple[float, float, float, float, float, float]:
+        """The propagated covariance now, six terms in ``odolab.uncertainty.COV_COLUMNS``.
+
+        Only with ``covariance=True`` (and a ``[noise]`` table in the parameters)."""
+        if self._cov is None:
+            raise OdolabError("this Odometry was made without covariance=True")
+        return self._cov.terms
 
     @property
     def pose(self) -> Pose:
@@ -463,17 +504,12 @@ class Odometry:
         if not first:
             dsl = dl * self._kl
             dsr = dr * self._kr
-            ds = (dsr + dsl) * 0.5
-            dth = (dsr - dsl) / self.params.track_width
-            if self._arc:
-                u = 0.5 * dth
-                c = ds * ((1.0 - u * u / 6.0) if abs(u) < 1e-4 else math.sin(u) / u)
-            else:
-                c = ds
-            mid = self._h + 0.5 * dth
-            self._x = self._x + c * math.cos(mid)
-            self._y = self._y + c * math.sin(mid)
-            self._h = self._h + dth
+            if self._cov is not None:
+                self._cov.step(self._h, dsl, dsr)
+            fwd, side, dth = body_motion(*self._coef, dsl, dsr)
+            self._x, self._y, self._h = step_pose(
+                self._x, self._y, self._h, fwd, side, dth, self._arc
+            )
             self.cycles += 1
         return Pose(t, self._x, self._y, _wrap_py(self._h), self._h)
 

@@ -9,21 +9,48 @@ File format (TOML)::
     track_width = 0.56           # m, effective (2 * L_robot of the lab report)
     ticks_per_rev = 380          # encoder counts per wheel revolution
     encoder_modulus = 32768      # counter wraps to 0 after modulus-1; omit if it never wraps
+
+Every value must lie in a plausible physical range (:data:`RANGES`): a wheel radius from 2 mm to
+2 m, a track width from 1 cm to 20 m, 1 to 10^8 counts per revolution, a modulus from 2 to 2^63.
+Whatever builds parameters (a TOML file, a notebook CSV or JSON import, a calibration) gets the
+same check; a value that looks like centimetres or millimetres is refused with the metres it
+probably meant ("a radius of 8.35 m looks like centimetres: 0.0835 m?").
+
+Optional tables::
+
+    [model]                      # optional: the kinematic model (odolab.models); default "diff"
+    kind = "diff"
+
+    [noise]                      # optional: random error, var(ds) = k * |ds| per wheel
+    k_left = 1e-4                # m
+    k_right = 1e-4               # m
+    k_scrub = 0.0                # rad: heading variance per radian of commanded turning
 """
 
 from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import asdict, dataclass, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import tomli_w
 
 from odolab.errors import ParamsError
+from odolab.models import DIFF_DRIVE, KinematicModel, ModelCoefficients, model_from_mapping
+from odolab.text import quote_input
 
-__all__ = ["PRESETS", "RobotParams", "load_params", "params_from_mapping", "save_params"]
+__all__ = [
+    "PRESETS",
+    "RANGES",
+    "NoiseParams",
+    "RobotParams",
+    "check_param",
+    "load_params",
+    "params_from_mapping",
+    "save_params",
+]
 
 _FIELDS = (
     "name",
@@ -33,7 +60,115 @@ _FIELDS = (
     "ticks_per_rev",
     "encoder_modulus",
 )
+#: Top-level tables of a parameters file (other developers' tables are added here).
+_TABLES = ("robot", "model", "noise", "provenance")
+_NOISE_KEYS = ("k_left", "k_right", "k_scrub")
+#: Above this a per-metre slip variance means metres of error per metre driven: not odometry.
+_NOISE_MAX = 1.0
+
+
+@dataclass(frozen=True)
+class NoiseParams:
+    """Random error of odometry: per-wheel slip ``var(ds) = k * |ds|`` (Chong & Kleeman).
+
+    ``k_left``, ``k_right`` in metres (as :mod:`odolab.analysis.noise` estimates them);
+    ``k_scrub`` in radians: extra heading variance per radian of commanded turning
+    ``|ds_r - ds_l| / track_width`` (track scrub of skid-steer robots; 0 for wheels)."""
+
+    k_left: float
+    k_right: float
+    k_scrub: float = 0.0
+
+    def __post_init__(self) -> None:
+        for key in _NOISE_KEYS:
+            value = getattr(self, key)
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise ParamsError(f"[noise] {key} must be a number, got {value!r}")
+            if not math.isfinite(value) or value < 0 or value > _NOISE_MAX:
+                raise ParamsError(
+                    f"[noise] {key} must be a number from 0 to {_NOISE_MAX:g}, got {value!r}"
+                )
+            object.__setattr__(self, key, float(value))
+
+    def to_dict(self) -> dict[str, float]:
+        """The ``[noise]`` table (``k_scrub`` only when not zero)."""
+        out = {"k_left": self.k_left, "k_right": self.k_right}
+        if self.k_scrub:
+            out["k_scrub"] = self.k_scrub
+        return out
+
+
+def noise_from_mapping(data: Any, *, source: str = "parameters") -> NoiseParams:
+    """Build :class:`NoiseParams` from a ``[noise]`` table, naming ``source`` in any error."""
+    if not isinstance(data, dict):
+        raise ParamsError(f"{source}: [noise] must be a table, got {type(data).__name__}")
+    unknown = sorted(set(data) - set(_NOISE_KEYS))
+    if unknown:
+        raise ParamsError(
+            f"{source}: unknown key {unknown[0]!r} in [noise]; expected {', '.join(_NOISE_KEYS)}"
+        )
+    missing = [k for k in _NOISE_KEYS[:2] if k not in data]
+    if missing:
+        raise ParamsError(f"{source}: missing key {missing[0]!r} in [noise]")
+    try:
+        return NoiseParams(**data)
+    except ParamsError as err:
+        raise ParamsError(f"{source}: {err}") from err
+
+
 _REQUIRED = ("left_wheel_radius", "right_wheel_radius", "track_width", "ticks_per_rev")
+
+#: Largest parameters file read (bytes): it is read whole, so a wrong file is refused first.
+MAX_TOML_BYTES = 1_000_000
+
+#: Plausible physical range (inclusive) of each parameter, its unit and the word used in hints.
+#: Radii: a 2 mm micro-robot wheel to a 2 m mining-truck tyre. Track: 1 cm to 20 m. Counts per
+#: revolution: 1 (a reed switch) to 10^8 (a fine encoder behind a gearbox). Modulus: 2 to 2^63
+#: (a signed 64-bit counter).
+RANGES: dict[str, tuple[float, float, str, str]] = {
+    "left_wheel_radius": (0.002, 2.0, "m", "radius"),
+    "right_wheel_radius": (0.002, 2.0, "m", "radius"),
+    "track_width": (0.01, 20.0, "m", "track width"),
+    "ticks_per_rev": (1.0, 1e8, "counts per revolution", "count"),
+    "encoder_modulus": (2, 2**63, "", "modulus"),
+}
+
+
+def _hint(key: str, value: float) -> str:
+    """``"; a radius of 8.35 m looks like centimetres: 0.0835 m?"`` when a unit slip explains it."""
+    lo, hi, unit, word = RANGES[key]
+    if unit != "m":
+        return ""
+    for name, div in (("centimetres", 100.0), ("millimetres", 1000.0)):
+        if lo <= value / div <= hi:
+            return f"; a {word} of {value:.6g} m looks like {name}: {value / div:.6g} m?"
+    return ""
+
+
+def check_param(key: str, value: object) -> float | int:
+    """``value`` of parameter ``key`` if it is a number in its plausible range, else refuse.
+
+    Every path that builds :class:`RobotParams` (TOML, CSV, JSON, CLI) applies this same check,
+    through the constructor. The message names the key, the range and a likely unit slip.
+    """
+    lo, hi, unit, _ = RANGES[key]
+    if key == "encoder_modulus":
+        if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+            raise ParamsError(
+                f"encoder_modulus must be an integer >= 2 (at most 2^63) or left out, got "
+                f"{quote_input(value)}"
+            )
+        return value
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ParamsError(f"{key} must be a number, got {quote_input(value)}")
+    if not math.isfinite(value) or value <= 0:
+        raise ParamsError(f"{key} must be a positive finite number, got {quote_input(value)}")
+    if not lo <= value <= hi:
+        raise ParamsError(
+            f"{key} = {value:.6g} {unit} is outside the plausible {lo:g} to {hi:g} {unit}"
+            + _hint(key, float(value))
+        )
+    return float(value)
 
 
 @dataclass(frozen=True)
@@ -51,20 +186,25 @@ class RobotParams:
     ticks_per_rev: float
     encoder_modulus: int | None = None
     name: str = "robot"
+    model: KinematicModel = DIFF_DRIVE
+    noise: NoiseParams | None = None
 
     def __post_init__(self) -> None:
         for key in ("left_wheel_radius", "right_wheel_radius", "track_width", "ticks_per_rev"):
-            value = getattr(self, key)
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise ParamsError(f"{key} must be a number, got {value!r}")
-            if not math.isfinite(value) or value <= 0:
-                raise ParamsError(f"{key} must be a positive finite number, got {value!r}")
-            object.__setattr__(self, key, float(value))
-        m = self.encoder_modulus
-        if m is not None and (isinstance(m, bool) or not isinstance(m, int) or m < 2):
-            raise ParamsError(f"encoder_modulus must be an integer >= 2 (or left out), got {m!r}")
+            object.__setattr__(self, key, check_param(key, getattr(self, key)))
+        if self.encoder_modulus is not None:
+            check_param("encoder_modulus", self.encoder_modulus)
         if not isinstance(self.name, str) or not self.name:
-            raise ParamsError(f"name must be a non-empty string, got {self.name!r}")
+            raise ParamsError(f"name must be a non-empty string, got {quote_input(self.name)}")
+        if not isinstance(self.model, KinematicModel):
+            raise ParamsError(f"model must be a kinematic model, got {self.model!r}")
+        if self.noise is not None and not isinstance(self.noise, NoiseParams):
+            raise ParamsError(f"noise must be NoiseParams or None, got {self.noise!r}")
+
+    @property
+    def coefficients(self) -> ModelCoefficients:
+        """The kinematic model's wheel-to-body coefficients for this robot (odolab.models)."""
+        return self.model.coefficients(self.track_width)
 
     @property
     def left_metres_per_tick(self) -> float:
@@ -81,16 +221,31 @@ class RobotParams:
         return replace(self, **changes)
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain dict in file order, without ``encoder_modulus`` when it is None."""
-        d = asdict(self)
+        """The ``[robot]`` table in file order, without ``encoder_modulus`` when it is None.
+
+        The kinematic model is not part of it: see :meth:`model_table`."""
+        d = {k: getattr(self, k) for k in _FIELDS}
         out = {k: d[k] for k in _FIELDS if d[k] is not None}
         if float(out["ticks_per_rev"]).is_integer():
             out["ticks_per_rev"] = int(out["ticks_per_rev"])
         return out
 
+    def model_table(self) -> dict[str, Any] | None:
+        """The ``[model]`` table (``kind`` first), or None for the default differential drive."""
+        if self.model == DIFF_DRIVE:
+            return None
+        return {"kind": self.model.kind, **self.model.to_dict()}
 
-def params_from_mapping(data: dict[str, Any], *, source: str = "parameters") -> RobotParams:
-    """Build :class:`RobotParams` from a ``[robot]`` mapping, naming ``source`` in any error."""
+
+def params_from_mapping(
+    data: dict[str, Any],
+    *,
+    source: str = "parameters",
+    model: dict[str, Any] | None = None,
+    noise: dict[str, Any] | None = None,
+) -> RobotParams:
+    """Build :class:`RobotParams` from a ``[robot]`` mapping (and optional ``[model]`` and
+    ``[noise]`` ones), naming ``source`` in any error."""
     unknown = sorted(set(data) - set(_FIELDS))
     if unknown:
         raise ParamsError(
@@ -99,8 +254,10 @@ def params_from_mapping(data: dict[str, Any], *, source: str = "parameters") -> 
     missing = [k for k in _REQUIRED if k not in data]
     if missing:
         raise ParamsError(f"{source}: missing key {missing[0]!r} in [robot]")
+    kinematic = DIFF_DRIVE if model is None else model_from_mapping(model, source=source)
+    random = None if noise is None else noise_from_mapping(noise, source=source)
     try:
-        return RobotParams(**data)
+        return RobotParams(**data, model=kinematic, noise=random)
     except ParamsError as err:
         raise ParamsError(f"{source}: {err}") from err
     except TypeError as err:  # pragma: no cover - guarded by the key checks above
@@ -118,6 +275,11 @@ def load_params(path_or_preset: str | Path) -> RobotParams:
             f"{path}: no such parameters file or preset; presets are {', '.join(sorted(PRESETS))}"
         )
     try:
+        if path.stat().st_size > MAX_TOML_BYTES:
+            raise ParamsError(
+                f"{path}: {path.stat().st_size:,} bytes; a parameters TOML is at most "
+                f"{MAX_TOML_BYTES:,} bytes (is it the right file?)"
+            )
         doc = tomllib.loads(path.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as err:
         raise ParamsError(f"{path}: not valid TOML ({err})") from err
@@ -125,10 +287,15 @@ def load_params(path_or_preset: str | Path) -> RobotParams:
         raise ParamsError(f"{path}: cannot read ({err})") from err
     if "robot" not in doc or not isinstance(doc["robot"], dict):
         raise ParamsError(f"{path}: missing the [robot] table")
-    extra = sorted(k for k in doc if k not in ("robot", "provenance"))
+    extra = sorted(k for k in doc if k not in _TABLES)
     if extra:
-        raise ParamsError(f"{path}: unknown table or key {extra[0]!r}; expected [robot]")
-    return params_from_mapping(doc["robot"], source=str(path))
+        raise ParamsError(
+            f"{path}: unknown table or key {extra[0]!r}; expected [robot] and optionally "
+            "[model], [noise], [provenance]"
+        )
+    return params_from_mapping(
+        doc["robot"], source=str(path), model=doc.get("model"), noise=doc.get("noise")
+    )
 
 
 def save_params(
@@ -136,6 +303,11 @@ def save_params(
 ) -> Path:
     """Write ``params`` as TOML (and an optional ``[provenance]`` table); return the path."""
     doc: dict[str, Any] = {"robot": params.to_dict()}
+    model = params.model_table()
+    if model is not None:
+        doc["model"] = model
+    if params.noise is not None:
+        doc["noise"] = params.noise.to_dict()
     if provenance:
         doc["provenance"] = provenance
     path = Path(path)

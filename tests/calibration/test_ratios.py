@@ -70,6 +70,11 @@ def test_ratios_from_the_fits_carry_intervals() -> None:
     lo, hi = res.provenance["track_width_ci95"]
     assert lo < res.params.track_width < hi
     assert "tile" in res.provenance["source"]
+    # the measured random error travels with the parameters, scaled to the new radii
+    assert analysis.noise is not None and res.params.noise is not None
+    q = res.provenance["distance_ratio"]
+    assert res.params.noise.k_left == pytest.approx(analysis.noise.k_left * q, rel=1e-12)
+    assert res.params.noise.k_right == pytest.approx(analysis.noise.k_right * q, rel=1e-12)
     with pytest.raises(CalibrationError, match="rotation fit and an x fit"):
         ratios_from_analysis(analysis, terrain="grass")
 

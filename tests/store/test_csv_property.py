@@ -18,6 +18,8 @@ from .conftest import fingerprint
 
 finite = st.floats(allow_nan=False, allow_infinity=False)
 positive = st.floats(min_value=1e-6, max_value=1e6)
+#: a measured position within odolab.store.entry.MAX_POSITION_M (import refuses the rest)
+position = st.floats(min_value=-100.0, max_value=100.0)
 word = st.text(
     st.characters(blacklist_categories=("Cs", "Cc", "Zs", "Zl", "Zp")), min_size=1, max_size=12
 )
@@ -28,10 +30,11 @@ free_text = st.text(st.characters(blacklist_categories=("Cs",), blacklist_charac
 def trials(draw: st.DrawFn) -> Trial:
     kind = draw(st.sampled_from(list(MotionKind)))
     params = RobotParams(
-        left_wheel_radius=draw(positive),
-        right_wheel_radius=draw(positive),
-        track_width=draw(positive),
-        ticks_per_rev=draw(positive),
+        # within odolab.params.RANGES: every entry path refuses implausible parameters
+        left_wheel_radius=draw(st.floats(0.002, 2.0)),
+        right_wheel_radius=draw(st.floats(0.002, 2.0)),
+        track_width=draw(st.floats(0.01, 20.0)),
+        ticks_per_rev=draw(st.floats(1.0, 1e8)),
         encoder_modulus=draw(st.one_of(st.none(), st.integers(2, 2**40))),
         name=draw(word),
     )
@@ -44,8 +47,8 @@ def trials(draw: st.DrawFn) -> Trial:
         measured = Measurement(
             instrument=draw(word),
             rotation=draw(st.one_of(st.none(), finite)),
-            x=draw(finite),
-            y=draw(finite),
+            x=draw(position),
+            y=draw(position),
             sigma_rotation=draw(st.one_of(st.none(), positive)),
             sigma_xy=draw(st.one_of(st.none(), positive)),
             raw=raw,
@@ -60,7 +63,10 @@ def trials(draw: st.DrawFn) -> Trial:
         command=Command(
             kind,
             angle=draw(st.one_of(st.none(), finite)),
-            distance=draw(st.one_of(st.none(), finite)),
+            # a translation needs its distance (import refuses one without)
+            distance=draw(
+                finite if kind is MotionKind.TRANSLATION else st.one_of(st.none(), finite)
+            ),
             side=draw(st.one_of(st.none(), positive)),
             direction=draw(st.one_of(st.none(), word)),
             speed=draw(st.one_of(st.none(), finite)),

@@ -19,13 +19,13 @@ the log scale (the two fits are independent).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from odolab.errors import CalibrationError
-from odolab.params import RobotParams, save_params
+from odolab.params import NoiseParams, RobotParams, save_params
 
 if TYPE_CHECKING:
     from odolab.analysis import LabAnalysis
@@ -126,6 +126,27 @@ def ratios(
     return CalibrationResult("ratios", new, params, prov)
 
 
+def _with_noise(result: CalibrationResult, analysis: LabAnalysis) -> CalibrationResult:
+    """Add the analysis' per-wheel noise constants as the new parameters' ``[noise]``.
+
+    The noise was measured in the old parameters' wheel distances; the new radii scale every
+    distance by the distance ratio ``q``, so ``var = k |ds|`` becomes ``(q k) |ds_new|``."""
+    noise = analysis.noise
+    if noise is None:
+        return result
+    q = float(result.provenance["distance_ratio"])
+    k = NoiseParams(k_left=noise.k_left * q, k_right=noise.k_right * q)
+    prov = {
+        **result.provenance,
+        "noise": (
+            "[noise] from the analysis' maximum-likelihood k_left, k_right (var = k |ds|), "
+            "scaled by the distance ratio to the new radii"
+            + ("" if noise.identifiable else "; the wheels were not separable: k_left = k_right")
+        ),
+    }
+    return replace(result, params=result.params.with_(noise=k), provenance=prov)
+
+
 def ratios_from_analysis(
     analysis: LabAnalysis,
     params: RobotParams | None = None,
@@ -145,7 +166,7 @@ def ratios_from_analysis(
         rot = analysis.get("rotation", t)
         x = analysis.get("x", t)
         if rot is not None and x is not None:
-            return ratios(
+            result = ratios(
                 base,
                 x.ratio,
                 rot.ratio,
@@ -157,6 +178,7 @@ def ratios_from_analysis(
                 ),
                 terrain=t,
             )
+            return _with_noise(result, analysis)
     where = f"terrain {terrain!r}" if terrain else "any one terrain"
     raise CalibrationError(
         f"ratios calibration needs both a rotation fit and an x fit on {where}; "

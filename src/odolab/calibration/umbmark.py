@@ -40,23 +40,83 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from odolab.calibration.ratios import CalibrationResult, _now
-from odolab.errors import CalibrationError
+from odolab.errors import CalibrationError, LogFormatError
 from odolab.params import RobotParams
+from odolab.text import quote_input
 from odolab.trials import MotionKind, Trial, TrialStatus
 
 __all__ = [
     "UmbmarkResult",
     "e_max_syst",
+    "read_umbmark_errors_csv",
     "umbmark",
     "umbmark_errors_from_trials",
     "umbmark_iterated",
 ]
+
+
+def read_umbmark_errors_csv(
+    path: str | Path,
+) -> tuple[list[tuple[float, float]], list[tuple[float, float]]]:
+    """(cw, ccw) return errors (x, y in m) from a CSV with the header ``direction,x,y``.
+
+    Every refusal is one :class:`~odolab.errors.LogFormatError` sentence naming the file and
+    the line: not UTF-8, a line over 1 MB, a column twice, a missing column, a non-number, a
+    direction other than cw or ccw, no run at all.
+    """
+    import csv
+
+    from odolab.io.limits import check_columns_unique, check_text_file
+
+    p = Path(path)
+    if not p.is_file():
+        raise LogFormatError(f"{p}: no such file; expected a CSV with header direction,x,y")
+    check_text_file(p, expected="a CSV with header direction,x,y")
+    cw: list[tuple[float, float]] = []
+    ccw: list[tuple[float, float]] = []
+    try:
+        with p.open(newline="", encoding="utf-8-sig") as fh:
+            reader = csv.reader(fh)
+            header = [h.strip() for h in next(reader, [])]
+            check_columns_unique(p, header)
+            missing = [c for c in ("direction", "x", "y") if c not in header]
+            if missing:
+                raise LogFormatError(
+                    f"{p}: line 1 has no column {missing[0]!r}; expected a header with direction,x,y"
+                )
+            col = {name: header.index(name) for name in ("direction", "x", "y")}
+            for cells in reader:
+                line = reader.line_num
+                if not any(c.strip() for c in cells):
+                    continue
+                cell = {k: cells[j].strip() if j < len(cells) else "" for k, j in col.items()}
+                try:
+                    xy = (float(cell["x"]), float(cell["y"]))
+                except ValueError:
+                    xy = (math.nan, math.nan)
+                if not all(math.isfinite(v) for v in xy):
+                    raise LogFormatError(
+                        f"{p}: line {line}: x and y must be finite numbers (m), got "
+                        f"{quote_input(cell['x'])} and {quote_input(cell['y'])}"
+                    )
+                d = cell["direction"].lower()
+                if d not in ("cw", "ccw"):
+                    raise LogFormatError(
+                        f"{p}: line {line}: direction must be cw or ccw, got {quote_input(d)}"
+                    )
+                (cw if d == "cw" else ccw).append(xy)
+    except csv.Error as err:
+        raise LogFormatError(f"{p}: not readable as CSV ({err})") from err
+    except OSError as err:
+        raise LogFormatError(f"{p}: cannot read ({err.strerror or err})") from err
+    return cw, ccw
 
 
 def _errors(name: str, errors: ArrayLike) -> NDArray[np.float64]:

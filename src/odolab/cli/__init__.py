@@ -10,18 +10,25 @@ from __future__ import annotations
 import sys
 
 from odolab.cli import (  # noqa: F401  (register commands)
+    consistency,
     core,
     demo,
     evaluate,
+    export,
     groundtruth,
     lab,
     robot,
+    serve,
     sim,
     trials,
     validate,
 )
 from odolab.cli._apps import app
 from odolab.errors import OdolabError
+from odolab.text import safe_terminal
+
+#: Longest error line printed (characters): a message echoing a huge input stays one line.
+_MAX_ERROR_CHARS = 2000
 
 __all__ = ["app", "main"]
 
@@ -31,11 +38,12 @@ def main(argv: list[str] | None = None) -> int:
     try:
         app(args=argv, prog_name="odolab", standalone_mode=True)
     except OdolabError as err:
-        sys.stderr.write(f"odolab: error: {err}\n")
+        sys.stderr.write(f"odolab: error: {safe_terminal(err, limit=_MAX_ERROR_CHARS)}\n")
         return 1
     except OSError as err:  # a file the command could not read or write: one line, no traceback
         where = f"{err.filename}: " if err.filename else ""
-        sys.stderr.write(f"odolab: error: {where}{err.strerror or err}\n")
+        msg = safe_terminal(f"{where}{err.strerror or err}", limit=_MAX_ERROR_CHARS)
+        sys.stderr.write(f"odolab: error: {msg}\n")
         return 1
     except SystemExit as exc:
         code = exc.code

@@ -4,7 +4,15 @@ from __future__ import annotations
 
 import typer
 
-__all__ = ["app", "calibrate_app", "params_app", "robot_app", "sim_app", "trials_app"]
+__all__ = [
+    "app",
+    "calibrate_app",
+    "export_app",
+    "params_app",
+    "robot_app",
+    "sim_app",
+    "trials_app",
+]
 
 _SETTINGS = {"no_args_is_help": True, "pretty_exceptions_enable": False}
 
@@ -18,9 +26,12 @@ sim_app = typer.Typer(help="The virtual Jaguar and experiment protocols.", **_SE
 robot_app = typer.Typer(help="Drive a (virtual or real) Jaguar by odometry.", **_SETTINGS)  # type: ignore[arg-type]
 trials_app = typer.Typer(help="The lab notebook: trials and measurements.", **_SETTINGS)  # type: ignore[arg-type]
 calibrate_app = typer.Typer(help="Correct the kinematic model.", **_SETTINGS)  # type: ignore[arg-type]
+_EXPORT_HELP = "Hand results to a robot's software: ROS 2 controller YAML, MCAP for Foxglove."
+export_app = typer.Typer(help=_EXPORT_HELP, **_SETTINGS)  # type: ignore[arg-type]
 
 app.add_typer(params_app, name="params")
 app.add_typer(sim_app, name="sim")
 app.add_typer(robot_app, name="robot")
 app.add_typer(trials_app, name="trials")
 app.add_typer(calibrate_app, name="calibrate")
+app.add_typer(export_app, name="export")

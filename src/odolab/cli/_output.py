@@ -1,12 +1,26 @@
-"""Writing the CLI's output files: a path that cannot be written is one sentence, not a traceback."""
+"""Writing the CLI's output: files (a path that cannot be written is one sentence, not a
+traceback) and user text on the terminal (escape sequences shown, never obeyed)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 from odolab.errors import OdolabError
+from odolab.text import safe_terminal
 
-__all__ = ["OutputError", "check_output_path", "write_output_text"]
+__all__ = ["OutputError", "check_output_path", "markup_text", "term", "write_output_text"]
+
+
+def term(text: object) -> str:
+    """User text (a trial id, a campaign, a terrain, a reason) for ``typer.echo``."""
+    return safe_terminal(text)
+
+
+def markup_text(text: object) -> str:
+    """User text inside a string that a rich console reads as markup (``[yellow]...``)."""
+    from rich.markup import escape
+
+    return escape(safe_terminal(text))
 
 
 class OutputError(OdolabError):

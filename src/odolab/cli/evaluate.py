@@ -135,6 +135,10 @@ def evaluate_cmd(
     joint_topic: JointTopicOpt = "/joint_states",
     joints: JointsOpt = ("left_wheel_joint", "right_wheel_joint"),
     gt_topic: GtTopicOpt = "/ground_truth",
+    nees: Annotated[
+        bool, typer.Option("--nees", help="Runs: NEES of the propagated covariance ([noise]).")
+    ] = False,
+    nees_segment: Annotated[float, typer.Option(help="Piece length (s) of the NEES.")] = 10.0,
 ) -> None:
     """APE, RPE (evo's definitions) and drift per distance: of EST against GT, or of runs."""
     from dataclasses import replace
@@ -170,6 +174,10 @@ def evaluate_cmd(
         from odolab.io import read_trajectory
         from odolab.metrics import evaluate
 
+        if nees:
+            raise OdolabError(
+                "--nees needs runs with encoder increments (--format), not two trajectories"
+            )
         if len(paths) != 2:
             raise OdolabError(
                 f"evaluate takes GT EST (two trajectory files), got {len(paths)} paths; "
@@ -197,8 +205,13 @@ def evaluate_cmd(
             workers=workers,
             progress=report,
         )
-    _write_json({"runs": [r.to_dict() for r in results]}, json_out)
+    doc: dict[str, Any] = {"runs": [r.to_dict() for r in results]}
     _print_table([(r.name, r.evaluation) for r in results])
+    if nees:
+        from odolab.cli.consistency import print_nees
+
+        doc["nees"] = print_nees(paths, fmt.value, robot, "midpoint", nees_segment)
+    _write_json(doc, json_out)
 
 
 def _print_table(rows: list[tuple[str, Any]]) -> None:

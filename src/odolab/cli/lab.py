@@ -51,13 +51,15 @@ def analyze_cmd(
 
     trials = _load_trials(db)
     analysis = analyze_trials(trials)
+    from odolab.cli._output import markup_text as mt
+
     con = _console()
     con.print(table1_rich(table1(analysis)))
     for t in analysis.terrain_tests:
-        con.print(t.verdict())
+        con.print(mt(t.verdict()))
     for m in analysis.motions:
         if m.growth is not None:
-            con.print(f"growth of sigma, {m.motion} on {m.terrain}: {m.growth.verdict()}")
+            con.print(mt(f"growth of sigma, {m.motion} on {m.terrain}: {m.growth.verdict()}"))
     for kind, w in analysis.noise_by_kind.items():
         con.print(
             f"wheel noise from {kind} trials: k_r = {w.k_right:.3g} m "
@@ -66,11 +68,11 @@ def analyze_cmd(
             + ("" if w.identifiable else " (only k_r + k_l is identifiable)")
         )
     if analysis.noise_note:
-        con.print(f"[yellow]note:[/] {analysis.noise_note}")
+        con.print(f"[yellow]note:[/] {mt(analysis.noise_note)}")
     for o in analysis.outliers:
-        con.print(f"[yellow]outlier[/] {o.trial_id}: {o.reason}")
+        con.print(f"[yellow]outlier[/] {mt(o.trial_id)}: {mt(o.reason)}")
     for s in analysis.skipped:
-        con.print(f"[yellow]not enough data:[/] {s}")
+        con.print(f"[yellow]not enough data:[/] {mt(s)}")
     if json_out is not None:
         from odolab.cli._output import write_output_text
 
@@ -97,6 +99,7 @@ def report_cmd(
         umbmark_errors_from_trials,
         umbmark_iterated,
     )
+    from odolab.cli._output import markup_text
     from odolab.errors import CalibrationError
     from odolab.params import load_params
     from odolab.report import table1_rich, write_report
@@ -109,7 +112,7 @@ def report_cmd(
     try:
         calibrations["ratios"] = ratios_from_analysis(analysis, base)
     except CalibrationError as err:
-        con.print(f"[yellow]no ratios calibration:[/] {err}")
+        con.print(f"[yellow]no ratios calibration:[/] {markup_text(err)}")
     if analysis.square_trials and base is not None:
         try:
             if all(t.encoder_log is not None for t in analysis.square_trials):
@@ -121,11 +124,11 @@ def report_cmd(
                 umb = umbmark(cw, ccw, side, base)
             calibrations["umbmark"] = umb
         except CalibrationError as err:
-            con.print(f"[yellow]no UMBmark calibration:[/] {err}")
+            con.print(f"[yellow]no UMBmark calibration:[/] {markup_text(err)}")
     path = write_report(out, analysis, calibrations)
     con.print(table1_rich(table1(analysis)))
     for s in analysis.skipped:
-        con.print(f"[yellow]not enough data:[/] {s}")
+        con.print(f"[yellow]not enough data:[/] {markup_text(s)}")
     con.print(f"report: {path}  (figures and results.json beside it)")
 
 
@@ -247,50 +250,16 @@ def calibrate_umbmark_cmd(
 
 def _record_version(db: Path, result: Any, base: Any, *, trials: str | None) -> None:
     """Add the calibration as a new parameter version of the robot in the notebook."""
+    from odolab.calibration.record import record_calibration
     from odolab.store import Notebook
-    from odolab.trials import MotionKind, TrialStatus
+    from odolab.text import safe_terminal
 
     with Notebook(db) as nb:
-        used = [
-            t.trial_id
-            for t in nb.load_trials(status=TrialStatus.MEASURED, with_logs=False)
-            if trials == "all" or (trials == "squares" and t.command.kind is MotionKind.SQUARE)
-        ]
-        version = nb.add_params_version(
-            result.params.with_(name=base.name),
-            method=result.method,
-            source_trials=used,
-            notes=str(result.provenance.get("source", "")),
-        )
-    typer.echo(f"recorded in {db} as {base.name} parameters version {version}")
+        version = record_calibration(nb, result, base, trials=trials)  # type: ignore[arg-type]
+    typer.echo(f"recorded in {db} as {safe_terminal(base.name)} parameters version {version}")
 
 
 def _read_umbmark_csv(path: Path) -> tuple[list[tuple[float, float]], list[tuple[float, float]]]:
-    import csv
+    from odolab.calibration.umbmark import read_umbmark_errors_csv
 
-    from odolab.errors import OdolabError
-
-    cw: list[tuple[float, float]] = []
-    ccw: list[tuple[float, float]] = []
-    try:
-        with path.open(newline="", encoding="utf-8") as fh:
-            reader = csv.DictReader(fh)
-            if reader.fieldnames is None or not {"direction", "x", "y"} <= set(reader.fieldnames):
-                raise OdolabError(f"{path}: expected a header with direction,x,y")
-            for line, row in enumerate(reader, start=2):
-                d = (row["direction"] or "").strip().lower()
-                try:
-                    xy = (float(row["x"]), float(row["y"]))
-                except (TypeError, ValueError) as err:
-                    raise OdolabError(f"{path}, line {line}: x and y must be numbers (m)") from err
-                if d == "cw":
-                    cw.append(xy)
-                elif d == "ccw":
-                    ccw.append(xy)
-                else:
-                    raise OdolabError(
-                        f"{path}, line {line}: direction must be cw or ccw, got {d!r}"
-                    )
-    except OSError as err:
-        raise OdolabError(f"{path}: cannot read ({err})") from err
-    return cw, ccw
+    return read_umbmark_errors_csv(path)

@@ -70,6 +70,7 @@ def sim_run(
     from rich.console import Console
     from rich.progress import Progress
 
+    from odolab.cli._output import markup_text, term
     from odolab.errors import SimError
     from odolab.params import load_params
     from odolab.sim.export import write_encoder_logs, write_trials_csv
@@ -86,7 +87,7 @@ def sim_run(
         raise SimError(f"{encoder_dir}: is a file; expected a folder for --encoder-dir")
     console = Console(stderr=True)
     with Progress(transient=True, console=console, disable=not console.is_terminal) as bar:
-        task = bar.add_task(f"{proto.name}", total=len(proto))
+        task = bar.add_task(markup_text(proto.name), total=len(proto))
         trials = run_protocol(
             proto,
             TRUTH_PRESETS[truth],
@@ -105,7 +106,7 @@ def sim_run(
             nb.add_trials(trials)
     stalled = sum(t.exclusion_reason is not None for t in trials)
     typer.echo(
-        f"{len(trials)} trials of {proto.name} ({truth}, seed {seed}) -> {output}"
+        f"{len(trials)} trials of {term(proto.name)} ({truth}, seed {seed}) -> {output}"
         + (f"; {stalled} stalled (excluded)" if stalled else "")
         + (f"; recorded in {db}" if db is not None else "")
     )

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from odolab.cli._apps import app, trials_app
+from odolab.cli._output import term
 
 if TYPE_CHECKING:
     from odolab.store import Notebook
@@ -68,15 +69,9 @@ def _fmt(value: float | None, spec: str = ".3f") -> str:
 
 
 def _describe_measurement(t: Trial) -> str:
-    m = t.measured
-    if m is None:
-        return ""
-    parts = []
-    if m.rotation is not None:
-        parts.append(f"rot {m.rotation:.3f} rad ({m.rotation / math.pi:.2f} pi)")
-    if m.x is not None:
-        parts.append(f"x {m.x:.3f} y {_fmt(m.y)} m")
-    return ", ".join(parts) + f" [{m.instrument}]"
+    from odolab.store.measure import describe_measurement
+
+    return describe_measurement(t)
 
 
 def _describe_prediction(t: Trial) -> str:
@@ -118,7 +113,9 @@ def notebook_info(db: DbOption = _DB) -> None:
     status = ", ".join(f"{k} {v}" for k, v in sorted(info.by_status.items())) or "none"
     typer.echo(f"  trials {info.trials} ({status}), encoder logs {info.encoder_logs}")
     for c in campaigns:
-        typer.echo(f"  campaign {c.name}: {c.kind} on {c.terrain}, {c.date or ''} {c.operator}")
+        typer.echo(
+            term(f"  campaign {c.name}: {c.kind} on {c.terrain}, {c.date or ''} {c.operator}")
+        )
 
 
 # -- campaigns and parameter versions ------------------------------------------------------------
@@ -137,7 +134,7 @@ def campaign_add(
     """Add a campaign: a series of trials of one kind on one terrain."""
     with _open(db, create=True) as nb:
         nb.add_campaign(name, kind.value, terrain, date=date, operator=operator, notes=notes)
-    typer.echo(f"campaign {name} ({kind.value} on {terrain}) added to {db}")
+    typer.echo(f"campaign {term(name)} ({kind.value} on {term(terrain)}) added to {db}")
 
 
 @trials_app.command("campaigns")
@@ -145,7 +142,8 @@ def campaigns_cmd(db: DbOption = _DB) -> None:
     """List the campaigns."""
     with _open(db) as nb:
         for c in nb.campaigns():
-            typer.echo(f"{c.name}\t{c.kind}\t{c.terrain}\t{c.date or ''}\t{c.operator}\t{c.notes}")
+            cells = (c.name, c.kind, c.terrain, c.date or "", c.operator, c.notes)
+            typer.echo("\t".join(term(x) for x in cells))
 
 
 @trials_app.command("params-add")
@@ -175,7 +173,7 @@ def params_add(
         v = nb.add_params_version(
             params, method=method, source_trials=source_trial or (), notes=notes
         )
-    typer.echo(f"{params.name} parameters version {v} ({method}) added to {db}")
+    typer.echo(f"{term(params.name)} parameters version {v} ({method}) added to {db}")
 
 
 @trials_app.command("params-versions")
@@ -194,9 +192,11 @@ def params_versions_cmd(
         p = v.params
         src = f" from {', '.join(v.source_trials)}" if v.source_trials else ""
         typer.echo(
-            f"v{v.version}  {v.created}  {v.method}{src}: wheel radius L/R "
-            f"{p.left_wheel_radius:g}/{p.right_wheel_radius:g} m, track {p.track_width:g} m, "
-            f"{p.ticks_per_rev:g} ticks/rev{'  - ' + v.notes if v.notes else ''}"
+            term(
+                f"v{v.version}  {v.created}  {v.method}{src}: wheel radius L/R "
+                f"{p.left_wheel_radius:g}/{p.right_wheel_radius:g} m, track {p.track_width:g} m, "
+                f"{p.ticks_per_rev:g} ticks/rev{'  - ' + v.notes if v.notes else ''}"
+            )
         )
 
 
@@ -231,13 +231,13 @@ def list_cmd(
     for t in trials:
         st = t.status.value + (f": {t.exclusion_reason}" if t.exclusion_reason else "")
         table.add_row(
-            t.trial_id,
-            t.campaign,
-            t.terrain,
+            escape(term(t.trial_id)),
+            escape(term(t.campaign)),
+            escape(term(t.terrain)),
             t.command.describe(),
             _describe_prediction(t),
-            escape(_describe_measurement(t)),
-            escape(st),
+            escape(term(_describe_measurement(t))),
+            escape(term(st)),
         )
     Console(width=200).print(table)
 
@@ -250,14 +250,15 @@ def show_cmd(
     with _open(db) as nb:
         t = nb.get_trial(trial_id)
         robot, version = nb.trial_params_version(trial_id)
-    typer.echo(f"trial {t.trial_id}: {t.command.describe()} ({t.campaign}, {t.terrain})")
+    typer.echo(term(f"trial {t.trial_id}: {t.command.describe()} ({t.campaign}, {t.terrain})"))
     typer.echo(
-        f"  status: {t.status.value}" + (f" ({t.exclusion_reason})" if t.exclusion_reason else "")
+        f"  status: {t.status.value}"
+        + (f" ({term(t.exclusion_reason)})" if t.exclusion_reason else "")
     )
     p = t.predicted
     typer.echo(
         f"  predicted: x {p.x:.4f} m, y {p.y:.4f} m, theta {p.theta:.4f} rad, "
-        f"heading {p.heading:.4f} rad at t {p.t:g} s; parameters {robot} v{version}"
+        f"heading {p.heading:.4f} rad at t {p.t:g} s; parameters {term(robot)} v{version}"
     )
     m = t.measured
     if m is not None:
@@ -266,13 +267,13 @@ def show_cmd(
             parts.append(f"rotation {m.rotation:.4f} rad ± {_fmt(m.sigma_rotation, '.3f')}")
         if m.x is not None:
             parts.append(f"x {m.x:.4f} y {_fmt(m.y, '.4f')} m ± {_fmt(m.sigma_xy, '.4f')}")
-        typer.echo(f"  measured ({m.instrument}): {', '.join(parts)}; raw {dict(m.raw)}")
+        typer.echo(term(f"  measured ({m.instrument}): {', '.join(parts)}; raw {dict(m.raw)}"))
     if t.true is not None:
         typer.echo(f"  true: x {t.true.x:.4f} y {t.true.y:.4f} m, heading {t.true.heading:.4f}")
     if t.encoder_log is not None:
         typer.echo(f"  encoder log: {len(t.encoder_log)} samples, modulus {t.encoder_log.modulus}")
     if t.notes:
-        typer.echo(f"  notes: {t.notes}")
+        typer.echo(f"  notes: {term(t.notes)}")
 
 
 def _measurement(
@@ -286,12 +287,6 @@ def _measurement(
 ) -> Measurement:
     """Build the measurement of ``t``; ask for what is missing when there is a terminal."""
     from odolab.errors import StoreError
-    from odolab.store import (
-        COMPASS_SIGMA_RAD,
-        METERSTICK_SIGMA_M,
-        rotation_measurement_from_compass,
-        translation_measurement,
-    )
     from odolab.store.entry import check_compass_reading
 
     def ask_compass(text: str) -> float:
@@ -309,16 +304,14 @@ def _measurement(
                 return value
             typer.echo("refused: turns must be 0 or more", err=True)
 
+    from odolab.store.measure import build_measurement, check_reading_names, measurement_for_trial
+
     rotation = t.command.kind.value in ("rotation", "pivot")
-    wrong = (x, y) if rotation else (initial, final, turns)
-    if any(v is not None for v in wrong):
-        # do not drop what was typed and then ask for something else
-        expected = "--initial, --final and --turns" if rotation else "--x and --y"
-        raise StoreError(
-            f"trial {t.trial_id} is a {t.command.kind.value}: it is measured with {expected}"
-        )
+    # do not drop what was typed and then ask for something else
+    check_reading_names(t, initial, final, turns, x, y)
     given = (initial, final, turns) if rotation else (x, y)
-    interactive = any(v is None for v in given)
+    if not any(v is None for v in given):
+        return measurement_for_trial(t, initial, final, turns, x, y, sigma)
     while True:
         if rotation:
             if initial is None:
@@ -333,28 +326,8 @@ def _measurement(
             if y is None:
                 y = typer.prompt("y by meterstick (m, to the left)", type=float)
         try:
-            if rotation:
-                assert initial is not None and final is not None and turns is not None
-                direction = "cw" if t.command.direction == "cw" else None
-                return rotation_measurement_from_compass(
-                    initial,
-                    final,
-                    turns,  # type: ignore[arg-type]
-                    commanded_angle=t.command.angle,
-                    direction=direction,  # type: ignore[arg-type]
-                    sigma_reading_rad=sigma or COMPASS_SIGMA_RAD,
-                )
-            assert x is not None and y is not None
-            distance = t.command.distance if t.command.kind.value == "translation" else None
-            return translation_measurement(
-                x,
-                y,
-                sigma=sigma or METERSTICK_SIGMA_M,  # type: ignore[arg-type]
-                commanded_distance=distance,
-            )
+            return build_measurement(t, initial, final, turns, x, y, sigma)
         except StoreError as err:
-            if not interactive:
-                raise StoreError(f"trial {t.trial_id}: {err}") from err
             typer.echo(f"refused: {err}. Please enter the readings again.", err=True)
             initial = final = turns = None
             x = y = None
@@ -378,21 +351,16 @@ def measure_cmd(
     """Enter what was measured: compass readings and turns, or x and y (asks what is missing)."""
     with _open(db) as nb:
         t = nb.get_trial(trial_id)
-        if t.measured is not None and not replace:
-            from odolab.errors import StoreError
+        from odolab.store.measure import refuse_if_measured
 
-            # refuse before asking for the readings, not after they were typed
-            raise StoreError(
-                f"trial {trial_id} is already measured ({_describe_measurement(t)}); "
-                "give --replace to overwrite its measurement"
-            )
+        refuse_if_measured(t, replace)  # before asking for the readings, not after they were typed
         typer.echo(
-            f"trial {t.trial_id}: {t.command.describe()}; predicted {_describe_prediction(t)}"
+            term(f"trial {t.trial_id}: {t.command.describe()}; predicted {_describe_prediction(t)}")
         )
         m = _measurement(t, initial, final, turns, x, y, sigma)
         nb.set_measurement(trial_id, m, replace=replace)
         saved = nb.get_trial(trial_id)
-    typer.echo(f"trial {trial_id} measured: {_describe_measurement(saved)}")
+    typer.echo(term(f"trial {trial_id} measured: {_describe_measurement(saved)}"))
 
 
 @trials_app.command("add")
@@ -439,6 +407,8 @@ def add_cmd(
         raise StoreError("give the commanded angle once: --angle (rad) or --angle-pi")
     if angle_pi is not None:
         angle = angle_pi * math.pi
+    if kind.value == "translation" and distance is None:  # import refuses the same
+        raise StoreError("a translation needs --distance (the commanded distance, m)")
     with _open(db, create=True) as nb:
         if params_version is not None:
             params = nb.get_params(robot, params_version)
@@ -478,7 +448,8 @@ def add_cmd(
             trial = dataclasses.replace(trial, measured=m, status=TrialStatus.MEASURED)
         nb.add_trial(trial, create_campaign=create_campaign)
     typer.echo(
-        f"trial {trial_id} ({trial.command.describe()}) recorded in {db}: {trial.status.value}"
+        f"trial {term(trial_id)} ({trial.command.describe()}) recorded in {db}: "
+        f"{trial.status.value}"
     )
 
 
@@ -491,7 +462,7 @@ def exclude_cmd(
     """Leave a trial out of the analysis (it is kept, with the reason)."""
     with _open(db) as nb:
         nb.exclude_trial(trial_id, reason)
-    typer.echo(f"trial {trial_id} excluded: {reason}")
+    typer.echo(term(f"trial {trial_id} excluded: {reason}"))
 
 
 @trials_app.command("include")
@@ -501,7 +472,7 @@ def include_cmd(
     """Undo an exclusion."""
     with _open(db) as nb:
         nb.include_trial(trial_id)
-    typer.echo(f"trial {trial_id} included again")
+    typer.echo(f"trial {term(trial_id)} included again")
 
 
 @trials_app.command("import")

@@ -12,6 +12,8 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from odolab.errors import LogFormatError
+from odolab.io.limits import check_columns_unique, check_text_file, first_line_cells
+from odolab.text import quote_input, safe_terminal, shorten
 
 __all__ = ["data_line_numbers", "read_numeric_columns"]
 
@@ -37,7 +39,10 @@ def _locate_bad_cell(
                 continue
             if not line.strip():
                 continue  # a blank line is no row (a line of empty cells is one)
-            row = line.split() if whitespace else next(csv.reader([line], delimiter=sep), [])
+            try:
+                row = line.split() if whitespace else next(csv.reader([line], delimiter=sep), [])
+            except csv.Error:  # a cell over csv's 128 KiB field limit (lines may have 1 MB)
+                row = line.rstrip("\r\n").split(sep)
             if whitespace and row[0].startswith("#"):
                 continue
             for name, j in idx.items():
@@ -47,7 +52,7 @@ def _locate_bad_cell(
                 except ValueError:
                     ok = False
                 if not ok:
-                    shown = repr(cell) if cell else "empty"
+                    shown = quote_input(cell) if cell else "empty"
                     return f"{path}: line {lineno}, column {name!r} is {shown}, expected a number"
     return f"{path}: could not parse as numbers"
 
@@ -79,17 +84,24 @@ def read_numeric_columns(
     sep: str = ",",
     names: Sequence[str] | None = None,
     allow_nan: bool = False,
+    checked: bool = False,
 ) -> dict[str, NDArray[np.float64]]:
     """Read the named columns of a delimited text file as float64 arrays.
 
     With ``names`` the file has no header and columns are given those names. Every error is a
-    :class:`LogFormatError` naming the file, and the line and column where there is one.
+    :class:`LogFormatError` naming the file, and the line and column where there is one. The
+    file's lines are checked first (:func:`odolab.io.limits.check_text_file`; ``checked``: the
+    caller already did) and a header that names a column twice is refused.
     """
     p = Path(path)
     if not p.exists():
         raise LogFormatError(f"{p}: no such file")
     if not p.is_file():
         raise LogFormatError(f"{p}: is not a file (a folder?); expected a delimited text file")
+    if not checked:
+        check_text_file(p, expected="a delimited text file")
+        if names is None:
+            check_columns_unique(p, first_line_cells(p, sep))
     try:
         if names is None:
             head = pd.read_csv(p, sep=sep, nrows=0, encoding="utf-8-sig")
@@ -101,7 +113,8 @@ def read_numeric_columns(
     missing = [c for c in columns if c not in header]
     if missing:
         raise LogFormatError(
-            f"{p}: missing column {missing[0]!r}; the header has {', '.join(header) or 'nothing'}"
+            f"{p}: missing column {missing[0]!r}; the header has "
+            f"{safe_terminal(shorten(', '.join(header), 200)) or 'nothing'}"
             f" but {', '.join(columns)} are expected"
         )
     try:

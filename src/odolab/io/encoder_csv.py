@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 from odolab.encoders import as_tick_array
 from odolab.errors import LogFormatError
 from odolab.io._table import data_line_numbers, read_numeric_columns
+from odolab.io.limits import check_columns_unique, check_text_file, first_line_cells
 from odolab.trajectory import check_times
 from odolab.trials import EncoderLog
 
@@ -44,6 +45,8 @@ def read_encoder_csv(path: str | Path, *, modulus: int | None = None) -> Encoder
 
     if p.exists() and not p.is_file():
         raise LogFormatError(f"{p}: is not a file (a folder?); expected an encoder log CSV")
+    check_text_file(p, expected="an encoder log CSV")
+    check_columns_unique(p, first_line_cells(p))
     try:
         header = [str(c).strip() for c in pd.read_csv(p, nrows=0, encoding="utf-8-sig").columns]
     except FileNotFoundError as err:
@@ -52,7 +55,7 @@ def read_encoder_csv(path: str | Path, *, modulus: int | None = None) -> Encoder
         raise LogFormatError(f"{p}: empty or unreadable file; expected a header line") from err
     increments = "dticks_left" in header and "left_ticks" not in header
     cols = INCREMENTS if increments else RAW
-    data = read_numeric_columns(p, cols)
+    data = read_numeric_columns(p, cols, checked=True)
     t = data["t"]
     if t.size == 0:
         raise LogFormatError(f"{p}: no samples after the header")

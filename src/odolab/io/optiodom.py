@@ -15,8 +15,10 @@ from pathlib import Path
 
 from odolab.errors import LogFormatError, ParamsError
 from odolab.io._table import data_line_numbers, read_numeric_columns
+from odolab.io.limits import check_text_file
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.params import RobotParams
+from odolab.text import quote_input
 from odolab.trajectory import Trajectory, check_times
 
 __all__ = ["OptiOdomReader", "find_optiodom_runs", "read_optiodom_metadata", "read_optiodom_run"]
@@ -30,6 +32,7 @@ def read_optiodom_metadata(path: str | Path) -> dict[str, list[str]]:
     p = Path(path)
     if not p.is_file():
         raise LogFormatError(f"{p}: no such OptiOdom metadata file")
+    check_text_file(p, expected="an OptiOdom metadata CSV")
     with p.open(newline="", encoding="utf-8-sig") as fh:
         rows = list(csv.reader(fh))
     return {r[0].strip(): [c.strip() for c in r[1:] if c.strip()] for r in rows if r and r[0]}
@@ -42,7 +45,7 @@ def _number(meta: dict[str, list[str]], key: str, source: Path, index: int = 0) 
         raise LogFormatError(f"{source}: missing value {index + 1} of key {key!r}") from err
     except ValueError as err:
         raise LogFormatError(
-            f"{source}: key {key!r} value {meta[key][index]!r} is not a number"
+            f"{source}: key {key!r} value {quote_input(meta[key][index])} is not a number"
         ) from err
 
 

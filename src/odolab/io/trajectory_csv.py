@@ -15,6 +15,7 @@ import numpy as np
 
 from odolab.errors import LogFormatError
 from odolab.io._table import data_line_numbers, read_numeric_columns
+from odolab.io.limits import check_columns_unique, check_text_file, first_line_cells
 from odolab.trajectory import Trajectory, check_times
 
 __all__ = [
@@ -59,6 +60,8 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
 
     if p.exists() and not p.is_file():
         raise LogFormatError(f"{p}: is not a file (a folder?); expected a trajectory CSV")
+    check_text_file(p, expected="a trajectory CSV")
+    check_columns_unique(p, first_line_cells(p))
     try:
         header = [str(c).strip() for c in pd.read_csv(p, nrows=0, encoding="utf-8-sig").columns]
     except FileNotFoundError as err:
@@ -69,7 +72,7 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
         cols: tuple[str, ...] = ("t", "x", "y", "heading")
     else:
         cols = COLUMNS if "heading" in header else COLUMNS[:4]
-    d = read_numeric_columns(p, cols)
+    d = read_numeric_columns(p, cols, checked=True)
     check_times(d["t"], str(p), line_of=lambda i: int(data_line_numbers(p)[i]))
     if "heading" in d:
         return Trajectory.from_xyh(d["t"], d["x"], d["y"], d["heading"])

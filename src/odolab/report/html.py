@@ -24,6 +24,7 @@ from odolab.calibration.ratios import CalibrationResult
 from odolab.calibration.umbmark import UmbmarkResult
 from odolab.errors import OdolabError
 from odolab.report import figures as F
+from odolab.text import safe_file_name
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -342,16 +343,20 @@ class _Figure:
 def _render(
     out: Path, fig_dir: Path, items: list[tuple[str, str, str, Callable[[Axes], Any]]]
 ) -> list[_Figure]:
+    import matplotlib
     from matplotlib.figure import Figure
 
     done: list[_Figure] = []
-    for name, title, caption, draw in items:
+    for raw_name, title, caption, draw in items:
+        name = safe_file_name(raw_name, what="figure name")  # terrains are user text
         fig = Figure(figsize=(7.0, 4.6), dpi=110)
-        ax = fig.add_subplot()
-        draw(ax)
-        fig.subplots_adjust(left=0.13, right=0.97, bottom=0.12, top=0.92)
-        path = fig_dir / f"{name}.png"
-        fig.savefig(path)
+        # user text in titles and legends ("$" in a terrain) is text, never TeX to parse
+        with matplotlib.rc_context({"text.parse_math": False}):
+            ax = fig.add_subplot()
+            draw(ax)
+            fig.subplots_adjust(left=0.13, right=0.97, bottom=0.12, top=0.92)
+            path = fig_dir / f"{name}.png"
+            fig.savefig(path)
         done.append(
             _Figure(name, title, caption, base64.b64encode(path.read_bytes()).decode("ascii"))
         )
@@ -531,7 +536,8 @@ def write_report(
     (out / "results.json").write_text(json.dumps(results, indent=2), encoding="utf-8")
     env = jinja2.Environment(
         loader=jinja2.PackageLoader("odolab.report", "templates"),
-        autoescape=jinja2.select_autoescape(["html"]),
+        # every template escaped (report.html.j2's ".j2" never matched select_autoescape(["html"]))
+        autoescape=True,
         undefined=jinja2.StrictUndefined,
     )
     env.filters["fmt"] = _fmt

@@ -5,6 +5,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
+from odolab.text import safe_terminal
+
 if TYPE_CHECKING:
     from rich.table import Table
 
@@ -18,6 +20,7 @@ def _g(v: float, d: int = 4) -> str:
 def table1_rich(rows: Sequence[dict[str, Any]], *, title: str = "Table I") -> Table:
     """Rows of :func:`odolab.analysis.table1` as a :class:`rich.table.Table`."""
     from rich.table import Table
+    from rich.text import Text
 
     t = Table(title=title)
     for name, justify in (
@@ -45,8 +48,8 @@ def table1_rich(rows: Sequence[dict[str, Any]], *, title: str = "Table I") -> Ta
             else "-"
         )
         t.add_row(
-            r["motion"],
-            r["terrain"],
+            Text(safe_terminal(r["motion"])),  # user text: no markup, no escape sequences
+            Text(safe_terminal(r["terrain"])),
             str(r["n"]),
             f"{_g(r['ratio'])} {r['ratio_unit']}",
             f"[{_g(lo)}, {_g(hi)}]",

@@ -12,6 +12,7 @@ import math
 from typing import Any, Protocol
 
 from odolab.errors import SimError
+from odolab.kinematics import body_motion, step_pose
 from odolab.params import RobotParams
 from odolab.trajectory import Pose
 
@@ -98,14 +99,8 @@ class IdealPlant:
             return
         dl = self._vl * duration
         dr = self._vr * duration
-        ds = 0.5 * (dl + dr)
-        dth = (dr - dl) / self.truth.track_width
-        u = 0.5 * dth
-        chord = ds * (1.0 - u * u / 6.0 if abs(u) < 1e-6 else math.sin(u) / u)
-        mid = self._h + u
-        self._x += chord * math.cos(mid)
-        self._y += chord * math.sin(mid)
-        self._h += dth
+        fwd, side, dth = body_motion(*self.truth.coefficients, dl, dr)
+        self._x, self._y, self._h = step_pose(self._x, self._y, self._h, fwd, side, dth, True)
         self._sl += dl
         self._sr += dr
         self._t += duration

@@ -13,6 +13,7 @@ from pathlib import Path
 from odolab.errors import SimError
 from odolab.store.csvio import COLUMNS
 from odolab.store.csvio import write_trials_csv as _write_notebook_csv
+from odolab.text import quote_input, safe_file_name
 from odolab.trials import Trial
 
 __all__ = ["TRIAL_COLUMNS", "write_encoder_logs", "write_trials_csv"]
@@ -30,14 +31,28 @@ def write_trials_csv(trials: Sequence[Trial], path: str | Path) -> Path:
 
 
 def write_encoder_logs(trials: Sequence[Trial], directory: str | Path) -> list[Path]:
-    """Write each trial's encoder log as ``<directory>/<trial_id>.csv`` (raw counters)."""
+    """Write each trial's encoder log as ``<directory>/<trial_id>.csv`` (raw counters).
+
+    The file name is :func:`odolab.text.safe_file_name` of the trial id: whatever the id (``/``,
+    ``..``, an absolute path), every file lands inside ``directory``. Two ids that would share a
+    file (``A`` and ``a`` on a case-insensitive disk) are refused before anything is written.
+    """
     from odolab.io import write_encoder_csv
 
     folder = Path(directory)
     if folder.exists() and not folder.is_dir():
         raise SimError(f"{folder}: is a file; expected a folder for the encoder logs")
-    out = []
+    names: dict[str, str] = {}
+    todo = []
     for t in trials:
-        if t.encoder_log is not None:
-            out.append(write_encoder_csv(t.encoder_log, folder / f"{t.trial_id}.csv"))
-    return out
+        if t.encoder_log is None:
+            continue
+        name = safe_file_name(t.trial_id, what="trial id", suffix=".csv")
+        other = names.setdefault(name.casefold(), t.trial_id)
+        if other != t.trial_id:
+            raise SimError(
+                f"{folder}: trial ids {quote_input(other)} and {quote_input(t.trial_id)} would "
+                "share one encoder log file; expected ids that differ in more than letter case"
+            )
+        todo.append((t.encoder_log, folder / name))
+    return [write_encoder_csv(log, path) for log, path in todo]

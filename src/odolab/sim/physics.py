@@ -41,6 +41,8 @@ from numba import njit
 from numpy.typing import NDArray
 
 from odolab.errors import SimError
+from odolab.kinematics import body_motion, step_pose
+from odolab.models import DIFF_DRIVE
 from odolab.params import RobotParams
 from odolab.sim.terrains import Terrain, get_terrain
 from odolab.trajectory import Pose
@@ -57,7 +59,10 @@ __all__ = [
 _RHO_LF, _RHO_LR, _RHO_RF, _RHO_RR = 0, 1, 2, 3
 _TRACK, _TRACK_NOM, _K_L, _K_R, _K_SCRUB = 4, 5, 6, 7, 8
 _SPEED_SLIP, _STOP_SLIDE, _CAN_TURN, _MPT_L, _MPT_R = 9, 10, 11, 12, 13
-_NPARAM = 14
+# the true kinematic model's coefficients (odolab.models.ModelCoefficients); its denominator
+# is _TRACK, so that a per-run track factor scales it
+_W_L, _W_R, _E_L, _E_R, _LATERAL = 14, 15, 16, 17, 18
+_NPARAM = 19
 
 
 @dataclass(frozen=True)
@@ -155,14 +160,18 @@ class TrueParams:
 
 
 def kernel_params(truth: TrueParams, nominal: RobotParams, terrain: Terrain) -> NDArray[np.float64]:
-    """The parameter vector of the compiled step, shape (14,), for one robot on one terrain."""
+    """The parameter vector of the compiled step, shape (19,), for one robot on one terrain."""
     p = np.zeros(_NPARAM)
     s = terrain.radius_scale * truth.radius_scale_on(terrain.name)
     p[_RHO_LF] = truth.left_radius_forward / nominal.left_wheel_radius * s
     p[_RHO_LR] = truth.left_radius_reverse / nominal.left_wheel_radius * s
     p[_RHO_RF] = truth.right_radius_forward / nominal.right_wheel_radius * s
     p[_RHO_RR] = truth.right_radius_reverse / nominal.right_wheel_radius * s
-    p[_TRACK] = truth.track_width
+    coef = DIFF_DRIVE.coefficients(truth.track_width)
+    p[_TRACK] = coef.denominator
+    p[_W_L], p[_W_R], p[_E_L], p[_E_R], p[_LATERAL] = (
+        coef.w_left, coef.w_right, coef.e_left, coef.e_right, coef.lateral,
+    )  # fmt: skip
     p[_TRACK_NOM] = nominal.track_width
     p[_K_L] = truth.k_left * terrain.slip_scale
     p[_K_R] = truth.k_right * terrain.slip_scale
@@ -179,13 +188,12 @@ def kernel_params(truth: TrueParams, nominal: RobotParams, terrain: Terrain) -> 
 
 
 @njit(cache=True, inline="always")
-def _arc(x, y, h, ds, dth):  # type: ignore[no-untyped-def]  # pragma: no cover - compiled
-    if ds == 0.0:
-        return x, y, h + dth
-    u = 0.5 * dth
-    c = ds * (1.0 - u * u / 6.0) if abs(u) < 1e-4 else ds * math.sin(u) / u
-    mid = h + u
-    return x + c * math.cos(mid), y + c * math.sin(mid), h + dth
+def _move(x, y, h, dsl, dsr, p, dth_noise):  # type: ignore[no-untyped-def]  # pragma: no cover
+    """The body's exact arc for true wheel displacements dsl, dsr through the true model."""
+    fwd, side, dth = body_motion(p[14], p[15], p[16], p[17], p[4], p[18], dsl, dsr)
+    dth += dth_noise
+    side = p[18] * dth
+    return step_pose(x, y, h, fwd, side, dth, True)
 
 
 @njit(cache=True, inline="always")
@@ -202,10 +210,10 @@ def _step(x, y, h, dnl, dnr, dt, p, zl, zr, zs):  # type: ignore[no-untyped-def]
         dsl += math.sqrt(p[6] * abs(dsl)) * zl
     if p[7] != 0.0:
         dsr += math.sqrt(p[7] * abs(dsr)) * zr
-    dth = (dsr - dsl) / p[4]
+    noise = 0.0
     if p[8] != 0.0:
-        dth += math.sqrt(p[8] * abs(dnr - dnl) / p[5]) * zs
-    return _arc(x, y, h, 0.5 * (dsl + dsr), dth)
+        noise = math.sqrt(p[8] * abs(dnr - dnl) / p[5]) * zs
+    return _move(x, y, h, dsl, dsr, p, noise)
 
 
 @njit(cache=True, inline="always")
@@ -215,7 +223,7 @@ def _slide(x, y, h, vl, vr, p):  # type: ignore[no-untyped-def]  # pragma: no co
         return x, y, h
     dsl = math.copysign(p[10] * vl * vl, vl)
     dsr = math.copysign(p[10] * vr * vr, vr)
-    return _arc(x, y, h, 0.5 * (dsl + dsr), (dsr - dsl) / p[4])
+    return _move(x, y, h, dsl, dsr, p, 0.0)
 
 
 @njit(cache=True)
@@ -381,7 +389,7 @@ def simulate_batch(
 ) -> BatchResult:
     """Run n scripted trials at once (compiled; no Python loop per trial).
 
-    ``params``: (n, 14) from :func:`kernel_params`. ``seg_*``: (n, s) per-segment wheel tick
+    ``params``: (n, 19) from :func:`kernel_params`. ``seg_*``: (n, s) per-segment wheel tick
     changes (signed integers) and wheel surface speeds (m/s, same signs); ``n_segments``: (n,).
     ``dt`` must divide the report period. A trial whose wheels are told to turn in opposite
     directions on a terrain that cannot turn in place stalls: its counters stand still for

@@ -28,6 +28,12 @@ A protocol file::
     # held = "left"                  # pivot: the track that stands still
     # terrain = "grass"; campaign = "..."; speed = 0.3   (per set overrides)
 
+Size limits, checked while the file is read (before any trial exists) and named with the file
+and the key: at most 10,000 trials and repeats per set, 1,000 values per list or range;
+angles up to 100 pi rad (50 turns), distances up to 1,000 m, square sides up to 250 m, speeds
+from 0.01 to 5 m/s, a report rate from 0.1 to 1,000 Hz and a physics step from 0.1 ms to 1 s.
+Before the run, with the nominal parameters known, no trial may last more than an hour.
+
 Trials are driven "by odometry": each motion is turned into wheel count targets with the
 nominal model (the first count at which the nominal odometry says the target is reached), the
 motor controller stops each wheel on its count, and the true robot does what the ground lets it.
@@ -51,8 +57,9 @@ from odolab.kinematics import wrap_angle
 from odolab.odometry import integrate
 from odolab.params import RobotParams
 from odolab.sim.instruments import Compass, Instruments, Meterstick
-from odolab.sim.physics import TrueParams, kernel_params, simulate_batch
+from odolab.sim.physics import _NPARAM, TrueParams, kernel_params, simulate_batch
 from odolab.sim.terrains import get_terrain
+from odolab.text import quote_input
 from odolab.trajectory import Pose
 from odolab.trials import Command, EncoderLog, Measurement, MotionKind, Trial, TrialStatus
 
@@ -100,6 +107,22 @@ _SET_KEYS = {
     "speed",
 }
 _MOTIONS = ("rotation", "translation", "pivot", "square")
+
+#: Size limits of a protocol (see the module docstring): a typo such as ``repeats = 1000000000``
+#: or ``angle_pi = { from = 1, to = 1e9, step = 1 }`` is one sentence, not an exhausted memory.
+MAX_TRIALS = 10_000
+MAX_REPEATS = 10_000
+MAX_VALUES = 1_000
+MAX_ANGLE_RAD = 100.0 * math.pi
+MAX_DISTANCE_M = 1_000.0
+MAX_SIDE_M = 250.0
+SPEED_RANGE_M_S = (0.01, 5.0)
+REPORT_RATE_RANGE_HZ = (0.1, 1_000.0)
+DT_RANGE_S = (1e-4, 1.0)
+MAX_TRIAL_SECONDS = 3_600.0
+#: Most encoder reports one run may hold (trials x the longest trial's reports): 2 x 8 bytes
+#: each in the simulator's counters, so about 320 MB at most.
+MAX_BATCH_REPORTS = 20_000_000
 _DIRECTIONS = {
     "rotation": ("ccw", "cw"),
     "pivot": ("ccw", "cw"),
@@ -152,32 +175,63 @@ def _check_keys(source: str, where: str, table: dict[str, Any], allowed: set[str
         )
 
 
-def _number(source: str, where: str, value: Any, *, positive: bool = True) -> float:
+def _number(
+    source: str,
+    where: str,
+    value: Any,
+    *,
+    positive: bool = True,
+    within: tuple[float, float] | None = None,
+    unit: str = "",
+) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise _err(source, where, f"expected a number, got {value!r}")
+        raise _err(source, where, f"expected a number, got {quote_input(value)}")
     if positive and value <= 0:
         raise _err(source, where, f"expected a number > 0, got {value!r}")
+    if within is not None and not within[0] <= value <= within[1]:
+        raise _err(
+            source,
+            where,
+            f"{value:g}{unit} is outside the allowed {within[0]:g} to {within[1]:g}{unit}",
+        )
     return float(value)
 
 
-def _values(source: str, where: str, value: Any) -> list[float]:
-    """A number, a list of numbers, or an inclusive range table {from, to, step}; all > 0."""
+def _values(source: str, where: str, value: Any, *, maximum: float, unit: str) -> list[float]:
+    """A number, a list of numbers, or an inclusive range table {from, to, step}; all > 0.
+
+    At most :data:`MAX_VALUES` values, each at most ``maximum``: a range's size is known from
+    its ends, so a range too long is refused before any of its values is made.
+    """
+    limit = (0.0, maximum)
     if isinstance(value, dict):
         extra = sorted(set(value) - {"from", "to", "step"})
         if extra or not {"from", "to", "step"} <= set(value):
             raise _err(source, where, "a range must have exactly the keys from, to, step")
-        lo = _number(source, f"{where}.from", value["from"])
-        hi = _number(source, f"{where}.to", value["to"])
+        lo = _number(source, f"{where}.from", value["from"], within=limit, unit=unit)
+        hi = _number(source, f"{where}.to", value["to"], within=limit, unit=unit)
         step = _number(source, f"{where}.step", value["step"])
         if hi < lo:
             raise _err(source, where, f"range goes down (from {lo} to {hi})")
         count = math.floor((hi - lo) / step + 1e-9) + 1
+        if count > MAX_VALUES:
+            raise _err(
+                source,
+                where,
+                f"the range from {lo:g} to {hi:g} in steps of {step:g} has {count} values; "
+                f"expected at most {MAX_VALUES}",
+            )
         return [lo + i * step for i in range(count)]
     if isinstance(value, list):
         if not value:
             raise _err(source, where, "expected at least one value")
-        return [_number(source, f"{where}[{i}]", v) for i, v in enumerate(value)]
-    return [_number(source, where, value)]
+        if len(value) > MAX_VALUES:
+            raise _err(source, where, f"{len(value)} values; expected at most {MAX_VALUES}")
+        return [
+            _number(source, f"{where}[{i}]", v, within=limit, unit=unit)
+            for i, v in enumerate(value)
+        ]
+    return [_number(source, where, value, within=limit, unit=unit)]
 
 
 def _text(source: str, where: str, value: Any, choices: Sequence[str]) -> str:
@@ -204,7 +258,15 @@ def _parse_set(source: str, index: int, spec: Any, defaults: dict[str, Any]) -> 
         raise _err(source, f"{where} key 'campaign'", "expected a non-empty string")
     repeats = spec.get("repeats", 1)
     if isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1:
-        raise _err(source, f"{where} key 'repeats'", f"expected an integer >= 1, got {repeats!r}")
+        raise _err(
+            source,
+            f"{where} key 'repeats'",
+            f"expected an integer >= 1, got {quote_input(repeats)}",
+        )
+    if repeats > MAX_REPEATS:
+        raise _err(
+            source, f"{where} key 'repeats'", f"{repeats} repeats; expected at most {MAX_REPEATS}"
+        )
     choices = _DIRECTIONS[motion]
     direction = _text(
         source, f"{where} key 'direction'", spec.get("direction", choices[0]), choices
@@ -213,7 +275,13 @@ def _parse_set(source: str, index: int, spec: Any, defaults: dict[str, Any]) -> 
     default_speed = (
         defaults["linear_speed"] if kind is MotionKind.TRANSLATION else defaults["turn_speed"]
     )
-    speed = _number(source, f"{where} key 'speed'", spec.get("speed", default_speed))
+    speed = _number(
+        source,
+        f"{where} key 'speed'",
+        spec.get("speed", default_speed),
+        within=SPEED_RANGE_M_S,
+        unit=" m/s",
+    )
 
     allowed = {
         "rotation": {"angle", "angle_pi"},
@@ -233,20 +301,32 @@ def _parse_set(source: str, index: int, spec: Any, defaults: dict[str, Any]) -> 
         held = None
         if kind is MotionKind.PIVOT:
             held = _text(source, f"{where} key 'held'", spec.get("held", "left"), ("left", "right"))
-        for a in _values(source, f"{where} key {key!r}", spec[key]):
+        most, unit = (MAX_ANGLE_RAD, " rad") if key == "angle" else (MAX_ANGLE_RAD / math.pi, " pi")
+        for a in _values(source, f"{where} key {key!r}", spec[key], maximum=most, unit=unit):
             commands.append(
                 Command(kind, angle=sign * a * scale, direction=held or direction, speed=speed)
             )
     elif kind is MotionKind.TRANSLATION:
         if "distance" not in spec:
             raise _err(source, f"{where} key 'distance'", "missing")
-        for d in _values(source, f"{where} key 'distance'", spec["distance"]):
+        for d in _values(
+            source, f"{where} key 'distance'", spec["distance"], maximum=MAX_DISTANCE_M, unit=" m"
+        ):
             commands.append(Command(kind, distance=sign * d, speed=speed))
     else:
         if "side" not in spec:
             raise _err(source, f"{where} key 'side'", "missing")
-        for s in _values(source, f"{where} key 'side'", spec["side"]):
+        for s in _values(
+            source, f"{where} key 'side'", spec["side"], maximum=MAX_SIDE_M, unit=" m"
+        ):
             commands.append(Command(kind, side=s, direction=direction, speed=speed))
+    if len(commands) * repeats > MAX_TRIALS:
+        raise _err(
+            source,
+            f"{where} key 'repeats'",
+            f"{len(commands)} values x {repeats} repeats = {len(commands) * repeats} trials; "
+            f"expected at most {MAX_TRIALS} in a protocol",
+        )
     return [TrialSpec(c, terrain, campaign) for c in commands for _ in range(repeats)]
 
 
@@ -273,12 +353,28 @@ def parse_protocol(doc: dict[str, Any], source: str = "<protocol>") -> Protocol:
         "terrain": terrain,
         "campaign": campaign,
         "linear_speed": _number(
-            source, "[protocol] key 'linear_speed'", head.get("linear_speed", 0.3)
+            source,
+            "[protocol] key 'linear_speed'",
+            head.get("linear_speed", 0.3),
+            within=SPEED_RANGE_M_S,
+            unit=" m/s",
         ),
-        "turn_speed": _number(source, "[protocol] key 'turn_speed'", head.get("turn_speed", 0.3)),
+        "turn_speed": _number(
+            source,
+            "[protocol] key 'turn_speed'",
+            head.get("turn_speed", 0.3),
+            within=SPEED_RANGE_M_S,
+            unit=" m/s",
+        ),
     }
-    rate = _number(source, "[protocol] key 'report_rate'", head.get("report_rate", 20.0))
-    dt = _number(source, "[protocol] key 'dt'", head.get("dt", 0.025))
+    rate = _number(
+        source,
+        "[protocol] key 'report_rate'",
+        head.get("report_rate", 20.0),
+        within=REPORT_RATE_RANGE_HZ,
+        unit=" Hz",
+    )
+    dt = _number(source, "[protocol] key 'dt'", head.get("dt", 0.025), within=DT_RANGE_S, unit=" s")
     spr = 1.0 / (rate * dt)
     if abs(spr - round(spr)) > 1e-6 or round(spr) < 1:
         raise _err(
@@ -310,6 +406,12 @@ def parse_protocol(doc: dict[str, Any], source: str = "<protocol>") -> Protocol:
     trials: list[TrialSpec] = []
     for i, spec in enumerate(sets):
         trials.extend(_parse_set(source, i, spec, defaults))
+        if len(trials) > MAX_TRIALS:
+            raise _err(
+                source,
+                f"[[trials]] #{i + 1}",
+                f"the protocol has {len(trials)} trials up to here; expected at most {MAX_TRIALS}",
+            )
     desc = head.get("description", "")
     return Protocol(
         name=str(name),
@@ -341,6 +443,11 @@ def load_protocol(name_or_path: str | Path) -> Protocol:
     if path.exists():
         source = str(path)
         try:
+            if path.stat().st_size > 1_000_000:
+                raise SimError(
+                    f"{path}: {path.stat().st_size:,} bytes; a protocol TOML is at most "
+                    "1,000,000 bytes (is it the right file?)"
+                )
             text = path.read_text(encoding="utf-8")
         except (OSError, UnicodeDecodeError) as err:
             raise SimError(f"{path}: cannot read ({err})") from err
@@ -403,6 +510,33 @@ def segments_for(command: Command, nominal: RobotParams) -> list[tuple[int, int,
     raise SimError(f"cannot drive a {kind.value} command by odometry: {command!r}")
 
 
+def _check_run_size(
+    protocol: Protocol, segs: Sequence[list[tuple[int, int, float, float]]], nominal: RobotParams
+) -> None:
+    """Refuse a trial longer than :data:`MAX_TRIAL_SECONDS`, or a run too big for memory."""
+    ml, mr = nominal.left_metres_per_tick, nominal.right_metres_per_tick
+    longest = 0.0
+    for i, ss in enumerate(segs):
+        seconds = sum(
+            max(abs(dl) * ml / abs(vl) if vl else 0.0, abs(dr) * mr / abs(vr) if vr else 0.0)
+            for dl, dr, vl, vr in ss
+        )
+        if seconds > MAX_TRIAL_SECONDS:
+            raise SimError(
+                f"{protocol.source}: trial {i + 1} ({protocol.trials[i].command.describe()}) "
+                f"would last {seconds:.0f} s; expected at most {MAX_TRIAL_SECONDS:.0f} s "
+                "(check its speed, distance and angle)"
+            )
+        longest = max(longest, seconds)
+    reports = len(segs) * (longest * protocol.report_rate + 1)
+    if reports > MAX_BATCH_REPORTS:
+        raise SimError(
+            f"{protocol.source}: {len(segs)} trials of up to {longest:.0f} s at "
+            f"{protocol.report_rate:g} Hz are {reports:.3g} encoder reports; expected at most "
+            f"{MAX_BATCH_REPORTS:.3g} in one run (split the protocol)"
+        )
+
+
 def _pose(t: float, x: float, y: float, h: float) -> Pose:
     return Pose(t, x, y, float(wrap_angle(h)), h)
 
@@ -432,8 +566,9 @@ def run_protocol(
     rng = np.random.default_rng(seed)
     terrains = [terrain or s.terrain for s in specs]
     cache = {name: kernel_params(truth, nominal, get_terrain(name)) for name in set(terrains)}
-    P = np.stack([cache[name] for name in terrains]) if n else np.zeros((0, 14))
+    P = np.stack([cache[name] for name in terrains]) if n else np.zeros((0, _NPARAM))
     segs = [segments_for(s.command, nominal) for s in specs]
+    _check_run_size(protocol, segs, nominal)
     width = max((len(s) for s in segs), default=1)
     arr = np.zeros((4, n, width))
     nseg = np.zeros(n, dtype=np.int64)

@@ -20,6 +20,7 @@ import math
 from dataclasses import dataclass
 
 from odolab.errors import SimError
+from odolab.text import quote_input
 
 __all__ = ["TERRAINS", "Terrain", "get_terrain"]
 
@@ -74,5 +75,6 @@ def get_terrain(terrain: str | Terrain, *, where: str = "terrain") -> Terrain:
         return TERRAINS[str(terrain)]
     except KeyError:
         raise SimError(
-            f"{where}: unknown terrain {terrain!r}; expected one of {', '.join(TERRAINS)}"
+            f"{where}: unknown terrain {quote_input(str(terrain))}; expected one of "
+            f"{', '.join(TERRAINS)}"
         ) from None

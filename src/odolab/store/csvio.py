@@ -62,8 +62,9 @@ from pathlib import Path
 
 from odolab.errors import ParamsError, StoreError
 from odolab.kinematics import wrap_angle
-from odolab.params import RobotParams
-from odolab.store.entry import rotation_measurement_from_compass
+from odolab.params import RobotParams, check_param
+from odolab.store.entry import check_position, rotation_measurement_from_compass
+from odolab.text import quote_input
 from odolab.trajectory import Pose
 from odolab.trials import Command, Measurement, MotionKind, Trial, TrialStatus
 
@@ -125,6 +126,7 @@ REQUIRED = (
 
 _RAW_COLUMNS = ("compass_initial_deg", "compass_final_deg", "turns")
 _PARAM_COLUMNS = ("left_wheel_radius_m", "right_wheel_radius_m", "track_width_m", "ticks_per_rev")
+_PARAM_KEYS = ("left_wheel_radius", "right_wheel_radius", "track_width", "ticks_per_rev")
 _UNITS = {"m", "cm", "mm", "km", "in", "ft", "rad", "deg", "degrees", "s", "ms", "min", "pi"}
 _UNIT_WORDS = {"m": "metres", "rad": "radians", "deg": "degrees", "s": "seconds"}
 _NUM_UNIT = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Za-z°]+)\s*$")
@@ -189,18 +191,21 @@ class _Row:
             m = _NUM_UNIT.match(cell)
             if m is None:
                 what = f"a number in {_UNIT_WORDS.get(unit, unit)}" if unit else "a number"
-                raise self.fail(column, f"{cell!r} is not a number; expected {what}") from None
+                raise self.fail(
+                    column, f"{quote_input(cell)} is not a number; expected {what}"
+                ) from None
             given = m.group(2).replace("°", "deg")
             if given != unit:
                 expected = f"{unit} ({_UNIT_WORDS.get(unit, unit)})" if unit else "no unit"
                 raise self.fail(
-                    column, f"{cell!r} has the wrong unit {given!r}; expected {expected}"
+                    column,
+                    f"{quote_input(cell)} has the wrong unit {quote_input(given)}; expected {expected}",
                 ) from None
             value = float(m.group(1))
         if not math.isfinite(value):
-            raise self.fail(column, f"{cell!r} is not a finite number")
+            raise self.fail(column, f"{quote_input(cell)} is not a finite number")
         if positive and value <= 0:
-            raise self.fail(column, f"{cell!r} must be positive")
+            raise self.fail(column, f"{quote_input(cell)} must be positive")
         return value
 
     def integer(self, column: str, *, minimum: int = 0) -> int | None:
@@ -209,7 +214,8 @@ class _Row:
             return None
         if not value.is_integer() or value < minimum:
             raise self.fail(
-                column, f"{self.cells[column].strip()!r}; expected a whole number >= {minimum}"
+                column,
+                f"{quote_input(self.cells[column].strip())}; expected a whole number >= {minimum}",
             )
         return int(value)
 
@@ -218,7 +224,7 @@ def _check_header(source: str, header: list[str]) -> None:
     seen: set[str] = set()
     for name in header:
         if name in seen:
-            raise StoreError(f"{source}: line 1, column {name!r} appears twice")
+            raise StoreError(f"{source}: line 1, column {quote_input(name)} appears twice")
         seen.add(name)
         if name in COLUMNS or (name.startswith("raw_") and len(name) > 4):
             continue
@@ -227,15 +233,17 @@ def _check_header(source: str, header: list[str]) -> None:
             good = _BASES[split[0]]
             unit = COLUMNS[good] or ""
             raise StoreError(
-                f"{source}: line 1, column {name!r} is in unit {split[1]!r}; expected "
+                f"{source}: line 1, column {quote_input(name)} is in unit {split[1]!r}; expected "
                 f"{good!r} ({_UNIT_WORDS.get(unit, unit)})"
             )
         raise StoreError(
-            f"{source}: line 1, unknown column {name!r}; see docs/notebook.md for the columns"
+            f"{source}: line 1, unknown column {quote_input(name)}; see docs/notebook.md for the columns"
         )
     for name in REQUIRED:
         if name not in seen:
-            raise StoreError(f"{source}: line 1, the required column {name!r} is missing")
+            raise StoreError(
+                f"{source}: line 1, the required column {quote_input(name)} is missing"
+            )
 
 
 def _parse_row(
@@ -248,7 +256,8 @@ def _parse_row(
         kind = MotionKind(str(kind_text))
     except ValueError:
         raise row.fail(
-            "kind", f"{kind_text!r}; expected one of {', '.join(k.value for k in MotionKind)}"
+            "kind",
+            f"{quote_input(kind_text)}; expected one of {', '.join(k.value for k in MotionKind)}",
         ) from None
     angle = row.number("angle_rad")
     command = Command(
@@ -259,6 +268,8 @@ def _parse_row(
         direction=row.text("direction"),
         speed=row.number("speed"),
     )
+    if kind is MotionKind.TRANSLATION and command.distance is None:
+        raise row.fail("distance_m", "missing value (a translation needs its commanded distance)")
     heading = row.number("predicted_heading_rad", required=True)
     assert heading is not None
     theta = row.number("predicted_theta_rad")
@@ -277,6 +288,14 @@ def _parse_row(
     stored = lookup_params(robot, version) if version is not None else None
     values = {c: row.number(c, positive=True) for c in _PARAM_COLUMNS}
     modulus = row.integer("encoder_modulus", minimum=2)
+    # the same plausible ranges as every other way parameters are built (odolab.params)
+    for c, key in (*zip(_PARAM_COLUMNS, _PARAM_KEYS, strict=True), ("encoder_modulus", None)):
+        v = modulus if key is None else values[c]
+        if v is not None:
+            try:
+                check_param(key or "encoder_modulus", v)
+            except ParamsError as err:
+                raise row.fail(c, str(err)) from err
     if any(v is not None for v in values.values()) or stored is None:
         for c, v in values.items():
             if v is None:
@@ -327,6 +346,12 @@ def _parse_row(
     mx, my = row.number("measured_x_m"), row.number("measured_y_m")
     if (mx is None) != (my is None):
         raise row.fail("measured_y_m" if my is None else "measured_x_m", "missing value")
+    for c, v in (("measured_x_m", mx), ("measured_y_m", my)):
+        if v is not None:
+            try:
+                check_position(v, c)  # the range `trials add` and `trials measure` apply
+            except StoreError as err:
+                raise row.fail(c, str(err)) from err
     sigma_rot = row.number("sigma_rotation_rad")
     sigma_xy = row.number("sigma_xy_m")
     for c, v in (("sigma_rotation_rad", sigma_rot), ("sigma_xy_m", sigma_xy)):
@@ -381,7 +406,7 @@ def _parse_row(
         except ValueError:
             raise row.fail(
                 "status",
-                f"{status_text!r}; expected one of {', '.join(s.value for s in TrialStatus)}",
+                f"{quote_input(status_text)}; expected one of {', '.join(s.value for s in TrialStatus)}",
             ) from None
     if status is TrialStatus.EXCLUDED and reason is None:
         raise row.fail("exclusion_reason", "missing value (an excluded trial needs a reason)")
@@ -437,8 +462,11 @@ def read_trials_csv(
     already stored (a row repeating one is an error). ``lookup_params(robot, version)`` gives a
     stored parameter version or None.
     """
+    from odolab.io.limits import check_text_file  # here: odolab.io brings pandas
+
     p = Path(path)
     source = str(p)
+    check_text_file(p, error=StoreError, expected="a trials CSV")
     try:
         fh = p.open(newline="", encoding="utf-8-sig")
     except OSError as err:
@@ -476,15 +504,17 @@ def read_trials_csv(
                 parsed = _parse_row(row, raw_columns, lookup_params)
                 tid = parsed.trial.trial_id
                 if tid in first_line:
-                    raise row.fail("trial_id", f"{tid!r} is a duplicate of line {first_line[tid]}")
+                    raise row.fail(
+                        "trial_id", f"{quote_input(tid)} is a duplicate of line {first_line[tid]}"
+                    )
                 if tid in known_trial_ids:
-                    raise row.fail("trial_id", f"{tid!r} is already in the notebook")
+                    raise row.fail("trial_id", f"{quote_input(tid)} is already in the notebook")
                 first_line[tid] = line
                 camp = parsed.trial.campaign
                 if known_campaigns is not None and camp not in known_campaigns:
                     raise row.fail(
                         "campaign",
-                        f"unknown campaign {camp!r}; add it first (odolab trials campaign-add) "
+                        f"unknown campaign {quote_input(camp)}; add it first (odolab trials campaign-add) "
                         "or import with --create-campaigns",
                     )
                 out.append(parsed)

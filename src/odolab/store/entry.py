@@ -34,6 +34,7 @@ __all__ = [
     "COMPASS_SIGMA_RAD",
     "METERSTICK_SIGMA_M",
     "check_compass_reading",
+    "check_position",
     "check_reading",
     "rotation_from_compass",
     "rotation_measurement_from_compass",
@@ -58,6 +59,20 @@ def check_reading(value: object, name: str) -> float:
         raise StoreError(f"{name} must be a number, got {value!r}") from err
     if not math.isfinite(x):
         raise StoreError(f"{name} must be a finite number, got {value!r}")
+    return x
+
+
+def check_position(value: object, name: str) -> float:
+    """``value`` (m) as a float if it is a measured position within :data:`MAX_POSITION_M`.
+
+    The one range check of a measured x or y: ``trials add``/``measure``, CSV and JSON import.
+    """
+    x = check_reading(value, name)
+    if abs(x) > MAX_POSITION_M:
+        raise StoreError(
+            f"{name} is {x:g} m; a measured position must be within {MAX_POSITION_M:g} m "
+            "(was it typed in cm or mm?)"
+        )
     return x
 
 
@@ -158,17 +173,11 @@ def translation_measurement(
     point farther than ``max(min_tolerance, max_relative_error * |commanded_distance|)`` from
     ``(commanded_distance, 0)`` (a swapped sign, centimetres typed as metres).
     """
-    xv = check_reading(x, "x")
-    yv = check_reading(y, "y")
+    xv = check_position(x, "x")
+    yv = check_position(y, "y")
     s = check_reading(sigma, "sigma")
     if s <= 0:
         raise StoreError(f"sigma must be positive, got {s:g} m")
-    for name, v in (("x", xv), ("y", yv)):
-        if abs(v) > MAX_POSITION_M:
-            raise StoreError(
-                f"{name} is {v:g} m; a meterstick position must be within {MAX_POSITION_M:g} m "
-                "(was it typed in cm or mm?)"
-            )
     if commanded_distance is not None:
         d = check_reading(commanded_distance, "commanded distance")
         tol = max(min_tolerance, max_relative_error * abs(d))

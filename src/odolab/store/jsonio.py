@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from odolab.errors import StoreError
+from odolab.errors import ParamsError, StoreError
 from odolab.store.codec import EncodedLog, decode_log
 from odolab.store.records import PARAMS_FIELDS, TRIAL_COLUMNS
 from odolab.trials import EncoderLog
@@ -103,6 +103,33 @@ def _need(obj: Any, keys: Sequence[str], where: str) -> dict[str, Any]:
     return obj
 
 
+def _check_ranges(doc: NotebookDocument, source: str) -> None:
+    """The range checks every other entry path applies: parameters, measured positions, and a
+    translation's commanded distance (``odolab trials add`` and CSV import refuse the same)."""
+    from odolab.params import check_param
+    from odolab.store.entry import check_position
+
+    for i, pv in enumerate(doc.params_versions):
+        for key in PARAMS_FIELDS:
+            if pv[key] is not None or key != "encoder_modulus":
+                try:
+                    check_param(key, pv[key])
+                except ParamsError as err:
+                    raise StoreError(f"{source}: params_versions[{i}]: {err}") from err
+    for i, rec in enumerate(doc.trials):
+        if rec["kind"] == "translation" and rec["distance"] is None:
+            raise StoreError(
+                f"{source}: trials[{i}]: key 'distance' is null; a translation needs its "
+                "commanded distance (m)"
+            )
+        for key in ("measured_x", "measured_y"):
+            if rec[key] is not None:
+                try:
+                    check_position(rec[key], key)
+                except StoreError as err:
+                    raise StoreError(f"{source}: trials[{i}]: {err}") from err
+
+
 def read_notebook_json(path: str | Path) -> NotebookDocument:
     """Read and shape-check a notebook JSON file (values are checked on import)."""
     p = Path(path)
@@ -126,6 +153,7 @@ def read_notebook_json(path: str | Path) -> NotebookDocument:
             raise StoreError(f"{p}: {key!r} must be a list")
         for i, item in enumerate(items):
             dest.append(_need(item, keys, f"{p}: {key}[{i}]"))
+    _check_ranges(out, str(p))
     for i, rec in enumerate(out.trials):
         log = rec["encoder_log"]
         if log is None:

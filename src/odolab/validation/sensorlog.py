@@ -170,6 +170,9 @@ class _Table:
         self.path = path
         if not path.exists():
             raise ImuLogError(f"{path}: no such file")
+        from odolab.io.limits import check_text_file  # (SensorLog repeats unused names)
+
+        check_text_file(path, error=ImuLogError, expected="a SensorLog CSV")
         try:
             with path.open(newline="", encoding="utf-8-sig") as fh:
                 first = fh.readline()

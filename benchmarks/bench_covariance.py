@@ -1,0 +1,68 @@
+"""Cost of the propagated covariance, against the odometry without it, measured in the same run.
+
+Prints the time of ``integrate`` (poses only) and of ``integrate`` + ``covariance_from_ticks``
+(poses and the six covariance terms per sample) on the same 10 million samples, and the ratio
+(the issue's target: within 2x). Also the streaming cost per update with and without covariance.
+
+Usage: python benchmarks/bench_covariance.py [--samples N] [--repeats R]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from odolab import PRESETS, Odometry, integrate
+from odolab.params import NoiseParams
+from odolab.uncertainty import covariance_from_ticks
+
+
+def best(fn, repeats: int) -> float:  # type: ignore[no-untyped-def]
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--samples", type=int, default=10_000_000)
+    ap.add_argument("--repeats", type=int, default=3)
+    args = ap.parse_args()
+    n = args.samples
+    params = PRESETS["jaguar-lite"].with_(noise=NoiseParams(1e-4, 2e-4, k_scrub=0.01))
+    rng = np.random.default_rng(0)
+    left = np.cumsum(rng.integers(-10, 40, n)) % params.encoder_modulus
+    right = np.cumsum(rng.integers(-10, 40, n)) % params.encoder_modulus
+    t = np.arange(n) * 0.05
+    integrate(t[:1000], left[:1000], right[:1000], params)  # compile or load the caches
+    covariance_from_ticks(left[:1000], right[:1000], params)
+
+    plain = best(lambda: integrate(t, left, right, params), args.repeats)
+
+    def with_cov() -> None:
+        integrate(t, left, right, params)
+        covariance_from_ticks(left, right, params)
+
+    both = best(with_cov, args.repeats)
+    print(f"samples                      {n:,}")
+    print(f"integrate (poses)            {plain:.3f} s")
+    print(f"integrate + covariance       {both:.3f} s")
+    print(f"ratio with/without           {both / plain:.2f}x   (target <= 2x)")
+
+    m = 20_000
+    for cov in (False, True):
+        odo = Odometry(params, covariance=cov)
+        t0 = time.perf_counter()
+        for i in range(m):
+            odo.update(0.05 * i, int(left[i]), int(right[i]))
+        per = (time.perf_counter() - t0) / m
+        print(f"streaming update, covariance={cov!s:5}  {per * 1e6:.1f} us")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,42 @@
+"""Keep a calibration in the lab notebook: a new parameter version with its source trials.
+
+Shared by ``odolab calibrate ... --db`` and ``odolab serve`` (its calibration page).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Literal
+
+from odolab.trials import MotionKind, TrialStatus
+
+if TYPE_CHECKING:
+    from odolab.calibration.ratios import CalibrationResult
+    from odolab.params import RobotParams
+    from odolab.store import Notebook
+
+__all__ = ["record_calibration"]
+
+
+def record_calibration(
+    nb: Notebook,
+    result: CalibrationResult,
+    base: RobotParams,
+    *,
+    trials: Literal["all", "squares"] | None,
+) -> int:
+    """Add ``result`` as a new version of ``base``'s robot; return the version number.
+
+    ``trials`` names the measured trials it comes from: every one (``"all"``), the UMBmark
+    squares (``"squares"``) or none (ratios typed by hand).
+    """
+    used = [
+        t.trial_id
+        for t in nb.load_trials(status=TrialStatus.MEASURED, with_logs=False)
+        if trials == "all" or (trials == "squares" and t.command.kind is MotionKind.SQUARE)
+    ]
+    return nb.add_params_version(
+        result.params.with_(name=base.name),
+        method=result.method,
+        source_trials=used,
+        notes=str(result.provenance.get("source", "")),
+    )

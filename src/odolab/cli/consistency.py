@@ -1,0 +1,112 @@
+"""CLI: ``odolab calibrate noise`` and the ``--nees`` part of ``odolab evaluate``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated, Any
+
+import typer
+
+from odolab.cli._apps import calibrate_app
+from odolab.cli.core import MethodChoice
+from odolab.cli.evaluate import RunFormat
+
+if TYPE_CHECKING:
+    from odolab.io.run import OdometryRun
+    from odolab.params import RobotParams
+
+__all__ = ["print_nees"]
+
+
+def _runs(paths: list[Path], fmt: str, robot: RobotParams | None) -> list[OdometryRun]:
+    from odolab.io.registry import find_runs, read_run
+    from odolab.io.run import ReadOptions
+
+    ro = ReadOptions(ticks_per_rev=robot.ticks_per_rev) if robot else ReadOptions()
+    return [read_run(p, fmt, ro) for p in find_runs(paths, fmt)]
+
+
+def print_nees(
+    paths: list[Path],
+    fmt: str,
+    robot: RobotParams | None,
+    method: str,
+    segment: float,
+) -> dict[str, Any]:
+    """NEES of every run (pieces of ``segment`` s) against its ground truth; prints a table and
+    the verdict, returns the JSON-ready numbers."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from odolab.errors import ParamsError
+    from odolab.metrics.consistency import nees_summary, run_nees
+
+    results = []
+    for run in _runs(paths, fmt, robot):
+        p = robot or run.params
+        if p is None or p.noise is None:
+            raise ParamsError(
+                f"{run.source}: NEES needs the parameters' [noise] (k_left, k_right); give "
+                "--params with a [noise] table (e.g. from `odolab calibrate noise`)"
+            )
+        results.append(run_nees(run, p, method, segment_s=segment))
+    summary = nees_summary(results)
+    table = Table(title=f"NEES of odometry vs ground truth, pieces of {segment:g} s (dof 3)")
+    for col in ("run", "pieces", "mean NEES", "gt yaw offset (rad)"):
+        table.add_column(col, justify="right")
+    for r in results:
+        mean = f"{float(r.nees.mean()):.3g}" if r.nees.size else "-"
+        table.add_row(r.name, str(r.nees.size), mean, f"{r.gt_yaw_offset:.4f}")
+    console = Console()
+    console.print(table)
+    lo, hi = summary.mean_bounds95
+    console.print(
+        f"mean NEES {summary.mean:.3g} over {summary.n} pieces; 95 % bounds [{lo:.3g}, {hi:.3g}]; "
+        f"{100 * summary.fraction_inside:.1f} % of pieces inside their own 95 % bounds: "
+        f"covariance {summary.verdict}",
+        markup=False,
+        highlight=False,
+    )
+    return {"summary": summary.to_dict(), "runs": [r.to_dict() for r in results]}
+
+
+@calibrate_app.command("noise")
+def calibrate_noise_cmd(
+    runs: Annotated[list[Path], typer.Argument(help="Runs (files or folders) with ground truth.")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")],
+    fmt: Annotated[RunFormat, typer.Option("--format", "-f", help="Run format.")] = (
+        RunFormat.optiodom
+    ),
+    params: Annotated[
+        str | None, typer.Option("--params", "-p", help="Parameters (default: the runs' own).")
+    ] = None,
+    method: Annotated[MethodChoice, typer.Option(help="Pose step rule.")] = MethodChoice.midpoint,
+    segment: Annotated[float, typer.Option(help="Piece length (s) of the NEES.")] = 10.0,
+) -> None:
+    """Fit the [noise] table to runs with ground truth (mean NEES = 3); judge it held-out."""
+    from odolab.errors import OdolabError
+    from odolab.metrics.consistency import fit_noise_scale
+    from odolab.params import load_params, save_params
+
+    robot = load_params(params) if params else None
+    found = _runs(runs, fmt.value, robot)
+    base = robot or found[0].params
+    if base is None:
+        raise OdolabError("the runs carry no parameters; give --params")
+    noise = fit_noise_scale(found, base, method.value, segment_s=segment)
+    new = base.with_(noise=noise)
+    save_params(
+        new,
+        output,
+        provenance={
+            "method": "noise from ground truth",
+            "runs": len(found),
+            "segment_s": segment,
+            "rule": "k scaled so that the mean NEES of the runs' pieces is 3 (its expectation)",
+        },
+    )
+    typer.echo(
+        f"[noise] k_left = {noise.k_left!r} m, k_right = {noise.k_right!r} m from {len(found)} "
+        f"runs -> {output}; check it on held-out runs: odolab evaluate RUNS --format {fmt.value} "
+        f"--params {output} --nees"
+    )

@@ -1,0 +1,384 @@
+"""Runs as ROS 2 MCAP files that Foxglove, PlotJuggler, Rerun, ``ros2 bag`` and rosbags open.
+
+Topics (ROS 2 message types, CDR-encoded, written with the ``mcap`` and ``mcap-ros2-support``
+packages; message definitions from rosbags' ROS 2 Humble type store):
+
+* ``/odom`` - ``nav_msgs/msg/Odometry``: the odometry pose (yaw as a quaternion about z), its
+  propagated covariance (x, y, yaw rows/columns of the 6x6; z, roll, pitch get
+  :data:`UNOBSERVED`), the body twist from consecutive poses and its covariance from ``[noise]``;
+* ``/joint_states`` - ``sensor_msgs/msg/JointState``: the wheel angles (rad, unwrapped counters x
+  2 pi / ticks_per_rev) and speeds;
+* ``/ground_truth`` - ``geometry_msgs/msg/PoseStamped``: where the run has ground truth;
+* ``/tf`` - ``tf2_msgs/msg/TFMessage``: ``odom -> base_link`` at every pose.
+
+Stamps: the run's own times (seconds since its start, or whatever clock the log used) plus an
+optional ``start_time`` offset.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from odolab.errors import LogFormatError, OdolabError
+from odolab.export.ros2_controller import UNOBSERVED
+from odolab.kinematics import Method
+from odolab.params import RobotParams
+from odolab.trajectory import Trajectory
+
+if TYPE_CHECKING:
+    from odolab.io.run import OdometryRun
+    from odolab.store import Notebook
+
+__all__ = [
+    "TOPICS",
+    "OdometryStream",
+    "stream_from_campaign",
+    "stream_from_encoder_log",
+    "stream_from_run",
+    "stream_from_trajectories",
+    "write_mcap",
+]
+
+#: topic -> ROS 2 message type
+TOPICS = {
+    "/odom": "nav_msgs/msg/Odometry",
+    "/joint_states": "sensor_msgs/msg/JointState",
+    "/ground_truth": "geometry_msgs/msg/PoseStamped",
+    "/tf": "tf2_msgs/msg/TFMessage",
+}
+
+
+@dataclass(frozen=True, eq=False)
+class OdometryStream:
+    """Everything one MCAP holds for one run (arrays of n samples, SI units).
+
+    ``covariance``: (n, 6) in :data:`odolab.uncertainty.COV_COLUMNS` or None (written as zeros);
+    ``twist_variance``: (n, 2) variances of the forward speed and the yaw rate, or None;
+    ``wheel_angles``: (n, 2) left, right (rad) or None; ``ground_truth``: any stamps, or None."""
+
+    odometry: Trajectory
+    covariance: NDArray[np.float64] | None = None
+    twist_variance: NDArray[np.float64] | None = None
+    wheel_angles: NDArray[np.float64] | None = None
+    ground_truth: Trajectory | None = None
+    joint_names: tuple[str, str] = ("left_wheel_joint", "right_wheel_joint")
+    segments: list[tuple[float, str]] = field(default_factory=list)
+
+
+def _stamp(t: float) -> dict[str, int]:
+    sec = math.floor(t)
+    nanosec = round((t - sec) * 1e9)
+    if nanosec >= 1_000_000_000:
+        sec += 1
+        nanosec -= 1_000_000_000
+    return {"sec": int(sec), "nanosec": int(nanosec)}
+
+
+def _header(t: float, frame: str) -> dict[str, Any]:
+    return {"stamp": _stamp(t), "frame_id": frame}
+
+
+def _quat(yaw: float) -> dict[str, float]:
+    return {"x": 0.0, "y": 0.0, "z": math.sin(0.5 * yaw), "w": math.cos(0.5 * yaw)}
+
+
+def _cov36(terms: NDArray[np.float64] | None) -> list[float]:
+    c = [0.0] * 36
+    for i in (2, 3, 4):
+        c[i * 6 + i] = UNOBSERVED
+    if terms is None:
+        return c
+    xx, xy, xh, yy, yh, hh = (float(v) for v in terms)
+    c[0], c[1], c[5] = xx, xy, xh
+    c[6], c[7], c[11] = xy, yy, yh
+    c[30], c[31], c[35] = xh, yh, hh
+    return c
+
+
+def _twist_cov(var: NDArray[np.float64] | None) -> list[float]:
+    c = [0.0] * 36
+    for i in (2, 3, 4):
+        c[i * 6 + i] = UNOBSERVED
+    if var is not None:
+        c[0] = c[7] = float(var[0])
+        c[35] = float(var[1])
+    return c
+
+
+def _body_twist(traj: Trajectory) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    n = len(traj)
+    vx = np.zeros(n)
+    wz = np.zeros(n)
+    if n > 1:
+        dt = np.diff(traj.t)
+        ok = dt > 0
+        safe = np.where(ok, dt, 1.0)
+        dx, dy = np.diff(traj.x), np.diff(traj.y)
+        h = traj.heading[:-1]
+        vx[1:] = np.where(ok, (dx * np.cos(h) + dy * np.sin(h)) / safe, 0.0)
+        wz[1:] = np.where(ok, np.diff(traj.heading) / safe, 0.0)
+    return vx, wz
+
+
+def _messages(
+    stream: OdometryStream, start_time: float, odom_frame: str, base_frame: str
+) -> Iterator[tuple[str, float, dict[str, Any]]]:
+    traj = stream.odometry
+    vx, wz = _body_twist(traj)
+    speeds = None
+    if stream.wheel_angles is not None:
+        speeds = np.zeros_like(stream.wheel_angles)
+        if len(traj) > 1:
+            dt = np.diff(traj.t)[:, None]
+            speeds[1:] = np.where(
+                dt > 0, np.diff(stream.wheel_angles, axis=0) / np.where(dt > 0, dt, 1), 0
+            )
+    for i in range(len(traj)):
+        t = float(traj.t[i]) + start_time
+        pose = {
+            "position": {"x": float(traj.x[i]), "y": float(traj.y[i]), "z": 0.0},
+            "orientation": _quat(float(traj.heading[i])),
+        }
+        cov = None if stream.covariance is None else stream.covariance[i]
+        tvar = None if stream.twist_variance is None else stream.twist_variance[i]
+        yield (
+            "/odom",
+            t,
+            {
+                "header": _header(t, odom_frame),
+                "child_frame_id": base_frame,
+                "pose": {"pose": pose, "covariance": _cov36(cov)},
+                "twist": {
+                    "twist": {
+                        "linear": {"x": float(vx[i]), "y": 0.0, "z": 0.0},
+                        "angular": {"x": 0.0, "y": 0.0, "z": float(wz[i])},
+                    },
+                    "covariance": _twist_cov(tvar),
+                },
+            },
+        )
+        yield (
+            "/tf",
+            t,
+            {
+                "transforms": [
+                    {
+                        "header": _header(t, odom_frame),
+                        "child_frame_id": base_frame,
+                        "transform": {
+                            "translation": {"x": float(traj.x[i]), "y": float(traj.y[i]), "z": 0.0},
+                            "rotation": _quat(float(traj.heading[i])),
+                        },
+                    }
+                ]
+            },
+        )
+        if stream.wheel_angles is not None and speeds is not None:
+            yield (
+                "/joint_states",
+                t,
+                {
+                    "header": _header(t, base_frame),
+                    "name": list(stream.joint_names),
+                    "position": [float(v) for v in stream.wheel_angles[i]],
+                    "velocity": [float(v) for v in speeds[i]],
+                    "effort": [],
+                },
+            )
+    gt = stream.ground_truth
+    if gt is not None:
+        for i in range(len(gt)):
+            t = float(gt.t[i]) + start_time
+            yield (
+                "/ground_truth",
+                t,
+                {
+                    "header": _header(t, odom_frame),
+                    "pose": {
+                        "position": {"x": float(gt.x[i]), "y": float(gt.y[i]), "z": 0.0},
+                        "orientation": _quat(float(gt.heading[i])),
+                    },
+                },
+            )
+
+
+def write_mcap(
+    path: str | Path,
+    stream: OdometryStream,
+    *,
+    start_time: float = 0.0,
+    odom_frame: str = "odom",
+    base_frame: str = "base_link",
+) -> dict[str, int]:
+    """Write ``stream`` as a ROS 2 MCAP file; returns the message count per topic."""
+    from mcap.writer import CompressionType
+    from mcap_ros2.writer import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    if not math.isfinite(start_time) or start_time < 0:
+        raise OdolabError(f"start time is {start_time!r}; expected a number of seconds >= 0")
+    p = Path(path)
+    if p.is_dir():
+        raise OdolabError(f"{p}: is a folder; expected an .mcap file name")
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    counts = dict.fromkeys(TOPICS, 0)
+    # sort by time (ground truth interleaved with odometry), stable within a stamp
+    msgs = sorted(_messages(stream, start_time, odom_frame, base_frame), key=lambda m: m[1])
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        with p.open("wb") as fh:
+            writer = Writer(fh, compression=CompressionType.LZ4)
+            schemas = {}
+            for topic, msgtype in TOPICS.items():
+                text, _ = store.generate_msgdef(msgtype, ros_version=2)
+                schemas[topic] = writer.register_msgdef(msgtype, text)
+            for topic, t, msg in msgs:
+                ns = round(t * 1e9)
+                writer.write_message(topic, schemas[topic], msg, log_time=ns, publish_time=ns)
+                counts[topic] += 1
+            writer.finish()  # type: ignore[no-untyped-call]
+    except OSError as err:
+        raise OdolabError(f"{p}: cannot write the MCAP file ({err.strerror or err})") from err
+    return {k: v for k, v in counts.items() if v}
+
+
+def stream_from_encoder_log(
+    t: NDArray[np.float64],
+    left_ticks: NDArray[np.int64],
+    right_ticks: NDArray[np.int64],
+    params: RobotParams,
+    method: Method | str = Method.MIDPOINT,
+    *,
+    ground_truth: Trajectory | None = None,
+    source: str = "encoder log",
+) -> OdometryStream:
+    """Odometry, its covariance (when ``params.noise`` is known) and wheel angles from counters."""
+    from odolab.encoders import unwrap_ticks
+    from odolab.odometry import integrate
+    from odolab.uncertainty import covariance_from_ticks
+
+    traj = integrate(t, left_ticks, right_ticks, params, method, source=source)
+    cov = twist = None
+    if params.noise is not None:
+        cov = covariance_from_ticks(left_ticks, right_ticks, params, method)
+        twist = _twist_variance(traj, left_ticks, right_ticks, params)
+    m = params.encoder_modulus
+    ul = unwrap_ticks(left_ticks, m, name="left_ticks")
+    ur = unwrap_ticks(right_ticks, m, name="right_ticks")
+    scale = 2.0 * math.pi / params.ticks_per_rev
+    angles = np.stack([(ul - ul[0]) * scale, (ur - ur[0]) * scale], axis=1)
+    return OdometryStream(traj, cov, twist, angles, ground_truth)
+
+
+def _twist_variance(
+    traj: Trajectory, left: NDArray[np.int64], right: NDArray[np.int64], params: RobotParams
+) -> NDArray[np.float64]:
+    """Per-sample variances of the forward speed and yaw rate from ``[noise]`` (see ros2 docs)."""
+    from odolab.encoders import unwrap_ticks
+
+    assert params.noise is not None
+    n = len(traj)
+    out = np.zeros((n, 2))
+    if n < 2:
+        return out
+    m = params.encoder_modulus
+    dsl = np.abs(np.diff(unwrap_ticks(left, m))) * params.left_metres_per_tick
+    dsr = np.abs(np.diff(unwrap_ticks(right, m))) * params.right_metres_per_tick
+    dt = np.diff(traj.t)
+    ok = dt > 0
+    dt2 = np.where(ok, dt * dt, 1.0)
+    var_l = params.noise.k_left * dsl / dt2
+    var_r = params.noise.k_right * dsr / dt2
+    c = params.coefficients
+    out[1:, 0] = np.where(ok, c.w_left**2 * var_l + c.w_right**2 * var_r, 0.0)
+    out[1:, 1] = np.where(ok, (c.e_left**2 * var_l + c.e_right**2 * var_r) / c.denominator**2, 0.0)
+    return out
+
+
+def stream_from_trajectories(
+    estimate: Trajectory, ground_truth: Trajectory | None = None
+) -> OdometryStream:
+    """An evaluation (estimate and ground truth trajectories) as a stream (no covariance)."""
+    if len(estimate) == 0:
+        raise LogFormatError("the estimate has no poses")
+    return OdometryStream(estimate, ground_truth=ground_truth)
+
+
+def stream_from_run(
+    run: OdometryRun, params: RobotParams | None = None, method: Method | str = Method.MIDPOINT
+) -> OdometryStream:
+    """A recorded run (increments, optional ground truth) with ``params`` (default its own)."""
+    from odolab.odometry import integrate_increments
+    from odolab.uncertainty import propagate_covariance
+
+    p = params or run.params
+    if p is None:
+        raise OdolabError(f"{run.source}: the run carries no parameters; give --params")
+    traj = integrate_increments(run.t, run.dticks_left, run.dticks_right, p, method)
+    cov = None
+    if p.noise is not None:
+        cov = propagate_covariance(run.dticks_left, run.dticks_right, p, method)
+    dl = np.asarray(run.dticks_left, dtype=np.float64).copy()
+    dr = np.asarray(run.dticks_right, dtype=np.float64).copy()
+    dl[0] = dr[0] = 0.0
+    scale = 2.0 * math.pi / p.ticks_per_rev
+    angles = np.stack([np.cumsum(dl) * scale, np.cumsum(dr) * scale], axis=1)
+    return OdometryStream(traj, cov, None, angles, run.ground_truth)
+
+
+def stream_from_campaign(
+    notebook: Notebook,
+    campaign: str,
+    params: RobotParams | None = None,
+    method: Method | str = Method.MIDPOINT,
+    *,
+    gap: float = 1.0,
+) -> OdometryStream:
+    """Every recorded trial of ``campaign``, one after the other (each from the origin, ``gap``
+    seconds apart), with its own parameters unless ``params`` is given."""
+    trials = [tr for tr in notebook.load_trials(campaign=campaign) if tr.encoder_log is not None]
+    if not trials:
+        raise OdolabError(
+            f"campaign {campaign!r} has no trial with an encoder log in {notebook.path}"
+        )
+    parts: list[OdometryStream] = []
+    offset = 0.0
+    marks: list[tuple[float, str]] = []
+    for tr in trials:
+        log = tr.encoder_log
+        assert log is not None
+        p = params or tr.params
+        t = np.asarray(log.t, dtype=np.float64)
+        s = stream_from_encoder_log(
+            t - t[0] + offset, log.left_ticks, log.right_ticks, p, method, source=tr.trial_id
+        )
+        parts.append(s)
+        marks.append((offset, tr.trial_id))
+        offset = float(s.odometry.t[-1]) + gap
+    cat = np.concatenate
+
+    def opt(arrays: list[NDArray[np.float64] | None]) -> NDArray[np.float64] | None:
+        return None if any(a is None for a in arrays) else cat([a for a in arrays if a is not None])
+
+    traj = Trajectory(
+        cat([s.odometry.t for s in parts]),
+        cat([s.odometry.x for s in parts]),
+        cat([s.odometry.y for s in parts]),
+        cat([s.odometry.theta for s in parts]),
+        cat([s.odometry.heading for s in parts]),
+    )
+    return OdometryStream(
+        traj,
+        opt([s.covariance for s in parts]),
+        opt([s.twist_variance for s in parts]),
+        opt([s.wheel_angles for s in parts]),
+        None,
+        segments=marks,
+    )

@@ -1,0 +1,233 @@
+"""The server's guard: host check, access token, body size limit, session cookie, headers.
+
+One pure ASGI middleware, outermost, so nothing reaches a page or the API without passing it:
+
+- **Host**: bound to loopback, only requests addressed to ``127.0.0.1``, ``localhost`` or
+  ``[::1]`` are served (a page on another site cannot reach the notebook by DNS rebinding).
+- **Token**: with a token (any bind that is not loopback), every request must carry it: the
+  ``?token=`` query once (answered by a redirect that sets an HttpOnly, SameSite=Strict cookie
+  and drops the token from the address), the cookie, or an ``Authorization: Bearer`` /
+  ``X-Odolab-Token`` header. Anything else gets 401.
+- **Body size**: a request body larger than ``max_body`` bytes is refused with 413, whether it
+  says so in ``Content-Length`` or not.
+- **Session**: a random ``odolab_session`` cookie (HttpOnly, SameSite=Strict) keys the CSRF token
+  that every form carries (:func:`csrf_token`, :func:`csrf_ok`).
+- **Headers**: a Content-Security-Policy without scripts, no framing, no sniffing, no referrer.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import hmac
+import json
+import secrets
+from http.cookies import SimpleCookie
+from typing import Any
+from urllib.parse import parse_qsl, urlencode
+
+from starlette.datastructures import Headers
+from starlette.exceptions import HTTPException
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+__all__ = [
+    "LOOPBACK_HOSTS",
+    "SESSION_COOKIE",
+    "TOKEN_COOKIE",
+    "Guard",
+    "csrf_ok",
+    "csrf_token",
+    "make_token",
+]
+
+TOKEN_COOKIE = "odolab_token"
+SESSION_COOKIE = "odolab_session"
+#: Host names a loopback-bound server answers to.
+LOOPBACK_HOSTS = frozenset({"127.0.0.1", "localhost", "::1"})
+
+_SECURITY_HEADERS = [
+    (
+        b"content-security-policy",
+        b"default-src 'none'; img-src 'self' data:; style-src 'unsafe-inline'; "
+        b"form-action 'self'; base-uri 'none'; frame-ancestors 'none'",
+    ),
+    (b"x-content-type-options", b"nosniff"),
+    (b"x-frame-options", b"DENY"),
+    (b"referrer-policy", b"no-referrer"),
+    (b"cache-control", b"no-store"),
+]
+
+
+def make_token() -> str:
+    """A new random access token (32 bytes, URL-safe)."""
+    return secrets.token_urlsafe(32)
+
+
+def csrf_token(secret: bytes, session: str) -> str:
+    """The CSRF token of a session: HMAC-SHA256 of the session id under the server's secret."""
+    return hmac.new(secret, session.encode("utf-8"), hashlib.sha256).hexdigest()
+
+
+def csrf_ok(secret: bytes, session: str | None, given: object) -> bool:
+    """True when ``given`` is the CSRF token of ``session``."""
+    if not session or not isinstance(given, str) or not given:
+        return False
+    return hmac.compare_digest(csrf_token(secret, session).encode(), given.encode("utf-8"))
+
+
+def _host_name(host_header: str) -> str:
+    host = host_header.strip().lower()
+    if host.startswith("["):  # [::1]:8000
+        return host[1 : host.find("]")] if "]" in host else host
+    return host.rsplit(":", 1)[0] if host.count(":") == 1 else host
+
+
+def _cookie(name: str, value: str) -> bytes:
+    return f"{name}={value}; Path=/; HttpOnly; SameSite=Strict".encode("latin-1")
+
+
+class Guard:
+    """ASGI middleware: see the module docstring."""
+
+    def __init__(
+        self,
+        app: ASGIApp,
+        *,
+        token: str | None,
+        allowed_hosts: frozenset[str] | None,
+        max_body: int,
+    ) -> None:
+        self.app = app
+        self.token = token
+        self.allowed_hosts = allowed_hosts
+        self.max_body = max_body
+
+    async def _reply(
+        self, send: Send, status: int, text: str, *, api: bool, extra: list[tuple[bytes, bytes]]
+    ) -> None:
+        if api:
+            body = json.dumps({"error": text}).encode()
+            ctype = b"application/json"
+        else:
+            body = text.encode("utf-8")
+            ctype = b"text/plain; charset=utf-8"
+        headers = [(b"content-type", ctype), (b"content-length", str(len(body)).encode())]
+        await send(
+            {
+                "type": "http.response.start",
+                "status": status,
+                "headers": headers + _SECURITY_HEADERS + extra,
+            }
+        )
+        await send({"type": "http.response.body", "body": body})
+
+    def _token_ok(self, given: str | None) -> bool:
+        assert self.token is not None
+        return bool(given) and hmac.compare_digest(
+            given.encode("utf-8"),  # type: ignore[union-attr]
+            self.token.encode("utf-8"),
+        )
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        headers = Headers(scope=scope)
+        path: str = scope.get("path", "")
+        api = path.startswith("/api/")
+        if self.allowed_hosts is not None:
+            host = _host_name(headers.get("host", ""))
+            if host not in self.allowed_hosts:
+                await self._reply(
+                    send,
+                    400,
+                    f"this odolab server answers only to {', '.join(sorted(self.allowed_hosts))}",
+                    api=api,
+                    extra=[],
+                )
+                return
+        cookies: dict[str, str] = {}
+        if "cookie" in headers:
+            jar: SimpleCookie = SimpleCookie()
+            try:
+                jar.load(headers["cookie"])
+            except Exception:  # a malformed cookie header is treated as no cookie
+                jar = SimpleCookie()
+            cookies = {k: v.value for k, v in jar.items()}
+        if self.token is not None:
+            query = parse_qsl(scope.get("query_string", b"").decode("latin-1"), True)
+            in_query = [v for k, v in query if k == "token"]
+            if in_query:
+                if not self._token_ok(in_query[-1]):
+                    await self._reply(send, 401, "wrong token", api=api, extra=[])
+                    return
+                rest = urlencode([(k, v) for k, v in query if k != "token"])
+                location = path + (f"?{rest}" if rest else "")
+                await self._reply(
+                    send,
+                    303,
+                    "token accepted",
+                    api=api,
+                    extra=[
+                        (b"location", location.encode("utf-8")),
+                        (b"set-cookie", _cookie(TOKEN_COOKIE, self.token)),
+                    ],
+                )
+                return
+            auth = headers.get("authorization", "")
+            given = (
+                auth[7:].strip()
+                if auth.lower().startswith("bearer ")
+                else headers.get("x-odolab-token") or cookies.get(TOKEN_COOKIE)
+            )
+            if not self._token_ok(given):
+                await self._reply(
+                    send,
+                    401,
+                    "this odolab server needs its token: open the address that `odolab serve` "
+                    "printed (it ends in ?token=...)",
+                    api=api,
+                    extra=[(b"www-authenticate", b"Bearer")],
+                )
+                return
+        length = headers.get("content-length")
+        if length is not None:
+            try:
+                too_big = int(length) > self.max_body
+            except ValueError:
+                too_big = True
+            if too_big:
+                await self._reply(
+                    send,
+                    413,
+                    f"the request is larger than {self.max_body} bytes",
+                    api=api,
+                    extra=[],
+                )
+                return
+        session = cookies.get(SESSION_COOKIE, "")
+        new_session = None
+        if len(session) < 32 or not session.replace("-", "").replace("_", "").isalnum():
+            session = new_session = secrets.token_urlsafe(32)
+        state: dict[str, Any] = scope.setdefault("state", {})
+        state["session"] = session
+        received = 0
+        limit = self.max_body
+
+        async def limited_receive() -> Message:
+            nonlocal received
+            message = await receive()
+            if message["type"] == "http.request":
+                received += len(message.get("body", b""))
+                if received > limit:
+                    raise HTTPException(413, f"the request is larger than {limit} bytes")
+            return message
+
+        async def guarded_send(message: Message) -> None:
+            if message["type"] == "http.response.start":
+                extra = list(_SECURITY_HEADERS)
+                if new_session is not None:
+                    extra.append((b"set-cookie", _cookie(SESSION_COOKIE, new_session)))
+                message = {**message, "headers": [*message.get("headers", []), *extra]}
+            await send(message)
+
+        await self.app(scope, limited_receive, guarded_send)

@@ -1,0 +1,118 @@
+"""Running the application: bind a socket, serve until stopped (uvicorn), in the foreground or
+in a thread (tests, scripts)."""
+
+from __future__ import annotations
+
+import ipaddress
+import socket
+import threading
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+from odolab.errors import OdolabError
+from odolab.serve.app import ServeSettings, create_app
+from odolab.serve.security import make_token
+
+__all__ = ["ServerInfo", "bind", "is_loopback", "run_in_thread", "serve", "settings_for"]
+
+
+def is_loopback(host: str) -> bool:
+    """True for ``localhost`` and loopback addresses (127.0.0.0/8, ::1)."""
+    if host.strip().lower() == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        return False
+
+
+def settings_for(db: str | Path, host: str) -> ServeSettings:
+    """Settings for a server bound to ``host``: a random token unless it is loopback."""
+    if is_loopback(host):
+        return ServeSettings(db=Path(db))
+    return ServeSettings(db=Path(db), token=make_token(), allowed_hosts=None)
+
+
+def bind(host: str, port: int) -> socket.socket:
+    """A listening TCP socket on ``host:port`` (port 0: any free one)."""
+    if not 0 <= port <= 65535:
+        raise OdolabError(f"--port is {port}; expected 0..65535")
+    family = socket.AF_INET6 if ":" in host.strip("[]") else socket.AF_INET
+    sock = socket.socket(family, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    # accepted connections inherit it: without it a response sent as headers then body waits
+    # for the client's delayed ACK (Nagle), about 40 ms a request
+    sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+    try:
+        sock.bind((host.strip("[]"), port))
+    except OSError as err:
+        sock.close()
+        raise OdolabError(f"cannot listen on {host}:{port} ({err.strerror or err})") from err
+    sock.listen(64)
+    sock.set_inheritable(True)
+    return sock
+
+
+class ServerInfo:
+    """Where a running server is: ``url`` (to open; with ``?token=`` when one is needed)."""
+
+    def __init__(self, sock: socket.socket, settings: ServeSettings) -> None:
+        host, port = sock.getsockname()[:2]
+        if host in ("0.0.0.0", "::"):  # every address: name this computer, as Jupyter does
+            host = socket.gethostname()
+        shown = f"[{host}]" if ":" in host else host
+        self.port: int = port
+        self.base_url = f"http://{shown}:{port}"
+        self.token = settings.token
+        self.url = self.base_url + "/" + (f"?token={settings.token}" if settings.token else "")
+
+
+def _uvicorn_server(settings: ServeSettings) -> object:
+    import uvicorn
+
+    config = uvicorn.Config(
+        create_app(settings), log_level="warning", lifespan="off", access_log=False
+    )
+    return uvicorn.Server(config)
+
+
+def serve(
+    settings: ServeSettings,
+    host: str = "127.0.0.1",
+    port: int = 8000,
+    *,
+    ready: Callable[[ServerInfo], None] | None = None,
+) -> None:
+    """Serve until interrupted; ``ready(info)`` is called once the socket listens."""
+    sock = bind(host, port)
+    server = _uvicorn_server(settings)
+    if ready is not None:
+        ready(ServerInfo(sock, settings))
+    try:
+        server.run(sockets=[sock])  # type: ignore[attr-defined]
+    finally:
+        sock.close()
+
+
+@contextmanager
+def run_in_thread(
+    settings: ServeSettings, host: str = "127.0.0.1", port: int = 0
+) -> Iterator[ServerInfo]:
+    """A server running in a background thread while the ``with`` block runs, then stopped."""
+    sock = bind(host, port)
+    server = _uvicorn_server(settings)
+    thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)  # type: ignore[attr-defined]
+    thread.start()
+    try:
+        import time
+
+        for _ in range(500):
+            if getattr(server, "started", False):
+                break
+            time.sleep(0.01)
+        yield ServerInfo(sock, settings)
+    finally:
+        server.should_exit = True  # type: ignore[attr-defined]
+        thread.join(timeout=10)
+        sock.close()

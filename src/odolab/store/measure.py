@@ -1,0 +1,167 @@
+"""Entering a trial's measurement: the rules and sentences shared by the CLI and the web server.
+
+``odolab trials measure`` and ``odolab serve`` (its form and ``POST /api/trials/{id}/measurement``)
+call these functions, so a refusal reads the same everywhere:
+
+- :func:`refuse_if_measured`: a measured trial is only overwritten with ``replace``;
+- :func:`check_reading_names`: a rotation takes compass readings and turns, a translation x and y;
+- :func:`measurement_for_trial`: the :class:`~odolab.trials.Measurement` from the readings (the
+  checks of :mod:`odolab.store.entry`: "typed in cm?", "about 9 turns would fit");
+- :func:`record_measurement`: all of the above, then :meth:`Notebook.set_measurement`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+from odolab.errors import StoreError
+from odolab.store.entry import (
+    COMPASS_SIGMA_RAD,
+    METERSTICK_SIGMA_M,
+    rotation_measurement_from_compass,
+    translation_measurement,
+)
+
+if TYPE_CHECKING:
+    from odolab.store.notebook import Notebook
+    from odolab.trials import Measurement, Trial
+
+__all__ = [
+    "build_measurement",
+    "check_reading_names",
+    "describe_measurement",
+    "is_rotation",
+    "measurement_for_trial",
+    "record_measurement",
+    "refuse_if_measured",
+]
+
+
+def _fmt(value: float | None, spec: str = ".3f") -> str:
+    return (
+        ""
+        if value is None or (isinstance(value, float) and math.isnan(value))
+        else format(value, spec)
+    )
+
+
+def describe_measurement(t: Trial) -> str:
+    """Short text of ``t``'s measurement, e.g. ``rot 62.100 rad (19.77 pi) [compass]``."""
+    m = t.measured
+    if m is None:
+        return ""
+    parts = []
+    if m.rotation is not None:
+        parts.append(f"rot {m.rotation:.3f} rad ({m.rotation / math.pi:.2f} pi)")
+    if m.x is not None:
+        parts.append(f"x {m.x:.3f} y {_fmt(m.y)} m")
+    return ", ".join(parts) + f" [{m.instrument}]"
+
+
+def is_rotation(t: Trial) -> bool:
+    """True when ``t`` is measured with a compass and counted turns (rotation, pivot)."""
+    return t.command.kind.value in ("rotation", "pivot")
+
+
+def refuse_if_measured(t: Trial, replace: bool) -> None:
+    """Refuse to overwrite ``t``'s measurement unless ``replace`` (before asking for readings)."""
+    if t.measured is not None and not replace:
+        raise StoreError(
+            f"trial {t.trial_id} is already measured ({describe_measurement(t)}); "
+            "give --replace to overwrite its measurement"
+        )
+
+
+def check_reading_names(
+    t: Trial,
+    initial: object = None,
+    final: object = None,
+    turns: object = None,
+    x: object = None,
+    y: object = None,
+    *,
+    complete: bool = False,
+) -> None:
+    """Refuse readings of the wrong kind for ``t`` (and, with ``complete``, missing ones)."""
+    rotation = is_rotation(t)
+    wrong = (x, y) if rotation else (initial, final, turns)
+    given = (initial, final, turns) if rotation else (x, y)
+    if any(v is not None for v in wrong) or (complete and any(v is None for v in given)):
+        expected = "--initial, --final and --turns" if rotation else "--x and --y"
+        raise StoreError(
+            f"trial {t.trial_id} is a {t.command.kind.value}: it is measured with {expected}"
+        )
+
+
+def build_measurement(
+    t: Trial,
+    initial: object = None,
+    final: object = None,
+    turns: object = None,
+    x: object = None,
+    y: object = None,
+    sigma: object = None,
+) -> Measurement:
+    """The measurement of ``t`` from readings of the right kind, all given (unprefixed errors).
+
+    ``sigma``: uncertainty of one compass reading (rad) or of x and y (m); None for the default.
+    """
+    if is_rotation(t):
+        direction = "cw" if t.command.direction == "cw" else None
+        return rotation_measurement_from_compass(
+            initial,  # type: ignore[arg-type]
+            final,  # type: ignore[arg-type]
+            turns,  # type: ignore[arg-type]
+            commanded_angle=t.command.angle,
+            direction=direction,  # type: ignore[arg-type]
+            sigma_reading_rad=sigma or COMPASS_SIGMA_RAD,  # type: ignore[arg-type]
+        )
+    distance = t.command.distance if t.command.kind.value == "translation" else None
+    return translation_measurement(
+        x,  # type: ignore[arg-type]
+        y,  # type: ignore[arg-type]
+        sigma=sigma or METERSTICK_SIGMA_M,  # type: ignore[arg-type]
+        commanded_distance=distance,
+    )
+
+
+def measurement_for_trial(
+    t: Trial,
+    initial: object = None,
+    final: object = None,
+    turns: object = None,
+    x: object = None,
+    y: object = None,
+    sigma: object = None,
+) -> Measurement:
+    """The measurement of ``t``; every refusal is one sentence starting ``trial ID``."""
+    check_reading_names(t, initial, final, turns, x, y, complete=True)
+    try:
+        return build_measurement(t, initial, final, turns, x, y, sigma)
+    except StoreError as err:
+        raise StoreError(f"trial {t.trial_id}: {err}") from err
+
+
+def record_measurement(
+    nb: Notebook,
+    trial_id: str,
+    *,
+    initial: object = None,
+    final: object = None,
+    turns: object = None,
+    x: object = None,
+    y: object = None,
+    sigma: object = None,
+    replace: bool = False,
+) -> Trial:
+    """Check and store the measurement of ``trial_id``; return the trial as stored.
+
+    Nothing is written when any check fails (the same checks and sentences as
+    ``odolab trials measure`` with every reading given on the command line).
+    """
+    t = nb.get_trial(trial_id)
+    refuse_if_measured(t, replace)
+    m = measurement_for_trial(t, initial, final, turns, x, y, sigma)
+    nb.set_measurement(trial_id, m, replace=replace)
+    return nb.get_trial(trial_id)

@@ -1,0 +1,134 @@
+"""User text made safe where it goes: a file name, a terminal, an HTML page, an error message.
+
+Trial ids, campaign names, terrains, parameter-set names, exclusion reasons and notes are typed
+by people (or come from files other people wrote). Wherever odolab puts such text somewhere it
+could do harm, it goes through one of these functions:
+
+- :func:`safe_file_name`: one path component. No path separator, no ``..``, no leading dot or
+  dash, no control or invisible character, at most :data:`MAX_NAME_CHARS` characters. A name that
+  is already safe is kept as it is; any other gets its unsafe characters replaced by ``_`` and a
+  short hash of the original appended, so that two different names never share a file. A name
+  with no letter or digit at all (``""``, ``".."``, ``"///"``) is refused with one sentence.
+- :func:`safe_terminal`: control characters (ANSI escape sequences, carriage returns, C1
+  controls) and invisible formatting characters (bidirectional overrides) shown as visible
+  ``\\x1b``-style escapes instead of being obeyed by the terminal.
+- :func:`safe_html`: text escaped for HTML (``<``, ``>``, ``&``, quotes), as a ``Markup``.
+- :func:`shorten` and :func:`quote_input`: any input echoed in a message is capped in length.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import unicodedata
+from typing import TYPE_CHECKING
+
+from odolab.errors import OdolabError
+
+if TYPE_CHECKING:
+    from markupsafe import Markup
+
+__all__ = [
+    "MAX_ECHO_CHARS",
+    "MAX_NAME_CHARS",
+    "UnsafeNameError",
+    "quote_input",
+    "safe_file_name",
+    "safe_html",
+    "safe_terminal",
+    "shorten",
+]
+
+#: Longest file name :func:`safe_file_name` returns (characters, before any suffix); at most
+#: 4 bytes a character in UTF-8 keeps it under the 255-byte limit of common file systems.
+MAX_NAME_CHARS = 60
+#: Longest piece of user input echoed in a message (characters).
+MAX_ECHO_CHARS = 80
+
+#: Characters other than letters and digits that a file name may keep.
+_NAME_PUNCTUATION = frozenset("-_.+=@,")
+#: Names Windows reserves for devices (with any extension).
+_RESERVED = frozenset(
+    ["CON", "PRN", "AUX", "NUL"] + [f"{d}{i}" for d in ("COM", "LPT") for i in range(1, 10)]
+)
+#: Unicode categories a terminal must not receive raw: controls, format (bidi overrides,
+#: zero-width), line and paragraph separators, surrogates, private use, unassigned.
+_UNSAFE_CATEGORIES = frozenset({"Cc", "Cf", "Zl", "Zp", "Cs", "Co", "Cn"})
+
+
+class UnsafeNameError(OdolabError):
+    """A name cannot be made into a safe file name (it has no letter or digit)."""
+
+
+def shorten(text: str, limit: int = MAX_ECHO_CHARS) -> str:
+    """``text`` cut to ``limit`` characters, saying how long it was when it was cut."""
+    if len(text) <= limit:
+        return text
+    return f"{text[:limit]}... ({len(text)} characters)"
+
+
+def safe_terminal(text: object, *, limit: int | None = None) -> str:
+    """``text`` with every control or invisible character shown as an escape (``\\x1b``).
+
+    A terminal then prints the text and obeys nothing in it: no colour change, no cursor move,
+    no overwritten line, no reversed text. With ``limit`` the text is also :func:`shorten`-ed.
+    """
+    s = str(text)
+    if limit is not None:
+        s = shorten(s, limit)
+    if s.isprintable():  # the common case: nothing to do (space is printable, \t and \n not)
+        return s
+    out = []
+    for ch in s:
+        if ch == " " or unicodedata.category(ch) not in _UNSAFE_CATEGORIES:
+            out.append(ch)
+        elif ord(ch) < 0x100:
+            out.append(f"\\x{ord(ch):02x}")
+        elif ord(ch) < 0x10000:
+            out.append(f"\\u{ord(ch):04x}")
+        else:
+            out.append(f"\\U{ord(ch):08x}")
+    return "".join(out)
+
+
+def quote_input(value: object, limit: int = MAX_ECHO_CHARS) -> str:
+    """``value`` quoted for an error message: capped at ``limit`` characters, terminal-safe."""
+    if isinstance(value, str):
+        return repr(shorten(value, limit))  # repr escapes control and invisible characters
+    return safe_terminal(shorten(repr(value), limit))
+
+
+def safe_html(text: object) -> Markup:
+    """``text`` escaped for HTML (element content and quoted attribute values)."""
+    from markupsafe import escape
+
+    return escape(str(text))
+
+
+def safe_file_name(text: str, *, what: str = "name", suffix: str = "") -> str:
+    """A file name made from ``text`` (plus ``suffix``, e.g. ``".csv"``) that stays in its folder.
+
+    Letters, digits and ``- _ . + = @ ,`` are kept; a leading ``.`` or ``-``, a trailing ``.``,
+    and every other character (``/``, ``\\``, ``:``, spaces, controls ...) become ``_``. When
+    anything had to change, or the name is longer than :data:`MAX_NAME_CHARS` or is a name
+    Windows reserves (``CON``, ``NUL`` ...), the result is cut and ends in ``-`` and 8 hex digits
+    of the original's SHA-256, so different names give different files. Raises
+    :class:`UnsafeNameError` for a name with no letter or digit; ``what`` names it there.
+    """
+    if not isinstance(text, str):
+        raise UnsafeNameError(f"{what} {quote_input(text)} is not text; expected a name")
+    if not any(ch.isalnum() for ch in text):
+        raise UnsafeNameError(
+            f"{what} {quote_input(text)} cannot be made a safe file name; expected a name "
+            "with at least one letter or digit"
+        )
+    chars = [ch if ch.isalnum() or ch in _NAME_PUNCTUATION else "_" for ch in text]
+    if chars[0] in ".-":
+        chars[0] = "_"
+    if chars[-1] == ".":
+        chars[-1] = "_"
+    name = "".join(chars)
+    reserved = name.split(".")[0].upper() in _RESERVED
+    if name != text or len(name) > MAX_NAME_CHARS or reserved:
+        digest = hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()[:8]
+        name = f"{name[: MAX_NAME_CHARS - 9]}-{digest}"
+    return name + suffix

@@ -1,0 +1,105 @@
+"""odolab.text: user text made safe for file names, terminals, HTML and messages."""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from odolab.text import (
+    MAX_NAME_CHARS,
+    UnsafeNameError,
+    quote_input,
+    safe_file_name,
+    safe_html,
+    safe_terminal,
+    shorten,
+)
+
+
+def _h(text: str) -> str:
+    return hashlib.sha256(text.encode()).hexdigest()[:8]
+
+
+@pytest.mark.parametrize(
+    "name", ["lab-report-001", "rotation_indoor.3", "Gelände-7", "a..b", "x+y=z@w,1"]
+)
+def test_safe_names_are_kept_as_they_are(name: str) -> None:
+    assert safe_file_name(name) == name
+    assert safe_file_name(name, suffix=".csv") == name + ".csv"
+
+
+@pytest.mark.parametrize(
+    ("name", "cleaned"),
+    [
+        ("../../x", "_._.._x"),
+        ("/etc/passwd", "_etc_passwd"),
+        ("a/b", "a_b"),
+        ("a\\b", "a_b"),
+        (".hidden", "_hidden"),
+        ("-rf", "_rf"),
+        ("name.", "name_"),
+        ("red\x1b[31m", "red__31m"),
+        ("<script>", "_script_"),
+        ("C:x", "C_x"),
+        ("con", "con"),  # reserved on Windows: kept but hashed
+        ("NUL.txt", "NUL.txt"),
+    ],
+)
+def test_unsafe_names_are_cleaned_and_hashed(name: str, cleaned: str) -> None:
+    assert safe_file_name(name) == f"{cleaned}-{_h(name)}"
+
+
+def test_different_names_never_share_a_file() -> None:
+    assert safe_file_name("a/b") != safe_file_name("a_b")
+    long_a, long_b = "n" * 10_000, "n" * 9_999 + "m"
+    a, b = safe_file_name(long_a), safe_file_name(long_b)
+    assert a != b and len(a) == len(b) == MAX_NAME_CHARS
+    assert a == "n" * (MAX_NAME_CHARS - 9) + "-" + _h(long_a)
+
+
+@pytest.mark.parametrize("name", ["", "..", ".", "///", "  ", "\x1b[", "-", "..\\.."])
+def test_names_without_a_letter_or_digit_are_refused(name: str) -> None:
+    with pytest.raises(UnsafeNameError, match=r"trial id .* cannot be made a safe file name"):
+        safe_file_name(name, what="trial id")
+
+
+@given(st.text(min_size=1, max_size=300))
+def test_any_name_stays_in_its_folder(name: str) -> None:
+    try:
+        out = safe_file_name(name, suffix=".csv")
+    except UnsafeNameError:
+        assert not any(ch.isalnum() for ch in name)
+        return
+    assert "/" not in out and "\\" not in out and "\x00" not in out
+    assert not out.startswith((".", "-"))
+    assert len(out) <= MAX_NAME_CHARS + 4
+    assert len(out.encode("utf-8", "surrogatepass")) <= 255
+    base = Path("/data/logs")
+    assert (base / out).parent == base
+    assert safe_terminal(out) == out  # nothing a terminal would obey
+
+
+def test_terminal_text_shows_escapes_instead_of_obeying_them() -> None:
+    assert safe_terminal("plain text, ünïcode") == "plain text, ünïcode"
+    assert safe_terminal("\x1b[31mred\x1b[0m") == "\\x1b[31mred\\x1b[0m"
+    assert safe_terminal("a\rb\nc\x07\x9b") == "a\\x0db\\x0ac\\x07\\x9b"
+    assert safe_terminal("abc\u202edcba") == "abc\\u202edcba"  # bidi override
+    assert safe_terminal("x" * 100, limit=10) == "x" * 10 + "... (100 characters)"
+
+
+def test_html_is_escaped() -> None:
+    assert str(safe_html('"><img onerror=alert(1)>')) == ("&#34;&gt;&lt;img onerror=alert(1)&gt;")
+    assert str(safe_html("<script>")) == "&lt;script&gt;"
+
+
+def test_echoed_input_is_capped_and_quoted() -> None:
+    assert shorten("abc", 5) == "abc"
+    assert shorten("a" * 6, 5) == "aaaaa... (6 characters)"
+    q = quote_input("\x00" * 1_000_000)
+    assert len(q) < 500 and "\x00" not in q and "1000000 characters" in q
+    assert quote_input(1e308) == "1e+308"
+    assert quote_input(None) == "None"

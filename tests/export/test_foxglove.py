@@ -1,0 +1,62 @@
+"""Foxglove live: a WebSocket client on loopback receives what a run publishes."""
+
+from __future__ import annotations
+
+import json
+import struct
+
+import pytest
+from websockets.sync.client import connect
+
+from odolab.errors import OdolabError
+from odolab.export.foxglove import FoxgloveLive, check_loopback
+from odolab.trajectory import Pose
+
+PROTOCOL = "foxglove.sdk.v1"  # foxglove-sdk 0.30 (the earlier foxglove.websocket.v1 is gone)
+
+
+def _advertised(ws) -> dict[str, int]:  # type: ignore[no-untyped-def]
+    channels: dict[str, int] = {}
+    while len(channels) < 3:
+        msg = json.loads(ws.recv(timeout=5))
+        if msg.get("op") == "advertise":
+            channels.update({c["topic"]: c["id"] for c in msg["channels"]})
+    return channels
+
+
+def test_a_client_receives_the_cycle() -> None:
+    with (
+        FoxgloveLive(port=0) as live,
+        connect(f"ws://127.0.0.1:{live.port}", subprotocols=[PROTOCOL], open_timeout=5) as ws,
+    ):
+        channels = _advertised(ws)
+        assert set(channels) == {"/odom_pose", "/tf", "/odolab/cycle"}
+        ws.send(json.dumps({"op": "subscribe", "subscriptions": [
+            {"id": 7, "channelId": channels["/odolab/cycle"]}]}))  # fmt: skip
+        got = None
+        for _ in range(50):  # the subscription takes effect asynchronously: publish until heard
+            live.publish(
+                Pose(1.25, 0.5, -0.25, 0.1, 0.1), ticks=(12, 34), covariance=(1, 0, 0, 2, 0, 3)
+            )
+            try:
+                frame = ws.recv(timeout=0.1)
+            except TimeoutError:
+                continue
+            if isinstance(frame, bytes) and frame[0] == 1:
+                got = frame
+                break
+        assert got is not None
+        sub, stamp = struct.unpack_from("<IQ", got, 1)
+        assert sub == 7
+        assert stamp == 1_250_000_000
+        doc = json.loads(got[13:])
+        assert doc["x"] == 0.5 and doc["left_ticks"] == 12 and doc["cov_yy"] == 2.0
+
+
+def test_only_loopback() -> None:
+    assert check_loopback("127.0.0.1") == "127.0.0.1"
+    assert check_loopback("localhost") == "127.0.0.1"
+    with pytest.raises(OdolabError, match="is not a loopback address"):
+        check_loopback("0.0.0.0")
+    with pytest.raises(OdolabError, match="is not a loopback address"):
+        FoxgloveLive(host="192.168.1.5", port=0)

@@ -1,0 +1,136 @@
+"""NEES: honest on a virtual robot whose noise is known, and on real runs judged held-out."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from odolab.errors import InsufficientDataError, OdolabError
+from odolab.io.registry import find_runs, read_run
+from odolab.io.run import OdometryRun
+from odolab.metrics.consistency import fit_noise_scale, nees_summary, run_nees
+from odolab.params import PRESETS, NoiseParams
+from odolab.sim.physics import TrueParams, VirtualRobot
+from odolab.trajectory import Trajectory
+
+NOMINAL = PRESETS["jaguar-lite"]
+NOISE = NoiseParams(k_left=1e-4, k_right=5e-5, k_scrub=0.0025)
+#: a mixed path: straight, turn in place, curve, reverse (left, right wheel speeds m/s; seconds)
+SCRIPT = [(0.4, 0.4, 4.0), (-0.3, 0.3, 3.0), (0.5, 0.25, 4.0), (-0.3, -0.3, 3.0)]
+
+
+def _virtual_run(seed: int) -> OdometryRun:
+    truth = TrueParams.from_nominal(NOMINAL).noiseless.with_(
+        k_left=NOISE.k_left, k_right=NOISE.k_right, k_scrub=NOISE.k_scrub
+    )
+    robot = VirtualRobot(truth, NOMINAL, seed=seed)
+    robot.reset(misalign=False)
+    t, left, right, poses = [0.0], [], [], [robot.true_pose]
+    left.append(robot.wheel_ticks()[0])
+    right.append(robot.wheel_ticks()[1])
+    for vl, vr, dur in SCRIPT:
+        robot.set_wheel_speeds(vl, vr)
+        for _ in range(round(dur * 20)):
+            robot.advance(0.05)
+            t.append(robot.time)
+            wl, wr = robot.wheel_ticks()
+            left.append(wl)
+            right.append(wr)
+            poses.append(robot.true_pose)
+    gt = Trajectory.from_xyh(
+        np.array(t), np.array([p.x for p in poses]), np.array([p.y for p in poses]),
+        np.array([p.heading for p in poses]),
+    )  # fmt: skip
+    dl = np.diff(np.array(left), prepend=left[0])
+    dr = np.diff(np.array(right), prepend=right[0])
+    return OdometryRun(f"virtual-{seed}", "virtual", np.array(t), dl, dr, ground_truth=gt)
+
+
+@pytest.fixture(scope="module")
+def virtual_runs() -> list[OdometryRun]:
+    return [_virtual_run(seed) for seed in range(120)]
+
+
+def test_known_noise_gives_an_honest_verdict(virtual_runs: list[OdometryRun]) -> None:
+    params = NOMINAL.with_(noise=NOISE)
+    res = [run_nees(r, params, "arc", segment_s=13.99, gt_yaw_offset=0.0) for r in virtual_runs]
+    s = nees_summary(res)
+    assert s.n == len(virtual_runs)  # one piece per run: the whole run
+    assert s.mean_bounds95[0] <= s.mean <= s.mean_bounds95[1], s
+    assert s.verdict.startswith("honest")
+    assert 0.88 <= s.fraction_inside <= 1.0
+    # a covariance four times too small or too large is caught
+    small = NOMINAL.with_(noise=NoiseParams(2.5e-5, 1.25e-5, k_scrub=6.25e-4))
+    big = NOMINAL.with_(noise=NoiseParams(4e-4, 2e-4, k_scrub=0.01))
+    for p, word in ((small, "too small"), (big, "too large")):
+        r = [run_nees(v, p, "arc", segment_s=13.99, gt_yaw_offset=0.0) for v in virtual_runs]
+        assert nees_summary(r).verdict.startswith(word)
+
+
+def test_yaw_offset_of_the_ground_truth_is_found(virtual_runs: list[OdometryRun]) -> None:
+    run = virtual_runs[0]
+    gt = run.require_ground_truth()
+    turned = Trajectory.from_xyh(gt.t, gt.x, gt.y, gt.heading - 0.3)  # mocap frame off by 0.3 rad
+    rotated = OdometryRun(
+        run.name, run.source, run.t, run.dticks_left, run.dticks_right, ground_truth=turned
+    )
+    params = NOMINAL.with_(noise=NOISE)
+    res = run_nees(rotated, params, "arc", segment_s=2.0)
+    assert res.gt_yaw_offset == pytest.approx(0.3, abs=0.02)
+
+
+def test_fitted_noise_makes_the_training_mean_three(optiodom_dir) -> None:  # type: ignore[no-untyped-def]
+    runs = [read_run(p, "optiodom") for p in find_runs([optiodom_dir / "square"], "optiodom")]
+    train, test = runs[0::2], runs[1::2]
+    params = train[0].params
+    assert params is not None
+    noise = fit_noise_scale(train, params, segment_s=5.0)
+    fitted = params.with_(noise=noise)
+    pooled = nees_summary([run_nees(r, fitted, segment_s=5.0) for r in train])
+    assert pooled.mean == pytest.approx(3.0, rel=1e-9)  # covariance linear in k: NEES ~ 1/k
+    held = nees_summary([run_nees(r, r.params.with_(noise=noise), segment_s=5.0) for r in test])
+    # real runs: the held-out mean is close to, but above, its bounds (sessions differ)
+    assert 2.0 < held.mean < 6.0
+    assert math.isfinite(held.fraction_inside)
+
+
+def test_bad_input_is_one_sentence(virtual_runs: list[OdometryRun]) -> None:
+    params = NOMINAL.with_(noise=NOISE)
+    with pytest.raises(OdolabError, match="segment length is 0 s; expected a positive number"):
+        run_nees(virtual_runs[0], params, segment_s=0)
+    with pytest.raises(InsufficientDataError, match="shorter than one piece of 1000 s"):
+        run_nees(virtual_runs[0], params, segment_s=1000.0)
+    with pytest.raises(InsufficientDataError, match="no NEES"):
+        nees_summary([])
+
+
+def test_cli_fits_noise_and_judges_held_out_runs(optiodom_dir, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    import json
+
+    from typer.testing import CliRunner
+
+    from odolab.cli import app
+    from odolab.params import load_params
+
+    sessions = sorted((optiodom_dir / "square").iterdir())
+    train, held = sessions[0], sessions[1]
+    out = tmp_path / "noisy.toml"
+    runner = CliRunner()
+    res = runner.invoke(app, ["calibrate", "noise", str(train), "-o", str(out), "--segment", "5"])
+    assert res.exit_code == 0, res.output
+    noise = load_params(out).noise
+    assert noise is not None and 1e-7 < noise.k_left == noise.k_right < 1e-2
+    js = tmp_path / "e.json"
+    res = runner.invoke(
+        app,
+        ["evaluate", str(held), "--format", "optiodom", "--params", str(out), "--nees",
+         "--nees-segment", "5", "--json", str(js), "--workers", "1"],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    doc = json.loads(js.read_text())
+    assert doc["nees"]["summary"]["n"] > 10
+    assert "covariance" in res.output and "mean NEES" in res.output
+    res = runner.invoke(app, ["evaluate", str(held), "--format", "optiodom", "--nees"])
+    assert res.exit_code != 0  # the runs' own parameters have no [noise]
