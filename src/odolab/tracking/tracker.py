@@ -1,6 +1,9 @@
 """Track a robot's marker in a video of the floor: ground truth from a phone camera.
 
-Every frame is searched for ArUco markers (sub-pixel corners). Markers lying on the floor at
+Frames are searched for ArUco markers (sub-pixel corners): the whole frame every
+``full_every`` frames (30: once a second) and whenever the robot's marker was lost; in between
+only a window around where the robot's marker was in the previous frame (the camera stands
+still, so only the robot moves; this makes 720p tracking several times faster). Markers lying on the floor at
 known places (FLOOR.csv) define the floor frame: the camera's pose in it is found by
 ``cv2.solvePnP`` on all floor-marker corners seen in all frames (the camera stands still; a
 marker the robot hides in some frames counts where it is seen). The robot's marker lies flat
@@ -44,8 +47,11 @@ class TrackOptions:
     marker_height: float
     marker_offset: tuple[float, float] = (0.0, 0.0)
     dictionary: str = "DICT_4X4_50"
+    full_every: int = 30
 
     def __post_init__(self) -> None:
+        if self.full_every < 1:
+            raise TrackingError(f"full_every is {self.full_every}; expected a whole number >= 1")
         if not (math.isfinite(self.marker_size) and self.marker_size > 0):
             raise TrackingError(
                 f"--marker-size is {self.marker_size!r}; expected the black square's side in m"
@@ -268,18 +274,36 @@ def track_video(
     robot: list[tuple[float, FloatArray]] = []
     stamps: list[float] = []
     frames = 0
+    last: FloatArray | None = None  # the robot's corners in the previous frame
     for t, grey in _decoded(cap, path, camera, fps):
         stamps.append(t)
+        full = last is None or frames % options.full_every == 0
         frames += 1
-        corners, ids, _ = detector.detectMarkers(grey)
+        if full:
+            corners, ids, _ = detector.detectMarkers(grey)
+            origin = np.zeros(2)
+        else:  # the camera stands still: only the robot moves; search near where it was
+            assert last is not None
+            side = float(np.ptp(last, axis=0).max())
+            pad = max(2.0 * side, 40.0)
+            x0 = max(int(last[:, 0].min() - pad), 0)
+            y0 = max(int(last[:, 1].min() - pad), 0)
+            x1 = min(int(last[:, 0].max() + pad) + 1, grey.shape[1])
+            y1 = min(int(last[:, 1].max() + pad) + 1, grey.shape[0])
+            corners, ids, _ = detector.detectMarkers(grey[y0:y1, x0:x1])
+            origin = np.array([x0, y0], dtype=np.float64)
+        found = None
         if ids is not None:
             for c, i in zip(corners, ids.reshape(-1), strict=True):
                 mid = int(i)
                 if mid == options.robot_marker:
-                    robot.append((t, c.reshape(4, 2).astype(np.float64)))
-                elif mid in by_id:
+                    found = c.reshape(4, 2).astype(np.float64) + origin
+                elif mid in by_id and full:
                     floor_obs.append((by_id[mid].corners(), c.reshape(4, 2)))
                     floor_seen[mid] = floor_seen.get(mid, 0) + 1
+        if found is not None:
+            robot.append((t, found))
+        last = found
         if progress is not None:
             progress(frames, total)
     if frames == 0:
