@@ -265,3 +265,31 @@ def test_acceptance_two_hundred_seeds() -> None:
         assert row["within_2se"] >= 0.9, name
         assert 0.8 <= row["se_over_spread"] <= 1.2, name
         assert row["crb_over_spread"] == pytest.approx(row["se_over_spread"], rel=0.05), name
+
+
+def test_cli_reads_a_ros2_bag_with_the_sensor_on_an_odometry_topic(tmp_path: Path) -> None:
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "io"))
+    from bag_fixtures import write_bag
+
+    rl, rr, b = TRUE_ROBOT
+    drive = record_drive(TrueParams(rl, rl, rr, rr, b), NOMINAL, _legs() * 2, rate=10)
+    k = 2 * math.pi / NOMINAL.ticks_per_rev
+    rng = np.random.default_rng(9)
+    s = sensor_of(drive.truth, MOUNT)
+    s = Trajectory.from_xyh(
+        s.t, s.x + rng.normal(0, 0.002, s.t.size), s.y + rng.normal(0, 0.002, s.t.size),
+        s.heading + rng.normal(0, 0.003, s.t.size),
+    )  # fmt: skip
+    bag = write_bag(
+        tmp_path / "drive", drive.t, drive.counts_left * k, drive.counts_right * k, s,
+        gt_topic="/laser_odom", gt_as_odometry=True,
+    )  # fmt: skip
+    out, js = tmp_path / "new.toml", tmp_path / "r.json"
+    code = main(
+        ["calibrate", "sensor", str(bag), str(bag), "-f", "bag", "--sensor-topic", "/laser_odom",
+         "-p", "jaguar-lite", "-o", str(out), "--json", str(js)]
+    )  # fmt: skip
+    assert code == 0
+    report = json.loads(js.read_text())
+    assert report["params"]["track_width"] == pytest.approx(b, rel=0.01)
+    assert report["values"]["sensor_yaw"] == pytest.approx(MOUNT[2], abs=0.02)
