@@ -73,13 +73,17 @@ def estimate_time_offset(
 @calibrate_app.command("sensor")
 def calibrate_sensor_cmd(
     encoders: Annotated[Path, typer.Argument(help="Encoder log (any format odolab reads).")],
-    sensor: Annotated[
-        Path, typer.Argument(help="Sensor trajectory: TUM, CSV t,x,y,theta|heading, or a bag.")
-    ],
     params: Annotated[
         str, typer.Option("--params", "-p", help="Nominal parameters TOML or preset.")
     ],
     output: Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")],
+    sensor: Annotated[
+        Path | None,
+        typer.Argument(
+            help="Sensor trajectory: TUM, CSV t,x,y,theta|heading, or a bag (default with "
+            "--scan-topic: the ENCODERS bag)."
+        ),
+    ] = None,
     fmt: Annotated[
         EncoderFormat, typer.Option("--format", "-f", help="Format of the encoder log.")
     ] = EncoderFormat.csv,
@@ -95,6 +99,10 @@ def calibrate_sensor_cmd(
     ] = 0.2,
     sensor_topic: Annotated[
         str | None, typer.Option(help="Bag: the sensor's PoseStamped/Odometry topic.")
+    ] = None,
+    scan_topic: Annotated[
+        str | None,
+        typer.Option(help="Bag: a LaserScan topic, matched scan to scan (small_gicp)."),
     ] = None,
     joint_topic: Annotated[str, typer.Option(help="Bag: JointState topic.")] = "/joint_states",
     joints: Annotated[tuple[str, str], typer.Option(help="Bag: LEFT RIGHT joint names.")] = (
@@ -134,13 +142,24 @@ def calibrate_sensor_cmd(
         ticks_per_rev=nominal.ticks_per_rev,
     )
     run = read_run(encoders, fmt.value, ro)
-    traj = read_sensor_trajectory(sensor, sensor_topic)
+    if scan_topic is not None:
+        if sensor_topic is not None:
+            raise OptionError("give --scan-topic or --sensor-topic, not both")
+        from odolab.tracking.scans import read_laser_scans, scan_trajectory
+
+        source = sensor or encoders
+        traj = scan_trajectory(read_laser_scans(source, scan_topic))
+    elif sensor is None:
+        raise OptionError("no SENSOR file and no --scan-topic; expected the sensor's motion")
+    else:
+        traj = read_sensor_trajectory(sensor, sensor_topic)
     pl, pr = wheel_angles(run.dticks_left, run.dticks_right, nominal.ticks_per_rev)
     if offset is None:
         odo = run.odometry(nominal)
         offset = estimate_time_offset(run.t, odo.heading, traj, str(sensor), max_offset)
+    where = f"{sensor or encoders}" + (f" {scan_topic}" if scan_topic else "")
     data = motions_from_trajectory(
-        run.t, pl, pr, traj, interval_s=interval, time_offset=offset, source=str(sensor)
+        run.t, pl, pr, traj, interval_s=interval, time_offset=offset, source=where
     )
     result = calibrate_sensor(data, nominal, options, time_offset=offset)
     save_params(result.params, output, provenance=result.provenance())
