@@ -60,7 +60,7 @@ def small_gicp_matcher(
 ) -> Callable[[np.ndarray, np.ndarray], tuple[float, float, float]]:
     import small_gicp
 
-    from odolab.tracking.scans import _extruded
+    from odolab.io.laserscan import _extruded
 
     def match(prev: np.ndarray, cur: np.ndarray) -> tuple[float, float, float]:
         if extrude:  # planar points as walls: proper normals (odolab's choice)

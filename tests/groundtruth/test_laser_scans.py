@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from odolab.cli import main
+from odolab.io.laserscan import read_laser_scans, scan_trajectory
 from odolab.params import PRESETS
 from odolab.sim.drives import calibration_drive, record_drive
 from odolab.sim.physics import TrueParams
-from odolab.tracking.scans import read_laser_scans, scan_trajectory
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 from bench_scan_matching import scan

@@ -145,7 +145,7 @@ def calibrate_sensor_cmd(
     if scan_topic is not None:
         if sensor_topic is not None:
             raise OptionError("give --scan-topic or --sensor-topic, not both")
-        from odolab.tracking.scans import read_laser_scans, scan_trajectory
+        from odolab.io.laserscan import read_laser_scans, scan_trajectory
 
         source = sensor or encoders
         traj = scan_trajectory(read_laser_scans(source, scan_topic))
