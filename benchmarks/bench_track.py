@@ -102,9 +102,9 @@ def main() -> None:
     print(f"position RMS {pos * 1000:.2f} mm, heading RMS {head:.3f} deg (limits 10 mm, 1 deg)")
 
     enc = write_encoder_csv(
-        EncoderLog(drive.t, drive.counts_left, drive.counts_right), folder / "enc.csv"
+        folder / "enc.csv", EncoderLog(drive.t, drive.counts_left, drive.counts_right)
     )
-    gt = write_track_csv(r, folder / "enc_gt.csv")
+    gt = write_track_csv(folder / "enc_gt.csv", r)
     run = read_csv_run(enc, ReadOptions(ground_truth=str(gt)))
     cal = calibrate_lsq([run], nominal)
     for key, true in zip(

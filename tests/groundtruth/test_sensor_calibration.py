@@ -169,7 +169,7 @@ def _files(tmp_path: Path, shift: float = 0.0) -> tuple[Path, Path]:
     rl, rr, b = TRUE_ROBOT
     drive = record_drive(TrueParams(rl, rl, rr, rr, b), NOMINAL, _legs() * 2)
     enc = write_encoder_csv(
-        EncoderLog(drive.t, drive.counts_left, drive.counts_right), tmp_path / "enc.csv"
+        tmp_path / "enc.csv", EncoderLog(drive.t, drive.counts_left, drive.counts_right)
     )
     sensor = sensor_of(drive.truth, MOUNT)
     rng = np.random.default_rng(5)
@@ -179,7 +179,7 @@ def _files(tmp_path: Path, shift: float = 0.0) -> tuple[Path, Path]:
         sensor.y + rng.normal(0, 0.002, sensor.t.size),
         sensor.heading + rng.normal(0, 0.003, sensor.t.size),
     )
-    return enc, write_trajectory(noisy_sensor, tmp_path / "laser.tum", "tum")
+    return enc, write_trajectory(tmp_path / "laser.tum", noisy_sensor, "tum")
 
 
 def test_cli_writes_params_with_standard_errors(tmp_path: Path) -> None:
@@ -244,9 +244,9 @@ def test_cli_names_a_drive_without_turns(
 ) -> None:
     drive = record_drive(TrueParams(0.085, 0.085, 0.082, 0.082, 0.6), NOMINAL, [(0.4, 0.4, 20.0)])
     enc = write_encoder_csv(
-        EncoderLog(drive.t, drive.counts_left, drive.counts_right), tmp_path / "enc.csv"
+        tmp_path / "enc.csv", EncoderLog(drive.t, drive.counts_left, drive.counts_right)
     )
-    sensor = write_trajectory(sensor_of(drive.truth, MOUNT), tmp_path / "s.csv")
+    sensor = write_trajectory(tmp_path / "s.csv", sensor_of(drive.truth, MOUNT))
     code = main(
         ["calibrate", "sensor", str(enc), str(sensor), "-p", "jaguar-lite", "-o",
          str(tmp_path / "o.toml")]

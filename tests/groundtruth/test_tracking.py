@@ -102,11 +102,11 @@ def test_a_wrong_height_shows_in_position(video: Path, drive: RecordedDrive) -> 
 def test_cli_track_writes_a_trajectory_on_the_encoder_clock(
     tmp_path: Path, video: Path, drive: RecordedDrive
 ) -> None:
-    cam = save_camera(CAMERA, tmp_path / "camera.toml")
-    floor = write_floor_csv(FLOOR, tmp_path / "floor.csv")
+    cam = save_camera(tmp_path / "camera.toml", CAMERA)
+    floor = write_floor_csv(tmp_path / "floor.csv", FLOOR)
     # an encoder log whose clock reads 1.5 s more than the video's
     enc = write_encoder_csv(
-        EncoderLog(drive.t + 1.5, drive.counts_left, drive.counts_right), tmp_path / "enc.csv"
+        tmp_path / "enc.csv", EncoderLog(drive.t + 1.5, drive.counts_left, drive.counts_right)
     )
     out = tmp_path / "truth.csv"
     code = main(
@@ -190,20 +190,20 @@ def test_bad_camera_file_is_one_sentence(tmp_path: Path, text: str, needle: str)
 def test_cli_track_errors_name_the_problem(
     tmp_path: Path, video: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    cam = save_camera(CAMERA, tmp_path / "camera.toml")
+    cam = save_camera(tmp_path / "camera.toml", CAMERA)
     floor = tmp_path / "floor.csv"
     floor.write_text("id,x,y,yaw,size\n0,0,0,0,0.2\n0,1,1,0,0.2\n")
     base = ["track", str(video), "--floor", str(floor), "--robot-marker", "10", "--marker-size",
             "0.25", "--marker-height", "0.3", "--camera", str(cam), "-o", str(tmp_path / "o.csv")]  # fmt: skip
     assert main(base) == 1
     assert "line 3, marker 0 is also on line 2" in capsys.readouterr().err
-    write_floor_csv(FLOOR, floor)
+    write_floor_csv(floor, FLOOR)
     assert main([*base, "--dictionary", "DICT_9X9_1"]) == 1
     assert "unknown marker dictionary 'DICT_9X9_1'" in capsys.readouterr().err
     assert main([*base[:7], "-1", *base[8:]]) == 1
     err = capsys.readouterr().err
     assert "--marker-size is -1.0" in err
     assert err.count("\n") == 1
-    small = save_camera(CameraModel(900, 900, 320, 240, 640, 480), tmp_path / "small.toml")
+    small = save_camera(tmp_path / "small.toml", CameraModel(900, 900, 320, 240, 640, 480))
     assert main([*base[:11], str(small), *base[12:]]) == 1
     assert "frames are 1280x720 px but the camera file is for 640x480" in capsys.readouterr().err

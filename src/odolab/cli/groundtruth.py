@@ -162,7 +162,7 @@ def calibrate_sensor_cmd(
         run.t, pl, pr, traj, interval_s=interval, time_offset=offset, source=where
     )
     result = calibrate_sensor(data, nominal, options, time_offset=offset)
-    save_params(result.params, output, provenance=result.provenance())
+    save_params(output, result.params, provenance=result.provenance())
     _write_json(result.to_dict(), json_out)
     _print_sensor(result, output)
 
@@ -266,7 +266,7 @@ def track_cmd(
         offset = estimate_time_offset(
             run.t, odo.heading, result.trajectory(), str(video), max_offset
         )
-    write_track_csv(result, output, offset)
+    write_track_csv(output, result, offset)
     pos = result.camera_pose.position
     console.print(
         f"{video}: {result.frames - result.skipped} of {result.frames} frames tracked "
@@ -331,7 +331,7 @@ def camera_calibrate_cmd(
     spec = _board(board, square, board_marker, dictionary)
     check_output_path(output, "camera file")
     result = calibrate_camera_video(video, spec, step=step)
-    save_camera(result.camera, output, provenance=result.provenance())
+    save_camera(output, result.camera, provenance=result.provenance())
     c = result.camera
     typer.echo(
         f"{video}: {result.views} views of {result.frames} frames, reprojection rms "

@@ -127,7 +127,7 @@ def load_camera(path: str | Path) -> CameraModel:
 
 
 def save_camera(
-    camera: CameraModel, path: str | Path, *, provenance: dict[str, Any] | None = None
+    path: str | Path, camera: CameraModel, *, provenance: dict[str, Any] | None = None
 ) -> Path:
     """Write CAMERA.toml (and an optional ``[provenance]`` table)."""
     p = Path(path)
@@ -193,7 +193,7 @@ def read_floor_csv(path: str | Path) -> list[FloorMarker]:
     return out
 
 
-def write_floor_csv(markers: list[FloorMarker], path: str | Path) -> Path:
+def write_floor_csv(path: str | Path, markers: list[FloorMarker]) -> Path:
     """Write FLOOR.csv."""
     p = Path(path)
     rows = ["id,x,y,yaw,size"] + [f"{m.id},{m.x!r},{m.y!r},{m.yaw!r},{m.size!r}" for m in markers]

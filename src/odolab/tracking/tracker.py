@@ -342,7 +342,7 @@ def track_video(
     )
 
 
-def write_track_csv(result: TrackResult, path: str | Path, time_offset: float = 0.0) -> Path:
+def write_track_csv(path: str | Path, result: TrackResult, time_offset: float = 0.0) -> Path:
     """Write ``t,x,y,theta,heading,quality`` (readable wherever odolab reads a trajectory)."""
     from odolab.kinematics import wrap_angle
 
