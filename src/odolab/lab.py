@@ -1,6 +1,7 @@
 """The whole lab, end to end: what ``odolab demo`` (and ``make demo``) runs.
 
-Steps, each reported through ``progress(step, done, total)``:
+:func:`run_lab` reads as its table of contents: one typed step per item below, each reported
+through ``progress(step, done, total)``; the notebook is open in one ``with`` block.
 
 1. A fresh lab notebook (SQLite) in a new timestamped run folder (``OUT/<stamp>/``, with a
    ``latest`` link beside it); the nominal parameters are its first parameter version.
@@ -9,15 +10,18 @@ Steps, each reported through ``progress(step, done, total)``:
    campaign runs on the simulator's vectorized Monte Carlo (every trial at once, same physics as
    behind the virtual board); its trials are recorded AWAITING, then the instruments measure them
    (compass with counted turns, meterstick, tape) and the readings are entered.
-3. The UMBmark squares (5 clockwise, 5 counter-clockwise) and a 20 pi rotation with a phone taped
-   on top are driven through the live stack: control loop, driver, Jaguar protocol codec and the
-   virtual Jaguar board, in simulated time. They are measured and entered the same way.
+3. The UMBmark squares (5 clockwise, 5 counter-clockwise) and five 20 pi rotations with a phone
+   taped on top are driven through the live stack: control loop, driver, Jaguar protocol codec
+   and the virtual Jaguar board, in simulated time. They are measured and entered the same way;
+   the phone runs are their own validation campaign, never part of Table I.
 4. Analysis (systematic and random error, growth, terrains, outliers) and Table I.
 5. Calibration: ``ratios`` (the lab's section VIII, done right), then ``umbmark`` (iterated on
    the squares' encoder logs, starting from the ratios result: UMBmark fixes the track width and
    the left/right diameter ratio, not the scale); each is a new parameter version in the
    notebook and a TOML file.
-6. Validation (the lab's Fig. 21): the phone's log against the old and the new parameters.
+6. Validation (the lab's Fig. 21): each phone run's log against the old and the new
+   parameters, and every run's final heading error against the random error Table I predicts
+   (:mod:`odolab.validation.runs`): what the runs show and what they cannot.
 7. A re-run of the campaign with the calibrated parameters (same seed): the systematic ratios
    after calibration.
 8. The report: HTML, PNGs and ``results.json``.
@@ -35,48 +39,28 @@ from typing import Any
 
 import numpy as np
 
+from odolab.analysis.reference import LAB_REPORT_TABLE1, LAB_REPORT_Y_SIGMA
+from odolab.analysis.table1 import pooled_y_sigmas
 from odolab.errors import OdolabError
 from odolab.params import PRESETS, RobotParams, save_params
 from odolab.trials import Command, Measurement, MotionKind, Trial, TrialStatus
 
-__all__ = ["LabResult", "Progress", "run_lab"]
+__all__ = [
+    "LAB_REPORT_TABLE1",
+    "LAB_REPORT_Y_SIGMA",
+    "LabResult",
+    "Progress",
+    "pooled_y_sigmas",
+    "run_lab",
+]
 
 PHONE_CAMPAIGN = "imu-validation"
+PHONE_CAMPAIGN_NOTES = (
+    "validation: a phone rode on this run to check the calibration (the lab's Fig. 21); "
+    "it is not one of the characterization trials"
+)
 #: the simulated phone's clock minus the robot's (s); the validation searches +-5 s around it
 PHONE_CLOCK_OFFSET = 12.5
-
-#: The lab report's Table I, for comparison: (motion, terrain) -> (ratio, its stated
-#: uncertainty, [(sigma, at, uncertainty), ...]). y rows: error per metre travelled.
-LAB_REPORT_TABLE1: dict[tuple[str, str], tuple[float, float, list[tuple[float, float, float]]]] = {
-    ("rotation", "tile"): (0.875, 0.005, [(2.94, 20 * math.pi, 0.05)]),
-    ("x", "tile"): (0.905, 0.005, []),
-    ("x", "concrete"): (0.920, 0.005, []),
-    ("x", "grass"): (0.904, 0.005, []),
-    ("y_forward", "tile"): (0.03, 0.01, []),
-    ("y_reverse", "tile"): (0.09, 0.01, []),
-}
-#: Table I's sigma of the y error, one figure for forward and reverse runs together (the lab
-#: pooled its 5 + 5 runs at each distance): (sigma, distance, uncertainty). Its 1.1 m is our 1 m.
-LAB_REPORT_Y_SIGMA: list[tuple[float, float, float]] = [(0.03, 1.1, 0.01), (0.07, 2.5, 0.01)]
-
-
-def pooled_y_sigmas(rows: list[dict[str, Any]], terrain: str = "tile") -> dict[float, float]:
-    """sigma of the y error at each repeated distance, pooled over forward and reverse runs.
-
-    From Table I rows (:func:`odolab.analysis.table1`): the pooled variance is the
-    degrees-of-freedom weighted mean of the two directions' group variances.
-    """
-    acc: dict[float, list[float]] = {}
-    for r in rows:
-        if r["terrain"] != terrain or r["motion"] not in ("y_forward", "y_reverse"):
-            continue
-        for g in r["sigmas"]:
-            d = round(abs(float(g["commanded"])), 6)
-            ss_df = acc.setdefault(d, [0.0, 0.0])
-            ss_df[0] += (g["n"] - 1) * g["sigma"] ** 2
-            ss_df[1] += g["n"] - 1
-    return {d: math.sqrt(ss / df) for d, (ss, df) in sorted(acc.items()) if df > 0}
-
 
 #: progress(step, done, total): a step's name and how far it is
 Progress = Callable[[str, int, int], None]
@@ -111,6 +95,7 @@ class LabResult:
     validation_rms: tuple[float, float]
     phone_log: Path | None = None  #: the phone's SensorLog CSV (for ``odolab validate``)
     loop: dict[str, Any] = field(default_factory=dict)
+    phone_runs: Any = None  #: the phone runs against the predicted random error (RunsSummary)
 
 
 def _new_run_folder(out: Path) -> Path:
@@ -192,6 +177,347 @@ def _truth_recorder(plant: Any, times: list[float], headings: list[float]) -> Ca
     return on_cycle
 
 
+# -- the steps, each a typed value in and out ----------------------------------------------------
+
+
+@dataclass(frozen=True)
+class LabConfig:
+    """What a lab run is asked to do (validated by :func:`_config`)."""
+
+    out: Path
+    seed: int
+    truth: str
+    nominal: RobotParams
+    true_params: Any
+    square_side: float
+    square_runs: int
+    phone_runs: int
+    rate: float
+
+
+@dataclass
+class LiveRuns:
+    """The runs driven through the live stack: squares, then rotations with a phone on top."""
+
+    squares: list[Trial]
+    phone: list[Trial]
+    phone_truth: list[tuple[np.ndarray, np.ndarray]]  #: (t, true heading) per phone run
+    loop: dict[str, Any]
+
+
+@dataclass
+class Calibrated:
+    """The two calibrations and the files they were written to."""
+
+    ratios: Any
+    umbmark: Any
+    files: dict[str, Path]
+
+
+@dataclass
+class Validated:
+    """The phone runs against the old and the new parameters."""
+
+    first: Any  #: the first run's ValidationResult (the report's Fig. 21)
+    runs: Any  #: RunsSummary over every phone run
+    checks: list[Any]
+    band: Any
+    phone_log: Path
+
+
+def _config(
+    out: str | Path,
+    seed: int | None,
+    truth: str,
+    nominal: RobotParams | None,
+    square_side: float,
+    square_runs: int,
+    phone_runs: int,
+    rate: float,
+) -> LabConfig:
+    from odolab.sim.presets import LAB_REPORT_SEED, TRUTH_PRESETS
+
+    seed = LAB_REPORT_SEED if seed is None else seed
+    if seed < 0:
+        raise OdolabError(f"seed is {seed}; expected an integer >= 0")
+    if truth not in TRUTH_PRESETS:
+        raise OdolabError(
+            f"unknown truth preset {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}"
+        )
+    if phone_runs < 1:
+        raise OdolabError(f"phone_runs is {phone_runs}; expected at least 1")
+    return LabConfig(
+        Path(out),
+        seed,
+        truth,
+        nominal or PRESETS["jaguar-lite"],
+        TRUTH_PRESETS[truth],
+        square_side,
+        square_runs,
+        phone_runs,
+        rate,
+    )
+
+
+def _campaign(cfg: LabConfig, nb: Any, progress: Progress) -> list[Trial]:
+    """Step 2: the lab report's campaign on the vectorized simulator, recorded and measured."""
+    from odolab.sim.protocols import load_protocol, run_protocol
+
+    trials = run_protocol(
+        load_protocol("lab-report"),
+        cfg.true_params,
+        cfg.nominal,
+        seed=cfg.seed,
+        progress=lambda d, t, _what: progress("campaign", d, t),
+    )
+    _record(nb, trials)
+    return trials
+
+
+def _live_commands(cfg: LabConfig) -> list[tuple[str, Command]]:
+    cmds: list[tuple[str, Command]] = []
+    for direction in ("cw", "ccw"):
+        for k in range(cfg.square_runs):
+            square = Command(MotionKind.SQUARE, side=cfg.square_side, direction=direction)
+            cmds.append((f"umbmark-{direction}-{k + 1:02d}", square))
+    for k in range(cfg.phone_runs):
+        suffix = "" if k == 0 else f"-{k + 1}"
+        cmds.append(
+            (f"imu-rotation-20pi{suffix}", Command(MotionKind.ROTATION, angle=20 * math.pi))
+        )
+    return cmds
+
+
+def _live_runs(cfg: LabConfig, nb: Any, progress: Progress) -> LiveRuns:
+    """Step 3: squares and phone rotations through loop, driver, codec and virtual board."""
+    from odolab.robot.session import run_motion_simulated
+    from odolab.sim.plants import make_plant
+
+    cmds = _live_commands(cfg)
+    live: list[Trial] = []
+    starts: list[float] = []
+    stats: list[Any] = []
+    truth: list[tuple[np.ndarray, np.ndarray]] = []
+    for i, (trial_id, cmd) in enumerate(cmds):
+        progress("live runs", i, len(cmds))
+        plant = make_plant(cfg.true_params, cfg.nominal, "tile", seed=cfg.seed * 1000 + i)
+        starts.append(plant.true_pose.heading)
+        phone = cmd.kind is MotionKind.ROTATION
+        t_h: tuple[list[float], list[float]] = ([], [])
+        trial, st = run_motion_simulated(
+            cmd,
+            cfg.true_params,
+            cfg.nominal,
+            "tile",
+            seed=cfg.seed * 1000 + i,
+            rate=cfg.rate,
+            plant=plant,
+            campaign=PHONE_CAMPAIGN if phone else "umbmark",
+            on_cycle=_truth_recorder(plant, *t_h) if phone else None,
+        )
+        live.append(replace(trial, trial_id=trial_id))
+        stats.append(st)
+        if phone:
+            truth.append((np.asarray(t_h[0]), np.asarray(t_h[1])))
+    progress("live runs", len(cmds), len(cmds))
+    rng = np.random.default_rng(cfg.seed + 1)
+    live = _measure_live(live, rng, starts)
+    # the phone runs check a calibration: their own campaign, marked so that no analysis of the
+    # notebook counts them among the characterization trials (Table I, the calibrations)
+    nb.add_campaign(PHONE_CAMPAIGN, "rotation", "tile", notes=PHONE_CAMPAIGN_NOTES)
+    _record(nb, live)
+    loop = {
+        "runs": len(stats),
+        "cycles": int(sum(s.cycles for s in stats)),
+        "rate_hz": cfg.rate,
+        "sensor_packets": int(sum(s.sensor_packets for s in stats)),
+        "decode_errors": int(sum(s.decode_errors for s in stats)),
+        "overruns": int(sum(s.overruns for s in stats)),
+    }
+    squares = [t for t in live if t.command.kind is MotionKind.SQUARE]
+    phone_trials = [t for t in live if t.campaign == PHONE_CAMPAIGN]
+    return LiveRuns(squares, phone_trials, truth, loop)
+
+
+def _analysis(nb: Any, progress: Progress) -> tuple[Any, list[Trial], list[dict[str, Any]]]:
+    """Step 4: every characterization trial in the notebook (validation runs left out)."""
+    from odolab.analysis import analyze_trials, table1
+    from odolab.analysis.selection import select_trials
+
+    progress("analysis", 0, 1)
+    trials = select_trials(nb.load_trials(), validation_campaigns={PHONE_CAMPAIGN}).trials
+    analysis = analyze_trials(trials)
+    progress("analysis", 1, 1)
+    return analysis, trials, table1(analysis)
+
+
+def _calibrate(
+    cfg: LabConfig, nb: Any, analysis: Any, trials: list[Trial], folder: Path, progress: Progress
+) -> Calibrated:
+    """Step 5: ratios, then UMBmark iterated from the ratios result; each a parameter version."""
+    from odolab.calibration import ratios_from_analysis, umbmark_iterated
+
+    progress("calibration", 0, 2)
+    by_ratio = ratios_from_analysis(analysis, cfg.nominal, terrain="tile")
+    squares = [t for t in trials if t.command.kind is MotionKind.SQUARE]
+    # UMBmark corrects the track and the left/right diameter ratio, never the scale: start it
+    # from the ratios result, iterate on the squares' encoder logs until it converges
+    by_umbmark = umbmark_iterated(squares, by_ratio.params)
+    files: dict[str, Path] = {}
+    for name, cal, used in (
+        ("ratios", by_ratio, trials),
+        ("umbmark", by_umbmark.calibration, squares),
+    ):
+        nb.add_params_version(
+            cal.params.with_(name=cfg.nominal.name),
+            method=name,
+            source_trials=[t.trial_id for t in used if t.status is TrialStatus.MEASURED],
+            notes=str(cal.provenance.get("source", "")),
+        )
+        files[name] = save_params(
+            cal.params, folder / f"params-{name}.toml", provenance=_toml_safe(cal.provenance)
+        )
+        progress("calibration", len(files), 2)
+    return Calibrated(by_ratio, by_umbmark, files)
+
+
+def _phone_log(t_run: np.ndarray, h_run: np.ndarray, seed: int) -> Any:
+    """The phone's log: from 10 s before the run to 10 s after it (the robot stands still)."""
+    from odolab.validation import simulate_phone_log
+
+    before = t_run[0] - np.arange(200, 0, -1) * 0.05
+    after = t_run[-1] + np.arange(1, 201) * 0.05
+    t_true = np.concatenate([before, t_run, after])
+    h_true = np.concatenate([np.full(200, h_run[0]), h_run, np.full(200, h_run[-1])])
+    return simulate_phone_log(t_true, h_true, clock_offset=PHONE_CLOCK_OFFSET, seed=seed)
+
+
+def _validate(
+    cfg: LabConfig,
+    live: LiveRuns,
+    new: RobotParams,
+    rows: list[dict[str, Any]],
+    folder: Path,
+    progress: Progress,
+) -> Validated:
+    """Step 6 (the lab's Fig. 21): every phone run against the old and the new parameters,
+    and the final heading errors against the random error Table I predicts."""
+    from odolab.validation import validate, write_sensorlog
+    from odolab.validation.runs import summarize_runs
+
+    progress("validation", 0, len(live.phone))
+    checks = []
+    phone_csv = folder / "phone-sensorlog.csv"
+    for k, (trial, (t_run, h_run)) in enumerate(zip(live.phone, live.phone_truth, strict=True)):
+        assert trial.encoder_log is not None
+        imu = _phone_log(t_run, h_run, cfg.seed + k)
+        if k == 0:  # the first run's phone log is kept for `odolab validate`
+            assert imu.yaw_rate is not None
+            write_sensorlog(phone_csv, imu.t, imu.yaw, imu.yaw_rate)
+        checks.append(
+            validate(
+                trial.encoder_log,
+                imu,
+                cfg.nominal,
+                new,
+                offset=PHONE_CLOCK_OFFSET,
+                max_offset=5.0,
+            )
+        )
+        progress("validation", k + 1, len(live.phone))
+    band = _random_band(rows)
+    runs = summarize_runs(checks, band, offset_true=PHONE_CLOCK_OFFSET)
+    return Validated(checks[0], runs, checks, band, phone_csv)
+
+
+def _random_band(rows: list[dict[str, Any]]) -> Any:
+    """σ(θ) of a rotation from Table I: the spread at the largest repeated angle, growing
+    with the fitted power p (0.5, a random walk, when no growth fit)."""
+    from odolab.validation.runs import RandomBand
+
+    rot = next((r for r in rows if r["motion"] == "rotation" and r["terrain"] == "tile"), None)
+    if rot is None or "sigma" not in rot:
+        raise OdolabError("the validation needs Table I's rotation spread on tile")
+    p = float(rot.get("growth_p", 0.5))
+    return RandomBand(float(rot["sigma"]), abs(float(rot["sigma_at"])), p if p > 0 else 0.5)
+
+
+def _rerun(cfg: LabConfig, new: RobotParams, progress: Progress) -> dict[str, float]:
+    """Step 7: the campaign again with the calibrated parameters (same seed, same robot)."""
+    from odolab.analysis import analyze_trials
+    from odolab.sim.protocols import load_protocol, run_protocol
+
+    rerun = run_protocol(
+        load_protocol("lab-report"),
+        cfg.true_params,
+        new,
+        seed=cfg.seed,
+        progress=lambda d, t, _what: progress("re-run", d, t),
+    )
+    after = analyze_trials(rerun)
+    ratios: dict[str, float] = {}
+    for motion in ("rotation", "x"):
+        fit = after.get(motion, "tile")
+        if fit is not None:
+            ratios[f"{motion}_tile"] = fit.ratio
+    return ratios
+
+
+def _report(
+    cfg: LabConfig,
+    folder: Path,
+    db: Path,
+    analysis: Any,
+    cal: Calibrated,
+    val: Validated,
+    live: LiveRuns,
+    after: dict[str, float],
+    progress: Progress,
+) -> Path:
+    """Step 8: report.html, figures and results.json."""
+    from odolab.report import write_report
+    from odolab.validation.compare import plot_validation
+    from odolab.validation.runs import plot_validation_runs
+
+    progress("report", 0, 1)
+    validation = val.first.to_dict(series=False)
+    validation["phone_runs"] = val.runs.to_dict()
+    extra = {
+        "seed": cfg.seed,
+        "truth": cfg.truth,
+        "true_params": dataclasses.asdict(cfg.true_params),
+        "after_calibration": {
+            "method": "ratios",
+            "ratios": after,
+            "note": "the lab-report campaign re-run with the ratios-calibrated parameters, same seed",
+        },
+        "live_runs": live.loop,
+        "notebook": str(db),
+        "phone_log": str(val.phone_log),
+        "phone_trial": live.phone[0].trial_id,
+    }
+    html = write_report(
+        folder,
+        analysis,
+        {"ratios": cal.ratios, "umbmark": cal.umbmark},
+        validation,
+        validation_figure=lambda ax: plot_validation(val.first, ax=ax, kind="heading"),
+        extra_figures={
+            "validation_runs": (
+                f"{val.runs.runs} phone runs against the predicted random error",
+                "Heading error (odometry − IMU) of every phone run against the rotation so far, "
+                "old and new parameters, on the ±1.96 σ band of the random error Table I "
+                "predicts; the table above says what the runs show and cannot prove.",
+                lambda ax: plot_validation_runs(val.checks, val.band, ax=ax),
+            )
+        },
+        extra=extra,
+        reference=LAB_REPORT_TABLE1,
+    )
+    progress("report", 1, 1)
+    return html
+
+
 def run_lab(
     out: str | Path = "odolab-out",
     *,
@@ -200,214 +526,39 @@ def run_lab(
     nominal: RobotParams | None = None,
     square_side: float = 4.0,
     square_runs: int = 5,
+    phone_runs: int = 5,
     rate: float = 20.0,
     progress: Progress = _noop,
 ) -> LabResult:
     """Run the whole lab on the virtual Jaguar; return where the results are."""
-    from odolab.analysis import analyze_trials, table1
-    from odolab.calibration import (
-        CalibrationResult,
-        UmbmarkResult,
-        ratios_from_analysis,
-        umbmark_iterated,
-    )
-    from odolab.report import write_report
-    from odolab.robot.session import run_motion_simulated
-    from odolab.sim.plants import make_plant
-    from odolab.sim.presets import LAB_REPORT_SEED, TRUTH_PRESETS
-    from odolab.sim.protocols import load_protocol, run_protocol
     from odolab.store import Notebook
-    from odolab.validation import simulate_phone_log, validate, write_sensorlog
-    from odolab.validation.compare import plot_validation
 
-    nominal = nominal or PRESETS["jaguar-lite"]
-    seed = LAB_REPORT_SEED if seed is None else seed
-    if seed < 0:
-        raise OdolabError(f"seed is {seed}; expected an integer >= 0")
-    if truth not in TRUTH_PRESETS:
-        raise OdolabError(
-            f"unknown truth preset {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}"
-        )
-    true_params = TRUTH_PRESETS[truth]
-    rng = np.random.default_rng(seed + 1)
-
-    # 1. notebook
+    cfg = _config(out, seed, truth, nominal, square_side, square_runs, phone_runs, rate)
     progress("notebook", 0, 1)
-    folder = _new_run_folder(Path(out))
+    folder = _new_run_folder(cfg.out)
     db = folder / "odolab.db"
-    nb = Notebook(db)
-    nb.add_params_version(nominal, method="nominal preset", notes="not measured: calibrate")
-    progress("notebook", 1, 1)
-
-    # 2. the lab report's campaign, vectorized
-    protocol = load_protocol("lab-report")
-    campaign = run_protocol(
-        protocol,
-        true_params,
-        nominal,
-        seed=seed,
-        progress=lambda d, t, _what: progress("campaign", d, t),
-    )
-    _record(nb, campaign)
-
-    # 3. live runs through the control loop, in simulated time
-    live_cmds: list[tuple[str, Command]] = []
-    for direction in ("cw", "ccw"):
-        for k in range(square_runs):
-            live_cmds.append(
-                (
-                    f"umbmark-{direction}-{k + 1:02d}",
-                    Command(MotionKind.SQUARE, side=square_side, direction=direction),
-                )
-            )
-    live_cmds.append(("imu-rotation-20pi", Command(MotionKind.ROTATION, angle=20 * math.pi)))
-    live: list[Trial] = []
-    starts: list[float] = []
-    loop_stats: list[Any] = []
-    phone_t: list[float] = []
-    phone_h: list[float] = []
-    for i, (trial_id, cmd) in enumerate(live_cmds):
-        progress("live runs", i, len(live_cmds))
-        plant = make_plant(true_params, nominal, "tile", seed=seed * 1000 + i)
-        starts.append(plant.true_pose.heading)
-        is_phone = cmd.kind is MotionKind.ROTATION
-        trial, stats = run_motion_simulated(
-            cmd,
-            true_params,
-            nominal,
-            "tile",
-            seed=seed * 1000 + i,
-            rate=rate,
-            plant=plant,
-            campaign="umbmark" if cmd.kind is MotionKind.SQUARE else PHONE_CAMPAIGN,
-            on_cycle=_truth_recorder(plant, phone_t, phone_h) if is_phone else None,
-        )
-        live.append(replace(trial, trial_id=trial_id))
-        loop_stats.append(stats)
-    progress("live runs", len(live_cmds), len(live_cmds))
-    live = _measure_live(live, rng, starts)
-    _record(nb, live)
-
-    # 4. analysis of everything in the notebook
-    progress("analysis", 0, 1)
-    # the phone run validates a calibration; it is not one of the characterization trials
-    trials = [t for t in nb.load_trials() if t.campaign != PHONE_CAMPAIGN]
-    analysis = analyze_trials(trials)
-    rows = table1(analysis)
-    progress("analysis", 1, 1)
-
-    # 5. calibration
-    progress("calibration", 0, 2)
-    by_ratio = ratios_from_analysis(analysis, nominal, terrain="tile")
-    squares = [t for t in trials if t.command.kind is MotionKind.SQUARE]
-    # UMBmark corrects the track and the left/right diameter ratio, never the scale: start it
-    # from the ratios result, iterate on the squares' encoder logs until it converges
-    by_umbmark = umbmark_iterated(squares, by_ratio.params)
-    calibrations: dict[str, CalibrationResult | UmbmarkResult] = {
-        "ratios": by_ratio,
-        "umbmark": by_umbmark,
-    }
-    params_files: dict[str, Path] = {}
-    for name, cal in (("ratios", by_ratio), ("umbmark", by_umbmark.calibration)):
-        new = cal.params.with_(name=nominal.name)
-        nb.add_params_version(
-            new,
-            method=name,
-            source_trials=[
-                t.trial_id
-                for t in (squares if name == "umbmark" else trials)
-                if t.status is TrialStatus.MEASURED
-            ],
-            notes=str(cal.provenance.get("source", "")),
-        )
-        params_files[name] = save_params(
-            cal.params, folder / f"params-{name}.toml", provenance=_toml_safe(cal.provenance)
-        )
-        progress("calibration", len(params_files), 2)
-
-    # 6. validation against the phone (the lab's Fig. 21)
-    progress("validation", 0, 1)
-    phone_trial = live[-1]
-    assert phone_trial.encoder_log is not None
-    # the phone logs from 10 s before the run to 10 s after it (the robot stands still then)
-    t_run, h_run = np.asarray(phone_t), np.asarray(phone_h)
-    before = t_run[0] - np.arange(200, 0, -1) * 0.05
-    after = t_run[-1] + np.arange(1, 201) * 0.05
-    t_true = np.concatenate([before, t_run, after])
-    h_true = np.concatenate([np.full(200, h_run[0]), h_run, np.full(200, h_run[-1])])
-    imu = simulate_phone_log(t_true, h_true, clock_offset=PHONE_CLOCK_OFFSET, seed=seed)
-    assert imu.yaw_rate is not None
-    phone_csv = write_sensorlog(folder / "phone-sensorlog.csv", imu.t, imu.yaw, imu.yaw_rate)
-    check = validate(
-        phone_trial.encoder_log,
-        imu,
-        nominal,
-        by_ratio.params,
-        offset=PHONE_CLOCK_OFFSET,
-        max_offset=5.0,
-    )
-    progress("validation", 1, 1)
-
-    # 7. the campaign again, with the calibrated parameters (same seed, same true robot)
-    rerun = run_protocol(
-        protocol,
-        true_params,
-        by_ratio.params,
-        seed=seed,
-        progress=lambda d, t, _what: progress("re-run", d, t),
-    )
-    after = analyze_trials(rerun)
-    after_ratios: dict[str, float] = {}
-    for motion in ("rotation", "x"):
-        fit = after.get(motion, "tile")
-        if fit is not None:
-            after_ratios[f"{motion}_tile"] = fit.ratio
-
-    # 8. report
-    progress("report", 0, 1)
-    loop_summary = {
-        "runs": len(loop_stats),
-        "cycles": int(sum(s.cycles for s in loop_stats)),
-        "rate_hz": rate,
-        "sensor_packets": int(sum(s.sensor_packets for s in loop_stats)),
-        "decode_errors": int(sum(s.decode_errors for s in loop_stats)),
-        "overruns": int(sum(s.overruns for s in loop_stats)),
-    }
-    extra = {
-        "seed": seed,
-        "truth": truth,
-        "true_params": dataclasses.asdict(true_params),
-        "after_calibration": {
-            "method": "ratios",
-            "ratios": after_ratios,
-            "note": "the lab-report campaign re-run with the ratios-calibrated parameters, same seed",
-        },
-        "live_runs": loop_summary,
-        "notebook": str(db),
-        "phone_log": str(phone_csv),
-        "phone_trial": phone_trial.trial_id,
-    }
-    html = write_report(
-        folder,
-        analysis,
-        calibrations,
-        check.to_dict(series=False),
-        validation_figure=lambda ax: plot_validation(check, ax=ax, kind="heading"),
-        extra=extra,
-    )
-    progress("report", 1, 1)
-    nb.close()
+    with Notebook(db) as nb:
+        nb.add_params_version(cfg.nominal, method="nominal preset", notes="not measured: calibrate")
+        progress("notebook", 1, 1)
+        _campaign(cfg, nb, progress)
+        live = _live_runs(cfg, nb, progress)
+        analysis, trials, rows = _analysis(nb, progress)
+        cal = _calibrate(cfg, nb, analysis, trials, folder, progress)
+    val = _validate(cfg, live, cal.ratios.params, rows, folder, progress)
+    after = _rerun(cfg, cal.ratios.params, progress)
+    html = _report(cfg, folder, db, analysis, cal, val, live, after, progress)
     return LabResult(
         folder=folder,
         notebook=db,
         report=html,
         results=folder / "results.json",
-        params_files=params_files,
+        params_files=cal.files,
         table1=rows,
-        after_calibration=after_ratios,
-        validation_rms=(check.old.rms, check.new.rms),
-        phone_log=phone_csv,
-        loop=loop_summary,
+        after_calibration=after,
+        validation_rms=(val.first.old.rms, val.first.new.rms),
+        phone_log=val.phone_log,
+        loop=live.loop,
+        phone_runs=val.runs,
     )
 
 

@@ -118,13 +118,15 @@ def rotation_measurement_from_compass(
     sigma_reading_rad: float = COMPASS_SIGMA_RAD,
     max_relative_error: float = 0.5,
     instrument: str = "compass",
+    predicted_angle: float | None = None,
 ) -> Measurement:
     """A rotation :class:`Measurement` from compass readings (deg, clockwise from north).
 
     ``direction`` defaults to the sign of ``commanded_angle`` (rad), else counter-clockwise.
     With ``commanded_angle`` the result is refused when it is off from the command by more than
     ``max(pi, max_relative_error * |commanded_angle|)`` (a miscounted turn, a swapped reading):
-    the message says which number of turns would fit.
+    the message says which number of turns would fit what the odometry saw
+    (``predicted_angle``, the trial's predicted heading change, when given; else the command).
     """
     initial = check_compass_reading(initial_deg, "compass initial reading")
     final = check_compass_reading(final_deg, "compass final reading")
@@ -144,11 +146,18 @@ def rotation_measurement_from_compass(
         tol = max(math.pi, max_relative_error * abs(cmd))
         if abs(rotation - cmd) > tol:
             frac = abs(rotation) - 2.0 * math.pi * n
-            fit = max(0, round((abs(cmd) - frac) / (2.0 * math.pi)))
+            seen = cmd if predicted_angle is None else check_reading(predicted_angle, "predicted")
+            fit = max(0, round((abs(seen) - frac) / (2.0 * math.pi)))
+            what = (
+                "the commanded angle"
+                if predicted_angle is None
+                else f"the {seen:.3f} rad odometry saw"
+            )
             raise StoreError(
-                f"rotation of {rotation:.3f} rad ({n} turns + {math.degrees(frac):.1f} deg) is "
-                f"{abs(rotation - cmd):.3f} rad off the commanded {cmd:.3f} rad (more than "
-                f"{tol:.3f} rad); check the counted turns (about {fit} would fit) and the readings"
+                f"rotation of {rotation:.3f} rad ({n} turn{'' if n == 1 else 's'} + "
+                f"{math.degrees(frac):.1f} deg) is {abs(rotation - cmd):.3f} rad off the "
+                f"commanded {cmd:.3f} rad (more than {tol:.3f} rad); check the counted turns "
+                f"(about {fit} would fit {what}) and the readings"
             )
     return Measurement(
         instrument=instrument,

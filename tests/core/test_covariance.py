@@ -115,3 +115,47 @@ def test_noise_table_round_trip_and_errors(tmp_path: Path) -> None:
         propagate_covariance([0.0, 1.0], [0.0, 1.0], NOMINAL)
     with pytest.raises(OdolabError, match="without covariance=True"):
         _ = Odometry(NOMINAL).covariance
+
+
+def _pose_after(pose: np.ndarray, params, dsl: float, dsr: float, scrub: float, arc: bool):  # type: ignore[no-untyped-def]
+    """The pose after one cycle through the library's own body_motion and step_pose; ``scrub``
+    is added to the heading change (and, through the model, to the sideways motion)."""
+    from odolab.kinematics import body_motion, step_pose
+
+    c = params.coefficients
+    fwd, _, dth = body_motion(*c, dsl, dsr)
+    dth += scrub
+    return np.array(step_pose(*pose, fwd, c.lateral * dth, dth, arc))
+
+
+@pytest.mark.parametrize("method", ["midpoint", "arc"])
+@pytest.mark.parametrize(
+    "ticks", [(300.0, 900.0), (-500.0, 700.0), (400.0, 400.001), (20.0, -600.0), (-350.0, -80.0)]
+)
+def test_jacobians_equal_finite_differences_of_the_pose_step(
+    method: str, ticks: tuple[float, float]
+) -> None:
+    # P' = F P F^T + G Q G^T, with F and G from central differences of step_pose(body_motion(...))
+    # of a model with a sideways term (the ICR 0.12 m ahead of the axle)
+    params = NOMINAL.with_(model=SideSlip(0.12))
+    arc = method == "arc"
+    pose = np.array([0.3, -0.2, 0.7])
+    dsl, dsr = ticks[0] * params.left_metres_per_tick, ticks[1] * params.right_metres_per_tick
+    h = 1e-6
+    eye = np.eye(3)
+
+    def f(p: np.ndarray, a: float = 0.0, b: float = 0.0, n: float = 0.0) -> np.ndarray:
+        return _pose_after(p, params, dsl + a, dsr + b, n, arc)  # type: ignore[no-any-return]
+
+    jac_f = np.column_stack([(f(pose + h * e) - f(pose - h * e)) / (2 * h) for e in eye])
+    jac_g = np.column_stack(
+        [(f(pose, *(h * e)) - f(pose, *(-h * e))) / (2 * h) for e in eye]  # d/d(dsl, dsr, scrub)
+    )
+    p0 = np.array([[2e-4, 5e-5, 1e-5], [5e-5, 3e-4, -2e-5], [1e-5, -2e-5, 1e-3]])
+    k = NoiseParams(1e-4, 3e-4, k_scrub=0.02)
+    q = np.diag([k.k_left * abs(dsl), k.k_right * abs(dsr), k.k_scrub * abs(dsr - dsl) / 0.56])
+    expected = jac_f @ p0 @ jac_f.T + jac_g @ q @ jac_g.T
+    got = propagate_covariance(
+        [0.0, ticks[0]], [0.0, ticks[1]], params, method, noise=k, heading0=0.7, cov0=p0
+    )[-1]
+    np.testing.assert_allclose(covariance_matrix(got), expected, rtol=1e-8, atol=1e-14)

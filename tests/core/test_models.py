@@ -135,3 +135,12 @@ def test_model_table_round_trip_and_errors(tmp_path: Path) -> None:
         model_from_mapping({"kind": "diff", "track": 0.5}, source="x.toml")
     with pytest.raises(ParamsError, match="model must be a kinematic model"):
         RobotParams(0.1, 0.1, 0.5, 100, model="diff")  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("kind", ["[1]", "{ a = 1 }", "1.5"])
+def test_a_model_kind_that_is_not_text_is_one_sentence(tmp_path: Path, kind: str) -> None:
+    # a list or a table as the kind was a TypeError (unhashable) traceback
+    path = save_params(tmp_path / "p.toml", NOMINAL)
+    path.write_text(path.read_text() + f"\n[model]\nkind = {kind}\n")
+    with pytest.raises(ParamsError, match=r"p.toml: unknown model kind .* in \[model\]; expected"):
+        load_params(path)

@@ -60,3 +60,119 @@ def test_only_loopback() -> None:
         check_loopback("0.0.0.0")
     with pytest.raises(OdolabError, match="is not a loopback address"):
         FoxgloveLive(host="192.168.1.5", port=0)
+
+
+def _varint(buf: bytes, i: int) -> tuple[int, int]:
+    value = shift = 0
+    while True:
+        b = buf[i]
+        value |= (b & 0x7F) << shift
+        i += 1
+        shift += 7
+        if not b & 0x80:
+            return value, i
+
+
+def _stamp_of(pose_in_frame: bytes) -> tuple[int, int]:
+    """(sec, nsec) of an encoded foxglove.PoseInFrame (protobuf: field 1 = Timestamp)."""
+    assert pose_in_frame[0] == 0x0A  # field 1, length-delimited
+    n, i = _varint(pose_in_frame, 1)
+    body = pose_in_frame[i : i + n]
+    fields = {1: 0, 2: 0}
+    j = 0
+    while j < len(body):
+        key, j = _varint(body, j)
+        fields[key >> 3], j = _varint(body, j)
+    return fields[1], fields[2]
+
+
+class _Recorder:
+    def __init__(self) -> None:
+        self.logged: list[tuple[bytes, int]] = []
+
+    def log(self, msg: object, log_time: int) -> None:
+        self.logged.append((msg.encode(), log_time))  # type: ignore[attr-defined]
+
+
+@pytest.mark.parametrize(
+    ("t", "stamp"),
+    [(1.25, (1, 250_000_000)), (0.9999999999, (1, 0)), (41.99999999995, (42, 0))],
+)
+def test_a_fraction_that_rounds_up_carries_into_the_seconds(
+    t: float, stamp: tuple[int, int]
+) -> None:
+    # the stamp was (0, 0) for t = 0.9999999999: the nanoseconds wrapped, the second was lost
+    with FoxgloveLive(port=0) as live:
+        rec = _Recorder()
+        live._pose = rec  # type: ignore[assignment]
+        live.publish(Pose(t, 0.5, -0.25, 0.1, 0.1))
+    assert _stamp_of(rec.logged[0][0]) == stamp
+    assert rec.logged[0][1] == round(t * 1e9)
+
+
+def test_a_port_in_use_is_one_sentence() -> None:
+    import socket
+
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        with pytest.raises(OdolabError, match=rf"--foxglove-port {port}: cannot serve Foxglove"):
+            FoxgloveLive(port=port)
+
+
+def test_robot_drive_serves_the_live_run(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """`odolab robot drive --foxglove` on the virtual Jaguar: a client hears every cycle."""
+    import socket
+    import threading
+
+    from odolab.cli import main
+    from odolab.params import PRESETS, NoiseParams, save_params
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    params = save_params(
+        tmp_path / "p.toml", PRESETS["jaguar-lite"].with_(noise=NoiseParams(1e-4, 1e-4))
+    )
+    heard: list[dict[str, float]] = []
+    ready = threading.Event()
+
+    def listen() -> None:
+        for _ in range(200):  # until the CLI's server is up
+            try:
+                ws = connect(f"ws://127.0.0.1:{port}", subprotocols=[PROTOCOL], open_timeout=1)
+                break
+            except OSError:
+                import time
+
+                time.sleep(0.05)
+        else:
+            ready.set()
+            return
+        with ws:
+            channels = _advertised(ws)
+            ws.send(json.dumps({"op": "subscribe", "subscriptions": [
+                {"id": 1, "channelId": channels["/odolab/cycle"]}]}))  # fmt: skip
+            ready.set()
+            while True:
+                try:
+                    frame = ws.recv(timeout=5)
+                except Exception:
+                    return
+                if isinstance(frame, bytes) and frame[0] == 1:
+                    heard.append(json.loads(frame[13:]))
+
+    thread = threading.Thread(target=listen, daemon=True)
+    thread.start()
+    code = main(
+        ["robot", "drive", "--distance", "1.0", "--speed", "0.2", "--quiet", "--params",
+         str(params), "--out", str(tmp_path / "run"), "--foxglove", "--foxglove-port", str(port),
+         "--truth", "ideal", "--no-realtime"]
+    )  # fmt: skip
+    thread.join(timeout=10)
+    assert code == 0
+    assert heard, "the Foxglove client heard nothing"
+    last = heard[-1]
+    assert {"x", "left_ticks", "cov_xx", "cov_hh"} <= set(last)
+    assert last["cov_xx"] > 0

@@ -134,3 +134,172 @@ def test_notebook_campaign(tmp_path: Path) -> None:
     # each trial starts at the origin, ends where its prediction says
     last = msgs["/odom"][len(trials[0].encoder_log) - 1]  # type: ignore[arg-type]
     assert last.pose.pose.position.x == pytest.approx(trials[0].predicted.x, abs=1e-9)  # type: ignore[attr-defined]
+    # a campaign name that is not there is named with the ones that are
+    from odolab.errors import OdolabError
+
+    with pytest.raises(OdolabError, match="its campaigns: translation-indoor") as err:
+        runner.invoke(
+            app,
+            ["export", "mcap", "--db", str(db), "--campaign", "translation", "-o", str(out)],
+            catch_exceptions=False,
+        )
+    assert "no campaign 'translation' in" in str(err.value)
+
+
+def test_a_real_robot_run_folder(tmp_path: Path) -> None:
+    """`odolab robot drive` on the virtual Jaguar, then `odolab export mcap` of its folder."""
+    from odolab.cli import main
+
+    folder = tmp_path / "run"
+    assert main(["robot", "drive", "--distance", "0.5", "--quiet", "--out", str(folder),
+                 "--no-realtime"]) == 0  # fmt: skip
+    params_file = save_params(tmp_path / "p.toml", PARAMS)
+    out = tmp_path / "robot.mcap"
+    assert main(["export", "mcap", str(folder), "-p", str(params_file), "-o", str(out)]) == 0
+    predicted = read_trajectory(folder / "predicted.csv")
+    odom = _decoded(out)["/odom"]
+    assert len(odom) == len(predicted)
+    xs = [m.pose.pose.position.x for m in odom]  # type: ignore[attr-defined]
+    np.testing.assert_allclose(xs, predicted.x, atol=1e-9)
+    assert odom[-1].pose.covariance[0] > 0  # type: ignore[attr-defined]
+
+
+@pytest.mark.parametrize(
+    ("start", "message"),
+    [
+        (
+            "1e12",
+            "--start-time is 1000000000000.0; expected a number of seconds from 0 to 2147483647",
+        ),
+        ("1e300", "--start-time is 1e+300; expected"),
+        ("-1", "--start-time is -1.0; expected"),
+        (
+            "2147483640",
+            "the odometry's times with the start time run from 2147483640.0 to 2147483651",
+        ),
+    ],
+)
+def test_stamps_a_ros_2_time_cannot_hold_are_one_sentence(
+    tmp_path: Path, start: str, message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # 1e12 was a struct.error traceback that left a 70-byte file; 1e300 an OverflowError
+    from odolab.cli import main
+
+    folder = _run_folder(tmp_path)
+    out = tmp_path / "out" / "run.mcap"
+    code = main(["export", "mcap", str(folder), "-o", str(out), "--start-time", start])
+    err = capsys.readouterr().err
+    assert code == 1
+    assert message in err and err.count("\n") == 1, err
+    assert not out.exists()
+
+
+def test_a_failure_while_writing_leaves_no_file(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from mcap_ros2.writer import Writer
+
+    from odolab.errors import OdolabError
+    from odolab.export.mcap import stream_from_run_folder, write_mcap
+
+    stream = stream_from_run_folder(_run_folder(tmp_path), PARAMS)
+    out = tmp_path / "run.mcap"
+    out.write_bytes(b"an older file")
+    calls = 0
+    original = Writer.write_message
+
+    def failing(self: Writer, *args: object, **kwargs: object) -> None:
+        nonlocal calls
+        calls += 1
+        if calls > 100:
+            raise OSError(28, "No space left on device")
+        original(self, *args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(Writer, "write_message", failing)
+    with pytest.raises(OdolabError, match=r"cannot write the MCAP file \(No space left on device"):
+        write_mcap(out, stream)
+    assert out.read_bytes() == b"an older file"  # untouched: the new file was never half there
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run", "run.mcap"]  # no .part left
+
+
+@pytest.mark.parametrize(
+    ("run_json", "message"),
+    [
+        ("{bad", "run.json: line 1, column 2: not valid JSON"),
+        ("{}", "run.json: no 'params' object (the robot's parameters); give --params"),
+        ("[1]", "run.json: no 'params' object"),
+        ('{"params": {"name": "x"}}', "run.json: missing key 'left_wheel_radius'"),
+    ],
+)
+def test_a_bad_run_json_is_one_sentence(
+    tmp_path: Path, run_json: str, message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # each of these was a traceback (JSONDecodeError, KeyError, TypeError)
+    from odolab.cli import main
+
+    folder = _run_folder(tmp_path)
+    (folder / "run.json").write_text(run_json)
+    out = tmp_path / "r.mcap"
+    assert main(["export", "mcap", str(folder), "-o", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1, err
+    assert not out.exists()
+
+
+def test_a_missing_notebook_is_refused_not_created(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from odolab.cli import main
+
+    db = tmp_path / "nothere.db"
+    out = tmp_path / "c.mcap"
+    assert main(["export", "mcap", "--db", str(db), "--campaign", "c", "-o", str(out)]) == 1
+    assert "nothere.db: no such notebook" in capsys.readouterr().err
+    assert not db.exists() and not out.exists()
+
+
+def test_the_twist_is_the_chord_over_the_cycle(tmp_path: Path) -> None:
+    # the forward speed was the displacement along the heading at the cycle's start, short by
+    # cos(dtheta / 2) in every turn; the pose step moves along the middle heading
+    from odolab.export.mcap import stream_from_run_folder, write_mcap
+
+    out = tmp_path / "run.mcap"
+    write_mcap(out, stream_from_run_folder(_run_folder(tmp_path), PARAMS))
+    predicted = read_trajectory(tmp_path / "run" / "predicted.csv")
+    odom = _decoded(out)["/odom"]
+    dt = np.diff(predicted.t)
+    chord = np.hypot(np.diff(predicted.x), np.diff(predicted.y)) / dt
+    vx = np.array([m.twist.twist.linear.x for m in odom[1:]])  # type: ignore[attr-defined]
+    vy = np.array([m.twist.twist.linear.y for m in odom[1:]])  # type: ignore[attr-defined]
+    wz = np.array([m.twist.twist.angular.z for m in odom[1:]])  # type: ignore[attr-defined]
+    turning = np.abs(np.diff(predicted.heading)) > 0.05
+    assert turning.sum() > 10  # the test path turns
+    np.testing.assert_allclose(np.abs(vx), chord, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(vy, 0.0, atol=1e-9)  # a differential drive does not slide
+    np.testing.assert_allclose(wz, np.diff(predicted.heading) / dt, rtol=1e-12)
+
+
+def test_odolabs_own_bag_reader_reads_the_mcap_back(tmp_path: Path, optiodom_dir: Path) -> None:
+    # "MCAP bags are read as input wherever bags are": the run comes back as it went in
+    from odolab.export.mcap import stream_from_run, write_mcap
+    from odolab.io.registry import read_run
+    from odolab.io.run import ReadOptions
+
+    src = sorted((optiodom_dir / "square").rglob("*_run-01.csv"))[0]
+    run = read_run(src, "optiodom")
+    assert run.params is not None and run.ground_truth is not None
+    out = tmp_path / "run.mcap"
+    write_mcap(out, stream_from_run(run), start_time=1_687_000_000.0)
+    back = read_run(out, "bag", ReadOptions(ticks_per_rev=run.params.ticks_per_rev))
+    np.testing.assert_allclose(back.t, run.t + 1_687_000_000.0, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(
+        np.cumsum(back.dticks_left[1:]), np.cumsum(run.dticks_left[1:]), atol=1e-6
+    )
+    np.testing.assert_allclose(
+        np.cumsum(back.dticks_right[1:]), np.cumsum(run.dticks_right[1:]), atol=1e-6
+    )
+    gt = back.ground_truth
+    assert gt is not None
+    np.testing.assert_allclose(gt.x, run.ground_truth.x, atol=1e-12)
+    np.testing.assert_allclose(gt.y, run.ground_truth.y, atol=1e-12)
+    np.testing.assert_allclose(gt.theta, run.ground_truth.theta, atol=1e-12)

@@ -121,3 +121,47 @@ def test_bad_options_are_one_sentence(
 def test_library_refuses_a_bad_horizon() -> None:
     with pytest.raises(ParamsError, match="--horizon is 0; expected a positive number"):
         controller_numbers(CALIBRATED, horizon=0)
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--speed", "1e308"], "--speed is 1e+308; expected a positive number up to 100"),
+        (["--horizon", "1e200"], "--horizon is 1e+200; expected a positive number up to 100000"),
+        (["--rate", "inf"], "--rate is inf; expected a positive number up to 100000"),
+        (["--left-wheel", "ok", "--right-wheel", "b\x1b[31m"], "--right-wheel 'b\\x1b[31m' is"),
+        (["--left-wheel", "\u00e9"], "--left-wheel '\u00e9' is not a ROS 2 joint name"),
+    ],
+)
+def test_huge_numbers_and_bad_joint_names_are_one_sentence(
+    tmp_path: Path, args: list[str], message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # 1e308 m/s made an infinite covariance (the YAML said 'inf', a string to ROS); 1e200 m of
+    # horizon an OverflowError; a bad joint name was blamed on the controller name
+    from odolab.cli import main
+
+    out = tmp_path / "x.yaml"
+    code = main(["export", "ros2-controller", "jaguar-lite", "-o", str(out), *args])
+    err = capsys.readouterr().err
+    assert code == 1
+    assert message in err and err.count("\n") == 1, err
+    assert not out.exists()
+
+
+def test_provenance_cannot_add_yaml_keys(tmp_path: Path) -> None:
+    # provenance keys and values are typed by people; a line break in them (\n, \r, NEL, U+2028:
+    # all line breaks to a YAML reader) used to end the comment and add top-level keys
+    src = save_params(tmp_path / "cal.toml", CALIBRATED, provenance={"method": "ratios"})
+    src.write_text(
+        src.read_text(encoding="utf-8")
+        + '"evil\\nkey: 1\\nx" = "v"\nnote = "a\\rinjected: true\\u2028b: 2\\u0085c: 3"\n',
+        encoding="utf-8",
+    )
+    out = tmp_path / "dd.yaml"
+    res = CliRunner().invoke(app, ["export", "ros2-controller", str(src), "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    text = out.read_text(encoding="utf-8")
+    assert list(yaml.safe_load(text)) == ["diff_drive_controller"]
+    assert "#   evil\\x0akey: 1\\x0ax: v" in text
+    assert "#   note: a\\x0dinjected: true\\u2028b: 2\\x85c: 3" in text
+    assert all(line.startswith(("#", "diff_drive_controller:", "  ")) for line in text.splitlines())

@@ -63,7 +63,7 @@ def test_imu_validation_improves_and_everything_is_written(lab) -> None:  # type
     res = json.loads(result.results.read_text())
     # one constant-rate rotation: only its start and stop edges time it, to about a second
     assert res["validation"]["clock_offset_s"] == pytest.approx(12.5, abs=1.0)
-    assert res["extra"]["live_runs"]["runs"] == 11
+    assert res["extra"]["live_runs"]["runs"] == 10 + 5  # squares, phone runs
     html = result.report.read_text()
     assert "data:image/png;base64," in html
     assert set(steps) >= {"campaign", "live runs", "analysis", "report"}
@@ -76,7 +76,7 @@ def test_notebook_holds_every_trial_and_the_parameter_versions(lab) -> None:  # 
     with Notebook(result.notebook) as nb:
         trials = nb.load_trials(with_logs=False)
         versions = nb.params_versions("jaguar-lite")
-    assert len(trials) == 77 + 11
+    assert len(trials) == 77 + 10 + 5
     assert sum(t.command.kind.value == "square" for t in trials) == 10
     assert [v.method for v in versions][:1] == ["nominal preset"]
     assert {"ratios", "umbmark"} <= {v.method for v in versions}
@@ -136,3 +136,110 @@ def test_validate_cli_on_the_demo_notebook_repeats_the_demo(
     assert check["new"]["rms_error_rad"] == pytest.approx(new, rel=0.02)
     assert main([*args[:1], "no-such-trial", *args[2:]]) == 1
     assert "no trial 'no-such-trial'" in capsys.readouterr().err
+
+
+def test_analyze_on_the_demo_notebook_reproduces_the_demos_table1(
+    lab, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:  # type: ignore[no-untyped-def]
+    """The phone run is its own (validation) campaign: analyze leaves it out and says so."""
+    result, _ = lab
+    out = tmp_path / "analysis.json"
+    assert main(["analyze", "--db", str(result.notebook), "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "left out: imu-validation (validation campaign" in text
+    assert "rotation-indoor (37)" in text and "umbmark (10)" in text
+    motions = {(m["motion"], m["terrain"]): m for m in json.loads(out.read_text())["motions"]}
+    for row in result.table1:
+        m = motions[(row["motion"], row["terrain"])]
+        assert m["ratio"] == row["ratio"]  # exactly: the same trials, the same fits
+        assert m["fit"]["n"] == row["n"]
+    assert motions[("rotation", "tile")]["fit"]["n"] == 37
+    # naming the validation campaign brings the 5 phone runs in (42 rotations)
+    args = ["analyze", "--db", str(result.notebook), "--json", str(out)]
+    assert main([*args, "--campaign", "rotation-indoor", "--campaign", "imu-validation"]) == 0
+    capsys.readouterr()
+    rot = next(m for m in json.loads(out.read_text())["motions"] if m["motion"] == "rotation")
+    assert rot["fit"]["n"] == 37 + 5
+    # calibrate ratios from the notebook gives the demo's own ratios calibration
+    new = tmp_path / "new.toml"
+    calib = ["calibrate", "ratios", "-p", "jaguar-lite", "--db", str(result.notebook)]
+    assert main([*calib, "-o", str(new)]) == 0
+    assert "left out: imu-validation" in capsys.readouterr().out
+    from odolab.params import load_params
+
+    assert (
+        load_params(str(new)).track_width
+        == load_params(str(result.params_files["ratios"])).track_width
+    )
+    # a campaign that is not there is one sentence, not an empty selection
+    assert main(["analyze", "--db", str(result.notebook), "--campaign", "rotation"]) == 1
+    err = capsys.readouterr().err
+    assert "--campaign rotation: no such campaign; expected one of rotation-indoor" in err
+
+
+def test_odolab_db_environment_variable_stands_for_db(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """docs/notebook.md: every notebook command takes --db FILE, or ODOLAB_DB."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("ODOLAB_DB", "env.db")
+    assert main(["notebook", "init"]) == 0
+    assert main(["sim", "run", "lab-report", "-o", "t.csv"]) == 0
+    assert main(["trials", "list", "--status", "measured"]) == 0
+    assert main(["analyze"]) == 0
+    # no ratios given: with ODOLAB_DB set they come from the notebook's fits
+    assert main(["calibrate", "ratios", "-p", "jaguar-lite", "-o", "new.toml"]) == 0
+    assert "recorded in env.db as jaguar-lite parameters version 2" in capsys.readouterr().out
+    assert main(["report", "--out", "rep"]) == 0
+    text = capsys.readouterr().out
+    assert "using 77 measured trials" in text
+    assert (tmp_path / "env.db").exists() and not (tmp_path / "odolab.db").exists()
+    assert (tmp_path / "rep" / "report.html").exists()
+
+
+def test_terminal_tables_never_cut_numbers(
+    lab, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:  # type: ignore[no-untyped-def]
+    """Not a terminal: as wide as needed; COLUMNS narrower than the table: plain blocks."""
+    result, _ = lab
+    rot = next(r for r in result.table1 if r["motion"] == "rotation")
+    whole = "0.875 [0.858, 0.892]"
+    lo, hi = rot["ratio_ci95"]
+    assert (f"{rot['ratio']:.3f}", f"{lo:.3f}", f"{hi:.3f}") == ("0.875", "0.858", "0.892")
+    monkeypatch.delenv("COLUMNS", raising=False)
+    assert main(["analyze", "--db", str(result.notebook)]) == 0
+    wide = capsys.readouterr().out
+    assert whole in wide and "…" not in wide
+    monkeypatch.setenv("COLUMNS", "50")
+    assert main(["analyze", "--db", str(result.notebook)]) == 0
+    narrow = capsys.readouterr().out
+    assert f"ratio [95% CI]: {whole}" in narrow and "…" not in narrow
+    assert max(len(line) for line in narrow.splitlines() if line.startswith("ratio")) <= 50
+
+
+def test_phone_runs_show_fig21_against_the_predicted_random_error(lab) -> None:  # type: ignore[no-untyped-def]
+    """Five phone runs: the old model leaves the random band, the new one stays in it, and the
+    report says what the runs cannot prove (numbers recomputed here by hand)."""
+    result, _ = lab
+    runs = json.loads(result.results.read_text())["validation"]["phone_runs"]
+    assert runs["runs"] == 5
+    rot = next(r for r in result.table1 if r["motion"] == "rotation")
+    for angle, sigma in zip(runs["rotation_rad"], runs["predicted_sigma_rad"], strict=True):
+        want = rot["sigma"] * (abs(angle) / abs(rot["sigma_at"])) ** rot["growth_p"]
+        assert sigma == pytest.approx(want, rel=1e-12)
+    inside_new = sum(
+        abs(e) <= 1.96 * s
+        for e, s in zip(runs["final_error_new_rad"], runs["predicted_sigma_rad"], strict=True)
+    )
+    assert inside_new == runs["inside_band_new"] == 5
+    assert runs["inside_band_old"] <= 2  # 12.5 % of 20 pi = 7.9 rad: outside a 5.6 rad band
+    se = math.sqrt(sum(s * s for s in runs["predicted_sigma_rad"])) / 5
+    assert runs["mean_final_error_new_se_rad"] == pytest.approx(se)
+    mean_angle = sum(runs["rotation_rad"]) / 5
+    assert runs["ratio_resolution_95"] == pytest.approx(1.96 * se / mean_angle)
+    assert abs(runs["mean_final_error_new_rad"]) < 2 * se
+    assert len(runs["clock_offsets_s"]) == 5
+    text = " ".join(runs["verdict"])
+    assert "cannot prove" in text and "Clock offset found on each run" in text
+    html = result.report.read_text()
+    assert 'id="validation-runs"' in html and 'id="validation_runs"' in html

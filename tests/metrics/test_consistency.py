@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,7 +12,7 @@ from odolab.errors import InsufficientDataError, OdolabError
 from odolab.io.registry import find_runs, read_run
 from odolab.io.run import OdometryRun
 from odolab.metrics.consistency import fit_noise_scale, nees_summary, run_nees
-from odolab.params import PRESETS, NoiseParams
+from odolab.params import PRESETS, NoiseParams, save_params
 from odolab.sim.physics import TrueParams, VirtualRobot
 from odolab.trajectory import Trajectory
 
@@ -134,3 +135,50 @@ def test_cli_fits_noise_and_judges_held_out_runs(optiodom_dir, tmp_path) -> None
     assert "covariance" in res.output and "mean NEES" in res.output
     res = runner.invoke(app, ["evaluate", str(held), "--format", "optiodom", "--nees"])
     assert res.exit_code != 0  # the runs' own parameters have no [noise]
+
+
+def test_an_implausible_fit_names_the_piece_length(optiodom_dir) -> None:  # type: ignore[no-untyped-def]
+    # pieces of one sample: the fit said "[noise] k_left must be a number from 0 to 1, got 1e16"
+    run = read_run(find_runs([optiodom_dir / "square"], "optiodom")[0], "optiodom")
+    assert run.params is not None
+    with pytest.raises(InsufficientDataError, match=r"the noise fitted to pieces of 1e-09 s is "):
+        fit_noise_scale([run], run.params, segment_s=1e-9)
+
+
+def test_run_names_are_text_not_markup(optiodom_dir, tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    import shutil
+
+    from odolab.cli.consistency import print_nees
+
+    session = sorted((optiodom_dir / "square").iterdir())[1]
+    folder = tmp_path / "[red]sq" / session.name  # the run's name: "[red]sq/<session>/run-01"
+    folder.mkdir(parents=True)
+    for f in sorted(session.glob("*_metadata.csv")) + sorted(session.glob("*_run-01.csv")):
+        shutil.copy(f, folder)
+    run = read_run(find_runs([folder], "optiodom")[0], "optiodom")
+    assert run.params is not None and run.name.startswith("[red]sq")
+    print_nees([folder], "optiodom", run.params.with_(noise=NOISE), "midpoint", 10.0)
+    assert run.name in capsys.readouterr().out  # rich read it as a colour and dropped it
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--nees-segment", "nan"], "--nees-segment is nan; expected a positive number of seconds"),
+        (["--nees-segment", "0"], "--nees-segment is 0.0; expected a positive number"),
+        (["--params", "jaguar-lite"], "the parameters jaguar-lite have no [noise] table"),
+    ],
+)
+def test_cli_nees_options_are_checked_before_any_file_is_read(
+    tmp_path: Path, extra: list[str], message: str
+) -> None:
+    from typer.testing import CliRunner
+
+    from odolab.cli import app
+
+    missing = tmp_path / "no-such-folder"  # never opened: the options fail first
+    params = save_params(tmp_path / "n.toml", NOMINAL.with_(noise=NOISE))
+    args = ["evaluate", str(missing), "--format", "optiodom", "--nees", "--params", str(params)]
+    with pytest.raises(OdolabError) as err:
+        CliRunner().invoke(app, [*args, *extra], catch_exceptions=False)
+    assert message in str(err.value)

@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
+from odolab import numfmt
 from odolab.analysis import LabAnalysis, table1
 from odolab.calibration import ratios_from_analysis, umbmark
 from odolab.cli import main
 from odolab.report import figures as F
 from odolab.report import table1_rich, write_report
-from odolab.report.html import _fmt
 
 
 @pytest.fixture(scope="module")
@@ -70,17 +70,19 @@ def test_html_is_self_contained_and_matches_the_json(report: Path) -> None:
     plain = html.unescape(text)
     for sentence in res["summary"]:
         assert sentence in plain
+    # one number rule: a ratio carries the digits its 95 % interval supports, everywhere
     for row in res["table1"]:
-        assert _fmt(row["ratio"]) in plain
-        assert _fmt(row["ratio_ci95"][0]) in plain
+        assert numfmt.with_ci(row["ratio"], *row["ratio_ci95"]) in plain
     new = res["calibration"]["ratios"]["params"]["track_width"]
-    assert _fmt(new, 6) in plain
+    assert f"track width {numfmt.plain(new, 5, strip=True)} m" in plain
+    assert '<meta name="viewport"' in text
 
 
 def test_summary_numbers_come_from_the_analysis(report: Path, analysis: LabAnalysis) -> None:
     res = json.loads((report.parent / "results.json").read_text())
     rot = analysis.get("rotation")
-    assert any(f"{rot.ratio:.4g} rad/rad" in s for s in res["summary"])
+    lo, hi = rot.ratio_ci95
+    assert any(f"{numfmt.with_ci(rot.ratio, lo, hi)} rad/rad" in s for s in res["summary"])
 
 
 @pytest.mark.parametrize(
@@ -137,8 +139,17 @@ def _fake_store(monkeypatch: pytest.MonkeyPatch, trials) -> None:
         def __init__(self, path: Path) -> None:
             self.path = path
 
-        def load_trials(self):
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc: object) -> None:
+            return None
+
+        def load_trials(self, **_: object):
             return trials
+
+        def campaigns(self) -> list[object]:
+            return []
 
     monkeypatch.setattr(store, "Notebook", Notebook, raising=False)
 
@@ -164,16 +175,6 @@ def test_cli_too_few_trials_is_one_line(tmp_path: Path, lab, monkeypatch, capsys
     assert main(["analyze", "--db", str(db)]) == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "at least 3" in err and "nan" not in err.lower()
-
-
-def test_cli_without_a_notebook_module(tmp_path: Path, monkeypatch, capsys) -> None:
-    import odolab.store as store
-
-    monkeypatch.delattr(store, "Notebook", raising=False)
-    db = tmp_path / "lab.db"
-    db.write_bytes(b"")
-    assert main(["analyze", "--db", str(db)]) == 1
-    assert "not available" in capsys.readouterr().err
 
 
 def test_report_from_square_runs_only(tmp_path: Path) -> None:

@@ -14,6 +14,7 @@ import pytest
 from matplotlib.container import ErrorbarContainer
 from matplotlib.figure import Figure
 
+from odolab import numfmt
 from odolab.analysis import LabAnalysis
 from odolab.calibration import ratios_from_analysis
 from odolab.report import figures as F
@@ -164,17 +165,19 @@ def test_additional_results_tables_and_json_fallback(full: Path) -> None:
     live = _table(text, "extra-live")
     assert _row(live, "control cycles")[1] == "15915"
     truth = _table(text, "extra-true-params")
-    assert _row(truth, "track_width")[1] == "0.583936"
-    assert _row(truth, "terrain_radius_scale")[1] == "[[concrete, 1.01593], [grass, 0.998227]]"
+    assert _row(truth, "track width")[1] == "0.583936"
+    assert _row(truth, "terrain radius scale")[1] == "concrete 1.01593; grass 0.998227"
     extra_part = html.unescape(text.split("<h2>Additional results</h2>", 1)[1])
-    assert '<pre class="json">{"a": [1, 2]}</pre>' in extra_part
-    assert "something_new" in extra_part
+    # an unknown key is a readable row, not raw JSON
+    assert _row(_table(text, "extra-other"), "something_new › a")[1] == "1, 2"
+    assert "<pre" not in extra_part and "{" not in extra_part
     assert '"after_calibration"' not in extra_part  # shown as a table, not dumped
 
 
-def test_extra_view_without_known_keys_is_json() -> None:
-    view = _extra_view({"k": 1})
-    assert view["other"] == {"k": "1"} and view["after"] is None and view["run"] == []
+def test_extra_view_without_known_keys_is_readable_rows() -> None:
+    view = _extra_view({"k": 1, "nested": {"a": 0.1 + 0.2}})
+    assert view["other"] == [("k", "1"), ("nested › a", "0.3")]
+    assert view["after"] is None and view["run"] == []
 
 
 def test_fit_figure_draws_the_proportional_fit(analysis: LabAnalysis) -> None:
@@ -211,18 +214,15 @@ def test_terrain_slopes_show_slope_and_ratio(analysis: LabAnalysis) -> None:
 def test_fits_table_has_the_ratio_beside_the_slope(full: Path, analysis: LabAnalysis) -> None:
     text = html.unescape(full.read_text())
     fits = _table(text, "fits")
-    assert "ratio (through origin) [95% CI]" in fits
+    assert "ratio through the origin [95 % CI]" in fits
     for m in analysis.motions:
-        row = re.search(
-            rf'<tr><td class="l">{re.escape(m.motion)} \({m.terrain}\)</td>(.*?)</tr>', fits, re.S
-        )
-        assert row is not None
-        cells = _cells(row.group(1))
-        lo, hi = m.fit.slope_ci95
-        assert cells[0] == f"{_fmt(m.fit.slope, 5)} [{_fmt(lo, 5)}, {_fmt(hi, 5)}]"
+        cells = _row(fits, f"{m.motion} ({m.terrain})")
+        assert cells[1] == numfmt.with_ci(m.fit.slope, *m.fit.slope_ci95)
         if m.ratio_fit is not None:
+            assert cells[4] == numfmt.with_ci(m.ratio_fit.slope, *m.ratio_fit.slope_ci95)
+            # e.g. "0.8683 [0.8571, 0.8795]": decimals from the interval's half-width
             lo, hi = m.ratio_fit.slope_ci95
-            assert cells[4] == f"{_fmt(m.ratio_fit.slope, 5)} [{_fmt(lo, 5)}, {_fmt(hi, 5)}]"
+            assert len(cells[4].split(" ")[0].split(".")[1]) == numfmt.decimals_for((hi - lo) / 2)
         else:
             assert cells[4] == "-"
     note = text.split("<h2>Systematic error: fits</h2>", 1)[0].rsplit("</table>", 1)[1]

@@ -216,3 +216,13 @@ def test_table1_follows_each_entry(client: TestClient) -> None:
     row = rotation_row()
     assert row["n"] == 4
     assert row["ratio"] == pytest.approx(rotation_ratio(pairs[1:]), rel=1e-12)
+
+
+def test_a_body_nested_too_deeply_is_a_400_not_a_crash(client: TestClient) -> None:
+    # 100,000 nested arrays made the JSON parser recurse out: a 500 and a traceback on the server
+    body = "[" * 100_000 + "]" * 100_000
+    r = client.post(
+        "/api/trials/R20/measurement", content=body, headers={"content-type": "application/json"}
+    )
+    assert r.status_code == 400
+    assert r.json() == {"error": "the body is not valid JSON (nested too deeply)"}

@@ -220,6 +220,20 @@ def test_upload_is_size_limited_and_validated(lab_db: Path, tmp_path: Path) -> N
         assert len(nb.trial_ids()) == 10
 
 
+def test_an_upload_nested_too_deeply_is_a_sentence(lab_db: Path) -> None:
+    # the store's JSON reader recursed out: a 500 and a traceback on the server
+    c = client_for(lab_db)
+    r = c.post(
+        "/data/import",
+        data={"csrf": csrf_of(c.get("/data").text)},
+        files={"file": ("deep.json", b"[" * 100_000 + b"]" * 100_000, "application/json")},
+    )
+    assert r.status_code == 400
+    assert "deep.json: not valid JSON (nested too deeply)" in r.text
+    with Notebook(lab_db) as nb:
+        assert len(nb.trial_ids()) == 10
+
+
 def test_export_then_import_into_another_notebook(lab_db: Path, tmp_path: Path) -> None:
     from .conftest import cli
 
@@ -243,3 +257,44 @@ def test_export_then_import_into_another_notebook(lab_db: Path, tmp_path: Path) 
     with Notebook(empty) as nb:
         assert len(nb.trial_ids()) == 10
         assert nb.get_trial("R1").measured == Notebook(lab_db).get_trial("R1").measured
+
+
+@pytest.mark.parametrize(
+    ("path", "location"),
+    [
+        ("//evil.example/", "/evil.example/"),  # was Location: //evil.example/ (another site)
+        ("/%5C%5Cevil.example/", "/evil.example/"),  # a browser reads /\ as //
+        ("/%E2%82%AC", "/%E2%82%AC"),  # was raw UTF-8 in a header
+        ("/x%0d%0aSet-Cookie:%20a=1", "/x%0D%0ASet-Cookie:%20a=1"),  # was a 500 (h11 refused it)
+    ],
+)
+def test_the_token_redirect_stays_on_this_server(lab_db: Path, path: str, location: str) -> None:
+    c = TestClient(
+        create_app(ServeSettings(db=lab_db, token=TOKEN, allowed_hosts=None)),
+        base_url="http://192.168.1.20:8000",
+    )
+    r = c.get(f"http://192.168.1.20:8000{path}?token={TOKEN}", follow_redirects=False)
+    assert r.status_code == 303
+    assert r.headers["location"] == location
+
+
+def test_a_loopback_address_other_than_127_0_0_1_answers_to_itself(lab_db: Path) -> None:
+    # bound to 127.0.0.2, every request (Host: 127.0.0.2:port) was refused as a rebinding attempt
+    s = settings_for(lab_db, "127.0.0.2")
+    assert s.token is None and s.allowed_hosts is not None
+    c = TestClient(create_app(s), base_url="http://127.0.0.2:8000")
+    assert c.get("/").status_code == 200
+    assert c.get("/", headers={"host": "attacker.example"}).status_code == 400
+
+
+def test_only_this_servers_redirect_can_say_saved(lab_db: Path) -> None:
+    # /trial?id=R1&saved=measured: x 0.9 m showed a green "measured" banner from any link
+    c = client_for(lab_db)
+    forged = c.get("/trial", params={"id": "R1", "saved": "measured: 90.0 deg (forged)"})
+    assert forged.status_code == 200 and "forged" not in forged.text
+    form = c.get("/trial?id=R1").text
+    r = c.post(
+        "/trial/exclude", data={"id": "R1", "reason": "wheel slipped", "csrf": csrf_of(form)}
+    )
+    assert r.status_code == 200  # followed the redirect
+    assert "excluded: wheel slipped" in r.text

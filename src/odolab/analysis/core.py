@@ -24,6 +24,7 @@ from odolab.analysis.random import GroupSpread, RandomError, group_spreads, rand
 from odolab.analysis.systematic import MIN_FIT_POINTS, LinearFit, fit_line
 from odolab.analysis.terrain import TerrainComparison, compare_terrains
 from odolab.errors import InsufficientDataError
+from odolab.numfmt import count
 from odolab.params import RobotParams
 from odolab.progress import Progress, steps
 from odolab.trials import MotionKind, Trial, TrialStatus
@@ -324,7 +325,7 @@ def analyze_trials(trials: Sequence[Trial], *, progress: Progress | None = None)
         if t.status is TrialStatus.EXCLUDED
     ]
     by_id = {t.trial_id: t for t in measured}
-    say(f"{len(measured)} measured trials of {len(trials)}")
+    say(f"{count(len(measured), 'measured trial')} of {len(trials)}")
     series = _collect(measured)
     order = list(MOTIONS)
     motions: list[MotionAnalysis] = []
@@ -338,9 +339,10 @@ def analyze_trials(trials: Sequence[Trial], *, progress: Progress | None = None)
     if not motions and not squares:
         detail = f" ({'; '.join(skipped)})" if skipped else ""
         raise InsufficientDataError(
-            f"no fit possible from {len(measured)} measured trials: each motion and terrain "
-            f"needs at least {MIN_FIT_POINTS} measured trials at two or more distances or "
-            f"angles{detail}"
+            f"no fit possible from {count(len(measured), 'measured trial')}: each motion and "
+            f"terrain needs at least {MIN_FIT_POINTS} measured trials at two or more distances "
+            f"or angles{detail}; a protocol on the virtual Jaguar (`odolab sim run rotation "
+            "--db NOTEBOOK`) records enough in seconds"
         )
     tests: list[TerrainComparison] = []
     for motion in order:

@@ -10,11 +10,31 @@ or angle); ``sigmas`` lists every repeated distance.
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from typing import Any
 
 from odolab.analysis.core import MOTIONS, LabAnalysis
 
-__all__ = ["table1"]
+__all__ = ["pooled_y_sigmas", "table1"]
+
+
+def pooled_y_sigmas(rows: Sequence[dict[str, Any]], terrain: str = "tile") -> dict[float, float]:
+    """sigma of the y error at each repeated distance, pooled over forward and reverse runs.
+
+    From Table I rows (:func:`table1`): the pooled variance is the degrees-of-freedom weighted
+    mean of the two directions' group variances (how the lab quotes one sigma for both).
+    """
+    acc: dict[float, list[float]] = {}
+    for r in rows:
+        if r["terrain"] != terrain or r["motion"] not in ("y_forward", "y_reverse"):
+            continue
+        for g in r["sigmas"]:
+            d = round(abs(float(g["commanded"])), 6)
+            ss_df = acc.setdefault(d, [0.0, 0.0])
+            ss_df[0] += (g["n"] - 1) * g["sigma"] ** 2
+            ss_df[1] += g["n"] - 1
+    return {d: math.sqrt(ss / df) for d, (ss, df) in sorted(acc.items()) if df > 0}
 
 
 def table1(analysis: LabAnalysis) -> list[dict[str, Any]]:

@@ -1,6 +1,10 @@
 """Least-squares calibration of wheel radii and track width from runs with ground truth.
 
-Parameters ``theta = (left_wheel_radius, right_wheel_radius, track_width)``. Each run is cut into
+Parameters ``theta = (left_wheel_radius, right_wheel_radius, track_width)`` for the differential
+drive (``model="diff"``); the other kinematic models of :mod:`odolab.models` fit their own
+(:data:`FIT_MODELS`): ``extended`` its scales and track factor with the radii held (they multiply
+the radii, so both cannot be fitted), ``icr`` both radii and the three ICR coordinates
+(``y_icr_left``, ``y_icr_right``, ``x_icr``). Each run is cut into
 segments of ``segment_s`` seconds; for a segment from sample i to j the residual is the odometry's
 relative motion minus the ground truth's, both in the segment's start frame::
 
@@ -11,9 +15,15 @@ where p, h are odometry positions and heading (integrated with theta) and q, g t
 interpolated at the odometry stamps. ``heading_scale`` (m/rad, default half the nominal track
 width: the wheel travel that the heading error stands for) puts both kinds in metres.
 :func:`scipy.optimize.least_squares` minimises the sum of squares; standard errors come from the
-Jacobian at the solution, ``sqrt(diag((J^T J)^-1) s^2)`` with ``s^2 = sum r^2 / (m - 3)``: segments
+Jacobian at the solution, ``sqrt(diag((J^T J)^-1) s^2)`` with ``s^2 = sum r^2 / (m - k)``: segments
 use disjoint encoder increments, so treating their residuals as independent is reasonable, but
 the numbers are only as good as that assumption.
+
+A parameter the runs cannot determine (its Jacobian column is, within 1e-4 of its variance, a
+combination of the others: variance inflation above 1e4; or its standard error is above 5 % of
+its size, for ``x_icr`` of a tenth of the track width) stops the fit with one sentence naming it,
+its standard error and what data would determine it (models other than the differential drive,
+which keeps its original sentence).
 """
 
 from __future__ import annotations
@@ -32,11 +42,14 @@ from odolab.io.run import OdometryRun, ReadOptions
 from odolab.kinematics import Method
 from odolab.metrics.association import interpolate_trajectory
 from odolab.metrics.runs import RUN_OPTIONS, Progress, RunEvaluation, evaluate_run, parallel_map
+from odolab.models import DIFF_DRIVE, ExtendedDiffDrive, IcrModel
 from odolab.odometry import integrate_increments
 from odolab.params import RobotParams
 
 __all__ = [
+    "FIT_MODELS",
     "PARAM_NAMES",
+    "FitModel",
     "LsqCalibration",
     "LsqOptions",
     "PreparedRun",
@@ -52,6 +65,113 @@ __all__ = [
 PARAM_NAMES = ("left_wheel_radius", "right_wheel_radius", "track_width")
 FloatArray = NDArray[np.float64]
 
+#: variance inflation factor above which a parameter counts as not determined by the runs
+_VIF_LIMIT = 1e4
+#: ... or a standard error above this fraction of the parameter's typical size
+#: (its value; 0.1 x the track width for x_icr)
+_SE_LIMIT = 0.05
+
+
+@dataclass(frozen=True)
+class FitModel:
+    """What :func:`calibrate_lsq` fits for one kinematic model: names, start, bounds, scales."""
+
+    kind: str
+    names: tuple[str, ...]
+    #: what data determines each parameter (for the "not identifiable" sentence)
+    needs: tuple[str, ...]
+
+    def start(self, nominal: RobotParams) -> FloatArray:
+        """The start values: the nominal parameters (the neutral model where it has none)."""
+        v = self.values(nominal)
+        return np.array([v[k] for k in self.names], dtype=np.float64)
+
+    def values(self, params: RobotParams) -> dict[str, float]:
+        """This model's fitted quantities as ``params`` has them (neutral for other models)."""
+        b = params.track_width
+        model = params.model
+        out = {
+            "left_wheel_radius": params.left_wheel_radius,
+            "right_wheel_radius": params.right_wheel_radius,
+            "track_width": b,
+        }
+        ext = model if isinstance(model, ExtendedDiffDrive) else ExtendedDiffDrive()
+        icr = model if isinstance(model, IcrModel) else IcrModel.from_track(b)
+        out.update(ext.to_dict())
+        out.update(icr.to_dict())
+        return {k: out[k] for k in self.names}
+
+    def bounds(self, x0: FloatArray, nominal: RobotParams) -> tuple[FloatArray, FloatArray]:
+        """Lower and upper bounds of each parameter."""
+        b = nominal.track_width
+        fixed = {
+            "y_icr_left": (1e-3 * b, 4.0 * b),
+            "y_icr_right": (-4.0 * b, -1e-3 * b),
+            "x_icr": (-2.0 * b, 2.0 * b),
+        }
+        pairs = [fixed.get(n, (0.5 * v, 2.0 * v)) for n, v in zip(self.names, x0, strict=True)]
+        return np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
+
+    def scales(self, x0: FloatArray, nominal: RobotParams) -> FloatArray:
+        """Typical size of each parameter (step of the numerical Jacobian, solver scaling)."""
+        b = nominal.track_width
+        return np.array(
+            [0.1 * b if n == "x_icr" else abs(v) for n, v in zip(self.names, x0, strict=True)]
+        )
+
+    def params(self, template: RobotParams, theta: FloatArray) -> RobotParams:
+        """``template`` with the fitted values ``theta`` (in :attr:`names` order)."""
+        v = dict(zip(self.names, (float(t) for t in theta), strict=True))
+        if self.kind == "diff":
+            return template.with_(
+                left_wheel_radius=v["left_wheel_radius"],
+                right_wheel_radius=v["right_wheel_radius"],
+                track_width=v["track_width"],
+                model=DIFF_DRIVE,
+            )
+        if self.kind == "extended":
+            return template.with_(
+                model=ExtendedDiffDrive(v["scale_left"], v["scale_right"], v["track_scale"])
+            )
+        return template.with_(
+            left_wheel_radius=v["left_wheel_radius"],
+            right_wheel_radius=v["right_wheel_radius"],
+            model=IcrModel(v["y_icr_left"], v["y_icr_right"], v["x_icr"]),
+        )
+
+
+_RADII_NEED = "straight driving"
+#: The models :func:`calibrate_lsq` can fit, by ``kind``.
+FIT_MODELS: dict[str, FitModel] = {
+    "diff": FitModel("diff", PARAM_NAMES, (_RADII_NEED, _RADII_NEED, "turning")),
+    "extended": FitModel(
+        "extended",
+        ("scale_left", "scale_right", "track_scale"),
+        (_RADII_NEED, _RADII_NEED, "turning"),
+    ),
+    "icr": FitModel(
+        "icr",
+        ("left_wheel_radius", "right_wheel_radius", "y_icr_left", "y_icr_right", "x_icr"),
+        (
+            _RADII_NEED,
+            _RADII_NEED,
+            "turns with each track at several speeds (curves and pivots, not only turns in place)",
+            "turns with each track at several speeds (curves and pivots, not only turns in place)",
+            "turns of both signs at speed",
+        ),
+    ),
+}
+
+
+def fit_model(kind: str) -> FitModel:
+    """The :class:`FitModel` of a model kind, or one clear sentence."""
+    try:
+        return FIT_MODELS[kind]
+    except KeyError:
+        raise CalibrationError(
+            f"unknown model {kind!r} to fit; expected one of {', '.join(FIT_MODELS)}"
+        ) from None
+
 
 @dataclass(frozen=True)
 class LsqOptions:
@@ -62,8 +182,10 @@ class LsqOptions:
     method: Method = Method.MIDPOINT
     loss: str = "linear"
     fit_gt_yaw_offset: bool = True
+    model: str = "diff"
 
     def __post_init__(self) -> None:
+        fit_model(self.model)
         if not (np.isfinite(self.segment_s) and self.segment_s > 0):
             raise CalibrationError(
                 f"segment length is {self.segment_s!r} s; expected a positive number of seconds"
@@ -133,17 +255,17 @@ def segment_residuals(
     heading_scale: float,
     method: Method = Method.MIDPOINT,
     gt_yaw_offset: float = 0.0,
+    model: str = "diff",
 ) -> FloatArray:
-    """Residuals of one run (shape (3k,) for k segments) at parameters ``theta`` (shape (3,)).
+    """Residuals of one run (shape (3k,) for k segments) at parameters ``theta``.
 
+    ``theta`` holds the parameters of ``model`` (``FIT_MODELS[model].names``; for the
+    differential drive the two radii and the track width).
     ``gt_yaw_offset`` (rad): the robot's forward axis as seen in the ground truth's body frame;
     the ground-truth displacement is expressed in the frame at heading ``g_i + gt_yaw_offset``.
     """
-    p = template.with_(
-        left_wheel_radius=float(theta[0]),
-        right_wheel_radius=float(theta[1]),
-        track_width=float(theta[2]),
-    )
+    spec = fit_model(model)
+    p = spec.params(template, theta[: len(spec.names)])
     odo = integrate_increments(run.t, run.dticks_left, run.dticks_right, p, method)
     ox, oy, oh = _relative(odo.x, odo.y, odo.heading, run.starts, run.ends)
     gx, gy, gh = _relative(run.gt_x, run.gt_y, run.gt_heading + gt_yaw_offset, run.starts, run.ends)
@@ -202,6 +324,26 @@ class LsqCalibration:
     heading_scale: float
     gt_yaw_offsets: list[float] = field(default_factory=list)
     validation: list[RunComparison] = field(default_factory=list)
+    model: str = "diff"
+    #: sum of squared residuals of each run at the solution (same order as ``runs``)
+    run_rss: list[float] = field(default_factory=list)
+    #: number of residuals of each run (same order as ``runs``)
+    run_sizes: list[int] = field(default_factory=list)
+
+    @property
+    def n_params(self) -> int:
+        """Number of fitted parameters (model and ground-truth yaw offsets)."""
+        return len(self.stderr) + len(self.gt_yaw_offsets)
+
+    @property
+    def values(self) -> dict[str, float]:
+        """The fitted parameters by name (as :attr:`stderr`)."""
+        return fit_model(self.model).values(self.params)
+
+    @property
+    def nominal_values(self) -> dict[str, float]:
+        """The same quantities in the nominal parameters (neutral for a model they lack)."""
+        return fit_model(self.model).values(self.nominal)
 
     @property
     def provenance(self) -> Provenance:
@@ -213,6 +355,7 @@ class LsqCalibration:
         """A ``[provenance]`` table for the saved parameters file."""
         return {
             "method": "least squares on segment relative motion (odolab calibrate lsq)",
+            "model": self.model,
             "runs": self.runs,
             "segments": self.segments,
             "heading_scale_m_per_rad": self.heading_scale,
@@ -237,30 +380,42 @@ def calibrate_lsq(
     nominal: RobotParams,
     options: LsqOptions | None = None,
 ) -> LsqCalibration:
-    """Fit ``theta = (r_left, r_right, track_width)`` to the runs' ground truth (see the module)."""
+    """Fit the kinematic model ``options.model`` to the runs' ground truth (see the module).
+
+    For the differential drive ``theta = (r_left, r_right, track_width)``."""
     from scipy.optimize import least_squares
 
     o = options or LsqOptions()
+    spec = fit_model(o.model)
+    k_model = len(spec.names)
     prepared = [r if isinstance(r, PreparedRun) else prepare_run(r, o.segment_s) for r in runs]
     if not prepared:
         raise InsufficientDataError("no runs to calibrate on; expected at least one run")
     scale = o.heading_scale if o.heading_scale is not None else nominal.track_width / 2.0
-    x0 = np.array([nominal.left_wheel_radius, nominal.right_wheel_radius, nominal.track_width])
+    x0 = spec.start(nominal)
+    lo, hi = spec.bounds(x0, nominal)
     n_off = len(prepared) if o.fit_gt_yaw_offset else 0
+    x_scale = np.concatenate((spec.scales(x0, nominal), np.full(n_off, 0.01)))
     x0 = np.concatenate((x0, np.zeros(n_off)))
-    lower = np.concatenate((x0[:3] * 0.5, np.full(n_off, -0.5)))
-    upper = np.concatenate((x0[:3] * 2.0, np.full(n_off, 0.5)))
-    x_scale = np.concatenate((x0[:3], np.full(n_off, 0.01)))
+    lower = np.concatenate((lo, np.full(n_off, -0.5)))
+    upper = np.concatenate((hi, np.full(n_off, 0.5)))
+
+    def per_run(theta: FloatArray) -> list[FloatArray]:
+        return [
+            segment_residuals(
+                theta[:k_model],
+                r,
+                nominal,
+                scale,
+                o.method,
+                theta[k_model + k] if n_off else 0.0,
+                spec.kind,
+            )
+            for k, r in enumerate(prepared)
+        ]
 
     def fun(theta: FloatArray) -> FloatArray:
-        return np.concatenate(
-            [
-                segment_residuals(
-                    theta[:3], r, nominal, scale, o.method, theta[3 + k] if n_off else 0.0
-                )
-                for k, r in enumerate(prepared)
-            ]
-        )
+        return np.concatenate(per_run(theta))
 
     r0 = fun(x0)
     m = r0.size
@@ -284,30 +439,72 @@ def calibrate_lsq(
     s2 = float(np.sum(sol.fun**2)) / (m - x0.size)
     jtj = jmat.T @ jmat
     norms = np.linalg.norm(jmat, axis=0)
-    if not np.all(norms > 0) or np.linalg.cond(jmat / norms) > 1e5:
-        raise CalibrationError(
-            "the runs do not determine both radii and the track width (singular Jacobian); "
-            "expected runs with both straight driving and turning"
-        )
+    _check_identifiable(spec, jmat, norms, s2, k_model, x_scale[:k_model])
     cov: FloatArray = np.asarray(np.linalg.inv(jtj) * s2, dtype=np.float64)
     theta = sol.x
-    params = nominal.with_(
-        left_wheel_radius=float(theta[0]),
-        right_wheel_radius=float(theta[1]),
-        track_width=float(theta[2]),
-        name=f"{nominal.name}-lsq",
-    )
+    params = spec.params(nominal, theta[:k_model]).with_(name=f"{nominal.name}-lsq")
+    residuals = per_run(sol.x)
     return LsqCalibration(
         params=params,
         nominal=nominal,
-        stderr={k: float(np.sqrt(cov[i, i])) for i, k in enumerate(PARAM_NAMES)},
-        covariance=cov[:3, :3],
+        stderr={k: float(np.sqrt(cov[i, i])) for i, k in enumerate(spec.names)},
+        covariance=cov[:k_model, :k_model],
         rms_before=float(np.sqrt(np.mean(r0**2))),
         rms_after=float(np.sqrt(np.mean(sol.fun**2))),
         runs=[r.name for r in prepared],
         segments=m // 3,
         heading_scale=scale,
-        gt_yaw_offsets=[float(v) for v in theta[3:]],
+        gt_yaw_offsets=[float(v) for v in theta[k_model:]],
+        model=spec.kind,
+        run_rss=[float(np.sum(r**2)) for r in residuals],
+        run_sizes=[int(r.size) for r in residuals],
+    )
+
+
+def _check_identifiable(
+    spec: FitModel,
+    jmat: FloatArray,
+    norms: FloatArray,
+    s2: float,
+    k_model: int,
+    typical: FloatArray,
+) -> None:
+    """Raise one sentence when the runs do not determine a parameter (see the module)."""
+    if spec.kind == "diff":  # the original sentence for the original model
+        if not np.all(norms > 0) or np.linalg.cond(jmat / norms) > 1e5:
+            raise CalibrationError(
+                "the runs do not determine both radii and the track width (singular Jacobian); "
+                "expected runs with both straight driving and turning"
+            )
+        return
+    for i in range(k_model):
+        if not norms[i] > 0:
+            raise CalibrationError(
+                f"{spec.names[i]} is not identifiable from these runs (it does not change the "
+                f"odometry at all); expected runs with {spec.needs[i]}"
+            )
+    nz = norms > 0
+    jn = jmat[:, nz] / norms[nz]
+    ginv = np.linalg.pinv(jn.T @ jn)
+    vif = np.diag(ginv)[:k_model]
+    se = np.sqrt(np.maximum(vif * s2, 0.0)) / norms[:k_model]
+    bad = [
+        i
+        for i in range(k_model)
+        if not (np.isfinite(vif[i]) and vif[i] <= _VIF_LIMIT and se[i] <= _SE_LIMIT * typical[i])
+    ]
+    if not bad:
+        return
+    groups: dict[str, list[str]] = {}
+    for i in sorted(bad, key=lambda i: spec.names[i] != "x_icr"):  # x_icr's sentence first
+        groups.setdefault(spec.needs[i], []).append(f"{spec.names[i]} (standard error {se[i]:.3g})")
+    parts = [
+        f"{', '.join(names)} {'is' if len(names) == 1 else 'are'} not identifiable without {need}"
+        for need, names in groups.items()
+    ]
+    raise CalibrationError(
+        "; ".join(parts) + " (the other parameters explain the same motion); expected runs "
+        "that have them"
     )
 
 

@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from odolab.errors import CalibrationError
+from odolab.numfmt import clean
 from odolab.params import NoiseParams, RobotParams, save_params
 
 if TYPE_CHECKING:
@@ -90,10 +91,11 @@ def ratios(
     """New parameters from the distance and rotation ratios (actual/predicted); see module doc."""
     qd = _check_ratio("distance ratio", distance_ratio)
     qr = _check_ratio("rotation ratio", rotation_ratio)
+    # 12 significant digits: the products without their last-bit noise (numfmt.clean)
     new = params.with_(
-        left_wheel_radius=params.left_wheel_radius * qd,
-        right_wheel_radius=params.right_wheel_radius * qd,
-        track_width=params.track_width * qd / qr,
+        left_wheel_radius=clean(params.left_wheel_radius * qd),
+        right_wheel_radius=clean(params.right_wheel_radius * qd),
+        track_width=clean(params.track_width * qd / qr),
         name=f"{params.name}-ratios",
     )
     prov: dict[str, Any] = {

@@ -5,9 +5,10 @@ Shared by ``odolab calibrate ... --db`` and ``odolab serve`` (its calibration pa
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Literal
 
-from odolab.trials import MotionKind, TrialStatus
+from odolab.trials import MotionKind, Trial, TrialStatus
 
 if TYPE_CHECKING:
     from odolab.calibration.ratios import CalibrationResult
@@ -22,18 +23,22 @@ def record_calibration(
     result: CalibrationResult,
     base: RobotParams,
     *,
-    trials: Literal["all", "squares"] | None,
+    trials: Literal["all", "squares"] | Sequence[Trial] | None,
 ) -> int:
     """Add ``result`` as a new version of ``base``'s robot; return the version number.
 
     ``trials`` names the measured trials it comes from: every one (``"all"``), the UMBmark
-    squares (``"squares"``) or none (ratios typed by hand).
+    squares (``"squares"``), none (ratios typed by hand), or the trials themselves (those a
+    ``--campaign`` selection used; the measured ones are recorded).
     """
-    used = [
-        t.trial_id
-        for t in nb.load_trials(status=TrialStatus.MEASURED, with_logs=False)
-        if trials == "all" or (trials == "squares" and t.command.kind is MotionKind.SQUARE)
-    ]
+    if trials is not None and not isinstance(trials, str):
+        used = [t.trial_id for t in trials if t.status is TrialStatus.MEASURED]
+    else:
+        used = [
+            t.trial_id
+            for t in nb.load_trials(status=TrialStatus.MEASURED, with_logs=False)
+            if trials == "all" or (trials == "squares" and t.command.kind is MotionKind.SQUARE)
+        ]
     return nb.add_params_version(
         result.params.with_(name=base.name),
         method=result.method,

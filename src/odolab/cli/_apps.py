@@ -14,6 +14,28 @@ __all__ = [
     "trials_app",
 ]
 
+
+def _no_type_for_flags() -> None:
+    """Typer 0.29's rich help shows a flag as ``--help <bool>``: a flag takes no value, so
+    show no type for it (every other option keeps its ``<float>``, ``<path>`` ...)."""
+    from typer import core
+
+    option = getattr(core, "TyperOption", None)
+    shown = getattr(option, "display_type_rich", None)
+    if option is None or shown is None or getattr(shown, "_odolab", False):
+        return
+
+    def display_type_rich(self: object, ctx: object) -> str | None:
+        if getattr(self, "is_flag", False) and not getattr(self, "count", False):
+            return None
+        return shown(self, ctx)  # type: ignore[no-any-return]
+
+    display_type_rich._odolab = True  # type: ignore[attr-defined]
+    option.display_type_rich = display_type_rich
+
+
+_no_type_for_flags()
+
 _SETTINGS = {"no_args_is_help": True, "pretty_exceptions_enable": False}
 
 app = typer.Typer(

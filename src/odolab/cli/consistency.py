@@ -35,9 +35,9 @@ def print_nees(
 ) -> dict[str, Any]:
     """NEES of every run (pieces of ``segment`` s) against its ground truth; prints a table and
     the verdict, returns the JSON-ready numbers."""
-    from rich.console import Console
     from rich.table import Table
 
+    from odolab.cli._output import markup_text
     from odolab.errors import ParamsError
     from odolab.metrics.consistency import nees_summary, run_nees
 
@@ -56,9 +56,12 @@ def print_nees(
         table.add_column(col, justify="right")
     for r in results:
         mean = f"{float(r.nees.mean()):.3g}" if r.nees.size else "-"
-        table.add_row(r.name, str(r.nees.size), mean, f"{r.gt_yaw_offset:.4f}")
-    console = Console()
-    console.print(table)
+        table.add_row(markup_text(r.name), str(r.nees.size), mean, f"{r.gt_yaw_offset:.4f}")
+    from odolab.cli._console import console as make_console
+    from odolab.cli._console import print_table
+
+    console = make_console()
+    print_table(console, table)
     lo, hi = summary.mean_bounds95
     console.print(
         f"mean NEES {summary.mean:.3g} over {summary.n} pieces; 95 % bounds [{lo:.3g}, {hi:.3g}]; "

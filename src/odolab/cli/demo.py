@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated
 
 import typer
 
@@ -48,49 +48,26 @@ def demo_cmd(
 
         result = run_lab(out, seed=seed, truth=truth, progress=progress)
 
-    out_console = Console()
-    out_console.print(_compact_table1(result.table1))
-    after = ", ".join(f"{k} {v:.4f}" for k, v in result.after_calibration.items())
+    from odolab import numfmt
+    from odolab.cli._console import console as make_console
+    from odolab.cli._console import print_table
+    from odolab.report.table import table1_compare_rich
+
+    out_console = make_console()
+    print_table(
+        out_console, table1_compare_rich(result.table1, title="Table I: this run vs the lab report")
+    )
+    after = ", ".join(f"{k} {numfmt.plain(v)}" for k, v in result.after_calibration.items())
     old_rms, new_rms = result.validation_rms
     out_console.print(f"after calibration (ratios), actual/predicted: {after}")
-    out_console.print(f"IMU validation: heading RMS error {old_rms:.3f} rad -> {new_rms:.3f} rad")
+    out_console.print(
+        f"IMU validation: heading RMS error {numfmt.plain(old_rms, 3)} rad -> "
+        f"{numfmt.plain(new_rms, 3)} rad"
+    )
+    if result.phone_runs is not None:
+        for sentence in result.phone_runs.verdict():
+            out_console.print(f"  {sentence}", markup=False)
     for name, path in result.params_files.items():
-        out_console.print(f"calibrated parameters ({name}): {path}")
-    out_console.print(f"lab notebook: {result.notebook}")
-    out_console.print(f"report: {result.report}")
-
-
-def _compact_table1(rows: list[dict[str, Any]]) -> Any:
-    """Table I as measured in this run, beside the lab report's own numbers."""
-    from rich.table import Table
-
-    from odolab.lab import LAB_REPORT_TABLE1, LAB_REPORT_Y_SIGMA, pooled_y_sigmas
-
-    table = Table(title="Table I: this run (virtual Jaguar) vs the lab report")
-    for name in ("motion", "terrain", "n", "ratio [95% CI]", "lab", "sigma @", "lab sigma"):
-        table.add_column(name, justify="left" if name in ("motion", "terrain") else "right")
-    for r in rows:
-        ref = LAB_REPORT_TABLE1.get((r["motion"], r["terrain"]))
-        lo, hi = r["ratio_ci95"]
-        sig = "\n".join(f"{s['sigma']:.3g} @ {s['commanded']:+.3g}" for s in r.get("sigmas", []))
-        table.add_row(
-            r["motion"],
-            r["terrain"],
-            str(r["n"]),
-            f"{r['ratio']:.4f} [{lo:.3f}, {hi:.3f}]",
-            f"{ref[0]:g} ± {ref[1]:g}" if ref else "-",
-            sig or "-",
-            "\n".join(f"{s:g} @ {at:.3g}" for s, at, _ in ref[2]) if ref and ref[2] else "-",
-        )
-    pooled = pooled_y_sigmas(rows)
-    if pooled:
-        table.add_row(
-            "y (both)",
-            "tile",
-            "",
-            "",
-            "",
-            "\n".join(f"{s:.3g} @ {d:g}" for d, s in pooled.items()),
-            "\n".join(f"{s:g} @ {at:g}" for s, at, _ in LAB_REPORT_Y_SIGMA),
-        )
-    return table
+        out_console.print(f"calibrated parameters ({name}): {path}", markup=False)
+    out_console.print(f"lab notebook: {result.notebook}", markup=False)
+    out_console.print(f"report: {result.report}", markup=False)

@@ -42,6 +42,12 @@ class SyncChoice(StrEnum):
     interpolate = "interpolate"
 
 
+class ModelChoice(StrEnum):
+    diff = "diff"
+    extended = "extended"
+    icr = "icr"
+
+
 FormatOpt = Annotated[
     RunFormat | None,
     typer.Option("--format", "-f", help="Paths are runs of this format (else: GT EST files)."),
@@ -170,6 +176,18 @@ def evaluate_cmd(
         changes["pairs_from_reference"] = pairs_from_reference
     options = replace(base, **changes)
     robot = load_params(params) if params else None
+    if nees:  # checked before any file is read: a typo costs nothing
+        import math
+
+        if not (math.isfinite(nees_segment) and nees_segment > 0):
+            raise OdolabError(
+                f"--nees-segment is {nees_segment}; expected a positive number of seconds"
+            )
+        if robot is not None and robot.noise is None:
+            raise OdolabError(
+                f"--nees: the parameters {params} have no [noise] table (k_left, k_right); "
+                "give --params with one (e.g. from `odolab calibrate noise`)"
+            )
     if fmt is None:
         from odolab.io import read_trajectory
         from odolab.metrics import evaluate
@@ -214,26 +232,71 @@ def evaluate_cmd(
     _write_json(doc, json_out)
 
 
+def _group_of(name: str) -> str:
+    """The folder a run was found in (``circular/2506.../run-01`` -> ``circular``)."""
+    return name.split("/", 1)[0] if "/" in name else ""
+
+
+def _mean_rows(names: list[str], values: list[list[float]]) -> list[tuple[str, list[float]]]:
+    """One mean row per folder with two or more runs, and one over all runs when there are
+    several folders (the means the docs quote)."""
+    import numpy as np
+
+    groups: dict[str, list[int]] = {}
+    for i, n in enumerate(names):
+        groups.setdefault(_group_of(n), []).append(i)
+    out: list[tuple[str, list[float]]] = []
+    for g, idx in groups.items():
+        if len(idx) > 1:
+            label = f"mean, {g} ({len(idx)} runs)" if g else f"mean ({len(idx)} runs)"
+            out.append(
+                (
+                    label,
+                    [float(np.mean([values[i][k] for i in idx])) for k in range(len(values[0]))],
+                )
+            )
+    if len(groups) > 1 and len(names) > 1:
+        out.append(
+            (
+                f"mean, all ({len(names)} runs)",
+                [float(np.mean([v[k] for v in values])) for k in range(len(values[0]))],
+            )
+        )
+    return out
+
+
 def _print_table(rows: list[tuple[str, Any]]) -> None:
-    from rich.console import Console
+    import math
+
     from rich.table import Table
+
+    from odolab.cli._console import console, print_table
 
     table = Table(title="trajectory error (translation m, rotation deg)")
     for col in ("run", "APE rmse", "RPE rmse", "RPE rot rmse", "end err", "drift %", "deg/m"):
         table.add_column(col, justify="right")
-    import math
-
-    for name, ev in rows:
+    decimals = (4, 4, 3, 4, 2, 3)
+    values = [
+        [
+            ev.ape.rmse,
+            ev.rpe.rmse,
+            math.degrees(ev.rpe_rot.rmse),
+            ev.drift.endpoint_error,
+            ev.drift.translation_pct,
+            ev.drift.rotation_deg_per_m,
+        ]
+        for _, ev in rows
+    ]
+    names = [name for name, _ in rows]
+    for i, (name, vals) in enumerate(zip(names, values, strict=True)):
         table.add_row(
             name,
-            f"{ev.ape.rmse:.4f}",
-            f"{ev.rpe.rmse:.4f}",
-            f"{math.degrees(ev.rpe_rot.rmse):.3f}",
-            f"{ev.drift.endpoint_error:.4f}",
-            f"{ev.drift.translation_pct:.2f}",
-            f"{ev.drift.rotation_deg_per_m:.3f}",
+            *(f"{v:.{d}f}" for v, d in zip(vals, decimals, strict=True)),
+            end_section=i == len(rows) - 1,
         )
-    Console().print(table)
+    for label, vals in _mean_rows(names, values) if values else []:
+        table.add_row(label, *(f"{v:.{d}f}" for v, d in zip(vals, decimals, strict=True)))
+    print_table(console(), table)
 
 
 @calibrate_app.command("lsq")
@@ -250,15 +313,22 @@ def calibrate_lsq_cmd(
     ] = None,
     segment: Annotated[float, typer.Option(help="Segment length (s) of the residuals.")] = 2.0,
     no_gt_yaw_offset: Annotated[
-        bool, typer.Option(help="Do not estimate the ground truth's yaw mounting offset.")
+        bool,
+        typer.Option(
+            "--no-gt-yaw-offset", help="Do not estimate the ground truth's yaw mounting offset."
+        ),
     ] = False,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write the report here.")] = None,
     workers: WorkersOpt = 2,
     joint_topic: JointTopicOpt = "/joint_states",
     joints: JointsOpt = ("left_wheel_joint", "right_wheel_joint"),
     gt_topic: GtTopicOpt = "/ground_truth",
+    model: Annotated[
+        ModelChoice,
+        typer.Option(help="Kinematic model to fit (docs/models.md): diff, extended or icr."),
+    ] = ModelChoice.diff,
 ) -> None:
-    """Least-squares wheel radii and track width from runs with ground truth."""
+    """Least-squares kinematic model (radii and track width, or ICRs) from runs with ground truth."""
     from odolab.calibration.lsq import LsqOptions, calibrate_lsq_files
     from odolab.params import load_params, save_params
 
@@ -270,7 +340,9 @@ def calibrate_lsq_cmd(
             fmt.value,
             nominal=robot,
             validate=validate or [],
-            options=LsqOptions(segment_s=segment, fit_gt_yaw_offset=not no_gt_yaw_offset),
+            options=LsqOptions(
+                segment_s=segment, fit_gt_yaw_offset=not no_gt_yaw_offset, model=model.value
+            ),
             read_options=ro,
             workers=workers,
             progress=report,
@@ -283,37 +355,52 @@ def calibrate_lsq_cmd(
 def _print_calibration(result: Any, output: Path) -> None:
     import math
 
-    from rich.console import Console
     from rich.table import Table
 
-    console = Console()
+    from odolab.cli._console import console as make_console
+    from odolab.cli._console import print_table
+
+    console = make_console()
     table = Table(
         title=f"least-squares calibration ({len(result.runs)} runs, "
         f"{result.segments} segments) -> {output}"
     )
     for col in ("parameter", "nominal", "calibrated", "std error"):
         table.add_column(col, justify="right")
+    nominal, fitted = result.nominal_values, result.values
     for key, err in result.stderr.items():
-        table.add_row(
-            key,
-            f"{getattr(result.nominal, key):.6f}",
-            f"{getattr(result.params, key):.6f}",
-            f"{err:.2e}",
-        )
-    console.print(table)
+        table.add_row(key, f"{nominal[key]:.6f}", f"{fitted[key]:.6f}", f"{err:.2e}")
+    print_table(console, table)
     if not result.validation:
         return
     val = Table(title="held-out runs: nominal -> calibrated")
     for col in ("run", "end err (m)", "drift %", "deg/m"):
         val.add_column(col, justify="right")
+    names: list[str] = []
+    values: list[list[float]] = []
     for v in result.validation:
         n, c = v.nominal.evaluation.drift, v.calibrated.evaluation.drift
-        val.add_row(
-            v.nominal.name,
-            f"{n.endpoint_error:.4f} -> {c.endpoint_error:.4f}",
-            f"{n.translation_pct:.2f} -> {c.translation_pct:.2f}",
-            f"{n.rotation_deg_per_m:.3f} -> {c.rotation_deg_per_m:.3f}",
+        names.append(v.nominal.name)
+        values.append(
+            [
+                n.endpoint_error,
+                c.endpoint_error,
+                n.translation_pct,
+                c.translation_pct,
+                n.rotation_deg_per_m,
+                c.rotation_deg_per_m,
+            ]
         )
-    console.print(val)
+    rows = [(name, vals) for name, vals in zip(names, values, strict=True)]
+    means = _mean_rows(names, values) if values else []
+    for i, (name, x) in enumerate([*rows, *means]):
+        val.add_row(
+            name,
+            f"{x[0]:.4f} -> {x[1]:.4f}",
+            f"{x[2]:.2f} -> {x[3]:.2f}",
+            f"{x[4]:.3f} -> {x[5]:.3f}",
+            end_section=i == len(rows) - 1,
+        )
+    print_table(console, val)
     if math.isfinite(result.rms_after):
         console.print(f"residual rms {result.rms_before:.5f} -> {result.rms_after:.5f} m")

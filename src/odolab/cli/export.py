@@ -104,24 +104,28 @@ def mcap_cmd(
     ] = 0.0,
 ) -> None:
     """Write a ROS 2 MCAP (/odom with covariance, /joint_states, /ground_truth, /tf)."""
+    from odolab.cli._output import check_output_path
     from odolab.errors import OdolabError
     from odolab.export.mcap import (
+        check_start_time,
         stream_from_campaign,
-        stream_from_encoder_log,
         stream_from_run,
+        stream_from_run_folder,
         stream_from_trajectories,
         write_mcap,
     )
     from odolab.params import load_params
 
+    check_start_time(start_time)  # every option checked before any input is read
+    check_output_path(output, "MCAP file")
     robot = load_params(params) if params else None
     paths = list(sources or [])
     if campaign is not None or db is not None:
         if campaign is None or db is None or paths:
             raise OdolabError("a notebook campaign needs --db and --campaign, and no SOURCE")
-        from odolab.store import Notebook
+        from odolab.cli.trials import _open
 
-        with Notebook(db) as nb:
+        with _open(db) as nb:  # a missing notebook is refused, not created
             stream = stream_from_campaign(nb, campaign, robot, method.value)
     elif fmt is not None:
         from odolab.io.registry import read_run
@@ -132,19 +136,7 @@ def mcap_cmd(
         ro = ReadOptions(ticks_per_rev=robot.ticks_per_rev) if robot else ReadOptions()
         stream = stream_from_run(read_run(paths[0], fmt.value, ro), robot, method.value)
     elif len(paths) == 1 and (paths[0] / "run.json").is_file():
-        import json
-
-        from odolab.io import read_encoder_csv, read_trajectory
-        from odolab.params import params_from_mapping
-
-        folder = paths[0]
-        doc = json.loads((folder / "run.json").read_text(encoding="utf-8"))
-        p = robot or params_from_mapping(doc["params"], source=str(folder / "run.json"))
-        enc = read_encoder_csv(folder / "encoders.csv", modulus=p.encoder_modulus)
-        stream = stream_from_encoder_log(
-            enc.t, enc.left_ticks, enc.right_ticks, p, method.value, source=str(folder)
-        )
-        _ = read_trajectory  # predicted.csv equals this odometry (tests check it)
+        stream = stream_from_run_folder(paths[0], robot, method.value)
     elif len(paths) == 2:
         from odolab.io import read_trajectory
 

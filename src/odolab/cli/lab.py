@@ -13,32 +13,75 @@ from odolab.cli._apps import app, calibrate_app
 __all__: list[str] = []
 
 
-def _load_trials(db: Path) -> list[Any]:
-    """Trials from the lab notebook at ``db`` (lazy import: the store is optional here)."""
-    import importlib
+DbOpt = Annotated[
+    Path,
+    typer.Option("--db", help="Lab notebook (SQLite) with the trials.", envvar="ODOLAB_DB"),
+]
+_DB = Path("odolab.db")
+CampaignOpt = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--campaign",
+        help="Use only this campaign (repeat for several). Default: every campaign except "
+        "validation campaigns.",
+    ),
+]
+ExcludeOpt = Annotated[
+    list[str] | None,
+    typer.Option("--exclude-campaign", help="Leave this campaign out (repeat for several)."),
+]
 
+
+def _load_trials(db: Path, *, with_logs: bool = True) -> tuple[list[Any], set[str]]:
+    """Trials of the lab notebook at ``db``, and the names of its validation campaigns."""
+    from odolab.analysis.selection import VALIDATION_TAG
     from odolab.errors import OdolabError
+    from odolab.store import Notebook
 
     if not db.exists():
-        raise OdolabError(f"{db}: no such lab notebook")
-    store = importlib.import_module("odolab.store")
-    notebook = getattr(store, "Notebook", None)
-    if notebook is None:
         raise OdolabError(
-            f"{db}: the lab notebook (odolab.store.Notebook) is not available in this build"
+            f"{db}: no such lab notebook; give --db FILE (or set ODOLAB_DB), or create one with "
+            f"`odolab notebook init --db {db}`"
         )
-    return list(notebook(db).load_trials())
+    with Notebook(db) as nb:
+        trials = list(nb.load_trials(with_logs=with_logs))
+        validation = {
+            c.name for c in nb.campaigns() if c.notes.strip().lower().startswith(VALIDATION_TAG)
+        }
+    return trials, validation
+
+
+def _select(
+    db: Path,
+    campaign: list[str] | None,
+    exclude: list[str] | None,
+    con: Any,
+    *,
+    with_logs: bool = True,
+) -> list[Any]:
+    """The trials ``--campaign``/``--exclude-campaign`` select; says which on ``con``."""
+    from odolab.analysis.selection import select_trials
+    from odolab.text import safe_terminal
+
+    trials, validation = _load_trials(db, with_logs=with_logs)
+    sel = select_trials(
+        trials, campaigns=campaign or (), exclude=exclude or (), validation_campaigns=validation
+    )
+    con.print(safe_terminal(sel.describe()), markup=False)  # campaign names are user text
+    return sel.trials
 
 
 def _console() -> Any:
-    from rich.console import Console
+    from odolab.cli._console import console
 
-    return Console()
+    return console()
 
 
 @app.command("analyze")
 def analyze_cmd(
-    db: Annotated[Path, typer.Option("--db", help="Lab notebook (SQLite) with the trials.")],
+    db: DbOpt = _DB,
+    campaign: CampaignOpt = None,
+    exclude_campaign: ExcludeOpt = None,
     json_out: Annotated[
         Path | None, typer.Option("--json", help="Also write the whole analysis as JSON here.")
     ] = None,
@@ -47,14 +90,14 @@ def analyze_cmd(
     import json
 
     from odolab.analysis import analyze_trials, table1
+    from odolab.cli._console import print_table
+    from odolab.cli._output import markup_text as mt
     from odolab.report import table1_rich
 
-    trials = _load_trials(db)
-    analysis = analyze_trials(trials)
-    from odolab.cli._output import markup_text as mt
-
     con = _console()
-    con.print(table1_rich(table1(analysis)))
+    trials = _select(db, campaign, exclude_campaign, con, with_logs=False)
+    analysis = analyze_trials(trials)
+    print_table(con, table1_rich(table1(analysis)))
     for t in analysis.terrain_tests:
         con.print(mt(t.verdict()))
     for m in analysis.motions:
@@ -82,7 +125,9 @@ def analyze_cmd(
 
 @app.command("report")
 def report_cmd(
-    db: Annotated[Path, typer.Option("--db", help="Lab notebook (SQLite) with the trials.")],
+    db: DbOpt = _DB,
+    campaign: CampaignOpt = None,
+    exclude_campaign: ExcludeOpt = None,
     out: Annotated[Path, typer.Option("--out", "-o", help="Folder for the report.")] = Path(
         "odolab-report"
     ),
@@ -99,15 +144,16 @@ def report_cmd(
         umbmark_errors_from_trials,
         umbmark_iterated,
     )
+    from odolab.cli._console import print_table
     from odolab.cli._output import markup_text
     from odolab.errors import CalibrationError
     from odolab.params import load_params
     from odolab.report import table1_rich, write_report
 
-    trials = _load_trials(db)
+    con = _console()
+    trials = _select(db, campaign, exclude_campaign, con)
     analysis = analyze_trials(trials)
     base = load_params(params) if params else analysis.params
-    con = _console()
     calibrations: dict[str, Any] = {}
     try:
         calibrations["ratios"] = ratios_from_analysis(analysis, base)
@@ -125,8 +171,14 @@ def report_cmd(
             calibrations["umbmark"] = umb
         except CalibrationError as err:
             con.print(f"[yellow]no UMBmark calibration:[/] {markup_text(err)}")
-    path = write_report(out, analysis, calibrations)
-    con.print(table1_rich(table1(analysis)))
+    from odolab.analysis.reference import LAB_REPORT_TABLE1
+
+    # a Jaguar's report is set beside the Jaguar lab report's Table I
+    jaguar = base is not None and base.name.startswith("jaguar")
+    path = write_report(
+        out, analysis, calibrations, reference=LAB_REPORT_TABLE1 if jaguar else None
+    )
+    print_table(con, table1_rich(table1(analysis)))
     for s in analysis.skipped:
         con.print(f"[yellow]not enough data:[/] {markup_text(s)}")
     con.print(f"report: {path}  (figures and results.json beside it)")
@@ -143,9 +195,12 @@ def calibrate_ratios_cmd(
         float | None, typer.Option(help="actual/predicted rotation (rotation fit slope).")
     ] = None,
     db: Annotated[
-        Path | None, typer.Option("--db", help="Take the ratios from this notebook's fits.")
+        Path | None,
+        typer.Option("--db", help="Take the ratios from this notebook's fits.", envvar="ODOLAB_DB"),
     ] = None,
     terrain: Annotated[str | None, typer.Option(help="Terrain whose fits to use.")] = None,
+    campaign: CampaignOpt = None,
+    exclude_campaign: ExcludeOpt = None,
 ) -> None:
     """New wheel radius = old x distance ratio; new track = old x distance/rotation ratio."""
     from odolab.calibration import ratios, ratios_from_analysis
@@ -153,6 +208,7 @@ def calibrate_ratios_cmd(
     from odolab.params import load_params
 
     base = load_params(params)
+    used: list[Any] = []
     if distance_ratio is not None and rotation_ratio is not None:
         result = ratios(base, distance_ratio, rotation_ratio)
     elif distance_ratio is None and rotation_ratio is None:
@@ -163,12 +219,13 @@ def calibrate_ratios_cmd(
             )
         from odolab.analysis import analyze_trials
 
-        result = ratios_from_analysis(analyze_trials(_load_trials(db)), base, terrain=terrain)
+        used = _select(db, campaign, exclude_campaign, _console(), with_logs=False)
+        result = ratios_from_analysis(analyze_trials(used), base, terrain=terrain)
     else:
         raise OdolabError("give both --distance-ratio and --rotation-ratio, or neither")
     path = result.save(output)
     if db is not None:
-        _record_version(db, result, base, trials=None if distance_ratio is not None else "all")
+        _record_version(db, result, base, trials=used)
     p = result.params
     typer.echo(
         f"ratios: distance {result.provenance['distance_ratio']:.4g}, rotation "
@@ -186,7 +243,12 @@ def calibrate_umbmark_cmd(
         typer.Option(help="CSV with header direction,x,y: return errors (measured - odometry)."),
     ] = None,
     side: Annotated[float | None, typer.Option(help="Square side (m), with --errors.")] = None,
-    db: Annotated[Path | None, typer.Option("--db", help="Use this notebook's squares.")] = None,
+    db: Annotated[
+        Path | None,
+        typer.Option("--db", help="Use this notebook's squares.", envvar="ODOLAB_DB"),
+    ] = None,
+    campaign: CampaignOpt = None,
+    exclude_campaign: ExcludeOpt = None,
 ) -> None:
     """UMBmark (Borenstein & Feng): E_d, E_b, corrected radii and track, E_max,syst.
 
@@ -201,13 +263,14 @@ def calibrate_umbmark_cmd(
 
     base = load_params(params)
     how = ""
+    squares: list[Any] = []
     if errors is not None:
         if side is None:
             raise OdolabError("--errors needs --side (the square's side in m)")
         cw, ccw = _read_umbmark_csv(errors)
         result = umbmark(cw, ccw, side, base)
     elif db is not None:
-        trials = _load_trials(db)
+        trials = _select(db, campaign, exclude_campaign, _console())
         squares = [
             t
             for t in trials
@@ -237,7 +300,7 @@ def calibrate_umbmark_cmd(
         raise OdolabError("calibrate umbmark needs --errors CSV --side L, or --db NOTEBOOK")
     path = result.calibration.save(output)
     if db is not None and errors is None:
-        _record_version(db, result.calibration, base, trials="squares")
+        _record_version(db, result.calibration, base, trials=squares)
     if how:
         typer.echo(how)
     p = result.params
@@ -248,14 +311,14 @@ def calibrate_umbmark_cmd(
     )
 
 
-def _record_version(db: Path, result: Any, base: Any, *, trials: str | None) -> None:
+def _record_version(db: Path, result: Any, base: Any, *, trials: list[Any]) -> None:
     """Add the calibration as a new parameter version of the robot in the notebook."""
     from odolab.calibration.record import record_calibration
     from odolab.store import Notebook
     from odolab.text import safe_terminal
 
     with Notebook(db) as nb:
-        version = record_calibration(nb, result, base, trials=trials)  # type: ignore[arg-type]
+        version = record_calibration(nb, result, base, trials=trials)
     typer.echo(f"recorded in {db} as {safe_terminal(base.name)} parameters version {version}")
 
 

@@ -50,7 +50,7 @@ def sim_run(
         str,
         typer.Option(
             help="True-behaviour preset of the virtual robot: "
-            "jaguar-lab, jaguar-lab-track or ideal."
+            "jaguar-lab, jaguar-lab-track, jaguar-lab-tracked (an ICR vehicle) or ideal."
         ),
     ] = DEFAULT_TRUTH,
     params: Annotated[
@@ -73,6 +73,7 @@ def sim_run(
 
     from odolab.cli._output import markup_text, term
     from odolab.errors import SimError
+    from odolab.numfmt import count
     from odolab.params import load_params
     from odolab.sim.export import write_encoder_logs
     from odolab.sim.presets import TRUTH_PRESETS
@@ -109,7 +110,7 @@ def sim_run(
             nb.add_trials(trials)
     stalled = sum(t.exclusion_reason is not None for t in trials)
     typer.echo(
-        f"{len(trials)} trials of {term(proto.name)} ({truth}, seed {seed}) -> {output}"
+        f"{count(len(trials), 'trial')} of {term(proto.name)} ({truth}, seed {seed}) -> {output}"
         + (f"; {stalled} stalled (excluded)" if stalled else "")
         + (f"; recorded in {db}" if db is not None else "")
     )

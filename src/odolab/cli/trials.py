@@ -213,7 +213,6 @@ def list_cmd(
     db: DbOption = _DB,
 ) -> None:
     """The trials as a table."""
-    from rich.console import Console
     from rich.table import Table
 
     with _open(db) as nb:
@@ -224,7 +223,9 @@ def list_cmd(
             status.value if status else None,
             with_logs=False,
         )
-    table = Table(title=f"{len(trials)} trials in {db}")
+    from odolab.numfmt import count
+
+    table = Table(title=f"{count(len(trials), 'trial')} in {db}")
     for col in ("trial", "campaign", "terrain", "command", "predicted", "measured", "status"):
         table.add_column(col)
     from rich.markup import escape
@@ -240,7 +241,9 @@ def list_cmd(
             escape(term(_describe_measurement(t))),
             escape(term(st)),
         )
-    Console(width=200).print(table)
+    from odolab.cli._console import console, print_table
+
+    print_table(console(), table)
 
 
 @trials_app.command("show")
@@ -336,7 +339,10 @@ def _measurement(
 
 @trials_app.command("measure")
 def measure_cmd(
-    trial_id: Annotated[str, typer.Argument(help="Trial id.")],
+    trial_id: Annotated[
+        str | None,
+        typer.Argument(help="Trial id (default: the newest trial awaiting measurement)."),
+    ] = None,
     initial: Annotated[float | None, typer.Option(help="Compass before (deg).")] = None,
     final: Annotated[float | None, typer.Option(help="Compass after (deg).")] = None,
     turns: Annotated[int | None, typer.Option(help="Whole turns counted.")] = None,
@@ -351,6 +357,13 @@ def measure_cmd(
 ) -> None:
     """Enter what was measured: compass readings and turns, or x and y (asks what is missing)."""
     with _open(db) as nb:
+        if trial_id is None:
+            from odolab.errors import StoreError
+
+            waiting = nb.load_trials(status="awaiting", with_logs=False)
+            if not waiting:
+                raise StoreError(f"{db}: no trial is awaiting measurement; give the trial id")
+            trial_id = waiting[-1].trial_id
         t = nb.get_trial(trial_id)
         from odolab.store.measure import refuse_if_measured
 

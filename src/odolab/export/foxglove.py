@@ -54,10 +54,17 @@ class FoxgloveLive:
 
         if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
             raise OdolabError(f"--foxglove-port {port!r}; expected a port number 0..65535")
+        host = check_loopback(host)
         self._ctx = foxglove.Context()
-        self._server = foxglove.start_server(
-            name="odolab", host=check_loopback(host), port=port, context=self._ctx
-        )
+        try:
+            self._server = foxglove.start_server(
+                name="odolab", host=host, port=port, context=self._ctx
+            )
+        except Exception as err:  # the SDK raises its own error types (port in use, ...)
+            raise OdolabError(
+                f"--foxglove-port {port}: cannot serve Foxglove on {host}:{port} ({err}); choose "
+                "another port"
+            ) from err
         self._pose = PoseInFrameChannel("/odom_pose", context=self._ctx)
         self._tf = FrameTransformsChannel("/tf", context=self._ctx)
         self._cycle = foxglove.Channel("/odolab/cycle", message_encoding="json", context=self._ctx)
@@ -87,11 +94,13 @@ class FoxgloveLive:
             Pose as FgPose,
         )
 
-        if not math.isfinite(pose.t):
-            return
-        sec = math.floor(pose.t)
-        stamp = Timestamp(sec, round((pose.t - sec) * 1e9) % 1_000_000_000)
-        q = Quaternion(x=0.0, y=0.0, z=math.sin(0.5 * pose.heading), w=math.cos(0.5 * pose.heading))
+        from odolab.export.mcap import MAX_STAMP_S, stamp_parts, yaw_quaternion
+
+        if not (math.isfinite(pose.t) and 0 <= pose.t <= MAX_STAMP_S):
+            return  # no stamp can hold it
+        stamp = Timestamp(*stamp_parts(pose.t))
+        qx, qy, qz, qw = yaw_quaternion(pose.heading)
+        q = Quaternion(x=qx, y=qy, z=qz, w=qw)
         pos = Vector3(x=pose.x, y=pose.y, z=0.0)
         ns = round(pose.t * 1e9)
         self._pose.log(

@@ -17,7 +17,10 @@ optional ``start_time`` offset.
 
 from __future__ import annotations
 
+import json
 import math
+import os
+import tempfile
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,13 +40,18 @@ if TYPE_CHECKING:
     from odolab.store import Notebook
 
 __all__ = [
+    "MAX_STAMP_S",
     "TOPICS",
     "OdometryStream",
+    "check_start_time",
+    "stamp_parts",
     "stream_from_campaign",
     "stream_from_encoder_log",
     "stream_from_run",
+    "stream_from_run_folder",
     "stream_from_trajectories",
     "write_mcap",
+    "yaw_quaternion",
 ]
 
 #: topic -> ROS 2 message type
@@ -72,21 +80,37 @@ class OdometryStream:
     segments: list[tuple[float, str]] = field(default_factory=list)
 
 
-def _stamp(t: float) -> dict[str, int]:
+#: Latest stamp (s) a message may carry: ROS 2 stamps keep whole seconds in an int32.
+MAX_STAMP_S = float(2**31 - 1)
+
+
+def stamp_parts(t: float) -> tuple[int, int]:
+    """``(sec, nanosec)`` of a time ``t`` (s) as ROS 2 and Foxglove stamps hold it
+    (``0 <= nanosec < 1e9``; a fraction that rounds up to a whole second carries into ``sec``)."""
     sec = math.floor(t)
     nanosec = round((t - sec) * 1e9)
     if nanosec >= 1_000_000_000:
         sec += 1
         nanosec -= 1_000_000_000
-    return {"sec": int(sec), "nanosec": int(nanosec)}
+    return int(sec), int(nanosec)
+
+
+def _stamp(t: float) -> dict[str, int]:
+    sec, nanosec = stamp_parts(t)
+    return {"sec": sec, "nanosec": nanosec}
 
 
 def _header(t: float, frame: str) -> dict[str, Any]:
     return {"stamp": _stamp(t), "frame_id": frame}
 
 
+def yaw_quaternion(yaw: float) -> tuple[float, float, float, float]:
+    """``(x, y, z, w)`` of the rotation by ``yaw`` (rad) about z."""
+    return 0.0, 0.0, math.sin(0.5 * yaw), math.cos(0.5 * yaw)
+
+
 def _quat(yaw: float) -> dict[str, float]:
-    return {"x": 0.0, "y": 0.0, "z": math.sin(0.5 * yaw), "w": math.cos(0.5 * yaw)}
+    return dict(zip("xyzw", yaw_quaternion(yaw), strict=True))
 
 
 def _cov36(terms: NDArray[np.float64] | None) -> list[float]:
@@ -112,26 +136,34 @@ def _twist_cov(var: NDArray[np.float64] | None) -> list[float]:
     return c
 
 
-def _body_twist(traj: Trajectory) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _body_twist(
+    traj: Trajectory,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Forward, sideways and yaw rate over each cycle (the first sample: 0): the displacement
+    in the body frame at the cycle's middle heading, which is the direction of the pose step's
+    chord (``heading + dtheta / 2``), so a turn's speed is not shortened by ``cos(dtheta / 2)``."""
     n = len(traj)
     vx = np.zeros(n)
+    vy = np.zeros(n)
     wz = np.zeros(n)
     if n > 1:
         dt = np.diff(traj.t)
         ok = dt > 0
         safe = np.where(ok, dt, 1.0)
-        dx, dy = np.diff(traj.x), np.diff(traj.y)
-        h = traj.heading[:-1]
-        vx[1:] = np.where(ok, (dx * np.cos(h) + dy * np.sin(h)) / safe, 0.0)
-        wz[1:] = np.where(ok, np.diff(traj.heading) / safe, 0.0)
-    return vx, wz
+        dx, dy, dh = np.diff(traj.x), np.diff(traj.y), np.diff(traj.heading)
+        m = traj.heading[:-1] + 0.5 * dh
+        c, s = np.cos(m), np.sin(m)
+        vx[1:] = np.where(ok, (dx * c + dy * s) / safe, 0.0)
+        vy[1:] = np.where(ok, (dy * c - dx * s) / safe, 0.0)
+        wz[1:] = np.where(ok, dh / safe, 0.0)
+    return vx, vy, wz
 
 
 def _messages(
     stream: OdometryStream, start_time: float, odom_frame: str, base_frame: str
 ) -> Iterator[tuple[str, float, dict[str, Any]]]:
     traj = stream.odometry
-    vx, wz = _body_twist(traj)
+    vx, vy, wz = _body_twist(traj)
     speeds = None
     if stream.wheel_angles is not None:
         speeds = np.zeros_like(stream.wheel_angles)
@@ -157,7 +189,7 @@ def _messages(
                 "pose": {"pose": pose, "covariance": _cov36(cov)},
                 "twist": {
                     "twist": {
-                        "linear": {"x": float(vx[i]), "y": 0.0, "z": 0.0},
+                        "linear": {"x": float(vx[i]), "y": float(vy[i]), "z": 0.0},
                         "angular": {"x": 0.0, "y": 0.0, "z": float(wz[i])},
                     },
                     "covariance": _twist_cov(tvar),
@@ -222,18 +254,21 @@ def write_mcap(
     from mcap_ros2.writer import Writer
     from rosbags.typesys import Stores, get_typestore
 
-    if not math.isfinite(start_time) or start_time < 0:
-        raise OdolabError(f"start time is {start_time!r}; expected a number of seconds >= 0")
+    check_start_time(start_time)
     p = Path(path)
     if p.is_dir():
         raise OdolabError(f"{p}: is a folder; expected an .mcap file name")
+    _check_stamps(stream, start_time)
     store = get_typestore(Stores.ROS2_HUMBLE)
     counts = dict.fromkeys(TOPICS, 0)
     # sort by time (ground truth interleaved with odometry), stable within a stamp
     msgs = sorted(_messages(stream, start_time, odom_frame, base_frame), key=lambda m: m[1])
+    tmp: Path | None = None
     try:
         p.parent.mkdir(parents=True, exist_ok=True)
-        with p.open("wb") as fh:
+        fd, name = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".part", dir=p.parent)
+        tmp = Path(name)
+        with os.fdopen(fd, "wb") as fh:
             writer = Writer(fh, compression=CompressionType.LZ4)
             schemas = {}
             for topic, msgtype in TOPICS.items():
@@ -244,9 +279,38 @@ def write_mcap(
                 writer.write_message(topic, schemas[topic], msg, log_time=ns, publish_time=ns)
                 counts[topic] += 1
             writer.finish()  # type: ignore[no-untyped-call]
+        tmp.replace(p)  # the file appears whole, or not at all
+        tmp = None
     except OSError as err:
         raise OdolabError(f"{p}: cannot write the MCAP file ({err.strerror or err})") from err
+    finally:
+        if tmp is not None:
+            tmp.unlink(missing_ok=True)
     return {k: v for k, v in counts.items() if v}
+
+
+def check_start_time(start_time: float) -> float:
+    """``start_time`` (s) if it is a finite number from 0 to :data:`MAX_STAMP_S`; else one
+    sentence naming ``--start-time``."""
+    if not math.isfinite(start_time) or not 0 <= start_time <= MAX_STAMP_S:
+        raise OdolabError(
+            f"--start-time is {start_time!r}; expected a number of seconds from 0 to "
+            f"{MAX_STAMP_S:.0f} (a ROS 2 stamp holds its seconds in an int32)"
+        )
+    return float(start_time)
+
+
+def _check_stamps(stream: OdometryStream, start_time: float) -> None:
+    """Every stamp (+ ``start_time``) must be a finite time from 0 to :data:`MAX_STAMP_S`."""
+    for what, traj in (("odometry", stream.odometry), ("ground truth", stream.ground_truth)):
+        if traj is None or len(traj) == 0:
+            continue
+        first, last = float(np.min(traj.t)) + start_time, float(np.max(traj.t)) + start_time
+        if not (math.isfinite(first) and math.isfinite(last)) or first < 0 or last > MAX_STAMP_S:
+            raise OdolabError(
+                f"the {what}'s times with the start time run from {first!r} to {last!r} s; a ROS 2 "
+                f"MCAP needs stamps from 0 to {MAX_STAMP_S:.0f} s (give --start-time to shift them)"
+            )
 
 
 def stream_from_encoder_log(
@@ -275,6 +339,42 @@ def stream_from_encoder_log(
     scale = 2.0 * math.pi / params.ticks_per_rev
     angles = np.stack([(ul - ul[0]) * scale, (ur - ur[0]) * scale], axis=1)
     return OdometryStream(traj, cov, twist, angles, ground_truth)
+
+
+def stream_from_run_folder(
+    folder: str | Path, params: RobotParams | None = None, method: Method | str = Method.MIDPOINT
+) -> OdometryStream:
+    """A robot run folder (``run.json`` + ``encoders.csv``, as ``odolab robot`` saves it) with
+    ``params`` (default: the parameters recorded in ``run.json``)."""
+    from odolab.io import read_encoder_csv
+    from odolab.params import params_from_mapping
+
+    f = Path(folder)
+    meta = f / "run.json"
+    try:
+        doc = json.loads(meta.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError) as err:
+        raise LogFormatError(
+            f"{meta}: cannot read ({getattr(err, 'strerror', None) or err})"
+        ) from err
+    except RecursionError as err:
+        raise LogFormatError(
+            f"{meta}: JSON nested too deeply to read; expected the run.json odolab robot writes"
+        ) from err
+    except json.JSONDecodeError as err:
+        raise LogFormatError(
+            f"{meta}: line {err.lineno}, column {err.colno}: not valid JSON ({err.msg})"
+        ) from err
+    if params is None:
+        if not isinstance(doc, dict) or not isinstance(doc.get("params"), dict):
+            raise LogFormatError(
+                f"{meta}: no 'params' object (the robot's parameters); give --params"
+            )
+        params = params_from_mapping(doc["params"], source=str(meta))
+    enc = read_encoder_csv(f / "encoders.csv", modulus=params.encoder_modulus)
+    return stream_from_encoder_log(
+        enc.t, enc.left_ticks, enc.right_ticks, params, method, source=str(f)
+    )
 
 
 def _twist_variance(
@@ -343,6 +443,10 @@ def stream_from_campaign(
 ) -> OdometryStream:
     """Every recorded trial of ``campaign``, one after the other (each from the origin, ``gap``
     seconds apart), with its own parameters unless ``params`` is given."""
+    names = notebook.campaign_names()
+    if campaign not in names:
+        known = ", ".join(sorted(names)) or "none"
+        raise OdolabError(f"no campaign {campaign!r} in {notebook.path}; its campaigns: {known}")
     trials = [tr for tr in notebook.load_trials(campaign=campaign) if tr.encoder_log is not None]
     if not trials:
         raise OdolabError(

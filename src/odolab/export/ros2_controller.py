@@ -20,8 +20,9 @@ table (per-wheel slip ``var(ds) = k |ds|``) at a stated speed ``v`` (m/s) and od
   ``var y = k d^3 / (3 b^2)``, ``var yaw = k d / b^2`` with ``k = k_l + k_r``;
 * ``z``, ``roll``, ``pitch`` (not observed by planar odometry): :data:`UNOBSERVED` (1e6).
 
-The fixed values can only describe one motion; the propagated covariance (``odolab odometry
---covariance``, the ``/odom`` messages of ``odolab export mcap``) grows with the path as it should.
+The fixed values can only describe one motion; the propagated covariance
+(:func:`odolab.uncertainty.propagate_covariance`, the ``/odom`` messages of ``odolab export
+mcap``) grows with the path as it should.
 
 Models the controller cannot express (``extended`` with unequal weights, ``icr``): the file says
 so and gives the best differential-drive equivalent: radius multipliers from the rotation terms
@@ -38,11 +39,21 @@ from typing import Any
 
 from odolab.errors import ParamsError
 from odolab.params import RobotParams
+from odolab.text import safe_terminal
 
-__all__ = ["UNOBSERVED", "ControllerExport", "diff_drive_controller_yaml"]
+__all__ = [
+    "LIMITS",
+    "UNOBSERVED",
+    "ControllerExport",
+    "controller_numbers",
+    "diff_drive_controller_yaml",
+]
 
 #: Variance written for the terms planar odometry does not observe (z, roll, pitch).
 UNOBSERVED = 1e6
+#: Largest ``--speed`` (m/s), ``--rate`` (Hz) and ``--horizon`` (m) accepted: far beyond any
+#: wheeled robot, small enough that every covariance term stays a finite number.
+LIMITS = {"--speed": 100.0, "--rate": 100_000.0, "--horizon": 100_000.0}
 
 
 @dataclass(frozen=True)
@@ -61,22 +72,29 @@ class ControllerExport:
 
     @property
     def effective_left_radius(self) -> float:
+        """The left wheel radius the controller uses (m): base value x multiplier."""
         return self.wheel_radius * self.left_wheel_radius_multiplier
 
     @property
     def effective_right_radius(self) -> float:
+        """The right wheel radius the controller uses (m): base value x multiplier."""
         return self.wheel_radius * self.right_wheel_radius_multiplier
 
     @property
     def effective_separation(self) -> float:
+        """The wheel separation the controller uses (m): base value x multiplier."""
         return self.wheel_separation * self.wheel_separation_multiplier
 
 
 def _check_positive(name: str, value: float) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise ParamsError(f"{name} is {value!r}; expected a positive number")
-    if value <= 0:
-        raise ParamsError(f"{name} is {value!r}; expected a positive number")
+    limit = LIMITS[name]
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | float)
+        or not math.isfinite(value)
+        or not 0 < value <= limit
+    ):
+        raise ParamsError(f"{name} is {value!r}; expected a positive number up to {limit:g}")
     return float(value)
 
 
@@ -160,17 +178,26 @@ def _comment(text: str) -> list[str]:
 
 
 def _scalar(value: Any) -> str:
-    """A YAML scalar for a comment line: numbers by repr, the rest quoted plainly."""
+    """Text for one comment line: numbers by repr; line breaks and every other control or
+    invisible character shown as an escape (``\\x0a``), so that nothing ends the comment."""
     if isinstance(value, float):
         return repr(value)
-    return str(value).replace("\n", " ")[:200]
+    return safe_terminal(value, limit=200)
 
 
-def _yaml_name(name: str) -> str:
-    if not name or not all(ch.isalnum() or ch in "_/" for ch in name) or name[0].isdigit():
+def _yaml_name(name: str, what: str = "--controller-name", kind: str = "node") -> str:
+    """``name`` if it is a ROS 2 node name (or, ``kind="joint"``, a URDF joint name that also
+    allows ``-`` and ``.``); otherwise one sentence naming the option ``what``."""
+    extra = "_/" if kind == "node" else "_/-."
+    if (
+        not name
+        or not all(ch.isascii() and (ch.isalnum() or ch in extra) for ch in name)
+        or name[0].isdigit()
+    ):
+        allowed = ", ".join(repr(ch) for ch in extra)
         raise ParamsError(
-            f"controller name {name!r} is not a ROS 2 node name; expected letters, digits, "
-            "'_' and '/', not starting with a digit"
+            f"{what} {safe_terminal(repr(name), limit=80)} is not a ROS 2 {kind} name; expected "
+            f"ASCII letters, digits and {allowed}, not starting with a digit"
         )
     return name
 
@@ -189,11 +216,12 @@ def diff_drive_controller_yaml(
 ) -> str:
     """The YAML text: ``<controller>: ros__parameters: ...`` with provenance as comments."""
     name = _yaml_name(controller)
-    for joint in (*left_wheel_names, *right_wheel_names):
-        _yaml_name(joint)
+    for side, joints in (("--left-wheel", left_wheel_names), ("--right-wheel", right_wheel_names)):
+        for joint in joints:
+            _yaml_name(joint, side, "joint")
     n = controller_numbers(params, nominal=nominal, speed=speed, rate=rate, horizon=horizon)
     head = [
-        f"# diff_drive_controller parameters written by odolab from {params.name!r}.",
+        f"# diff_drive_controller parameters written by odolab from {_scalar(repr(params.name))}.",
         "# Effective values (value x multiplier) are the calibrated ones:",
         f"#   left wheel radius  {n.effective_left_radius!r} m",
         f"#   right wheel radius {n.effective_right_radius!r} m",
@@ -206,7 +234,7 @@ def diff_drive_controller_yaml(
     if provenance:
         head.append("# provenance:")
         for key, value in provenance.items():
-            head.append(f"#   {key}: {_scalar(value)}")
+            head.append(f"#   {_scalar(key)}: {_scalar(value)}")
 
     def flist(values: tuple[float, ...]) -> str:
         return "[" + ", ".join(repr(float(v)) for v in values) + "]"

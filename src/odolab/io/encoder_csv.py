@@ -99,6 +99,8 @@ def write_encoder_csv(path: str | Path | EncoderLog, log: EncoderLog | str | Pat
 def _write_encoder_csv(log: EncoderLog, path: str | Path) -> Path:
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
-    table = np.column_stack((log.t, log.left_ticks, log.right_ticks))
-    np.savetxt(p, table, fmt=("%.9f", "%d", "%d"), delimiter=",", header=",".join(RAW), comments="")
+    from odolab.numfmt import csv_lines
+
+    body = csv_lines((log.t, log.left_ticks, log.right_ticks), integer=(False, True, True))
+    p.write_text(",".join(RAW) + "\n" + body, encoding="utf-8")
     return p

@@ -84,7 +84,10 @@ def _poses(reader: Any, path: Path, topic: str) -> Trajectory:
         t.append(_stamp(msg, bag_ns))
         x.append(pose.position.x)
         y.append(pose.position.y)
-        yaw.append(math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z)))
+        # scale-invariant: the yaw of q for any length |q| (stored quaternions are rounded)
+        yaw.append(
+            math.atan2(2.0 * (q.w * q.z + q.x * q.y), q.w * q.w + q.x * q.x - q.y * q.y - q.z * q.z)
+        )
     if len(t) < 2:
         raise LogFormatError(f"{path}: topic {topic!r} has {len(t)} poses; expected at least two")
     return _checked_trajectory(path, topic, np.array(t), np.array(x), np.array(y), np.array(yaw))

@@ -50,16 +50,18 @@ def write_trajectory_csv(path: str | Path, traj: Trajectory) -> Path: ...
 @overload
 def write_trajectory_csv(path: Trajectory, traj: str | Path) -> Path: ...  # the old order
 def write_trajectory_csv(path: str | Path | Trajectory, traj: Trajectory | str | Path) -> Path:
-    """Write a trajectory CSV (full double precision) to ``path``."""
+    """Write a trajectory CSV to ``path`` (every float in its shortest round-trip form)."""
     p, entry = path_first(path, traj, Trajectory, "write_trajectory_csv")
     return _write_trajectory_csv(entry, p)
 
 
 def _write_trajectory_csv(traj: Trajectory, path: str | Path) -> Path:
+    from odolab.numfmt import csv_lines
+
     p = Path(path)
-    table = np.column_stack((traj.t, traj.x, traj.y, traj.theta, traj.heading))
+    body = csv_lines((traj.t, traj.x, traj.y, traj.theta, traj.heading))
     with _writing(p, "trajectory CSV"):
-        np.savetxt(p, table, fmt="%.17g", delimiter=",", header=",".join(COLUMNS), comments="")
+        p.write_text(",".join(COLUMNS) + "\n" + body, encoding="utf-8")
     return p
 
 
@@ -104,11 +106,13 @@ def _write_tum(traj: Trajectory, path: str | Path) -> Path:
     p = Path(path)
     half = 0.5 * traj.theta
     zeros = np.zeros_like(traj.t)
-    table = np.column_stack(
-        (traj.t, traj.x, traj.y, zeros, zeros, zeros, np.sin(half), np.cos(half))
+    from odolab.numfmt import csv_lines
+
+    body = csv_lines(
+        (traj.t, traj.x, traj.y, zeros, zeros, zeros, np.sin(half), np.cos(half)), sep=" "
     )
     with _writing(p, "TUM trajectory"):
-        np.savetxt(p, table, fmt="%.17g", delimiter=" ")
+        p.write_text(body, encoding="utf-8")
     return p
 
 
@@ -122,7 +126,9 @@ def read_tum(path: str | Path) -> Trajectory:
         d["t"], str(p), line_of=lambda i: int(data_line_numbers(p, sep=r"\s+", has_header=False)[i])
     )
     qx, qy, qz, qw = d["qx"], d["qy"], d["qz"], d["qw"]
-    yaw = np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+    # the yaw of the rotation the quaternion stands for, whatever its length (TUM files keep
+    # 4 decimals, so |q| is 1 only to about 1e-4): both arguments scale with |q|^2
+    yaw = np.arctan2(2.0 * (qw * qz + qx * qy), qw * qw + qx * qx - qy * qy - qz * qz)
     return Trajectory.from_xytheta(d["t"], d["tx"], d["ty"], yaw)
 
 

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import InsufficientDataError, OdolabError
+from odolab.errors import InsufficientDataError, OdolabError, ParamsError
 from odolab.io.run import OdometryRun
 from odolab.kinematics import Method, wrap_angle
 from odolab.metrics.association import interpolate_trajectory
@@ -213,4 +213,11 @@ def fit_noise_scale(
     if pooled.size == 0:
         raise InsufficientDataError("no NEES to fit the noise to: no piece of any run moved")
     factor = float(pooled.mean()) / DOF
-    return NoiseParams(base.k_left * factor, base.k_right * factor, base.k_scrub * factor)
+    try:
+        return NoiseParams(base.k_left * factor, base.k_right * factor, base.k_scrub * factor)
+    except ParamsError as err:
+        raise InsufficientDataError(
+            f"the noise fitted to pieces of {segment_s:g} s is implausible "
+            f"(k_left = {base.k_left * factor:.3g} m; {err}): over such pieces the errors are not "
+            "the random wheel slip the covariance models; use longer pieces"
+        ) from err

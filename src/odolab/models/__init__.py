@@ -29,10 +29,14 @@ from typing import Any, ClassVar, NamedTuple, Protocol, runtime_checkable
 
 from odolab.errors import ParamsError
 from odolab.models.diff import DiffDrive
+from odolab.models.extended import ExtendedDiffDrive
+from odolab.models.icr import IcrModel
 
 __all__ = [
     "DIFF_DRIVE",
     "MODELS",
+    "ExtendedDiffDrive",
+    "IcrModel",
     "KinematicModel",
     "ModelCoefficients",
     "model_from_mapping",
@@ -83,7 +87,11 @@ class KinematicModel(Protocol):
 DIFF_DRIVE = DiffDrive()
 
 #: Every model by its ``kind`` in the TOML. A new model adds one line here.
-MODELS: dict[str, type[Any]] = {DiffDrive.kind: DiffDrive}
+MODELS: dict[str, type[Any]] = {
+    DiffDrive.kind: DiffDrive,
+    ExtendedDiffDrive.kind: ExtendedDiffDrive,
+    IcrModel.kind: IcrModel,
+}
 
 
 def model_from_mapping(data: dict[str, Any], *, source: str = "parameters") -> KinematicModel:
@@ -91,7 +99,7 @@ def model_from_mapping(data: dict[str, Any], *, source: str = "parameters") -> K
     if not isinstance(data, dict):
         raise ParamsError(f"{source}: [model] must be a table, got {type(data).__name__}")
     kind = data.get("kind", DiffDrive.kind)
-    if kind not in MODELS:
+    if not isinstance(kind, str) or kind not in MODELS:
         raise ParamsError(
             f"{source}: unknown model kind {kind!r} in [model]; expected one of "
             f"{', '.join(sorted(MODELS))}"

@@ -124,7 +124,7 @@ def plot_fit(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
     ax.set_ylabel(MOTIONS[m.motion]["y"])
     ax.set_title(_title(m))
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="best")
+    ax.legend(fontsize=9, loc="best")
     return ax
 
 
@@ -156,7 +156,7 @@ def plot_residuals(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
     ax.set_title(f"Residuals: {_title(m)}")
     ax.grid(alpha=0.3)
     _headroom(ax)
-    ax.legend(fontsize=8, loc="upper left")
+    ax.legend(fontsize=9, loc="upper left")
     return ax
 
 
@@ -189,7 +189,7 @@ def plot_histogram(
     ax.grid(alpha=0.3)
     ax.set_ylim(0.0, None)
     _headroom(ax, 0.35)
-    ax.legend(fontsize=8, loc="upper left")
+    ax.legend(fontsize=9, loc="upper left")
     return ax
 
 
@@ -235,7 +235,7 @@ def plot_growth(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
     ax.set_ylabel(f"σ of the error ({unit})")
     ax.set_title(f"Growth of σ: {_title(m)}")
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=9)
     return ax
 
 
@@ -262,7 +262,7 @@ def plot_terrains(analysis: LabAnalysis, motion: str = "x", ax: Axes | None = No
     ax.set_ylabel(MOTIONS[motion]["y"])
     ax.set_title(f"{motion} on each terrain")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=9)
     return ax
 
 
@@ -314,7 +314,7 @@ def plot_terrain_slopes(analysis: LabAnalysis, motion: str = "x", ax: Axes | Non
     )
     ax.set_ylabel("terrain")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=9)
     return ax
 
 
@@ -366,7 +366,7 @@ def plot_error_ellipses(analysis: LabAnalysis, terrain: str, ax: Axes | None = N
     ax.grid(alpha=0.3)
     ax.axhline(0, color="gray", lw=0.8)
     ax.axvline(0, color="gray", lw=0.8)
-    ax.legend(fontsize=7 if k > 6 else 8, title="commanded distance", ncol=2 if k > 6 else 1)
+    ax.legend(fontsize=8 if k > 6 else 9, title="commanded distance", ncol=2 if k > 6 else 1)
     return ax
 
 
@@ -419,7 +419,7 @@ def plot_calibration_effect(
     ax.set_ylabel(MOTIONS[motion]["y"])
     ax.set_title(f"Old vs new parameters: {_title(m)}")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=9)
     return ax
 
 
@@ -429,27 +429,45 @@ def plot_umbmark(
     ax: Axes | None = None,
     *,
     after: tuple[ArrayLike, ArrayLike] | None = None,
+    predicted_minus_actual: bool = True,
 ) -> Axes:
-    """UMBmark return-position errors (measured - odometry) with centres of gravity."""
+    """UMBmark return-position errors with their centres of gravity.
+
+    The errors come as UMBmark defines them (measured - odometry); they are drawn in the
+    report's convention, odometry - measured (predicted - actual), unless
+    ``predicted_minus_actual`` is False. Before: filled dots, centre "+"; after correction
+    (same runs, new parameters): open circles, centre "x".
+    """
     ax = _axes(ax)
-    sets: list[tuple[str, Any, Any, str]] = [
-        ("before", np.asarray(cw_errors), np.asarray(ccw_errors), "")
+    sign = -1.0 if predicted_minus_actual else 1.0
+    sets: list[tuple[str, Any, Any, bool, str]] = [
+        ("before", sign * np.asarray(cw_errors), sign * np.asarray(ccw_errors), True, "+")
     ]
     if after is not None:
-        sets.append(("after", np.asarray(after[0]), np.asarray(after[1]), "none"))
-    for name, cw, ccw, face in sets:
+        sets.append(("after", sign * np.asarray(after[0]), sign * np.asarray(after[1]), False, "x"))
+    for name, cw, ccw, filled, centre in sets:
         for arr, color, d in ((cw, "tab:blue", "cw"), (ccw, "tab:red", "ccw")):
             kw: dict[str, Any] = {"edgecolors": color}
-            kw["facecolors"] = "none" if face == "none" else color
-            ax.scatter(arr[:, 0], arr[:, 1], s=22, label=f"{d} {name}", **kw)
+            kw["facecolors"] = color if filled else "none"
+            ax.scatter(arr[:, 0], arr[:, 1], s=26, label=f"{d} {name}", **kw)
             cg = arr.mean(axis=0)
-            ax.scatter([cg[0]], [cg[1]], marker="+", s=120, color=color, label=f"c.g. {d} {name}")
+            ax.scatter(
+                [cg[0]],
+                [cg[1]],
+                marker=centre,
+                s=180,
+                linewidths=2.2,
+                color=color,
+                label=f"centre {d} {name}",
+                zorder=5,
+            )
     ax.axhline(0, color="gray", lw=0.8)
     ax.axvline(0, color="gray", lw=0.8)
-    ax.set_xlabel("x error, measured - odometry (m)")
-    ax.set_ylabel("y error, measured - odometry (m)")
+    how = "odometry - measured" if predicted_minus_actual else "measured - odometry"
+    ax.set_xlabel(f"x error, {how} (m)")
+    ax.set_ylabel(f"y error, {how} (m)")
     ax.set_title("UMBmark return-position errors")
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=9, ncol=2)
     return ax

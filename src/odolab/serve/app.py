@@ -10,6 +10,8 @@ server write at the same time. The rules for a measurement and their sentences a
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import hmac
 import math
 import re
 import secrets
@@ -303,7 +305,34 @@ def create_app(settings: ServeSettings) -> Starlette:
         except StoreError as err:
             return page(request, "error.html.j2", 404, error=str(err))
         saved = request.query_params.get("saved")
+        if saved is not None and not hmac.compare_digest(
+            saved_signature(trial_id, saved), request.query_params.get("sig", "")
+        ):
+            saved = None  # a link made elsewhere cannot show "measured: ..." on the page
         return page(request, "trial.html.j2", values={}, error=None, saved=saved, **ctx)
+
+    async def trial_refused(
+        request: Request, trial_id: str, err: StoreError, values: dict[str, str | None]
+    ) -> Response:
+        """The trial page again with the refusal's sentence and the values typed (nothing
+        stored); the error page when the trial itself is unknown."""
+        try:
+            ctx = await in_notebook(lambda nb: trial_context(nb, trial_id))
+        except StoreError as err2:
+            return page(request, "error.html.j2", 404, error=str(err2))
+        return page(request, "trial.html.j2", 400, values=values, error=str(err), saved=None, **ctx)
+
+    def saved_signature(trial_id: str, text: str) -> str:
+        """HMAC of the confirmation shown after a post, under the server's secret."""
+        msg = f"saved\0{trial_id}\0{text}".encode()
+        return hmac.new(settings.secret, msg, hashlib.sha256).hexdigest()
+
+    def trial_saved(trial_id: str, text: str) -> Response:
+        """Back to the trial page (post/redirect/get), saying what was stored; the message is
+        signed, so that only this server's redirect can show it."""
+        sig = saved_signature(trial_id, text)
+        query = urlencode({"id": trial_id, "saved": text, "sig": sig})
+        return RedirectResponse(f"/trial?{query}", status_code=303)
 
     async def trial_measure(request: Request) -> Response:
         from odolab.store.measure import describe_measurement, record_measurement
@@ -324,15 +353,8 @@ def create_app(settings: ServeSettings) -> Starlette:
         try:
             text = await in_notebook(save)
         except StoreError as err:
-            try:
-                ctx = await in_notebook(lambda nb: trial_context(nb, trial_id))
-            except StoreError as err2:
-                return page(request, "error.html.j2", 404, error=str(err2))
-            return page(
-                request, "trial.html.j2", 400, values=values, error=str(err), saved=None, **ctx
-            )
-        query = urlencode({"id": trial_id, "saved": f"measured: {text}"})
-        return RedirectResponse(f"/trial?{query}", status_code=303)
+            return await trial_refused(request, trial_id, err, values)
+        return trial_saved(trial_id, f"measured: {text}")
 
     async def trial_exclude(request: Request) -> Response:
         try:
@@ -353,13 +375,8 @@ def create_app(settings: ServeSettings) -> Starlette:
         try:
             text = await in_notebook(act)
         except StoreError as err:
-            try:
-                ctx = await in_notebook(lambda nb: trial_context(nb, trial_id))
-            except StoreError as err2:
-                return page(request, "error.html.j2", 404, error=str(err2))
-            return page(request, "trial.html.j2", 400, values={}, error=str(err), saved=None, **ctx)
-        query = urlencode({"id": trial_id, "saved": text})
-        return RedirectResponse(f"/trial?{query}", status_code=303)
+            return await trial_refused(request, trial_id, err, {})
+        return trial_saved(trial_id, text)
 
     async def trial_plot(request: Request) -> Response:
         from odolab.serve.plots import run_png
@@ -430,7 +447,7 @@ def create_app(settings: ServeSettings) -> Starlette:
                 "notes": pv.notes,
             }
             with tempfile.TemporaryDirectory(prefix="odolab-serve-") as tmp:
-                path = save_params(pv.params, Path(tmp) / "params.toml", provenance=provenance)
+                path = save_params(Path(tmp) / "params.toml", pv.params, provenance=provenance)
                 return path.read_bytes()
 
         try:
@@ -532,6 +549,8 @@ def create_app(settings: ServeSettings) -> Starlette:
                     return nb.import_csv(path, create_campaigns=create_campaigns)
                 except OdolabError as err:
                     raise type(err)(str(err).replace(str(path), name)) from err
+                except RecursionError as err:  # the store's JSON reader recursed out
+                    raise StoreError(f"{name}: not valid JSON (nested too deeply)") from err
 
         try:
             n = await in_notebook(do_import)
@@ -619,6 +638,8 @@ def create_app(settings: ServeSettings) -> Starlette:
             body = await request.json()
         except ValueError as err:
             raise StoreError(f"the body is not valid JSON ({err})") from err
+        except RecursionError as err:  # [[[[...]]]] nested deeper than the parser recurses
+            raise StoreError("the body is not valid JSON (nested too deeply)") from err
         if not isinstance(body, dict):
             raise StoreError("the body must be a JSON object")
         return body

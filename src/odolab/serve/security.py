@@ -23,7 +23,7 @@ import json
 import secrets
 from http.cookies import SimpleCookie
 from typing import Any
-from urllib.parse import parse_qsl, urlencode
+from urllib.parse import parse_qsl, quote, urlencode
 
 from starlette.datastructures import Headers
 from starlette.exceptions import HTTPException
@@ -79,6 +79,12 @@ def _host_name(host_header: str) -> str:
     if host.startswith("["):  # [::1]:8000
         return host[1 : host.find("]")] if "]" in host else host
     return host.rsplit(":", 1)[0] if host.count(":") == 1 else host
+
+
+def _same_site(path: str) -> str:
+    """``path`` as a Location on this server: percent-encoded (no line break, nothing beyond
+    ASCII) and with one leading slash, so that ``//other.example/`` cannot name another site."""
+    return "/" + quote(path.lstrip("/\\"), safe="/:@!$&'()*+,;=-._~")
 
 
 def _cookie(name: str, value: str) -> bytes:
@@ -161,7 +167,7 @@ class Guard:
                     await self._reply(send, 401, "wrong token", api=api, extra=[])
                     return
                 rest = urlencode([(k, v) for k, v in query if k != "token"])
-                location = path + (f"?{rest}" if rest else "")
+                location = _same_site(path) + (f"?{rest}" if rest else "")
                 await self._reply(
                     send,
                     303,

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from odolab.errors import OdolabError
 from odolab.serve.app import ServeSettings, create_app
-from odolab.serve.security import make_token
+from odolab.serve.security import LOOPBACK_HOSTS, make_token
 
 __all__ = ["ServerInfo", "bind", "is_loopback", "run_in_thread", "serve", "settings_for"]
 
@@ -29,8 +29,9 @@ def is_loopback(host: str) -> bool:
 
 def settings_for(db: str | Path, host: str) -> ServeSettings:
     """Settings for a server bound to ``host``: a random token unless it is loopback."""
-    if is_loopback(host):
-        return ServeSettings(db=Path(db))
+    if is_loopback(host):  # answers to the usual loopback names and the one it is bound to
+        bound = host.strip().strip("[]").lower()
+        return ServeSettings(db=Path(db), allowed_hosts=LOOPBACK_HOSTS | {bound})
     return ServeSettings(db=Path(db), token=make_token(), allowed_hosts=None)
 
 

@@ -2,11 +2,13 @@
 
 - :mod:`odolab.sim.physics`: :class:`TrueParams`, :class:`VirtualRobot`, the batch kernel.
 - :mod:`odolab.sim.terrains`: ``tile``, ``concrete``, ``grass``.
-- :mod:`odolab.sim.presets`: ``TRUTH_PRESETS`` (``ideal``, ``jaguar-lab``, ``jaguar-lab-track``),
-  ``derive_jaguar_lab``, ``LAB_REPORT_SEED``.
+- :mod:`odolab.sim.presets`: ``TRUTH_PRESETS`` (``ideal``, ``jaguar-lab``, ``jaguar-lab-track``,
+  ``jaguar-lab-tracked``: an ICR vehicle, docs/models.md), ``derive_jaguar_lab``,
+  ``LAB_REPORT_SEED``.
 - :mod:`odolab.sim.instruments`: compass with counted turns, meterstick / tape.
 - :mod:`odolab.sim.protocols`: protocol TOML files, ``run_protocol`` (vectorized Monte Carlo).
 - :mod:`odolab.sim.export`: ``write_encoder_logs`` (trials: :func:`odolab.store.csvio.write_trials_csv`).
+- :mod:`odolab.sim.drives`: free drives (wheel-speed legs) recorded with the true pose.
 
 See docs/sim.md.
 """

@@ -10,10 +10,15 @@ the robot by::
 where ``rho = true effective radius / nominal radius`` for that side and direction of travel
 (times the terrain's ``radius_scale``), ``v`` the wheel surface speed and ``k_side`` the per-wheel
 slip constant (Chong & Kleeman; Siegwart et al.: variance ``k * |ds|``). The body then moves by
-the exact circular arc with::
+the exact circular arc with the true kinematic model (``TrueParams.model``, the differential drive
+of ``track_width_true`` unless told; :mod:`odolab.models`)::
 
-    ds_body = (ds_r + ds_l) / 2
-    dtheta  = (ds_r - ds_l) / track_width_true  +  sqrt(k_scrub * |dn_r - dn_l| / b_nom) * N(0, 1)
+    ds_body = w_l ds_l + w_r ds_r                      (= (ds_r + ds_l) / 2 for a diff drive)
+    dtheta  = (e_r ds_r - e_l ds_l) / (denominator * (1 - turn_slip * (1 - s)))
+              +  sqrt(k_scrub * |dn_r - dn_l| / b_nom) * N(0, 1)
+    lateral = model lateral * dtheta                   (-x_icr for an ICR vehicle)
+
+where ``s = |dn_r - dn_l| / (|dn_r| + |dn_l|)`` is the commanded turn ratio (1 in place).
 
 The last term is turn scrub: when the tracks are driven differentially the track ends skid
 sideways, which adds heading noise per commanded radian of turning (zero on a straight run).
@@ -42,7 +47,7 @@ from numpy.typing import NDArray
 
 from odolab.errors import SimError
 from odolab.kinematics import body_motion, step_pose
-from odolab.models import DIFF_DRIVE
+from odolab.models import DIFF_DRIVE, KinematicModel
 from odolab.params import RobotParams
 from odolab.sim.terrains import Terrain, get_terrain
 from odolab.trajectory import Pose
@@ -62,7 +67,9 @@ _SPEED_SLIP, _STOP_SLIDE, _CAN_TURN, _MPT_L, _MPT_R = 9, 10, 11, 12, 13
 # the true kinematic model's coefficients (odolab.models.ModelCoefficients); its denominator
 # is _TRACK, so that a per-run track factor scales it
 _W_L, _W_R, _E_L, _E_R, _LATERAL = 14, 15, 16, 17, 18
-_NPARAM = 19
+# turn slip: the true model's denominator (ICR spread) shrinks away from turns in place
+_TURN_SLIP = 19
+_NPARAM = 20
 
 
 @dataclass(frozen=True)
@@ -79,6 +86,15 @@ class TrueParams:
     ``stop_slide`` (s^2/m): extra slide of each side at an abrupt stop per (m/s)^2.
     ``terrain_radius_scale``: pairs (terrain name, factor) multiplying every effective radius on
     that terrain (how this robot's tracks bite into it); terrains not named use 1.
+    ``model``: the true kinematic model (:mod:`odolab.models`; a tracked vehicle is an
+    :class:`~odolab.models.IcrModel`); the differential drive of ``track_width`` by default.
+    ``turn_slip`` (``gamma``): how the true model's turning denominator (the ICR spread, the
+    effective track) depends on how sharply the robot turns. With the turn ratio
+    ``s = |dn_r - dn_l| / (|dn_r| + |dn_l|)`` of the commanded wheel motion (1 in place or on a
+    pivot, ``b / (2 R)`` on a curve of radius R, 0 straight) the denominator is
+    ``denominator * (1 - gamma * (1 - s))``: the tracks skid most when turning in place, so a
+    wide curve turns closer to what the wheels say (Mandow et al. 2007 found the ICRs move
+    outwards with the turn rate).
     """
 
     left_radius_forward: float
@@ -95,6 +111,8 @@ class TrueParams:
     stop_slide: float = 0.0
     terrain_radius_scale: tuple[tuple[str, float], ...] = ()
     name: str = "truth"
+    model: KinematicModel = DIFF_DRIVE
+    turn_slip: float = 0.0
 
     def __post_init__(self) -> None:
         pairs = []
@@ -114,7 +132,7 @@ class TrueParams:
             pairs.append((item[0], float(item[1])))
         object.__setattr__(self, "terrain_radius_scale", tuple(pairs))
         for f in fields(self):
-            if f.name in ("name", "terrain_radius_scale"):
+            if f.name in ("name", "terrain_radius_scale", "model"):
                 continue
             value = getattr(self, f.name)
             if isinstance(value, bool) or not isinstance(value, int | float):
@@ -131,6 +149,10 @@ class TrueParams:
         ):
             if getattr(self, key) <= 0:
                 raise SimError(f"true parameter {key} must be > 0")
+        if not isinstance(self.model, KinematicModel):
+            raise SimError(f"true model must be a kinematic model, got {self.model!r}")
+        if self.turn_slip >= 1.0:
+            raise SimError(f"true parameter turn_slip must be < 1, got {self.turn_slip!r}")
 
     @classmethod
     def from_nominal(cls, nominal: RobotParams, **changes: Any) -> TrueParams:
@@ -160,14 +182,14 @@ class TrueParams:
 
 
 def kernel_params(truth: TrueParams, nominal: RobotParams, terrain: Terrain) -> NDArray[np.float64]:
-    """The parameter vector of the compiled step, shape (19,), for one robot on one terrain."""
+    """The parameter vector of the compiled step, shape (20,), for one robot on one terrain."""
     p = np.zeros(_NPARAM)
     s = terrain.radius_scale * truth.radius_scale_on(terrain.name)
     p[_RHO_LF] = truth.left_radius_forward / nominal.left_wheel_radius * s
     p[_RHO_LR] = truth.left_radius_reverse / nominal.left_wheel_radius * s
     p[_RHO_RF] = truth.right_radius_forward / nominal.right_wheel_radius * s
     p[_RHO_RR] = truth.right_radius_reverse / nominal.right_wheel_radius * s
-    coef = DIFF_DRIVE.coefficients(truth.track_width)
+    coef = truth.model.coefficients(truth.track_width)
     p[_TRACK] = coef.denominator
     p[_W_L], p[_W_R], p[_E_L], p[_E_R], p[_LATERAL] = (
         coef.w_left, coef.w_right, coef.e_left, coef.e_right, coef.lateral,
@@ -181,6 +203,7 @@ def kernel_params(truth: TrueParams, nominal: RobotParams, terrain: Terrain) -> 
     p[_CAN_TURN] = 1.0 if terrain.can_turn_in_place else 0.0
     p[_MPT_L] = nominal.left_metres_per_tick
     p[_MPT_R] = nominal.right_metres_per_tick
+    p[_TURN_SLIP] = truth.turn_slip
     return p
 
 
@@ -188,9 +211,19 @@ def kernel_params(truth: TrueParams, nominal: RobotParams, terrain: Terrain) -> 
 
 
 @njit(cache=True, inline="always")
-def _move(x, y, h, dsl, dsr, p, dth_noise):  # type: ignore[no-untyped-def]  # pragma: no cover
+def _denominator(p, dnl, dnr):  # type: ignore[no-untyped-def]  # pragma: no cover - compiled
+    """The true model's turning denominator for commanded wheel motions dnl, dnr (turn slip)."""
+    if p[19] == 0.0:
+        return p[4]
+    total = abs(dnl) + abs(dnr)
+    s = abs(dnr - dnl) / total if total > 0.0 else 1.0
+    return p[4] * (1.0 - p[19] * (1.0 - s))
+
+
+@njit(cache=True, inline="always")
+def _move(x, y, h, dsl, dsr, p, dth_noise, den):  # type: ignore[no-untyped-def]  # pragma: no cover
     """The body's exact arc for true wheel displacements dsl, dsr through the true model."""
-    fwd, side, dth = body_motion(p[14], p[15], p[16], p[17], p[4], p[18], dsl, dsr)
+    fwd, side, dth = body_motion(p[14], p[15], p[16], p[17], den, p[18], dsl, dsr)
     dth += dth_noise
     side = p[18] * dth
     return step_pose(x, y, h, fwd, side, dth, True)
@@ -213,7 +246,7 @@ def _step(x, y, h, dnl, dnr, dt, p, zl, zr, zs):  # type: ignore[no-untyped-def]
     noise = 0.0
     if p[8] != 0.0:
         noise = math.sqrt(p[8] * abs(dnr - dnl) / p[5]) * zs
-    return _move(x, y, h, dsl, dsr, p, noise)
+    return _move(x, y, h, dsl, dsr, p, noise, _denominator(p, dnl, dnr))
 
 
 @njit(cache=True, inline="always")
@@ -223,7 +256,7 @@ def _slide(x, y, h, vl, vr, p):  # type: ignore[no-untyped-def]  # pragma: no co
         return x, y, h
     dsl = math.copysign(p[10] * vl * vl, vl)
     dsr = math.copysign(p[10] * vr * vr, vr)
-    return _move(x, y, h, dsl, dsr, p, 0.0)
+    return _move(x, y, h, dsl, dsr, p, 0.0, _denominator(p, vl, vr))
 
 
 @njit(cache=True)
@@ -389,7 +422,7 @@ def simulate_batch(
 ) -> BatchResult:
     """Run n scripted trials at once (compiled; no Python loop per trial).
 
-    ``params``: (n, 19) from :func:`kernel_params`. ``seg_*``: (n, s) per-segment wheel tick
+    ``params``: (n, 20) from :func:`kernel_params`. ``seg_*``: (n, s) per-segment wheel tick
     changes (signed integers) and wheel surface speeds (m/s, same signs); ``n_segments``: (n,).
     ``dt`` must divide the report period. A trial whose wheels are told to turn in opposite
     directions on a terrain that cannot turn in place stalls: its counters stand still for

@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.models import IcrModel
 from odolab.params import PRESETS, RobotParams
 from odolab.sim.physics import TrueParams
 
@@ -45,6 +46,7 @@ __all__ = [
     "TABLE_I",
     "TRUTH_PRESETS",
     "LabTargets",
+    "TrackedSlip",
     "derive_jaguar_lab",
     "predicted_sigma_y",
 ]
@@ -108,12 +110,32 @@ def _arc_factor(distances: NDArray[np.float64], curvature: float) -> float:
     return float(np.sum(distances**2 * np.sinc(phi / np.pi)) / np.sum(distances**2))
 
 
+@dataclass(frozen=True)
+class TrackedSlip:
+    """What makes the ``jaguar-lab-tracked`` truth a tracked vehicle (see :class:`TrueParams`).
+
+    ``icr_shift`` (m): both track ICRs sit this far left of where a differential drive of the
+    same turning track would put them (``y_icr_left = b/2 + shift``, ``y_icr_right = -b/2 +
+    shift``); ``x_icr`` (m): the vehicle ICR's longitudinal offset; ``turn_slip``,
+    ``speed_slip`` (s/m), ``stop_slide`` (s^2/m) as in :class:`TrueParams`; ``lab_speed`` (m/s):
+    the wheel speed of the lab's protocols, at which the speed slip is folded into the radii.
+    """
+
+    icr_shift: float = 0.01
+    x_icr: float = 0.04
+    turn_slip: float = 0.05
+    speed_slip: float = 0.05
+    stop_slide: float = 0.03
+    lab_speed: float = 0.3
+
+
 def derive_jaguar_lab(
     targets: LabTargets = TABLE_I,
     nominal: RobotParams | None = None,
     *,
     k_wheel: float = 2e-5,
     rotation_noise: str = "scrub",
+    tracked: TrackedSlip | None = None,
 ) -> TrueParams:
     """True parameters that make the lab's protocols reproduce ``targets`` (see module doc).
 
@@ -121,9 +143,21 @@ def derive_jaguar_lab(
     walk: sigma grows like sqrt(angle); the ``jaguar-lab`` preset) or ``"track"`` (the effective
     track width changes from run to run: sigma grows like the angle; ``jaguar-lab-track``).
     Table I has only the 20 pi figure, so it cannot tell the two apart.
+
+    ``tracked`` makes the truth a tracked vehicle (``jaguar-lab-tracked``): an ICR model with
+    turn, speed and stop slip, still reproducing ``targets`` on the lab's protocols: the speed
+    slip at ``lab_speed`` is divided out of the radii, the straight runs' heading drift uses the
+    ICR spread of straight driving (``b * (1 - turn_slip)``), the lateral offset ``x_icr``
+    enters the drift fit (``y(s) = k s^2 / 2 - x_icr k s`` for a signed run length ``s``: slope
+    ``k ((s1 + s2) / 2 -+ x_icr)`` forward and reverse)
+    and the stop slide's share of the through-origin x ratios is taken off the radii.
     """
     if rotation_noise not in ("scrub", "track"):
         raise ValueError(f"rotation_noise must be 'scrub' or 'track', got {rotation_noise!r}")
+    tr = tracked or TrackedSlip(0.0, 0.0, 0.0, 0.0, 0.0)
+    straight = 1.0 - tr.turn_slip  # ICR spread of straight driving / in place
+    speed_loss = 1.0 - tr.speed_slip * tr.lab_speed
+    slide = tr.stop_slide * tr.lab_speed**2  # m each side slides on at the end of a run
     nom = nominal or PRESETS["jaguar-lite"]
     b0 = nom.track_width
     s1, s2 = targets.short_distance, targets.long_distance
@@ -134,12 +168,17 @@ def derive_jaguar_lab(
     d_fwd = d_rev = 0.0
     out = np.arange(1, 11, dtype=np.float64) * 0.5  # outdoor runs, 0.5 m to 5 m
     indoor = np.array([s1, s2], dtype=np.float64)
+    slide_in = slide * float(indoor.sum() / (indoor**2).sum())  # its share of the x ratio
     for _ in range(50):
         cos_corr = 1.0 - 0.5 * align**2  # mean cosine of the start misalignment
-        arc_in = 0.5 * (_arc_factor(indoor, d_fwd / b) + _arc_factor(indoor, d_rev / b))
-        rho = targets.x_ratio / (cos_corr * arc_in)
-        d_fwd = 2.0 * b * targets.y_drift_forward / (rho * (s1 + s2))
-        d_rev = 2.0 * b * targets.y_drift_reverse / (rho * (s1 + s2))
+        bs = b * straight
+        arc_in = 0.5 * (_arc_factor(indoor, d_fwd / bs) + _arc_factor(indoor, d_rev / bs))
+        if slide_in:
+            rho = (targets.x_ratio / cos_corr - slide_in) / arc_in
+        else:
+            rho = targets.x_ratio / (cos_corr * arc_in)
+        d_fwd = 2.0 * bs * targets.y_drift_forward / (rho * (s1 + s2 - 2.0 * tr.x_icr))
+        d_rev = 2.0 * bs * targets.y_drift_reverse / (rho * (s1 + s2 + 2.0 * tr.x_icr))
         rho_rf = rho - 0.5 * d_fwd
         rho_lr = rho + 0.5 * d_rev
         b = b0 * (rho_rf + rho_lr) / (2.0 * targets.rotation_ratio)
@@ -147,10 +186,15 @@ def derive_jaguar_lab(
         slip = 2 * k_wheel * d**3 / (3 * b**2)
         align = math.sqrt(max(targets.sigma_y_long**2 - slip - sm**2, 0.0)) / d
     scales = []
+    slide_out = slide * float(out.sum() / (out**2).sum())
     for x_out in (targets.x_ratio_concrete, targets.x_ratio_grass):
         sc = x_out / (rho * cos_corr)
         for _ in range(20):
-            sc = x_out / (rho * cos_corr * _arc_factor(out, sc * d_fwd / b))
+            arc_out = _arc_factor(out, sc * d_fwd / (b * straight))
+            if slide_out:
+                sc = (x_out / cos_corr - slide_out) / (rho * arc_out)
+            else:
+                sc = x_out / (rho * cos_corr * arc_out)
         scales.append(sc)
     rho_lf, rho_rf = rho + 0.5 * d_fwd, rho - 0.5 * d_fwd
     rho_lr, rho_rr = rho + 0.5 * d_rev, rho - 0.5 * d_rev
@@ -162,6 +206,27 @@ def derive_jaguar_lab(
         k_scrub, track_sigma = 0.0, math.sqrt(rot_var) / (a * targets.rotation_ratio)
         b *= 1.0 + track_sigma**2  # E[1 / (1 + e)] = 1 + sigma**2: keep the mean ratio 0.875
     r0l, r0r = nom.left_wheel_radius, nom.right_wheel_radius
+    if tracked is not None:
+        model = IcrModel(b / 2.0 + tr.icr_shift, -b / 2.0 + tr.icr_shift, tr.x_icr)
+        r0l, r0r = r0l / speed_loss, r0r / speed_loss
+        return TrueParams(
+            left_radius_forward=rho_lf * r0l,
+            left_radius_reverse=rho_lr * r0l,
+            right_radius_forward=rho_rf * r0r,
+            right_radius_reverse=rho_rr * r0r,
+            track_width=b,
+            k_left=k_wheel,
+            k_right=k_wheel,
+            k_scrub=k_scrub,
+            align_sigma=align,
+            track_sigma=track_sigma,
+            speed_slip=tr.speed_slip,
+            stop_slide=tr.stop_slide,
+            terrain_radius_scale=(("concrete", scales[0]), ("grass", scales[1])),
+            name="jaguar-lab-tracked",
+            model=model,
+            turn_slip=tr.turn_slip,
+        )
     return TrueParams(
         left_radius_forward=rho_lf * r0l,
         left_radius_reverse=rho_lr * r0l,
@@ -183,4 +248,5 @@ TRUTH_PRESETS: dict[str, TrueParams] = {
     "ideal": TrueParams.from_nominal(PRESETS["jaguar-lite"]),
     "jaguar-lab": derive_jaguar_lab(),
     "jaguar-lab-track": derive_jaguar_lab(rotation_noise="track"),
+    "jaguar-lab-tracked": derive_jaguar_lab(tracked=TrackedSlip()),
 }

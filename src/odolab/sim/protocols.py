@@ -546,6 +546,20 @@ def _pose(t: float, x: float, y: float, h: float) -> Pose:
     return Pose(t, x, y, float(wrap_angle(h)), h)
 
 
+def _campaign_on(campaign: str, protocol_terrain: str, terrain: str) -> str:
+    """The campaign name for trials moved to another terrain: ``translation-indoor`` run with
+    ``--terrain grass`` is ``translation-grass`` (a trailing place word is replaced)."""
+    if terrain == protocol_terrain:
+        return campaign
+    places = ("indoor", "outdoor", "tile", "concrete", "grass", protocol_terrain)
+    base = campaign
+    for word in places:
+        if base.endswith(f"-{word}"):
+            base = base[: -len(word) - 1]
+            break
+    return f"{base}-{terrain}"
+
+
 def run_protocol(
     protocol: ExperimentProtocol,
     truth: TrueParams,
@@ -644,13 +658,14 @@ def run_protocol(
                 sigma_xy=(tape if outdoor[i] else stick).sigma,
                 raw={"x_m": float(xy[i, 0]), "y_m": float(xy[i, 1])},
             )
-        idx = counters.get(spec.campaign, 0)
-        counters[spec.campaign] = idx + 1
+        campaign = _campaign_on(spec.campaign, spec.terrain, terrains[i])
+        idx = counters.get(campaign, 0)
+        counters[campaign] = idx + 1
         stalled = bool(batch.stalled[i])
         out.append(
             Trial(
-                trial_id=f"{spec.campaign}-{idx:03d}",
-                campaign=spec.campaign,
+                trial_id=f"{campaign}-{idx:03d}",
+                campaign=campaign,
                 terrain=terrains[i],
                 command=spec.command,
                 predicted=pred,

@@ -139,6 +139,10 @@ def read_notebook_json(path: str | Path) -> NotebookDocument:
         raise StoreError(f"{p}: cannot read ({err.strerror or err})") from err
     except (json.JSONDecodeError, UnicodeDecodeError) as err:
         raise StoreError(f"{p}: not valid JSON ({err})") from err
+    except RecursionError as err:
+        raise StoreError(
+            f"{p}: JSON nested too deeply to read; expected a notebook export (a few levels)"
+        ) from err
     _need(doc, ("format", "params_versions", "campaigns", "trials"), str(p))
     if doc["format"] != FORMAT:
         raise StoreError(f"{p}: format is {doc['format']!r}; expected {FORMAT!r}")

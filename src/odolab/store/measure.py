@@ -116,6 +116,7 @@ def build_measurement(
             commanded_angle=t.command.angle,
             direction=direction,  # type: ignore[arg-type]
             sigma_reading_rad=sigma or COMPASS_SIGMA_RAD,  # type: ignore[arg-type]
+            predicted_angle=t.predicted.heading,  # the turn hint follows what odometry saw
         )
     distance = t.command.distance if t.command.kind.value == "translation" else None
     return translation_measurement(

@@ -1,0 +1,527 @@
+"""The lab's open questions (section IX) as experiments, each answered with an effect size and CI.
+
+An *experiment* file (TOML; built-ins in ``odolab/data/experiments``) lists conditions, each a
+motion driven by the nominal odometry on the virtual robot (:func:`odolab.sim.drives.drive`),
+repeated with fresh noise, and the comparisons to make::
+
+    [experiment]
+    name = "in-place-vs-curves"
+    question = "Does rotating in place slip more than turning in a wide curve?"
+    repeats = 200                   # per condition (each a new seed)
+    speed = 0.3                     # m/s, the faster wheel's surface speed (default)
+
+    [[conditions]]
+    label = "in place"              # unique
+    motion = "rotate"               # rotate | curve | pivot | straight
+    angle_deg = 180                 # rotate, curve, pivot: the heading change (sign = direction)
+    # radius = 1.0                  # curve: m, of the body's path
+    # held = "left"                 # pivot: the track that stands still
+    # distance = 2.0                # straight: m (negative = reverse)
+    # terrain = "tile"; speed = 0.3
+    # stop = "abrupt"               # abrupt | gradual
+    # decel = 0.5                   # gradual: s of linear slow-down before the stop
+
+    [[effects]]                     # slip of a minus slip of b, percentage points, with a CI
+    a = "in place"
+    b = "curve 1 m"
+
+    # trend = "speed"               # [experiment] key: a line of slip against speed
+    # alternate = true              # [experiment] key: mirror every other repeat (turn sign,
+                                    # pivot track), so a left-right difference cancels
+
+Each repeat is measured as the lab would: a rotation by the compass (``compass_sigma`` per
+reading, 0.05 rad), a distance with the meterstick (0.003 m indoors) or the tape (0.005 m
+outdoors). The *slip* of a turn is ``1 - measured / predicted heading change``, of a straight run
+``1 - measured / predicted distance`` (%; positive: the robot did less than its odometry says).
+A turn in place on a terrain that does not allow it stalls: the condition reports the stall and
+no slip. Effects are Welch differences of mean slip with their 95 % confidence interval; a trend
+is a least-squares line through every repeat with the slope's 95 % CI.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from odolab.errors import SimError
+from odolab.odometry import integrate_increments
+from odolab.params import RobotParams
+from odolab.sim.drives import Leg, drive
+from odolab.sim.physics import TrueParams
+from odolab.sim.terrains import get_terrain
+
+__all__ = [
+    "Condition",
+    "ConditionResult",
+    "Effect",
+    "Experiment",
+    "ExperimentResult",
+    "Trend",
+    "builtin_experiments",
+    "legs_for",
+    "load_experiment",
+    "parse_experiment",
+    "run_experiment",
+    "run_open_questions",
+]
+
+_MOTIONS = ("rotate", "curve", "pivot", "straight")
+_EXPERIMENT_KEYS = {"name", "question", "repeats", "speed", "trend", "alternate", "compass_sigma",
+                    "meterstick_sigma", "tape_sigma"}  # fmt: skip
+_CONDITION_KEYS = {"label", "motion", "angle_deg", "radius", "held", "distance", "terrain",
+                   "speed", "stop", "decel"}  # fmt: skip
+Progress = Callable[[int, int], None]
+
+
+@dataclass(frozen=True)
+class Condition:
+    """One condition of an experiment (see the module)."""
+
+    label: str
+    motion: str
+    terrain: str = "tile"
+    speed: float = 0.3
+    angle: float = 0.0  #: rad
+    radius: float = 0.0
+    held: str = "left"
+    distance: float = 0.0
+    stop: str = "abrupt"
+    decel: float = 0.0
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """A parsed experiment file."""
+
+    name: str
+    question: str
+    conditions: tuple[Condition, ...]
+    effects: tuple[tuple[str, str], ...]
+    repeats: int = 100
+    trend: str | None = None
+    #: mirror every other repeat (turns of both signs, pivots on both tracks): a left-right
+    #: difference of the robot then cancels instead of passing for an effect
+    alternate: bool = False
+    compass_sigma: float = 0.05
+    meterstick_sigma: float = 0.003
+    tape_sigma: float = 0.005
+    source: str = "<experiment>"
+
+
+@dataclass(frozen=True)
+class ConditionResult:
+    """A condition's repeats: slip (%) mean and 95 % CI, or the stall."""
+
+    condition: Condition
+    n: int
+    stalled: int
+    slip: tuple[float, ...]  #: per repeat, % (empty when every repeat stalled)
+    mean: float
+    low: float
+    high: float
+
+    @property
+    def label(self) -> str:
+        return self.condition.label
+
+
+@dataclass(frozen=True)
+class Effect:
+    """Mean slip of ``a`` minus that of ``b`` (percentage points) with its Welch 95 % CI."""
+
+    a: str
+    b: str
+    difference: float
+    low: float
+    high: float
+
+    def sentence(self) -> str:
+        """The answer in words (slip: how far the robot falls short of its odometry)."""
+        ci = f"95 % CI [{self.low:+.1f}, {self.high:+.1f}] percentage points"
+        if self.difference >= 0:
+            return f"{self.a} slips {self.difference:.1f} % more than {self.b} ({ci})"
+        return (
+            f"{self.a} slips {-self.difference:.1f} % less than {self.b}: it goes further for "
+            f"the same counts ({ci})"
+        )
+
+
+@dataclass(frozen=True)
+class Trend:
+    """Slip (%) against a condition key: slope per unit with its 95 % CI."""
+
+    key: str
+    slope: float
+    low: float
+    high: float
+    unit: str
+
+    def sentence(self) -> str:
+        return (
+            f"slip changes by {self.slope:+.2f} % per {self.unit} of {self.key} "
+            f"(95 % CI [{self.low:+.2f}, {self.high:+.2f}])"
+        )
+
+
+@dataclass(frozen=True)
+class ExperimentResult:
+    """What :func:`run_experiment` returns."""
+
+    experiment: Experiment
+    truth: str
+    seed: int
+    conditions: list[ConditionResult]
+    effects: list[Effect]
+    trend: Trend | None
+
+    def condition(self, label: str) -> ConditionResult:
+        for c in self.conditions:
+            if c.label == label:
+                return c
+        raise KeyError(label)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "experiment": self.experiment.name,
+            "question": self.experiment.question,
+            "truth": self.truth,
+            "seed": self.seed,
+            "conditions": [
+                {
+                    "label": c.label,
+                    "motion": c.condition.motion,
+                    "terrain": c.condition.terrain,
+                    "n": c.n,
+                    "stalled": c.stalled,
+                    "slip_pct": c.mean,
+                    "ci95": [c.low, c.high],
+                }
+                for c in self.conditions
+            ],
+            "effects": [
+                {
+                    "a": e.a,
+                    "b": e.b,
+                    "difference_pct": e.difference,
+                    "ci95": [e.low, e.high],
+                    "answer": e.sentence(),
+                }
+                for e in self.effects
+            ],
+            "trend": None
+            if self.trend is None
+            else {
+                "key": self.trend.key,
+                "slope": self.trend.slope,
+                "ci95": [self.trend.low, self.trend.high],
+                "answer": self.trend.sentence(),
+            },
+        }
+
+
+# --------------------------------------------------------------------------- parsing
+
+
+def _err(source: str, where: str, message: str) -> SimError:
+    return SimError(f"{source}: {where}: {message}")
+
+
+def _num(source: str, where: str, value: Any, *, positive: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise _err(source, where, f"expected a finite number, got {value!r}")
+    if positive and value <= 0:
+        raise _err(source, where, f"expected a number > 0, got {value!r}")
+    return float(value)
+
+
+def _keys(source: str, where: str, table: dict[str, Any], allowed: set[str]) -> None:
+    extra = sorted(set(table) - allowed)
+    if extra:
+        raise _err(source, f"{where} key {extra[0]!r}",
+                   f"unknown; expected one of {', '.join(sorted(allowed))}")  # fmt: skip
+
+
+def parse_experiment(doc: dict[str, Any], source: str = "<experiment>") -> Experiment:
+    """An :class:`Experiment` from a parsed TOML document; errors name ``source`` and the key."""
+    _keys(source, "top level", doc, {"experiment", "conditions", "effects"})
+    head = doc.get("experiment")
+    if not isinstance(head, dict):
+        raise _err(source, "[experiment]", "missing; expected a table with name and question")
+    _keys(source, "[experiment]", head, _EXPERIMENT_KEYS)
+    name = str(head.get("name", Path(source).stem))
+    repeats = head.get("repeats", 100)
+    if isinstance(repeats, bool) or not isinstance(repeats, int) or not 2 <= repeats <= 100_000:
+        raise _err(source, "[experiment] key 'repeats'",
+                   f"expected an integer from 2 to 100000, got {repeats!r}")  # fmt: skip
+    speed = _num(source, "[experiment] key 'speed'", head.get("speed", 0.3), positive=True)
+    trend = head.get("trend")
+    if trend not in (None, "speed", "radius", "decel"):
+        raise _err(source, "[experiment] key 'trend'",
+                   f"expected speed, radius or decel, got {trend!r}")  # fmt: skip
+    raw = doc.get("conditions")
+    if not isinstance(raw, list) or not raw:
+        raise _err(source, "[[conditions]]", "missing; expected at least one condition")
+    conditions = [_condition(source, i, c, speed) for i, c in enumerate(raw)]
+    labels = [c.label for c in conditions]
+    dup = sorted({x for x in labels if labels.count(x) > 1})
+    if dup:
+        raise _err(source, "[[conditions]] key 'label'", f"{dup[0]!r} is used twice")
+    effects = []
+    for i, e in enumerate(doc.get("effects", [])):
+        where = f"[[effects]] #{i + 1}"
+        if not isinstance(e, dict):
+            raise _err(source, where, "expected a table with a and b")
+        _keys(source, where, e, {"a", "b"})
+        for key in ("a", "b"):
+            if e.get(key) not in labels:
+                raise _err(source, f"{where} key {key!r}",
+                           f"expected a condition label, got {e.get(key)!r}")  # fmt: skip
+        effects.append((str(e["a"]), str(e["b"])))
+    alternate = head.get("alternate", False)
+    if not isinstance(alternate, bool):
+        raise _err(
+            source, "[experiment] key 'alternate'", f"expected true or false, got {alternate!r}"
+        )
+    sig = {k: _num(source, f"[experiment] key {k!r}", head[k], positive=True)
+           for k in ("compass_sigma", "meterstick_sigma", "tape_sigma") if k in head}  # fmt: skip
+    return Experiment(
+        name, str(head.get("question", "")), tuple(conditions), tuple(effects), repeats,
+        trend, alternate, source=source, **sig,
+    )  # fmt: skip
+
+
+def _condition(source: str, index: int, c: Any, speed: float) -> Condition:
+    where = f"[[conditions]] #{index + 1}"
+    if not isinstance(c, dict):
+        raise _err(source, where, "expected a table")
+    _keys(source, where, c, _CONDITION_KEYS)
+    label = c.get("label")
+    if not isinstance(label, str) or not label:
+        raise _err(source, f"{where} key 'label'", "missing; expected a non-empty name")
+    motion = c.get("motion")
+    if motion not in _MOTIONS:
+        raise _err(source, f"{where} key 'motion'",
+                   f"expected one of {', '.join(_MOTIONS)}, got {motion!r}")  # fmt: skip
+    terrain = str(c.get("terrain", "tile"))
+    get_terrain(terrain, where=f"{source}: {where} key 'terrain'")
+    kw: dict[str, Any] = {
+        "terrain": terrain,
+        "speed": _num(source, f"{where} key 'speed'", c.get("speed", speed), positive=True),
+    }
+    needs = {"rotate": ("angle_deg",), "curve": ("angle_deg", "radius"),
+             "pivot": ("angle_deg",), "straight": ("distance",)}[motion]  # fmt: skip
+    for key in needs:
+        if key not in c:
+            raise _err(source, f"{where} key {key!r}", f"missing; a {motion} needs it")
+    for key in ("angle_deg", "radius", "held", "distance"):
+        if key in c and key not in needs and not (key == "held" and motion == "pivot"):
+            raise _err(source, f"{where} key {key!r}", f"does not apply to a {motion}")
+    if "angle_deg" in c:
+        angle = _num(source, f"{where} key 'angle_deg'", c["angle_deg"])
+        if angle == 0:
+            raise _err(source, f"{where} key 'angle_deg'", "expected a non-zero angle")
+        kw["angle"] = math.radians(angle)
+    if "radius" in c:
+        kw["radius"] = _num(source, f"{where} key 'radius'", c["radius"], positive=True)
+    if "distance" in c:
+        kw["distance"] = _num(source, f"{where} key 'distance'", c["distance"])
+        if kw["distance"] == 0:
+            raise _err(source, f"{where} key 'distance'", "expected a non-zero distance")
+    if "held" in c:
+        if c["held"] not in ("left", "right"):
+            raise _err(source, f"{where} key 'held'", f"expected left or right, got {c['held']!r}")
+        kw["held"] = c["held"]
+    stop = c.get("stop", "abrupt")
+    if stop not in ("abrupt", "gradual"):
+        raise _err(source, f"{where} key 'stop'", f"expected abrupt or gradual, got {stop!r}")
+    kw["stop"] = stop
+    if stop == "gradual":
+        kw["decel"] = _num(source, f"{where} key 'decel'", c.get("decel", 0.5), positive=True)
+    elif "decel" in c:
+        raise _err(source, f"{where} key 'decel'", 'applies only to stop = "gradual"')
+    return Condition(label, str(motion), **kw)
+
+
+def builtin_experiments() -> dict[str, str]:
+    """Built-in experiment names and their questions."""
+    out: dict[str, str] = {}
+    folder = resources.files("odolab").joinpath("data/experiments")
+    for entry in sorted(folder.iterdir(), key=lambda e: e.name):
+        if entry.name.endswith(".toml"):
+            doc = tomllib.loads(entry.read_text(encoding="utf-8"))
+            out[entry.name[:-5]] = str(doc.get("experiment", {}).get("question", ""))
+    return out
+
+
+def load_experiment(name_or_path: str | Path) -> Experiment:
+    """A built-in experiment by name or an experiment TOML file."""
+    path = Path(str(name_or_path))
+    if path.suffix == ".toml" or path.exists():
+        source = str(path)
+        try:
+            text = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as err:
+            raise SimError(f"{path}: cannot read the experiment ({err})") from err
+    else:
+        entry = resources.files("odolab").joinpath(f"data/experiments/{name_or_path}.toml")
+        if not entry.is_file():
+            raise SimError(f"{name_or_path}: no such experiment file or built-in experiment; "
+                           f"built-ins are {', '.join(builtin_experiments())}")  # fmt: skip
+        source = f"{name_or_path}.toml"
+        text = entry.read_text(encoding="utf-8")
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise SimError(f"{source}: not valid TOML ({err})") from err
+    return parse_experiment(doc, source)
+
+
+# --------------------------------------------------------------------------- running
+
+
+def legs_for(c: Condition, nominal: RobotParams) -> list[Leg]:
+    """The wheel-speed legs that make the nominal model do condition ``c``.
+
+    The faster wheel runs at ``c.speed``; the duration is the nominal wheel travel over that
+    speed. A gradual stop adds a leg that slows linearly to 0 over ``c.decel`` seconds (its
+    travel is counted by the encoders like any other)."""
+    half = nominal.track_width / 2.0
+    if c.motion == "straight":
+        sign = 1.0 if c.distance > 0 else -1.0
+        left = right = sign * c.speed
+        duration = abs(c.distance) / c.speed
+    else:
+        a = c.angle
+        if c.motion == "rotate":
+            dl, dr = -a * half, a * half
+        elif c.motion == "curve":
+            dl, dr = (
+                abs(a) * (c.radius - math.copysign(half, a)),
+                abs(a) * (c.radius + math.copysign(half, a)),
+            )
+        else:  # pivot: the held track stands, the other travels angle * track
+            width = 2.0 * half
+            dl, dr = (0.0, a * width) if c.held == "left" else (-a * width, 0.0)
+        big = max(abs(dl), abs(dr))
+        duration = big / c.speed
+        left, right = dl / duration, dr / duration
+    legs = [Leg(left, right, duration)]
+    if c.stop == "gradual":
+        legs.append(Leg(0.0, 0.0, c.decel, ramp=c.decel))
+    return legs
+
+
+def _welch(a: np.ndarray, b: np.ndarray) -> tuple[float, float, float]:
+    from scipy import stats
+
+    d = float(a.mean() - b.mean())
+    va, vb = a.var(ddof=1) / a.size, b.var(ddof=1) / b.size
+    se = math.sqrt(va + vb)
+    if se == 0:
+        return d, d, d
+    dof = (va + vb) ** 2 / (va**2 / (a.size - 1) + vb**2 / (b.size - 1))
+    q = float(stats.t.ppf(0.975, dof))
+    return d, d - q * se, d + q * se
+
+
+def _mean_ci(x: np.ndarray) -> tuple[float, float, float]:
+    from scipy import stats
+
+    m = float(x.mean())
+    if x.size < 2:
+        return m, math.nan, math.nan
+    h = float(stats.t.ppf(0.975, x.size - 1)) * float(x.std(ddof=1)) / math.sqrt(x.size)
+    return m, m - h, m + h
+
+
+def run_experiment(
+    experiment: Experiment,
+    truth: TrueParams,
+    nominal: RobotParams,
+    *,
+    seed: int = 0,
+    repeats: int | None = None,
+    progress: Progress | None = None,
+) -> ExperimentResult:
+    """Run every condition ``repeats`` times (default the file's) and answer the comparisons."""
+    n = repeats if repeats is not None else experiment.repeats
+    if n < 2:
+        raise SimError(f"repeats must be at least 2 for a confidence interval, got {n}")
+    rng = np.random.default_rng(seed)
+    total = n * len(experiment.conditions)
+    done = 0
+    results: list[ConditionResult] = []
+    trend_x: list[float] = []
+    trend_y: list[float] = []
+    for c in experiment.conditions:
+        mirror = replace(c, angle=-c.angle, held="right" if c.held == "left" else "left")
+        plans = [(c, legs_for(c, nominal)), (mirror, legs_for(mirror, nominal))]
+        terrain = get_terrain(c.terrain)
+        slips: list[float] = []
+        stalled = 0
+        for k in range(n):
+            cc, legs = plans[k % 2 if experiment.alternate and c.motion != "straight" else 0]
+            d = drive(truth, nominal, legs, terrain=terrain, seed=int(rng.integers(2**31)))
+            done += 1
+            if progress is not None:
+                progress(done, total)
+            if d.stalled:
+                stalled += 1
+                continue
+            pred = integrate_increments(d.t, d.dticks_left, d.dticks_right, nominal, "arc")
+            if c.motion == "straight":
+                sigma = experiment.tape_sigma if terrain.outdoor else experiment.meterstick_sigma
+                p = math.hypot(pred.x[-1], pred.y[-1])
+                m = math.hypot(d.x[-1], d.y[-1]) + sigma * float(rng.standard_normal())
+            else:
+                sigma = math.sqrt(2.0) * experiment.compass_sigma
+                p = abs(pred.heading[-1])
+                m = math.copysign(1.0, cc.angle) * d.heading[-1] + sigma * float(
+                    rng.standard_normal()
+                )
+            slips.append(100.0 * (1.0 - m / p))
+            if experiment.trend is not None:
+                trend_x.append(float(getattr(c, experiment.trend)))
+                trend_y.append(slips[-1])
+        arr = np.array(slips)
+        mean, lo, hi = _mean_ci(arr) if arr.size else (math.nan, math.nan, math.nan)
+        results.append(ConditionResult(c, n, stalled, tuple(slips), mean, lo, hi))
+    by_label = {r.label: r for r in results}
+    effects = []
+    for a, b in experiment.effects:
+        ra, rb = by_label[a], by_label[b]
+        if len(ra.slip) < 2 or len(rb.slip) < 2:
+            continue  # a stalled condition has no slip to compare
+        effects.append(Effect(a, b, *_welch(np.array(ra.slip), np.array(rb.slip))))
+    trend = None
+    if experiment.trend is not None and len(set(trend_x)) > 1:
+        from scipy import stats
+
+        fit = stats.linregress(trend_x, trend_y)
+        q = float(stats.t.ppf(0.975, len(trend_x) - 2))
+        unit = {"speed": "m/s", "radius": "m", "decel": "s"}[experiment.trend]
+        trend = Trend(experiment.trend, float(fit.slope), float(fit.slope - q * fit.stderr),
+                      float(fit.slope + q * fit.stderr), unit)  # fmt: skip
+    return ExperimentResult(experiment, truth.name, seed, results, effects, trend)
+
+
+def run_open_questions(
+    truth: TrueParams,
+    nominal: RobotParams,
+    *,
+    seed: int = 0,
+    repeats: int | None = None,
+    names: Sequence[str] | None = None,
+) -> list[ExperimentResult]:
+    """Every built-in experiment (or ``names``) on one truth, in name order."""
+    return [
+        run_experiment(load_experiment(name), truth, nominal, seed=seed, repeats=repeats)
+        for name in (names or sorted(builtin_experiments()))
+    ]

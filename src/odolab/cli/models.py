@@ -1,0 +1,214 @@
+"""CLI commands ``odolab calibrate compare`` (which kinematic model does my robot need?) and
+``odolab sim questions`` (the lab's open questions on the virtual robot)."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated
+
+import typer
+
+from odolab.cli._apps import calibrate_app, sim_app
+from odolab.cli.evaluate import (
+    GtTopicOpt,
+    JointsOpt,
+    JointTopicOpt,
+    ParamsOpt,
+    RunFormat,
+    WorkersOpt,
+    _progress_bar,
+    _read_options,
+)
+
+if TYPE_CHECKING:
+    from odolab.calibration.compare import ModelComparison
+
+__all__: list[str] = []
+
+
+@calibrate_app.command("compare")
+def calibrate_compare_cmd(
+    runs: Annotated[
+        list[Path], typer.Argument(help="Training runs (files or folders) with ground truth.")
+    ],
+    fmt: Annotated[RunFormat, typer.Option("--format", "-f", help="Run format.")] = (
+        RunFormat.optiodom
+    ),
+    params: ParamsOpt = None,
+    validate: Annotated[
+        list[Path] | None,
+        typer.Option(
+            "--validate", help="Held-out runs (default: cross-validation over the training runs)."
+        ),
+    ] = None,
+    models: Annotated[
+        str, typer.Option(help="Comma-separated models to compare: diff, extended, icr.")
+    ] = "diff,extended,icr",
+    segment: Annotated[float, typer.Option(help="Segment length (s) of the residuals.")] = 2.0,
+    seed: Annotated[int, typer.Option(help="Seed of the bootstrap confidence intervals.")] = 0,
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write the report here.")] = None,
+    workers: WorkersOpt = 2,
+    joint_topic: JointTopicOpt = "/joint_states",
+    joints: JointsOpt = ("left_wheel_joint", "right_wheel_joint"),
+    gt_topic: GtTopicOpt = "/ground_truth",
+) -> None:
+    """Fit every kinematic model on training runs, score it on held-out runs, recommend one."""
+    from odolab.calibration.compare import compare_model_files
+    from odolab.calibration.lsq import FIT_MODELS, LsqOptions
+    from odolab.cli._output import write_output_text
+    from odolab.errors import CalibrationError
+    from odolab.params import load_params
+
+    chosen = [m.strip() for m in models.split(",") if m.strip()]
+    for m in chosen:
+        if m not in FIT_MODELS:
+            raise CalibrationError(
+                f"--models: unknown model {m!r}; expected a comma-separated list of "
+                f"{', '.join(FIT_MODELS)}"
+            )
+    if not chosen:
+        raise CalibrationError("--models: empty; expected e.g. diff,icr")
+    robot = load_params(params) if params else None
+    ro = _read_options(robot, joint_topic, joints, gt_topic)
+    with _progress_bar("compare") as report:
+        result = compare_model_files(
+            runs,
+            fmt.value,
+            validate=validate or [],
+            nominal=robot,
+            models=chosen,
+            options=LsqOptions(segment_s=segment),
+            read_options=ro,
+            workers=workers,
+            progress=report,
+            seed=seed,
+        )
+    if json_out is not None:
+        write_output_text(
+            json_out, json.dumps(result.to_dict(), indent=2, allow_nan=True) + "\n", "JSON result"
+        )
+    _print_comparison(result)
+
+
+def _ci(value: float, low: float, high: float, fmt: str) -> str:
+    if not (math.isfinite(low) and math.isfinite(high)):
+        return format(value, fmt)
+    return f"{value:{fmt}} [{low:{fmt}}, {high:{fmt}}]"
+
+
+def _print_comparison(result: ModelComparison) -> None:
+    from rich.console import Console
+    from rich.markup import escape
+    from rich.table import Table
+
+    console = Console()
+    how = "cross-validated" if result.cross_validated else "held out"
+    table = Table(
+        title=f"kinematic models: {len(result.train)} training runs, "
+        f"{len(result.held_out)} runs {how} (mean, 95 % CI)"
+    )
+    for col in ("model", "k", "end err (m)", "RPE (m)", "drift %", "deg/m", "dBIC", "vs best"):
+        table.add_column(col, justify="right")
+    for s in result.scores:
+        if s.problem is not None:
+            table.add_row(s.model, str(s.n_params), escape(s.problem), "", "", "", "", "")
+            continue
+        h = s.held_out
+        cells = [
+            _ci(h[k].value, h[k].low, h[k].high, f)
+            for k, f in (
+                ("endpoint_error", ".4f"),
+                ("rpe_rmse", ".4f"),
+                ("drift_pct", ".2f"),
+                ("drift_deg_per_m", ".3f"),
+            )
+        ]
+        d = s.delta_bic
+        r = s.ratio_to_best
+        table.add_row(
+            s.model,
+            str(s.n_params),
+            *cells,
+            _ci(d.value, d.low, d.high, ".1f") if d else "",
+            _ci(r.value, r.low, r.high, ".3f") if r else "",
+        )
+    console.print(table)
+    for s in result.scores:
+        if s.fit is None:
+            continue
+        values = ", ".join(
+            f"{k} = {v:.6g} ± {s.fit.stderr[k]:.2g}" for k, v in s.fit.values.items()
+        )
+        console.print(f"{s.model}: {values}")
+    console.print(f"recommended: [bold]{result.recommended}[/bold] ({escape(result.reason)})")
+
+
+@sim_app.command("questions")
+def sim_questions_cmd(
+    experiments: Annotated[
+        list[str] | None,
+        typer.Argument(help="Experiment files or built-in names (default: every built-in)."),
+    ] = None,
+    truth: Annotated[
+        str, typer.Option(help="True-behaviour preset of the virtual robot.")
+    ] = "jaguar-lab-tracked",
+    params: ParamsOpt = None,
+    seed: Annotated[int, typer.Option(min=0, help="Random seed.")] = 0,
+    repeats: Annotated[
+        int | None, typer.Option(min=2, help="Repeats per condition (default: the file's).")
+    ] = None,
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write the answers here.")] = None,
+) -> None:
+    """Answer the lab's open questions on the virtual robot: effect sizes with 95 % CIs."""
+    from rich.console import Console
+    from rich.markup import escape
+
+    from odolab.analysis.questions import builtin_experiments, load_experiment, run_experiment
+    from odolab.cli._output import write_output_text
+    from odolab.errors import SimError
+    from odolab.params import load_params
+    from odolab.sim.presets import TRUTH_PRESETS
+
+    if truth not in TRUTH_PRESETS:
+        raise SimError(
+            f"--truth: unknown preset {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}"
+        )
+    nominal = load_params(params or "jaguar-lite")
+    loaded = [load_experiment(e) for e in (experiments or sorted(builtin_experiments()))]
+    console = Console()
+    results = []
+    with _progress_bar("questions") as report:
+        for exp in loaded:
+
+            def step(done: int, total: int, name: str = exp.name) -> None:
+                report(done, total, name)
+
+            results.append(
+                run_experiment(
+                    exp,
+                    TRUTH_PRESETS[truth],
+                    nominal,
+                    seed=seed,
+                    repeats=repeats,
+                    progress=step,
+                )
+            )
+    for res in results:
+        console.print(f"[bold]{escape(res.experiment.question)}[/bold]")
+        for c in res.conditions:
+            if c.slip:
+                console.print(
+                    f"  {escape(c.label)}: slip {c.mean:.1f} % [{c.low:.1f}, {c.high:.1f}] "
+                    f"({len(c.slip)} runs" + (f", {c.stalled} stalled)" if c.stalled else ")")
+                )
+            else:
+                console.print(f"  {escape(c.label)}: stalled in all {c.stalled} runs")
+        for e in res.effects:
+            console.print(f"  -> {escape(e.sentence())}")
+        if res.trend is not None:
+            console.print(f"  -> {escape(res.trend.sentence())}")
+    if json_out is not None:
+        doc = [r.to_dict() for r in results]
+        write_output_text(json_out, json.dumps(doc, indent=2, allow_nan=True) + "\n", "JSON result")

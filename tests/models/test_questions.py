@@ -1,0 +1,150 @@
+"""The lab's open questions: experiment files, effects with CIs against hand-computed truths."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from odolab.analysis.questions import (
+    builtin_experiments,
+    legs_for,
+    load_experiment,
+    parse_experiment,
+    run_experiment,
+)
+from odolab.errors import SimError
+from odolab.params import PRESETS
+from odolab.sim.physics import TrueParams
+from odolab.sim.presets import TRUTH_PRESETS
+
+NOMINAL = PRESETS["jaguar-lite"]
+QUIET = {"compass_sigma": 1e-6, "meterstick_sigma": 1e-6, "tape_sigma": 1e-6}
+
+
+def _exp(conditions: list[dict], effects: list[dict] | None = None, **head) -> object:  # type: ignore[type-arg]
+    doc = {"experiment": {"name": "t", "repeats": 2, **QUIET, **head}, "conditions": conditions}
+    if effects:
+        doc["effects"] = effects
+    return parse_experiment(doc, "t.toml")
+
+
+def test_builtin_experiments_answer_the_four_questions() -> None:
+    names = builtin_experiments()
+    assert set(names) == {"in-place-vs-curves", "pivot-terrains", "speed-sweep", "stops"}
+    for name in names:
+        exp = load_experiment(name)
+        assert exp.effects and exp.question.endswith("?")
+
+
+def test_curve_legs_turn_the_nominal_heading() -> None:
+    exp = _exp([{"label": "c", "motion": "curve", "angle_deg": -90, "radius": 1.0}])
+    (leg,) = legs_for(exp.conditions[0], NOMINAL)  # type: ignore[attr-defined]
+    b = NOMINAL.track_width
+    assert (leg.right - leg.left) * leg.duration / b == pytest.approx(-math.pi / 2, abs=1e-12)
+    assert (leg.left + leg.right) / 2 * leg.duration == pytest.approx(math.pi / 2, abs=1e-12)
+    assert max(abs(leg.left), abs(leg.right)) == pytest.approx(0.3)
+
+
+def test_turn_slip_effect_is_the_icr_spread() -> None:
+    # gamma = 0.1: in place the spread is b (no slip); on a 1 m curve s = b / 2 m, the spread
+    # b * (1 - 0.1 * (1 - s)): the curve turns 1 / (1 - 0.1 * (1 - s)) times the odometry
+    truth = TrueParams.from_nominal(NOMINAL, turn_slip=0.1)
+    exp = _exp(
+        [
+            {"label": "in place", "motion": "rotate", "angle_deg": 180},
+            {"label": "curve", "motion": "curve", "angle_deg": 180, "radius": 1.0},
+        ],
+        [{"a": "in place", "b": "curve"}],
+        alternate=True,
+    )
+    res = run_experiment(exp, truth, NOMINAL, seed=1)  # type: ignore[arg-type]
+    s = NOMINAL.track_width / 2.0
+    expected = -100.0 * (1.0 / (1.0 - 0.1 * (1.0 - s)) - 1.0)  # -7.76 %
+    assert res.condition("in place").mean == pytest.approx(0.0, abs=0.1)
+    assert res.condition("curve").mean == pytest.approx(expected, abs=0.1)
+    (eff,) = res.effects
+    assert eff.difference == pytest.approx(-expected, abs=0.15)
+    assert eff.low <= eff.difference <= eff.high
+    assert "in place slips 7.7 % more than curve" in eff.sentence() or "7.8 %" in eff.sentence()
+
+
+def test_speed_trend_and_stop_slide() -> None:
+    truth = TrueParams.from_nominal(NOMINAL, speed_slip=0.1, stop_slide=0.05)
+    sweep = _exp(
+        [
+            {
+                "label": f"{v}",
+                "motion": "straight",
+                "distance": 1.0,
+                "speed": v,
+                "stop": "gradual",
+                "decel": 0.5,
+            }
+            for v in (0.1, 0.3, 0.5)
+        ],
+        trend="speed",
+    )
+    res = run_experiment(sweep, truth, NOMINAL, seed=2)  # type: ignore[arg-type]
+    assert res.trend is not None
+    # slip = speed_slip * v (10 % per m/s) on the steady part; the slow-down part slips less
+    assert 7.0 < res.trend.slope < 10.0
+    stops = _exp(
+        [
+            {"label": "abrupt", "motion": "straight", "distance": 1.0, "speed": 0.5},
+            {
+                "label": "gradual",
+                "motion": "straight",
+                "distance": 1.0,
+                "speed": 0.5,
+                "stop": "gradual",
+                "decel": 1.0,
+            },
+        ],
+        [{"a": "abrupt", "b": "gradual"}],
+    )
+    res = run_experiment(stops, TrueParams.from_nominal(NOMINAL, stop_slide=0.05), NOMINAL)  # type: ignore[arg-type]
+    # the abrupt stop slides 0.05 * 0.5**2 = 12.5 mm past its counts on a 1 m run: -1.25 %
+    assert res.condition("abrupt").mean == pytest.approx(-1.25, abs=0.05)
+    assert res.condition("gradual").mean == pytest.approx(0.0, abs=0.05)
+    assert "abrupt slips 1.2 % less than gradual" in res.effects[0].sentence()
+
+
+def test_turns_in_place_stall_outdoors_but_pivots_work() -> None:
+    exp = load_experiment("pivot-terrains")
+    res = run_experiment(exp, TRUTH_PRESETS["jaguar-lab-tracked"], NOMINAL, repeats=4, seed=3)
+    for terrain in ("concrete", "grass"):
+        assert res.condition(f"in place, {terrain}").stalled == 4
+        pivot = res.condition(f"pivot, {terrain}")
+        assert pivot.stalled == 0 and len(pivot.slip) == 4
+    assert res.condition("in place, tile").stalled == 0
+    doc = res.to_dict()
+    assert doc["effects"][0]["answer"].startswith("pivot, tile slips")
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"motion": "spin"}, r"t\.toml: \[\[conditions\]\] #1 key 'motion': expected one of"),
+        ({"radius": 1.0}, r"key 'radius': does not apply to a rotate"),
+        ({"angle_deg": "90"}, r"key 'angle_deg': expected a finite number, got '90'"),
+        ({"decel": 1.0}, r"key 'decel': applies only to stop = \"gradual\""),
+        ({"terrain": "ice"}, r"unknown terrain 'ice'"),
+    ],
+)
+def test_bad_experiment_files_get_one_sentence(change: dict, message: str) -> None:  # type: ignore[type-arg]
+    cond = {"label": "a", "motion": "rotate", "angle_deg": 90, **change}
+    with pytest.raises(SimError, match=message):
+        _exp([cond])
+
+
+def test_bad_effect_and_missing_file(tmp_path: Path) -> None:
+    with pytest.raises(SimError, match=r"\[\[effects\]\] #1 key 'b': expected a condition label"):
+        _exp([{"label": "a", "motion": "rotate", "angle_deg": 90}], [{"a": "a", "b": "z"}])
+    with pytest.raises(SimError, match="no such experiment file or built-in experiment"):
+        load_experiment("nope")
+    bad = tmp_path / "x.toml"
+    bad.write_text("[experiment\n")
+    with pytest.raises(SimError, match=r"x\.toml: not valid TOML"):
+        load_experiment(bad)
