@@ -17,6 +17,7 @@ from odolab.cli import (  # noqa: F401  (register commands)
     export,
     lab,
     robot,
+    scans,
     serve,
     sim,
     trials,
