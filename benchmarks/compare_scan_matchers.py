@@ -79,9 +79,7 @@ def kiss_icp_matcher(two_layers: bool) -> Callable[[list[np.ndarray]], list[Pair
         for c in clouds:
             odo.register_frame(c, np.zeros(len(c)))
             poses.append(odo.last_pose.copy())
-        return [
-            to_xyyaw(np.linalg.inv(p0) @ p1) for p0, p1 in itertools.pairwise(poses)
-        ]
+        return [to_xyyaw(np.linalg.inv(p0) @ p1) for p0, p1 in itertools.pairwise(poses)]
 
     return run
 
