@@ -99,7 +99,7 @@ def simpleicp_matcher() -> Callable[[list[np.ndarray]], list[Pair]]:
                     max_overlap_distance=0.5,
                     rbp_observation_weights=(math.inf, math.inf, 0, 0, 0, math.inf),
                 )
-            out.append(to_xyyaw(np.linalg.inv(H)))
+            out.append(to_xyyaw(H))  # H maps the moving (newer) cloud onto the fixed one
         return out
 
     return run
