@@ -160,8 +160,8 @@ def test_pairwise_motions_match_the_true_sensor_motion(
     err = matched.motions - truth
     exy = np.hypot(err[:, 0], err[:, 1])
     eyaw = np.abs(err[:, 2])
-    assert np.median(exy) < 0.01  # measured 1.1 mm
-    assert np.median(eyaw) < math.radians(0.5)  # measured 0.013 deg
+    assert np.median(exy) < 0.01  # measured 1.1 mm (worst 3.6 mm)
+    assert np.median(eyaw) < math.radians(0.5)  # measured 0.013 deg (worst 0.054)
     assert exy.max() < 0.01 and eyaw.max() < math.radians(0.2)
     # the sensor's motion is not the robot's: the mount's offset shows in a turn in place
     turning = np.abs(truth[:, 2]) > 0.05
@@ -179,8 +179,8 @@ def test_composed_trajectory_follows_the_truth(drive: LaserDrive, matched: ScanM
     q = p - p[0]
     x, y = c * q[:, 0] + s * q[:, 1], -s * q[:, 0] + c * q[:, 1]
     drift = np.hypot(traj.x - x, traj.y - y)
-    assert drift.max() < 0.05  # measured 27 mm after 6 m
-    assert np.abs(traj.heading - q[:, 2]).max() < math.radians(0.5)  # measured 0.24 deg
+    assert drift.max() < 0.05  # measured 34 mm after 6 m
+    assert np.abs(traj.heading - q[:, 2]).max() < math.radians(0.5)  # measured 0.26 deg
     assert traj.path_length() == pytest.approx(
         np.hypot(*np.diff(p[:, :2], axis=0).T).sum(), rel=0.01
     )
