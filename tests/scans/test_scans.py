@@ -108,6 +108,71 @@ def test_mcap_round_trip_keeps_scans_and_wheels(drive: LaserDrive, bag: Path) ->
     np.testing.assert_allclose(wheels, drive.wheel_angles - drive.wheel_angles[0], atol=1e-9)
 
 
+def _rosbags_scan_bag(path: Path, scans: LaserScans, *, ros1: bool) -> Path:
+    """The same scans written by rosbags' own ROS 1 / ROS 2 (sqlite3) writers, not odolab's."""
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    ty = store.types
+    msgs = []
+    for k, (ti, r) in enumerate(zip(scans.t, scans.ranges, strict=True)):
+        sec = math.floor(ti)
+        stamp = ty["builtin_interfaces/msg/Time"](sec=sec, nanosec=round((ti - sec) * 1e9))
+        extra = {"seq": k} if ros1 else {}
+        header = ty["std_msgs/msg/Header"](stamp=stamp, frame_id="laser", **extra)
+        msgs.append(
+            ty["sensor_msgs/msg/LaserScan"](
+                header=header,
+                angle_min=scans.angle_min,
+                angle_max=scans.angle_min + scans.angle_increment * (scans.beams - 1),
+                angle_increment=scans.angle_increment,
+                time_increment=0.0,
+                scan_time=0.1,
+                range_min=scans.range_min,
+                range_max=scans.range_max,
+                ranges=r.astype(np.float32),
+                intensities=np.zeros(0, dtype=np.float32),
+            )
+        )
+    typ = "sensor_msgs/msg/LaserScan"
+    if ros1:
+        from rosbags.rosbag1 import Writer as Writer1
+
+        with Writer1(path) as w1:
+            c1 = w1.add_connection("/base_scan", typ, typestore=store)
+            for ti, msg in zip(scans.t, msgs, strict=True):
+                w1.write(c1, int(ti * 1e9), store.serialize_ros1(msg, typ))
+        return path
+    from rosbags.rosbag2 import Writer
+
+    with Writer(path, version=9) as w2:
+        c2 = w2.add_connection("/base_scan", typ, typestore=store)
+        for ti, msg in zip(scans.t, msgs, strict=True):
+            w2.write(c2, int(ti * 1e9), store.serialize_cdr(msg, typ))
+    return path
+
+
+@pytest.mark.parametrize("ros1", [True, False], ids=["ros1-bag", "ros2-folder"])
+def test_ros1_bag_and_ros2_folder_give_the_same_scans(
+    drive: LaserDrive, tmp_path: Path, ros1: bool
+) -> None:
+    first = _scans(drive)
+    few = LaserScans(
+        first.t[:5],
+        first.ranges[:5],
+        first.angle_min,
+        first.angle_increment,
+        first.range_min,
+        first.range_max,
+    )
+    path = _rosbags_scan_bag(tmp_path / ("drive.bag" if ros1 else "drive"), few, ros1=ros1)
+    back = read_scans(path, "/base_scan")
+    np.testing.assert_allclose(back.t, few.t, atol=1e-9)
+    np.testing.assert_allclose(back.ranges, few.ranges, rtol=1e-6)
+    assert back.angle_min == pytest.approx(few.angle_min, abs=1e-6)
+    assert back.frame_id == "laser"
+
+
 def test_missing_topic_names_the_topics_the_bag_has(bag: Path) -> None:
     with pytest.raises(
         LogFormatError, match=r"no topic '/laser'.*/scan \(sensor_msgs/msg/LaserScan\)"
