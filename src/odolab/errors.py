@@ -12,6 +12,7 @@ __all__ = [
     "EncoderJumpError",
     "ImuLogError",
     "InsufficientDataError",
+    "InvalidTrialError",
     "LogFormatError",
     "OdolabError",
     "ParamsError",
@@ -64,3 +65,15 @@ class CalibrationError(OdolabError):
 
 class ImuLogError(LogFormatError):
     """An IMU (SensorLog) log is malformed or does not overlap the encoder log."""
+
+
+class InvalidTrialError(StoreError):
+    """A trial record has a missing, malformed or implausible value.
+
+    ``field`` names the trial-record field (:data:`odolab.trials.TRIAL_FIELDS`) at fault, when
+    there is one, so that an importer can name its own column or key for it.
+    """
+
+    def __init__(self, message: str, field: str | None = None) -> None:
+        super().__init__(message)
+        self.field = field

@@ -246,7 +246,7 @@ def run_lab(
         true_params,
         nominal,
         seed=seed,
-        progress=lambda d, t: progress("campaign", d, t),
+        progress=lambda d, t, _what: progress("campaign", d, t),
     )
     _record(nb, campaign)
 
@@ -354,7 +354,7 @@ def run_lab(
         true_params,
         by_ratio.params,
         seed=seed,
-        progress=lambda d, t: progress("re-run", d, t),
+        progress=lambda d, t, _what: progress("re-run", d, t),
     )
     after = analyze_trials(rerun)
     after_ratios: dict[str, float] = {}

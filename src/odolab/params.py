@@ -33,15 +33,18 @@ import math
 import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, overload
 
 import tomli_w
 
+from odolab.defaults import DEFAULT_ROBOT
 from odolab.errors import ParamsError
 from odolab.models import DIFF_DRIVE, KinematicModel, ModelCoefficients, model_from_mapping
 from odolab.text import quote_input
+from odolab.writing import path_first
 
 __all__ = [
+    "DEFAULT_ROBOT",
     "PRESETS",
     "RANGES",
     "NoiseParams",
@@ -298,10 +301,28 @@ def load_params(path_or_preset: str | Path) -> RobotParams:
     )
 
 
+@overload
 def save_params(
+    path: str | Path, params: RobotParams, *, provenance: dict[str, Any] | None = None
+) -> Path: ...
+@overload
+def save_params(  # the old order
+    path: RobotParams, params: str | Path, *, provenance: dict[str, Any] | None = None
+) -> Path: ...
+def save_params(
+    path: str | Path | RobotParams,
+    params: RobotParams | str | Path,
+    *,
+    provenance: dict[str, Any] | None = None,
+) -> Path:
+    """Write ``params`` to ``path`` as TOML (and an optional ``[provenance]`` table)."""
+    p, entry = path_first(path, params, RobotParams, "save_params")
+    return _save_params(entry, p, provenance=provenance)
+
+
+def _save_params(
     params: RobotParams, path: str | Path, *, provenance: dict[str, Any] | None = None
 ) -> Path:
-    """Write ``params`` as TOML (and an optional ``[provenance]`` table); return the path."""
     doc: dict[str, Any] = {"robot": params.to_dict()}
     model = params.model_table()
     if model is not None:
@@ -328,8 +349,8 @@ def save_params(
 #: track width 0.56 m is 2 x L_robot = 2 x 0.28 m as the lab report measured with a ruler, and the
 #: counters are 15-bit. These are NOMINAL, not measured values: calibrate before trusting them.
 PRESETS: dict[str, RobotParams] = {
-    "jaguar-lite": RobotParams(
-        name="jaguar-lite",
+    DEFAULT_ROBOT: RobotParams(
+        name=DEFAULT_ROBOT,
         left_wheel_radius=0.0835,
         right_wheel_radius=0.0835,
         track_width=0.56,

@@ -100,7 +100,10 @@ class Trajectory:
     def __len__(self) -> int:
         return int(self.t.size)
 
-    def __getitem__(self, index: int | slice | NDArray[np.bool_] | NDArray[np.int64]) -> Trajectory:
+    # NDArray's shape is typing.Any inside numpy's own alias: not an Any of ours
+    def __getitem__(  # type: ignore[explicit-any]
+        self, index: int | slice | NDArray[np.bool_] | NDArray[np.int64]
+    ) -> Trajectory:
         if isinstance(index, int):
             index = slice(index, index + 1 if index != -1 else None)
         return Trajectory(

@@ -19,16 +19,26 @@ from enum import StrEnum
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.errors import InvalidTrialError
 from odolab.params import RobotParams
 from odolab.trajectory import Pose
 
 __all__ = [
+    "MAX_ANGLE_RAD",
+    "MAX_DISTANCE_M",
+    "MAX_POSITION_M",
+    "TRIAL_FIELDS",
     "Command",
     "EncoderLog",
+    "FieldType",
     "Measurement",
     "MotionKind",
     "Trial",
+    "TrialField",
     "TrialStatus",
+    "check_field",
+    "trial_field",
+    "validate_trial",
 ]
 
 
@@ -119,3 +129,271 @@ class Trial:
     status: TrialStatus = TrialStatus.AWAITING
     exclusion_reason: str | None = None
     notes: str = ""
+
+
+# -- the trial record: one definition of every field ---------------------------------------------
+
+#: Largest measured position (m) a person reads with a meterstick or tape: a lab floor or a
+#: sidewalk (``odolab trials add`` and every import refuse more: centimetres typed as metres).
+MAX_POSITION_M = 100.0
+#: Largest commanded, predicted or true distance/position of one trial (m).
+MAX_DISTANCE_M = 1.0e4
+#: Largest commanded angle or unwrapped heading of one trial (rad), about 1,600 turns.
+MAX_ANGLE_RAD = 1.0e4
+#: Largest time stamp of a pose (s): a robot clock or a Unix time.
+_MAX_TIME_S = 1.0e10
+#: Largest commanded speed (m/s or rad/s).
+_MAX_SPEED = 100.0
+
+
+class FieldType(StrEnum):
+    """How a trial-record field is stored."""
+
+    TEXT = "text"
+    NUMBER = "number"
+    INTEGER = "integer"
+    JSON = "json"  #: a mapping of raw readings (JSON text in SQL and CSV ``raw_<key>`` columns)
+
+
+_SQL_TYPES = {
+    FieldType.TEXT: "TEXT",
+    FieldType.NUMBER: "REAL",
+    FieldType.INTEGER: "INTEGER",
+    FieldType.JSON: "TEXT",
+}
+
+
+@dataclass(frozen=True)
+class TrialField:
+    """One field of the trial record and every name it has.
+
+    ``name`` is the SQL column of ``trials`` and the JSON key; ``csv`` the CSV header (the unit in
+    the name); ``unit`` the SI unit (``""`` a number without unit, None for text); ``low`` and
+    ``high`` the plausible range (inclusive), checked by :func:`validate_trial` for every way a
+    trial comes in (the robot, ``odolab trials add``, CSV and JSON import).
+    """
+
+    name: str
+    type: FieldType
+    unit: str | None
+    csv: str
+    doc: str
+    required: bool = False
+    low: float | None = None
+    high: float | None = None
+
+    @property
+    def json_key(self) -> str:
+        """The key of this field in the notebook's JSON export."""
+        return self.name
+
+    @property
+    def sql_type(self) -> str:
+        """Its SQLite column type."""
+        return _SQL_TYPES[self.type]
+
+    @property
+    def numeric(self) -> bool:
+        """Whether the field holds a number."""
+        return self.type in (FieldType.NUMBER, FieldType.INTEGER)
+
+
+def _num(name: str, unit: str, csv: str, doc: str, low: float, high: float, *,
+         required: bool = False, integer: bool = False) -> TrialField:  # fmt: skip
+    kind = FieldType.INTEGER if integer else FieldType.NUMBER
+    return TrialField(name, kind, unit, csv, doc, required, low, high)
+
+
+def _text(name: str, doc: str, *, required: bool = False) -> TrialField:
+    return TrialField(name, FieldType.TEXT, None, name, doc, required)
+
+
+def _pose_fields(prefix: str, what: str, *, required: bool) -> tuple[TrialField, ...]:
+    return (
+        _num(f"{prefix}_t", "s", f"{prefix}_t_s", f"time of the {what} pose", -_MAX_TIME_S,
+             _MAX_TIME_S),
+        _num(f"{prefix}_x", "m", f"{prefix}_x_m", f"{what} x", -MAX_DISTANCE_M, MAX_DISTANCE_M,
+             required=required),
+        _num(f"{prefix}_y", "m", f"{prefix}_y_m", f"{what} y", -MAX_DISTANCE_M, MAX_DISTANCE_M,
+             required=required),
+        _num(f"{prefix}_theta", "rad", f"{prefix}_theta_rad", f"{what} heading wrapped to "
+             "(-pi, pi]", -math.pi, math.pi),
+        _num(f"{prefix}_heading", "rad", f"{prefix}_heading_rad", f"{what} heading, unwrapped",
+             -MAX_ANGLE_RAD, MAX_ANGLE_RAD, required=required),
+    )  # fmt: skip
+
+
+#: Every field of a stored trial, in the order of the ``trials`` table (time stamps left out).
+TRIAL_FIELDS: tuple[TrialField, ...] = (
+    _text("trial_id", "unique text", required=True),
+    _text("campaign", "the campaign it belongs to", required=True),
+    _text("terrain", "where, e.g. lab, concrete, grass", required=True),
+    _text("kind", "rotation, translation, pivot, square or free", required=True),
+    _num("angle", "rad", "angle_rad", "commanded angle (ccw positive)", -MAX_ANGLE_RAD,
+         MAX_ANGLE_RAD),
+    _num("distance", "m", "distance_m", "commanded distance (negative = reverse)",
+         -MAX_DISTANCE_M, MAX_DISTANCE_M),
+    _num("side", "m", "side_m", "square side", 0.0, MAX_DISTANCE_M),
+    _text("direction", "cw/ccw (square), left/right (pivot)"),
+    _num("speed", "", "speed", "commanded speed (m/s, or rad/s for a rotation)", -_MAX_SPEED,
+         _MAX_SPEED),
+    *_pose_fields("predicted", "odometry's final", required=True),
+    _text("robot", "robot name", required=True),
+    _num("params_version", "", "params_version", "the parameter version of the prediction", 1,
+         2**62, integer=True),
+    _text("instrument", "what measured it, e.g. compass, meterstick"),
+    _num("measured_rotation", "rad", "measured_rotation_rad", "actual rotation, unwrapped",
+         -MAX_ANGLE_RAD, MAX_ANGLE_RAD),
+    _num("measured_x", "m", "measured_x_m", "actual x (start frame)", -MAX_POSITION_M,
+         MAX_POSITION_M),
+    _num("measured_y", "m", "measured_y_m", "actual y (start frame)", -MAX_POSITION_M,
+         MAX_POSITION_M),
+    _num("sigma_rotation", "rad", "sigma_rotation_rad", "standard uncertainty of the rotation",
+         0.0, math.pi),
+    _num("sigma_xy", "m", "sigma_xy_m", "standard uncertainty of x and y", 0.0, MAX_POSITION_M),
+    TrialField("raw", FieldType.JSON, None, "raw_<key>", "readings as typed"),
+    *_pose_fields("true", "true", required=False),
+    _text("status", "awaiting, measured or excluded", required=True),
+    _text("exclusion_reason", "why an excluded trial is left out"),
+    _text("notes", "free text"),
+)  # fmt: skip
+
+_BY_NAME = {f.name: f for f in TRIAL_FIELDS}
+
+#: The raw readings of a compass measurement, with their plausible ranges (deg, deg, count).
+COMPASS_RAW: dict[str, tuple[float, float]] = {
+    "compass_initial_deg": (0.0, math.nextafter(360.0, 0.0)),
+    "compass_final_deg": (0.0, math.nextafter(360.0, 0.0)),
+    "turns": (0.0, MAX_ANGLE_RAD / (2.0 * math.pi)),
+}
+
+#: The quantity a command of each kind cannot do without.
+_COMMAND_NEEDS = {
+    MotionKind.ROTATION: "angle",
+    MotionKind.PIVOT: "angle",
+    MotionKind.TRANSLATION: "distance",
+    MotionKind.SQUARE: "side",
+}
+
+
+def trial_field(name: str) -> TrialField:
+    """The field called ``name`` (its SQL column / JSON key)."""
+    return _BY_NAME[name]
+
+
+def _unit_text(f: TrialField, value: float) -> str:
+    return f"{value:g} {f.unit}".rstrip()
+
+
+def check_field(name: str, value: object, where: str) -> None:
+    """Refuse (:class:`InvalidTrialError`) a value of field ``name`` that is not plausible.
+
+    ``None`` passes unless the field is required; numbers must be finite and in the field's
+    range; text must be text.
+    """
+    f = _BY_NAME[name]
+    if value is None:
+        if f.required:
+            raise InvalidTrialError(f"{where}: {name} is missing", name)
+        return
+    if f.type is FieldType.TEXT:
+        if not isinstance(value, str):
+            raise InvalidTrialError(f"{where}: {name} must be text, got {value!r}", name)
+        return
+    if not f.numeric:
+        return
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise InvalidTrialError(f"{where}: {name} must be a finite number, got {value!r}", name)
+    if f.type is FieldType.INTEGER and not float(value).is_integer():
+        raise InvalidTrialError(f"{where}: {name} must be a whole number, got {value!r}", name)
+    assert f.low is not None and f.high is not None
+    if not f.low <= value <= f.high:
+        raise InvalidTrialError(
+            f"{where}: {name} is {_unit_text(f, float(value))}; expected "
+            f"{_unit_text(f, f.low)} to {_unit_text(f, f.high)}",
+            name,
+        )
+
+
+def _check_text(value: object, name: str, where: str) -> None:
+    if not isinstance(value, str) or not value.strip():
+        raise InvalidTrialError(f"{where}: {name} must be non-empty text, got {value!r}", name)
+
+
+def _check_command(c: Command, where: str) -> None:
+    if not isinstance(c.kind, MotionKind):
+        raise InvalidTrialError(f"{where}: command kind {c.kind!r} is not a MotionKind", "kind")
+    for name in ("angle", "distance", "side", "speed"):
+        check_field(name, getattr(c, name), where)
+    need = _COMMAND_NEEDS.get(c.kind)
+    if need is not None and getattr(c, need) is None:
+        raise InvalidTrialError(f"{where}: a {c.kind.value} command needs its {need}", need)
+
+
+def _check_pose(pose: Pose | None, prefix: str, where: str) -> None:
+    if pose is None:
+        if prefix == "predicted":
+            raise InvalidTrialError(f"{where}: predicted pose is missing", "predicted_x")
+        return
+    for name in Pose._fields:
+        value = getattr(pose, name)
+        if value is None:
+            raise InvalidTrialError(f"{where}: {prefix} {name} is missing", f"{prefix}_{name}")
+        check_field(f"{prefix}_{name}", value, where)
+
+
+def _check_measurement(m: Measurement, where: str) -> None:
+    if not isinstance(m.instrument, str) or not m.instrument.strip():
+        raise InvalidTrialError(
+            f"{where}: measurement instrument must be non-empty text", "instrument"
+        )
+    for name in ("rotation", "x", "y"):
+        check_field(f"measured_{name}", getattr(m, name), where)
+    for name in ("sigma_rotation", "sigma_xy"):
+        check_field(name, getattr(m, name), where)
+    if m.rotation is None and m.x is None and m.y is None:
+        raise InvalidTrialError(
+            f"{where}: a measurement needs a rotation or x and y", "measured_rotation"
+        )
+    for key, v in m.raw.items():
+        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+            raise InvalidTrialError(f"{where}: raw reading {key!r} must be a finite number", "raw")
+        bounds = COMPASS_RAW.get(key)
+        if bounds is not None and not bounds[0] <= v <= bounds[1]:
+            raise InvalidTrialError(
+                f"{where}: raw reading {key!r} is {v:g}; expected {bounds[0]:g} up to "
+                f"{'360 (not included)' if key.startswith('compass') else f'{bounds[1]:g}'}",
+                "raw",
+            )
+
+
+def validate_trial(trial: Trial) -> None:
+    """Refuse (:class:`InvalidTrialError`, naming the trial and the field) an unstorable trial.
+
+    Every way into the notebook calls this: the robot and the simulator, ``odolab trials add``,
+    CSV and JSON import. Ranges are those of :data:`TRIAL_FIELDS`.
+    """
+    tid = trial.trial_id
+    if not isinstance(tid, str) or not tid.strip() or tid != tid.strip():
+        raise InvalidTrialError(
+            f"trial id {tid!r} must be non-empty text without surrounding spaces", "trial_id"
+        )
+    where = f"trial {tid}"
+    _check_text(trial.campaign, "campaign", where)
+    _check_text(trial.terrain, "terrain", where)
+    _check_command(trial.command, where)
+    _check_pose(trial.predicted, "predicted", where)
+    _check_pose(trial.true, "true", where)
+    m = trial.measured
+    if m is not None:
+        _check_measurement(m, where)
+    status = TrialStatus(trial.status)
+    if status is TrialStatus.MEASURED and m is None:
+        raise InvalidTrialError(f"{where}: status 'measured' but no measurement", "status")
+    if status is TrialStatus.AWAITING and m is not None:
+        raise InvalidTrialError(f"{where}: status 'awaiting' but it has a measurement", "status")
+    if status is TrialStatus.EXCLUDED and not (trial.exclusion_reason or "").strip():
+        raise InvalidTrialError(f"{where}: an excluded trial needs a reason", "exclusion_reason")
+    log = trial.encoder_log
+    if log is not None and not (log.t.size == log.left_ticks.size == log.right_ticks.size):
+        raise InvalidTrialError(f"{where}: encoder log arrays differ in length")

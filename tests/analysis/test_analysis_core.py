@@ -86,6 +86,8 @@ def test_a_motion_with_too_few_trials_is_skipped_with_a_sentence() -> None:
 
 
 def test_progress_is_reported(lab) -> None:
-    seen: list[str] = []
-    analyze_trials(lab[:38], progress=seen.append)
-    assert any("rotation" in s for s in seen)
+    seen: list[tuple[int, int, str]] = []
+    analyze_trials(lab[:38], progress=lambda done, total, what: seen.append((done, total, what)))
+    assert any("rotation" in what for _, _, what in seen)
+    assert [done for done, _, _ in seen] == list(range(1, len(seen) + 1))  # one step at a time
+    assert {total for _, total, _ in seen} == {0}  # the number of steps is not known in advance

@@ -182,3 +182,15 @@ def test_cli_segment_zero_is_one_line(
     run = optiodom_dir / "square" / "231220200029"
     assert main(["calibrate", "lsq", str(run), "--segment", "0", "-o", "x.toml"]) == 1
     assert "positive number of seconds" in capsys.readouterr().err
+
+
+def test_provenance_is_a_field_like_every_calibration_and_still_callable() -> None:
+    from odolab.calibration.lsq import LsqCalibration, Provenance
+    from odolab.params import PRESETS
+
+    p = PRESETS["jaguar-lite"]
+    cal = LsqCalibration(p, p, {"track_width": 1e-3}, np.eye(3), 0.2, 0.1, ["a"], 7, 0.3)
+    assert isinstance(cal.provenance, Provenance)
+    assert cal.provenance["segments"] == 7 and cal.provenance["runs"] == ["a"]
+    assert cal.provenance() == cal.provenance  # the old method call
+    assert cal.to_dict()["residual_rms_after"] == 0.1

@@ -103,7 +103,7 @@ def test_monte_carlo_agrees_within_ten_percent() -> None:
 
 def test_noise_table_round_trip_and_errors(tmp_path: Path) -> None:
     params = NOMINAL.with_(noise=NoiseParams(1e-4, 2e-4, k_scrub=0.05))
-    path = save_params(params, tmp_path / "p.toml")
+    path = save_params(tmp_path / "p.toml", params)
     assert "[noise]" in path.read_text()
     assert load_params(path) == params
     path.write_text(path.read_text().replace("k_right", "k_rigth"))

@@ -123,7 +123,7 @@ def test_side_slip_with_zero_offset_is_the_differential_drive(x_icr: float, trac
 
 
 def test_model_table_round_trip_and_errors(tmp_path: Path) -> None:
-    path = save_params(NOMINAL, tmp_path / "p.toml")
+    path = save_params(tmp_path / "p.toml", NOMINAL)
     assert "[model]" not in path.read_text()  # the default model writes no table
     assert load_params(path) == NOMINAL
     path.write_text(path.read_text() + '\n[model]\nkind = "diff"\n')

@@ -31,8 +31,8 @@ def _run_folder(tmp_path: Path) -> Path:
     left = np.cumsum(rng.integers(-5, 50, n)) % 32768
     right = np.cumsum(rng.integers(-5, 60, n)) % 32768
     folder = tmp_path / "run"
-    write_encoder_csv(EncoderLog(t, left, right, 32768), folder / "encoders.csv")
-    write_trajectory_csv(integrate(t, left, right, PARAMS), folder / "predicted.csv")
+    write_encoder_csv(folder / "encoders.csv", EncoderLog(t, left, right, 32768))
+    write_trajectory_csv(folder / "predicted.csv", integrate(t, left, right, PARAMS))
     doc = {"params": PARAMS.with_(noise=None).to_dict(), "trial_id": "r1"}
     (folder / "run.json").write_text(json.dumps(doc))
     return folder
@@ -49,7 +49,7 @@ def _decoded(path: Path) -> dict[str, list[object]]:
 
 def test_run_folder_round_trip(tmp_path: Path) -> None:
     folder = _run_folder(tmp_path)
-    params_file = save_params(PARAMS, tmp_path / "p.toml")
+    params_file = save_params(tmp_path / "p.toml", PARAMS)
     out = tmp_path / "run.mcap"
     res = CliRunner().invoke(
         app, ["export", "mcap", str(folder), "-p", str(params_file), "-o", str(out)]

@@ -80,7 +80,7 @@ def test_without_noise_the_file_says_the_covariance_is_a_placeholder() -> None:
 
 def test_cli_writes_provenance_as_comments(tmp_path: Path) -> None:
     src = save_params(
-        CALIBRATED, tmp_path / "cal.toml", provenance={"method": "ratios", "q_d": 0.905}
+        tmp_path / "cal.toml", CALIBRATED, provenance={"method": "ratios", "q_d": 0.905}
     )
     out = tmp_path / "dd.yaml"
     res = CliRunner().invoke(

@@ -11,9 +11,9 @@ import pytest
 from odolab.cli import main
 from odolab.errors import SimError
 from odolab.params import PRESETS
-from odolab.sim.export import TRIAL_COLUMNS, write_trials_csv
 from odolab.sim.presets import TRUTH_PRESETS
 from odolab.sim.protocols import builtin_protocols, load_protocol, run_protocol
+from odolab.store.csvio import COLUMNS, write_trials_csv
 from odolab.trials import MotionKind
 
 NOM = PRESETS["jaguar-lite"]
@@ -98,7 +98,7 @@ def test_cli_sim_run_writes_csv(tmp_path: Path, capsys: pytest.CaptureFixture[st
     assert code == 0
     with out.open() as fh:
         rows = list(csv.DictReader(fh))
-    assert tuple(rows[0])[: len(TRIAL_COLUMNS)] == TRIAL_COLUMNS
+    assert tuple(rows[0])[: len(COLUMNS)] == tuple(COLUMNS)
     assert len(rows) == 20 and rows[0]["trial_id"] == "translation-indoor-000"
     trials = run_protocol(load_protocol("translation"), TRUTH_PRESETS["jaguar-lab"], NOM, seed=7)
     assert float(rows[3]["measured_y_m"]) == trials[3].measured.y  # type: ignore[union-attr]
@@ -126,7 +126,7 @@ def test_cli_errors_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[s
 
 def test_write_trials_csv_rotation_columns(tmp_path: Path) -> None:
     trials = run_protocol(load_protocol("rotation"), TRUTH_PRESETS["jaguar-lab"], NOM, seed=1)
-    path = write_trials_csv(trials, tmp_path / "r.csv")
+    path = write_trials_csv(tmp_path / "r.csv", [(t, None) for t in trials])
     with path.open() as fh:
         rows = list(csv.DictReader(fh))
     raw = trials[-1].measured.raw  # type: ignore[union-attr]

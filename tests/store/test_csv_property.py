@@ -1,4 +1,8 @@
-"""Property: any storable trial survives write_trials_csv -> read_trials_csv exactly."""
+"""Property: any storable trial survives write_trials_csv -> read_trials_csv exactly.
+
+Storable means inside the plausible ranges of the one trial-record definition
+(:data:`odolab.trials.TRIAL_FIELDS`): the strategies are drawn from those ranges.
+"""
 
 from __future__ import annotations
 
@@ -12,18 +16,32 @@ from hypothesis import strategies as st
 from odolab.params import RobotParams
 from odolab.store.csvio import read_trials_csv, write_trials_csv
 from odolab.trajectory import Pose
-from odolab.trials import Command, Measurement, MotionKind, Trial, TrialStatus
+from odolab.trials import Command, Measurement, MotionKind, Trial, TrialStatus, trial_field
 
 from .conftest import fingerprint
 
 finite = st.floats(allow_nan=False, allow_infinity=False)
-positive = st.floats(min_value=1e-6, max_value=1e6)
-#: a measured position within odolab.store.entry.MAX_POSITION_M (import refuses the rest)
-position = st.floats(min_value=-100.0, max_value=100.0)
 word = st.text(
     st.characters(blacklist_categories=("Cs", "Cc", "Zs", "Zl", "Zp")), min_size=1, max_size=12
 )
 free_text = st.text(st.characters(blacklist_categories=("Cs",), blacklist_characters="\x00"))
+
+
+def field(name: str) -> st.SearchStrategy[float]:
+    """Any value the trial record accepts for the field ``name``."""
+    f = trial_field(name)
+    return st.floats(min_value=f.low, max_value=f.high, allow_nan=False)
+
+
+def pose(prefix: str) -> st.SearchStrategy[Pose]:
+    return st.builds(Pose, *(field(f"{prefix}_{k}") for k in Pose._fields))
+
+
+sides = st.floats(min_value=1e-6, max_value=trial_field("side").high)
+
+
+def maybe(name: str) -> st.SearchStrategy[float | None]:
+    return st.one_of(st.none(), field(name))
 
 
 @st.composite
@@ -38,38 +56,40 @@ def trials(draw: st.DrawFn) -> Trial:
         encoder_modulus=draw(st.one_of(st.none(), st.integers(2, 2**40))),
         name=draw(word),
     )
-    heading = draw(finite)
-    predicted = Pose(draw(finite), draw(finite), draw(finite), draw(finite), heading)
+    predicted = draw(pose("predicted"))
     status = draw(st.sampled_from(list(TrialStatus)))
     measured = None
     if status is TrialStatus.MEASURED or (status is TrialStatus.EXCLUDED and draw(st.booleans())):
         raw = draw(st.dictionaries(st.sampled_from(["x_m", "reading", "temp_c"]), finite))
         measured = Measurement(
             instrument=draw(word),
-            rotation=draw(st.one_of(st.none(), finite)),
-            x=draw(position),
-            y=draw(position),
-            sigma_rotation=draw(st.one_of(st.none(), positive)),
-            sigma_xy=draw(st.one_of(st.none(), positive)),
+            rotation=draw(maybe("measured_rotation")),
+            x=draw(field("measured_x")),
+            y=draw(field("measured_y")),
+            sigma_rotation=draw(maybe("sigma_rotation")),
+            sigma_xy=draw(maybe("sigma_xy")),
             raw=raw,
         )
     true = None
     if draw(st.booleans()):
-        true = Pose(draw(finite), draw(finite), draw(finite), draw(finite), draw(finite))
+        true = draw(pose("true"))
     return Trial(
         trial_id=draw(word),
         campaign=draw(word),
         terrain=draw(word),
         command=Command(
             kind,
-            angle=draw(st.one_of(st.none(), finite)),
-            # a translation needs its distance (import refuses one without)
-            distance=draw(
-                finite if kind is MotionKind.TRANSLATION else st.one_of(st.none(), finite)
+            angle=draw(
+                field("angle")
+                if kind in (MotionKind.ROTATION, MotionKind.PIVOT)
+                else maybe("angle")
             ),
-            side=draw(st.one_of(st.none(), positive)),
+            distance=draw(
+                field("distance") if kind is MotionKind.TRANSLATION else maybe("distance")
+            ),
+            side=draw(sides if kind is MotionKind.SQUARE else st.one_of(st.none(), sides)),
             direction=draw(st.one_of(st.none(), word)),
-            speed=draw(st.one_of(st.none(), finite)),
+            speed=draw(maybe("speed")),
         ),
         predicted=predicted,
         params=params,

@@ -43,7 +43,7 @@ def test_sigkill_mid_import_keeps_every_committed_batch(tmp_path: Path) -> None:
         """
         import sys, time
         from odolab.store import Notebook
-        def progress(done, total):
+        def progress(done, total, what):
             print(done, flush=True)
             time.sleep(0.005)  # a slow disk: leaves the parent time to kill mid-way
         with Notebook(sys.argv[1]) as nb:

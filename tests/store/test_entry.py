@@ -9,7 +9,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from odolab.errors import StoreError
-from odolab.store.entry import (
+from odolab.measurement import (
     rotation_from_compass,
     rotation_measurement_from_compass,
     translation_measurement,

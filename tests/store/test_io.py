@@ -171,6 +171,14 @@ def test_spreadsheet_rows_in_lab_terms(tmp_path: Path) -> None:
         ((2, "status", "measured"), "line 3, column 'status': 'measured' but no measurement"),
         ((2, "status", "excluded"), "line 3, column 'exclusion_reason': missing value"),
         (("header", "colour", None), "line 1, unknown column 'colour'"),
+        # the ranges of the trial record (odolab.trials.TRIAL_FIELDS), as for `trials add`
+        ((2, "predicted_theta_rad", "7"),
+         "line 3, column 'predicted_theta_rad': predicted_theta is 7 rad; expected -3.14159"),
+        ((2, "kind", "translation"),
+         "line 3, column 'distance_m': missing value (a translation needs its commanded distance)"),
+        ((2, "angle_rad", ""), "line 3, column 'angle_rad': a rotation command needs its angle"),
+        ((1, "sigma_rotation_rad", "5"),
+         "line 2, column 'sigma_rotation_rad': sigma_rotation is 5 rad; expected 0 rad to 3.14159 rad"),
     ],
 )  # fmt: skip
 def test_bad_csv_gets_one_clear_error_and_changes_nothing(
@@ -279,3 +287,68 @@ def test_json_duplicate_inside_the_file_says_so(tmp_path: Path) -> None:
         with pytest.raises(StoreError, match=r"trials\[3\]: .* is a duplicate of trials\[1\]"):
             b.import_json(tmp_path / "dup.json")
         assert not b.trial_ids()  # nothing imported
+
+
+def _translation_row(**cells: str) -> dict[str, str]:
+    row = _good_rows()[1] | {"kind": "translation", "angle_rad": "", "distance_m": "2.5",
+                              "predicted_x_m": "2.5", "predicted_heading_rad": "0.01"}  # fmt: skip
+    return row | cells
+
+
+@pytest.mark.parametrize(
+    ("cells", "message"),
+    [
+        # (measured positions, parameters and a missing distance: tests/hostile/test_ranges.py)
+        ({"measured_x_m": "2.5", "measured_y_m": "0", "sigma_xy_m": "250"},
+         "line 2, column 'sigma_xy_m': sigma_xy is 250 m; expected 0 m to 100 m"),
+        ({"speed": "1e9"}, "line 2, column 'speed': speed is 1e+09; expected -100 to 100"),
+        ({"distance_m": "-2e4"},
+         "line 2, column 'distance_m': distance is -20000 m; expected -10000 m to 10000 m"),
+        ({"true_x_m": "1", "true_y_m": "0", "true_heading_rad": "1e5"},
+         "line 2, column 'true_heading_rad': true_heading is 100000 rad; expected -10000 rad to "
+         "10000 rad"),
+    ],
+)  # fmt: skip
+def test_csv_import_enforces_the_trial_record_ranges(
+    tmp_path: Path, cells: dict[str, str], message: str
+) -> None:
+    path = _write(tmp_path / "t.csv", [_translation_row(**cells)])
+    with Notebook(tmp_path / "n.db") as nb:
+        nb.add_campaign("rot-lab", "translation", "lab")
+        with pytest.raises(StoreError) as info:
+            nb.import_csv(path)
+        assert str(info.value) == f"{path}: {message}"
+        assert nb.info().trials == 0
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        ('"speed": 0.3', '"speed": 1e9',
+         r"trials\[0\], key 'speed': trial F00000: speed is 1e\+09; expected -100 to 100"),
+        ('"predicted_theta": ', '"predicted_theta": 7, "_": ',
+         r"trials\[0\], key 'predicted_theta': trial F00000: predicted_theta is 7 rad"),
+    ],
+)  # fmt: skip
+def test_json_import_enforces_the_trial_record_ranges(
+    tmp_path: Path, old: str, new: str, message: str
+) -> None:
+    with Notebook(tmp_path / "a.db") as nb:
+        nb.add_trials(make_trials(2, prefix="F", kind=MotionKind.TRANSLATION))
+        nb.export_json(tmp_path / "a.json")
+    text = (tmp_path / "a.json").read_text()
+    assert old in text
+    (tmp_path / "b.json").write_text(text.replace(old, new, 1))
+    with Notebook(tmp_path / "b.db") as nb:
+        with pytest.raises(StoreError, match=message):
+            nb.import_json(tmp_path / "b.json")
+        assert nb.info().trials == 0
+
+
+def test_add_trials_refuses_what_import_refuses(tmp_path: Path) -> None:
+    good = make_trials(1, prefix="F", kind=MotionKind.TRANSLATION)[0]
+    far = dataclasses.replace(good, command=dataclasses.replace(good.command, distance=None))
+    with Notebook(tmp_path / "n.db") as nb:
+        with pytest.raises(StoreError, match="a translation command needs its distance"):
+            nb.add_trials([far])
+        assert nb.info().trials == 0

@@ -10,8 +10,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from odolab.errors import ImuLogError
+from odolab.io.sensorlog import ImuLog
 from odolab.validation.align import find_clock_offset, rate_on_grid, require_overlap
-from odolab.validation.sensorlog import ImuLog
 from odolab.validation.simulate import rotation_scenario, simulate_phone_log
 
 

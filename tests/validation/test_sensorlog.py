@@ -13,7 +13,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from odolab.errors import ImuLogError, LogFormatError
-from odolab.validation.sensorlog import (
+from odolab.io.sensorlog import (
     WRITTEN_COLUMNS,
     ImuLog,
     rate_aided_unwrap,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -25,11 +25,11 @@ from odolab.analysis.systematic import MIN_FIT_POINTS, LinearFit, fit_line
 from odolab.analysis.terrain import TerrainComparison, compare_terrains
 from odolab.errors import InsufficientDataError
 from odolab.params import RobotParams
+from odolab.progress import Progress, steps
 from odolab.trials import MotionKind, Trial, TrialStatus
 
 __all__ = ["MOTIONS", "LabAnalysis", "MotionAnalysis", "Progress", "analyze_trials"]
 
-Progress = Callable[[str], None]
 
 #: The motions the lab fits, in report order, with what is regressed on what.
 MOTIONS: dict[str, dict[str, str]] = {
@@ -59,10 +59,6 @@ MOTIONS: dict[str, dict[str, str]] = {
         "ratio_unit": "m/m",
     },
 }
-
-
-def _noop(_: str) -> None:
-    return None
 
 
 @dataclass(frozen=True, eq=False)
@@ -319,7 +315,7 @@ def analyze_trials(trials: Sequence[Trial], *, progress: Progress | None = None)
     are listed in ``skipped`` (one sentence each, saying how many trials are needed). Raises
     :class:`InsufficientDataError` when not a single fit is possible.
     """
-    say = progress or _noop
+    say = steps(progress)
     trials = list(trials)
     measured = [t for t in trials if t.status is TrialStatus.MEASURED and t.measured is not None]
     excluded = [

@@ -40,6 +40,7 @@ __all__ = [
     "LsqCalibration",
     "LsqOptions",
     "PreparedRun",
+    "Provenance",
     "RunComparison",
     "calibrate_lsq",
     "calibrate_lsq_files",
@@ -178,6 +179,14 @@ class RunComparison:
         }
 
 
+class Provenance(dict[str, Any]):
+    """A ``[provenance]`` table. Calling it returns itself: compatibility with the time when
+    :attr:`LsqCalibration.provenance` was a method (``result.provenance()``)."""
+
+    def __call__(self) -> Provenance:
+        return self
+
+
 @dataclass(frozen=True)
 class LsqCalibration:
     """Result of :func:`calibrate_lsq`."""
@@ -194,7 +203,13 @@ class LsqCalibration:
     gt_yaw_offsets: list[float] = field(default_factory=list)
     validation: list[RunComparison] = field(default_factory=list)
 
-    def provenance(self) -> dict[str, Any]:
+    @property
+    def provenance(self) -> Provenance:
+        """The ``[provenance]`` table: a field, as in every other calibration result (calling it,
+        as when it was a method, still works)."""
+        return Provenance(self.provenance_table())
+
+    def provenance_table(self) -> dict[str, Any]:
         """A ``[provenance]`` table for the saved parameters file."""
         return {
             "method": "least squares on segment relative motion (odolab calibrate lsq)",

@@ -46,7 +46,7 @@ class CalibrationResult:
 
     def save(self, path: str | Path) -> Path:
         """Write the new parameters as TOML with a ``[provenance]`` table."""
-        return save_params(self.params, path, provenance=self.provenance)
+        return save_params(path, self.params, provenance=self.provenance)
 
     def to_dict(self) -> dict[str, Any]:
         return {

@@ -96,8 +96,8 @@ def calibrate_noise_cmd(
     noise = fit_noise_scale(found, base, method.value, segment_s=segment)
     new = base.with_(noise=noise)
     save_params(
-        new,
         output,
+        new,
         provenance={
             "method": "noise from ground truth",
             "runs": len(found),

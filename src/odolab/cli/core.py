@@ -9,6 +9,7 @@ from typing import Annotated
 import typer
 
 from odolab.cli._apps import app, params_app
+from odolab.defaults import DEFAULT_ROBOT
 
 __all__: list[str] = []
 
@@ -28,7 +29,7 @@ def odometry_cmd(
     log: Annotated[Path, typer.Argument(help="Encoder log CSV: t,left_ticks,right_ticks.")],
     params: Annotated[
         str, typer.Option("--params", "-p", help="Parameters TOML file or preset name.")
-    ] = "jaguar-lite",
+    ] = DEFAULT_ROBOT,
     output: Annotated[
         Path, typer.Option("--output", "-o", help="Trajectory file to write.")
     ] = Path("trajectory.csv"),
@@ -62,7 +63,7 @@ def odometry_cmd(
         max_dticks=max_dticks,
         source=str(log),
     )
-    write_trajectory(traj, output, fmt.value)  # type: ignore[arg-type]
+    write_trajectory(output, traj, fmt.value)
     end = traj.final
     typer.echo(
         f"{len(traj)} poses -> {output}; final x={end.x:.4f} m y={end.y:.4f} m "

@@ -8,6 +8,7 @@ from typing import Annotated, Any
 import typer
 
 from odolab.cli._apps import app
+from odolab.defaults import DEFAULT_TRUTH
 
 __all__: list[str] = []
 
@@ -21,7 +22,7 @@ def demo_cmd(
         int | None,
         typer.Option(min=0, help="Random seed (default: the documented lab-report seed)."),
     ] = None,
-    truth: Annotated[str, typer.Option(help="True robot preset.")] = "jaguar-lab",
+    truth: Annotated[str, typer.Option(help="True robot preset.")] = DEFAULT_TRUTH,
 ) -> None:
     """Run the lab end to end: campaigns, notebook, analysis, calibration, validation, report."""
     from rich.console import Console

@@ -275,7 +275,7 @@ def calibrate_lsq_cmd(
             workers=workers,
             progress=report,
         )
-    save_params(result.params, output, provenance=result.provenance())
+    save_params(output, result.params, provenance=result.provenance)
     _write_json(result.to_dict(), json_out)
     _print_calibration(result, output)
 

@@ -9,6 +9,7 @@ from typing import Annotated
 import typer
 
 from odolab.cli._apps import sim_app
+from odolab.defaults import DEFAULT_ROBOT, DEFAULT_TRUTH
 
 __all__: list[str] = []
 
@@ -51,10 +52,10 @@ def sim_run(
             help="True-behaviour preset of the virtual robot: "
             "jaguar-lab, jaguar-lab-track or ideal."
         ),
-    ] = "jaguar-lab",
+    ] = DEFAULT_TRUTH,
     params: Annotated[
         str, typer.Option("--params", "-p", help="Nominal parameters (TOML file or preset).")
-    ] = "jaguar-lite",
+    ] = DEFAULT_ROBOT,
     encoder_dir: Annotated[
         Path | None,
         typer.Option(help="Also write each trial's encoder log as DIR/<trial_id>.csv."),
@@ -73,7 +74,7 @@ def sim_run(
     from odolab.cli._output import markup_text, term
     from odolab.errors import SimError
     from odolab.params import load_params
-    from odolab.sim.export import write_encoder_logs, write_trials_csv
+    from odolab.sim.export import write_encoder_logs
     from odolab.sim.presets import TRUTH_PRESETS
     from odolab.sim.protocols import load_protocol, run_protocol
 
@@ -94,11 +95,13 @@ def sim_run(
             nominal,
             terrain=terrain,
             seed=seed,
-            progress=lambda done, total: bar.update(task, completed=done),
+            progress=lambda done, total, what: bar.update(task, completed=done),
         )
-    write_trials_csv(trials, output)
+    from odolab.store.csvio import write_trials_csv
+
+    write_trials_csv(output, [(t, None) for t in trials])
     if encoder_dir is not None:
-        write_encoder_logs(trials, encoder_dir)
+        write_encoder_logs(encoder_dir, trials)
     if db is not None:
         from odolab.store import Notebook
 

@@ -11,6 +11,7 @@ import typer
 
 from odolab.cli._apps import app, trials_app
 from odolab.cli._output import term
+from odolab.defaults import DEFAULT_ROBOT
 
 if TYPE_CHECKING:
     from odolab.store import Notebook
@@ -287,7 +288,7 @@ def _measurement(
 ) -> Measurement:
     """Build the measurement of ``t``; ask for what is missing when there is a terminal."""
     from odolab.errors import StoreError
-    from odolab.store.entry import check_compass_reading
+    from odolab.measurement import check_compass_reading
 
     def ask_compass(text: str) -> float:
         while True:
@@ -379,9 +380,9 @@ def add_cmd(
         float | None, typer.Option(help="Commanded angle in multiples of pi (e.g. 20).")
     ] = None,
     distance: Annotated[float | None, typer.Option(help="Commanded distance (m).")] = None,
-    robot: Annotated[str, typer.Option(help="Robot (preset name or one in the notebook).")] = (
-        "jaguar-lite"
-    ),
+    robot: Annotated[
+        str, typer.Option(help="Robot (preset name or one in the notebook).")
+    ] = DEFAULT_ROBOT,
     params_version: Annotated[
         int | None, typer.Option(help="Parameter version used (default: the latest).")
     ] = None,

@@ -9,6 +9,7 @@ import typer
 
 from odolab.cli._apps import app
 from odolab.cli.core import MethodChoice
+from odolab.defaults import DEFAULT_ROBOT
 
 __all__: list[str] = []
 
@@ -95,7 +96,7 @@ def validate_cmd(
         old_params = load_params(old) if old is not None else trial.params
         source = f"{db}: trial {trial.trial_id}"
     else:
-        old_params = load_params(old or "jaguar-lite")
+        old_params = load_params(old or DEFAULT_ROBOT)
         enc = read_encoder_csv(encoder_log, modulus=old_params.encoder_modulus)
         source = str(encoder_log)
     imu = read_sensorlog(imu_log)

@@ -16,6 +16,7 @@ from odolab.encoders import dticks_from_ticks
 from odolab.errors import LogFormatError
 from odolab.io.encoder_csv import read_encoder_csv
 from odolab.io.run import OdometryRun, ReadOptions
+from odolab.io.trajectory_csv import read_trajectory
 
 __all__ = ["CsvRunReader", "ground_truth_beside", "read_csv_run"]
 
@@ -33,8 +34,6 @@ def ground_truth_beside(path: Path) -> Path | None:
 
 def read_csv_run(path: str | Path, options: ReadOptions | None = None) -> OdometryRun:
     """An encoder CSV log as an :class:`OdometryRun` (ground truth as described above)."""
-    from odolab.io.registry import read_trajectory
-
     o = options or ReadOptions()
     p = Path(path)
     log = read_encoder_csv(p, modulus=o.modulus)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import overload
 
 import numpy as np
 from numpy.typing import NDArray
@@ -18,6 +19,7 @@ from odolab.io._table import data_line_numbers, read_numeric_columns
 from odolab.io.limits import check_columns_unique, check_text_file, first_line_cells
 from odolab.trajectory import check_times
 from odolab.trials import EncoderLog
+from odolab.writing import path_first
 
 __all__ = ["read_encoder_csv", "write_encoder_csv"]
 
@@ -84,8 +86,17 @@ def read_encoder_csv(path: str | Path, *, modulus: int | None = None) -> Encoder
     return EncoderLog(t, left, right, modulus)
 
 
-def write_encoder_csv(log: EncoderLog, path: str | Path) -> Path:
-    """Write ``t,left_ticks,right_ticks`` (raw counters)."""
+@overload
+def write_encoder_csv(path: str | Path, log: EncoderLog) -> Path: ...
+@overload
+def write_encoder_csv(path: EncoderLog, log: str | Path) -> Path: ...  # the old order
+def write_encoder_csv(path: str | Path | EncoderLog, log: EncoderLog | str | Path) -> Path:
+    """Write ``t,left_ticks,right_ticks`` (raw counters) to ``path``."""
+    p, entry = path_first(path, log, EncoderLog, "write_encoder_csv")
+    return _write_encoder_csv(entry, p)
+
+
+def _write_encoder_csv(log: EncoderLog, path: str | Path) -> Path:
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
     table = np.column_stack((log.t, log.left_ticks, log.right_ticks))

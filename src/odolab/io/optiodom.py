@@ -125,7 +125,7 @@ class OptiOdomReader:
         run = read_optiodom_run(path)
         if options.ground_truth is None:
             return run
-        from odolab.io.registry import read_trajectory
+        from odolab.io.trajectory_csv import read_trajectory
 
         return OdometryRun(
             run.name,

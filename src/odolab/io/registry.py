@@ -1,5 +1,8 @@
 """One registry of run readers, keyed by :class:`LogFormat`, each behind :class:`RunReader`.
 
+The readers never import the registry (it imports them); :func:`read_trajectory` lives in
+:mod:`odolab.io.trajectory_csv` and is re-exported here.
+
 A *run* is one recorded drive: wheel increments and, where the log has it, ground truth and
 nominal parameters (:class:`odolab.io.run.OdometryRun`). Every format answers two questions: which
 runs lie under a path (``find``), and what one of them holds (``read``).
@@ -12,13 +15,11 @@ from enum import StrEnum
 from pathlib import Path
 from typing import Protocol
 
-from odolab.errors import LogFormatError
 from odolab.io.csv_run import CsvRunReader
 from odolab.io.optiodom import OptiOdomReader
 from odolab.io.rosbag import RosbagReader
 from odolab.io.run import OdometryRun, ReadOptions
-from odolab.io.trajectory_csv import read_trajectory_csv, read_tum
-from odolab.trajectory import Trajectory
+from odolab.io.trajectory_csv import read_trajectory
 
 __all__ = [
     "READERS",
@@ -75,13 +76,3 @@ def read_run(
 ) -> OdometryRun:
     """Read one run in the given format."""
     return READERS[LogFormat(fmt)].read(Path(path), options or ReadOptions())
-
-
-def read_trajectory(path: str | Path) -> Trajectory:
-    """A trajectory file by its extension: ``.csv`` (``t,x,y,theta[,heading]``), else TUM text."""
-    p = Path(path)
-    if not p.is_file():
-        raise LogFormatError(f"{p}: no such trajectory file")
-    if p.suffix.lower() == ".csv":
-        return read_trajectory_csv(p)
-    return read_tum(p)

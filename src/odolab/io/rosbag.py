@@ -150,7 +150,7 @@ def read_bag(path: str | Path, options: ReadOptions | None = None) -> OdometryRu
     finally:
         reader.close()
     if o.ground_truth is not None:
-        from odolab.io.registry import read_trajectory
+        from odolab.io.trajectory_csv import read_trajectory
 
         gt = read_trajectory(o.ground_truth)
     return OdometryRun(

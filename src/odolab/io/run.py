@@ -87,17 +87,10 @@ class OdometryRun:
         *,
         start: tuple[float, float, float] | None = None,
     ) -> Trajectory:
-        """Integrate the increments with ``params`` (default: the run's own nominal ones)."""
-        from odolab.odometry import integrate_increments
+        """Compatibility alias of :func:`odolab.prediction.trajectory_from_increments`."""
+        from odolab.prediction import trajectory_from_increments
 
-        p = params or self.params
-        if p is None:
-            raise LogFormatError(
-                f"{self.source}: no robot parameters in the log; expected parameters (--params)"
-            )
-        return integrate_increments(
-            self.t, self.dticks_left, self.dticks_right, p, method, start=start, source=self.source
-        )
+        return trajectory_from_increments(self, params, method, start=start)
 
     def require_ground_truth(self) -> Trajectory:
         """The ground truth, or a :class:`LogFormatError` naming the run."""

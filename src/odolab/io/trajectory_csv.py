@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Literal
+from typing import Literal, overload
 
 import numpy as np
 
@@ -17,8 +17,10 @@ from odolab.errors import LogFormatError
 from odolab.io._table import data_line_numbers, read_numeric_columns
 from odolab.io.limits import check_columns_unique, check_text_file, first_line_cells
 from odolab.trajectory import Trajectory, check_times
+from odolab.writing import path_first
 
 __all__ = [
+    "read_trajectory",
     "read_trajectory_csv",
     "read_tum",
     "write_trajectory",
@@ -43,8 +45,17 @@ def _writing(p: Path, what: str) -> Iterator[None]:
         ) from err
 
 
-def write_trajectory_csv(traj: Trajectory, path: str | Path) -> Path:
-    """Write a trajectory CSV (full double precision)."""
+@overload
+def write_trajectory_csv(path: str | Path, traj: Trajectory) -> Path: ...
+@overload
+def write_trajectory_csv(path: Trajectory, traj: str | Path) -> Path: ...  # the old order
+def write_trajectory_csv(path: str | Path | Trajectory, traj: Trajectory | str | Path) -> Path:
+    """Write a trajectory CSV (full double precision) to ``path``."""
+    p, entry = path_first(path, traj, Trajectory, "write_trajectory_csv")
+    return _write_trajectory_csv(entry, p)
+
+
+def _write_trajectory_csv(traj: Trajectory, path: str | Path) -> Path:
     p = Path(path)
     table = np.column_stack((traj.t, traj.x, traj.y, traj.theta, traj.heading))
     with _writing(p, "trajectory CSV"):
@@ -75,8 +86,17 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
     return Trajectory.from_xytheta(d["t"], d["x"], d["y"], d["theta"])
 
 
-def write_tum(traj: Trajectory, path: str | Path) -> Path:
-    """Write TUM text (planar: z = 0, quaternion about z)."""
+@overload
+def write_tum(path: str | Path, traj: Trajectory) -> Path: ...
+@overload
+def write_tum(path: Trajectory, traj: str | Path) -> Path: ...  # the old order
+def write_tum(path: str | Path | Trajectory, traj: Trajectory | str | Path) -> Path:
+    """Write TUM text (planar: z = 0, quaternion about z) to ``path``."""
+    p, entry = path_first(path, traj, Trajectory, "write_tum")
+    return _write_tum(entry, p)
+
+
+def _write_tum(traj: Trajectory, path: str | Path) -> Path:
     p = Path(path)
     half = 0.5 * traj.theta
     zeros = np.zeros_like(traj.t)
@@ -102,12 +122,31 @@ def read_tum(path: str | Path) -> Trajectory:
     return Trajectory.from_xytheta(d["t"], d["tx"], d["ty"], yaw)
 
 
+@overload
 def write_trajectory(
-    traj: Trajectory, path: str | Path, fmt: Literal["csv", "tum"] = "csv"
+    path: str | Path, traj: Trajectory, fmt: Literal["csv", "tum"] = "csv"
+) -> Path: ...
+@overload
+def write_trajectory(  # the old order
+    path: Trajectory, traj: str | Path, fmt: Literal["csv", "tum"] = "csv"
+) -> Path: ...
+def write_trajectory(
+    path: str | Path | Trajectory, traj: Trajectory | str | Path, fmt: Literal["csv", "tum"] = "csv"
 ) -> Path:
-    """Write in the named format."""
+    """Write ``traj`` to ``path`` in the named format."""
+    p, entry = path_first(path, traj, Trajectory, "write_trajectory")
     if fmt == "csv":
-        return write_trajectory_csv(traj, path)
+        return write_trajectory_csv(p, entry)
     if fmt == "tum":
-        return write_tum(traj, path)
+        return write_tum(p, entry)
     raise LogFormatError(f"unknown trajectory format {fmt!r}; expected csv or tum")
+
+
+def read_trajectory(path: str | Path) -> Trajectory:
+    """A trajectory file by its extension: ``.csv`` (``t,x,y,theta[,heading]``), else TUM text."""
+    p = Path(path)
+    if not p.is_file():
+        raise LogFormatError(f"{p}: no such trajectory file")
+    if p.suffix.lower() == ".csv":
+        return read_trajectory_csv(p)
+    return read_tum(p)

@@ -318,7 +318,7 @@ def create_app(settings: ServeSettings) -> Starlette:
         replace = form.get("replace") == "on"
 
         def save(nb: Notebook) -> str:
-            saved = record_measurement(nb, trial_id, **values, replace=replace)  # type: ignore[arg-type]
+            saved = record_measurement(nb, trial_id, **values, replace=replace)
             return describe_measurement(saved)
 
         try:

@@ -6,7 +6,7 @@
   ``derive_jaguar_lab``, ``LAB_REPORT_SEED``.
 - :mod:`odolab.sim.instruments`: compass with counted turns, meterstick / tape.
 - :mod:`odolab.sim.protocols`: protocol TOML files, ``run_protocol`` (vectorized Monte Carlo).
-- :mod:`odolab.sim.export`: ``write_trials_csv``, ``write_encoder_logs``.
+- :mod:`odolab.sim.export`: ``write_encoder_logs`` (trials: :func:`odolab.store.csvio.write_trials_csv`).
 
 See docs/sim.md.
 """

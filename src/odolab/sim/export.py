@@ -1,44 +1,46 @@
-"""Write simulated (or any) trials: one CSV in the lab notebook's layout; encoder logs as CSVs.
+"""Write simulated (or any) trials' encoder logs as CSVs.
 
-:func:`write_trials_csv` writes the same columns as ``odolab trials export`` (see
-docs/notebook.md: units in the column names, compass readings and counted turns, true pose), so
-a simulated campaign can be imported into a notebook with ``odolab trials import``.
+The trials themselves are written by the notebook's CSV writer,
+:func:`odolab.store.csvio.write_trials_csv` (the same columns as ``odolab trials export``), which
+``odolab sim run`` calls: the simulator sits below the notebook and never imports it.
 """
 
 from __future__ import annotations
 
+import os
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 
 from odolab.errors import SimError
-from odolab.store.csvio import COLUMNS
-from odolab.store.csvio import write_trials_csv as _write_notebook_csv
 from odolab.text import quote_input, safe_file_name
 from odolab.trials import Trial
 
-__all__ = ["TRIAL_COLUMNS", "write_encoder_logs", "write_trials_csv"]
-
-#: the notebook's CSV columns (``raw_<key>`` columns follow for other raw readings)
-TRIAL_COLUMNS = tuple(COLUMNS)
+__all__ = ["write_encoder_logs"]
 
 
-def write_trials_csv(trials: Sequence[Trial], path: str | Path) -> Path:
-    """Write one row per trial in the notebook's CSV layout; returns the path."""
-    try:
-        return _write_notebook_csv(path, ((t, None) for t in trials))
-    except OSError as err:
-        raise SimError(f"{path}: cannot write the trials CSV ({err})") from err
-
-
-def write_encoder_logs(trials: Sequence[Trial], directory: str | Path) -> list[Path]:
+def write_encoder_logs(
+    directory: str | Path | Sequence[Trial], trials: Sequence[Trial] | str | Path
+) -> list[Path]:
     """Write each trial's encoder log as ``<directory>/<trial_id>.csv`` (raw counters).
 
     The file name is :func:`odolab.text.safe_file_name` of the trial id: whatever the id (``/``,
     ``..``, an absolute path), every file lands inside ``directory``. Two ids that would share a
     file (``A`` and ``a`` on a case-insensitive disk) are refused before anything is written.
+    (The old order ``(trials, directory)`` is still accepted, with a DeprecationWarning.)
     """
     from odolab.io import write_encoder_csv
 
+    if isinstance(trials, str | os.PathLike):
+        warnings.warn(
+            "write_encoder_logs(trials, directory) is the old argument order; call "
+            "write_encoder_logs(directory, trials)",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        directory, trials = trials, directory
+    if not isinstance(directory, str | os.PathLike) or isinstance(trials, str | os.PathLike):
+        raise TypeError("write_encoder_logs(directory, trials) takes a folder and trials")
     folder = Path(directory)
     if folder.exists() and not folder.is_dir():
         raise SimError(f"{folder}: is a file; expected a folder for the encoder logs")
@@ -55,4 +57,4 @@ def write_encoder_logs(trials: Sequence[Trial], directory: str | Path) -> list[P
                 "share one encoder log file; expected ids that differ in more than letter case"
             )
         todo.append((t.encoder_log, folder / name))
-    return [write_encoder_csv(log, path) for log, path in todo]
+    return [write_encoder_csv(path, log) for log, path in todo]

@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -56,6 +56,7 @@ from odolab.errors import SimError
 from odolab.kinematics import wrap_angle
 from odolab.odometry import integrate
 from odolab.params import RobotParams
+from odolab.progress import Progress, no_progress
 from odolab.sim.instruments import Compass, Instruments, Meterstick
 from odolab.sim.physics import _NPARAM, TrueParams, kernel_params, simulate_batch
 from odolab.sim.terrains import get_terrain
@@ -64,6 +65,7 @@ from odolab.trajectory import Pose
 from odolab.trials import Command, EncoderLog, Measurement, MotionKind, Trial, TrialStatus
 
 __all__ = [
+    "ExperimentProtocol",
     "Protocol",
     "TrialSpec",
     "builtin_protocols",
@@ -73,8 +75,6 @@ __all__ = [
     "segments_for",
     "true_final_poses",
 ]
-
-Progress = Callable[[int, int], None]
 
 _PROTOCOL_KEYS = {
     "name",
@@ -141,7 +141,7 @@ class TrialSpec:
 
 
 @dataclass(frozen=True)
-class Protocol:
+class ExperimentProtocol:
     """A parsed protocol: settings and the expanded list of trials, in file order."""
 
     name: str
@@ -155,6 +155,11 @@ class Protocol:
 
     def __len__(self) -> int:
         return len(self.trials)
+
+
+#: Compatibility alias of :class:`ExperimentProtocol` (the old name collided with
+#: ``typing.Protocol`` and the robot's wire protocol).
+Protocol = ExperimentProtocol
 
 
 # --------------------------------------------------------------------------- parsing
@@ -330,8 +335,8 @@ def _parse_set(source: str, index: int, spec: Any, defaults: dict[str, Any]) -> 
     return [TrialSpec(c, terrain, campaign) for c in commands for _ in range(repeats)]
 
 
-def parse_protocol(doc: dict[str, Any], source: str = "<protocol>") -> Protocol:
-    """Build a :class:`Protocol` from a parsed TOML document; errors name ``source`` and the key."""
+def parse_protocol(doc: dict[str, Any], source: str = "<protocol>") -> ExperimentProtocol:
+    """Build an :class:`ExperimentProtocol` from a parsed TOML document; errors name ``source`` and the key."""
     extra = sorted(set(doc) - {"protocol", "instruments", "trials"})
     if extra:
         raise _err(
@@ -413,7 +418,7 @@ def parse_protocol(doc: dict[str, Any], source: str = "<protocol>") -> Protocol:
                 f"the protocol has {len(trials)} trials up to here; expected at most {MAX_TRIALS}",
             )
     desc = head.get("description", "")
-    return Protocol(
+    return ExperimentProtocol(
         name=str(name),
         campaign=campaign,
         description=str(desc),
@@ -436,7 +441,7 @@ def builtin_protocols() -> dict[str, str]:
     return out
 
 
-def load_protocol(name_or_path: str | Path) -> Protocol:
+def load_protocol(name_or_path: str | Path) -> ExperimentProtocol:
     """A built-in protocol by name (see :func:`builtin_protocols`) or a protocol TOML file."""
     key = str(name_or_path)
     path = Path(key)
@@ -542,7 +547,7 @@ def _pose(t: float, x: float, y: float, h: float) -> Pose:
 
 
 def run_protocol(
-    protocol: Protocol,
+    protocol: ExperimentProtocol,
     truth: TrueParams,
     nominal: RobotParams,
     *,
@@ -558,7 +563,7 @@ def run_protocol(
     ``true`` = the true final pose (tape frame); ``encoder_log`` = raw counters at the report rate.
     A trial that stalled (turn in place where the ground does not allow it) is EXCLUDED.
     """
-    report = progress or (lambda done, total: None)
+    report = progress or no_progress
     if terrain is not None:
         get_terrain(terrain, where="terrain override")
     specs = protocol.trials
@@ -662,7 +667,7 @@ def run_protocol(
                 notes=f"simulated ({truth.name}, seed {seed}); start misalignment {h0[i]:+.5f} rad",
             )
         )
-        report(i + 1, n)
+        report(i + 1, n, protocol.name)
     return out
 
 

@@ -8,15 +8,15 @@
 See docs/notebook.md for the CLI (``odolab trials ...``, ``odolab notebook ...``) and the CSV.
 """
 
-from odolab.store.codec import decode_log, encode_log
-from odolab.store.csvio import read_trials_csv, write_trials_csv
-from odolab.store.entry import (
+from odolab.measurement import (
     COMPASS_SIGMA_RAD,
     METERSTICK_SIGMA_M,
     rotation_from_compass,
     rotation_measurement_from_compass,
     translation_measurement,
 )
+from odolab.store.codec import decode_log, encode_log
+from odolab.store.csvio import read_trials_csv, write_trials_csv
 from odolab.store.notebook import Campaign, Notebook, NotebookInfo, ParamsVersion, Progress
 from odolab.store.schema import SCHEMA_VERSION
 

@@ -49,6 +49,9 @@ A numeric cell may carry its column's unit ("2.5 m", "12 deg"); any other unit i
 Cells are separated by commas (or by semicolons or tabs, recognised from the header line);
 numbers use a decimal point.
 Every error names the file, the line and the column, and is raised before anything is written.
+Units, headers and plausible ranges come from the one trial-record definition,
+:data:`odolab.trials.TRIAL_FIELDS`; every row passes :func:`odolab.trials.validate_trial`, the
+same check as ``odolab trials add``.
 """
 
 from __future__ import annotations
@@ -59,74 +62,67 @@ import re
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypeVar
 
-from odolab.errors import ParamsError, StoreError
+from odolab.errors import InvalidTrialError, ParamsError, StoreError
 from odolab.kinematics import wrap_angle
+from odolab.measurement import check_position, rotation_measurement_from_compass
 from odolab.params import RobotParams, check_param
-from odolab.store.entry import check_position, rotation_measurement_from_compass
+from odolab.store.records import record_from_trial
 from odolab.text import quote_input
 from odolab.trajectory import Pose
-from odolab.trials import Command, Measurement, MotionKind, Trial, TrialStatus
+from odolab.trials import (
+    TRIAL_FIELDS,
+    Command,
+    Measurement,
+    MotionKind,
+    Trial,
+    TrialStatus,
+    trial_field,
+    validate_trial,
+)
 
 __all__ = ["COLUMNS", "REQUIRED", "ParsedRow", "read_trials_csv", "write_trials_csv"]
 
-#: Column name -> unit ("" for a number without unit, None for text), in file order.
-COLUMNS: dict[str, str | None] = {
-    "trial_id": None,
-    "campaign": None,
-    "terrain": None,
-    "kind": None,
-    "angle_rad": "rad",
-    "distance_m": "m",
-    "side_m": "m",
-    "direction": None,
-    "speed": "",
-    "predicted_t_s": "s",
-    "predicted_x_m": "m",
-    "predicted_y_m": "m",
-    "predicted_theta_rad": "rad",
-    "predicted_heading_rad": "rad",
-    "robot": None,
-    "params_version": "",
+#: The parameter columns of a row (CSV only: the notebook keeps them as parameter versions).
+_PARAM_UNITS: dict[str, str] = {
     "left_wheel_radius_m": "m",
     "right_wheel_radius_m": "m",
     "track_width_m": "m",
     "ticks_per_rev": "",
     "encoder_modulus": "",
-    "status": None,
-    "exclusion_reason": None,
-    "instrument": None,
-    "measured_rotation_rad": "rad",
-    "measured_x_m": "m",
-    "measured_y_m": "m",
-    "sigma_rotation_rad": "rad",
-    "sigma_xy_m": "m",
-    "compass_initial_deg": "deg",
-    "compass_final_deg": "deg",
-    "turns": "",
-    "true_t_s": "s",
-    "true_x_m": "m",
-    "true_y_m": "m",
-    "true_theta_rad": "rad",
-    "true_heading_rad": "rad",
-    "notes": None,
+}
+#: The compass readings and counted turns (CSV only: kept in the measurement's ``raw``).
+_RAW_UNITS: dict[str, str] = {"compass_initial_deg": "deg", "compass_final_deg": "deg", "turns": ""}
+_RAW_COLUMNS = tuple(_RAW_UNITS)
+_PARAM_COLUMNS = tuple(c for c in _PARAM_UNITS if c != "encoder_modulus")
+#: The column of each parameter -> its key in odolab.params (checked by ``check_param``).
+_PARAM_KEYS = {c: c.removesuffix("_m") for c in _PARAM_UNITS}
+_POSE = ("t", "x", "y", "theta", "heading")
+_E = TypeVar("_E", MotionKind, TrialStatus)
+_N = TypeVar("_N", int | None, float)
+
+
+def _fields(*names: str) -> dict[str, str | None]:
+    return {trial_field(n).csv: trial_field(n).unit for n in names}
+
+
+#: Column name -> unit ("" for a number without unit, None for text), in file order; the trial
+#: columns' names and units are those of :data:`odolab.trials.TRIAL_FIELDS`.
+COLUMNS: dict[str, str | None] = {
+    **_fields("trial_id", "campaign", "terrain", "kind", "angle", "distance", "side"),
+    **_fields("direction", "speed", *(f"predicted_{k}" for k in _POSE), "robot"),
+    **_fields("params_version"),
+    **_PARAM_UNITS,
+    **_fields("status", "exclusion_reason", "instrument", "measured_rotation", "measured_x"),
+    **_fields("measured_y", "sigma_rotation", "sigma_xy"),
+    **_RAW_UNITS,
+    **_fields(*(f"true_{k}" for k in _POSE), "notes"),
 }
 
-#: Columns every file must have (and every row must fill).
-REQUIRED = (
-    "trial_id",
-    "campaign",
-    "terrain",
-    "kind",
-    "predicted_x_m",
-    "predicted_y_m",
-    "predicted_heading_rad",
-    "robot",
-)
+#: Columns every file must have (and every row must fill); ``status`` has a default.
+REQUIRED = tuple(f.csv for f in TRIAL_FIELDS if f.required and f.name != "status")
 
-_RAW_COLUMNS = ("compass_initial_deg", "compass_final_deg", "turns")
-_PARAM_COLUMNS = ("left_wheel_radius_m", "right_wheel_radius_m", "track_width_m", "ticks_per_rev")
-_PARAM_KEYS = ("left_wheel_radius", "right_wheel_radius", "track_width", "ticks_per_rev")
 _UNITS = {"m", "cm", "mm", "km", "in", "ft", "rad", "deg", "degrees", "s", "ms", "min", "pi"}
 _UNIT_WORDS = {"m": "metres", "rad": "radians", "deg": "degrees", "s": "seconds"}
 _NUM_UNIT = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Za-z°]+)\s*$")
@@ -168,6 +164,9 @@ class _Row:
     def fail(self, column: str, problem: str) -> StoreError:
         return StoreError(f"{self.source}: line {self.line}, column {column!r}: {problem}")
 
+    def given(self, column: str) -> bool:
+        return bool(self.cells.get(column, "").strip())
+
     def text(self, column: str, *, required: bool = False) -> str | None:
         value = self.cells.get(column, "").strip()
         if not value:
@@ -175,6 +174,30 @@ class _Row:
                 raise self.fail(column, "missing value")
             return None
         return value
+
+    def required_text(self, column: str) -> str:
+        value = self.text(column, required=True)
+        assert value is not None
+        return value
+
+    def _parse(self, column: str, cell: str) -> float:
+        unit = COLUMNS.get(column) or ""
+        try:
+            return float(cell)
+        except ValueError:
+            pass
+        m = _NUM_UNIT.match(cell)
+        if m is None:
+            what = f"a number in {_UNIT_WORDS.get(unit, unit)}" if unit else "a number"
+            raise self.fail(column, f"{quote_input(cell)} is not a number; expected {what}")
+        given = m.group(2).replace("°", "deg")
+        if given != unit:
+            expected = f"{unit} ({_UNIT_WORDS.get(unit, unit)})" if unit else "no unit"
+            raise self.fail(
+                column,
+                f"{quote_input(cell)} has the wrong unit {quote_input(given)}; expected {expected}",
+            )
+        return float(m.group(1))
 
     def number(
         self, column: str, *, required: bool = False, positive: bool = False
@@ -184,28 +207,16 @@ class _Row:
             if required:
                 raise self.fail(column, "missing value")
             return None
-        unit = COLUMNS.get(column) or ""
-        try:
-            value = float(cell)
-        except ValueError:
-            m = _NUM_UNIT.match(cell)
-            if m is None:
-                what = f"a number in {_UNIT_WORDS.get(unit, unit)}" if unit else "a number"
-                raise self.fail(
-                    column, f"{quote_input(cell)} is not a number; expected {what}"
-                ) from None
-            given = m.group(2).replace("°", "deg")
-            if given != unit:
-                expected = f"{unit} ({_UNIT_WORDS.get(unit, unit)})" if unit else "no unit"
-                raise self.fail(
-                    column,
-                    f"{quote_input(cell)} has the wrong unit {quote_input(given)}; expected {expected}",
-                ) from None
-            value = float(m.group(1))
+        value = self._parse(column, cell)
         if not math.isfinite(value):
             raise self.fail(column, f"{quote_input(cell)} is not a finite number")
         if positive and value <= 0:
             raise self.fail(column, f"{quote_input(cell)} must be positive")
+        return value
+
+    def required_number(self, column: str) -> float:
+        value = self.number(column, required=True)
+        assert value is not None
         return value
 
     def integer(self, column: str, *, minimum: int = 0) -> int | None:
@@ -218,6 +229,16 @@ class _Row:
                 f"{quote_input(self.cells[column].strip())}; expected a whole number >= {minimum}",
             )
         return int(value)
+
+    def choice(self, column: str, enum: type[_E]) -> _E | None:
+        text = self.text(column)
+        if text is None:
+            return None
+        try:
+            return enum(text)
+        except ValueError:
+            expected = ", ".join(e.value for e in enum)
+            raise self.fail(column, f"{quote_input(text)}; expected one of {expected}") from None
 
 
 def _check_header(source: str, header: list[str]) -> None:
@@ -237,7 +258,8 @@ def _check_header(source: str, header: list[str]) -> None:
                 f"{good!r} ({_UNIT_WORDS.get(unit, unit)})"
             )
         raise StoreError(
-            f"{source}: line 1, unknown column {quote_input(name)}; see docs/notebook.md for the columns"
+            f"{source}: line 1, unknown column {quote_input(name)}; see docs/notebook.md for the "
+            "columns"
         )
     for name in REQUIRED:
         if name not in seen:
@@ -246,23 +268,16 @@ def _check_header(source: str, header: list[str]) -> None:
             )
 
 
-def _parse_row(
-    row: _Row,
-    raw_columns: Sequence[str],
-    lookup_params: Callable[[str, int], RobotParams | None],
-) -> ParsedRow:
-    kind_text = row.text("kind", required=True)
-    try:
-        kind = MotionKind(str(kind_text))
-    except ValueError:
-        raise row.fail(
-            "kind",
-            f"{quote_input(kind_text)}; expected one of {', '.join(k.value for k in MotionKind)}",
-        ) from None
-    angle = row.number("angle_rad")
+# -- one row, one piece at a time ------------------------------------------------------------------
+
+
+def _command(row: _Row) -> Command:
+    kind = row.choice("kind", MotionKind)
+    if kind is None:
+        raise row.fail("kind", "missing value")
     command = Command(
         kind=kind,
-        angle=angle,
+        angle=row.number("angle_rad"),
         distance=row.number("distance_m"),
         side=row.number("side_m", positive=True),
         direction=row.text("direction"),
@@ -270,183 +285,208 @@ def _parse_row(
     )
     if kind is MotionKind.TRANSLATION and command.distance is None:
         raise row.fail("distance_m", "missing value (a translation needs its commanded distance)")
-    heading = row.number("predicted_heading_rad", required=True)
-    assert heading is not None
-    theta = row.number("predicted_theta_rad")
-    predicted = Pose(
-        _or_zero(row.number("predicted_t_s")),
-        _or_zero(row.number("predicted_x_m", required=True)),
-        _or_zero(row.number("predicted_y_m", required=True)),
+    return command
+
+
+def _pose(row: _Row, prefix: str) -> Pose | None:
+    """The predicted (required) or true (optional, all or nothing) pose of the row."""
+    cols = {k: trial_field(f"{prefix}_{k}").csv for k in _POSE}
+    if prefix == "true" and not any(row.given(c) for c in cols.values()):
+        return None
+    for k in ("x", "y", "heading"):
+        if prefix == "true" and not row.given(cols[k]):
+            raise row.fail(cols[k], "missing value (the true pose is given in part)")
+    heading = row.required_number(cols["heading"])
+    theta = row.number(cols["theta"])
+    return Pose(
+        _or_zero(row.number(cols["t"])),
+        row.required_number(cols["x"]),
+        row.required_number(cols["y"]),
         float(wrap_angle(heading)) if theta is None else theta,
         heading,
     )
 
-    # parameters: by version, by value, or both (then they must agree)
-    robot = row.text("robot", required=True)
-    assert robot is not None
-    version = row.integer("params_version", minimum=1)
-    stored = lookup_params(robot, version) if version is not None else None
-    values = {c: row.number(c, positive=True) for c in _PARAM_COLUMNS}
-    modulus = row.integer("encoder_modulus", minimum=2)
-    # the same plausible ranges as every other way parameters are built (odolab.params)
-    for c, key in (*zip(_PARAM_COLUMNS, _PARAM_KEYS, strict=True), ("encoder_modulus", None)):
-        v = modulus if key is None else values[c]
-        if v is not None:
-            try:
-                check_param(key or "encoder_modulus", v)
-            except ParamsError as err:
-                raise row.fail(c, str(err)) from err
-    if any(v is not None for v in values.values()) or stored is None:
-        for c, v in values.items():
-            if v is None:
-                if version is not None and stored is None:
-                    raise row.fail(
-                        "params_version",
-                        f"version {version} of {robot!r} is not in the notebook, and the "
-                        f"parameter values are not all given ({c!r} is empty)",
-                    )
-                raise row.fail(c, "missing value")
-        try:
-            params = RobotParams(
-                name=robot,
-                left_wheel_radius=values["left_wheel_radius_m"],  # type: ignore[arg-type]
-                right_wheel_radius=values["right_wheel_radius_m"],  # type: ignore[arg-type]
-                track_width=values["track_width_m"],  # type: ignore[arg-type]
-                ticks_per_rev=values["ticks_per_rev"],  # type: ignore[arg-type]
-                encoder_modulus=modulus,
-            )
-        except ParamsError as err:  # pragma: no cover - cells are checked above
-            raise row.fail("robot", str(err)) from err
-        if stored is not None and stored != params:
-            raise row.fail(
-                "params_version",
-                f"version {version} of {robot!r} in the notebook has other values than this row",
-            )
-    else:
-        params = stored
-    known_version = version if stored is not None else None
 
-    # measurement: compass readings and turns, or the values themselves
+def _plausible(row: _Row, column: str, value: _N) -> _N:
+    """``value`` if it is in the plausible range of its parameter (:data:`odolab.params.RANGES`)."""
+    if value is not None:
+        try:
+            check_param(_PARAM_KEYS[column], value)
+        except ParamsError as err:
+            raise row.fail(column, str(err)) from err
+    return value
+
+
+def _params_by_value(row: _Row, robot: str, version: int | None, known: bool) -> RobotParams:
+    values: dict[str, float] = {}
+    for c in _PARAM_COLUMNS:
+        v = row.number(c, positive=True)
+        if v is None:
+            if version is not None and not known:
+                raise row.fail(
+                    "params_version",
+                    f"version {version} of {robot!r} is not in the notebook, and the "
+                    f"parameter values are not all given ({c!r} is empty)",
+                )
+            raise row.fail(c, "missing value")
+        values[c] = _plausible(row, c, v)
+    try:
+        return RobotParams(
+            name=robot,
+            left_wheel_radius=values["left_wheel_radius_m"],
+            right_wheel_radius=values["right_wheel_radius_m"],
+            track_width=values["track_width_m"],
+            ticks_per_rev=values["ticks_per_rev"],
+            encoder_modulus=_plausible(
+                row, "encoder_modulus", row.integer("encoder_modulus", minimum=2)
+            ),
+        )
+    except ParamsError as err:
+        raise row.fail("robot", str(err)) from err
+
+
+def _params(
+    row: _Row, lookup_params: Callable[[str, int], RobotParams | None]
+) -> tuple[RobotParams, int | None]:
+    """Parameters by version, by value, or both (then they must agree); the known version."""
+    robot = row.required_text("robot")
+    version = row.integer("params_version", minimum=1)
+    row.integer("encoder_modulus", minimum=2)  # checked even when the version decides
+    stored = lookup_params(robot, version) if version is not None else None
+    by_value = any(row.given(c) for c in _PARAM_COLUMNS)
+    if stored is not None and not by_value:
+        return stored, version
+    params = _params_by_value(row, robot, version, stored is not None)
+    if stored is not None and stored != params:
+        raise row.fail(
+            "params_version",
+            f"version {version} of {robot!r} in the notebook has other values than this row",
+        )
+    return params, version if stored is not None else None
+
+
+def _raw_readings(row: _Row, raw_columns: Sequence[str]) -> dict[str, float]:
+    """Compass readings with the turn count (all three or none), then ``raw_<key>`` columns."""
     raw: dict[str, float] = {}
-    compass = {c: row.number(c) for c in _RAW_COLUMNS}
-    if any(v is not None for v in compass.values()):
-        for c, v in compass.items():
-            if v is None:
+    if any(row.given(c) for c in _RAW_COLUMNS):
+        for c in _RAW_COLUMNS:
+            if not row.given(c):
                 raise row.fail(c, "missing value (compass readings come with the turn count)")
         for c in ("compass_initial_deg", "compass_final_deg"):
-            if not 0.0 <= compass[c] < 360.0:  # type: ignore[operator]
-                raise row.fail(c, f"{compass[c]:g} deg is outside the compass range [0, 360)")
-        row.integer("turns", minimum=0)
-        raw.update({c: v for c, v in compass.items() if v is not None})
+            v = row.required_number(c)
+            if not 0.0 <= v < 360.0:
+                raise row.fail(c, f"{v:g} deg is outside the compass range [0, 360)")
+            raw[c] = v
+        raw["turns"] = float(row.integer("turns", minimum=0) or 0)
     for c in raw_columns:
         value = row.number(c)
         if value is not None:
             raw[c[4:]] = value
+    return raw
+
+
+def _sigma(row: _Row, column: str) -> float | None:
+    v = row.number(column)
+    if v is not None and v < 0:
+        raise row.fail(column, f"{v:g} is negative; an uncertainty is >= 0")
+    return v
+
+
+def _rotation_from_compass(
+    row: _Row, raw: dict[str, float], command: Command, instrument: str | None
+) -> Measurement:
+    try:
+        return rotation_measurement_from_compass(
+            raw["compass_initial_deg"],
+            raw["compass_final_deg"],
+            int(raw["turns"]),
+            commanded_angle=command.angle,
+            direction="cw" if command.direction == "cw" else None,
+            instrument=instrument or "compass",
+        )
+    except StoreError as err:
+        raise row.fail("turns", str(err)) from err
+
+
+def _measurement(row: _Row, raw_columns: Sequence[str], command: Command) -> Measurement | None:
+    """The measured values, or the rotation computed from the compass readings; or None."""
+    raw = _raw_readings(row, raw_columns)
     rotation = row.number("measured_rotation_rad")
     mx, my = row.number("measured_x_m"), row.number("measured_y_m")
     if (mx is None) != (my is None):
         raise row.fail("measured_y_m" if my is None else "measured_x_m", "missing value")
     for c, v in (("measured_x_m", mx), ("measured_y_m", my)):
-        if v is not None:
-            try:
+        try:
+            if v is not None:
                 check_position(v, c)  # the range `trials add` and `trials measure` apply
-            except StoreError as err:
-                raise row.fail(c, str(err)) from err
-    sigma_rot = row.number("sigma_rotation_rad")
-    sigma_xy = row.number("sigma_xy_m")
-    for c, v in (("sigma_rotation_rad", sigma_rot), ("sigma_xy_m", sigma_xy)):
-        if v is not None and v < 0:
-            raise row.fail(c, f"{v:g} is negative; an uncertainty is >= 0")
-    instrument = row.text("instrument")
-    measured: Measurement | None = None
-    if rotation is None and "turns" in raw:
-        try:
-            from_compass = rotation_measurement_from_compass(
-                raw["compass_initial_deg"],
-                raw["compass_final_deg"],
-                int(raw["turns"]),
-                commanded_angle=angle,
-                direction="cw" if command.direction == "cw" else None,
-                instrument=instrument or "compass",
-            )
         except StoreError as err:
-            raise row.fail("turns", str(err)) from err
+            raise row.fail(c, str(err)) from err
+    sigma_rot, sigma_xy = _sigma(row, "sigma_rotation_rad"), _sigma(row, "sigma_xy_m")
+    instrument = row.text("instrument")
+    if rotation is None and "turns" in raw:
+        from_compass = _rotation_from_compass(row, raw, command, instrument)
         rotation = from_compass.rotation
-        if sigma_rot is None:
-            sigma_rot = from_compass.sigma_rotation
-    if rotation is not None or mx is not None or raw:
-        if rotation is None and mx is None:
+        sigma_rot = from_compass.sigma_rotation if sigma_rot is None else sigma_rot
+    if rotation is None and mx is None:
+        if raw:
             raise row.fail("measured_rotation_rad", "raw readings given but no measured value")
-        if instrument is None:
-            instrument = "compass" if "turns" in raw else "meterstick" if mx is not None else None
-        if instrument is None:
-            raise row.fail("instrument", "missing value (which instrument measured this?)")
-        measured = Measurement(
-            instrument=instrument,
-            rotation=rotation,
-            x=mx,
-            y=my,
-            sigma_rotation=sigma_rot,
-            sigma_xy=sigma_xy,
-            raw=raw,
-        )
-    elif sigma_rot is not None or sigma_xy is not None:
-        raise row.fail("sigma_rotation_rad" if sigma_rot is not None else "sigma_xy_m",
-                       "an uncertainty without a measured value")  # fmt: skip
+        if sigma_rot is not None or sigma_xy is not None:
+            raise row.fail("sigma_rotation_rad" if sigma_rot is not None else "sigma_xy_m",
+                           "an uncertainty without a measured value")  # fmt: skip
+        return None
+    if instrument is None:
+        instrument = "compass" if "turns" in raw else "meterstick" if mx is not None else None
+    if instrument is None:
+        raise row.fail("instrument", "missing value (which instrument measured this?)")
+    return Measurement(instrument, rotation, mx, my, sigma_rot, sigma_xy, raw)
 
-    status_text = row.text("status")
+
+def _status(row: _Row, measured: Measurement | None) -> tuple[TrialStatus, str | None]:
     reason = row.text("exclusion_reason")
-    if status_text is None:
+    status = row.choice("status", TrialStatus)
+    if status is None:
         status = TrialStatus.MEASURED if measured is not None else TrialStatus.AWAITING
-        if reason is not None:
-            status = TrialStatus.EXCLUDED
-    else:
-        try:
-            status = TrialStatus(status_text)
-        except ValueError:
-            raise row.fail(
-                "status",
-                f"{quote_input(status_text)}; expected one of {', '.join(s.value for s in TrialStatus)}",
-            ) from None
+        status = TrialStatus.EXCLUDED if reason is not None else status
     if status is TrialStatus.EXCLUDED and reason is None:
         raise row.fail("exclusion_reason", "missing value (an excluded trial needs a reason)")
     if status is TrialStatus.MEASURED and measured is None:
         raise row.fail("status", "'measured' but no measurement is filled in")
     if status is TrialStatus.AWAITING and measured is not None:
         raise row.fail("status", "'awaiting' but a measurement is filled in")
+    return status, reason
 
-    true_cols = ("true_t_s", "true_x_m", "true_y_m", "true_theta_rad", "true_heading_rad")
-    true_vals = {c: row.number(c) for c in true_cols}
-    true: Pose | None = None
-    if any(v is not None for c, v in true_vals.items()):
-        for c in ("true_x_m", "true_y_m", "true_heading_rad"):
-            if true_vals[c] is None:
-                raise row.fail(c, "missing value (the true pose is given in part)")
-        th = true_vals["true_heading_rad"]
-        assert th is not None
-        true = Pose(
-            _or_zero(true_vals["true_t_s"]),
-            _or_zero(true_vals["true_x_m"]),
-            _or_zero(true_vals["true_y_m"]),
-            float(wrap_angle(th)) if true_vals["true_theta_rad"] is None
-            else true_vals["true_theta_rad"],  # type: ignore[arg-type]
-            th,
-        )  # fmt: skip
 
+def _parse_row(
+    row: _Row,
+    raw_columns: Sequence[str],
+    lookup_params: Callable[[str, int], RobotParams | None],
+) -> ParsedRow:
+    """The trial of one row: command, prediction, parameters, measurement, status, truth."""
+    command = _command(row)
+    predicted = _pose(row, "predicted")
+    assert predicted is not None
+    params, version = _params(row, lookup_params)
+    measured = _measurement(row, raw_columns, command)
+    status, reason = _status(row, measured)
     trial = Trial(
-        trial_id=row.text("trial_id", required=True),  # type: ignore[arg-type]
-        campaign=row.text("campaign", required=True),  # type: ignore[arg-type]
-        terrain=row.text("terrain", required=True),  # type: ignore[arg-type]
+        trial_id=row.required_text("trial_id"),
+        campaign=row.required_text("campaign"),
+        terrain=row.required_text("terrain"),
         command=command,
         predicted=predicted,
         params=params,
         measured=measured,
-        true=true,
+        true=_pose(row, "true"),
         status=status,
         exclusion_reason=reason,
         notes=row.cells.get("notes", ""),
     )
-    return ParsedRow(row.line, trial, known_version)
+    try:
+        validate_trial(trial)
+    except InvalidTrialError as err:
+        column = trial_field(err.field).csv if err.field else "trial_id"
+        raise row.fail(column, str(err).removeprefix(f"trial {trial.trial_id}: ")) from err
+    return ParsedRow(row.line, trial, version)
 
 
 def read_trials_csv(
@@ -533,6 +573,28 @@ def _fmt(value: float | int | str | None) -> str:
     return str(value)
 
 
+def _csv_row(t: Trial, version: int | None, extra: Sequence[str]) -> list[str]:
+    """The cells of one trial, in :data:`COLUMNS` order, then ``raw_<key>`` for ``extra``."""
+    rec = record_from_trial(t, version)
+    par = t.params
+    raw = dict(t.measured.raw) if t.measured is not None else {}
+    turns = raw.get("turns")
+    if turns is not None and float(turns).is_integer():
+        raw["turns"] = int(turns)
+    by_csv = {f.csv: rec[f.name] for f in TRIAL_FIELDS if f.name != "raw"}
+    by_csv.update(
+        {
+            "left_wheel_radius_m": par.left_wheel_radius,
+            "right_wheel_radius_m": par.right_wheel_radius,
+            "track_width_m": par.track_width,
+            "ticks_per_rev": par.ticks_per_rev,
+            "encoder_modulus": par.encoder_modulus,
+        }
+    )
+    by_csv.update({c: raw.get(c) for c in _RAW_COLUMNS})
+    return [_fmt(by_csv[c]) for c in COLUMNS] + [_fmt(raw.get(k)) for k in extra]
+
+
 def write_trials_csv(path: str | Path, trials: Iterable[tuple[Trial, int | None]]) -> Path:
     """Write ``(trial, params_version)`` pairs with the :data:`COLUMNS` (and ``raw_<key>``)."""
     items = list(trials)
@@ -547,26 +609,13 @@ def write_trials_csv(path: str | Path, trials: Iterable[tuple[Trial, int | None]
     )
     header = [*COLUMNS, *(f"raw_{k}" for k in extra)]
     p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    with p.open("w", newline="", encoding="utf-8") as fh:
-        w = csv.writer(fh)  # "\r\n" ends rows, so a lone "\r" or "\n" in a cell is quoted
-        w.writerow(header)
-        for t, version in items:
-            c, pr, m, tr, par = t.command, t.predicted, t.measured, t.true, t.params
-            raw = dict(m.raw) if m is not None else {}
-            turns = raw.get("turns")
-            row: list[float | int | str | None] = [
-                t.trial_id, t.campaign, t.terrain, c.kind.value, c.angle, c.distance, c.side,
-                c.direction, c.speed, pr.t, pr.x, pr.y, pr.theta, pr.heading, par.name, version,
-                par.left_wheel_radius, par.right_wheel_radius, par.track_width, par.ticks_per_rev,
-                par.encoder_modulus, TrialStatus(t.status).value, t.exclusion_reason,
-                m.instrument if m else None, m.rotation if m else None, m.x if m else None,
-                m.y if m else None, m.sigma_rotation if m else None, m.sigma_xy if m else None,
-                raw.get("compass_initial_deg"), raw.get("compass_final_deg"),
-                int(turns) if turns is not None and float(turns).is_integer() else turns,
-                tr.t if tr else None, tr.x if tr else None, tr.y if tr else None,
-                tr.theta if tr else None, tr.heading if tr else None, t.notes,
-                *(raw.get(k) for k in extra),
-            ]  # fmt: skip
-            w.writerow([_fmt(v) for v in row])
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        with p.open("w", newline="", encoding="utf-8") as fh:
+            w = csv.writer(fh)  # "\r\n" ends rows, so a lone "\r" or "\n" in a cell is quoted
+            w.writerow(header)
+            for t, version in items:
+                w.writerow(_csv_row(t, version, extra))
+    except OSError as err:
+        raise StoreError(f"{p}: cannot write the trials CSV ({err.strerror or err})") from err
     return p

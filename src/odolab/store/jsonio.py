@@ -106,8 +106,8 @@ def _need(obj: Any, keys: Sequence[str], where: str) -> dict[str, Any]:
 def _check_ranges(doc: NotebookDocument, source: str) -> None:
     """The range checks every other entry path applies: parameters, measured positions, and a
     translation's commanded distance (``odolab trials add`` and CSV import refuse the same)."""
+    from odolab.measurement import check_position
     from odolab.params import check_param
-    from odolab.store.entry import check_position
 
     for i, pv in enumerate(doc.params_versions):
         for key in PARAMS_FIELDS:

@@ -6,7 +6,7 @@ call these functions, so a refusal reads the same everywhere:
 - :func:`refuse_if_measured`: a measured trial is only overwritten with ``replace``;
 - :func:`check_reading_names`: a rotation takes compass readings and turns, a translation x and y;
 - :func:`measurement_for_trial`: the :class:`~odolab.trials.Measurement` from the readings (the
-  checks of :mod:`odolab.store.entry`: "typed in cm?", "about 9 turns would fit");
+  checks of :mod:`odolab.measurement`: "typed in cm?", "about 9 turns would fit");
 - :func:`record_measurement`: all of the above, then :meth:`Notebook.set_measurement`.
 """
 
@@ -16,7 +16,7 @@ import math
 from typing import TYPE_CHECKING
 
 from odolab.errors import StoreError
-from odolab.store.entry import (
+from odolab.measurement import (
     COMPASS_SIGMA_RAD,
     METERSTICK_SIGMA_M,
     rotation_measurement_from_compass,

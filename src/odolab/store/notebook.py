@@ -12,7 +12,7 @@ import dataclasses
 import datetime as _dt
 import json
 import sqlite3
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,9 +20,11 @@ from typing import TYPE_CHECKING, Any
 
 from odolab.errors import StoreError
 from odolab.params import RobotParams
+from odolab.progress import Progress, no_progress
 from odolab.store.codec import EncodedLog, decode_log, encode_log
 from odolab.store.records import (
     CAMPAIGN_KINDS,
+    HISTORY_KEYS,
     PARAMS_FIELDS,
     TRIAL_COLUMNS,
     campaign_kind_for,
@@ -38,13 +40,6 @@ if TYPE_CHECKING:
     import pandas as pd
 
 __all__ = ["Campaign", "Notebook", "NotebookInfo", "ParamsVersion", "Progress"]
-
-#: Progress callback: ``progress(done, total)``; called after each committed batch.
-Progress = Callable[[int, int], None]
-
-
-def _no_progress(done: int, total: int) -> None:
-    """The default progress callback: does nothing."""
 
 
 def _now() -> str:
@@ -95,19 +90,6 @@ _TRIAL_INSERT = (
     f"INSERT INTO trials ({', '.join(TRIAL_COLUMNS)}, created, updated) "
     f"VALUES ({', '.join(':' + c for c in TRIAL_COLUMNS)}, :created, :updated)"
 )
-_HISTORY_KEYS = (
-    "replaced",
-    "instrument",
-    "measured_rotation",
-    "measured_x",
-    "measured_y",
-    "sigma_rotation",
-    "sigma_xy",
-    "raw",
-)
-_TEXT_COLUMNS = {"trial_id", "campaign", "terrain", "kind", "direction", "robot", "instrument",
-                 "raw", "status", "exclusion_reason", "notes"}  # fmt: skip
-_NUMERIC_COLUMNS = tuple(c for c in TRIAL_COLUMNS if c not in _TEXT_COLUMNS)
 _LOG_INSERT = (
     "INSERT INTO encoder_logs (trial_id, n, modulus, codec, t, left_ticks, right_ticks) "
     "VALUES (?, ?, ?, ?, ?, ?, ?)"
@@ -499,7 +481,7 @@ class Notebook:
                     "INSERT INTO measurement_history (trial_id, replaced, instrument, "
                     "measured_rotation, measured_x, measured_y, sigma_rotation, sigma_xy, raw) "
                     "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                    (trial.trial_id, *(h[k] for k in _HISTORY_KEYS[:-1]), json.dumps(h["raw"])),
+                    (trial.trial_id, *(h[k] for k in HISTORY_KEYS[:-1]), json.dumps(h["raw"])),
                 )
 
     def add_trial(self, trial: Trial, *, create_campaign: bool = True) -> None:
@@ -532,7 +514,7 @@ class Notebook:
             self._insert_trials(
                 conn, trials, [None] * len(trials), create_campaigns=create_campaigns
             )
-        (progress or _no_progress)(len(trials), len(trials))
+        (progress or no_progress)(len(trials), len(trials), "trials")
 
     def _trial_rows(self, where: str, args: Sequence[Any]) -> list[sqlite3.Row]:
         return self._conn.execute(
@@ -703,18 +685,19 @@ class Notebook:
         return [(r["replaced"], _measurement_from_row(r)) for r in rows]
 
     def repredict(self, trial_id: str, params: RobotParams, method: str = "midpoint") -> Pose:
-        """Final pose of ``trial_id``'s stored encoder log integrated with ``params``."""
-        from odolab.odometry import integrate
+        """Final pose of ``trial_id``'s stored encoder log integrated with ``params``.
+
+        The integration is :func:`odolab.prediction.final_pose_from_log`; the notebook only
+        supplies the stored log.
+        """
+        from odolab.prediction import final_pose_from_log
 
         log = self.encoder_log(trial_id)
         if log is None:
             raise StoreError(f"trial {trial_id} has no encoder log to re-predict from")
         if len(log) == 0:
             raise StoreError(f"trial {trial_id}: its encoder log is empty")
-        traj = integrate(
-            log.t, log.left_ticks, log.right_ticks, params, method, source=f"trial {trial_id}"
-        )
-        return traj.final
+        return final_pose_from_log(log, params, method, source=f"trial {trial_id}")
 
     # -- analysis -------------------------------------------------------------------------------
 
@@ -761,7 +744,7 @@ class Notebook:
             frame[c] = frame[c].astype("float64")
         return frame
 
-    # -- import and export ----------------------------------------------------------------------
+    # -- import and export (see odolab.store.transfer) ------------------------------------------
 
     def export_csv(
         self,
@@ -772,13 +755,9 @@ class Notebook:
         status: str | Sequence[str] | None = None,
     ) -> int:
         """Write the matching trials as CSV (see :mod:`odolab.store.csvio`); return the count."""
-        from odolab.store.csvio import write_trials_csv
+        from odolab.store.transfer import export_csv
 
-        where, args = self._filters(campaign, terrain, kind, status)
-        rows = self._trial_rows(where, args)
-        pairs = [(self._trial_from_row(r, with_log=False), int(r["params_version"])) for r in rows]
-        write_trials_csv(path, pairs)
-        return len(pairs)
+        return export_csv(self, path, self._filters(campaign, terrain, kind, status))
 
     def import_csv(
         self,
@@ -792,31 +771,46 @@ class Notebook:
 
         The whole file is checked first (any error names the line and column and nothing is
         written); then trials are written in transactions of ``batch_size``, ``progress(done,
-        total)`` being called after each commit. Campaigns must exist unless
+        total, "trials")`` being called after each commit. Campaigns must exist unless
         ``create_campaigns``.
         """
-        from odolab.store.csvio import read_trials_csv
+        from odolab.store.transfer import import_csv
 
-        if batch_size < 1:
-            raise StoreError(f"batch_size must be >= 1, got {batch_size}")
-        parsed = read_trials_csv(
-            path,
-            known_campaigns=None if create_campaigns else self.campaign_names(),
-            known_trial_ids=self.trial_ids(),
-            lookup_params=self._lookup_params,
+        return import_csv(
+            self, path, create_campaigns=create_campaigns, batch_size=batch_size, progress=progress
         )
-        trials = [p.trial for p in parsed]
-        versions = [p.params_version for p in parsed]
-        self._write_batches(
-            trials,
-            versions,
-            None,
-            batch_size,
-            progress,
-            create_campaigns,
-            new_params_method=f"imported from {Path(path).name}",
-        )
-        return len(trials)
+
+    def export_json(
+        self,
+        path: str | Path,
+        campaign: str | None = None,
+        terrain: str | None = None,
+        kind: str | None = None,
+        status: str | Sequence[str] | None = None,
+    ) -> int:
+        """Write everything needed to rebuild the matching trials as JSON; return the count.
+
+        The file holds the parameter versions (with provenance) and campaigns those trials use,
+        the trials (every column, time stamps included) and their encoder logs (base64 of the
+        stored compressed arrays).
+        """
+        from odolab.store.transfer import export_json
+
+        return export_json(self, path, self._filters(campaign, terrain, kind, status))
+
+    def import_json(
+        self, path: str | Path, *, batch_size: int = 1000, progress: Progress | None = None
+    ) -> int:
+        """Import what :meth:`export_json` wrote; return the number of trials.
+
+        Parameter versions and campaigns already in the notebook must be identical to the file's
+        (else nothing is written); trial ids must be new. Everything is checked before writing.
+        """
+        from odolab.store.transfer import import_json
+
+        return import_json(self, path, batch_size=batch_size, progress=progress)
+
+    # -- used by odolab.store.transfer ------------------------------------------------------------
 
     def _lookup_params(self, robot: str, version: int) -> RobotParams | None:
         row = self._one(
@@ -836,7 +830,7 @@ class Notebook:
         *,
         new_params_method: str = "recorded with a trial",
     ) -> None:
-        report = progress or _no_progress
+        report = progress or no_progress
         total = len(trials)
         for start in range(0, total, batch_size):
             stop = min(start + batch_size, total)
@@ -850,160 +844,4 @@ class Notebook:
                     histories=None if histories is None else histories[start:stop],
                     new_params_method=new_params_method,
                 )
-            report(stop, total)
-
-    def export_json(
-        self,
-        path: str | Path,
-        campaign: str | None = None,
-        terrain: str | None = None,
-        kind: str | None = None,
-        status: str | Sequence[str] | None = None,
-    ) -> int:
-        """Write everything needed to rebuild the matching trials as JSON; return the count.
-
-        The file holds the parameter versions (with provenance) and campaigns those trials use,
-        the trials (every column, time stamps included) and their encoder logs (base64 of the
-        stored compressed arrays).
-        """
-        from odolab.store.jsonio import write_notebook_json
-
-        where, args = self._filters(campaign, terrain, kind, status)
-        rows = self._conn.execute(
-            "SELECT t.*, e.n AS log_n, e.modulus AS log_modulus, e.codec AS log_codec, "
-            "e.t AS log_t, e.left_ticks AS log_left, e.right_ticks AS log_right "
-            "FROM trials AS t LEFT JOIN encoder_logs AS e ON e.trial_id = t.trial_id "
-            f"{where} ORDER BY t.rowid",
-            args,
-        ).fetchall()
-        used_params = {(r["robot"], r["params_version"]) for r in rows}
-        robots = {r[0] for r in used_params}
-        versions = [
-            dict(r)
-            for r in self._conn.execute("SELECT * FROM params_versions ORDER BY robot, version")
-            if r["robot"] in robots
-        ]
-        used_campaigns = {r["campaign"] for r in rows}
-        campaigns = [
-            dict(r)
-            for r in self._conn.execute("SELECT * FROM campaigns ORDER BY rowid")
-            if r["name"] in used_campaigns or not where
-        ]
-        history: dict[str, list[dict[str, Any]]] = {}
-        for h in self._conn.execute("SELECT * FROM measurement_history ORDER BY id"):
-            entry = {k: h[k] for k in _HISTORY_KEYS}
-            entry["raw"] = json.loads(h["raw"])
-            history.setdefault(h["trial_id"], []).append(entry)
-        write_notebook_json(path, versions, campaigns, [dict(r) for r in rows], history)
-        return len(rows)
-
-    def import_json(
-        self, path: str | Path, *, batch_size: int = 1000, progress: Progress | None = None
-    ) -> int:
-        """Import what :meth:`export_json` wrote; return the number of trials.
-
-        Parameter versions and campaigns already in the notebook must be identical to the file's
-        (else nothing is written); trial ids must be new. Everything is checked before writing.
-        """
-        from odolab.store.jsonio import read_notebook_json
-
-        doc = read_notebook_json(path)
-        source = str(path)
-        new_versions: list[dict[str, Any]] = []
-        for pv in doc.params_versions:
-            row = self._one(
-                "SELECT * FROM params_versions WHERE robot = ? AND version = ?",
-                (pv["robot"], pv["version"]),
-            )
-            if row is None:
-                new_versions.append(pv)
-                continue
-            mine = {k: row[k] for k in (*PARAMS_FIELDS, "method")}
-            theirs = {k: pv[k] for k in (*PARAMS_FIELDS, "method")}
-            if mine != theirs:
-                raise StoreError(
-                    f"{source}: parameter version {pv['version']} of {pv['robot']!r} differs from "
-                    "the one in the notebook; nothing was imported"
-                )
-        new_campaigns: list[dict[str, Any]] = []
-        for c in doc.campaigns:
-            row = self._one("SELECT * FROM campaigns WHERE name = ?", (c["name"],))
-            if row is None:
-                self._check_campaign(c["name"], c["kind"], c["terrain"])
-                new_campaigns.append(c)
-            elif (row["kind"], row["terrain"]) != (c["kind"], c["terrain"]):
-                raise StoreError(
-                    f"{source}: campaign {c['name']!r} differs from the one in the notebook "
-                    f"(kind/terrain {row['kind']}/{row['terrain']} vs {c['kind']}/{c['terrain']})"
-                )
-        known_ids = self.trial_ids()
-        first_in_file: dict[str, int] = {}
-        available = {(pv["robot"], pv["version"]) for pv in doc.params_versions}
-        campaign_names = self.campaign_names() | {c["name"] for c in new_campaigns}
-        trials: list[Trial] = []
-        versions: list[int | None] = []
-        stamps: list[tuple[str, str] | None] = []
-        histories: list[list[dict[str, Any]]] = []
-        for i, rec in enumerate(doc.trials):
-            where = f"{source}: trials[{i}]"
-            tid = rec["trial_id"]
-            if tid in first_in_file:
-                raise StoreError(
-                    f"{where}: trial {tid!r} is a duplicate of trials[{first_in_file[tid]}]"
-                )
-            if tid in known_ids:
-                raise StoreError(f"{where}: trial {tid!r} is already in the notebook")
-            first_in_file[tid] = i
-            if rec["campaign"] not in campaign_names:
-                raise StoreError(f"{where}: unknown campaign {rec['campaign']!r}")
-            for k in _NUMERIC_COLUMNS:
-                v = rec[k]
-                if v is not None and (isinstance(v, bool) or not isinstance(v, int | float)):
-                    raise StoreError(f"{where}: key {k!r} is {v!r}; expected a number or null")
-            key = (rec["robot"], rec["params_version"])
-            pv_doc = next(
-                (p for p in doc.params_versions if (p["robot"], p["version"]) == key), None
-            )
-            if key not in available and self._lookup_params(*key) is None:
-                raise StoreError(f"{where}: unknown parameter version {key[1]} of {key[0]!r}")
-            params = (
-                self._lookup_params(*key)
-                if pv_doc is None
-                else RobotParams(name=key[0], **{k: pv_doc[k] for k in PARAMS_FIELDS})
-            )
-            assert params is not None
-            try:
-                trial = trial_from_record(rec, params, doc.logs.get(tid))
-                validate_trial(trial)
-            except (KeyError, ValueError, TypeError) as err:
-                raise StoreError(f"{where}: malformed trial record ({err})") from err
-            except StoreError as err:
-                raise StoreError(f"{where}: {err}") from err
-            trials.append(trial)
-            versions.append(int(key[1]))
-            stamps.append((rec["created"], rec["updated"]) if rec.get("created") else None)
-            history = rec.get("measurement_history") or []
-            for j, h in enumerate(history):
-                if not isinstance(h, dict) or any(k not in h for k in _HISTORY_KEYS):
-                    raise StoreError(f"{where}.measurement_history[{j}]: malformed entry")
-            histories.append(history)
-        with self._write() as conn:
-            for pv in new_versions:
-                params = RobotParams(name=pv["robot"], **{k: pv[k] for k in PARAMS_FIELDS})
-                self._insert_params_version(
-                    conn,
-                    params,
-                    version=int(pv["version"]),
-                    method=pv["method"],
-                    source_trials=pv["source_trials"],
-                    created=pv["created"],
-                    notes=pv["notes"],
-                )
-            for c in new_campaigns:
-                conn.execute(
-                    "INSERT INTO campaigns (name, kind, terrain, date, operator, notes) "
-                    "VALUES (?, ?, ?, ?, ?, ?)",
-                    (c["name"], c["kind"], c["terrain"], c["date"], c["operator"], c["notes"]),
-                )
-        self._write_batches(trials, versions, stamps, batch_size, progress, False, histories)
-        return len(trials)
+            report(stop, total, "trials")

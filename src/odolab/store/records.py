@@ -1,4 +1,7 @@
-"""Trials as flat records (one key per ``trials`` column) and back, with validation.
+"""Trials as flat records (one key per ``trials`` column) and back.
+
+The fields, their units and plausible ranges are defined once, in :data:`odolab.trials.TRIAL_FIELDS`;
+:func:`validate_trial` (re-exported here) lives beside the type.
 
 A *record* is a ``dict`` whose keys are :data:`TRIAL_COLUMNS` (the ``trials`` table without its
 time stamps); ``raw`` is a JSON text. The parameter set is named by ``robot`` and
@@ -8,16 +11,26 @@ time stamps); ``raw`` is a JSON text. The parameter set is named by ``robot`` an
 from __future__ import annotations
 
 import json
-import math
 from typing import Any
 
-from odolab.errors import StoreError
 from odolab.params import RobotParams
 from odolab.trajectory import Pose
-from odolab.trials import Command, EncoderLog, Measurement, MotionKind, Trial, TrialStatus
+from odolab.trials import (
+    TRIAL_FIELDS,
+    Command,
+    EncoderLog,
+    Measurement,
+    MotionKind,
+    Trial,
+    TrialStatus,
+    validate_trial,
+)
 
 __all__ = [
     "CAMPAIGN_KINDS",
+    "HISTORY_KEYS",
+    "MEASUREMENT_COLUMNS",
+    "NUMERIC_COLUMNS",
     "PARAMS_FIELDS",
     "TRIAL_COLUMNS",
     "campaign_kind_for",
@@ -26,24 +39,11 @@ __all__ = [
     "validate_trial",
 ]
 
-#: The columns of ``trials`` that describe a trial (time stamps left out), in table order.
-TRIAL_COLUMNS: tuple[str, ...] = (
-    "trial_id",
-    "campaign",
-    "terrain",
-    "kind",
-    "angle",
-    "distance",
-    "side",
-    "direction",
-    "speed",
-    "predicted_t",
-    "predicted_x",
-    "predicted_y",
-    "predicted_theta",
-    "predicted_heading",
-    "robot",
-    "params_version",
+#: The columns of ``trials`` that describe a trial (time stamps left out), in table order:
+#: the names of :data:`odolab.trials.TRIAL_FIELDS`.
+TRIAL_COLUMNS: tuple[str, ...] = tuple(f.name for f in TRIAL_FIELDS)
+#: The columns that hold a measurement (kept in ``measurement_history`` when one is replaced).
+MEASUREMENT_COLUMNS: tuple[str, ...] = (
     "instrument",
     "measured_rotation",
     "measured_x",
@@ -51,15 +51,11 @@ TRIAL_COLUMNS: tuple[str, ...] = (
     "sigma_rotation",
     "sigma_xy",
     "raw",
-    "true_t",
-    "true_x",
-    "true_y",
-    "true_theta",
-    "true_heading",
-    "status",
-    "exclusion_reason",
-    "notes",
 )
+#: A replaced measurement as kept in ``measurement_history`` (and in the JSON export).
+HISTORY_KEYS: tuple[str, ...] = ("replaced", *MEASUREMENT_COLUMNS)
+#: The numeric columns (the rest is text).
+NUMERIC_COLUMNS: tuple[str, ...] = tuple(f.name for f in TRIAL_FIELDS if f.numeric)
 
 #: The numeric fields of a parameter set, as stored in ``params_versions``.
 PARAMS_FIELDS: tuple[str, ...] = (
@@ -79,64 +75,7 @@ def campaign_kind_for(kind: MotionKind) -> str:
     return kind.value if kind.value in CAMPAIGN_KINDS else "free"
 
 
-def _finite(value: float | None, what: str, *, required: bool = False) -> None:
-    if value is None:
-        if required:
-            raise StoreError(f"{what} is missing")
-        return
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise StoreError(f"{what} must be a finite number, got {value!r}")
-
-
-def validate_trial(trial: Trial) -> None:
-    """Raise :class:`StoreError` (naming the trial and the field) if ``trial`` cannot be stored."""
-    tid = trial.trial_id
-    if not isinstance(tid, str) or not tid.strip() or tid != tid.strip():
-        raise StoreError(f"trial id {tid!r} must be non-empty text without surrounding spaces")
-    where = f"trial {tid}"
-    for name in ("campaign", "terrain"):
-        value = getattr(trial, name)
-        if not isinstance(value, str) or not value.strip():
-            raise StoreError(f"{where}: {name} must be non-empty text, got {value!r}")
-    if not isinstance(trial.command.kind, MotionKind):
-        raise StoreError(f"{where}: command kind {trial.command.kind!r} is not a MotionKind")
-    c = trial.command
-    for name in ("angle", "distance", "side", "speed"):
-        _finite(getattr(c, name), f"{where}: command {name}")
-    for label, pose in (("predicted", trial.predicted), ("true", trial.true)):
-        if pose is None:
-            if label == "predicted":
-                raise StoreError(f"{where}: predicted pose is missing")
-            continue
-        for name in Pose._fields:
-            _finite(getattr(pose, name), f"{where}: {label} {name}", required=True)
-    m = trial.measured
-    if m is not None:
-        if not isinstance(m.instrument, str) or not m.instrument.strip():
-            raise StoreError(f"{where}: measurement instrument must be non-empty text")
-        for name in ("rotation", "x", "y", "sigma_rotation", "sigma_xy"):
-            _finite(getattr(m, name), f"{where}: measured {name}")
-        for name in ("sigma_rotation", "sigma_xy"):
-            v = getattr(m, name)
-            if v is not None and v < 0:
-                raise StoreError(f"{where}: {name} must be >= 0, got {v!r}")
-        if m.rotation is None and m.x is None and m.y is None:
-            raise StoreError(f"{where}: a measurement needs a rotation or x and y")
-        for key, v in m.raw.items():
-            _finite(v, f"{where}: raw reading {key!r}", required=True)
-    status = TrialStatus(trial.status)
-    if status is TrialStatus.MEASURED and m is None:
-        raise StoreError(f"{where}: status 'measured' but no measurement")
-    if status is TrialStatus.AWAITING and m is not None:
-        raise StoreError(f"{where}: status 'awaiting' but it has a measurement")
-    if status is TrialStatus.EXCLUDED and not (trial.exclusion_reason or "").strip():
-        raise StoreError(f"{where}: an excluded trial needs a reason")
-    log = trial.encoder_log
-    if log is not None and not (log.t.size == log.left_ticks.size == log.right_ticks.size):
-        raise StoreError(f"{where}: encoder log arrays differ in length")
-
-
-def record_from_trial(trial: Trial, params_version: int) -> dict[str, Any]:
+def record_from_trial(trial: Trial, params_version: int | None) -> dict[str, Any]:
     """The ``trials`` row of ``trial`` (validate it first with :func:`validate_trial`)."""
     c, p, m, tr = trial.command, trial.predicted, trial.measured, trial.true
     return {

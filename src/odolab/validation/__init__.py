@@ -8,6 +8,7 @@
   a stand-alone turning-in-place scenario for demos and tests.
 """
 
+from odolab.io.sensorlog import ImuLog, read_sensorlog, write_sensorlog
 from odolab.validation.align import ClockAlignment, find_clock_offset
 from odolab.validation.compare import (
     HeadingError,
@@ -16,7 +17,6 @@ from odolab.validation.compare import (
     validate,
     validation_figure,
 )
-from odolab.validation.sensorlog import ImuLog, read_sensorlog, write_sensorlog
 from odolab.validation.simulate import (
     RotationScenario,
     rotation_scenario,

@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 from scipy import ndimage, signal
 
 from odolab.errors import ImuLogError
-from odolab.validation.sensorlog import ImuLog
+from odolab.io.sensorlog import ImuLog
 
 __all__ = ["ClockAlignment", "find_clock_offset", "rate_on_grid", "require_overlap"]
 

@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import interpolate
 
+from odolab.defaults import DEFAULT_ROBOT
 from odolab.errors import ImuLogError
 from odolab.params import PRESETS, RobotParams, save_params
 from odolab.trials import EncoderLog
@@ -118,7 +119,7 @@ def rotation_scenario(
     (rad/s, white) perturbs the true rate a little. The encoder log has counters that wrap at
     the nominal modulus, sampled at ``control_hz``.
     """
-    old = nominal or PRESETS["jaguar-lite"]
+    old = nominal or PRESETS[DEFAULT_ROBOT]
     track = old.track_width / 0.875 if true_track_width is None else float(true_track_width)
     new = old.with_(track_width=track, name=f"{old.name}-corrected")
     rng = np.random.default_rng(seed)

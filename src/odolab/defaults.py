@@ -1,0 +1,14 @@
+"""Named defaults used across odolab (imports nothing, so the CLI can use them at no cost).
+
+- :data:`DEFAULT_ROBOT`: the nominal parameter preset (:data:`odolab.params.PRESETS`).
+- :data:`DEFAULT_TRUTH`: the virtual robot's true behaviour (:data:`odolab.sim.presets.TRUTH_PRESETS`).
+"""
+
+from __future__ import annotations
+
+__all__ = ["DEFAULT_ROBOT", "DEFAULT_TRUTH"]
+
+#: The nominal preset every command uses unless told otherwise (the lab's Jaguar Lite).
+DEFAULT_ROBOT = "jaguar-lite"
+#: The true robot every simulation uses unless told otherwise: derived from the lab report.
+DEFAULT_TRUTH = "jaguar-lab"
