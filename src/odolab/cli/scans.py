@@ -55,7 +55,7 @@ def scans_cmd(
     result = scan_motions(
         scans, max_range=max_range, voxel=voxel, every=every, max_correspondence=max_correspondence
     )
-    write_trajectory(result.trajectory, output, fmt.value)  # type: ignore[arg-type]
+    write_trajectory(output, result.trajectory, "tum" if fmt is _Format.tum else "csv")
     bad = result.outliers()
     end = result.trajectory.final
     typer.echo(
