@@ -115,7 +115,6 @@ def sim_scans_cmd(
     if truth_csv is not None:
         check_output_path(truth_csv, "truth CSV")
         s = drive.sensor
-        write_trajectory_csv(
-            Trajectory.from_xyh(drive.scan_t, s[:, 0], s[:, 1], s[:, 2]), truth_csv
-        )
+        truth = Trajectory.from_xyh(drive.scan_t, s[:, 0], s[:, 1], s[:, 2])
+        write_trajectory_csv(truth_csv, truth)
         typer.echo(f"true laser trajectory -> {term(truth_csv)}")
