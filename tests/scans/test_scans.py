@@ -12,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from odolab.calibration.scanmatch import MIN_POINTS, ScanMotions, scan_motions
 from odolab.cli import main
@@ -20,7 +22,14 @@ from odolab.io import read_trajectory_csv
 from odolab.io.rosbag import read_bag
 from odolab.io.run import ReadOptions
 from odolab.io.scans import LaserScans, read_scans, write_scan_mcap
-from odolab.sim.laser import LaserDrive, LaserModel, World, cast_scans, simulate_laser_drive
+from odolab.sim.laser import (
+    LaserDrive,
+    LaserModel,
+    World,
+    cast_scans,
+    room_world,
+    simulate_laser_drive,
+)
 
 MOUNT = (0.15, -0.05, 0.1)
 
@@ -72,6 +81,35 @@ def test_ray_casting_hits_the_walls_of_a_square_room_where_geometry_says() -> No
     short = LaserModel(beams=5, angle_min=-1, angle_max=1, range_max=2.0, range_sigma=0.0)
     (r,) = cast_scans(room, [(1.0, 1.0, 0.0)], short)
     assert math.isinf(r[2])
+
+
+@settings(max_examples=25)
+@given(
+    x=st.floats(0.5, 7.5),
+    y=st.floats(0.5, 5.5),
+    yaw=st.floats(-math.pi, math.pi),
+    shift=st.tuples(st.floats(-50, 50), st.floats(-50, 50)),
+    turn=st.floats(-math.pi, math.pi),
+)
+def test_moving_world_and_scanner_together_changes_no_range(
+    x: float, y: float, yaw: float, shift: tuple[float, float], turn: float
+) -> None:
+    world = room_world()
+    c, s = math.cos(turn), math.sin(turn)
+
+    def move(px: np.ndarray, py: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return c * px - s * py + shift[0], s * px + c * py + shift[1]
+
+    seg = world.segments
+    a, b = move(seg[:, 0], seg[:, 1]), move(seg[:, 2], seg[:, 3])
+    moved = World(np.column_stack((a[0], a[1], b[0], b[1])))
+    px, py = move(np.array(x), np.array(y))
+    laser = LaserModel(beams=91, range_sigma=0.0)
+    here = cast_scans(world, [(x, y, yaw)], laser)
+    there = cast_scans(moved, [(float(px), float(py), yaw + turn)], laser)
+    finite = np.isfinite(here)
+    assert (finite == np.isfinite(there)).all()
+    np.testing.assert_allclose(there[finite], here[finite], rtol=1e-9, atol=1e-9)
 
 
 def test_simulated_ranges_scatter_by_the_laser_noise(drive: LaserDrive) -> None:
@@ -271,6 +309,8 @@ def test_every_and_skipped_scans(drive: LaserDrive) -> None:
     scans = _scans(drive)
     ranges = scans.ranges.copy()
     ranges[4, MIN_POINTS - 1 :] = np.inf  # too few valid ranges left
+    ranges[4, :5] = np.nan  # drivers' 'no return'
+    ranges[4, 5:10] = 0.05  # below range_min
     sparse = LaserScans(
         scans.t, ranges, scans.angle_min, scans.angle_increment, scans.range_min, scans.range_max
     )
@@ -330,3 +370,15 @@ def test_cli_sim_scans_writes_a_bag_the_scans_command_reads(tmp_path: Path) -> N
     assert main(["sim", "scans", str(bag), "--seed", "2", "--truth", str(truth)]) == 0
     assert len(read_scans(bag)) == 180
     assert len(read_trajectory_csv(truth)) == 180
+
+
+def test_points_keep_only_valid_ranges() -> None:
+    r = np.array([[np.nan, 0.05, 1.0, np.inf, 40.0, 2.0, 12.0]])
+    scans = LaserScans(np.array([0.0]), r, -math.pi / 2, math.pi / 6, 0.1, 30.0)
+    # beams at -90, -60, -30, 0, 30, 60, 90 degrees; valid: 1.0 m at -30, 2.0 m at 60, 12 m at 90
+    np.testing.assert_allclose(
+        scans.points(0),
+        [[math.cos(-math.pi / 6), -0.5], [1.0, 2.0 * math.sin(math.pi / 3)], [0.0, 12.0]],
+        atol=1e-6,
+    )
+    assert len(scans.points(0, max_range=10.0)) == 2

@@ -30,13 +30,13 @@ _JOINT_TYPE = "sensor_msgs/msg/JointState"
 class LaserScans:
     """n scans of ``beams`` ranges each.
 
-    ``t``: (n,) stamps (s); ``ranges``: (n, beams) in metres (``inf`` or ``nan`` where the beam
-    returned nothing); beam ``j`` points at ``angle_min + j * angle_increment`` (rad, counter-
+    ``t``: (n,) stamps (s); ``ranges``: (n, beams) float32 (the message's own precision; half the
+    memory of float64 for long bags) in metres (``inf`` or ``nan`` where the beam returned nothing); beam ``j`` points at ``angle_min + j * angle_increment`` (rad, counter-
     clockwise from the sensor's x axis); readings outside [``range_min``, ``range_max``] are
     invalid, as ROS defines them."""
 
     t: NDArray[np.float64]
-    ranges: NDArray[np.float64]
+    ranges: NDArray[np.float32]
     angle_min: float
     angle_increment: float
     range_min: float
@@ -45,7 +45,7 @@ class LaserScans:
 
     def __post_init__(self) -> None:
         t = np.asarray(self.t, dtype=np.float64)
-        r = np.asarray(self.ranges, dtype=np.float64)
+        r = np.asarray(self.ranges, dtype=np.float32)
         if t.ndim != 1 or r.ndim != 2 or len(t) != len(r):
             raise OdolabError(
                 f"laser scans need (n,) stamps and (n, beams) ranges, got {t.shape} and {r.shape}"
@@ -73,7 +73,7 @@ class LaserScans:
     def points(self, i: int, max_range: float | None = None) -> NDArray[np.float64]:
         """(k, 2) points ``x, y`` (m, sensor frame) of scan ``i``'s valid ranges, those in
         [``range_min``, ``min(range_max, max_range)``]."""
-        r = self.ranges[i]
+        r = self.ranges[i].astype(np.float64)
         top = self.range_max if max_range is None else min(self.range_max, max_range)
         with np.errstate(invalid="ignore"):
             ok = np.isfinite(r) & (r >= self.range_min) & (r <= top)
@@ -91,12 +91,12 @@ def read_scans(path: str | Path, topic: str = "/scan", *, min_scans: int = 2) ->
     reader = _open(p)
     try:
         t: list[float] = []
-        rows: list[NDArray[np.float64]] = []
+        rows: list[NDArray[np.float32]] = []
         layout: tuple[float, float, int] | None = None
         rmin = rmax = 0.0
         frame = "laser"
         for bag_ns, msg in _messages(reader, p, topic, (SCAN_TYPE,)):
-            r = np.asarray(msg.ranges, dtype=np.float64)
+            r = np.asarray(msg.ranges, dtype=np.float32)
             this = (float(msg.angle_min), float(msg.angle_increment), len(r))
             if layout is None:
                 layout = this
