@@ -36,7 +36,7 @@ class LaserScans:
     invalid, as ROS defines them."""
 
     t: NDArray[np.float64]
-    ranges: NDArray[np.float32]
+    ranges: NDArray[np.floating[Any]]  # stored as float32
     angle_min: float
     angle_increment: float
     range_min: float
