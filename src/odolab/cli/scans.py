@@ -44,7 +44,7 @@ def scans_cmd(
     ] = 0.5,
 ) -> None:
     """Match a bag's laser scans pairwise and write the sensor's trajectory (from its first pose),
-    for ``odolab calibrate sensor ENCODERS SENSOR.csv``."""
+    for "odolab calibrate sensor ENCODERS SENSOR.csv"."""
     from odolab.calibration.scanmatch import scan_motions
     from odolab.cli._output import check_output_path, term
     from odolab.io import write_trajectory
