@@ -212,8 +212,8 @@ def run_lab(
         umbmark_iterated,
     )
     from odolab.report import write_report
-    from odolab.robot.plant import make_plant
     from odolab.robot.session import run_motion_simulated
+    from odolab.sim.plants import make_plant
     from odolab.sim.presets import LAB_REPORT_SEED, TRUTH_PRESETS
     from odolab.sim.protocols import load_protocol, run_protocol
     from odolab.store import Notebook

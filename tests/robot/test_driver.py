@@ -6,16 +6,19 @@ import struct
 
 import pytest
 
-from odolab.errors import ProtocolError, RobotLinkError
+from odolab.errors import RobotLinkError
 from odolab.robot.clock import SimClock
-from odolab.robot.driver import (
+from odolab.robot.config import CommandMode
+from odolab.robot.errors import RobotConfigError
+from odolab.robot.jaguar.driver import (
     ChannelMap,
-    CommandMode,
     DriverConfig,
     JaguarDriver,
     parse_robot_url,
 )
-from odolab.robot.protocol import (
+from odolab.robot.jaguar.protocol import (
+    STOP_PWM,
+    STOP_VELOCITY,
     Decoder,
     MessageType,
     MotorSensorData,
@@ -28,19 +31,20 @@ from odolab.robot.protocol import (
 
 
 class ScriptedTransport:
-    """Records what is sent; hands out queued datagrams on receive."""
+    """Records what is sent; hands out queued datagrams on receive, arrived at ``arrival``."""
 
-    def __init__(self) -> None:
+    def __init__(self, arrival: float = 0.0) -> None:
         self.sent: list[bytes] = []
         self.inbox: list[bytes] = []
+        self.arrival = arrival
         self.closed = False
 
     def send(self, data: bytes) -> None:
         self.sent.append(data)
 
-    def receive(self) -> list[bytes]:
+    def receive(self) -> list[tuple[bytes, float]]:
         out, self.inbox = self.inbox, []
-        return out
+        return [(d, self.arrival) for d in out]
 
     def close(self) -> None:
         self.closed = True
@@ -62,7 +66,7 @@ def test_connect_sends_ack_and_times_out() -> None:
 
 
 def test_ping_is_answered_and_sensor_parsed() -> None:
-    t = ScriptedTransport()
+    t = ScriptedTransport(arrival=2.5)  # arrived before the driver's clock (3.0) read it
     drv = JaguarDriver(t, SimClock(3.0))
     t.inbox = [
         encode_system(SystemCode.PING, des=0)
@@ -73,7 +77,7 @@ def test_ping_is_answered_and_sensor_parsed() -> None:
     assert drv.stats.pings_answered == 1
     assert decode_system(sent_packets(t)[0]) is SystemCode.ACK
     r = drv.latest
-    assert r is not None and (r.t, r.left_ticks, r.right_ticks) == (3.0, 101, 202)
+    assert r is not None and (r.t, r.left_ticks, r.right_ticks) == (2.5, 101, 202)
 
 
 def test_channel_map_and_encoder_sign() -> None:
@@ -117,9 +121,9 @@ def test_velocity_command_values_and_swapped_channels() -> None:
 
 
 def test_bad_config_and_url() -> None:
-    with pytest.raises(ProtocolError):
+    with pytest.raises(RobotConfigError):
         ChannelMap(left=0, right=0)
-    with pytest.raises(ProtocolError):
+    with pytest.raises(RobotConfigError):
         ChannelMap(left_encoder_sign=2)
     assert parse_robot_url("udp://127.0.0.1:10001") == ("127.0.0.1", 10001)
     with pytest.raises(RobotLinkError, match="udp://HOST:PORT"):
@@ -136,3 +140,42 @@ def test_close_stops_and_closes() -> None:
     drv.close()
     assert t.closed
     assert decode_motor_command(sent_packets(t)[-1]).values[:2] == (16384, 16384)
+
+
+@pytest.mark.parametrize("mode", [CommandMode.PWM, CommandMode.VELOCITY])
+@pytest.mark.parametrize("swap", [False, True])
+@pytest.mark.parametrize("signs", [(1, 1), (-1, 1), (1, -1), (-1, -1)])
+@pytest.mark.parametrize("vmax", [0.01, 1.0, 3.0])
+def test_stop_is_one_fixed_packet_whatever_the_settings(
+    mode: CommandMode, swap: bool, signs: tuple[int, int], vmax: float
+) -> None:
+    t = ScriptedTransport()
+    cfg = DriverConfig(
+        mode=mode,
+        max_wheel_speed=vmax,
+        channels=ChannelMap(
+            left=int(swap),
+            right=1 - int(swap),
+            left_motor_sign=signs[0],
+            right_motor_sign=signs[1],
+            left_encoder_sign=signs[1],
+            right_encoder_sign=signs[0],
+        ),
+    )
+    drv = JaguarDriver(t, SimClock(), cfg)
+    drv.set_wheel_speeds(0.7, -0.2)
+    drv.stop()
+    drv.close()
+    fixed = STOP_PWM if mode is CommandMode.PWM else STOP_VELOCITY
+    assert t.sent[1] == fixed and t.sent[2] == fixed
+    cmd = decode_motor_command(sent_packets(t)[1])
+    # hand-written values: PWM 16384 (stop) or velocity 0 on both track channels
+    assert cmd.values == ((16384, 16384) if mode is CommandMode.PWM else (0, 0)) + (None,) * 4
+
+
+def test_stop_packets_byte_for_byte() -> None:
+    # DES 01, SN 00, TYPE 06 / 1b, LEN 0c, values LE; CRC from the fact sheet's rule
+    assert STOP_PWM[:6] == bytes.fromhex("5e 02 01 00 06 0c")
+    assert STOP_PWM[6:18] == bytes.fromhex("0040 0040 0080 0080 0080 0080")
+    assert STOP_VELOCITY[4] == 27 and STOP_VELOCITY[6:10] == b"\x00\x00\x00\x00"
+    assert STOP_PWM[-2:] == STOP_VELOCITY[-2:] == b"\x5e\x0d"

@@ -17,10 +17,10 @@ import pytest
 from odolab.odometry import Odometry
 from odolab.params import PRESETS
 from odolab.robot.clock import RealClock
-from odolab.robot.driver import JaguarDriver, UdpTransport
+from odolab.robot.jaguar.board import BoardConfig, VirtualJaguar, VirtualJaguarServer
+from odolab.robot.jaguar.driver import JaguarDriver, UdpTransport
 from odolab.robot.loop import ControlLoop
 from odolab.robot.motions import Straight
-from odolab.robot.server import BoardConfig, VirtualJaguar, VirtualJaguarServer
 from odolab.robot.session import driver_config_for
 from odolab.sim.physics import VirtualRobot
 from odolab.sim.presets import TRUTH_PRESETS
@@ -73,6 +73,7 @@ def test_hand_written_client_drives_the_virtual_jaguar() -> None:
         t_end = time.monotonic() + 1.0
         last = first[1]
         while time.monotonic() < t_end:
+            sock.sendto(frame(0x01, 6, data), server.address)  # within the command timeout
             got = unframe(sock.recv(256))
             if got is not None and got[0] == 0x7B:
                 last = got[1]
@@ -149,7 +150,7 @@ class HandWrittenBoard:
 
 
 def test_driver_drives_a_hand_written_board() -> None:
-    from odolab.robot.driver import ChannelMap
+    from odolab.robot.jaguar.driver import ChannelMap
 
     with HandWrittenBoard() as board:
         clock = RealClock()

@@ -57,7 +57,7 @@ def test_pivot_moves_one_track() -> None:
 
 def test_square_in_simulation_closes_on_ideal_robot() -> None:
     trial, stats = run_motion_simulated(
-        Command(MotionKind.SQUARE, side=1.0, direction="cw", speed=0.5), "ideal", NOMINAL
+        Command(MotionKind.SQUARE, side=1.0, direction="cw", speed=0.5), NOMINAL, NOMINAL
     )
     p = trial.predicted
     # four sides and four -90 degree turns; each turn overshoots by at most the turn rate times

@@ -6,10 +6,10 @@ import math
 
 import pytest
 
-from odolab.errors import ProtocolError
 from odolab.params import PRESETS
-from odolab.robot.plant import IdealPlant
-from odolab.robot.protocol import (
+from odolab.robot.errors import BoardConfigError
+from odolab.robot.jaguar.board import BoardConfig, Faults, VirtualJaguar
+from odolab.robot.jaguar.protocol import (
     Decoder,
     MessageType,
     SystemCode,
@@ -18,7 +18,7 @@ from odolab.robot.protocol import (
     encode_motor_command,
     encode_system,
 )
-from odolab.robot.server import BoardConfig, Faults, VirtualJaguar
+from odolab.robot.plant import IdealPlant
 
 from .conftest import FakePlant
 
@@ -53,6 +53,16 @@ def test_before_ack_only_pings_are_answered(fake_plant: FakePlant) -> None:
     assert p.des == 0 and decode_system(p) is SystemCode.ACK
 
 
+def resend(b: VirtualJaguar, cmd: bytes, until: float, every: float = 0.25) -> list:  # type: ignore[type-arg]
+    """Send ``cmd`` every ``every`` s (inside the 0.5 s command timeout) up to ``until``."""
+    out = []
+    n = round(until / every)
+    for k in range(n):
+        b.handle(cmd, PEER, k * every)
+        out += b.step((k + 1) * every)
+    return out
+
+
 def test_reports_at_ten_hz_after_ack(fake_plant: FakePlant) -> None:
     b = board(fake_plant)
     b.handle(ACK, PEER, 0.0)
@@ -65,9 +75,10 @@ def test_pwm_maps_to_speed_and_channels(fake_plant: FakePlant) -> None:
     b = board(fake_plant)
     b.handle(ACK, PEER, 0.0)
     # channel 0 (left) 24576 = half forward, channel 1 (right) 12288 = quarter reverse
-    b.handle(encode_motor_command(MessageType.PWM_ALL, [24576, 12288] + [None] * 4), PEER, 0.0)
+    cmd = encode_motor_command(MessageType.PWM_ALL, [24576, 12288] + [None] * 4)
+    b.handle(cmd, PEER, 0.0)
     assert fake_plant.commands[-1] == pytest.approx((0.5, -0.25))
-    s = sensors(b.step(2.0))
+    s = sensors(resend(b, cmd, 2.0))
     last = s[-1]
     # 2 s at 0.5 m/s over 1 mm per tick = 1000 counts; -0.25 m/s wraps below 0: 32768 - 500
     assert last.encoder_position == (1000, 32768 - 500)
@@ -105,8 +116,7 @@ def test_counters_wrap_at_15_bits() -> None:
     nominal = PRESETS["jaguar-lite"]
     b = VirtualJaguar(IdealPlant(nominal), BoardConfig.from_params(nominal))
     b.handle(ACK, PEER, 0.0)
-    b.handle(encode_motor_command(MessageType.PWM_ALL, [32767, 0] + [None] * 4), PEER, 0.0)
-    s = sensors(b.step(60.0))
+    s = sensors(resend(b, encode_motor_command(MessageType.PWM_ALL, [32767, 0] + [None] * 4), 60.0))
     assert all(0 <= r.encoder_position[0] < 32768 for r in s)
     dist = 60.0 * 32767 / 16384 - 60.0  # ~1 m/s * 60 s
     expected = math.floor(dist / nominal.left_metres_per_tick) % 32768
@@ -154,5 +164,5 @@ def test_delay_and_jitter_reorder(fake_plant: FakePlant) -> None:
 
 
 def test_bad_fault_config() -> None:
-    with pytest.raises(ProtocolError, match="probability"):
+    with pytest.raises(BoardConfigError, match="probability"):
         Faults(drop=1.5)

@@ -14,8 +14,10 @@ from odolab.cli import main
 from odolab.io import read_encoder_csv, read_trajectory_csv
 from odolab.odometry import integrate
 from odolab.params import PRESETS
+from odolab.robot.config import RunConfig
 from odolab.robot.plant import IdealPlant
 from odolab.robot.session import run_motion, run_motion_simulated, save_run
+from odolab.sim.plants import make_plant
 from odolab.trials import Command, MotionKind, TrialStatus
 
 NOMINAL = PRESETS["jaguar-lite"]
@@ -23,7 +25,10 @@ NOMINAL = PRESETS["jaguar-lite"]
 
 def test_twenty_pi_rotation_in_simulated_time_jaguar_lab() -> None:
     trial, stats = run_motion_simulated(
-        Command(MotionKind.ROTATION, angle=20 * math.pi, speed=0.5), "jaguar-lab", NOMINAL, seed=2
+        Command(MotionKind.ROTATION, angle=20 * math.pi, speed=0.5),
+        nominal=NOMINAL,
+        seed=2,
+        plant=make_plant("jaguar-lab", NOMINAL, seed=2),
     )
     assert trial.status is TrialStatus.AWAITING
     assert trial.predicted.heading >= 20 * math.pi
@@ -39,8 +44,11 @@ def test_twenty_pi_rotation_in_simulated_time_jaguar_lab() -> None:
 
 def test_real_time_run_on_loopback_is_saved(tmp_path: Path) -> None:
     run = run_motion(
-        Command(MotionKind.TRANSLATION, distance=0.3, speed=0.6), truth="ideal", settle=0.2
+        Command(MotionKind.TRANSLATION, distance=0.3, speed=0.6),
+        config=RunConfig(settle=0.2),
+        plant=lambda: make_plant("ideal", NOMINAL),
     )
+    assert run.stop_confirmed
     folder = save_run(run, tmp_path / "run")
     enc = read_encoder_csv(folder / "encoders.csv", modulus=NOMINAL.encoder_modulus)
     traj = integrate(enc.t, enc.left_ticks, enc.right_ticks, NOMINAL)
@@ -95,7 +103,8 @@ def test_cli_zero_motion_is_refused_before_driving(
     code = main(["robot", *args, "--quiet", "--out", str(out), "--db", str(tmp_path / "l.db")])
     assert code == 1
     err = capsys.readouterr().err
-    assert "other than 0" in err or "positive number of Hz" in err
+    option = [a for a in args if a.startswith("--")][-1]
+    assert err.startswith(f"odolab: error: {option} is ") and err.count("\n") == 1
     assert not out.exists() and not (tmp_path / "l.db").exists()  # nothing driven or recorded
 
 
@@ -141,7 +150,7 @@ def test_interrupted_run_is_saved_and_robot_stopped(tmp_path: Path) -> None:
     with pytest.raises(KeyboardInterrupt):
         run_motion(
             Command(MotionKind.TRANSLATION, distance=2.0, speed=0.5),
-            truth="ideal",
+            plant=lambda: make_plant("ideal", NOMINAL),
             on_cycle=ctrl_c,
             save_to=tmp_path / "partial",
         )

@@ -7,7 +7,6 @@ so that the measured pose can be entered afterwards.
 
 from __future__ import annotations
 
-import inspect
 import math
 from datetime import UTC, datetime
 from enum import StrEnum
@@ -19,7 +18,9 @@ import typer
 from odolab.cli._apps import robot_app
 
 if TYPE_CHECKING:
+    from odolab.robot.config import RunConfig
     from odolab.robot.loop import CycleInfo
+    from odolab.robot.session import AbortReport
     from odolab.trials import Command
 
 __all__: list[str] = []
@@ -43,10 +44,12 @@ class TrackChoice(StrEnum):
 RobotOpt = Annotated[
     str | None,
     typer.Option(
-        "--robot", help="udp://HOST:PORT of the board; default: a virtual Jaguar on loopback."
+        "--robot",
+        help="udp://HOST:PORT of a Jaguar board, or sim:// (the default) for a virtual Jaguar "
+        "on loopback.",
     ),
 ]
-RateOpt = Annotated[float, typer.Option("--rate", help="Control loop rate, Hz.")]
+RateOpt = Annotated[float, typer.Option("--rate", help="Control loop rate, Hz (5..1000).")]
 ParamsOpt = Annotated[
     str, typer.Option("--params", "-p", help="Nominal parameters: TOML file or preset name.")
 ]
@@ -61,7 +64,32 @@ DecelOpt = Annotated[
     ),
 ]
 WatchdogOpt = Annotated[
-    float, typer.Option("--watchdog", help="Stop when no sensor data arrives for this many s.")
+    float,
+    typer.Option(
+        "--watchdog", help="Stop when no sensor data has arrived for this many s (0.05..2)."
+    ),
+]
+LinkTimeoutOpt = Annotated[
+    float,
+    typer.Option(
+        "--link-timeout",
+        help="Give up (robot stopped, exit 1, partial run saved) after no sensor data for this "
+        "many s (>= --watchdog, <= 60).",
+    ),
+]
+StallTimeoutOpt = Annotated[
+    float,
+    typer.Option(
+        "--stall-timeout",
+        help="Give up when the wheels are driven but the encoders do not move for this many s.",
+    ),
+]
+CommandTimeoutOpt = Annotated[
+    float,
+    typer.Option(
+        "--command-timeout",
+        help="Virtual Jaguar only: its motors stop when no motor command came for this many s.",
+    ),
 ]
 OutOpt = Annotated[
     Path | None,
@@ -92,8 +120,21 @@ LeftSignOpt = Annotated[
 RightSignOpt = Annotated[
     int, typer.Option("--right-encoder-sign", help="-1 if the right counter counts down forward.")
 ]
+LeftMotorOpt = Annotated[
+    int,
+    typer.Option(
+        "--left-motor-sign", help="-1 if a positive command drives the left track backward."
+    ),
+]
+RightMotorOpt = Annotated[
+    int,
+    typer.Option(
+        "--right-motor-sign", help="-1 if a positive command drives the right track backward."
+    ),
+]
 MaxSpeedOpt = Annotated[
-    float, typer.Option("--max-wheel-speed", help="m/s at full PWM (and the speed clip).")
+    float,
+    typer.Option("--max-wheel-speed", help="m/s at full PWM, and the speed clip (0 < v <= 3)."),
 ]
 QuietOpt = Annotated[bool, typer.Option("--quiet", "-q", help="No live view.")]
 RealtimeOpt = Annotated[
@@ -123,66 +164,79 @@ def _live_table(info: CycleInfo, rate: float, target: str) -> Any:
     return table
 
 
+def _confirm_line(confirmed: bool) -> str:
+    if confirmed:
+        return "robot stopped (its sensor data confirms it)"
+    return (
+        "stop commanded, but the robot's sensor data does not confirm that it stopped: "
+        "CHECK THE ROBOT"
+    )
+
+
 def _run(
     command: Command,
+    config: RunConfig,
     *,
     robot: str | None,
-    rate: float,
     params: str,
-    mode: ModeChoice,
-    decel: float,
-    watchdog: float,
     out: Path | None,
     db: Path | None,
     truth: str,
     terrain: str,
     seed: int,
-    left_channel: int,
-    right_channel: int,
-    left_encoder_sign: int,
-    right_encoder_sign: int,
-    max_wheel_speed: float,
     quiet: bool,
     realtime: bool,
 ) -> None:
+    """Validate everything, then drive ``command`` with ``config``; nothing is sent before."""
     from rich.console import Console
     from rich.live import Live
 
+    from odolab.errors import RobotLinkError
     from odolab.params import load_params
-    from odolab.robot.driver import ChannelMap, CommandMode
-    from odolab.robot.motions import motion_from_command
-    from odolab.robot.session import driver_config_for, run_motion
+    from odolab.robot.config import check_motion
+    from odolab.robot.registry import check_robot_url
+    from odolab.robot.session import run_motion
 
-    if not (math.isfinite(rate) and rate > 0):
-        from odolab.errors import SimError
-
-        raise SimError(f"--rate is {rate:g}; expected a positive number of Hz")
+    url = check_robot_url(robot)
     nominal = load_params(params)
-    config = driver_config_for(
-        nominal,
-        channels=ChannelMap(
-            left=left_channel,
-            right=right_channel,
-            left_encoder_sign=left_encoder_sign,
-            right_encoder_sign=right_encoder_sign,
-        ),
-        mode=CommandMode(mode.value),
-        max_wheel_speed=max_wheel_speed,
-    )
-    motion = motion_from_command(command, decel=decel, turn_decel=decel)
+    check_motion(command, config, nominal)
+    plant = None
+    if url.startswith("sim:"):
+        from odolab.sim.plants import make_plant
+        from odolab.sim.presets import TRUTH_PRESETS
+        from odolab.sim.terrains import TERRAINS
+
+        if truth not in TRUTH_PRESETS:
+            from odolab.robot.errors import RobotConfigError
+
+            raise RobotConfigError(
+                f"--truth is {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}"
+            )
+        if terrain not in TERRAINS:
+            from odolab.robot.errors import RobotConfigError
+
+            raise RobotConfigError(
+                f"--terrain is {terrain!r}; expected one of {', '.join(TERRAINS)}"
+            )
+
+        def plant() -> Any:
+            return make_plant(truth, nominal, terrain, seed=seed)
+
     console = Console(stderr=True)
     target = command.describe()
     events: list[str] = []
 
     def on_event(t: float, message: str) -> None:
         events.append(f"t={t:.2f} s: {message}")
+        if quiet:  # no live view: say it at once, a lost link must not be silent
+            typer.echo(events[-1], err=True)
 
     live = Live(console=console, refresh_per_second=8, transient=False) if not quiet else None
-    every = max(1, round(rate / 8))
+    every = max(1, round(config.rate / 8))
 
     def on_cycle(info: CycleInfo) -> None:
         if live is not None and (info.index % every == 0 or not info.link_ok):
-            live.update(_live_table(info, rate, target))
+            live.update(_live_table(info, config.rate, target))
 
     notebook = None
     if db is not None:  # open (create, migrate) the notebook before driving: refuse a bad one now
@@ -193,43 +247,46 @@ def _run(
         datetime.now(UTC).strftime("%Y%m%dT%H%M%S") + f"-{command.kind.value}"
     )
     if folder.exists() and not folder.is_dir():
-        from odolab.errors import SimError
+        from odolab.robot.errors import RobotConfigError
 
         # refuse before driving: a run that cannot be saved would be lost
-        raise SimError(f"{folder}: is a file; expected a folder for the run (--out)")
+        raise RobotConfigError(f"{folder}: is a file; expected a folder for the run (--out)")
+
+    def on_abort(report: AbortReport) -> None:
+        nonlocal live
+        if live is not None:
+            live.stop()
+            live = None
+        if not quiet:
+            for line in events:
+                typer.echo(line, err=True)
+        typer.echo(_confirm_line(report.stop_confirmed), err=True)
+        if report.saved_to is not None:
+            typer.echo(f"the partial run is saved to {report.saved_to}", err=True)
+
     if live is not None:
         live.start()
     try:
         run = run_motion(
             command,
-            robot=robot,
+            config=config,
+            robot=url,
             params=nominal,
-            rate=rate,
-            motion=motion,
-            driver_config=config,
-            watchdog_timeout=watchdog,
-            truth=truth,
-            terrain=terrain,
+            plant=plant,
             seed=seed,
+            terrain=terrain,
             on_cycle=on_cycle,
             on_event=on_event,
             realtime=realtime,
             save_to=folder,
+            on_abort=on_abort,
         )
-    except BaseException:
-        if live is not None:
-            live.stop()
-            live = None
-        for line in events:
-            typer.echo(line, err=True)
-        if (folder / "run.json").exists():
-            typer.echo(f"robot stopped; the partial run is saved to {folder}", err=True)
-        raise
     finally:
         if live is not None:
             live.stop()
-    for line in events:
-        typer.echo(line, err=True)
+    if not quiet:
+        for line in events:
+            typer.echo(line, err=True)
     p = run.trial.predicted
     typer.echo(
         f"{target} on {run.robot}: predicted x={p.x:.4f} m y={p.y:.4f} m "
@@ -247,20 +304,50 @@ def _run(
             f"recorded in {db} as {run.trial.trial_id}; enter the measurement with "
             f"'odolab trials measure {run.trial.trial_id} --db {db}'"
         )
+    if not run.stop_confirmed:
+        raise RobotLinkError(
+            "the run finished and stop was commanded, but the robot's sensor data does not "
+            "confirm that it stopped; check the robot"
+        )
+    typer.echo(_confirm_line(True), err=True)
 
 
-def _run_options(values: dict[str, Any]) -> dict[str, Any]:
-    """The options every motion command passes on to :func:`_run`, taken from its arguments."""
-    names = list(inspect.signature(_run).parameters)[1:]  # all but the command
-    return {name: values[name] for name in names}
+def _config(
+    *,
+    rate: float,
+    mode: ModeChoice,
+    max_wheel_speed: float,
+    watchdog: float,
+    link_timeout: float,
+    stall_timeout: float,
+    command_timeout: float,
+    decel: float,
+    left_channel: int,
+    right_channel: int,
+    left_encoder_sign: int,
+    right_encoder_sign: int,
+    left_motor_sign: int,
+    right_motor_sign: int,
+) -> RunConfig:
+    """The validated run configuration of the shared options (refused here, before driving)."""
+    from odolab.robot.config import CommandMode, RunConfig
 
-
-def _check_nonzero(option: str, value: float) -> None:
-    """A zero (or non-finite) motion would record an empty trial: refuse it before connecting."""
-    from odolab.errors import SimError
-
-    if not math.isfinite(value) or value == 0:
-        raise SimError(f"{option} is {value:g}; expected a finite number other than 0")
+    return RunConfig(
+        rate=rate,
+        mode=CommandMode(mode.value),
+        max_wheel_speed=max_wheel_speed,
+        watchdog=watchdog,
+        link_timeout=link_timeout,
+        stall_timeout=stall_timeout,
+        command_timeout=command_timeout,
+        decel=decel,
+        left_channel=left_channel,
+        right_channel=right_channel,
+        left_encoder_sign=left_encoder_sign,
+        right_encoder_sign=right_encoder_sign,
+        left_motor_sign=left_motor_sign,
+        right_motor_sign=right_motor_sign,
+    )
 
 
 @robot_app.command("rotate")
@@ -275,6 +362,9 @@ def rotate_cmd(
     mode: ModeOpt = ModeChoice.pwm,
     decel: DecelOpt = 0.0,
     watchdog: WatchdogOpt = 0.5,
+    link_timeout: LinkTimeoutOpt = 5.0,
+    stall_timeout: StallTimeoutOpt = 3.0,
+    command_timeout: CommandTimeoutOpt = 0.5,
     out: OutOpt = None,
     db: DbOpt = None,
     truth: TruthOpt = "jaguar-lab",
@@ -284,6 +374,8 @@ def rotate_cmd(
     right_channel: RightChOpt = 1,
     left_encoder_sign: LeftSignOpt = 1,
     right_encoder_sign: RightSignOpt = 1,
+    left_motor_sign: LeftMotorOpt = 1,
+    right_motor_sign: RightMotorOpt = 1,
     max_wheel_speed: MaxSpeedOpt = 1.0,
     quiet: QuietOpt = False,
     realtime: RealtimeOpt = True,
@@ -291,9 +383,18 @@ def rotate_cmd(
     """Rotate in place by TURNS full turns (2*pi each), stopping when odometry says so."""
     from odolab.trials import Command, MotionKind
 
-    _check_nonzero("--turns", turns)
     cmd = Command(MotionKind.ROTATION, angle=2.0 * math.pi * turns, speed=speed)
-    _run(cmd, **_run_options(locals()))
+    config = _config(
+        rate=rate, mode=mode, max_wheel_speed=max_wheel_speed, watchdog=watchdog,
+        link_timeout=link_timeout, stall_timeout=stall_timeout, command_timeout=command_timeout,
+        decel=decel, left_channel=left_channel, right_channel=right_channel,
+        left_encoder_sign=left_encoder_sign, right_encoder_sign=right_encoder_sign,
+        left_motor_sign=left_motor_sign, right_motor_sign=right_motor_sign,
+    )  # fmt: skip
+    _run(
+        cmd, config, robot=robot, params=params, out=out, db=db, truth=truth, terrain=terrain,
+        seed=seed, quiet=quiet, realtime=realtime,
+    )  # fmt: skip
 
 
 @robot_app.command("drive")
@@ -308,6 +409,9 @@ def drive_cmd(
     mode: ModeOpt = ModeChoice.pwm,
     decel: DecelOpt = 0.0,
     watchdog: WatchdogOpt = 0.5,
+    link_timeout: LinkTimeoutOpt = 5.0,
+    stall_timeout: StallTimeoutOpt = 3.0,
+    command_timeout: CommandTimeoutOpt = 0.5,
     out: OutOpt = None,
     db: DbOpt = None,
     truth: TruthOpt = "jaguar-lab",
@@ -317,6 +421,8 @@ def drive_cmd(
     right_channel: RightChOpt = 1,
     left_encoder_sign: LeftSignOpt = 1,
     right_encoder_sign: RightSignOpt = 1,
+    left_motor_sign: LeftMotorOpt = 1,
+    right_motor_sign: RightMotorOpt = 1,
     max_wheel_speed: MaxSpeedOpt = 1.0,
     quiet: QuietOpt = False,
     realtime: RealtimeOpt = True,
@@ -324,9 +430,18 @@ def drive_cmd(
     """Drive straight DISTANCE m (negative = reverse), stopping when odometry says so."""
     from odolab.trials import Command, MotionKind
 
-    _check_nonzero("--distance", distance)
     cmd = Command(MotionKind.TRANSLATION, distance=distance, speed=speed)
-    _run(cmd, **_run_options(locals()))
+    config = _config(
+        rate=rate, mode=mode, max_wheel_speed=max_wheel_speed, watchdog=watchdog,
+        link_timeout=link_timeout, stall_timeout=stall_timeout, command_timeout=command_timeout,
+        decel=decel, left_channel=left_channel, right_channel=right_channel,
+        left_encoder_sign=left_encoder_sign, right_encoder_sign=right_encoder_sign,
+        left_motor_sign=left_motor_sign, right_motor_sign=right_motor_sign,
+    )  # fmt: skip
+    _run(
+        cmd, config, robot=robot, params=params, out=out, db=db, truth=truth, terrain=terrain,
+        seed=seed, quiet=quiet, realtime=realtime,
+    )  # fmt: skip
 
 
 @robot_app.command("pivot")
@@ -344,6 +459,9 @@ def pivot_cmd(
     mode: ModeOpt = ModeChoice.pwm,
     decel: DecelOpt = 0.0,
     watchdog: WatchdogOpt = 0.5,
+    link_timeout: LinkTimeoutOpt = 5.0,
+    stall_timeout: StallTimeoutOpt = 3.0,
+    command_timeout: CommandTimeoutOpt = 0.5,
     out: OutOpt = None,
     db: DbOpt = None,
     truth: TruthOpt = "jaguar-lab",
@@ -353,6 +471,8 @@ def pivot_cmd(
     right_channel: RightChOpt = 1,
     left_encoder_sign: LeftSignOpt = 1,
     right_encoder_sign: RightSignOpt = 1,
+    left_motor_sign: LeftMotorOpt = 1,
+    right_motor_sign: RightMotorOpt = 1,
     max_wheel_speed: MaxSpeedOpt = 1.0,
     quiet: QuietOpt = False,
     realtime: RealtimeOpt = True,
@@ -360,9 +480,18 @@ def pivot_cmd(
     """Pivot on one track by DEGREES, stopping when odometry says so."""
     from odolab.trials import Command, MotionKind
 
-    _check_nonzero("--degrees", degrees)
     cmd = Command(MotionKind.PIVOT, angle=math.radians(degrees), direction=held.value, speed=speed)
-    _run(cmd, **_run_options(locals()))
+    config = _config(
+        rate=rate, mode=mode, max_wheel_speed=max_wheel_speed, watchdog=watchdog,
+        link_timeout=link_timeout, stall_timeout=stall_timeout, command_timeout=command_timeout,
+        decel=decel, left_channel=left_channel, right_channel=right_channel,
+        left_encoder_sign=left_encoder_sign, right_encoder_sign=right_encoder_sign,
+        left_motor_sign=left_motor_sign, right_motor_sign=right_motor_sign,
+    )  # fmt: skip
+    _run(
+        cmd, config, robot=robot, params=params, out=out, db=db, truth=truth, terrain=terrain,
+        seed=seed, quiet=quiet, realtime=realtime,
+    )  # fmt: skip
 
 
 @robot_app.command("square")
@@ -378,6 +507,9 @@ def square_cmd(
     mode: ModeOpt = ModeChoice.pwm,
     decel: DecelOpt = 0.0,
     watchdog: WatchdogOpt = 0.5,
+    link_timeout: LinkTimeoutOpt = 5.0,
+    stall_timeout: StallTimeoutOpt = 3.0,
+    command_timeout: CommandTimeoutOpt = 0.5,
     out: OutOpt = None,
     db: DbOpt = None,
     truth: TruthOpt = "jaguar-lab",
@@ -387,6 +519,8 @@ def square_cmd(
     right_channel: RightChOpt = 1,
     left_encoder_sign: LeftSignOpt = 1,
     right_encoder_sign: RightSignOpt = 1,
+    left_motor_sign: LeftMotorOpt = 1,
+    right_motor_sign: RightMotorOpt = 1,
     max_wheel_speed: MaxSpeedOpt = 1.0,
     quiet: QuietOpt = False,
     realtime: RealtimeOpt = True,
@@ -395,7 +529,17 @@ def square_cmd(
     from odolab.trials import Command, MotionKind
 
     cmd = Command(MotionKind.SQUARE, side=side, direction=direction.value, speed=speed)
-    _run(cmd, **_run_options(locals()))
+    config = _config(
+        rate=rate, mode=mode, max_wheel_speed=max_wheel_speed, watchdog=watchdog,
+        link_timeout=link_timeout, stall_timeout=stall_timeout, command_timeout=command_timeout,
+        decel=decel, left_channel=left_channel, right_channel=right_channel,
+        left_encoder_sign=left_encoder_sign, right_encoder_sign=right_encoder_sign,
+        left_motor_sign=left_motor_sign, right_motor_sign=right_motor_sign,
+    )  # fmt: skip
+    _run(
+        cmd, config, robot=robot, params=params, out=out, db=db, truth=truth, terrain=terrain,
+        seed=seed, quiet=quiet, realtime=realtime,
+    )  # fmt: skip
 
 
 @robot_app.command("sim-server")
@@ -409,34 +553,86 @@ def sim_server_cmd(
     terrain: TerrainOpt = "tile",
     seed: SeedOpt = 0,
     report_rate: Annotated[
-        float, typer.Option("--report-rate", help="Sensor packets per second.")
+        float, typer.Option("--report-rate", help="Sensor packets per second (0.5..1000).")
     ] = 10.0,
     max_wheel_speed: MaxSpeedOpt = 1.0,
+    command_timeout: Annotated[
+        float,
+        typer.Option(
+            "--command-timeout",
+            help="Motors stop when no valid motor command came for this many s (0.05..5).",
+        ),
+    ] = 0.5,
     drop: Annotated[float, typer.Option("--drop", help="Probability of dropping a packet.")] = 0.0,
     jitter: Annotated[
         float, typer.Option("--jitter", help="Random extra delay up to this many s.")
     ] = 0.0,
+    silent_after: Annotated[
+        float | None,
+        typer.Option(
+            "--silent-after", help="Fault: send nothing from this many s after the first ACK."
+        ),
+    ] = None,
+    trace: Annotated[
+        Path | None,
+        typer.Option(
+            "--trace",
+            help="Append a line per wheel-speed change: host monotonic time (s), left and "
+            "right speed (m/s), why.",
+        ),
+    ] = None,
 ) -> None:
-    """Run a virtual Jaguar board (UDP) until Ctrl-C."""
+    """Run a virtual Jaguar board (UDP) until Ctrl-C (or SIGTERM)."""
+    import signal
+
     from odolab.params import load_params
-    from odolab.robot.plant import make_plant
-    from odolab.robot.server import BoardConfig, Faults, VirtualJaguar, VirtualJaguarServer
+    from odolab.robot.jaguar.board import (
+        BoardConfig,
+        Faults,
+        VirtualJaguar,
+        VirtualJaguarServer,
+    )
+    from odolab.sim.plants import make_plant
 
     nominal = load_params(params)
-    plant = make_plant(truth, nominal, terrain, seed=seed)
     board = BoardConfig.from_params(
-        nominal, report_rate=report_rate, max_wheel_speed=max_wheel_speed
+        nominal,
+        report_rate=report_rate,
+        max_wheel_speed=max_wheel_speed,
+        command_timeout=command_timeout,
     )
-    jaguar = VirtualJaguar(plant, board, faults=Faults(drop=drop, jitter=jitter), seed=seed)
+    faults = Faults(drop=drop, jitter=jitter, silent_after=silent_after)
+    plant = make_plant(truth, nominal, terrain, seed=seed)
+    trace_file = trace.open("a", encoding="utf-8") if trace is not None else None
+
+    def on_speeds(t: float, left: float, right: float, why: str) -> None:
+        if trace_file is not None:
+            trace_file.write(f"{t:.6f} {left:.6f} {right:.6f} {why.replace(' ', '-')}\n")
+            trace_file.flush()
+
+    jaguar = VirtualJaguar(plant, board, faults=faults, seed=seed, on_speeds=on_speeds)
     server = VirtualJaguarServer(jaguar, host, port)
     h, p = server.address
     typer.echo(f"virtual Jaguar ({truth}) listening on udp://{h}:{p}; Ctrl-C to stop", err=True)
+
+    def on_term(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, on_term)
     try:
         server.serve_forever()
     except KeyboardInterrupt:
         pass
     finally:
         server.close()
+        if trace_file is not None:
+            st = jaguar.stats
+            trace_file.write(
+                f"# received {st.received} commands {st.commands} ignored {st.ignored_commands} "
+                f"rejected_acks {st.rejected_acks} takeovers {st.takeovers} "
+                f"command_timeouts {st.command_timeouts}\n"
+            )
+            trace_file.close()
         pose = plant.true_pose
         typer.echo(
             f"true pose: x={pose.x:.4f} m y={pose.y:.4f} m heading={pose.heading:.4f} rad", err=True

@@ -1,22 +1,30 @@
-"""odolab.robot: the Jaguar link (protocol codec, UDP driver, virtual Jaguar board), the fixed-rate
-control loop with its watchdog, and motions driven by odometry.
+"""odolab.robot: driving a robot by odometry, safely.
 
-See docs/robot.md for the command line and the protocol choices.
+The control loop with its watchdog (:mod:`.loop`) and the motions (:mod:`.motions`) know a robot
+only through the :class:`Driver` interface (:mod:`.interface`); the ``--robot`` URL picks a link
+from :mod:`.registry` (``udp://`` a Jaguar board, ``sim://`` a virtual one). The Jaguar's codec,
+driver and virtual board are one package, :mod:`.jaguar`. Every run has one validated
+:class:`RunConfig` (:mod:`.config`). The virtual board's physics come in through the
+:class:`Plant` interface (:mod:`.plant`), never by importing the simulator.
+
+See docs/robot.md for the command line, the protocol choices and the safety guarantees.
 """
 
 from __future__ import annotations
 
 from odolab.robot.clock import Clock, RealClock, SimClock
-from odolab.robot.driver import (
-    ChannelMap,
-    CommandMode,
-    DriverConfig,
-    EncoderReading,
-    JaguarDriver,
-    Transport,
-    UdpTransport,
-    parse_robot_url,
+from odolab.robot.config import CommandMode, RunConfig, check_motion
+from odolab.robot.errors import (
+    BoardConfigError,
+    CommandsIgnoredError,
+    LinkLostError,
+    MotionError,
+    NoSensorDataError,
+    PlantError,
+    RobotConfigError,
+    RobotUrlError,
 )
+from odolab.robot.interface import Driver, DriverStats, EncoderReading, Transport
 from odolab.robot.loop import ControlLoop, CycleInfo, CycleLog, LoopResult, LoopStats, Watchdog
 from odolab.robot.motions import (
     Motion,
@@ -27,49 +35,56 @@ from odolab.robot.motions import (
     motion_from_command,
     square,
 )
-from odolab.robot.plant import IdealPlant, Plant, make_plant
-from odolab.robot.server import (
-    BoardConfig,
-    Faults,
-    InProcessLink,
-    VirtualJaguar,
-    VirtualJaguarServer,
+from odolab.robot.plant import IdealPlant, Plant, PlantFactory
+from odolab.robot.registry import LINKS, RobotLink, VirtualSpec, open_link
+from odolab.robot.session import (
+    AbortReport,
+    RobotRun,
+    run_motion,
+    run_motion_simulated,
+    save_run,
 )
-from odolab.robot.session import RobotRun, run_motion, run_motion_simulated, save_run
 
 __all__ = [
-    "BoardConfig",
-    "ChannelMap",
+    "LINKS",
+    "AbortReport",
+    "BoardConfigError",
     "Clock",
     "CommandMode",
+    "CommandsIgnoredError",
     "ControlLoop",
     "CycleInfo",
     "CycleLog",
-    "DriverConfig",
+    "Driver",
+    "DriverStats",
     "EncoderReading",
-    "Faults",
     "IdealPlant",
-    "InProcessLink",
-    "JaguarDriver",
+    "LinkLostError",
     "LoopResult",
     "LoopStats",
     "Motion",
+    "MotionError",
     "MotionSequence",
+    "NoSensorDataError",
     "Pivot",
     "Plant",
+    "PlantError",
+    "PlantFactory",
     "RealClock",
+    "RobotConfigError",
+    "RobotLink",
     "RobotRun",
+    "RobotUrlError",
     "Rotate",
+    "RunConfig",
     "SimClock",
     "Straight",
     "Transport",
-    "UdpTransport",
-    "VirtualJaguar",
-    "VirtualJaguarServer",
+    "VirtualSpec",
     "Watchdog",
-    "make_plant",
+    "check_motion",
     "motion_from_command",
-    "parse_robot_url",
+    "open_link",
     "run_motion",
     "run_motion_simulated",
     "save_run",

@@ -11,6 +11,8 @@ import os
 import time
 from typing import Protocol
 
+from odolab.robot.errors import RobotConfigError
+
 __all__ = ["Clock", "RealClock", "SimClock", "set_realtime"]
 
 
@@ -35,7 +37,7 @@ class RealClock:
 
     def __init__(self, spin: float = 0.0) -> None:
         if spin < 0:
-            raise ValueError("spin must be >= 0")
+            raise RobotConfigError(f"clock spin is {spin!r} s, expected >= 0")
         self.spin = float(spin)
 
     def now(self) -> float:
@@ -66,7 +68,7 @@ class SimClock:
     def advance(self, dt: float) -> None:
         """Move time forward by ``dt`` seconds (e.g. the cost of work, in a test)."""
         if dt < 0:
-            raise ValueError("dt must be >= 0")
+            raise RobotConfigError(f"clock advance is {dt!r} s, expected >= 0")
         self._t += float(dt)
 
 

@@ -4,8 +4,11 @@ Cycle ``k`` is due at ``t0 + k / rate``: the loop sleeps until that deadline (ne
 the last wake-up"), so it does not drift; a late cycle runs at once and counts as an overrun. One
 cycle is: read what the board sent (update the encoder measurements), :meth:`Odometry.update`
 (predict the motion, update the global pose), log, then command the wheels. If no sensor packet
-arrived for ``watchdog_timeout`` seconds the link is declared lost and the loop commands stop
-every cycle until data returns. Any exception, Ctrl-C included, commands stop before it leaves.
+has ARRIVED (receive timestamp, not the time the loop read it) for ``watchdog_timeout`` seconds
+the link is declared lost and the loop commands stop every cycle until data returns: the first
+stop goes out within ``watchdog_timeout`` + one cycle of the last packet's arrival. Any
+exception, Ctrl-C included, commands stop before it leaves. The loop knows robots only through
+:class:`odolab.robot.interface.Driver`.
 """
 
 from __future__ import annotations
@@ -17,10 +20,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import RobotLinkError, SimError
 from odolab.odometry import Odometry
 from odolab.robot.clock import Clock
-from odolab.robot.driver import EncoderReading, JaguarDriver
+from odolab.robot.errors import CommandsIgnoredError, LinkLostError, RobotConfigError
+from odolab.robot.interface import Driver, EncoderReading
 from odolab.robot.motions import Motion
 from odolab.trajectory import Pose, Trajectory
 from odolab.trials import EncoderLog
@@ -37,21 +40,26 @@ __all__ = [
 
 
 class Watchdog:
-    """Declares the link lost when nothing was fed for ``timeout`` seconds."""
+    """Declares the link lost when nothing arrived for ``timeout`` seconds.
+
+    Fed with arrival times; expired at ``now >= last arrival + timeout`` (not ``>``: a cycle
+    that lands exactly on the bound already stops).
+    """
 
     def __init__(self, timeout: float = 0.5) -> None:
         if not (math.isfinite(timeout) and timeout > 0):
-            raise RobotLinkError(f"watchdog timeout is {timeout!r}, expected a positive number")
+            raise RobotConfigError(f"--watchdog is {timeout!r}; expected a positive number of s")
         self.timeout = float(timeout)
         self.last_feed: float | None = None
 
     def feed(self, t: float) -> None:
-        """Data arrived at ``t``."""
-        self.last_feed = t
+        """Data arrived at ``t`` (an older arrival than the last one changes nothing)."""
+        if self.last_feed is None or t > self.last_feed:
+            self.last_feed = t
 
     def expired(self, now: float) -> bool:
         """True when nothing arrived in the last ``timeout`` seconds (or ever)."""
-        return self.last_feed is None or now - self.last_feed > self.timeout
+        return self.last_feed is None or now - self.last_feed >= self.timeout
 
 
 @dataclass(frozen=True)
@@ -67,6 +75,7 @@ class CycleInfo:
     command: tuple[float, float]
     phase: str  #: "moving", "settling", "holding" or "link-lost"
     lateness: float  #: s past the deadline when the cycle woke
+    data_age: float = 0.0  #: s since the newest sensor packet ARRIVED, at this cycle's wake-up
 
 
 @dataclass
@@ -184,14 +193,14 @@ def _noop_event(t: float, message: str) -> None:
 
 
 class ControlLoop:
-    """Runs motions at a fixed rate over a :class:`JaguarDriver` with a streaming odometry.
+    """Runs motions at a fixed rate over a :class:`Driver` with a streaming odometry.
 
     ``on_cycle`` is called after every cycle; ``on_event(t, message)`` on link loss/return.
     """
 
     def __init__(
         self,
-        driver: JaguarDriver,
+        driver: Driver,
         odometry: Odometry,
         clock: Clock,
         *,
@@ -201,7 +210,7 @@ class ControlLoop:
         on_event: Callable[[float, str], None] | None = None,
     ) -> None:
         if not (math.isfinite(rate) and rate > 0):
-            raise SimError(f"loop rate is {rate!r}, expected a positive number of Hz")
+            raise RobotConfigError(f"--rate is {rate!r}; expected a positive number of Hz")
         self.driver = driver
         self.odometry = odometry
         self.clock = clock
@@ -233,13 +242,13 @@ class ControlLoop:
 
         Without a motion the loop holds the robot still (commanding stop every cycle) for
         ``max_duration`` s or ``max_cycles`` cycles. ``link_abort``: raise
-        :class:`RobotLinkError` (after commanding stop) when the link stays lost that long.
-        ``stall_timeout``: raise :class:`RobotLinkError` (after commanding stop) when the motion
+        :class:`LinkLostError` (after commanding stop) when the link stays lost that long.
+        ``stall_timeout``: raise :class:`CommandsIgnoredError` (after commanding stop) when the motion
         commands the wheels but, with sensor data arriving, the counters have not changed for
         that long (a stalled or lifted-off robot, or a board that ignores the commands).
         """
         if motion is None and max_duration is None and max_cycles is None:
-            raise SimError("a loop without a motion needs max_duration or max_cycles")
+            raise RobotConfigError("a loop without a motion needs max_duration or max_cycles")
         driver = self.driver
         clock = self.clock
         odo = self.odometry
@@ -289,10 +298,12 @@ class ControlLoop:
                         events.append((now - t0, msg))
                         self.on_event(now - t0, msg)
                     driver.stop()
-                    if link_abort is not None and now - lost_since >= link_abort:
-                        raise RobotLinkError(
-                            f"robot link lost for {now - lost_since:.2f} s (no sensor data); "
-                            "stopped and gave up"
+                    last = self.watchdog.last_feed
+                    silent = now - last if last is not None else now - t0
+                    if link_abort is not None and silent >= link_abort:
+                        raise LinkLostError(
+                            f"no sensor data from the robot for {silent:.2f} s (--link-timeout "
+                            f"{link_abort:g} s); stop commanded, gave up"
                         )
                     shown = "link-lost"
                 else:
@@ -304,7 +315,7 @@ class ControlLoop:
                     if phase == "moving":
                         assert motion is not None
                         if stall_timeout is not None and now - last_change > stall_timeout:
-                            raise RobotLinkError(
+                            raise CommandsIgnoredError(
                                 f"the robot's encoders have not moved for {stall_timeout:g} s "
                                 "while driving (stalled, or the board ignores the commands); "
                                 "stopped"
@@ -331,6 +342,8 @@ class ControlLoop:
                         command,
                         shown,
                         now - deadline,
+                        now
+                        - (self.watchdog.last_feed if self.watchdog.last_feed is not None else t0),
                     )
                 )
                 k += 1

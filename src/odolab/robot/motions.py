@@ -13,8 +13,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
-from odolab.errors import SimError
 from odolab.params import RobotParams
+from odolab.robot.errors import MotionError
 from odolab.trajectory import Pose
 from odolab.trials import Command, MotionKind
 
@@ -50,7 +50,7 @@ def _scale(remaining: float, decel: float, min_fraction: float) -> float:
 def _check_positive(name: str, value: float) -> float:
     v = float(value)
     if not (math.isfinite(v) and v > 0):
-        raise SimError(f"motion {name} is {value!r}, expected a positive number")
+        raise MotionError(f"motion {name} is {value!r}, expected a positive number")
     return v
 
 
@@ -68,7 +68,7 @@ class Rotate:
 
     def __post_init__(self) -> None:
         if not math.isfinite(self.angle):
-            raise SimError(f"rotation angle is {self.angle!r}, expected a finite number")
+            raise MotionError(f"rotation angle is {self.angle!r}, expected a finite number")
         _check_positive("speed", self.speed)
         self._target = 0.0
         self._half_track = 0.0
@@ -101,7 +101,7 @@ class Straight:
 
     def __post_init__(self) -> None:
         if not math.isfinite(self.distance):
-            raise SimError(f"distance is {self.distance!r}, expected a finite number")
+            raise MotionError(f"distance is {self.distance!r}, expected a finite number")
         _check_positive("speed", self.speed)
         self._origin = (0.0, 0.0)
         self._dir = (1.0, 0.0)
@@ -137,9 +137,9 @@ class Pivot:
 
     def __post_init__(self) -> None:
         if self.held not in ("left", "right"):
-            raise SimError(f"pivot held track is {self.held!r}, expected 'left' or 'right'")
+            raise MotionError(f"pivot held track is {self.held!r}, expected 'left' or 'right'")
         if not math.isfinite(self.angle):
-            raise SimError(f"pivot angle is {self.angle!r}, expected a finite number")
+            raise MotionError(f"pivot angle is {self.angle!r}, expected a finite number")
         _check_positive("speed", self.speed)
         self._target = 0.0
         self._track = 0.0
@@ -166,7 +166,7 @@ class MotionSequence:
 
     def __init__(self, motions: Sequence[Motion]) -> None:
         if not motions:
-            raise SimError("a motion sequence needs at least one motion")
+            raise MotionError("a motion sequence needs at least one motion")
         self.motions = list(motions)
         self._i = 0
         self._params: RobotParams | None = None
@@ -199,7 +199,7 @@ def square(
 ) -> MotionSequence:
     """The UMBmark square: four times (straight ``side`` m, turn 90 degrees in place)."""
     if direction not in ("cw", "ccw"):
-        raise SimError(f"square direction is {direction!r}, expected 'cw' or 'ccw'")
+        raise MotionError(f"square direction is {direction!r}, expected 'cw' or 'ccw'")
     _check_positive("side", side)
     quarter = 0.5 * math.pi if direction == "ccw" else -0.5 * math.pi
     steps: list[Motion] = []
@@ -226,7 +226,8 @@ def motion_from_command(
         if speed is not None
         else (
             command.speed
-            if command.kind in (MotionKind.TRANSLATION, MotionKind.SQUARE) and command.speed
+            if command.kind in (MotionKind.TRANSLATION, MotionKind.SQUARE)
+            and command.speed is not None
             else 0.3
         )
     )
@@ -235,7 +236,7 @@ def motion_from_command(
         if turn_speed is not None
         else (
             command.speed
-            if command.kind in (MotionKind.ROTATION, MotionKind.PIVOT) and command.speed
+            if command.kind in (MotionKind.ROTATION, MotionKind.PIVOT) and command.speed is not None
             else 0.5
         )
     )
@@ -254,4 +255,4 @@ def motion_from_command(
             decel=decel,
             turn_decel=turn_decel,
         )
-    raise SimError(f"cannot drive a {command.describe()!r} command by odometry")
+    raise MotionError(f"cannot drive a {command.describe()!r} command by odometry")

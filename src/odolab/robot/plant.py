@@ -1,22 +1,25 @@
 """What the virtual Jaguar board drives: a plant (the robot's physics), and a small ideal one.
 
-The board is written against :class:`Plant`, the agreed interface of
-``odolab.sim.physics.VirtualRobot`` (what :func:`make_plant` builds). :class:`IdealPlant` is an
-exact, slip-free, noise-free differential drive with wrapping encoders and arbitrary true
-parameters: a plant whose motion tests can compute by hand.
+The board is written against :class:`Plant`, an interface that the simulator's
+``odolab.sim.physics.VirtualRobot`` satisfies structurally; the robot stack never imports the
+simulator: a plant comes in from outside as a :data:`PlantFactory` (the CLI wires
+``odolab.sim.plants.make_plant`` in). :class:`IdealPlant` is an exact, slip-free, noise-free
+differential drive with wrapping encoders and arbitrary true parameters: a plant whose motion
+tests can compute by hand.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any, Protocol
 
-from odolab.errors import SimError
 from odolab.kinematics import body_motion, step_pose
 from odolab.params import RobotParams
+from odolab.robot.errors import PlantError
 from odolab.trajectory import Pose
 
-__all__ = ["IdealPlant", "Plant", "make_plant"]
+__all__ = ["IdealPlant", "Plant", "PlantFactory"]
 
 
 class Plant(Protocol):
@@ -54,6 +57,10 @@ class Plant(Protocol):
         ...
 
 
+#: Builds the plant of a virtual board (called once per run, in the board's thread or process).
+PlantFactory = Callable[[], Plant]
+
+
 class IdealPlant:
     """Exact differential drive with the given (true) parameters: no slip, no noise, no lag.
 
@@ -88,13 +95,13 @@ class IdealPlant:
 
     def set_wheel_speeds(self, left_mps: float, right_mps: float) -> None:
         if not (math.isfinite(left_mps) and math.isfinite(right_mps)):
-            raise SimError(f"wheel speeds must be finite, got {left_mps!r}, {right_mps!r}")
+            raise PlantError(f"wheel speeds must be finite, got {left_mps!r}, {right_mps!r}")
         self._vl = float(left_mps)
         self._vr = float(right_mps)
 
     def advance(self, duration: float) -> None:
         if duration < 0:
-            raise SimError(f"advance duration is {duration}, expected >= 0")
+            raise PlantError(f"advance duration is {duration}, expected >= 0")
         if duration == 0:
             return
         dl = self._vl * duration
@@ -117,26 +124,3 @@ class IdealPlant:
     def true_pose(self) -> Pose:
         theta = math.atan2(math.sin(self._h), math.cos(self._h))
         return Pose(self._t, self._x, self._y, theta, self._h)
-
-
-def make_plant(truth: Any, nominal: RobotParams, terrain: str = "tile", *, seed: int = 0) -> Plant:
-    """A plant for ``truth``: the simulator's :class:`odolab.sim.physics.VirtualRobot`.
-
-    ``truth`` is a name in ``odolab.sim.presets.TRUTH_PRESETS`` ("jaguar-lab", "ideal") or a
-    :class:`odolab.sim.physics.TrueParams`; a :class:`RobotParams` gives an :class:`IdealPlant`
-    with those (true) parameters instead.
-    """
-    if isinstance(truth, RobotParams):
-        return IdealPlant(truth)
-    from odolab.sim.physics import TrueParams, VirtualRobot
-    from odolab.sim.presets import TRUTH_PRESETS
-
-    if isinstance(truth, str):
-        if truth not in TRUTH_PRESETS:
-            raise SimError(
-                f"unknown truth preset {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}"
-            )
-        truth = TRUTH_PRESETS[truth]
-    if not isinstance(truth, TrueParams):
-        raise SimError(f"truth must be a preset name or TrueParams, got {type(truth).__name__}")
-    return VirtualRobot(truth, nominal, terrain, seed=seed)

@@ -1,8 +1,11 @@
 """One robot run end to end: connect, drive a command by odometry, return a trial; save it.
 
-:func:`run_motion` drives a robot over UDP (by default a virtual Jaguar started on loopback);
-:func:`run_motion_simulated` drives the same driver and loop in simulated time, in-process,
-so a 20*pi rotation takes a fraction of its real duration.
+:func:`run_motion` drives the robot the ``--robot`` URL names (:mod:`odolab.robot.registry`;
+by default a virtual Jaguar started on loopback) in real time; :func:`run_motion_simulated`
+drives the same driver and loop in simulated time, in-process, so a 20*pi rotation takes a
+fraction of its real duration. Both take one validated :class:`RunConfig`; the motion is checked
+(:func:`check_motion`) before anything is sent. After every run, finished or not, the driver
+commands stop until the robot's own sensor data confirms it (:attr:`RobotRun.stop_confirmed`).
 """
 
 from __future__ import annotations
@@ -10,9 +13,8 @@ from __future__ import annotations
 import contextlib
 import json
 import math
-import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -21,21 +23,19 @@ from odolab.errors import OdolabError
 from odolab.odometry import Odometry
 from odolab.params import PRESETS, RobotParams
 from odolab.robot.clock import Clock, RealClock, SimClock, set_realtime
-from odolab.robot.driver import DriverConfig, JaguarDriver, Transport, UdpTransport, parse_robot_url
+from odolab.robot.config import RunConfig, check_motion
+from odolab.robot.errors import RobotConfigError
+from odolab.robot.interface import Driver
+from odolab.robot.jaguar.driver import DriverConfig
 from odolab.robot.loop import ControlLoop, CycleInfo, LoopResult, LoopStats
 from odolab.robot.motions import Motion, motion_from_command
-from odolab.robot.plant import Plant, make_plant
-from odolab.robot.server import (
-    BoardConfig,
-    Faults,
-    InProcessLink,
-    VirtualJaguar,
-    VirtualJaguarServer,
-)
+from odolab.robot.plant import IdealPlant, Plant, PlantFactory
+from odolab.robot.registry import RobotLink, VirtualSpec, open_link
 from odolab.trajectory import Pose
-from odolab.trials import Command, Trial, TrialStatus
+from odolab.trials import Command, MotionKind, Trial, TrialStatus
 
 __all__ = [
+    "AbortReport",
     "RobotRun",
     "driver_config_for",
     "run_motion",
@@ -51,14 +51,25 @@ class RobotRun:
     trial: Trial
     loop: LoopResult
     robot: str  #: "udp://HOST:PORT", "virtual (udp://...)" or "simulated"
+    stop_confirmed: bool = True  #: the robot's sensor data showed it still after the run
+    config: RunConfig = field(default_factory=RunConfig)
 
     @property
     def stats(self) -> LoopStats:
         return self.loop.stats
 
 
+@dataclass(frozen=True, eq=False)
+class AbortReport:
+    """A run that failed part way: why, where the partial run went, whether the stop is known."""
+
+    error: BaseException
+    saved_to: Path | None
+    stop_confirmed: bool
+
+
 def driver_config_for(params: RobotParams, **changes: Any) -> DriverConfig:
-    """Driver settings whose velocity unit and counter modulus follow ``params``."""
+    """Jaguar driver settings whose velocity unit and counter modulus follow ``params``."""
     base: dict[str, Any] = {
         "left_metres_per_tick": params.left_metres_per_tick,
         "right_metres_per_tick": params.right_metres_per_tick,
@@ -97,46 +108,79 @@ def _trial(
     )
 
 
-def _drive(
-    transport: Transport,
-    clock: Clock,
+def confirm_timeout(config: RunConfig) -> float:
+    """How long to wait for the robot's data to confirm a stop: 2 watchdog times, >= 1 s."""
+    return max(1.0, 2.0 * config.watchdog)
+
+
+def _drive_link(
+    link: RobotLink,
     command: Command,
-    motion: Motion | None,
+    motion: Motion,
     params: RobotParams,
-    config: DriverConfig,
-    rate: float,
-    watchdog_timeout: float,
-    settle: float,
+    config: RunConfig,
+    clock: Clock,
+    *,
+    terrain: str,
+    campaign: str,
     max_duration: float | None,
     on_cycle: Callable[[CycleInfo], None] | None,
     on_event: Callable[[float, str], None] | None,
-    realtime: bool = False,
-    on_abort: Callable[[LoopResult], object] | None = None,
-) -> LoopResult:
-    driver = JaguarDriver(transport, clock, config)
+    realtime: bool,
+    save_to: str | Path | None,
+    on_abort: Callable[[AbortReport], object] | None,
+) -> RobotRun:
+    driver: Driver = link.driver
     rt = realtime and set_realtime(True)
     loop: ControlLoop | None = None
     try:
-        loop = ControlLoop(
-            driver,
-            Odometry(params),
-            clock,
-            rate=rate,
-            watchdog_timeout=watchdog_timeout,
-            on_cycle=on_cycle,
-            on_event=on_event,
+        try:
+            loop = ControlLoop(
+                driver,
+                Odometry(params),
+                clock,
+                rate=config.rate,
+                watchdog_timeout=config.watchdog,
+                on_cycle=on_cycle,
+                on_event=on_event,
+            )
+            result = loop.run(
+                motion,
+                settle=config.settle,
+                max_duration=max_duration,
+                link_abort=config.link_timeout,
+                stall_timeout=config.stall_timeout,
+            )
+        except BaseException as err:
+            confirmed = driver.confirm_stopped(confirm_timeout(config))
+            saved: Path | None = None
+            if loop is not None and loop.partial is not None and save_to is not None:
+                # keep what was recorded before the failure; a failure to save must not hide it
+                with contextlib.suppress(OSError, OdolabError):
+                    run = RobotRun(
+                        _trial(command, loop.partial, params, terrain, link.true_pose(), campaign),
+                        loop.partial,
+                        link.description,
+                        confirmed,
+                        config,
+                    )
+                    saved = save_run(run, save_to)
+            if on_abort is not None:
+                on_abort(AbortReport(err, saved, confirmed))
+            raise
+        confirmed = driver.confirm_stopped(confirm_timeout(config))
+        run = RobotRun(
+            _trial(command, result, params, terrain, link.true_pose(), campaign),
+            result,
+            link.description,
+            confirmed,
+            config,
         )
-        return loop.run(
-            motion or motion_from_command(command), settle=settle, max_duration=max_duration
-        )
-    except BaseException:
-        if loop is not None and loop.partial is not None and on_abort is not None:
-            # keep what was recorded before the failure; a failure to save must not hide it
-            with contextlib.suppress(OSError, OdolabError):
-                on_abort(loop.partial)
-        raise
+        if save_to is not None:
+            save_run(run, save_to)
+        return run
     finally:
-        driver.close()
+        link.close()
         if rt:
             set_realtime(False)
 
@@ -144,77 +188,50 @@ def _drive(
 def run_motion(
     command: Command,
     *,
+    config: RunConfig | None = None,
     robot: str | None = None,
     params: RobotParams | None = None,
-    rate: float = 20.0,
     motion: Motion | None = None,
-    driver_config: DriverConfig | None = None,
-    watchdog_timeout: float = 0.5,
-    settle: float = 0.5,
-    max_duration: float | None = None,
-    truth: Any = "jaguar-lab",
-    terrain: str = "tile",
+    plant: PlantFactory | None = None,
+    faults: object | None = None,
     seed: int = 0,
-    board: BoardConfig | None = None,
-    faults: Faults | None = None,
+    report_rate: float = 10.0,
+    terrain: str = "tile",
     campaign: str = "robot",
+    max_duration: float | None = None,
     clock: Clock | None = None,
     on_cycle: Callable[[CycleInfo], None] | None = None,
     on_event: Callable[[float, str], None] | None = None,
     realtime: bool = False,
     save_to: str | Path | None = None,
+    on_abort: Callable[[AbortReport], object] | None = None,
 ) -> RobotRun:
-    """Drive ``command`` by odometry over UDP in real time; return the run.
+    """Drive ``command`` by odometry in real time over the link ``robot`` names; return the run.
 
-    ``robot``: "udp://HOST:PORT" of a board; None starts a virtual Jaguar on 127.0.0.1 (an
-    OS-assigned port) whose plant is ``truth`` on ``terrain`` (see
-    :func:`odolab.robot.plant.make_plant`), and the trial then carries the true pose.
-    ``realtime``: run the loop thread in SCHED_FIFO where the OS allows it. ``save_to``: save the
-    run there (:func:`save_run`), also when it fails part way (Ctrl-C, lost link, stall): what
-    was recorded up to the failure is kept.
+    ``robot``: "udp://HOST:PORT" of a Jaguar board, or None / "sim://" for a virtual Jaguar on
+    127.0.0.1 whose plant ``plant()`` builds (default: an ideal robot with ``params``); the
+    trial then carries the true pose. ``config`` (default :class:`RunConfig()`) and the motion
+    are validated before anything is sent. ``save_to``: save the run there (:func:`save_run`),
+    also when it fails part way (Ctrl-C, lost link, stall); ``on_abort`` then hears where it
+    went and whether the robot's data confirmed the stop.
     """
+    config = config or RunConfig()
     params = params or PRESETS["jaguar-lite"]
-    config = driver_config or driver_config_for(params)
+    if motion is None:
+        check_motion(command, config, params)
+        motion = motion_from_command(command, decel=config.decel, turn_decel=config.decel)
     clock = clock or RealClock()
-
-    def finish(result: LoopResult, url: str, true_pose: Pose | None) -> RobotRun:
-        run = RobotRun(_trial(command, result, params, terrain, true_pose, campaign), result, url)
-        if save_to is not None:
-            save_run(run, save_to)
-        return run
-
-    if robot is not None:
-        host, port = parse_robot_url(robot)
-        result = _drive(
-            UdpTransport(host, port), clock, command, motion, params, config, rate,
-            watchdog_timeout, settle, max_duration, on_cycle, on_event, realtime,
-            lambda partial: finish(partial, robot, None),
-        )  # fmt: skip
-        return finish(result, robot, None)
-    plant = make_plant(truth, params, terrain, seed=seed)
-    jaguar = VirtualJaguar(
-        plant, board or BoardConfig.from_params(params), faults=faults, seed=seed
-    )
-    with VirtualJaguarServer(jaguar) as server:
-        host, port = server.address
-        url = f"virtual (udp://{host}:{port})"
-
-        def abort(partial: LoopResult) -> None:
-            time.sleep(0.05)  # let the board take the stop before reading the truth
-            finish(partial, url, server.call(lambda b: b.plant.true_pose))
-
-        result = _drive(
-            UdpTransport(host, port), clock, command, motion, params, config, rate,
-            watchdog_timeout, settle, max_duration, on_cycle, on_event, realtime, abort,
-        )  # fmt: skip
-        time.sleep(0.05)  # let the board take the final stop before reading the truth
-        true_pose = server.call(lambda b: b.plant.true_pose)
-    return finish(result, url, true_pose)
+    link = open_link(robot, config, params, clock, VirtualSpec(plant, faults, seed, report_rate))
+    return _drive_link(
+        link, command, motion, params, config, clock,
+        terrain=terrain, campaign=campaign, max_duration=max_duration, on_cycle=on_cycle,
+        on_event=on_event, realtime=realtime, save_to=save_to, on_abort=on_abort,
+    )  # fmt: skip
 
 
 def run_motion_simulated(
     motion: Command | Motion,
-    truth: Any = "jaguar-lab",
+    truth: object = None,
     nominal: RobotParams | None = None,
     terrain: str = "tile",
     seed: int = 0,
@@ -222,45 +239,51 @@ def run_motion_simulated(
     *,
     command: Command | None = None,
     plant: Plant | None = None,
-    driver_config: DriverConfig | None = None,
-    board: BoardConfig | None = None,
-    faults: Faults | None = None,
-    watchdog_timeout: float = 0.5,
-    settle: float = 0.5,
+    config: RunConfig | None = None,
+    faults: object | None = None,
+    report_rate: float = 10.0,
     max_duration: float | None = 3600.0,
     campaign: str = "sim",
     on_cycle: Callable[[CycleInfo], None] | None = None,
 ) -> tuple[Trial, LoopStats]:
     """Drive a command (or a motion) through the same driver and loop, in simulated time.
 
-    The virtual Jaguar board (over ``plant``, or ``make_plant(truth, nominal, terrain, seed)``)
-    is wired to the driver in-process; a :class:`SimClock` jumps from deadline to deadline.
-    Returns the trial (predicted pose from the loop, true pose from the plant) and the loop
-    statistics (whose timing errors are zero: simulated time is exact).
+    A virtual Jaguar over ``plant`` is wired to the driver in-process; a :class:`SimClock`
+    jumps from deadline to deadline. Without a plant, ``truth`` must be a :class:`RobotParams`
+    (an :class:`IdealPlant` with those true parameters) or None (ideal, nominal); build a
+    simulator plant with ``odolab.sim.plants.make_plant``. ``rate`` is used when ``config`` is
+    not given. Returns the trial (predicted pose from the loop, true pose from the plant) and
+    the loop statistics (whose timing errors are zero: simulated time is exact).
     """
+    from odolab.robot.jaguar.links import open_in_process
+
     nominal = nominal or PRESETS["jaguar-lite"]
+    config = config or RunConfig(rate=rate)
     if isinstance(motion, Command):
         command = motion
-        mot: Motion = motion_from_command(command)
+        mot: Motion = motion_from_command(command, decel=config.decel, turn_decel=config.decel)
     else:
         mot = motion
         if command is None:
-            from odolab.trials import MotionKind
-
             command = Command(MotionKind.FREE)
-    plant = plant or make_plant(truth, nominal, terrain, seed=seed)
-    jaguar = VirtualJaguar(
-        plant, board or BoardConfig.from_params(nominal), faults=faults, seed=seed
-    )
+    if plant is None:
+        if truth is None or isinstance(truth, RobotParams):
+            plant = IdealPlant(truth or nominal)
+        else:
+            raise RobotConfigError(
+                f"run_motion_simulated got truth {truth!r} without a plant; pass plant= "
+                "(odolab.sim.plants.make_plant(...)) or truth as RobotParams"
+            )
     clock = SimClock(plant.time)
-    link = InProcessLink(jaguar, clock.now)
-    config = driver_config or driver_config_for(nominal)
-    result = _drive(
-        link, clock, command, mot, nominal, config, rate, watchdog_timeout, settle, max_duration,
-        on_cycle, None,
+    link = open_in_process(
+        config, nominal, clock, plant, faults=faults, seed=seed, report_rate=report_rate
+    )
+    run = _drive_link(
+        link, command, mot, nominal, config, clock,
+        terrain=terrain, campaign=campaign, max_duration=max_duration, on_cycle=on_cycle,
+        on_event=None, realtime=False, save_to=None, on_abort=None,
     )  # fmt: skip
-    trial = _trial(command, result, nominal, terrain, plant.true_pose, campaign)
-    return trial, result.stats
+    return run.trial, run.stats
 
 
 def _jsonable(obj: Any) -> Any:
@@ -290,6 +313,8 @@ def save_run(run: RobotRun, folder: str | Path) -> Path:
         "describe": trial.command.describe(),
         "params": trial.params.to_dict(),
         "completed": run.loop.completed,
+        "stop_confirmed": run.stop_confirmed,
+        "config": run.config.to_dict(),
         "aborted": run.loop.aborted or None,
         "predicted": trial.predicted._asdict(),
         "true": trial.true._asdict() if trial.true is not None else None,

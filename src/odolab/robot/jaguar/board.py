@@ -16,8 +16,11 @@ Choices where JAGUAR_PROTOCOL.md leaves one (see docs/robot.md):
 - The optional time field of a PWM/velocity command is accepted and ignored (speeds change at
   once); position commands (type 4) are counted and ignored.
 - Before the first ACK the board answers PINGs with ACK and ignores motor commands; an ACK makes
-  its sender the peer the board streams to (the latest ACK wins). It also pings its peer every
-  ``ping_interval`` seconds.
+  its sender the peer the board streams to. The board keeps its peer while that peer is alive:
+  an ACK from another address takes over only after the current peer has sent nothing valid for
+  ``command_timeout`` seconds. It also pings its peer every ``ping_interval`` seconds.
+- Command timeout (like real motor boards): when no valid motor command came from the peer for
+  ``command_timeout`` seconds (0.5), the motors stop, at exactly that time in the board's clock.
 - Encoder velocity fields: |counter change| over the last report interval, in counts per second;
   direction bits: 1 when the counter went up (forward), 0 when it went down, unchanged when
   it did not move (1 at start).
@@ -40,8 +43,11 @@ import numpy as np
 
 from odolab.errors import ProtocolError, RobotLinkError
 from odolab.params import RobotParams
-from odolab.robot.plant import Plant
-from odolab.robot.protocol import (
+from odolab.robot.config import BOUNDS, Bound, check_bound
+from odolab.robot.errors import BoardConfigError, RobotConfigError
+from odolab.robot.interface import Datagram
+from odolab.robot.jaguar.protocol import (
+    DES_BOARD,
     DES_PC,
     LEAVE_ALONE,
     N_CHANNELS,
@@ -55,6 +61,7 @@ from odolab.robot.protocol import (
     encode_motor_sensor,
     encode_system,
 )
+from odolab.robot.plant import Plant
 
 __all__ = [
     "BoardConfig",
@@ -71,6 +78,10 @@ LEFT_CHANNEL = 0
 RIGHT_CHANNEL = 1
 
 
+_REPORT_RATE = Bound("--report-rate", 0.5, 1000.0, "Hz")
+_PING_INTERVAL = Bound("ping interval", 0.0, 60.0, "s")
+
+
 @dataclass(frozen=True)
 class BoardConfig:
     """How the virtual board maps commands to wheel speeds and reports its encoders."""
@@ -81,16 +92,22 @@ class BoardConfig:
     right_metres_per_tick: float = 2.0 * math.pi * 0.0835 / 380
     modulus: int = 32768  #: encoder counters wrap here (15 bits)
     ping_interval: float = 1.0  #: s between PINGs to the peer (0 = never)
+    command_timeout: float = 0.5  #: s without a valid motor command -> motors stop
 
     def __post_init__(self) -> None:
-        for name in ("report_rate", "max_wheel_speed", "left_metres_per_tick"):
+        try:
+            check_bound(_REPORT_RATE, self.report_rate)
+            check_bound(BOUNDS["max_wheel_speed"], self.max_wheel_speed)
+            check_bound(BOUNDS["command_timeout"], self.command_timeout)
+            check_bound(_PING_INTERVAL, self.ping_interval)
+        except RobotConfigError as err:
+            raise BoardConfigError(str(err)) from err
+        for name in ("left_metres_per_tick", "right_metres_per_tick"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
-                raise ProtocolError(f"board {name} is {v}, expected a positive number")
-        if not (math.isfinite(self.right_metres_per_tick) and self.right_metres_per_tick > 0):
-            raise ProtocolError("board right_metres_per_tick must be a positive number")
+                raise BoardConfigError(f"board {name} is {v}, expected a positive number")
         if not 2 <= self.modulus <= 65536:
-            raise ProtocolError(f"board modulus is {self.modulus}, expected 2..65536")
+            raise BoardConfigError(f"board modulus is {self.modulus}, expected 2..65536")
 
     @classmethod
     def from_params(cls, params: RobotParams, **changes: float) -> BoardConfig:
@@ -117,14 +134,25 @@ class Faults:
     delay: float = 0.0
     jitter: float = 0.0
     drop_incoming: float = 0.0  #: probability that a packet to the board is lost
+    silent_after: float | None = None  #: s after the first ACK: send nothing from then on
 
     def __post_init__(self) -> None:
         for name in ("drop", "duplicate", "corrupt", "drop_incoming"):
             p = getattr(self, name)
-            if not 0.0 <= p <= 1.0:
-                raise ProtocolError(f"fault {name} is {p}, expected a probability 0..1")
-        if self.delay < 0 or self.jitter < 0:
-            raise ProtocolError("fault delay and jitter must be >= 0 s")
+            if not (math.isfinite(p) and 0.0 <= p <= 1.0):
+                raise BoardConfigError(
+                    f"--{name.replace('_', '-')} is {p}; expected a probability in [0, 1]"
+                )
+        if self.silent_after is not None and not (
+            math.isfinite(self.silent_after) and 0.0 <= self.silent_after <= 3600.0
+        ):
+            raise BoardConfigError(
+                f"--silent-after is {self.silent_after}; expected a number in [0, 3600] s"
+            )
+        for name in ("delay", "jitter"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and 0.0 <= v <= 10.0):
+                raise BoardConfigError(f"--{name} is {v}; expected a number in [0, 10] s")
 
 
 @dataclass
@@ -133,7 +161,10 @@ class BoardStats:
 
     received: int = 0
     commands: int = 0
-    ignored_commands: int = 0  #: motor commands before an ACK, or of an unsupported type
+    ignored_commands: int = 0  #: motor commands not from the peer, or of an unsupported type
+    rejected_acks: int = 0  #: ACKs from another address while the peer was alive
+    takeovers: int = 0  #: ACKs from another address accepted after the peer went silent
+    command_timeouts: int = 0  #: times the motors were stopped for lack of commands
     pings_received: int = 0
     acks_received: int = 0
     pings_sent: int = 0
@@ -142,7 +173,7 @@ class BoardStats:
     dropped: int = 0
     duplicated: int = 0
     corrupted: int = 0
-    decode: Decoder = field(default_factory=Decoder)
+    decode: Decoder = field(default_factory=lambda: Decoder({DES_BOARD}))
 
 
 Address = Hashable
@@ -158,8 +189,14 @@ class VirtualJaguar:
         *,
         faults: Faults | None = None,
         seed: int = 0,
+        on_speeds: Callable[[float, float, float, str], None] | None = None,
     ) -> None:
         self.plant = plant
+        #: called as ``on_speeds(t, left, right, why)`` whenever the wheel speeds change (why:
+        #: "command", "command timeout", "peer replaced"), and with the unchanged speeds on the
+        #: link events "peer" (a peer accepted) and "silent" (``Faults.silent_after`` began)
+        self.on_speeds = on_speeds
+        self._silent_noted = False
         self.config = config or BoardConfig()
         self.faults = faults or Faults()
         self.stats = BoardStats()
@@ -177,6 +214,9 @@ class VirtualJaguar:
         self._last_counts: tuple[int, int] | None = None
         self._direction = 0b11
         self._pwm = [PWM_STOP] * N_CHANNELS
+        self._first_ack: float | None = None  #: board time of the first accepted ACK
+        self._last_command = -math.inf  #: board time of the peer's last valid motor command
+        self._peer_heard = -math.inf  #: board time of the peer's last valid packet
 
     # --- time ---------------------------------------------------------------------------
 
@@ -184,9 +224,33 @@ class VirtualJaguar:
         if self._now is None:
             self._now = t
             return
+        if t <= self._now:
+            return
+        cutoff = self._last_command + self.config.command_timeout
+        if self._speeds != (0.0, 0.0) and cutoff <= t:
+            # the command timeout falls in this interval: stop the motors exactly then
+            if cutoff > self._now:
+                self.plant.advance(cutoff - self._now)
+                self._now = cutoff
+            self.stats.command_timeouts += 1
+            self._set_speeds(0.0, 0.0, "command timeout")
         if t > self._now:
             self.plant.advance(t - self._now)
             self._now = t
+
+    def _set_speeds(self, left: float, right: float, why: str) -> None:
+        if (left, right) == self._speeds:
+            return
+        self._speeds = (left, right)
+        if left == 0.0 and right == 0.0:
+            self._pwm[LEFT_CHANNEL] = self._pwm[RIGHT_CHANNEL] = PWM_STOP
+        self.plant.set_wheel_speeds(left, right)
+        self._note(why)
+
+    def _note(self, why: str, t: float | None = None) -> None:
+        if self.on_speeds is not None:
+            when = t if t is not None else (self._now if self._now is not None else 0.0)
+            self.on_speeds(when, self._speeds[0], self._speeds[1], why)
 
     @property
     def wheel_speeds(self) -> tuple[float, float]:
@@ -206,14 +270,29 @@ class VirtualJaguar:
                 code = decode_system(packet)
                 if code == SystemCode.ACK:
                     self.stats.acks_received += 1
-                    if self.peer != peer:
+                    if self.peer is not None and self.peer != peer:
+                        if now - self._peer_heard < self.config.command_timeout:
+                            self.stats.rejected_acks += 1  # the peer is alive: keep it
+                            continue
+                        self.stats.takeovers += 1
+                        self._set_speeds(0.0, 0.0, "peer replaced")
+                    if peer == self.peer:
+                        self._peer_heard = now
+                    else:
                         self.peer = peer
+                        if self._first_ack is None:
+                            self._first_ack = now
+                        self._peer_heard = now
+                        self._last_command = -math.inf
+                        self._note("peer", now)
                         self._report_base = self._now if self._now is not None else now
                         self._report_n = 0
                         self._next_report = self._report_base
                         interval = self.config.ping_interval
                         self._next_ping = now + interval if interval > 0 else math.inf
                 elif code == SystemCode.PING:
+                    if peer == self.peer:
+                        self._peer_heard = now
                     self.stats.pings_received += 1
                     self._queue(encode_system(SystemCode.ACK, DES_PC), peer, now, faults=False)
             elif packet.type in (MessageType.PWM_ALL, MessageType.VELOCITY_ALL):
@@ -226,6 +305,8 @@ class VirtualJaguar:
                     self.stats.ignored_commands += 1
                     continue
                 self.stats.commands += 1
+                self._peer_heard = now
+                self._last_command = now
                 self._apply(cmd.kind, cmd.values)
             else:
                 self.stats.ignored_commands += 1
@@ -251,8 +332,7 @@ class VirtualJaguar:
                 self._pwm[ch] = self._pwm_of(speed)
             vmax = self.config.max_wheel_speed
             out.append(min(max(speed, -vmax), vmax))
-        self._speeds = (out[0], out[1])
-        self.plant.set_wheel_speeds(out[0], out[1])
+        self._set_speeds(out[0], out[1], "command")
 
     def _pwm_of(self, speed: float) -> int:
         p = round(PWM_STOP + speed / self.config.max_wheel_speed * PWM_STOP)
@@ -288,6 +368,16 @@ class VirtualJaguar:
     def _queue(self, data: bytes, peer: Address, t: float, *, faults: bool = True) -> None:
         f = self.faults
         copies = 1
+        if (
+            f.silent_after is not None
+            and self._first_ack is not None
+            and t >= self._first_ack + f.silent_after
+        ):
+            if not self._silent_noted:
+                self._silent_noted = True
+                self._note("silent", self._first_ack + f.silent_after)
+            self.stats.dropped += 1
+            return
         if faults:
             if self.silent:
                 self.stats.dropped += 1
@@ -314,6 +404,10 @@ class VirtualJaguar:
 
     def step(self, now: float) -> list[tuple[bytes, Address]]:
         """Run the board up to ``now``; return the datagrams due by then, in delivery order."""
+        return [(data, peer) for data, peer, _ in self.step_timed(now)]
+
+    def step_timed(self, now: float) -> list[tuple[bytes, Address, float]]:
+        """:meth:`step`, each datagram with the time it was due (its delivery time)."""
         if self._now is None:
             self._now = now
         period = 1.0 / self.config.report_rate
@@ -330,10 +424,10 @@ class VirtualJaguar:
             self._report_n += 1  # absolute schedule: base + n * period, no summed drift
             self._next_report = self._report_base + self._report_n * period
         self._advance_to(now)
-        out: list[tuple[bytes, Address]] = []
+        out: list[tuple[bytes, Address, float]] = []
         while self._outbox and self._outbox[0][0] <= now:
-            _, _, data, peer = heapq.heappop(self._outbox)
-            out.append((data, peer))
+            due, _, data, peer = heapq.heappop(self._outbox)
+            out.append((data, peer, due))
             self.stats.sent += 1
         return out
 
@@ -342,6 +436,8 @@ class VirtualJaguar:
         t = self._outbox[0][0] if self._outbox else math.inf
         if self.peer is not None:
             t = min(t, self._next_report, self._next_ping)
+        if self._speeds != (0.0, 0.0):
+            t = min(t, self._last_command + self.config.command_timeout)
         return t
 
 
@@ -364,10 +460,12 @@ class InProcessLink:
             return
         self.board.handle(data, self.PEER, self._clock())
 
-    def receive(self) -> list[bytes]:
+    def receive(self) -> list[Datagram]:
         if self.closed:
             return []
-        return [d for d, peer in self.board.step(self._clock()) if peer == self.PEER]
+        return [
+            (d, due) for d, peer, due in self.board.step_timed(self._clock()) if peer == self.PEER
+        ]
 
     def close(self) -> None:
         self.closed = True

@@ -5,8 +5,13 @@ CRC-8 (reflected Dallas/Maxim, polynomial 0x8C, register starting at 0) covering
 data byte. All multi-byte values are little-endian.
 
 :class:`Decoder` turns a byte stream (or a sequence of UDP datagrams) into packets: it
-resynchronises on STX after garbage and discards, and counts, packets whose length, CRC or ETX is
-wrong. It never raises on bad bytes.
+resynchronises on STX after garbage and discards, and counts, packets whose destination or type is
+not one it knows, or whose length, CRC or ETX is wrong. It never raises on bad bytes.
+
+The stop commands are fixed packets (:data:`STOP_PWM`, :data:`STOP_VELOCITY`): PWM 16384 or
+velocity 0 on both track channels (0 and 1), the other channels left alone. They are constants,
+never computed from user settings, so no sign, channel or speed option can turn a stop into a
+drive command.
 """
 
 from __future__ import annotations
@@ -26,6 +31,8 @@ __all__ = [
     "MOTOR_SENSOR_LEN",
     "N_CHANNELS",
     "PWM_STOP",
+    "STOP_PWM",
+    "STOP_VELOCITY",
     "STX",
     "DecodeStats",
     "Decoder",
@@ -79,6 +86,8 @@ class SystemCode(IntEnum):
 
 
 _MOTOR_COMMANDS = (MessageType.PWM_ALL, MessageType.VELOCITY_ALL, MessageType.POSITION_ALL)
+_KNOWN_TYPES = frozenset(int(t) for t in MessageType)
+_KNOWN_DESTINATIONS = frozenset((DES_PC, DES_BOARD))
 
 
 def _crc_table() -> tuple[int, ...]:
@@ -218,6 +227,16 @@ def encode_motor_command(
     return encode_packet(DES_BOARD, k, data)
 
 
+#: Stop as PWM (type 6): 16384 on channels 0 and 1, the other channels left alone.
+STOP_PWM: bytes = encode_motor_command(
+    MessageType.PWM_ALL, (PWM_STOP, PWM_STOP, None, None, None, None)
+)
+#: Stop as velocity (type 27): 0 on channels 0 and 1, the other channels left alone.
+STOP_VELOCITY: bytes = encode_motor_command(
+    MessageType.VELOCITY_ALL, (0, 0, None, None, None, None)
+)
+
+
 def decode_motor_command(packet: Packet) -> MotorCommand:
     """Decode an all-channel motor command packet (LEN 12, or 14 with a time)."""
     try:
@@ -320,6 +339,8 @@ class DecodeStats:
     """What a :class:`Decoder` has seen (counts)."""
 
     packets: int = 0
+    unknown_destination: int = 0  #: DES not one this decoder accepts
+    unknown_type: int = 0  #: TYPE not a known message type
     bad_length: int = 0  #: LEN impossible for the type, or a packet cut short by a datagram end
     bad_crc: int = 0
     bad_etx: int = 0
@@ -327,8 +348,14 @@ class DecodeStats:
 
     @property
     def discarded(self) -> int:
-        """Packets discarded for a bad length, CRC or ETX."""
-        return self.bad_length + self.bad_crc + self.bad_etx
+        """Candidate packets discarded (unknown destination or type, bad length, CRC or ETX)."""
+        return (
+            self.unknown_destination
+            + self.unknown_type
+            + self.bad_length
+            + self.bad_crc
+            + self.bad_etx
+        )
 
 
 class Decoder:
@@ -337,10 +364,23 @@ class Decoder:
     :meth:`feed` treats the input as a byte stream (an incomplete packet waits for more bytes);
     :meth:`feed_datagram` treats it as one UDP datagram (nothing carries over to the next one:
     an incomplete packet at its end counts as a bad length).
+
+    ``destinations``: the DES bytes accepted (default: the PC 0x00 and the board 0x01; a driver
+    passes only ``{DES_PC}``, a board only ``{DES_BOARD}``). ``types``: the TYPE bytes accepted
+    (default: the known message types, :class:`MessageType`; benchmarks pass all 256 to
+    measure the permissive decoder this one replaced). Everything else is counted and skipped byte by byte, so
+    a fake STX in garbage can swallow a real packet only if its DES, TYPE, LEN, ETX and CRC all
+    happen to be valid.
     """
 
-    def __init__(self) -> None:
+    def __init__(
+        self,
+        destinations: frozenset[int] | set[int] | None = None,
+        types: frozenset[int] | set[int] | None = None,
+    ) -> None:
         self.stats = DecodeStats()
+        self.destinations = _KNOWN_DESTINATIONS if destinations is None else frozenset(destinations)
+        self.types = _KNOWN_TYPES if types is None else frozenset(types)
         self._buf = bytearray()
 
     def reset(self) -> None:
@@ -381,8 +421,16 @@ class Decoder:
                     pos += 1
                     continue
                 break
-            n = buf[pos + 5]
+            if buf[pos + 2] not in self.destinations:
+                st.unknown_destination += 1
+                pos += 1
+                continue
             msg_type = buf[pos + 4]
+            if msg_type not in self.types:
+                st.unknown_type += 1
+                pos += 1
+                continue
+            n = buf[pos + 5]
             if not _length_ok(msg_type, n):
                 st.bad_length += 1
                 pos += 1

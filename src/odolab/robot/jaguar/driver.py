@@ -3,22 +3,34 @@
 It sends the ACK handshake, answers the board's PINGs with ACK, sends drive commands as
 all-channel PWM (type 6) or velocity (type 27) packets, and parses motor sensor packets into
 encoder readings in the robot's left/right frame (configurable channels and encoder signs).
+Stop is the fixed packet :data:`STOP_PWM` / :data:`STOP_VELOCITY`, never computed from the
+settings. Every reading carries its arrival time: the kernel's receive timestamp over UDP
+(``SO_TIMESTAMPNS`` on Linux), the delivery time in simulated time.
 """
 
 from __future__ import annotations
 
 import math
 import socket
+import struct
+import sys
+import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from enum import StrEnum
-from typing import Protocol
 from urllib.parse import urlparse
 
 from odolab.errors import ProtocolError, RobotLinkError
+from odolab.params import RobotParams
 from odolab.robot.clock import Clock
-from odolab.robot.protocol import (
+from odolab.robot.config import CommandMode, RunConfig
+from odolab.robot.errors import NoSensorDataError, RobotConfigError, RobotUrlError
+from odolab.robot.interface import Datagram, DriverStats, EncoderReading, Transport
+from odolab.robot.jaguar.protocol import (
+    DES_PC,
     N_CHANNELS,
     PWM_STOP,
+    STOP_PWM,
+    STOP_VELOCITY,
     Decoder,
     MessageType,
     SystemCode,
@@ -41,41 +53,37 @@ __all__ = [
 ]
 
 
-class Transport(Protocol):
-    """Datagrams to and from one board."""
-
-    def send(self, data: bytes) -> None:
-        """Send one datagram to the board."""
-        ...
-
-    def receive(self) -> list[bytes]:
-        """All datagrams that have arrived (never blocks)."""
-        ...
-
-    def close(self) -> None:
-        """Release the link."""
-        ...
-
-
 def parse_robot_url(url: str) -> tuple[str, int]:
     """``udp://HOST:PORT`` -> (host, port)."""
     parsed = urlparse(url)
     try:
         port = parsed.port  # raises ValueError for a non-number or out of 0..65535
     except ValueError as err:
-        raise RobotLinkError(
-            f"robot address {url!r} has a bad port ({err}); expected udp://HOST:PORT with a port "
+        raise RobotUrlError(
+            f"--robot {url!r} has a bad port ({err}); expected udp://HOST:PORT with a port "
             "in 0..65535"
         ) from err
     if parsed.scheme != "udp" or not parsed.hostname or port is None:
-        raise RobotLinkError(f"robot address {url!r} is not of the form udp://HOST:PORT")
+        raise RobotUrlError(f"--robot {url!r} is not of the form udp://HOST:PORT")
     return parsed.hostname, port
 
 
-class UdpTransport:
-    """A connected, non-blocking UDP socket to the board at (host, port)."""
+# Linux socket options for kernel receive timestamps (not named in Python's socket module)
+_SO_TIMESTAMPNS = 35
+_TIMESPEC = struct.Struct("@qq")
 
-    def __init__(self, host: str, port: int) -> None:
+
+class UdpTransport:
+    """A connected, non-blocking UDP socket to the board at (host, port).
+
+    ``clock``: the clock arrival times are given on (the driver's; default
+    ``time.perf_counter``). On Linux each datagram's arrival time is the kernel's receive
+    timestamp mapped onto that clock; elsewhere it is the time it was read.
+    """
+
+    def __init__(
+        self, host: str, port: int, clock: Callable[[], float] = time.perf_counter
+    ) -> None:
         self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
             self._sock.connect((host, port))
@@ -83,6 +91,14 @@ class UdpTransport:
             self._sock.close()
             raise RobotLinkError(f"cannot reach the robot at udp://{host}:{port} ({err})") from err
         self._sock.setblocking(False)
+        self._clock = clock
+        self.kernel_timestamps = False
+        if sys.platform == "linux":
+            try:
+                self._sock.setsockopt(socket.SOL_SOCKET, _SO_TIMESTAMPNS, 1)
+                self.kernel_timestamps = True
+            except OSError:
+                pass
         self.address = (host, port)
         self.send_errors = 0
 
@@ -92,25 +108,27 @@ class UdpTransport:
         except OSError:  # nobody listening yet (ICMP), buffer full: the watchdog will see it
             self.send_errors += 1
 
-    def receive(self) -> list[bytes]:
-        out: list[bytes] = []
+    def receive(self) -> list[Datagram]:
+        out: list[Datagram] = []
+        ancillary = socket.CMSG_SPACE(_TIMESPEC.size)
         while True:
             try:
-                out.append(self._sock.recv(2048))
+                data, anc, _flags, _addr = self._sock.recvmsg(2048, ancillary)
             except (BlockingIOError, InterruptedError):
                 return out
             except OSError:  # ICMP port unreachable: no board yet
                 return out
+            now = self._clock()
+            t = now
+            for level, kind, payload in anc:
+                if level == socket.SOL_SOCKET and kind == _SO_TIMESTAMPNS:
+                    sec, nsec = _TIMESPEC.unpack(payload[: _TIMESPEC.size])
+                    age = time.time() - (sec + nsec * 1e-9)
+                    t = now - min(max(age, 0.0), 60.0)
+            out.append((data, t))
 
     def close(self) -> None:
         self._sock.close()
-
-
-class CommandMode(StrEnum):
-    """How drive commands are sent."""
-
-    PWM = "pwm"  #: all-channel PWM, type 6
-    VELOCITY = "velocity"  #: all-channel velocity, type 27
 
 
 @dataclass(frozen=True)
@@ -130,7 +148,7 @@ class ChannelMap:
 
     def __post_init__(self) -> None:
         if self.left not in (0, 1) or self.right not in (0, 1) or self.left == self.right:
-            raise ProtocolError(
+            raise RobotConfigError(
                 f"channels left={self.left} right={self.right}: expected 0 and 1, one each "
                 "(the motor sensor packet reports encoders of motors 0 and 1 only)"
             )
@@ -141,7 +159,7 @@ class ChannelMap:
             "right_motor_sign",
         ):
             if getattr(self, name) not in (1, -1):
-                raise ProtocolError(f"{name} is {getattr(self, name)!r}, expected 1 or -1")
+                raise RobotConfigError(f"{name} is {getattr(self, name)!r}, expected 1 or -1")
 
 
 @dataclass(frozen=True)
@@ -157,52 +175,68 @@ class DriverConfig:
     connect_timeout: float = 2.0  #: s to wait for the first sensor packet
     ack_retry: float = 0.2  #: s between ACKs while connecting
 
+    def __post_init__(self) -> None:
+        for name in ("max_wheel_speed", "left_metres_per_tick", "right_metres_per_tick"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
+                raise RobotConfigError(f"driver {name} is {v!r}; expected a positive number")
+        if not 2 <= self.modulus <= 65536:
+            raise RobotConfigError(f"driver modulus is {self.modulus}; expected 2..65536")
+        if not (math.isfinite(self.connect_timeout) and self.connect_timeout > 0):
+            raise RobotConfigError(f"connect timeout is {self.connect_timeout!r} s; expected > 0")
+        if not (math.isfinite(self.ack_retry) and self.ack_retry > 0):
+            raise RobotConfigError(f"ACK retry is {self.ack_retry!r} s; expected > 0")
 
-@dataclass(frozen=True)
-class EncoderReading:
-    """One motor sensor packet in the robot frame: counters (signed and wrapped), time received."""
-
-    t: float
-    left_ticks: int
-    right_ticks: int
-    left_rate: int  #: encoder velocity field (counts/s, magnitude)
-    right_rate: int
-    direction: int
-
-
-@dataclass
-class DriverStats:
-    """What the driver has seen and sent (counts)."""
-
-    datagrams: int = 0
-    sensor_packets: int = 0
-    bad_sensor_packets: int = 0
-    pings_answered: int = 0
-    acks_received: int = 0
-    other_packets: int = 0
-    commands_sent: int = 0
-    stops_sent: int = 0
+    @classmethod
+    def from_run(cls, config: RunConfig, params: RobotParams) -> DriverConfig:
+        """The driver settings of a validated run configuration and nominal parameters."""
+        return cls(
+            channels=ChannelMap(
+                left=config.left_channel,
+                right=config.right_channel,
+                left_encoder_sign=config.left_encoder_sign,
+                right_encoder_sign=config.right_encoder_sign,
+                left_motor_sign=config.left_motor_sign,
+                right_motor_sign=config.right_motor_sign,
+            ),
+            mode=config.mode,
+            max_wheel_speed=config.max_wheel_speed,
+            left_metres_per_tick=params.left_metres_per_tick,
+            right_metres_per_tick=params.right_metres_per_tick,
+            modulus=min(params.encoder_modulus or 65536, 65536),
+            connect_timeout=config.connect_timeout,
+        )
 
 
 class JaguarDriver:
-    """Client of one Jaguar board over ``transport``; times come from ``clock``."""
+    """Client of one Jaguar board over ``transport``; times come from ``clock``.
+
+    Implements :class:`odolab.robot.interface.Driver`.
+    """
 
     def __init__(self, transport: Transport, clock: Clock, config: DriverConfig | None = None):
         self.transport = transport
         self.clock = clock
         self.config = config or DriverConfig()
-        self.decoder = Decoder()
+        self.decoder = Decoder({DES_PC})
         self.stats = DriverStats()
-        self.latest: EncoderReading | None = None
+        self._latest: EncoderReading | None = None
         self.last_command: tuple[float, float] = (0.0, 0.0)
+        self._stop_packet = STOP_PWM if self.config.mode is CommandMode.PWM else STOP_VELOCITY
+        self._closed = False
+
+    @property
+    def latest(self) -> EncoderReading | None:
+        """The newest reading (None before the first)."""
+        return self._latest
 
     @property
     def decode_errors(self) -> int:
-        """Packets discarded for a bad length, CRC or ETX."""
+        """Candidate packets discarded (unknown destination or type, bad length, CRC or ETX)."""
         return self.decoder.stats.discarded
 
     def connect(self) -> EncoderReading:
-        """Send ACK until the first sensor packet arrives; raise :class:`RobotLinkError` if none."""
+        """Send ACK until the first sensor packet arrives; raise :class:`NoSensorDataError`."""
         clock = self.clock
         t0 = clock.now()
         deadline = t0 + self.config.connect_timeout
@@ -213,10 +247,10 @@ class JaguarDriver:
                 self.transport.send(encode_system(SystemCode.ACK))
                 next_ack = now + self.config.ack_retry
             if self.poll() > 0:
-                assert self.latest is not None
-                return self.latest
+                assert self._latest is not None
+                return self._latest
             if now >= deadline:
-                raise RobotLinkError(
+                raise NoSensorDataError(
                     f"no sensor data from the robot within {self.config.connect_timeout:g} s "
                     "after ACK; is it on and reachable?"
                 )
@@ -225,7 +259,7 @@ class JaguarDriver:
     def poll(self) -> int:
         """Read everything that has arrived; answer PINGs; return the number of new readings."""
         n = 0
-        for datagram in self.transport.receive():
+        for datagram, arrived in self.transport.receive():
             self.stats.datagrams += 1
             for packet in self.decoder.feed_datagram(datagram):
                 if packet.type == MessageType.MOTOR_SENSOR:
@@ -234,8 +268,8 @@ class JaguarDriver:
                     except ProtocolError:
                         self.stats.bad_sensor_packets += 1
                         continue
-                    self.latest = self._reading(
-                        sensor.encoder_position, sensor.encoder_velocity, sensor.direction
+                    self._latest = self._reading(
+                        arrived, sensor.encoder_position, sensor.encoder_velocity, sensor.direction
                     )
                     self.stats.sensor_packets += 1
                     n += 1
@@ -253,7 +287,7 @@ class JaguarDriver:
         return n
 
     def _reading(
-        self, position: tuple[int, int], velocity: tuple[int, int], direction: int
+        self, t: float, position: tuple[int, int], velocity: tuple[int, int], direction: int
     ) -> EncoderReading:
         ch = self.config.channels
         m = self.config.modulus
@@ -263,9 +297,7 @@ class JaguarDriver:
             left = (-left) % m
         if ch.right_encoder_sign < 0:
             right = (-right) % m
-        return EncoderReading(
-            self.clock.now(), left, right, velocity[ch.left], velocity[ch.right], direction
-        )
+        return EncoderReading(t, left, right, velocity[ch.left], velocity[ch.right], direction)
 
     def _value(self, speed: float, metres_per_tick: float) -> int:
         vmax = self.config.max_wheel_speed
@@ -275,9 +307,12 @@ class JaguarDriver:
         return int(min(max(round(s / metres_per_tick), -32767), 32767))
 
     def set_wheel_speeds(self, left_mps: float, right_mps: float) -> None:
-        """Command the left and right track speeds (m/s, forward positive)."""
+        """Command the left and right track speeds (m/s, forward positive; clipped)."""
         if not (math.isfinite(left_mps) and math.isfinite(right_mps)):
-            raise RobotLinkError(f"wheel speeds must be finite, got {left_mps!r}, {right_mps!r}")
+            self.stop()
+            raise RobotConfigError(
+                f"wheel speeds must be finite, got {left_mps!r}, {right_mps!r}; stopped"
+            )
         cfg = self.config
         ch = cfg.channels
         values: list[int | None] = [None] * N_CHANNELS
@@ -289,12 +324,48 @@ class JaguarDriver:
         self.stats.commands_sent += 1
 
     def stop(self) -> None:
-        """Command both tracks to stop (PWM 16384 or velocity 0)."""
-        self.set_wheel_speeds(0.0, 0.0)
+        """Send the fixed stop packet (PWM 16384 or velocity 0 on channels 0 and 1)."""
+        self.transport.send(self._stop_packet)
+        self.last_command = (0.0, 0.0)
+        self.stats.commands_sent += 1
         self.stats.stops_sent += 1
+
+    def confirm_stopped(self, timeout: float) -> bool:
+        """Send stop every 50 ms until two consecutive sensor reports, both arrived after the
+        first stop, show the same counters; True then, False when ``timeout`` s pass first.
+
+        False means the robot's state is unknown (no data, or the counters still move): the
+        caller must not claim it stopped.
+        """
+        clock = self.clock
+        t_stop = clock.now()
+        deadline = t_stop + timeout
+        previous: EncoderReading | None = None
+        next_stop = t_stop
+        while True:
+            now = clock.now()
+            if now >= next_stop:
+                self.stop()
+                next_stop = now + 0.05
+            if self.poll() > 0:
+                reading = self._latest
+                assert reading is not None
+                if reading.t >= t_stop:
+                    if previous is not None and (
+                        previous.left_ticks,
+                        previous.right_ticks,
+                    ) == (reading.left_ticks, reading.right_ticks):
+                        return True
+                    previous = reading
+            if now >= deadline:
+                return False
+            clock.sleep_until(min(now + 0.005, deadline, next_stop))
 
     def close(self) -> None:
         """Stop the robot and close the transport (safe to call twice)."""
+        if self._closed:
+            return
+        self._closed = True
         try:
             self.stop()
         finally:

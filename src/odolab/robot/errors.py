@@ -1,0 +1,52 @@
+"""Errors of the robot stack, each named for what went wrong (all :class:`OdolabError`).
+
+The CLI prints their one-sentence message and exits 1; none of them is raised after a command
+could have left the robot moving without a stop having been sent first.
+"""
+
+from __future__ import annotations
+
+from odolab.errors import OdolabError, RobotLinkError, SimError
+
+__all__ = [
+    "BoardConfigError",
+    "CommandsIgnoredError",
+    "LinkLostError",
+    "MotionError",
+    "NoSensorDataError",
+    "PlantError",
+    "RobotConfigError",
+    "RobotUrlError",
+]
+
+
+class RobotConfigError(OdolabError):
+    """A robot-run setting (CLI option) is out of its physical bounds; nothing was sent."""
+
+
+class BoardConfigError(RobotConfigError):
+    """A virtual board setting is out of its bounds."""
+
+
+class MotionError(RobotConfigError, SimError):
+    """A motion cannot be driven as asked (zero speed, unknown kind, non-finite target)."""
+
+
+class RobotUrlError(RobotConfigError, RobotLinkError):
+    """A ``--robot`` address is malformed or names no known link."""
+
+
+class NoSensorDataError(RobotLinkError):
+    """The robot sent no sensor data after the handshake."""
+
+
+class LinkLostError(RobotLinkError):
+    """Sensor data stopped for longer than the link timeout during a run."""
+
+
+class CommandsIgnoredError(RobotLinkError):
+    """The robot's encoders do not follow the commands (stalled, or the board ignores them)."""
+
+
+class PlantError(OdolabError):
+    """A plant (the virtual board's physics) was asked for something impossible."""

@@ -1,0 +1,30 @@
+"""The simulator as the plant of a virtual robot board (``odolab.robot.plant.Plant``).
+
+:func:`make_plant` builds a :class:`~odolab.sim.physics.VirtualRobot` from a truth preset name or
+:class:`~odolab.sim.physics.TrueParams`; it satisfies the robot stack's ``Plant`` interface
+structurally, so the robot stack never imports the simulator (the CLI and the lab wire them).
+"""
+
+from __future__ import annotations
+
+from odolab.errors import SimError
+from odolab.params import RobotParams
+from odolab.sim.physics import TrueParams, VirtualRobot
+from odolab.sim.presets import TRUTH_PRESETS
+
+__all__ = ["make_plant"]
+
+
+def make_plant(
+    truth: str | TrueParams, nominal: RobotParams, terrain: str = "tile", *, seed: int = 0
+) -> VirtualRobot:
+    """The simulated robot for ``truth`` (a name in ``TRUTH_PRESETS`` or a ``TrueParams``)."""
+    if isinstance(truth, str):
+        if truth not in TRUTH_PRESETS:
+            raise SimError(
+                f"unknown truth preset {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}"
+            )
+        truth = TRUTH_PRESETS[truth]
+    if not isinstance(truth, TrueParams):
+        raise SimError(f"truth must be a preset name or TrueParams, got {type(truth).__name__}")
+    return VirtualRobot(truth, nominal, terrain, seed=seed)
