@@ -134,3 +134,21 @@ def test_notebook_campaign(tmp_path: Path) -> None:
     # each trial starts at the origin, ends where its prediction says
     last = msgs["/odom"][len(trials[0].encoder_log) - 1]  # type: ignore[arg-type]
     assert last.pose.pose.position.x == pytest.approx(trials[0].predicted.x, abs=1e-9)  # type: ignore[attr-defined]
+
+
+def test_a_real_robot_run_folder(tmp_path: Path) -> None:
+    """`odolab robot drive` on the virtual Jaguar, then `odolab export mcap` of its folder."""
+    from odolab.cli import main
+
+    folder = tmp_path / "run"
+    assert main(["robot", "drive", "--distance", "0.5", "--quiet", "--out", str(folder),
+                 "--no-realtime"]) == 0  # fmt: skip
+    params_file = save_params(tmp_path / "p.toml", PARAMS)
+    out = tmp_path / "robot.mcap"
+    assert main(["export", "mcap", str(folder), "-p", str(params_file), "-o", str(out)]) == 0
+    predicted = read_trajectory(folder / "predicted.csv")
+    odom = _decoded(out)["/odom"]
+    assert len(odom) == len(predicted)
+    xs = [m.pose.pose.position.x for m in odom]  # type: ignore[attr-defined]
+    np.testing.assert_allclose(xs, predicted.x, atol=1e-9)
+    assert odom[-1].pose.covariance[0] > 0  # type: ignore[attr-defined]

@@ -137,6 +137,13 @@ MaxSpeedOpt = Annotated[
     typer.Option("--max-wheel-speed", help="m/s at full PWM, and the speed clip (0 < v <= 3)."),
 ]
 QuietOpt = Annotated[bool, typer.Option("--quiet", "-q", help="No live view.")]
+FoxgloveOpt = Annotated[
+    bool,
+    typer.Option(
+        "--foxglove", help="Serve the run live to Foxglove (ws://127.0.0.1:PORT; loopback only)."
+    ),
+]
+FoxglovePortOpt = Annotated[int, typer.Option("--foxglove-port", help="Foxglove server port.")]
 RealtimeOpt = Annotated[
     bool,
     typer.Option(
@@ -164,6 +171,32 @@ def _live_table(info: CycleInfo, rate: float, target: str) -> Any:
     return table
 
 
+class _FoxgloveView:
+    """The live run in Foxglove: each cycle's pose, counters and (with ``[noise]``) covariance.
+
+    The covariance comes from a second streaming odometry fed the very counters the loop's
+    odometry gets (same compiled step, so the same poses)."""
+
+    def __init__(self, params: Any, port: int) -> None:
+        from odolab.export.foxglove import FoxgloveLive
+        from odolab.odometry import Odometry
+
+        self.live = FoxgloveLive(port=port)
+        self.odo = Odometry(params, covariance=True) if params.noise is not None else None
+        typer.echo(f"Foxglove: open ws://127.0.0.1:{self.live.port}", err=True)
+
+    def publish(self, info: CycleInfo) -> None:
+        ticks = (info.reading.left_ticks, info.reading.right_ticks)
+        cov = None
+        if self.odo is not None:
+            self.odo.update(info.t, *ticks)
+            cov = self.odo.covariance
+        self.live.publish(info.pose, ticks=ticks, covariance=cov)
+
+    def close(self) -> None:
+        self.live.close()
+
+
 def _confirm_line(confirmed: bool) -> str:
     if confirmed:
         return "robot stopped (its sensor data confirms it)"
@@ -186,6 +219,8 @@ def _run(
     seed: int,
     quiet: bool,
     realtime: bool,
+    foxglove: bool = False,
+    foxglove_port: int = 8765,
 ) -> None:
     """Validate everything, then drive ``command`` with ``config``; nothing is sent before."""
     from rich.console import Console
@@ -234,9 +269,13 @@ def _run(
     live = Live(console=console, refresh_per_second=8, transient=False) if not quiet else None
     every = max(1, round(config.rate / 8))
 
+    view = _FoxgloveView(nominal, foxglove_port) if foxglove else None
+
     def on_cycle(info: CycleInfo) -> None:
         if live is not None and (info.index % every == 0 or not info.link_ok):
             live.update(_live_table(info, config.rate, target))
+        if view is not None:
+            view.publish(info)
 
     notebook = None
     if db is not None:  # open (create, migrate) the notebook before driving: refuse a bad one now
@@ -284,6 +323,8 @@ def _run(
     finally:
         if live is not None:
             live.stop()
+        if view is not None:
+            view.close()
     if not quiet:
         for line in events:
             typer.echo(line, err=True)
@@ -379,6 +420,8 @@ def rotate_cmd(
     max_wheel_speed: MaxSpeedOpt = 1.0,
     quiet: QuietOpt = False,
     realtime: RealtimeOpt = True,
+    foxglove: FoxgloveOpt = False,
+    foxglove_port: FoxglovePortOpt = 8765,
 ) -> None:
     """Rotate in place by TURNS full turns (2*pi each), stopping when odometry says so."""
     from odolab.trials import Command, MotionKind
@@ -393,7 +436,8 @@ def rotate_cmd(
     )  # fmt: skip
     _run(
         cmd, config, robot=robot, params=params, out=out, db=db, truth=truth, terrain=terrain,
-        seed=seed, quiet=quiet, realtime=realtime,
+        seed=seed, quiet=quiet, realtime=realtime, foxglove=foxglove,
+        foxglove_port=foxglove_port,
     )  # fmt: skip
 
 
@@ -426,6 +470,8 @@ def drive_cmd(
     max_wheel_speed: MaxSpeedOpt = 1.0,
     quiet: QuietOpt = False,
     realtime: RealtimeOpt = True,
+    foxglove: FoxgloveOpt = False,
+    foxglove_port: FoxglovePortOpt = 8765,
 ) -> None:
     """Drive straight DISTANCE m (negative = reverse), stopping when odometry says so."""
     from odolab.trials import Command, MotionKind
@@ -440,7 +486,8 @@ def drive_cmd(
     )  # fmt: skip
     _run(
         cmd, config, robot=robot, params=params, out=out, db=db, truth=truth, terrain=terrain,
-        seed=seed, quiet=quiet, realtime=realtime,
+        seed=seed, quiet=quiet, realtime=realtime, foxglove=foxglove,
+        foxglove_port=foxglove_port,
     )  # fmt: skip
 
 
@@ -476,6 +523,8 @@ def pivot_cmd(
     max_wheel_speed: MaxSpeedOpt = 1.0,
     quiet: QuietOpt = False,
     realtime: RealtimeOpt = True,
+    foxglove: FoxgloveOpt = False,
+    foxglove_port: FoxglovePortOpt = 8765,
 ) -> None:
     """Pivot on one track by DEGREES, stopping when odometry says so."""
     from odolab.trials import Command, MotionKind
@@ -490,7 +539,8 @@ def pivot_cmd(
     )  # fmt: skip
     _run(
         cmd, config, robot=robot, params=params, out=out, db=db, truth=truth, terrain=terrain,
-        seed=seed, quiet=quiet, realtime=realtime,
+        seed=seed, quiet=quiet, realtime=realtime, foxglove=foxglove,
+        foxglove_port=foxglove_port,
     )  # fmt: skip
 
 
@@ -524,6 +574,8 @@ def square_cmd(
     max_wheel_speed: MaxSpeedOpt = 1.0,
     quiet: QuietOpt = False,
     realtime: RealtimeOpt = True,
+    foxglove: FoxgloveOpt = False,
+    foxglove_port: FoxglovePortOpt = 8765,
 ) -> None:
     """Drive the UMBmark square (four sides, four 90-degree turns in place) by odometry."""
     from odolab.trials import Command, MotionKind
@@ -538,7 +590,8 @@ def square_cmd(
     )  # fmt: skip
     _run(
         cmd, config, robot=robot, params=params, out=out, db=db, truth=truth, terrain=terrain,
-        seed=seed, quiet=quiet, realtime=realtime,
+        seed=seed, quiet=quiet, realtime=realtime, foxglove=foxglove,
+        foxglove_port=foxglove_port,
     )  # fmt: skip
 
 

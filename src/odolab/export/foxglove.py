@@ -55,9 +55,15 @@ class FoxgloveLive:
         if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
             raise OdolabError(f"--foxglove-port {port!r}; expected a port number 0..65535")
         self._ctx = foxglove.Context()
-        self._server = foxglove.start_server(
-            name="odolab", host=check_loopback(host), port=port, context=self._ctx
-        )
+        bind = check_loopback(host)
+        try:
+            self._server = foxglove.start_server(
+                name="odolab", host=bind, port=port, context=self._ctx
+            )
+        except Exception as err:  # the SDK raises its own error types (port in use, ...)
+            raise OdolabError(
+                f"cannot serve Foxglove on {bind}:{port} ({err}); choose another --foxglove-port"
+            ) from err
         self._pose = PoseInFrameChannel("/odom_pose", context=self._ctx)
         self._tf = FrameTransformsChannel("/tf", context=self._ctx)
         self._cycle = foxglove.Channel("/odolab/cycle", message_encoding="json", context=self._ctx)

@@ -300,8 +300,8 @@ def save_run(run: RobotRun, folder: str | Path) -> Path:
     out.mkdir(parents=True, exist_ok=True)
     trial = run.trial
     assert trial.encoder_log is not None
-    write_encoder_csv(trial.encoder_log, out / "encoders.csv")
-    write_trajectory_csv(run.loop.log.trajectory(), out / "predicted.csv")
+    write_encoder_csv(out / "encoders.csv", trial.encoder_log)
+    write_trajectory_csv(out / "predicted.csv", run.loop.log.trajectory())
     cmd = {k: _jsonable(v) for k, v in asdict(trial.command).items() if v is not None}
     cmd["kind"] = trial.command.kind.value
     doc = {
