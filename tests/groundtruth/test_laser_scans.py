@@ -1,107 +1,64 @@
-"""Laser path: LaserScan messages in a ROS 2 bag -> small_gicp scan matching -> calibrate sensor."""
+"""Laser path end to end: the simulator's 270 degree laser on the calibration drive, written as a
+ROS 2 MCAP (/scan + /joint_states), through `odolab calibrate sensor BAG --scan-topic /scan
+--joint-topic /joint_states` (small_gicp scan matching, then Censi et al.): the true wheel radii,
+track and laser mount come back."""
 
 from __future__ import annotations
 
 import json
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from odolab.cli import main
-from odolab.io.laserscan import read_laser_scans, scan_trajectory
-from odolab.params import PRESETS
-from odolab.sim.drives import calibration_drive, record_drive
+from odolab.io.scans import LaserScans, write_scan_mcap
+from odolab.sim.drives import calibration_drive
+from odolab.sim.laser import LaserDrive, room_world, simulate_laser_drive
 from odolab.sim.physics import TrueParams
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-from bench_scan_matching import scan
-
-pytest.importorskip("small_gicp")
-
-NOMINAL = PRESETS["jaguar-lite"]
 MOUNT = (0.20, -0.05, 0.3)
-TRUE = (0.085, 0.082, 0.60)
-
-
-def _bag(path: Path) -> tuple[Path, np.ndarray]:
-    from rosbags.rosbag2 import Writer
-    from rosbags.typesys import Stores, get_typestore
-
-    rl, rr, b = TRUE
-    d = record_drive(TrueParams(rl, rl, rr, rr, b), NOMINAL, calibration_drive(), rate=5)
-    tr = d.truth
-    c, s = np.cos(tr.heading), np.sin(tr.heading)
-    lx, ly, lth = MOUNT
-    sx, sy, sh = tr.x + c * lx - s * ly - 1.0, tr.y + s * lx + c * ly - 0.5, tr.heading + lth
-    store = get_typestore(Stores.ROS2_HUMBLE)
-    ty = store.types
-    rng = np.random.default_rng(4)
-    k = 2 * math.pi / NOMINAL.ticks_per_rev
-    with Writer(path, version=9) as w:
-        joints = w.add_connection("/joint_states", "sensor_msgs/msg/JointState", typestore=store)
-        laser = w.add_connection("/scan", "sensor_msgs/msg/LaserScan", typestore=store)
-        for i, ti in enumerate(d.t):
-            sec = math.floor(ti)
-            stamp = ty["builtin_interfaces/msg/Time"](sec=sec, nanosec=round((ti - sec) * 1e9))
-            header = ty["std_msgs/msg/Header"](stamp=stamp, frame_id="base")
-            js = ty["sensor_msgs/msg/JointState"](
-                header=header, name=["left_wheel_joint", "right_wheel_joint"],
-                position=np.array([d.counts_left[i] * k, d.counts_right[i] * k]),
-                velocity=np.zeros(0), effort=np.zeros(0),
-            )  # fmt: skip
-            pts = scan(sx[i], sy[i], sh[i], rng)
-            ranges = np.full(541, np.inf, dtype=np.float32)
-            ang = np.arctan2(pts[:, 1], pts[:, 0])
-            idx = np.clip(np.rint((np.degrees(ang) + 135) * 2).astype(int), 0, 540)
-            ranges[idx] = np.hypot(pts[:, 0], pts[:, 1])
-            ls = ty["sensor_msgs/msg/LaserScan"](
-                header=header, angle_min=math.radians(-135), angle_max=math.radians(135),
-                angle_increment=math.radians(0.5), time_increment=0.0, scan_time=0.1,
-                range_min=0.05, range_max=10.0, ranges=ranges,
-                intensities=np.zeros(0, dtype=np.float32),
-            )  # fmt: skip
-            ns = int(ti * 1e9)
-            w.write(joints, ns, store.serialize_cdr(js, "sensor_msgs/msg/JointState"))
-            w.write(laser, ns, store.serialize_cdr(ls, "sensor_msgs/msg/LaserScan"))
-    return path, np.column_stack((sx, sy, sh))
+TRUE = (0.085, 0.082, 0.60)  # left radius, right radius, track (nominal: 0.0835, 0.0835, 0.56)
 
 
 @pytest.fixture(scope="module")
-def bag(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, np.ndarray]:
-    return _bag(tmp_path_factory.mktemp("laser") / "drive")
-
-
-def test_scan_matching_follows_the_sensor(bag: tuple[Path, np.ndarray]) -> None:
-    path, truth = bag
-    scans = read_laser_scans(path, "/scan")
-    assert len(scans.points) == truth.shape[0]
-    assert scans.t[1] - scans.t[0] == pytest.approx(0.2)
-    traj = scan_trajectory(scans)
-    # each match against the true relative motion: centimetres and fractions of a degree
-    from odolab.calibration.sensor import relative_motions
-
-    i = np.arange(truth.shape[0] - 1)
-    got = relative_motions(traj.x, traj.y, traj.heading, i, i + 1)
-    want = relative_motions(truth[:, 0], truth[:, 1], truth[:, 2], i, i + 1)
-    rms = np.sqrt(np.mean((got - want) ** 2, axis=0))
-    assert rms[0] < 0.03 and rms[1] < 0.03, rms
-    assert math.degrees(rms[2]) < 0.5, rms
-    # no rotation bias: the turns are as large as they were
-    turn = np.abs(want[:, 2]) > 0.05
-    assert np.sum(got[turn, 2] * want[turn, 2]) / np.sum(want[turn, 2] ** 2) == pytest.approx(
-        1.0, abs=0.01
+def drive() -> LaserDrive:
+    rl, rr, b = TRUE
+    # a 12 m x 8 m room: the calibration drive from (1.5, 2.5) keeps 1.4 m from every wall
+    return simulate_laser_drive(
+        world=room_world(12.0, 8.0),
+        drive=calibration_drive(),
+        truth=TrueParams(rl, rl, rr, rr, b),
+        mount=MOUNT,
+        seed=4,
     )
 
 
-def test_calibrate_sensor_from_scans(bag: tuple[Path, np.ndarray], tmp_path: Path) -> None:
-    path, _ = bag
+@pytest.fixture(scope="module")
+def bag(drive: LaserDrive, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    lz = drive.laser
+    scans = LaserScans(
+        drive.scan_t, drive.ranges, lz.angle_min, lz.angle_increment, lz.range_min, lz.range_max
+    )
+    path = tmp_path_factory.mktemp("laser") / "drive.mcap"
+    write_scan_mcap(path, scans, joint_t=drive.joint_t, wheel_angles=drive.wheel_angles)
+    return path
+
+
+def test_the_laser_sees_every_turn_of_the_drive(drive: LaserDrive) -> None:
+    # the drive turns in place both ways and drives arcs: the calibration needs all of them
+    yaw = np.diff(drive.sensor[:, 2])
+    assert yaw.max() > 0.05 and yaw.min() < -0.05
+    assert drive.scan_t[-1] == pytest.approx(sum(leg.duration for leg in calibration_drive()), 0.01)
+
+
+def test_calibrate_sensor_from_the_bag_scans(bag: Path, tmp_path: Path) -> None:
     js = tmp_path / "r.json"
     code = main(
-        ["calibrate", "sensor", str(path), "-f", "bag", "--scan-topic", "/scan", "-p",
-         "jaguar-lite", "-o", str(tmp_path / "new.toml"), "--json", str(js)]
+        ["calibrate", "sensor", str(bag), "--scan-topic", "/scan", "--joint-topic",
+         "/joint_states", "-p", "jaguar-lite", "-o", str(tmp_path / "new.toml"),
+         "--json", str(js)]
     )  # fmt: skip
     assert code == 0
     r = json.loads(js.read_text())
@@ -110,4 +67,20 @@ def test_calibrate_sensor_from_scans(bag: tuple[Path, np.ndarray], tmp_path: Pat
     ):
         assert r["params"][key] == pytest.approx(true, rel=0.01), key
         assert abs(r["params"][key] - true) < 4 * r["stderr"][key], key
-    assert r["values"]["sensor_yaw"] == pytest.approx(MOUNT[2], abs=0.03)
+    assert r["values"]["sensor_x"] == pytest.approx(MOUNT[0], abs=0.02)
+    assert r["values"]["sensor_y"] == pytest.approx(MOUNT[1], abs=0.02)
+    assert r["values"]["sensor_yaw"] == pytest.approx(MOUNT[2], abs=math.radians(1.0))
+    assert "track_width" in (tmp_path / "new.toml").read_text()
+
+
+def test_scan_topic_with_sensor_topic_is_one_sentence(
+    bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code = main(
+        ["calibrate", "sensor", str(bag), "--scan-topic", "/scan", "--sensor-topic", "/odom",
+         "-p", "jaguar-lite", "-o", str(tmp_path / "new.toml")]
+    )  # fmt: skip
+    assert code == 1
+    err = capsys.readouterr().err
+    assert "--scan-topic or --sensor-topic, not both" in err
+    assert "Traceback" not in err

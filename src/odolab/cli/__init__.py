@@ -19,6 +19,7 @@ from odolab.cli import (  # noqa: F401  (register commands)
     lab,
     models,
     robot,
+    scans,
     serve,
     sim,
     trials,

@@ -85,8 +85,14 @@ def calibrate_sensor_cmd(
         ),
     ] = None,
     fmt: Annotated[
-        EncoderFormat, typer.Option("--format", "-f", help="Format of the encoder log.")
-    ] = EncoderFormat.csv,
+        EncoderFormat | None,
+        typer.Option(
+            "--format",
+            "-f",
+            help="Format of the encoder log [default: bag with --scan-topic/--sensor-topic or "
+            "a .bag/.mcap/bag folder, else csv].",
+        ),
+    ] = None,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write the result here.")] = None,
     time_offset: Annotated[
         str,
@@ -102,8 +108,11 @@ def calibrate_sensor_cmd(
     ] = None,
     scan_topic: Annotated[
         str | None,
-        typer.Option(help="Bag: a LaserScan topic, matched scan to scan (small_gicp)."),
+        typer.Option(help="Bag: a LaserScan topic, matched scan to scan (small_gicp GICP)."),
     ] = None,
+    scan_every: Annotated[
+        int, typer.Option(min=1, help="With --scan-topic: match every N-th scan (fast scanners).")
+    ] = 1,
     joint_topic: Annotated[str, typer.Option(help="Bag: JointState topic.")] = "/joint_states",
     joints: Annotated[tuple[str, str], typer.Option(help="Bag: LEFT RIGHT joint names.")] = (
         "left_wheel_joint",
@@ -141,14 +150,20 @@ def calibrate_sensor_cmd(
         joint_names=joints,
         ticks_per_rev=nominal.ticks_per_rev,
     )
+    if fmt is None:
+        # the scans come from the ENCODERS bag when no SENSOR is given
+        is_bag = (scan_topic is not None and sensor is None) or encoders.is_dir()
+        is_bag = is_bag or encoders.suffix.lower() in (".bag", ".mcap", ".db3")
+        fmt = EncoderFormat.bag if is_bag else EncoderFormat.csv
+    if scan_topic is not None and sensor_topic is not None:
+        raise OptionError("give --scan-topic or --sensor-topic, not both")
     run = read_run(encoders, fmt.value, ro)
     if scan_topic is not None:
-        if sensor_topic is not None:
-            raise OptionError("give --scan-topic or --sensor-topic, not both")
-        from odolab.io.laserscan import read_laser_scans, scan_trajectory
+        from odolab.calibration.scanmatch import scan_motions
+        from odolab.io.scans import read_scans
 
         source = sensor or encoders
-        traj = scan_trajectory(read_laser_scans(source, scan_topic))
+        traj = scan_motions(read_scans(source, scan_topic), every=scan_every).trajectory
     elif sensor is None:
         raise OptionError("no SENSOR file and no --scan-topic; expected the sensor's motion")
     else:
