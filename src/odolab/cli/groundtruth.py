@@ -1,6 +1,7 @@
 """CLI commands for ground truth without a motion-capture lab: ``odolab calibrate sensor``
 (odometry and a sensor calibrated together), ``odolab track`` (a marker filmed by a camera),
-``odolab camera calibrate`` and ``odolab markers`` (what to print)."""
+``odolab camera calibrate`` and ``odolab markers`` (what to print), and ``odolab sim video`` (a
+synthetic 720p video of the virtual robot to try them on)."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from odolab.cli._apps import app, calibrate_app
+from odolab.cli._apps import app, calibrate_app, sim_app
 from odolab.errors import OdolabError
 
 if TYPE_CHECKING:
@@ -352,4 +353,89 @@ def camera_calibrate_cmd(
         f"{video}: {result.views} views of {result.frames} frames, reprojection rms "
         f"{result.rms:.3f} px; fx {c.fx:.1f} fy {c.fy:.1f} cx {c.cx:.1f} cy {c.cy:.1f} px, "
         f"k1 {c.k1:.4f} k2 {c.k2:.4f} -> {output}"
+    )
+
+
+#: ``odolab sim video``: the robot's true parameters (nominal jaguar-lite: 0.0835, 0.0835, 0.56)
+SIM_VIDEO_TRUTH = (0.0850, 0.0820, 0.60)
+
+
+def _sim_video_legs(long: bool) -> list[tuple[float, float, float]]:
+    """The drive of ``odolab sim video``: straight lines, turns in place and arcs of both signs
+    (11.6 s; ``long``: 31.4 s with half turns and a reverse leg)."""
+    v = 0.3
+    half_turn = math.pi / (v / 0.30)
+    if long:
+        return [
+            (v, v, 4.0), (-v, v, half_turn), (v, v, 4.0), (v, -v, half_turn),
+            (0.6 * v, v, 5.0), (v, 0.6 * v, 5.0), (-v, -v, 2.0), (-v, v, half_turn / 2),
+            (v, v, 2.0), (v, -v, half_turn / 2),
+        ]  # fmt: skip
+    return [
+        (v, v, 2.0), (-v, v, half_turn / 2), (0.6 * v, v, 2.5), (v, 0.6 * v, 2.5),
+        (v, -v, half_turn / 2), (-v, -v, 1.5),
+    ]  # fmt: skip
+
+
+@sim_app.command("video")
+def sim_video_cmd(
+    folder: Annotated[Path, typer.Argument(help="Folder to write the video and its files in.")],
+    clock_offset: Annotated[
+        float, typer.Option(help="The encoder log's clock minus the video's (s).")
+    ] = 2.0,
+    long: Annotated[bool, typer.Option("--long", help="A 31 s drive instead of 12 s.")] = False,
+    seed: Annotated[int, typer.Option(min=0, help="Random seed (image noise).")] = 0,
+) -> None:
+    """Film the virtual robot: a 1280x720, 30 fps MJPG video (blur, noise, JPEG) of it driving
+    among five floor markers, with its marker 10 (25 cm, 0.30 m up); writes run.avi, floor.csv,
+    camera.toml, the encoder log run.csv and the true path truth.csv (encoder clock)."""
+    from odolab.cli._output import term
+    from odolab.io import write_trajectory_csv
+    from odolab.io.encoder_csv import write_encoder_csv
+    from odolab.params import PRESETS
+    from odolab.sim.drives import record_drive
+    from odolab.sim.physics import TrueParams
+    from odolab.tracking import CameraModel, FloorMarker, save_camera, write_floor_csv
+    from odolab.tracking.render import look_at, render_video
+    from odolab.trajectory import Trajectory
+    from odolab.trials import EncoderLog
+
+    if not math.isfinite(clock_offset) or abs(clock_offset) > 30.0:
+        raise OptionError(f"--clock-offset is {clock_offset!r}; expected seconds within +-30")
+    if folder.exists() and not folder.is_dir():
+        raise OptionError(f"{folder} is a file; expected a folder to write the video in")
+    folder.mkdir(parents=True, exist_ok=True)
+    camera = CameraModel(900.0, 900.0, 640.0, 360.0, 1280, 720)
+    floor = [
+        FloorMarker(i, x, y, yaw, 0.2)
+        for i, (x, y, yaw) in enumerate(
+            [(-2.2, -1.1, 0.0), (2.2, -1.1, 0.5), (2.2, 1.6, 1.0), (-2.2, 1.6, -0.3),
+             (0.0, -1.4, 0.0)]
+        )
+    ]  # fmt: skip
+    rl, rr, b = SIM_VIDEO_TRUTH
+    drive = record_drive(
+        TrueParams(rl, rl, rr, rr, b), PRESETS["jaguar-lite"], _sim_video_legs(long)
+    )
+    tr = drive.truth
+    truth = Trajectory.from_xyh(tr.t, tr.x - 1.1, tr.y - 0.6, tr.heading)
+    scene = look_at(camera, (0.0, -3.0, 3.2), (0.0, 0.3, 0.0))
+    video = render_video(
+        folder / "run.avi", truth, floor, scene, robot_marker=10, marker_size=0.25,
+        marker_height=0.3, seed=seed,
+    )  # fmt: skip
+    write_floor_csv(folder / "floor.csv", floor)
+    save_camera(folder / "camera.toml", camera)
+    write_encoder_csv(
+        folder / "run.csv",
+        EncoderLog(drive.t + clock_offset, drive.counts_left, drive.counts_right),
+    )
+    write_trajectory_csv(
+        folder / "truth.csv",
+        Trajectory.from_xyh(truth.t + clock_offset, truth.x, truth.y, truth.heading),
+    )
+    typer.echo(
+        f"{tr.t[-1]:.1f} s drive -> {term(video)} (1280x720, 30 fps), floor.csv, camera.toml, "
+        f"run.csv (encoder clock {clock_offset:+.3f} s from the video's), truth.csv; true "
+        f"radii {rl} / {rr} m, track {b} m (robot marker 10, 0.25 m, 0.30 m up)"
     )
