@@ -12,11 +12,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from odolab.calibration.sensor import relative_motions, robot_trajectory
 from odolab.cli import main
+from odolab.io.registry import read_trajectory
 from odolab.io.scans import LaserScans, write_scan_mcap
 from odolab.sim.drives import calibration_drive
 from odolab.sim.laser import LaserDrive, room_world, simulate_laser_drive
 from odolab.sim.physics import TrueParams
+from odolab.trajectory import Trajectory
 
 MOUNT = (0.20, -0.05, 0.3)
 TRUE = (0.085, 0.082, 0.60)  # left radius, right radius, track (nominal: 0.0835, 0.0835, 0.56)
@@ -53,12 +56,12 @@ def test_the_laser_sees_every_turn_of_the_drive(drive: LaserDrive) -> None:
     assert drive.scan_t[-1] == pytest.approx(sum(leg.duration for leg in calibration_drive()), 0.01)
 
 
-def test_calibrate_sensor_from_the_bag_scans(bag: Path, tmp_path: Path) -> None:
+def test_calibrate_sensor_from_the_bag_scans(bag: Path, drive: LaserDrive, tmp_path: Path) -> None:
     js = tmp_path / "r.json"
     code = main(
         ["calibrate", "sensor", str(bag), "--scan-topic", "/scan", "--joint-topic",
          "/joint_states", "-p", "jaguar-lite", "-o", str(tmp_path / "new.toml"),
-         "--json", str(js)]
+         "--json", str(js), "--truth-out", str(tmp_path / "robot.csv")]
     )  # fmt: skip
     assert code == 0
     r = json.loads(js.read_text())
@@ -71,6 +74,26 @@ def test_calibrate_sensor_from_the_bag_scans(bag: Path, tmp_path: Path) -> None:
     assert r["values"]["sensor_y"] == pytest.approx(MOUNT[1], abs=0.02)
     assert r["values"]["sensor_yaw"] == pytest.approx(MOUNT[2], abs=math.radians(1.0))
     assert "track_width" in (tmp_path / "new.toml").read_text()
+    # --truth-out: the robot centre's path; its motion over each second is the true robot's
+    got = read_trajectory(tmp_path / "robot.csv")
+    assert got.t == pytest.approx(drive.scan_t)
+    i = np.arange(0, len(got.t) - 10, 10)
+    want = relative_motions(drive.robot[:, 0], drive.robot[:, 1], drive.robot[:, 2], i, i + 10)
+    have = relative_motions(got.x, got.y, got.heading, i, i + 10)
+    assert np.abs(have[:, :2] - want[:, :2]).max() < 0.01  # metres
+    assert np.abs(have[:, 2] - want[:, 2]).max() < math.radians(0.3)
+
+
+def test_robot_trajectory_by_hand() -> None:
+    # the sensor at (1, 2) facing +y, mounted 0.2 m ahead and turned 0.1 rad: the robot
+    # faces pi/2 - 0.1 and its centre is 0.2 m behind the sensor along that heading
+    sensor = Trajectory.from_xyh(np.array([5.0]), [1.0], [2.0], [math.pi / 2])
+    r = robot_trajectory(sensor, (0.2, 0.0, 0.1), time_offset=1.5)
+    h = math.pi / 2 - 0.1
+    assert r.t[0] == pytest.approx(3.5)
+    assert (r.x[0], r.y[0], r.heading[0]) == pytest.approx(
+        (1.0 - 0.2 * math.cos(h), 2.0 - 0.2 * math.sin(h), h)
+    )
 
 
 def test_scan_topic_with_sensor_topic_is_one_sentence(

@@ -68,6 +68,7 @@ __all__ = [
     "predict_motions",
     "read_sensor_trajectory",
     "relative_motions",
+    "robot_trajectory",
     "wheel_angles",
 ]
 
@@ -549,3 +550,20 @@ def read_sensor_trajectory(path: str | Path, topic: str | None = None) -> Trajec
             )
         return read_bag_trajectory(p, topic)
     return read_trajectory(p)
+
+
+def robot_trajectory(
+    sensor: Trajectory, mount: tuple[float, float, float], time_offset: float = 0.0
+) -> Trajectory:
+    """The robot centre's path from the sensor's: each pose composed with the inverse of the
+    sensor's ``mount = (x, y, yaw)`` on the robot, stamps moved onto the encoder clock (minus
+    ``time_offset``, the sensor clock minus the encoder clock). Ground truth for
+    ``calibrate lsq`` and ``evaluate`` in the sensor's own frame."""
+    lx, ly, lyaw = (float(v) for v in mount)
+    if not all(math.isfinite(v) for v in (lx, ly, lyaw, time_offset)):
+        raise CalibrationError(f"sensor mount {mount!r} and offset {time_offset!r} must be finite")
+    h = sensor.heading - lyaw
+    c, s = np.cos(h), np.sin(h)
+    x = sensor.x - (c * lx - s * ly)
+    y = sensor.y - (s * lx + c * ly)
+    return Trajectory.from_xyh(sensor.t - time_offset, x, y, h)

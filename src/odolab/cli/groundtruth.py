@@ -111,6 +111,14 @@ def calibrate_sensor_cmd(
         str | None,
         typer.Option(help="Bag: a LaserScan topic, matched scan to scan (small_gicp GICP)."),
     ] = None,
+    truth_out: Annotated[
+        Path | None,
+        typer.Option(
+            "--truth-out",
+            help="Write the robot centre's path (the sensor's, moved by the calibrated mount, "
+            "on the encoder clock): ground truth for calibrate lsq / evaluate.",
+        ),
+    ] = None,
     scan_every: Annotated[
         int, typer.Option(min=1, help="With --scan-topic: match every N-th scan (fast scanners).")
     ] = 1,
@@ -145,6 +153,8 @@ def calibrate_sensor_cmd(
     check_output_path(output, "parameters file")
     if json_out is not None:
         check_output_path(json_out, "JSON result")
+    if truth_out is not None:
+        check_output_path(truth_out, "robot trajectory")
     ro = ReadOptions(
         modulus=nominal.encoder_modulus,
         joint_topic=joint_topic,
@@ -181,6 +191,14 @@ def calibrate_sensor_cmd(
     save_params(output, result.params, provenance=result.provenance())
     _write_json(result.to_dict(), json_out)
     _print_sensor(result, output)
+    if truth_out is not None:
+        from odolab.calibration.sensor import robot_trajectory
+        from odolab.io import write_trajectory_csv
+
+        v = result.values
+        mount = (v["sensor_x"], v["sensor_y"], v["sensor_yaw"])
+        write_trajectory_csv(truth_out, robot_trajectory(traj, mount, offset))
+        typer.echo(f"robot path from the sensor -> {truth_out}")
 
 
 def _print_sensor(result: SensorCalibration, output: Path) -> None:
