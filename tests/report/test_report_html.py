@@ -83,6 +83,12 @@ def test_summary_numbers_come_from_the_analysis(report: Path, analysis: LabAnaly
     rot = analysis.get("rotation")
     lo, hi = rot.ratio_ci95
     assert any(f"{numfmt.with_ci(rot.ratio, lo, hi)} rad/rad" in s for s in res["summary"])
+    # the reader's words, never the internal motion names ("X:", "Y_forward:", "y_reverse on")
+    import re
+
+    internal = re.compile(r"\b(X|Y_forward|Y_reverse|y_forward|y_reverse)\b")
+    assert not [s for s in res["summary"] if internal.search(s)]
+    assert any(s.startswith("Distance (x): slopes on ") for s in res["summary"])
 
 
 @pytest.mark.parametrize(

@@ -7,11 +7,14 @@ so that the measured pose can be entered afterwards.
 
 from __future__ import annotations
 
+import inspect
 import math
+from collections.abc import Callable
 from datetime import UTC, datetime
 from enum import StrEnum
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any
+from types import SimpleNamespace
+from typing import TYPE_CHECKING, Annotated, Any, get_type_hints
 
 import typer
 
@@ -391,108 +394,100 @@ def _config(
     )
 
 
-@robot_app.command("rotate")
-def rotate_cmd(
+#: The options every motion command takes after its own, in --help order: (name, type, default).
+#: Those named in ``_config`` make the RunConfig; the rest go to ``_run``.
+_SHARED_OPTIONS: tuple[tuple[str, Any, Any], ...] = (
+    ("robot", RobotOpt, None),
+    ("rate", RateOpt, 20.0),
+    ("params", ParamsOpt, "jaguar-lite"),
+    ("mode", ModeOpt, ModeChoice.pwm),
+    ("decel", DecelOpt, 0.0),
+    ("watchdog", WatchdogOpt, 0.5),
+    ("link_timeout", LinkTimeoutOpt, 5.0),
+    ("stall_timeout", StallTimeoutOpt, 3.0),
+    ("command_timeout", CommandTimeoutOpt, 0.5),
+    ("out", OutOpt, None),
+    ("db", DbOpt, None),
+    ("truth", TruthOpt, "jaguar-lab"),
+    ("terrain", TerrainOpt, "tile"),
+    ("seed", SeedOpt, 0),
+    ("left_channel", LeftChOpt, 0),
+    ("right_channel", RightChOpt, 1),
+    ("left_encoder_sign", LeftSignOpt, 1),
+    ("right_encoder_sign", RightSignOpt, 1),
+    ("left_motor_sign", LeftMotorOpt, 1),
+    ("right_motor_sign", RightMotorOpt, 1),
+    ("max_wheel_speed", MaxSpeedOpt, 1.0),
+    ("quiet", QuietOpt, False),
+    ("realtime", RealtimeOpt, True),
+    ("foxglove", FoxgloveOpt, False),
+    ("foxglove_port", FoxglovePortOpt, 8765),
+)
+_CONFIG_KEYS = frozenset(inspect.signature(_config).parameters)
+
+
+def _motion_command(name: str) -> Callable[[Callable[..., Command]], Callable[..., Command]]:
+    """Register ``build`` (its own options -> the Command; its docstring is the help) as
+    ``odolab robot NAME`` with the shared options after its own: validated, then driven."""
+
+    def register(build: Callable[..., Command]) -> Callable[..., Command]:
+        # the annotations are postponed strings; resolved here, the return type left out (it
+        # is imported only for type checking)
+        holder = SimpleNamespace(
+            __annotations__={k: v for k, v in build.__annotations__.items() if k != "return"}
+        )
+        hints = get_type_hints(holder, globalns=build.__globals__, include_extras=True)
+        own = [
+            p.replace(kind=inspect.Parameter.KEYWORD_ONLY, annotation=hints[p.name])
+            for p in inspect.signature(build).parameters.values()
+        ]
+        shared = [
+            inspect.Parameter(n, inspect.Parameter.KEYWORD_ONLY, annotation=a, default=d)
+            for n, a, d in _SHARED_OPTIONS
+        ]
+
+        def command(**options: Any) -> None:
+            cmd = build(**{p.name: options.pop(p.name) for p in own})
+            config = _config(**{k: options.pop(k) for k in _CONFIG_KEYS})
+            _run(cmd, config, **options)
+
+        command.__signature__ = inspect.Signature([*own, *shared])  # type: ignore[attr-defined]
+        command.__doc__ = build.__doc__
+        command.__name__ = command.__qualname__ = f"{build.__name__}_cmd"
+        robot_app.command(name)(command)
+        return build
+
+    return register
+
+
+@_motion_command("rotate")
+def rotate(
     turns: Annotated[
         float, typer.Option("--turns", help="Full turns (negative = clockwise).")
     ] = 10.0,
     speed: Annotated[float, typer.Option("--speed", help="Turn rate, rad/s.")] = 0.5,
-    robot: RobotOpt = None,
-    rate: RateOpt = 20.0,
-    params: ParamsOpt = "jaguar-lite",
-    mode: ModeOpt = ModeChoice.pwm,
-    decel: DecelOpt = 0.0,
-    watchdog: WatchdogOpt = 0.5,
-    link_timeout: LinkTimeoutOpt = 5.0,
-    stall_timeout: StallTimeoutOpt = 3.0,
-    command_timeout: CommandTimeoutOpt = 0.5,
-    out: OutOpt = None,
-    db: DbOpt = None,
-    truth: TruthOpt = "jaguar-lab",
-    terrain: TerrainOpt = "tile",
-    seed: SeedOpt = 0,
-    left_channel: LeftChOpt = 0,
-    right_channel: RightChOpt = 1,
-    left_encoder_sign: LeftSignOpt = 1,
-    right_encoder_sign: RightSignOpt = 1,
-    left_motor_sign: LeftMotorOpt = 1,
-    right_motor_sign: RightMotorOpt = 1,
-    max_wheel_speed: MaxSpeedOpt = 1.0,
-    quiet: QuietOpt = False,
-    realtime: RealtimeOpt = True,
-    foxglove: FoxgloveOpt = False,
-    foxglove_port: FoxglovePortOpt = 8765,
-) -> None:
+) -> Command:
     """Rotate in place by TURNS full turns (2*pi each), stopping when odometry says so."""
     from odolab.trials import Command, MotionKind
 
-    cmd = Command(MotionKind.ROTATION, angle=2.0 * math.pi * turns, speed=speed)
-    config = _config(
-        rate=rate, mode=mode, max_wheel_speed=max_wheel_speed, watchdog=watchdog,
-        link_timeout=link_timeout, stall_timeout=stall_timeout, command_timeout=command_timeout,
-        decel=decel, left_channel=left_channel, right_channel=right_channel,
-        left_encoder_sign=left_encoder_sign, right_encoder_sign=right_encoder_sign,
-        left_motor_sign=left_motor_sign, right_motor_sign=right_motor_sign,
-    )  # fmt: skip
-    _run(
-        cmd, config, robot=robot, params=params, out=out, db=db, truth=truth, terrain=terrain,
-        seed=seed, quiet=quiet, realtime=realtime, foxglove=foxglove,
-        foxglove_port=foxglove_port,
-    )  # fmt: skip
+    return Command(MotionKind.ROTATION, angle=2.0 * math.pi * turns, speed=speed)
 
 
-@robot_app.command("drive")
-def drive_cmd(
+@_motion_command("drive")
+def drive(
     distance: Annotated[
         float, typer.Option("--distance", help="Metres; negative = reverse.")
     ] = 1.0,
     speed: Annotated[float, typer.Option("--speed", help="Speed, m/s.")] = 0.3,
-    robot: RobotOpt = None,
-    rate: RateOpt = 20.0,
-    params: ParamsOpt = "jaguar-lite",
-    mode: ModeOpt = ModeChoice.pwm,
-    decel: DecelOpt = 0.0,
-    watchdog: WatchdogOpt = 0.5,
-    link_timeout: LinkTimeoutOpt = 5.0,
-    stall_timeout: StallTimeoutOpt = 3.0,
-    command_timeout: CommandTimeoutOpt = 0.5,
-    out: OutOpt = None,
-    db: DbOpt = None,
-    truth: TruthOpt = "jaguar-lab",
-    terrain: TerrainOpt = "tile",
-    seed: SeedOpt = 0,
-    left_channel: LeftChOpt = 0,
-    right_channel: RightChOpt = 1,
-    left_encoder_sign: LeftSignOpt = 1,
-    right_encoder_sign: RightSignOpt = 1,
-    left_motor_sign: LeftMotorOpt = 1,
-    right_motor_sign: RightMotorOpt = 1,
-    max_wheel_speed: MaxSpeedOpt = 1.0,
-    quiet: QuietOpt = False,
-    realtime: RealtimeOpt = True,
-    foxglove: FoxgloveOpt = False,
-    foxglove_port: FoxglovePortOpt = 8765,
-) -> None:
+) -> Command:
     """Drive straight DISTANCE m (negative = reverse), stopping when odometry says so."""
     from odolab.trials import Command, MotionKind
 
-    cmd = Command(MotionKind.TRANSLATION, distance=distance, speed=speed)
-    config = _config(
-        rate=rate, mode=mode, max_wheel_speed=max_wheel_speed, watchdog=watchdog,
-        link_timeout=link_timeout, stall_timeout=stall_timeout, command_timeout=command_timeout,
-        decel=decel, left_channel=left_channel, right_channel=right_channel,
-        left_encoder_sign=left_encoder_sign, right_encoder_sign=right_encoder_sign,
-        left_motor_sign=left_motor_sign, right_motor_sign=right_motor_sign,
-    )  # fmt: skip
-    _run(
-        cmd, config, robot=robot, params=params, out=out, db=db, truth=truth, terrain=terrain,
-        seed=seed, quiet=quiet, realtime=realtime, foxglove=foxglove,
-        foxglove_port=foxglove_port,
-    )  # fmt: skip
+    return Command(MotionKind.TRANSLATION, distance=distance, speed=speed)
 
 
-@robot_app.command("pivot")
-def pivot_cmd(
+@_motion_command("pivot")
+def pivot(
     degrees: Annotated[
         float, typer.Option("--degrees", help="Turn, degrees (ccw positive).")
     ] = 90.0,
@@ -500,99 +495,25 @@ def pivot_cmd(
         TrackChoice, typer.Option("--held", help="The track that stays still.")
     ] = TrackChoice.left,
     speed: Annotated[float, typer.Option("--speed", help="Turn rate, rad/s.")] = 0.5,
-    robot: RobotOpt = None,
-    rate: RateOpt = 20.0,
-    params: ParamsOpt = "jaguar-lite",
-    mode: ModeOpt = ModeChoice.pwm,
-    decel: DecelOpt = 0.0,
-    watchdog: WatchdogOpt = 0.5,
-    link_timeout: LinkTimeoutOpt = 5.0,
-    stall_timeout: StallTimeoutOpt = 3.0,
-    command_timeout: CommandTimeoutOpt = 0.5,
-    out: OutOpt = None,
-    db: DbOpt = None,
-    truth: TruthOpt = "jaguar-lab",
-    terrain: TerrainOpt = "tile",
-    seed: SeedOpt = 0,
-    left_channel: LeftChOpt = 0,
-    right_channel: RightChOpt = 1,
-    left_encoder_sign: LeftSignOpt = 1,
-    right_encoder_sign: RightSignOpt = 1,
-    left_motor_sign: LeftMotorOpt = 1,
-    right_motor_sign: RightMotorOpt = 1,
-    max_wheel_speed: MaxSpeedOpt = 1.0,
-    quiet: QuietOpt = False,
-    realtime: RealtimeOpt = True,
-    foxglove: FoxgloveOpt = False,
-    foxglove_port: FoxglovePortOpt = 8765,
-) -> None:
+) -> Command:
     """Pivot on one track by DEGREES, stopping when odometry says so."""
     from odolab.trials import Command, MotionKind
 
-    cmd = Command(MotionKind.PIVOT, angle=math.radians(degrees), direction=held.value, speed=speed)
-    config = _config(
-        rate=rate, mode=mode, max_wheel_speed=max_wheel_speed, watchdog=watchdog,
-        link_timeout=link_timeout, stall_timeout=stall_timeout, command_timeout=command_timeout,
-        decel=decel, left_channel=left_channel, right_channel=right_channel,
-        left_encoder_sign=left_encoder_sign, right_encoder_sign=right_encoder_sign,
-        left_motor_sign=left_motor_sign, right_motor_sign=right_motor_sign,
-    )  # fmt: skip
-    _run(
-        cmd, config, robot=robot, params=params, out=out, db=db, truth=truth, terrain=terrain,
-        seed=seed, quiet=quiet, realtime=realtime, foxglove=foxglove,
-        foxglove_port=foxglove_port,
-    )  # fmt: skip
+    return Command(MotionKind.PIVOT, angle=math.radians(degrees), direction=held.value, speed=speed)
 
 
-@robot_app.command("square")
-def square_cmd(
+@_motion_command("square")
+def square(
     side: Annotated[float, typer.Option("--side", help="Side of the square, m.")] = 4.0,
     direction: Annotated[
         DirectionChoice, typer.Option("--direction", help="cw or ccw.")
     ] = DirectionChoice.ccw,
     speed: Annotated[float, typer.Option("--speed", help="Straight speed, m/s.")] = 0.3,
-    robot: RobotOpt = None,
-    rate: RateOpt = 20.0,
-    params: ParamsOpt = "jaguar-lite",
-    mode: ModeOpt = ModeChoice.pwm,
-    decel: DecelOpt = 0.0,
-    watchdog: WatchdogOpt = 0.5,
-    link_timeout: LinkTimeoutOpt = 5.0,
-    stall_timeout: StallTimeoutOpt = 3.0,
-    command_timeout: CommandTimeoutOpt = 0.5,
-    out: OutOpt = None,
-    db: DbOpt = None,
-    truth: TruthOpt = "jaguar-lab",
-    terrain: TerrainOpt = "tile",
-    seed: SeedOpt = 0,
-    left_channel: LeftChOpt = 0,
-    right_channel: RightChOpt = 1,
-    left_encoder_sign: LeftSignOpt = 1,
-    right_encoder_sign: RightSignOpt = 1,
-    left_motor_sign: LeftMotorOpt = 1,
-    right_motor_sign: RightMotorOpt = 1,
-    max_wheel_speed: MaxSpeedOpt = 1.0,
-    quiet: QuietOpt = False,
-    realtime: RealtimeOpt = True,
-    foxglove: FoxgloveOpt = False,
-    foxglove_port: FoxglovePortOpt = 8765,
-) -> None:
+) -> Command:
     """Drive the UMBmark square (four sides, four 90-degree turns in place) by odometry."""
     from odolab.trials import Command, MotionKind
 
-    cmd = Command(MotionKind.SQUARE, side=side, direction=direction.value, speed=speed)
-    config = _config(
-        rate=rate, mode=mode, max_wheel_speed=max_wheel_speed, watchdog=watchdog,
-        link_timeout=link_timeout, stall_timeout=stall_timeout, command_timeout=command_timeout,
-        decel=decel, left_channel=left_channel, right_channel=right_channel,
-        left_encoder_sign=left_encoder_sign, right_encoder_sign=right_encoder_sign,
-        left_motor_sign=left_motor_sign, right_motor_sign=right_motor_sign,
-    )  # fmt: skip
-    _run(
-        cmd, config, robot=robot, params=params, out=out, db=db, truth=truth, terrain=terrain,
-        seed=seed, quiet=quiet, realtime=realtime, foxglove=foxglove,
-        foxglove_port=foxglove_port,
-    )  # fmt: skip
+    return Command(MotionKind.SQUARE, side=side, direction=direction.value, speed=speed)
 
 
 @robot_app.command("sim-server")

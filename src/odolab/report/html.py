@@ -26,6 +26,7 @@ from odolab.calibration.umbmark import UmbmarkResult
 from odolab.errors import OdolabError
 from odolab.report import figures as F
 from odolab.report.view import (
+    MOTION_NAMES,
     SIGN_CONVENTION,
     extra_view,
     fits_rows,
@@ -105,11 +106,14 @@ def summary_sentences(results: Mapping[str, Any]) -> list[str]:
     for m in results["analysis"]["motions"]:
         if m["growth"] is not None:
             out.append(
-                f"Growth of σ with distance/angle, {m['motion']} on {m['terrain']}: "
+                f"Growth of σ with distance/angle, {MOTION_NAMES.get(m['motion'], m['motion'])} "
+                f"on {m['terrain']}: "
                 f"{m['growth']['verdict']}."
             )
     for t in results["analysis"]["terrain_tests"]:
-        out.append(t["verdict"][0].upper() + t["verdict"][1:] + ".")
+        name = MOTION_NAMES.get(t["motion"], t["motion"])  # not the internal "y_forward"
+        rest = t["verdict"].split(": ", 1)[-1]
+        out.append(f"{name[0].upper()}{name[1:]}: {rest}.")
     for name, c in results["calibration"].items():
         p = c["params"]
         out.append(
@@ -217,7 +221,7 @@ def _render(fig_dir: Path, plans: list[_Plan]) -> list[_Figure]:
 def _motion_plans(m: MotionAnalysis) -> list[_Plan]:
     key = f"{m.motion}_{m.terrain}".replace(" ", "_")
     unit = MOTIONS[m.motion]["unit"]
-    where = f"{m.motion} on {m.terrain}"
+    where = f"{MOTION_NAMES.get(m.motion, m.motion)} on {m.terrain}"
     plans = [
         _Plan(
             f"fit_{key}",
@@ -290,7 +294,7 @@ def _terrain_plans(analysis: LabAnalysis) -> list[_Plan]:
         plans.append(
             _Plan(
                 f"terrains_{t.motion}",
-                f"{t.motion}: terrains side by side",
+                f"{MOTION_NAMES.get(t.motion, t.motion)}: terrains side by side",
                 "Each terrain's trials and its line with an intercept.",
                 partial(F.plot_terrains, analysis, t.motion),
                 "terrain",
@@ -299,8 +303,8 @@ def _terrain_plans(analysis: LabAnalysis) -> list[_Plan]:
         plans.append(
             _Plan(
                 f"terrain_slopes_{t.motion}",
-                f"{t.motion}: slope per terrain",
-                t.verdict()
+                f"{MOTION_NAMES.get(t.motion, t.motion)}: slope per terrain",
+                t.verdict().split(": ", 1)[-1]
                 + (
                     ". The F-test compares the slopes of the lines with an intercept; squares: "
                     "the ratios through the origin (Table I)."
