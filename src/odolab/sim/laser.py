@@ -153,7 +153,7 @@ def cast_scans(
         # solve (px, py) + t d = a + u e  for t (range) and u (position on the segment)
         wx, wy = a[:, 0] - px, a[:, 1] - py  # (m,)
         den = dx * e[:, 1] - dy * e[:, 0]  # cross(d, e), (b, m)
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             t = (wx * e[:, 1] - wy * e[:, 0]) / den
             u = (wx * dy - wy * dx) / den
         ok = (np.abs(den) > 1e-12) & (t > 1e-9) & (u >= 0.0) & (u <= 1.0)
