@@ -84,6 +84,27 @@ def test_calibrate_sensor_from_the_bag_scans(bag: Path, drive: LaserDrive, tmp_p
     assert np.abs(have[:, 2] - want[:, 2]).max() < math.radians(0.3)
 
 
+def test_laser_clock_offset_found_from_the_yaw_rates(drive: LaserDrive, tmp_path: Path) -> None:
+    # the laser's stamps 0.7 s ahead of the wheels' (another computer's clock)
+    lz = drive.laser
+    scans = LaserScans(
+        drive.scan_t + 0.7, drive.ranges, lz.angle_min, lz.angle_increment, lz.range_min,
+        lz.range_max,
+    )  # fmt: skip
+    bag = tmp_path / "late.mcap"
+    write_scan_mcap(bag, scans, joint_t=drive.joint_t, wheel_angles=drive.wheel_angles)
+    js = tmp_path / "r.json"
+    code = main(
+        ["calibrate", "sensor", str(bag), "--scan-topic", "/scan", "-p", "jaguar-lite",
+         "-o", str(tmp_path / "new.toml"), "--json", str(js), "--time-offset", "auto",
+         "--max-offset", "3"]
+    )  # fmt: skip
+    assert code == 0
+    r = json.loads(js.read_text())
+    assert r["time_offset_s"] == pytest.approx(0.7, abs=0.02)
+    assert r["params"]["track_width"] == pytest.approx(TRUE[2], rel=0.01)
+
+
 def test_robot_trajectory_by_hand() -> None:
     # the sensor at (1, 2) facing +y, mounted 0.2 m ahead and turned 0.1 rad: the robot
     # faces pi/2 - 0.1 and its centre is 0.2 m behind the sensor along that heading

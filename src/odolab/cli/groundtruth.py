@@ -180,10 +180,10 @@ def calibrate_sensor_cmd(
     else:
         traj = read_sensor_trajectory(sensor, sensor_topic)
     pl, pr = wheel_angles(run.dticks_left, run.dticks_right, nominal.ticks_per_rev)
+    where = f"{sensor or encoders}" + (f" {scan_topic}" if scan_topic else "")
     if offset is None:
         odo = run.odometry(nominal)
-        offset = estimate_time_offset(run.t, odo.heading, traj, str(sensor), max_offset)
-    where = f"{sensor or encoders}" + (f" {scan_topic}" if scan_topic else "")
+        offset = estimate_time_offset(run.t, odo.heading, traj, where, max_offset)
     data = motions_from_trajectory(
         run.t, pl, pr, traj, interval_s=interval, time_offset=offset, source=where
     )
