@@ -119,6 +119,8 @@ def render_video(
         raise TrackingError(f"{p}: OpenCV cannot write an MJPG video here")
     writer.set(cv2.VIDEOWRITER_PROP_QUALITY, float(quality))
     rng = np.random.default_rng(seed)
+    cv2.setRNGSeed(seed)
+    grain = np.empty((model.height, model.width), np.int16)
     ss = 2  # supersampling
     big = SceneCamera(
         CameraModel(model.fx * ss, model.fy * ss, model.cx * ss + (ss - 1) / 2,
@@ -154,8 +156,10 @@ def render_video(
             small = cv2.resize(frame, (model.width, model.height), interpolation=cv2.INTER_AREA)
             if blur > 0:
                 small = cv2.GaussianBlur(small, (0, 0), blur)
-            noisy = small.astype(np.float32) + rng.normal(0.0, noise, small.shape)
-            out = np.clip(noisy, 0, 255).astype(np.uint8)
+            # Gaussian grey-level noise, rounded to integers (std sqrt(noise^2 + 1/12)), added
+            # with saturation; OpenCV's generator (seeded below) is 3x faster than numpy's here
+            cv2.randn(grain, 0.0, noise)
+            out = cv2.add(small, grain, dtype=cv2.CV_8U)
             writer.write(cv2.cvtColor(out, cv2.COLOR_GRAY2BGR))
             if progress is not None:
                 progress(k + 1, n)
