@@ -158,7 +158,7 @@ def render_video(
                 small = cv2.GaussianBlur(small, (0, 0), blur)
             # Gaussian grey-level noise, rounded to integers (std sqrt(noise^2 + 1/12)), added
             # with saturation; OpenCV's generator (seeded below) is 3x faster than numpy's here
-            cv2.randn(grain, 0.0, noise)
+            cv2.randn(grain, np.zeros(1), np.full(1, float(noise)))
             out = cv2.add(small, grain, dtype=cv2.CV_8U)
             writer.write(cv2.cvtColor(out, cv2.COLOR_GRAY2BGR))
             if progress is not None:
