@@ -70,8 +70,15 @@ def write_trajectory_csv(path: str | Path | Trajectory, traj: Trajectory | str |
     return write_columns(p, columns, what)
 
 
+def _trajectory_columns(header: list[str]) -> tuple[str, ...]:
+    if "heading" in header and "theta" not in header:  # t,x,y,heading (odolab track writes it)
+        return ("t", "x", "y", "heading")
+    return COLUMNS if "heading" in header else COLUMNS[:4]
+
+
 def read_trajectory_csv(path: str | Path) -> Trajectory:
-    """Read a trajectory CSV; ``heading`` is optional (derived by unwrapping theta)."""
+    """Read a trajectory CSV; ``heading`` is optional (derived by unwrapping theta), and so is
+    ``theta`` where ``heading`` is there (``t,x,y,heading``; theta is derived by wrapping)."""
     p = Path(path)
     import pandas as pd
 
@@ -79,8 +86,7 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
         raise LogFormatError(f"{p}: is not a file (a folder?); expected a trajectory CSV")
     if table_format(p) != "csv":
         header = read_header(p)
-        cols = COLUMNS if "heading" in header else COLUMNS[:4]
-        d = read_columns(p, cols)
+        d = read_columns(p, _trajectory_columns(header))
         check_times(d["t"], str(p), row_offset=1, what="row")
         if "heading" in d:
             return Trajectory.from_xyh(d["t"], d["x"], d["y"], d["heading"])
@@ -93,8 +99,7 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
         raise LogFormatError(f"{p}: no such file") from err
     except (pd.errors.EmptyDataError, UnicodeDecodeError) as err:
         raise LogFormatError(f"{p}: empty file; expected header {','.join(COLUMNS)}") from err
-    cols = COLUMNS if "heading" in header else COLUMNS[:4]
-    d = read_columns(p, cols, checked=True)
+    d = read_columns(p, _trajectory_columns(header), checked=True)
     check_times(d["t"], str(p), line_of=lambda i: int(data_line_numbers(p)[i]))
     if "heading" in d:
         return Trajectory.from_xyh(d["t"], d["x"], d["y"], d["heading"])
