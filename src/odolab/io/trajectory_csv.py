@@ -80,8 +80,6 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
     """Read a trajectory CSV; ``heading`` is optional (derived by unwrapping theta), and so is
     ``theta`` where ``heading`` is there (``t,x,y,heading``; theta is derived by wrapping)."""
     p = Path(path)
-    import pandas as pd
-
     if p.exists() and not p.is_file():
         raise LogFormatError(f"{p}: is not a file (a folder?); expected a trajectory CSV")
     if table_format(p) != "csv":
@@ -92,13 +90,13 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
             return Trajectory.from_xyh(d["t"], d["x"], d["y"], d["heading"])
         return Trajectory.from_xytheta(d["t"], d["x"], d["y"], d["theta"])
     check_text_file(p, expected="a trajectory CSV")
-    check_columns_unique(p, first_line_cells(p))
     try:
-        header = [str(c).strip() for c in pd.read_csv(p, nrows=0, encoding="utf-8-sig").columns]
+        header = first_line_cells(p)  # checked text: the header without pandas' import
     except FileNotFoundError as err:
         raise LogFormatError(f"{p}: no such file") from err
-    except (pd.errors.EmptyDataError, UnicodeDecodeError) as err:
-        raise LogFormatError(f"{p}: empty file; expected header {','.join(COLUMNS)}") from err
+    if not header:
+        raise LogFormatError(f"{p}: empty file; expected header {','.join(COLUMNS)}")
+    check_columns_unique(p, header)
     d = read_columns(p, _trajectory_columns(header), checked=True)
     check_times(d["t"], str(p), line_of=lambda i: int(data_line_numbers(p)[i]))
     if "heading" in d:
