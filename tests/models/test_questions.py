@@ -148,3 +148,57 @@ def test_bad_effect_and_missing_file(tmp_path: Path) -> None:
     bad.write_text("[experiment\n")
     with pytest.raises(SimError, match=r"x\.toml: not valid TOML"):
         load_experiment(bad)
+
+
+def test_effects_that_are_not_a_list_get_one_sentence() -> None:
+    doc = {
+        "experiment": {"name": "t", "repeats": 2},
+        "conditions": [{"label": "a", "motion": "rotate", "angle_deg": 90}],
+        "effects": 5,
+    }
+    with pytest.raises(SimError, match=r"t\.toml: \[\[effects\]\]: expected an array of tables"):
+        parse_experiment(doc, "t.toml")
+    doc = {"experiment": {"name": "t"}, "conditions": {"label": "a"}}
+    with pytest.raises(SimError, match=r"\[\[conditions\]\]: expected an array of tables"):
+        parse_experiment(doc, "t.toml")
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        # each of these ran for ever (a drive of 1e9 m, or at 1e-300 m/s) or overflowed (1e300 m/s)
+        ({"speed": 1e300}, r"key 'speed': expected a wheel speed from 0\.01 to 5 m/s, got 1e\+300"),
+        ({"speed": 1e-300}, r"key 'speed': expected a wheel speed from 0\.01 to 5 m/s"),
+        ({"motion": "straight", "distance": 1e9, "angle_deg": None}, r"key 'distance': .*1000 m"),
+        ({"angle_deg": -1e9}, r"key 'angle_deg': expected at most 18000 degrees either way"),
+        ({"motion": "curve", "radius": 1e9}, r"key 'radius': expected at most 250 m"),
+        ({"stop": "gradual", "decel": 1e9}, r"key 'decel': expected at most 3600 s"),
+    ],
+)
+def test_out_of_range_conditions_get_one_sentence(change: dict, message: str) -> None:  # type: ignore[type-arg]
+    cond = {"label": "a", "motion": "rotate", "angle_deg": 90, **change}
+    cond = {k: v for k, v in cond.items() if v is not None}
+    with pytest.raises(SimError, match=r"t\.toml: \[\[conditions\]\] #1 " + message):
+        _exp([cond])
+
+
+def test_a_condition_too_long_or_too_short_to_drive_is_refused_before_driving() -> None:
+    # 1000 m at 0.01 m/s: 100000 s of simulation per repeat
+    slow = _exp([{"label": "far", "motion": "straight", "distance": 1000, "speed": 0.01}])
+    with pytest.raises(SimError, match=r"t\.toml: condition 'far' would last 100000 s.*3600 s"):
+        run_experiment(slow, TRUTH_PRESETS["jaguar-lab-tracked"], NOMINAL)
+    # 1 um at 0.01 m/s: not one encoder tick, so the odometry's distance was 0 (ZeroDivisionError)
+    tiny = _exp([{"label": "tiny", "motion": "straight", "distance": 1e-6, "speed": 0.01}])
+    with pytest.raises(SimError, match=r"condition 'tiny' moves the faster wheel 0\.0 encoder"):
+        run_experiment(tiny, TRUTH_PRESETS["jaguar-lab-tracked"], NOMINAL)
+
+
+def test_too_many_drives_are_refused_before_driving() -> None:
+    exp = _exp([{"label": f"c{i}", "motion": "rotate", "angle_deg": 90} for i in range(3)])
+    calls: list[int] = []
+    with pytest.raises(SimError, match=r"t\.toml: 3 conditions x 50000 repeats are 150000 drives"):
+        run_experiment(
+            exp, TRUTH_PRESETS["jaguar-lab-tracked"], NOMINAL, repeats=50_000,
+            progress=lambda done, total: calls.append(done),
+        )  # fmt: skip
+    assert calls == []
