@@ -44,7 +44,7 @@ from odolab.metrics.association import interpolate_trajectory
 from odolab.metrics.runs import RUN_OPTIONS, Progress, RunEvaluation, evaluate_run, parallel_map
 from odolab.models import DIFF_DRIVE, ExtendedDiffDrive, IcrModel
 from odolab.odometry import integrate_increments
-from odolab.params import RobotParams
+from odolab.params import RobotParams, plausible_range
 
 __all__ = [
     "FIT_MODELS",
@@ -110,7 +110,11 @@ class FitModel:
             "x_icr": (-2.0 * b, 2.0 * b),
         }
         pairs = [fixed.get(n, (0.5 * v, 2.0 * v)) for n, v in zip(self.names, x0, strict=True)]
-        return np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
+        # inside the plausible ranges, or the solver tries parameters that refuse to be built
+        ranges = [plausible_range(n) for n in self.names]
+        lower = [max(p[0], r[0]) for p, r in zip(pairs, ranges, strict=True)]
+        upper = [min(p[1], r[1]) for p, r in zip(pairs, ranges, strict=True)]
+        return np.array(lower), np.array(upper)
 
     def scales(self, x0: FloatArray, nominal: RobotParams) -> FloatArray:
         """Typical size of each parameter (step of the numerical Jacobian, solver scaling)."""
