@@ -428,12 +428,19 @@ def calibrate_lsq(
     steps = 1e-6 * x_scale
 
     def jac(theta: FloatArray) -> FloatArray:
-        # central differences with steps fixed to each parameter's scale
+        # central differences with steps fixed to each parameter's scale; one-sided at a bound
+        # (a step across it would build parameters outside their plausible range)
         cols = []
+        at = None
         for k, h in enumerate(steps):
             e = np.zeros_like(theta)
             e[k] = h
-            cols.append((fun(theta + e) - fun(theta - e)) / (2.0 * h))
+            up, down = theta[k] + h <= upper[k], theta[k] - h >= lower[k]
+            if up and down:
+                cols.append((fun(theta + e) - fun(theta - e)) / (2.0 * h))
+                continue
+            at = fun(theta) if at is None else at
+            cols.append((fun(theta + e) - at) / h if up else (at - fun(theta - e)) / h)
         return np.column_stack(cols)
 
     sol = least_squares(fun, x0, jac=jac, x_scale=x_scale, loss=o.loss, bounds=(lower, upper))
