@@ -28,7 +28,7 @@ which keeps its original sentence).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -270,10 +270,34 @@ def segment_residuals(
     """
     spec = fit_model(model)
     p = spec.params(template, theta[: len(spec.names)])
-    odo = integrate_increments(run.t, run.dticks_left, run.dticks_right, p, method)
+    return _residuals(p, run, heading_scale, method, gt_yaw_offset)
+
+
+def _residuals(
+    params: RobotParams,
+    run: PreparedRun,
+    heading_scale: float,
+    method: Method,
+    gt_yaw_offset: float,
+) -> FloatArray:
+    """:func:`segment_residuals` with the parameters already built."""
+    odo = integrate_increments(run.t, run.dticks_left, run.dticks_right, params, method)
     ox, oy, oh = _relative(odo.x, odo.y, odo.heading, run.starts, run.ends)
     gx, gy, gh = _relative(run.gt_x, run.gt_y, run.gt_heading + gt_yaw_offset, run.starts, run.ends)
     return np.concatenate((ox - gx, oy - gy, heading_scale * (oh - gh)))
+
+
+def _difference(
+    f: Callable[[float], FloatArray], value: float, h: float, lower: float, upper: float
+) -> FloatArray:
+    """Central difference of ``f`` at ``value`` with step ``h``; one-sided where a step would
+    cross a bound (it would build parameters outside their plausible range)."""
+    up, down = value + h <= upper, value - h >= lower
+    if up and down:
+        return (f(value + h) - f(value - h)) / (2.0 * h)
+    if up:
+        return (f(value + h) - f(value)) / h
+    return (f(value) - f(value - h)) / h
 
 
 @dataclass(frozen=True)
@@ -405,16 +429,9 @@ def calibrate_lsq(
     upper = np.concatenate((hi, np.full(n_off, 0.5)))
 
     def per_run(theta: FloatArray) -> list[FloatArray]:
+        p = spec.params(nominal, theta[:k_model])  # built once for every run
         return [
-            segment_residuals(
-                theta[:k_model],
-                r,
-                nominal,
-                scale,
-                o.method,
-                theta[k_model + k] if n_off else 0.0,
-                spec.kind,
-            )
+            _residuals(p, r, scale, o.method, theta[k_model + k] if n_off else 0.0)
             for k, r in enumerate(prepared)
         ]
 
@@ -426,21 +443,33 @@ def calibrate_lsq(
     if m <= x0.size:
         raise InsufficientDataError(f"{m} residuals for {x0.size} parameters; expected longer runs")
     steps = 1e-6 * x_scale
+    edges = np.cumsum([0] + [r.size for r in per_run(x0)])
 
     def jac(theta: FloatArray) -> FloatArray:
-        # central differences with steps fixed to each parameter's scale; one-sided at a bound
-        # (a step across it would build parameters outside their plausible range)
+        # differences with steps fixed to each parameter's scale (see _difference)
         cols = []
-        at = None
-        for k, h in enumerate(steps):
-            e = np.zeros_like(theta)
-            e[k] = h
-            up, down = theta[k] + h <= upper[k], theta[k] - h >= lower[k]
-            if up and down:
-                cols.append((fun(theta + e) - fun(theta - e)) / (2.0 * h))
-                continue
-            at = fun(theta) if at is None else at
-            cols.append((fun(theta + e) - at) / h if up else (at - fun(theta - e)) / h)
+        for k in range(k_model):
+
+            def moved(v: float, k: int = k) -> FloatArray:
+                t = theta.copy()
+                t[k] = v
+                return fun(t)
+
+            cols.append(_difference(moved, theta[k], steps[k], lower[k], upper[k]))
+        # run k's ground-truth yaw offset moves only run k's residuals: its column is zero
+        # elsewhere (exactly, as the full difference gave), so only that run is integrated
+        p = spec.params(nominal, theta[:k_model])
+        for k, run in enumerate(prepared[:n_off]):
+            i = k_model + k
+
+            def rotated(v: float, run: PreparedRun = run) -> FloatArray:
+                return _residuals(p, run, scale, o.method, v)
+
+            col = np.zeros(m)
+            col[edges[k] : edges[k + 1]] = _difference(
+                rotated, theta[i], steps[i], lower[i], upper[i]
+            )
+            cols.append(col)
         return np.column_stack(cols)
 
     sol = least_squares(fun, x0, jac=jac, x_scale=x_scale, loss=o.loss, bounds=(lower, upper))
