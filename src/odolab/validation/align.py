@@ -25,7 +25,14 @@ from scipy import ndimage, signal
 from odolab.errors import ImuLogError
 from odolab.io.sensorlog import ImuLog
 
-__all__ = ["ClockAlignment", "find_clock_offset", "rate_on_grid", "require_overlap"]
+__all__ = [
+    "MAX_SMOOTH_S",
+    "ClockAlignment",
+    "check_search",
+    "find_clock_offset",
+    "rate_on_grid",
+    "require_overlap",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -91,6 +98,30 @@ def require_overlap(
         )
 
 
+#: Widest low-pass of the yaw rates (Gaussian sigma, s): wider blurs every start and stop of a
+#: turn into the next, and its kernel (8 sigma on a millisecond grid) stops fitting in memory.
+MAX_SMOOTH_S = 10.0
+
+
+def check_search(nominal_offset: float, max_offset: float, smooth: float) -> None:
+    """Refuse clock-offset search settings :func:`find_clock_offset` cannot use, in one sentence."""
+    if not math.isfinite(nominal_offset):
+        raise ImuLogError(
+            f"offset (phone minus robot) is {nominal_offset:g} s; expected a finite number of "
+            "seconds"
+        )
+    if not max_offset >= 0:  # NaN too
+        raise ImuLogError(
+            f"max_offset is {max_offset:g} s; expected a number >= 0 (0 fixes the offset, inf "
+            "searches every offset)"
+        )
+    if not 0 <= smooth <= MAX_SMOOTH_S:  # NaN too
+        raise ImuLogError(
+            f"smooth is {smooth:g} s; expected a number from 0 to {MAX_SMOOTH_S:g} s "
+            "(0 = no smoothing)"
+        )
+
+
 def find_clock_offset(
     robot_t: FloatArray,
     robot_heading: FloatArray,
@@ -116,11 +147,7 @@ def find_clock_offset(
     seconds (zero phase, so it shifts nothing; 0 = none). Raises :class:`ImuLogError` if no
     allowed offset makes the logs overlap.
     """
-    if not (math.isfinite(nominal_offset) and max_offset >= 0):
-        raise ImuLogError(
-            f"clock offset search needs a finite nominal offset and max_offset >= 0, got "
-            f"{nominal_offset!r} and {max_offset!r}"
-        )
+    check_search(nominal_offset, max_offset, smooth)
     lo, hi = nominal_offset - max_offset, nominal_offset + max_offset
     require_overlap(robot_t, imu, lo, hi, min_overlap=min_overlap, robot_source=robot_source)
     if max_offset == 0:
