@@ -263,9 +263,14 @@ def test_ctrl_c_on_a_silent_board_does_not_claim_a_stop(tmp_path: Path) -> None:
         end = time.perf_counter() + 30
 
         def driver_stopped_after_silence() -> bool:
+            # the driver's own stop (speeds 0 by command) after the silence: any other command
+            # row (a speed change of a starved driver that has not yet missed the data) came
+            # before the watchdog, and a SIGINT then found the link still alive
             rows = b.lines()
             i = next((k for k, r in enumerate(rows) if r[3] == "silent"), None)
-            return i is not None and any(r[3] == "command" for r in rows[i:])
+            return i is not None and any(
+                r[3] == "command" and (r[1], r[2]) == (0.0, 0.0) for r in rows[i:]
+            )
 
         while not driver_stopped_after_silence() and time.perf_counter() < end:
             time.sleep(0.05)
