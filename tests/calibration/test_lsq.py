@@ -162,6 +162,10 @@ def test_validation_runs_must_be_held_out(optiodom_dir: Path) -> None:
     sq = squares(optiodom_dir)[2]
     with pytest.raises(CalibrationError, match="both a calibration and a validation run"):
         calibrate_lsq_files([sq], "optiodom", validate=[sq], workers=1)
+    from odolab.calibration.compare import compare_model_files
+
+    with pytest.raises(CalibrationError, match="both a training and a held-out run"):
+        compare_model_files([sq.parent], "optiodom", validate=[sq], workers=1)
 
 
 @pytest.mark.parametrize("bad", [0.0, -1.0, math.nan, math.inf])

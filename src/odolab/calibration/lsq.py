@@ -587,6 +587,25 @@ def _compare_job(job: _CompareJob) -> RunComparison:
     return compare_runs([run], job.nominal, job.calibrated)[0]
 
 
+def find_fit_and_held_out(
+    paths: Sequence[str | Path],
+    validate: Sequence[str | Path],
+    fmt: LogFormat,
+    *,
+    roles: tuple[str, str] = ("training", "held-out"),
+) -> tuple[list[Path], list[Path]]:
+    """The run files under ``paths`` (to fit on) and under ``validate`` (held out), refusing a
+    run that is in both (``roles`` name the two sets in the sentence)."""
+    fit = find_runs(paths, fmt)
+    held = find_runs(validate, fmt) if validate else []
+    overlap = sorted(set(fit) & set(held))
+    if overlap:
+        raise CalibrationError(
+            f"{overlap[0]} is both a {roles[0]} and a {roles[1]} run; expected held-out runs"
+        )
+    return fit, held
+
+
 def calibrate_lsq_files(
     paths: Sequence[str | Path],
     fmt: LogFormat | str,
@@ -606,13 +625,7 @@ def calibrate_lsq_files(
     o = options or LsqOptions()
     ro = read_options or ReadOptions()
     f = LogFormat(fmt)
-    train = find_runs(paths, f)
-    held = find_runs(validate, f) if validate else []
-    overlap = sorted(set(train) & set(held))
-    if overlap:
-        raise CalibrationError(
-            f"{overlap[0]} is both a calibration and a validation run; expected held-out runs"
-        )
+    train, held = find_fit_and_held_out(paths, validate, f, roles=("calibration", "validation"))
     total = len(train) + len(held)
 
     def shifted(offset: int) -> Progress | None:
