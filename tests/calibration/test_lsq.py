@@ -12,6 +12,7 @@ import pytest
 from odolab.calibration.lsq import LsqOptions, calibrate_lsq, calibrate_lsq_files, prepare_run
 from odolab.cli import main
 from odolab.errors import CalibrationError, InsufficientDataError
+from odolab.io.registry import LogFormat, find_runs
 from odolab.io.run import OdometryRun
 from odolab.odometry import integrate_increments
 from odolab.params import RobotParams, load_params
@@ -166,6 +167,26 @@ def test_validation_runs_must_be_held_out(optiodom_dir: Path) -> None:
 
     with pytest.raises(CalibrationError, match="both a training and a held-out run"):
         compare_model_files([sq.parent], "optiodom", validate=[sq], workers=1)
+
+
+def test_a_run_named_by_two_paths_is_one_run(
+    optiodom_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # relative and absolute paths to the same run were two runs: a held-out run that was also
+    # fitted on passed unnoticed (its held-out score was a training score)
+    from odolab.calibration.lsq import find_fit_and_held_out
+
+    first, second = squares(optiodom_dir)[2:4]
+    monkeypatch.chdir(first.parent)
+    rel = Path(first.name)
+    with pytest.raises(CalibrationError, match=rf"{first}.* \(as {rel}/.*\) is both a training"):
+        find_fit_and_held_out([rel, second], [first], LogFormat.OPTIODOM)
+    link = tmp_path / "link"
+    link.symlink_to(first, target_is_directory=True)
+    fit, held = find_fit_and_held_out([rel, link, first, second], [], LogFormat.OPTIODOM)
+    n_first, n_second = (len(find_runs([p], LogFormat.OPTIODOM)) for p in (first, second))
+    assert n_first > 1 and len(fit) == n_first + n_second and held == []
+    assert fit[:n_first] == find_runs([rel], LogFormat.OPTIODOM)  # the first path is kept
 
 
 @pytest.mark.parametrize("bad", [0.0, -1.0, math.nan, math.inf])

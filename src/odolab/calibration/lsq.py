@@ -595,15 +595,34 @@ def find_fit_and_held_out(
     roles: tuple[str, str] = ("training", "held-out"),
 ) -> tuple[list[Path], list[Path]]:
     """The run files under ``paths`` (to fit on) and under ``validate`` (held out), refusing a
-    run that is in both (``roles`` name the two sets in the sentence)."""
-    fit = find_runs(paths, fmt)
-    held = find_runs(validate, fmt) if validate else []
-    overlap = sorted(set(fit) & set(held))
+    run that is in both (``roles`` name the two sets in the sentence).
+
+    Runs are told apart by their resolved path: ``runs/a`` and ``/home/me/runs/a`` are one run,
+    kept once (a run fitted twice would weigh double, and in cross-validation be held out
+    from a fit that saw it)."""
+    fit = _unique(find_runs(paths, fmt))
+    held = _unique(find_runs(validate, fmt)) if validate else []
+    seen = {p.resolve(): p for p in fit}
+    overlap = [(p, seen[p.resolve()]) for p in held if p.resolve() in seen]
     if overlap:
+        p, q = overlap[0]
+        same = "" if p == q else f" (as {q})"
         raise CalibrationError(
-            f"{overlap[0]} is both a {roles[0]} and a {roles[1]} run; expected held-out runs"
+            f"{p}{same} is both a {roles[0]} and a {roles[1]} run; expected held-out runs"
         )
     return fit, held
+
+
+def _unique(paths: list[Path]) -> list[Path]:
+    """``paths`` without a second path to the same file (first kept, order kept)."""
+    seen: set[Path] = set()
+    out = []
+    for p in paths:
+        r = p.resolve()
+        if r not in seen:
+            seen.add(r)
+            out.append(p)
+    return out
 
 
 def calibrate_lsq_files(
