@@ -202,3 +202,23 @@ def test_too_many_drives_are_refused_before_driving() -> None:
             progress=lambda done, total: calls.append(done),
         )  # fmt: skip
     assert calls == []
+
+
+@pytest.mark.parametrize(
+    ("where", "text"),
+    [
+        ("experiment", "e\x1b[31mRED"),  # a colour change
+        ("question", "q\x1b]0;title\x07?"),  # sets the terminal's title
+        ("label", "a\x1b[2J"),  # clears the screen
+        ("label", "a\u202eb"),  # reverses the text after it
+    ],
+)
+def test_names_with_control_characters_are_refused(where: str, text: str) -> None:
+    # they reached the terminal raw through `odolab sim questions` (and the JSON, a report)
+    cond = {"label": text if where == "label" else "a", "motion": "rotate", "angle_deg": 90}
+    head = {"name": text} if where == "experiment" else {}
+    if where == "question":
+        head = {"question": text}
+    key = {"experiment": "name"}.get(where, where)
+    with pytest.raises(SimError, match=rf"key '{key}': .*control or invisible character"):
+        _exp([cond], **head)

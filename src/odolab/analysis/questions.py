@@ -63,6 +63,7 @@ from odolab.sim.protocols import (
     SPEED_RANGE_M_S,
 )
 from odolab.sim.terrains import get_terrain
+from odolab.text import quote_input, safe_terminal
 
 __all__ = [
     "Condition",
@@ -279,6 +280,16 @@ def _kind(value: Any) -> str:
     return "a table" if isinstance(value, dict) else f"{value!r}"
 
 
+def _text(source: str, where: str, value: Any) -> str:
+    """``value`` as text that a terminal, a JSON file and a report all show as it is."""
+    text = str(value)
+    if safe_terminal(text) != text:
+        raise _err(source, where,
+                   f"{quote_input(text)} has a control or invisible character; expected "
+                   "plain text on one line")  # fmt: skip
+    return text
+
+
 def _keys(source: str, where: str, table: dict[str, Any], allowed: set[str]) -> None:
     extra = sorted(set(table) - allowed)
     if extra:
@@ -293,7 +304,8 @@ def parse_experiment(doc: dict[str, Any], source: str = "<experiment>") -> Exper
     if not isinstance(head, dict):
         raise _err(source, "[experiment]", "missing; expected a table with name and question")
     _keys(source, "[experiment]", head, _EXPERIMENT_KEYS)
-    name = str(head.get("name", Path(source).stem))
+    name = _text(source, "[experiment] key 'name'", head.get("name", Path(source).stem))
+    question = _text(source, "[experiment] key 'question'", head.get("question", ""))
     repeats = head.get("repeats", 100)
     if isinstance(repeats, bool) or not isinstance(repeats, int) or not 2 <= repeats <= 100_000:
         raise _err(source, "[experiment] key 'repeats'",
@@ -335,7 +347,7 @@ def parse_experiment(doc: dict[str, Any], source: str = "<experiment>") -> Exper
     sig = {k: _num(source, f"[experiment] key {k!r}", head[k], positive=True)
            for k in ("compass_sigma", "meterstick_sigma", "tape_sigma") if k in head}  # fmt: skip
     return Experiment(
-        name, str(head.get("question", "")), tuple(conditions), tuple(effects), repeats,
+        name, question, tuple(conditions), tuple(effects), repeats,
         trend, alternate, source=source, **sig,
     )  # fmt: skip
 
@@ -348,6 +360,7 @@ def _condition(source: str, index: int, c: Any, speed: float) -> Condition:
     label = c.get("label")
     if not isinstance(label, str) or not label:
         raise _err(source, f"{where} key 'label'", "missing; expected a non-empty name")
+    _text(source, f"{where} key 'label'", label)
     motion = c.get("motion")
     if motion not in _MOTIONS:
         raise _err(source, f"{where} key 'motion'",
