@@ -438,12 +438,13 @@ def calibrate_lsq(
     def fun(theta: FloatArray) -> FloatArray:
         return np.concatenate(per_run(theta))
 
-    r0 = fun(x0)
+    parts0 = per_run(x0)
+    r0 = np.concatenate(parts0)
     m = r0.size
     if m <= x0.size:
         raise InsufficientDataError(f"{m} residuals for {x0.size} parameters; expected longer runs")
     steps = 1e-6 * x_scale
-    edges = np.cumsum([0] + [r.size for r in per_run(x0)])
+    edges = np.cumsum([0] + [r.size for r in parts0])
 
     def jac(theta: FloatArray) -> FloatArray:
         # differences with steps fixed to each parameter's scale (see _difference)
