@@ -201,6 +201,27 @@ def test_segment_length_must_be_positive(bad: float, capsys: pytest.CaptureFixtu
         LsqOptions(heading_scale=bad)
 
 
+def test_a_segment_shorter_than_a_sample_is_one_sentence() -> None:
+    # 1e-9 s segments over a 60 s run asked numpy for a 6e10-element grid (MemoryError)
+    run = synthetic_run(0)
+    with pytest.raises(CalibrationError, match=r"syn-0: segment length 1e-09 s is shorter than"):
+        prepare_run(run, 1e-9)
+    # one sample interval (0.05 s) is the shortest segment that holds a motion
+    assert len(prepare_run(run, 0.05).starts) == run.t.size - 1
+
+
+def test_a_negative_bootstrap_seed_is_one_sentence() -> None:
+    from odolab.calibration.compare import compare_models
+
+    runs = [synthetic_run(s) for s in range(2)]
+    with pytest.raises(CalibrationError, match=r"seed is -1; expected an integer >= 0"):
+        compare_models(runs, nominal=NOMINAL, models=("diff",), seed=-1)
+    from odolab.calibration.compare import compare_model_files
+
+    with pytest.raises(CalibrationError, match=r"seed is -1"):  # before reading: no such file
+        compare_model_files(["no-such-run"], "optiodom", seed=-1)
+
+
 def test_cli_segment_zero_is_one_line(
     optiodom_dir: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

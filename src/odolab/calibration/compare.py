@@ -183,6 +183,11 @@ def _metrics(run: OdometryRun, params: RobotParams) -> dict[str, float]:
     }
 
 
+def _check_seed(seed: int) -> None:
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise CalibrationError(f"seed is {seed!r}; expected an integer >= 0")
+
+
 def compare_models(
     train: Sequence[OdometryRun],
     held_out: Sequence[OdometryRun] = (),
@@ -199,6 +204,7 @@ def compare_models(
     Without ``held_out`` the runs of ``train`` are split into ``min(folds, len(train))`` folds
     (run i in fold i mod k); each fold is held out once from a fit on the others."""
     o = options or LsqOptions()
+    _check_seed(seed)
     if not train:
         raise InsufficientDataError("no runs to compare the models on; expected at least one")
     for m in models:
@@ -351,6 +357,7 @@ def compare_model_files(
     seed: int = 0,
 ) -> ModelComparison:
     """:func:`compare_models` on every run found under ``paths`` (and ``validate``)."""
+    _check_seed(seed)  # before any file is read
     f = LogFormat(fmt)
     ro = read_options or ReadOptions()
     train_paths, held_paths = find_fit_and_held_out(paths, validate, f)

@@ -232,6 +232,12 @@ def prepare_run(run: OdometryRun, segment_s: float = 2.0) -> PreparedRun:
     dl = run.dticks_left[idx[0] : idx[-1] + 1].copy()
     dr = run.dticks_right[idx[0] : idx[-1] + 1].copy()
     dl[0] = dr[0] = 0.0
+    spacing = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    if segment_s < spacing * (1.0 - 1e-9):  # finer than the samples: empty segments, a huge grid
+        raise CalibrationError(
+            f"{run.source}: segment length {segment_s:g} s is shorter than the log's sample "
+            f"spacing ({spacing:.3g} s); expected a segment length of at least {spacing:.3g} s"
+        )
     g = interpolate_trajectory(gt, t)
     edges = np.unique(np.searchsorted(t, np.arange(t[0], t[-1] + segment_s, segment_s)))
     edges = edges[edges < t.size]
