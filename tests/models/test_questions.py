@@ -222,3 +222,10 @@ def test_names_with_control_characters_are_refused(where: str, text: str) -> Non
     key = {"experiment": "name"}.get(where, where)
     with pytest.raises(SimError, match=rf"key '{key}': .*control or invisible character"):
         _exp([cond], **head)
+
+
+def test_a_trend_over_a_key_that_never_changes_is_refused() -> None:
+    # trend = "radius" over turns in place (radius 0 in each) gave no trend and no word of why
+    cond = [{"label": f"r{i}", "motion": "rotate", "angle_deg": 90 * (i + 1)} for i in range(2)]
+    with pytest.raises(SimError, match=r"key 'trend': radius is 0 in every condition; expected"):
+        _exp(cond, trend="radius")

@@ -322,6 +322,12 @@ def parse_experiment(doc: dict[str, Any], source: str = "<experiment>") -> Exper
         raise _err(source, "[[conditions]]", "missing; expected at least one condition")
     conditions = [_condition(source, i, c, speed) for i, c in enumerate(raw)]
     labels = [c.label for c in conditions]
+    if trend is not None:
+        values = {float(getattr(c, trend)) for c in conditions}
+        if len(values) < 2:
+            raise _err(source, "[experiment] key 'trend'",
+                       f"{trend} is {values.pop():g} in every condition; expected conditions "
+                       f"that differ in {trend}")  # fmt: skip
     dup = sorted({x for x in labels if labels.count(x) > 1})
     if dup:
         raise _err(source, "[[conditions]] key 'label'", f"{dup[0]!r} is used twice")
