@@ -15,6 +15,7 @@ from odolab.analysis.questions import (
     run_experiment,
 )
 from odolab.errors import SimError
+from odolab.models import ExtendedDiffDrive, IcrModel, KinematicModel
 from odolab.params import PRESETS
 from odolab.sim.physics import TrueParams
 from odolab.sim.presets import TRUTH_PRESETS
@@ -229,3 +230,37 @@ def test_a_trend_over_a_key_that_never_changes_is_refused() -> None:
     cond = [{"label": f"r{i}", "motion": "rotate", "angle_deg": 90 * (i + 1)} for i in range(2)]
     with pytest.raises(SimError, match=r"key 'trend': radius is 0 in every condition; expected"):
         _exp(cond, trend="radius")
+
+
+@pytest.mark.parametrize(
+    "model", [IcrModel(0.36, -0.22, 0.05), ExtendedDiffDrive(0.9, 1.05, 1.3)], ids=lambda m: m.kind
+)
+@pytest.mark.parametrize(
+    ("cond", "forward", "turn"),
+    [
+        ({"motion": "rotate", "angle_deg": 180}, 0.0, math.pi),
+        ({"motion": "curve", "angle_deg": -90, "radius": 1.5}, 1.5 * math.pi / 2, -math.pi / 2),
+        ({"motion": "pivot", "angle_deg": 90, "held": "right"}, None, math.pi / 2),
+        ({"motion": "straight", "distance": -2.0}, -2.0, 0.0),
+    ],
+)
+def test_legs_make_any_nominal_model_do_the_condition(
+    model: KinematicModel,
+    cond: dict,
+    forward: float | None,
+    turn: float,  # type: ignore[type-arg]
+) -> None:
+    # the legs came from the differential drive of the track width whatever the nominal model:
+    # with --params of an ICR robot, "rotate 180" turned its odometry by 180 * 0.56 / 0.58 deg
+    nominal = NOMINAL.with_(model=model)
+    (c,) = _exp([{"label": "c", **cond}]).conditions  # type: ignore[attr-defined]
+    (leg,) = legs_for(c, nominal)
+    fwd, _, dth = nominal.coefficients.body_motion(
+        leg.left * leg.duration, leg.right * leg.duration
+    )
+    assert dth == pytest.approx(turn, abs=1e-12)
+    if forward is not None:
+        assert fwd == pytest.approx(forward, abs=1e-12)
+    if c.motion == "pivot":
+        assert leg.right == 0.0  # the held track stands
+    assert max(abs(leg.left), abs(leg.right)) == pytest.approx(0.3)

@@ -462,12 +462,14 @@ def legs_for(c: Condition, nominal: RobotParams) -> list[Leg]:
     The faster wheel runs at ``c.speed``; the duration is the nominal wheel travel over that
     speed. A gradual stop adds a leg that slows linearly to 0 over ``c.decel`` seconds (its
     travel is counted by the encoders like any other)."""
-    half = nominal.track_width / 2.0
-    if c.motion == "straight":
+    if not nominal.model.is_differential_drive:
+        left, right, duration = _first_leg_for_model(c, nominal)
+    elif c.motion == "straight":
         sign = 1.0 if c.distance > 0 else -1.0
         left = right = sign * c.speed
         duration = abs(c.distance) / c.speed
     else:
+        half = nominal.track_width / 2.0
         a = c.angle
         if c.motion == "rotate":
             dl, dr = -a * half, a * half
@@ -486,6 +488,24 @@ def legs_for(c: Condition, nominal: RobotParams) -> list[Leg]:
     if c.stop == "gradual":
         legs.append(Leg(0.0, 0.0, c.decel, ramp=c.decel))
     return legs
+
+
+def _first_leg_for_model(c: Condition, nominal: RobotParams) -> tuple[float, float, float]:
+    """(left, right, duration) of :func:`legs_for` through the nominal model's coefficients (any
+    linear model): the wheel travels whose body motion is the condition's forward distance and
+    turn. For the differential drive this is the closed form of :func:`legs_for`."""
+    w_l, w_r, e_l, e_r, den, _ = nominal.coefficients
+    if c.motion == "pivot":  # the held track stands, the other one turns the body alone
+        dl, dr = (0.0, c.angle * den / e_r) if c.held == "left" else (-c.angle * den / e_l, 0.0)
+    else:
+        turn = 0.0 if c.motion == "straight" else c.angle
+        forward = {"straight": c.distance, "rotate": 0.0}.get(c.motion, abs(c.angle) * c.radius)
+        # [[w_l, w_r], [-e_l/den, e_r/den]] (ds_l, ds_r) = (forward, turn)
+        det = (w_l * e_r + w_r * e_l) / den
+        dl = (forward * e_r / den - w_r * turn) / det
+        dr = (w_l * turn + forward * e_l / den) / det
+    duration = max(abs(dl), abs(dr)) / c.speed
+    return dl / duration, dr / duration, duration
 
 
 def _welch(a: np.ndarray, b: np.ndarray) -> tuple[float, float, float]:
