@@ -133,3 +133,14 @@ def test_bad_search_settings_are_one_sentence(kwargs: dict, message: str) -> Non
     imu = ImuLog(t, _smooth_heading(t), 2.0 + np.zeros(t.size))
     with pytest.raises(ImuLogError, match=message):
         find_clock_offset(t, _smooth_heading(t), imu, **kwargs)
+
+
+def test_a_log_shorter_than_the_overlap_says_so() -> None:
+    # a 0.05 s encoder log was told to "widen the search": no offset can ever give 1 s
+    imu = ImuLog(np.arange(0.0, 20.0, 0.01), np.zeros(2000), np.zeros(2000))
+    short = np.array([0.0, 0.05])
+    with pytest.raises(ImuLogError, match=r"the enc\.csv lasts 0\.05 s; expected at least 1 s"):
+        require_overlap(short, imu, -math.inf, math.inf, min_overlap=1.0, robot_source="enc.csv")
+    imu_short = ImuLog(np.array([5.0, 5.5]), np.zeros(2), np.zeros(2), source="p.csv")
+    with pytest.raises(ImuLogError, match=r"p\.csv: the IMU log lasts 0\.5 s; expected at least"):
+        require_overlap(np.arange(0.0, 20.0, 0.05), imu_short, -5, 5, min_overlap=1.0)

@@ -80,6 +80,13 @@ def require_overlap(
     at least ``min_overlap`` seconds."""
     r0, r1 = float(robot_t[0]), float(robot_t[-1])
     p0, p1 = float(imu.t[0]), float(imu.t[-1])
+    # a log shorter than the overlap: no offset can help, so say which one
+    for name, span in ((f"the {robot_source}", r1 - r0), (f"{imu.source}: the IMU log", p1 - p0)):
+        if span < min_overlap:
+            raise ImuLogError(
+                f"{name} lasts {span:g} s; expected at least {min_overlap:g} s of log to line "
+                "the clocks up"
+            )
     # on the robot clock the phone spans [p0 - off, p1 - off]; the best overlap over off in [lo, hi]
     best = 0.0
     for off in (lo, hi, p0 - r0, p1 - r1, p0 - r1 + min_overlap, p1 - r0 - min_overlap):
