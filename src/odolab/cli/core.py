@@ -80,7 +80,7 @@ def odometry_cmd(
         typer.Option(
             "--covariance",
             help="Add each pose's covariance cov_xx,cov_xy,cov_xh,cov_yy,cov_yh,cov_hh "
-            "(m^2, m rad, rad^2), propagated from the parameters' [noise] table.",
+            "(m^2, m rad, rad^2), propagated from the parameters' \\[noise] table.",
         ),
     ] = False,
 ) -> None:
