@@ -26,8 +26,9 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
-from numba import njit
+from numba import njit, prange
 from numpy.typing import ArrayLike, NDArray
 
 from odolab._fastmath import SINCOS_LIMIT, sincos_poly
@@ -35,6 +36,10 @@ from odolab.encoders import as_tick_array, default_max_dticks, unwrap_diff
 from odolab.errors import EncoderJumpError, LogFormatError, OdolabError, ParamsError
 from odolab.kinematics import Method, body_motion, chord, chord_derivative
 from odolab.params import NoiseParams, RobotParams
+
+F64 = NDArray[np.float64]
+F64_2D = NDArray[np.float64]
+I64 = NDArray[np.int64]
 
 __all__ = [
     "COV_COLUMNS",
@@ -66,6 +71,7 @@ def pose_covariance(
     *,
     heading0: float = 0.0,
     cov0: ArrayLike | None = None,
+    parallel: int | None = None,
 ) -> NDArray[np.float64]:
     """Covariance of (x, y, heading) after each step; shape (n + 1, 3, 3).
 
@@ -153,25 +159,50 @@ def rotation_heading_variance(
 COV_COLUMNS = ("cov_xx", "cov_xy", "cov_xh", "cov_yy", "cov_yh", "cov_hh")
 
 
+Coef = tuple[float, float, float, float, float, float]
+Terms = tuple[float, float, float, float, float, float]
+
+#: From this many samples on, the per-cycle noise terms are computed on several threads.
+PARALLEL_MIN_SAMPLES = 100_000
+
+
 @njit(cache=True, inline="always")
-def _cov_step(  # pragma: no cover - compiled
-    pxx: float,
-    pxy: float,
-    pxh: float,
-    pyy: float,
-    pyh: float,
-    phh: float,
+def _add_noise(  # pragma: no cover - compiled
+    n6: Terms, qk: float, uf: float, ul: float, ut: float, j: Terms
+) -> Terms:
+    """``n6 + qk g g^T`` for one noise source: g = J u, u its column (forward, lateral,
+    dtheta per unit), J = d pose' / d (forward, lateral, dtheta)."""
+    if qk == 0.0:
+        return n6
+    g0 = j[0] * uf + j[1] * ul + j[2] * ut
+    g1 = j[3] * uf + j[4] * ul + j[5] * ut
+    g2 = ut
+    return (
+        n6[0] + qk * g0 * g0,
+        n6[1] + qk * g0 * g1,
+        n6[2] + qk * g0 * g2,
+        n6[3] + qk * g1 * g1,
+        n6[4] + qk * g1 * g2,
+        n6[5] + qk * g2 * g2,
+    )
+
+
+@njit(cache=True, inline="always")
+def _cycle_noise(  # pragma: no cover - compiled
     heading: float,
     dsl: float,
     dsr: float,
-    c: NDArray[np.float64],
+    c: Coef,
     arc: bool,
     k_left: float,
     k_right: float,
     k_scrub: float,
     track: float,
-) -> tuple[float, float, float, float, float, float, float]:
-    """One cycle of covariance propagation; returns the six terms and the new heading."""
+) -> tuple[float, float, Terms]:
+    """What one cycle (started at ``heading``) does to the covariance, apart from the
+    covariance itself: the shear (a, b) of F = [[1, 0, a], [0, 1, b], [0, 0, 1]] and the noise
+    G Q G^T it adds. Needs no earlier covariance, so the batch kernels compute it for every
+    cycle in parallel; ``c`` is the model's coefficients as a tuple."""
     fwd, lat, dth = body_motion(c[0], c[1], c[2], c[3], c[4], c[5], dsl, dsr)
     ch = chord(dth, arc)
     dch = chord_derivative(dth, arc)
@@ -183,102 +214,141 @@ def _cov_step(  # pragma: no cover - compiled
         sn = math.sin(m)
     gx = fwd * cs - lat * sn
     gy = fwd * sn + lat * cs
-    dx = ch * gx
-    dy = ch * gy
-    # F P F^T with F = [[1, 0, -dy], [0, 1, dx], [0, 0, 1]]
-    a = -dy
-    b = dx
-    nxx = pxx + 2.0 * a * pxh + a * a * phh
-    nxy = pxy + a * pyh + b * pxh + a * b * phh
-    nxh = pxh + a * phh
-    nyy = pyy + 2.0 * b * pyh + b * b * phh
-    nyh = pyh + b * phh
-    nhh = phh
     # d pose' / d (forward, lateral, dtheta)
-    j00 = ch * cs
-    j01 = -ch * sn
-    j02 = dch * gx - 0.5 * ch * gy
-    j10 = ch * sn
-    j11 = ch * cs
-    j12 = dch * gy + 0.5 * ch * gx
+    j = (
+        ch * cs,
+        -ch * sn,
+        dch * gx - 0.5 * ch * gy,
+        ch * sn,
+        ch * cs,
+        dch * gy + 0.5 * ch * gx,
+    )
     # d (forward, lateral, dtheta) / d ds_l, d ds_r, d n  (lateral = c[5] * dtheta)
     inv = 1.0 / c[4]
-    ul_f, ul_t = c[0], -c[2] * inv
-    ur_f, ur_t = c[1], c[3] * inv
-    q = (k_left * abs(dsl), k_right * abs(dsr), k_scrub * abs(dsr - dsl) / track)
-    cols = ((ul_f, c[5] * ul_t, ul_t), (ur_f, c[5] * ur_t, ur_t), (0.0, c[5], 1.0))
-    for k in range(3):
-        qk = q[k]
-        if qk == 0.0:
-            continue
-        uf, ul, ut = cols[k]
-        g0 = j00 * uf + j01 * ul + j02 * ut
-        g1 = j10 * uf + j11 * ul + j12 * ut
-        g2 = ut
-        nxx += qk * g0 * g0
-        nxy += qk * g0 * g1
-        nxh += qk * g0 * g2
-        nyy += qk * g1 * g1
-        nyh += qk * g1 * g2
-        nhh += qk * g2 * g2
-    return nxx, nxy, nxh, nyy, nyh, nhh, heading + dth
+    ul_t = -c[2] * inv
+    ur_t = c[3] * inv
+    q = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    q = _add_noise(q, k_left * abs(dsl), c[0], c[5] * ul_t, ul_t, j)
+    q = _add_noise(q, k_right * abs(dsr), c[1], c[5] * ur_t, ur_t, j)
+    q = _add_noise(q, k_scrub * abs(dsr - dsl) / track, 0.0, c[5], 1.0, j)
+    return -ch * gy, ch * gx, q
+
+
+@njit(cache=True, inline="always")
+def _cycle_apply(  # pragma: no cover - compiled
+    p: Terms, a: float, b: float, q: Terms
+) -> Terms:
+    """F P F^T + Q with F = [[1, 0, a], [0, 1, b], [0, 0, 1]] (a = -dy, b = dx)."""
+    pxx, pxy, pxh, pyy, pyh, phh = p
+    return (
+        pxx + 2.0 * a * pxh + a * a * phh + q[0],
+        pxy + a * pyh + b * pxh + a * b * phh + q[1],
+        pxh + a * phh + q[2],
+        pyy + 2.0 * b * pyh + b * b * phh + q[3],
+        pyh + b * phh + q[4],
+        phh + q[5],
+    )
 
 
 @njit(cache=True)
-def _propagate(  # pragma: no cover - compiled
-    dleft: NDArray[np.float64],
-    dright: NDArray[np.float64],
-    kl: float,
-    kr: float,
-    c: NDArray[np.float64],
+def _stream_step(  # pragma: no cover - compiled
+    p: Terms,
+    heading: float,
+    dsl: float,
+    dsr: float,
+    c: Coef,
     arc: bool,
-    k: NDArray[np.float64],
+    k_left: float,
+    k_right: float,
+    k_scrub: float,
     track: float,
-    h0: float,
-    out: NDArray[np.float64],
+) -> Terms:
+    """One cycle for the streaming odometry: the batch passes' two steps in one call."""
+    a, b, q = _cycle_noise(heading, dsl, dsr, c, arc, k_left, k_right, k_scrub, track)
+    return _cycle_apply(p, a, b, q)
+
+
+@njit(cache=True, inline="always")
+def _noise_row(  # pragma: no cover - compiled
+    i: int, out: F64_2D, ab: F64_2D, c: Coef, arc: bool, k: F64, track: float
 ) -> None:
-    n = dleft.shape[0]
-    if n == 0:
-        return
-    pxx, pxy, pxh, pyy, pyh, phh = out[0, 0], out[0, 1], out[0, 2], out[0, 3], out[0, 4], out[0, 5]
-    h = h0
-    for i in range(1, n):
-        pxx, pxy, pxh, pyy, pyh, phh, h = _cov_step(
-            pxx, pxy, pxh, pyy, pyh, phh, h, dleft[i] * kl, dright[i] * kr,
-            c, arc, k[0], k[1], k[2], track,
-        )  # fmt: skip
-        out[i, 0] = pxx
-        out[i, 1] = pxy
-        out[i, 2] = pxh
-        out[i, 3] = pyy
-        out[i, 4] = pyh
-        out[i, 5] = phh
+    """Row i of the noise pass: (dsl, dsr, heading) in out[i, :3] -> the terms and (a, b)."""
+    a, b, q = _cycle_noise(out[i, 2], out[i, 0], out[i, 1], c, arc, k[0], k[1], k[2], track)
+    ab[i, 0] = a
+    ab[i, 1] = b
+    out[i, 0] = q[0]
+    out[i, 1] = q[1]
+    out[i, 2] = q[2]
+    out[i, 3] = q[3]
+    out[i, 4] = q[4]
+    out[i, 5] = q[5]
 
 
 @njit(cache=True)
-def _propagate_ticks(  # pragma: no cover - compiled
-    left: NDArray[np.int64],
-    right: NDArray[np.int64],
+def _noise_pass(  # pragma: no cover - compiled
+    out: F64_2D, ab: F64_2D, coef: F64, arc: bool, k: F64, track: float
+) -> None:
+    c = (coef[0], coef[1], coef[2], coef[3], coef[4], coef[5])
+    for i in range(1, out.shape[0]):
+        _noise_row(i, out, ab, c, arc, k, track)
+
+
+@njit(cache=True, parallel=True)
+def _noise_pass_parallel(  # pragma: no cover - compiled
+    out: F64_2D, ab: F64_2D, coef: F64, arc: bool, k: F64, track: float
+) -> None:
+    c = (coef[0], coef[1], coef[2], coef[3], coef[4], coef[5])
+    for i in prange(1, out.shape[0]):
+        _noise_row(i, out, ab, c, arc, k, track)
+
+
+@njit(cache=True)
+def _apply_pass(out: F64_2D, ab: F64_2D) -> None:  # pragma: no cover - compiled
+    """The recursion P_i = F_i P_(i-1) F_i^T + Q_i, in place over the noise terms."""
+    p = (out[0, 0], out[0, 1], out[0, 2], out[0, 3], out[0, 4], out[0, 5])
+    for i in range(1, out.shape[0]):
+        q = (out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5])
+        p = _cycle_apply(p, ab[i, 0], ab[i, 1], q)
+        out[i, 0] = p[0]
+        out[i, 1] = p[1]
+        out[i, 2] = p[2]
+        out[i, 3] = p[3]
+        out[i, 4] = p[4]
+        out[i, 5] = p[5]
+
+
+@njit(cache=True)
+def _headings(  # pragma: no cover - compiled
+    dleft: F64, dright: F64, kl: float, kr: float, coef: F64, h0: float, out: F64_2D
+) -> None:
+    """First pass from increments: (dsl, dsr, heading at the cycle's start) into out[i, :3]."""
+    h = h0
+    for i in range(1, dleft.shape[0]):
+        dsl = dleft[i] * kl
+        dsr = dright[i] * kr
+        out[i, 0] = dsl
+        out[i, 1] = dsr
+        out[i, 2] = h
+        h = h + body_motion(coef[0], coef[1], coef[2], coef[3], coef[4], coef[5], dsl, dsr)[2]
+
+
+@njit(cache=True)
+def _headings_ticks(  # pragma: no cover - compiled
+    left: I64,
+    right: I64,
     modulus: int,
     max_d: int,
     kl: float,
     kr: float,
-    c: NDArray[np.float64],
-    arc: bool,
-    k: NDArray[np.float64],
-    track: float,
+    coef: F64,
     h0: float,
-    out: NDArray[np.float64],
+    out: F64_2D,
 ) -> tuple[int, int, int]:
-    """As :func:`_propagate`, unwrapping raw counters on the way; returns (code, index, value)
+    """:func:`_headings` from raw counters, unwrapping on the way; returns (code, index, value)
     with code 0 = ok, 1/2 = left/right jump larger than ``max_d``."""
-    n = left.shape[0]
-    if n == 0:
-        return 0, -1, 0
     half = modulus // 2
-    pxx, pxy, pxh, pyy, pyh, phh = out[0, 0], out[0, 1], out[0, 2], out[0, 3], out[0, 4], out[0, 5]
     h = h0
-    for i in range(1, n):
+    for i in range(1, left.shape[0]):
         dl = unwrap_diff(left[i] - left[i - 1], modulus, half)
         dr = unwrap_diff(right[i] - right[i - 1], modulus, half)
         if max_d >= 0:
@@ -286,17 +356,27 @@ def _propagate_ticks(  # pragma: no cover - compiled
                 return 1, i, dl
             if abs(dr) > max_d:
                 return 2, i, dr
-        pxx, pxy, pxh, pyy, pyh, phh, h = _cov_step(
-            pxx, pxy, pxh, pyy, pyh, phh, h, dl * kl, dr * kr,
-            c, arc, k[0], k[1], k[2], track,
-        )  # fmt: skip
-        out[i, 0] = pxx
-        out[i, 1] = pxy
-        out[i, 2] = pxh
-        out[i, 3] = pyy
-        out[i, 4] = pyh
-        out[i, 5] = phh
+        dsl = dl * kl
+        dsr = dr * kr
+        out[i, 0] = dsl
+        out[i, 1] = dsr
+        out[i, 2] = h
+        h = h + body_motion(coef[0], coef[1], coef[2], coef[3], coef[4], coef[5], dsl, dsr)[2]
     return 0, -1, 0
+
+
+def _propagate_from_headings(
+    out: F64_2D, coef: F64, arc: bool, k: F64, track: float, parallel: int | None
+) -> None:
+    """Passes 2 and 3: the noise of every cycle (independent: on several threads for long
+    logs), then the recursion."""
+    ab = np.empty((out.shape[0], 2))
+    threads = numba.get_num_threads() if parallel is None else max(1, int(parallel))
+    if threads > 1 and out.shape[0] >= PARALLEL_MIN_SAMPLES:
+        _noise_pass_parallel(out, ab, coef, arc, k, track)
+    else:
+        _noise_pass(out, ab, coef, arc, k, track)
+    _apply_pass(out, ab)
 
 
 def _noise_of(params: RobotParams, noise: NoiseParams | None) -> NoiseParams:
@@ -318,12 +398,15 @@ def propagate_covariance(
     noise: NoiseParams | None = None,
     heading0: float = 0.0,
     cov0: ArrayLike | None = None,
+    parallel: int | None = None,
 ) -> NDArray[np.float64]:
     """Covariance of (x, y, heading) after each sample, shape (n, 6) in :data:`COV_COLUMNS`.
 
     ``dticks_*``: shape (n,), counter increments per cycle (``dticks[0]`` is ignored, as in
     :func:`odolab.odometry.integrate_increments`). ``noise`` defaults to ``params.noise``.
-    ``cov0``: the start covariance (3x3 or the six terms; default zero)."""
+    ``cov0``: the start covariance (3x3 or the six terms; default zero). Three compiled
+    passes: the headings (sequential, cheap), each cycle's shear and noise (independent: on
+    ``parallel`` threads for long logs, default numba's count), the recursion (sequential)."""
     dl = np.ascontiguousarray(dticks_left, dtype=np.float64)
     dr = np.ascontiguousarray(dticks_right, dtype=np.float64)
     if dl.shape != dr.shape or dl.ndim != 1:
@@ -334,10 +417,14 @@ def propagate_covariance(
     out = np.zeros((dl.size, 6))
     if dl.size and cov0 is not None:
         out[0] = covariance_terms(cov0)
-    _propagate(
-        dl, dr, params.left_metres_per_tick, params.right_metres_per_tick,
-        np.array(params.coefficients, dtype=np.float64), Method(method) is Method.ARC,
-        np.array([k.k_left, k.k_right, k.k_scrub]), params.track_width, float(heading0), out,
+    coef = np.array(params.coefficients, dtype=np.float64)
+    _headings(
+        dl, dr, params.left_metres_per_tick, params.right_metres_per_tick, coef,
+        float(heading0), out,
+    )  # fmt: skip
+    _propagate_from_headings(
+        out, coef, Method(method) is Method.ARC, np.array([k.k_left, k.k_right, k.k_scrub]),
+        params.track_width, parallel,
     )  # fmt: skip
     return out
 
@@ -352,6 +439,7 @@ def covariance_from_ticks(
     max_dticks: int | None = None,
     heading0: float = 0.0,
     cov0: ArrayLike | None = None,
+    parallel: int | None = None,
 ) -> NDArray[np.float64]:
     """:func:`propagate_covariance` from raw (possibly wrapping) counters, as
     :func:`odolab.odometry.integrate` takes them; shape (n, 6)."""
@@ -365,12 +453,16 @@ def covariance_from_ticks(
     out = np.zeros((left.size, 6))
     if left.size and cov0 is not None:
         out[0] = covariance_terms(cov0)
-    code, i, d = _propagate_ticks(
+    coef = np.array(params.coefficients, dtype=np.float64)
+    code, i, d = _headings_ticks(
         left, right, params.encoder_modulus or 0, -1 if max_dticks is None else int(max_dticks),
-        params.left_metres_per_tick, params.right_metres_per_tick,
-        np.array(params.coefficients, dtype=np.float64), Method(method) is Method.ARC,
-        np.array([k.k_left, k.k_right, k.k_scrub]), params.track_width, float(heading0), out,
+        params.left_metres_per_tick, params.right_metres_per_tick, coef, float(heading0), out,
     )  # fmt: skip
+    if code == 0:
+        _propagate_from_headings(
+            out, coef, Method(method) is Method.ARC, np.array([k.k_left, k.k_right, k.k_scrub]),
+            params.track_width, parallel,
+        )  # fmt: skip
     if code:
         name = ("left_ticks", "right_ticks")[code - 1]
         raise EncoderJumpError(
@@ -406,7 +498,8 @@ class CovarianceStepper:
         self, params: RobotParams, method: Method | str, noise: NoiseParams | None = None
     ) -> None:
         k = _noise_of(params, noise)
-        self._c = np.array(params.coefficients, dtype=np.float64)
+        c0, c1, c2, c3, c4, c5 = (float(v) for v in params.coefficients)
+        self._c = (c0, c1, c2, c3, c4, c5)
         self._arc = Method(method) is Method.ARC
         self._k = (k.k_left, k.k_right, k.k_scrub)
         self._track = params.track_width
@@ -419,9 +512,7 @@ class CovarianceStepper:
 
     def step(self, heading: float, ds_left: float, ds_right: float) -> None:
         """Propagate over one cycle that started at ``heading`` with these wheel displacements."""
-        p = self.terms
-        r = _cov_step(
-            p[0], p[1], p[2], p[3], p[4], p[5], heading, ds_left, ds_right,
-            self._c, self._arc, self._k[0], self._k[1], self._k[2], self._track,
+        self.terms = _stream_step(
+            self.terms, heading, ds_left, ds_right, self._c, self._arc, self._k[0], self._k[1],
+            self._k[2], self._track,
         )  # fmt: skip
-        self.terms = (r[0], r[1], r[2], r[3], r[4], r[5])
