@@ -260,7 +260,7 @@ def test_bad_json_is_refused_and_changes_nothing(tmp_path: Path) -> None:
             nb.import_json(tmp_path / "c.json")
         deep = tmp_path / "deep.json"  # a hostile file: Python's reader recursed to a crash
         deep.write_text('{"trials": ' + "[" * 100_000 + "]" * 100_000 + "}")
-        with pytest.raises(StoreError, match="deep.json: JSON nested too deeply"):
+        with pytest.raises(StoreError, match=r"deep\.json: JSON nested too deeply"):
             nb.import_json(deep)
         with pytest.raises(StoreError, match=r"trials\[0\]: trial 'T00000' is already"):
             nb.import_json(tmp_path / "d.json")
