@@ -375,7 +375,7 @@ def _calibrate(
             notes=str(cal.provenance.get("source", "")),
         )
         files[name] = save_params(
-            cal.params, folder / f"params-{name}.toml", provenance=_toml_safe(cal.provenance)
+            folder / f"params-{name}.toml", cal.params, provenance=_toml_safe(cal.provenance)
         )
         progress("calibration", len(files), 2)
     return Calibrated(by_ratio, by_umbmark, files)

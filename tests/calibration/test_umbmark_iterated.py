@@ -292,7 +292,7 @@ def test_cli_iterates_when_the_notebook_has_logs(
     db = tmp_path / "lab.db"
     with Notebook(db) as nb:
         nb.add_trials(trials)
-    nominal = save_params(NOM, tmp_path / "nom.toml")
+    nominal = save_params(tmp_path / "nom.toml", NOM)
     out = tmp_path / "umb.toml"
     code = main(["calibrate", "umbmark", "-p", str(nominal), "--db", str(db), "-o", str(out)])
     assert code == 0

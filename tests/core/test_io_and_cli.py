@@ -29,7 +29,7 @@ def test_encoder_csv_round_trip(tmp_path: Path) -> None:
     log = EncoderLog(
         np.array([0.0, 0.05, 0.1]), np.array([32760, 5, 20]), np.array([0, 3, 9]), 32768
     )
-    back = read_encoder_csv(write_encoder_csv(log, tmp_path / "e.csv"), modulus=32768)
+    back = read_encoder_csv(write_encoder_csv(tmp_path / "e.csv", log), modulus=32768)
     np.testing.assert_array_equal(back.left_ticks, log.left_ticks)
     np.testing.assert_array_equal(back.t, log.t)
 
@@ -46,10 +46,10 @@ def test_trajectory_csv_and_tum_round_trip(tmp_path: Path) -> None:
     tr = integrate(
         np.arange(n) * 0.1, np.arange(n) * 7, np.arange(n) * 19, load_params("jaguar-lite")
     )
-    a = read_trajectory_csv(write_trajectory_csv(tr, tmp_path / "t.csv"))
+    a = read_trajectory_csv(write_trajectory_csv(tmp_path / "t.csv", tr))
     np.testing.assert_array_equal(a.heading, tr.heading)
     np.testing.assert_array_equal(a.x, tr.x)
-    b = read_tum(write_tum(tr, tmp_path / "t.tum"))
+    b = read_tum(write_tum(tmp_path / "t.tum", tr))
     np.testing.assert_allclose(b.theta, tr.theta, atol=1e-12)
     np.testing.assert_allclose(b.heading, tr.heading, atol=1e-9)
 
@@ -113,7 +113,7 @@ def test_cli_odometry_wrapping_log_gives_same_pose(
         )
         for name, off in (("wrap", m - 700), ("nowrap", 0)):
             log = EncoderLog(t, (left + off) % m, (right + off) % m, m)
-            path = write_encoder_csv(log, tmp_path / f"{name}{bits}.csv")
+            path = write_encoder_csv(tmp_path / f"{name}{bits}.csv", log)
             out = tmp_path / f"{name}{bits}.out.csv"
             assert (
                 main(["odometry", str(path), "-p", str(tmp_path / f"p{bits}.toml"), "-o", str(out)])

@@ -18,7 +18,7 @@ def test_preset_is_nominal_jaguar() -> None:
 
 def test_toml_round_trip(tmp_path: Path) -> None:
     p = RobotParams(0.1, 0.11, 0.5, 2796.8, None, name="r1")
-    path = save_params(p, tmp_path / "p.toml", provenance={"method": "test"})
+    path = save_params(tmp_path / "p.toml", p, provenance={"method": "test"})
     text = path.read_text()
     assert "encoder_modulus" not in text and "[provenance]" in text
     assert load_params(path) == p

@@ -170,10 +170,10 @@ def write_demo(
     )
     rate = phone.yaw_rate if phone.yaw_rate is not None else np.gradient(phone.yaw, phone.t)
     paths = {
-        "encoder_log": write_encoder_csv(sc.encoder_log, out / "encoder.csv"),
+        "encoder_log": write_encoder_csv(out / "encoder.csv", sc.encoder_log),
         "imu_log": write_sensorlog(out / "sensorlog.csv", phone.t, phone.yaw, rate),
         "new_params": save_params(
-            sc.new, out / "new.toml", provenance={"source": "odolab validation demo"}
+            out / "new.toml", sc.new, provenance={"source": "odolab validation demo"}
         ),
     }
     return paths
