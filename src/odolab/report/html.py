@@ -25,6 +25,13 @@ from odolab.calibration.ratios import CalibrationResult
 from odolab.calibration.umbmark import UmbmarkResult
 from odolab.errors import OdolabError
 from odolab.report import figures as F
+from odolab.report.models_section import (
+    ModelEvidence,
+    consistency_view,
+    models_view,
+    plot_model_comparison,
+    plot_nees,
+)
 from odolab.report.view import (
     MOTION_NAMES,
     SIGN_CONVENTION,
@@ -128,8 +135,10 @@ def build_results(
     calibrations: Mapping[str, Calibration],
     validation: Mapping[str, Any] | None = None,
     extra: Mapping[str, Any] | None = None,
+    evidence: ModelEvidence | None = None,
 ) -> dict[str, Any]:
     """The dict written to results.json: every number in the report."""
+    ev = evidence or ModelEvidence()
     res: dict[str, Any] = {
         "generated": datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
         "table1": table1(analysis),
@@ -137,6 +146,9 @@ def build_results(
         "calibration": {name: _calib_dict(c) for name, c in calibrations.items()},
         "validation": dict(validation) if validation is not None else None,
         "extra": dict(extra) if extra is not None else None,
+        "models": ev.models_dict(),
+        "consistency": ev.consistency_dict(),
+        "evidence_missing": list(ev.missing),
     }
     res = _jsonable(res)
     res["summary"] = summary_sentences(res)
@@ -380,6 +392,7 @@ def _figure_plan(
     calibrations: Mapping[str, Calibration],
     validation_figure: Callable[[Axes], Axes] | None,
     extra_figures: Mapping[str, tuple[str, str, Callable[[Axes], Any]]] | None = None,
+    evidence: ModelEvidence | None = None,
 ) -> list[_Plan]:
     plans = [p for m in analysis.motions for p in _motion_plans(m)]
     plans += _terrain_plans(analysis)
@@ -397,6 +410,38 @@ def _figure_plan(
         )
     for name, (title, caption, draw) in (extra_figures or {}).items():
         plans.append(_Plan(name, title, caption, draw, "validation", (6.4, 4.2)))
+    plans += _evidence_plans(evidence)
+    return plans
+
+
+def _evidence_plans(evidence: ModelEvidence | None) -> list[_Plan]:
+    """The model comparison's and the NEES figures, when there is data for them."""
+    plans: list[_Plan] = []
+    if evidence is not None and evidence.comparison is not None:
+        cmp = evidence.comparison
+        plans.append(
+            _Plan(
+                "models",
+                "Held-out end-point error per kinematic model",
+                "Mean over the held-out runs with its 95 % bootstrap CI; green: the recommended "
+                "model (the simplest that is not worse than the best).",
+                partial(plot_model_comparison, cmp),
+                "models",
+                (6.0, 3.6),
+            )
+        )
+    if evidence is not None and evidence.nees:
+        plans.append(
+            _Plan(
+                "nees",
+                "NEES of every piece, per run",
+                "Each dot one piece (log scale); if the covariance is honest about 95 % of them "
+                "lie in the green band and their mean is near 3.",
+                partial(plot_nees, evidence.nees),
+                "models",
+                (6.0, 4.0),
+            )
+        )
     return plans
 
 
@@ -453,6 +498,9 @@ def _page(
         with_ci=numfmt.with_ci,
         val=validation_view(results["validation"]) if results["validation"] else None,
         ext=extra_view(results["extra"]) if results["extra"] else None,
+        mdl=models_view(results["models"]) if results.get("models") else None,
+        cons=consistency_view(results["consistency"]) if results.get("consistency") else None,
+        missing=results.get("evidence_missing") or [],
     )
 
 
@@ -466,6 +514,7 @@ def write_report(
     extra_figures: Mapping[str, tuple[str, str, Callable[[Axes], Any]]] | None = None,
     extra: Mapping[str, Any] | None = None,
     reference: Mapping[tuple[str, str], Any] | None = None,
+    evidence: ModelEvidence | None = None,
     progress: Progress | None = None,
 ) -> Path:
     """Write ``report.html``, ``figures/*.png`` and ``results.json`` to ``out_dir``.
@@ -473,14 +522,16 @@ def write_report(
     ``validation`` is any JSON-able mapping (e.g. an IMU comparison's ``to_dict()``);
     ``validation_figure`` draws its figure on a given axes, ``extra_figures`` (name -> title,
     caption, draw) more figures beside it; ``reference`` is a published
-    Table I to set beside this one (:data:`odolab.analysis.reference.LAB_REPORT_TABLE1`).
+    Table I to set beside this one (:data:`odolab.analysis.reference.LAB_REPORT_TABLE1`);
+    ``evidence`` the comparison of kinematic models and the NEES of runs with ground truth
+    (:class:`odolab.report.models_section.ModelEvidence`), each shown when present.
     Returns the HTML path.
     """
     say = progress or (lambda _: None)
     calibrations = dict(calibrations or {})
     out, fig_dir = _report_folder(out_dir)
-    results = build_results(analysis, calibrations, validation, extra)
-    plans = _figure_plan(analysis, calibrations, validation_figure, extra_figures)
+    results = build_results(analysis, calibrations, validation, extra, evidence)
+    plans = _figure_plan(analysis, calibrations, validation_figure, extra_figures, evidence)
     say(f"drawing {len(plans)} figures")
     figs = _render(fig_dir, plans)
     results["figures"] = {f.name: f"figures/{f.name}.png" for f in figs}
