@@ -229,7 +229,7 @@ def test_an_upload_nested_too_deeply_is_a_sentence(lab_db: Path) -> None:
         files={"file": ("deep.json", b"[" * 100_000 + b"]" * 100_000, "application/json")},
     )
     assert r.status_code == 400
-    assert "deep.json: not valid JSON (nested too deeply)" in r.text
+    assert "deep.json: JSON nested too deeply to read" in r.text
     with Notebook(lab_db) as nb:
         assert len(nb.trial_ids()) == 10
 

@@ -549,8 +549,6 @@ def create_app(settings: ServeSettings) -> Starlette:
                     return nb.import_csv(path, create_campaigns=create_campaigns)
                 except OdolabError as err:
                     raise type(err)(str(err).replace(str(path), name)) from err
-                except RecursionError as err:  # the store's JSON reader recursed out
-                    raise StoreError(f"{name}: not valid JSON (nested too deeply)") from err
 
         try:
             n = await in_notebook(do_import)
