@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -133,9 +134,12 @@ def test_report_shows_both_sections_escaped(
     assert f"<b>Recommended: {evidence.comparison.recommended}</b>" in page
     assert "four &lt;runs&gt;" in page and "noise &amp; more" in page and "a &lt;note&gt;" in page
     assert "&lt;i&gt;run 0&lt;/i&gt;" in page and "<i>run 0</i>" not in page
-    assert 'id="models"' in page and 'id="nees"' in page  # the two figures
-    assert (tmp_path / "figures" / "models.png").stat().st_size > 1000
-    assert (tmp_path / "figures" / "nees.png").stat().st_size > 1000
+    assert 'id="models"' in page and 'id="nees"' in page  # the two tables
+    assert '<figure id="model_comparison">' in page and '<figure id="nees_pieces">' in page
+    assert (tmp_path / "figures" / "model_comparison.png").stat().st_size > 1000
+    assert (tmp_path / "figures" / "nees_pieces.png").stat().st_size > 1000
+    ids = re.findall(r'\bid="([^"]+)"', page)
+    assert len(ids) == len(set(ids))  # no id twice
     res = json.loads((tmp_path / "results.json").read_text())
     assert res["models"]["recommended"] == evidence.comparison.recommended
     assert res["consistency"]["summary"]["n"] == sum(r.nees.size for r in evidence.nees)

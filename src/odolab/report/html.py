@@ -421,7 +421,7 @@ def _evidence_plans(evidence: ModelEvidence | None) -> list[_Plan]:
         cmp = evidence.comparison
         plans.append(
             _Plan(
-                "models",
+                "model_comparison",
                 "Held-out end-point error per kinematic model",
                 "Mean over the held-out runs with its 95 % bootstrap CI; green: the recommended "
                 "model (the simplest that is not worse than the best).",
@@ -433,12 +433,12 @@ def _evidence_plans(evidence: ModelEvidence | None) -> list[_Plan]:
     if evidence is not None and evidence.nees:
         plans.append(
             _Plan(
-                "nees",
+                "nees_pieces",
                 "NEES of every piece, per run",
                 "Each dot one piece (log scale); if the covariance is honest about 95 % of them "
                 "lie in the green band and their mean is near 3.",
                 partial(plot_nees, evidence.nees),
-                "models",
+                "consistency",
                 (6.0, 4.0),
             )
         )
