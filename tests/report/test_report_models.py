@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from odolab import numfmt
 from odolab.analysis import LabAnalysis
 from odolab.calibration import ratios_from_analysis
 from odolab.calibration.compare import Estimate, ModelComparison, ModelScore, compare_models
@@ -144,6 +145,11 @@ def test_report_shows_both_sections_escaped(
     assert res["models"]["recommended"] == evidence.comparison.recommended
     assert res["consistency"]["summary"]["n"] == sum(r.nees.size for r in evidence.nees)
     assert res["evidence_missing"] == ["a <note>"]
+    s = res["consistency"]["summary"]
+    assert res["summary"][-2].startswith(f"Kinematic model: {res['models']['recommended']} (")
+    assert res["summary"][-1].startswith(
+        f"Propagated covariance: mean NEES {numfmt.plain(s['mean_nees'], 3)} over {s['n']} pieces"
+    )
 
 
 def test_report_without_evidence_has_neither_section(tmp_path: Path, analysis: LabAnalysis) -> None:

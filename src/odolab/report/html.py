@@ -127,6 +127,19 @@ def summary_sentences(results: Mapping[str, Any]) -> list[str]:
             f"Calibration '{name}': left/right wheel radius {fmt(p['left_wheel_radius'], 5)}/"
             f"{fmt(p['right_wheel_radius'], 5)} m, track width {fmt(p['track_width'], 5)} m."
         )
+    models = results.get("models")
+    if models:
+        out.append(f"Kinematic model: {models['recommended']} ({models['reason']}).")
+    cons = results.get("consistency")
+    if cons:
+        s = cons["summary"]
+        lo, hi = s["mean_bounds95"]
+        out.append(
+            f"Propagated covariance: mean NEES {numfmt.plain(s['mean_nees'], 3)} over "
+            f"{s['n']} pieces (95 % bounds {numfmt.plain(lo, 3)} to {numfmt.plain(hi, 3)}), "
+            f"{100.0 * s['fraction_inside']:.0f} % of pieces inside their own bounds: "
+            f"{s['verdict']}."
+        )
     return out
 
 
