@@ -154,4 +154,4 @@ def test_encoder_dir_that_is_a_file_is_one_line(
     err = capsys.readouterr().err
     assert "expected a folder for --encoder-dir" in err and err.count("\n") == 1
     with pytest.raises(SimError, match="expected a folder"):
-        write_encoder_logs([], a_file)
+        write_encoder_logs(a_file, [])
