@@ -11,6 +11,7 @@ import shutil
 import sqlite3
 from pathlib import Path
 
+import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
@@ -277,3 +278,26 @@ def test_params_add_cli_keeps_model_and_noise(tmp_path: Path) -> None:
     assert "noise k_left 2.1e-05, k_right 1.7e-05 m, k_scrub 0.0033 rad" in res.output
     with Notebook(db) as nb:
         assert nb.latest_params("jaguar-lite") == SETS["icr+noise"]
+
+
+def test_mcap_of_a_notebook_campaign_uses_the_stored_model_and_noise(tmp_path: Path) -> None:
+    """`odolab export mcap --campaign` integrates each trial with the parameters the notebook
+    gives back: the ICR model and a covariance from [noise], as recorded."""
+    from odolab.export.mcap import stream_from_campaign
+    from odolab.odometry import integrate
+
+    params = SETS["icr+noise"]
+    trials = make_trials(3, params=params, with_logs=True, campaign="tracked")
+    with Notebook(tmp_path / "nb.db") as nb:
+        nb.add_trials(trials)
+    with Notebook(tmp_path / "nb.db") as nb:
+        stream = stream_from_campaign(nb, "tracked")
+    assert stream.covariance is not None  # no [noise] would mean no covariance
+    log = trials[0].encoder_log
+    assert log is not None
+    want = integrate(log.t, log.left_ticks, log.right_ticks, params)
+    n = len(log)
+    np.testing.assert_allclose(stream.odometry.x[:n], want.x, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(stream.odometry.heading[:n], want.heading, rtol=0, atol=1e-12)
+    plain = integrate(log.t, log.left_ticks, log.right_ticks, JAGUAR)  # what v2 gave back
+    assert np.max(np.abs(plain.heading - want.heading)) > 1e-3
