@@ -39,6 +39,7 @@ DOCS = [
     "docs/models.md",
     "docs/ros2.md",
     "docs/serve.md",
+    "docs/ground-truth.md",
 ]
 
 #: (document, start of the command line) -> why it is not run here
@@ -84,6 +85,19 @@ SKIP: dict[tuple[str, str], str] = {
         "it in simulated time"
     ),
     ("docs/serve.md", "odolab serve --db lab.db"): "a server that runs until Ctrl-C",
+    ("docs/ground-truth.md", "odolab camera calibrate board.mp4"): (
+        "needs your film of the printed board; tests/groundtruth/test_tracking.py calibrates "
+        "from a rendered board video"
+    ),
+    ("docs/ground-truth.md", "odolab track run.mp4"): (
+        "needs your film; the same command runs on the simulated video above"
+    ),
+    ("docs/ground-truth.md", "odolab calibrate sensor run.csv laser_poses.tum"): (
+        "your logs; tests/groundtruth/test_sensor_calibration.py runs it on simulated ones"
+    ),
+    ("docs/ground-truth.md", "odolab calibrate sensor drive.bag drive.bag"): (
+        "your bag; tests/groundtruth/test_sensor_calibration.py runs it on a generated ROS 2 bag"
+    ),
 }
 
 #: (document, start of the command line) -> what is typed at its questions

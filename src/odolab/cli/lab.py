@@ -135,6 +135,14 @@ def report_cmd(
         str | None,
         typer.Option("--params", "-p", help="Parameters to calibrate (default: the trials')."),
     ] = None,
+    ground_truth: Annotated[
+        list[Path] | None,
+        typer.Option(
+            "--ground-truth",
+            help="A tracked path (odolab track) or a calibrate sensor --json result: a "
+            "ground-truth section (repeatable; docs/ground-truth.md).",
+        ),
+    ] = None,
 ) -> None:
     """Write the lab report (HTML with figures, PNGs, results.json) and print Table I."""
     from odolab.analysis import analyze_trials, table1
@@ -151,6 +159,10 @@ def report_cmd(
     from odolab.report import table1_rich, write_report
 
     con = _console()
+    from odolab.report.ground_truth import ground_truth_summary
+
+    # read (and check) the ground-truth files before the analysis
+    truths = [ground_truth_summary(g) for g in ground_truth or []]
     trials = _select(db, campaign, exclude_campaign, con)
     analysis = analyze_trials(trials)
     base = load_params(params) if params else analysis.params
@@ -176,7 +188,11 @@ def report_cmd(
     # a Jaguar's report is set beside the Jaguar lab report's Table I
     jaguar = base is not None and base.name.startswith("jaguar")
     path = write_report(
-        out, analysis, calibrations, reference=LAB_REPORT_TABLE1 if jaguar else None
+        out,
+        analysis,
+        calibrations,
+        reference=LAB_REPORT_TABLE1 if jaguar else None,
+        extra={"ground_truth": truths} if truths else None,
     )
     print_table(con, table1_rich(table1(analysis)))
     for s in analysis.skipped:

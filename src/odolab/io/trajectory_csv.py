@@ -66,7 +66,8 @@ def _write_trajectory_csv(traj: Trajectory, path: str | Path) -> Path:
 
 
 def read_trajectory_csv(path: str | Path) -> Trajectory:
-    """Read a trajectory CSV; ``heading`` is optional (derived by unwrapping theta)."""
+    """Read a trajectory CSV; ``heading`` is optional (derived by unwrapping theta), and so is
+    ``theta`` where ``heading`` is there (``t,x,y,heading``; theta is derived by wrapping)."""
     p = Path(path)
     import pandas as pd
 
@@ -80,7 +81,10 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
         raise LogFormatError(f"{p}: no such file") from err
     except (pd.errors.EmptyDataError, UnicodeDecodeError) as err:
         raise LogFormatError(f"{p}: empty file; expected header {','.join(COLUMNS)}") from err
-    cols = COLUMNS if "heading" in header else COLUMNS[:4]
+    if "heading" in header and "theta" not in header:  # t,x,y,heading (odolab track writes it)
+        cols: tuple[str, ...] = ("t", "x", "y", "heading")
+    else:
+        cols = COLUMNS if "heading" in header else COLUMNS[:4]
     d = read_numeric_columns(p, cols, checked=True)
     check_times(d["t"], str(p), line_of=lambda i: int(data_line_numbers(p)[i]))
     if "heading" in d:

@@ -521,7 +521,14 @@ def _flat(prefix: str, v: Any, out: list[tuple[str, str]]) -> None:
 
 def extra_view(extra: Mapping[str, Any]) -> dict[str, Any]:
     """Additional results: known keys as labelled tables, any other key as readable rows."""
-    view: dict[str, Any] = {"after": None, "run": [], "live": [], "true_params": [], "other": []}
+    view: dict[str, Any] = {
+        "after": None,
+        "run": [],
+        "live": [],
+        "true_params": [],
+        "ground_truth": [],
+        "other": [],
+    }
     for k, v in extra.items():
         if (
             k == "after_calibration"
@@ -547,6 +554,13 @@ def extra_view(extra: Mapping[str, Any]) -> dict[str, Any]:
             view["run"].append((_RUN_LABELS[k], fmt(v, 6)))
         elif k == "live_runs" and isinstance(v, Mapping):
             view["live"] = [(_LIVE_LABELS.get(kk, kk), fmt(vv, 6)) for kk, vv in v.items()]
+        elif k == "ground_truth" and isinstance(v, list):
+            # odolab.report.ground_truth summaries: a title and (label, text) rows each
+            view["ground_truth"] = [
+                {"title": str(g.get("title", "")), "rows": [(str(a), str(b)) for a, b in g["rows"]]}
+                for g in v
+                if isinstance(g, Mapping) and isinstance(g.get("rows"), list)
+            ]
         elif k == "true_params" and isinstance(v, Mapping):
             view["true_params"] = [(kk.replace("_", " "), fmt(vv, 6)) for kk, vv in v.items()]
         else:

@@ -11,6 +11,11 @@ The physics is :class:`~odolab.sim.physics.VirtualRobot` (the live loop's): a st
 0 after motion) is abrupt and slides by the truth's ``stop_slide``; a leg with ``ramp`` > 0 eases
 the speeds linearly from the previous leg's over its first ``ramp`` seconds (a gradual stop is a
 leg to speeds 0 with a ramp).
+
+:func:`record_drive` is the same walk sampled for the ground-truth simulations (camera, laser,
+odometry + sensor calibration): continuous (unrounded) wheel counts from 0 and the true poses as a
+:class:`~odolab.trajectory.Trajectory`, without the final stop; :func:`calibration_drive` is the
+kind of drive the Censi et al. calibration needs.
 """
 
 from __future__ import annotations
@@ -26,8 +31,18 @@ from odolab.errors import SimError
 from odolab.params import RobotParams
 from odolab.sim.physics import TrueParams, VirtualRobot
 from odolab.sim.terrains import Terrain
+from odolab.trajectory import Trajectory
 
-__all__ = ["Drive", "Leg", "drive", "random_legs"]
+__all__ = [
+    "CALIBRATION_DRIVE",
+    "Drive",
+    "Leg",
+    "RecordedDrive",
+    "calibration_drive",
+    "drive",
+    "random_legs",
+    "record_drive",
+]
 
 
 @dataclass(frozen=True)
@@ -148,3 +163,100 @@ def random_legs(
             left, right = -sign * v, sign * v
         legs.append(Leg(left, right, float(rng.uniform(min_duration, max_duration))))
     return legs
+
+
+@dataclass(frozen=True, eq=False)
+class RecordedDrive:
+    """``t`` (s), continuous wheel counts ``ticks_left``/``ticks_right`` (shape (n,), from 0;
+    ``counts_*`` the same rounded to integers as an encoder reports them) and the true poses."""
+
+    t: NDArray[np.float64]
+    ticks_left: NDArray[np.float64]
+    ticks_right: NDArray[np.float64]
+    truth: Trajectory
+
+    @property
+    def counts_left(self) -> NDArray[np.int64]:
+        """Integer encoder counts (left)."""
+        return np.floor(self.ticks_left + 0.5).astype(np.int64)
+
+    @property
+    def counts_right(self) -> NDArray[np.int64]:
+        """Integer encoder counts (right)."""
+        return np.floor(self.ticks_right + 0.5).astype(np.int64)
+
+
+def calibration_drive(speed: float = 0.4, track: float = 0.56, repeats: int = 1) -> list[Leg]:
+    """Straight lines, turns in place and arcs of both signs, forward and back (~55 s a repeat).
+
+    The kind of drive the Censi et al. calibration needs: every wheel-speed ratio it separates
+    (straight: radii; in place: track; arcs: both), turns of both signs (the sensor's offset)."""
+    w = speed / (track / 2.0)  # turn rate in place with wheels at +-speed
+    quarter = (math.pi / 2.0) / w
+    table = [
+        (speed, speed, 4.0),
+        (-speed, speed, quarter),
+        (speed, speed, 3.0),
+        (speed, -speed, 2.0 * quarter),
+        (0.5 * speed, speed, 6.0),
+        (speed, 0.5 * speed, 6.0),
+        (-speed, -speed, 3.0),
+        (-speed, speed, 3.0 * quarter),
+        (speed, 0.2 * speed, 4.0),
+        (0.2 * speed, speed, 4.0),
+        (speed, -speed, quarter),
+        (speed, speed, 4.0),
+        (-0.5 * speed, -speed, 4.0),
+        (-speed, speed, 2.0 * quarter),
+    ]
+    return [Leg(left, right, seconds) for left, right, seconds in table] * repeats
+
+
+CALIBRATION_DRIVE = calibration_drive()
+
+
+def record_drive(
+    truth: TrueParams,
+    nominal: RobotParams,
+    legs: Sequence[Leg | tuple[float, float, float]],
+    *,
+    rate: float = 20.0,
+    seed: int = 0,
+    dt: float = 0.001,
+    terrain: str = "tile",
+) -> RecordedDrive:
+    """Drive ``legs`` (:class:`Leg` or ``(left, right, seconds)``) with the virtual robot; sample
+    the counts and true poses at ``rate`` Hz. A leg's ``ramp`` eases in as in :func:`drive`."""
+    if not (math.isfinite(rate) and rate > 0):
+        raise SimError(f"sample rate is {rate!r} Hz; expected a positive number")
+    robot = VirtualRobot(truth, nominal, terrain, seed=seed, dt=dt)
+    robot.reset(misalign=False)
+    period = 1.0 / rate
+    t, tl, tr = [0.0], [0.0], [0.0]
+    pose = robot.true_pose
+    x, y, h = [pose.x], [pose.y], [pose.heading]
+    l0, r0 = robot.wheel_ticks()
+    clock = 0.0
+    vl0, vr0 = 0.0, 0.0
+    for item in legs:
+        leg = item if isinstance(item, Leg) else Leg(*item)
+        for k in range(round(leg.duration * rate)):
+            if leg.ramp > 0 and (k + 0.5) * period < leg.ramp:
+                f = (k + 0.5) * period / leg.ramp
+                robot.set_wheel_speeds(vl0 + f * (leg.left - vl0), vr0 + f * (leg.right - vr0))
+            elif k == 0 or leg.ramp > 0:
+                robot.set_wheel_speeds(leg.left, leg.right)
+            robot.advance(period)
+            clock += period
+            wl, wr = robot.wheel_ticks()
+            pose = robot.true_pose
+            t.append(clock)
+            tl.append(wl - l0)
+            tr.append(wr - r0)
+            x.append(pose.x)
+            y.append(pose.y)
+            h.append(pose.heading)
+        vl0, vr0 = leg.left, leg.right
+    robot.set_wheel_speeds(0.0, 0.0)
+    tt = np.array(t)
+    return RecordedDrive(tt, np.array(tl), np.array(tr), Trajectory.from_xyh(tt, x, y, h))

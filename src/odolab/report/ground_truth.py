@@ -1,0 +1,121 @@
+"""The report's ground-truth section: where a run's actual path came from when there was no
+motion-capture lab (docs/ground-truth.md).
+
+:func:`ground_truth_summary` reads what the ground-truth commands write: a tracked path
+(``odolab track``: ``t,x,y,theta,heading,quality``, one row per tracked frame) or an odometry +
+sensor calibration (``odolab calibrate sensor --json``), and returns a title and readable rows.
+``write_report(..., extra={"ground_truth": [summary, ...]})`` shows them as a section.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from odolab import numfmt
+from odolab.errors import LogFormatError
+
+__all__ = ["ground_truth_summary"]
+
+
+def fmt(v: float, sig: int = 4) -> str:
+    return numfmt.plain(float(v), sig, strip=True)
+
+
+_TRACK_COLUMNS = ("t", "x", "y", "heading", "quality")
+_MAX_BYTES = 200_000_000
+
+
+def _track(path: Path, text: str) -> dict[str, Any]:
+    rows = list(csv.reader(text.splitlines()))
+    if not rows:
+        raise LogFormatError(f"{path}: empty; expected a tracked path or a calibrate sensor JSON")
+    head = [h.strip() for h in rows[0]]
+    missing = [c for c in _TRACK_COLUMNS if c not in head]
+    if missing:
+        raise LogFormatError(
+            f"{path}: line 1 has no column {missing[0]!r}; expected odolab track's "
+            "t,x,y,theta,heading,quality"
+        )
+    idx = [head.index(c) for c in _TRACK_COLUMNS]
+    values = []
+    for n, row in enumerate(rows[1:], start=2):
+        try:
+            values.append([float(row[i]) for i in idx])
+        except (ValueError, IndexError):
+            raise LogFormatError(
+                f"{path}: line {n} is {','.join(row)[:80]!r}; expected numbers in every column"
+            ) from None
+    a = np.array(values, dtype=np.float64).reshape(-1, len(_TRACK_COLUMNS))
+    if len(a) < 2 or not np.isfinite(a).all():
+        raise LogFormatError(f"{path}: {len(a)} finite rows; expected a tracked path")
+    t, x, y, _, q = a.T
+    dt = np.diff(t)
+    frame = float(np.median(dt))
+    gaps = int(np.sum(dt > 1.5 * frame)) if frame > 0 else 0
+    path_m = float(np.sum(np.hypot(np.diff(x), np.diff(y))))
+    return {
+        "title": f"Tracked by a camera: {path.name}",
+        "rows": [
+            ("method", "a marker on the robot filmed over floor markers (odolab track)"),
+            ("frames tracked", str(len(t))),
+            ("time", f"{fmt(t[0], 4)} to {fmt(t[-1], 4)} s (frame every {fmt(frame, 3)} s)"),
+            ("gaps (frames without the robot's marker)", str(gaps)),
+            ("path length", f"{fmt(path_m, 4)} m"),
+            (
+                "marker fit quality, median / worst",
+                f"{fmt(1000 * float(np.median(q)), 3)} / {fmt(1000 * float(q.max()), 3)} mm",
+            ),
+        ],
+    }
+
+
+def _sensor(path: Path, data: dict[str, Any]) -> dict[str, Any]:
+    try:
+        values, stderr = data["values"], data["stderr"]
+        rows: list[tuple[str, str]] = [
+            ("method", str(data.get("method", "odometry + sensor calibration"))),
+            ("sensor", str(data.get("sensor", "-"))),
+            ("intervals (outliers trimmed)",
+             f"{int(data['intervals'])} ({int(data.get('outliers_trimmed', 0))})"),
+            ("time offset (sensor minus encoder clock)", f"{fmt(data['time_offset_s'], 4)} s"),
+        ]  # fmt: skip
+        for key, value in values.items():
+            v, se = float(value), float(stderr[key])
+            if not (math.isfinite(v) and math.isfinite(se)):
+                raise ValueError(key)
+            unit = "rad" if key.endswith("yaw") else "m"
+            text = numfmt.with_uncertainty(v, se, show=True)
+            rows.append((f"{key.replace('_', ' ')} ({unit})", text))
+    except (KeyError, TypeError, ValueError, AttributeError) as err:
+        raise LogFormatError(
+            f"{path}: not an 'odolab calibrate sensor --json' result ({err!s}); expected its "
+            "values, stderr, intervals and time_offset_s"
+        ) from None
+    return {"title": f"Odometry and a sensor calibrated together: {path.name}", "rows": rows}
+
+
+def ground_truth_summary(path: str | Path) -> dict[str, Any]:
+    """``{"title": str, "rows": [(label, text), ...]}`` for a tracked path CSV or a
+    ``calibrate sensor --json`` file; one-sentence :class:`LogFormatError` otherwise."""
+    p = Path(path)
+    try:
+        if p.stat().st_size > _MAX_BYTES:
+            raise LogFormatError(f"{p}: larger than {_MAX_BYTES} bytes; expected a summary file")
+        text = p.read_text(encoding="utf-8")
+    except OSError as err:
+        raise LogFormatError(f"{p}: cannot read it ({err.strerror or err})") from None
+    except UnicodeDecodeError:
+        raise LogFormatError(f"{p}: not UTF-8 text; expected a CSV or JSON file") from None
+    if text.lstrip().startswith("{"):
+        try:
+            data = json.loads(text)
+        except (json.JSONDecodeError, RecursionError) as err:
+            raise LogFormatError(f"{p}: not valid JSON ({err})") from None
+        return _sensor(p, data)
+    return _track(p, text)

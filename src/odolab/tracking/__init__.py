@@ -1,0 +1,33 @@
+"""Ground truth from a camera: ArUco markers on the floor and on the robot (OpenCV).
+
+- :mod:`odolab.tracking.camera`: ``CameraModel`` (CAMERA.toml), ``FloorMarker`` (FLOOR.csv).
+- :mod:`odolab.tracking.markers`: dictionaries, printable markers (PNG, PDF).
+- :mod:`odolab.tracking.tracker`: ``track_video`` -> ``TrackResult`` (t, x, y, heading, quality).
+- :mod:`odolab.tracking.charuco`: camera intrinsics from a ChArUco board video.
+- :mod:`odolab.tracking.render`: synthetic videos of a known trajectory (for tests).
+
+OpenCV is imported inside the functions, so importing this package stays cheap. See
+docs/ground-truth.md.
+"""
+
+from __future__ import annotations
+
+from odolab.tracking.camera import (
+    CameraModel,
+    FloorMarker,
+    TrackingError,
+    load_camera,
+    read_floor_csv,
+    save_camera,
+    write_floor_csv,
+)
+
+__all__ = [
+    "CameraModel",
+    "FloorMarker",
+    "TrackingError",
+    "load_camera",
+    "read_floor_csv",
+    "save_camera",
+    "write_floor_csv",
+]
