@@ -77,6 +77,7 @@ def plain(x: float, sig: int = 4, *, strip: bool = False) -> str:
         return str(x)
     if x == 0.0:
         return "0"
+    x = float(f"{x:.{sig - 1}e}")  # rounded first: 9.99996 is 10.00, not 10.000
     a = abs(x)
     if a < 1e-4 or a >= 1e6:
         mant, _, exp = f"{x:.{sig - 1}e}".partition("e")

@@ -39,7 +39,13 @@ import tomli_w
 
 from odolab.defaults import DEFAULT_ROBOT
 from odolab.errors import ParamsError
-from odolab.models import DIFF_DRIVE, KinematicModel, ModelCoefficients, model_from_mapping
+from odolab.models import (
+    DIFF_DRIVE,
+    MODELS,
+    KinematicModel,
+    ModelCoefficients,
+    model_from_mapping,
+)
 from odolab.text import quote_input
 from odolab.writing import path_first
 
@@ -52,6 +58,7 @@ __all__ = [
     "check_param",
     "load_params",
     "params_from_mapping",
+    "plausible_range",
     "save_params",
 ]
 
@@ -135,6 +142,18 @@ RANGES: dict[str, tuple[float, float, str, str]] = {
     "ticks_per_rev": (1.0, 1e8, "counts per revolution", "count"),
     "encoder_modulus": (2, 2**63, "", "modulus"),
 }
+
+
+def plausible_range(key: str) -> tuple[float, float]:
+    """The plausible (low, high) of a ``[robot]`` key or of a ``[model]`` key of any model."""
+    if key in RANGES:
+        lo, hi, _, _ = RANGES[key]
+        return float(lo), float(hi)
+    for cls in MODELS.values():
+        ranges: dict[str, tuple[float, float]] = getattr(cls, "RANGES", {})
+        if key in ranges:
+            return ranges[key]
+    raise KeyError(key)
 
 
 def _hint(key: str, value: float) -> str:

@@ -12,6 +12,7 @@ import pytest
 from odolab.calibration.lsq import LsqOptions, calibrate_lsq, calibrate_lsq_files, prepare_run
 from odolab.cli import main
 from odolab.errors import CalibrationError, InsufficientDataError
+from odolab.io.registry import LogFormat, find_runs
 from odolab.io.run import OdometryRun
 from odolab.odometry import integrate_increments
 from odolab.params import RobotParams, load_params
@@ -162,6 +163,30 @@ def test_validation_runs_must_be_held_out(optiodom_dir: Path) -> None:
     sq = squares(optiodom_dir)[2]
     with pytest.raises(CalibrationError, match="both a calibration and a validation run"):
         calibrate_lsq_files([sq], "optiodom", validate=[sq], workers=1)
+    from odolab.calibration.compare import compare_model_files
+
+    with pytest.raises(CalibrationError, match="both a training and a held-out run"):
+        compare_model_files([sq.parent], "optiodom", validate=[sq], workers=1)
+
+
+def test_a_run_named_by_two_paths_is_one_run(
+    optiodom_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # relative and absolute paths to the same run were two runs: a held-out run that was also
+    # fitted on passed unnoticed (its held-out score was a training score)
+    from odolab.calibration.lsq import find_fit_and_held_out
+
+    first, second = squares(optiodom_dir)[2:4]
+    monkeypatch.chdir(first.parent)
+    rel = Path(first.name)
+    with pytest.raises(CalibrationError, match=rf"{first}.* \(as {rel}/.*\) is both a training"):
+        find_fit_and_held_out([rel, second], [first], LogFormat.OPTIODOM)
+    link = tmp_path / "link"
+    link.symlink_to(first, target_is_directory=True)
+    fit, held = find_fit_and_held_out([rel, link, first, second], [], LogFormat.OPTIODOM)
+    n_first, n_second = (len(find_runs([p], LogFormat.OPTIODOM)) for p in (first, second))
+    assert n_first > 1 and len(fit) == n_first + n_second and held == []
+    assert fit[:n_first] == find_runs([rel], LogFormat.OPTIODOM)  # the first path is kept
 
 
 @pytest.mark.parametrize("bad", [0.0, -1.0, math.nan, math.inf])
@@ -174,6 +199,27 @@ def test_segment_length_must_be_positive(bad: float, capsys: pytest.CaptureFixtu
                                 dticks_right=[0, 1]), bad)  # fmt: skip
     with pytest.raises(CalibrationError, match="heading scale"):
         LsqOptions(heading_scale=bad)
+
+
+def test_a_segment_shorter_than_a_sample_is_one_sentence() -> None:
+    # 1e-9 s segments over a 60 s run asked numpy for a 6e10-element grid (MemoryError)
+    run = synthetic_run(0)
+    with pytest.raises(CalibrationError, match=r"syn-0: segment length 1e-09 s is shorter than"):
+        prepare_run(run, 1e-9)
+    # one sample interval (0.05 s) is the shortest segment that holds a motion
+    assert len(prepare_run(run, 0.05).starts) == run.t.size - 1
+
+
+def test_a_negative_bootstrap_seed_is_one_sentence() -> None:
+    from odolab.calibration.compare import compare_models
+
+    runs = [synthetic_run(s) for s in range(2)]
+    with pytest.raises(CalibrationError, match=r"seed is -1; expected an integer >= 0"):
+        compare_models(runs, nominal=NOMINAL, models=("diff",), seed=-1)
+    from odolab.calibration.compare import compare_model_files
+
+    with pytest.raises(CalibrationError, match=r"seed is -1"):  # before reading: no such file
+        compare_model_files(["no-such-run"], "optiodom", seed=-1)
 
 
 def test_cli_segment_zero_is_one_line(

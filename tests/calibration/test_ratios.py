@@ -90,3 +90,16 @@ def test_cli_writes_loadable_toml(tmp_path: Path, capsys: pytest.CaptureFixture[
     assert main([*args, "--distance-ratio", "0.905"]) == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "both" in err
+
+
+def test_ratios_refuse_a_model_that_ignores_the_track_width() -> None:
+    # the ICR model turns by its own y_icr: the new track width was written and changed nothing
+    from odolab.models import ExtendedDiffDrive, IcrModel
+
+    nominal = PRESETS["jaguar-lite"]
+    icr = nominal.with_(model=IcrModel(0.3, -0.3))
+    with pytest.raises(CalibrationError, match=r"\[model\] is icr, which turns by its own .*lsq"):
+        ratios(icr, 0.9, 0.875)
+    # the extended model's track is track_scale x the track width: the correction applies
+    ext = ratios(nominal.with_(model=ExtendedDiffDrive(1.0, 1.0, 1.2)), 0.9, 0.875).params
+    assert ext.coefficients.denominator == pytest.approx(1.2 * 0.56 * 0.9 / 0.875, rel=1e-12)

@@ -237,3 +237,11 @@ def test_umbmark_from_square_trials_and_rerun_of_their_logs() -> None:
     assert res.calibration.provenance["e_max_syst_after"] == pytest.approx(res.e_max_syst_after)
     with pytest.raises(CalibrationError, match="both directions"):
         umbmark_errors_from_trials([t for t in trials if t.command.direction == "cw"])
+
+
+def test_umbmark_refuses_a_model_that_ignores_the_track_width() -> None:
+    from odolab.models import IcrModel
+
+    icr = NOM.with_(model=IcrModel(0.3, -0.3))
+    with pytest.raises(CalibrationError, match=r"\[model\] is icr, which turns by its own"):
+        umbmark([(0.1, 0.2)], [(0.05, -0.1)], 4.0, icr)

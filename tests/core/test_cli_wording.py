@@ -89,3 +89,43 @@ def test_evaluate_prints_the_mean_rows_the_docs_quote(
     row = next(line for line in text.splitlines() if f"mean, {group} ({len(runs)} runs)" in line)
     assert f"{sum(drift) / len(drift):.2f}" in row and f"{sum(end) / len(end):.4f}" in row
     assert "…" not in text
+
+
+def _commands() -> list[tuple[list[str], object]]:
+    """Every (path, click command) of the odolab CLI."""
+    import typer.main
+
+    from odolab.cli import app
+
+    out: list[tuple[list[str], object]] = []
+
+    def walk(cmd: object, path: list[str]) -> None:
+        subs = getattr(cmd, "commands", None)
+        if subs:
+            for name, sub in subs.items():
+                walk(sub, [*path, name])
+        else:
+            out.append((path, cmd))
+
+    walk(typer.main.get_command(app), [])
+    return out
+
+
+def test_help_keeps_every_bracketed_word(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """rich reads "[noise]" in a help text as markup and drops it ("Fit the  table")."""
+    monkeypatch.setenv("COLUMNS", "400")
+    checked = 0
+    for path, cmd in _commands():
+        texts = [getattr(cmd, "help", None) or ""]
+        texts += [getattr(p, "help", None) or "" for p in getattr(cmd, "params", [])]
+        words = {w for t in texts for w in re.findall(r"\\?\[([a-z_]+)\]", t)}
+        if not words:
+            continue
+        assert main([*path, "--help"]) == 0
+        shown = capsys.readouterr().out
+        for w in words:
+            assert f"[{w}]" in shown, f"odolab {' '.join(path)} --help lost [{w}]"
+            checked += 1
+    assert checked >= 3

@@ -42,6 +42,26 @@ def test_interval_and_plain_and_p() -> None:
     assert numfmt.count(2, "trial") == "2 trials"
 
 
+@pytest.mark.parametrize(
+    ("value", "sig", "text"),
+    [
+        # rounding that carries into the next decade keeps sig digits (was "10.000": five)
+        (9.99996, 4, "10.00"),
+        (-0.99996, 4, "-1.000"),
+        (99.995, 4, "100.0"),
+        (999999.9, 4, "1e6"),  # rounds to 1e6: scientific from there (was "1000000")
+        (9.99996e-5, 4, "0.0001000"),  # rounds to 1e-4: not below it
+        (0.0996, 2, "0.10"),  # the p-value digits (was "0.100")
+        (1234.5678, 4, "1235"),
+        (0.012344, 4, "0.01234"),
+    ],
+)
+def test_plain_keeps_its_significant_digits_when_rounding_carries(
+    value: float, sig: int, text: str
+) -> None:
+    assert numfmt.plain(value, sig) == text
+
+
 def test_written_floats_are_shortest_round_trip() -> None:
     a = np.array([0.05, 0.1 + 0.2, 1 / 3, 2.5, 1e-5, 62.83185307179586, math.pi * 1e10])
     lines = numfmt.csv_lines([a, a * 3]).splitlines()

@@ -183,3 +183,12 @@ def test_cli_compare_and_lsq_icr(
     capsys.readouterr()
     assert main(["calibrate", "compare", *runs, "--models", "diff,tank"]) == 1
     assert "--models: unknown model 'tank'" in capsys.readouterr().err
+
+
+def test_a_fit_that_starts_at_a_plausible_range_edge_is_not_a_params_error(synthetic) -> None:  # type: ignore[no-untyped-def]
+    # a start of y_icr_right = -1 mm sits on the bound; the Jacobian's central difference
+    # stepped past it and built an implausible model: ParamsError '... -0.000999999 m ...'
+    train, _ = synthetic
+    start = NOMINAL.with_(model=IcrModel(0.3, -0.001, 0.0))
+    with pytest.raises(CalibrationError, match=r"y_icr_right \(standard error .*\) is not"):
+        calibrate_lsq(train[:2], start, LsqOptions(model="icr"))

@@ -15,6 +15,7 @@ from odolab.analysis.questions import (
     run_experiment,
 )
 from odolab.errors import SimError
+from odolab.models import ExtendedDiffDrive, IcrModel, KinematicModel
 from odolab.params import PRESETS
 from odolab.sim.physics import TrueParams
 from odolab.sim.presets import TRUTH_PRESETS
@@ -148,3 +149,118 @@ def test_bad_effect_and_missing_file(tmp_path: Path) -> None:
     bad.write_text("[experiment\n")
     with pytest.raises(SimError, match=r"x\.toml: not valid TOML"):
         load_experiment(bad)
+
+
+def test_effects_that_are_not_a_list_get_one_sentence() -> None:
+    doc = {
+        "experiment": {"name": "t", "repeats": 2},
+        "conditions": [{"label": "a", "motion": "rotate", "angle_deg": 90}],
+        "effects": 5,
+    }
+    with pytest.raises(SimError, match=r"t\.toml: \[\[effects\]\]: expected an array of tables"):
+        parse_experiment(doc, "t.toml")
+    doc = {"experiment": {"name": "t"}, "conditions": {"label": "a"}}
+    with pytest.raises(SimError, match=r"\[\[conditions\]\]: expected an array of tables"):
+        parse_experiment(doc, "t.toml")
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        # each of these ran for ever (a drive of 1e9 m, or at 1e-300 m/s) or overflowed (1e300 m/s)
+        ({"speed": 1e300}, r"key 'speed': expected a wheel speed from 0\.01 to 5 m/s, got 1e\+300"),
+        ({"speed": 1e-300}, r"key 'speed': expected a wheel speed from 0\.01 to 5 m/s"),
+        ({"motion": "straight", "distance": 1e9, "angle_deg": None}, r"key 'distance': .*1000 m"),
+        ({"angle_deg": -1e9}, r"key 'angle_deg': expected at most 18000 degrees either way"),
+        ({"motion": "curve", "radius": 1e9}, r"key 'radius': expected at most 250 m"),
+        ({"stop": "gradual", "decel": 1e9}, r"key 'decel': expected at most 3600 s"),
+    ],
+)
+def test_out_of_range_conditions_get_one_sentence(change: dict, message: str) -> None:  # type: ignore[type-arg]
+    cond = {"label": "a", "motion": "rotate", "angle_deg": 90, **change}
+    cond = {k: v for k, v in cond.items() if v is not None}
+    with pytest.raises(SimError, match=r"t\.toml: \[\[conditions\]\] #1 " + message):
+        _exp([cond])
+
+
+def test_a_condition_too_long_or_too_short_to_drive_is_refused_before_driving() -> None:
+    # 1000 m at 0.01 m/s: 100000 s of simulation per repeat
+    slow = _exp([{"label": "far", "motion": "straight", "distance": 1000, "speed": 0.01}])
+    with pytest.raises(SimError, match=r"t\.toml: condition 'far' would last 100000 s.*3600 s"):
+        run_experiment(slow, TRUTH_PRESETS["jaguar-lab-tracked"], NOMINAL)
+    # 1 um at 0.01 m/s: not one encoder tick, so the odometry's distance was 0 (ZeroDivisionError)
+    tiny = _exp([{"label": "tiny", "motion": "straight", "distance": 1e-6, "speed": 0.01}])
+    with pytest.raises(SimError, match=r"condition 'tiny' moves the faster wheel 0\.0 encoder"):
+        run_experiment(tiny, TRUTH_PRESETS["jaguar-lab-tracked"], NOMINAL)
+
+
+def test_too_many_drives_are_refused_before_driving() -> None:
+    exp = _exp([{"label": f"c{i}", "motion": "rotate", "angle_deg": 90} for i in range(3)])
+    calls: list[int] = []
+    with pytest.raises(SimError, match=r"t\.toml: 3 conditions x 50000 repeats are 150000 drives"):
+        run_experiment(
+            exp, TRUTH_PRESETS["jaguar-lab-tracked"], NOMINAL, repeats=50_000,
+            progress=lambda done, total: calls.append(done),
+        )  # fmt: skip
+    assert calls == []
+
+
+@pytest.mark.parametrize(
+    ("where", "text"),
+    [
+        ("experiment", "e\x1b[31mRED"),  # a colour change
+        ("question", "q\x1b]0;title\x07?"),  # sets the terminal's title
+        ("label", "a\x1b[2J"),  # clears the screen
+        ("label", "a\u202eb"),  # reverses the text after it
+    ],
+)
+def test_names_with_control_characters_are_refused(where: str, text: str) -> None:
+    # they reached the terminal raw through `odolab sim questions` (and the JSON, a report)
+    cond = {"label": text if where == "label" else "a", "motion": "rotate", "angle_deg": 90}
+    head = {"name": text} if where == "experiment" else {}
+    if where == "question":
+        head = {"question": text}
+    key = {"experiment": "name"}.get(where, where)
+    with pytest.raises(SimError, match=rf"key '{key}': .*control or invisible character"):
+        _exp([cond], **head)
+
+
+def test_a_trend_over_a_key_that_never_changes_is_refused() -> None:
+    # trend = "radius" over turns in place (radius 0 in each) gave no trend and no word of why
+    cond = [{"label": f"r{i}", "motion": "rotate", "angle_deg": 90 * (i + 1)} for i in range(2)]
+    with pytest.raises(SimError, match=r"key 'trend': radius is 0 in every condition; expected"):
+        _exp(cond, trend="radius")
+
+
+@pytest.mark.parametrize(
+    "model", [IcrModel(0.36, -0.22, 0.05), ExtendedDiffDrive(0.9, 1.05, 1.3)], ids=lambda m: m.kind
+)
+@pytest.mark.parametrize(
+    ("cond", "forward", "turn"),
+    [
+        ({"motion": "rotate", "angle_deg": 180}, 0.0, math.pi),
+        ({"motion": "curve", "angle_deg": -90, "radius": 1.5}, 1.5 * math.pi / 2, -math.pi / 2),
+        ({"motion": "pivot", "angle_deg": 90, "held": "right"}, None, math.pi / 2),
+        ({"motion": "straight", "distance": -2.0}, -2.0, 0.0),
+    ],
+)
+def test_legs_make_any_nominal_model_do_the_condition(
+    model: KinematicModel,
+    cond: dict,
+    forward: float | None,
+    turn: float,  # type: ignore[type-arg]
+) -> None:
+    # the legs came from the differential drive of the track width whatever the nominal model:
+    # with --params of an ICR robot, "rotate 180" turned its odometry by 180 * 0.56 / 0.58 deg
+    nominal = NOMINAL.with_(model=model)
+    (c,) = _exp([{"label": "c", **cond}]).conditions  # type: ignore[attr-defined]
+    (leg,) = legs_for(c, nominal)
+    fwd, _, dth = nominal.coefficients.body_motion(
+        leg.left * leg.duration, leg.right * leg.duration
+    )
+    assert dth == pytest.approx(turn, abs=1e-12)
+    if forward is not None:
+        assert fwd == pytest.approx(forward, abs=1e-12)
+    if c.motion == "pivot":
+        assert leg.right == 0.0  # the held track stands
+    assert max(abs(leg.left), abs(leg.right)) == pytest.approx(0.3)

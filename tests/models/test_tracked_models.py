@@ -10,6 +10,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from odolab.calibration.lsq import FIT_MODELS
 from odolab.errors import ParamsError, SimError
 from odolab.kinematics import body_motion
 from odolab.models import (
@@ -21,7 +22,7 @@ from odolab.models import (
     model_from_mapping,
 )
 from odolab.odometry import Odometry, integrate_increments
-from odolab.params import PRESETS, load_params, save_params
+from odolab.params import PRESETS, load_params, plausible_range, save_params
 from odolab.sim.physics import TrueParams, VirtualRobot
 
 NOMINAL = PRESETS["jaguar-lite"]
@@ -122,12 +123,53 @@ def test_bad_model_tables_get_one_clear_sentence() -> None:
         )
     with pytest.raises(ParamsError, match=r"y_icr_right must be < 0 m"):
         model_from_mapping({"kind": "icr", "y_icr_left": 0.3, "y_icr_right": 0.0}, source="x.toml")
-    with pytest.raises(ParamsError, match=r"missing 1 required positional argument: 'y_icr_right'"):
+    with pytest.raises(
+        ParamsError, match=r"x\.toml: missing key 'y_icr_right' in \[model\] of kind"
+    ):
         model_from_mapping({"kind": "icr", "y_icr_left": 0.3}, source="x.toml")
     with pytest.raises(ParamsError, match=r"track_scale must be a finite ratio > 0"):
         model_from_mapping({"kind": "extended", "track_scale": 0}, source="x.toml")
     with pytest.raises(ParamsError, match=r"unknown key 'track' in \[model\] of kind 'icr'"):
         model_from_mapping({"kind": "icr", "track": 0.5}, source="x.toml")
+
+
+@pytest.mark.parametrize(
+    ("table", "message"),
+    [
+        # each loaded and drove silently: an ICR spread of 2e300 m (no turn at all), a body ICR
+        # a thousand kilometres ahead, a wheel that moves the body by 1e-300 of its travel
+        ({"kind": "icr", "y_icr_left": 1e300, "y_icr_right": -0.3}, r"y_icr_left = 1e\+300 m is"),
+        ({"kind": "icr", "y_icr_left": 0.3, "y_icr_right": -1e-5}, r"y_icr_right = -1e-05 m is"),
+        ({"kind": "icr", "y_icr_left": 0.3, "y_icr_right": -0.3, "x_icr": 1e6}, r"x_icr = 1e\+06"),
+        ({"kind": "extended", "scale_left": 1e-300}, r"scale_left = 1e-300 is outside"),
+        ({"kind": "extended", "track_scale": 1e300}, r"track_scale = 1e\+300 is outside"),
+    ],
+)
+def test_implausible_model_values_get_one_sentence(table: dict, message: str) -> None:  # type: ignore[type-arg]
+    with pytest.raises(ParamsError, match=r"x\.toml: \[model\] " + message + " .*plausible"):
+        model_from_mapping(table, source="x.toml")
+
+
+def test_lsq_bounds_stay_inside_the_plausible_ranges() -> None:
+    # a start near the top of a range: bounds of 0.5x to 2x the start would let the solver try
+    # a radius of 3 m or a scale of 18, which the parameters refuse in the middle of the fit
+    big = NOMINAL.with_(left_wheel_radius=1.5, right_wheel_radius=1.5, track_width=15.0)
+    for kind in ("diff", "icr"):
+        spec = FIT_MODELS[kind]
+        x0 = spec.start(big)
+        lo, hi = spec.bounds(x0, big)
+        for name, a, b in zip(spec.names, lo, hi, strict=True):
+            p_lo, p_hi = plausible_range(name)
+            assert p_lo <= a < b <= p_hi, name
+        # the solver's extreme corners are parameters that load
+        spec.params(big, lo)
+        spec.params(big, hi)
+    ext = NOMINAL.with_(model=ExtendedDiffDrive(9.0, 0.2, 1.0))
+    spec = FIT_MODELS["extended"]
+    lo, hi = spec.bounds(spec.start(ext), ext)
+    assert list(lo) == [4.5, 0.1, 0.5] and list(hi) == [10.0, 0.4, 2.0]
+    spec.params(ext, lo)
+    spec.params(ext, hi)
 
 
 def test_simulator_turns_in_place_about_the_true_icr() -> None:

@@ -33,6 +33,12 @@ def test_schemes() -> None:
             check_robot_url(bad)
     with pytest.raises(RobotUrlError, match="plain sim://"):
         open_link("sim://somewhere", RunConfig(), NOMINAL, RealClock())
+    # a query or a fragment was ignored: sim://?truth=jaguar-lab-trackd drove the default truth
+    for bad in ("sim://?truth=jaguar-lab-tracked", "sim://#x", "sim:///path", "sim://;p"):
+        with pytest.raises(RobotUrlError, match=r"expected plain sim:// .*--truth"):
+            check_robot_url(bad)
+        with pytest.raises(RobotUrlError, match="plain sim://"):
+            open_link(bad, RunConfig(), NOMINAL, RealClock())
 
 
 def test_sim_link_is_a_jaguar_driver_behind_the_interface() -> None:

@@ -135,9 +135,10 @@ def test_silent_robot_is_stopped_within_watchdog_plus_cycle() -> None:
             loop.run(Straight(3.0, speed=0.5))
         speeds = server.call(lambda b: b.wheel_speeds)
     lost = first_lost(cycles)
-    age = next(c.data_age for c in cycles if not c.link_ok)
+    first = next(c for c in cycles if not c.link_ok)
     # timed from the kernel's arrival timestamp: >= the watchdog, within one cycle plus slack
-    assert 0.5 <= age <= 0.5 + 0.05 + 0.02
+    # plus however late the OS woke that cycle (0 on an idle machine; a loaded one starves it)
+    assert 0.5 <= first.data_age <= 0.5 + 0.05 + first.lateness + 0.02, first
     assert all(c.command == (0.0, 0.0) for c in cycles if c.t >= lost)
     assert speeds == (0.0, 0.0)  # the board received the stop
 

@@ -155,3 +155,18 @@ def test_encoder_dir_that_is_a_file_is_one_line(
     assert "expected a folder for --encoder-dir" in err and err.count("\n") == 1
     with pytest.raises(SimError, match="expected a folder"):
         write_encoder_logs(a_file, [])
+
+
+def test_an_encoder_dir_that_cannot_be_made_says_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a folder under a file: the message was the bare "[Errno 20] Not a directory"
+    a_file = tmp_path / "logs"
+    a_file.write_text("not a folder")
+    out = tmp_path / "t.csv"
+    args = ["sim", "run", "umbmark", "-o", str(out), "--encoder-dir", str(a_file / "sub")]
+    assert main(args) == 1
+    err = capsys.readouterr().err
+    assert f"{a_file / 'sub'}: cannot create the folder for the encoder logs" in err
+    assert err.count("\n") == 1
+    assert out.exists()  # the trials written before it are kept

@@ -115,3 +115,32 @@ def test_no_rotation_cannot_be_aligned() -> None:
     imu = ImuLog(t, np.zeros(t.size), np.zeros(t.size))
     with pytest.raises(ImuLogError, match="neither log shows any rotation"):
         find_clock_offset(t, np.zeros(t.size), imu)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        # a Gaussian of 1e9 s on a 10 ms grid asked numpy for 5.8 TiB (MemoryError traceback)
+        ({"smooth": 1e9}, r"smooth is 1e\+09 s; expected a number from 0 to 10 s"),
+        ({"smooth": math.nan}, r"smooth is nan s; expected a number from 0 to 10 s"),
+        ({"nominal_offset": math.inf}, r"offset \(phone minus robot\) is inf s; expected a finite"),
+        ({"max_offset": -5.0}, r"max_offset is -5 s; expected a number >= 0 \(0 fixes"),
+        ({"max_offset": math.nan}, r"max_offset is nan s; expected a number >= 0"),
+    ],
+)
+def test_bad_search_settings_are_one_sentence(kwargs: dict, message: str) -> None:  # type: ignore[type-arg]
+    t = np.arange(0.0, 10.0, 0.01)
+    imu = ImuLog(t, _smooth_heading(t), 2.0 + np.zeros(t.size))
+    with pytest.raises(ImuLogError, match=message):
+        find_clock_offset(t, _smooth_heading(t), imu, **kwargs)
+
+
+def test_a_log_shorter_than_the_overlap_says_so() -> None:
+    # a 0.05 s encoder log was told to "widen the search": no offset can ever give 1 s
+    imu = ImuLog(np.arange(0.0, 20.0, 0.01), np.zeros(2000), np.zeros(2000))
+    short = np.array([0.0, 0.05])
+    with pytest.raises(ImuLogError, match=r"the enc\.csv lasts 0\.05 s; expected at least 1 s"):
+        require_overlap(short, imu, -math.inf, math.inf, min_overlap=1.0, robot_source="enc.csv")
+    imu_short = ImuLog(np.array([5.0, 5.5]), np.zeros(2), np.zeros(2), source="p.csv")
+    with pytest.raises(ImuLogError, match=r"p\.csv: the IMU log lasts 0\.5 s; expected at least"):
+        require_overlap(np.arange(0.0, 20.0, 0.05), imu_short, -5, 5, min_overlap=1.0)

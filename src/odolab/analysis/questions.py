@@ -55,7 +55,15 @@ from odolab.odometry import integrate_increments
 from odolab.params import RobotParams
 from odolab.sim.drives import Leg, drive
 from odolab.sim.physics import TrueParams
+from odolab.sim.protocols import (
+    MAX_ANGLE_RAD,
+    MAX_DISTANCE_M,
+    MAX_SIDE_M,
+    MAX_TRIAL_SECONDS,
+    SPEED_RANGE_M_S,
+)
 from odolab.sim.terrains import get_terrain
+from odolab.text import quote_input, safe_terminal
 
 __all__ = [
     "Condition",
@@ -78,6 +86,12 @@ _EXPERIMENT_KEYS = {"name", "question", "repeats", "speed", "trend", "alternate"
 _CONDITION_KEYS = {"label", "motion", "angle_deg", "radius", "held", "distance", "terrain",
                    "speed", "stop", "decel"}  # fmt: skip
 Progress = Callable[[int, int], None]
+#: Most drives (conditions x repeats) one experiment may ask for: about 10 ms each, so some
+#: 20 minutes; a typo such as ``repeats = 100000`` over many conditions is one sentence.
+MAX_DRIVES = 100_000
+#: Fewest encoder ticks the faster wheel must turn in a condition: below that the odometry may
+#: see no motion at all, and a slip (measured / predicted) means nothing.
+MIN_TICKS = 10.0
 
 
 @dataclass(frozen=True)
@@ -233,12 +247,47 @@ def _err(source: str, where: str, message: str) -> SimError:
     return SimError(f"{source}: {where}: {message}")
 
 
-def _num(source: str, where: str, value: Any, *, positive: bool = False) -> float:
+def _num(
+    source: str,
+    where: str,
+    value: Any,
+    *,
+    positive: bool = False,
+    most: float = math.inf,
+    unit: str = "",
+) -> float:
+    """A finite number (> 0 with ``positive``) of magnitude at most ``most`` (in ``unit``)."""
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
         raise _err(source, where, f"expected a finite number, got {value!r}")
     if positive and value <= 0:
         raise _err(source, where, f"expected a number > 0, got {value!r}")
+    if abs(value) > most:
+        either = "" if positive else " either way"
+        raise _err(source, where, f"expected at most {most:g} {unit}{either}, got {value!r}")
     return float(value)
+
+
+def _speed(source: str, where: str, value: Any) -> float:
+    lo, hi = SPEED_RANGE_M_S
+    v = _num(source, where, value)
+    if not lo <= v <= hi:
+        raise _err(source, where, f"expected a wheel speed from {lo:g} to {hi:g} m/s, got {v!r}")
+    return v
+
+
+def _kind(value: Any) -> str:
+    """What a TOML value is, in the file's words."""
+    return "a table" if isinstance(value, dict) else f"{value!r}"
+
+
+def _text(source: str, where: str, value: Any) -> str:
+    """``value`` as text that a terminal, a JSON file and a report all show as it is."""
+    text = str(value)
+    if safe_terminal(text) != text:
+        raise _err(source, where,
+                   f"{quote_input(text)} has a control or invisible character; expected "
+                   "plain text on one line")  # fmt: skip
+    return text
 
 
 def _keys(source: str, where: str, table: dict[str, Any], allowed: set[str]) -> None:
@@ -255,26 +304,38 @@ def parse_experiment(doc: dict[str, Any], source: str = "<experiment>") -> Exper
     if not isinstance(head, dict):
         raise _err(source, "[experiment]", "missing; expected a table with name and question")
     _keys(source, "[experiment]", head, _EXPERIMENT_KEYS)
-    name = str(head.get("name", Path(source).stem))
+    name = _text(source, "[experiment] key 'name'", head.get("name", Path(source).stem))
+    question = _text(source, "[experiment] key 'question'", head.get("question", ""))
     repeats = head.get("repeats", 100)
     if isinstance(repeats, bool) or not isinstance(repeats, int) or not 2 <= repeats <= 100_000:
         raise _err(source, "[experiment] key 'repeats'",
                    f"expected an integer from 2 to 100000, got {repeats!r}")  # fmt: skip
-    speed = _num(source, "[experiment] key 'speed'", head.get("speed", 0.3), positive=True)
+    speed = _speed(source, "[experiment] key 'speed'", head.get("speed", 0.3))
     trend = head.get("trend")
     if trend not in (None, "speed", "radius", "decel"):
         raise _err(source, "[experiment] key 'trend'",
                    f"expected speed, radius or decel, got {trend!r}")  # fmt: skip
     raw = doc.get("conditions")
-    if not isinstance(raw, list) or not raw:
+    if raw is not None and not isinstance(raw, list):
+        raise _err(source, "[[conditions]]", f"expected an array of tables, got {_kind(raw)}")
+    if not raw:
         raise _err(source, "[[conditions]]", "missing; expected at least one condition")
     conditions = [_condition(source, i, c, speed) for i, c in enumerate(raw)]
     labels = [c.label for c in conditions]
+    if trend is not None:
+        values = {float(getattr(c, trend)) for c in conditions}
+        if len(values) < 2:
+            raise _err(source, "[experiment] key 'trend'",
+                       f"{trend} is {values.pop():g} in every condition; expected conditions "
+                       f"that differ in {trend}")  # fmt: skip
     dup = sorted({x for x in labels if labels.count(x) > 1})
     if dup:
         raise _err(source, "[[conditions]] key 'label'", f"{dup[0]!r} is used twice")
     effects = []
-    for i, e in enumerate(doc.get("effects", [])):
+    raw_effects = doc.get("effects", [])
+    if not isinstance(raw_effects, list):
+        raise _err(source, "[[effects]]", f"expected an array of tables, got {_kind(raw_effects)}")
+    for i, e in enumerate(raw_effects):
         where = f"[[effects]] #{i + 1}"
         if not isinstance(e, dict):
             raise _err(source, where, "expected a table with a and b")
@@ -292,7 +353,7 @@ def parse_experiment(doc: dict[str, Any], source: str = "<experiment>") -> Exper
     sig = {k: _num(source, f"[experiment] key {k!r}", head[k], positive=True)
            for k in ("compass_sigma", "meterstick_sigma", "tape_sigma") if k in head}  # fmt: skip
     return Experiment(
-        name, str(head.get("question", "")), tuple(conditions), tuple(effects), repeats,
+        name, question, tuple(conditions), tuple(effects), repeats,
         trend, alternate, source=source, **sig,
     )  # fmt: skip
 
@@ -305,6 +366,7 @@ def _condition(source: str, index: int, c: Any, speed: float) -> Condition:
     label = c.get("label")
     if not isinstance(label, str) or not label:
         raise _err(source, f"{where} key 'label'", "missing; expected a non-empty name")
+    _text(source, f"{where} key 'label'", label)
     motion = c.get("motion")
     if motion not in _MOTIONS:
         raise _err(source, f"{where} key 'motion'",
@@ -313,7 +375,7 @@ def _condition(source: str, index: int, c: Any, speed: float) -> Condition:
     get_terrain(terrain, where=f"{source}: {where} key 'terrain'")
     kw: dict[str, Any] = {
         "terrain": terrain,
-        "speed": _num(source, f"{where} key 'speed'", c.get("speed", speed), positive=True),
+        "speed": _speed(source, f"{where} key 'speed'", c.get("speed", speed)),
     }
     needs = {"rotate": ("angle_deg",), "curve": ("angle_deg", "radius"),
              "pivot": ("angle_deg",), "straight": ("distance",)}[motion]  # fmt: skip
@@ -324,14 +386,19 @@ def _condition(source: str, index: int, c: Any, speed: float) -> Condition:
         if key in c and key not in needs and not (key == "held" and motion == "pivot"):
             raise _err(source, f"{where} key {key!r}", f"does not apply to a {motion}")
     if "angle_deg" in c:
-        angle = _num(source, f"{where} key 'angle_deg'", c["angle_deg"])
+        most = math.degrees(MAX_ANGLE_RAD)
+        angle = _num(source, f"{where} key 'angle_deg'", c["angle_deg"], most=most, unit="degrees")
         if angle == 0:
             raise _err(source, f"{where} key 'angle_deg'", "expected a non-zero angle")
         kw["angle"] = math.radians(angle)
     if "radius" in c:
-        kw["radius"] = _num(source, f"{where} key 'radius'", c["radius"], positive=True)
+        kw["radius"] = _num(
+            source, f"{where} key 'radius'", c["radius"], positive=True, most=MAX_SIDE_M, unit="m"
+        )
     if "distance" in c:
-        kw["distance"] = _num(source, f"{where} key 'distance'", c["distance"])
+        kw["distance"] = _num(
+            source, f"{where} key 'distance'", c["distance"], most=MAX_DISTANCE_M, unit="m"
+        )
         if kw["distance"] == 0:
             raise _err(source, f"{where} key 'distance'", "expected a non-zero distance")
     if "held" in c:
@@ -343,7 +410,10 @@ def _condition(source: str, index: int, c: Any, speed: float) -> Condition:
         raise _err(source, f"{where} key 'stop'", f"expected abrupt or gradual, got {stop!r}")
     kw["stop"] = stop
     if stop == "gradual":
-        kw["decel"] = _num(source, f"{where} key 'decel'", c.get("decel", 0.5), positive=True)
+        kw["decel"] = _num(
+            source, f"{where} key 'decel'", c.get("decel", 0.5), positive=True,
+            most=MAX_TRIAL_SECONDS, unit="s",
+        )  # fmt: skip
     elif "decel" in c:
         raise _err(source, f"{where} key 'decel'", 'applies only to stop = "gradual"')
     return Condition(label, str(motion), **kw)
@@ -392,12 +462,14 @@ def legs_for(c: Condition, nominal: RobotParams) -> list[Leg]:
     The faster wheel runs at ``c.speed``; the duration is the nominal wheel travel over that
     speed. A gradual stop adds a leg that slows linearly to 0 over ``c.decel`` seconds (its
     travel is counted by the encoders like any other)."""
-    half = nominal.track_width / 2.0
-    if c.motion == "straight":
+    if not nominal.model.is_differential_drive:
+        left, right, duration = _first_leg_for_model(c, nominal)
+    elif c.motion == "straight":
         sign = 1.0 if c.distance > 0 else -1.0
         left = right = sign * c.speed
         duration = abs(c.distance) / c.speed
     else:
+        half = nominal.track_width / 2.0
         a = c.angle
         if c.motion == "rotate":
             dl, dr = -a * half, a * half
@@ -416,6 +488,24 @@ def legs_for(c: Condition, nominal: RobotParams) -> list[Leg]:
     if c.stop == "gradual":
         legs.append(Leg(0.0, 0.0, c.decel, ramp=c.decel))
     return legs
+
+
+def _first_leg_for_model(c: Condition, nominal: RobotParams) -> tuple[float, float, float]:
+    """(left, right, duration) of :func:`legs_for` through the nominal model's coefficients (any
+    linear model): the wheel travels whose body motion is the condition's forward distance and
+    turn. For the differential drive this is the closed form of :func:`legs_for`."""
+    w_l, w_r, e_l, e_r, den, _ = nominal.coefficients
+    if c.motion == "pivot":  # the held track stands, the other one turns the body alone
+        dl, dr = (0.0, c.angle * den / e_r) if c.held == "left" else (-c.angle * den / e_l, 0.0)
+    else:
+        turn = 0.0 if c.motion == "straight" else c.angle
+        forward = {"straight": c.distance, "rotate": 0.0}.get(c.motion, abs(c.angle) * c.radius)
+        # [[w_l, w_r], [-e_l/den, e_r/den]] (ds_l, ds_r) = (forward, turn)
+        det = (w_l * e_r + w_r * e_l) / den
+        dl = (forward * e_r / den - w_r * turn) / det
+        dr = (w_l * turn + forward * e_l / den) / det
+    duration = max(abs(dl), abs(dr)) / c.speed
+    return dl / duration, dr / duration, duration
 
 
 def _welch(a: np.ndarray, b: np.ndarray) -> tuple[float, float, float]:
@@ -441,6 +531,33 @@ def _mean_ci(x: np.ndarray) -> tuple[float, float, float]:
     return m, m - h, m + h
 
 
+def _check_size(experiment: Experiment, repeats: int, nominal: RobotParams) -> None:
+    """Refuse, before any drive, an experiment too big to run or a condition too long or too
+    short to drive (see :data:`MAX_DRIVES`, :data:`MIN_TICKS`)."""
+    src = experiment.source
+    count = len(experiment.conditions)
+    if count * repeats > MAX_DRIVES:
+        raise SimError(
+            f"{src}: {count} conditions x {repeats} repeats are {count * repeats} drives; "
+            f"expected at most {MAX_DRIVES} (fewer repeats)"
+        )
+    per_tick = max(nominal.left_metres_per_tick, nominal.right_metres_per_tick)
+    for c in experiment.conditions:
+        legs = legs_for(c, nominal)
+        seconds = sum(leg.duration for leg in legs)
+        if seconds > MAX_TRIAL_SECONDS:
+            raise SimError(
+                f"{src}: condition {c.label!r} would last {seconds:.0f} s; expected at most "
+                f"{MAX_TRIAL_SECONDS:.0f} s (check its speed, distance, radius and angle)"
+            )
+        ticks = max(abs(legs[0].left), abs(legs[0].right)) * legs[0].duration / per_tick
+        if ticks < MIN_TICKS:
+            raise SimError(
+                f"{src}: condition {c.label!r} moves the faster wheel {ticks:.1f} encoder ticks; "
+                f"expected at least {MIN_TICKS:g} (a longer distance or a larger angle)"
+            )
+
+
 def run_experiment(
     experiment: Experiment,
     truth: TrueParams,
@@ -454,6 +571,7 @@ def run_experiment(
     n = repeats if repeats is not None else experiment.repeats
     if n < 2:
         raise SimError(f"repeats must be at least 2 for a confidence interval, got {n}")
+    _check_size(experiment, n, nominal)
     rng = np.random.default_rng(seed)
     total = n * len(experiment.conditions)
     done = 0

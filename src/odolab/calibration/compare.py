@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -35,11 +35,12 @@ from odolab.calibration.lsq import (
     LsqOptions,
     PreparedRun,
     calibrate_lsq,
+    find_fit_and_held_out,
     fit_model,
     prepare_run,
 )
 from odolab.errors import CalibrationError, InsufficientDataError
-from odolab.io.registry import LogFormat, find_runs, read_run
+from odolab.io.registry import LogFormat, read_run
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.metrics.runs import RUN_OPTIONS, Progress, evaluate_run, parallel_map
 from odolab.params import RobotParams
@@ -167,20 +168,9 @@ def _fit(
     runs: Sequence[PreparedRun], nominal: RobotParams, options: LsqOptions, model: str
 ) -> tuple[LsqCalibration | None, str | None]:
     try:
-        return calibrate_lsq(runs, nominal, _with_model(options, model)), None
+        return calibrate_lsq(runs, nominal, replace(options, model=model)), None
     except (CalibrationError, InsufficientDataError) as err:
         return None, str(err)
-
-
-def _with_model(options: LsqOptions, model: str) -> LsqOptions:
-    return LsqOptions(
-        segment_s=options.segment_s,
-        heading_scale=options.heading_scale,
-        method=options.method,
-        loss=options.loss,
-        fit_gt_yaw_offset=options.fit_gt_yaw_offset,
-        model=model,
-    )
 
 
 def _metrics(run: OdometryRun, params: RobotParams) -> dict[str, float]:
@@ -191,6 +181,11 @@ def _metrics(run: OdometryRun, params: RobotParams) -> dict[str, float]:
         "drift_pct": ev.drift.translation_pct,
         "drift_deg_per_m": ev.drift.rotation_deg_per_m,
     }
+
+
+def _check_seed(seed: int) -> None:
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise CalibrationError(f"seed is {seed!r}; expected an integer >= 0")
 
 
 def compare_models(
@@ -209,6 +204,7 @@ def compare_models(
     Without ``held_out`` the runs of ``train`` are split into ``min(folds, len(train))`` folds
     (run i in fold i mod k); each fold is held out once from a fit on the others."""
     o = options or LsqOptions()
+    _check_seed(seed)
     if not train:
         raise InsufficientDataError("no runs to compare the models on; expected at least one")
     for m in models:
@@ -361,15 +357,10 @@ def compare_model_files(
     seed: int = 0,
 ) -> ModelComparison:
     """:func:`compare_models` on every run found under ``paths`` (and ``validate``)."""
+    _check_seed(seed)  # before any file is read
     f = LogFormat(fmt)
     ro = read_options or ReadOptions()
-    train_paths = find_runs(paths, f)
-    held_paths = find_runs(validate, f) if validate else []
-    overlap = sorted(set(train_paths) & set(held_paths))
-    if overlap:
-        raise CalibrationError(
-            f"{overlap[0]} is both a training and a held-out run; expected held-out runs"
-        )
+    train_paths, held_paths = find_fit_and_held_out(paths, validate, f)
     jobs = [_ReadJob(p, f, ro) for p in [*train_paths, *held_paths]]
     runs = parallel_map(
         _read, jobs, workers=workers, progress=progress, label=lambda j: str(j.path)

@@ -28,7 +28,7 @@ which keeps its original sentence).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -44,7 +44,7 @@ from odolab.metrics.association import interpolate_trajectory
 from odolab.metrics.runs import RUN_OPTIONS, Progress, RunEvaluation, evaluate_run, parallel_map
 from odolab.models import DIFF_DRIVE, ExtendedDiffDrive, IcrModel
 from odolab.odometry import integrate_increments
-from odolab.params import RobotParams
+from odolab.params import RobotParams, plausible_range
 
 __all__ = [
     "FIT_MODELS",
@@ -110,7 +110,11 @@ class FitModel:
             "x_icr": (-2.0 * b, 2.0 * b),
         }
         pairs = [fixed.get(n, (0.5 * v, 2.0 * v)) for n, v in zip(self.names, x0, strict=True)]
-        return np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
+        # inside the plausible ranges, or the solver tries parameters that refuse to be built
+        ranges = [plausible_range(n) for n in self.names]
+        lower = [max(p[0], r[0]) for p, r in zip(pairs, ranges, strict=True)]
+        upper = [min(p[1], r[1]) for p, r in zip(pairs, ranges, strict=True)]
+        return np.array(lower), np.array(upper)
 
     def scales(self, x0: FloatArray, nominal: RobotParams) -> FloatArray:
         """Typical size of each parameter (step of the numerical Jacobian, solver scaling)."""
@@ -228,6 +232,12 @@ def prepare_run(run: OdometryRun, segment_s: float = 2.0) -> PreparedRun:
     dl = run.dticks_left[idx[0] : idx[-1] + 1].copy()
     dr = run.dticks_right[idx[0] : idx[-1] + 1].copy()
     dl[0] = dr[0] = 0.0
+    spacing = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    if segment_s < spacing * (1.0 - 1e-9):  # finer than the samples: empty segments, a huge grid
+        raise CalibrationError(
+            f"{run.source}: segment length {segment_s:g} s is shorter than the log's sample "
+            f"spacing ({spacing:.3g} s); expected a segment length of at least {spacing:.3g} s"
+        )
     g = interpolate_trajectory(gt, t)
     edges = np.unique(np.searchsorted(t, np.arange(t[0], t[-1] + segment_s, segment_s)))
     edges = edges[edges < t.size]
@@ -266,10 +276,34 @@ def segment_residuals(
     """
     spec = fit_model(model)
     p = spec.params(template, theta[: len(spec.names)])
-    odo = integrate_increments(run.t, run.dticks_left, run.dticks_right, p, method)
+    return _residuals(p, run, heading_scale, method, gt_yaw_offset)
+
+
+def _residuals(
+    params: RobotParams,
+    run: PreparedRun,
+    heading_scale: float,
+    method: Method,
+    gt_yaw_offset: float,
+) -> FloatArray:
+    """:func:`segment_residuals` with the parameters already built."""
+    odo = integrate_increments(run.t, run.dticks_left, run.dticks_right, params, method)
     ox, oy, oh = _relative(odo.x, odo.y, odo.heading, run.starts, run.ends)
     gx, gy, gh = _relative(run.gt_x, run.gt_y, run.gt_heading + gt_yaw_offset, run.starts, run.ends)
     return np.concatenate((ox - gx, oy - gy, heading_scale * (oh - gh)))
+
+
+def _difference(
+    f: Callable[[float], FloatArray], value: float, h: float, lower: float, upper: float
+) -> FloatArray:
+    """Central difference of ``f`` at ``value`` with step ``h``; one-sided where a step would
+    cross a bound (it would build parameters outside their plausible range)."""
+    up, down = value + h <= upper, value - h >= lower
+    if up and down:
+        return (f(value + h) - f(value - h)) / (2.0 * h)
+    if up:
+        return (f(value + h) - f(value)) / h
+    return (f(value) - f(value - h)) / h
 
 
 @dataclass(frozen=True)
@@ -401,35 +435,48 @@ def calibrate_lsq(
     upper = np.concatenate((hi, np.full(n_off, 0.5)))
 
     def per_run(theta: FloatArray) -> list[FloatArray]:
+        p = spec.params(nominal, theta[:k_model])  # built once for every run
         return [
-            segment_residuals(
-                theta[:k_model],
-                r,
-                nominal,
-                scale,
-                o.method,
-                theta[k_model + k] if n_off else 0.0,
-                spec.kind,
-            )
+            _residuals(p, r, scale, o.method, theta[k_model + k] if n_off else 0.0)
             for k, r in enumerate(prepared)
         ]
 
     def fun(theta: FloatArray) -> FloatArray:
         return np.concatenate(per_run(theta))
 
-    r0 = fun(x0)
+    parts0 = per_run(x0)
+    r0 = np.concatenate(parts0)
     m = r0.size
     if m <= x0.size:
         raise InsufficientDataError(f"{m} residuals for {x0.size} parameters; expected longer runs")
     steps = 1e-6 * x_scale
+    edges = np.cumsum([0] + [r.size for r in parts0])
 
     def jac(theta: FloatArray) -> FloatArray:
-        # central differences with steps fixed to each parameter's scale
+        # differences with steps fixed to each parameter's scale (see _difference)
         cols = []
-        for k, h in enumerate(steps):
-            e = np.zeros_like(theta)
-            e[k] = h
-            cols.append((fun(theta + e) - fun(theta - e)) / (2.0 * h))
+        for k in range(k_model):
+
+            def moved(v: float, k: int = k) -> FloatArray:
+                t = theta.copy()
+                t[k] = v
+                return fun(t)
+
+            cols.append(_difference(moved, theta[k], steps[k], lower[k], upper[k]))
+        # run k's ground-truth yaw offset moves only run k's residuals: its column is zero
+        # elsewhere (exactly, as the full difference gave), so only that run is integrated
+        p = spec.params(nominal, theta[:k_model])
+        for k, run in enumerate(prepared[:n_off]):
+            i = k_model + k
+
+            def rotated(v: float, run: PreparedRun = run) -> FloatArray:
+                return _residuals(p, run, scale, o.method, v)
+
+            col = np.zeros(m)
+            col[edges[k] : edges[k + 1]] = _difference(
+                rotated, theta[i], steps[i], lower[i], upper[i]
+            )
+            cols.append(col)
         return np.column_stack(cols)
 
     sol = least_squares(fun, x0, jac=jac, x_scale=x_scale, loss=o.loss, bounds=(lower, upper))
@@ -547,6 +594,44 @@ def _compare_job(job: _CompareJob) -> RunComparison:
     return compare_runs([run], job.nominal, job.calibrated)[0]
 
 
+def find_fit_and_held_out(
+    paths: Sequence[str | Path],
+    validate: Sequence[str | Path],
+    fmt: LogFormat,
+    *,
+    roles: tuple[str, str] = ("training", "held-out"),
+) -> tuple[list[Path], list[Path]]:
+    """The run files under ``paths`` (to fit on) and under ``validate`` (held out), refusing a
+    run that is in both (``roles`` name the two sets in the sentence).
+
+    Runs are told apart by their resolved path: ``runs/a`` and ``/home/me/runs/a`` are one run,
+    kept once (a run fitted twice would weigh double, and in cross-validation be held out
+    from a fit that saw it)."""
+    fit = _unique(find_runs(paths, fmt))
+    held = _unique(find_runs(validate, fmt)) if validate else []
+    seen = {p.resolve(): p for p in fit}
+    overlap = [(p, seen[p.resolve()]) for p in held if p.resolve() in seen]
+    if overlap:
+        p, q = overlap[0]
+        same = "" if p == q else f" (as {q})"
+        raise CalibrationError(
+            f"{p}{same} is both a {roles[0]} and a {roles[1]} run; expected held-out runs"
+        )
+    return fit, held
+
+
+def _unique(paths: list[Path]) -> list[Path]:
+    """``paths`` without a second path to the same file (first kept, order kept)."""
+    seen: set[Path] = set()
+    out = []
+    for p in paths:
+        r = p.resolve()
+        if r not in seen:
+            seen.add(r)
+            out.append(p)
+    return out
+
+
 def calibrate_lsq_files(
     paths: Sequence[str | Path],
     fmt: LogFormat | str,
@@ -566,13 +651,7 @@ def calibrate_lsq_files(
     o = options or LsqOptions()
     ro = read_options or ReadOptions()
     f = LogFormat(fmt)
-    train = find_runs(paths, f)
-    held = find_runs(validate, f) if validate else []
-    overlap = sorted(set(train) & set(held))
-    if overlap:
-        raise CalibrationError(
-            f"{overlap[0]} is both a calibration and a validation run; expected held-out runs"
-        )
+    train, held = find_fit_and_held_out(paths, validate, f, roles=("calibration", "validation"))
     total = len(train) + len(held)
 
     def shifted(offset: int) -> Progress | None:

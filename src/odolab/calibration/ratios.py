@@ -31,7 +31,7 @@ from odolab.params import NoiseParams, RobotParams, save_params
 if TYPE_CHECKING:
     from odolab.analysis import LabAnalysis
 
-__all__ = ["CalibrationResult", "ratios", "ratios_from_analysis"]
+__all__ = ["CalibrationResult", "check_track_model", "ratios", "ratios_from_analysis"]
 
 _Z95 = 1.959963984540054
 
@@ -78,6 +78,20 @@ def _rel_se(ci: tuple[float, float] | None, value: float) -> float | None:
     return (hi - lo) / (2 * _Z95) / value
 
 
+def check_track_model(params: RobotParams, method: str) -> None:
+    """Refuse parameters whose kinematic model ignores the ``[robot]`` track width (the ICR
+    model turns by its own ICR coordinates): a calibration that corrects the track width
+    would write a value that changes nothing."""
+    model = params.model
+    if model.coefficients(1.0).denominator == model.coefficients(2.0).denominator:
+        raise CalibrationError(
+            f"{params.name}: {method} corrects the [robot] radii and track width, but the "
+            f"parameters' [model] is {model.kind}, which turns by its own geometry, not the "
+            "track width; expected parameters of a differential drive (no [model]) or an "
+            f"extended one, or `odolab calibrate lsq --model {model.kind}`"
+        )
+
+
 def ratios(
     params: RobotParams,
     distance_ratio: float,
@@ -89,6 +103,7 @@ def ratios(
     terrain: str | None = None,
 ) -> CalibrationResult:
     """New parameters from the distance and rotation ratios (actual/predicted); see module doc."""
+    check_track_model(params, "the ratios calibration")
     qd = _check_ratio("distance ratio", distance_ratio)
     qr = _check_ratio("rotation ratio", rotation_ratio)
     # 12 significant digits: the products without their last-bit noise (numfmt.clean)

@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from odolab.calibration.ratios import CalibrationResult, _now
+from odolab.calibration.ratios import CalibrationResult, _now, check_track_model
 from odolab.errors import CalibrationError, LogFormatError
 from odolab.params import RobotParams
 from odolab.text import quote_input
@@ -209,6 +209,7 @@ def umbmark(
     cw_errors: ArrayLike, ccw_errors: ArrayLike, side: float, params: RobotParams
 ) -> UmbmarkResult:
     """UMBmark from return errors (measured - odometry), each shape (n, 2), square ``side`` m."""
+    check_track_model(params, "UMBmark")
     cw = _errors("cw_errors", cw_errors)
     ccw = _errors("ccw_errors", ccw_errors)
     L = float(side)

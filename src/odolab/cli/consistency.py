@@ -86,7 +86,7 @@ def calibrate_noise_cmd(
     method: Annotated[MethodChoice, typer.Option(help="Pose step rule.")] = MethodChoice.midpoint,
     segment: Annotated[float, typer.Option(help="Piece length (s) of the NEES.")] = 10.0,
 ) -> None:
-    """Fit the [noise] table to runs with ground truth (mean NEES = 3); judge it held-out."""
+    """Fit the \\[noise] table to runs with ground truth (mean NEES = 3); judge it held-out."""
     from odolab.errors import OdolabError
     from odolab.metrics.consistency import fit_noise_scale
     from odolab.params import load_params, save_params

@@ -142,7 +142,7 @@ def evaluate_cmd(
     joints: JointsOpt = ("left_wheel_joint", "right_wheel_joint"),
     gt_topic: GtTopicOpt = "/ground_truth",
     nees: Annotated[
-        bool, typer.Option("--nees", help="Runs: NEES of the propagated covariance ([noise]).")
+        bool, typer.Option("--nees", help="Runs: NEES of the propagated covariance (\\[noise]).")
     ] = False,
     nees_segment: Annotated[float, typer.Option(help="Piece length (s) of the NEES.")] = 10.0,
 ) -> None:

@@ -88,7 +88,7 @@ def mcap_cmd(
     ),
     params: Annotated[
         str | None,
-        typer.Option("--params", "-p", help="Parameters (with [noise] for the covariance)."),
+        typer.Option("--params", "-p", help="Parameters (with \\[noise] for the covariance)."),
     ] = None,
     fmt: Annotated[
         RunFormatChoice | None,

@@ -24,6 +24,7 @@ This module imports neither numpy nor numba (``odolab --help`` stays instant).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any, ClassVar, NamedTuple, Protocol, runtime_checkable
 
@@ -113,6 +114,9 @@ def model_from_mapping(data: dict[str, Any], *, source: str = "parameters") -> K
         raise ParamsError(
             f"{source}: unknown key {unknown[0]!r} in [model] of kind {kind!r}; expected {expected}"
         )
+    missing = [k for k in allowed if k not in keys and k not in _defaults(cls)]
+    if missing:
+        raise ParamsError(f"{source}: missing key {missing[0]!r} in [model] of kind {kind!r}")
     for key, value in keys.items():
         if (
             isinstance(value, bool)
@@ -127,3 +131,12 @@ def model_from_mapping(data: dict[str, Any], *, source: str = "parameters") -> K
     except TypeError as err:
         raise ParamsError(f"{source}: [model] of kind {kind!r}: {err}") from err
     return model
+
+
+def _defaults(cls: type[Any]) -> set[str]:
+    """The fields of a model class that have a default value (may be left out of the table)."""
+    return {
+        f.name
+        for f in dataclasses.fields(cls)
+        if f.default is not dataclasses.MISSING or f.default_factory is not dataclasses.MISSING
+    }

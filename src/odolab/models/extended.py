@@ -36,6 +36,9 @@ class ExtendedDiffDrive:
     track_scale: float = 1.0
     kind: ClassVar[str] = "extended"
     KEYS: ClassVar[tuple[str, ...]] = ("scale_left", "scale_right", "track_scale")
+    #: Plausible range of each ratio: a wheel that moves the body by a tenth (or ten times) of
+    #: what its radius says is a wrong file, not slip.
+    RANGES: ClassVar[dict[str, tuple[float, float]]] = {k: (0.1, 10.0) for k in KEYS}
 
     def __post_init__(self) -> None:
         for key in self.KEYS:
@@ -44,6 +47,12 @@ class ExtendedDiffDrive:
                 raise ParamsError(f"{key} must be a number (a ratio), got {value!r}")
             if not (math.isfinite(value) and value > 0):
                 raise ParamsError(f"{key} must be a finite ratio > 0, got {value!r}")
+            lo, hi = self.RANGES[key]
+            if not lo <= value <= hi:
+                raise ParamsError(
+                    f"{key} = {value:.6g} is outside the plausible {lo:g} to {hi:g} "
+                    "(a ratio actual/predicted; 1 is neutral)"
+                )
             object.__setattr__(self, key, float(value))
 
     def coefficients(self, track_width: float) -> ModelCoefficients:

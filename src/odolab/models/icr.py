@@ -38,6 +38,14 @@ class IcrModel:
     x_icr: float = 0.0
     kind: ClassVar[str] = "icr"
     KEYS: ClassVar[tuple[str, ...]] = ("y_icr_left", "y_icr_right", "x_icr")
+    #: Plausible range of each coordinate (m): a track's ICR from 1 mm to 80 m beside the body
+    #: (up to 4 times the widest track of :data:`odolab.params.RANGES`), the body's ICR at most
+    #: 40 m ahead or behind.
+    RANGES: ClassVar[dict[str, tuple[float, float]]] = {
+        "y_icr_left": (1e-3, 80.0),
+        "y_icr_right": (-80.0, -1e-3),
+        "x_icr": (-40.0, 40.0),
+    }
 
     def __post_init__(self) -> None:
         for key in self.KEYS:
@@ -53,6 +61,12 @@ class IcrModel:
             raise ParamsError(
                 f"y_icr_right must be < 0 m (right of the body), got {self.y_icr_right}"
             )
+        for key, (lo, hi) in self.RANGES.items():
+            value = getattr(self, key)
+            if not lo <= value <= hi:
+                raise ParamsError(
+                    f"{key} = {value:.6g} m is outside the plausible {lo:g} to {hi:g} m"
+                )
 
     @classmethod
     def from_track(cls, track_width: float, x_icr: float = 0.0) -> IcrModel:

@@ -86,6 +86,11 @@ def check_robot_url(url: str | None) -> str:
         from odolab.robot.jaguar.driver import parse_robot_url
 
         parse_robot_url(url)
+    if scheme == "sim" and url != DEFAULT_ROBOT_URL:  # a host, a query: nothing reads them
+        raise RobotUrlError(
+            f"--robot {url!r}: expected plain sim:// (a virtual Jaguar on 127.0.0.1; its true "
+            "behaviour is --truth)"
+        )
     return url
 
 

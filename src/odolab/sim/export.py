@@ -44,6 +44,12 @@ def write_encoder_logs(
     folder = Path(directory)
     if folder.exists() and not folder.is_dir():
         raise SimError(f"{folder}: is a file; expected a folder for the encoder logs")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise SimError(
+            f"{folder}: cannot create the folder for the encoder logs ({err.strerror or err})"
+        ) from err
     names: dict[str, str] = {}
     todo = []
     for t in trials:

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -206,27 +207,18 @@ def derive_jaguar_lab(
         k_scrub, track_sigma = 0.0, math.sqrt(rot_var) / (a * targets.rotation_ratio)
         b *= 1.0 + track_sigma**2  # E[1 / (1 + e)] = 1 + sigma**2: keep the mean ratio 0.875
     r0l, r0r = nom.left_wheel_radius, nom.right_wheel_radius
+    extra: dict[str, Any] = {
+        "name": "jaguar-lab" if rotation_noise == "scrub" else "jaguar-lab-track"
+    }
     if tracked is not None:
-        model = IcrModel(b / 2.0 + tr.icr_shift, -b / 2.0 + tr.icr_shift, tr.x_icr)
         r0l, r0r = r0l / speed_loss, r0r / speed_loss
-        return TrueParams(
-            left_radius_forward=rho_lf * r0l,
-            left_radius_reverse=rho_lr * r0l,
-            right_radius_forward=rho_rf * r0r,
-            right_radius_reverse=rho_rr * r0r,
-            track_width=b,
-            k_left=k_wheel,
-            k_right=k_wheel,
-            k_scrub=k_scrub,
-            align_sigma=align,
-            track_sigma=track_sigma,
-            speed_slip=tr.speed_slip,
-            stop_slide=tr.stop_slide,
-            terrain_radius_scale=(("concrete", scales[0]), ("grass", scales[1])),
-            name="jaguar-lab-tracked",
-            model=model,
-            turn_slip=tr.turn_slip,
-        )
+        extra = {
+            "speed_slip": tr.speed_slip,
+            "stop_slide": tr.stop_slide,
+            "name": "jaguar-lab-tracked",
+            "model": IcrModel(b / 2.0 + tr.icr_shift, -b / 2.0 + tr.icr_shift, tr.x_icr),
+            "turn_slip": tr.turn_slip,
+        }
     return TrueParams(
         left_radius_forward=rho_lf * r0l,
         left_radius_reverse=rho_lr * r0l,
@@ -239,7 +231,7 @@ def derive_jaguar_lab(
         align_sigma=align,
         track_sigma=track_sigma,
         terrain_radius_scale=(("concrete", scales[0]), ("grass", scales[1])),
-        name="jaguar-lab" if rotation_noise == "scrub" else "jaguar-lab-track",
+        **extra,
     )
 
 

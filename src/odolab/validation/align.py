@@ -25,7 +25,14 @@ from scipy import ndimage, signal
 from odolab.errors import ImuLogError
 from odolab.io.sensorlog import ImuLog
 
-__all__ = ["ClockAlignment", "find_clock_offset", "rate_on_grid", "require_overlap"]
+__all__ = [
+    "MAX_SMOOTH_S",
+    "ClockAlignment",
+    "check_search",
+    "find_clock_offset",
+    "rate_on_grid",
+    "require_overlap",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -73,6 +80,13 @@ def require_overlap(
     at least ``min_overlap`` seconds."""
     r0, r1 = float(robot_t[0]), float(robot_t[-1])
     p0, p1 = float(imu.t[0]), float(imu.t[-1])
+    # a log shorter than the overlap: no offset can help, so say which one
+    for name, span in ((f"the {robot_source}", r1 - r0), (f"{imu.source}: the IMU log", p1 - p0)):
+        if span < min_overlap:
+            raise ImuLogError(
+                f"{name} lasts {span:g} s; expected at least {min_overlap:g} s of log to line "
+                "the clocks up"
+            )
     # on the robot clock the phone spans [p0 - off, p1 - off]; the best overlap over off in [lo, hi]
     best = 0.0
     for off in (lo, hi, p0 - r0, p1 - r1, p0 - r1 + min_overlap, p1 - r0 - min_overlap):
@@ -88,6 +102,30 @@ def require_overlap(
             f"{robot_source} (robot time {r0:.3f} to {r1:.3f} s) by at least {min_overlap:g} s "
             f"for {allowed}; give the offset between the clocks (--offset) or widen the search "
             "(--max-offset)"
+        )
+
+
+#: Widest low-pass of the yaw rates (Gaussian sigma, s): wider blurs every start and stop of a
+#: turn into the next, and its kernel (8 sigma on a millisecond grid) stops fitting in memory.
+MAX_SMOOTH_S = 10.0
+
+
+def check_search(nominal_offset: float, max_offset: float, smooth: float) -> None:
+    """Refuse clock-offset search settings :func:`find_clock_offset` cannot use, in one sentence."""
+    if not math.isfinite(nominal_offset):
+        raise ImuLogError(
+            f"offset (phone minus robot) is {nominal_offset:g} s; expected a finite number of "
+            "seconds"
+        )
+    if not max_offset >= 0:  # NaN too
+        raise ImuLogError(
+            f"max_offset is {max_offset:g} s; expected a number >= 0 (0 fixes the offset, inf "
+            "searches every offset)"
+        )
+    if not 0 <= smooth <= MAX_SMOOTH_S:  # NaN too
+        raise ImuLogError(
+            f"smooth is {smooth:g} s; expected a number from 0 to {MAX_SMOOTH_S:g} s "
+            "(0 = no smoothing)"
         )
 
 
@@ -116,11 +154,7 @@ def find_clock_offset(
     seconds (zero phase, so it shifts nothing; 0 = none). Raises :class:`ImuLogError` if no
     allowed offset makes the logs overlap.
     """
-    if not (math.isfinite(nominal_offset) and max_offset >= 0):
-        raise ImuLogError(
-            f"clock offset search needs a finite nominal offset and max_offset >= 0, got "
-            f"{nominal_offset!r} and {max_offset!r}"
-        )
+    check_search(nominal_offset, max_offset, smooth)
     lo, hi = nominal_offset - max_offset, nominal_offset + max_offset
     require_overlap(robot_t, imu, lo, hi, min_overlap=min_overlap, robot_source=robot_source)
     if max_offset == 0:

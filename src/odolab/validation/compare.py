@@ -22,7 +22,7 @@ from odolab.kinematics import Method
 from odolab.odometry import integrate
 from odolab.params import RobotParams
 from odolab.trials import EncoderLog
-from odolab.validation.align import ClockAlignment, find_clock_offset
+from odolab.validation.align import ClockAlignment, check_search, find_clock_offset
 from odolab.validation.sensorlog import ImuLog
 
 if TYPE_CHECKING:
@@ -172,6 +172,7 @@ def validate(
     when it has one. Raises :class:`ImuLogError` when the logs do not overlap.
     """
     m = Method(method)
+    check_search(offset, max_offset, smooth)  # before any work
     if len(encoder_log) < 2:
         raise ImuLogError(f"{encoder_source}: {len(encoder_log)} sample(s); at least 2 are needed")
     progress("integrating the encoder log with the old and the new parameters")
@@ -187,8 +188,6 @@ def validate(
         for p in (old, new)
     ]
     progress("finding the clock offset between the phone and the robot")
-    if not (math.isfinite(smooth) and smooth >= 0):
-        raise ImuLogError(f"smooth is {smooth!r} s; expected a finite number >= 0")
     align = find_clock_offset(
         trajs[0].t,
         trajs[0].heading,

@@ -39,7 +39,7 @@ def open_virtual(
     The board's command timeout is ``config.command_timeout``.
     """
     parsed = urlparse(url)
-    if parsed.netloc or parsed.path:
+    if parsed.netloc or parsed.path or parsed.params or parsed.query or parsed.fragment:
         raise RobotUrlError(f"--robot {url!r}: expected plain sim:// (a virtual Jaguar)")
     faults = virtual.faults
     if faults is not None and not isinstance(faults, Faults):
