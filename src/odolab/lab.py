@@ -24,7 +24,12 @@ through ``progress(step, done, total)``; the notebook is open in one ``with`` bl
    (:mod:`odolab.validation.runs`): what the runs show and what they cannot.
 7. A re-run of the campaign with the calibrated parameters (same seed): the systematic ratios
    after calibration.
-8. The report: HTML, PNGs and ``results.json``.
+8. Models and covariance: six free runs (straight legs, curves, pivots, turns in place) recorded
+   with ground truth, as a motion-capture system would; every kinematic model is fitted on four
+   and scored on two (:func:`odolab.calibration.compare.compare_models`), and the NEES of all six
+   says whether the covariance the calibrated ``[noise]`` propagates is honest
+   (:mod:`odolab.metrics.consistency`).
+9. The report: HTML, PNGs and ``results.json``.
 """
 
 from __future__ import annotations
@@ -39,6 +44,7 @@ from typing import Any
 
 import numpy as np
 
+from odolab import numfmt
 from odolab.analysis.reference import LAB_REPORT_TABLE1, LAB_REPORT_Y_SIGMA
 from odolab.analysis.table1 import pooled_y_sigmas
 from odolab.errors import OdolabError
@@ -73,8 +79,16 @@ STEPS = (
     "calibration",
     "validation",
     "re-run",
+    "models",
     "report",
 )
+
+#: the motion-capture runs of step 8: how many, how many of them held out, legs per run
+MOCAP_RUNS = 6
+MOCAP_HELD_OUT = 2
+MOCAP_LEGS = 20
+#: NEES piece length (s)
+NEES_SEGMENT_S = 10.0
 
 
 def _noop(step: str, done: int, total: int) -> None:
@@ -96,6 +110,8 @@ class LabResult:
     phone_log: Path | None = None  #: the phone's SensorLog CSV (for ``odolab validate``)
     loop: dict[str, Any] = field(default_factory=dict)
     phone_runs: Any = None  #: the phone runs against the predicted random error (RunsSummary)
+    #: the model comparison and NEES of step 8 (odolab.report.models_section.ModelEvidence)
+    evidence: Any = None
 
 
 def _new_run_folder(out: Path) -> Path:
@@ -375,7 +391,7 @@ def _calibrate(
             notes=str(cal.provenance.get("source", "")),
         )
         files[name] = save_params(
-            cal.params, folder / f"params-{name}.toml", provenance=_toml_safe(cal.provenance)
+            folder / f"params-{name}.toml", cal.params, provenance=_toml_safe(cal.provenance)
         )
         progress("calibration", len(files), 2)
     return Calibrated(by_ratio, by_umbmark, files)
@@ -463,6 +479,68 @@ def _rerun(cfg: LabConfig, new: RobotParams, progress: Progress) -> dict[str, fl
     return ratios
 
 
+def _mocap_runs(cfg: LabConfig, progress: Progress) -> list[Any]:
+    """Free runs of the true robot on tile, each with its ground truth (motion capture)."""
+    from odolab.io.run import OdometryRun
+    from odolab.sim.drives import drive, random_legs
+    from odolab.trajectory import Trajectory
+
+    runs = []
+    for k in range(MOCAP_RUNS):
+        progress("models", k, MOCAP_RUNS + 1)
+        seed = cfg.seed * 1000 + 500 + k
+        legs = random_legs(
+            np.random.default_rng(seed), MOCAP_LEGS, track_width=cfg.nominal.track_width
+        )
+        d = drive(cfg.true_params, cfg.nominal, legs, terrain="tile", seed=seed)
+        gt = Trajectory.from_xyh(d.t, d.x, d.y, d.heading)
+        name = f"mocap-{k + 1:02d}"
+        runs.append(OdometryRun(name, name, d.t, d.dticks_left, d.dticks_right, ground_truth=gt))
+    return runs
+
+
+def _models(cfg: LabConfig, new: RobotParams, progress: Progress) -> Any:
+    """Step 8: which kinematic model the robot needs, and whether the propagated covariance of
+    the calibrated ``[noise]`` is honest, both on free runs with ground truth."""
+    from odolab.calibration.compare import compare_models
+    from odolab.errors import InsufficientDataError
+    from odolab.metrics.consistency import run_nees
+    from odolab.report.models_section import ModelEvidence
+
+    runs = _mocap_runs(cfg, progress)
+    train, held = runs[: MOCAP_RUNS - MOCAP_HELD_OUT], runs[MOCAP_RUNS - MOCAP_HELD_OUT :]
+    missing: list[str] = []
+    comparison = compare_models(train, held, cfg.nominal, n_boot=1000, seed=cfg.seed)
+    about_models = (
+        f"{MOCAP_RUNS} free runs of {MOCAP_LEGS} legs each (straight, curves of 0.3 to 5 m "
+        "radius, pivots on either track, turns in place, both directions) on tile, recorded "
+        f"with ground truth as a motion-capture system would; truth preset {cfg.truth}. "
+        f"Each model is fitted from the nominal parameters on {len(train)} runs by least "
+        f"squares (odolab calibrate lsq) and scored on {len(held)} it did not see."
+    )
+    nees: list[Any] = []
+    about_nees = ""
+    if new.noise is None:
+        missing.append(
+            "No NEES: the calibrated parameters have no [noise] table (the analysis could not "
+            "estimate the per-wheel noise)."
+        )
+    else:
+        try:
+            nees = [run_nees(r, new, segment_s=NEES_SEGMENT_S) for r in runs]
+        except InsufficientDataError as err:
+            missing.append(f"No NEES: {err}")
+        n = new.noise
+        about_nees = (
+            f"The ratios-calibrated parameters with the [noise] the analysis measured (k_left "
+            f"{numfmt.plain(n.k_left, 3)} m, k_right {numfmt.plain(n.k_right, 3)} m, k_scrub "
+            f"{numfmt.plain(n.k_scrub, 3)} rad), on pieces of {NEES_SEGMENT_S:g} s of all "
+            f"{MOCAP_RUNS} runs (none of them was used to measure the noise)."
+        )
+    progress("models", MOCAP_RUNS + 1, MOCAP_RUNS + 1)
+    return ModelEvidence(comparison, tuple(nees), about_models, about_nees, tuple(missing))
+
+
 def _report(
     cfg: LabConfig,
     folder: Path,
@@ -472,9 +550,10 @@ def _report(
     val: Validated,
     live: LiveRuns,
     after: dict[str, float],
+    evidence: Any,
     progress: Progress,
 ) -> Path:
-    """Step 8: report.html, figures and results.json."""
+    """Step 9: report.html, figures and results.json."""
     from odolab.report import write_report
     from odolab.validation.compare import plot_validation
     from odolab.validation.runs import plot_validation_runs
@@ -513,6 +592,7 @@ def _report(
         },
         extra=extra,
         reference=LAB_REPORT_TABLE1,
+        evidence=evidence,
     )
     progress("report", 1, 1)
     return html
@@ -546,7 +626,8 @@ def run_lab(
         cal = _calibrate(cfg, nb, analysis, trials, folder, progress)
     val = _validate(cfg, live, cal.ratios.params, rows, folder, progress)
     after = _rerun(cfg, cal.ratios.params, progress)
-    html = _report(cfg, folder, db, analysis, cal, val, live, after, progress)
+    evidence = _models(cfg, cal.ratios.params, progress)
+    html = _report(cfg, folder, db, analysis, cal, val, live, after, evidence, progress)
     return LabResult(
         folder=folder,
         notebook=db,
@@ -559,6 +640,7 @@ def run_lab(
         phone_log=val.phone_log,
         loop=live.loop,
         phone_runs=val.runs,
+        evidence=evidence,
     )
 
 

@@ -40,7 +40,7 @@ def test_raw_counters_with_wrap_and_sibling_ground_truth(tmp_path: Path) -> None
     # counters wrap at 1000: 990 -> 10 is +20 counts
     log.write_text("t,left_ticks,right_ticks\n0,990,0\n0.1,10,20\n0.2,30,40\n")
     gt = Trajectory.from_xyh([0, 0.1, 0.2], [0, 0.1, 0.2], [0, 0, 0], [0, 0, 0])
-    write_trajectory(gt, tmp_path / "drive_gt.tum", "tum")
+    write_trajectory(tmp_path / "drive_gt.tum", gt, "tum")
     run = read_csv_run(log, ReadOptions(modulus=1000))
     np.testing.assert_array_equal(run.dticks_left, [0, 20, 20])
     np.testing.assert_array_equal(run.dticks_right, [0, 20, 20])
@@ -56,7 +56,7 @@ def test_increments_csv_and_explicit_ground_truth(tmp_path: Path) -> None:
     log = tmp_path / "inc.csv"
     log.write_text("t,dticks_left,dticks_right\n0,0,0\n1,5,7\n2,5,7\n")
     gt_path = write_trajectory(
-        Trajectory.from_xyh([0, 1, 2], [0, 1, 2], [0, 0, 0], [0, 0, 0]), tmp_path / "truth.csv"
+        tmp_path / "truth.csv", Trajectory.from_xyh([0, 1, 2], [0, 1, 2], [0, 0, 0], [0, 0, 0])
     )
     run = read_run(log, LogFormat.CSV, ReadOptions(ground_truth=str(gt_path)))
     np.testing.assert_array_equal(run.dticks_left, [0, 5, 5])
@@ -77,7 +77,7 @@ def test_trajectory_by_extension(tmp_path: Path) -> None:
     tr = Trajectory.from_xyh([0, 1, 2], [0, 1, 1], [0, 0, 1], [0, 0.5, 4.0])
     for name in ("a.csv", "a.tum", "a.txt"):
         fmt = "csv" if name.endswith(".csv") else "tum"
-        back = read_trajectory(write_trajectory(tr, tmp_path / name, fmt))  # type: ignore[arg-type]
+        back = read_trajectory(write_trajectory(tmp_path / name, tr, fmt))  # type: ignore[arg-type]
         np.testing.assert_allclose(back.x, tr.x)
         np.testing.assert_allclose(back.theta, tr.theta, atol=1e-12)
     with pytest.raises(LogFormatError, match="no such trajectory file"):

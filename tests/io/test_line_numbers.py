@@ -76,11 +76,11 @@ def test_writing_to_a_folder_is_one_sentence(tmp_path: Path) -> None:
 
     traj = Trajectory.from_xyh(np.array([0.0, 1.0]), np.zeros(2), np.zeros(2), np.zeros(2))
     with pytest.raises(LogFormatError, match="cannot write the trajectory CSV"):
-        write_trajectory_csv(traj, tmp_path)
+        write_trajectory_csv(tmp_path, traj)
     with pytest.raises(LogFormatError, match="cannot write the TUM trajectory"):
-        write_tum(traj, tmp_path)
+        write_tum(tmp_path, traj)
     with pytest.raises(ParamsError, match="cannot write the parameters"):
-        save_params(PRESETS["jaguar-lite"], tmp_path)
+        save_params(tmp_path, PRESETS["jaguar-lite"])
 
 
 def test_a_line_of_empty_cells_is_a_row_not_a_blank_line(tmp_path: Path) -> None:

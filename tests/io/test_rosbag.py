@@ -116,7 +116,7 @@ def test_cli_on_a_bag(bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[s
     from odolab.cli import main
     from odolab.params import load_params, save_params
 
-    nominal = save_params(NOMINAL, tmp_path / "nominal.toml")
+    nominal = save_params(tmp_path / "nominal.toml", NOMINAL)
     out = tmp_path / "eval.json"
     args = ["evaluate", str(bag), "--format", "bag", "-p", str(nominal), "--json", str(out)]
     assert main(args) == 0

@@ -243,3 +243,33 @@ def test_phone_runs_show_fig21_against_the_predicted_random_error(lab) -> None: 
     assert "cannot prove" in text and "Clock offset found on each run" in text
     html = result.report.read_text()
     assert 'id="validation-runs"' in html and 'id="validation_runs"' in html
+
+
+def test_demo_compares_the_models_and_checks_the_covariance(lab) -> None:  # type: ignore[no-untyped-def]
+    result, steps = lab
+    assert "models" in steps
+    res = json.loads(result.results.read_text())
+    m = res["models"]
+    assert (len(m["train"]), len(m["held_out"])) == (4, 2)
+    scores = {s["model"]: s for s in m["models"]}
+    assert set(scores) == {"diff", "extended", "icr"}
+    fitted = {k: s for k, s in scores.items() if s["problem"] is None}
+    assert m["recommended"] in fitted
+    best = min(s["held_out"]["endpoint_error"]["value"] for s in fitted.values())
+    rec = fitted[m["recommended"]]["held_out"]["endpoint_error"]["value"]
+    assert rec <= 1.05 * best or m["recommended"] == "diff"  # simplest not-worse, else diff
+    c = res["consistency"]
+    pieces = [v for r in c["runs"] for v in r["nees"]]
+    assert c["summary"]["n"] == len(pieces) >= 6 * 2
+    assert c["summary"]["mean_nees"] == pytest.approx(sum(pieces) / len(pieces), rel=1e-12)
+    # the [noise] the analysis measured has no turn scrub (k_scrub = 0), the virtual Jaguar
+    # scrubs its tracks in every turn: the covariance is too small, and the report says so
+    from odolab.params import load_params
+
+    noise = load_params(result.params_files["ratios"]).noise
+    assert noise is not None and noise.k_left > 0 and noise.k_scrub == 0
+    assert c["summary"]["mean_nees"] > c["summary"]["mean_bounds95"][1]
+    assert c["summary"]["verdict"].startswith("too small")
+    page = result.report.read_text()
+    assert 'id="kinematic-model"' in page and 'id="consistency"' in page
+    assert result.evidence is not None and result.evidence.comparison is not None

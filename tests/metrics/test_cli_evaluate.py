@@ -18,8 +18,8 @@ STATS = ("rmse", "mean", "median", "std", "min", "max")
 def test_evaluate_gt_est_writes_json(tmp_path: Path) -> None:
     ref = random_drive(400, seed=11)
     est = noisy_copy(ref, seed=12)
-    gt_path = write_trajectory(ref, tmp_path / "gt.tum", "tum")
-    est_path = write_trajectory(est, tmp_path / "est.csv")
+    gt_path = write_trajectory(tmp_path / "gt.tum", ref, "tum")
+    est_path = write_trajectory(tmp_path / "est.csv", est)
     out = tmp_path / "out.json"
     code = main(
         [
@@ -57,8 +57,8 @@ def test_evaluate_runs_in_parallel(tmp_path: Path, optiodom_dir: Path) -> None:
 
 
 def test_evaluate_errors_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    a = write_trajectory(random_drive(30, seed=1), tmp_path / "a.tum", "tum")
-    b = write_trajectory(random_drive(30, seed=2, t0=50.0), tmp_path / "b.tum", "tum")
+    a = write_trajectory(tmp_path / "a.tum", random_drive(30, seed=1), "tum")
+    b = write_trajectory(tmp_path / "b.tum", random_drive(30, seed=2, t0=50.0), "tum")
     assert main(["evaluate", str(a), str(b)]) == 1
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "do not overlap in time" in err

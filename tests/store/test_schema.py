@@ -22,13 +22,13 @@ def test_new_notebook_has_wal_foreign_keys_and_version(tmp_path: Path) -> None:
         assert nb.migrated_from == 0
         assert nb.integrity_check() == "ok"
     conn = sqlite3.connect(db)
-    assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION == 2
+    assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION == 3
     assert conn.execute("PRAGMA journal_mode").fetchone()[0] == "wal"
     tables = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type='table'")}
     assert {"robots", "params_versions", "campaigns", "trials", "encoder_logs"} <= tables
     conn.close()
     with Notebook(db) as nb:  # reopening does not migrate again
-        assert nb.migrated_from == 2
+        assert nb.migrated_from == 3
         assert nb._conn.execute("PRAGMA foreign_keys").fetchone()[0] == 1
 
 

@@ -67,6 +67,22 @@ def demo_cmd(
     if result.phone_runs is not None:
         for sentence in result.phone_runs.verdict():
             out_console.print(f"  {sentence}", markup=False)
+    ev = result.evidence
+    if ev is not None and ev.comparison is not None:
+        cmp = ev.comparison
+        out_console.print(
+            f"kinematic model: {cmp.recommended} ({cmp.reason})", markup=False, highlight=False
+        )
+    if ev is not None and ev.nees:
+        s = ev.consistency_dict()["summary"]
+        lo, hi = s["mean_bounds95"]
+        out_console.print(
+            f"covariance (NEES over {s['n']} pieces): mean {numfmt.plain(s['mean_nees'], 3)}, "
+            f"95 % bounds [{numfmt.plain(lo, 3)}, {numfmt.plain(hi, 3)}], "
+            f"{100 * s['fraction_inside']:.0f} % of pieces inside their own bounds: {s['verdict']}",
+            markup=False,
+            highlight=False,
+        )
     for name, path in result.params_files.items():
         out_console.print(f"calibrated parameters ({name}): {path}", markup=False)
     out_console.print(f"lab notebook: {result.notebook}", markup=False)

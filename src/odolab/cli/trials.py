@@ -14,6 +14,7 @@ from odolab.cli._output import term
 from odolab.defaults import DEFAULT_ROBOT
 
 if TYPE_CHECKING:
+    from odolab.params import RobotParams
     from odolab.store import Notebook
     from odolab.trials import Measurement, Trial
 
@@ -196,9 +197,25 @@ def params_versions_cmd(
             term(
                 f"v{v.version}  {v.created}  {v.method}{src}: wheel radius L/R "
                 f"{p.left_wheel_radius:g}/{p.right_wheel_radius:g} m, track {p.track_width:g} m, "
-                f"{p.ticks_per_rev:g} ticks/rev{'  - ' + v.notes if v.notes else ''}"
+                f"{p.ticks_per_rev:g} ticks/rev{_model_words(p)}"
+                f"{'  - ' + v.notes if v.notes else ''}"
             )
         )
+
+
+def _model_words(p: RobotParams) -> str:
+    """``; model icr (y_icr_left 0.34, ... m); noise k_left ..`` for a set that has them."""
+    out = ""
+    table = p.model_table()
+    if table is not None:
+        unit = " m" if table["kind"] == "icr" else ""
+        keys = ", ".join(f"{k} {v:g}" for k, v in table.items() if k != "kind")
+        out += f"; model {table['kind']} ({keys}{unit})"
+    if p.noise is not None:
+        n = p.noise
+        scrub = f", k_scrub {n.k_scrub:g} rad" if n.k_scrub else ""
+        out += f"; noise k_left {n.k_left:g}, k_right {n.k_right:g} m{scrub}"
+    return out
 
 
 # -- trials --------------------------------------------------------------------------------------

@@ -25,6 +25,13 @@ from odolab.calibration.ratios import CalibrationResult
 from odolab.calibration.umbmark import UmbmarkResult
 from odolab.errors import OdolabError
 from odolab.report import figures as F
+from odolab.report.models_section import (
+    ModelEvidence,
+    consistency_view,
+    models_view,
+    plot_model_comparison,
+    plot_nees,
+)
 from odolab.report.view import (
     MOTION_NAMES,
     SIGN_CONVENTION,
@@ -120,6 +127,19 @@ def summary_sentences(results: Mapping[str, Any]) -> list[str]:
             f"Calibration '{name}': left/right wheel radius {fmt(p['left_wheel_radius'], 5)}/"
             f"{fmt(p['right_wheel_radius'], 5)} m, track width {fmt(p['track_width'], 5)} m."
         )
+    models = results.get("models")
+    if models:
+        out.append(f"Kinematic model: {models['recommended']} ({models['reason']}).")
+    cons = results.get("consistency")
+    if cons:
+        s = cons["summary"]
+        lo, hi = s["mean_bounds95"]
+        out.append(
+            f"Propagated covariance: mean NEES {numfmt.plain(s['mean_nees'], 3)} over "
+            f"{s['n']} pieces (95 % bounds {numfmt.plain(lo, 3)} to {numfmt.plain(hi, 3)}), "
+            f"{100.0 * s['fraction_inside']:.0f} % of pieces inside their own bounds: "
+            f"{s['verdict']}."
+        )
     return out
 
 
@@ -128,8 +148,10 @@ def build_results(
     calibrations: Mapping[str, Calibration],
     validation: Mapping[str, Any] | None = None,
     extra: Mapping[str, Any] | None = None,
+    evidence: ModelEvidence | None = None,
 ) -> dict[str, Any]:
     """The dict written to results.json: every number in the report."""
+    ev = evidence or ModelEvidence()
     res: dict[str, Any] = {
         "generated": datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
         "table1": table1(analysis),
@@ -137,6 +159,9 @@ def build_results(
         "calibration": {name: _calib_dict(c) for name, c in calibrations.items()},
         "validation": dict(validation) if validation is not None else None,
         "extra": dict(extra) if extra is not None else None,
+        "models": ev.models_dict(),
+        "consistency": ev.consistency_dict(),
+        "evidence_missing": list(ev.missing),
     }
     res = _jsonable(res)
     res["summary"] = summary_sentences(res)
@@ -380,6 +405,7 @@ def _figure_plan(
     calibrations: Mapping[str, Calibration],
     validation_figure: Callable[[Axes], Axes] | None,
     extra_figures: Mapping[str, tuple[str, str, Callable[[Axes], Any]]] | None = None,
+    evidence: ModelEvidence | None = None,
 ) -> list[_Plan]:
     plans = [p for m in analysis.motions for p in _motion_plans(m)]
     plans += _terrain_plans(analysis)
@@ -397,6 +423,38 @@ def _figure_plan(
         )
     for name, (title, caption, draw) in (extra_figures or {}).items():
         plans.append(_Plan(name, title, caption, draw, "validation", (6.4, 4.2)))
+    plans += _evidence_plans(evidence)
+    return plans
+
+
+def _evidence_plans(evidence: ModelEvidence | None) -> list[_Plan]:
+    """The model comparison's and the NEES figures, when there is data for them."""
+    plans: list[_Plan] = []
+    if evidence is not None and evidence.comparison is not None:
+        cmp = evidence.comparison
+        plans.append(
+            _Plan(
+                "model_comparison",
+                "Held-out end-point error per kinematic model",
+                "Mean over the held-out runs with its 95 % bootstrap CI; green: the recommended "
+                "model (the simplest that is not worse than the best).",
+                partial(plot_model_comparison, cmp),
+                "models",
+                (6.0, 3.6),
+            )
+        )
+    if evidence is not None and evidence.nees:
+        plans.append(
+            _Plan(
+                "nees_pieces",
+                "NEES of every piece, per run",
+                "Each dot one piece (log scale); if the covariance is honest about 95 % of them "
+                "lie in the green band and their mean is near 3.",
+                partial(plot_nees, evidence.nees),
+                "consistency",
+                (6.0, 4.0),
+            )
+        )
     return plans
 
 
@@ -453,6 +511,9 @@ def _page(
         with_ci=numfmt.with_ci,
         val=validation_view(results["validation"]) if results["validation"] else None,
         ext=extra_view(results["extra"]) if results["extra"] else None,
+        mdl=models_view(results["models"]) if results.get("models") else None,
+        cons=consistency_view(results["consistency"]) if results.get("consistency") else None,
+        missing=results.get("evidence_missing") or [],
     )
 
 
@@ -466,6 +527,7 @@ def write_report(
     extra_figures: Mapping[str, tuple[str, str, Callable[[Axes], Any]]] | None = None,
     extra: Mapping[str, Any] | None = None,
     reference: Mapping[tuple[str, str], Any] | None = None,
+    evidence: ModelEvidence | None = None,
     progress: Progress | None = None,
 ) -> Path:
     """Write ``report.html``, ``figures/*.png`` and ``results.json`` to ``out_dir``.
@@ -473,14 +535,16 @@ def write_report(
     ``validation`` is any JSON-able mapping (e.g. an IMU comparison's ``to_dict()``);
     ``validation_figure`` draws its figure on a given axes, ``extra_figures`` (name -> title,
     caption, draw) more figures beside it; ``reference`` is a published
-    Table I to set beside this one (:data:`odolab.analysis.reference.LAB_REPORT_TABLE1`).
+    Table I to set beside this one (:data:`odolab.analysis.reference.LAB_REPORT_TABLE1`);
+    ``evidence`` the comparison of kinematic models and the NEES of runs with ground truth
+    (:class:`odolab.report.models_section.ModelEvidence`), each shown when present.
     Returns the HTML path.
     """
     say = progress or (lambda _: None)
     calibrations = dict(calibrations or {})
     out, fig_dir = _report_folder(out_dir)
-    results = build_results(analysis, calibrations, validation, extra)
-    plans = _figure_plan(analysis, calibrations, validation_figure, extra_figures)
+    results = build_results(analysis, calibrations, validation, extra, evidence)
+    plans = _figure_plan(analysis, calibrations, validation_figure, extra_figures, evidence)
     say(f"drawing {len(plans)} figures")
     figs = _render(fig_dir, plans)
     results["figures"] = {f.name: f"figures/{f.name}.png" for f in figs}

@@ -8,27 +8,42 @@ redesigned): HTML fragments (every piece of text escaped) and matplotlib figures
 - :func:`questions_html` — each open question's conditions, effects and trend, in words;
 - :func:`plot_model_comparison`, :func:`plot_questions` — the same as figures;
 - :func:`models_section_html` — all of it as one ``<section>``.
+
+For the lab report (:func:`odolab.report.write_report`): :class:`ModelEvidence` carries the model
+comparison and the NEES of held-out runs; :func:`models_view` and :func:`consistency_view` turn
+their ``results.json`` entries into cells for the template (text only, escaped by it);
+:func:`plot_nees` draws the NEES of every piece against its chi-square bounds.
 """
 
 from __future__ import annotations
 
 import math
 import textwrap
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from html import escape
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
+from odolab import numfmt
 from odolab.analysis.questions import ExperimentResult
 from odolab.calibration.compare import Estimate, ModelComparison
+from odolab.metrics.consistency import DOF, RunNees, nees_summary
+from odolab.report.view import Cell
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
 __all__ = [
+    "ModelEvidence",
+    "consistency_view",
     "model_comparison_html",
     "models_section_html",
+    "models_view",
     "plot_model_comparison",
+    "plot_nees",
     "plot_questions",
     "questions_html",
 ]
@@ -170,3 +185,154 @@ def plot_questions(results: Sequence[ExperimentResult]) -> Figure:
         ax.set_title(textwrap.fill(res.experiment.question, 90), fontsize=9)
     fig.tight_layout()
     return fig
+
+
+# -- the lab report's sections -------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ModelEvidence:
+    """What the report's model and covariance sections show (either part may be missing).
+
+    ``comparison``: :func:`odolab.calibration.compare.compare_models` on runs with ground truth;
+    ``nees``: :func:`odolab.metrics.consistency.run_nees` of held-out runs with parameters that
+    have ``[noise]``; ``about_models``/``about_nees``: one sentence each on where the runs and the
+    parameters come from; ``missing``: why a part is absent (shown as a note)."""
+
+    comparison: ModelComparison | None = None
+    nees: tuple[RunNees, ...] = ()
+    about_models: str = ""
+    about_nees: str = ""
+    missing: tuple[str, ...] = ()
+
+    def models_dict(self) -> dict[str, Any] | None:
+        """The ``models`` entry of ``results.json`` (None without a comparison)."""
+        if self.comparison is None:
+            return None
+        return {**self.comparison.to_dict(), "about": self.about_models}
+
+    def consistency_dict(self) -> dict[str, Any] | None:
+        """The ``consistency`` entry of ``results.json`` (None without NEES)."""
+        if not self.nees:
+            return None
+        return {
+            "summary": nees_summary(self.nees).to_dict(),
+            "runs": [r.to_dict() for r in self.nees],
+            "about": self.about_nees,
+        }
+
+
+def _est(e: Any, unit: str = "") -> str:
+    """An :class:`Estimate` as JSON (value, ci95 with None for NaN) with its unit."""
+    if not isinstance(e, Mapping) or e.get("value") is None:
+        return "-"
+    lo, hi = (e.get("ci95") or [None, None])[:2]
+    value = float(e["value"])
+    bounded = lo is not None and hi is not None and math.isfinite(lo) and math.isfinite(hi)
+    if not bounded or (hi - lo) / 2.0 < 1e-6 * max(abs(value), 1.0):
+        # no interval, or one too narrow to print (a model that equals the best one); a
+        # difference of rounding noise (1e-13) is 0
+        value = 0.0 if abs(value) < 1e-9 else value
+        return f"{numfmt.plain(value, 4, strip=True)}{unit}"
+    return f"{numfmt.with_ci(value, lo, hi)}{unit}"
+
+
+def models_view(m: Mapping[str, Any]) -> dict[str, Any]:
+    """The "Which kinematic model?" section from ``results["models"]``: one row per model that
+    could be fitted, the fitted values, the recommendation, and why the others could not."""
+    rows: list[list[Cell]] = []
+    problems: list[tuple[str, str]] = []
+    for s in m.get("models", []):
+        name = str(s.get("model"))
+        if s.get("problem"):
+            problems.append((name, str(s["problem"])))
+            continue
+        h = s.get("held_out") or {}
+        values = s.get("values") or {}
+        stderr = s.get("stderr") or {}
+        fitted = "; ".join(
+            f"{k} {numfmt.with_uncertainty(float(v), float(stderr[k]), show=True)}"
+            if stderr.get(k) is not None and float(stderr[k]) > 0
+            else f"{k} {numfmt.plain(float(v))}"
+            for k, v in values.items()
+            if v is not None
+        )
+        best = s.get("ratio_to_best")
+        rows.append(
+            [
+                Cell("model", name, "l"),
+                Cell("parameters", str(s.get("n_params", "-"))),
+                Cell("held-out end-point error (m)", _est(h.get("endpoint_error"))),
+                Cell("RPE over 1 m (m)", _est(h.get("rpe_rmse"))),
+                Cell("drift (%)", _est(h.get("drift_pct"))),
+                Cell("ΔBIC vs diff", _est(s.get("delta_bic"))),
+                Cell("error / best", _est(best)),
+                Cell("fitted values (± std. error)", fitted or "-", "l"),
+            ]
+        )
+    how = "cross-validated over" if m.get("cross_validated") else "scored on"
+    n_train, n_held = len(m.get("train") or []), len(m.get("held_out") or [])
+    runs = f"fitted on {numfmt.count(n_train, 'run')}, {how} {numfmt.count(n_held, 'held-out run')}"
+    return {
+        "rows": rows,
+        "problems": problems,
+        "recommended": str(m.get("recommended", "-")),
+        "reason": str(m.get("reason", "")),
+        "runs": runs,
+        "about": str(m.get("about", "")),
+    }
+
+
+def consistency_view(c: Mapping[str, Any]) -> dict[str, Any]:
+    """The "Is the covariance honest?" section from ``results["consistency"]``."""
+    s = c["summary"]
+    lo, hi = s["mean_bounds95"]
+    s_lo, s_hi = s["single_bounds95"]
+    rows = [
+        [
+            Cell("pieces", str(s["n"])),
+            Cell("mean NEES", numfmt.plain(float(s["mean_nees"]), 3)),
+            Cell(
+                "95 % bounds of the mean (χ², 3 dof)",
+                numfmt.interval(lo, hi, numfmt.decimals_for((hi - lo) / 2.0) + 1),
+            ),
+            Cell("inside one piece's bounds", f"{100.0 * float(s['fraction_inside']):.0f} %"),
+            Cell("above", f"{100.0 * float(s['fraction_above']):.0f} %"),
+            Cell("verdict", str(s["verdict"]), "l"),
+        ]
+    ]
+    per_run = [
+        f"{r['name']} {numfmt.plain(float(r['mean_nees']), 3)} ({len(r['nees'])})"
+        for r in c.get("runs", [])
+        if r.get("mean_nees") is not None
+    ]
+    return {
+        "rows": rows,
+        "single": f"[{numfmt.plain(s_lo, 3)}, {numfmt.plain(s_hi, 3)}]",
+        "expected_inside": "95 %",
+        "per_run": "; ".join(per_run),
+        "about": str(c.get("about", "")),
+    }
+
+
+def plot_nees(runs: Sequence[RunNees], ax: Axes | None = None) -> Axes:
+    """NEES of every piece (log scale) per run, the single-piece 95 % chi-square band and 3."""
+    import matplotlib.pyplot as plt
+    from scipy.stats import chi2
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(6.0, 4.0))
+    lo, hi = (float(chi2.ppf(q, DOF)) for q in (0.025, 0.975))
+    ax.axhspan(lo, hi, color="tab:green", alpha=0.12, label="95 % band of one piece (χ², 3 dof)")
+    ax.axhline(DOF, color="tab:green", lw=1.0, label="expected mean (3)")
+    for i, r in enumerate(runs):
+        v = np.asarray(r.nees, dtype=float)
+        v = v[np.isfinite(v) & (v > 0)]
+        jitter = np.linspace(-0.25, 0.25, v.size) if v.size > 1 else np.zeros(v.size)
+        ax.plot(i + jitter, v, "o", ms=3, color="tab:blue", alpha=0.7)
+    ax.set_yscale("log")
+    ax.set_xticks(range(len(runs)), [r.name for r in runs], fontsize=8)
+    ax.set_xlabel("run")
+    ax.set_ylabel("NEES of one piece")
+    ax.legend()
+    return ax

@@ -25,6 +25,11 @@ Columns (header: meaning; *required* ones are marked; the rest may be left out o
 ``track_width_m``
 ``ticks_per_rev``
 ``encoder_modulus``        counter modulus (empty: never wraps)
+``model``                  the kinematic model as ``key=value`` pairs separated by ``;``, e.g.
+                           ``kind=icr; y_icr_left=0.31; y_icr_right=-0.29; x_icr=0.02`` (the
+                           parameters TOML's ``[model]`` table; empty: differential drive)
+``noise``                  the random error the same way, e.g. ``k_left=2e-05; k_right=2e-05``
+                           (the ``[noise]`` table; empty: none)
 ``status``                 awaiting / measured / excluded (default: measured when a
                            measurement is filled in, else awaiting)
 ``exclusion_reason``       required when status is excluded
@@ -59,15 +64,16 @@ from __future__ import annotations
 import csv
 import math
 import re
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TypeVar
+from typing import Any, TypeVar
 
 from odolab.errors import InvalidTrialError, ParamsError, StoreError
 from odolab.kinematics import wrap_angle
 from odolab.measurement import check_position, rotation_measurement_from_compass
-from odolab.params import RobotParams, check_param
+from odolab.models import DIFF_DRIVE, model_from_mapping
+from odolab.params import RobotParams, check_param, noise_from_mapping
 from odolab.store.records import record_from_trial
 from odolab.text import quote_input
 from odolab.trajectory import Pose
@@ -92,6 +98,8 @@ _PARAM_UNITS: dict[str, str] = {
     "ticks_per_rev": "",
     "encoder_modulus": "",
 }
+#: The kinematic model and the noise of the row's parameter set, as ``key=value; ...`` text.
+_TABLE_COLUMNS: dict[str, str | None] = {"model": None, "noise": None}
 #: The compass readings and counted turns (CSV only: kept in the measurement's ``raw``).
 _RAW_UNITS: dict[str, str] = {"compass_initial_deg": "deg", "compass_final_deg": "deg", "turns": ""}
 _RAW_COLUMNS = tuple(_RAW_UNITS)
@@ -114,6 +122,7 @@ COLUMNS: dict[str, str | None] = {
     **_fields("direction", "speed", *(f"predicted_{k}" for k in _POSE), "robot"),
     **_fields("params_version"),
     **_PARAM_UNITS,
+    **_TABLE_COLUMNS,
     **_fields("status", "exclusion_reason", "instrument", "measured_rotation", "measured_x"),
     **_fields("measured_y", "sigma_rotation", "sigma_xy"),
     **_RAW_UNITS,
@@ -317,6 +326,41 @@ def _plausible(row: _Row, column: str, value: _N) -> _N:
     return value
 
 
+def _table_cell(row: _Row, column: str) -> dict[str, float | str] | None:
+    """A ``model`` or ``noise`` cell (``key=value; ...``) as a TOML-like table, None when empty."""
+    text = row.text(column)
+    if text is None:
+        return None
+    table: dict[str, float | str] = {}
+    for part in text.split(";"):
+        if not part.strip():
+            continue
+        key, eq, value = (x.strip() for x in part.partition("="))
+        if not eq or not key or not value:
+            raise row.fail(
+                column, f"{quote_input(part.strip())}; expected key=value pairs separated by ';'"
+            )
+        if key in table:
+            raise row.fail(column, f"key {quote_input(key)} is given twice")
+        if column == "model" and key == "kind":
+            table[key] = value
+            continue
+        try:
+            table[key] = float(value)
+        except ValueError:
+            raise row.fail(
+                column, f"{quote_input(key)} = {quote_input(value)} is not a number"
+            ) from None
+    return table
+
+
+def _table_text(table: Mapping[str, Any] | None) -> str:
+    """The cell of a ``model`` or ``noise`` table (``kind`` first; floats round-trip exactly)."""
+    if not table:
+        return ""
+    return "; ".join(f"{k}={v!r}" if isinstance(v, float) else f"{k}={v}" for k, v in table.items())
+
+
 def _params_by_value(row: _Row, robot: str, version: int | None, known: bool) -> RobotParams:
     values: dict[str, float] = {}
     for c in _PARAM_COLUMNS:
@@ -330,6 +374,13 @@ def _params_by_value(row: _Row, robot: str, version: int | None, known: bool) ->
                 )
             raise row.fail(c, "missing value")
         values[c] = _plausible(row, c, v)
+    model, noise = _table_cell(row, "model"), _table_cell(row, "noise")
+    try:
+        kinematic = DIFF_DRIVE if model is None else model_from_mapping(model, source="")
+        random = None if noise is None else noise_from_mapping(noise, source="")
+    except ParamsError as err:
+        column = "model" if noise is None or "[model]" in str(err) else "noise"
+        raise row.fail(column, str(err).removeprefix(": ")) from err
     try:
         return RobotParams(
             name=robot,
@@ -340,6 +391,8 @@ def _params_by_value(row: _Row, robot: str, version: int | None, known: bool) ->
             encoder_modulus=_plausible(
                 row, "encoder_modulus", row.integer("encoder_modulus", minimum=2)
             ),
+            model=kinematic,
+            noise=random,
         )
     except ParamsError as err:
         raise row.fail("robot", str(err)) from err
@@ -353,7 +406,7 @@ def _params(
     version = row.integer("params_version", minimum=1)
     row.integer("encoder_modulus", minimum=2)  # checked even when the version decides
     stored = lookup_params(robot, version) if version is not None else None
-    by_value = any(row.given(c) for c in _PARAM_COLUMNS)
+    by_value = any(row.given(c) for c in (*_PARAM_COLUMNS, *_TABLE_COLUMNS))
     if stored is not None and not by_value:
         return stored, version
     params = _params_by_value(row, robot, version, stored is not None)
@@ -589,6 +642,8 @@ def _csv_row(t: Trial, version: int | None, extra: Sequence[str]) -> list[str]:
             "track_width_m": par.track_width,
             "ticks_per_rev": par.ticks_per_rev,
             "encoder_modulus": par.encoder_modulus,
+            "model": _table_text(par.model_table()),
+            "noise": _table_text(None if par.noise is None else par.noise.to_dict()),
         }
     )
     by_csv.update({c: raw.get(c) for c in _RAW_COLUMNS})

@@ -2,9 +2,11 @@
 
 Layout::
 
-    {"format": "odolab-notebook", "schema": 2,
+    {"format": "odolab-notebook", "schema": 3,
      "params_versions": [{"robot", "version", "left_wheel_radius", ..., "method",
-                          "source_trials": [...], "created", "notes"}, ...],
+                          "source_trials": [...], "created", "notes",
+                          "model": null | {"kind", <the model's keys>},
+                          "noise": null | {"k_left", "k_right", "k_scrub"}}, ...],
      "campaigns": [{"name", "kind", "terrain", "date", "operator", "notes"}, ...],
      "trials": [{<every trials column>, "raw": {...}, "created", "updated",
                  "encoder_log": null | {"n", "modulus", "codec", "t", "left_ticks",
@@ -12,6 +14,8 @@ Layout::
                  "measurement_history": [{"replaced", "instrument", "measured_rotation", ...,
                                           "raw": {...}}, ...]}, ...]}
 
+``model`` and ``noise`` are the parameter set's ``[model]`` and ``[noise]`` tables (null: the
+plain differential drive, no noise); files written before schema 3 have neither and mean that.
 Numbers are written with Python's shortest round-tripping repr; encoder-log arrays are the stored
 compressed BLOBs in base64 (see :mod:`odolab.store.codec`).
 """
@@ -27,11 +31,18 @@ from pathlib import Path
 from typing import Any
 
 from odolab.errors import ParamsError, StoreError
+from odolab.params import RobotParams, params_from_mapping
 from odolab.store.codec import EncodedLog, decode_log
-from odolab.store.records import PARAMS_FIELDS, TRIAL_COLUMNS
+from odolab.store.records import PARAMS_FIELDS, TRIAL_COLUMNS, params_tables
 from odolab.trials import EncoderLog
 
-__all__ = ["FORMAT", "NotebookDocument", "read_notebook_json", "write_notebook_json"]
+__all__ = [
+    "FORMAT",
+    "NotebookDocument",
+    "params_of_version",
+    "read_notebook_json",
+    "write_notebook_json",
+]
 
 FORMAT = "odolab-notebook"
 _PV_KEYS = ("robot", "version", *PARAMS_FIELDS, "method", "source_trials", "created", "notes")
@@ -80,10 +91,13 @@ def write_notebook_json(
         d = {k: pv[k] for k in _PV_KEYS}
         if isinstance(d["source_trials"], str):
             d["source_trials"] = json.loads(d["source_trials"])
+        model, noise = params_tables(pv, f"parameter version {pv['version']} of {pv['robot']!r}")
+        d["model"] = None if model == {"kind": "diff"} else model
+        d["noise"] = noise
         versions.append(d)
     doc = {
         "format": FORMAT,
-        "schema": 2,
+        "schema": 3,
         "params_versions": versions,
         "campaigns": [{k: c[k] for k in _CAMPAIGN_KEYS} for c in campaigns],
         "trials": trials,
@@ -92,6 +106,18 @@ def write_notebook_json(
     p.parent.mkdir(parents=True, exist_ok=True)
     p.write_text(json.dumps(doc, indent=1, allow_nan=False), encoding="utf-8")
     return p
+
+
+def params_of_version(pv: Mapping[str, Any], source: str) -> RobotParams:
+    """The parameter set of one ``params_versions`` entry of a notebook JSON file (its optional
+    ``model`` and ``noise`` tables included); ``source`` names it in any error."""
+    model, noise = pv.get("model"), pv.get("noise")
+    return params_from_mapping(
+        {"name": pv["robot"], **{k: pv[k] for k in PARAMS_FIELDS}},
+        source=source,
+        model=None if model is None else model,
+        noise=None if noise is None else noise,
+    )
 
 
 def _need(obj: Any, keys: Sequence[str], where: str) -> dict[str, Any]:
@@ -116,6 +142,10 @@ def _check_ranges(doc: NotebookDocument, source: str) -> None:
                     check_param(key, pv[key])
                 except ParamsError as err:
                     raise StoreError(f"{source}: params_versions[{i}]: {err}") from err
+        try:
+            params_of_version(pv, f"{source}: params_versions[{i}]")
+        except ParamsError as err:
+            raise StoreError(str(err)) from err
     for i, rec in enumerate(doc.trials):
         if rec["kind"] == "translation" and rec["distance"] is None:
             raise StoreError(

@@ -25,9 +25,12 @@ from odolab.store.codec import EncodedLog, decode_log, encode_log
 from odolab.store.records import (
     CAMPAIGN_KINDS,
     HISTORY_KEYS,
+    PARAMS_EXTRA_COLUMNS,
     PARAMS_FIELDS,
     TRIAL_COLUMNS,
     campaign_kind_for,
+    params_columns,
+    params_from_columns,
     record_from_trial,
     trial_from_record,
     validate_trial,
@@ -192,16 +195,12 @@ class Notebook:
 
     # -- robots and parameter versions ----------------------------------------------------------
 
-    @staticmethod
-    def _params_from_row(row: sqlite3.Row) -> RobotParams:
-        return RobotParams(
-            name=row["robot"],
-            left_wheel_radius=row["left_wheel_radius"],
-            right_wheel_radius=row["right_wheel_radius"],
-            track_width=row["track_width"],
-            ticks_per_rev=row["ticks_per_rev"],
-            encoder_modulus=row["encoder_modulus"],
-        )
+    def _params_from_row(self, row: sqlite3.Row) -> RobotParams:
+        """The parameter set of a ``params_versions`` row (or a trial row joined with one)."""
+        values = dict(row)
+        version = values.get("params_version", values.get("version"))
+        source = f"{self.path}: parameter version {version} of {values['robot']!r}"
+        return params_from_columns(values, source)
 
     def _insert_params_version(
         self,
@@ -222,10 +221,12 @@ class Notebook:
                 "SELECT MAX(version) FROM params_versions WHERE robot = ?", (robot,)
             ).fetchone()[0]
             version = 1 if last is None else int(last) + 1
+        extra = params_columns(params)
         conn.execute(
             "INSERT INTO params_versions (robot, version, left_wheel_radius, right_wheel_radius, "
-            "track_width, ticks_per_rev, encoder_modulus, method, source_trials, created, notes) "
-            "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            "track_width, ticks_per_rev, encoder_modulus, method, source_trials, created, notes, "
+            f"{', '.join(PARAMS_EXTRA_COLUMNS)}) "
+            f"VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?{', ?' * len(PARAMS_EXTRA_COLUMNS)})",
             (
                 robot,
                 version,
@@ -238,6 +239,7 @@ class Notebook:
                 json.dumps(list(source_trials)),
                 created or now,
                 notes,
+                *(extra[c] for c in PARAMS_EXTRA_COLUMNS),
             ),
         )
         return version
@@ -330,11 +332,13 @@ class Notebook:
         return None if row is None or row[0] is None else int(row[0])
 
     def find_params_version(self, params: RobotParams) -> int | None:
-        """The newest version of ``params.name`` with exactly these values, or None."""
+        """The newest version of ``params.name`` with exactly these values (kinematic model and
+        noise included), or None."""
+        extra = params_columns(params)
         row = self._conn.execute(
             "SELECT MAX(version) FROM params_versions WHERE robot = ? AND left_wheel_radius = ? "
             "AND right_wheel_radius = ? AND track_width = ? AND ticks_per_rev = ? "
-            "AND encoder_modulus IS ?",
+            "AND encoder_modulus IS ? " + "".join(f"AND {c} IS ? " for c in PARAMS_EXTRA_COLUMNS),
             (
                 params.name,
                 params.left_wheel_radius,
@@ -342,6 +346,7 @@ class Notebook:
                 params.track_width,
                 params.ticks_per_rev,
                 params.encoder_modulus,
+                *(extra[c] for c in PARAMS_EXTRA_COLUMNS),
             ),
         ).fetchone()
         return None if row[0] is None else int(row[0])
@@ -519,7 +524,9 @@ class Notebook:
     def _trial_rows(self, where: str, args: Sequence[Any]) -> list[sqlite3.Row]:
         return self._conn.execute(
             "SELECT t.*, p.left_wheel_radius, p.right_wheel_radius, p.track_width, "
-            "p.ticks_per_rev, p.encoder_modulus, e.n AS log_n, e.modulus AS log_modulus, "
+            "p.ticks_per_rev, p.encoder_modulus, "
+            + "".join(f"p.{c}, " for c in PARAMS_EXTRA_COLUMNS)
+            + "e.n AS log_n, e.modulus AS log_modulus, "
             "e.codec AS log_codec, e.t AS log_t, e.left_ticks AS log_left, "
             "e.right_ticks AS log_right "
             "FROM trials AS t "

@@ -11,9 +11,11 @@ time stamps); ``raw`` is a JSON text. The parameter set is named by ``robot`` an
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from typing import Any
 
-from odolab.params import RobotParams
+from odolab.errors import StoreError
+from odolab.params import RobotParams, params_from_mapping
 from odolab.trajectory import Pose
 from odolab.trials import (
     TRIAL_FIELDS,
@@ -31,9 +33,13 @@ __all__ = [
     "HISTORY_KEYS",
     "MEASUREMENT_COLUMNS",
     "NUMERIC_COLUMNS",
+    "PARAMS_EXTRA_COLUMNS",
     "PARAMS_FIELDS",
     "TRIAL_COLUMNS",
     "campaign_kind_for",
+    "params_columns",
+    "params_from_columns",
+    "params_tables",
     "record_from_trial",
     "trial_from_record",
     "validate_trial",
@@ -65,6 +71,65 @@ PARAMS_FIELDS: tuple[str, ...] = (
     "ticks_per_rev",
     "encoder_modulus",
 )
+
+#: The kinematic model and the random error of a parameter set, as stored in ``params_versions``
+#: (schema v3): the model's kind, its ``[model]`` keys as a JSON object, and the ``[noise]`` terms
+#: (NULL when the set has no noise).
+PARAMS_EXTRA_COLUMNS: tuple[str, ...] = (
+    "model_kind",
+    "model_params",
+    "noise_k_left",
+    "noise_k_right",
+    "noise_k_scrub",
+)
+
+
+def params_columns(params: RobotParams) -> dict[str, Any]:
+    """The :data:`PARAMS_EXTRA_COLUMNS` of ``params``.
+
+    ``model_params`` is canonical (the model's keys in file order, shortest round-trip floats,
+    ``-0.0`` written as ``0.0``), so equal models give equal text and a lookup by value works."""
+    coefficients = {k: float(v) + 0.0 for k, v in params.model.to_dict().items()}
+    noise = params.noise
+    return {
+        "model_kind": params.model.kind,
+        "model_params": json.dumps(coefficients, allow_nan=False),
+        "noise_k_left": None if noise is None else noise.k_left,
+        "noise_k_right": None if noise is None else noise.k_right,
+        "noise_k_scrub": None if noise is None else noise.k_scrub,
+    }
+
+
+def params_tables(
+    row: Mapping[str, Any], source: str
+) -> tuple[dict[str, Any], dict[str, Any] | None]:
+    """The ``[model]`` and ``[noise]`` tables (noise None when absent) stored in ``row``'s
+    :data:`PARAMS_EXTRA_COLUMNS`; a row without them (schema v2) is the plain differential drive."""
+    kind = row.get("model_kind") or "diff"
+    text = row.get("model_params") or "{}"
+    try:
+        keys = json.loads(text)
+    except (TypeError, ValueError) as err:
+        raise StoreError(f"{source}: model_params is not a JSON object ({err})") from err
+    if not isinstance(keys, dict):
+        raise StoreError(f"{source}: model_params is not a JSON object, got {text!r}")
+    noise = None
+    if row.get("noise_k_left") is not None or row.get("noise_k_right") is not None:
+        noise = {"k_left": row.get("noise_k_left"), "k_right": row.get("noise_k_right")}
+        if row.get("noise_k_scrub") is not None:
+            noise["k_scrub"] = row["noise_k_scrub"]
+    return {"kind": kind, **keys}, noise
+
+
+def params_from_columns(row: Mapping[str, Any], source: str) -> RobotParams:
+    """The parameter set stored in ``row``: ``robot``, :data:`PARAMS_FIELDS` and (schema v3)
+    :data:`PARAMS_EXTRA_COLUMNS`; ``source`` names it in any error."""
+    model, noise = params_tables(row, source)
+    fields = {k: row[k] for k in PARAMS_FIELDS}
+    return params_from_mapping(
+        {"name": row["robot"], **fields}, source=source, model=model, noise=noise
+    )
+
 
 #: What a campaign may be: the kinds of the lab's experiments.
 CAMPAIGN_KINDS: tuple[str, ...] = ("rotation", "translation", "square", "free")

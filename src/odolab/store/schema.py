@@ -4,10 +4,14 @@ Schema history:
 
 - **v1** (never released; kept as a fixture): ``campaigns``, ``params_sets`` (an autoincrement id
   per parameter set, no provenance), ``trials`` (pointing at ``params_sets.id``), no encoder logs.
-- **v2** (current): ``robots``; ``params_versions`` numbered per robot with provenance (method,
+- **v2**: ``robots``; ``params_versions`` numbered per robot with provenance (method,
   source trials, date, notes), never updated; ``campaigns``; ``trials`` pointing at
   ``(robot, params_version)`` with created/updated stamps; ``encoder_logs`` (compressed arrays);
   ``measurement_history`` (every measurement that was replaced, with when).
+- **v3** (current): ``params_versions`` also holds the kinematic model (``model_kind``, and its
+  ``[model]`` keys as a JSON object in ``model_params``) and the random error (``noise_k_left``,
+  ``noise_k_right``, ``noise_k_scrub``; NULL when the set has no ``[noise]`` table). A v2 set
+  becomes ``diff`` without noise, which is what it meant.
 
 A migration is a function run inside one ``BEGIN IMMEDIATE`` transaction with foreign keys off;
 ``PRAGMA foreign_key_check`` must come back empty before it commits.
@@ -24,7 +28,7 @@ from odolab.errors import StoreError
 __all__ = ["SCHEMA_V1", "SCHEMA_VERSION", "connect", "migrate"]
 
 #: The schema version this code writes.
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 
 _KINDS = "('rotation','translation','pivot','square','free')"
 _STATUSES = "('awaiting','measured','excluded')"
@@ -198,8 +202,26 @@ def _migrate_1_to_2(conn: sqlite3.Connection) -> None:
     _run_script(conn, _V2_INDEXES)
 
 
+_V3_PARAMS_COLUMNS = """
+ALTER TABLE params_versions ADD COLUMN model_kind TEXT NOT NULL DEFAULT 'diff';
+ALTER TABLE params_versions ADD COLUMN model_params TEXT NOT NULL DEFAULT '{}';
+ALTER TABLE params_versions ADD COLUMN noise_k_left REAL CHECK (noise_k_left >= 0);
+ALTER TABLE params_versions ADD COLUMN noise_k_right REAL CHECK (noise_k_right >= 0);
+ALTER TABLE params_versions ADD COLUMN noise_k_scrub REAL CHECK (noise_k_scrub >= 0);
+"""
+
+
+def _migrate_2_to_3(conn: sqlite3.Connection) -> None:
+    """v2 -> v3: the kinematic model and the noise of each parameter set (v2 sets: plain
+    differential drive, no noise; ADD COLUMN changes no row, so the no-update trigger holds)."""
+    _run_script(conn, _V3_PARAMS_COLUMNS)
+
+
 #: MIGRATIONS[v] turns a version-v notebook into version v+1.
-MIGRATIONS: dict[int, Callable[[sqlite3.Connection], None]] = {1: _migrate_1_to_2}
+MIGRATIONS: dict[int, Callable[[sqlite3.Connection], None]] = {
+    1: _migrate_1_to_2,
+    2: _migrate_2_to_3,
+}
 
 
 def _run_script(conn: sqlite3.Connection, script: str) -> None:
@@ -263,8 +285,8 @@ def migrate(conn: sqlite3.Connection, source: str = "notebook") -> int:
                             f"{source}: a SQLite database that is not an odolab notebook "
                             "(user_version 0 but tables present)"
                         )
-                    _create_v2(conn)
-                    version = SCHEMA_VERSION
+                    _create_v2(conn)  # then the migrations from v2 on
+                    version = 2
                 while version < SCHEMA_VERSION:
                     MIGRATIONS[version](conn)
                     version += 1

@@ -18,7 +18,12 @@ from odolab.errors import InvalidTrialError, StoreError
 from odolab.params import RobotParams
 from odolab.progress import Progress
 from odolab.store.csvio import read_trials_csv, write_trials_csv
-from odolab.store.jsonio import NotebookDocument, read_notebook_json, write_notebook_json
+from odolab.store.jsonio import (
+    NotebookDocument,
+    params_of_version,
+    read_notebook_json,
+    write_notebook_json,
+)
 from odolab.store.records import HISTORY_KEYS, NUMERIC_COLUMNS, PARAMS_FIELDS, trial_from_record
 from odolab.trials import Trial, validate_trial
 
@@ -126,7 +131,10 @@ def _new_params_versions(nb: Notebook, doc: NotebookDocument, source: str) -> li
             new.append(pv)
             continue
         keys = (*PARAMS_FIELDS, "method")
-        if {k: row[k] for k in keys} != {k: pv[k] for k in keys}:
+        theirs = params_of_version(pv, f"{source}: parameter version {pv['version']}")
+        if {k: row[k] for k in keys} != {k: pv[k] for k in keys} or (
+            nb._params_from_row(row) != theirs
+        ):
             raise StoreError(
                 f"{source}: parameter version {pv['version']} of {pv['robot']!r} differs from "
                 "the one in the notebook; nothing was imported"
@@ -155,7 +163,7 @@ def _params_for(
 ) -> RobotParams:
     for pv in doc.params_versions:
         if (pv["robot"], pv["version"]) == key:
-            return RobotParams(name=key[0], **{k: pv[k] for k in PARAMS_FIELDS})
+            return params_of_version(pv, where)
     params = nb._lookup_params(*key)
     if params is None:
         raise StoreError(f"{where}: unknown parameter version {key[1]} of {key[0]!r}")
@@ -230,7 +238,7 @@ def import_json(
         for pv in new_versions:
             nb._insert_params_version(
                 conn,
-                RobotParams(name=pv["robot"], **{k: pv[k] for k in PARAMS_FIELDS}),
+                params_of_version(pv, f"{source}: parameter version {pv['version']}"),
                 version=int(pv["version"]),
                 method=pv["method"],
                 source_trials=pv["source_trials"],
