@@ -150,7 +150,7 @@ def test_cli_odometry_chunked_equals_whole_and_keeps_output_on_error(tmp_path: P
     toml = tmp_path / "p.toml"
     from odolab.params import save_params
 
-    save_params(params, toml)
+    save_params(toml, params)
     runner = CliRunner()
     r1 = runner.invoke(app, ["odometry", str(log), "-p", str(toml), "-o", str(tmp_path / "w.csv"),
                              "--chunk-rows", "0"])  # fmt: skip
