@@ -537,8 +537,30 @@ def _models(cfg: LabConfig, new: RobotParams, progress: Progress) -> Any:
             f"{numfmt.plain(n.k_scrub, 3)} rad), on pieces of {NEES_SEGMENT_S:g} s of all "
             f"{MOCAP_RUNS} runs (none of them was used to measure the noise)."
         )
+    questions, about_questions = _open_questions(cfg)
     progress("models", MOCAP_RUNS + 1, MOCAP_RUNS + 1)
-    return ModelEvidence(comparison, tuple(nees), about_models, about_nees, tuple(missing))
+    return ModelEvidence(
+        comparison, tuple(nees), about_models, about_nees, tuple(missing), questions,
+        about_questions,
+    )  # fmt: skip
+
+
+def _open_questions(cfg: LabConfig) -> tuple[tuple[Any, ...], str]:
+    """The lab's open questions (section IX) answered on the true robot, when its truth has the
+    slips they ask about (turn, speed, stop: ``jaguar-lab-tracked``); none otherwise."""
+    from odolab.analysis.questions import builtin_experiments, run_open_questions
+
+    tp = cfg.true_params
+    if not (tp.turn_slip > 0 or tp.speed_slip > 0 or tp.stop_slide > 0):
+        return (), ""
+    results = run_open_questions(tp, cfg.nominal, seed=cfg.seed)
+    about = (
+        f"The built-in experiments ({', '.join(sorted(builtin_experiments()))}, as odolab sim "
+        f"questions runs them), driven by odometry on the truth preset {cfg.truth} (seed "
+        f"{cfg.seed}) and measured as the lab would. These are properties of the simulator's "
+        "truth, shown as the lab would measure them on a real robot."
+    )
+    return tuple(results), about
 
 
 def _report(

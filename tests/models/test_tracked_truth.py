@@ -77,3 +77,17 @@ def test_the_demo_on_the_tracked_jaguar_still_gives_table_1(tmp_path: Path) -> N
         assert abs(pooled[d] - sigma) <= s_unc, (d, pooled[d])
     for name, ratio in result.after_calibration.items():
         assert abs(ratio - 1.0) < 0.01, (name, ratio)
+    # the report answers the lab's open questions (section IX) with CIs on this truth
+    import json
+
+    doc = json.loads(result.results.read_text())
+    answered = {e["experiment"]: e for e in doc["questions"]["experiments"]}
+    assert set(answered) == {"in-place-vs-curves", "pivot-terrains", "speed-sweep", "stops"}
+    curves = answered["in-place-vs-curves"]["effects"][0]
+    assert curves["a"] == "in place" and curves["ci95"][0] < curves["difference_pct"]
+    assert curves["difference_pct"] < curves["ci95"][1]
+    stalls = {c["label"]: c["stalled"] for c in answered["pivot-terrains"]["conditions"]}
+    assert stalls["in place, concrete"] == 300 and stalls["pivot, concrete"] == 0
+    html = result.report.read_text()
+    assert "The lab's open questions" in html and "Does slower driving slip less?" in html
+    assert doc["models"]["recommended"] in {"diff", "extended", "icr"}

@@ -31,6 +31,7 @@ from odolab.report.models_section import (
     models_view,
     plot_model_comparison,
     plot_nees,
+    questions_view,
 )
 from odolab.report.view import (
     MOTION_NAMES,
@@ -161,6 +162,7 @@ def build_results(
         "extra": dict(extra) if extra is not None else None,
         "models": ev.models_dict(),
         "consistency": ev.consistency_dict(),
+        "questions": ev.questions_dict(),
         "evidence_missing": list(ev.missing),
     }
     res = _jsonable(res)
@@ -513,6 +515,7 @@ def _page(
         ext=extra_view(results["extra"]) if results["extra"] else None,
         mdl=models_view(results["models"]) if results.get("models") else None,
         cons=consistency_view(results["consistency"]) if results.get("consistency") else None,
+        qst=questions_view(results["questions"]) if results.get("questions") else None,
         missing=results.get("evidence_missing") or [],
     )
 

@@ -204,6 +204,18 @@ class ModelEvidence:
     about_models: str = ""
     about_nees: str = ""
     missing: tuple[str, ...] = ()
+    #: the lab's open questions answered on the virtual robot (:func:`run_open_questions`)
+    questions: tuple[ExperimentResult, ...] = ()
+    about_questions: str = ""
+
+    def questions_dict(self) -> dict[str, Any] | None:
+        """The ``questions`` entry of ``results.json`` (None without experiments)."""
+        if not self.questions:
+            return None
+        return {
+            "about": self.about_questions,
+            "experiments": [r.to_dict() for r in self.questions],
+        }
 
     def models_dict(self) -> dict[str, Any] | None:
         """The ``models`` entry of ``results.json`` (None without a comparison)."""
@@ -336,3 +348,37 @@ def plot_nees(runs: Sequence[RunNees], ax: Axes | None = None) -> Axes:
     ax.set_ylabel("NEES of one piece")
     ax.legend()
     return ax
+
+
+def questions_view(q: Mapping[str, Any]) -> dict[str, Any]:
+    """The "open questions" section from ``results["questions"]``: per question, a row per
+    condition (slip with its 95 % CI, or how many runs stalled) and the answers in words."""
+    out = []
+    for e in q.get("experiments", []):
+        rows = []
+        for c in e.get("conditions", []):
+            lo, hi = c.get("ci95") or [None, None]
+            n, stalled = int(c.get("n", 0)), int(c.get("stalled", 0))
+            if c.get("slip_pct") is None or stalled == n:
+                slip = "stalled"
+            elif lo is None or hi is None or not (math.isfinite(lo) and math.isfinite(hi)):
+                slip = numfmt.plain(float(c["slip_pct"]), 3)
+            else:
+                slip = numfmt.with_ci(float(c["slip_pct"]), float(lo), float(hi))
+            rows.append(
+                [
+                    Cell("condition", str(c.get("label", "")), "l"),
+                    Cell("terrain", str(c.get("terrain", "")), "l"),
+                    Cell("runs", str(n)),
+                    Cell("slip (%) [95 % CI]", slip),
+                    Cell("stalled", f"{stalled} of {n}"),
+                ]
+            )
+        answers = [str(a["answer"]) for a in e.get("effects", [])]
+        if e.get("trend"):
+            answers.append(str(e["trend"]["answer"]))
+        out.append(
+            {"id": str(e.get("experiment", "")), "question": str(e.get("question", "")),
+             "rows": rows, "answers": answers}
+        )  # fmt: skip
+    return {"about": str(q.get("about", "")), "experiments": out}
