@@ -421,13 +421,9 @@ def _condition(source: str, index: int, c: Any, speed: float) -> Condition:
 
 def builtin_experiments() -> dict[str, str]:
     """Built-in experiment names and their questions."""
-    out: dict[str, str] = {}
-    folder = resources.files("odolab").joinpath("data/experiments")
-    for entry in sorted(folder.iterdir(), key=lambda e: e.name):
-        if entry.name.endswith(".toml"):
-            doc = tomllib.loads(entry.read_text(encoding="utf-8"))
-            out[entry.name[:-5]] = str(doc.get("experiment", {}).get("question", ""))
-    return out
+    from odolab.sim.protocols import builtin_index
+
+    return builtin_index("experiments", "experiment", "question")
 
 
 def load_experiment(name_or_path: str | Path) -> Experiment:

@@ -430,15 +430,21 @@ def parse_protocol(doc: dict[str, Any], source: str = "<protocol>") -> Experimen
     )
 
 
-def builtin_protocols() -> dict[str, str]:
-    """Built-in protocol names and their one-line descriptions."""
+def builtin_index(folder_name: str, table: str, key: str) -> dict[str, str]:
+    """Names of the built-in TOML files in ``odolab/data/<folder_name>`` and each file's
+    ``[table] key`` (a description, a question)."""
     out: dict[str, str] = {}
-    folder = resources.files("odolab").joinpath("data/protocols")
+    folder = resources.files("odolab").joinpath("data", folder_name)
     for entry in sorted(folder.iterdir(), key=lambda e: e.name):
         if entry.name.endswith(".toml"):
             doc = tomllib.loads(entry.read_text(encoding="utf-8"))
-            out[entry.name[:-5]] = str(doc.get("protocol", {}).get("description", ""))
+            out[entry.name[:-5]] = str(doc.get(table, {}).get(key, ""))
     return out
+
+
+def builtin_protocols() -> dict[str, str]:
+    """Built-in protocol names and their one-line descriptions."""
+    return builtin_index("protocols", "protocol", "description")
 
 
 def load_protocol(name_or_path: str | Path) -> ExperimentProtocol:
