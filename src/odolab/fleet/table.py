@@ -115,26 +115,9 @@ def _frame(columns: dict[str, list[Any]]) -> Any:
 
 def write_fleet_table(columns: dict[str, list[Any]], path: str | Path) -> Path:
     """Write the table: Parquet, Arrow IPC or CSV by the file's extension."""
-    from odolab.errors import LogFormatError
-    from odolab.io.tabular import table_format
+    from odolab.io.tabular import write_frame
 
-    p = Path(path)
-    frame = _frame(columns)
-    try:
-        p.parent.mkdir(parents=True, exist_ok=True)
-        fmt = table_format(p)
-        if fmt == "parquet":
-            frame.write_parquet(p)
-        elif fmt == "ipc":
-            frame.write_ipc(p)
-        else:
-            frame.write_csv(p)
-    except OSError as err:
-        raise LogFormatError(
-            f"{p}: cannot write the fleet table ({err.strerror or err}); expected a file name in "
-            "a writable folder"
-        ) from err
-    return p
+    return write_frame(path, _frame(columns), "fleet table")
 
 
 def read_fleet_table(path: str | Path) -> dict[str, list[Any]]:

@@ -34,6 +34,7 @@ __all__ = [
     "read_header",
     "table_format",
     "write_columns",
+    "write_frame",
 ]
 
 TableFormat = Literal["csv", "parquet", "ipc"]
@@ -400,11 +401,22 @@ def write_columns(path: str | Path, columns: Mapping[str, NDArray[Any]], what: s
     """
     import polars as pl
 
+    try:
+        frame = _frame(columns)
+    except pl.exceptions.PolarsError as err:
+        raise _cannot_write(Path(path), what, err) from err
+    return write_frame(path, frame, what)
+
+
+def write_frame(path: str | Path, frame: Any, what: str) -> Path:
+    """Write a polars frame as CSV, Parquet or Arrow IPC by the file's extension; a failure is
+    one sentence naming the file and ``what`` it holds."""
+    import polars as pl
+
     p = Path(path)
     fmt = table_format(p)
     try:
         p.parent.mkdir(parents=True, exist_ok=True)
-        frame = _frame(columns)
         if fmt == "csv":
             frame.write_csv(p)
         elif fmt == "parquet":
