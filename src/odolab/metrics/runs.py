@@ -133,6 +133,19 @@ def _evaluate_job(job: _Job) -> RunEvaluation:
     return evaluate_run(run, job.params, job.options, job.method)
 
 
+def _jobs(
+    runs: Sequence[str | Path],
+    fmt: LogFormat | str,
+    params: RobotParams | None,
+    options: EvaluationOptions,
+    read_options: ReadOptions | None,
+    method: Method | str,
+) -> list[_Job]:
+    """One picklable job per run file."""
+    ro = read_options or ReadOptions()
+    return [_Job(Path(p), LogFormat(fmt), ro, params, options, Method(method)) for p in runs]
+
+
 def evaluate_run_files(
     paths: Sequence[str | Path],
     fmt: LogFormat | str,
@@ -146,11 +159,7 @@ def evaluate_run_files(
     cluster: Cluster | None = None,
 ) -> list[RunEvaluation]:
     """Evaluate every run found under ``paths`` (see :func:`odolab.io.find_runs`)."""
-    runs = find_runs(paths, fmt)
-    jobs = [
-        _Job(p, LogFormat(fmt), read_options or ReadOptions(), params, options, Method(method))
-        for p in runs
-    ]
+    jobs = _jobs(find_runs(paths, fmt), fmt, params, options, read_options, method)
     return parallel_map(
         _evaluate_job,
         jobs,
@@ -178,12 +187,7 @@ def evaluate_runs(
     One :class:`Outcome` per run, in order: a run that cannot be read or evaluated gets its
     error, the others their evaluation.
     """
-    jobs = [
-        _Job(
-            Path(p), LogFormat(fmt), read_options or ReadOptions(), params, options, Method(method)
-        )
-        for p in runs
-    ]
+    jobs = _jobs(runs, fmt, params, options, read_options, method)
     return map_outcomes(
         _evaluate_job,
         jobs,
