@@ -1,8 +1,10 @@
 """Cost of the propagated covariance, against the odometry without it, measured in the same run.
 
-Prints the time of ``integrate`` (poses only) and of ``integrate`` + ``covariance_from_ticks``
-(poses and the six covariance terms per sample) on the same 10 million samples, and the ratio
-(the issue's target: within 2x). Also the streaming cost per update with and without covariance.
+Prints the time of ``integrate`` (poses only) and of ``integrate_with_covariance`` (poses and
+the six covariance terms per sample) on the same 10 million samples, and the ratio (the issue's
+target: within 2x); the same on one thread; and the two separate calls (``integrate`` +
+``covariance_from_ticks``, which computes the headings again). Also the streaming cost per
+update with and without covariance.
 
 Usage: python benchmarks/bench_covariance.py [--samples N] [--repeats R]
 """
@@ -12,9 +14,11 @@ from __future__ import annotations
 import argparse
 import time
 
+import numba
 import numpy as np
 
 from odolab import PRESETS, Odometry, integrate
+from odolab.odometry import integrate_with_covariance
 from odolab.params import NoiseParams
 from odolab.uncertainty import covariance_from_ticks
 
@@ -40,19 +44,30 @@ def main() -> None:
     right = np.cumsum(rng.integers(-10, 40, n)) % params.encoder_modulus
     t = np.arange(n) * 0.05
     integrate(t[:1000], left[:1000], right[:1000], params)  # compile or load the caches
+    for k in (1000, 300_000):
+        integrate_with_covariance(t[:k], left[:k], right[:k], params)
     covariance_from_ticks(left[:1000], right[:1000], params)
 
     plain = best(lambda: integrate(t, left, right, params), args.repeats)
+    both = best(lambda: integrate_with_covariance(t, left, right, params), args.repeats)
+    plain1 = best(lambda: integrate(t, left, right, params, parallel=1), args.repeats)
+    both1 = best(
+        lambda: integrate_with_covariance(t, left, right, params, parallel=1), args.repeats
+    )
 
-    def with_cov() -> None:
+    def separate() -> None:
         integrate(t, left, right, params)
         covariance_from_ticks(left, right, params)
 
-    both = best(with_cov, args.repeats)
-    print(f"samples                      {n:,}")
+    apart = best(separate, args.repeats)
+    print(f"samples                      {n:,}   (numba threads: {numba.get_num_threads()})")
     print(f"integrate (poses)            {plain:.3f} s")
-    print(f"integrate + covariance       {both:.3f} s")
+    print(f"integrate_with_covariance    {both:.3f} s")
     print(f"ratio with/without           {both / plain:.2f}x   (target <= 2x)")
+    print(f"one thread: {plain1:.3f} s / {both1:.3f} s = {both1 / plain1:.2f}x")
+    print(
+        f"integrate + covariance_from_ticks (separate calls) {apart:.3f} s = {apart / plain:.2f}x"
+    )
 
     m = 20_000
     for cov in (False, True):

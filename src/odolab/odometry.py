@@ -23,13 +23,13 @@ from odolab._fastmath import SINCOS_LIMIT, sincos_poly
 from odolab.encoders import EncoderUnwrapper, as_tick_array, default_max_dticks, unwrap_diff
 from odolab.errors import EncoderJumpError, LogFormatError, OdolabError
 from odolab.kinematics import Method, body_motion, chord, step_pose, wrap, wrap_angle
-from odolab.params import RobotParams
+from odolab.params import NoiseParams, RobotParams
 from odolab.trajectory import Pose, Trajectory, check_times
 
 if TYPE_CHECKING:
     from odolab.uncertainty import CovarianceStepper
 
-__all__ = ["Odometry", "integrate", "integrate_increments"]
+__all__ = ["Odometry", "integrate", "integrate_increments", "integrate_with_covariance"]
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
@@ -331,6 +331,40 @@ def integrate(
     if code in (3, 4):
         check_times(tin, source, what="index")  # raises with the message
     return Trajectory(tt, x, y, theta, heading)
+
+
+def integrate_with_covariance(
+    t: ArrayLike,
+    left_ticks: ArrayLike,
+    right_ticks: ArrayLike,
+    params: RobotParams,
+    method: Method | str = Method.MIDPOINT,
+    *,
+    start: tuple[float, float, float] | None = None,
+    cov0: ArrayLike | None = None,
+    noise: NoiseParams | None = None,
+    max_dticks: int | None = None,
+    source: str = "encoder log",
+    parallel: int | None = None,
+) -> tuple[Trajectory, NDArray[np.float64]]:
+    """:func:`integrate`, and the covariance of every pose: shape (n, 6) in
+    ``odolab.uncertainty.COV_COLUMNS``, starting from ``cov0`` (3x3 or six terms; default zero)
+    and propagated with ``noise`` (default ``params.noise``; see :mod:`odolab.uncertainty`).
+
+    The covariance reuses the poses' headings and positions, so it costs one more compiled
+    pass (on ``parallel`` threads for long logs). Equal to :class:`Odometry` with
+    ``covariance=True`` to rounding."""
+    from odolab.uncertainty import covariance_along, noise_of
+
+    chosen = noise_of(params, noise)  # a missing [noise] table stops before the work
+    traj = integrate(
+        t, left_ticks, right_ticks, params, method, start=start, max_dticks=max_dticks,
+        source=source, parallel=parallel,
+    )  # fmt: skip
+    cov = covariance_along(
+        traj, left_ticks, right_ticks, params, method, noise=chosen, cov0=cov0, parallel=parallel
+    )
+    return traj, cov
 
 
 def _finish(

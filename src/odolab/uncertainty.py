@@ -31,11 +31,12 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import ArrayLike, NDArray
 
-from odolab._fastmath import SINCOS_LIMIT, sincos_poly
+from odolab._fastmath import SINCOS_LIMIT, sincos, sincos_poly
 from odolab.encoders import as_tick_array, default_max_dticks, unwrap_diff
 from odolab.errors import EncoderJumpError, LogFormatError, OdolabError, ParamsError
 from odolab.kinematics import Method, body_motion, chord, chord_derivative
 from odolab.params import NoiseParams, RobotParams
+from odolab.trajectory import Trajectory
 
 F64 = NDArray[np.float64]
 F64_2D = NDArray[np.float64]
@@ -44,6 +45,7 @@ I64 = NDArray[np.int64]
 __all__ = [
     "COV_COLUMNS",
     "CovarianceStepper",
+    "covariance_along",
     "covariance_from_ticks",
     "covariance_matrix",
     "covariance_terms",
@@ -71,7 +73,6 @@ def pose_covariance(
     *,
     heading0: float = 0.0,
     cov0: ArrayLike | None = None,
-    parallel: int | None = None,
 ) -> NDArray[np.float64]:
     """Covariance of (x, y, heading) after each step; shape (n + 1, 3, 3).
 
@@ -162,29 +163,11 @@ COV_COLUMNS = ("cov_xx", "cov_xy", "cov_xh", "cov_yy", "cov_yh", "cov_hh")
 Coef = tuple[float, float, float, float, float, float]
 Terms = tuple[float, float, float, float, float, float]
 
-#: From this many samples on, the per-cycle noise terms are computed on several threads.
-PARALLEL_MIN_SAMPLES = 100_000
-
-
-@njit(cache=True, inline="always")
-def _add_noise(  # pragma: no cover - compiled
-    n6: Terms, qk: float, uf: float, ul: float, ut: float, j: Terms
-) -> Terms:
-    """``n6 + qk g g^T`` for one noise source: g = J u, u its column (forward, lateral,
-    dtheta per unit), J = d pose' / d (forward, lateral, dtheta)."""
-    if qk == 0.0:
-        return n6
-    g0 = j[0] * uf + j[1] * ul + j[2] * ut
-    g1 = j[3] * uf + j[4] * ul + j[5] * ut
-    g2 = ut
-    return (
-        n6[0] + qk * g0 * g0,
-        n6[1] + qk * g0 * g1,
-        n6[2] + qk * g0 * g2,
-        n6[3] + qk * g1 * g1,
-        n6[4] + qk * g1 * g2,
-        n6[5] + qk * g2 * g2,
-    )
+#: From this many samples on, :func:`covariance_along` splits the log into one segment per
+#: thread (the shears of F compose by adding, so each segment's start is mended afterwards).
+PARALLEL_MIN_SAMPLES = 200_000
+#: Rows per block of the batch kernel: the noise of a block (vectorised), then its recursion.
+_BLOCK = 512
 
 
 @njit(cache=True, inline="always")
@@ -194,43 +177,62 @@ def _cycle_noise(  # pragma: no cover - compiled
     dsr: float,
     c: Coef,
     arc: bool,
-    k_left: float,
-    k_right: float,
-    k_scrub: float,
-    track: float,
+    k: tuple[float, float, float],
+    inv_track: float,
+    poly: bool,
 ) -> tuple[float, float, Terms]:
     """What one cycle (started at ``heading``) does to the covariance, apart from the
     covariance itself: the shear (a, b) of F = [[1, 0, a], [0, 1, b], [0, 0, 1]] and the noise
-    G Q G^T it adds. Needs no earlier covariance, so the batch kernels compute it for every
-    cycle in parallel; ``c`` is the model's coefficients as a tuple."""
+    G Q G^T it adds. A pure function of values: ``c`` is the model's coefficients, ``k`` the
+    noise (k_left, k_right, k_scrub). ``poly``: the mid-cycle heading is known to be below
+    SINCOS_LIMIT (branch-free sine: the batch loop vectorises); otherwise checked here.
+
+    G Q G^T = J U J^T: U = sum_k q_k u_k u_k^T is the noise of the body motion (forward,
+    lateral, dtheta), with u_k what a unit of source k moves it by (the left and right wheels
+    through the model, the scrub only dtheta and the lateral offset), and
+    J = d pose' / d (forward, lateral, dtheta) = [[j0, j1, j2], [j3, j4, j5], [0, 0, 1]]."""
     fwd, lat, dth = body_motion(c[0], c[1], c[2], c[3], c[4], c[5], dsl, dsr)
     ch = chord(dth, arc)
     dch = chord_derivative(dth, arc)
     m = heading + 0.5 * dth
-    if abs(m) < SINCOS_LIMIT:
+    if poly:
         sn, cs = sincos_poly(m)
     else:
-        cs = math.cos(m)
-        sn = math.sin(m)
+        sn, cs = sincos(m)
     gx = fwd * cs - lat * sn
     gy = fwd * sn + lat * cs
-    # d pose' / d (forward, lateral, dtheta)
-    j = (
-        ch * cs,
-        -ch * sn,
-        dch * gx - 0.5 * ch * gy,
-        ch * sn,
-        ch * cs,
-        dch * gy + 0.5 * ch * gx,
+    j0 = ch * cs
+    j1 = -ch * sn
+    j2 = dch * gx - 0.5 * ch * gy
+    j3 = ch * sn
+    j4 = ch * cs
+    j5 = dch * gy + 0.5 * ch * gx
+    # u_left = (c0, c5 tl, tl), u_right = (c1, c5 tr, tr), u_scrub = (0, c5, 1); lateral = c5 dtheta
+    tl = -c[2] / c[4]
+    tr = c[3] / c[4]
+    ql = k[0] * abs(dsl)
+    qr = k[1] * abs(dsr)
+    qs = k[2] * abs(dsr - dsl) * inv_track
+    u00 = ql * c[0] * c[0] + qr * c[1] * c[1]
+    u01 = (ql * c[0] * tl + qr * c[1] * tr) * c[5]
+    u02 = ql * c[0] * tl + qr * c[1] * tr
+    u22 = ql * tl * tl + qr * tr * tr + qs
+    u12 = u22 * c[5]
+    u11 = u12 * c[5]
+    v00 = j0 * u00 + j1 * u01 + j2 * u02  # V = J U, first two rows
+    v01 = j0 * u01 + j1 * u11 + j2 * u12
+    v02 = j0 * u02 + j1 * u12 + j2 * u22
+    v10 = j3 * u00 + j4 * u01 + j5 * u02
+    v11 = j3 * u01 + j4 * u11 + j5 * u12
+    v12 = j3 * u02 + j4 * u12 + j5 * u22
+    q = (
+        v00 * j0 + v01 * j1 + v02 * j2,
+        v00 * j3 + v01 * j4 + v02 * j5,
+        v02,
+        v10 * j3 + v11 * j4 + v12 * j5,
+        v12,
+        u22,
     )
-    # d (forward, lateral, dtheta) / d ds_l, d ds_r, d n  (lateral = c[5] * dtheta)
-    inv = 1.0 / c[4]
-    ul_t = -c[2] * inv
-    ur_t = c[3] * inv
-    q = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    q = _add_noise(q, k_left * abs(dsl), c[0], c[5] * ul_t, ul_t, j)
-    q = _add_noise(q, k_right * abs(dsr), c[1], c[5] * ur_t, ur_t, j)
-    q = _add_noise(q, k_scrub * abs(dsr - dsl) / track, 0.0, c[5], 1.0, j)
     return -ch * gy, ch * gx, q
 
 
@@ -250,7 +252,7 @@ def _cycle_apply(  # pragma: no cover - compiled
     )
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _stream_step(  # pragma: no cover - compiled
     p: Terms,
     heading: float,
@@ -258,78 +260,173 @@ def _stream_step(  # pragma: no cover - compiled
     dsr: float,
     c: Coef,
     arc: bool,
-    k_left: float,
-    k_right: float,
-    k_scrub: float,
-    track: float,
+    k: tuple[float, float, float],
+    inv_track: float,
 ) -> Terms:
-    """One cycle for the streaming odometry: the batch passes' two steps in one call."""
-    a, b, q = _cycle_noise(heading, dsl, dsr, c, arc, k_left, k_right, k_scrub, track)
+    """One cycle for the streaming odometry: the batch kernel's two steps in one call."""
+    a, b, q = _cycle_noise(heading, dsl, dsr, c, arc, k, inv_track, False)
     return _cycle_apply(p, a, b, q)
 
 
-@njit(cache=True, inline="always")
-def _noise_row(  # pragma: no cover - compiled
-    i: int, out: F64_2D, ab: F64_2D, c: Coef, arc: bool, k: F64, track: float
-) -> None:
-    """Row i of the noise pass: (dsl, dsr, heading) in out[i, :3] -> the terms and (a, b)."""
-    a, b, q = _cycle_noise(out[i, 2], out[i, 0], out[i, 1], c, arc, k[0], k[1], k[2], track)
-    ab[i, 0] = a
-    ab[i, 1] = b
-    out[i, 0] = q[0]
-    out[i, 1] = q[1]
-    out[i, 2] = q[2]
-    out[i, 3] = q[3]
-    out[i, 4] = q[4]
-    out[i, 5] = q[5]
-
-
-@njit(cache=True)
-def _noise_pass(  # pragma: no cover - compiled
-    out: F64_2D, ab: F64_2D, coef: F64, arc: bool, k: F64, track: float
-) -> None:
+@njit(cache=True, error_model="numpy")
+def _segment(  # pragma: no cover - compiled
+    lo: int,
+    hi: int,
+    p: Terms,
+    heading: F64,
+    left: I64,
+    right: I64,
+    modulus: int,
+    dleft: F64,
+    dright: F64,
+    kl: float,
+    kr: float,
+    coef: F64,
+    arc: bool,
+    k3: F64,
+    inv_track: float,
+    out: F64_2D,
+) -> Terms:
+    """Rows lo..hi-1 of the covariance into ``out``, starting from ``p`` (the covariance at
+    row lo-1); returns the last. Per block of rows: the wheel displacements (from raw counters
+    ``left``/``right`` unwrapped, or from increments ``dleft``/``dright`` when the counters are
+    empty), each cycle's shear and noise (independent of the covariance: a vectorised loop),
+    then the recursion P_i = F_i P_(i-1) F_i^T + Q_i. ``heading[i - 1]``: the heading at the
+    start of cycle i."""
     c = (coef[0], coef[1], coef[2], coef[3], coef[4], coef[5])
-    for i in range(1, out.shape[0]):
-        _noise_row(i, out, ab, c, arc, k, track)
+    k = (k3[0], k3[1], k3[2])
+    ticks = left.shape[0] > 0
+    half = modulus // 2
+    turn = (abs(c[2]) + abs(c[3])) / abs(c[4])  # |dtheta| <= turn * max(|ds_l|, |ds_r|)
+    w = np.empty((10, _BLOCK))  # ds_l, ds_r, a, b, six noise terms
+    start = lo
+    while start < hi:
+        stop = min(start + _BLOCK, hi)
+        n = stop - start
+        largest = 0.0  # bound of |mid-cycle heading| over the block
+        for j in range(n):
+            i = start + j
+            if ticks:
+                dl = float(unwrap_diff(left[i] - left[i - 1], modulus, half))
+                dr = float(unwrap_diff(right[i] - right[i - 1], modulus, half))
+            else:
+                dl = dleft[i]
+                dr = dright[i]
+            dsl = dl * kl
+            dsr = dr * kr
+            w[0, j] = dsl
+            w[1, j] = dsr
+            largest = max(largest, abs(heading[i - 1]) + turn * max(abs(dsl), abs(dsr)))
+        h = heading[start - 1 : stop - 1]
+        if not arc and largest < 0.5 * SINCOS_LIMIT:
+            for j in range(n):  # the common case, with literal flags: vectorised
+                a, b, q = _cycle_noise(h[j], w[0, j], w[1, j], c, False, k, inv_track, True)
+                w[2, j] = a
+                w[3, j] = b
+                w[4, j] = q[0]
+                w[5, j] = q[1]
+                w[6, j] = q[2]
+                w[7, j] = q[3]
+                w[8, j] = q[4]
+                w[9, j] = q[5]
+        else:
+            for j in range(n):
+                a, b, q = _cycle_noise(h[j], w[0, j], w[1, j], c, arc, k, inv_track, False)
+                w[2, j] = a
+                w[3, j] = b
+                w[4, j] = q[0]
+                w[5, j] = q[1]
+                w[6, j] = q[2]
+                w[7, j] = q[3]
+                w[8, j] = q[4]
+                w[9, j] = q[5]
+        for j in range(n):
+            q = (w[4, j], w[5, j], w[6, j], w[7, j], w[8, j], w[9, j])
+            p = _cycle_apply(p, w[2, j], w[3, j], q)
+            i = start + j
+            out[i, 0] = p[0]
+            out[i, 1] = p[1]
+            out[i, 2] = p[2]
+            out[i, 3] = p[3]
+            out[i, 4] = p[4]
+            out[i, 5] = p[5]
+        start = stop
+    return p
 
 
-@njit(cache=True, parallel=True)
-def _noise_pass_parallel(  # pragma: no cover - compiled
-    out: F64_2D, ab: F64_2D, coef: F64, arc: bool, k: F64, track: float
+@njit(cache=True, parallel=True, error_model="numpy")
+def _segments_parallel(  # pragma: no cover - compiled
+    bounds: I64,
+    x: F64,
+    y: F64,
+    heading: F64,
+    left: I64,
+    right: I64,
+    modulus: int,
+    dleft: F64,
+    dright: F64,
+    kl: float,
+    kr: float,
+    coef: F64,
+    arc: bool,
+    k3: F64,
+    inv_track: float,
+    out: F64_2D,
 ) -> None:
-    c = (coef[0], coef[1], coef[2], coef[3], coef[4], coef[5])
-    for i in prange(1, out.shape[0]):
-        _noise_row(i, out, ab, c, arc, k, track)
-
-
-@njit(cache=True)
-def _apply_pass(out: F64_2D, ab: F64_2D) -> None:  # pragma: no cover - compiled
-    """The recursion P_i = F_i P_(i-1) F_i^T + Q_i, in place over the noise terms."""
-    p = (out[0, 0], out[0, 1], out[0, 2], out[0, 3], out[0, 4], out[0, 5])
-    for i in range(1, out.shape[0]):
-        q = (out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5])
-        p = _cycle_apply(p, ab[i, 0], ab[i, 1], q)
-        out[i, 0] = p[0]
-        out[i, 1] = p[1]
-        out[i, 2] = p[2]
-        out[i, 3] = p[3]
-        out[i, 4] = p[4]
-        out[i, 5] = p[5]
+    """:func:`_segment` over the segments ``bounds[s]..bounds[s+1]-1`` on all threads, each
+    from a zero covariance; then each segment's true start is carried in, in order: over
+    cycles lo..i the F's multiply to one shear by the sum of their (a, b), which is the
+    position change (-(y_i - y_(lo-1)), x_i - x_(lo-1)), so row i gains F P_(lo-1) F^T."""
+    nseg = bounds.shape[0] - 1
+    ends = np.zeros((nseg, 6))
+    for s in prange(nseg):
+        if s == 0:
+            p = (out[0, 0], out[0, 1], out[0, 2], out[0, 3], out[0, 4], out[0, 5])
+        else:
+            p = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        e = _segment(
+            bounds[s], bounds[s + 1], p, heading, left, right, modulus, dleft, dright, kl, kr,
+            coef, arc, k3, inv_track, out,
+        )  # fmt: skip
+        for r in range(6):
+            ends[s, r] = e[r]
+    starts = np.zeros((nseg, 6))  # the true covariance at row bounds[s] - 1
+    zero = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    for s in range(1, nseg):
+        lo = bounds[s]
+        last = bounds[s + 1] - 1
+        prev = (ends[s - 1, 0], ends[s - 1, 1], ends[s - 1, 2], ends[s - 1, 3], ends[s - 1, 4],
+                ends[s - 1, 5])  # fmt: skip
+        for r in range(6):
+            starts[s, r] = prev[r]
+        f = _cycle_apply(prev, y[lo - 1] - y[last], x[last] - x[lo - 1], zero)
+        for r in range(6):
+            ends[s, r] += f[r]
+    for s in range(1, nseg):
+        lo = bounds[s]
+        p0 = (starts[s, 0], starts[s, 1], starts[s, 2], starts[s, 3], starts[s, 4], starts[s, 5])
+        x0 = x[lo - 1]
+        y0 = y[lo - 1]
+        for i in prange(lo, bounds[s + 1]):
+            f = _cycle_apply(p0, y0 - y[i], x[i] - x0, zero)
+            out[i, 0] += f[0]
+            out[i, 1] += f[1]
+            out[i, 2] += f[2]
+            out[i, 3] += f[3]
+            out[i, 4] += f[4]
+            out[i, 5] += f[5]
 
 
 @njit(cache=True)
 def _headings(  # pragma: no cover - compiled
-    dleft: F64, dright: F64, kl: float, kr: float, coef: F64, h0: float, out: F64_2D
+    dleft: F64, dright: F64, kl: float, kr: float, coef: F64, heading: F64
 ) -> None:
-    """First pass from increments: (dsl, dsr, heading at the cycle's start) into out[i, :3]."""
-    h = h0
+    """The heading after each cycle from increments, into ``heading`` (``heading[0]`` set)."""
+    h = heading[0]
+    c = (coef[0], coef[1], coef[2], coef[3], coef[4], coef[5])
     for i in range(1, dleft.shape[0]):
-        dsl = dleft[i] * kl
-        dsr = dright[i] * kr
-        out[i, 0] = dsl
-        out[i, 1] = dsr
-        out[i, 2] = h
-        h = h + body_motion(coef[0], coef[1], coef[2], coef[3], coef[4], coef[5], dsl, dsr)[2]
+        h = h + body_motion(c[0], c[1], c[2], c[3], c[4], c[5], dleft[i] * kl, dright[i] * kr)[2]
+        heading[i] = h
 
 
 @njit(cache=True)
@@ -341,13 +438,13 @@ def _headings_ticks(  # pragma: no cover - compiled
     kl: float,
     kr: float,
     coef: F64,
-    h0: float,
-    out: F64_2D,
+    heading: F64,
 ) -> tuple[int, int, int]:
     """:func:`_headings` from raw counters, unwrapping on the way; returns (code, index, value)
     with code 0 = ok, 1/2 = left/right jump larger than ``max_d``."""
     half = modulus // 2
-    h = h0
+    h = heading[0]
+    c = (coef[0], coef[1], coef[2], coef[3], coef[4], coef[5])
     for i in range(1, left.shape[0]):
         dl = unwrap_diff(left[i] - left[i - 1], modulus, half)
         dr = unwrap_diff(right[i] - right[i - 1], modulus, half)
@@ -356,30 +453,48 @@ def _headings_ticks(  # pragma: no cover - compiled
                 return 1, i, dl
             if abs(dr) > max_d:
                 return 2, i, dr
-        dsl = dl * kl
-        dsr = dr * kr
-        out[i, 0] = dsl
-        out[i, 1] = dsr
-        out[i, 2] = h
-        h = h + body_motion(coef[0], coef[1], coef[2], coef[3], coef[4], coef[5], dsl, dsr)[2]
+        h = h + body_motion(c[0], c[1], c[2], c[3], c[4], c[5], dl * kl, dr * kr)[2]
+        heading[i] = h
     return 0, -1, 0
 
 
-def _propagate_from_headings(
-    out: F64_2D, coef: F64, arc: bool, k: F64, track: float, parallel: int | None
+_NO_TICKS = np.empty(0, dtype=np.int64)
+_NO_INCREMENTS = np.empty(0)
+
+
+def _run_kernel(
+    out: F64_2D,
+    heading: F64,
+    params: RobotParams,
+    arc: bool,
+    noise: NoiseParams,
+    *,
+    ticks: tuple[I64, I64] | None = None,
+    increments: tuple[F64, F64] | None = None,
+    positions: tuple[F64, F64] | None = None,
+    parallel: int | None = None,
 ) -> None:
-    """Passes 2 and 3: the noise of every cycle (independent: on several threads for long
-    logs), then the recursion."""
-    ab = np.empty((out.shape[0], 2))
+    """Rows 1.. of ``out`` from row 0; on several threads when the positions are known and
+    the log is long."""
+    left, right = ticks if ticks is not None else (_NO_TICKS, _NO_TICKS)
+    dleft, dright = increments if increments is not None else (_NO_INCREMENTS, _NO_INCREMENTS)
+    args = (
+        heading, left, right, params.encoder_modulus or 0, dleft, dright,
+        params.left_metres_per_tick, params.right_metres_per_tick,
+        np.array(params.coefficients, dtype=np.float64), arc,
+        np.array([noise.k_left, noise.k_right, noise.k_scrub]), 1.0 / params.track_width, out,
+    )  # fmt: skip
+    n = out.shape[0]
     threads = numba.get_num_threads() if parallel is None else max(1, int(parallel))
-    if threads > 1 and out.shape[0] >= PARALLEL_MIN_SAMPLES:
-        _noise_pass_parallel(out, ab, coef, arc, k, track)
-    else:
-        _noise_pass(out, ab, coef, arc, k, track)
-    _apply_pass(out, ab)
+    if positions is not None and threads > 1 and n >= PARALLEL_MIN_SAMPLES:
+        bounds = np.linspace(1, n, threads + 1).astype(np.int64)
+        _segments_parallel(bounds, positions[0], positions[1], *args)
+    elif n > 1:
+        p0, p1, p2, p3, p4, p5 = (float(v) for v in out[0])
+        _segment(1, n, (p0, p1, p2, p3, p4, p5), *args)
 
 
-def _noise_of(params: RobotParams, noise: NoiseParams | None) -> NoiseParams:
+def noise_of(params: RobotParams, noise: NoiseParams | None) -> NoiseParams:
     chosen = noise if noise is not None else params.noise
     if chosen is None:
         raise ParamsError(
@@ -387,6 +502,17 @@ def _noise_of(params: RobotParams, noise: NoiseParams | None) -> NoiseParams:
             "k_right (m): run `odolab analyze` / `calibrate`, or add [noise] by hand"
         )
     return chosen
+
+
+def _start(n: int, cov0: ArrayLike | None, heading0: float) -> tuple[F64_2D, F64]:
+    """The output (row 0 = ``cov0``, default zero) and the heading array (``[0]`` = heading0)."""
+    out = np.zeros((n, 6))
+    if n and cov0 is not None:
+        out[0] = covariance_terms(cov0)
+    heading = np.empty(n)
+    if n:
+        heading[0] = float(heading0)
+    return out, heading
 
 
 def propagate_covariance(
@@ -398,34 +524,25 @@ def propagate_covariance(
     noise: NoiseParams | None = None,
     heading0: float = 0.0,
     cov0: ArrayLike | None = None,
-    parallel: int | None = None,
 ) -> NDArray[np.float64]:
     """Covariance of (x, y, heading) after each sample, shape (n, 6) in :data:`COV_COLUMNS`.
 
     ``dticks_*``: shape (n,), counter increments per cycle (``dticks[0]`` is ignored, as in
     :func:`odolab.odometry.integrate_increments`). ``noise`` defaults to ``params.noise``.
-    ``cov0``: the start covariance (3x3 or the six terms; default zero). Three compiled
-    passes: the headings (sequential, cheap), each cycle's shear and noise (independent: on
-    ``parallel`` threads for long logs, default numba's count), the recursion (sequential)."""
+    ``cov0``: the start covariance (3x3 or the six terms; default zero). Two compiled passes:
+    the headings, then per block of rows each cycle's shear and noise (vectorised) and the
+    recursion."""
     dl = np.ascontiguousarray(dticks_left, dtype=np.float64)
     dr = np.ascontiguousarray(dticks_right, dtype=np.float64)
     if dl.shape != dr.shape or dl.ndim != 1:
         raise LogFormatError("left and right increments must be 1-D arrays of the same length")
     if not (np.isfinite(dl).all() and np.isfinite(dr).all()):
         raise LogFormatError("counter increments must be finite numbers")
-    k = _noise_of(params, noise)
-    out = np.zeros((dl.size, 6))
-    if dl.size and cov0 is not None:
-        out[0] = covariance_terms(cov0)
+    k = noise_of(params, noise)
+    out, heading = _start(dl.size, cov0, heading0)
     coef = np.array(params.coefficients, dtype=np.float64)
-    _headings(
-        dl, dr, params.left_metres_per_tick, params.right_metres_per_tick, coef,
-        float(heading0), out,
-    )  # fmt: skip
-    _propagate_from_headings(
-        out, coef, Method(method) is Method.ARC, np.array([k.k_left, k.k_right, k.k_scrub]),
-        params.track_width, parallel,
-    )  # fmt: skip
+    _headings(dl, dr, params.left_metres_per_tick, params.right_metres_per_tick, coef, heading)
+    _run_kernel(out, heading, params, Method(method) is Method.ARC, k, increments=(dl, dr))
     return out
 
 
@@ -439,36 +556,62 @@ def covariance_from_ticks(
     max_dticks: int | None = None,
     heading0: float = 0.0,
     cov0: ArrayLike | None = None,
-    parallel: int | None = None,
 ) -> NDArray[np.float64]:
     """:func:`propagate_covariance` from raw (possibly wrapping) counters, as
-    :func:`odolab.odometry.integrate` takes them; shape (n, 6)."""
+    :func:`odolab.odometry.integrate` takes them; shape (n, 6). With the poses too,
+    :func:`odolab.odometry.integrate_with_covariance` is faster (it reuses their headings)."""
     if max_dticks is None:
         max_dticks = default_max_dticks(params.encoder_modulus)
     left = as_tick_array(left_ticks, "left_ticks")
     right = as_tick_array(right_ticks, "right_ticks")
     if left.size != right.size:
         raise LogFormatError(f"left has {left.size} samples, right has {right.size}")
-    k = _noise_of(params, noise)
-    out = np.zeros((left.size, 6))
-    if left.size and cov0 is not None:
-        out[0] = covariance_terms(cov0)
+    k = noise_of(params, noise)
+    out, heading = _start(left.size, cov0, heading0)
     coef = np.array(params.coefficients, dtype=np.float64)
     code, i, d = _headings_ticks(
         left, right, params.encoder_modulus or 0, -1 if max_dticks is None else int(max_dticks),
-        params.left_metres_per_tick, params.right_metres_per_tick, coef, float(heading0), out,
+        params.left_metres_per_tick, params.right_metres_per_tick, coef, heading,
     )  # fmt: skip
-    if code == 0:
-        _propagate_from_headings(
-            out, coef, Method(method) is Method.ARC, np.array([k.k_left, k.k_right, k.k_scrub]),
-            params.track_width, parallel,
-        )  # fmt: skip
     if code:
         name = ("left_ticks", "right_ticks")[code - 1]
         raise EncoderJumpError(
             f"{name} jumps by {d} counts between samples {i - 1} and {i}, more than the "
             f"{max_dticks} counts per cycle that a wrap or plausible motion allows"
         )
+    _run_kernel(out, heading, params, Method(method) is Method.ARC, k, ticks=(left, right))
+    return out
+
+
+def covariance_along(
+    trajectory: Trajectory,
+    left_ticks: ArrayLike,
+    right_ticks: ArrayLike,
+    params: RobotParams,
+    method: Method | str = Method.MIDPOINT,
+    *,
+    noise: NoiseParams | None = None,
+    cov0: ArrayLike | None = None,
+    parallel: int | None = None,
+) -> NDArray[np.float64]:
+    """The covariance of each pose of ``trajectory``, which :func:`odolab.odometry.integrate`
+    made from these counters, parameters and method (its checks of the counters hold); shape
+    (n, 6). Reuses its headings, and its positions to run long logs on ``parallel`` threads
+    (default numba's count). Prefer :func:`odolab.odometry.integrate_with_covariance`."""
+    left = as_tick_array(left_ticks, "left_ticks")
+    right = as_tick_array(right_ticks, "right_ticks")
+    n = len(trajectory)
+    if left.size != n or right.size != n:
+        raise LogFormatError(
+            f"the trajectory has {n} poses but the counters have {left.size} and {right.size} "
+            "samples; expected the counters the trajectory was integrated from"
+        )
+    k = noise_of(params, noise)
+    out, _ = _start(n, cov0, 0.0)
+    _run_kernel(
+        out, trajectory.heading, params, Method(method) is Method.ARC, k, ticks=(left, right),
+        positions=(trajectory.x, trajectory.y), parallel=parallel,
+    )  # fmt: skip
     return out
 
 
@@ -497,12 +640,12 @@ class CovarianceStepper:
     def __init__(
         self, params: RobotParams, method: Method | str, noise: NoiseParams | None = None
     ) -> None:
-        k = _noise_of(params, noise)
+        k = noise_of(params, noise)
         c0, c1, c2, c3, c4, c5 = (float(v) for v in params.coefficients)
         self._c = (c0, c1, c2, c3, c4, c5)
         self._arc = Method(method) is Method.ARC
         self._k = (k.k_left, k.k_right, k.k_scrub)
-        self._track = params.track_width
+        self._inv_track = 1.0 / params.track_width
         self.terms: tuple[float, float, float, float, float, float] = (0.0,) * 6
 
     def reset(self, cov0: ArrayLike | None = None) -> None:
@@ -513,6 +656,5 @@ class CovarianceStepper:
     def step(self, heading: float, ds_left: float, ds_right: float) -> None:
         """Propagate over one cycle that started at ``heading`` with these wheel displacements."""
         self.terms = _stream_step(
-            self.terms, heading, ds_left, ds_right, self._c, self._arc, self._k[0], self._k[1],
-            self._k[2], self._track,
-        )  # fmt: skip
+            self.terms, heading, ds_left, ds_right, self._c, self._arc, self._k, self._inv_track
+        )

@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 from tests.core.test_models import SideSlip
 
-from odolab.errors import OdolabError, ParamsError
-from odolab.odometry import Odometry, integrate_increments
+from odolab.errors import LogFormatError, OdolabError, ParamsError
+from odolab.odometry import Odometry, integrate, integrate_increments, integrate_with_covariance
 from odolab.params import PRESETS, NoiseParams, load_params, save_params
 from odolab.uncertainty import (
+    covariance_along,
     covariance_from_ticks,
     covariance_matrix,
     pose_covariance,
@@ -159,3 +160,81 @@ def test_jacobians_equal_finite_differences_of_the_pose_step(
         [0.0, ticks[0]], [0.0, ticks[1]], params, method, noise=k, heading0=0.7, cov0=p0
     )[-1]
     np.testing.assert_allclose(covariance_matrix(got), expected, rtol=1e-8, atol=1e-14)
+
+
+def _ticks(seed: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    left = np.cumsum(rng.integers(-40, 60, n)) % 32768  # rolls over several times
+    right = np.cumsum(rng.integers(-30, 70, n)) % 32768
+    return left, right
+
+
+def _scaled_error(got: np.ndarray, ref: np.ndarray) -> float:
+    """Largest difference of each term over the scale sqrt(P_aa P_bb) of its row and column."""
+    diag = ref[:, [0, 3, 5]]
+    scale = np.sqrt(diag[:, [0, 0, 0, 1, 1, 2]] * diag[:, [0, 1, 2, 1, 2, 2]]) + 1e-300
+    return float((np.abs(got - ref) / scale)[1:].max())
+
+
+@pytest.mark.parametrize("method", ["midpoint", "arc"])
+@pytest.mark.parametrize("model", [None, SideSlip(0.12)])
+def test_integrate_with_covariance_equals_the_separate_calls(
+    method: str, model: SideSlip | None
+) -> None:
+    params = NOMINAL.with_(noise=NoiseParams(1e-4, 3e-4, k_scrub=0.02))
+    if model is not None:
+        params = params.with_(model=model)
+    left, right = _ticks(11, 3000)  # several blocks of the kernel, the last one partial
+    t = 0.05 * np.arange(left.size)
+    cov0 = np.diag([1e-4, 2e-4, 3e-5])
+    traj, cov = integrate_with_covariance(
+        t, left, right, params, method, start=(1.0, -2.0, 0.4), cov0=cov0
+    )
+    ref_traj = integrate(t, left, right, params, method, start=(1.0, -2.0, 0.4))
+    ref = covariance_from_ticks(left, right, params, method, heading0=0.4, cov0=cov0)
+    np.testing.assert_array_equal(traj.x, ref_traj.x)
+    np.testing.assert_array_equal(cov, ref)  # one thread below PARALLEL_MIN_SAMPLES: same ops
+
+
+@pytest.mark.parametrize("threads", [2, 3, 7])
+def test_segments_on_threads_equal_one_pass(threads: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    # each segment starts from zero; the true start is carried in afterwards through the
+    # position change (the F's compose to one shear): equal to the one-pass recursion
+    import odolab.uncertainty as unc
+
+    monkeypatch.setattr(unc, "PARALLEL_MIN_SAMPLES", 100)
+    params = NOMINAL.with_(noise=NoiseParams(1e-4, 3e-4, k_scrub=0.02))
+    left, right = _ticks(12, 5000)
+    t = 0.05 * np.arange(left.size)
+    cov0 = np.diag([1e-4, 2e-4, 3e-5])
+    _, one = integrate_with_covariance(t, left, right, params, cov0=cov0, parallel=1)
+    _, many = integrate_with_covariance(t, left, right, params, cov0=cov0, parallel=threads)
+    assert _scaled_error(many, one) < 1e-9
+    assert not np.array_equal(many, one)  # the segments did run (rounding differs)
+
+
+def test_headings_beyond_the_fast_sine_take_libm() -> None:
+    # a heading past the polynomial sine's range (1e7 rad): the kernel falls back to libm and
+    # still equals the streaming odometry
+    params = NOMINAL.with_(noise=NOISE)
+    left, right = _ticks(13, 1200)
+    big = 0.9e7
+    batch = covariance_from_ticks(left, right, params, heading0=big)
+    odo = Odometry(params, covariance=True, start=(0.0, 0.0, big))
+    for i in range(left.size):
+        odo.update(0.05 * i, int(left[i]), int(right[i]))
+    np.testing.assert_allclose(odo.covariance, batch[-1], rtol=1e-9)
+    # and the same as starting at the same direction with a small heading (the fast sine)
+    near = covariance_from_ticks(left, right, params, heading0=math.remainder(big, 2 * math.pi))
+    assert _scaled_error(near, batch) < 1e-6  # 1e7 rad carries ~1e-9 rad of rounding
+
+
+def test_covariance_along_refuses_other_counters_and_a_missing_noise_table() -> None:
+    left, right = _ticks(14, 50)
+    t = 0.05 * np.arange(left.size)
+    params = NOMINAL.with_(noise=NOISE)
+    traj = integrate(t, left, right, params)
+    with pytest.raises(LogFormatError, match="trajectory has 50 poses but the counters have 49"):
+        covariance_along(traj, left[:-1], right[:-1], params)
+    with pytest.raises(ParamsError, match=r"no \[noise\] table"):
+        integrate_with_covariance(t, left, right, NOMINAL.with_(noise=None))

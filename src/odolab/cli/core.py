@@ -160,28 +160,19 @@ def odometry_cmd(
         )
         return
     enc = read_encoder_csv(log, modulus=robot.encoder_modulus)
-    traj = integrate(
-        enc.t,
-        enc.left_ticks,
-        enc.right_ticks,
-        robot,
-        method.value,
-        start=start,
-        max_dticks=max_dticks,
-        source=str(log),
-    )
     cov = None
     if covariance:
-        from odolab.uncertainty import covariance_from_ticks
+        from odolab.odometry import integrate_with_covariance
 
-        cov = covariance_from_ticks(
-            enc.left_ticks,
-            enc.right_ticks,
-            robot,
-            method.value,
-            max_dticks=max_dticks,
-            heading0=0.0 if start is None else start[2],
-        )
+        traj, cov = integrate_with_covariance(
+            enc.t, enc.left_ticks, enc.right_ticks, robot, method.value, start=start,
+            max_dticks=max_dticks, source=str(log),
+        )  # fmt: skip
+    else:
+        traj = integrate(
+            enc.t, enc.left_ticks, enc.right_ticks, robot, method.value, start=start,
+            max_dticks=max_dticks, source=str(log),
+        )  # fmt: skip
     del enc  # the input's memory is free before the output is written
     if cov is None:
         write_trajectory(output, traj, fmt.value)

@@ -325,13 +325,15 @@ def stream_from_encoder_log(
 ) -> OdometryStream:
     """Odometry, its covariance (when ``params.noise`` is known) and wheel angles from counters."""
     from odolab.encoders import unwrap_ticks
-    from odolab.odometry import integrate
-    from odolab.uncertainty import covariance_from_ticks
+    from odolab.odometry import integrate, integrate_with_covariance
 
-    traj = integrate(t, left_ticks, right_ticks, params, method, source=source)
     cov = twist = None
-    if params.noise is not None:
-        cov = covariance_from_ticks(left_ticks, right_ticks, params, method)
+    if params.noise is None:
+        traj = integrate(t, left_ticks, right_ticks, params, method, source=source)
+    else:
+        traj, cov = integrate_with_covariance(
+            t, left_ticks, right_ticks, params, method, source=source
+        )
         twist = _twist_variance(traj, left_ticks, right_ticks, params)
     m = params.encoder_modulus
     ul = unwrap_ticks(left_ticks, m, name="left_ticks")

@@ -216,7 +216,7 @@ class ChunkedOdometry:
 
     def step(self, t: F64, left: I64, right: I64) -> OdometryChunk:
         """Integrate the next rows; their poses and (``covariance=True``) covariance."""
-        from odolab.odometry import integrate
+        from odolab.odometry import integrate, integrate_with_covariance
 
         n = len(t)
         if self._prev is None or self._pose is None:
@@ -229,17 +229,18 @@ class ChunkedOdometry:
             start = (self._pose.x, self._pose.y, self._pose.heading)
             skip = 1
         offset = self.rows - skip  # global index of tt[0]
+        cov = None
         try:
-            traj = integrate(
-                tt,
-                ll,
-                rr,
-                self.params,
-                self.method,
-                start=start,
-                max_dticks=self.max_dticks,
-                source=self.source,
-            )
+            if self.covariance:
+                traj, cov = integrate_with_covariance(
+                    tt, ll, rr, self.params, self.method, start=start, cov0=self._cov,
+                    max_dticks=self.max_dticks, source=self.source,
+                )  # fmt: skip
+            else:
+                traj = integrate(
+                    tt, ll, rr, self.params, self.method, start=start,
+                    max_dticks=self.max_dticks, source=self.source,
+                )  # fmt: skip
         except EncoderJumpError as err:
             text = _SAMPLES.sub(
                 lambda m: (
@@ -248,20 +249,8 @@ class ChunkedOdometry:
                 str(err),
             )
             raise EncoderJumpError(text) from err
-        cov = None
-        if self.covariance:
-            from odolab.uncertainty import covariance_from_ticks
-
-            heading0 = 0.0 if start is None else float(start[2])
-            cov = covariance_from_ticks(
-                ll,
-                rr,
-                self.params,
-                self.method,
-                max_dticks=self.max_dticks,
-                heading0=heading0,
-                cov0=self._cov,
-            )[skip:]
+        if cov is not None:
+            cov = cov[skip:]
             if len(cov):
                 self._cov = cov[-1].copy()
         if skip:
