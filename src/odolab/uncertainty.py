@@ -252,7 +252,12 @@ def _cycle_apply(  # pragma: no cover - compiled
     )
 
 
-@njit(cache=True, error_model="numpy")
+# The covariance kernels compile with error_model="numpy" (a division by zero gives inf instead
+# of raising: the check stopped the loops from vectorising; the inputs are checked before) and
+# fastmath={"contract"} (a * b + c may be one fused multiply-add).
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
 def _stream_step(  # pragma: no cover - compiled
     p: Terms,
     heading: float,
@@ -268,7 +273,7 @@ def _stream_step(  # pragma: no cover - compiled
     return _cycle_apply(p, a, b, q)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
 def _segment(  # pragma: no cover - compiled
     lo: int,
     hi: int,
@@ -354,7 +359,7 @@ def _segment(  # pragma: no cover - compiled
     return p
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@njit(cache=True, parallel=True, error_model="numpy", fastmath={"contract"})
 def _segments_parallel(  # pragma: no cover - compiled
     bounds: I64,
     x: F64,

@@ -192,3 +192,19 @@ def test_a_fit_that_starts_at_a_plausible_range_edge_is_not_a_params_error(synth
     start = NOMINAL.with_(model=IcrModel(0.3, -0.001, 0.0))
     with pytest.raises(CalibrationError, match=r"y_icr_right \(standard error .*\) is not"):
         calibrate_lsq(train[:2], start, LsqOptions(model="icr"))
+
+
+def test_bic_of_an_exact_fit_is_finite_and_the_parameter_count_decides() -> None:
+    # a noiseless fit has zero residuals: the variance floor keeps the BIC finite, and between
+    # exact fits the one with fewer parameters scores lower
+    from odolab.calibration.compare import BIC_VARIANCE_FLOOR, _bic
+
+    sizes = np.array([100.0, 100.0])
+    exact2 = _bic(np.zeros(2), sizes, 2)
+    exact4 = _bic(np.zeros(2), sizes, 4)
+    assert np.isfinite(exact2) and np.isfinite(exact4)
+    assert exact2 < exact4
+    assert float(exact4 - exact2) == pytest.approx(2 * np.log(200.0))
+    noisy = _bic(np.array([1e-4, 1e-4]), sizes, 2)
+    assert float(noisy) == pytest.approx(200 * np.log(1e-6) + 2 * np.log(200.0))
+    assert BIC_VARIANCE_FLOOR < 1e-6

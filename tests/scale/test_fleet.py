@@ -171,6 +171,9 @@ def test_bad_scheduler_address_is_one_sentence() -> None:
 
     with pytest.raises(OdolabError, match="expected an address like tcp://HOST:PORT"):
         Cluster(scheduler="127.0.0.1:8786")
+    for bad in (0, -3, 1.5, True):
+        with pytest.raises(OdolabError, match="expected a whole number >= 1"):
+            Cluster(workers=bad)  # type: ignore[arg-type]
 
 
 def test_fleet_spec_refuses_nonsense() -> None:

@@ -179,3 +179,11 @@ def test_smoothing_trades_timing_for_correlation_and_bad_values_are_refused() ->
     for bad in (-1.0, math.nan):
         with pytest.raises(ImuLogError, match="smooth"):
             validate(log, clean, nominal, new, offset=4.0, smooth=bad)
+
+
+def test_summarizing_no_runs_is_one_sentence() -> None:
+    from odolab.errors import OdolabError
+    from odolab.validation.runs import summarize_runs
+
+    with pytest.raises(OdolabError, match="no validation runs to summarize"):
+        summarize_runs([], None)  # type: ignore[arg-type]

@@ -158,10 +158,17 @@ def _bootstrap_ratio(
     return Estimate(value, float(lo), float(hi))
 
 
+#: Residual variance floor of the BIC (m^2, 1 um RMS): below any ground truth's resolution. A
+#: noiseless (simulated) fit would otherwise score -inf; at the floor, fits that are all exact
+#: tie on the residuals and the parameter count decides.
+BIC_VARIANCE_FLOOR = 1e-12
+
+
 def _bic(rss: NDArray[np.float64], sizes: NDArray[np.float64], k: int) -> NDArray[np.float64]:
     """BIC over axis -1 sums (works on bootstrap matrices)."""
     n = sizes.sum(axis=-1)
-    return np.asarray(n * np.log(rss.sum(axis=-1) / n) + k * np.log(n), dtype=np.float64)
+    variance = np.maximum(rss.sum(axis=-1) / n, BIC_VARIANCE_FLOOR)
+    return np.asarray(n * np.log(variance) + k * np.log(n), dtype=np.float64)
 
 
 def _fit(

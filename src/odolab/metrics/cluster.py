@@ -47,7 +47,7 @@ class Cluster:
             raise OdolabError(
                 f"--scheduler is {self.scheduler!r}; expected an address like tcp://HOST:PORT"
             )
-        if isinstance(self.workers, bool) or int(self.workers) != self.workers:
+        if isinstance(self.workers, bool) or int(self.workers) != self.workers or self.workers < 1:
             raise OdolabError(f"--workers is {self.workers!r}; expected a whole number >= 1")
 
     @property

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from odolab import numfmt
+from odolab.errors import OdolabError
 from odolab.validation.compare import ValidationResult
 
 if TYPE_CHECKING:
@@ -132,6 +133,8 @@ def summarize_runs(
     checks: Sequence[ValidationResult], band: RandomBand, *, offset_true: float | None = None
 ) -> RunsSummary:
     """Each run's final heading error against the band predicted at its angle."""
+    if not checks:
+        raise OdolabError("no validation runs to summarize; expected at least one phone run")
     fo, fn, sig, offs, angles = [], [], [], [], []
     for c in checks:
         angle = float(c.imu_heading[-1])
