@@ -166,26 +166,27 @@ Terms = tuple[float, float, float, float, float, float]
 #: From this many samples on, :func:`covariance_along` splits the log into one segment per
 #: thread (the shears of F compose by adding, so each segment's start is mended afterwards).
 PARALLEL_MIN_SAMPLES = 200_000
+#: Segments per thread: more than one, so that a core busy with other work takes fewer of them
+#: (each segment but the first costs one more pass to carry its start in).
+SEGMENTS_PER_THREAD = 2
 #: Rows per block of the batch kernel: the noise of a block (vectorised), then its recursion.
 _BLOCK = 512
 
 
 @njit(cache=True, inline="always")
-def _cycle_noise(  # pragma: no cover - compiled
-    heading: float,
+def _motion_noise(  # pragma: no cover - compiled
     dsl: float,
     dsr: float,
     c: Coef,
     arc: bool,
     k: tuple[float, float, float],
     inv_track: float,
-    poly: bool,
-) -> tuple[float, float, Terms]:
-    """What one cycle (started at ``heading``) does to the covariance, apart from the
-    covariance itself: the shear (a, b) of F = [[1, 0, a], [0, 1, b], [0, 0, 1]] and the noise
-    G Q G^T it adds. A pure function of values: ``c`` is the model's coefficients, ``k`` the
-    noise (k_left, k_right, k_scrub). ``poly``: the mid-cycle heading is known to be below
-    SINCOS_LIMIT (branch-free sine: the batch loop vectorises); otherwise checked here.
+    sn: float,
+    cs: float,
+) -> Terms:
+    """The noise G Q G^T one cycle adds, given its wheel displacements and the sine and cosine
+    of its mid-cycle heading. A pure function of values: ``c`` is the model's coefficients,
+    ``k`` the noise (k_left, k_right, k_scrub).
 
     G Q G^T = J U J^T: U = sum_k q_k u_k u_k^T is the noise of the body motion (forward,
     lateral, dtheta), with u_k what a unit of source k moves it by (the left and right wheels
@@ -194,11 +195,6 @@ def _cycle_noise(  # pragma: no cover - compiled
     fwd, lat, dth = body_motion(c[0], c[1], c[2], c[3], c[4], c[5], dsl, dsr)
     ch = chord(dth, arc)
     dch = chord_derivative(dth, arc)
-    m = heading + 0.5 * dth
-    if poly:
-        sn, cs = sincos_poly(m)
-    else:
-        sn, cs = sincos(m)
     gx = fwd * cs - lat * sn
     gy = fwd * sn + lat * cs
     j0 = ch * cs
@@ -225,7 +221,7 @@ def _cycle_noise(  # pragma: no cover - compiled
     v10 = j3 * u00 + j4 * u01 + j5 * u02
     v11 = j3 * u01 + j4 * u11 + j5 * u12
     v12 = j3 * u02 + j4 * u12 + j5 * u22
-    q = (
+    return (
         v00 * j0 + v01 * j1 + v02 * j2,
         v00 * j3 + v01 * j4 + v02 * j5,
         v02,
@@ -233,7 +229,32 @@ def _cycle_noise(  # pragma: no cover - compiled
         v12,
         u22,
     )
-    return -ch * gy, ch * gx, q
+
+
+@njit(cache=True, inline="always")
+def _cycle_noise(  # pragma: no cover - compiled
+    heading: float,
+    dsl: float,
+    dsr: float,
+    c: Coef,
+    arc: bool,
+    k: tuple[float, float, float],
+    inv_track: float,
+    poly: bool,
+) -> tuple[float, float, Terms]:
+    """What one cycle (started at ``heading``) does to the covariance, apart from the
+    covariance itself: the shear (a, b) of F = [[1, 0, a], [0, 1, b], [0, 0, 1]] and the noise
+    (:func:`_motion_noise`). ``poly``: the mid-cycle heading is known to be below SINCOS_LIMIT
+    (branch-free sine: the batch loop vectorises); otherwise checked here."""
+    fwd, lat, dth = body_motion(c[0], c[1], c[2], c[3], c[4], c[5], dsl, dsr)
+    ch = chord(dth, arc)
+    m = heading + 0.5 * dth
+    if poly:
+        sn, cs = sincos_poly(m)
+    else:
+        sn, cs = sincos(m)
+    q = _motion_noise(dsl, dsr, c, arc, k, inv_track, sn, cs)
+    return -ch * (fwd * sn + lat * cs), ch * (fwd * cs - lat * sn), q
 
 
 @njit(cache=True, inline="always")
@@ -362,8 +383,6 @@ def _segment(  # pragma: no cover - compiled
 @njit(cache=True, parallel=True, error_model="numpy", fastmath={"contract"})
 def _segments_parallel(  # pragma: no cover - compiled
     bounds: I64,
-    x: F64,
-    y: F64,
     heading: F64,
     left: I64,
     right: I64,
@@ -377,11 +396,9 @@ def _segments_parallel(  # pragma: no cover - compiled
     k3: F64,
     inv_track: float,
     out: F64_2D,
-) -> None:
-    """:func:`_segment` over the segments ``bounds[s]..bounds[s+1]-1`` on all threads, each
-    from a zero covariance; then each segment's true start is carried in, in order: over
-    cycles lo..i the F's multiply to one shear by the sum of their (a, b), which is the
-    position change (-(y_i - y_(lo-1)), x_i - x_(lo-1)), so row i gains F P_(lo-1) F^T."""
+) -> F64_2D:
+    """:func:`_segment` over the segments ``bounds[s]..bounds[s+1]-1`` on all threads, the
+    first from row 0, the others from a zero covariance; returns each one's last covariance."""
     nseg = bounds.shape[0] - 1
     ends = np.zeros((nseg, 6))
     for s in prange(nseg):
@@ -395,19 +412,38 @@ def _segments_parallel(  # pragma: no cover - compiled
         )  # fmt: skip
         for r in range(6):
             ends[s, r] = e[r]
-    starts = np.zeros((nseg, 6))  # the true covariance at row bounds[s] - 1
+    return ends
+
+
+@njit(cache=True)
+def _segment_starts(  # pragma: no cover - compiled
+    bounds: I64, x: F64, y: F64, ends: F64_2D
+) -> F64_2D:
+    """The true covariance at row ``bounds[s] - 1`` for each segment s >= 1, in order: over
+    cycles lo..i the F's multiply to one shear by the sum of their (a, b), which is the
+    position change (-(y_i - y_(lo-1)), x_i - x_(lo-1)); so P_i = local_i + F P_(lo-1) F^T."""
+    nseg = bounds.shape[0] - 1
+    starts = np.zeros((nseg, 6))
     zero = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    prev = (ends[0, 0], ends[0, 1], ends[0, 2], ends[0, 3], ends[0, 4], ends[0, 5])
     for s in range(1, nseg):
         lo = bounds[s]
         last = bounds[s + 1] - 1
-        prev = (ends[s - 1, 0], ends[s - 1, 1], ends[s - 1, 2], ends[s - 1, 3], ends[s - 1, 4],
-                ends[s - 1, 5])  # fmt: skip
         for r in range(6):
             starts[s, r] = prev[r]
         f = _cycle_apply(prev, y[lo - 1] - y[last], x[last] - x[lo - 1], zero)
-        for r in range(6):
-            ends[s, r] += f[r]
-    for s in range(1, nseg):
+        prev = (ends[s, 0] + f[0], ends[s, 1] + f[1], ends[s, 2] + f[2], ends[s, 3] + f[3],
+                ends[s, 4] + f[4], ends[s, 5] + f[5])  # fmt: skip
+    return starts
+
+
+@njit(cache=True, parallel=True, error_model="numpy", fastmath={"contract"})
+def _carry_starts(  # pragma: no cover - compiled
+    bounds: I64, x: F64, y: F64, starts: F64_2D, out: F64_2D
+) -> None:
+    """Each segment's rows gain F P_(lo-1) F^T (see :func:`_segment_starts`), on all threads."""
+    zero = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    for s in range(1, bounds.shape[0] - 1):
         lo = bounds[s]
         p0 = (starts[s, 0], starts[s, 1], starts[s, 2], starts[s, 3], starts[s, 4], starts[s, 5])
         x0 = x[lo - 1]
@@ -492,8 +528,11 @@ def _run_kernel(
     n = out.shape[0]
     threads = numba.get_num_threads() if parallel is None else max(1, int(parallel))
     if positions is not None and threads > 1 and n >= PARALLEL_MIN_SAMPLES:
-        bounds = np.linspace(1, n, threads + 1).astype(np.int64)
-        _segments_parallel(bounds, positions[0], positions[1], *args)
+        bounds = np.linspace(1, n, SEGMENTS_PER_THREAD * threads + 1).astype(np.int64)
+        with numba.parallel_chunksize(1):  # segments one at a time: a busy core takes fewer
+            ends = _segments_parallel(bounds, *args)
+        x, y = positions
+        _carry_starts(bounds, x, y, _segment_starts(bounds, x, y, ends), out)
     elif n > 1:
         p0, p1, p2, p3, p4, p5 = (float(v) for v in out[0])
         _segment(1, n, (p0, p1, p2, p3, p4, p5), *args)

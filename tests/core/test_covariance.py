@@ -192,8 +192,9 @@ def test_integrate_with_covariance_equals_the_separate_calls(
     )
     ref_traj = integrate(t, left, right, params, method, start=(1.0, -2.0, 0.4))
     ref = covariance_from_ticks(left, right, params, method, heading0=0.4, cov0=cov0)
-    np.testing.assert_array_equal(traj.x, ref_traj.x)
-    np.testing.assert_array_equal(cov, ref)  # one thread below PARALLEL_MIN_SAMPLES: same ops
+    for name in ("t", "x", "y", "theta", "heading"):  # below PARALLEL_MIN_SAMPLES: the same ops
+        np.testing.assert_array_equal(getattr(traj, name), getattr(ref_traj, name))
+    assert _scaled_error(cov, ref) < 1e-9  # the shear from the pose step: equal to rounding
 
 
 @pytest.mark.parametrize("threads", [2, 3, 7])
@@ -207,9 +208,17 @@ def test_segments_on_threads_equal_one_pass(threads: int, monkeypatch: pytest.Mo
     left, right = _ticks(12, 5000)
     t = 0.05 * np.arange(left.size)
     cov0 = np.diag([1e-4, 2e-4, 3e-5])
-    _, one = integrate_with_covariance(t, left, right, params, cov0=cov0, parallel=1)
-    _, many = integrate_with_covariance(t, left, right, params, cov0=cov0, parallel=threads)
+    start = (3.0, -1.0, 0.2)
+    traj1, one = integrate_with_covariance(
+        t, left, right, params, start=start, cov0=cov0, parallel=1
+    )
+    trajn, many = integrate_with_covariance(
+        t, left, right, params, start=start, cov0=cov0, parallel=threads
+    )
     assert _scaled_error(many, one) < 1e-9
+    np.testing.assert_allclose(trajn.x, traj1.x, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(trajn.y, traj1.y, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(trajn.theta, traj1.theta)
     assert not np.array_equal(many, one)  # the segments did run (rounding differs)
 
 
@@ -224,6 +233,10 @@ def test_headings_beyond_the_fast_sine_take_libm() -> None:
     for i in range(left.size):
         odo.update(0.05 * i, int(left[i]), int(right[i]))
     np.testing.assert_allclose(odo.covariance, batch[-1], rtol=1e-9)
+    traj, fused = integrate_with_covariance(0.05 * np.arange(left.size), left, right, params,
+                                            start=(0.0, 0.0, big))  # fmt: skip
+    np.testing.assert_allclose(fused[-1], batch[-1], rtol=1e-9)
+    np.testing.assert_allclose([traj.x[-1], traj.y[-1]], odo.pose[1:3], rtol=1e-9)
     # and the same as starting at the same direction with a small heading (the fast sine)
     near = covariance_from_ticks(left, right, params, heading0=math.remainder(big, 2 * math.pi))
     assert _scaled_error(near, batch) < 1e-6  # 1e7 rad carries ~1e-9 rad of rounding
