@@ -143,3 +143,30 @@ def test_odometry_messages_as_ground_truth_and_estimate(tmp_path: Path) -> None:
     np.testing.assert_allclose(run.estimate.heading, gt.heading, atol=1e-9)
     with pytest.raises(LogFormatError, match="carries sensor_msgs/msg/JointState; expected"):
         read_bag(bag, ReadOptions(ground_truth_topic="/joint_states"))
+
+
+def test_calibrate_a_bag_without_ground_truth_from_a_csv_one(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a bag of wheel angles only, and the path from a tracker as a CSV trajectory
+    from odolab.cli import main
+    from odolab.io.trajectory_csv import write_trajectory
+    from odolab.params import load_params, save_params
+
+    t, left, right = drive()
+    gt = integrate_increments(t, np.diff(left, prepend=0.0), np.diff(right, prepend=0.0), TRUE)
+    bag = write_bag(tmp_path / "wheels_only", t, left, right, None)
+    truth = write_trajectory(tmp_path / "truth.csv", gt)
+    nominal = save_params(tmp_path / "nominal.toml", NOMINAL)
+    new = tmp_path / "new.toml"
+    args = ["calibrate", "lsq", str(bag), "-f", "bag", "-p", str(nominal), "-o", str(new),
+            "--segment", "1.0", "--workers", "1"]  # fmt: skip
+    assert main(args) == 1  # the bag alone has no ground truth: one sentence
+    assert "no ground-truth topic '/ground_truth' in the bag" in capsys.readouterr().err
+    assert main([*args, "--ground-truth", str(truth)]) == 0
+    assert load_params(new).track_width == pytest.approx(TRUE.track_width, abs=1e-5)
+    capsys.readouterr()
+    assert main([*args, "--ground-truth", str(truth), "--validate", str(bag)]) == 1
+    assert "expected exactly one run and no --validate" in capsys.readouterr().err
+    assert main([*args, "--ground-truth", str(tmp_path / "nope.csv")]) == 1
+    assert "nope.csv: no such file" in capsys.readouterr().err

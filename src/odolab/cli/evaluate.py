@@ -358,19 +358,40 @@ def calibrate_lsq_cmd(
         ModelChoice,
         typer.Option(help="Kinematic model to fit (docs/models.md): diff, extended or icr."),
     ] = ModelChoice.diff,
+    ground_truth: Annotated[
+        Path | None,
+        typer.Option(
+            "--ground-truth",
+            help="The ground truth of the one run given (trajectory CSV or TUM, e.g. from "
+            "`odolab track` or `calibrate sensor --truth-out`), replacing the run's own.",
+        ),
+    ] = None,
 ) -> None:
     """Least-squares kinematic model (radii and track width, or ICRs) from runs with ground truth."""
+    from dataclasses import replace
+
     from odolab.calibration.lsq import LsqOptions, calibrate_lsq_files
     from odolab.cli._fleet import expand_runs
+    from odolab.errors import OdolabError
     from odolab.metrics.cluster import Cluster
     from odolab.params import load_params, save_params
 
     cluster = Cluster(scheduler=scheduler, workers=workers)
+    if ground_truth is not None:  # checked before any run is read
+        if len(runs) != 1 or validate:
+            raise OdolabError(
+                f"--ground-truth is one run's ground truth; expected exactly one run and no "
+                f"--validate, got {len(runs)} run(s)" + (" and --validate" if validate else "")
+            )
+        if not ground_truth.is_file():
+            raise OdolabError(f"--ground-truth {ground_truth}: no such file")
     if any(not p.exists() for p in [*runs, *(validate or [])]):  # glob patterns
         runs = expand_runs(runs, fmt.value)
         validate = expand_runs(validate, fmt.value) if validate else validate
     robot = load_params(params) if params else None
     ro = _read_options(robot, joint_topic, joints, gt_topic)
+    if ground_truth is not None:
+        ro = replace(ro, ground_truth=str(ground_truth))
     with _progress_bar("calibrate") as report:
         result = calibrate_lsq_files(
             runs,
