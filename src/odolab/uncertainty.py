@@ -163,8 +163,9 @@ COV_COLUMNS = ("cov_xx", "cov_xy", "cov_xh", "cov_yy", "cov_yh", "cov_hh")
 Coef = tuple[float, float, float, float, float, float]
 Terms = tuple[float, float, float, float, float, float]
 
-#: From this many samples on, :func:`covariance_along` splits the log into one segment per
-#: thread (the shears of F compose by adding, so each segment's start is mended afterwards).
+#: From this many samples on, :func:`covariance_along` splits the log into segments run on
+#: several threads (the shears of F compose by adding, so each segment's start is carried in
+#: afterwards).
 PARALLEL_MIN_SAMPLES = 200_000
 #: Segments per thread: more than one, so that a core busy with other work takes fewer of them
 #: (each segment but the first costs one more pass to carry its start in).
