@@ -90,10 +90,12 @@ def iter_encoder_chunks(
     Increments are summed into counters that carry across chunks.
     """
     p = Path(path)
-    if table_format(p) == "csv" and p.is_file():
-        from odolab.io.limits import check_text_file
+    text = table_format(p) == "csv" and p.is_file()
+    if text:  # once, with this reader's words (iter_columns is told it is done)
+        from odolab.io.limits import check_columns_unique, check_text_file, first_line_cells
 
         check_text_file(p, expected="an encoder log CSV")
+        check_columns_unique(p, first_line_cells(p))
     header = read_header(p)
     increments = "dticks_left" in header and "left_ticks" not in header
     cols = INCREMENTS if increments else RAW
@@ -101,7 +103,7 @@ def iter_encoder_chunks(
     last_t: float | None = None
     carry = np.zeros(2, dtype=np.int64)
     any_rows = False
-    for row0, data in iter_columns(p, cols, chunk_rows=chunk_rows):
+    for row0, data in iter_columns(p, cols, chunk_rows=chunk_rows, checked=text):
         t = data["t"]
         if t.size == 0:
             continue

@@ -301,17 +301,19 @@ def iter_columns(
     *,
     chunk_rows: int | None,
     allow_nan: bool = False,
+    checked: bool = False,
 ) -> Iterator[tuple[int, dict[str, F64]]]:
     """``(first row index, {column: float64 array})`` per chunk of ``chunk_rows`` rows.
 
     ``chunk_rows=None`` yields the whole table at once. Memory is bounded by the chunk (plus one
-    block of the underlying reader: a Parquet row group, an IPC batch, 1 MiB of CSV).
+    block of the underlying reader: a Parquet row group, an IPC batch, 1 MiB of CSV). A CSV's
+    lines are checked first (:mod:`odolab.io.limits`; ``checked``: the caller already did).
     """
     p = Path(path)
     if chunk_rows is not None and (chunk_rows < 1 or int(chunk_rows) != chunk_rows):
         raise LogFormatError(f"chunk size is {chunk_rows!r}; expected a whole number of rows >= 1")
     fmt = table_format(p)
-    if fmt == "csv":
+    if fmt == "csv" and not checked:
         _check_file(p)
         _check_text(p)
     header = read_header(p)
