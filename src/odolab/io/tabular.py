@@ -15,6 +15,7 @@ name the row (from 1) and column.
 from __future__ import annotations
 
 import contextlib
+from collections import deque
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
@@ -252,25 +253,48 @@ def _arrow_to_f64(p: Path, batch: Any, columns: Sequence[str], row0: int) -> dic
 def _rechunk(
     blocks: Iterator[dict[str, F64]], columns: Sequence[str], chunk_rows: int | None
 ) -> Iterator[dict[str, F64]]:
-    """Blocks of any size as chunks of exactly ``chunk_rows`` rows (the last one shorter)."""
+    """Blocks of any size as chunks of exactly ``chunk_rows`` rows (the last one shorter).
+
+    Each row is copied at most once (a chunk made of pieces of several blocks); a chunk inside
+    one block is a view of it.
+    """
     if chunk_rows is None:
         parts = list(blocks)
         if parts:
             yield {c: np.concatenate([b[c] for b in parts]) for c in columns}
         return
-    pending: list[dict[str, F64]] = []
-    have = 0
+    first = columns[0]
+    pending: deque[dict[str, F64]] = deque()
+    offset = 0  # rows of pending[0] already yielded
+    have = 0  # rows pending, after the offset
+
+    def take(rows: int) -> dict[str, F64]:
+        nonlocal offset, have
+        pieces: list[dict[str, F64]] = []
+        while rows > 0:
+            block = pending[0]
+            size = len(block[first]) - offset
+            n = min(size, rows)
+            pieces.append({c: block[c][offset : offset + n] for c in columns})
+            rows -= n
+            have -= n
+            offset += n
+            if offset == len(block[first]):
+                pending.popleft()
+                offset = 0
+        if len(pieces) == 1:
+            return pieces[0]
+        return {c: np.concatenate([p[c] for p in pieces]) for c in columns}
+
     for block in blocks:
+        if len(block[first]) == 0:
+            continue
         pending.append(block)
-        have += len(block[columns[0]])
+        have += len(block[first])
         while have >= chunk_rows:
-            merged = {c: np.concatenate([b[c] for b in pending]) for c in columns}
-            yield {c: merged[c][:chunk_rows] for c in columns}
-            rest = {c: merged[c][chunk_rows:] for c in columns}
-            have -= chunk_rows
-            pending = [rest] if have else []
+            yield take(chunk_rows)
     if have:
-        yield {c: np.concatenate([b[c] for b in pending]) for c in columns}
+        yield take(have)
 
 
 def _csv_blocks(p: Path, header: list[str], columns: Sequence[str]) -> Iterator[Any]:

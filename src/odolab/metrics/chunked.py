@@ -550,10 +550,10 @@ def evaluate_files(
         )
     drift = _Pairs(o.drift_delta_m, DeltaUnit.METRES, False, 0.1, True)
     with (
-        ErrorStats("APE") as ape,
-        ErrorStats("APE") as ape_rot,
-        ErrorStats("RPE") as rpe,
-        ErrorStats("RPE") as rpe_rot,
+        ErrorStats("APE", block=max(chunk_rows, 1 << 16)) as ape,
+        ErrorStats("APE", block=max(chunk_rows, 1 << 16)) as ape_rot,
+        ErrorStats("RPE", block=max(chunk_rows, 1 << 16)) as rpe,
+        ErrorStats("RPE", block=max(chunk_rows, 1 << 16)) as rpe_rot,
     ):
         sums = np.zeros(3)  # drift: sum of % per segment, of deg/m per segment, segments
         n = 0
