@@ -19,7 +19,8 @@
    peak stays flat from 10x to 100x the chunk.
 
 Usage: python benchmarks/bench_tabular.py [--rows 10000000] [--chunk 100000] [--dir DIR]
-       [--eval-rows 10000000] [--skip-libraries] [--skip-odometry] [--skip-evaluate]
+       [--eval-rows 10000000] [--repeat 3] [--skip-libraries] [--skip-odometry]
+       [--skip-evaluate]
 """
 
 from __future__ import annotations
@@ -212,6 +213,7 @@ def main() -> None:
     ap.add_argument("--chunk", type=int, default=100_000)
     ap.add_argument("--dir", type=Path, default=None)
     ap.add_argument("--eval-rows", type=int, default=10_000_000)
+    ap.add_argument("--repeat", type=int, default=3, help="rounds of section 2")
     ap.add_argument("--skip-libraries", action="store_true")
     ap.add_argument("--skip-odometry", action="store_true")
     ap.add_argument("--skip-evaluate", action="store_true")
@@ -237,27 +239,42 @@ def odometry(d: Path, a: argparse.Namespace, csv: Path, parquet: Path, tiny: Pat
     """Sections 2 and 3: `odolab odometry` end to end, and its peak memory."""
     n = a.rows
 
-    print("\n2. odolab odometry, end to end (fresh processes; wall s)")
-    base_csv = run(POLARS, str(csv), str(d / "polars.csv"))
-    whole_csv = run(RUN, "odometry", str(csv), "-o", str(d / "o.csv"), "--chunk-rows", "0")
-    chunk_csv = run(RUN, "odometry", str(csv), "-o", str(d / "c.csv"))
-    base_pq = run(PYARROW, str(parquet), str(d / "pyarrow.parquet"))
-    whole_pq = run(RUN, "odometry", str(parquet), "-o", str(d / "o.parquet"),
-                   "--chunk-rows", "0")  # fmt: skip
-    chunk_pq = run(RUN, "odometry", str(parquet), "-o", str(d / "c.parquet"),
-                   "--chunk-rows", "1000000")  # fmt: skip
     print(
-        f"   CSV -> CSV      polars read+write {base_csv['wall']:6.2f}   odolab whole "
-        f"{whole_csv['wall']:6.2f} (ratio {whole_csv['wall'] / base_csv['wall']:.2f}, "
-        f"acceptance <= 1.5)   odolab default (chunks of 1 M) {chunk_csv['wall']:6.2f} "
-        f"(ratio {chunk_csv['wall'] / base_csv['wall']:.2f})"
+        f"\n2. odolab odometry, end to end (fresh processes; wall s; {a.repeat} rounds, each "
+        "runs every command once; medians, ratios within a round)"
+    )
+    jobs = {
+        "base_csv": (POLARS, str(csv), str(d / "polars.csv")),
+        "whole_csv": (RUN, "odometry", str(csv), "-o", str(d / "o.csv"), "--chunk-rows", "0"),
+        "chunk_csv": (RUN, "odometry", str(csv), "-o", str(d / "c.csv")),
+        "base_pq": (PYARROW, str(parquet), str(d / "pyarrow.parquet")),
+        "whole_pq": (RUN, "odometry", str(parquet), "-o", str(d / "o.parquet"),
+                     "--chunk-rows", "0"),
+        "chunk_pq": (RUN, "odometry", str(parquet), "-o", str(d / "c.parquet"),
+                     "--chunk-rows", "1000000"),
+    }  # fmt: skip
+    rounds = [{name: run(*job) for name, job in jobs.items()} for _ in range(a.repeat)]
+
+    def med(name: str, key: str = "wall") -> float:
+        return float(np.median([r[name][key] for r in rounds]))
+
+    def ratio(name: str, base: str) -> str:
+        each = [r[name]["wall"] / r[base]["wall"] for r in rounds]
+        return f"{np.median(each):.2f} ({', '.join(f'{x:.2f}' for x in each)})"
+
+    print(
+        f"   CSV -> CSV      polars read+write {med('base_csv'):6.2f}   odolab whole "
+        f"{med('whole_csv'):6.2f} (ratio {ratio('whole_csv', 'base_csv')}, acceptance <= 1.5)"
+        f"   odolab default (chunks of 1 M) {med('chunk_csv'):6.2f} "
+        f"(ratio {ratio('chunk_csv', 'base_csv')})"
     )
     print(
-        f"   Parquet -> Parq pyarrow read+write {base_pq['wall']:5.2f}   odolab whole "
-        f"{whole_pq['wall']:6.2f} (ratio {whole_pq['wall'] / base_pq['wall']:.2f}, "
-        f"acceptance <= 1.2)   odolab chunks of 1 M {chunk_pq['wall']:6.2f} "
-        f"(ratio {chunk_pq['wall'] / base_pq['wall']:.2f})"
+        f"   Parquet -> Parq pyarrow read+write {med('base_pq'):5.2f}   odolab whole "
+        f"{med('whole_pq'):6.2f} (ratio {ratio('whole_pq', 'base_pq')}, acceptance <= 1.2)"
+        f"   odolab chunks of 1 M {med('chunk_pq'):6.2f} (ratio {ratio('chunk_pq', 'base_pq')})"
     )
+    whole_csv = {"wall": med("whole_csv"), "rss": med("whole_csv", "rss")}
+    whole_pq = {"wall": med("whole_pq"), "rss": med("whole_pq", "rss")}
     from odolab.params import PRESETS, NoiseParams, save_params
 
     noisy = save_params(
@@ -276,7 +293,7 @@ def odometry(d: Path, a: argparse.Namespace, csv: Path, parquet: Path, tiny: Pat
     floor = run(RUN, "odometry", str(tiny), "-o", str(d / "t.csv"))["rss"]
     out_bytes = 5 * 8 * n
     for name, r in (("CSV whole", whole_csv), ("Parquet whole", whole_pq)):
-        extra = r["rss"] - floor
+        extra = r["rss"] - floor  # (the median of the rounds)
         print(
             f"   {name:14s} +{extra / 1e6:7.0f} MB = {extra / out_bytes:.2f} x the output "
             f"arrays ({out_bytes / 1e6:.0f} MB; acceptance <= 2)"
