@@ -284,3 +284,26 @@ def test_cli_chunked_equals_whole_and_shows_the_same_table(tmp_path: Path) -> No
     got = json.loads((tmp_path / "c.json").read_text())
     _assert_same(_numbers(whole), _numbers(got))
     assert r0.output == r1.output
+
+
+@given(
+    blocks=st.lists(st.integers(0, 9), max_size=12),
+    chunk=st.integers(1, 12),
+)
+def test_blocks_regrouped_into_chunks_of_exactly_the_chunk_size(
+    blocks: list[int], chunk: int
+) -> None:
+    from odolab.io.tabular import _rechunk
+
+    start = np.cumsum([0, *blocks])
+    parts = [
+        {"a": np.arange(s, s + n, dtype=np.float64), "b": -np.arange(s, s + n, dtype=np.float64)}
+        for s, n in zip(start, blocks, strict=False)
+    ]
+    got = list(_rechunk(iter(parts), ("a", "b"), chunk))
+    sizes = [len(c["a"]) for c in got]
+    assert all(n == chunk for n in sizes[:-1]) and (not sizes or 0 < sizes[-1] <= chunk)
+    whole = np.arange(sum(blocks), dtype=np.float64)
+    for col, sign in (("a", 1.0), ("b", -1.0)):
+        joined = np.concatenate([c[col] for c in got]) if got else np.zeros(0)
+        np.testing.assert_array_equal(joined, sign * whole)

@@ -244,10 +244,9 @@ class _Plan:
 def _plan(
     ref: _Source, est: _Source, o: EvaluationOptions, names: tuple[str, str]
 ) -> tuple[_Plan, _Span, _Span]:
-    """The checks of :func:`~odolab.metrics.association.associate`, from the first pass."""
+    """The checks of :func:`~odolab.metrics.association.associate` (``max_diff`` is checked
+    before), from the first pass over both files."""
     m = SyncMethod(o.sync)
-    if not (o.max_diff >= 0.0 and np.isfinite(o.max_diff)):
-        raise LogFormatError(f"max_diff must be a non-negative number of seconds, got {o.max_diff}")
     spans = (ref.span(), est.span())
     for name, sp in zip(names, spans, strict=True):
         if sp.n == 0:
@@ -532,23 +531,26 @@ def evaluate_files(
         done += rows
         report(done, total, name)
 
+    # every option checked before the first pass over the files
+    if not (o.max_diff >= 0.0 and np.isfinite(o.max_diff)):
+        raise LogFormatError(f"max_diff must be a non-negative number of seconds, got {o.max_diff}")
+    pairs = _pairs_for(o)
+    if not (o.drift_delta_m > 0 and math.isfinite(o.drift_delta_m)):
+        raise LogFormatError(
+            f"drift segment must be a positive length in m (--drift-segment), got {o.drift_delta_m}"
+        )
+    drift = _Pairs(o.drift_delta_m, DeltaUnit.METRES, False, 0.1, True)
+    alignment = Alignment(o.alignment)
     ref, est = _Source(rp, chunk_rows, tick), _Source(ep, chunk_rows, tick)
     plan, rs, es = _plan(ref, est, o, labels)
-    alignment = Alignment(o.alignment)
     passes = 2 if alignment is Alignment.SE2 else 1
     total = done + passes * (rs.n + es.n)
-    pairs = _pairs_for(o)  # checks delta before the long passes
     tf = Rigid2D(0.0, 0.0, 0.0)
     if alignment is Alignment.SE2:
         moments = _Moments()
         for r, e in _associated(plan, labels):
             moments.add(r, e)
         tf = moments.transform()
-    if not (o.drift_delta_m > 0 and math.isfinite(o.drift_delta_m)):
-        raise LogFormatError(
-            f"drift segment must be a positive length in m (--drift-segment), got {o.drift_delta_m}"
-        )
-    drift = _Pairs(o.drift_delta_m, DeltaUnit.METRES, False, 0.1, True)
     with (
         ErrorStats("APE", block=max(chunk_rows, 1 << 16)) as ape,
         ErrorStats("APE", block=max(chunk_rows, 1 << 16)) as ape_rot,
