@@ -13,7 +13,14 @@
      rows; acceptance: <= 2);
    - chunked: logs of 10x and 100x the chunk: the extra memory stays flat (bounded by the chunk).
 
+4. `odolab evaluate GT EST` on two trajectories of ``--eval-rows`` poses (Parquet; the estimate
+   at shifted stamps, with noise): whole (--chunk-rows 0) against chunks of 1 M and of
+   ``--chunk`` rows, time and peak memory (over the same command on 3-row files); the chunked
+   peak stays flat from 10x to 100x the chunk.
+
 Usage: python benchmarks/bench_tabular.py [--rows 10000000] [--chunk 100000] [--dir DIR]
+       [--eval-rows 10000000] [--repeat 3] [--skip-libraries] [--skip-odometry]
+       [--skip-evaluate]
 """
 
 from __future__ import annotations
@@ -149,12 +156,67 @@ def libraries(folder: Path, rows: int) -> None:
         (folder / f).unlink()
 
 
+def make_trajectories(folder: Path, rows: int, seed: int = 2) -> tuple[Path, Path]:
+    """GT (100 Hz) and EST (the same path, stamps 3 ms later, positions with 1 cm noise)."""
+    import polars as pl
+
+    rng = np.random.default_rng(seed)
+    t = np.arange(rows) * 0.01
+    h = np.cumsum(rng.normal(0.0, 0.01, rows))
+    x = np.cumsum(np.cos(h) * 0.005)
+    y = np.cumsum(np.sin(h) * 0.005)
+    wrap = np.angle(np.exp(1j * h))
+    gt, est = folder / f"gt{rows}.parquet", folder / f"est{rows}.parquet"
+    pl.DataFrame({"t": t, "x": x, "y": y, "theta": wrap, "heading": h}).write_parquet(gt)
+    noise = rng.normal(0.0, 0.01, (2, rows))
+    pl.DataFrame(
+        {"t": t + 0.003, "x": x + noise[0], "y": y + noise[1], "theta": wrap, "heading": h}
+    ).write_parquet(est)
+    return gt, est
+
+
+def evaluation(folder: Path, rows: int, chunk: int) -> None:
+    print(f"\n4. odolab evaluate GT EST, {rows:,} poses each (Parquet; fresh processes)")
+    tiny = make_trajectories(folder, 3)
+    floor = run(RUN, "evaluate", *map(str, tiny), "--chunk-rows", "0")["rss"]
+    gt, est = make_trajectories(folder, rows)
+    whole = run(RUN, "evaluate", str(gt), str(est), "--chunk-rows", "0", "--json",
+                str(folder / "w.json"))  # fmt: skip
+    out = [("whole (--chunk-rows 0)", whole)]
+    for size in (1_000_000, chunk):
+        r = run(RUN, "evaluate", str(gt), str(est), "--chunk-rows", str(size), "--json",
+                str(folder / f"c{size}.json"))  # fmt: skip
+        out.append((f"chunks of {size:,}", r))
+    w = json.loads((folder / "w.json").read_text())
+    for name, r in out:
+        print(
+            f"   {name:24s} {r['wall']:6.2f} s ({r['wall'] / whole['wall']:.2f} x whole), "
+            f"peak +{(r['rss'] - floor) / 1e6:6.0f} MB"
+        )
+    for size in (1_000_000, chunk):
+        c = json.loads((folder / f"c{size}.json").read_text())
+        diff = max(abs(c["ape"][k] - w["ape"][k]) for k in w["ape"])
+        print(f"   chunks of {size:,}: APE statistics differ from whole by {diff:.1e} m at most")
+    small = make_trajectories(folder, 10 * chunk, seed=4)
+    r = run(RUN, "evaluate", *map(str, small), "--chunk-rows", str(chunk))
+    print(
+        f"   chunked, files 10x the chunk ({10 * chunk:,} poses): peak "
+        f"+{(r['rss'] - floor) / 1e6:.0f} MB; {rows // chunk}x the chunk: "
+        f"+{(out[2][1]['rss'] - floor) / 1e6:.0f} MB (the whole run's: "
+        f"+{(whole['rss'] - floor) / 1e6:.0f} MB)"
+    )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--rows", type=int, default=10_000_000)
     ap.add_argument("--chunk", type=int, default=100_000)
     ap.add_argument("--dir", type=Path, default=None)
+    ap.add_argument("--eval-rows", type=int, default=10_000_000)
+    ap.add_argument("--repeat", type=int, default=3, help="rounds of section 2")
     ap.add_argument("--skip-libraries", action="store_true")
+    ap.add_argument("--skip-odometry", action="store_true")
+    ap.add_argument("--skip-evaluate", action="store_true")
     a = ap.parse_args()
     with tempfile.TemporaryDirectory(dir=a.dir) as tmp:
         d = Path(tmp)
@@ -167,64 +229,88 @@ def main() -> None:
               f"Parquet {parquet.stat().st_size / 1e6:.0f} MB")  # fmt: skip
         if not a.skip_libraries:
             libraries(d, n)
+        if not a.skip_odometry:
+            odometry(d, a, csv, parquet, tiny)
+        if not a.skip_evaluate:
+            evaluation(d, a.eval_rows, a.chunk)
 
-        print("\n2. odolab odometry, end to end (fresh processes; wall s)")
-        base_csv = run(POLARS, str(csv), str(d / "polars.csv"))
-        whole_csv = run(RUN, "odometry", str(csv), "-o", str(d / "o.csv"), "--chunk-rows", "0")
-        chunk_csv = run(RUN, "odometry", str(csv), "-o", str(d / "c.csv"))
-        base_pq = run(PYARROW, str(parquet), str(d / "pyarrow.parquet"))
-        whole_pq = run(RUN, "odometry", str(parquet), "-o", str(d / "o.parquet"),
-                       "--chunk-rows", "0")  # fmt: skip
-        chunk_pq = run(RUN, "odometry", str(parquet), "-o", str(d / "c.parquet"),
-                       "--chunk-rows", "1000000")  # fmt: skip
+
+def odometry(d: Path, a: argparse.Namespace, csv: Path, parquet: Path, tiny: Path) -> None:
+    """Sections 2 and 3: `odolab odometry` end to end, and its peak memory."""
+    n = a.rows
+
+    print(
+        f"\n2. odolab odometry, end to end (fresh processes; wall s; {a.repeat} rounds, each "
+        "runs every command once; medians, ratios within a round)"
+    )
+    jobs = {
+        "base_csv": (POLARS, str(csv), str(d / "polars.csv")),
+        "whole_csv": (RUN, "odometry", str(csv), "-o", str(d / "o.csv"), "--chunk-rows", "0"),
+        "chunk_csv": (RUN, "odometry", str(csv), "-o", str(d / "c.csv")),
+        "base_pq": (PYARROW, str(parquet), str(d / "pyarrow.parquet")),
+        "whole_pq": (RUN, "odometry", str(parquet), "-o", str(d / "o.parquet"),
+                     "--chunk-rows", "0"),
+        "chunk_pq": (RUN, "odometry", str(parquet), "-o", str(d / "c.parquet"),
+                     "--chunk-rows", "1000000"),
+    }  # fmt: skip
+    rounds = [{name: run(*job) for name, job in jobs.items()} for _ in range(a.repeat)]
+
+    def med(name: str, key: str = "wall") -> float:
+        return float(np.median([r[name][key] for r in rounds]))
+
+    def ratio(name: str, base: str) -> str:
+        each = [r[name]["wall"] / r[base]["wall"] for r in rounds]
+        return f"{np.median(each):.2f} ({', '.join(f'{x:.2f}' for x in each)})"
+
+    print(
+        f"   CSV -> CSV      polars read+write {med('base_csv'):6.2f}   odolab whole "
+        f"{med('whole_csv'):6.2f} (ratio {ratio('whole_csv', 'base_csv')}, acceptance <= 1.5)"
+        f"   odolab default (chunks of 1 M) {med('chunk_csv'):6.2f} "
+        f"(ratio {ratio('chunk_csv', 'base_csv')})"
+    )
+    print(
+        f"   Parquet -> Parq pyarrow read+write {med('base_pq'):5.2f}   odolab whole "
+        f"{med('whole_pq'):6.2f} (ratio {ratio('whole_pq', 'base_pq')}, acceptance <= 1.2)"
+        f"   odolab chunks of 1 M {med('chunk_pq'):6.2f} (ratio {ratio('chunk_pq', 'base_pq')})"
+    )
+    whole_csv = {"wall": med("whole_csv"), "rss": med("whole_csv", "rss")}
+    whole_pq = {"wall": med("whole_pq"), "rss": med("whole_pq", "rss")}
+    from odolab.params import PRESETS, NoiseParams, save_params
+
+    noisy = save_params(
+        d / "noisy.toml", PRESETS["jaguar-lite"].with_(noise=NoiseParams(1e-4, 2e-4))
+    )
+    cov = ("-p", str(noisy), "--covariance", "--chunk-rows", "0")
+    cov_csv = run(RUN, "odometry", str(csv), "-o", str(d / "v.csv"), *cov)
+    cov_pq = run(RUN, "odometry", str(parquet), "-o", str(d / "v.parquet"), *cov)
+    for name, r, plain in (("CSV", cov_csv, whole_csv), ("Parquet", cov_pq, whole_pq)):
         print(
-            f"   CSV -> CSV      polars read+write {base_csv['wall']:6.2f}   odolab whole "
-            f"{whole_csv['wall']:6.2f} (ratio {whole_csv['wall'] / base_csv['wall']:.2f}, "
-            f"acceptance <= 1.5)   odolab default (chunks of 1 M) {chunk_csv['wall']:6.2f} "
-            f"(ratio {chunk_csv['wall'] / base_csv['wall']:.2f})"
+            f"   --covariance, {name:7s} whole {r['wall']:6.2f} s = {r['wall'] / plain['wall']:.2f}"
+            " x without (11 columns instead of 5)"
         )
+
+    print("\n3. peak memory (max RSS minus the same command on a 3-row log)")
+    floor = run(RUN, "odometry", str(tiny), "-o", str(d / "t.csv"))["rss"]
+    out_bytes = 5 * 8 * n
+    for name, r in (("CSV whole", whole_csv), ("Parquet whole", whole_pq)):
+        extra = r["rss"] - floor  # (the median of the rounds)
         print(
-            f"   Parquet -> Parq pyarrow read+write {base_pq['wall']:5.2f}   odolab whole "
-            f"{whole_pq['wall']:6.2f} (ratio {whole_pq['wall'] / base_pq['wall']:.2f}, "
-            f"acceptance <= 1.2)   odolab chunks of 1 M {chunk_pq['wall']:6.2f} "
-            f"(ratio {chunk_pq['wall'] / base_pq['wall']:.2f})"
+            f"   {name:14s} +{extra / 1e6:7.0f} MB = {extra / out_bytes:.2f} x the output "
+            f"arrays ({out_bytes / 1e6:.0f} MB; acceptance <= 2)"
         )
-        from odolab.params import PRESETS, NoiseParams, save_params
-
-        noisy = save_params(
-            d / "noisy.toml", PRESETS["jaguar-lite"].with_(noise=NoiseParams(1e-4, 2e-4))
+    small = d / "log_small.csv"
+    make_log(small, 10 * a.chunk, seed=3)
+    for name, log, rows in (("10x", small, 10 * a.chunk), ("100x", csv, n)):
+        if rows != 100 * a.chunk and name == "100x":
+            name = f"{rows // a.chunk}x"
+        r = run(RUN, "odometry", str(log), "-o", str(d / "k.csv"),
+                "--chunk-rows", str(a.chunk))  # fmt: skip
+        extra = r["rss"] - floor
+        print(
+            f"   chunked, log {name:>5s} the chunk ({rows:>11,} rows, chunk {a.chunk:,}): "
+            f"+{extra / 1e6:5.0f} MB (the whole log's output arrays: "
+            f"{5 * 8 * rows / 1e6:5.0f} MB) in {r['wall']:.2f} s"
         )
-        cov = ("-p", str(noisy), "--covariance", "--chunk-rows", "0")
-        cov_csv = run(RUN, "odometry", str(csv), "-o", str(d / "v.csv"), *cov)
-        cov_pq = run(RUN, "odometry", str(parquet), "-o", str(d / "v.parquet"), *cov)
-        for name, r, plain in (("CSV", cov_csv, whole_csv), ("Parquet", cov_pq, whole_pq)):
-            print(
-                f"   --covariance, {name:7s} whole {r['wall']:6.2f} s = {r['wall'] / plain['wall']:.2f}"
-                " x without (11 columns instead of 5)"
-            )
-
-        print("\n3. peak memory (max RSS minus the same command on a 3-row log)")
-        floor = run(RUN, "odometry", str(tiny), "-o", str(d / "t.csv"))["rss"]
-        out_bytes = 5 * 8 * n
-        for name, r in (("CSV whole", whole_csv), ("Parquet whole", whole_pq)):
-            extra = r["rss"] - floor
-            print(
-                f"   {name:14s} +{extra / 1e6:7.0f} MB = {extra / out_bytes:.2f} x the output "
-                f"arrays ({out_bytes / 1e6:.0f} MB; acceptance <= 2)"
-            )
-        small = d / "log_small.csv"
-        make_log(small, 10 * a.chunk, seed=3)
-        for name, log, rows in (("10x", small, 10 * a.chunk), ("100x", csv, n)):
-            if rows != 100 * a.chunk and name == "100x":
-                name = f"{rows // a.chunk}x"
-            r = run(RUN, "odometry", str(log), "-o", str(d / "k.csv"),
-                    "--chunk-rows", str(a.chunk))  # fmt: skip
-            extra = r["rss"] - floor
-            print(
-                f"   chunked, log {name:>5s} the chunk ({rows:>11,} rows, chunk {a.chunk:,}): "
-                f"+{extra / 1e6:5.0f} MB (the whole log's output arrays: "
-                f"{5 * 8 * rows / 1e6:5.0f} MB) in {r['wall']:.2f} s"
-            )
 
 
 if __name__ == "__main__":

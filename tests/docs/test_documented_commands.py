@@ -40,6 +40,7 @@ DOCS = [
     "docs/ros2.md",
     "docs/serve.md",
     "docs/ground-truth.md",
+    "docs/scale.md",
 ]
 
 #: (document, start of the command line) -> why it is not run here
@@ -97,6 +98,16 @@ SKIP: dict[tuple[str, str], str] = {
     ),
     ("docs/ground-truth.md", "odolab calibrate sensor drive.bag drive.bag"): (
         "your bag; tests/groundtruth/test_sensor_calibration.py runs it on a generated ROS 2 bag"
+    ),
+    ("docs/scale.md", "odolab evaluate logs/ --format csv -p jaguar-lite --scheduler"): (
+        "needs the dask scheduler and workers of the lines before it; "
+        "tests/scale/test_fleet.py starts them with the dask CLI"
+    ),
+    ("docs/scale.md", 'odolab odometry "logs/**/*.csv" -p jaguar-lite -o trajectories/'): (
+        "needs the dask cluster above; tests/scale/test_cli_fleet.py runs odometry over many logs"
+    ),
+    ("docs/scale.md", "odolab calibrate lsq runs/ -f optiodom -o calibrated.toml --scheduler"): (
+        "needs the dask cluster above and your runs; tests/calibration run calibrate lsq"
     ),
 }
 
@@ -246,7 +257,25 @@ def _validation(folder: Path) -> None:
     _odolab(folder, "demo", "--out", "odolab-out")
 
 
+def _scale(folder: Path) -> None:
+    """Encoder logs (CSV, Parquet), a ground truth (Parquet) and an estimate (CSV) over the
+    same 30 s."""
+    from odolab.io import write_encoder_csv, write_trajectory_csv
+    from odolab.io.encoder_csv import read_encoder_csv
+    from odolab.trajectory import Trajectory
+
+    _encoder_log(folder / "log.csv")
+    write_encoder_csv(folder / "log.parquet", read_encoder_csv(folder / "log.csv"))
+    t = np.arange(600) * 0.05
+    h = 0.02 * t
+    gt = Trajectory.from_xyh(t, 0.2 * t, 0.01 * t * t, h)
+    write_trajectory_csv(folder / "gt.parquet", gt)
+    est = Trajectory.from_xyh(t, 0.19 * t, 0.012 * t * t, 1.05 * h)
+    write_trajectory_csv(folder / "traj.csv", est)
+
+
 FIXTURES: dict[str, Callable[[Path], None]] = {
+    "docs/scale.md": _scale,
     "README.md": _readme,
     "docs/analysis.md": _analysis,
     "docs/notebook.md": _notebook,

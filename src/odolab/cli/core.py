@@ -20,6 +20,23 @@ AUTO_CHUNK_ROWS = 3_000_000  #: the same for Parquet and IPC logs, by their row 
 DEFAULT_CHUNK_ROWS = 1_000_000
 
 
+def auto_chunk_rows(*paths: Path) -> int:
+    """Rows per chunk when the user gave none: :data:`DEFAULT_CHUNK_ROWS` when a file is big
+    (CSV over :data:`AUTO_CHUNK_BYTES`, Parquet/IPC over :data:`AUTO_CHUNK_ROWS` rows), else 0
+    (read whole)."""
+    from odolab.io.tabular import row_count
+
+    for path in paths:
+        if not path.is_file():
+            continue
+        rows = row_count(path)
+        if (rows or 0) > AUTO_CHUNK_ROWS or (
+            rows is None and path.stat().st_size > AUTO_CHUNK_BYTES
+        ):
+            return DEFAULT_CHUNK_ROWS
+    return 0
+
+
 class MethodChoice(StrEnum):
     midpoint = "midpoint"
     arc = "arc"
@@ -130,13 +147,7 @@ def odometry_cmd(
         return
     log = logs[0]
     if chunk_rows is None:
-        from odolab.io.tabular import row_count
-
-        rows = row_count(log) if log.is_file() else None
-        big = (rows or 0) > AUTO_CHUNK_ROWS or (
-            rows is None and log.is_file() and log.stat().st_size > AUTO_CHUNK_BYTES
-        )
-        chunk_rows = DEFAULT_CHUNK_ROWS if big else 0
+        chunk_rows = auto_chunk_rows(log)
     if chunk_rows > 0 and fmt is FormatChoice.csv:
         from odolab.cli._progress import progress_bar
         from odolab.io.chunked import integrate_file

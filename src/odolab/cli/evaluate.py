@@ -156,6 +156,14 @@ def evaluate_cmd(
         bool, typer.Option("--nees", help="Runs: NEES of the propagated covariance (\\[noise]).")
     ] = False,
     nees_segment: Annotated[float, typer.Option(help="Piece length (s) of the NEES.")] = 10.0,
+    chunk_rows: Annotated[
+        int | None,
+        typer.Option(
+            help="GT EST: rows per chunk, memory bounded by it (0: both files in memory at "
+            "once; default: chunks of 1,000,000 rows when a file is over 64 MiB of CSV or "
+            "3 M rows)."
+        ),
+    ] = None,
 ) -> None:
     """APE, RPE (evo's definitions) and drift per distance: of EST against GT, or of runs.
 
@@ -216,15 +224,34 @@ def evaluate_cmd(
                 f"evaluate takes GT EST (two trajectory files), got {len(paths)} paths; "
                 "use --format for runs"
             )
-        ev = evaluate(
-            read_trajectory(paths[0]),
-            read_trajectory(paths[1]),
-            options,
-            names=(str(paths[0]), str(paths[1])),
-        )
+        if chunk_rows is not None and chunk_rows < 0:
+            raise OdolabError(
+                f"--chunk-rows is {chunk_rows}; expected a number of rows >= 1 (or 0)"
+            )
+        from odolab.cli.core import auto_chunk_rows
+
+        rows = auto_chunk_rows(*paths) if chunk_rows is None else chunk_rows
+        names = (str(paths[0]), str(paths[1]))
+        if rows > 0:
+            from odolab.cli._progress import progress_bar
+            from odolab.metrics.chunked import evaluate_files
+
+            with progress_bar("evaluate", unit="rows") as report:
+                ev = evaluate_files(
+                    paths[0], paths[1], options, chunk_rows=rows, names=names, progress=report
+                )
+        else:
+            ev = evaluate(
+                read_trajectory(paths[0]), read_trajectory(paths[1]), options, names=names
+            )
         _write_json(ev.to_dict(), json_out)
         _print_table([(paths[1].name, ev)])
         return
+    if chunk_rows is not None:
+        raise OdolabError(
+            "--chunk-rows reads two trajectory files (GT EST) in chunks; runs (--format) are "
+            "read whole, one per task"
+        )
     from odolab.cli._fleet import expand_runs, print_fleet, report_failures
     from odolab.metrics.cluster import Cluster, MapReport
     from odolab.metrics.runs import evaluate_runs

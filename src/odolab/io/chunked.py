@@ -27,7 +27,14 @@ from numpy.typing import NDArray
 from odolab.errors import EncoderJumpError, LogFormatError
 from odolab.io._table import data_line_numbers
 from odolab.io.encoder_csv import INCREMENTS, RAW, _ticks
-from odolab.io.tabular import ChunkWriter, iter_columns, read_header, row_count, table_format
+from odolab.io.tabular import (
+    BINARY_SUFFIXES,
+    ChunkWriter,
+    iter_columns,
+    read_header,
+    row_count,
+    table_format,
+)
 from odolab.kinematics import Method
 from odolab.params import RobotParams
 from odolab.trajectory import Pose, Trajectory, check_times
@@ -41,6 +48,7 @@ __all__ = [
     "OdometryJob",
     "integrate_file",
     "iter_encoder_chunks",
+    "iter_trajectory_chunks",
     "run_odometry_job",
 ]
 
@@ -90,10 +98,12 @@ def iter_encoder_chunks(
     Increments are summed into counters that carry across chunks.
     """
     p = Path(path)
-    if table_format(p) == "csv" and p.is_file():
-        from odolab.io.limits import check_text_file
+    text = table_format(p) == "csv" and p.is_file()
+    if text:  # once, with this reader's words (iter_columns is told it is done)
+        from odolab.io.limits import check_columns_unique, check_text_file, first_line_cells
 
         check_text_file(p, expected="an encoder log CSV")
+        check_columns_unique(p, first_line_cells(p))
     header = read_header(p)
     increments = "dticks_left" in header and "left_ticks" not in header
     cols = INCREMENTS if increments else RAW
@@ -101,7 +111,7 @@ def iter_encoder_chunks(
     last_t: float | None = None
     carry = np.zeros(2, dtype=np.int64)
     any_rows = False
-    for row0, data in iter_columns(p, cols, chunk_rows=chunk_rows):
+    for row0, data in iter_columns(p, cols, chunk_rows=chunk_rows, checked=text):
         t = data["t"]
         if t.size == 0:
             continue
@@ -110,18 +120,7 @@ def iter_encoder_chunks(
         def line_of(i: int, row0: int = row0) -> int:
             return lines(row0 + i)
 
-        def line_before(i: int, row0: int = row0) -> int:
-            return lines(row0 + i - 1)
-
-        if last_t is None:
-            check_times(t, str(p), line_of=line_of, what=lines.where)
-        else:
-            check_times(
-                np.concatenate(([last_t], t)),
-                str(p),
-                line_of=line_before,
-                what=lines.where,
-            )
+        _check_times_from(t, last_t, str(p), row0, lines)
         last_t = float(t[-1])
 
         left = _ticks(p, data[cols[1]], cols[1], line_of, lines.where)
@@ -144,6 +143,72 @@ def iter_encoder_chunks(
         yield EncoderChunk(row0, t, left, right)
     if not any_rows:
         raise LogFormatError(f"{p}: no samples after the header")
+
+
+def _check_times_from(t: F64, last_t: float | None, source: str, row0: int, lines: _Lines) -> None:
+    """Times of one chunk finite and non-decreasing, also after the previous chunk's last."""
+
+    def line_of(i: int) -> int:
+        return lines(row0 + i)
+
+    def line_before(i: int) -> int:
+        return lines(row0 + i - 1)
+
+    if last_t is None:
+        check_times(t, source, line_of=line_of, what=lines.where)
+    else:
+        check_times(np.concatenate(([last_t], t)), source, line_of=line_before, what=lines.where)
+
+
+def iter_trajectory_chunks(
+    path: str | Path, *, chunk_rows: int = DEFAULT_CHUNK_ROWS
+) -> Iterator[Trajectory]:
+    """A trajectory file chunk by chunk: the same poses as :func:`odolab.io.read_trajectory`.
+
+    CSV, Parquet and Arrow IPC (``t,x,y,theta[,heading]`` or ``t,x,y,heading``) are read
+    ``chunk_rows`` rows at a time; a heading derived from ``theta`` is unwrapped across the
+    chunks (continuing from the previous chunk's last heading). TUM text has no chunked reader:
+    it comes as one chunk. The same checks and messages as the whole-file reader.
+    """
+    from odolab.io.limits import check_columns_unique, check_text_file, first_line_cells
+    from odolab.io.trajectory_csv import read_tum, trajectory_columns
+    from odolab.kinematics import wrap_angle
+
+    p = Path(path)
+    if not p.is_file():
+        raise LogFormatError(f"{p}: no such trajectory file")
+    if p.suffix.lower() not in (".csv", *BINARY_SUFFIXES):
+        yield read_tum(p)
+        return
+    text = table_format(p) == "csv"
+    if text:
+        check_text_file(p, expected="a trajectory CSV")
+        header = first_line_cells(p)
+        if not header:
+            raise LogFormatError(f"{p}: empty file; expected header t,x,y,theta,heading")
+        check_columns_unique(p, header)
+    else:
+        header = read_header(p)
+    cols = trajectory_columns(header)
+    lines = _Lines(p)
+    last: tuple[float, float, float] | None = None  # t, theta read, heading of the last row
+    for row0, d in iter_columns(p, cols, chunk_rows=chunk_rows, checked=text):
+        t = d["t"]
+        if t.size == 0:
+            continue
+        _check_times_from(t, None if last is None else last[0], str(p), row0, lines)
+        if "heading" in d:
+            traj = Trajectory.from_xyh(t, d["x"], d["y"], d["heading"])
+            last = (float(t[-1]), 0.0, float(traj.heading[-1]))
+        else:
+            th = d["theta"]
+            if last is None:
+                heading = np.unwrap(th)
+            else:  # unwrapped after the last row, then moved onto its heading
+                heading = np.unwrap(np.concatenate(([last[1]], th)))[1:] + (last[2] - last[1])
+            traj = Trajectory(t, d["x"], d["y"], wrap_angle(th), heading)
+            last = (float(t[-1]), float(th[-1]), float(heading[-1]))
+        yield traj
 
 
 _SAMPLES = re.compile(r"between samples (\d+) and (\d+)")

@@ -39,13 +39,17 @@ def _ticks(
     """The column as integer counts; a fractional value is refused naming its line."""
     if values.dtype.kind == "i":  # read as integers: nothing to check
         return values.astype(np.int64, copy=False)
-    off = np.abs(values - np.rint(values)) > 1e-6
+    if values.dtype.kind != "f":
+        return as_tick_array(values, name)  # (refuses it)
+    rounded = np.rint(values)
+    off = ~(np.abs(values - rounded) <= 1e-6)  # (NaN and infinities too)
     if off.any():
         i = int(np.argmax(off))
         raise LogFormatError(
             f"{p}: {where} {line_of(i)}, column {name!r} is {values[i]}, expected an integer count"
         )
-    return as_tick_array(values, name)
+    ints: NDArray[np.int64] = rounded.astype(np.int64)
+    return ints
 
 
 def read_encoder_csv(path: str | Path, *, modulus: int | None = None) -> EncoderLog:

@@ -70,7 +70,8 @@ def write_trajectory_csv(path: str | Path | Trajectory, traj: Trajectory | str |
     return write_columns(p, columns, what)
 
 
-def _trajectory_columns(header: list[str]) -> tuple[str, ...]:
+def trajectory_columns(header: list[str]) -> tuple[str, ...]:
+    """The trajectory columns a file with this header is read by."""
     if "heading" in header and "theta" not in header:  # t,x,y,heading (odolab track writes it)
         return ("t", "x", "y", "heading")
     return COLUMNS if "heading" in header else COLUMNS[:4]
@@ -84,7 +85,7 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
         raise LogFormatError(f"{p}: is not a file (a folder?); expected a trajectory CSV")
     if table_format(p) != "csv":
         header = read_header(p)
-        d = read_columns(p, _trajectory_columns(header))
+        d = read_columns(p, trajectory_columns(header))
         check_times(d["t"], str(p), row_offset=1, what="row")
         if "heading" in d:
             return Trajectory.from_xyh(d["t"], d["x"], d["y"], d["heading"])
@@ -97,7 +98,7 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
     if not header:
         raise LogFormatError(f"{p}: empty file; expected header {','.join(COLUMNS)}")
     check_columns_unique(p, header)
-    d = read_columns(p, _trajectory_columns(header), checked=True)
+    d = read_columns(p, trajectory_columns(header), checked=True)
     check_times(d["t"], str(p), line_of=lambda i: int(data_line_numbers(p)[i]))
     if "heading" in d:
         return Trajectory.from_xyh(d["t"], d["x"], d["y"], d["heading"])

@@ -18,6 +18,7 @@ from odolab.metrics.association import (
     interpolate_trajectory,
     matching_time_indices,
 )
+from odolab.metrics.chunked import ErrorStats, evaluate_files, exact_median_from_file
 from odolab.metrics.evaluate import (
     Drift,
     Evaluation,
@@ -49,6 +50,7 @@ __all__ = [
     "Alignment",
     "DeltaUnit",
     "Drift",
+    "ErrorStats",
     "Evaluation",
     "EvaluationOptions",
     "Progress",
@@ -62,8 +64,10 @@ __all__ = [
     "associate",
     "drift_per_distance",
     "evaluate",
+    "evaluate_files",
     "evaluate_run",
     "evaluate_run_files",
+    "exact_median_from_file",
     "interpolate_trajectory",
     "matching_time_indices",
     "pair_indices",

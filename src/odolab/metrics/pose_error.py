@@ -113,16 +113,22 @@ def path_distances(traj: Trajectory) -> FloatArray:
 
 
 @njit(cache=True)
-def _consecutive_by_path(
-    x: FloatArray, y: FloatArray, delta: float
-) -> IntArray:  # pragma: no cover
+def consecutive_by_path_from(
+    x: FloatArray, y: FloatArray, delta: float, current: float, first: bool
+) -> tuple[IntArray, float]:  # pragma: no cover
+    """Indexes where the path length since the previous chosen index reaches ``delta``.
+
+    ``current``: path length since the previous chosen index before ``x[0]``; ``first``: index
+    0 is the path's start (chosen). Chunk by chunk, pass the previous chunk's last position
+    as ``x[0], y[0]`` with ``first=False`` and the ``current`` it returned: the same indexes
+    as one call over the whole path. Returns the indexes and the new ``current``.
+    """
     n = x.shape[0]
     ids = np.empty(n, dtype=np.int64)
     k = 0
-    if n > 0:
+    if first and n > 0:
         ids[0] = 0
         k = 1
-    current = 0.0
     for i in range(1, n):
         dx = x[i] - x[i - 1]
         dy = y[i] - y[i - 1]
@@ -131,11 +137,15 @@ def _consecutive_by_path(
             ids[k] = i
             k += 1
             current = 0.0
-    return ids[:k]
+    return ids[:k], current
+
+
+def _consecutive_by_path(x: FloatArray, y: FloatArray, delta: float) -> IntArray:
+    return consecutive_by_path_from(x, y, delta, 0.0, True)[0]
 
 
 @njit(cache=True)
-def _all_pairs_by_path(dist: FloatArray, delta: float, tol: float) -> IntArray:  # pragma: no cover
+def all_pairs_by_path(dist: FloatArray, delta: float, tol: float) -> IntArray:  # pragma: no cover
     n = dist.shape[0]
     out = np.empty((max(n - 1, 0), 2), dtype=np.int64)
     k = 0
@@ -203,7 +213,7 @@ def pair_indices(
             ids = np.arange(0, n, d, dtype=np.int64)
             i, j = ids[:-1], ids[1:]
     elif all_pairs:
-        pairs = _all_pairs_by_path(path_distances(traj), float(delta), float(delta) * rel_tol)
+        pairs = all_pairs_by_path(path_distances(traj), float(delta), float(delta) * rel_tol)
         i, j = pairs[:, 0].copy(), pairs[:, 1].copy()
     else:
         ids = _consecutive_by_path(traj.x, traj.y, float(delta))
