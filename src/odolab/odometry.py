@@ -12,6 +12,7 @@ The batch version is compiled (numba): see :func:`integrate` for its three passe
 from __future__ import annotations
 
 import math
+import threading
 from typing import TYPE_CHECKING
 
 import numba
@@ -29,7 +30,13 @@ from odolab.trajectory import Pose, Trajectory, check_times
 if TYPE_CHECKING:
     from odolab.uncertainty import CovarianceStepper
 
-__all__ = ["Odometry", "integrate", "integrate_increments", "integrate_with_covariance"]
+__all__ = [
+    "Odometry",
+    "integrate",
+    "integrate_increments",
+    "integrate_with_covariance",
+    "warm_up",
+]
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
@@ -437,6 +444,32 @@ def integrate_increments(
     )
     _finish(x, y, lat, heading, theta, x0, y0, largest, parallel)
     return Trajectory(tt, x, y, theta, heading)
+
+
+def warm_up(
+    params: RobotParams, method: Method | str = Method.MIDPOINT, *, covariance: bool = False
+) -> threading.Thread:
+    """Load (or compile) the batch kernels for these parameters on a background thread.
+
+    Numba's first call costs about half a second (its own imports and the cached machine code);
+    a command that reads a log first can start this, read (the readers release the lock Python
+    holds), and integrate when the read is done. Errors are left to the real call, which meets
+    them again."""
+
+    def run() -> None:
+        t = np.array([0.0, 0.05])
+        ticks = np.array([0, 1], dtype=np.int64)
+        try:
+            if covariance:
+                integrate_with_covariance(t, ticks, ticks, params, method)
+            else:
+                integrate(t, ticks, ticks, params, method)
+        except Exception:  # the real call meets it again and reports it
+            pass
+
+    thread = threading.Thread(target=run, name="odolab-warm-up", daemon=True)
+    thread.start()
+    return thread
 
 
 class Odometry:

@@ -252,3 +252,14 @@ def test_max_dticks_must_be_a_positive_count(bad: float) -> None:
         integrate([0.0, 1.0], [0, 100], [0, 100], P, max_dticks=bad)  # type: ignore[arg-type]
     with pytest.raises(OdolabError, match="max_dticks"):
         Odometry(P, max_dticks=bad)  # type: ignore[arg-type]
+
+
+def test_warm_up_loads_the_kernels_on_a_thread_and_leaves_errors_to_the_real_call() -> None:
+    from odolab.odometry import warm_up
+    from odolab.params import PRESETS
+
+    jaguar = PRESETS["jaguar-lite"]
+    warm_up(jaguar, "midpoint").join(timeout=120)
+    th = warm_up(jaguar.with_(noise=None), "arc", covariance=True)  # no [noise]: not raised
+    th.join(timeout=120)
+    assert not th.is_alive()

@@ -168,3 +168,38 @@ def test_cli_odometry_chunked_equals_whole_and_keeps_output_on_error(tmp_path: P
     assert r3.exit_code == 1
     assert "line 4, column 'left_ticks' is 'x'" in str(r3.exception)
     assert (tmp_path / "c.parquet").read_bytes() == before  # nothing already written is lost
+
+
+def test_read_ahead_keeps_the_order_raises_where_the_reader_failed_and_stops_early() -> None:
+    import threading
+
+    from odolab.io.chunked import prefetched
+
+    assert list(prefetched(iter(range(50)), depth=3)) == list(range(50))
+    assert list(prefetched([])) == []
+
+    def failing():  # type: ignore[no-untyped-def]
+        yield 1
+        yield 2
+        raise LogFormatError("log.csv, line 7: not a number")
+
+    got = []
+    with pytest.raises(LogFormatError, match="line 7"):
+        for item in prefetched(failing()):
+            got.append(item)
+    assert got == [1, 2]  # everything read before the error is handed out first
+
+    read = []
+
+    def endless():  # type: ignore[no-untyped-def]
+        i = 0
+        while True:
+            read.append(i)
+            yield i
+            i += 1
+
+    for item in prefetched(endless()):
+        if item == 5:
+            break
+    assert max(read) <= 7  # the reader stops after the item it was reading
+    assert not [t for t in threading.enumerate() if t.name == "odolab-read-ahead"]

@@ -170,6 +170,9 @@ def odometry_cmd(
             f"heading={end.heading:.4f} rad"
         )
         return
+    from odolab.odometry import warm_up
+
+    warm_up(robot, method.value, covariance=covariance)  # the kernels load while the log is read
     enc = read_encoder_csv(log, modulus=robot.encoder_modulus)
     cov = None
     if covariance:
