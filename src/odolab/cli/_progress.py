@@ -10,16 +10,31 @@ __all__ = ["progress_bar"]
 
 
 @contextmanager
-def progress_bar(label: str, *, unit: str = "") -> Iterator[Callable[[int, int, str], None]]:
-    """Yield ``report(done, total, name)``; a total of 0 means unknown. Silent off a terminal."""
+def progress_bar(
+    label: str, *, unit: str = "", of_total: bool = False
+) -> Iterator[Callable[[int, int, str], None]]:
+    """Yield ``report(done, total, name)``; a total of 0 means unknown. Silent off a terminal.
+    ``of_total``: show "done/total" (runs) instead of the count done (rows)."""
     from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        ProgressColumn,
+        TextColumn,
+        TimeElapsedColumn,
+    )
 
+    count: ProgressColumn = (
+        MofNCompleteColumn()
+        if of_total
+        else TextColumn("{task.completed:,} " + unit if unit else "{task.completed:,}")
+    )
     console = Console(stderr=True)
     with Progress(
         TextColumn("{task.description}"),
         BarColumn(),
-        TextColumn("{task.completed:,} " + unit if unit else "{task.completed:,}"),
+        count,
         TimeElapsedColumn(),
         TextColumn("{task.fields[name]}"),
         transient=True,

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
+from contextlib import AbstractContextManager
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -70,24 +70,11 @@ JointsOpt = Annotated[
 GtTopicOpt = Annotated[str, typer.Option(help="Bags: ground truth (PoseStamped/Odometry) topic.")]
 
 
-@contextmanager
-def _progress_bar(label: str) -> Iterator[Callable[[int, int, str], None]]:
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+def _progress_bar(label: str) -> AbstractContextManager[Callable[[int, int, str], None]]:
+    """The progress bar of commands over many runs (done/total)."""
+    from odolab.cli._progress import progress_bar
 
-    with Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        TextColumn("{task.fields[name]}"),
-        transient=True,
-    ) as bar:
-        task = bar.add_task(label, total=None, name="")
-
-        def report(done: int, total: int, name: str) -> None:
-            bar.update(task, completed=done, total=total, name=Path(name).name)
-
-        yield report
+    return progress_bar(label, of_total=True)
 
 
 def _read_options(
