@@ -7,9 +7,17 @@ one line on stderr and exit code 1; no traceback.
 
 from __future__ import annotations
 
+import os
 import sys
 
-from odolab.cli import (  # noqa: F401  (register commands)
+#: polars' allocator (jemalloc) keeps freed memory for seconds by default, so a whole log's read
+#: stayed in memory beside the outputs (peak 2.0-2.4x the output arrays). The command line has it
+#: hand memory back at once (1.6x; docs/scale.md). Set before polars loads; a value the user set
+#: wins.
+POLARS_MALLOC_CONF = "dirty_decay_ms:0,muzzy_decay_ms:0"
+os.environ.setdefault("_RJEM_MALLOC_CONF", POLARS_MALLOC_CONF)
+
+from odolab.cli import (  # noqa: E402, F401  (register commands)
     consistency,
     core,
     demo,
@@ -26,9 +34,9 @@ from odolab.cli import (  # noqa: F401  (register commands)
     trials,
     validate,
 )
-from odolab.cli._apps import app
-from odolab.errors import OdolabError
-from odolab.text import safe_terminal
+from odolab.cli._apps import app  # noqa: E402
+from odolab.errors import OdolabError  # noqa: E402
+from odolab.text import safe_terminal  # noqa: E402
 
 #: Longest error line printed (characters): a message echoing a huge input stays one line.
 _MAX_ERROR_CHARS = 2000
