@@ -138,3 +138,9 @@ def test_the_command_line_has_polars_hand_memory_back_unless_the_user_chose() ->
     mine = {**env, "_RJEM_MALLOC_CONF": "dirty_decay_ms:500"}
     out = subprocess.run([sys.executable, "-c", code], env=mine, capture_output=True, text=True)
     assert out.stdout.strip() == "dirty_decay_ms:500"
+    # what `import polars` in a parent process leaves is polars' default, not the user's choice
+    inherited = {**env, "_RJEM_MALLOC_CONF": "dirty_decay_ms:500,muzzy_decay_ms:1000"}
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=inherited, capture_output=True, text=True
+    )
+    assert out.stdout.strip() == "dirty_decay_ms:0,muzzy_decay_ms:0"

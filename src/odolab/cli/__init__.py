@@ -12,10 +12,12 @@ import sys
 
 #: polars' allocator (jemalloc) keeps freed memory for seconds by default, so a whole log's read
 #: stayed in memory beside the outputs (peak 2.0-2.4x the output arrays). The command line has it
-#: hand memory back at once (1.6x; docs/scale.md). Set before polars loads; a value the user set
-#: wins.
+#: hand memory back at once (1.6x; docs/scale.md). Set before polars loads. A value the user set
+#: wins; the one a parent process's ``import polars`` leaves (its own defaults) does not.
 POLARS_MALLOC_CONF = "dirty_decay_ms:0,muzzy_decay_ms:0"
-os.environ.setdefault("_RJEM_MALLOC_CONF", POLARS_MALLOC_CONF)
+_POLARS_OWN_CONF = "dirty_decay_ms:500,muzzy_decay_ms:1000"
+if os.environ.get("_RJEM_MALLOC_CONF", _POLARS_OWN_CONF) == _POLARS_OWN_CONF:
+    os.environ["_RJEM_MALLOC_CONF"] = POLARS_MALLOC_CONF
 
 from odolab.cli import (  # noqa: E402, F401  (register commands)
     consistency,
