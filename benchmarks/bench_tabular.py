@@ -35,12 +35,17 @@ from pathlib import Path
 
 import numpy as np
 
-RUN = r"""
+PRELUDE = r"""
 import json, sys, time
 def hwm():  # this process's peak RSS (ru_maxrss would carry the parent's across exec)
     for line in open('/proc/self/status'):
         if line.startswith('VmHWM:'):
             return int(line.split()[1]) * 1024
+"""
+
+RUN = (
+    PRELUDE
+    + r"""
 t0 = time.perf_counter()
 from odolab.cli import main
 code = main(sys.argv[1:])
@@ -48,13 +53,11 @@ print(json.dumps({"code": code, "s": time.perf_counter() - t0,
                   "rss": hwm()}),
       file=sys.stderr)
 """
+)
 
-POLARS = r"""
-import json, sys, time
-def hwm():  # this process's peak RSS (ru_maxrss would carry the parent's across exec)
-    for line in open('/proc/self/status'):
-        if line.startswith('VmHWM:'):
-            return int(line.split()[1]) * 1024
+POLARS = (
+    PRELUDE
+    + r"""
 t0 = time.perf_counter()
 import numpy as np, polars as pl
 src, dst = sys.argv[1], sys.argv[2]
@@ -67,13 +70,11 @@ print(json.dumps({"s": time.perf_counter() - t0,
                   "rss": hwm()}),
       file=sys.stderr)
 """
+)
 
-PYARROW = r"""
-import json, sys, time
-def hwm():  # this process's peak RSS (ru_maxrss would carry the parent's across exec)
-    for line in open('/proc/self/status'):
-        if line.startswith('VmHWM:'):
-            return int(line.split()[1]) * 1024
+PYARROW = (
+    PRELUDE
+    + r"""
 t0 = time.perf_counter()
 import pyarrow as pa, pyarrow.parquet as pq
 src, dst = sys.argv[1], sys.argv[2]
@@ -87,6 +88,7 @@ print(json.dumps({"s": time.perf_counter() - t0,
                   "rss": hwm()}),
       file=sys.stderr)
 """
+)
 
 
 def run(script: str, *args: str) -> dict[str, float]:

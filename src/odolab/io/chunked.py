@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 
 from odolab.errors import EncoderJumpError, LogFormatError
 from odolab.io._table import data_line_numbers
-from odolab.io.encoder_csv import INCREMENTS, RAW, _ticks
+from odolab.io.encoder_csv import INCREMENTS, RAW, _ticks, check_counter_range
 from odolab.io.tabular import (
     BINARY_SUFFIXES,
     ChunkWriter,
@@ -138,14 +138,7 @@ def iter_encoder_chunks(
             right = np.cumsum(right) + carry[1]
             carry[:] = (left[-1], right[-1])
         elif modulus is not None:
-            for name, arr in ((cols[1], left), (cols[2], right)):
-                out = (arr < 0) | (arr >= modulus)
-                if out.any():
-                    i = int(np.argmax(out))
-                    raise LogFormatError(
-                        f"{p}: {lines.where} {line_of(i)}, column {name!r} is {arr[i]}, expected "
-                        f"a counter value in 0..{modulus - 1} (encoder_modulus {modulus})"
-                    )
+            check_counter_range(p, cols, left, right, modulus, line_of, lines.where)
         yield EncoderChunk(row0, t, left, right)
     if not any_rows:
         raise LogFormatError(f"{p}: no samples after the header")

@@ -84,15 +84,28 @@ def read_encoder_csv(path: str | Path, *, modulus: int | None = None) -> Encoder
         right -= right[0]
         return EncoderLog(t, left, right, None)
     if modulus is not None:
-        for name, arr in (("left_ticks", left), ("right_ticks", right)):
-            out = (arr < 0) | (arr >= modulus)
-            if out.any():
-                i = int(np.argmax(out))
-                raise LogFormatError(
-                    f"{p}: {where} {line_of(i)}, column {name!r} is {arr[i]}, expected a counter value in "
-                    f"0..{modulus - 1} (encoder_modulus {modulus})"
-                )
+        check_counter_range(p, cols, left, right, modulus, line_of, where)
     return EncoderLog(t, left, right, modulus)
+
+
+def check_counter_range(
+    p: Path,
+    cols: tuple[str, ...],
+    left: NDArray[np.int64],
+    right: NDArray[np.int64],
+    modulus: int,
+    line_of: Callable[[int], int],
+    where: str,
+) -> None:
+    """Raw counters must lie in 0..modulus-1: one sentence naming the line (or row) otherwise."""
+    for name, arr in ((cols[1], left), (cols[2], right)):
+        out = (arr < 0) | (arr >= modulus)
+        if out.any():
+            i = int(np.argmax(out))
+            raise LogFormatError(
+                f"{p}: {where} {line_of(i)}, column {name!r} is {arr[i]}, expected a counter "
+                f"value in 0..{modulus - 1} (encoder_modulus {modulus})"
+            )
 
 
 @overload
