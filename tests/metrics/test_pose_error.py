@@ -130,3 +130,21 @@ def test_identical_trajectories_have_no_error(seed: int) -> None:
         ref, ref, EvaluationOptions(delta=0.3, delta_unit=DeltaUnit.METRES, all_pairs=True)
     )
     assert ev.ape.max == 0.0 and ev.rpe.max < 1e-12 and ev.rpe_rot.max < 1e-12
+
+
+def test_se2_alignment_onto_one_point_is_refused_not_fitted_to_rounding() -> None:
+    # three estimate poses that all match one reference pose (its nearest stamp): the
+    # reference positions coincide, their centred values are rounding (~1e-16), and the angle
+    # fitted to those would be noise
+    from odolab.metrics.alignment import rigid_from_points
+
+    est = np.array([[0.2157, 0.2085], [0.4721, 0.3642], [0.7721, 0.3603]])
+    ref = np.tile([0.21573863836708154, 0.20846304208544403], (3, 1))
+    ref[1] += np.spacing(ref[1])  # one unit of rounding apart: still one point
+    with pytest.raises(InsufficientDataError, match="do not spread out"):
+        rigid_from_points(est, ref)
+    with pytest.raises(InsufficientDataError, match="do not spread out"):
+        rigid_from_points(ref, est)
+    # a spread of a micrometre at a kilometre from the origin is still a spread
+    far = est * 1e-3 + 1000.0
+    assert math.isfinite(rigid_from_points(far, far[::-1].copy()).angle)

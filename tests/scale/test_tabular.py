@@ -144,3 +144,76 @@ def test_the_command_line_has_polars_hand_memory_back_unless_the_user_chose() ->
         [sys.executable, "-c", code], env=inherited, capture_output=True, text=True
     )
     assert out.stdout.strip() == "dirty_decay_ms:0,muzzy_decay_ms:0"
+
+
+@pytest.mark.parametrize(
+    ("name", "value"), [("OMP_WAIT_POLICY", "passive"), ("OPENBLAS_THREAD_TIMEOUT", "4")]
+)
+def test_the_command_line_has_idle_threads_sleep_unless_the_user_chose(
+    name: str, value: str
+) -> None:
+    import os
+    import subprocess
+    import sys
+
+    # the entry point's package import loads no numpy, so the settings precede its BLAS
+    code = (
+        "import os, sys, odolab; before = 'numpy' in sys.modules; import odolab.cli; "
+        f"print(before, os.environ[{name!r}])"
+    )
+    env = {k: v for k, v in os.environ.items() if k != name}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert out.stdout.split() == ["False", value]
+    mine = {**env, name: "17"}
+    out = subprocess.run([sys.executable, "-c", code], env=mine, capture_output=True, text=True)
+    assert out.stdout.split() == ["False", "17"]
+
+
+@pytest.mark.parametrize("block", [1, 16, 40, 1 << 20])
+def test_csv_blocks_cut_anywhere_read_like_the_whole_file(
+    tmp_path: Path, block: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # blocks of text end at a line end wherever the cut falls; blank lines, CRLF line ends and
+    # counts written as "7.0" (in some blocks only) read as the whole-file reader reads them
+    import odolab.io.tabular as tabular
+
+    monkeypatch.setattr(tabular, "_CSV_BLOCK", block)
+    monkeypatch.setattr(tabular, "_CSV_BLOCK_MIN", 1)
+    lines = ["t,left_ticks,right_ticks,note"]
+    for i in range(40):
+        left = f"{i}.0" if 20 <= i < 25 else str(i)
+        lines.append(f"{i * 0.1:.1f},{left},{2 * i},n{i}")
+        if i % 7 == 3:
+            lines.append("")
+    p = tmp_path / "log.csv"
+    p.write_bytes(("\r\n".join(lines) + "\r\n").encode())
+    whole = read_encoder_csv(p)
+    for chunk in (1, 3, 40):
+        parts = list(iter_columns(p, ["t", "left_ticks", "right_ticks"], chunk_rows=chunk,
+                                  integer=["left_ticks", "right_ticks"]))  # fmt: skip
+        t = np.concatenate([d["t"] for _, d in parts])
+        left = np.concatenate([d["left_ticks"] for _, d in parts])
+        assert [r for r, _ in parts] == list(range(0, 40, chunk))
+        assert np.array_equal(t, whole.t) and np.array_equal(left, whole.left_ticks)
+
+
+def test_csv_chunks_refuse_what_the_whole_reader_refuses_naming_the_line(tmp_path: Path) -> None:
+    from odolab.io.chunked import iter_encoder_chunks
+
+    huge = tmp_path / "huge.csv"
+    huge.write_text("t,dticks_left,dticks_right\n0,1,1\n0.1,1e20,2\n")
+    for read in (read_encoder_csv, lambda p: list(iter_encoder_chunks(p, chunk_rows=1))):
+        with pytest.raises(LogFormatError, match=r"line 3, column 'dticks_left' is 1e\+20, "
+                                                 "expected an integer count"):  # fmt: skip
+            read(huge)
+    empty = tmp_path / "empty.csv"
+    empty.write_text("t,left_ticks,right_ticks\n0,1,1\n0.1,,2\n")
+    with pytest.raises(LogFormatError, match=r"line 3, column 'left_ticks'"):
+        list(iter_encoder_chunks(empty, chunk_rows=1))
+    # old Mac line ends: the careful reader reads it, the chunked one says what to do
+    mac = tmp_path / "mac.csv"
+    mac.write_bytes(b"t,left_ticks,right_ticks\r0,1,1\r0.1,2,2\r")
+    assert read_encoder_csv(mac).t.tolist() == [0.0, 0.1]
+    with pytest.raises(LogFormatError, match=r"could not be read in chunks \(lines end in a "
+                                             r"bare carriage return\).*read it whole"):  # fmt: skip
+        list(iter_encoder_chunks(mac, chunk_rows=1))

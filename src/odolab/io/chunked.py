@@ -117,7 +117,7 @@ def iter_encoder_chunks(
     last_t: float | None = None
     carry = np.zeros(2, dtype=np.int64)
     any_rows = False
-    for row0, data in iter_columns(p, cols, chunk_rows=chunk_rows, checked=text):
+    for row0, data in iter_columns(p, cols, chunk_rows=chunk_rows, integer=cols[1:], checked=text):
         t = data["t"]
         if t.size == 0:
             continue
@@ -132,8 +132,9 @@ def iter_encoder_chunks(
         left = _ticks(p, data[cols[1]], cols[1], line_of, lines.where)
         right = _ticks(p, data[cols[2]], cols[2], line_of, lines.where)
         if increments:
-            if row0 == 0:
-                left[0] = right[0] = 0  # the first increment is not motion
+            if row0 == 0:  # the first increment is not motion (the reader's arrays: read-only)
+                left, right = left.copy(), right.copy()
+                left[0] = right[0] = 0
             left = np.cumsum(left) + carry[0]
             right = np.cumsum(right) + carry[1]
             carry[:] = (left[-1], right[-1])

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
-from typing import overload
+from typing import Any, overload
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,20 +29,25 @@ RAW = ("t", "left_ticks", "right_ticks")
 INCREMENTS = ("t", "dticks_left", "dticks_right")
 
 
+#: Largest count a float64 holds exactly (2**53).
+_EXACT = float(2**53)
+
+
 def _ticks(
     p: Path,
-    values: NDArray[np.float64],
+    values: NDArray[Any],
     name: str,
     line_of: Callable[[int], int],
     where: str = "line",
 ) -> NDArray[np.int64]:
-    """The column as integer counts; a fractional value is refused naming its line."""
+    """The column as integer counts; a fractional value, or one past 2**53 (where a float
+    holds no exact count), is refused naming its line."""
     if values.dtype.kind == "i":  # read as integers: nothing to check
         return values.astype(np.int64, copy=False)
     if values.dtype.kind != "f":
         return as_tick_array(values, name)  # (refuses it)
     rounded = np.rint(values)
-    off = ~(np.abs(values - rounded) <= 1e-6)  # (NaN and infinities too)
+    off = ~((np.abs(values - rounded) <= 1e-6) & (np.abs(rounded) <= _EXACT))  # (NaN, inf too)
     if off.any():
         i = int(np.argmax(off))
         raise LogFormatError(
@@ -99,6 +104,8 @@ def check_counter_range(
 ) -> None:
     """Raw counters must lie in 0..modulus-1: one sentence naming the line (or row) otherwise."""
     for name, arr in ((cols[1], left), (cols[2], right)):
+        if arr.size == 0 or (arr.min() >= 0 and arr.max() < modulus):
+            continue  # (two reductions: a third of the time of the element-wise test)
         out = (arr < 0) | (arr >= modulus)
         if out.any():
             i = int(np.argmax(out))

@@ -2,8 +2,9 @@
 
 ``.parquet``/``.pq`` is Parquet, ``.arrow``/``.feather``/``.ipc`` is Arrow IPC (Feather v2),
 anything else is CSV. Whole files go through polars (measured fastest here for CSV read and
-write and Parquet write; see docs/scale.md); chunked reading and writing goes through pyarrow's
-streaming readers and writers, so memory is bounded by the chunk.
+write and Parquet write; see docs/scale.md). In chunks, a CSV is cut into blocks of lines that
+polars parses, Parquet and IPC go through pyarrow's streaming readers and writers, so memory is
+bounded by the chunk.
 
 CSV numbers are written as the shortest text that reads back to the same double (``0.05`` stays
 ``0.05``). The fast CSV reader names no line: when it refuses a file, or the file has an empty
@@ -40,6 +41,7 @@ __all__ = [
 
 TableFormat = Literal["csv", "parquet", "ipc"]
 F64 = NDArray[np.float64]
+Columns = dict[str, NDArray[Any]]  # column name -> array (float64, or int64 where asked)
 
 _PARQUET = (".parquet", ".pq")
 _IPC = (".arrow", ".feather", ".ipc")
@@ -251,8 +253,8 @@ def _arrow_to_f64(p: Path, batch: Any, columns: Sequence[str], row0: int) -> dic
 
 
 def _rechunk(
-    blocks: Iterator[dict[str, F64]], columns: Sequence[str], chunk_rows: int | None
-) -> Iterator[dict[str, F64]]:
+    blocks: Iterator[Columns], columns: Sequence[str], chunk_rows: int | None
+) -> Iterator[Columns]:
     """Blocks of any size as chunks of exactly ``chunk_rows`` rows (the last one shorter).
 
     Each row is copied at most once (a chunk made of pieces of several blocks); a chunk inside
@@ -264,13 +266,13 @@ def _rechunk(
             yield {c: np.concatenate([b[c] for b in parts]) for c in columns}
         return
     first = columns[0]
-    pending: deque[dict[str, F64]] = deque()
+    pending: deque[Columns] = deque()
     offset = 0  # rows of pending[0] already yielded
     have = 0  # rows pending, after the offset
 
-    def take(rows: int) -> dict[str, F64]:
+    def take(rows: int) -> Columns:
         nonlocal offset, have
-        pieces: list[dict[str, F64]] = []
+        pieces: list[Columns] = []
         while rows > 0:
             block = pending[0]
             size = len(block[first]) - offset
@@ -297,32 +299,75 @@ def _rechunk(
         yield take(have)
 
 
-#: Bytes of CSV text the streaming reader parses at a time, on one thread: measured, 4 MiB on two
-#: threads read 10 M rows in 0.80 s instead of 1.06 s but the peak memory of a chunked run then
-#: grew with the log (+157 MB at 1 M rows, +292 MB at 10 M; 1 MiB: +142 MB, +168 MB).
-_CSV_BLOCK = 1 << 20
-
-
-def _csv_blocks(p: Path, header: list[str], columns: Sequence[str]) -> Iterator[Any]:
-    import pyarrow as pa
-    import pyarrow.csv as pcsv
-
-    types = {c: pa.float64() for c in columns}
-    try:
-        reader = pcsv.open_csv(
-            p,
-            read_options=pcsv.ReadOptions(
-                column_names=header, skip_rows=1, block_size=_CSV_BLOCK, use_threads=False
-            ),
-            convert_options=pcsv.ConvertOptions(column_types=types, include_columns=list(columns)),
-        )
-        yield from reader
-    except pa.ArrowInvalid as err:
-        raise _CsvRefused from err
+#: Bytes of CSV text parsed at a time (by polars, on every core). Measured on the 10 M-row log
+#: of benchmarks/bench_tabular.py: 4 MiB blocks read it in 0.80-0.90 s at a peak of +50 MB over
+#: polars' import; 1 MiB: 0.91-1.09 s; 16 MiB: 0.89-0.98 s at +170 MB. (pyarrow's streaming
+#: reader, which parses on one thread, took 1.34-1.52 s.) Smaller chunks read smaller blocks:
+#: :data:`_CSV_BLOCK_BYTES_PER_ROW` a row of the chunk, at least 64 KiB.
+_CSV_BLOCK = 4 << 20
+_CSV_BLOCK_BYTES_PER_ROW = 64
+_CSV_BLOCK_MIN = 64 << 10
 
 
 class _CsvRefused(Exception):
     """The streaming CSV reader refused a block; the careful reader names the line."""
+
+
+def _csv_text_blocks(p: Path, block: int = _CSV_BLOCK) -> Iterator[bytes]:
+    """The data lines of a CSV file (those after its header, the first non-blank line), in
+    pieces of about ``block`` bytes, each ending at a line end."""
+    with p.open("rb") as fh:
+        for line in fh:
+            if line.removeprefix(b"\xef\xbb\xbf").strip():
+                if b"\r" in line.rstrip(b"\r\n"):
+                    raise _CsvRefused("lines end in a bare carriage return")
+                break
+        rest = b""
+        while data := fh.read(block):
+            cut = data.rfind(b"\n") + 1
+            if cut == 0:
+                rest += data
+                continue
+            text = rest + data[:cut] if rest else data[:cut]
+            rest = data[cut:]
+            if text[:1] in (b"\n", b"\r"):  # a parser takes a block's width from its first line
+                text = text.lstrip(b"\r\n")
+            if text:
+                yield text
+        if rest.strip():
+            yield rest.lstrip(b"\r\n")
+
+
+def _parse_block(
+    text: bytes, header: list[str], columns: Sequence[str], integer: Sequence[str]
+) -> Columns:
+    """One block of CSV lines as numpy arrays (int64 for ``integer`` columns where every value
+    there is written as an integer, else float64); blank lines are skipped. Raises
+    :class:`_CsvRefused` for anything else unusual (a missing cell, a word)."""
+    import polars as pl
+
+    idx = [header.index(c) for c in columns]
+    frame = None
+    refusal = ""
+    for ints in (True, False) if integer else (False,):
+        types = {c: pl.Int64 if ints and c in integer else pl.Float64 for c in columns}
+        try:
+            frame = pl.read_csv(
+                text, has_header=False, new_columns=list(header), columns=idx,
+                schema_overrides=types, infer_schema=False, encoding="utf8",
+            )  # fmt: skip
+            break
+        except pl.exceptions.PolarsError as err:
+            refusal = str(err).splitlines()[0] if str(err) else type(err).__name__
+    if frame is None:
+        raise _CsvRefused(refusal)
+    if frame.width != len(columns):
+        raise _CsvRefused("a line of another width")
+    if frame.null_count().sum_horizontal().item():
+        frame = frame.filter(~pl.all_horizontal(pl.all().is_null()))  # blank lines
+        if frame.null_count().sum_horizontal().item():
+            raise _CsvRefused("an empty cell")
+    return {c: s.to_numpy() for c, s in zip(columns, frame.get_columns(), strict=True)}
 
 
 def iter_columns(
@@ -331,13 +376,16 @@ def iter_columns(
     *,
     chunk_rows: int | None,
     allow_nan: bool = False,
+    integer: Sequence[str] = (),
     checked: bool = False,
-) -> Iterator[tuple[int, dict[str, F64]]]:
-    """``(first row index, {column: float64 array})`` per chunk of ``chunk_rows`` rows.
+) -> Iterator[tuple[int, Columns]]:
+    """``(first row index, {column: array})`` per chunk of ``chunk_rows`` rows.
 
-    ``chunk_rows=None`` yields the whole table at once. Memory is bounded by the chunk (plus one
-    block of the underlying reader: a Parquet batch, an IPC batch, 1 MiB of CSV). A CSV's
-    lines are checked first (:mod:`odolab.io.limits`; ``checked``: the caller already did).
+    Arrays are float64; a CSV's columns named in ``integer`` come as int64 in a chunk where every
+    value of theirs is written as an integer. ``chunk_rows=None`` yields the whole table at
+    once. Memory is bounded by the chunk (plus one block of the underlying reader: a Parquet
+    batch, an IPC batch, a block of CSV text: 64 bytes a row of the chunk, 64 KiB to 4 MiB). A CSV's lines are checked first
+    (:mod:`odolab.io.limits`; ``checked``: the caller already did).
     """
     p = Path(path)
     if chunk_rows is not None and (chunk_rows < 1 or int(chunk_rows) != chunk_rows):
@@ -348,8 +396,14 @@ def iter_columns(
         _check_text(p)
     header = read_header(p)
     _missing(p, header, columns)
-    blocks: Iterator[dict[str, F64]]
-    blocks = _csv_chunks(p, header, columns) if fmt == "csv" else _arrow_chunks(p, fmt, columns)
+    blocks: Iterator[Columns]
+    if fmt == "csv":
+        block = _CSV_BLOCK
+        if chunk_rows is not None:
+            block = min(block, max(_CSV_BLOCK_MIN, chunk_rows * _CSV_BLOCK_BYTES_PER_ROW))
+        blocks = _csv_chunks(p, header, columns, integer, allow_nan, block)
+    else:
+        blocks = _arrow_chunks(p, fmt, columns)
     row = 0
     where = "line" if fmt == "csv" else "row"
     for chunk in _rechunk(blocks, columns, chunk_rows):
@@ -359,34 +413,34 @@ def iter_columns(
         row += len(chunk[columns[0]])
 
 
-def _csv_chunks(p: Path, header: list[str], columns: Sequence[str]) -> Iterator[dict[str, F64]]:
+def _csv_chunks(
+    p: Path,
+    header: list[str],
+    columns: Sequence[str],
+    integer: Sequence[str],
+    allow_nan: bool,
+    block: int = _CSV_BLOCK,
+) -> Iterator[Columns]:
     """Streaming CSV blocks; anything unusual goes to the careful reader, which raises."""
     from odolab.io._table import read_numeric_columns
 
     try:
-        for batch in _csv_blocks(p, header, columns):
-            block = _arrow_to_f64_plain(batch, columns)
-            if any(not bool(np.isfinite(a).all()) for a in block.values()):
-                raise _CsvRefused
-            yield block
-    except (_CsvRefused, LogFormatError) as err:
-        read_numeric_columns(p, columns, checked=True)  # raises naming the line
-        raise LogFormatError(  # pragma: no cover - the careful reader found nothing wrong
-            f"{p}: could not be read in chunks ({err}); expected a plain numeric CSV"
+        for text in _csv_text_blocks(p, block):
+            parsed = _parse_block(text, header, columns, integer)
+            if not allow_nan and not all(
+                bool(np.isfinite(a).all()) for a in parsed.values() if a.dtype.kind == "f"
+            ):
+                raise _CsvRefused("a value that is not a finite number")
+            yield parsed
+    except _CsvRefused as err:
+        read_numeric_columns(p, columns, allow_nan=allow_nan, checked=True)  # names the line
+        raise LogFormatError(  # the careful reader found nothing wrong: an unusual layout
+            f"{p}: could not be read in chunks ({err}); expected a plain numeric CSV (or read "
+            "it whole)"
         ) from err
 
 
-def _arrow_to_f64_plain(batch: Any, columns: Sequence[str]) -> dict[str, F64]:
-    out: dict[str, F64] = {}
-    for name in columns:
-        col = batch.column(batch.schema.get_field_index(name))
-        if col.null_count:
-            raise _CsvRefused
-        out[name] = col.to_numpy(zero_copy_only=False).astype(np.float64, copy=False)
-    return out
-
-
-def _arrow_chunks(p: Path, fmt: TableFormat, columns: Sequence[str]) -> Iterator[dict[str, F64]]:
+def _arrow_chunks(p: Path, fmt: TableFormat, columns: Sequence[str]) -> Iterator[Columns]:
     import pyarrow as pa
     import pyarrow.ipc as ipc
     import pyarrow.parquet as pq

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from enum import StrEnum
 from typing import NamedTuple
 
@@ -10,7 +11,15 @@ import numpy as np
 from odolab.errors import InsufficientDataError
 from odolab.trajectory import Trajectory
 
-__all__ = ["Alignment", "Rigid2D", "align", "rigid_from_points", "transform_trajectory"]
+__all__ = [
+    "SPREAD_ROUNDING_UNITS",
+    "Alignment",
+    "Rigid2D",
+    "align",
+    "rigid_from_moments",
+    "rigid_from_points",
+    "transform_trajectory",
+]
 
 
 class Alignment(StrEnum):
@@ -37,26 +46,57 @@ def transform_trajectory(traj: Trajectory, tf: Rigid2D) -> Trajectory:
     return Trajectory.from_xyh(traj.t, x, y, traj.heading + tf.angle)
 
 
+#: A point set whose root summed squared distance from its mean is at most this many
+#: rounding units of its largest coordinate (times sqrt(n)) counts as one point: its mean's
+#: rounding alone makes such a spread, and the angle fitted to it would be noise.
+SPREAD_ROUNDING_UNITS = 64.0
+
+
 def rigid_from_points(est_xy: np.ndarray, ref_xy: np.ndarray) -> Rigid2D:
     """Least-squares rigid transform taking points ``est_xy`` onto ``ref_xy`` (shapes (n, 2)).
 
     Closed form (Umeyama/Kabsch in 2-D, no scale): the angle is ``atan2`` of the cross and dot
     sums of the centred point sets.
     """
-    if est_xy.shape[0] < 2:
+    n = int(est_xy.shape[0])
+    if n < 2:
         raise InsufficientDataError("SE(2) alignment needs at least two associated poses")
     me = est_xy.mean(axis=0)
     mr = ref_xy.mean(axis=0)
     a = est_xy - me
     b = ref_xy - mr
-    dot = float(np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1]))
-    cross = float(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]))
-    if dot == 0.0 and cross == 0.0:
+    moments = np.array([[np.sum(a[:, i] * b[:, j]) for j in (0, 1)] for i in (0, 1)])
+    scale = float(max(np.abs(est_xy).max(), np.abs(ref_xy).max()))
+    return rigid_from_moments(n, me, mr, moments, float(np.sum(a * a)), float(np.sum(b * b)), scale)
+
+
+def rigid_from_moments(
+    n: int,
+    mean_est: np.ndarray,
+    mean_ref: np.ndarray,
+    cross_moments: np.ndarray,
+    sq_est: float,
+    sq_ref: float,
+    scale: float,
+) -> Rigid2D:
+    """:func:`rigid_from_points` from the point sets' moments: their count, means (2,), cross
+    moments ``s[a, b] = sum (est_a - mean_est_a) (ref_b - mean_ref_b)`` (2, 2), summed squared
+    distances from the means, and largest absolute coordinate (``scale``).
+
+    Raises :class:`InsufficientDataError` when either set does not spread out (see
+    :data:`SPREAD_ROUNDING_UNITS`) or the angle is undefined."""
+    if n < 2:
+        raise InsufficientDataError("SE(2) alignment needs at least two associated poses")
+    tiny = SPREAD_ROUNDING_UNITS * float(np.finfo(float).eps) * math.sqrt(n) * scale
+    dot = float(cross_moments[0, 0] + cross_moments[1, 1])
+    cross = float(cross_moments[0, 1] - cross_moments[1, 0])
+    if math.sqrt(sq_est) <= tiny or math.sqrt(sq_ref) <= tiny or (dot == 0.0 and cross == 0.0):
         raise InsufficientDataError(
             "SE(2) alignment is undefined: the associated positions do not spread out"
         )
     ang = float(np.arctan2(cross, dot))
     c, s = np.cos(ang), np.sin(ang)
+    me, mr = mean_est, mean_ref
     tx = float(mr[0] - (c * me[0] - s * me[1]))
     ty = float(mr[1] - (s * me[0] + c * me[1]))
     return Rigid2D(ang, tx, ty)

@@ -38,7 +38,13 @@ from numpy.typing import NDArray
 
 from odolab.errors import InsufficientDataError, LogFormatError
 from odolab.io.chunked import DEFAULT_CHUNK_ROWS, iter_trajectory_chunks
-from odolab.metrics.alignment import Alignment, Rigid2D, align, transform_trajectory
+from odolab.metrics.alignment import (
+    Alignment,
+    Rigid2D,
+    align,
+    rigid_from_moments,
+    transform_trajectory,
+)
 from odolab.metrics.association import SyncMethod, interpolate_trajectory, matching_time_indices
 from odolab.metrics.evaluate import Drift, Evaluation, EvaluationOptions
 from odolab.metrics.pose_error import (
@@ -331,13 +337,17 @@ def _associated(plan: _Plan, names: tuple[str, str]) -> Iterator[Pair]:
 
 
 class _Moments:
-    """Means and cross moments of associated positions, merged chunk by chunk (Chan et al.)."""
+    """Means, cross moments and summed squares of associated positions, merged chunk by chunk
+    (Chan et al.)."""
 
     def __init__(self) -> None:
         self.n = 0
         self.me = np.zeros(2)
         self.mr = np.zeros(2)
         self.s = np.zeros((2, 2))  # s[a, b] = sum (est_a - me_a) (ref_b - mr_b)
+        self.ee = 0.0  # sum |est - me|^2
+        self.rr = 0.0  # sum |ref - mr|^2
+        self.scale = 0.0  # the largest |coordinate| of either
 
     def add(self, ref: Trajectory, est: Trajectory) -> None:
         k = len(ref)
@@ -346,30 +356,21 @@ class _Moments:
         e = np.column_stack((est.x, est.y))
         r = np.column_stack((ref.x, ref.y))
         me_k, mr_k = e.mean(axis=0), r.mean(axis=0)
-        s_k = (e - me_k).T @ (r - mr_k)
+        ce, cr = e - me_k, r - mr_k
         n = self.n + k
         de, dr = me_k - self.me, mr_k - self.mr
-        self.s += s_k + np.outer(de, dr) * (self.n * k / n)
+        w = self.n * k / n
+        self.s += ce.T @ cr + np.outer(de, dr) * w
+        self.ee += float(np.sum(ce * ce)) + float(de @ de) * w
+        self.rr += float(np.sum(cr * cr)) + float(dr @ dr) * w
+        self.scale = max(self.scale, float(np.abs(e).max()), float(np.abs(r).max()))
         self.me += de * (k / n)
         self.mr += dr * (k / n)
         self.n = n
 
     def transform(self) -> Rigid2D:
         """:func:`~odolab.metrics.alignment.rigid_from_points` from the moments."""
-        if self.n < 2:
-            raise InsufficientDataError("SE(2) alignment needs at least two associated poses")
-        dot = float(self.s[0, 0] + self.s[1, 1])
-        cross = float(self.s[0, 1] - self.s[1, 0])
-        if dot == 0.0 and cross == 0.0:
-            raise InsufficientDataError(
-                "SE(2) alignment is undefined: the associated positions do not spread out"
-            )
-        ang = float(np.arctan2(cross, dot))
-        c, s = np.cos(ang), np.sin(ang)
-        me, mr = self.me, self.mr
-        return Rigid2D(
-            ang, float(mr[0] - (c * me[0] - s * me[1])), float(mr[1] - (s * me[0] + c * me[1]))
-        )
+        return rigid_from_moments(self.n, self.me, self.mr, self.s, self.ee, self.rr, self.scale)
 
 
 # -- RPE pairs and drift segments ----------------------------------------------------------------
