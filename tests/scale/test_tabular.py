@@ -125,27 +125,6 @@ def test_an_unwritable_target_is_one_sentence(tmp_path: Path) -> None:
         write_columns(tmp_path / "dir.csv", {"x": np.ones(2)}, "table")
 
 
-def test_the_command_line_has_polars_hand_memory_back_unless_the_user_chose() -> None:
-    # set before polars loads (a subprocess: in this one polars may be loaded already)
-    import os
-    import subprocess
-    import sys
-
-    code = "import os, odolab.cli; print(os.environ['_RJEM_MALLOC_CONF'])"
-    env = {k: v for k, v in os.environ.items() if k != "_RJEM_MALLOC_CONF"}
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
-    assert out.stdout.strip() == "dirty_decay_ms:0,muzzy_decay_ms:0"
-    mine = {**env, "_RJEM_MALLOC_CONF": "dirty_decay_ms:500"}
-    out = subprocess.run([sys.executable, "-c", code], env=mine, capture_output=True, text=True)
-    assert out.stdout.strip() == "dirty_decay_ms:500"
-    # what `import polars` in a parent process leaves is polars' default, not the user's choice
-    inherited = {**env, "_RJEM_MALLOC_CONF": "dirty_decay_ms:500,muzzy_decay_ms:1000"}
-    out = subprocess.run(
-        [sys.executable, "-c", code], env=inherited, capture_output=True, text=True
-    )
-    assert out.stdout.strip() == "dirty_decay_ms:0,muzzy_decay_ms:0"
-
-
 @pytest.mark.parametrize(
     ("name", "value"), [("OMP_WAIT_POLICY", "passive"), ("OPENBLAS_THREAD_TIMEOUT", "4")]
 )

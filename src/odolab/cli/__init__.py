@@ -12,26 +12,13 @@ import sys
 
 #: Settings of the native libraries, for a command that runs seconds, not hours. Each is set
 #: before the library loads; a value the user set wins (docs/scale.md measures each):
-#: - polars' allocator (jemalloc) keeps freed memory for seconds by default, so a whole log's
-#:   read stayed in memory beside the outputs (peak 2.0-2.4x the output arrays); here it hands
-#:   memory back at once (1.6x). The value a parent process's ``import polars`` leaves (polars'
-#:   own default) does not count as the user's.
 #: - numba's OpenMP threads spin after each parallel loop by default, against polars' threads
 #:   on the same cores (chunked odometry of 10 M rows: 0.5 s of CPU); here they sleep.
 #: - numpy's and scipy's OpenBLAS threads spin for about 0.1 s after loading and after each
 #:   call; here they sleep after 2**4 cycles (0.2 s of CPU a command: numba loads scipy's).
-POLARS_MALLOC_CONF = "dirty_decay_ms:0,muzzy_decay_ms:0"
-_POLARS_OWN_CONF = "dirty_decay_ms:500,muzzy_decay_ms:1000"
-NATIVE_SETTINGS = {
-    "_RJEM_MALLOC_CONF": POLARS_MALLOC_CONF,
-    "OMP_WAIT_POLICY": "passive",
-    "OPENBLAS_THREAD_TIMEOUT": "4",
-}
+NATIVE_SETTINGS = {"OMP_WAIT_POLICY": "passive", "OPENBLAS_THREAD_TIMEOUT": "4"}
 for _name, _value in NATIVE_SETTINGS.items():
-    if _name == "_RJEM_MALLOC_CONF" and os.environ.get(_name) == _POLARS_OWN_CONF:
-        os.environ[_name] = _value
-    else:
-        os.environ.setdefault(_name, _value)
+    os.environ.setdefault(_name, _value)
 
 from odolab.cli import (  # noqa: E402, F401  (register commands)
     consistency,

@@ -16,14 +16,10 @@ line numbers of a CSV are counted only when there is an error to report.
 
 from __future__ import annotations
 
-import contextlib
-import queue
 import re
-import threading
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TypeVar, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -35,6 +31,7 @@ from odolab.io.tabular import (
     BINARY_SUFFIXES,
     ChunkWriter,
     iter_columns,
+    prefetched,
     read_header,
     row_count,
     table_format,
@@ -42,8 +39,6 @@ from odolab.io.tabular import (
 from odolab.kinematics import Method
 from odolab.params import RobotParams
 from odolab.trajectory import Pose, Trajectory, check_times
-
-T = TypeVar("T")
 
 __all__ = [
     "DEFAULT_CHUNK_ROWS",
@@ -335,44 +330,6 @@ class OdometryFileResult:
     final: Pose
     chunks: int
     output: Path
-
-
-def prefetched(items: Iterable[T], depth: int = 1) -> Iterator[T]:
-    """``items``, with the next ``depth`` of them read ahead on a background thread.
-
-    For a reader that releases Python's lock while it parses (pyarrow, polars): the next chunk
-    is read while this one is integrated and written. Memory: ``depth`` more items. An error of
-    the reader is raised here, at the item where it happened; leaving the loop early stops the
-    reader after the item it is reading."""
-    slots: queue.Queue[tuple[bool, object]] = queue.Queue(maxsize=depth)
-    stop = threading.Event()
-
-    def read() -> None:
-        try:
-            for item in items:
-                if stop.is_set():
-                    return
-                slots.put((True, item))
-            slots.put((False, None))
-        except BaseException as err:  # handed to the consumer, raised there
-            slots.put((False, err))
-
-    reader = threading.Thread(target=read, name="odolab-read-ahead", daemon=True)
-    reader.start()
-    try:
-        while True:
-            more, item = slots.get()
-            if not more:
-                if isinstance(item, BaseException):
-                    raise item
-                return
-            yield cast(T, item)
-    finally:
-        stop.set()
-        while reader.is_alive():  # unblock a reader waiting for a free slot
-            with contextlib.suppress(queue.Empty):
-                slots.get(timeout=0.05)
-        reader.join()
 
 
 def integrate_file(

@@ -16,11 +16,14 @@ name the row (from 1) and column.
 from __future__ import annotations
 
 import contextlib
+import queue
+import re
+import threading
 from collections import deque
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
-from typing import Any, Literal
+from typing import Any, Literal, TypeVar, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -41,6 +44,7 @@ __all__ = [
 
 TableFormat = Literal["csv", "parquet", "ipc"]
 F64 = NDArray[np.float64]
+T = TypeVar("T")
 Columns = dict[str, NDArray[Any]]  # column name -> array (float64, or int64 where asked)
 
 _PARQUET = (".parquet", ".pq")
@@ -129,37 +133,67 @@ def _check_finite(p: Path, out: Mapping[str, F64], where: str, offset: int = 0) 
             )
 
 
+def prefetched(items: Iterable[T], depth: int = 1) -> Iterator[T]:
+    """``items``, with the next ``depth`` of them read ahead on a background thread.
+
+    For a reader that releases Python's lock while it parses (pyarrow, polars): the next chunk
+    is read while this one is integrated and written. Memory: ``depth`` more items. An error of
+    the reader is raised here, at the item where it happened; leaving the loop early stops the
+    reader after the item it is reading."""
+    slots: queue.Queue[tuple[bool, object]] = queue.Queue(maxsize=depth)
+    stop = threading.Event()
+
+    def read() -> None:
+        try:
+            for item in items:
+                if stop.is_set():
+                    return
+                slots.put((True, item))
+            slots.put((False, None))
+        except BaseException as err:  # handed to the consumer, raised there
+            slots.put((False, err))
+
+    reader = threading.Thread(target=read, name="odolab-read-ahead", daemon=True)
+    reader.start()
+    try:
+        while True:
+            more, item = slots.get()
+            if not more:
+                if isinstance(item, BaseException):
+                    raise item
+                return
+            yield cast(T, item)
+    finally:
+        stop.set()
+        while reader.is_alive():  # unblock a reader waiting for a free slot
+            with contextlib.suppress(queue.Empty):
+                slots.get(timeout=0.05)
+        reader.join()
+
+
 def _fast_csv(
     p: Path, header: list[str], columns: Sequence[str], integer: Sequence[str]
 ) -> dict[str, NDArray[Any]] | None:
-    """polars' reader; None where the careful reader must look (refused, empty cells)."""
-    import polars as pl
-
+    """polars on blocks of lines (:func:`_parse_block`), joined; None where the careful reader
+    must look. Each block's arrays are numpy's own, so polars' memory is reused block after
+    block: the peak is the columns read (twice while they are joined), whatever polars'
+    allocator keeps."""
     if len(set(header)) != len(header):
         return None  # duplicated names: the careful reader's rules apply
-    idx = [header.index(c) for c in columns]
-    raw = pl.read_csv(p, n_rows=0, encoding="utf8-lossy").columns
-    if len(raw) != len(header):
+    parts: list[Columns] = []
+    try:  # the next block is parsed while this one is kept
+        parts.extend(prefetched(_parsed_blocks(p, header, columns, integer, _CSV_BLOCK)))
+    except _CsvRefused:
         return None
-    types = {
-        raw[i]: (pl.Int64 if c in integer else pl.Float64)
-        for i, c in zip(idx, columns, strict=True)
-    }
-    try:
-        frame = pl.read_csv(p, columns=idx, schema_overrides=types, encoding="utf8")
-    except Exception:  # any refusal: the careful reader names the line
-        return None
-    if frame.width != len(columns) or frame.null_count().sum_horizontal().item() > 0:
-        return None  # blank lines or empty cells: the careful reader's rules apply
-    return _numpy(frame, columns)
-
-
-def _numpy(frame: Any, columns: Sequence[str]) -> dict[str, NDArray[Any]]:
-    """Columns of a polars frame as numpy arrays (without a copy where the memory allows)."""
-    out: dict[str, NDArray[Any]] = {}
-    for name, series in zip(columns, frame.get_columns(), strict=True):
-        arr = series.to_numpy()
-        out[name] = arr if arr.dtype.kind == "i" else arr.astype(np.float64, copy=False)
+    if len(parts) == 1:
+        return parts[0]
+    if not parts:
+        return {c: np.empty(0, np.int64 if c in integer else np.float64) for c in columns}
+    out = {}
+    for c in columns:
+        out[c] = np.concatenate([d[c] for d in parts])
+        for d in parts:
+            del d[c]  # (each piece freed once joined)
     return out
 
 
@@ -338,6 +372,9 @@ def _csv_text_blocks(p: Path, block: int = _CSV_BLOCK) -> Iterator[bytes]:
             yield rest.lstrip(b"\r\n")
 
 
+_BLANK_LINE = re.compile(rb"(?:^|\n)(?=\r?\n)")  # where a blank line starts (overlapping)
+
+
 def _parse_block(
     text: bytes, header: list[str], columns: Sequence[str], integer: Sequence[str]
 ) -> Columns:
@@ -363,11 +400,18 @@ def _parse_block(
         raise _CsvRefused(refusal)
     if frame.width != len(columns):
         raise _CsvRefused("a line of another width")
-    if frame.null_count().sum_horizontal().item():
-        frame = frame.filter(~pl.all_horizontal(pl.all().is_null()))  # blank lines
-        if frame.null_count().sum_horizontal().item():
+    if any(s.null_count() for s in frame.get_columns()):
+        empty = pl.all_horizontal(pl.all().is_null())  # a blank line, or a line of commas
+        if int(frame.select(empty.sum()).item()) != len(_BLANK_LINE.findall(text)):
             raise _CsvRefused("an empty cell")
-    return {c: s.to_numpy() for c, s in zip(columns, frame.get_columns(), strict=True)}
+        frame = frame.filter(~empty)
+        if any(s.null_count() for s in frame.get_columns()):
+            raise _CsvRefused("an empty cell")
+    out: Columns = {}
+    for c, series in zip(columns, frame.get_columns(), strict=True):
+        arr = series.to_numpy()
+        out[c] = arr if arr.flags.writeable else arr.copy()  # numpy's own: polars' is freed
+    return out
 
 
 def iter_columns(
@@ -413,6 +457,13 @@ def iter_columns(
         row += len(chunk[columns[0]])
 
 
+def _parsed_blocks(
+    p: Path, header: list[str], columns: Sequence[str], integer: Sequence[str], block: int
+) -> Iterator[Columns]:
+    for text in _csv_text_blocks(p, block):
+        yield _parse_block(text, header, columns, integer)
+
+
 def _csv_chunks(
     p: Path,
     header: list[str],
@@ -425,8 +476,7 @@ def _csv_chunks(
     from odolab.io._table import read_numeric_columns
 
     try:
-        for text in _csv_text_blocks(p, block):
-            parsed = _parse_block(text, header, columns, integer)
+        for parsed in _parsed_blocks(p, header, columns, integer, block):
             if not allow_nan and not all(
                 bool(np.isfinite(a).all()) for a in parsed.values() if a.dtype.kind == "f"
             ):
