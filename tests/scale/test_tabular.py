@@ -196,3 +196,22 @@ def test_csv_chunks_refuse_what_the_whole_reader_refuses_naming_the_line(tmp_pat
     with pytest.raises(LogFormatError, match=r"could not be read in chunks \(lines end in a "
                                              r"bare carriage return\).*read it whole"):  # fmt: skip
         list(iter_encoder_chunks(mac, chunk_rows=1))
+
+
+def test_whole_csv_arrays_grow_when_the_first_block_was_wordy(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # the whole-file reader sizes its arrays from the first block's bytes a row: long lines
+    # first, then short ones, make that estimate short, and the arrays grow
+    import odolab.io.tabular as tabular
+
+    monkeypatch.setattr(tabular, "_CSV_BLOCK", 64)
+    lines = ["t,left_ticks,right_ticks"]
+    lines += [f"{i * 0.1:.15f},{1000000 + i},{2000000 + i}" for i in range(4)]
+    lines += [f"{i},{i % 10},{i % 7}" for i in range(4, 300)]
+    p = tmp_path / "log.csv"
+    p.write_text("\n".join(lines) + "\n")
+    got = read_columns(p, ["t", "left_ticks", "right_ticks"], integer=["left_ticks"])
+    assert got["left_ticks"].dtype == np.int64 and got["right_ticks"].dtype == np.float64
+    assert got["t"].size == 300 and got["left_ticks"][-1] == 299 % 10
+    assert np.array_equal(got["t"][4:], np.arange(4, 300))
