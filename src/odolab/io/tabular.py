@@ -471,8 +471,8 @@ def iter_columns(
     Arrays are float64; a CSV's columns named in ``integer`` come as int64 in a chunk where every
     value of theirs is written as an integer. ``chunk_rows=None`` yields the whole table at
     once. Memory is bounded by the chunk (plus one block of the underlying reader: a Parquet
-    batch, an IPC batch, a block of CSV text: 64 bytes a row of the chunk, 64 KiB to 4 MiB). A CSV's lines are checked first
-    (:mod:`odolab.io.limits`; ``checked``: the caller already did).
+    batch, an IPC batch, or CSV text of 64 bytes a row of the chunk, 64 KiB to 4 MiB). A CSV's
+    lines are checked first (:mod:`odolab.io.limits`; ``checked``: the caller already did).
     """
     p = Path(path)
     if chunk_rows is not None and (chunk_rows < 1 or int(chunk_rows) != chunk_rows):
