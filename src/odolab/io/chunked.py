@@ -127,8 +127,8 @@ def iter_encoder_chunks(
         left = _ticks(p, data[cols[1]], cols[1], line_of, lines.where)
         right = _ticks(p, data[cols[2]], cols[2], line_of, lines.where)
         if increments:
-            if row0 == 0:  # the first increment is not motion (the reader's arrays: read-only)
-                left, right = left.copy(), right.copy()
+            if row0 == 0:  # the first increment is not motion
+                left, right = left.copy(), right.copy()  # (the reader's may be read-only)
                 left[0] = right[0] = 0
             left = np.cumsum(left) + carry[0]
             right = np.cumsum(right) + carry[1]

@@ -1,15 +1,15 @@
 """Numeric tables in and out at library speed: CSV, Parquet and Arrow IPC, chosen by extension.
 
 ``.parquet``/``.pq`` is Parquet, ``.arrow``/``.feather``/``.ipc`` is Arrow IPC (Feather v2),
-anything else is CSV. Whole files go through polars (measured fastest here for CSV read and
-write and Parquet write; see docs/scale.md). In chunks, a CSV is cut into blocks of lines that
-polars parses, Parquet and IPC go through pyarrow's streaming readers and writers, so memory is
-bounded by the chunk.
+anything else is CSV. A CSV is read as blocks of lines that polars parses on every core;
+Parquet and IPC as pyarrow's record batches; whole files are copied block by block into arrays
+allocated once, so memory is what is kept plus a block (see docs/scale.md). polars writes CSV and
+whole Parquet and IPC tables; pyarrow's writers write Parquet and IPC in chunks.
 
 CSV numbers are written as the shortest text that reads back to the same double (``0.05`` stays
-``0.05``). The fast CSV reader names no line: when it refuses a file, or the file has an empty
-cell or a blank line, the careful reader in :mod:`odolab.io._table` reads it again, so every
-error still names the file, line and column. Parquet and IPC files have no lines: their errors
+``0.05``). The fast CSV reader names no line: when it refuses a block (an empty cell, a word, a
+line of another width), the careful reader in :mod:`odolab.io._table` reads the file again, so
+every error still names the file, line and column. Parquet and IPC files have no lines: their errors
 name the row (from 1) and column.
 """
 
