@@ -8,7 +8,15 @@ and report. Units are SI (m, rad, s) throughout.
 from __future__ import annotations
 
 import importlib
+import os
 from typing import TYPE_CHECKING, Any
+
+#: numba colours the messages of its compile errors through colorama, which swaps sys.stdout and
+#: sys.stderr while it formats them and then puts back the streams it saw first: on the thread
+#: that loads the kernels in the background, that clobbered whatever stream the program had set
+#: meanwhile (a test's captured stderr lost an error message). Plain messages: set before numba
+#: loads; a value you set wins.
+os.environ.setdefault("NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING", "1")
 
 from odolab.errors import (
     EncoderJumpError,

@@ -215,3 +215,17 @@ def test_whole_csv_arrays_grow_when_the_first_block_was_wordy(
     assert got["left_ticks"].dtype == np.int64 and got["right_ticks"].dtype == np.float64
     assert got["t"].size == 300 and got["left_ticks"][-1] == 299 % 10
     assert np.array_equal(got["t"][4:], np.arange(4, 300))
+
+
+def test_numba_leaves_the_standard_streams_alone() -> None:
+    # numba's coloured error messages go through colorama, which swaps sys.stderr while it
+    # formats them and then puts back a stale stream; the kernels compile on a background thread
+    # (odometry.warm_up), so that clobbered the stream a program (or a test) had set meanwhile
+    import os
+    import subprocess
+    import sys
+
+    code = "import odolab, numba.core.errors as e; print(type(e.termcolor()).__name__)"
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING"}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert out.stdout.strip() == "NOPColorScheme", out.stderr
