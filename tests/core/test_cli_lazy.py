@@ -72,7 +72,11 @@ def test_help_lazily_is_the_help_with_everything() -> None:
 
 def test_an_unknown_word_still_gets_the_suggestion() -> None:
     proc = subprocess.run(
-        [sys.executable, "-c", "import sys\nfrom odolab.cli import main\nsys.exit(main(['odometri']))"],
+        [
+            sys.executable,
+            "-c",
+            "import sys\nfrom odolab.cli import main\nsys.exit(main(['odometri']))",
+        ],
         capture_output=True,
         text=True,
         timeout=120,
