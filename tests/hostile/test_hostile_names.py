@@ -180,3 +180,43 @@ def test_write_report_escapes_parameter_set_names_in_the_validation(
     assert _live_tags(html) == []
     assert "&#34;&gt;&lt;img src=x onerror=alert(1)&gt;old" in html
     assert "&lt;script&gt;alert(&#39;x&#39;)&lt;/script&gt;new" in html
+
+
+def test_run_tables_show_markup_like_names_as_text_and_tell_runs_apart(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Run and robot names are user text in rich tables: ``[bold]`` is shown, not obeyed; runs
+    that share a name (``run-001`` of every robot and day) are shown by their paths."""
+    from odolab.cli._fleet import print_fleet
+    from odolab.fleet import FleetSpec, simulate_fleet
+    from odolab.io.run import ReadOptions
+    from odolab.metrics.cluster import Cluster
+    from odolab.metrics.runs import evaluate_runs
+
+    spec = FleetSpec(robots=2, days=2, runs_per_day=1, run_seconds=4.0, wearing=0, seed=5)
+    runs = simulate_fleet(tmp_path / "fleet", spec)
+    robot = runs[0].parents[1]
+    hostile = robot.with_name("[bold]bot")
+    robot.rename(hostile)
+    capsys.readouterr()
+    args = ["evaluate", str(tmp_path / "fleet"), "--format", "csv", "-p", "jaguar-lite"]
+    code = main([*args, "--workers", "1"])
+    assert code == 0
+    out = capsys.readouterr().out
+    assert f"[bold]bot/{spec.start_date}/run-001" in out
+    assert "mean, [bold]bot (2 runs)" in out
+    other = runs[-1].parents[1].name
+    assert other != robot.name
+    assert f"{other}/{spec.start_date}/run-001" in out  # the other robot's run, told apart
+
+    moved = sorted((tmp_path / "fleet").rglob("run-*[0-9].csv"))
+    outcomes = evaluate_runs(
+        moved,
+        "csv",
+        params=PRESETS["jaguar-lite"],
+        read_options=ReadOptions(modulus=PRESETS["jaguar-lite"].encoder_modulus),
+        cluster=Cluster(workers=1),
+    )
+    print_fleet(outcomes)
+    fleet_out = capsys.readouterr().out
+    assert fleet_out.count("[bold]bot") >= 3  # per robot, per day, worst runs

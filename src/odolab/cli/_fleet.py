@@ -8,6 +8,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from odolab.cli._output import markup_text
 from odolab.errors import OdolabError
 
 __all__ = ["expand_logs", "expand_runs", "odometry_many", "print_fleet", "report_failures"]
@@ -78,7 +79,7 @@ def print_fleet(outcomes: Sequence[Any], *, worst: int = 5) -> None:
         t.add_column(col, justify="right")
     for r in s.per_robot:
         t.add_row(
-            for_terminal(str(r["robot"])),
+            markup_text(r["robot"]),
             str(r["runs"]),
             str(r["failed"] or 0),
             _f((r["metres"] or 0.0) / 1000.0),
@@ -94,9 +95,9 @@ def print_fleet(outcomes: Sequence[Any], *, worst: int = 5) -> None:
     cell = {(str(r["robot"]), str(r["date"])): r for r in s.per_day}
     d.add_column("robot")
     for day in dates:
-        d.add_column(for_terminal(day) or "(no date)", justify="right")
+        d.add_column(markup_text(day) or "(no date)", justify="right")
     for robot in robots:
-        row = [for_terminal(robot)]
+        row = [markup_text(robot)]
         for day in dates:
             c = cell.get((robot, day))
             row.append(f"{_f(c['drift_pct_mean'], 2)} ({c['runs']})" if c else "")
@@ -107,9 +108,9 @@ def print_fleet(outcomes: Sequence[Any], *, worst: int = 5) -> None:
         w.add_column(col, justify="right")
     for r in s.worst:
         w.add_row(
-            for_terminal(str(r["run"])),
-            for_terminal(str(r["robot"])),
-            for_terminal(str(r["date"])),
+            markup_text(r["run"]),
+            markup_text(r["robot"]),
+            markup_text(r["date"]),
             _f(r["drift_pct"], 2),
             _f(r["endpoint_error_m"], 3),
             _f(r["length_m"], 1),

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 from odolab.cli._apps import app, calibrate_app
+from odolab.cli._output import markup_text
 
 if TYPE_CHECKING:
     from odolab.io.run import ReadOptions
@@ -264,8 +265,10 @@ def evaluate_cmd(
         from odolab.fleet.table import fleet_rows, write_fleet_table
 
         write_fleet_table(fleet_rows(outcomes), results)
-    if len(outcomes) <= 20:
-        _print_table([(r.name, r.evaluation) for r in done])
+    if not done:
+        pass  # every run failed: no table of nothing; report_failures below lists them
+    elif len(outcomes) <= 20:
+        _print_table(list(zip(run_labels(done), [r.evaluation for r in done], strict=True)))
     else:
         print_fleet(outcomes)
     if nees:
@@ -274,6 +277,24 @@ def evaluate_cmd(
         doc["nees"] = print_nees(paths, fmt.value, robot, "midpoint", nees_segment)
     _write_json(doc, json_out)
     report_failures(outcomes, rep, results)
+
+
+def run_labels(runs: list[Any]) -> list[str]:
+    """Names for a table of runs (objects with ``name`` and ``source``): the runs' names, or,
+    where two share one (``run-001`` of every robot and day), their paths below the folder
+    all of them are in, without the extension (``robot-01/2026-03-02/run-001``)."""
+    import os
+
+    names = [str(r.name) for r in runs]
+    if len(set(names)) == len(names):
+        return names
+    sources = [Path(str(r.source)) for r in runs]
+    try:
+        root = Path(os.path.commonpath([s.parent for s in sources]))
+        labels = [s.relative_to(root).with_suffix("").as_posix() for s in sources]
+    except ValueError:  # no common folder (relative and absolute paths mixed)
+        return names
+    return labels if len(set(labels)) == len(labels) else names
 
 
 def _group_of(name: str) -> str:
@@ -334,12 +355,14 @@ def _print_table(rows: list[tuple[str, Any]]) -> None:
     names = [name for name, _ in rows]
     for i, (name, vals) in enumerate(zip(names, values, strict=True)):
         table.add_row(
-            name,
+            markup_text(name),
             *(f"{v:.{d}f}" for v, d in zip(vals, decimals, strict=True)),
             end_section=i == len(rows) - 1,
         )
     for label, vals in _mean_rows(names, values) if values else []:
-        table.add_row(label, *(f"{v:.{d}f}" for v, d in zip(vals, decimals, strict=True)))
+        table.add_row(
+            markup_text(label), *(f"{v:.{d}f}" for v, d in zip(vals, decimals, strict=True))
+        )
     print_table(console(), table)
 
 
@@ -451,9 +474,10 @@ def _print_calibration(result: Any, output: Path) -> None:
         val.add_column(col, justify="right")
     names: list[str] = []
     values: list[list[float]] = []
-    for v in result.validation:
+    labels = run_labels([v.nominal for v in result.validation])
+    for v, label in zip(result.validation, labels, strict=True):
         n, c = v.nominal.evaluation.drift, v.calibrated.evaluation.drift
-        names.append(v.nominal.name)
+        names.append(label)
         values.append(
             [
                 n.endpoint_error,
@@ -468,7 +492,7 @@ def _print_calibration(result: Any, output: Path) -> None:
     means = _mean_rows(names, values) if values else []
     for i, (name, x) in enumerate([*rows, *means]):
         val.add_row(
-            name,
+            markup_text(name),
             f"{x[0]:.4f} -> {x[1]:.4f}",
             f"{x[2]:.2f} -> {x[3]:.2f}",
             f"{x[4]:.3f} -> {x[5]:.3f}",
