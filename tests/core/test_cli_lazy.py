@@ -84,3 +84,25 @@ def test_an_unknown_word_still_gets_the_suggestion() -> None:
     )
     assert proc.returncode == 2
     assert "Did you mean 'odometry'?" in proc.stderr
+
+
+def test_the_collector_runs_again_after_start_up() -> None:
+    """A library call of main() leaves the collector on and freezes nothing of its caller's."""
+    import gc
+
+    frozen = gc.get_freeze_count()
+    assert cli.main(["params", "list"]) == 0
+    assert gc.isenabled()
+    assert gc.get_freeze_count() == frozen
+
+
+def test_the_program_freezes_its_start_up_and_collects_after() -> None:
+    out = _fresh(
+        "import gc, sys\n"
+        "from odolab.cli import main\n"
+        "sys.argv = ['odolab', 'params', 'list']\n"
+        "assert gc.get_freeze_count() == 0\n"
+        "code = main()\n"
+        "print(code, gc.isenabled(), gc.get_freeze_count() > 10_000)\n"
+    )
+    assert out.splitlines()[-1] == "0 True True"
