@@ -220,3 +220,20 @@ def test_run_tables_show_markup_like_names_as_text_and_tell_runs_apart(
     print_fleet(outcomes)
     fleet_out = capsys.readouterr().out
     assert fleet_out.count("[bold]bot") >= 3  # per robot, per day, worst runs
+
+
+def test_markup_like_paths_are_printed_as_written(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """File names are user text too: a folder ``[red]x`` is shown, not read as a colour."""
+    folder = tmp_path / "[red]x"
+    folder.mkdir()
+    db = folder / "[bold]lab.db"
+    assert main(["notebook", "init", "--db", str(db)]) == 0
+    assert main(["sim", "run", "rotation", "--db", str(db), "-o", str(folder / "r.csv")]) == 0
+    capsys.readouterr()
+    assert main(["trials", "list", "--db", str(db)]) == 0
+    assert f"37 trials in {db}" in capsys.readouterr().out
+    out_json = folder / "[i]a.json"
+    assert main(["analyze", "--db", str(db), "--json", str(out_json)]) == 0
+    assert f"analysis written to {out_json}" in capsys.readouterr().out

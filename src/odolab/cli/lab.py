@@ -120,7 +120,7 @@ def analyze_cmd(
         from odolab.cli._output import write_output_text
 
         write_output_text(json_out, json.dumps(analysis.to_dict(), indent=2), "analysis JSON")
-        con.print(f"analysis written to {json_out}")
+        con.print(f"analysis written to {mt(json_out)}")
 
 
 @app.command("report")
@@ -197,7 +197,7 @@ def report_cmd(
     print_table(con, table1_rich(table1(analysis)))
     for s in analysis.skipped:
         con.print(f"[yellow]not enough data:[/] {markup_text(s)}")
-    con.print(f"report: {path}  (figures and results.json beside it)")
+    con.print(f"report: {markup_text(path)}  (figures and results.json beside it)")
 
 
 @calibrate_app.command("ratios")

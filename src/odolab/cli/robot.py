@@ -159,7 +159,9 @@ RealtimeOpt = Annotated[
 def _live_table(info: CycleInfo, rate: float, target: str) -> Any:
     from rich.table import Table
 
-    table = Table(title=f"odolab robot: {target}", show_header=False)
+    from odolab.cli._output import markup_text
+
+    table = Table(title=f"odolab robot: {markup_text(target)}", show_header=False)
     p = info.pose
     table.add_row("cycle", f"{info.index}  t={info.t:.2f} s  ({rate:g} Hz)")
     table.add_row(

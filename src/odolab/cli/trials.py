@@ -240,9 +240,10 @@ def list_cmd(
             status.value if status else None,
             with_logs=False,
         )
+    from odolab.cli._output import markup_text
     from odolab.numfmt import count
 
-    table = Table(title=f"{count(len(trials), 'trial')} in {db}")
+    table = Table(title=f"{count(len(trials), 'trial')} in {markup_text(db)}")
     for col in ("trial", "campaign", "terrain", "command", "predicted", "measured", "status"):
         table.add_column(col)
     from rich.markup import escape
