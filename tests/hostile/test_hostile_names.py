@@ -237,3 +237,17 @@ def test_markup_like_paths_are_printed_as_written(
     out_json = folder / "[i]a.json"
     assert main(["analyze", "--db", str(db), "--json", str(out_json)]) == 0
     assert f"analysis written to {out_json}" in capsys.readouterr().out
+
+
+def test_a_path_with_an_escape_sequence_is_echoed_as_text(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    log = tmp_path / "log.csv"
+    log.write_text("t,left_ticks,right_ticks\n0,0,0\n0.05,10,12\n")
+    out = tmp_path / f"e{ANSI}vil" / "traj.csv"
+    out.parent.mkdir()
+    assert main(["odometry", str(log), "-o", str(out)]) == 0
+    said = capsys.readouterr().out
+    assert "\x1b" not in said and "\x07" not in said
+    assert "e\\x1b[31mred\\x1b[2J\\x1b]0;owned\\x07vil" in said
+    assert out.exists()

@@ -8,12 +8,20 @@ from pathlib import Path
 from odolab.errors import OdolabError
 from odolab.text import safe_terminal
 
-__all__ = ["OutputError", "check_output_path", "markup_text", "term", "write_output_text"]
+__all__ = ["OutputError", "check_output_path", "echo", "markup_text", "term", "write_output_text"]
 
 
 def term(text: object) -> str:
     """User text (a trial id, a campaign, a terrain, a reason) for ``typer.echo``."""
     return safe_terminal(text)
+
+
+def echo(message: object, *, err: bool = False) -> None:
+    """``typer.echo`` for a message that carries user text (a path, a name, an error): each line
+    goes through :func:`term`, so an escape sequence in a file name is shown, never obeyed."""
+    import typer
+
+    typer.echo("\n".join(term(line) for line in str(message).split("\n")), err=err)
 
 
 def markup_text(text: object) -> str:

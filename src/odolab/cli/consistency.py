@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 from odolab.cli._apps import calibrate_app
+from odolab.cli._output import echo
 from odolab.cli.core import MethodChoice
 from odolab.cli.evaluate import RunFormat
 
@@ -108,7 +109,7 @@ def calibrate_noise_cmd(
             "rule": "k scaled so that the mean NEES of the runs' pieces is 3 (its expectation)",
         },
     )
-    typer.echo(
+    echo(
         f"[noise] k_left = {noise.k_left!r} m, k_right = {noise.k_right!r} m from {len(found)} "
         f"runs -> {output}; check it on held-out runs: odolab evaluate RUNS --format {fmt.value} "
         f"--params {output} --nees"

@@ -9,6 +9,7 @@ from typing import Annotated
 import typer
 
 from odolab.cli._apps import app, params_app
+from odolab.cli._output import echo
 from odolab.defaults import DEFAULT_ROBOT
 
 __all__: list[str] = []
@@ -165,7 +166,7 @@ def odometry_cmd(
                 covariance=covariance,
             )
         end = res.final
-        typer.echo(
+        echo(
             f"{res.rows} poses -> {output}; final x={end.x:.4f} m y={end.y:.4f} m "
             f"heading={end.heading:.4f} rad"
         )
@@ -196,7 +197,7 @@ def odometry_cmd(
 
         write_columns(output, OdometryChunk(traj, cov).columns(), "trajectory table")
     end = traj.final
-    typer.echo(
+    echo(
         f"{len(traj)} poses -> {output}; final x={end.x:.4f} m y={end.y:.4f} m "
         f"heading={end.heading:.4f} rad"
     )
@@ -211,7 +212,7 @@ def params_show(
 
     from odolab.params import load_params
 
-    typer.echo(tomli_w.dumps({"robot": load_params(source).to_dict()}).rstrip())
+    echo(tomli_w.dumps({"robot": load_params(source).to_dict()}).rstrip())
 
 
 @params_app.command("list")
@@ -220,7 +221,7 @@ def params_list() -> None:
     from odolab.params import PRESETS
 
     for name, p in sorted(PRESETS.items()):
-        typer.echo(
+        echo(
             f"{name}: wheel radius L/R {p.left_wheel_radius}/{p.right_wheel_radius} m, "
             f"track {p.track_width} m, {p.ticks_per_rev:g} ticks/rev, modulus {p.encoder_modulus}"
         )

@@ -9,6 +9,7 @@ from typing import Annotated
 import typer
 
 from odolab.cli._apps import export_app
+from odolab.cli._output import echo
 from odolab.cli.core import MethodChoice
 
 __all__: list[str] = []
@@ -74,7 +75,7 @@ def ros2_controller_cmd(
         provenance=provenance,
     )
     write_output_text(output, text, "controller parameters")
-    typer.echo(f"wrote {output}")
+    echo(f"wrote {output}")
 
 
 @export_app.command("mcap")
@@ -147,4 +148,4 @@ def mcap_cmd(
             "GT EST trajectory files, or --db with --campaign"
         )
     counts = write_mcap(output, stream, start_time=start_time)
-    typer.echo(f"wrote {output}: " + ", ".join(f"{topic} {n}" for topic, n in counts.items()))
+    echo(f"wrote {output}: " + ", ".join(f"{topic} {n}" for topic, n in counts.items()))

@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 
 from odolab.cli._apps import fleet_app
+from odolab.cli._output import echo
 
 __all__: list[str] = []
 
@@ -40,7 +41,7 @@ def fleet_simulate(
     )
     with progress_bar("simulate", unit="runs") as report:
         paths = simulate_fleet(output, spec, progress=report)
-    typer.echo(
+    echo(
         f"{len(paths)} runs of {robots} robots over {days} days -> {output} "
         f"(truth in {output / 'fleet.json'}); evaluate with: odolab evaluate {output} "
         "--format csv -p jaguar-lite --results fleet.parquet"

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 from odolab.cli._apps import app, calibrate_app, sim_app
+from odolab.cli._output import echo
 from odolab.errors import OdolabError
 
 if TYPE_CHECKING:
@@ -198,7 +199,7 @@ def calibrate_sensor_cmd(
         v = result.values
         mount = (v["sensor_x"], v["sensor_y"], v["sensor_yaw"])
         write_trajectory_csv(truth_out, robot_trajectory(traj, mount, offset))
-        typer.echo(f"robot path from the sensor -> {truth_out}")
+        echo(f"robot path from the sensor -> {truth_out}")
 
 
 def _print_sensor(result: SensorCalibration, output: Path) -> None:
@@ -344,7 +345,7 @@ def markers_cmd(
             raise OptionError(f"{path}: cannot write the board image")
         files.append(path)
     for f in files:
-        typer.echo(str(f))
+        echo(str(f))
 
 
 @camera_app.command("calibrate")
@@ -367,7 +368,7 @@ def camera_calibrate_cmd(
     result = calibrate_camera_video(video, spec, step=step)
     save_camera(output, result.camera, provenance=result.provenance())
     c = result.camera
-    typer.echo(
+    echo(
         f"{video}: {result.views} views of {result.frames} frames, reprojection rms "
         f"{result.rms:.3f} px; fx {c.fx:.1f} fy {c.fy:.1f} cx {c.cx:.1f} cy {c.cy:.1f} px, "
         f"k1 {c.k1:.4f} k2 {c.k2:.4f} -> {output}"
@@ -452,7 +453,7 @@ def sim_video_cmd(
         folder / "truth.csv",
         Trajectory.from_xyh(truth.t + clock_offset, truth.x, truth.y, truth.heading),
     )
-    typer.echo(
+    echo(
         f"{tr.t[-1]:.1f} s drive -> {term(video)} (1280x720, 30 fps), floor.csv, camera.toml, "
         f"run.csv (encoder clock {clock_offset:+.3f} s from the video's), truth.csv; true "
         f"radii {rl} / {rr} m, track {b} m (robot marker 10, 0.25 m, 0.30 m up)"

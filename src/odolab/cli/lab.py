@@ -9,6 +9,7 @@ from typing import Annotated, Any
 import typer
 
 from odolab.cli._apps import app, calibrate_app
+from odolab.cli._output import echo
 
 __all__: list[str] = []
 
@@ -243,7 +244,7 @@ def calibrate_ratios_cmd(
     if db is not None:
         _record_version(db, result, base, trials=used)
     p = result.params
-    typer.echo(
+    echo(
         f"ratios: distance {result.provenance['distance_ratio']:.4g}, rotation "
         f"{result.provenance['rotation_ratio']:.4g} -> wheel radius {p.left_wheel_radius:.5g} m, "
         f"track width {p.track_width:.5g} m; written to {path}"
@@ -318,9 +319,9 @@ def calibrate_umbmark_cmd(
     if db is not None and errors is None:
         _record_version(db, result.calibration, base, trials=squares)
     if how:
-        typer.echo(how)
+        echo(how)
     p = result.params
-    typer.echo(
+    echo(
         f"UMBmark: E_d = {result.e_d:.5f}, E_b = {result.e_b:.5f}, E_max,syst = "
         f"{result.e_max_syst:.4g} m -> left/right radius {p.left_wheel_radius:.5g}/"
         f"{p.right_wheel_radius:.5g} m, track width {p.track_width:.5g} m; written to {path}"
@@ -335,7 +336,7 @@ def _record_version(db: Path, result: Any, base: Any, *, trials: list[Any]) -> N
 
     with Notebook(db) as nb:
         version = record_calibration(nb, result, base, trials=trials)
-    typer.echo(f"recorded in {db} as {safe_terminal(base.name)} parameters version {version}")
+    echo(f"recorded in {db} as {safe_terminal(base.name)} parameters version {version}")
 
 
 def _read_umbmark_csv(path: Path) -> tuple[list[tuple[float, float]], list[tuple[float, float]]]:

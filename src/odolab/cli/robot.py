@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Annotated, Any, get_type_hints
 import typer
 
 from odolab.cli._apps import robot_app
+from odolab.cli._output import echo
 
 if TYPE_CHECKING:
     from odolab.robot.config import RunConfig
@@ -188,7 +189,7 @@ class _FoxgloveView:
 
         self.live = FoxgloveLive(port=port)
         self.odo = Odometry(params, covariance=True) if params.noise is not None else None
-        typer.echo(f"Foxglove: open ws://127.0.0.1:{self.live.port}", err=True)
+        echo(f"Foxglove: open ws://127.0.0.1:{self.live.port}", err=True)
 
     def publish(self, info: CycleInfo) -> None:
         ticks = (info.reading.left_ticks, info.reading.right_ticks)
@@ -269,7 +270,7 @@ def _run(
     def on_event(t: float, message: str) -> None:
         events.append(f"t={t:.2f} s: {message}")
         if quiet:  # no live view: say it at once, a lost link must not be silent
-            typer.echo(events[-1], err=True)
+            echo(events[-1], err=True)
 
     live = Live(console=console, refresh_per_second=8, transient=False) if not quiet else None
     every = max(1, round(config.rate / 8))
@@ -303,10 +304,10 @@ def _run(
             live = None
         if not quiet:
             for line in events:
-                typer.echo(line, err=True)
-        typer.echo(_confirm_line(report.stop_confirmed), err=True)
+                echo(line, err=True)
+        echo(_confirm_line(report.stop_confirmed), err=True)
         if report.saved_to is not None:
-            typer.echo(f"the partial run is saved to {report.saved_to}", err=True)
+            echo(f"the partial run is saved to {report.saved_to}", err=True)
 
     if live is not None:
         live.start()
@@ -332,21 +333,21 @@ def _run(
             view.close()
     if not quiet:
         for line in events:
-            typer.echo(line, err=True)
+            echo(line, err=True)
     p = run.trial.predicted
-    typer.echo(
+    echo(
         f"{target} on {run.robot}: predicted x={p.x:.4f} m y={p.y:.4f} m "
         f"heading={p.heading:.4f} rad"
     )
     if run.trial.true is not None:
         q = run.trial.true
-        typer.echo(f"true (virtual): x={q.x:.4f} m y={q.y:.4f} m heading={q.heading:.4f} rad")
-    typer.echo(run.stats.describe())
-    typer.echo(f"saved to {folder} (status: awaiting measurement)")
+        echo(f"true (virtual): x={q.x:.4f} m y={q.y:.4f} m heading={q.heading:.4f} rad")
+    echo(run.stats.describe())
+    echo(f"saved to {folder} (status: awaiting measurement)")
     if notebook is not None:
         with notebook as nb:
             nb.add_trial(run.trial)
-        typer.echo(
+        echo(
             f"recorded in {db} as {run.trial.trial_id}; enter the measurement with "
             f"'odolab trials measure {run.trial.trial_id} --db {db}'"
         )
@@ -355,7 +356,7 @@ def _run(
             "the run finished and stop was commanded, but the robot's sensor data does not "
             "confirm that it stopped; check the robot"
         )
-    typer.echo(_confirm_line(True), err=True)
+    echo(_confirm_line(True), err=True)
 
 
 def _config(
@@ -589,7 +590,7 @@ def sim_server_cmd(
     jaguar = VirtualJaguar(plant, board, faults=faults, seed=seed, on_speeds=on_speeds)
     server = VirtualJaguarServer(jaguar, host, port)
     h, p = server.address
-    typer.echo(f"virtual Jaguar ({truth}) listening on udp://{h}:{p}; Ctrl-C to stop", err=True)
+    echo(f"virtual Jaguar ({truth}) listening on udp://{h}:{p}; Ctrl-C to stop", err=True)
 
     def on_term(signum: int, frame: object) -> None:
         raise KeyboardInterrupt
@@ -610,6 +611,6 @@ def sim_server_cmd(
             )
             trace_file.close()
         pose = plant.true_pose
-        typer.echo(
+        echo(
             f"true pose: x={pose.x:.4f} m y={pose.y:.4f} m heading={pose.heading:.4f} rad", err=True
         )

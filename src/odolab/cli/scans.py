@@ -10,6 +10,7 @@ from typing import Annotated
 import typer
 
 from odolab.cli._apps import app, sim_app
+from odolab.cli._output import echo
 
 __all__: list[str] = []
 
@@ -58,17 +59,17 @@ def scans_cmd(
     write_trajectory(output, result.trajectory, "tum" if fmt is _Format.tum else "csv")
     bad = result.outliers()
     end = result.trajectory.final
-    typer.echo(
+    echo(
         f"{len(scans)} scans, {len(result)} pairs matched -> {term(output)}; path "
         f"{result.trajectory.path_length():.3f} m, final x={end.x:.4f} m y={end.y:.4f} m "
         f"heading={end.heading:.4f} rad; median fitness {float(_median(result.fitness)):.3f}, "
         f"median residual {1000 * float(_median(result.residual)):.1f} mm"
     )
     if result.skipped:
-        typer.echo(f"skipped {len(result.skipped)} scans with too few valid ranges", err=True)
+        echo(f"skipped {len(result.skipped)} scans with too few valid ranges", err=True)
     if bad.any():
         first = [f"{result.trajectory.t[i + 1]:.3f}" for i in bad.nonzero()[0][:5]]
-        typer.echo(
+        echo(
             f"warning: {int(bad.sum())} of {len(result)} pairs look unmatched (low fitness or "
             f"large residual), at t = {', '.join(first)} s ...",
             err=True,
@@ -128,7 +129,7 @@ def sim_scans_cmd(
         drive.scan_t, drive.ranges, lz.angle_min, lz.angle_increment, lz.range_min, lz.range_max
     )
     counts = write_scan_mcap(output, scans, joint_t=drive.joint_t, wheel_angles=drive.wheel_angles)
-    typer.echo(
+    echo(
         f"{counts.get('/scan', 0)} scans, {counts.get('/joint_states', 0)} joint states "
         f"-> {term(output)}"
     )
@@ -137,4 +138,4 @@ def sim_scans_cmd(
         s = drive.sensor
         truth = Trajectory.from_xyh(drive.scan_t, s[:, 0], s[:, 1], s[:, 2])
         write_trajectory_csv(truth_csv, truth)
-        typer.echo(f"true laser trajectory -> {term(truth_csv)}")
+        echo(f"true laser trajectory -> {term(truth_csv)}")

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from odolab.cli._apps import app
+from odolab.cli._output import echo
 
 if TYPE_CHECKING:
     from odolab.serve import ServerInfo
@@ -35,14 +36,14 @@ def serve_cmd(
     settings = settings_for(db, host)
 
     def ready(info: ServerInfo) -> None:
-        typer.echo(f"odolab notebook {db} served at:\n\n    {info.url}\n")
+        echo(f"odolab notebook {db} served at:\n\n    {info.url}\n")
         if info.token:
-            typer.echo(
+            echo(
                 "Open that address (it carries the access token) on the phone; every request "
                 "without the token is refused. Ctrl-C stops the server."
             )
         else:
-            typer.echo(
+            echo(
                 "Only this computer can reach it (--host 0.0.0.0 to serve the phone, with a "
                 "token). Ctrl-C stops the server."
             )

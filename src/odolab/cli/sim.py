@@ -9,6 +9,7 @@ from typing import Annotated
 import typer
 
 from odolab.cli._apps import sim_app
+from odolab.cli._output import echo
 from odolab.defaults import DEFAULT_ROBOT, DEFAULT_TRUTH
 
 __all__: list[str] = []
@@ -109,7 +110,7 @@ def sim_run(
         with Notebook(db) as nb:
             nb.add_trials(trials)
     stalled = sum(t.exclusion_reason is not None for t in trials)
-    typer.echo(
+    echo(
         f"{count(len(trials), 'trial')} of {term(proto.name)} ({truth}, seed {seed}) -> {output}"
         + (f"; {stalled} stalled (excluded)" if stalled else "")
         + (f"; recorded in {db}" if db is not None else "")
@@ -123,10 +124,10 @@ def sim_list() -> None:
     from odolab.sim.protocols import builtin_protocols
     from odolab.sim.terrains import TERRAINS
 
-    typer.echo("protocols:")
+    echo("protocols:")
     for name, desc in builtin_protocols().items():
-        typer.echo(f"  {name}: {desc}")
-    typer.echo("terrains:")
+        echo(f"  {name}: {desc}")
+    echo("terrains:")
     for name, t in TERRAINS.items():
-        typer.echo(f"  {name}: {t.description}")
-    typer.echo("truths: " + ", ".join(TRUTH_PRESETS))
+        echo(f"  {name}: {t.description}")
+    echo("truths: " + ", ".join(TRUTH_PRESETS))

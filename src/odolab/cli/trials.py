@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from odolab.cli._apps import app, trials_app
-from odolab.cli._output import term
+from odolab.cli._output import echo, term
 from odolab.defaults import DEFAULT_ROBOT
 
 if TYPE_CHECKING:
@@ -100,7 +100,7 @@ def notebook_init(db: DbOption = _DB) -> None:
             else "already up to date"
         )
     )
-    typer.echo(f"{db}: notebook schema {info.schema_version} ({how}), {info.trials} trials")
+    echo(f"{db}: notebook schema {info.schema_version} ({how}), {info.trials} trials")
 
 
 @notebook_app.command("info")
@@ -110,14 +110,12 @@ def notebook_info(db: DbOption = _DB) -> None:
         info = nb.info()
         check = nb.integrity_check()
         campaigns = nb.campaigns()
-    typer.echo(f"notebook {info.path} (schema {info.schema_version}, integrity {check})")
-    typer.echo(f"  robots {info.robots}, parameter versions {info.params_versions}")
+    echo(f"notebook {info.path} (schema {info.schema_version}, integrity {check})")
+    echo(f"  robots {info.robots}, parameter versions {info.params_versions}")
     status = ", ".join(f"{k} {v}" for k, v in sorted(info.by_status.items())) or "none"
-    typer.echo(f"  trials {info.trials} ({status}), encoder logs {info.encoder_logs}")
+    echo(f"  trials {info.trials} ({status}), encoder logs {info.encoder_logs}")
     for c in campaigns:
-        typer.echo(
-            term(f"  campaign {c.name}: {c.kind} on {c.terrain}, {c.date or ''} {c.operator}")
-        )
+        echo(term(f"  campaign {c.name}: {c.kind} on {c.terrain}, {c.date or ''} {c.operator}"))
 
 
 # -- campaigns and parameter versions ------------------------------------------------------------
@@ -136,7 +134,7 @@ def campaign_add(
     """Add a campaign: a series of trials of one kind on one terrain."""
     with _open(db, create=True) as nb:
         nb.add_campaign(name, kind.value, terrain, date=date, operator=operator, notes=notes)
-    typer.echo(f"campaign {term(name)} ({kind.value} on {term(terrain)}) added to {db}")
+    echo(f"campaign {term(name)} ({kind.value} on {term(terrain)}) added to {db}")
 
 
 @trials_app.command("campaigns")
@@ -175,7 +173,7 @@ def params_add(
         v = nb.add_params_version(
             params, method=method, source_trials=source_trial or (), notes=notes
         )
-    typer.echo(f"{term(params.name)} parameters version {v} ({method}) added to {db}")
+    echo(f"{term(params.name)} parameters version {v} ({method}) added to {db}")
 
 
 @trials_app.command("params-versions")
@@ -193,7 +191,7 @@ def params_versions_cmd(
     for v in versions:
         p = v.params
         src = f" from {', '.join(v.source_trials)}" if v.source_trials else ""
-        typer.echo(
+        echo(
             term(
                 f"v{v.version}  {v.created}  {v.method}{src}: wheel radius L/R "
                 f"{p.left_wheel_radius:g}/{p.right_wheel_radius:g} m, track {p.track_width:g} m, "
@@ -272,13 +270,13 @@ def show_cmd(
     with _open(db) as nb:
         t = nb.get_trial(trial_id)
         robot, version = nb.trial_params_version(trial_id)
-    typer.echo(term(f"trial {t.trial_id}: {t.command.describe()} ({t.campaign}, {t.terrain})"))
-    typer.echo(
+    echo(term(f"trial {t.trial_id}: {t.command.describe()} ({t.campaign}, {t.terrain})"))
+    echo(
         f"  status: {t.status.value}"
         + (f" ({term(t.exclusion_reason)})" if t.exclusion_reason else "")
     )
     p = t.predicted
-    typer.echo(
+    echo(
         f"  predicted: x {p.x:.4f} m, y {p.y:.4f} m, theta {p.theta:.4f} rad, "
         f"heading {p.heading:.4f} rad at t {p.t:g} s; parameters {term(robot)} v{version}"
     )
@@ -289,13 +287,13 @@ def show_cmd(
             parts.append(f"rotation {m.rotation:.4f} rad ± {_fmt(m.sigma_rotation, '.3f')}")
         if m.x is not None:
             parts.append(f"x {m.x:.4f} y {_fmt(m.y, '.4f')} m ± {_fmt(m.sigma_xy, '.4f')}")
-        typer.echo(term(f"  measured ({m.instrument}): {', '.join(parts)}; raw {dict(m.raw)}"))
+        echo(term(f"  measured ({m.instrument}): {', '.join(parts)}; raw {dict(m.raw)}"))
     if t.true is not None:
-        typer.echo(f"  true: x {t.true.x:.4f} y {t.true.y:.4f} m, heading {t.true.heading:.4f}")
+        echo(f"  true: x {t.true.x:.4f} y {t.true.y:.4f} m, heading {t.true.heading:.4f}")
     if t.encoder_log is not None:
-        typer.echo(f"  encoder log: {len(t.encoder_log)} samples, modulus {t.encoder_log.modulus}")
+        echo(f"  encoder log: {len(t.encoder_log)} samples, modulus {t.encoder_log.modulus}")
     if t.notes:
-        typer.echo(f"  notes: {term(t.notes)}")
+        echo(f"  notes: {term(t.notes)}")
 
 
 def _measurement(
@@ -317,14 +315,14 @@ def _measurement(
             try:
                 return check_compass_reading(value, text.split(" (")[0])
             except StoreError as err:
-                typer.echo(f"refused: {err}", err=True)
+                echo(f"refused: {err}", err=True)
 
     def ask_turns() -> int:
         while True:
             value: int = typer.prompt("whole turns counted", type=int)
             if value >= 0:
                 return value
-            typer.echo("refused: turns must be 0 or more", err=True)
+            echo("refused: turns must be 0 or more", err=True)
 
     from odolab.store.measure import build_measurement, check_reading_names, measurement_for_trial
 
@@ -350,7 +348,7 @@ def _measurement(
         try:
             return build_measurement(t, initial, final, turns, x, y, sigma)
         except StoreError as err:
-            typer.echo(f"refused: {err}. Please enter the readings again.", err=True)
+            echo(f"refused: {err}. Please enter the readings again.", err=True)
             initial = final = turns = None
             x = y = None
 
@@ -386,13 +384,13 @@ def measure_cmd(
         from odolab.store.measure import refuse_if_measured
 
         refuse_if_measured(t, replace)  # before asking for the readings, not after they were typed
-        typer.echo(
+        echo(
             term(f"trial {t.trial_id}: {t.command.describe()}; predicted {_describe_prediction(t)}")
         )
         m = _measurement(t, initial, final, turns, x, y, sigma)
         nb.set_measurement(trial_id, m, replace=replace)
         saved = nb.get_trial(trial_id)
-    typer.echo(term(f"trial {trial_id} measured: {_describe_measurement(saved)}"))
+    echo(term(f"trial {trial_id} measured: {_describe_measurement(saved)}"))
 
 
 @trials_app.command("add")
@@ -479,7 +477,7 @@ def add_cmd(
             m = _measurement(trial, initial, final, turns, x, y, None)
             trial = dataclasses.replace(trial, measured=m, status=TrialStatus.MEASURED)
         nb.add_trial(trial, create_campaign=create_campaign)
-    typer.echo(
+    echo(
         f"trial {term(trial_id)} ({trial.command.describe()}) recorded in {db}: "
         f"{trial.status.value}"
     )
@@ -494,7 +492,7 @@ def exclude_cmd(
     """Leave a trial out of the analysis (it is kept, with the reason)."""
     with _open(db) as nb:
         nb.exclude_trial(trial_id, reason)
-    typer.echo(term(f"trial {trial_id} excluded: {reason}"))
+    echo(term(f"trial {trial_id} excluded: {reason}"))
 
 
 @trials_app.command("include")
@@ -504,7 +502,7 @@ def include_cmd(
     """Undo an exclusion."""
     with _open(db) as nb:
         nb.include_trial(trial_id)
-    typer.echo(f"trial {term(trial_id)} included again")
+    echo(f"trial {term(trial_id)} included again")
 
 
 @trials_app.command("import")
@@ -522,7 +520,7 @@ def import_cmd(
             n = nb.import_json(file, batch_size=batch_size)
         else:
             n = nb.import_csv(file, create_campaigns=create_campaigns, batch_size=batch_size)
-    typer.echo(f"{n} trials imported from {file} into {db}")
+    echo(f"{n} trials imported from {file} into {db}")
 
 
 @trials_app.command("export")
@@ -545,4 +543,4 @@ def export_cmd(
             n = nb.export_json(file, campaign, terrain, k, s)
         else:
             n = nb.export_csv(file, campaign, terrain, k, s)
-    typer.echo(f"{n} trials exported from {db} to {file}")
+    echo(f"{n} trials exported from {db} to {file}")

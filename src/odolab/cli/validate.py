@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 
 from odolab.cli._apps import app
+from odolab.cli._output import echo
 from odolab.cli.core import MethodChoice
 from odolab.defaults import DEFAULT_ROBOT
 
@@ -133,20 +134,20 @@ def validate_cmd(
         write_output_text(json_out, json.dumps(result.to_dict(), indent=2) + "\n", "JSON result")
     a = result.alignment
     corr = "" if a.correlation != a.correlation else f" (rate correlation {a.correlation:.3f})"
-    typer.echo(
+    echo(
         f"clock offset {result.clock_offset:.4f} s (phone - robot){corr}; "
         f"{result.t.size} IMU samples over {a.overlap_end - a.overlap_start:.2f} s; "
         f"IMU rotation {result.imu_heading[-1]:.4f} rad"
     )
     for h in (result.old, result.new):
-        typer.echo(
+        echo(
             f"{h.label} ({h.params.name}): RMS heading error {h.rms:.4f} rad, "
             f"final {h.final:+.4f} rad, max |error| {h.max_abs:.4f} rad"
         )
-    typer.echo(f"RMS new/old: {result.improvement:.3f}")
+    echo(f"RMS new/old: {result.improvement:.3f}")
     for w in result.warnings:
-        typer.echo(f"warning: {w}", err=True)
+        echo(f"warning: {w}", err=True)
     if plot is not None:
-        typer.echo(f"figure -> {plot}")
+        echo(f"figure -> {plot}")
     if json_out is not None:
-        typer.echo(f"result -> {json_out}")
+        echo(f"result -> {json_out}")
