@@ -53,7 +53,10 @@ class Board:
             if line.startswith("# received"):
                 words = line[2:].split()
                 return {k: int(v) for k, v in zip(words[::2], words[1::2], strict=True)}
-        raise AssertionError("the board wrote no summary")
+        said = self.proc.stderr.read() if self.proc.stderr and self.proc.poll() is not None else ""
+        raise AssertionError(
+            f"the board wrote no summary (exit code {self.proc.returncode}); it said: {said[-3000:]}"
+        )
 
     def moving(self) -> bool:
         rows = self.lines()
@@ -95,6 +98,7 @@ def board(tmp_path: Path, *extra: str, command_timeout: float = C) -> Iterator[B
         stderr=subprocess.PIPE,
         stdout=subprocess.DEVNULL,
         text=True,
+        env={**os.environ, "PYTHONFAULTHANDLER": "1"},  # a crash says where
     )
     try:
         assert proc.stderr is not None

@@ -67,6 +67,8 @@ _SPEED_SLIP, _STOP_SLIDE, _CAN_TURN, _MPT_L, _MPT_R = 9, 10, 11, 12, 13
 # the true kinematic model's coefficients (odolab.models.ModelCoefficients); its denominator
 # is _TRACK, so that a per-run track factor scales it
 _W_L, _W_R, _E_L, _E_R, _LATERAL = 14, 15, 16, 17, 18
+#: no noise draws (a noiseless or a stalled step)
+_NO_DRAWS = np.empty(0)
 # turn slip: the true model's denominator (ICR spread) shrinks away from turns in place
 _TURN_SLIP = 19
 _NPARAM = 20
@@ -260,10 +262,12 @@ def _slide(x, y, h, vl, vr, p):  # type: ignore[no-untyped-def]  # pragma: no co
 
 
 @njit(cache=True)
-def _advance(state, p, vl, vr, dt, nsteps, rng):  # type: ignore[no-untyped-def]  # pragma: no cover
+def _advance(state, p, vl, vr, dt, nsteps, z):  # type: ignore[no-untyped-def]  # pragma: no cover
     """Advance a single robot nsteps at dt with wheel speeds vl, vr (m/s).
 
-    state = [x, y, h, wheel_l_ticks, wheel_r_ticks]; returns True when stalled."""
+    state = [x, y, h, wheel_l_ticks, wheel_r_ticks]; ``z``: the steps' standard normal draws,
+    in order (left, right, slip of each step; only those whose sigma in ``p`` is not zero).
+    Returns True when stalled (then nothing moves and no draw is used)."""
     stalled = p[11] == 0.0 and vl * vr < 0.0
     if stalled:
         return True
@@ -274,10 +278,20 @@ def _advance(state, p, vl, vr, dt, nsteps, rng):  # type: ignore[no-untyped-def]
     x = state[0]
     y = state[1]
     h = state[2]
+    j = 0
     for _ in range(nsteps):
-        zl = rng.standard_normal() if p[6] != 0.0 else 0.0
-        zr = rng.standard_normal() if p[7] != 0.0 else 0.0
-        zs = rng.standard_normal() if p[8] != 0.0 else 0.0
+        zl = 0.0
+        zr = 0.0
+        zs = 0.0
+        if p[6] != 0.0:
+            zl = z[j]
+            j += 1
+        if p[7] != 0.0:
+            zr = z[j]
+            j += 1
+        if p[8] != 0.0:
+            zs = z[j]
+            j += 1
         x, y, h = _step(x, y, h, dnl, dnr, dt, p, zl, zr, zs)
         state[3] += tl
         state[4] += tr
@@ -572,13 +586,26 @@ class VirtualRobot:
         rest = d - n * self.dt
         if n > 0:
             self._stalled = bool(
-                _advance(self._state, self._p, self._vl, self._vr, self.dt, n, self._rng)
+                _advance(self._state, self._p, self._vl, self._vr, self.dt, n, self._normals(n))
             )
         if rest > 1e-12 * self.dt:
             self._stalled = bool(
-                _advance(self._state, self._p, self._vl, self._vr, rest, 1, self._rng)
+                _advance(self._state, self._p, self._vl, self._vr, rest, 1, self._normals(1))
             )
         self._time += d
+
+    def _normals(self, steps: int) -> NDArray[np.float64]:
+        """The standard normal draws of ``steps`` steps, in the order the kernel uses them.
+
+        They are drawn here, not by the kernel from the Generator: a Generator passed into
+        compiled code is unboxed by Python code (ctypes), and an exception raised there by a
+        signal handler (Ctrl-C, the board's SIGTERM) crashed numba (a segfault, 1 board run in
+        60). The same Generator gives the same draws, so the motion is unchanged."""
+        p = self._p
+        if p[_CAN_TURN] == 0.0 and self._vl * self._vr < 0.0:
+            return _NO_DRAWS  # stalled: the kernel moves nothing and draws nothing
+        per_step = int(p[_K_L] != 0.0) + int(p[_K_R] != 0.0) + int(p[_K_SCRUB] != 0.0)
+        return self._rng.standard_normal(steps * per_step) if per_step else _NO_DRAWS
 
     def wheel_ticks(self) -> tuple[float, float]:
         """Continuous (unwrapped, fractional) wheel positions in counts since construction."""
