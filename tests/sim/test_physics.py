@@ -236,3 +236,33 @@ def test_noise_draws_follow_the_generator_in_order() -> None:
         c.set_wheel_speeds(*speeds)
         c.advance(seconds)
     assert abs(c.true_pose.x - b.true_pose.x) + abs(c.true_pose.y - b.true_pose.y) > 1e-9
+
+
+def test_ctrl_c_and_sigterm_wait_for_the_batch_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The batch kernel takes a Generator, unboxed by Python code where an exception from a
+    signal handler would crash numba: the signal acts when the kernel has returned."""
+    import signal
+
+    from odolab.sim import physics
+
+    real = physics._batch
+    order: list[str] = []
+
+    def kernel(*args: object) -> None:
+        signal.raise_signal(signal.SIGTERM)
+        signal.raise_signal(signal.SIGINT)
+        order.append("kernel started")
+        real(*args)
+        order.append("kernel done")
+
+    monkeypatch.setattr(physics, "_batch", kernel)
+    int_handler = signal.getsignal(signal.SIGINT)
+    old_term = signal.signal(signal.SIGTERM, lambda _s, _f: order.append("SIGTERM handled"))
+    try:
+        proto = _proto({"motion": "translation", "distance": 0.5, "speed": 0.4})
+        with pytest.raises(KeyboardInterrupt):
+            run_protocol(proto, TRUTH_PRESETS["jaguar-lab"], NOM)  # type: ignore[arg-type]
+        assert order == ["kernel started", "kernel done", "SIGTERM handled"]
+        assert signal.getsignal(signal.SIGINT) is int_handler
+    finally:
+        signal.signal(signal.SIGTERM, old_term)

@@ -38,6 +38,10 @@ steps, one random generator) with the very same step function.
 from __future__ import annotations
 
 import math
+import signal
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
@@ -419,6 +423,36 @@ class BatchResult:
     report_rate: float
 
 
+#: The signals whose handlers :func:`_signals_held` holds back.
+_HELD_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+@contextmanager
+def _signals_held() -> Iterator[None]:
+    """Ctrl-C and SIGTERM wait until the batch kernel has returned, then act as they would have.
+
+    The kernel takes a Generator, which numba unboxes with Python code (ctypes); an exception
+    that a signal handler raises there crashes numba (a segfault). The compiled loop itself
+    cannot be interrupted anyway, so only that instant moves. Signal handlers run in the main
+    thread only, so a call from any other thread has nothing to hold."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    before: dict[int, Any] = {}
+    try:
+        for sig in _HELD_SIGNALS:
+            old = signal.getsignal(sig)
+            if old is not signal.SIG_IGN and old is not None:
+                before[sig] = signal.signal(sig, lambda signum, _frame: caught.append(signum))
+        yield
+    finally:
+        for held, handler in before.items():
+            signal.signal(held, handler)
+        for signum in caught:
+            signal.raise_signal(signum)  # the handler the program had, now
+
+
 def simulate_batch(
     params: NDArray[np.float64],
     seg_ticks_left: NDArray[np.int64],
@@ -480,10 +514,11 @@ def simulate_batch(
     out_len = np.zeros(n, dtype=np.int64)
     out_pose = np.zeros((n, 3))
     out_stalled = np.zeros(n, dtype=np.bool_)
-    _batch(
-        P, seg_l, seg_r, vl, vr, nseg, h0, spr, float(dt), stall_reports, rng,
-        out_l, out_r, out_len, out_pose, out_stalled,
-    )  # fmt: skip
+    with _signals_held():
+        _batch(
+            P, seg_l, seg_r, vl, vr, nseg, h0, spr, float(dt), stall_reports, rng,
+            out_l, out_r, out_len, out_pose, out_stalled,
+        )  # fmt: skip
     return BatchResult(
         out_l, out_r, out_len, out_pose, h0, out_stalled, P[:, _TRACK].copy(), float(report_rate)
     )
