@@ -265,12 +265,10 @@ def evaluate_cmd(
         from odolab.fleet.table import fleet_rows, write_fleet_table
 
         write_fleet_table(fleet_rows(outcomes), results)
-    if not done:
-        pass  # every run failed: no table of nothing; report_failures below lists them
-    elif len(outcomes) <= 20:
-        _print_table(list(zip(run_labels(done), [r.evaluation for r in done], strict=True)))
-    else:
+    if len(outcomes) > 20:
         print_fleet(outcomes)
+    elif done:  # (every run failed: no empty table; report_failures lists them)
+        _print_table(list(zip(run_labels(done), [r.evaluation for r in done], strict=True)))
     if nees:
         from odolab.cli.consistency import print_nees
 
