@@ -66,12 +66,13 @@ def shorten(text: str, limit: int = MAX_ECHO_CHARS) -> str:
     return f"{text[:limit]}... ({len(text)} characters)"
 
 
-def safe_terminal(text: object, *, limit: int | None = None) -> str:
+def safe_terminal(text: object, *, limit: int | None = None, unicode_escapes: bool = False) -> str:
     """``text`` with every control or invisible character shown as an escape (``\\x1b``).
 
     A terminal then prints the text and obeys nothing in it: no colour change, no cursor move,
     no overwritten line, no reversed text. With ``limit`` the text is also :func:`shorten`-ed.
-    """
+    ``unicode_escapes``: ``\\u001b`` (and ``\\U...``) only, the escapes a TOML or JSON string
+    reads back as the character (for text that must stay valid TOML)."""
     s = str(text)
     if limit is not None:
         s = shorten(s, limit)
@@ -81,7 +82,7 @@ def safe_terminal(text: object, *, limit: int | None = None) -> str:
     for ch in s:
         if ch == " " or unicodedata.category(ch) not in _UNSAFE_CATEGORIES:
             out.append(ch)
-        elif ord(ch) < 0x100:
+        elif ord(ch) < 0x100 and not unicode_escapes:
             out.append(f"\\x{ord(ch):02x}")
         elif ord(ch) < 0x10000:
             out.append(f"\\u{ord(ch):04x}")

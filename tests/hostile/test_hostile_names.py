@@ -251,3 +251,21 @@ def test_a_path_with_an_escape_sequence_is_echoed_as_text(
     assert "\x1b" not in said and "\x07" not in said
     assert "e\\x1b[31mred\\x1b[2J\\x1b]0;owned\\x07vil" in said
     assert out.exists()
+
+
+def test_params_show_stays_toml_and_obeys_nothing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import tomllib
+
+    name = f"jag{ANSI}\u0085uar\tlite"
+    source = tmp_path / "p.toml"
+    from odolab.params import save_params
+
+    save_params(source, PRESETS["jaguar-lite"].with_(name=name))
+    assert tomllib.loads(source.read_text())["robot"]["name"] == name
+    capsys.readouterr()
+    assert main(["params", "show", str(source)]) == 0
+    shown = capsys.readouterr().out
+    assert not any(c in shown for c in "\x1b\x07\x85\t")
+    assert tomllib.loads(shown)["robot"]["name"] == name

@@ -266,3 +266,49 @@ def test_ctrl_c_and_sigterm_wait_for_the_batch_kernel(monkeypatch: pytest.Monkey
         assert signal.getsignal(signal.SIGINT) is int_handler
     finally:
         signal.signal(signal.SIGTERM, old_term)
+
+
+def test_a_second_ctrl_c_while_handlers_return_leaves_every_handler_back(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import signal
+
+    from odolab.sim import physics
+
+    real = signal.signal
+    order: list[str] = []
+
+    def restore_then_ctrl_c(sig: int, handler: object) -> object:
+        old = real(sig, handler)  # type: ignore[arg-type]
+        if sig == signal.SIGINT and handler is signal.default_int_handler:
+            signal.raise_signal(signal.SIGINT)  # lands while the other handlers are not back
+        return old
+
+    old_term = real(signal.SIGTERM, lambda _s, _f: order.append("SIGTERM handled"))
+    try:
+        term_handler = signal.getsignal(signal.SIGTERM)
+        with pytest.raises(KeyboardInterrupt), physics._signals_held():
+            signal.raise_signal(signal.SIGTERM)
+            monkeypatch.setattr(signal, "signal", restore_then_ctrl_c)
+        monkeypatch.setattr(signal, "signal", real)
+        assert signal.getsignal(signal.SIGTERM) is term_handler
+        assert order == ["SIGTERM handled"]  # replayed, though Ctrl-C came too
+    finally:
+        real(signal.SIGTERM, old_term)
+
+
+def test_a_long_advance_runs_in_blocks_with_the_same_motion() -> None:
+    """advance(70 s) at 1 ms is 70,000 steps: more than one kernel call (their draws in memory
+    a block at a time), the same motion as seventy 1 s advances."""
+    from odolab.sim.physics import _STEPS_PER_CALL
+
+    assert 70_000 > _STEPS_PER_CALL
+    a = VirtualRobot(TRUTH_PRESETS["jaguar-lab"], NOM, "tile", seed=4)
+    b = VirtualRobot(TRUTH_PRESETS["jaguar-lab"], NOM, "tile", seed=4)
+    for r in (a, b):
+        r.set_wheel_speeds(0.3, 0.32)
+    a.advance(70.0)
+    for _ in range(70):
+        b.advance(1.0)
+    assert np.array(a.true_pose).tolist() == np.array(b.true_pose).tolist()
+    assert a.encoder_counts() == b.encoder_counts()

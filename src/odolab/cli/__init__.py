@@ -124,7 +124,8 @@ def main(argv: list[str] | None = None) -> int:
             if "--help" not in args:
                 for name in PRELOAD.get(args[0] if args else "", ()):
                     importlib.import_module(name)
-        app(args=args, prog_name="odolab", standalone_mode=True)
+        # (the program's own arguments as None: click expands wildcards itself on Windows)
+        app(args=None if argv is None else args, prog_name="odolab", standalone_mode=True)
     except OdolabError as err:
         sys.stderr.write(f"odolab: error: {safe_terminal(err, limit=_MAX_ERROR_CHARS)}\n")
         return 1

@@ -211,8 +211,11 @@ def params_show(
     import tomli_w
 
     from odolab.params import load_params
+    from odolab.text import safe_terminal
 
-    echo(tomli_w.dumps({"robot": load_params(source).to_dict()}).rstrip())
+    text = tomli_w.dumps({"robot": load_params(source).to_dict()}).rstrip()
+    # still TOML: a control character in a name is written as its \u escape, not obeyed
+    typer.echo("\n".join(safe_terminal(line, unicode_escapes=True) for line in text.split("\n")))
 
 
 @params_app.command("list")

@@ -73,6 +73,8 @@ _SPEED_SLIP, _STOP_SLIDE, _CAN_TURN, _MPT_L, _MPT_R = 9, 10, 11, 12, 13
 _W_L, _W_R, _E_L, _E_R, _LATERAL = 14, 15, 16, 17, 18
 #: no noise draws (a noiseless or a stalled step)
 _NO_DRAWS = np.empty(0)
+#: most steps per kernel call in VirtualRobot.advance (their draws: 1.5 MB)
+_STEPS_PER_CALL = 65_536
 # turn slip: the true model's denominator (ICR spread) shrinks away from turns in place
 _TURN_SLIP = 19
 _NPARAM = 20
@@ -447,10 +449,18 @@ def _signals_held() -> Iterator[None]:
                 before[sig] = signal.signal(sig, lambda signum, _frame: caught.append(signum))
         yield
     finally:
-        for held, handler in before.items():
-            signal.signal(held, handler)
-        for signum in caught:
-            signal.raise_signal(signum)  # the handler the program had, now
+        raised: BaseException | None = None
+        for held, handler in before.items():  # every handler back, even if a signal lands now
+            try:
+                signal.signal(held, handler)
+            except BaseException as exc:  # re-raised below, once every handler is back
+                raised = raised or exc
+        # the handlers the program had, now: SIGTERM first (Ctrl-C's KeyboardInterrupt would
+        # end the replay), each once
+        for signum in sorted(set(caught), key=lambda s: s != signal.SIGTERM):
+            signal.raise_signal(signum)
+        if raised is not None:
+            raise raised
 
 
 def simulate_batch(
@@ -619,10 +629,12 @@ class VirtualRobot:
             raise SimError(f"advance duration must be a finite number >= 0, got {duration!r}")
         n = math.floor(d / self.dt + 1e-9)
         rest = d - n * self.dt
-        if n > 0:
+        while n > 0:  # in blocks: the draws of one block in memory at a time
+            k = min(n, _STEPS_PER_CALL)
             self._stalled = bool(
-                _advance(self._state, self._p, self._vl, self._vr, self.dt, n, self._normals(n))
+                _advance(self._state, self._p, self._vl, self._vr, self.dt, k, self._normals(k))
             )
+            n -= k
         if rest > 1e-12 * self.dt:
             self._stalled = bool(
                 _advance(self._state, self._p, self._vl, self._vr, rest, 1, self._normals(1))
