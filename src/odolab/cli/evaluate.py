@@ -208,8 +208,10 @@ def evaluate_cmd(
                 "--nees needs runs with encoder increments (--format), not two trajectories"
             )
         if len(paths) != 2:
+            from odolab.numfmt import count
+
             raise OdolabError(
-                f"evaluate takes GT EST (two trajectory files), got {len(paths)} paths; "
+                f"evaluate takes GT EST (two trajectory files), got {count(len(paths), 'path')}; "
                 "use --format for runs"
             )
         if chunk_rows is not None and chunk_rows < 0:
