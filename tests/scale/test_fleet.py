@@ -183,3 +183,23 @@ def test_fleet_spec_refuses_nonsense() -> None:
         FleetSpec(robots=0)
     with pytest.raises(OdolabError, match="fleet start date"):
         FleetSpec(start_date="March")
+
+
+def test_a_local_cluster_beside_another_does_not_warn(fleet: list[Path]) -> None:
+    """The local cluster's web server takes a free loopback port: with 127.0.0.1:8787 taken
+    (another odolab run, a notebook's cluster), nothing is printed about it."""
+    import socket
+    import warnings
+
+    with socket.socket() as taken:
+        try:
+            taken.bind(("127.0.0.1", 8787))
+        except OSError:
+            pytest.skip("127.0.0.1:8787 is in use here already")
+        taken.listen()
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # a UserWarning about the port fails the test
+            got = evaluate_runs(
+                fleet[:4], "csv", params=NOMINAL, read_options=READ, cluster=Cluster(workers=2)
+            )
+    assert all(o.result is not None for o in got)

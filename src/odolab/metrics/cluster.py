@@ -157,7 +157,9 @@ def _client(cluster: Cluster) -> Iterator[Any]:
             threads_per_worker=1,
             processes=True,
             host="127.0.0.1",
-            dashboard_address=None,
+            # the scheduler's web server (health, dashboard) on a free loopback port: None
+            # meant distributed's default 127.0.0.1:8787, and two odolab runs at once warned
+            dashboard_address="127.0.0.1:0",
             silence_logs=logging.ERROR,
         ) as local,
         Client(local) as client,
