@@ -8,7 +8,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from odolab.cli._output import markup_text
+from odolab.cli._output import markup_text, term
 from odolab.errors import OdolabError
 
 __all__ = ["expand_logs", "expand_runs", "odometry_many", "print_fleet", "report_failures"]
@@ -52,11 +52,6 @@ def expand_runs(paths: Sequence[Path], fmt: str) -> list[Path]:
 
 def _csv_files(paths: Sequence[Path]) -> list[Path]:
     return [q for q in paths if q.is_file() and not q.stem.endswith("_gt")]
-
-
-def for_terminal(text: str) -> str:
-    """Control characters (escape sequences in file names) shown as ``\\xNN``, not obeyed."""
-    return "".join(c if c.isprintable() else f"\\x{ord(c):02x}" for c in text)
 
 
 def _f(value: Any, digits: int = 3) -> str:
@@ -125,13 +120,13 @@ def report_failures(outcomes: Sequence[Any], report: Any, results: Path | None) 
     console = Console(stderr=True)
     loss = report.loss_text()
     if loss:
-        console.print(f"note: {for_terminal(loss)}", markup=False)
+        console.print(f"note: {term(loss)}", markup=False)
     failed = [o for o in outcomes if not o.ok]
     if not failed:
         return
     shown = failed[:20]
     for o in shown:
-        console.print(f"failed: {for_terminal(str(o.error))}", markup=False, soft_wrap=True)
+        console.print(f"failed: {term(str(o.error))}", markup=False, soft_wrap=True)
     if len(failed) > len(shown):
         console.print(f"... and {len(failed) - len(shown)} more failed runs", markup=False)
     kept = f"; the other results are in {results}" if results is not None else ""
@@ -223,7 +218,7 @@ def odometry_many(
     rows = sum(o.result.rows for o in outcomes if o.result is not None)
     ok = sum(1 for o in outcomes if o.ok)
     Console().print(
-        f"{ok} of {len(outcomes)} logs -> {for_terminal(str(output))} ({rows:,} poses; "
+        f"{ok} of {len(outcomes)} logs -> {term(str(output))} ({rows:,} poses; "
         f"{rep.where}, {rep.seconds:.1f} s)",
         markup=False,
     )

@@ -58,7 +58,7 @@ def fleet_report(
     """Which robot needs recalibration, with the evidence: an HTML section and a figure."""
     from rich.console import Console
 
-    from odolab.cli._fleet import for_terminal
+    from odolab.cli._output import term
     from odolab.fleet.section import fleet_section
     from odolab.fleet.table import read_fleet_table
 
@@ -67,5 +67,5 @@ def fleet_report(
     console = Console()
     for v in section.verdicts:
         mark = "RECALIBRATE" if v.recalibrate else "ok"
-        console.print(f"{for_terminal(v.robot)}: {mark}: {for_terminal(v.reason())}", markup=False)
-    console.print(f"fleet section -> {for_terminal(str(page))}", markup=False)
+        console.print(f"{term(v.robot)}: {mark}: {term(v.reason())}", markup=False)
+    console.print(f"fleet section -> {term(str(page))}", markup=False)
