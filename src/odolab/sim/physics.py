@@ -649,8 +649,8 @@ class VirtualRobot:
         signal handler (Ctrl-C, the board's SIGTERM) crashed numba (a segfault, 1 board run in
         60). The same Generator gives the same draws, so the motion is unchanged."""
         p = self._p
-        if p[_CAN_TURN] == 0.0 and self._vl * self._vr < 0.0:
-            return _NO_DRAWS  # stalled: the kernel moves nothing and draws nothing
+        if self._stalled:  # set by set_wheel_speeds with the kernel's rule: it draws nothing
+            return _NO_DRAWS
         per_step = int(p[_K_L] != 0.0) + int(p[_K_R] != 0.0) + int(p[_K_SCRUB] != 0.0)
         return self._rng.standard_normal(steps * per_step) if per_step else _NO_DRAWS
 
