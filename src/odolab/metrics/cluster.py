@@ -21,7 +21,7 @@ from typing import Any, Generic, TypeVar
 
 from odolab.errors import OdolabError
 
-__all__ = ["Cluster", "MapReport", "Outcome", "map_outcomes"]
+__all__ = ["Cluster", "MapReport", "Outcome", "local_cluster", "map_outcomes"]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -32,9 +32,11 @@ Progress = Callable[[int, int, str], None]
 class Cluster:
     """Where many runs are computed.
 
-    ``scheduler``: a Dask scheduler address (``tcp://HOST:PORT``); None starts a local cluster of
+    ``scheduler``: a Dask scheduler address (``tcp://HOST:PORT``, ``tls://``), used with Dask's
+    own configuration (its TLS and authentication settings); None starts a local cluster of
     ``workers`` processes with one thread each (2 by default: this machine's cores), bound to
-    127.0.0.1, and stops it afterwards. ``workers <= 1`` with no scheduler: in this process.
+    127.0.0.1, reached only with TLS and a certificate made for it (:func:`local_cluster`), and
+    stops it afterwards. ``workers <= 1`` with no scheduler: in this process.
     ``timeout``: seconds to wait for the scheduler to answer.
     """
 
@@ -138,7 +140,7 @@ def _run_batch(func: Callable[[T], R], items: list[T], labels: list[str]) -> lis
 
 @contextmanager
 def _client(cluster: Cluster) -> Iterator[Any]:
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
     if cluster.scheduler is not None:
         try:
@@ -151,20 +153,55 @@ def _client(cluster: Cluster) -> Iterator[Any]:
         with client:
             yield client
         return
+    with local_cluster(int(cluster.workers)) as local, Client(local) as client:
+        yield client
+
+
+def _security() -> Any:
+    """TLS with a certificate made for this cluster alone (kept in memory, never on disk)."""
+    from distributed.security import Security
+
+    try:
+        return Security.temporary()
+    except ImportError as err:  # pragma: no cover - cryptography is a dependency
+        raise OdolabError(
+            "the local Dask cluster needs the package `cryptography` for its TLS certificate; "
+            "expected it installed with odolab (pip install cryptography), or use --workers 1"
+        ) from err
+
+
+@contextmanager
+def local_cluster(workers: int) -> Iterator[Any]:
+    """A Dask cluster on this machine that no other process can use.
+
+    ``workers`` processes with one thread each. Every listening port (scheduler, nannies,
+    workers) speaks TLS with mutual authentication: a certificate and key made for this cluster
+    (:meth:`distributed.security.Security.temporary`) that only this process and its workers
+    hold, so another local process (another user, a browser page, a stranger's script) cannot
+    connect, let alone run a function. The scheduler's and workers' web servers (dashboard,
+    metrics, health) serve no route at all. Everything listens on 127.0.0.1 only.
+    """
+    import dask
+    from distributed import LocalCluster
+
     with (
+        dask.config.set(
+            {"distributed.scheduler.http.routes": [], "distributed.worker.http.routes": []}
+        ),
         LocalCluster(
-            n_workers=int(cluster.workers),
+            n_workers=workers,
             threads_per_worker=1,
             processes=True,
             host="127.0.0.1",
-            # the scheduler's web server (health, dashboard) on a free loopback port: None
-            # meant distributed's default 127.0.0.1:8787, and two odolab runs at once warned
+            protocol="tls://",
+            security=_security(),
+            # the scheduler's web server on a free loopback port: None meant distributed's
+            # default 127.0.0.1:8787, and two odolab runs at once warned
             dashboard_address="127.0.0.1:0",
             silence_logs=logging.ERROR,
         ) as local,
-        Client(local) as client,
     ):
-        yield client
+        yield local
 
 
 def map_outcomes(
