@@ -520,6 +520,20 @@ class Odometry:
         if self._cov is not None:
             self._cov.reset()
 
+    def warm_up(self) -> None:
+        """Load (or compile) the compiled step this odometry calls, now, on a throwaway copy.
+
+        The first :meth:`update` that moves calls numba's dispatchers (:func:`body_motion`,
+        :func:`step_pose`, the covariance step), which load or compile their machine code on that
+        first call: 0.3 s to several seconds. A control loop calls this before its first command
+        so that no cycle pays it. This odometry's own state is untouched."""
+        twin = Odometry(
+            self.params, self.method, max_dticks=self.max_dticks, covariance=self._cov is not None
+        )
+        for k, ticks in enumerate((0, 1, 0)):  # a move of one count (<= any max_dticks), back
+            twin.update(0.05 * k, ticks, ticks)
+            twin.update_increments(0.05 * k + 0.01, 1.0, -1.0)
+
     @property
     def covariance(self) -> tuple[float, float, float, float, float, float]:
         """The propagated covariance now, six terms in ``odolab.uncertainty.COV_COLUMNS``.

@@ -24,7 +24,8 @@ from odolab.cli._output import echo
 if TYPE_CHECKING:
     from odolab.robot.config import RunConfig
     from odolab.robot.loop import CycleInfo
-    from odolab.robot.session import AbortReport
+    from odolab.robot.session import AbortReport, RobotRun
+    from odolab.store import Notebook
     from odolab.trials import Command
 
 __all__: list[str] = []
@@ -157,12 +158,24 @@ RealtimeOpt = Annotated[
 ]
 
 
-def _live_table(info: CycleInfo, rate: float, target: str) -> Any:
-    from rich.table import Table
+class _LiveTable:
+    """The live view of one cycle. Its imports happen when it is made, before the robot moves:
+    a control cycle imports nothing."""
 
-    from odolab.cli._output import markup_text
+    def __init__(self, rate: float, target: str) -> None:
+        from rich.table import Table
 
-    table = Table(title=f"odolab robot: {markup_text(target)}", show_header=False)
+        from odolab.cli._output import markup_text
+
+        self._table = Table
+        self.rate = rate
+        self.title = f"odolab robot: {markup_text(target)}"
+
+    def __call__(self, info: CycleInfo) -> Any:
+        return _live_table(self._table(title=self.title, show_header=False), info, self.rate)
+
+
+def _live_table(table: Any, info: CycleInfo, rate: float) -> Any:
     p = info.pose
     table.add_row("cycle", f"{info.index}  t={info.t:.2f} s  ({rate:g} Hz)")
     table.add_row(
@@ -189,6 +202,8 @@ class _FoxgloveView:
 
         self.live = FoxgloveLive(port=port)
         self.odo = Odometry(params, covariance=True) if params.noise is not None else None
+        if self.odo is not None:
+            self.odo.warm_up()  # its compiled steps load now, not in a control cycle
         echo(f"Foxglove: open ws://127.0.0.1:{self.live.port}", err=True)
 
     def publish(self, info: CycleInfo) -> None:
@@ -232,11 +247,10 @@ def _run(
     from rich.console import Console
     from rich.live import Live
 
-    from odolab.errors import RobotLinkError
     from odolab.params import load_params
     from odolab.robot.config import check_motion
     from odolab.robot.registry import check_robot_url
-    from odolab.robot.session import run_motion
+    from odolab.robot.session import check_run_folder
 
     url = check_robot_url(robot)
     nominal = load_params(params)
@@ -273,29 +287,97 @@ def _run(
             echo(events[-1], err=True)
 
     live = Live(console=console, refresh_per_second=8, transient=False) if not quiet else None
+    live_table = _LiveTable(config.rate, target)
     every = max(1, round(config.rate / 8))
 
     view = _FoxgloveView(nominal, foxglove_port) if foxglove else None
 
     def on_cycle(info: CycleInfo) -> None:
         if live is not None and (info.index % every == 0 or not info.link_ok):
-            live.update(_live_table(info, config.rate, target))
+            live.update(live_table(info))
         if view is not None:
             view.publish(info)
 
+    # every output precondition before the robot moves: the notebook opens and is one (create,
+    # migrate), the run folder can be created and written and holds no earlier run
+    folder = out if out is not None else _default_folder(command)
+    check_run_folder(folder)
     notebook = None
-    if db is not None:  # open (create, migrate) the notebook before driving: refuse a bad one now
+    if db is not None:
         from odolab.store import Notebook
 
         notebook = Notebook(db)
-    folder = out or Path("runs") / "robot" / (
-        datetime.now(UTC).strftime("%Y%m%dT%H%M%S") + f"-{command.kind.value}"
-    )
-    if folder.exists() and not folder.is_dir():
-        from odolab.robot.errors import RobotConfigError
+    try:
+        _drive(
+            command, config, url=url, nominal=nominal, plant=plant, seed=seed, terrain=terrain,
+            on_cycle=on_cycle, on_event=on_event, realtime=realtime, folder=folder,
+            notebook=notebook, db=db, quiet=quiet, live=live, view=view, events=events,
+            target=target,
+        )  # fmt: skip
+    finally:
+        if notebook is not None:
+            notebook.close()
 
-        # refuse before driving: a run that cannot be saved would be lost
-        raise RobotConfigError(f"{folder}: is a file; expected a folder for the run (--out)")
+
+def _default_folder(command: Command) -> Path:
+    """``runs/robot/<UTC time>-<motion>``, with ``-2``, ``-3``... when that is taken."""
+    base = (
+        Path("runs")
+        / "robot"
+        / (datetime.now(UTC).strftime("%Y%m%dT%H%M%S") + f"-{command.kind.value}")
+    )
+    folder, n = base, 1
+    while folder.exists() or folder.is_symlink():
+        n += 1
+        folder = base.with_name(f"{base.name}-{n}")
+    return folder
+
+
+def _record(notebook: Notebook | None, db: Path | None, run: RobotRun) -> str:
+    """Record ``run`` in the notebook; "" when done (or no notebook), else why not."""
+    if notebook is None or db is None:
+        return ""
+    from odolab.errors import OdolabError
+
+    try:
+        notebook.add_trial(run.trial)
+    except OdolabError as err:
+        return f"the run could not be recorded in the notebook {db}: {err}"
+    if run.trial.status.value == "excluded":
+        echo(f"recorded in {db} as {run.trial.trial_id} (excluded: the run failed)", err=True)
+    else:
+        echo(
+            f"recorded in {db} as {run.trial.trial_id}; enter the measurement with "
+            f"'odolab trials measure {run.trial.trial_id} --db {db}'"
+        )
+    return ""
+
+
+def _drive(
+    command: Command,
+    config: RunConfig,
+    *,
+    url: str,
+    nominal: Any,
+    plant: Any,
+    seed: int,
+    terrain: str,
+    on_cycle: Callable[[CycleInfo], None],
+    on_event: Callable[[float, str], None],
+    realtime: bool,
+    folder: Path,
+    notebook: Notebook | None,
+    db: Path | None,
+    quiet: bool,
+    live: Any,
+    view: _FoxgloveView | None,
+    events: list[str],
+    target: str,
+) -> None:
+    """Drive the checked run; keep it (folder, notebook) whatever fails after the robot moved."""
+    from odolab.errors import RobotLinkError
+    from odolab.robot.errors import RunNotSavedError
+    from odolab.robot.session import run_motion
 
     def on_abort(report: AbortReport) -> None:
         nonlocal live
@@ -306,8 +388,14 @@ def _run(
             for line in events:
                 echo(line, err=True)
         echo(_confirm_line(report.stop_confirmed), err=True)
+        if report.save_note:
+            echo(report.save_note, err=True)
         if report.saved_to is not None:
             echo(f"the partial run is saved to {report.saved_to}", err=True)
+        if report.run is not None:
+            problem = _record(notebook, db, report.run)
+            if problem:
+                echo(problem, err=True)
 
     if live is not None:
         live.start()
@@ -343,20 +431,23 @@ def _run(
         q = run.trial.true
         echo(f"true (virtual): x={q.x:.4f} m y={q.y:.4f} m heading={q.heading:.4f} rad")
     echo(run.stats.describe())
-    echo(f"saved to {folder} (status: awaiting measurement)")
-    if notebook is not None:
-        with notebook as nb:
-            nb.add_trial(run.trial)
-        echo(
-            f"recorded in {db} as {run.trial.trial_id}; enter the measurement with "
-            f"'odolab trials measure {run.trial.trial_id} --db {db}'"
-        )
+    if run.save_note:
+        echo(run.save_note, err=True)
+    if run.saved_to is not None:
+        echo(f"saved to {run.saved_to} (status: awaiting measurement)")
+    problem = _record(notebook, db, run)
+    if problem:
+        echo(problem, err=True)
     if not run.stop_confirmed:
         raise RobotLinkError(
             "the run finished and stop was commanded, but the robot's sensor data does not "
             "confirm that it stopped; check the robot"
         )
     echo(_confirm_line(True), err=True)
+    if run.saved_to is None:
+        raise RunNotSavedError(run.save_note)
+    if problem:
+        raise RunNotSavedError(f"{problem}; the run is saved to {run.saved_to}")
 
 
 def _config(

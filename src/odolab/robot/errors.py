@@ -11,12 +11,15 @@ from odolab.errors import OdolabError, RobotLinkError, SimError
 __all__ = [
     "BoardConfigError",
     "CommandsIgnoredError",
+    "LateCycleError",
     "LinkLostError",
     "MotionError",
     "NoSensorDataError",
     "PlantError",
     "RobotConfigError",
     "RobotUrlError",
+    "RunFolderError",
+    "RunNotSavedError",
 ]
 
 
@@ -46,6 +49,19 @@ class LinkLostError(RobotLinkError):
 
 class CommandsIgnoredError(RobotLinkError):
     """The robot's encoders do not follow the commands (stalled, or the board ignores them)."""
+
+
+class LateCycleError(OdolabError):
+    """A control cycle ran later than the watchdog bound (the host froze, was swapped out or
+    starved): the loop sent stop and failed the run instead of resuming the motion."""
+
+
+class RunFolderError(RobotConfigError):
+    """The run's output folder cannot take the run (checked before the robot moves)."""
+
+
+class RunNotSavedError(OdolabError):
+    """A run that has driven could be written neither where asked nor to any fallback."""
 
 
 class PlantError(OdolabError):

@@ -7,8 +7,12 @@ cycle is: read what the board sent (update the encoder measurements), :meth:`Odo
 has ARRIVED (receive timestamp, not the time the loop read it) for ``watchdog_timeout`` seconds
 the link is declared lost and the loop commands stop every cycle until data returns: the first
 stop goes out within ``watchdog_timeout`` + one cycle of the last packet's arrival. Any
-exception, Ctrl-C included, commands stop before it leaves. The loop knows robots only through
-:class:`odolab.robot.interface.Driver`.
+exception, Ctrl-C included, commands stop before it leaves. A cycle that wakes (or is about to
+command the wheels) more than ``watchdog_timeout`` past its deadline - the host was frozen,
+swapped out or starved - sends stop and fails the run (:class:`LateCycleError`): it never
+resumes a motion from stale state. Everything a cycle calls is loaded before the first command
+(:meth:`ControlLoop.prepare`: the odometry's compiled step), so no cycle compiles or imports. The
+loop knows robots only through :class:`odolab.robot.interface.Driver`.
 """
 
 from __future__ import annotations
@@ -22,7 +26,12 @@ from numpy.typing import NDArray
 
 from odolab.odometry import Odometry
 from odolab.robot.clock import Clock
-from odolab.robot.errors import CommandsIgnoredError, LinkLostError, RobotConfigError
+from odolab.robot.errors import (
+    CommandsIgnoredError,
+    LateCycleError,
+    LinkLostError,
+    RobotConfigError,
+)
 from odolab.robot.interface import Driver, EncoderReading
 from odolab.robot.motions import Motion
 from odolab.trajectory import Pose, Trajectory
@@ -228,6 +237,24 @@ class ControlLoop:
             except Exception:
                 continue
 
+    def prepare(self) -> None:
+        """Load everything a cycle calls before anything is sent: the odometry's compiled step
+        (numba loads or compiles it on its first call, 0.3 s to seconds, which used to fall in
+        the cycle after the first wheel command). :meth:`run` calls it before connecting."""
+        self.odometry.warm_up()
+
+    def _check_on_time(self, late: float, k: int) -> None:
+        """Stop and fail the run when cycle ``k`` is ``late`` s past its deadline, more than the
+        watchdog bound: whatever the robot did meanwhile, the loop's state is stale."""
+        bound = self.watchdog.timeout
+        if late > bound:
+            self._safe_stop()
+            raise LateCycleError(
+                f"control cycle {k} ran {late:.3f} s late, more than the watchdog's {bound:g} s "
+                "(the host was frozen, swapped out or starved); stop sent and the run failed "
+                "instead of resuming the motion"
+            )
+
     def run(
         self,
         motion: Motion | None = None,
@@ -260,6 +287,7 @@ class ControlLoop:
         completed = False
         pose = odo.pose
         self.partial = None
+        self.prepare()  # before connecting: nothing has been sent yet
         try:
             reading = driver.latest if driver.latest is not None else driver.connect()
             self.watchdog.feed(reading.t)
@@ -287,6 +315,7 @@ class ControlLoop:
                         last_change = now
                 pose = odo.update(now - t0, reading.left_ticks, reading.right_ticks)
                 log.append(pose, reading, fresh, now - deadline)
+                self._check_on_time(now - deadline, k)  # before any command of this cycle
                 if k == 0 and motion is not None:
                     motion.start(pose, odo.params)
                 command = (0.0, 0.0)
@@ -327,6 +356,7 @@ class ControlLoop:
                             driver.stop()
                         else:
                             command = step
+                            self._check_on_time(clock.now() - deadline, k)
                             driver.set_wheel_speeds(*step)
                     else:
                         driver.stop()

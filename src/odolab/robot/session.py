@@ -6,15 +6,22 @@ drives the same driver and loop in simulated time, in-process, so a 20*pi rotati
 fraction of its real duration. Both take one validated :class:`RunConfig`; the motion is checked
 (:func:`check_motion`) before anything is sent. After every run, finished or not, the driver
 commands stop until the robot's own sensor data confirms it (:attr:`RobotRun.stop_confirmed`).
+
+Runs are never lost and never overwrite one another: :func:`check_run_folder` refuses, before
+the robot moves, a folder that cannot take the run (not a folder, not writable, or holding a
+run's file already); :func:`keep_run` saves a run that has driven where asked or, when that
+fails after all, to a new sibling folder or to the rescue folder (:func:`rescue_folder`), and
+says where. A run that failed part way is saved too, its trial EXCLUDED with the reason.
 """
 
 from __future__ import annotations
 
-import contextlib
 import json
 import math
-from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+import os
+import tempfile
+from collections.abc import Callable, Iterator
+from dataclasses import asdict, dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -24,7 +31,7 @@ from odolab.odometry import Odometry
 from odolab.params import PRESETS, RobotParams
 from odolab.robot.clock import Clock, RealClock, SimClock, set_realtime
 from odolab.robot.config import RunConfig, check_motion
-from odolab.robot.errors import RobotConfigError
+from odolab.robot.errors import RobotConfigError, RunFolderError
 from odolab.robot.interface import Driver
 from odolab.robot.jaguar.driver import DriverConfig
 from odolab.robot.loop import ControlLoop, CycleInfo, LoopResult, LoopStats
@@ -33,15 +40,23 @@ from odolab.robot.plant import IdealPlant, Plant, PlantFactory
 from odolab.robot.registry import RobotLink, VirtualSpec, open_link
 from odolab.trajectory import Pose
 from odolab.trials import Command, MotionKind, Trial, TrialStatus
+from odolab.writing import write_text_file
 
 __all__ = [
+    "RUN_FILES",
     "AbortReport",
     "RobotRun",
+    "check_run_folder",
     "driver_config_for",
+    "keep_run",
+    "rescue_folder",
     "run_motion",
     "run_motion_simulated",
     "save_run",
 ]
+
+#: The files a run folder gets, in the order they are written (run.json last).
+RUN_FILES = ("encoders.csv", "predicted.csv", "run.json")
 
 
 @dataclass(frozen=True, eq=False)
@@ -53,6 +68,8 @@ class RobotRun:
     robot: str  #: "udp://HOST:PORT", "virtual (udp://...)" or "simulated"
     stop_confirmed: bool = True  #: the robot's sensor data showed it still after the run
     config: RunConfig = field(default_factory=RunConfig)
+    saved_to: Path | None = None  #: where the run was saved (None: not asked, or nowhere)
+    save_note: str = ""  #: why it is not where it was asked to go ("" when it is)
 
     @property
     def stats(self) -> LoopStats:
@@ -66,6 +83,8 @@ class AbortReport:
     error: BaseException
     saved_to: Path | None
     stop_confirmed: bool
+    run: RobotRun | None = None  #: the partial run (None when the loop never ran a cycle)
+    save_note: str = ""  #: why it is not where it was asked to go ("" when it is)
 
 
 def driver_config_for(params: RobotParams, **changes: Any) -> DriverConfig:
@@ -94,6 +113,7 @@ def _trial(
         status = "motion stopped before its target (max duration)"
     else:
         status = ""
+    failed = bool(result.aborted)  # kept, but out of the analysis until someone includes it
     return Trial(
         trial_id=f"robot-{command.kind.value}-{stamp}",
         campaign=campaign,
@@ -103,9 +123,18 @@ def _trial(
         params=params,
         true=true_pose,
         encoder_log=result.log.encoder_log(params.encoder_modulus),
-        status=TrialStatus.AWAITING,
+        status=TrialStatus.EXCLUDED if failed else TrialStatus.AWAITING,
+        exclusion_reason=status if failed else None,
         notes=status,
     )
+
+
+def _true_pose(link: RobotLink) -> Pose | None:
+    """The virtual robot's true pose; None when unknown (a real robot, or a board that died)."""
+    try:
+        return link.true_pose()
+    except Exception:
+        return None
 
 
 def confirm_timeout(config: RunConfig) -> float:
@@ -153,31 +182,41 @@ def _drive_link(
             )
         except BaseException as err:
             confirmed = driver.confirm_stopped(confirm_timeout(config))
-            saved: Path | None = None
-            if loop is not None and loop.partial is not None and save_to is not None:
-                # keep what was recorded before the failure; a failure to save must not hide it
-                with contextlib.suppress(OSError, OdolabError):
-                    run = RobotRun(
-                        _trial(command, loop.partial, params, terrain, link.true_pose(), campaign),
-                        loop.partial,
-                        link.description,
-                        confirmed,
-                        config,
-                    )
-                    saved = save_run(run, save_to)
+            partial: RobotRun | None = None
+            if loop is not None and loop.partial is not None and len(loop.partial.log) > 0:
+                # it has driven: keep what was recorded; a failure to save must not hide `err`
+                partial = RobotRun(
+                    _trial(command, loop.partial, params, terrain, _true_pose(link), campaign),
+                    loop.partial,
+                    link.description,
+                    confirmed,
+                    config,
+                )
+                if save_to is not None:
+                    saved, note = keep_run(partial, save_to)
+                    partial = replace(partial, saved_to=saved, save_note=note)
             if on_abort is not None:
-                on_abort(AbortReport(err, saved, confirmed))
+                on_abort(
+                    AbortReport(
+                        err,
+                        partial.saved_to if partial is not None else None,
+                        confirmed,
+                        partial,
+                        partial.save_note if partial is not None else "",
+                    )
+                )
             raise
         confirmed = driver.confirm_stopped(confirm_timeout(config))
         run = RobotRun(
-            _trial(command, result, params, terrain, link.true_pose(), campaign),
+            _trial(command, result, params, terrain, _true_pose(link), campaign),
             result,
             link.description,
             confirmed,
             config,
         )
         if save_to is not None:
-            save_run(run, save_to)
+            saved, note = keep_run(run, save_to)
+            run = replace(run, saved_to=saved, save_note=note)
         return run
     finally:
         link.close()
@@ -211,10 +250,14 @@ def run_motion(
     ``robot``: "udp://HOST:PORT" of a Jaguar board, or None / "sim://" for a virtual Jaguar on
     127.0.0.1 whose plant ``plant()`` builds (default: an ideal robot with ``params``); the
     trial then carries the true pose. ``config`` (default :class:`RunConfig()`) and the motion
-    are validated before anything is sent. ``save_to``: save the run there (:func:`save_run`),
-    also when it fails part way (Ctrl-C, lost link, stall); ``on_abort`` then hears where it
-    went and whether the robot's data confirmed the stop.
+    are validated before anything is sent. ``save_to``: checked (:func:`check_run_folder`) and
+    created before anything is sent; the run is saved there (:func:`keep_run`: to a sibling or
+    the rescue folder if that fails after driving; :attr:`RobotRun.saved_to` says where), also
+    when it fails part way (Ctrl-C, lost link, stall, a late cycle); ``on_abort`` then hears
+    where it went and whether the robot's data confirmed the stop.
     """
+    if save_to is not None:
+        check_run_folder(save_to)
     config = config or RunConfig()
     params = params or PRESETS["jaguar-lite"]
     if motion is None:
@@ -292,12 +335,107 @@ def _jsonable(obj: Any) -> Any:
     return obj
 
 
+def _first_existing(path: Path) -> Path:
+    """``path`` or the nearest of its parents that exists (something always does)."""
+    for p in (path, *path.parents):
+        if os.path.lexists(p):
+            return p
+    return Path()
+
+
+def check_run_folder(folder: str | Path) -> Path:
+    """Make sure ``folder`` can take a new run, and create it; call it before the robot moves.
+
+    Refused with one sentence (:class:`RunFolderError`): a path that is a file, or below a
+    file; a folder that holds any of :data:`RUN_FILES` already, as a file or as a folder (an
+    earlier run is never overwritten); a folder that cannot be created or written in (a
+    temporary file is created there and removed).
+    """
+    out = Path(folder)
+    base = _first_existing(out)
+    if not base.is_dir():
+        where = "is a file" if base == out else f"is below {base}, a file"
+        raise RunFolderError(f"{out}: {where}; expected a folder for the run (--out)")
+    in_the_way = [n for n in RUN_FILES if os.path.lexists(out / n)]
+    if (out / "run.json").is_file():
+        raise RunFolderError(
+            f"{out}: holds an earlier run (run.json); a run folder is never overwritten, "
+            "expected a new or empty folder (--out)"
+        )
+    if in_the_way:
+        name = in_the_way[0]
+        kind = "a folder" if (out / name).is_dir() else "a file"
+        raise RunFolderError(
+            f"{out}: has {kind} named {name} where the run writes its {name}; expected a new "
+            "or empty folder (--out)"
+        )
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(prefix=".odolab-probe-", dir=out)
+        os.close(fd)
+        Path(probe).unlink()
+    except OSError as err:
+        raise RunFolderError(
+            f"{out}: cannot create or write in the run folder ({err.strerror or err}); "
+            "expected a folder odolab can write (--out)"
+        ) from err
+    return out
+
+
+def rescue_folder() -> Path:
+    """Where a run goes when neither its folder nor a sibling can take it:
+    ``$ODOLAB_RESCUE_DIR``, else ``odolab-rescued-runs`` in the temporary folder."""
+    env = os.environ.get("ODOLAB_RESCUE_DIR")
+    return Path(env) if env else Path(tempfile.gettempdir()) / "odolab-rescued-runs"
+
+
+def _fallbacks(out: Path, trial_id: str) -> Iterator[Path]:
+    yield out
+    if out.name:  # not "." or "/"
+        n = 2
+        while os.path.lexists(out.with_name(f"{out.name}-{n}")) and n < 1000:
+            n += 1
+        yield out.with_name(f"{out.name}-{n}")
+    try:
+        root = rescue_folder()
+        root.mkdir(parents=True, exist_ok=True)
+        yield Path(tempfile.mkdtemp(prefix=f"{trial_id}-", dir=root))
+    except OSError:
+        return
+
+
+def keep_run(run: RobotRun, folder: str | Path) -> tuple[Path | None, str]:
+    """Save ``run`` (:func:`save_run`) to ``folder``; when that fails (the folder was replaced,
+    a full disk, a file in the way), to a new sibling folder ``FOLDER-N``, else to a new folder
+    in :func:`rescue_folder`. Returns (where it went, why not where asked: "" when it went
+    there); (None, why) when nowhere could take it. Never raises for a write failure: the
+    caller still holds the run (for the notebook) and must say where it is."""
+    out = Path(folder)
+    problems: list[str] = []
+    for target in _fallbacks(out, run.trial.trial_id):
+        try:
+            saved = save_run(run, target)
+        except (OSError, OdolabError) as err:
+            problems.append(str(err))
+            continue
+        if target == out:
+            return saved, ""
+        return saved, (
+            f"the run could not be saved to {out} ({'; '.join(problems)}); it is saved to "
+            f"{saved} instead"
+        )
+    return None, f"the run could not be saved anywhere: {'; '.join(problems)}"
+
+
 def save_run(run: RobotRun, folder: str | Path) -> Path:
-    """Write ``encoders.csv``, ``predicted.csv`` (one pose per cycle) and ``run.json``."""
+    """Write ``encoders.csv``, ``predicted.csv`` (one pose per cycle) and ``run.json``.
+
+    The folder is checked first (:func:`check_run_folder`): one that already holds a run is
+    refused (:class:`RunFolderError`), never overwritten. Each file is written through a
+    temporary file and renamed into place (never through a link)."""
     from odolab.io import write_encoder_csv, write_trajectory_csv
 
-    out = Path(folder)
-    out.mkdir(parents=True, exist_ok=True)
+    out = check_run_folder(folder)
     trial = run.trial
     assert trial.encoder_log is not None
     write_encoder_csv(out / "encoders.csv", trial.encoder_log)
@@ -319,9 +457,10 @@ def save_run(run: RobotRun, folder: str | Path) -> Path:
         "predicted": trial.predicted._asdict(),
         "true": trial.true._asdict() if trial.true is not None else None,
         "status": trial.status.value,
+        "exclusion_reason": trial.exclusion_reason,
         "stats": {k: _jsonable(v) for k, v in asdict(run.stats).items()},
         "events": [list(e) for e in run.loop.events],
         "measured": None,
     }
-    (out / "run.json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    write_text_file(out / "run.json", json.dumps(doc, indent=2) + "\n", what="run record")
     return out
