@@ -14,6 +14,10 @@ could do harm, it goes through one of these functions:
   ``\\x1b``-style escapes instead of being obeyed by the terminal.
 - :func:`safe_html`: text escaped for HTML (``<``, ``>``, ``&``, quotes), as a ``Markup``.
 - :func:`shorten` and :func:`quote_input`: any input echoed in a message is capped in length.
+- :func:`inert_csv_cell` and :func:`read_csv_cell`: a text cell of a CSV written for people
+  (a trials export, a fleet table) that a spreadsheet would run as a formula (it starts with
+  ``=``, ``+``, ``-``, ``@``, a tab or a carriage return: the OWASP rule) gets a leading ``'``,
+  which spreadsheets show as "this is text" and odolab's readers take off again.
 """
 
 from __future__ import annotations
@@ -28,10 +32,13 @@ if TYPE_CHECKING:
     from markupsafe import Markup
 
 __all__ = [
+    "CSV_FORMULA_STARTS",
     "MAX_ECHO_CHARS",
     "MAX_NAME_CHARS",
     "UnsafeNameError",
+    "inert_csv_cell",
     "quote_input",
+    "read_csv_cell",
     "safe_file_name",
     "safe_html",
     "safe_terminal",
@@ -53,6 +60,11 @@ _RESERVED = frozenset(
 #: Unicode categories a terminal must not receive raw: controls, format (bidi overrides,
 #: zero-width), line and paragraph separators, surrogates, private use, unassigned.
 _UNSAFE_CATEGORIES = frozenset({"Cc", "Cf", "Zl", "Zp", "Cs", "Co", "Cn"})
+
+
+#: First characters that make a spreadsheet read a CSV cell as a formula (OWASP, "CSV
+#: injection"); a text cell starting with one is written after a ``'``.
+CSV_FORMULA_STARTS = frozenset("=+-@\t\r")
 
 
 class UnsafeNameError(OdolabError):
@@ -133,3 +145,22 @@ def safe_file_name(text: str, *, what: str = "name", suffix: str = "") -> str:
         digest = hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()[:8]
         name = f"{name[: MAX_NAME_CHARS - 9]}-{digest}"
     return name + suffix
+
+
+def inert_csv_cell(text: str) -> str:
+    """``text`` as a CSV text cell a spreadsheet shows and never runs.
+
+    A cell starting with one of :data:`CSV_FORMULA_STARTS` gets a leading ``'`` (the OWASP
+    rule). So does a cell that already starts with ``'``, so that :func:`read_csv_cell` gives
+    every text back exactly: ``'=1`` is written ``''=1`` and read back ``'=1``. Only text cells
+    go through this: a number (``-0.5``) in a numeric column stays a number.
+    """
+    if text and (text[0] in CSV_FORMULA_STARTS or text[0] == "'"):
+        return "'" + text
+    return text
+
+
+def read_csv_cell(cell: str) -> str:
+    """A text cell as :func:`inert_csv_cell` wrote it, back to the text (one leading ``'``
+    taken off)."""
+    return cell[1:] if cell.startswith("'") else cell

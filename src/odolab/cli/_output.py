@@ -47,8 +47,7 @@ def check_output_path(path: Path, what: str) -> None:
 
 def write_output_text(path: Path, text: str, what: str) -> None:
     """Write ``text`` to ``path`` (UTF-8), creating its folder."""
+    from odolab.writing import write_text_file
+
     check_output_path(path, what)
-    try:
-        path.write_text(text, encoding="utf-8")
-    except OSError as err:
-        raise OutputError(f"{path}: cannot write the {what} ({err.strerror or err})") from err
+    write_text_file(path, text, what=what, error=OutputError)

@@ -19,8 +19,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -34,6 +32,7 @@ from odolab.export.ros2_controller import UNOBSERVED
 from odolab.kinematics import Method
 from odolab.params import RobotParams
 from odolab.trajectory import Trajectory
+from odolab.writing import replacing_path
 
 if TYPE_CHECKING:
     from odolab.io.run import OdometryRun
@@ -263,29 +262,21 @@ def write_mcap(
     counts = dict.fromkeys(TOPICS, 0)
     # sort by time (ground truth interleaved with odometry), stable within a stamp
     msgs = sorted(_messages(stream, start_time, odom_frame, base_frame), key=lambda m: m[1])
-    tmp: Path | None = None
-    try:
-        p.parent.mkdir(parents=True, exist_ok=True)
-        fd, name = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".part", dir=p.parent)
-        tmp = Path(name)
-        with os.fdopen(fd, "wb") as fh:
-            writer = Writer(fh, compression=CompressionType.LZ4)
-            schemas = {}
-            for topic, msgtype in TOPICS.items():
-                text, _ = store.generate_msgdef(msgtype, ros_version=2)
-                schemas[topic] = writer.register_msgdef(msgtype, text)
-            for topic, t, msg in msgs:
-                ns = round(t * 1e9)
-                writer.write_message(topic, schemas[topic], msg, log_time=ns, publish_time=ns)
-                counts[topic] += 1
-            writer.finish()  # type: ignore[no-untyped-call]
-        tmp.replace(p)  # the file appears whole, or not at all
-        tmp = None
-    except OSError as err:
-        raise OdolabError(f"{p}: cannot write the MCAP file ({err.strerror or err})") from err
-    finally:
-        if tmp is not None:
-            tmp.unlink(missing_ok=True)
+    # the file appears whole, or not at all; a link at p is replaced, not followed
+    with (
+        replacing_path(p, what="MCAP file", error=OdolabError) as tmp,
+        tmp.open("wb") as fh,
+    ):
+        writer = Writer(fh, compression=CompressionType.LZ4)
+        schemas = {}
+        for topic, msgtype in TOPICS.items():
+            text, _ = store.generate_msgdef(msgtype, ros_version=2)
+            schemas[topic] = writer.register_msgdef(msgtype, text)
+        for topic, t, msg in msgs:
+            ns = round(t * 1e9)
+            writer.write_message(topic, schemas[topic], msg, log_time=ns, publish_time=ns)
+            counts[topic] += 1
+        writer.finish()  # type: ignore[no-untyped-call]
     return {k: v for k, v in counts.items() if v}
 
 

@@ -29,6 +29,7 @@ from odolab.params import PRESETS, RobotParams
 from odolab.sim import TrueParams, VirtualRobot
 from odolab.trajectory import Trajectory
 from odolab.trials import EncoderLog
+from odolab.writing import write_text_file
 
 __all__ = ["FleetSpec", "RobotTruth", "simulate_fleet", "truth_on_day"]
 
@@ -204,5 +205,6 @@ def simulate_fleet(
         "nominal": nominal.to_dict(),
         "robots": [asdict(t) for t in truths],
     }
-    (out / "fleet.json").write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
+    text = json.dumps(manifest, indent=2) + "\n"
+    write_text_file(out / "fleet.json", text, what="fleet manifest")
     return sorted(paths)

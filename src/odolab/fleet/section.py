@@ -74,16 +74,15 @@ class FleetSection:
 
     def save(self, folder: str | Path) -> Path:
         """Write ``fleet.html`` and the figures as PNG into ``folder``; returns the HTML path."""
+        from odolab.writing import replacing_path, write_text_file
+
         out = Path(folder)
-        out.mkdir(parents=True, exist_ok=True)
         for name, fig in self.figures.items():
-            fig.savefig(out / f"{name}.png", dpi=110)
+            with replacing_path(out / f"{name}.png", what="fleet figure") as tmp:
+                fig.savefig(tmp, dpi=110, format="png")
         page = out / "fleet.html"
-        page.write_text(
-            "<!doctype html><meta charset='utf-8'><title>fleet</title>\n" + self.html,
-            encoding="utf-8",
-        )
-        return page
+        html = "<!doctype html><meta charset='utf-8'><title>fleet</title>\n" + self.html
+        return write_text_file(page, html, what="fleet page")
 
 
 def _day_numbers(dates: list[str]) -> np.ndarray:

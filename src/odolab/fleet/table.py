@@ -17,6 +17,7 @@ from typing import Any
 
 from odolab.metrics.cluster import Outcome
 from odolab.metrics.runs import RunEvaluation
+from odolab.writing import replacing_path
 
 __all__ = [
     "COLUMNS",
@@ -114,10 +115,25 @@ def _frame(columns: dict[str, list[Any]]) -> Any:
 
 
 def write_fleet_table(columns: dict[str, list[Any]], path: str | Path) -> Path:
-    """Write the table: Parquet, Arrow IPC or CSV by the file's extension."""
-    from odolab.io.tabular import write_frame
+    """Write the table: Parquet, Arrow IPC or CSV by the file's extension.
 
-    return write_frame(path, _frame(columns), "fleet table")
+    The file is written beside ``path`` and then renamed over it (:mod:`odolab.writing`). In a
+    CSV, a text cell a spreadsheet would run as a formula (a run or robot named ``=cmd()``, an
+    error message starting with ``-``) gets a leading ``'`` (:func:`odolab.text.inert_csv_cell`);
+    :func:`read_fleet_table` takes it off again.
+    """
+    from odolab.errors import LogFormatError
+    from odolab.io.tabular import table_format, write_frame
+    from odolab.text import inert_csv_cell
+
+    p = Path(path)
+    if table_format(p) == "csv":
+        columns = dict(columns)
+        for c in _TEXT:
+            columns[c] = [None if v is None else inert_csv_cell(str(v)) for v in columns[c]]
+    with replacing_path(p, what="fleet table", error=LogFormatError) as tmp:
+        write_frame(tmp, _frame(columns), "fleet table")
+    return p
 
 
 def read_fleet_table(path: str | Path) -> dict[str, list[Any]]:
@@ -145,7 +161,13 @@ def read_fleet_table(path: str | Path) -> dict[str, list[Any]]:
         raise LogFormatError(
             f"{p}: missing column {missing[0]!r}; expected a fleet table from odolab evaluate"
         )
-    return {c: frame[c].to_list() for c in COLUMNS}
+    table = {c: frame[c].to_list() for c in COLUMNS}
+    if fmt == "csv":  # text cells were written inert ("'=x" for "=x")
+        from odolab.text import read_csv_cell
+
+        for c in _TEXT:
+            table[c] = [v if not isinstance(v, str) else read_csv_cell(v) for v in table[c]]
+    return table
 
 
 @dataclass(frozen=True)

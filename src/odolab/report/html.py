@@ -46,23 +46,25 @@ from odolab.report.view import (
     verdict,
 )
 from odolab.text import safe_file_name
+from odolab.writing import replacing_path, sub_folder, write_text_file
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
-__all__ = ["build_results", "summary_sentences", "write_report"]
+__all__ = ["build_results", "jsonable", "summary_sentences", "write_report"]
 
 Calibration = CalibrationResult | UmbmarkResult
 Progress = Callable[[str], None]
 
 
-def _jsonable(obj: Any) -> Any:
+def jsonable(obj: Any) -> Any:
+    """``obj`` as JSON holds it: NumPy values as Python's, tuples as lists, NaN/inf as None."""
     if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
+        return {str(k): jsonable(v) for k, v in obj.items()}
     if isinstance(obj, list | tuple):
-        return [_jsonable(v) for v in obj]
+        return [jsonable(v) for v in obj]
     if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
+        return jsonable(obj.tolist())
     if isinstance(obj, np.floating | float):
         v = float(obj)
         return v if math.isfinite(v) else None
@@ -74,6 +76,7 @@ def _jsonable(obj: Any) -> Any:
 
 
 # kept for callers of the old names: one formatting rule now (odolab.report.view)
+_jsonable = jsonable
 _fmt = fmt
 _validation_view = validation_view
 _extra_view = extra_view
@@ -165,7 +168,7 @@ def build_results(
         "questions": ev.questions_dict(),
         "evidence_missing": list(ev.missing),
     }
-    res = _jsonable(res)
+    res = jsonable(res)
     res["summary"] = summary_sentences(res)
     return res
 
@@ -238,9 +241,9 @@ def _render(fig_dir: Path, plans: list[_Plan]) -> list[_Figure]:
             p.draw(ax)
             _legend_below(fig, ax, p.size)
             name = safe_file_name(p.name, what="figure name")  # terrains are user text
-            path = fig_dir / f"{name}.png"
-            fig.savefig(path)
-            b64 = base64.b64encode(path.read_bytes()).decode("ascii")
+            with replacing_path(fig_dir / f"{name}.png", what="report figure") as tmp:
+                fig.savefig(tmp, format="png")
+                b64 = base64.b64encode(tmp.read_bytes()).decode("ascii")
             done.append(_Figure(name, p.title, p.caption, b64, p.group))
     return done
 
@@ -462,12 +465,13 @@ def _evidence_plans(evidence: ModelEvidence | None) -> list[_Plan]:
 
 def _report_folder(out_dir: str | Path) -> tuple[Path, Path]:
     out = Path(out_dir)
-    fig_dir = out / "figures"
+    if out.exists() and not out.is_dir():
+        raise OdolabError(f"{out}: is a file; expected the report folder")
     try:
-        fig_dir.mkdir(parents=True, exist_ok=True)
+        out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise OdolabError(f"{out}: cannot create the report folder ({err})") from err
-    return out, fig_dir
+    return out, sub_folder(out, "figures", what="report figures")
 
 
 def _page(
@@ -551,8 +555,10 @@ def write_report(
     say(f"drawing {len(plans)} figures")
     figs = _render(fig_dir, plans)
     results["figures"] = {f.name: f"figures/{f.name}.png" for f in figs}
-    (out / "results.json").write_text(json.dumps(results, indent=2), encoding="utf-8")
+    # through a temporary file in ``out``: a link planted at either name is replaced, not followed
+    write_text_file(out / "results.json", json.dumps(results, indent=2), what="report results")
     path = out / "report.html"
-    path.write_text(_page(results, analysis, calibrations, figs, reference), encoding="utf-8")
+    page = _page(results, analysis, calibrations, figs, reference)
+    write_text_file(path, page, what="report")
     say(f"report written to {path}")
     return path

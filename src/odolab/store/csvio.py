@@ -51,6 +51,9 @@ Columns (header: meaning; *required* ones are marked; the rest may be left out o
 =========================  =================================================================
 
 A numeric cell may carry its column's unit ("2.5 m", "12 deg"); any other unit is refused.
+A text cell that starts with ``=``, ``+``, ``-``, ``@``, a tab, a carriage return or ``'`` is
+written after a ``'`` so that a spreadsheet shows it and runs nothing; the reader takes one
+leading ``'`` off any text cell (:func:`odolab.text.inert_csv_cell`).
 Cells are separated by commas (or by semicolons or tabs, recognised from the header line);
 numbers use a decimal point.
 Every error names the file, the line and the column, and is raised before anything is written.
@@ -75,7 +78,7 @@ from odolab.measurement import check_position, rotation_measurement_from_compass
 from odolab.models import DIFF_DRIVE, model_from_mapping
 from odolab.params import RobotParams, check_param, noise_from_mapping
 from odolab.store.records import record_from_trial
-from odolab.text import quote_input
+from odolab.text import inert_csv_cell, quote_input, read_csv_cell
 from odolab.trajectory import Pose
 from odolab.trials import (
     TRIAL_FIELDS,
@@ -87,6 +90,7 @@ from odolab.trials import (
     trial_field,
     validate_trial,
 )
+from odolab.writing import replacing_file
 
 __all__ = ["COLUMNS", "REQUIRED", "ParsedRow", "read_trials_csv", "write_trials_csv"]
 
@@ -177,7 +181,7 @@ class _Row:
         return bool(self.cells.get(column, "").strip())
 
     def text(self, column: str, *, required: bool = False) -> str | None:
-        value = self.cells.get(column, "").strip()
+        value = read_csv_cell(self.cells.get(column, "").strip())  # "'=1" was written for "=1"
         if not value:
             if required:
                 raise self.fail(column, "missing value")
@@ -532,7 +536,7 @@ def _parse_row(
         true=_pose(row, "true"),
         status=status,
         exclusion_reason=reason,
-        notes=row.cells.get("notes", ""),
+        notes=read_csv_cell(row.cells.get("notes", "")),
     )
     try:
         validate_trial(trial)
@@ -647,7 +651,12 @@ def _csv_row(t: Trial, version: int | None, extra: Sequence[str]) -> list[str]:
         }
     )
     by_csv.update({c: raw.get(c) for c in _RAW_COLUMNS})
-    return [_fmt(by_csv[c]) for c in COLUMNS] + [_fmt(raw.get(k)) for k in extra]
+    # a text cell a spreadsheet would run as a formula gets a leading "'" (numbers stay numbers)
+    cells = [
+        inert_csv_cell(_fmt(by_csv[c])) if unit is None else _fmt(by_csv[c])
+        for c, unit in COLUMNS.items()
+    ]
+    return cells + [_fmt(raw.get(k)) for k in extra]
 
 
 def write_trials_csv(path: str | Path, trials: Iterable[tuple[Trial, int | None]]) -> Path:
@@ -664,13 +673,9 @@ def write_trials_csv(path: str | Path, trials: Iterable[tuple[Trial, int | None]
     )
     header = [*COLUMNS, *(f"raw_{k}" for k in extra)]
     p = Path(path)
-    try:
-        p.parent.mkdir(parents=True, exist_ok=True)
-        with p.open("w", newline="", encoding="utf-8") as fh:
-            w = csv.writer(fh)  # "\r\n" ends rows, so a lone "\r" or "\n" in a cell is quoted
-            w.writerow(header)
-            for t, version in items:
-                w.writerow(_csv_row(t, version, extra))
-    except OSError as err:
-        raise StoreError(f"{p}: cannot write the trials CSV ({err.strerror or err})") from err
+    with replacing_file(p, newline="", what="trials CSV", error=StoreError) as fh:
+        w = csv.writer(fh)  # "\r\n" ends rows, so a lone "\r" or "\n" in a cell is quoted
+        w.writerow(header)
+        for t, version in items:
+            w.writerow(_csv_row(t, version, extra))
     return p

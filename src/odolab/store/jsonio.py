@@ -35,6 +35,7 @@ from odolab.params import RobotParams, params_from_mapping
 from odolab.store.codec import EncodedLog, decode_log
 from odolab.store.records import PARAMS_FIELDS, TRIAL_COLUMNS, params_tables
 from odolab.trials import EncoderLog
+from odolab.writing import write_text_file
 
 __all__ = [
     "FORMAT",
@@ -102,10 +103,8 @@ def write_notebook_json(
         "campaigns": [{k: c[k] for k in _CAMPAIGN_KEYS} for c in campaigns],
         "trials": trials,
     }
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    p.write_text(json.dumps(doc, indent=1, allow_nan=False), encoding="utf-8")
-    return p
+    text = json.dumps(doc, indent=1, allow_nan=False)
+    return write_text_file(path, text, what="notebook JSON", error=StoreError)
 
 
 def params_of_version(pv: Mapping[str, Any], source: str) -> RobotParams:
