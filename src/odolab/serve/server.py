@@ -12,6 +12,7 @@ from pathlib import Path
 
 from odolab.errors import OdolabError
 from odolab.serve.app import ServeSettings, create_app
+from odolab.serve.connections import DEFAULT_LIMITS, Limits, uvicorn_config
 from odolab.serve.security import LOOPBACK_HOSTS, make_token
 
 __all__ = ["ServerInfo", "bind", "is_loopback", "run_in_thread", "serve", "settings_for"]
@@ -69,13 +70,11 @@ class ServerInfo:
         self.url = self.base_url + "/" + (f"?token={settings.token}" if settings.token else "")
 
 
-def _uvicorn_server(settings: ServeSettings) -> object:
+def _uvicorn_server(settings: ServeSettings, limits: Limits) -> object:
+    """uvicorn with odolab's connection limits: slow and idle clients closed, a quick stop."""
     import uvicorn
 
-    config = uvicorn.Config(
-        create_app(settings), log_level="warning", lifespan="off", access_log=False
-    )
-    return uvicorn.Server(config)
+    return uvicorn.Server(uvicorn_config(create_app(settings), limits))
 
 
 def serve(
@@ -84,10 +83,16 @@ def serve(
     port: int = 8000,
     *,
     ready: Callable[[ServerInfo], None] | None = None,
+    limits: Limits = DEFAULT_LIMITS,
 ) -> None:
-    """Serve until interrupted; ``ready(info)`` is called once the socket listens."""
+    """Serve until interrupted; ``ready(info)`` is called once the socket listens.
+
+    SIGTERM or Ctrl-C stops it within about a second whatever the clients do: requests still
+    running ``limits.graceful_shutdown`` seconds after it are cancelled (see
+    :mod:`odolab.serve.connections` for the timeouts on slow and idle clients).
+    """
     sock = bind(host, port)
-    server = _uvicorn_server(settings)
+    server = _uvicorn_server(settings, limits)
     if ready is not None:
         ready(ServerInfo(sock, settings))
     try:
@@ -98,11 +103,15 @@ def serve(
 
 @contextmanager
 def run_in_thread(
-    settings: ServeSettings, host: str = "127.0.0.1", port: int = 0
+    settings: ServeSettings,
+    host: str = "127.0.0.1",
+    port: int = 0,
+    *,
+    limits: Limits = DEFAULT_LIMITS,
 ) -> Iterator[ServerInfo]:
     """A server running in a background thread while the ``with`` block runs, then stopped."""
     sock = bind(host, port)
-    server = _uvicorn_server(settings)
+    server = _uvicorn_server(settings, limits)
     thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)  # type: ignore[attr-defined]
     thread.start()
     try:
