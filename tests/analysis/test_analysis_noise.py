@@ -77,3 +77,74 @@ def test_rotations_alone_give_only_the_sum() -> None:
     assert not res.identifiable
     assert res.k_right == res.k_left == pytest.approx(res.k_sum / 2)
     assert res.k_sum_ci95[0] <= k <= res.k_sum_ci95[1]
+
+
+# --- wheel noise apart from turn scrub (issue 26) ---------------------------------------------
+
+
+def _turns(seed: int, k_r: float, k_l: float, k_s: float, n: int = 200) -> list:
+    """In-place rotations whose heading variance is the wheels' share plus k_s per radian."""
+    rng = np.random.default_rng(seed)
+    recs = []
+    for i in range(n):
+        h = [np.pi / 2, np.pi, 2 * np.pi, -np.pi][i % 4]
+        var = (k_r + k_l) * abs(h) / (2 * B) + k_s * abs(h)
+        recs.append(record_rotation(rng.normal(0, np.sqrt(var)), h, B, trial_id=f"rot-{i}"))
+    return recs
+
+
+def _named(recs: list, prefix: str) -> list:
+    from dataclasses import replace
+
+    return [replace(r, trial_id=f"{prefix}-{i}") for i, r in enumerate(recs)]
+
+
+def test_separated_fit_keeps_wheel_noise_apart_from_scrub() -> None:
+    from odolab.analysis.noise import fit_separated_noise
+
+    k_r, k_l, k_s = 4e-4, 1e-4, 0.08
+    straight = _named(_translations(3, k_r, k_l, n=300), "st")
+    turns = _turns(4, k_r, k_l, k_s, n=300)
+    split = fit_separated_noise(straight + turns)
+    assert split.unknown == []
+    for const, truth in ((split.k_right, k_r), (split.k_left, k_l), (split.k_scrub, k_s)):
+        assert const.ci95 is not None and const.ci95[0] <= truth <= const.ci95[1], const
+    assert split.k_scrub.value == pytest.approx(k_s, rel=0.25)
+    # each constant names the trials that identify it, and only those
+    assert split.k_left.trials == tuple(f"st-{i}" for i in range(300))
+    assert split.k_scrub.trials == tuple(f"rot-{i}" for i in range(300))
+    assert split.scrub_pvalue is not None and split.scrub_pvalue < 1e-6
+    # the pooled fit, as written before, takes wheel constants hundreds of times too large
+    pooled = fit_wheel_noise(straight + turns)
+    assert pooled.k_left > 20 * split.k_left.ci95[1]  # type: ignore[index]
+
+
+def test_wheels_alone_explain_the_turns_of_a_wheeled_robot() -> None:
+    from odolab.analysis.noise import fit_separated_noise
+
+    k_r, k_l = 4e-4, 2e-4
+    split = fit_separated_noise(_translations(5, k_r, k_l, n=200) + _turns(6, k_r, k_l, 0.0, n=200))
+    assert split.k_scrub.ci95 is not None
+    # no scrub: the interval reaches down to (or near) zero and stays small
+    assert split.k_scrub.ci95[0] < 1e-4 and split.k_scrub.ci95[1] < 2e-3
+    assert split.scrub_pvalue is not None and split.scrub_pvalue > 0.01
+
+
+def test_a_missing_kind_of_motion_leaves_its_constant_unknown() -> None:
+    from odolab.analysis.noise import fit_separated_noise
+
+    straight = _translations(7, 3e-4, 2e-4, n=20)
+    no_turns = fit_separated_noise(straight)
+    assert no_turns.unknown == ["k_scrub"]
+    assert no_turns.k_left.known and no_turns.k_left.value == pytest.approx(
+        fit_wheel_noise(straight).k_left
+    )
+    assert "0 measured turns" in no_turns.k_scrub.source
+    no_straight = fit_separated_noise(_turns(8, 3e-4, 2e-4, 0.05, n=20))
+    assert no_straight.unknown == ["k_left", "k_right", "k_scrub"]
+    assert "cannot be split between wheel noise and scrub" in no_straight.k_scrub.source
+    assert any(
+        n.startswith("k_left unknown: 0 measured straight runs") for n in no_straight.notes()
+    )
+    d = no_straight.to_dict()
+    assert d["k_left"]["value"] is None and "straight runs" in d["k_left"]["unknown"]

@@ -70,11 +70,22 @@ def test_ratios_from_the_fits_carry_intervals() -> None:
     lo, hi = res.provenance["track_width_ci95"]
     assert lo < res.params.track_width < hi
     assert "tile" in res.provenance["source"]
-    # the measured random error travels with the parameters, scaled to the new radii
-    assert analysis.noise is not None and res.params.noise is not None
+    # the measured random error travels with the parameters, scaled to the new geometry:
+    # wheel noise from the straight runs alone, scrub from the turns (never pooled)
+    split = analysis.noise_split
+    assert split is not None and res.params.noise is not None
+    assert split.k_left.value is not None and split.k_scrub.value is not None
     q = res.provenance["distance_ratio"]
-    assert res.params.noise.k_left == pytest.approx(analysis.noise.k_left * q, rel=1e-12)
-    assert res.params.noise.k_right == pytest.approx(analysis.noise.k_right * q, rel=1e-12)
+    q_r = res.provenance["rotation_ratio"]
+    assert res.params.noise.k_left == pytest.approx(split.k_left.value * q, rel=1e-9)
+    assert res.params.noise.k_right == pytest.approx(split.k_right.value * q, rel=1e-9)  # type: ignore[operator]
+    assert res.params.noise.k_scrub == pytest.approx(split.k_scrub.value / q_r, rel=1e-9)
+    fit = res.provenance["noise_fit"]
+    assert fit["k_left"]["trials"] == list(split.k_left.trials)
+    assert all(t.startswith(("translation", "outdoor")) for t in fit["k_left"]["trials"])
+    assert all(t.startswith("rotation") for t in fit["k_scrub"]["trials"])
+    lo, hi = fit["k_left"]["ci95"]
+    assert lo < res.params.noise.k_left < hi
     with pytest.raises(CalibrationError, match="rotation fit and an x fit"):
         ratios_from_analysis(analysis, terrain="grass")
 

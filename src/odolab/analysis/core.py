@@ -13,7 +13,9 @@ import numpy as np
 from odolab.analysis.growth import GrowthFit, fit_growth
 from odolab.analysis.noise import (
     NoiseRecord,
+    SeparatedNoise,
     WheelNoise,
+    fit_separated_noise,
     fit_wheel_noise,
     record_pivot,
     record_rotation,
@@ -134,6 +136,8 @@ class LabAnalysis:
     terrains: list[str]
     params: RobotParams | None
     square_trials: list[Trial] = field(default_factory=list)
+    #: k_left, k_right from straight runs and k_scrub from turns, kept apart (analysis.noise)
+    noise_split: SeparatedNoise | None = None
 
     def get(self, motion: str, terrain: str | None = None) -> MotionAnalysis | None:
         """The analysis of ``motion`` on ``terrain`` (or the first terrain that has it)."""
@@ -154,6 +158,7 @@ class LabAnalysis:
             "wheel_noise": None if self.noise is None else self.noise.to_dict(),
             "wheel_noise_note": self.noise_note,
             "wheel_noise_by_kind": {k: v.to_dict() for k, v in self.noise_by_kind.items()},
+            "noise_split": None if self.noise_split is None else self.noise_split.to_dict(),
             "outliers": [o.to_dict() for o in self.outliers],
             "excluded_trials": list(self.excluded),
             "skipped": list(self.skipped),
@@ -291,9 +296,9 @@ def _noise_records(motions: list[MotionAnalysis], by_id: dict[str, Trial]) -> li
         if tr.command.kind is MotionKind.PIVOT:
             held = tr.command.direction or "left"
             moving = "right" if held == "left" else "left"
-            records.append(record_pivot(r, tr.predicted.heading, b, moving, sig))
+            records.append(record_pivot(r, tr.predicted.heading, b, moving, sig, tid))
         else:
-            records.append(record_rotation(r, tr.predicted.heading, b, sig))
+            records.append(record_rotation(r, tr.predicted.heading, b, sig, tid))
     for tid in sorted(set(xres) | set(yres)):
         tr = by_id[tid]
         sig = (tr.measured.sigma_xy if tr.measured else None) or 0.0
@@ -304,6 +309,7 @@ def _noise_records(motions: list[MotionAnalysis], by_id: dict[str, Trial]) -> li
                 residual_x=xres.get(tid),
                 residual_y=yres.get(tid),
                 sigma=sig,
+                trial_id=tid,
             )
         )
     return records
@@ -391,4 +397,5 @@ def analyze_trials(trials: Sequence[Trial], *, progress: Progress | None = None)
         terrains=sorted({t.terrain for t in measured}),
         params=params[0][0] if params else None,
         square_trials=squares,
+        noise_split=fit_separated_noise(records),
     )

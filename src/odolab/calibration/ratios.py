@@ -30,8 +30,17 @@ from odolab.params import NoiseParams, RobotParams, save_params
 
 if TYPE_CHECKING:
     from odolab.analysis import LabAnalysis
+    from odolab.analysis.noise import SeparatedNoise
 
-__all__ = ["CalibrationResult", "check_track_model", "ratios", "ratios_from_analysis"]
+__all__ = [
+    "CalibrationResult",
+    "check_track_model",
+    "describe_noise",
+    "noise_provenance",
+    "ratios",
+    "ratios_from_analysis",
+    "with_noise",
+]
 
 _Z95 = 1.959963984540054
 
@@ -143,25 +152,96 @@ def ratios(
     return CalibrationResult("ratios", new, params, prov)
 
 
-def _with_noise(result: CalibrationResult, analysis: LabAnalysis) -> CalibrationResult:
-    """Add the analysis' per-wheel noise constants as the new parameters' ``[noise]``.
+def noise_provenance(
+    split: SeparatedNoise, wheel_scale: float = 1.0, scrub_scale: float = 1.0
+) -> tuple[NoiseParams | None, dict[str, Any]]:
+    """The ``[noise]`` of a separated noise fit and its provenance table.
 
-    The noise was measured in the old parameters' wheel distances; the new radii scale every
-    distance by the distance ratio ``q``, so ``var = k |ds|`` becomes ``(q k) |ds_new|``."""
-    noise = analysis.noise
-    if noise is None:
+    ``wheel_scale`` multiplies ``k_left``, ``k_right`` (new radii: the distance ratio);
+    ``scrub_scale`` multiplies ``k_scrub`` (new radii and track width: 1 / the rotation ratio,
+    as each radian of commanded turning becomes ``q_r`` of a radian). Without the wheel
+    constants there is no ``[noise]``; without ``k_scrub`` it is written 0 and said unknown."""
+    prov: dict[str, Any] = {
+        "rule": (
+            "k_left, k_right (m) by maximum likelihood from straight runs alone; k_scrub (rad) "
+            "from turns with the wheels' share fixed; never pooled across kinds of motion"
+        ),
+        "k_left": split.k_left.provenance(wheel_scale),
+        "k_right": split.k_right.provenance(wheel_scale),
+        "k_scrub": split.k_scrub.provenance(scrub_scale),
+    }
+    if split.scrub_pvalue is not None:
+        prov["scrub_pvalue"] = split.scrub_pvalue
+    notes = split.notes()
+    if split.k_left.known and not split.k_scrub.known:
+        notes.append("[noise] written with k_scrub = 0: turns would be under-covered")
+    if not split.k_left.known:
+        notes.append("no [noise] written")
+    if notes:
+        prov["notes"] = notes
+    if split.k_left.value is None or split.k_right.value is None:
+        return None, prov
+    k_scrub = (split.k_scrub.value or 0.0) * scrub_scale
+    noise = NoiseParams(
+        k_left=clean(split.k_left.value * wheel_scale),
+        k_right=clean(split.k_right.value * wheel_scale),
+        k_scrub=clean(k_scrub),
+    )
+    return noise, prov
+
+
+def with_noise(result: CalibrationResult, analysis: LabAnalysis) -> CalibrationResult:
+    """Add the analysis' separated noise constants as the new parameters' ``[noise]``.
+
+    The noise was measured in the old parameters' wheel distances and turns; the new radii
+    scale every distance by the distance ratio ``q_d`` (``var = k |ds|`` becomes
+    ``(q_d k) |ds_new|``) and every commanded turn by the rotation ratio ``q_r``
+    (``k_scrub`` becomes ``k_scrub / q_r``), both taken from the new radii and track width
+    against those the trials were run with (the analysis' parameters; else the result's old
+    ones)."""
+    split = analysis.noise_split
+    if split is None:
         return result
-    q = float(result.provenance["distance_ratio"])
-    k = NoiseParams(k_left=noise.k_left * q, k_right=noise.k_right * q)
+    old, new = analysis.params or result.old_params, result.params
+    q_d = (new.left_wheel_radius + new.right_wheel_radius) / (
+        old.left_wheel_radius + old.right_wheel_radius
+    )
+    q_r = q_d * old.track_width / new.track_width
+    noise, prov_noise = noise_provenance(split, q_d, 1.0 / q_r)
     prov = {
         **result.provenance,
         "noise": (
-            "[noise] from the analysis' maximum-likelihood k_left, k_right (var = k |ds|), "
-            "scaled by the distance ratio to the new radii"
-            + ("" if noise.identifiable else "; the wheels were not separable: k_left = k_right")
+            "[noise] from the analysis: k_left, k_right from straight runs, k_scrub from turns "
+            "(var = k |ds|, + k_scrub per rad of commanded turning), scaled to the new geometry"
+            if noise is not None
+            else "no [noise]: " + "; ".join(split.notes())
         ),
+        "noise_fit": prov_noise,
     }
-    return replace(result, params=result.params.with_(noise=k), provenance=prov)
+    params = new.with_(noise=noise) if noise is not None else new
+    return replace(result, params=params, provenance=prov)
+
+
+def describe_noise(result: CalibrationResult) -> str | None:
+    """One line on the result's ``[noise]``: each constant with its interval and trial count,
+    and what stays unknown (None when the result carries no noise fit)."""
+    fit = result.provenance.get("noise_fit")
+    if not isinstance(fit, dict):
+        return None
+    parts = []
+    for key, unit in (("k_left", "m"), ("k_right", "m"), ("k_scrub", "rad")):
+        entry = fit.get(key, {})
+        if "value" in entry:
+            ci = entry.get("ci95")
+            where = f" [{ci[0]:.3g}, {ci[1]:.3g}]" if ci else ""
+            parts.append(
+                f"{key} = {entry['value']:.3g} {unit}{where} ({len(entry.get('trials', []))} "
+                "trials)"
+            )
+        else:
+            parts.append(f"{key} unknown ({entry.get('unknown', 'not measured')})")
+    notes = [n for n in fit.get("notes", []) if "unknown" not in n]
+    return "[noise] " + "; ".join(parts + notes)
 
 
 def ratios_from_analysis(
@@ -195,7 +275,7 @@ def ratios_from_analysis(
                 ),
                 terrain=t,
             )
-            return _with_noise(result, analysis)
+            return with_noise(result, analysis)
     where = f"terrain {terrain!r}" if terrain else "any one terrain"
     raise CalibrationError(
         f"ratios calibration needs both a rotation fit and an x fit on {where}; "

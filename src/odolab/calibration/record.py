@@ -29,7 +29,9 @@ def record_calibration(
 
     ``trials`` names the measured trials it comes from: every one (``"all"``), the UMBmark
     squares (``"squares"``), none (ratios typed by hand), or the trials themselves (those a
-    ``--campaign`` selection used; the measured ones are recorded).
+    ``--campaign`` selection used; the measured ones are recorded). The trials a separated
+    ``[noise]`` fit used (``provenance["noise_fit"]``) are added, and the notes say which
+    constant came from how many trials or stays unknown.
     """
     if trials is not None and not isinstance(trials, str):
         used = [t.trial_id for t in trials if t.status is TrialStatus.MEASURED]
@@ -39,9 +41,20 @@ def record_calibration(
             for t in nb.load_trials(status=TrialStatus.MEASURED, with_logs=False)
             if trials == "all" or (trials == "squares" and t.command.kind is MotionKind.SQUARE)
         ]
+    notes = str(result.provenance.get("source", ""))
+    fit = result.provenance.get("noise_fit")
+    if isinstance(fit, dict):  # the [noise] came from other trials: record them too
+        extra: list[str] = []
+        for key in ("k_left", "k_right", "k_scrub"):
+            entry = fit.get(key, {})
+            extra += [t for t in entry.get("trials", []) if "value" in entry]
+            n = len(entry.get("trials", []))
+            notes += f"; {key} from {n} trials" if "value" in entry else f"; {key} unknown"
+        have = set(used)
+        used += [t for t in dict.fromkeys(extra) if t not in have]
     return nb.add_params_version(
         result.params.with_(name=base.name),
         method=result.method,
         source_trials=used,
-        notes=str(result.provenance.get("source", "")),
+        notes=notes.lstrip("; "),
     )

@@ -41,16 +41,19 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from odolab.calibration.ratios import CalibrationResult, _now, check_track_model
+from odolab.calibration.ratios import CalibrationResult, _now, check_track_model, with_noise
 from odolab.errors import CalibrationError, LogFormatError
 from odolab.params import RobotParams
 from odolab.text import quote_input
 from odolab.trials import MotionKind, Trial, TrialStatus
+
+if TYPE_CHECKING:
+    from odolab.analysis import LabAnalysis
 
 __all__ = [
     "UmbmarkResult",
@@ -178,6 +181,13 @@ class UmbmarkResult:
         prov["e_max_syst_after"] = e_max_syst(*after)
         cal = CalibrationResult("umbmark", self.params, self.calibration.old_params, prov)
         return replace(self, after=after, calibration=cal)
+
+    def with_noise(self, analysis: LabAnalysis) -> UmbmarkResult:
+        """A copy whose parameters carry the analysis' separated ``[noise]`` (k_left, k_right
+        from its straight runs, k_scrub from its turns; :func:`odolab.calibration.ratios.
+        with_noise`), scaled to the corrected geometry; unchanged without a noise fit."""
+        cal = with_noise(self.calibration, analysis)
+        return replace(self, params=cal.params, calibration=cal)
 
     def to_dict(self) -> dict[str, Any]:
         return {
