@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, settings
+from shared_data import data_dir, require
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 
@@ -21,13 +22,11 @@ settings.register_profile(
 settings.register_profile("dev", max_examples=60, deadline=None)
 settings.load_profile("ci" if os.environ.get("CI") else os.environ.get("HYPOTHESIS_PROFILE", "dev"))
 
-#: The real robot runs (OptiOdom), beside the project root: ../shared/data/optiodom
-SHARED = Path(__file__).resolve().parents[1].parent / "shared"
-OPTIODOM = SHARED / "data" / "optiodom"
+#: The real robot runs (OptiOdom): $ODOLAB_TEST_DATA/optiodom, by default ../shared/data/optiodom
+#: beside the project root; missing data fails the test in CI (see shared_data.py).
+OPTIODOM = data_dir() / "optiodom"
 
 
 @pytest.fixture(scope="session")
 def optiodom_dir() -> Path:
-    if not OPTIODOM.is_dir():
-        pytest.skip(f"real data not found at {OPTIODOM}")
-    return OPTIODOM
+    return require("optiodom")

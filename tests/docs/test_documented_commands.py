@@ -23,9 +23,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from shared_data import data_dir, require
 
 ROOT = Path(__file__).resolve().parents[2]
-DATA = ROOT.parent / "shared" / "data"
+DATA = data_dir()
 
 #: the documents checked (robot.md is driven in real time; its lines are in SKIP)
 DOCS = [
@@ -211,8 +212,7 @@ def _notebook(folder: Path) -> None:
 
 
 def _real_logs(folder: Path) -> None:
-    if not (DATA / "optiodom").is_dir():
-        pytest.skip(f"real data not found at {DATA / 'optiodom'}")
+    require("optiodom")
     (folder / "data").symlink_to(DATA)
     t = [0.1 * i for i in range(100)]
     with (folder / "gt.tum").open("w") as fh:

@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 from odolab.io import read_tum
+from shared_data import data_dir, require
 from odolab.metrics import Alignment, DeltaUnit, EvaluationOptions, evaluate
 from odolab.trajectory import Trajectory
 
@@ -29,7 +30,7 @@ from evo.core.trajectory import PoseTrajectory3D  # noqa: E402
 from evo.core.units import Unit  # noqa: E402
 from evo.tools import file_interface  # noqa: E402
 
-DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "evo-testdata"
+DATA = data_dir() / "evo-testdata"
 PAIRS = [
     ("freiburg1_xyz-groundtruth.txt", "freiburg1_xyz-rgbdslam.txt"),
     ("freiburg1_xyz-groundtruth.txt", "freiburg1_xyz-ORB_kf_mono.txt"),
@@ -47,8 +48,7 @@ STATS = ("rmse", "mean", "median", "std", "min", "max")
 
 @pytest.fixture(scope="module", autouse=True)
 def _data() -> None:
-    if not DATA.is_dir():
-        pytest.skip(f"evo's test data not found at {DATA}")
+    require("evo-testdata")
 
 
 def evo_planar(path: Path) -> PoseTrajectory3D:
