@@ -250,7 +250,7 @@ class ControlLoop:
         if late > bound:
             self._safe_stop()
             raise LateCycleError(
-                f"control cycle {k} ran {late:.3f} s late, more than the watchdog's {bound:g} s "
+                f"control cycle {k} ran {late:.3f} s late, more than the watchdog bound {bound:g} s "
                 "(the host was frozen, swapped out or starved); stop sent and the run failed "
                 "instead of resuming the motion"
             )

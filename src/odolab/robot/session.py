@@ -421,7 +421,7 @@ def keep_run(run: RobotRun, folder: str | Path) -> tuple[Path | None, str]:
         if target == out:
             return saved, ""
         return saved, (
-            f"the run could not be saved to {out} ({'; '.join(problems)}); it is saved to "
+            f"the run could not be saved to {out}: {'; '.join(problems)}; it is saved to "
             f"{saved} instead"
         )
     return None, f"the run could not be saved anywhere: {'; '.join(problems)}"
