@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, settings
+
 from shared_data import data_dir, require
 
 os.environ.setdefault("MPLBACKEND", "Agg")

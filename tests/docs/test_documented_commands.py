@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from shared_data import data_dir, require
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -20,9 +20,9 @@ import numpy as np
 import pytest
 
 from odolab.io import read_tum
-from shared_data import data_dir, require
 from odolab.metrics import Alignment, DeltaUnit, EvaluationOptions, evaluate
 from odolab.trajectory import Trajectory
+from shared_data import data_dir, require
 
 evo_metrics = pytest.importorskip("evo.core.metrics")
 from evo.core import sync as evo_sync  # noqa: E402
