@@ -1,6 +1,7 @@
 """Trajectory metrics with evo's definitions: association, alignment, APE, RPE, drift.
 
-Planar (x, y, heading) only; every number agrees with ``evo`` on the same planar trajectories.
+Planar (x, y, heading) only (:data:`PLANAR_NOTE`); every number agrees with ``evo`` on the same
+planar trajectories, and differs from evo's 3-D numbers where a trajectory leaves the plane.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from odolab.metrics.association import (
 )
 from odolab.metrics.chunked import ErrorStats, evaluate_files, exact_median_from_file
 from odolab.metrics.evaluate import (
+    PLANAR_NOTE,
     Drift,
     Evaluation,
     EvaluationOptions,
@@ -27,6 +29,7 @@ from odolab.metrics.evaluate import (
     evaluate,
 )
 from odolab.metrics.pose_error import (
+    ANGLE_UNITS,
     DeltaUnit,
     Stats,
     ape_rotation,
@@ -35,6 +38,7 @@ from odolab.metrics.pose_error import (
     path_distances,
     rpe_errors,
     stats_from_errors,
+    turn_distances,
 )
 from odolab.metrics.runs import (
     RUN_OPTIONS,
@@ -46,6 +50,8 @@ from odolab.metrics.runs import (
 )
 
 __all__ = [
+    "ANGLE_UNITS",
+    "PLANAR_NOTE",
     "RUN_OPTIONS",
     "Alignment",
     "DeltaUnit",
@@ -77,4 +83,5 @@ __all__ = [
     "rpe_errors",
     "stats_from_errors",
     "transform_trajectory",
+    "turn_distances",
 ]

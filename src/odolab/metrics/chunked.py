@@ -38,6 +38,7 @@ from numpy.typing import NDArray
 
 from odolab.errors import InsufficientDataError, LogFormatError
 from odolab.io.chunked import DEFAULT_CHUNK_ROWS, iter_trajectory_chunks
+from odolab.kinematics import wrap_angle
 from odolab.metrics.alignment import (
     Alignment,
     Rigid2D,
@@ -46,15 +47,25 @@ from odolab.metrics.alignment import (
     transform_trajectory,
 )
 from odolab.metrics.association import SyncMethod, interpolate_trajectory, matching_time_indices
-from odolab.metrics.evaluate import Drift, Evaluation, EvaluationOptions
+from odolab.metrics.evaluate import (
+    Drift,
+    Evaluation,
+    EvaluationOptions,
+    _check_turn_segment,
+    rpe_undefined_note,
+)
 from odolab.metrics.pose_error import (
+    ANGLE_UNITS,
     DeltaUnit,
     Stats,
     all_pairs_by_path,
     ape_rotation,
     ape_translation,
     consecutive_by_path_from,
+    consecutive_by_steps_from,
+    delta_in_si,
     rpe_errors,
+    turn_distances,
 )
 from odolab.progress import Progress, no_progress
 from odolab.trajectory import Trajectory
@@ -389,10 +400,17 @@ class _Pairs:
             raise LogFormatError(f"delta must be a positive number, got {delta}")
         if unit is DeltaUnit.FRAMES and float(delta) != int(delta):
             raise LogFormatError(f"delta must be a whole number of frames, got {delta}")
-        self.delta = float(delta)
+        self.angle = unit in ANGLE_UNITS
+        if self.angle and all_pairs:
+            raise InsufficientDataError(
+                f"RPE over all pairs by angle (delta {delta:g} {unit.value}) compares every pose "
+                "with every later one; it needs both trajectories whole, not in chunks "
+                "(--chunk-rows 0)"
+            )
+        self.delta = delta_in_si(delta, unit)
         self.unit = unit
         self.all_pairs = all_pairs
-        self.tol = float(delta) * rel_tol
+        self.tol = self.delta * rel_tol
         self.on_reference = on_reference
         self.rows = 0  # associated poses fed so far
         self.count = 0  # pairs so far
@@ -423,7 +441,13 @@ class _Pairs:
         return out
 
     def _distances(self, chooser: Trajectory) -> F64:
-        """Path length at each pose of the chunk: ``path_distances`` of the whole trajectory."""
+        """Path length (or, by angle, angle turned) at each pose of the chunk:
+        ``path_distances`` (``turn_distances``) of the whole trajectory."""
+        if self.angle:
+            return (
+                self.length
+                + turn_distances(_cat(self._prev, chooser))[(0 if self._prev is None else 1) :]
+            )
         if self._prev is None:
             dx, dy = np.diff(chooser.x), np.diff(chooser.y)
             return np.concatenate((np.zeros(1), np.cumsum(np.sqrt(dx * dx + dy * dy))))
@@ -463,6 +487,13 @@ class _Pairs:
     def _consecutive_by_path(
         self, ref: Trajectory, est: Trajectory, chooser: Trajectory, dist: F64
     ) -> tuple[F64, F64, F64]:
+        if self.angle:  # the steps' angles (from the previous chunk's last pose, index 0)
+            prev = self._prev
+            first = prev is None
+            h = chooser.heading if prev is None else np.concatenate((prev.heading, chooser.heading))
+            steps = np.concatenate((np.zeros(1), np.abs(wrap_angle(np.diff(h)))))
+            ids, self._current = consecutive_by_steps_from(steps, self.delta, self._current, first)
+            return self._chosen(ref, est, ids if first else ids - 1, dist)
         if self._prev is None:  # the path's start is chosen
             sel, self._current = consecutive_by_path_from(
                 chooser.x, chooser.y, self.delta, 0.0, True
@@ -541,6 +572,8 @@ def evaluate_files(
             f"drift segment must be a positive length in m (--drift-segment), got {o.drift_delta_m}"
         )
     drift = _Pairs(o.drift_delta_m, DeltaUnit.METRES, False, 0.1, True)
+    _check_turn_segment(o.drift_turn_rad)
+    turn = _Pairs(o.drift_turn_rad, DeltaUnit.RADIANS, False, 0.1, True)
     alignment = Alignment(o.alignment)
     ref, est = _Source(rp, chunk_rows, tick), _Source(ep, chunk_rows, tick)
     plan, rs, es = _plan(ref, est, o, labels)
@@ -558,7 +591,8 @@ def evaluate_files(
         ErrorStats("RPE", block=max(chunk_rows, 1 << 16)) as rpe,
         ErrorStats("RPE", block=max(chunk_rows, 1 << 16)) as rpe_rot,
     ):
-        sums = np.zeros(3)  # drift: sum of % per segment, of deg/m per segment, segments
+        sums = np.zeros(5)  # drift: sum of % per segment, of deg/m per segment, segments,
+        # of % of the angle turned per piece, pieces
         n = 0
         last: Pair | None = None
         pending: Pair | None = None  # one chunk behind: the last chunk is fed as final
@@ -572,6 +606,10 @@ def evaluate_files(
             sums[0] += float(np.sum(100.0 * dt[ok] / seg[ok]))
             sums[1] += float(np.sum(np.degrees(dr[ok]) / seg[ok]))
             sums[2] += int(ok.sum())
+            _, tr, turned = turn.feed(r, e, final)
+            ok = turned > 0
+            sums[3] += float(np.sum(100.0 * tr[ok] / turned[ok]))
+            sums[4] += int(ok.sum())
 
         for r, e in _associated(plan, labels):
             if alignment is Alignment.ORIGIN and n == 0:
@@ -587,11 +625,10 @@ def evaluate_files(
             last = (r[-1:], e[-1:])
         assert pending is not None and last is not None  # _associated raised otherwise
         consume(*pending, True)
+        note = ""
         if pairs.count == 0:
-            raise InsufficientDataError(
-                f"delta = {o.delta:g} {DeltaUnit(o.delta_unit).value} gives no pose pairs on {n} "
-                "poses; expected a smaller delta"
-            )
+            which = "the reference" if o.pairs_from_reference else "the estimate"
+            note = rpe_undefined_note(o, n, which, pairs.length)
         length = drift.length
         end_err = float(ape_translation(*last)[0])
         end_rot = float(ape_rotation(*last)[0])
@@ -599,8 +636,8 @@ def evaluate_files(
         result = Evaluation(
             ape=ape.stats(),
             ape_rot=ape_rot.stats(),
-            rpe=rpe.stats(),
-            rpe_rot=rpe_rot.stats(),
+            rpe=rpe.stats() if pairs.count else Stats.undefined(),
+            rpe_rot=rpe_rot.stats() if pairs.count else Stats.undefined(),
             drift=Drift(
                 translation_pct=sums[0] / segments if segments else math.nan,
                 rotation_deg_per_m=sums[1] / segments if segments else math.nan,
@@ -610,9 +647,14 @@ def evaluate_files(
                 endpoint_heading_error=end_rot,
                 path_length=length,
                 endpoint_pct=100.0 * end_err / length if length > 0 else math.nan,
+                turn=turn.length,
+                turn_segment=float(o.drift_turn_rad),
+                turn_segments=int(sums[4]),
+                rotation_pct_of_turn=sums[3] / sums[4] if sums[4] else math.nan,
             ),
             pairs=n,
             transform=tf,
             options=o,
+            rpe_note=note,
         )
     return result

@@ -11,7 +11,12 @@ For poses ``Q`` (reference) and ``P`` (estimate) as planar SE(3) elements:
 The index pairs are chosen as ``evo.core.filters`` does: by frames, every ``delta``-th pose
 (consecutive) or every ``(i, i + delta)`` (all pairs); by metres, a new pose each time the path
 length since the previous one reaches ``delta`` (consecutive), or for every ``i`` the ``j`` whose
-path length from ``i`` is nearest ``delta``, kept if within ``rel_tol * delta`` (all pairs).
+path length from ``i`` is nearest ``delta``, kept if within ``rel_tol * delta`` (all pairs); by
+angle (degrees or radians, evo's ``--delta_unit d``/``r``), a new pose each time the heading
+turned since the previous one (the sum of the steps' ``|wrap(dh)|``) reaches ``delta``
+(consecutive), or every ``(i, j)``, ``j > i``, whose direct angle ``|wrap(h_j - h_i)|`` is within
+``rel_tol * delta`` of ``delta`` (all pairs). Angle pairs suit runs that turn in place, where a
+step in metres finds no pairs.
 """
 
 from __future__ import annotations
@@ -25,18 +30,21 @@ from numba import njit
 from numpy.typing import NDArray
 
 from odolab.errors import InsufficientDataError, LogFormatError
-from odolab.kinematics import wrap_angle
+from odolab.kinematics import wrap, wrap_angle
 from odolab.trajectory import Trajectory
 
 __all__ = [
+    "ANGLE_UNITS",
     "DeltaUnit",
     "Stats",
     "ape_rotation",
     "ape_translation",
+    "delta_in_si",
     "pair_indices",
     "path_distances",
     "rpe_errors",
     "stats_from_errors",
+    "turn_distances",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -44,10 +52,22 @@ IntArray = NDArray[np.int64]
 
 
 class DeltaUnit(StrEnum):
-    """Unit of the RPE step: poses (frames) or path length (metres)."""
+    """Unit of the RPE step: poses (frames), path length (metres) or angle turned (degrees,
+    radians)."""
 
     FRAMES = "frames"
     METRES = "m"
+    DEGREES = "deg"
+    RADIANS = "rad"
+
+
+#: The units that choose pairs by the angle turned.
+ANGLE_UNITS = frozenset({DeltaUnit.DEGREES, DeltaUnit.RADIANS})
+
+
+def delta_in_si(delta: float, unit: DeltaUnit | str) -> float:
+    """``delta`` in the library's units: frames, metres, or radians for an angle unit."""
+    return math.radians(delta) if DeltaUnit(unit) is DeltaUnit.DEGREES else float(delta)
 
 
 @dataclass(frozen=True)
@@ -61,6 +81,17 @@ class Stats:
     min: float
     max: float
     n: int
+
+    @classmethod
+    def undefined(cls) -> Stats:
+        """The statistics of no errors (n = 0, every value NaN): a quantity that is undefined."""
+        nan = math.nan
+        return cls(rmse=nan, mean=nan, median=nan, std=nan, min=nan, max=nan, n=0)
+
+    @property
+    def defined(self) -> bool:
+        """Whether there were errors to summarise."""
+        return self.n > 0
 
     def to_dict(self) -> dict[str, float | int]:
         """Plain dict for JSON."""
@@ -110,6 +141,60 @@ def path_distances(traj: Trajectory) -> FloatArray:
     dx = np.diff(traj.x)
     dy = np.diff(traj.y)
     return np.concatenate((np.zeros(1), np.cumsum(np.sqrt(dx * dx + dy * dy))))
+
+
+def turn_distances(traj: Trajectory) -> FloatArray:
+    """Accumulated angle turned at each pose (rad), shape (n,), starting at 0: the sum of the
+    steps' ``|wrap(heading_k - heading_k-1)|`` (evo's consecutive angle steps)."""
+    return np.concatenate((np.zeros(1), np.cumsum(np.abs(wrap_angle(np.diff(traj.heading))))))
+
+
+@njit(cache=True)
+def consecutive_by_steps_from(
+    steps: FloatArray, delta: float, current: float, first: bool
+) -> tuple[IntArray, float]:  # pragma: no cover
+    """:func:`consecutive_by_path_from` with the step sizes given: ``steps[i]`` is the amount
+    (an angle turned) from pose ``i - 1`` to pose ``i`` (``steps[0]`` is not used)."""
+    n = steps.shape[0]
+    ids = np.empty(n, dtype=np.int64)
+    k = 0
+    if first and n > 0:
+        ids[0] = 0
+        k = 1
+    for i in range(1, n):
+        current += steps[i]
+        if current >= delta:
+            ids[k] = i
+            k += 1
+            current = 0.0
+    return ids[:k], current
+
+
+@njit(cache=True)
+def all_pairs_by_angle(
+    heading: FloatArray, delta: float, tol: float
+) -> IntArray:  # pragma: no cover
+    """Every ``(i, j)``, ``j > i``, with ``|wrap(heading[j] - heading[i]) - delta| <= tol``, in
+    the order of ``i`` then ``j`` (evo's all pairs by angle; O(n^2), as evo's)."""
+    n = heading.shape[0]
+    lo = delta - tol
+    hi = delta + tol
+    count = 0
+    for i in range(n - 1):
+        for j in range(i + 1, n):
+            a = abs(wrap(heading[j] - heading[i]))
+            if lo <= a <= hi:
+                count += 1
+    out = np.empty((count, 2), dtype=np.int64)
+    k = 0
+    for i in range(n - 1):
+        for j in range(i + 1, n):
+            a = abs(wrap(heading[j] - heading[i]))
+            if lo <= a <= hi:
+                out[k, 0] = i
+                out[k, 1] = j
+                k += 1
+    return out
 
 
 @njit(cache=True)
@@ -196,8 +281,11 @@ def pair_indices(
     *,
     all_pairs: bool = False,
     rel_tol: float = 0.1,
+    allow_empty: bool = False,
 ) -> tuple[IntArray, IntArray]:
-    """Index pairs ``(i, j)`` (two arrays of shape (k,)) for RPE, chosen on ``traj`` as evo does."""
+    """Index pairs ``(i, j)`` (two arrays of shape (k,)) for RPE, chosen on ``traj`` as evo does.
+
+    No pairs raise :class:`InsufficientDataError`, unless ``allow_empty``."""
     u = DeltaUnit(unit)
     n = len(traj)
     if not (delta > 0 and math.isfinite(delta)):
@@ -212,13 +300,22 @@ def pair_indices(
         else:
             ids = np.arange(0, n, d, dtype=np.int64)
             i, j = ids[:-1], ids[1:]
+    elif u in ANGLE_UNITS:
+        rad = delta_in_si(delta, u)
+        if all_pairs:
+            pairs = all_pairs_by_angle(traj.heading, rad, rad * rel_tol)
+            i, j = pairs[:, 0].copy(), pairs[:, 1].copy()
+        else:
+            steps = np.concatenate((np.zeros(1), np.abs(wrap_angle(np.diff(traj.heading)))))
+            ids = consecutive_by_steps_from(steps, rad, 0.0, True)[0]
+            i, j = ids[:-1], ids[1:]
     elif all_pairs:
         pairs = all_pairs_by_path(path_distances(traj), float(delta), float(delta) * rel_tol)
         i, j = pairs[:, 0].copy(), pairs[:, 1].copy()
     else:
         ids = _consecutive_by_path(traj.x, traj.y, float(delta))
         i, j = ids[:-1], ids[1:]
-    if i.size == 0:
+    if i.size == 0 and not allow_empty:
         raise InsufficientDataError(
             f"delta = {delta:g} {u.value} gives no pose pairs on {n} poses; "
             "expected a smaller delta"
