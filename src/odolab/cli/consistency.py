@@ -33,9 +33,13 @@ def print_nees(
     robot: RobotParams | None,
     method: str,
     segment: float,
+    *,
+    fit_gt_yaw_offset: bool | None = None,
 ) -> dict[str, Any]:
     """NEES of every run (pieces of ``segment`` s) against its ground truth; prints a table and
-    the verdict, returns the JSON-ready numbers."""
+    the verdict, returns the JSON-ready numbers. ``fit_gt_yaw_offset``: as
+    :func:`odolab.metrics.consistency.run_nees` (None: fit unless the ground truth starts in
+    the odometry's frame)."""
     from rich.table import Table
 
     from odolab.cli._output import markup_text
@@ -50,22 +54,32 @@ def print_nees(
                 f"{run.source}: NEES needs the parameters' [noise] (k_left, k_right); give "
                 "--params with a [noise] table (e.g. from `odolab calibrate noise`)"
             )
-        results.append(run_nees(run, p, method, segment_s=segment))
+        results.append(
+            run_nees(run, p, method, segment_s=segment, fit_gt_yaw_offset=fit_gt_yaw_offset)
+        )
     summary = nees_summary(results)
     table = Table(title=f"NEES of odometry vs ground truth, pieces of {segment:g} s (dof 3)")
     for col in ("run", "pieces", "mean NEES", "gt yaw offset (rad)"):
         table.add_column(col, justify="right")
     for r in results:
         mean = f"{float(r.nees.mean()):.3g}" if r.nees.size else "-"
-        table.add_row(markup_text(r.name), str(r.nees.size), mean, f"{r.gt_yaw_offset:.4f}")
+        offset = (
+            f"{r.gt_yaw_offset:.4f} +- {r.gt_yaw_offset_se:.2g} (fitted)"
+            if r.dof_removed and r.gt_yaw_offset_se is not None
+            else f"{r.gt_yaw_offset:.4f} (not fitted)"
+        )
+        table.add_row(markup_text(r.name), str(r.nees.size), mean, offset)
     from odolab.cli._console import console as make_console
     from odolab.cli._console import print_table
 
     console = make_console()
     print_table(console, table)
     lo, hi = summary.mean_bounds95
+    fitted = sum(r.dof_removed for r in results)
+    dof = f" (expected {summary.dof / summary.n:.4g}: {fitted} fitted offsets)" if fitted else ""
     console.print(
-        f"mean NEES {summary.mean:.3g} over {summary.n} pieces; 95 % bounds [{lo:.3g}, {hi:.3g}]; "
+        f"mean NEES {summary.mean:.3g} over {summary.n} pieces{dof}; 95 % bounds "
+        f"[{lo:.3g}, {hi:.3g}]; "
         f"{100 * summary.fraction_inside:.1f} % of pieces inside their own 95 % bounds: "
         f"covariance {summary.verdict}",
         markup=False,

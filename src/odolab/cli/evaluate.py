@@ -144,6 +144,14 @@ def evaluate_cmd(
         bool, typer.Option("--nees", help="Runs: NEES of the propagated covariance (\\[noise]).")
     ] = False,
     nees_segment: Annotated[float, typer.Option(help="Piece length (s) of the NEES.")] = 10.0,
+    gt_yaw_offset: Annotated[
+        bool | None,
+        typer.Option(
+            "--gt-yaw-offset/--no-gt-yaw-offset",
+            help="--nees: fit the ground truth's yaw mounting offset per run (default: unless "
+            "the ground truth starts in the odometry's frame).",
+        ),
+    ] = None,
     chunk_rows: Annotated[
         int | None,
         typer.Option(
@@ -274,7 +282,9 @@ def evaluate_cmd(
     if nees:
         from odolab.cli.consistency import print_nees
 
-        doc["nees"] = print_nees(paths, fmt.value, robot, "midpoint", nees_segment)
+        doc["nees"] = print_nees(
+            paths, fmt.value, robot, "midpoint", nees_segment, fit_gt_yaw_offset=gt_yaw_offset
+        )
     _write_json(doc, json_out)
     report_failures(outcomes, rep, results)
 
