@@ -21,14 +21,15 @@ RATE = 20.0  #: Hz
 PIECE_S = 2.0  #: seconds a piece
 
 
-def model_run(seed: int, pieces: int = 20) -> OdometryRun:
-    """``pieces`` pieces of :data:`PIECE_S` s of smooth, mostly forward driving with turns."""
+def model_run(seed: int, pieces: int = 20, *, turning: bool = True) -> OdometryRun:
+    """``pieces`` pieces of :data:`PIECE_S` s of smooth, mostly forward driving with turns
+    (straight driving only when not ``turning``)."""
     rng = np.random.default_rng(seed)
     n = round(pieces * PIECE_S * RATE) + 1
     t = np.arange(n) / RATE
     phase = rng.uniform(0, 2 * math.pi, 2)
     v = 0.4 + 0.2 * np.sin(0.7 * t + phase[0])  # m/s
-    w = 0.6 * np.sin(0.45 * t + phase[1])  # rad/s
+    w = 0.6 * np.sin(0.45 * t + phase[1]) * turning  # rad/s
     b = NOMINAL.track_width
     dt = 1.0 / RATE
     ds_l = (v - w * b / 2) * dt

@@ -122,7 +122,10 @@ def test_cli_fits_noise_and_judges_held_out_runs(optiodom_dir, tmp_path) -> None
     res = runner.invoke(app, ["calibrate", "noise", str(train), "-o", str(out), "--segment", "5"])
     assert res.exit_code == 0, res.output
     noise = load_params(out).noise
-    assert noise is not None and 1e-7 < noise.k_left == noise.k_right < 1e-2
+    # each wheel its own constant (a wheeled robot: no scrub, its interval from 0)
+    assert noise is not None and 1e-7 < noise.k_left < 1e-2 and 1e-7 < noise.k_right < 1e-2
+    assert noise.k_left != noise.k_right and noise.k_scrub < 1e-3
+    assert "k_scrub = " in res.output and "k_left = " in res.output
     js = tmp_path / "e.json"
     res = runner.invoke(
         app,
@@ -217,3 +220,26 @@ def test_nees_of_the_documented_model_is_inside_the_bounds(model_runs: list[Odom
     assert auto.dof_removed == 0 and auto.gt_yaw_offset == 0.0
     # (the offset fitted by unweighted least squares, with chi-square(3N) bounds, gave a mean
     # of 3.36 on these pieces, outside [2.89, 3.11]: a correct covariance called too small)
+
+
+def test_fit_noise_recovers_each_constant_of_the_documented_model() -> None:
+    from nees_model_runs import MODEL_NOISE, PIECE_S, model_run
+
+    from odolab.metrics.consistency import fit_noise
+
+    runs = [model_run(seed) for seed in range(200, 220)]  # 400 pieces
+    fit = fit_noise(runs, NOMINAL, segment_s=PIECE_S)
+    for key in ("k_left", "k_right", "k_scrub"):
+        lo, hi = fit.ci95[key]
+        assert lo <= getattr(MODEL_NOISE, key) <= hi, (key, fit)
+        assert getattr(fit.noise, key) == pytest.approx(getattr(MODEL_NOISE, key), rel=0.3)
+    assert fit.unknown == {} and fit.n_pieces == 400 and 300 < fit.n_turning < 400
+    prov = fit.provenance()
+    assert prov["runs"] == [f"model-{s}" for s in range(200, 220)]
+    # straight runs alone: the scrub is unknown, said, and not pooled into the wheels
+    straight = [model_run(seed, turning=False) for seed in range(300, 310)]
+    fit2 = fit_noise(straight, NOMINAL, segment_s=PIECE_S)
+    assert fit2.noise.k_scrub == 0.0 and "no piece turned" in fit2.unknown["k_scrub"]
+    assert fit2.provenance()["k_scrub"] == {"unknown": fit2.unknown["k_scrub"]}
+    lo, hi = fit2.ci95["k_left"]
+    assert lo <= MODEL_NOISE.k_left <= hi

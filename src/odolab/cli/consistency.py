@@ -100,10 +100,19 @@ def calibrate_noise_cmd(
     ] = None,
     method: Annotated[MethodChoice, typer.Option(help="Pose step rule.")] = MethodChoice.midpoint,
     segment: Annotated[float, typer.Option(help="Piece length (s) of the NEES.")] = 10.0,
+    gt_yaw_offset: Annotated[
+        bool | None,
+        typer.Option(
+            "--gt-yaw-offset/--no-gt-yaw-offset",
+            help="Fit the ground truth's yaw mounting offset per run (default: unless the "
+            "ground truth starts in the odometry's frame).",
+        ),
+    ] = None,
 ) -> None:
-    """Fit the \\[noise] table to runs with ground truth (mean NEES = 3); judge it held-out."""
+    """Fit the \\[noise] table to runs with ground truth: k_left, k_right, k_scrub by maximum
+    likelihood over the runs' pieces; judge it on held-out runs."""
     from odolab.errors import OdolabError
-    from odolab.metrics.consistency import fit_noise_scale
+    from odolab.metrics.consistency import fit_noise
     from odolab.params import load_params, save_params
 
     robot = load_params(params) if params else None
@@ -111,7 +120,8 @@ def calibrate_noise_cmd(
     base = robot or found[0].params
     if base is None:
         raise OdolabError("the runs carry no parameters; give --params")
-    noise = fit_noise_scale(found, base, method.value, segment_s=segment)
+    fit = fit_noise(found, base, method.value, segment_s=segment, fit_gt_yaw_offset=gt_yaw_offset)
+    noise = fit.noise
     new = base.with_(noise=noise)
     save_params(
         output,
@@ -120,11 +130,23 @@ def calibrate_noise_cmd(
             "method": "noise from ground truth",
             "runs": len(found),
             "segment_s": segment,
-            "rule": "k scaled so that the mean NEES of the runs' pieces is 3 (its expectation)",
+            "rule": (
+                "k_left, k_right, k_scrub by maximum likelihood of the pieces' errors (each "
+                "piece's covariance is linear in them); a constant no piece identifies stays "
+                "unknown"
+            ),
+            "noise_fit": fit.provenance(),
         },
     )
+    parts = []
+    for key, unit in (("k_left", "m"), ("k_right", "m"), ("k_scrub", "rad")):
+        if key in fit.unknown:
+            parts.append(f"{key} unknown ({fit.unknown[key]}; written 0)")
+        else:
+            lo, hi = fit.ci95[key]
+            parts.append(f"{key} = {getattr(noise, key):.3g} {unit} [{lo:.3g}, {hi:.3g}]")
     echo(
-        f"[noise] k_left = {noise.k_left!r} m, k_right = {noise.k_right!r} m from {len(found)} "
-        f"runs -> {output}; check it on held-out runs: odolab evaluate RUNS --format {fmt.value} "
-        f"--params {output} --nees"
+        f"[noise] {'; '.join(parts)} from {fit.n_pieces} pieces of {len(fit.runs)} runs "
+        f"({fit.n_turning} turning) -> {output}; check it on held-out runs: odolab evaluate RUNS "
+        f"--format {fmt.value} --params {output} --nees"
     )

@@ -47,7 +47,9 @@ from odolab.uncertainty import covariance_matrix, propagate_covariance
 __all__ = [
     "DOF",
     "NeesSummary",
+    "NoiseFit",
     "RunNees",
+    "fit_noise",
     "fit_noise_scale",
     "nees_summary",
     "run_nees",
@@ -129,22 +131,24 @@ def _pieces(t: NDArray[np.float64], segment_s: float) -> list[tuple[int, int]]:
     return out
 
 
-def run_nees(
+@dataclass(frozen=True, eq=False)
+class _Pieces:
+    """Odometry and ground-truth motion over each piece, and the pieces' covariances."""
+
+    odo: NDArray[np.float64]  #: (k, 3)
+    gtr: NDArray[np.float64]  #: (k, 3) ground truth's motion in its frame at the piece's start
+    covs: list[NDArray[np.float64]]  #: one (k, 3, 3) per noise asked for
+    dist: NDArray[np.float64]  #: (k,)
+    gt: Trajectory
+
+
+def _run_pieces(
     run: OdometryRun,
     params: RobotParams,
-    method: Method | str = Method.MIDPOINT,
-    *,
-    noise: NoiseParams | None = None,
-    segment_s: float = 10.0,
-    gt_yaw_offset: float | None = None,
-    fit_gt_yaw_offset: bool | None = None,
-) -> RunNees:
-    """NEES of ``run``'s odometry with ``params`` over pieces of ``segment_s`` seconds.
-
-    ``noise`` defaults to ``params.noise``. ``gt_yaw_offset`` (rad): the robot's forward axis in
-    the ground truth's body frame, when known. Otherwise ``fit_gt_yaw_offset`` says whether to
-    fit it (True), take 0 (False) or decide (None: fit unless the ground truth starts in the
-    odometry's frame; module doc)."""
+    method: Method | str,
+    segment_s: float,
+    noises: Sequence[NoiseParams | None],
+) -> _Pieces:
     if not (math.isfinite(segment_s) and segment_s > 0):
         raise OdolabError(f"segment length is {segment_s!r} s; expected a positive number")
     gt_full = run.require_ground_truth()
@@ -165,7 +169,7 @@ def run_nees(
         )
     odo = np.empty((len(pieces), 3))
     gtr = np.empty((len(pieces), 3))
-    covs = np.empty((len(pieces), 3, 3))
+    covs = [np.empty((len(pieces), 3, 3)) for _ in noises]
     dist = np.empty(len(pieces))
     step = np.hypot(np.diff(gt.x), np.diff(gt.y))
     for k, (a, b) in enumerate(pieces):
@@ -175,11 +179,34 @@ def run_nees(
         ddl[0] = ddr[0] = 0.0
         est = integrate_increments(t[sl], ddl, ddr, params, method)
         odo[k] = est.x[-1], est.y[-1], est.heading[-1]
-        covs[k] = covariance_matrix(propagate_covariance(ddl, ddr, params, method, noise=noise)[-1])
+        for cov, noise in zip(covs, noises, strict=True):
+            last = propagate_covariance(ddl, ddr, params, method, noise=noise)[-1]
+            cov[k] = covariance_matrix(last)
         c, s = math.cos(gt.heading[a]), math.sin(gt.heading[a])
         dx, dy = gt.x[b] - gt.x[a], gt.y[b] - gt.y[a]
         gtr[k] = c * dx + s * dy, -s * dx + c * dy, gt.heading[b] - gt.heading[a]
         dist[k] = float(step[a:b].sum())
+    return _Pieces(odo, gtr, covs, dist, gt_full)
+
+
+def run_nees(
+    run: OdometryRun,
+    params: RobotParams,
+    method: Method | str = Method.MIDPOINT,
+    *,
+    noise: NoiseParams | None = None,
+    segment_s: float = 10.0,
+    gt_yaw_offset: float | None = None,
+    fit_gt_yaw_offset: bool | None = None,
+) -> RunNees:
+    """NEES of ``run``'s odometry with ``params`` over pieces of ``segment_s`` seconds.
+
+    ``noise`` defaults to ``params.noise``. ``gt_yaw_offset`` (rad): the robot's forward axis in
+    the ground truth's body frame, when known. Otherwise ``fit_gt_yaw_offset`` says whether to
+    fit it (True), take 0 (False) or decide (None: fit unless the ground truth starts in the
+    odometry's frame; module doc)."""
+    pcs = _run_pieces(run, params, method, segment_s, [noise])
+    odo, gtr, covs, dist, gt_full = pcs.odo, pcs.gtr, pcs.covs[0], pcs.dist, pcs.gt
     ok = np.array([np.linalg.det(c) > 0 for c in covs])
     inv = np.zeros_like(covs)
     inv[ok] = np.linalg.inv(covs[ok])
@@ -194,7 +221,7 @@ def run_nees(
         else:
             gt_yaw_offset = 0.0
     err = _errors(odo, gtr, gt_yaw_offset)
-    nees = np.full(len(pieces), np.nan)
+    nees = np.full(len(odo), np.nan)
     nees[ok] = np.einsum("ki,kij,kj->k", err[ok], inv[ok], err[ok])
     keep = np.isfinite(nees)  # a piece without motion has no covariance, nor a NEES
     return RunNees(
@@ -314,3 +341,192 @@ def fit_noise_scale(
             f"(k_left = {base.k_left * factor:.3g} m; {err}): over such pieces the errors are not "
             "the random wheel slip the covariance models; use longer pieces"
         ) from err
+
+
+#: A piece whose odometry turned at least this much (rad) identifies the scrub; straight
+#: driving turns too, by its own noise (some 0.03 rad over 2 s), which identifies nothing.
+TURNING_RAD = 0.1
+
+_UNIT_NOISES = (
+    NoiseParams(1.0, 0.0, 0.0),
+    NoiseParams(0.0, 1.0, 0.0),
+    NoiseParams(0.0, 0.0, 1.0),
+)
+_Z95 = 1.959963984540054
+
+
+@dataclass(frozen=True)
+class NoiseFit:
+    """``k_left``, ``k_right``, ``k_scrub`` fitted to pieces with ground truth, by maximum
+    likelihood, with 95 % intervals (None: the constant stays unknown, ``unknown`` says why)."""
+
+    noise: NoiseParams
+    ci95: dict[str, tuple[float, float]]
+    unknown: dict[str, str]
+    runs: tuple[str, ...]
+    n_pieces: int
+    n_turning: int  #: pieces with commanded turning (they identify k_scrub)
+    mean_nees: float  #: of the training pieces with the fitted noise
+    expected_mean: float
+
+    def provenance(self) -> dict[str, Any]:
+        """A TOML-able table: each constant's value, interval and the runs it came from."""
+        out: dict[str, Any] = {}
+        for key in ("k_left", "k_right", "k_scrub"):
+            if key in self.unknown:
+                out[key] = {"unknown": self.unknown[key]}
+            else:
+                out[key] = {"value": getattr(self.noise, key), "ci95": list(self.ci95[key])}
+        out["from"] = (
+            f"maximum likelihood over {self.n_pieces} pieces of {len(self.runs)} runs "
+            f"({self.n_turning} of them turning)"
+        )
+        out["runs"] = list(self.runs)
+        out["mean_nees"] = self.mean_nees
+        out["expected_mean_nees"] = self.expected_mean
+        return out
+
+
+def fit_noise(
+    runs: Sequence[OdometryRun],
+    params: RobotParams,
+    method: Method | str = Method.MIDPOINT,
+    *,
+    segment_s: float = 10.0,
+    fit_gt_yaw_offset: bool | None = None,
+) -> NoiseFit:
+    """``k_left``, ``k_right``, ``k_scrub`` that make the pieces' errors most likely.
+
+    Each piece's covariance is linear in the three constants (``k_l A_l + k_r A_r + k_s A_s``,
+    the ``A``'s propagated with unit noise), so the Gaussian log-likelihood of all pieces'
+    errors is maximised over their logarithms (scipy), with Wald intervals on the log scale
+    (statsmodels' numerical Hessian). Straight pieces carry the wheels' noise, turning pieces
+    the scrub as well; without a turning piece (:data:`TURNING_RAD`) ``k_scrub`` stays unknown
+    (written 0 and said).
+    A run's yaw offset, when fitted, is fitted first with the scale fit's noise."""
+    from scipy import optimize
+    from statsmodels.tools.numdiff import approx_hess3
+
+    if not runs:
+        raise InsufficientDataError("no runs to fit the noise to")
+    start = fit_noise_scale(
+        runs, params, method, segment_s=segment_s, fit_gt_yaw_offset=fit_gt_yaw_offset
+    )
+    errs, bases, names, turns = [], [], [], []
+    removed = 0
+    for run in runs:
+        pcs = _run_pieces(run, params, method, segment_s, [start, *_UNIT_NOISES])
+        scaled = pcs.covs[0]
+        ok = np.array([np.linalg.det(c) > 0 for c in scaled])
+        if not ok.any():
+            continue
+        fit = fit_gt_yaw_offset
+        if fit is None:
+            fit = not starts_in_odometry_frame(pcs.gt)
+        offset = 0.0
+        if fit:
+            offset, _ = _fit_yaw_offset(pcs.odo[ok], pcs.gtr[ok], np.linalg.inv(scaled[ok]))
+            removed += 1
+        errs.append(_errors(pcs.odo, pcs.gtr, offset)[ok])
+        turns.append(np.abs(pcs.odo[ok, 2]))
+        bases.append(np.stack([c[ok] for c in pcs.covs[1:]], axis=1))  # (k, 3, 3, 3)
+        names.append(run.name)
+    e = np.concatenate(errs)
+    a = np.concatenate(bases)
+    n = e.shape[0]
+    turning = np.concatenate(turns) >= TURNING_RAD
+    scrub_known = bool(turning.any())
+    free = [0, 1, 2] if scrub_known else [0, 1]
+
+    def nll(u: NDArray[np.float64]) -> float:
+        if np.any(np.abs(u) > 60):  # e**60: far outside any plausible constant
+            return 1e300
+        k = np.zeros(3)
+        k[free] = np.exp(u)
+        cov = np.einsum("j,kjab->kab", k, a)
+        sign, logdet = np.linalg.slogdet(cov)
+        if np.any(sign <= 0):
+            return 1e300
+        quad = np.einsum("ka,ka->k", e, np.linalg.solve(cov, e[..., None])[..., 0])
+        return float(0.5 * np.sum(logdet + quad))
+
+    guess = np.log(
+        np.maximum(np.array([start.k_left, start.k_right, start.k_scrub or start.k_left]), 1e-12)
+    )[free]
+    res = optimize.minimize(nll, guess, method="Nelder-Mead", options={"xatol": 1e-8})
+    res = optimize.minimize(nll, res.x, method="Nelder-Mead", options={"xatol": 1e-9})
+    u = np.asarray(res.x, dtype=np.float64)
+    hess = np.asarray(approx_hess3(u, nll), dtype=np.float64)
+    try:
+        se = np.sqrt(np.maximum(np.diag(np.linalg.inv(hess)), 0.0))
+    except np.linalg.LinAlgError:
+        se = np.full(u.size, math.inf)
+    keys = ("k_left", "k_right", "k_scrub")
+    values = dict.fromkeys(keys, 0.0)
+    ci: dict[str, tuple[float, float]] = {}
+    for j, idx in enumerate(free):
+        values[keys[idx]] = math.exp(u[j])
+        half = min(_Z95 * float(se[j]), 300.0)  # an unidentified constant: [0, inf) in effect
+        ci[keys[idx]] = (math.exp(u[j] - half), math.exp(u[j] + half))
+    if scrub_known:  # the scrub may be 0 (wheels): its interval on the linear scale
+        values["k_scrub"], ci["k_scrub"] = _scrub_interval(e, a, values)
+    unknown = (
+        {}
+        if scrub_known
+        else {"k_scrub": "no piece turned: the runs' straight motion leaves the scrub unknown"}
+    )
+    try:
+        noise = NoiseParams(**values)
+    except ParamsError as err:
+        raise InsufficientDataError(
+            f"the noise fitted to pieces of {segment_s:g} s is implausible ({err}): over such "
+            "pieces the errors are not the random wheel slip the covariance models; use longer "
+            "pieces"
+        ) from err
+    k = np.array([values[key] for key in keys])
+    cov = np.einsum("j,kjab->kab", k, a)
+    nees = np.einsum("ka,ka->k", e, np.linalg.solve(cov, e[..., None])[..., 0])
+    return NoiseFit(
+        noise=noise,
+        ci95=ci,
+        unknown=unknown,
+        runs=tuple(names),
+        n_pieces=n,
+        n_turning=int(turning.sum()),
+        mean_nees=float(nees.mean()),
+        expected_mean=(DOF * n - removed) / n,
+    )
+
+
+def _scrub_interval(
+    e: NDArray[np.float64], a: NDArray[np.float64], values: dict[str, float]
+) -> tuple[float, tuple[float, float]]:
+    """``k_scrub`` and its 95 % likelihood interval with the wheels' constants held at theirs
+    (0 when no scrub is more likely than the fitted one: a wheeled robot)."""
+    from scipy import optimize, stats
+
+    wheels = values["k_left"] * a[:, 0] + values["k_right"] * a[:, 1]
+
+    def ll(ks: float) -> float:
+        cov = wheels + ks * a[:, 2]
+        sign, logdet = np.linalg.slogdet(cov)
+        if np.any(sign <= 0):
+            return -math.inf
+        quad = np.einsum("ka,ka->k", e, np.linalg.solve(cov, e[..., None])[..., 0])
+        return float(-0.5 * np.sum(logdet + quad))
+
+    ks = values["k_scrub"]
+    ll_hat = ll(ks)
+    if ll(0.0) >= ll_hat:
+        ks, ll_hat = 0.0, ll(0.0)
+    cut = ll_hat - 0.5 * float(stats.chi2.ppf(0.95, 1))
+    lo = 0.0
+    if ks > 0 and ll(0.0) < cut:
+        lo = float(optimize.brentq(lambda k: ll(k) - cut, 0.0, ks, xtol=1e-15))
+    top = max(ks, 1e-9) * 2.0
+    while ll(top) > cut and top < 1.0:
+        top *= 2.0
+    hi = (
+        float(optimize.brentq(lambda k: ll(k) - cut, ks, top, xtol=1e-15)) if ll(top) < cut else top
+    )
+    return ks, (lo, hi)
