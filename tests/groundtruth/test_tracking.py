@@ -116,7 +116,7 @@ def test_cli_track_writes_a_trajectory_on_the_encoder_clock(
     )  # fmt: skip
     assert code == 0
     header = out.read_text().splitlines()[0]
-    assert header == "t,x,y,theta,heading,quality"
+    assert header == "t,x,y,theta,heading,quality,segment"
     traj = read_trajectory(out)
     assert traj.t[0] == pytest.approx(1.5, abs=0.05)
     truth = _truth(drive, delay=1.5)

@@ -19,6 +19,7 @@ from odolab.errors import OdolabError
 
 if TYPE_CHECKING:
     from odolab.calibration.sensor import SensorCalibration
+    from odolab.tracking.tracker import GapBridge
     from odolab.trajectory import Trajectory
 
 __all__: list[str] = []
@@ -62,6 +63,7 @@ def estimate_time_offset(
 ) -> float:
     """Sensor-minus-encoder clock offset by cross-correlating yaw rates, as ``validate`` does
     for a phone's IMU (:func:`odolab.validation.align.find_clock_offset`)."""
+    from odolab.errors import ImuLogError
     from odolab.validation.align import find_clock_offset
     from odolab.validation.sensorlog import ImuLog
 
@@ -69,7 +71,37 @@ def estimate_time_offset(
     keep[0] = True
     keep[1:] &= sensor.t[1:] > sensor.t[:-1]
     imu = ImuLog(sensor.t[keep], sensor.heading[keep], None, source=source)
-    return find_clock_offset(enc_t, enc_heading, imu, max_offset=max_offset).clock_offset
+    try:
+        return find_clock_offset(enc_t, enc_heading, imu, max_offset=max_offset).clock_offset
+    except ImuLogError as err:  # worded for a phone's IMU and `validate`'s options: reword
+        raise OptionError(_offset_sentence(str(err), source, max_offset)) from err
+
+
+def _offset_sentence(text: str, source: str, max_offset: float) -> str:
+    """``find_clock_offset``'s refusal in the words of ``track`` and ``calibrate sensor`` (no IMU,
+    no --flip-imu or --offset there)."""
+    import re
+
+    if "sign reversed" in text:
+        numbers = re.search(r"\(correlation [^)]*\)", text)
+        return (
+            f"{source}: its yaw rate matches the encoders' best with the sign reversed "
+            f"{numbers.group(0) if numbers else ''}; expected both to turn the same way (check "
+            "that the video is not mirrored and that the encoder log's left and right wheels "
+            "are not swapped), or give the clock offset with --time-offset"
+        ).replace("  ", " ")
+    if "any rotation" in text:
+        return (
+            f"{source}: neither it nor the encoder log shows any rotation to line the clocks up "
+            "with; expected a drive with turns, or give the clock offset with --time-offset"
+        )
+    if "does not overlap" in text:
+        return (
+            f"{source}: it does not overlap the encoder log in time for any clock offset within "
+            f"+-{max_offset:g} s; expected the log of the same drive, a larger --max-offset, "
+            "or the clock offset with --time-offset"
+        )
+    return text
 
 
 @calibrate_app.command("sensor")
@@ -254,7 +286,10 @@ def track_cmd(
     dictionary: Annotated[str, typer.Option(help="ArUco dictionary.")] = "DICT_4X4_50",
     encoders: Annotated[
         Path | None,
-        typer.Option(help="Encoder log: put t on its clock (offset found from yaw rates)."),
+        typer.Option(
+            help="Encoder log: put t on its clock (offset found from yaw rates) and decide the "
+            "whole turns across gaps in the track."
+        ),
     ] = None,
     params: Annotated[
         str | None, typer.Option("--params", "-p", help="With --encoders: parameters.")
@@ -263,20 +298,47 @@ def track_cmd(
         EncoderFormat, typer.Option("--format", "-f", help="Format of --encoders.")
     ] = EncoderFormat.csv,
     max_offset: Annotated[float, typer.Option(help="With --encoders: search +- (s).")] = 30.0,
+    time_offset: Annotated[
+        str,
+        typer.Option(
+            help="With --encoders: the video's clock minus the encoders' (s), or 'auto' "
+            "(yaw-rate match)."
+        ),
+    ] = "auto",
+    max_yaw_rate: Annotated[
+        float,
+        typer.Option(
+            help="The robot's fastest turn (deg/s): frames without the marker for 180 deg / this "
+            "or longer start a new heading segment (its whole turns unknown)."
+        ),
+    ] = 180.0,
 ) -> None:
     """Robot poses from a video: floor markers define the floor, the robot's marker its pose.
-    Writes t,x,y,theta,heading,quality (t from 0 at the first frame, or on the encoder clock)."""
+    Writes t,x,y,theta,heading,quality,segment (t from 0 at the first frame, or on the encoder
+    clock; heading continuous within a segment: a new one starts after the marker was hidden
+    long enough for a half turn, unless --encoders bridges it)."""
     from rich.console import Console
 
     from odolab.cli._output import check_output_path
     from odolab.tracking import load_camera, read_floor_csv
-    from odolab.tracking.tracker import TrackOptions, track_video, write_track_csv
+    from odolab.tracking.tracker import TrackOptions, bridge_gaps, track_video, write_track_csv
 
-    options = TrackOptions(robot_marker, marker_size, marker_height, marker_offset, dictionary)
+    if not (math.isfinite(max_yaw_rate) and max_yaw_rate > 0):
+        raise OptionError(
+            f"--max-yaw-rate is {max_yaw_rate!r}; expected the robot's fastest turn in deg/s, "
+            "a positive number"
+        )
+    options = TrackOptions(
+        robot_marker, marker_size, marker_height, marker_offset, dictionary,
+        max_yaw_rate=math.radians(max_yaw_rate),
+    )  # fmt: skip
     if encoders is not None and params is None:
         raise OptionError("--encoders needs --params (the robot's nominal parameters)")
     if not (math.isfinite(max_offset) and max_offset > 0):
         raise OptionError(f"--max-offset is {max_offset!r}; expected a positive number of seconds")
+    given_offset = _time_offset(time_offset)
+    if given_offset is not None and encoders is None:
+        raise OptionError("--time-offset needs --encoders (the log whose clock it is)")
     cam = load_camera(camera)
     markers = read_floor_csv(floor)
     from odolab.tracking.markers import get_dictionary
@@ -286,10 +348,13 @@ def track_cmd(
     result = track_video(video, markers, cam, options)
     offset = 0.0
     console = Console(stderr=True)
+    notes: list[str] = []
+    bridges: list[GapBridge] = []
     if encoders is not None and params is not None:
         from odolab.io.registry import read_run
         from odolab.io.run import ReadOptions
         from odolab.params import load_params
+        from odolab.trajectory import Trajectory
 
         nominal = load_params(params)
         run = read_run(
@@ -298,8 +363,36 @@ def track_cmd(
             ReadOptions(modulus=nominal.encoder_modulus, ticks_per_rev=nominal.ticks_per_rev),
         )
         odo = run.odometry(nominal)
-        offset = estimate_time_offset(
-            run.t, odo.heading, result.trajectory(), str(video), max_offset
+        if given_offset is None:
+            # the yaw rate across a gap is unknown: the track's is taken as zero there
+            seen = Trajectory.from_xyh(result.t, result.x, result.y, result.heading_without_gaps())
+            offset = estimate_time_offset(run.t, odo.heading, seen, str(video), max_offset)
+        else:
+            offset = given_offset
+        result, bridges = bridge_gaps(result, run.t, odo.heading, offset)
+        for br in bridges:
+            g = br.gap
+            where = f"{g.seconds:.2f} s without the marker at {g.t_before - offset:.2f} s"
+            if br.bridged:
+                notes.append(
+                    f"{where}: bridged with the encoders, turned {math.degrees(br.change):+.1f} "
+                    f"deg (encoders {math.degrees(br.reference):+.1f} deg)"
+                )
+    for g in result.gaps:  # the gaps left: no encoders, outside their log, or no candidate near
+        bridge = next((br for br in bridges if br.gap == g), None)
+        why = (
+            "give --encoders to bridge it"
+            if encoders is None
+            else "the encoder log does not cover it"
+            if bridge is None
+            else f"the encoders' turn {math.degrees(bridge.reference):+.1f} deg is far from every "
+            "whole-turn candidate"
+        )
+        notes.append(
+            f"{g.seconds:.2f} s without the marker at {g.t_before - offset:.2f} s: the robot may "
+            f"have turned half a turn or more (--max-yaw-rate {max_yaw_rate:g} deg/s); segment "
+            f"{int(result.segments[g.index])} starts there, its heading's whole turns unknown "
+            f"({why})"
         )
     write_track_csv(output, result, offset)
     pos = result.camera_pose.position
@@ -310,8 +403,12 @@ def track_cmd(
         f"{pos[2]:.3f}) m, floor reprojection {result.camera_pose.reprojection_rms:.2f} px; "
         f"median quality {statistics.median(result.quality.tolist()) * 1000:.1f} mm"
         + (f"; video clock minus encoder clock {offset:.3f} s" if encoders else "")
-        + f" -> {output}"
+        + f" -> {output}",
+        markup=False,
+        highlight=False,
     )
+    for note in notes:
+        console.print(f"note: {note}", markup=False, highlight=False)
 
 
 @app.command("markers")

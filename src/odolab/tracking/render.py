@@ -104,9 +104,13 @@ def render_video(
     noise: float = 2.0,
     quality: int = 90,
     seed: int = 0,
+    hidden: Sequence[tuple[float, float]] = (),
     progress: Callable[[int, int], None] | None = None,
 ) -> Path:
-    """Write an MJPG AVI of the robot following ``truth`` (frame k at time ``k / fps``)."""
+    """Write an MJPG AVI of the robot following ``truth`` (frame k at time ``k / fps``).
+
+    ``hidden``: time spans ``(start, end)`` (s, the truth's clock) in which the robot's marker is
+    not drawn (covered: a person walking past, the robot under a table); its plate still is."""
     import cv2
 
     model = scene.model
@@ -149,10 +153,11 @@ def render_video(
             h = float(np.interp(t, truth.t, truth.heading))
             frame = base.copy()
             _paste(frame, plate, big.project(_placed(0.5, 8, 8, x, y, h, marker_height)))
-            cs, sn = math.cos(h), math.sin(h)
-            mx, my = x + cs * dx - sn * dy, y + sn * dx + cs * dy
-            corners = _placed(marker_size, px, robot_img.shape[0], mx, my, h, marker_height)
-            _paste(frame, robot_img, big.project(corners))
+            if not any(a <= t <= b for a, b in hidden):
+                cs, sn = math.cos(h), math.sin(h)
+                mx, my = x + cs * dx - sn * dy, y + sn * dx + cs * dy
+                corners = _placed(marker_size, px, robot_img.shape[0], mx, my, h, marker_height)
+                _paste(frame, robot_img, big.project(corners))
             small = cv2.resize(frame, (model.width, model.height), interpolation=cv2.INTER_AREA)
             if blur > 0:
                 small = cv2.GaussianBlur(small, (0, 0), blur)

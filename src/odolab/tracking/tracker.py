@@ -15,6 +15,14 @@ marker's pose, and ``--marker-offset DX DY`` (the marker's centre in the robot f
 ``p_robot = p_marker - R(heading) (DX, DY)``. ``quality`` is the RMS distance (m) of the four
 mapped corners from the fitted square: millimetres when all is well, more when the corners are
 blurred, the marker is bent, or H is wrong.
+
+The marker gives the heading modulo a whole turn; the ``heading`` column is made continuous by
+taking, between two tracked frames, the change of the least size. That is right only if the
+robot cannot have turned half a turn in between: across a gap (frames without the robot's
+marker) of ``dt`` seconds with ``max_yaw_rate * dt >= pi`` the whole turns are unknown. The
+tracker then starts a new heading **segment** (:attr:`TrackResult.segment`; :attr:`TrackResult.gaps`
+says where), continuing with the least change as its best guess, and :func:`bridge_gaps` decides
+the whole turns from another sensor's heading change across the gap (the encoders').
 """
 
 from __future__ import annotations
@@ -32,7 +40,17 @@ from odolab.tracking.camera import CameraModel, FloorMarker, TrackingError
 from odolab.tracking.markers import get_dictionary
 from odolab.trajectory import Trajectory
 
-__all__ = ["CameraPose", "TrackOptions", "TrackResult", "camera_pose_from_floor", "track_video"]
+__all__ = [
+    "CameraPose",
+    "GapBridge",
+    "HeadingGap",
+    "TrackOptions",
+    "TrackResult",
+    "bridge_gaps",
+    "camera_pose_from_floor",
+    "segment_headings",
+    "track_video",
+]
 
 FloatArray = NDArray[np.float64]
 Progress = Callable[[int, int], None]
@@ -48,8 +66,14 @@ class TrackOptions:
     marker_offset: tuple[float, float] = (0.0, 0.0)
     dictionary: str = "DICT_4X4_50"
     full_every: int = 30
+    max_yaw_rate: float = math.pi  # rad/s: a gap the robot may turn half a turn in is a new segment
 
     def __post_init__(self) -> None:
+        if not (math.isfinite(self.max_yaw_rate) and self.max_yaw_rate > 0):
+            raise TrackingError(
+                f"--max-yaw-rate is {math.degrees(self.max_yaw_rate)!r} deg/s; expected the "
+                "robot's fastest turn, a positive number"
+            )
         if self.full_every < 1:
             raise TrackingError(f"full_every is {self.full_every}; expected a whole number >= 1")
         if not (math.isfinite(self.marker_size) and self.marker_size > 0):
@@ -83,10 +107,44 @@ class CameraPose:
         return np.asarray(-self.rotation.T @ self.translation, dtype=np.float64)
 
 
+@dataclass(frozen=True)
+class HeadingGap:
+    """Frames without the robot's marker, too long to carry the heading's whole turns across.
+
+    ``index``: the first tracked frame after the gap (its first frame of a new segment);
+    ``t_before``, ``t_after``: the tracked frames around it (s, video clock); ``change``: the
+    heading change across it taken (rad), the least one, right only up to whole turns.
+    """
+
+    index: int
+    t_before: float
+    t_after: float
+    change: float
+
+    @property
+    def seconds(self) -> float:
+        """How long the marker was not seen (s)."""
+        return self.t_after - self.t_before
+
+
+@dataclass(frozen=True)
+class GapBridge:
+    """How a gap was bridged: ``turns`` whole turns added to the least change, so that the
+    change is ``change`` (rad), against ``reference`` (rad) from the other sensor; ``bridged``
+    False when the other sensor's change is too far from every candidate to decide."""
+
+    gap: HeadingGap
+    turns: int
+    change: float
+    reference: float
+    bridged: bool
+
+
 @dataclass(frozen=True, eq=False)
 class TrackResult:
-    """Per tracked frame: ``t`` (s from the first frame), x, y (m), heading (rad, unwrapped),
-    quality (m); ``frames`` read, ``skipped`` frames without the robot's marker; the camera."""
+    """Per tracked frame: ``t`` (s from the first frame), x, y (m), heading (rad, continuous
+    within a segment), quality (m), ``segment`` (0, 1, ...: a new one after each gap in
+    :attr:`gaps`); ``frames`` read, ``skipped`` frames without the robot's marker; the camera."""
 
     t: FloatArray
     x: FloatArray
@@ -98,10 +156,112 @@ class TrackResult:
     camera_pose: CameraPose
     fps: float
     floor_seen: dict[int, int] = field(default_factory=dict)
+    segment: NDArray[np.int64] | None = None
+    gaps: tuple[HeadingGap, ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.segment is None:
+            object.__setattr__(self, "segment", np.zeros(len(self.t), dtype=np.int64))
+
+    @property
+    def segments(self) -> NDArray[np.int64]:
+        """:attr:`segment`, never None."""
+        assert self.segment is not None
+        return self.segment
 
     def trajectory(self, time_offset: float = 0.0) -> Trajectory:
         """As a trajectory, stamps shifted by ``-time_offset`` (video clock minus another)."""
         return Trajectory.from_xyh(self.t - time_offset, self.x, self.y, self.heading)
+
+    def heading_without_gaps(self) -> FloatArray:
+        """The heading with no change across the gaps (each segment shifted to start where the
+        last ended): a yaw rate of zero where it is unknown, for lining up clocks by yaw rate."""
+        h = self.heading.copy()
+        for gap in self.gaps:
+            k = gap.index
+            h[k:] -= h[k] - h[k - 1]
+        return h
+
+
+def segment_headings(
+    t: FloatArray, yaw: FloatArray, max_yaw_rate: float
+) -> tuple[FloatArray, NDArray[np.int64], tuple[HeadingGap, ...]]:
+    """Continuous heading from per-frame yaws (rad, any wrap): (heading, segment, gaps).
+
+    Between two frames ``dt`` apart the change of least size is taken; it is the only one
+    possible when ``max_yaw_rate * dt < pi``. Where it is not, a new segment starts (the least
+    change is still taken, as the best guess) and the gap is listed.
+    """
+    from odolab.kinematics import wrap_angle
+
+    yaw = np.asarray(yaw, dtype=np.float64)
+    if len(yaw) == 0:
+        return yaw.copy(), np.zeros(0, dtype=np.int64), ()
+    d = np.asarray(wrap_angle(np.diff(yaw)), dtype=np.float64)
+    dt = np.diff(np.asarray(t, dtype=np.float64))
+    unsure = max_yaw_rate * dt >= math.pi
+    heading = yaw[0] + np.concatenate(([0.0], np.cumsum(d)))
+    segment = np.concatenate(([0], np.cumsum(unsure))).astype(np.int64)
+    gaps = tuple(
+        HeadingGap(int(k) + 1, float(t[k]), float(t[k + 1]), float(d[k]))
+        for k in np.flatnonzero(unsure)
+    )
+    return heading, segment, gaps
+
+
+def bridge_gaps(
+    result: TrackResult,
+    ref_t: FloatArray,
+    ref_heading: FloatArray,
+    time_offset: float = 0.0,
+    *,
+    tolerance: float = math.pi / 2,
+) -> tuple[TrackResult, list[GapBridge]]:
+    """Decide each gap's whole turns from another sensor's heading (the encoders' odometry).
+
+    ``ref_t`` is on the other sensor's clock, ``time_offset`` the video's clock minus it. Across
+    a gap the other sensor turned ``reference``; the tracker's change is the least one ``c``
+    plus ``k`` whole turns, and ``k`` is the one that brings it nearest ``reference``. A gap is
+    bridged (its segment joined to the one before, the heading after it shifted by ``k`` turns)
+    when that nearest candidate is within ``tolerance`` of ``reference``; otherwise it stays a
+    segment boundary. A gap outside the other sensor's time span is left as it is.
+    """
+    heading = result.heading.copy()
+    segment = result.segments.copy()
+    kept: list[HeadingGap] = []
+    bridges: list[GapBridge] = []
+    ref_t = np.asarray(ref_t, dtype=np.float64)
+    ref_heading = np.asarray(ref_heading, dtype=np.float64)
+    for gap in result.gaps:
+        a, b = gap.t_before - time_offset, gap.t_after - time_offset
+        if len(ref_t) < 2 or a < ref_t[0] or b > ref_t[-1]:
+            kept.append(gap)
+            continue
+        reference = float(np.interp(b, ref_t, ref_heading) - np.interp(a, ref_t, ref_heading))
+        turns = round((reference - gap.change) / (2.0 * math.pi))
+        change = gap.change + 2.0 * math.pi * turns
+        ok = abs(change - reference) <= tolerance
+        bridges.append(GapBridge(gap, turns if ok else 0, change, reference, ok))
+        if ok:
+            heading[gap.index :] += 2.0 * math.pi * turns
+            segment[gap.index :] -= 1
+        else:
+            kept.append(gap)
+    fixed = TrackResult(
+        t=result.t,
+        x=result.x,
+        y=result.y,
+        heading=heading,
+        quality=result.quality,
+        frames=result.frames,
+        skipped=result.skipped,
+        camera_pose=result.camera_pose,
+        fps=result.fps,
+        floor_seen=result.floor_seen,
+        segment=segment,
+        gaps=tuple(kept),
+    )
+    return fixed, bridges
 
 
 def _detector(dictionary: str) -> Any:
@@ -328,34 +488,41 @@ def track_video(
         cs, sn = math.cos(yaw), math.sin(yaw)
         rows.append((t - t0, mx - (cs * dx - sn * dy), my - (sn * dx + cs * dy), yaw, rms))
     arr = np.array(rows)
+    # before: np.unwrap across every gap, 360 deg off after a hidden turn of over half a turn
+    heading, segment, gaps = segment_headings(arr[:, 0], arr[:, 3], options.max_yaw_rate)
     return TrackResult(
         t=arr[:, 0],
         x=arr[:, 1],
         y=arr[:, 2],
-        heading=np.unwrap(arr[:, 3]),
+        heading=heading,
         quality=arr[:, 4],
         frames=frames,
         skipped=frames - len(robot),
         camera_pose=pose,
         fps=fps,
         floor_seen=floor_seen,
+        segment=segment,
+        gaps=gaps,
     )
 
 
 def write_track_csv(path: str | Path, result: TrackResult, time_offset: float = 0.0) -> Path:
-    """Write ``t,x,y,theta,heading,quality`` (readable wherever odolab reads a trajectory)."""
+    """Write ``t,x,y,theta,heading,quality,segment`` (readable wherever odolab reads a
+    trajectory). ``heading`` is continuous within a ``segment``; across segments its whole turns
+    are a guess (see the module)."""
     from odolab.kinematics import wrap_angle
 
     p = Path(path)
     table = np.column_stack(
         (result.t - time_offset, result.x, result.y, wrap_angle(result.heading),
-         result.heading, result.quality)
+         result.heading, result.quality, result.segments)
     )  # fmt: skip
     try:
         p.parent.mkdir(parents=True, exist_ok=True)
         np.savetxt(
-            p, table, fmt="%.9g", delimiter=",", header="t,x,y,theta,heading,quality", comments=""
-        )
+            p, table, fmt=["%.9g"] * 6 + ["%d"], delimiter=",",
+            header="t,x,y,theta,heading,quality,segment", comments="",
+        )  # fmt: skip
     except OSError as err:
         raise TrackingError(f"{p}: cannot write the track ({err.strerror or err})") from err
     return p
