@@ -94,7 +94,7 @@ class NoiseParams:
             value = getattr(self, key)
             if isinstance(value, bool) or not isinstance(value, int | float):
                 raise ParamsError(f"[noise] {key} must be a number, got {value!r}")
-            if not math.isfinite(value) or value < 0 or value > _NOISE_MAX:
+            if not _finite(value) or value < 0 or value > _NOISE_MAX:
                 raise ParamsError(
                     f"[noise] {key} must be a number from 0 to {_NOISE_MAX:g}, got {value!r}"
                 )
@@ -167,6 +167,15 @@ def _hint(key: str, value: float) -> str:
     return ""
 
 
+def _finite(value: float) -> bool:
+    """``math.isfinite`` that is False, not an OverflowError, for an int past float's range
+    (a TOML or JSON integer of 400 digits)."""
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
+
+
 def check_param(key: str, value: object) -> float | int:
     """``value`` of parameter ``key`` if it is a number in its plausible range, else refuse.
 
@@ -183,7 +192,7 @@ def check_param(key: str, value: object) -> float | int:
         return value
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise ParamsError(f"{key} must be a number, got {quote_input(value)}")
-    if not math.isfinite(value) or value <= 0:
+    if not _finite(value) or value <= 0:
         raise ParamsError(f"{key} must be a positive finite number, got {quote_input(value)}")
     if not lo <= value <= hi:
         raise ParamsError(
@@ -286,6 +295,28 @@ def params_from_mapping(
         raise ParamsError(f"{source}: {err}") from err
 
 
+#: Largest integer a parameters file may hold: far past every plausible value, short of float's
+#: range (an int past it made every range check an OverflowError).
+_MAX_TOML_INT = 2**1000
+
+
+def _check_integer_sizes(doc: Any, path: Path, where: str = "") -> None:
+    """Refuse an integer past :data:`_MAX_TOML_INT` anywhere in the file (Python reads any
+    length; a float of it overflows), naming its table and key."""
+    items = (
+        doc.items() if isinstance(doc, dict) else enumerate(doc) if isinstance(doc, list) else ()
+    )
+    for key, value in items:
+        name = f"{where}.{key}" if where else str(key)
+        if isinstance(value, int) and not isinstance(value, bool) and abs(value) > _MAX_TOML_INT:
+            raise ParamsError(
+                f"{path}: {quote_input(name)} is an integer of {len(str(abs(value)))} digits; "
+                "expected a parameter value such as 380"
+            )
+        if isinstance(value, dict | list):
+            _check_integer_sizes(value, path, name)
+
+
 def load_params(path_or_preset: str | Path) -> RobotParams:
     """Load parameters from a TOML file, or return a preset by name (see :data:`PRESETS`)."""
     key = str(path_or_preset)
@@ -305,8 +336,18 @@ def load_params(path_or_preset: str | Path) -> RobotParams:
         doc = tomllib.loads(path.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as err:
         raise ParamsError(f"{path}: not valid TOML ({err})") from err
+    except ValueError as err:  # an integer of more than 4,300 digits (Python's own limit)
+        raise ParamsError(
+            f"{path}: a number too long to read ({str(err).split(':')[0]}); expected parameter "
+            "values such as 0.0835"
+        ) from err
+    except RecursionError as err:  # arrays or tables nested thousands deep
+        raise ParamsError(
+            f"{path}: nested too deeply to read; expected the [robot] table of a parameters file"
+        ) from err
     except (OSError, UnicodeDecodeError) as err:
         raise ParamsError(f"{path}: cannot read ({err})") from err
+    _check_integer_sizes(doc, path)
     if "robot" not in doc or not isinstance(doc["robot"], dict):
         raise ParamsError(f"{path}: missing the [robot] table")
     extra = sorted(k for k in doc if k not in _TABLES)

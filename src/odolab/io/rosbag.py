@@ -16,12 +16,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from odolab.errors import LogFormatError
+from odolab.errors import LogFormatError, OdolabError
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.trajectory import Trajectory
 
@@ -31,27 +32,63 @@ POSE_TYPES = ("geometry_msgs/msg/PoseStamped", "nav_msgs/msg/Odometry")
 JOINT_TYPE = "sensor_msgs/msg/JointState"
 
 
+def _why(err: BaseException) -> str:
+    """A third-party error in a few words: its message (one line, at most 200 characters), else
+    its type."""
+    from odolab.text import safe_terminal, shorten
+
+    text = " ".join(str(err).split())
+    return safe_terminal(shorten(text, 200)) if text else type(err).__name__
+
+
+@contextmanager
+def reading(path: Path, where: str = "") -> Iterator[None]:
+    """Turn any failure of rosbags (or of a damaged message's fields) into one sentence naming
+    the bag and, given ``where``, the topic and message: rosbags raises what its parsers raise
+    (struct.error, KeyError, AttributeError, sqlite3's and the decompressors' errors)."""
+    try:
+        yield
+    except OdolabError:
+        raise
+    except (KeyboardInterrupt, SystemExit):  # pragma: no cover - not a file's fault
+        raise
+    except Exception as err:
+        at = f" at {where}" if where else ""
+        raise LogFormatError(
+            f"{path}: not a readable ROS 1 or ROS 2 bag{at} ({_why(err)}); expected a whole, "
+            "undamaged bag"
+        ) from err
+
+
 def _open(path: Path) -> Any:
-    from rosbags.highlevel import AnyReader, AnyReaderError
-    from rosbags.typesys import Stores, get_typestore
+    from odolab.io._bagcheck import check_bag_sizes
 
     if not path.exists():
         raise LogFormatError(f"{path}: no such bag")
-    try:
+    with reading(path):
+        check_bag_sizes(path)  # lengths against the file before rosbags allocates them
+        from rosbags.highlevel import AnyReader
+        from rosbags.typesys import Stores, get_typestore
+
         reader = AnyReader([path], default_typestore=get_typestore(Stores.LATEST))
         reader.open()
-    except (AnyReaderError, OSError, ValueError) as err:
-        raise LogFormatError(f"{path}: not a readable ROS 1 or ROS 2 bag ({err})") from err
     return reader
+
+
+def _close(reader: Any, path: Path) -> None:
+    with reading(path):
+        reader.close()
 
 
 def bag_topics(path: str | Path) -> dict[str, str]:
     """Topic name -> message type of every topic in the bag."""
-    reader = _open(Path(path))
+    p = Path(path)
+    reader = _open(p)
     try:
-        return {name: str(info.msgtype) for name, info in reader.topics.items()}
+        with reading(p):
+            return {name: str(info.msgtype) for name, info in reader.topics.items()}
     finally:
-        reader.close()
+        _close(reader, p)
 
 
 def _messages(
@@ -66,8 +103,18 @@ def _messages(
             raise LogFormatError(
                 f"{path}: topic {topic!r} carries {c.msgtype}; expected {' or '.join(types)}"
             )
-    for conn, stamp, raw in reader.messages(connections=conns):
-        yield stamp, reader.deserialize(raw, conn.msgtype)
+    k = 0
+    with reading(path, f"topic {topic!r}"):
+        it = iter(reader.messages(connections=conns))
+    while True:
+        with reading(path, f"message {k + 1} of topic {topic!r}"):
+            item = next(it, None)
+            if item is None:
+                return
+            conn, stamp, raw = item
+            msg = reader.deserialize(raw, conn.msgtype)
+        k += 1
+        yield stamp, msg
 
 
 def _stamp(msg: Any, bag_ns: int) -> float:
@@ -112,46 +159,10 @@ def read_bag(path: str | Path, options: ReadOptions | None = None) -> OdometryRu
     p = Path(path)
     reader = _open(p)
     try:
-        left_name, right_name = o.joint_names
-        t, left, right = [], [], []
-        for bag_ns, msg in _messages(reader, p, o.joint_topic, (JOINT_TYPE,)):
-            names = list(msg.name)
-            try:
-                il, ir = names.index(left_name), names.index(right_name)
-            except ValueError as err:
-                raise LogFormatError(
-                    f"{p}: JointState on {o.joint_topic!r} names {names}; expected joints "
-                    f"{left_name!r} and {right_name!r} (set joint_names)"
-                ) from err
-            t.append(_stamp(msg, bag_ns))
-            left.append(float(msg.position[il]))
-            right.append(float(msg.position[ir]))
-        if len(t) < 2:
-            raise LogFormatError(f"{p}: {o.joint_topic!r} has {len(t)} messages; expected two+")
-        tt = np.array(t)
-        back = np.diff(tt) < 0
-        if back.any():
-            i = int(np.argmax(back)) + 1
-            raise LogFormatError(
-                f"{p}: topic {o.joint_topic!r} time goes backwards at message {i} ({tt[i]} "
-                f"after {tt[i - 1]}); expected non-decreasing header stamps"
-            )
-        scale = o.ticks_per_rev / (2.0 * math.pi)
-        dl = np.concatenate(([0.0], np.diff(np.unwrap(np.array(left))) * scale))
-        dr = np.concatenate(([0.0], np.diff(np.unwrap(np.array(right))) * scale))
-        topics = {c.topic for c in reader.connections}
-        meta: dict[str, float | str] = {"ticks_per_rev": o.ticks_per_rev}
-        gt = None
-        if o.ground_truth_topic in topics:
-            gt = _poses(reader, p, o.ground_truth_topic)
-        elif o.ground_truth is None:
-            have = ", ".join(f"{c.topic} ({c.msgtype})" for c in reader.connections)
-            meta["no_ground_truth"] = (
-                f"no ground-truth topic {o.ground_truth_topic!r} in the bag; it has {have}"
-            )
-        est = _poses(reader, p, o.odometry_topic) if o.odometry_topic else None
+        with reading(p):
+            tt, dl, dr, gt, est, meta = _read_open_bag(reader, p, o)
     finally:
-        reader.close()
+        _close(reader, p)
     if o.ground_truth is not None:
         from odolab.io.trajectory_csv import read_trajectory
 
@@ -169,14 +180,62 @@ def read_bag(path: str | Path, options: ReadOptions | None = None) -> OdometryRu
     )
 
 
+def _read_open_bag(
+    reader: Any, p: Path, o: ReadOptions
+) -> tuple[
+    np.ndarray, np.ndarray, np.ndarray, Trajectory | None, Trajectory | None, dict[str, float | str]
+]:
+    """Stamps, wheel increments, ground truth, estimate and meta of an open bag."""
+    left_name, right_name = o.joint_names
+    t, left, right = [], [], []
+    for bag_ns, msg in _messages(reader, p, o.joint_topic, (JOINT_TYPE,)):
+        names = list(msg.name)
+        try:
+            il, ir = names.index(left_name), names.index(right_name)
+        except ValueError as err:
+            raise LogFormatError(
+                f"{p}: JointState on {o.joint_topic!r} names {names}; expected joints "
+                f"{left_name!r} and {right_name!r} (set joint_names)"
+            ) from err
+        t.append(_stamp(msg, bag_ns))
+        left.append(float(msg.position[il]))
+        right.append(float(msg.position[ir]))
+    if len(t) < 2:
+        raise LogFormatError(f"{p}: {o.joint_topic!r} has {len(t)} messages; expected two+")
+    tt = np.array(t)
+    back = np.diff(tt) < 0
+    if back.any():
+        i = int(np.argmax(back)) + 1
+        raise LogFormatError(
+            f"{p}: topic {o.joint_topic!r} time goes backwards at message {i} ({tt[i]} "
+            f"after {tt[i - 1]}); expected non-decreasing header stamps"
+        )
+    scale = o.ticks_per_rev / (2.0 * math.pi)
+    dl = np.concatenate(([0.0], np.diff(np.unwrap(np.array(left))) * scale))
+    dr = np.concatenate(([0.0], np.diff(np.unwrap(np.array(right))) * scale))
+    topics = {c.topic for c in reader.connections}
+    meta: dict[str, float | str] = {"ticks_per_rev": o.ticks_per_rev}
+    gt = None
+    if o.ground_truth_topic in topics:
+        gt = _poses(reader, p, o.ground_truth_topic)
+    elif o.ground_truth is None:
+        have = ", ".join(f"{c.topic} ({c.msgtype})" for c in reader.connections)
+        meta["no_ground_truth"] = (
+            f"no ground-truth topic {o.ground_truth_topic!r} in the bag; it has {have}"
+        )
+    est = _poses(reader, p, o.odometry_topic) if o.odometry_topic else None
+    return tt, dl, dr, gt, est, meta
+
+
 def read_bag_trajectory(path: str | Path, topic: str) -> Trajectory:
     """The poses on one topic (PoseStamped or Odometry) as a trajectory."""
     p = Path(path)
     reader = _open(p)
     try:
-        return _poses(reader, p, topic)
+        with reading(p):
+            return _poses(reader, p, topic)
     finally:
-        reader.close()
+        _close(reader, p)
 
 
 class RosbagReader:

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from odolab.errors import LogFormatError, OdolabError
-from odolab.io.rosbag import _messages, _open, _stamp
+from odolab.io.rosbag import _close, _messages, _open, _stamp, reading
 
 __all__ = ["SCAN_TYPE", "LaserScans", "read_scans", "write_scan_mcap"]
 
@@ -90,33 +90,34 @@ def read_scans(path: str | Path, topic: str = "/scan", *, min_scans: int = 2) ->
     p = Path(path)
     reader = _open(p)
     try:
-        t: list[float] = []
-        rows: list[NDArray[np.float32]] = []
-        layout: tuple[float, float, int] | None = None
-        rmin = rmax = 0.0
-        frame = "laser"
-        for bag_ns, msg in _messages(reader, p, topic, (SCAN_TYPE,)):
-            r = np.asarray(msg.ranges, dtype=np.float32)
-            this = (float(msg.angle_min), float(msg.angle_increment), len(r))
-            if layout is None:
-                layout = this
-                rmin, rmax = float(msg.range_min), float(msg.range_max)
-                frame = str(msg.header.frame_id) or frame
-                if len(r) < 2 or not (math.isfinite(this[0]) and math.isfinite(this[1])):
+        with reading(p):
+            t: list[float] = []
+            rows: list[NDArray[np.float32]] = []
+            layout: tuple[float, float, int] | None = None
+            rmin = rmax = 0.0
+            frame = "laser"
+            for bag_ns, msg in _messages(reader, p, topic, (SCAN_TYPE,)):
+                r = np.asarray(msg.ranges, dtype=np.float32)
+                this = (float(msg.angle_min), float(msg.angle_increment), len(r))
+                if layout is None:
+                    layout = this
+                    rmin, rmax = float(msg.range_min), float(msg.range_max)
+                    frame = str(msg.header.frame_id) or frame
+                    if len(r) < 2 or not (math.isfinite(this[0]) and math.isfinite(this[1])):
+                        raise LogFormatError(
+                            f"{p}: the first scan on {topic!r} has {len(r)} beams from "
+                            f"{this[0]} rad by {this[1]} rad; expected at least 2 beams, finite angles"
+                        )
+                elif this[2] != layout[2] or not np.allclose(this[:2], layout[:2], atol=1e-9):
                     raise LogFormatError(
-                        f"{p}: the first scan on {topic!r} has {len(r)} beams from "
-                        f"{this[0]} rad by {this[1]} rad; expected at least 2 beams, finite angles"
+                        f"{p}: scan {len(t)} on {topic!r} has {this[2]} beams from {this[0]:.6g} rad "
+                        f"by {this[1]:.6g} rad; expected the first scan's {layout[2]} beams from "
+                        f"{layout[0]:.6g} rad by {layout[1]:.6g} rad"
                     )
-            elif this[2] != layout[2] or not np.allclose(this[:2], layout[:2], atol=1e-9):
-                raise LogFormatError(
-                    f"{p}: scan {len(t)} on {topic!r} has {this[2]} beams from {this[0]:.6g} rad "
-                    f"by {this[1]:.6g} rad; expected the first scan's {layout[2]} beams from "
-                    f"{layout[0]:.6g} rad by {layout[1]:.6g} rad"
-                )
-            t.append(_stamp(msg, bag_ns))
-            rows.append(r)
+                t.append(_stamp(msg, bag_ns))
+                rows.append(r)
     finally:
-        reader.close()
+        _close(reader, p)
     if len(t) < max(min_scans, 2) or layout is None:
         raise LogFormatError(
             f"{p}: topic {topic!r} has {len(t)} laser scans; expected at least {max(min_scans, 2)}"

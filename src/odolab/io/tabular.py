@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import contextlib
 import queue
-import re
 import threading
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
@@ -29,6 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from odolab.errors import LogFormatError
+from odolab.io._table import _CsvRefused, _parse_block
 
 __all__ = [
     "BINARY_SUFFIXES",
@@ -70,6 +70,14 @@ def _check_file(p: Path) -> None:
         raise LogFormatError(f"{p}: is not a file (a folder?); expected a table file")
 
 
+def _arrow_errors() -> tuple[type[BaseException], ...]:
+    """What pyarrow raises for a damaged Parquet or IPC file: its own errors, and Python's from
+    the metadata it decodes (a column name that is not UTF-8: UnicodeDecodeError, a ValueError)."""
+    import pyarrow as pa
+
+    return (pa.ArrowException, OSError, ValueError, KeyError, IndexError, TypeError, MemoryError)
+
+
 def _arrow_schema_names(p: Path, fmt: TableFormat) -> list[str]:
     import pyarrow as pa
     import pyarrow.ipc as ipc
@@ -80,7 +88,7 @@ def _arrow_schema_names(p: Path, fmt: TableFormat) -> list[str]:
             return list(pq.read_schema(p).names)
         with pa.memory_map(str(p)) as source:
             return list(ipc.open_file(source).schema.names)
-    except (pa.ArrowException, OSError) as err:
+    except _arrow_errors() as err:
         kind = "Parquet" if fmt == "parquet" else "Arrow IPC"
         raise LogFormatError(f"{p}: not a readable {kind} file ({err})") from err
 
@@ -244,7 +252,7 @@ def _whole_binary(
                         )
                     out[name][row : row + k] = col.to_numpy(zero_copy_only=False)
                 row += k
-    except (pa.ArrowException, OSError) as err:
+    except _arrow_errors() as err:
         raise LogFormatError(f"{p}: not a readable {kind} file ({err})") from err
     if row != rows:  # pragma: no cover - metadata and data disagree
         raise LogFormatError(f"{p}: {row} rows where the metadata says {rows}; a damaged file?")
@@ -386,10 +394,6 @@ _CSV_BLOCK_BYTES_PER_ROW = 64
 _CSV_BLOCK_MIN = 64 << 10
 
 
-class _CsvRefused(Exception):
-    """The streaming CSV reader refused a block; the careful reader names the line."""
-
-
 def _csv_text_blocks(p: Path, block: int = _CSV_BLOCK) -> Iterator[bytes]:
     """The data lines of a CSV file (those after its header, the first non-blank line), in
     pieces of about ``block`` bytes, each ending at a line end."""
@@ -413,48 +417,6 @@ def _csv_text_blocks(p: Path, block: int = _CSV_BLOCK) -> Iterator[bytes]:
                 yield text
         if rest.strip():
             yield rest.lstrip(b"\r\n")
-
-
-_BLANK_LINE = re.compile(rb"(?:^|\n)(?=\r?\n)")  # where a blank line starts (overlapping)
-
-
-def _parse_block(
-    text: bytes, header: list[str], columns: Sequence[str], integer: Sequence[str]
-) -> Columns:
-    """One block of CSV lines as numpy arrays (int64 for ``integer`` columns where every value
-    there is written as an integer, else float64); blank lines are skipped. Raises
-    :class:`_CsvRefused` for anything else unusual (a missing cell, a word)."""
-    import polars as pl
-
-    idx = [header.index(c) for c in columns]
-    frame = None
-    refusal = ""
-    for ints in (True, False) if integer else (False,):
-        types = {c: pl.Int64 if ints and c in integer else pl.Float64 for c in columns}
-        try:
-            frame = pl.read_csv(
-                text, has_header=False, new_columns=list(header), columns=idx,
-                schema_overrides=types, infer_schema=False, encoding="utf8",
-            )  # fmt: skip
-            break
-        except pl.exceptions.PolarsError as err:
-            refusal = str(err).splitlines()[0] if str(err) else type(err).__name__
-    if frame is None:
-        raise _CsvRefused(refusal)
-    if frame.width != len(columns):
-        raise _CsvRefused("a line of another width")
-    if any(s.null_count() for s in frame.get_columns()):
-        empty = pl.all_horizontal(pl.all().is_null())  # a blank line, or a line of commas
-        if int(frame.select(empty.sum()).item()) != len(_BLANK_LINE.findall(text)):
-            raise _CsvRefused("an empty cell")
-        frame = frame.filter(~empty)
-        if any(s.null_count() for s in frame.get_columns()):
-            raise _CsvRefused("an empty cell")
-    out: Columns = {}
-    for c, series in zip(columns, frame.get_columns(), strict=True):
-        arr = series.to_numpy()
-        out[c] = arr if arr.flags.writeable else arr.copy()  # numpy's own: polars' is freed
-    return out
 
 
 def iter_columns(
@@ -535,7 +497,6 @@ def _csv_chunks(
 
 
 def _arrow_chunks(p: Path, fmt: TableFormat, columns: Sequence[str]) -> Iterator[Columns]:
-    import pyarrow as pa
 
     row = 0
     try:
@@ -543,7 +504,7 @@ def _arrow_chunks(p: Path, fmt: TableFormat, columns: Sequence[str]) -> Iterator
             for batch in _arrow_batches(p, fmt, columns, stack)[2]:
                 yield _arrow_to_f64(p, batch, columns, row)
                 row += batch.num_rows
-    except (pa.ArrowException, OSError) as err:
+    except _arrow_errors() as err:
         kind = "Parquet" if fmt == "parquet" else "Arrow IPC"
         raise LogFormatError(f"{p}: not a readable {kind} file ({err})") from err
 
@@ -682,7 +643,7 @@ def row_count(path: str | Path) -> int | None:
     import pyarrow.ipc as ipc
     import pyarrow.parquet as pq
 
-    with contextlib.suppress(pa.ArrowException, OSError):
+    with contextlib.suppress(*_arrow_errors()):
         if fmt == "parquet":
             return int(pq.ParquetFile(p).metadata.num_rows)
         with pa.memory_map(str(p)) as source:
