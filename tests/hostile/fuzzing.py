@@ -26,7 +26,7 @@ import numpy as np
 
 from odolab.errors import OdolabError
 
-__all__ = ["TARGETS", "Target", "foreign", "mutate", "run_case"]
+__all__ = ["TARGETS", "Target", "foreign", "mutate", "prepare", "run_case", "try_case"]
 
 _TOKENS = (
     b'"',
@@ -130,6 +130,14 @@ def foreign(err: BaseException) -> str:
 def run_case(target: Target, seed: bytes, mutable: Path, read_path: Path, case: int) -> str | None:
     """Write mutation ``case`` of ``seed`` over ``mutable`` and read ``read_path``; None when
     the reader succeeded or raised an OdolabError, else the exception's signature."""
+    outcome = try_case(target, seed, mutable, read_path, case)
+    return None if outcome in ("read", "refused") else outcome
+
+
+def try_case(target: Target, seed: bytes, mutable: Path, read_path: Path, case: int) -> str:
+    """As :func:`run_case`: ``"read"``, ``"refused"`` (an OdolabError) or the signature of
+    anything else (a MemoryError turned into a sentence counts as anything else: the reader
+    tried to allocate what a length field said)."""
     rng = random.Random(f"{target.name}-{case}")
     mutable.write_bytes(mutate(seed, rng))
     try:
@@ -140,12 +148,12 @@ def run_case(target: Target, seed: bytes, mutable: Path, read_path: Path, case: 
             if isinstance(cause, MemoryError):
                 return foreign(cause).replace("MemoryError", "MemoryError (as a sentence)")
             cause = cause.__cause__ or cause.__context__
-        return None
+        return "refused"
     except (KeyboardInterrupt, SystemExit):
         raise
     except BaseException as err:  # the point: anything else is a finding
         return foreign(err)
-    return None
+    return "read"
 
 
 # ---------------------------------------------------------------------------------------------
