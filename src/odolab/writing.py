@@ -29,6 +29,7 @@ from typing import TextIO, TypeVar
 from odolab.errors import OdolabError
 
 __all__ = [
+    "NEW_FILE_MODE",
     "OutputFileError",
     "path_first",
     "replacing_file",
@@ -44,6 +45,8 @@ T = TypeVar("T")
 #: file gets the permissions ``open()`` would have given it, not mkstemp's owner-only 0o600.
 _UMASK = os.umask(0o022)
 os.umask(_UMASK)
+#: The permissions of a new file (what ``open(path, "w")`` gives under the process's umask).
+NEW_FILE_MODE = 0o666 & ~_UMASK
 
 
 class OutputFileError(OdolabError):
@@ -121,7 +124,7 @@ def replacing_path(
         )
         tmp = Path(name)
         try:
-            os.fchmod(fd, 0o666 & ~_UMASK)
+            os.fchmod(fd, NEW_FILE_MODE)
         finally:
             os.close(fd)
         yield tmp

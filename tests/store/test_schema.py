@@ -82,7 +82,7 @@ def test_foreign_sqlite_file_is_refused(tmp_path: Path) -> None:
         Notebook(db)
     garbage = tmp_path / "garbage.db"
     garbage.write_bytes(b"hello, this is not sqlite at all" * 20)
-    with pytest.raises(StoreError, match=r"not a notebook database|cannot open"):
+    with pytest.raises(StoreError, match=r"is not an odolab notebook \(not a SQLite database"):
         Notebook(garbage)
 
 

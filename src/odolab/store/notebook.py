@@ -10,10 +10,12 @@ from __future__ import annotations
 
 import dataclasses
 import datetime as _dt
+import functools
+import inspect
 import json
 import sqlite3
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager, suppress
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -22,6 +24,12 @@ from odolab.errors import StoreError
 from odolab.params import RobotParams
 from odolab.progress import Progress, no_progress
 from odolab.store.codec import EncodedLog, decode_log, encode_log
+from odolab.store.health import (
+    check_notebook_file,
+    create_notebook_file,
+    integrity_words,
+    store_error,
+)
 from odolab.store.records import (
     CAMPAIGN_KINDS,
     HISTORY_KEYS,
@@ -99,6 +107,15 @@ _LOG_INSERT = (
 )
 
 
+def _build(path: Path, timeout: float) -> None:
+    """A new, empty notebook of the current schema in the file ``path``."""
+    conn = connect(path, timeout=timeout)
+    try:
+        migrate(conn, str(path))
+    finally:
+        conn.close()
+
+
 def _measurement_from_row(r: sqlite3.Row) -> Measurement:
     return Measurement(
         instrument=r["instrument"],
@@ -119,15 +136,15 @@ class Notebook:
 
     def __init__(self, path: str | Path = "odolab.db", *, timeout: float = 30.0) -> None:
         self.path = Path(path)
-        if self.path.is_dir():
-            raise StoreError(f"{self.path}: is a folder; expected a notebook file")
-        if not self.path.parent.is_dir():
-            raise StoreError(f"{self.path}: the folder {self.path.parent} does not exist")
+        # an empty file, a folder, a text file: refused before SQLite touches it
+        created = False
+        if not check_notebook_file(self.path):
+            created = create_notebook_file(self.path, lambda tmp: _build(tmp, timeout))
         self._conn = connect(self.path, timeout=timeout)
         self._conn.row_factory = sqlite3.Row
         self._params_cache: dict[tuple[str, int], RobotParams] = {}
         try:
-            self.migrated_from = migrate(self._conn, str(self.path))
+            self.migrated_from = 0 if created else migrate(self._conn, str(self.path))
         except BaseException:
             self._conn.close()
             raise
@@ -144,32 +161,46 @@ class Notebook:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
+    def _error(self, err: sqlite3.Error, doing: str) -> StoreError:
+        """``err`` as one sentence (a damaged file: with the integrity check and recovery)."""
+        return store_error(self.path, err, self._conn, doing)
+
     @contextmanager
     def _write(self) -> Iterator[sqlite3.Connection]:
         """One write transaction; database errors become :class:`StoreError`."""
         conn = self._conn
         try:
             conn.execute("BEGIN IMMEDIATE")
-        except sqlite3.OperationalError as err:
-            raise StoreError(f"{self.path}: cannot start a write ({err})") from err
+        except sqlite3.Error as err:
+            raise self._error(err, "starting a write") from err
         try:
             yield conn
         except BaseException as err:
             if conn.in_transaction:
-                conn.execute("ROLLBACK")
-            if isinstance(err, sqlite3.DatabaseError):
+                with suppress(sqlite3.Error):  # a damaged file: err says so
+                    conn.execute("ROLLBACK")
+            if isinstance(err, sqlite3.IntegrityError):
                 raise StoreError(f"{self.path}: write refused ({err}); nothing changed") from err
+            if isinstance(err, sqlite3.Error):
+                raise self._error(err, "writing; nothing changed") from err
             raise
         else:
-            conn.execute("COMMIT")
+            try:
+                conn.execute("COMMIT")
+            except sqlite3.Error as err:
+                if conn.in_transaction:
+                    with suppress(sqlite3.Error):
+                        conn.execute("ROLLBACK")
+                raise self._error(err, "committing a write; nothing changed") from err
 
     def _one(self, sql: str, args: Sequence[Any] = ()) -> sqlite3.Row | None:
         row: sqlite3.Row | None = self._conn.execute(sql, args).fetchone()
         return row
 
     def integrity_check(self) -> str:
-        """SQLite's ``PRAGMA integrity_check`` answer ("ok" when sound)."""
-        return "; ".join(str(r[0]) for r in self._conn.execute("PRAGMA integrity_check"))
+        """SQLite's ``PRAGMA integrity_check`` answer: "ok" when sound, else its first problem
+        and how many more (:func:`odolab.store.health.integrity_words`)."""
+        return integrity_words(self._conn, limit=400)
 
     def info(self) -> NotebookInfo:
         """Counts of what the notebook holds."""
@@ -738,7 +769,12 @@ class Notebook:
             "JOIN campaigns AS c ON c.name = t.campaign "
             f"LEFT JOIN encoder_logs AS e ON e.trial_id = t.trial_id {where} ORDER BY t.rowid"
         )
-        frame = pd.read_sql_query(sql, self._conn, params=args)
+        try:
+            frame = pd.read_sql_query(sql, self._conn, params=args)
+        except pd.errors.DatabaseError as err:  # pandas wraps the sqlite3 error
+            if isinstance(err.__cause__, sqlite3.Error):
+                raise err.__cause__ from err
+            raise sqlite3.DatabaseError(str(err)) from err
         order = [*TRIAL_COLUMNS[:16], *PARAMS_FIELDS, *TRIAL_COLUMNS[16:]]
         order += ["has_encoder_log", "campaign_date", "operator"]
         frame = frame[order]
@@ -852,3 +888,54 @@ class Notebook:
                     new_params_method=new_params_method,
                 )
             report(stop, total, "trials")
+
+
+# -- every method: a SQLite error (or a stored value that cannot be read) is one sentence ---------
+
+#: What reading a damaged record raises besides sqlite3 errors (json.loads, enum values, int()).
+_DECODE_ERRORS = (ValueError, TypeError, KeyError, UnicodeDecodeError, OverflowError)
+#: Methods that read files given by the user: a ValueError there is about the file, not a
+#: damaged notebook (their own checks name the file and the line).
+_FROM_FILES = frozenset({"import_csv", "import_json"})
+#: Plumbing that converts errors itself.
+_UNGUARDED = frozenset({"close", "_error", "_unreadable", "_write"})
+
+
+def _unreadable(nb: Notebook, err: Exception, name: str) -> StoreError:
+    """A stored value that cannot be read: damage when SQLite's check finds any, else one
+    sentence saying which operation met it."""
+    from odolab.store.health import NotebookDamagedError, recovery_hint
+
+    words = integrity_words(nb._conn)
+    if words != "ok":
+        return NotebookDamagedError(
+            f"{nb.path}: the notebook is damaged (a stored value cannot be read: "
+            f"{type(err).__name__}: {err}; integrity check: {words}) while running {name}; "
+            f"{recovery_hint(nb.path)}"
+        )
+    return StoreError(
+        f"{nb.path}: holds a value odolab cannot read ({type(err).__name__}: {err}) while "
+        f"running {name}; the file was changed outside odolab; {recovery_hint(nb.path)}"
+    )
+
+
+def _guard(name: str, method: Callable[..., Any]) -> Callable[..., Any]:
+    decode = name not in _FROM_FILES
+
+    @functools.wraps(method)
+    def guarded(self: Notebook, *args: Any, **kwargs: Any) -> Any:
+        try:
+            return method(self, *args, **kwargs)
+        except sqlite3.Error as err:
+            raise self._error(err, f"running {name.lstrip('_')}") from err
+        except _DECODE_ERRORS as err:
+            if not decode:
+                raise
+            raise _unreadable(self, err, name.lstrip("_")) from err
+
+    return guarded
+
+
+for _name, _attr in list(vars(Notebook).items()):
+    if inspect.isfunction(_attr) and not _name.startswith("__") and _name not in _UNGUARDED:
+        setattr(Notebook, _name, _guard(_name, _attr))

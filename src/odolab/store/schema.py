@@ -21,14 +21,26 @@ from __future__ import annotations
 
 import sqlite3
 from collections.abc import Callable
+from contextlib import suppress
 from pathlib import Path
 
 from odolab.errors import StoreError
+from odolab.store.health import NotebookFileError, store_error
 
-__all__ = ["SCHEMA_V1", "SCHEMA_VERSION", "connect", "migrate"]
+__all__ = ["APPLICATION_ID", "SCHEMA_V1", "SCHEMA_VERSION", "connect", "migrate"]
 
 #: The schema version this code writes.
 SCHEMA_VERSION = 3
+#: ``PRAGMA application_id`` of an odolab notebook ("odol" in ASCII), set when one is created
+#: or migrated; notebooks made before have 0 and are recognised by their tables.
+APPLICATION_ID = 0x6F646F6C
+#: The tables each schema version has (a SQLite file without them is not a notebook).
+_TABLES = {
+    1: frozenset({"campaigns", "params_sets", "trials"}),
+    2: frozenset(
+        {"robots", "params_versions", "campaigns", "trials", "encoder_logs", "measurement_history"}
+    ),
+}
 
 _KINDS = "('rotation','translation','pivot','square','free')"
 _STATUSES = "('awaiting','measured','excluded')"
@@ -243,17 +255,62 @@ def connect(path: str | Path, *, timeout: float = 30.0) -> sqlite3.Connection:
     writer waits for the lock up front (and the busy timeout applies) instead of failing on a
     lock upgrade half way.
     """
+    conn: sqlite3.Connection | None = None
     try:
         conn = sqlite3.connect(str(path), timeout=timeout, isolation_level=None)
         conn.execute(f"PRAGMA busy_timeout = {int(timeout * 1000)}")
+        # another program's database is refused before anything (WAL mode) is written to it
+        version = int(conn.execute("PRAGMA user_version").fetchone()[0])
+        _check_odolab(conn, version, str(path))
+        _check_not_newer(version, str(path))
         mode = conn.execute("PRAGMA journal_mode = WAL").fetchone()[0]
         if str(mode).lower() != "wal":
             raise StoreError(f"{path}: cannot switch the notebook to WAL mode (got {mode!r})")
         conn.execute("PRAGMA synchronous = NORMAL")
         conn.execute("PRAGMA foreign_keys = ON")
-    except sqlite3.DatabaseError as err:
-        raise StoreError(f"{path}: not a notebook database ({err})") from err
+    except StoreError:
+        if conn is not None:
+            conn.close()
+        raise
+    except sqlite3.Error as err:
+        error = store_error(path, err, conn, "opening it")
+        if conn is not None:
+            conn.close()
+        raise error from err
     return conn
+
+
+def _check_odolab(conn: sqlite3.Connection, version: int, source: str) -> None:
+    """Refuse a SQLite database of another program: another application id, or (for one
+    without odolab's id, as notebooks made before it was set are) tables other than odolab's."""
+    app_id = int(conn.execute("PRAGMA application_id").fetchone()[0])
+    if app_id == APPLICATION_ID:
+        return
+    tables = {
+        str(r[0]) for r in conn.execute("SELECT name FROM sqlite_master WHERE type = 'table'")
+    }
+    missing = sorted((_TABLES[1] if version == 1 else _TABLES[2]) - tables)
+    if app_id != 0:
+        what = f"its application id is {app_id:#x}"
+    elif version == 0 and tables:
+        n = len(tables)
+        what = f"it holds {n} table{'s' if n > 1 else ''} but no odolab schema"
+    elif 0 < version <= SCHEMA_VERSION and missing:
+        what = f"it has no table {missing[0]!r}"
+    else:
+        return
+    raise NotebookFileError(
+        f"{source}: a SQLite database of another program, not an odolab notebook ({what}); "
+        "expected a notebook file made by odolab"
+    )
+
+
+def _check_not_newer(version: int, source: str) -> None:
+    if version > SCHEMA_VERSION:
+        raise StoreError(
+            f"{source}: written by a newer odolab (schema {version}); "
+            f"this one reads up to schema {SCHEMA_VERSION}"
+        )
 
 
 def migrate(conn: sqlite3.Connection, source: str = "notebook") -> int:
@@ -263,11 +320,8 @@ def migrate(conn: sqlite3.Connection, source: str = "notebook") -> int:
     """
     try:
         before = int(conn.execute("PRAGMA user_version").fetchone()[0])
-        if before > SCHEMA_VERSION:
-            raise StoreError(
-                f"{source}: written by a newer odolab (schema {before}); "
-                f"this one reads up to schema {SCHEMA_VERSION}"
-            )
+        _check_odolab(conn, before, source)
+        _check_not_newer(before, source)
         if before == SCHEMA_VERSION:
             return before
         conn.execute("PRAGMA foreign_keys = OFF")
@@ -280,11 +334,8 @@ def migrate(conn: sqlite3.Connection, source: str = "notebook") -> int:
                     has_tables = conn.execute(
                         "SELECT COUNT(*) FROM sqlite_master WHERE type = 'table'"
                     ).fetchone()[0]
-                    if has_tables:
-                        raise StoreError(
-                            f"{source}: a SQLite database that is not an odolab notebook "
-                            "(user_version 0 but tables present)"
-                        )
+                    if has_tables:  # made meanwhile by another program
+                        _check_odolab(conn, 0, source)
                     _create_v2(conn)  # then the migrations from v2 on
                     version = 2
                 while version < SCHEMA_VERSION:
@@ -297,12 +348,15 @@ def migrate(conn: sqlite3.Connection, source: str = "notebook") -> int:
                         f"in table {bad[0][0]!r}; the notebook was not changed"
                     )
                 conn.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
+                conn.execute(f"PRAGMA application_id = {APPLICATION_ID}")
                 conn.execute("COMMIT")
             except BaseException:
-                conn.execute("ROLLBACK")
+                if conn.in_transaction:
+                    with suppress(sqlite3.Error):  # a damaged file: the error says so
+                        conn.execute("ROLLBACK")
                 raise
         finally:
             conn.execute("PRAGMA foreign_keys = ON")
-    except sqlite3.DatabaseError as err:
-        raise StoreError(f"{source}: cannot open or migrate the notebook ({err})") from err
+    except sqlite3.Error as err:
+        raise store_error(source, err, conn, "opening or migrating it") from err
     return before
