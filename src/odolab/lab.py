@@ -356,45 +356,42 @@ def _live_runs(cfg: LabConfig, nb: Any, progress: Progress) -> LiveRuns:
 
 
 def _analysis(nb: Any, progress: Progress) -> tuple[Any, list[Trial], list[dict[str, Any]]]:
-    """Step 4: every characterization trial in the notebook (validation runs left out)."""
-    from odolab.analysis import analyze_trials, table1
-    from odolab.analysis.selection import select_trials
+    """Step 4: every characterization trial in the notebook (validation runs left out), as
+    ``odolab analyze`` and the web's Table I select them (:func:`odolab.app.analysis.analyze`)."""
+    from odolab.app.analysis import analyze
 
     progress("analysis", 0, 1)
-    trials = select_trials(nb.load_trials(), validation_campaigns={PHONE_CAMPAIGN}).trials
-    analysis = analyze_trials(trials)
+    result = analyze(nb)
     progress("analysis", 1, 1)
-    return analysis, trials, table1(analysis)
+    return result.analysis, result.selection.trials, result.table1
 
 
-def _calibrate(
-    cfg: LabConfig, nb: Any, analysis: Any, trials: list[Trial], folder: Path, progress: Progress
-) -> Calibrated:
-    """Step 5: ratios, then UMBmark iterated from the ratios result; each a parameter version."""
-    from odolab.calibration import ratios_from_analysis, umbmark_iterated
+def _calibrate(cfg: LabConfig, nb: Any, folder: Path, progress: Progress) -> Calibrated:
+    """Step 5: ratios on tile, then UMBmark iterated from the ratios result; each a parameter
+    version (:func:`odolab.app.calibration.calibrate`, as ``odolab calibrate`` and the web)."""
+    from odolab.app.calibration import CalibrationRequest, calibrate
 
     progress("calibration", 0, 2)
-    by_ratio = ratios_from_analysis(analysis, cfg.nominal, terrain="tile")
-    squares = [t for t in trials if t.command.kind is MotionKind.SQUARE]
+    by_ratio = calibrate(nb, CalibrationRequest("ratios", terrain="tile"))
+    progress("calibration", 1, 2)
     # UMBmark corrects the track and the left/right diameter ratio, never the scale: start it
     # from the ratios result, iterate on the squares' encoder logs until it converges
-    by_umbmark = umbmark_iterated(squares, by_ratio.params)
+    by_umbmark = calibrate(
+        nb,
+        CalibrationRequest(
+            "umbmark",
+            params=by_ratio.params,
+            params_source="the ratios calibration (UMBmark does not fix the scale)",
+        ),
+    )
+    assert by_umbmark.umbmark is not None
     files: dict[str, Path] = {}
-    for name, cal, used in (
-        ("ratios", by_ratio, trials),
-        ("umbmark", by_umbmark.calibration, squares),
-    ):
-        nb.add_params_version(
-            cal.params.with_(name=cfg.nominal.name),
-            method=name,
-            source_trials=[t.trial_id for t in used if t.status is TrialStatus.MEASURED],
-            notes=str(cal.provenance.get("source", "")),
-        )
+    for name, cal in (("ratios", by_ratio.result), ("umbmark", by_umbmark.result)):
         files[name] = save_params(
             folder / f"params-{name}.toml", cal.params, provenance=_toml_safe(cal.provenance)
         )
-        progress("calibration", len(files), 2)
-    return Calibrated(by_ratio, by_umbmark, files)
+    progress("calibration", 2, 2)
+    return Calibrated(by_ratio.result, by_umbmark.umbmark, files)
 
 
 def _phone_log(t_run: np.ndarray, h_run: np.ndarray, seed: int) -> Any:
@@ -644,8 +641,8 @@ def run_lab(
         progress("notebook", 1, 1)
         _campaign(cfg, nb, progress)
         live = _live_runs(cfg, nb, progress)
-        analysis, trials, rows = _analysis(nb, progress)
-        cal = _calibrate(cfg, nb, analysis, trials, folder, progress)
+        analysis, _trials, rows = _analysis(nb, progress)
+        cal = _calibrate(cfg, nb, folder, progress)
     val = _validate(cfg, live, cal.ratios.params, rows, folder, progress)
     after = _rerun(cfg, cal.ratios.params, progress)
     evidence = _models(cfg, cal.ratios.params, progress)

@@ -1,11 +1,24 @@
 """The application layer: one function for each thing a user does.
 
-A face (the CLI, the web notebook) parses its input into a request, calls one function of this
-package, and renders the typed result. The rules that decide a number live here once: which trials
-and campaigns count, which parameter version a calibration starts from, which parameters a log is
-integrated with. When a function chooses for the user, its result says what it chose.
+A face (the CLI, the web notebook's pages and API, the demo) parses its input into a request,
+calls one function of this package, and renders the typed result. The rules that decide a number
+live here once; when a function chooses for the user, its result says what it chose.
 
-See docs/architecture.md ("The application layer").
+======================================  =============================================  ==========
+what a user does                        function                                       result
+======================================  =============================================  ==========
+select the trials of an analysis        :func:`odolab.app.selection.select`            Selection
+Table I and the analysis                :func:`odolab.app.analysis.analyze`            AnalysisResult
+a calibration from the notebook         :func:`odolab.app.calibration.calibrate`       CalibrationOutcome
+the report                              :func:`odolab.app.report.write_notebook_report` ReportOutcome
+the report's numbers (results.json)     :func:`odolab.app.report.report_results`       dict
+an export of the notebook's trials      :func:`odolab.app.exports.export_trials`       int
+which parameters a log is integrated    :func:`odolab.app.odometry.choose_params`      ParamsChoice
+integrate a log                         :func:`odolab.app.odometry.integrate_log`      OdometryOutcome
+======================================  =============================================  ==========
+
+Submodules are imported on use (``from odolab.app.calibration import calibrate``), so that a
+face that needs one pays for no other. See docs/architecture.md ("The application layer").
 """
 
 from __future__ import annotations

@@ -8,6 +8,7 @@ from typing import Annotated
 
 import typer
 
+from odolab.app.odometry import DEFAULT_CHUNK_ROWS
 from odolab.cli._apps import app, params_app
 from odolab.cli._output import echo
 from odolab.defaults import DEFAULT_ROBOT
@@ -15,27 +16,11 @@ from odolab.defaults import DEFAULT_ROBOT
 __all__: list[str] = []
 
 
-#: Logs larger than this are integrated in chunks unless --chunk-rows says otherwise.
-AUTO_CHUNK_BYTES = 64 * 1024 * 1024
-AUTO_CHUNK_ROWS = 3_000_000  #: the same for Parquet and IPC logs, by their row count
-DEFAULT_CHUNK_ROWS = 1_000_000
-
-
 def auto_chunk_rows(*paths: Path) -> int:
-    """Rows per chunk when the user gave none: :data:`DEFAULT_CHUNK_ROWS` when a file is big
-    (CSV over :data:`AUTO_CHUNK_BYTES`, Parquet/IPC over :data:`AUTO_CHUNK_ROWS` rows), else 0
-    (read whole)."""
-    from odolab.io.tabular import row_count
+    """Rows per chunk when the user gave none (:func:`odolab.app.odometry.auto_chunk_rows`)."""
+    from odolab.app.odometry import auto_chunk_rows as rule
 
-    for path in paths:
-        if not path.is_file():
-            continue
-        rows = row_count(path)
-        if (rows or 0) > AUTO_CHUNK_ROWS or (
-            rows is None and path.stat().st_size > AUTO_CHUNK_BYTES
-        ):
-            return DEFAULT_CHUNK_ROWS
-    return 0
+    return rule(*paths)
 
 
 class MethodChoice(StrEnum):
@@ -59,8 +44,14 @@ def odometry_cmd(
         ),
     ],
     params: Annotated[
-        str, typer.Option("--params", "-p", help="Parameters TOML file or preset name.")
-    ] = DEFAULT_ROBOT,
+        str | None,
+        typer.Option(
+            "--params",
+            "-p",
+            help="Parameters TOML file or preset name (default: the log's run.json, else "
+            f"{DEFAULT_ROBOT}, and the output says which).",
+        ),
+    ] = None,
     output: Annotated[
         Path,
         typer.Option(
@@ -106,26 +97,11 @@ def odometry_cmd(
 
     With many logs (or a folder, or a quoted glob), each is integrated on Dask and written to
     OUTPUT/<its path below the logs' common folder>, in its own format."""
-    from odolab.errors import OdolabError
-    from odolab.io import read_encoder_csv, write_trajectory
-    from odolab.odometry import integrate
-    from odolab.params import load_params
+    from odolab.app.odometry import OdometryRequest, check_request, choose_params, integrate_log
 
-    if chunk_rows is not None and chunk_rows < 0:
-        raise OdolabError(f"--chunk-rows is {chunk_rows}; expected a number of rows >= 1 (or 0)")
-    if covariance and fmt is not FormatChoice.csv:
-        raise OdolabError(
-            f"--covariance with --format {fmt.value}: TUM has no covariance columns; expected "
-            "--format csv (a .csv, .parquet or .arrow output)"
-        )
-    robot = load_params(params)
-    if covariance and robot.noise is None:
-        from odolab.errors import ParamsError
-
-        raise ParamsError(
-            f"--covariance: the parameters {params} have no [noise] table; expected one with "
-            "k_left and k_right (m), as `odolab calibrate noise RUNS -o P.toml` writes it"
-        )
+    choice = choose_params(logs, params)
+    check_request(choice, fmt=fmt.value, covariance=covariance, chunk_rows=chunk_rows)
+    echo(choice.describe())
     if (
         len(logs) != 1
         or logs[0].is_dir()
@@ -134,73 +110,23 @@ def odometry_cmd(
         from odolab.cli._fleet import odometry_many
 
         odometry_many(
-            logs,
-            robot,
-            output,
-            method=method.value,
-            start=start,
-            max_dticks=max_dticks,
-            chunk_rows=chunk_rows or DEFAULT_CHUNK_ROWS,
-            workers=workers,
-            scheduler=scheduler,
-            covariance=covariance,
-        )
+            logs, choice.params, output, method=method.value, start=start,
+            max_dticks=max_dticks, chunk_rows=chunk_rows or DEFAULT_CHUNK_ROWS, workers=workers,
+            scheduler=scheduler, covariance=covariance,
+        )  # fmt: skip
         return
-    log = logs[0]
-    if chunk_rows is None:
-        chunk_rows = auto_chunk_rows(log)
-    if chunk_rows > 0 and fmt is FormatChoice.csv:
+    req = OdometryRequest(
+        logs[0], output, choice, method.value, fmt.value, start, max_dticks, chunk_rows,
+        covariance,
+    )  # fmt: skip
+    if req.chunks() > 0:
         from odolab.cli._progress import progress_bar
-        from odolab.io.chunked import integrate_file
 
         with progress_bar("odometry", unit="rows") as report:
-            res = integrate_file(
-                log,
-                output,
-                robot,
-                method.value,
-                start=start,
-                max_dticks=max_dticks,
-                chunk_rows=chunk_rows,
-                progress=report,
-                covariance=covariance,
-            )
-        end = res.final
-        echo(
-            f"{res.rows} poses -> {output}; final x={end.x:.4f} m y={end.y:.4f} m "
-            f"heading={end.heading:.4f} rad"
-        )
-        return
-    from odolab.odometry import warm_up
-
-    warm_up(robot, method.value, covariance=covariance)  # the kernels load while the log is read
-    enc = read_encoder_csv(log, modulus=robot.encoder_modulus)
-    cov = None
-    if covariance:
-        from odolab.odometry import integrate_with_covariance
-
-        traj, cov = integrate_with_covariance(
-            enc.t, enc.left_ticks, enc.right_ticks, robot, method.value, start=start,
-            max_dticks=max_dticks, source=str(log),
-        )  # fmt: skip
+            outcome = integrate_log(req, progress=report)
     else:
-        traj = integrate(
-            enc.t, enc.left_ticks, enc.right_ticks, robot, method.value, start=start,
-            max_dticks=max_dticks, source=str(log),
-        )  # fmt: skip
-    del enc  # the input's memory is free before the output is written
-    if cov is None:
-        write_trajectory(output, traj, fmt.value)
-    else:
-        from odolab.io.chunked import OdometryChunk
-        from odolab.io.tabular import write_columns
-
-        write_columns(output, OdometryChunk(traj, cov).columns(), "trajectory table")
-    end = traj.final
-    echo(
-        f"{len(traj)} poses -> {output}; final x={end.x:.4f} m y={end.y:.4f} m "
-        f"heading={end.heading:.4f} rad"
-    )
+        outcome = integrate_log(req)
+    echo(outcome.describe())
 
 
 @params_app.command("show")

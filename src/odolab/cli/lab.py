@@ -33,43 +33,17 @@ ExcludeOpt = Annotated[
 ]
 
 
-def _load_trials(db: Path, *, with_logs: bool = True) -> tuple[list[Any], set[str]]:
-    """Trials of the lab notebook at ``db``, and the names of its validation campaigns."""
-    from odolab.analysis.selection import VALIDATION_TAG
-    from odolab.errors import OdolabError
-    from odolab.store import Notebook
+def _selection(campaign: list[str] | None, exclude: list[str] | None) -> Any:
+    from odolab.app.selection import SelectionRequest
 
-    if not db.exists():
-        raise OdolabError(
-            f"{db}: no such lab notebook; give --db FILE (or set ODOLAB_DB), or create one with "
-            f"`odolab notebook init --db {db}`"
-        )
-    with Notebook(db) as nb:
-        trials = list(nb.load_trials(with_logs=with_logs))
-        validation = {
-            c.name for c in nb.campaigns() if c.notes.strip().lower().startswith(VALIDATION_TAG)
-        }
-    return trials, validation
+    return SelectionRequest(tuple(campaign or ()), tuple(exclude or ()))
 
 
-def _select(
-    db: Path,
-    campaign: list[str] | None,
-    exclude: list[str] | None,
-    con: Any,
-    *,
-    with_logs: bool = True,
-) -> list[Any]:
-    """The trials ``--campaign``/``--exclude-campaign`` select; says which on ``con``."""
-    from odolab.analysis.selection import select_trials
+def _say(con: Any, text: str) -> None:
+    """A sentence of the application layer (names in it are user text: no markup)."""
     from odolab.text import safe_terminal
 
-    trials, validation = _load_trials(db, with_logs=with_logs)
-    sel = select_trials(
-        trials, campaigns=campaign or (), exclude=exclude or (), validation_campaigns=validation
-    )
-    con.print(safe_terminal(sel.describe()), markup=False)  # campaign names are user text
-    return sel.trials
+    con.print(safe_terminal(text), markup=False)
 
 
 def _console() -> Any:
@@ -90,15 +64,18 @@ def analyze_cmd(
     """Fit systematic and random error of every motion and terrain; print Table I."""
     import json
 
-    from odolab.analysis import analyze_trials, table1
+    from odolab.app.analysis import analyze
+    from odolab.app.selection import open_notebook
     from odolab.cli._console import print_table
     from odolab.cli._output import markup_text as mt
     from odolab.report import table1_rich
 
     con = _console()
-    trials = _select(db, campaign, exclude_campaign, con, with_logs=False)
-    analysis = analyze_trials(trials)
-    print_table(con, table1_rich(table1(analysis)))
+    with open_notebook(db) as nb:
+        result = analyze(nb, _selection(campaign, exclude_campaign))
+    _say(con, result.selection.describe())
+    analysis = result.analysis
+    print_table(con, table1_rich(result.table1))
     for t in analysis.terrain_tests:
         con.print(mt(t.verdict()))
     for m in analysis.motions:
@@ -120,7 +97,7 @@ def analyze_cmd(
     if json_out is not None:
         from odolab.cli._output import write_output_text
 
-        write_output_text(json_out, json.dumps(analysis.to_dict(), indent=2), "analysis JSON")
+        write_output_text(json_out, json.dumps(result.to_dict(), indent=2), "analysis JSON")
         con.print(f"analysis written to {mt(json_out)}")
 
 
@@ -146,65 +123,105 @@ def report_cmd(
     ] = None,
 ) -> None:
     """Write the lab report (HTML with figures, PNGs, results.json) and print Table I."""
-    from odolab.analysis import analyze_trials, table1
-    from odolab.calibration import (
-        ratios_from_analysis,
-        umbmark,
-        umbmark_errors_from_trials,
-        umbmark_iterated,
-    )
+    from odolab.app.report import ReportRequest, write_notebook_report
+    from odolab.app.selection import open_notebook
     from odolab.cli._console import print_table
     from odolab.cli._output import markup_text
-    from odolab.errors import CalibrationError
     from odolab.params import load_params
-    from odolab.report import table1_rich, write_report
+    from odolab.report import table1_rich
 
     con = _console()
-    from odolab.report.ground_truth import ground_truth_summary
-
-    # read (and check) the ground-truth files before the analysis
-    truths = [ground_truth_summary(g) for g in ground_truth or []]
-    trials = _select(db, campaign, exclude_campaign, con)
-    analysis = analyze_trials(trials)
-    base = load_params(params) if params else analysis.params
-    calibrations: dict[str, Any] = {}
-    try:
-        calibrations["ratios"] = ratios_from_analysis(analysis, base)
-    except CalibrationError as err:
-        con.print(f"[yellow]no ratios calibration:[/] {markup_text(err)}")
-    if analysis.square_trials and base is not None:
-        try:
-            if all(t.encoder_log is not None for t in analysis.square_trials):
-                # as the demo: iterate on the encoder logs, from the ratios result if any
-                start = calibrations["ratios"].params if "ratios" in calibrations else base
-                umb = umbmark_iterated(analysis.square_trials, start)
-            else:
-                cw, ccw, side = umbmark_errors_from_trials(analysis.square_trials)
-                umb = umbmark(cw, ccw, side, base)
-            calibrations["umbmark"] = umb
-        except CalibrationError as err:
-            con.print(f"[yellow]no UMBmark calibration:[/] {markup_text(err)}")
-    from odolab.analysis.reference import LAB_REPORT_TABLE1
-
-    # a Jaguar's report is set beside the Jaguar lab report's Table I
-    jaguar = base is not None and base.name.startswith("jaguar")
-    path = write_report(
-        out,
-        analysis,
-        calibrations,
-        reference=LAB_REPORT_TABLE1 if jaguar else None,
-        extra={"ground_truth": truths} if truths else None,
+    request = ReportRequest(
+        _selection(campaign, exclude_campaign),
+        load_params(params) if params else None,
+        f"--params {params}" if params else None,
+        tuple(ground_truth or ()),
     )
-    print_table(con, table1_rich(table1(analysis)))
-    for s in analysis.skipped:
+    with open_notebook(db) as nb:
+        outcome = write_notebook_report(nb, out, request)
+    content = outcome.content
+    _say(con, content.analysis.selection.describe())
+    for note in content.notes:
+        _say(con, note)
+    if content.base is not None and content.calibrations:
+        _say(con, f"calibrations start from {content.base.reason}")
+    print_table(con, table1_rich(content.analysis.table1))
+    for s in content.analysis.analysis.skipped:
         con.print(f"[yellow]not enough data:[/] {markup_text(s)}")
-    con.print(f"report: {markup_text(path)}  (figures and results.json beside it)")
+    con.print(f"report: {markup_text(outcome.path)}  (figures and results.json beside it)")
+
+
+RobotOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--robot",
+        help="With --db: the robot to calibrate (default: the one robot of the selected trials).",
+    ),
+]
+JsonOpt = Annotated[
+    Path | None,
+    typer.Option("--json", help="Also write the calibration (what it started from too) as JSON."),
+]
+ParamsOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--params",
+        "-p",
+        help="Parameters TOML or preset to correct (with --db, default: the version the trials "
+        "were driven with).",
+    ),
+]
+
+
+def _from_notebook(
+    db: Path,
+    method: str,
+    params: str | None,
+    *,
+    robot: str | None,
+    terrain: str | None = None,
+    side: float | None = None,
+    campaign: list[str] | None,
+    exclude: list[str] | None,
+) -> Any:
+    """Calibrate from the notebook's trials (:func:`odolab.app.calibration.calibrate`),
+    recorded as a new parameter version; says what it used and where it started."""
+    from odolab.app.calibration import CalibrationRequest, calibrate
+    from odolab.app.selection import open_notebook
+    from odolab.params import load_params
+
+    request = CalibrationRequest(
+        method,
+        _selection(campaign, exclude),
+        robot=robot,
+        terrain=terrain,
+        params=load_params(params) if params else None,
+        params_source=f"--params {params}" if params else None,
+        side=side,
+    )
+    with open_notebook(db) as nb:
+        outcome = calibrate(nb, request)
+    con = _console()
+    _say(con, outcome.selection.describe())
+    _say(con, f"starting from {outcome.base.reason}")
+    return outcome
+
+
+def _write_json(path: Path | None, doc: dict[str, Any]) -> None:
+    if path is None:
+        return
+    import json
+
+    from odolab.cli._output import write_output_text
+
+    write_output_text(path, json.dumps(doc, indent=2), "calibration JSON")
+    echo(f"calibration written to {path}")
 
 
 @calibrate_app.command("ratios")
 def calibrate_ratios_cmd(
-    params: Annotated[str, typer.Option("--params", "-p", help="Parameters TOML or preset.")],
     output: Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")],
+    params: ParamsOpt = None,
     distance_ratio: Annotated[
         float | None, typer.Option(help="actual/predicted distance (x fit slope).")
     ] = None,
@@ -218,43 +235,54 @@ def calibrate_ratios_cmd(
     terrain: Annotated[str | None, typer.Option(help="Terrain whose fits to use.")] = None,
     campaign: CampaignOpt = None,
     exclude_campaign: ExcludeOpt = None,
+    robot: RobotOpt = None,
+    json_out: JsonOpt = None,
 ) -> None:
     """New wheel radius = old x distance ratio; new track = old x distance/rotation ratio."""
-    from odolab.calibration import ratios, ratios_from_analysis
+    from odolab.calibration import ratios
     from odolab.errors import OdolabError
     from odolab.params import load_params
 
-    base = load_params(params)
-    used: list[Any] = []
     if distance_ratio is not None and rotation_ratio is not None:
+        if params is None:
+            raise OdolabError(
+                "--distance-ratio and --rotation-ratio need --params (the parameters to correct)"
+            )
+        base = load_params(params)
         result = ratios(base, distance_ratio, rotation_ratio)
+        path = result.save(output)
+        if db is not None:
+            _record_version(db, result, base, trials=[])
+        doc = result.to_dict()
     elif distance_ratio is None and rotation_ratio is None:
         if db is None:
             raise OdolabError(
                 "calibrate ratios needs --distance-ratio and --rotation-ratio, or --db NOTEBOOK "
                 "to take them from the fits"
             )
-        from odolab.analysis import analyze_trials
-
-        used = _select(db, campaign, exclude_campaign, _console(), with_logs=False)
-        result = ratios_from_analysis(analyze_trials(used), base, terrain=terrain)
+        outcome = _from_notebook(
+            db, "ratios", params, robot=robot, terrain=terrain, campaign=campaign,
+            exclude=exclude_campaign,
+        )  # fmt: skip
+        result = outcome.result
+        path = result.save(output)
+        _recorded(db, outcome)
+        doc = outcome.to_dict()
     else:
         raise OdolabError("give both --distance-ratio and --rotation-ratio, or neither")
-    path = result.save(output)
-    if db is not None:
-        _record_version(db, result, base, trials=used)
     p = result.params
     echo(
         f"ratios: distance {result.provenance['distance_ratio']:.4g}, rotation "
         f"{result.provenance['rotation_ratio']:.4g} -> wheel radius {p.left_wheel_radius:.5g} m, "
         f"track width {p.track_width:.5g} m; written to {path}"
     )
+    _write_json(json_out, doc)
 
 
 @calibrate_app.command("umbmark")
 def calibrate_umbmark_cmd(
-    params: Annotated[str, typer.Option("--params", "-p", help="Parameters TOML or preset.")],
     output: Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")],
+    params: ParamsOpt = None,
     errors: Annotated[
         Path | None,
         typer.Option(help="CSV with header direction,x,y: return errors (measured - odometry)."),
@@ -266,6 +294,8 @@ def calibrate_umbmark_cmd(
     ] = None,
     campaign: CampaignOpt = None,
     exclude_campaign: ExcludeOpt = None,
+    robot: RobotOpt = None,
+    json_out: JsonOpt = None,
 ) -> None:
     """UMBmark (Borenstein & Feng): E_d, E_b, corrected radii and track, E_max,syst.
 
@@ -273,68 +303,54 @@ def calibrate_umbmark_cmd(
     logs with the corrected parameters, correct again) until the parameters stop changing; with
     --errors (or squares without logs) it is the single linearized step.
     """
-    from odolab.calibration import umbmark, umbmark_errors_from_trials, umbmark_iterated
+    from odolab.calibration import umbmark
     from odolab.errors import OdolabError
     from odolab.params import load_params
-    from odolab.trials import MotionKind, TrialStatus
 
-    base = load_params(params)
-    how = ""
-    squares: list[Any] = []
     if errors is not None:
         if side is None:
             raise OdolabError("--errors needs --side (the square's side in m)")
+        if params is None:
+            raise OdolabError("--errors needs --params (the parameters the runs were driven with)")
         cw, ccw = _read_umbmark_csv(errors)
-        result = umbmark(cw, ccw, side, base)
+        result = umbmark(cw, ccw, side, load_params(params))
+        path = result.calibration.save(output)
+        doc = result.calibration.to_dict()
     elif db is not None:
-        trials = _select(db, campaign, exclude_campaign, _console())
-        squares = [
-            t
-            for t in trials
-            if t.command.kind is MotionKind.SQUARE and t.status is TrialStatus.MEASURED
-        ]
-        no_log = [t for t in squares if t.encoder_log is None]
-        if squares and not no_log:
-            result = umbmark_iterated(squares, base)
-            if side is not None and abs(side - result.side) > 1e-6:
-                raise OdolabError(
-                    f"--side {side:g} m disagrees with the notebook's squares ({result.side:g} m)"
-                )
-            how = (
-                f"UMBmark iterated on the encoder logs of {len(squares)} square trials: "
-                f"converged in {result.calibration.provenance['n_iterations']} steps; "
-                f"E_max,syst {result.e_max_syst:.4g} m -> {result.e_max_syst_after:.4g} m "
-                "with the new parameters (same runs)"
-            )
-        else:
-            cw_a, ccw_a, sq_side = umbmark_errors_from_trials(trials)
-            result = umbmark(cw_a, ccw_a, side or sq_side, base)
-            how = (
-                f"UMBmark single linearized step: {len(no_log)} of {len(squares)} square trials "
-                "have no encoder log to iterate on"
-            )
+        outcome = _from_notebook(
+            db, "umbmark", params, robot=robot, side=side, campaign=campaign,
+            exclude=exclude_campaign,
+        )  # fmt: skip
+        assert outcome.umbmark is not None
+        result = outcome.umbmark
+        path = result.calibration.save(output)
+        _recorded(db, outcome)
+        echo(outcome.how)
+        doc = outcome.to_dict()
     else:
         raise OdolabError("calibrate umbmark needs --errors CSV --side L, or --db NOTEBOOK")
-    path = result.calibration.save(output)
-    if db is not None and errors is None:
-        _record_version(db, result.calibration, base, trials=squares)
-    if how:
-        echo(how)
     p = result.params
     echo(
         f"UMBmark: E_d = {result.e_d:.5f}, E_b = {result.e_b:.5f}, E_max,syst = "
         f"{result.e_max_syst:.4g} m -> left/right radius {p.left_wheel_radius:.5g}/"
         f"{p.right_wheel_radius:.5g} m, track width {p.track_width:.5g} m; written to {path}"
     )
+    _write_json(json_out, doc)
+
+
+def _recorded(db: Path, outcome: Any) -> None:
+    from odolab.text import safe_terminal
+
+    echo(f"recorded in {db} as {safe_terminal(outcome.robot)} parameters version {outcome.version}")
 
 
 def _record_version(db: Path, result: Any, base: Any, *, trials: list[Any]) -> None:
-    """Add the calibration as a new parameter version of the robot in the notebook."""
+    """Add ratios typed by hand as a new parameter version of the robot in the notebook."""
+    from odolab.app.selection import open_notebook
     from odolab.calibration.record import record_calibration
-    from odolab.store import Notebook
     from odolab.text import safe_terminal
 
-    with Notebook(db) as nb:
+    with open_notebook(db) as nb:
         version = record_calibration(nb, result, base, trials=trials)
     echo(f"recorded in {db} as {safe_terminal(base.name)} parameters version {version}")
 

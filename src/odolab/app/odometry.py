@@ -1,0 +1,265 @@
+"""An encoder log integrated into a trajectory: ``odolab odometry``.
+
+The rule for which parameters a log is integrated with: the ones the user names (``--params``),
+else the ones the log names (a robot run folder's ``run.json`` beside its ``encoders.csv``),
+else the default preset (:data:`odolab.defaults.DEFAULT_ROBOT`), and then the result says so.
+:class:`ParamsChoice` carries the choice (which file, which version, and why), and every face
+prints :meth:`ParamsChoice.describe`.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Literal
+
+from odolab.defaults import DEFAULT_ROBOT
+from odolab.errors import OdolabError, ParamsError
+
+if TYPE_CHECKING:
+    from odolab.params import RobotParams
+    from odolab.progress import Progress
+    from odolab.trajectory import Pose
+
+__all__ = [
+    "AUTO_CHUNK_BYTES",
+    "AUTO_CHUNK_ROWS",
+    "DEFAULT_CHUNK_ROWS",
+    "OdometryOutcome",
+    "OdometryRequest",
+    "ParamsChoice",
+    "auto_chunk_rows",
+    "choose_params",
+    "integrate_log",
+]
+
+#: Logs larger than this are integrated in chunks unless chunk_rows says otherwise.
+AUTO_CHUNK_BYTES = 64 * 1024 * 1024
+AUTO_CHUNK_ROWS = 3_000_000  #: the same for Parquet and IPC logs, by their row count
+DEFAULT_CHUNK_ROWS = 1_000_000
+#: the file beside a robot run's encoders.csv that names its parameters (odolab robot ... -o)
+RUN_JSON = "run.json"
+
+
+@dataclass(frozen=True)
+class ParamsChoice:
+    """The parameters a log is integrated with, and where they came from."""
+
+    params: RobotParams
+    by: Literal["user", "log", "default"]
+    source: str  #: a file, or "preset NAME"
+    version: str | None = None  #: the notebook version (a TOML's [provenance]) or odolab's
+
+    def describe(self) -> str:
+        """One sentence every face prints: which parameters, from which file and version."""
+        p = self.params
+        what = (
+            f"parameters {p.name} (wheel radius L/R {p.left_wheel_radius:.6g}/"
+            f"{p.right_wheel_radius:.6g} m, track {p.track_width:.6g} m) from {self.source}"
+        )
+        if self.version:
+            what += f", {self.version}"
+        if self.by == "log":
+            return what + " (the log's: its run folder names them)"
+        if self.by == "default":
+            return (
+                what + " (the default: neither --params nor the log named any; give --params "
+                "with your robot's parameters)"
+            )
+        return what
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "name": self.params.name,
+            "by": self.by,
+            "source": self.source,
+            "version": self.version,
+            "describe": self.describe(),
+        }
+
+
+def _file_version(path: Path) -> str | None:
+    """A parameters TOML's version, from its [provenance] (notebook version, method)."""
+    import tomllib
+
+    try:
+        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return None
+    prov = doc.get("provenance")
+    if not isinstance(prov, dict):
+        return None
+    parts = []
+    if isinstance(prov.get("notebook_version"), int):
+        parts.append(f"notebook version {prov['notebook_version']}")
+    if isinstance(prov.get("method"), str):
+        parts.append(f"method {prov['method']}")
+    return ", ".join(parts) or None
+
+
+def _named(spec: str) -> ParamsChoice:
+    from odolab import __version__
+    from odolab.params import PRESETS, load_params
+
+    params = load_params(spec)
+    if spec in PRESETS and not Path(spec).exists():
+        return ParamsChoice(params, "user", f"preset {spec}", f"built into odolab {__version__}")
+    return ParamsChoice(params, "user", str(spec), _file_version(Path(spec)))
+
+
+def _from_run_json(log: Path) -> ParamsChoice | None:
+    """The parameters a robot run folder's ``run.json`` names for the log beside it."""
+    from odolab.params import params_from_mapping
+
+    doc_path = log.parent / RUN_JSON
+    if not log.is_file() or not doc_path.is_file():
+        return None
+    try:
+        doc = json.loads(doc_path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as err:
+        raise ParamsError(
+            f"{doc_path}: cannot read the run's parameters ({err}); expected the run.json that "
+            "`odolab robot` writes, or give --params"
+        ) from err
+    if not isinstance(doc, dict) or not isinstance(doc.get("params"), dict):
+        return None
+    model = doc.get("model") if isinstance(doc.get("model"), dict) else None
+    noise = doc.get("noise") if isinstance(doc.get("noise"), dict) else None
+    params = params_from_mapping(
+        doc["params"], source=f"{doc_path}: params", model=model, noise=noise
+    )
+    return ParamsChoice(params, "log", str(doc_path))
+
+
+def choose_params(logs: Sequence[Path], params: str | None) -> ParamsChoice:
+    """Which parameters ``logs`` are integrated with (see the module's rule)."""
+    from odolab.params import PRESETS
+
+    if params is not None:
+        return _named(params)
+    if len(logs) == 1:
+        found = _from_run_json(Path(logs[0]))
+        if found is not None:
+            return found
+    from odolab import __version__
+
+    return ParamsChoice(
+        PRESETS[DEFAULT_ROBOT],
+        "default",
+        f"preset {DEFAULT_ROBOT}",
+        f"built into odolab {__version__}",
+    )
+
+
+def auto_chunk_rows(*paths: Path) -> int:
+    """Rows per chunk when the user gave none: :data:`DEFAULT_CHUNK_ROWS` when a file is big
+    (CSV over :data:`AUTO_CHUNK_BYTES`, Parquet/IPC over :data:`AUTO_CHUNK_ROWS` rows), else 0
+    (read whole)."""
+    from odolab.io.tabular import row_count
+
+    for path in paths:
+        if not path.is_file():
+            continue
+        rows = row_count(path)
+        if (rows or 0) > AUTO_CHUNK_ROWS or (
+            rows is None and path.stat().st_size > AUTO_CHUNK_BYTES
+        ):
+            return DEFAULT_CHUNK_ROWS
+    return 0
+
+
+@dataclass(frozen=True)
+class OdometryRequest:
+    """One log to integrate into ``output`` (``fmt`` csv or tum), with the chosen parameters.
+
+    ``chunk_rows``: rows per chunk (0: whole; None: :func:`auto_chunk_rows`)."""
+
+    log: Path
+    output: Path
+    params: ParamsChoice
+    method: str = "midpoint"
+    fmt: Literal["csv", "tum"] = "csv"
+    start: tuple[float, float, float] | None = None
+    max_dticks: int | None = None
+    chunk_rows: int | None = None
+    covariance: bool = False
+
+    def chunks(self) -> int:
+        """Rows per chunk it will be integrated in (0: the whole log at once)."""
+        rows = auto_chunk_rows(self.log) if self.chunk_rows is None else self.chunk_rows
+        return rows if self.fmt == "csv" else 0
+
+
+@dataclass(frozen=True)
+class OdometryOutcome:
+    """How many poses went where, the final pose, and the parameters used."""
+
+    rows: int
+    output: Path
+    final: Pose
+    params: ParamsChoice
+
+    def describe(self) -> str:
+        e = self.final
+        return (
+            f"{self.rows} poses -> {self.output}; final x={e.x:.4f} m y={e.y:.4f} m "
+            f"heading={e.heading:.4f} rad"
+        )
+
+
+def check_request(
+    params: ParamsChoice, *, fmt: str, covariance: bool, chunk_rows: int | None
+) -> None:
+    """Refuse options that cannot go together (one sentence each)."""
+    if chunk_rows is not None and chunk_rows < 0:
+        raise OdolabError(f"--chunk-rows is {chunk_rows}; expected a number of rows >= 1 (or 0)")
+    if covariance and fmt != "csv":
+        raise OdolabError(
+            f"--covariance with --format {fmt}: TUM has no covariance columns; expected "
+            "--format csv (a .csv, .parquet or .arrow output)"
+        )
+    if covariance and params.params.noise is None:
+        raise ParamsError(
+            f"--covariance: the parameters {params.source} have no [noise] table; expected one "
+            "with k_left and k_right (m), as `odolab calibrate noise RUNS -o P.toml` writes it"
+        )
+
+
+def integrate_log(req: OdometryRequest, progress: Progress | None = None) -> OdometryOutcome:
+    """Integrate ``req.log`` into ``req.output``: chunk by chunk for a big log (bounded
+    memory), else whole; ``progress(rows done, total, name)`` after each chunk."""
+    check_request(req.params, fmt=req.fmt, covariance=req.covariance, chunk_rows=req.chunk_rows)
+    robot = req.params.params
+    chunk_rows = req.chunks()
+    if chunk_rows > 0:
+        from odolab.io.chunked import integrate_file
+
+        res = integrate_file(
+            req.log, req.output, robot, req.method, start=req.start, max_dticks=req.max_dticks,
+            chunk_rows=chunk_rows, progress=progress, covariance=req.covariance,
+        )  # fmt: skip
+        return OdometryOutcome(res.rows, req.output, res.final, req.params)
+    from odolab.io import read_encoder_csv, write_trajectory
+    from odolab.odometry import integrate, integrate_with_covariance, warm_up
+
+    warm_up(robot, req.method, covariance=req.covariance)  # kernels load while the log is read
+    enc = read_encoder_csv(req.log, modulus=robot.encoder_modulus)
+    args = (enc.t, enc.left_ticks, enc.right_ticks, robot, req.method)
+    cov = None
+    if req.covariance:
+        traj, cov = integrate_with_covariance(
+            *args, start=req.start, max_dticks=req.max_dticks, source=str(req.log)
+        )
+    else:
+        traj = integrate(*args, start=req.start, max_dticks=req.max_dticks, source=str(req.log))
+    del enc, args  # the input's memory is free before the output is written
+    if cov is None:
+        write_trajectory(req.output, traj, req.fmt)
+    else:
+        from odolab.io.chunked import OdometryChunk
+        from odolab.io.tabular import write_columns
+
+        write_columns(req.output, OdometryChunk(traj, cov).columns(), "trajectory table")
+    return OdometryOutcome(len(traj), req.output, traj.final, req.params)

@@ -1,0 +1,197 @@
+"""The lab report of the notebook: ``odolab report``, the web's /report.html and
+``/api/report`` all come from :func:`report_content`.
+
+The report's Table I is the selection's (:func:`odolab.app.analysis.analyze`); its calibrations
+are of one robot (the one the user's parameters name, else the robot with the most measured
+trials), from that robot's trials and from the version they were driven with
+(:func:`odolab.app.calibration.choose_base`): ratios, then UMBmark iterated from the ratios
+result on the squares' encoder logs (the demo's order), or UMBmark's single step from the driven
+version when a square has no log. What was chosen is written into the report (``extra``).
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from odolab.app.analysis import AnalysisResult, analyze_selection
+from odolab.app.calibration import BaseChoice, choose_base, umbmark_from_squares
+from odolab.app.selection import (
+    EVERY_CAMPAIGN,
+    Selection,
+    SelectionRequest,
+    select_among,
+    validation_campaigns,
+)
+from odolab.errors import CalibrationError, OdolabError
+from odolab.trials import MotionKind, TrialStatus
+
+if TYPE_CHECKING:
+    from odolab.calibration import CalibrationResult, UmbmarkResult
+    from odolab.params import RobotParams
+    from odolab.store import Notebook
+    from odolab.trials import Trial
+
+__all__ = [
+    "ReportContent",
+    "ReportRequest",
+    "report_calibrations",
+    "report_content",
+    "report_html",
+    "report_results",
+    "write_notebook_report",
+]
+
+
+@dataclass(frozen=True)
+class ReportRequest:
+    """Which trials (``selection``), the parameters to calibrate when the user names them
+    (``params``, ``params_source``), and ground-truth files to summarise."""
+
+    selection: SelectionRequest = field(default_factory=lambda: EVERY_CAMPAIGN)
+    params: RobotParams | None = None
+    params_source: str | None = None
+    ground_truth: tuple[Path, ...] = ()
+
+
+@dataclass
+class ReportContent:
+    """Every number of the report before it is drawn."""
+
+    analysis: AnalysisResult
+    calibrations: dict[str, CalibrationResult | UmbmarkResult]
+    notes: list[str]  #: why a calibration is missing (one sentence each)
+    base: BaseChoice | None
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def reference(self) -> Any:
+        """The Jaguar lab report's Table I, beside a Jaguar's report (else None)."""
+        from odolab.analysis.reference import LAB_REPORT_TABLE1
+
+        jaguar = self.base is not None and self.base.params.name.startswith("jaguar")
+        return LAB_REPORT_TABLE1 if jaguar else None
+
+
+def _report_robot(trials: list[Trial], params: RobotParams | None) -> str | None:
+    measured = Counter(
+        t.params.name for t in trials if t.status is TrialStatus.MEASURED and t.measured
+    )
+    if params is not None and params.name in measured:
+        return params.name
+    top = measured.most_common(1)
+    return top[0][0] if top else None
+
+
+def report_calibrations(
+    nb: Notebook,
+    selection: Selection,
+    trials: list[Trial],
+    validation: set[str],
+    request: ReportRequest,
+) -> tuple[dict[str, CalibrationResult | UmbmarkResult], list[str], BaseChoice | None]:
+    """The report's calibrations (see the module's rule), the notes on what is missing, and
+    the parameters they start from."""
+    from odolab.analysis import analyze_trials
+    from odolab.calibration import ratios_from_analysis
+
+    notes: list[str] = []
+    robot = _report_robot(selection.trials, request.params)
+    if robot is None:
+        return {}, ["no calibration: no measured trial"], None
+    req = SelectionRequest(request.selection.campaigns, request.selection.exclude, robot)
+    mine = select_among(trials, validation, req)
+    try:
+        base = choose_base(nb, robot, mine.trials, request.params, request.params_source)
+    except CalibrationError as err:
+        return {}, [f"no calibration: {err}"], None
+    out: dict[str, CalibrationResult | UmbmarkResult] = {}
+    try:
+        analysis = analyze_trials(mine.trials)
+        out["ratios"] = ratios_from_analysis(analysis, base.params)
+    except OdolabError as err:
+        notes.append(f"no ratios calibration: {err}")
+    squares = [
+        t
+        for t in mine.trials
+        if t.command.kind is MotionKind.SQUARE
+        and t.status is TrialStatus.MEASURED
+        and t.measured is not None
+    ]
+    if squares:
+        logs = all(t.encoder_log is not None for t in squares)
+        ratios = out.get("ratios")
+        # iterated on the logs from the ratios result (UMBmark does not fix the scale); the
+        # single step only from the version the squares' predictions came from
+        start = ratios.params if logs and ratios is not None else base.params
+        try:
+            umb, _ = umbmark_from_squares(squares, start)
+            out["umbmark"] = umb
+        except CalibrationError as err:
+            notes.append(f"no UMBmark calibration: {err}")
+    return out, notes, base
+
+
+def report_content(nb: Notebook, request: ReportRequest = ReportRequest()) -> ReportContent:
+    """Table I, the calibrations and the notes of the report of the notebook's selection."""
+    from odolab.report.ground_truth import ground_truth_summary
+
+    truths = [ground_truth_summary(g) for g in request.ground_truth]  # checked first
+    trials = nb.load_trials()
+    validation = validation_campaigns(nb)
+    selection = select_among(trials, validation, request.selection)
+    analysis = analyze_selection(selection)
+    calibrations, notes, base = report_calibrations(nb, selection, trials, validation, request)
+    extra: dict[str, Any] = {"trials_used": selection.describe()}
+    if base is not None:
+        extra["calibrated_from"] = base.reason
+    if truths:
+        extra["ground_truth"] = truths
+    return ReportContent(analysis, calibrations, notes, base, extra)
+
+
+def report_results(nb: Notebook, request: ReportRequest = ReportRequest()) -> dict[str, Any]:
+    """The numbers ``results.json`` holds (without the figures' file names): ``/api/report``."""
+    from odolab.report import build_results
+
+    c = report_content(nb, request)
+    return build_results(c.analysis.analysis, c.calibrations, extra=c.extra)
+
+
+@dataclass(frozen=True)
+class ReportOutcome:
+    """Where the report went, and what it holds."""
+
+    path: Path
+    content: ReportContent
+
+
+def write_notebook_report(
+    nb: Notebook, out: str | Path, request: ReportRequest = ReportRequest()
+) -> ReportOutcome:
+    """Write the report (HTML, figures, ``results.json``) of the notebook to ``out``."""
+    from odolab.report import write_report
+
+    c = report_content(nb, request)
+    path = write_report(
+        out,
+        c.analysis.analysis,
+        c.calibrations,
+        reference=c.reference,
+        extra=c.extra,
+    )
+    return ReportOutcome(path, c)
+
+
+def report_html(nb: Notebook, request: ReportRequest = ReportRequest()) -> bytes:
+    """The report's HTML (self-contained), as :func:`write_notebook_report` writes it."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory(prefix="odolab-report-") as tmp:
+        try:
+            out = write_notebook_report(nb, Path(tmp) / "report", request)
+        except OSError as err:
+            raise OdolabError(f"the report could not be written ({err})") from err
+        return out.path.read_bytes()

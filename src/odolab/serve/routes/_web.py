@@ -1,0 +1,217 @@
+"""What every route shares: the settings, the templates, one notebook connection per request
+(in a worker thread), the CSRF check of a form, a JSON body, and the analysis cache.
+
+A route takes it from ``request.app.state.web`` (:func:`web`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import hmac
+import math
+import re
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, TypeVar
+from urllib.parse import quote, urlencode
+
+import jinja2
+from starlette.concurrency import run_in_threadpool
+from starlette.datastructures import QueryParams
+from starlette.exceptions import HTTPException
+from starlette.requests import Request
+from starlette.responses import HTMLResponse, JSONResponse, RedirectResponse, Response
+
+from odolab.app.analysis import AnalysisCache
+from odolab.errors import StoreError
+from odolab.serve.security import csrf_ok, csrf_token
+from odolab.trials import MotionKind, TrialStatus
+
+if TYPE_CHECKING:
+    from odolab.app.selection import SelectionRequest
+    from odolab.serve.app import ServeSettings
+    from odolab.store import Notebook
+
+__all__ = ["FormError", "Web", "web"]
+
+_T = TypeVar("_T")
+STATUSES = tuple(s.value for s in TrialStatus)
+KINDS = tuple(k.value for k in MotionKind)
+_SAFE_NAME = re.compile(r"[^A-Za-z0-9._-]+")
+
+
+class FormError(Exception):
+    """A form post refused before it reached the notebook (no CSRF token...)."""
+
+
+def fnum(value: object, spec: str = ".4g") -> str:
+    """A number for a page (``–`` for none or NaN)."""
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "–"
+    if isinstance(value, int | float):
+        return format(value, spec)
+    return str(value)
+
+
+def exact(value: object) -> str:
+    """A number as Python writes it back exactly (``data-value`` attributes: the parity suite
+    reads them; the page shows :func:`fnum`'s digits)."""
+    if isinstance(value, float | int) and not isinstance(value, bool):
+        return repr(float(value))
+    return ""
+
+
+def templates() -> jinja2.Environment:
+    env = jinja2.Environment(
+        loader=jinja2.PackageLoader("odolab.serve", "templates"),
+        autoescape=True,  # every value is HTML-escaped unless marked safe (none is)
+        undefined=jinja2.StrictUndefined,
+        trim_blocks=True,
+        lstrip_blocks=True,
+    )
+    env.filters["q"] = lambda s: quote(str(s), safe="")
+    env.filters["num"] = fnum
+    env.filters["exact"] = exact
+    env.globals["pi"] = math.pi
+    return env
+
+
+def check_filter(name: str, value: str | None, allowed: tuple[str, ...]) -> str | None:
+    if value is None or value == "":
+        return None
+    if value not in allowed:
+        raise StoreError(f"{name} is {value!r}; expected one of {', '.join(allowed)}")
+    return value
+
+
+def safe_upload_name(filename: str | None) -> str:
+    """A file name made only of letters, digits and ``._-`` (no folder), for messages only."""
+    base = (filename or "").replace("\\", "/").rsplit("/", 1)[-1]
+    name = _SAFE_NAME.sub("_", base).strip("._")[:80]
+    return name or "upload.csv"
+
+
+def status_of(err: StoreError) -> int:
+    """404 for an unknown trial, 409 for a measurement that needs ``replace``, else 400."""
+    text = str(err)
+    if text.startswith("no trial "):
+        return 404
+    return 409 if " is already measured " in text else 400
+
+
+def selection_of(q: QueryParams | Mapping[str, Any]) -> SelectionRequest:
+    """``?campaign=A&campaign=B&exclude_campaign=C`` (the CLI's ``--campaign``,
+    ``--exclude-campaign``) as a selection request."""
+    from odolab.app.selection import SelectionRequest
+
+    def many(key: str) -> tuple[str, ...]:
+        if isinstance(q, QueryParams):
+            values: list[Any] = q.getlist(key)
+        else:
+            raw = q.get(key) or []
+            values = [raw] if isinstance(raw, str) else list(raw)
+        for v in values:
+            if not isinstance(v, str):
+                raise StoreError(f"{key} is {v!r}; expected campaign names (text)")
+        return tuple(v for v in values if v)
+
+    return SelectionRequest(many("campaign"), many("exclude_campaign"))
+
+
+@dataclass
+class Web:
+    """The application's shared state."""
+
+    settings: ServeSettings
+    env: jinja2.Environment = field(default_factory=templates)
+    cache: AnalysisCache = field(default_factory=AnalysisCache)
+
+    @property
+    def db(self) -> Path:
+        return Path(self.settings.db)
+
+    def notebook(self) -> Notebook:
+        from odolab.store import Notebook
+
+        if not self.db.is_file():
+            raise StoreError(f"{self.db}: no such notebook")
+        return Notebook(self.db)
+
+    async def run(self, fn: Callable[[Notebook], _T]) -> _T:
+        """``fn(notebook)`` in a worker thread, on a connection of its own."""
+
+        def job() -> _T:
+            with self.notebook() as nb:
+                return fn(nb)
+
+        return await run_in_threadpool(job)
+
+    def page(
+        self, request: Request, template: str, status_code: int = 200, **context: Any
+    ) -> HTMLResponse:
+        html = self.env.get_template(template).render(
+            csrf=csrf_token(self.settings.secret, request.state.session),
+            path=request.url.path,
+            **context,
+        )
+        return HTMLResponse(html, status_code=status_code)
+
+    def error_page(self, request: Request, err: Exception, status_code: int = 400) -> Response:
+        return self.page(request, "error.html.j2", status_code, error=str(err))
+
+    async def form(self, request: Request) -> Mapping[str, Any]:
+        form = await request.form(max_files=2, max_fields=50)
+        if not csrf_ok(self.settings.secret, request.state.session, form.get("csrf")):
+            raise FormError(
+                "form refused: its CSRF token is missing or wrong; reload the page and send it again"
+            )
+        return form
+
+    def saved_signature(self, trial_id: str, text: str) -> str:
+        """HMAC of the confirmation shown after a post, under the server's secret."""
+        msg = f"saved\0{trial_id}\0{text}".encode()
+        return hmac.new(self.settings.secret, msg, hashlib.sha256).hexdigest()
+
+    def trial_saved(self, trial_id: str, text: str) -> Response:
+        """Back to the trial page (post/redirect/get), saying what was stored; the message is
+        signed, so that only this server's redirect can show it."""
+        sig = self.saved_signature(trial_id, text)
+        query = urlencode({"id": trial_id, "saved": text, "sig": sig})
+        return RedirectResponse(f"/trial?{query}", status_code=303)
+
+
+def web(request: Request) -> Web:
+    """The application's shared state, from a request."""
+    state: Web = request.app.state.web
+    return state
+
+
+def text_field(form: Mapping[str, Any], name: str) -> str | None:
+    value = form.get(name)
+    if not isinstance(value, str) or not value.strip():
+        return None
+    return value.strip()
+
+
+def error_json(err: Exception, status: int = 400) -> JSONResponse:
+    return JSONResponse({"error": str(err)}, status_code=status)
+
+
+def plain(text: str, status: int) -> Response:
+    return Response(text, status, media_type="text/plain")
+
+
+async def json_body(request: Request) -> dict[str, Any]:
+    ctype = request.headers.get("content-type", "").split(";")[0].strip().lower()
+    if ctype != "application/json":
+        raise HTTPException(415, "send the body as JSON (Content-Type: application/json)")
+    try:
+        body = await request.json()
+    except ValueError as err:
+        raise StoreError(f"the body is not valid JSON ({err})") from err
+    except RecursionError as err:  # [[[[...]]]] nested deeper than the parser recurses
+        raise StoreError("the body is not valid JSON (nested too deeply)") from err
+    if not isinstance(body, dict):
+        raise StoreError("the body must be a JSON object")
+    return body
