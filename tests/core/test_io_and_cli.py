@@ -92,7 +92,7 @@ def test_cli_bad_params_file(tmp_path: Path, capsys: pytest.CaptureFixture[str])
 
 
 def test_cli_typo_in_command(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["odometri"]) == 2
+    assert main(["odometri"]) == 1  # a usage error: one sentence, exit 1 (issue 25.9)
     assert "No such command" in capsys.readouterr().err
 
 

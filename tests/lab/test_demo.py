@@ -117,7 +117,7 @@ def test_demo_bad_out_and_seed_are_one_line(
     assert main(["demo", "--out", str(a_file)]) == 1
     last = capsys.readouterr().err.strip().splitlines()[-1]  # after the progress display
     assert last.startswith("odolab: error: ") and "run folder" in last
-    assert main(["sim", "run", "umbmark", "--seed", "-1", "-o", str(tmp_path / "x.csv")]) == 2
+    assert main(["sim", "run", "umbmark", "--seed", "-1", "-o", str(tmp_path / "x.csv")]) == 1
 
 
 def test_validate_cli_on_the_demo_notebook_repeats_the_demo(

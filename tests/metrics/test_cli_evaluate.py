@@ -79,4 +79,4 @@ def test_drift_segment_must_be_positive(
 
 
 def test_sim_server_port_out_of_range_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["robot", "sim-server", "--port", "99999"]) == 2
+    assert main(["robot", "sim-server", "--port", "99999"]) == 1  # usage error (issue 25.9)

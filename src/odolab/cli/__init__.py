@@ -2,8 +2,10 @@
 
 Each module in :data:`COMMAND_MODULES` adds its commands to the apps in :mod:`odolab.cli._apps`;
 a command imports only the modules its first word needs (:data:`COMMAND_WORDS`). Heavy imports
-happen inside the commands so that ``odolab --help`` stays instant. Every :class:`OdolabError` becomes
-one line on stderr and exit code 1; no traceback.
+happen inside the commands so that ``odolab --help`` stays instant. Every :class:`OdolabError` and
+every usage error (missing argument, wrong count, bad choice, unknown option) becomes one line on
+stderr and exit code 1; no traceback, no box. ``--help`` written to a pipe is wide enough that no
+option name is cut (:func:`odolab.cli._console.wide_help_when_piped`).
 """
 
 from __future__ import annotations
@@ -72,8 +74,85 @@ def load_commands(args: Sequence[str] = ()) -> Any:
         if name in wanted:
             importlib.import_module(f"odolab.cli.{name}")
     from odolab.cli._apps import app
+    from odolab.cli._console import wide_help_when_piped
 
+    wide_help_when_piped()
+    _add_version(app)
     return app
+
+
+def _add_version(app: Any) -> None:
+    """``odolab --version``: the program's version, then exit 0."""
+    if getattr(app, "_odolab_version", False):
+        return
+    import typer
+
+    def show_version(value: bool) -> None:
+        if value:
+            from odolab import __version__
+
+            typer.echo(f"odolab {__version__}")
+            raise typer.Exit()
+
+    def root(
+        version: bool = typer.Option(
+            False,
+            "--version",
+            callback=show_version,
+            is_eager=True,
+            help="Show the version and exit.",
+        ),
+    ) -> None:
+        """odolab: honest wheel odometry - integrate, measure the error, calibrate, report."""
+
+    app.callback()(root)
+    app._odolab_version = True
+
+
+def _click() -> Any:
+    """The click that typer runs on (typer 0.29 carries its own copy)."""
+    try:
+        from typer import _click as vendored  # type: ignore[attr-defined,unused-ignore]
+
+        return vendored
+    except ImportError:  # pragma: no cover - typer < 0.29: click itself
+        import click
+
+        return click
+
+
+def _abort() -> type[BaseException]:
+    """The exception of an aborted prompt (typer's own since 0.29)."""
+    from typer import Abort
+
+    return Abort
+
+
+def usage_sentence(err: Any, app: Any = None, args: Sequence[str] = ()) -> str:
+    """A click usage error (missing argument, wrong count, bad choice, unknown option) as one
+    sentence: the command, what is wrong, where the help is. The command is the error's, or
+    else the command words at the start of ``args`` (of ``app``)."""
+    message = " ".join(str(err.format_message()).split()).rstrip(".")
+    ctx = getattr(err, "ctx", None)
+    path = ctx.command_path if ctx is not None else _command_path(app, args)
+    return f"{path}: {message}; see '{path} --help'"
+
+
+def _command_path(app: Any, args: Sequence[str]) -> str:
+    """``odolab`` and the command and group names that start ``args``."""
+    words = ["odolab"]
+    if app is None:
+        return words[0]
+    import typer
+
+    command: Any = typer.main.get_command(app)
+    for word in args:
+        sub = getattr(command, "commands", {}).get(word)
+        if sub is None:
+            break
+        words.append(word)
+        command = sub
+    return " ".join(words)
 
 
 #: Modules a data command imports anyway, loaded before it runs, in :func:`_start_up`.
@@ -125,7 +204,21 @@ def main(argv: list[str] | None = None) -> int:
                 for name in PRELOAD.get(args[0] if args else "", ()):
                     importlib.import_module(name)
         # (the program's own arguments as None: click expands wildcards itself on Windows)
-        app(args=None if argv is None else args, prog_name="odolab", standalone_mode=True)
+        code = app(args=None if argv is None else args, prog_name="odolab", standalone_mode=False)
+    except _click().exceptions.UsageError as err:
+        if type(err).__name__ == "NoArgsIsHelpError":  # `odolab`, `odolab calibrate`: the help
+            err.ctx.get_help()
+            return 1
+        line = usage_sentence(err, app, args)
+        sys.stderr.write(f"odolab: error: {safe_terminal(line, limit=_MAX_ERROR_CHARS)}\n")
+        return 1
+    except _click().exceptions.ClickException as err:  # (a file click could not open)
+        line = " ".join(str(err.format_message()).split())
+        sys.stderr.write(f"odolab: error: {safe_terminal(line, limit=_MAX_ERROR_CHARS)}\n")
+        return 1
+    except _abort():
+        sys.stderr.write("odolab: aborted\n")
+        return 1
     except OdolabError as err:
         sys.stderr.write(f"odolab: error: {safe_terminal(err, limit=_MAX_ERROR_CHARS)}\n")
         return 1
@@ -140,7 +233,7 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         sys.stderr.write("odolab: interrupted\n")
         return 130
-    return 0
+    return code if isinstance(code, int) else 0
 
 
 if __name__ == "__main__":  # pragma: no cover

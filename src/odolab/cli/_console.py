@@ -17,7 +17,11 @@ if TYPE_CHECKING:
     from rich.console import Console
     from rich.table import Table
 
-__all__ = ["console", "print_table"]
+__all__ = ["HELP_WIDTH_PIPED", "console", "print_table", "wide_help_when_piped"]
+
+#: Width of ``--help`` written to a file or a pipe: rich's tables at its default (80) cut option
+#: names (``--pairs-from-re…``) and split lists of choices; at this width none is cut.
+HELP_WIDTH_PIPED = 132
 
 
 def _columns() -> int | None:
@@ -44,6 +48,40 @@ def console(*, stderr: bool = False) -> Console:
         highlight=False,
         soft_wrap=not tty,  # a file or a pipe: one line per line, whatever COLUMNS says
     )
+
+
+def wide_help_when_piped() -> None:
+    """Typer's help never cuts an option name or a list of choices: only the description column
+    of its tables wraps (rich would shrink every column, folding ``<csv|optiodom|b`` / ``ag>``),
+    and when the stream is not a terminal the help is as wide as :data:`HELP_WIDTH_PIPED` (or
+    ``COLUMNS``, if wider; ``TERMINAL_WIDTH`` still wins)."""
+    from rich.table import Table
+    from typer import rich_utils
+
+    make = rich_utils._get_rich_console
+    if getattr(make, "_odolab", False):
+        return
+
+    class HelpTable(Table):
+        """A help table whose columns but the last (the description) never wrap."""
+
+        def add_row(self, *renderables: Any, **kwargs: Any) -> None:
+            super().add_row(*renderables, **kwargs)
+            for column in self.columns[:-1]:
+                column.no_wrap = True
+
+    rich_utils.Table = HelpTable  # type: ignore[misc]
+
+    def wide(stderr: bool = False) -> Console:
+        con = make(stderr=stderr)
+        stream = sys.stderr if stderr else sys.stdout
+        isatty = getattr(stream, "isatty", None)
+        if rich_utils.MAX_WIDTH is None and not (isatty is not None and isatty()):
+            con.width = max(_columns() or 0, HELP_WIDTH_PIPED)
+        return con
+
+    wide._odolab = True  # type: ignore[attr-defined]
+    rich_utils._get_rich_console = wide
 
 
 def _natural_width(con: Console, table: Table) -> int:
