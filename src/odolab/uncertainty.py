@@ -44,6 +44,7 @@ I64 = NDArray[np.int64]
 
 __all__ = [
     "COV_COLUMNS",
+    "TWIST_COLUMNS",
     "CovarianceStepper",
     "covariance_along",
     "covariance_from_ticks",
@@ -53,6 +54,7 @@ __all__ = [
     "propagate_covariance",
     "rotation_heading_variance",
     "straight_line_covariance",
+    "twist_covariance",
 ]
 
 
@@ -703,3 +705,43 @@ class CovarianceStepper:
         self.terms = _stream_step(
             self.terms, heading, ds_left, ds_right, self._c, self._arc, self._k, self._inv_track
         )
+
+
+#: Twist terms of :func:`twist_covariance`, in order: (vx, vy, wz) pairs (m/s, rad/s).
+TWIST_COLUMNS = ("var_vx", "cov_vx_vy", "cov_vx_wz", "var_vy", "cov_vy_wz", "var_wz")
+
+
+def twist_covariance(
+    dt: ArrayLike,
+    ds_left: ArrayLike,
+    ds_right: ArrayLike,
+    params: RobotParams,
+    noise: NoiseParams | None = None,
+) -> NDArray[np.float64]:
+    """Covariance of each cycle's body twist (forward, sideways speed, yaw rate), shape (n, 6)
+    in :data:`TWIST_COLUMNS`.
+
+    The twist of a cycle is its body motion ``u = (forward, lateral, dtheta)`` (the model's
+    linear map of the signed wheel distances ``ds_*``, m) divided by its duration ``dt`` (s),
+    so its covariance is ``U / dt**2`` with ``U`` the body-motion noise of the documented
+    model: ``k_left |ds_l|``, ``k_right |ds_r|`` through the model, and the scrub
+    ``k_scrub |ds_r - ds_l| / track_width`` on dtheta (and the lateral offset that follows it).
+    The forward speed and the yaw rate are correlated whenever the wheels' noises differ
+    (``k_left |ds_l| != k_right |ds_r|``). A cycle with ``dt <= 0`` gets zeros."""
+    k = noise_of(params, noise)
+    dl = np.asarray(ds_left, dtype=np.float64)
+    dr = np.asarray(ds_right, dtype=np.float64)
+    d = np.asarray(dt, dtype=np.float64)
+    c = params.coefficients
+    ql = k.k_left * np.abs(dl)
+    qr = k.k_right * np.abs(dr)
+    qs = k.k_scrub * np.abs(dr - dl) / params.track_width
+    tl = -c.e_left / c.denominator
+    tr = c.e_right / c.denominator
+    u00 = ql * c.w_left**2 + qr * c.w_right**2
+    u02 = ql * c.w_left * tl + qr * c.w_right * tr
+    u22 = ql * tl * tl + qr * tr * tr + qs
+    lat = c.lateral
+    ok = d > 0
+    inv2 = np.where(ok, 1.0 / np.where(ok, d, 1.0) ** 2, 0.0)
+    return np.stack([u00, u02 * lat, u02, u22 * lat * lat, u22 * lat, u22], axis=1) * inv2[:, None]

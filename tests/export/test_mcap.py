@@ -303,3 +303,88 @@ def test_odolabs_own_bag_reader_reads_the_mcap_back(tmp_path: Path, optiodom_dir
     np.testing.assert_allclose(gt.x, run.ground_truth.x, atol=1e-12)
     np.testing.assert_allclose(gt.y, run.ground_truth.y, atol=1e-12)
     np.testing.assert_allclose(gt.theta, run.ground_truth.theta, atol=1e-12)
+
+
+# --- the twist and its covariance on every path (issue 26.3) ----------------------------------
+
+
+def _twist_terms(m: object) -> tuple[float, float, float, float, float, float]:
+    c = m.twist.covariance  # type: ignore[attr-defined]
+    return c[0], c[35], c[5], c[30], c[7], c[1]  # var vx, var wz, vx-wz both ways, var vy, vx-vy
+
+
+def test_a_csv_run_carries_the_full_twist_covariance(tmp_path: Path) -> None:
+    """--format csv: positive vx and wz variances and their cross term on every moving message,
+    equal to U / dt**2 of the documented model; the floor on idle ones; mode 0644 (umask)."""
+    import os
+    import stat
+
+    from odolab.export.mcap import TWIST_VARIANCE_FLOOR
+
+    rng = np.random.default_rng(5)
+    n = 200
+    t = np.arange(n) * 0.02
+    dl = np.where(np.arange(n) < 150, rng.integers(20, 40, n), 0)  # the last 50 cycles idle
+    dr = np.where(np.arange(n) < 150, rng.integers(30, 60, n), 0)
+    dl[0] = dr[0] = 0
+    log = tmp_path / "log.csv"
+    rows = "\n".join(f"{a:.2f},{b},{c}" for a, b, c in zip(t, dl, dr, strict=True))
+    log.write_text("t,dticks_left,dticks_right\n" + rows + "\n")
+    p = save_params(tmp_path / "p.toml", PARAMS)
+    out = tmp_path / "run.mcap"
+    res = CliRunner().invoke(
+        app, ["export", "mcap", str(log), "--format", "csv", "-p", str(p), "-o", str(out)]
+    )
+    assert res.exit_code == 0, res.output
+    odom = _decoded(out)["/odom"]
+    assert len(odom) == n
+    k, b = PARAMS.noise, PARAMS.track_width
+    assert k is not None
+    for i in range(1, 150):
+        vx_var, wz_var, cross, cross_t, vy_var, _ = _twist_terms(odom[i])
+        sl, sr = dl[i] * PARAMS.left_metres_per_tick, dr[i] * PARAMS.right_metres_per_tick
+        ql, qr = k.k_left * abs(sl), k.k_right * abs(sr)
+        qs = k.k_scrub * abs(sr - sl) / b
+        dt2 = 0.02**2
+        assert vx_var == pytest.approx((ql + qr) / 4 / dt2, rel=1e-9)
+        assert wz_var == pytest.approx((ql + qr) / b**2 / dt2 + qs / dt2, rel=1e-9)
+        assert cross == cross_t == pytest.approx((qr - ql) / (2 * b) / dt2, rel=1e-9)
+        assert vx_var > 0 and wz_var > 0 and cross != 0
+        assert vy_var == TWIST_VARIANCE_FLOOR  # a differential drive: no sideways noise
+    for m in odom[150:]:  # idle: the stated floor, never 0
+        vx_var, wz_var, cross, _, _, _ = _twist_terms(m)
+        assert vx_var == wz_var == TWIST_VARIANCE_FLOOR and cross == 0
+    umask = os.umask(0)
+    os.umask(umask)
+    assert stat.S_IMODE(out.stat().st_mode) == 0o666 & ~umask
+
+
+def test_a_campaign_has_no_velocity_spike_at_its_trial_boundaries(tmp_path: Path) -> None:
+    from odolab.store import Notebook
+
+    db = tmp_path / "lab.db"
+    runner = CliRunner()
+    res = runner.invoke(
+        app, ["sim", "run", "translation", "--db", str(db), "-o", str(tmp_path / "t.csv")]
+    )
+    assert res.exit_code == 0, res.output
+    p = save_params(tmp_path / "p.toml", PARAMS)
+    out = tmp_path / "c.mcap"
+    args = ["export", "mcap", "--db", str(db), "--campaign", "translation-indoor"]
+    res = runner.invoke(app, [*args, "-p", str(p), "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    with Notebook(db) as nb:
+        trials = nb.load_trials(campaign="translation-indoor")
+    sizes = [len(tr.encoder_log) for tr in trials if tr.encoder_log is not None]
+    starts = np.cumsum([0, *sizes[:-1]])
+    msgs = _decoded(out)
+    vx = np.array([m.twist.twist.linear.x for m in msgs["/odom"]])  # type: ignore[attr-defined]
+    wz = np.array([m.twist.twist.angular.z for m in msgs["/odom"]])  # type: ignore[attr-defined]
+    speeds = np.array([m.velocity for m in msgs["/joint_states"]])  # type: ignore[attr-defined]
+    assert len(starts) > 1
+    for i in starts:
+        assert vx[i] == wz[i] == 0.0 and np.all(speeds[i] == 0.0)
+        assert _twist_terms(msgs["/odom"][i])[0] > 0  # the floor, not zero
+    # the fastest forward speed anywhere is a plausible one (the old boundary said -1.08 m/s,
+    # the wheels -214 rad/s)
+    assert np.max(np.abs(vx)) < 0.5 and np.max(np.abs(speeds)) < 10.0

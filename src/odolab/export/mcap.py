@@ -5,14 +5,20 @@ packages; message definitions from rosbags' ROS 2 Humble type store):
 
 * ``/odom`` - ``nav_msgs/msg/Odometry``: the odometry pose (yaw as a quaternion about z), its
   propagated covariance (x, y, yaw rows/columns of the 6x6; z, roll, pitch get
-  :data:`UNOBSERVED`), the body twist from consecutive poses and its covariance from ``[noise]``;
+  :data:`UNOBSERVED`), the body twist from consecutive poses and its full covariance from
+  ``[noise]`` (forward, sideways and yaw rate, with their cross terms:
+  :func:`odolab.uncertainty.twist_covariance`; the variances no smaller than
+  :data:`TWIST_VARIANCE_FLOOR`, so an idle cycle is not taken as a perfect measurement by a
+  filter that fuses it);
 * ``/joint_states`` - ``sensor_msgs/msg/JointState``: the wheel angles (rad, unwrapped counters x
   2 pi / ticks_per_rev) and speeds;
 * ``/ground_truth`` - ``geometry_msgs/msg/PoseStamped``: where the run has ground truth;
 * ``/tf`` - ``tf2_msgs/msg/TFMessage``: ``odom -> base_link`` at every pose.
 
 Stamps: the run's own times (seconds since its start, or whatever clock the log used) plus an
-optional ``start_time`` offset.
+optional ``start_time`` offset. A campaign is one stream of segments (its trials): the first
+message of each segment carries no motion (zero twist and wheel speeds), never the jump from
+the previous trial's end to this one's start.
 """
 
 from __future__ import annotations
@@ -25,7 +31,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from odolab.errors import LogFormatError, OdolabError
 from odolab.export.ros2_controller import UNOBSERVED
@@ -41,6 +47,7 @@ if TYPE_CHECKING:
 __all__ = [
     "MAX_STAMP_S",
     "TOPICS",
+    "TWIST_VARIANCE_FLOOR",
     "OdometryStream",
     "check_start_time",
     "stamp_parts",
@@ -67,16 +74,26 @@ class OdometryStream:
     """Everything one MCAP holds for one run (arrays of n samples, SI units).
 
     ``covariance``: (n, 6) in :data:`odolab.uncertainty.COV_COLUMNS` or None (written as zeros);
-    ``twist_variance``: (n, 2) variances of the forward speed and the yaw rate, or None;
-    ``wheel_angles``: (n, 2) left, right (rad) or None; ``ground_truth``: any stamps, or None."""
+    ``twist_covariance``: (n, 6) in :data:`odolab.uncertainty.TWIST_COLUMNS` (forward,
+    sideways speed, yaw rate) or None; ``wheel_angles``: (n, 2) left, right (rad) or None;
+    ``ground_truth``: any stamps, or None; ``segment_starts``: the samples where a new segment
+    (a campaign's trial) begins, which carry no motion from the previous one."""
 
     odometry: Trajectory
     covariance: NDArray[np.float64] | None = None
-    twist_variance: NDArray[np.float64] | None = None
+    twist_covariance: NDArray[np.float64] | None = None
     wheel_angles: NDArray[np.float64] | None = None
     ground_truth: Trajectory | None = None
     joint_names: tuple[str, str] = ("left_wheel_joint", "right_wheel_joint")
     segments: list[tuple[float, str]] = field(default_factory=list)
+    segment_starts: tuple[int, ...] = ()
+
+
+#: Smallest variance written for the forward and sideways speed ((m/s)**2) and the yaw rate
+#: ((rad/s)**2) when the twist's covariance is known: (1 mm/s)**2 and (1 mrad/s)**2. An idle
+#: cycle's propagated variance is exactly 0, which a filter fusing the twist (robot_localization
+#: replaces it by 1e-9) takes as a perfect measurement.
+TWIST_VARIANCE_FLOOR = 1e-6
 
 
 #: Latest stamp (s) a message may carry: ROS 2 stamps keep whole seconds in an int32.
@@ -125,13 +142,17 @@ def _cov36(terms: NDArray[np.float64] | None) -> list[float]:
     return c
 
 
-def _twist_cov(var: NDArray[np.float64] | None) -> list[float]:
+def _twist_cov(terms: NDArray[np.float64] | None) -> list[float]:
+    """The 6x6 twist covariance (vx, vy, vz, wx, wy, wz) from the six (vx, vy, wz) terms."""
     c = [0.0] * 36
     for i in (2, 3, 4):
         c[i * 6 + i] = UNOBSERVED
-    if var is not None:
-        c[0] = c[7] = float(var[0])
-        c[35] = float(var[1])
+    if terms is not None:
+        xx, xy, xw, yy, yw, ww = (float(v) for v in terms)
+        floor = TWIST_VARIANCE_FLOOR
+        c[0], c[1], c[5] = max(xx, floor), xy, xw
+        c[6], c[7], c[11] = xy, max(yy, floor), yw
+        c[30], c[31], c[35] = xw, yw, max(ww, floor)
     return c
 
 
@@ -171,6 +192,10 @@ def _messages(
             speeds[1:] = np.where(
                 dt > 0, np.diff(stream.wheel_angles, axis=0) / np.where(dt > 0, dt, 1), 0
             )
+    starts = [i for i in stream.segment_starts if 0 <= i < len(traj)]
+    for arr in (vx, vy, wz, speeds):  # a segment's first sample: no motion across its start
+        if arr is not None:
+            arr[starts] = 0.0
     for i in range(len(traj)):
         t = float(traj.t[i]) + start_time
         pose = {
@@ -178,7 +203,7 @@ def _messages(
             "orientation": _quat(float(traj.heading[i])),
         }
         cov = None if stream.covariance is None else stream.covariance[i]
-        tvar = None if stream.twist_variance is None else stream.twist_variance[i]
+        tvar = None if stream.twist_covariance is None else stream.twist_covariance[i]
         yield (
             "/odom",
             t,
@@ -325,10 +350,13 @@ def stream_from_encoder_log(
         traj, cov = integrate_with_covariance(
             t, left_ticks, right_ticks, params, method, source=source
         )
-        twist = _twist_variance(traj, left_ticks, right_ticks, params)
     m = params.encoder_modulus
     ul = unwrap_ticks(left_ticks, m, name="left_ticks")
     ur = unwrap_ticks(right_ticks, m, name="right_ticks")
+    if params.noise is not None:
+        twist = _twist_from_increments(
+            traj.t, np.diff(ul, prepend=ul[0]), np.diff(ur, prepend=ur[0]), params
+        )
     scale = 2.0 * math.pi / params.ticks_per_rev
     angles = np.stack([(ul - ul[0]) * scale, (ur - ur[0]) * scale], axis=1)
     return OdometryStream(traj, cov, twist, angles, ground_truth)
@@ -370,29 +398,18 @@ def stream_from_run_folder(
     )
 
 
-def _twist_variance(
-    traj: Trajectory, left: NDArray[np.int64], right: NDArray[np.int64], params: RobotParams
+def _twist_from_increments(
+    t: NDArray[np.float64], dl: ArrayLike, dr: ArrayLike, params: RobotParams
 ) -> NDArray[np.float64]:
-    """Per-sample variances of the forward speed and yaw rate from ``[noise]`` (see ros2 docs)."""
-    from odolab.encoders import unwrap_ticks
+    """Per-sample twist covariance (:data:`odolab.uncertainty.TWIST_COLUMNS`) from counter
+    increments (``[0]`` ignored: the first sample has no cycle behind it) and ``[noise]``."""
+    from odolab.uncertainty import twist_covariance
 
-    assert params.noise is not None
-    n = len(traj)
-    out = np.zeros((n, 2))
-    if n < 2:
-        return out
-    m = params.encoder_modulus
-    dsl = np.abs(np.diff(unwrap_ticks(left, m))) * params.left_metres_per_tick
-    dsr = np.abs(np.diff(unwrap_ticks(right, m))) * params.right_metres_per_tick
-    dt = np.diff(traj.t)
-    ok = dt > 0
-    dt2 = np.where(ok, dt * dt, 1.0)
-    var_l = params.noise.k_left * dsl / dt2
-    var_r = params.noise.k_right * dsr / dt2
-    c = params.coefficients
-    out[1:, 0] = np.where(ok, c.w_left**2 * var_l + c.w_right**2 * var_r, 0.0)
-    out[1:, 1] = np.where(ok, (c.e_left**2 * var_l + c.e_right**2 * var_r) / c.denominator**2, 0.0)
-    return out
+    dsl = np.asarray(dl, dtype=np.float64) * params.left_metres_per_tick
+    dsr = np.asarray(dr, dtype=np.float64) * params.right_metres_per_tick
+    dt = np.diff(np.asarray(t, dtype=np.float64), prepend=np.nan)
+    dt[0] = 0.0  # no cycle before the first sample: zeros (written as the floor)
+    return twist_covariance(dt, dsl, dsr, params)
 
 
 def stream_from_trajectories(
@@ -415,15 +432,16 @@ def stream_from_run(
     if p is None:
         raise OdolabError(f"{run.source}: the run carries no parameters; give --params")
     traj = integrate_increments(run.t, run.dticks_left, run.dticks_right, p, method)
-    cov = None
-    if p.noise is not None:
-        cov = propagate_covariance(run.dticks_left, run.dticks_right, p, method)
+    cov = twist = None
     dl = np.asarray(run.dticks_left, dtype=np.float64).copy()
     dr = np.asarray(run.dticks_right, dtype=np.float64).copy()
     dl[0] = dr[0] = 0.0
+    if p.noise is not None:
+        cov = propagate_covariance(run.dticks_left, run.dticks_right, p, method)
+        twist = _twist_from_increments(traj.t, dl, dr, p)
     scale = 2.0 * math.pi / p.ticks_per_rev
     angles = np.stack([np.cumsum(dl) * scale, np.cumsum(dr) * scale], axis=1)
-    return OdometryStream(traj, cov, None, angles, run.ground_truth)
+    return OdometryStream(traj, cov, twist, angles, run.ground_truth)
 
 
 def stream_from_campaign(
@@ -448,6 +466,8 @@ def stream_from_campaign(
     parts: list[OdometryStream] = []
     offset = 0.0
     marks: list[tuple[float, str]] = []
+    starts: list[int] = []
+    n = 0
     for tr in trials:
         log = tr.encoder_log
         assert log is not None
@@ -458,6 +478,8 @@ def stream_from_campaign(
         )
         parts.append(s)
         marks.append((offset, tr.trial_id))
+        starts.append(n)
+        n += len(s.odometry)
         offset = float(s.odometry.t[-1]) + gap
     cat = np.concatenate
 
@@ -474,8 +496,9 @@ def stream_from_campaign(
     return OdometryStream(
         traj,
         opt([s.covariance for s in parts]),
-        opt([s.twist_variance for s in parts]),
+        opt([s.twist_covariance for s in parts]),
         opt([s.wheel_angles for s in parts]),
         None,
         segments=marks,
+        segment_starts=tuple(starts),
     )
