@@ -70,7 +70,7 @@ def wide_help_when_piped() -> None:
             for column in self.columns[:-1]:
                 column.no_wrap = True
 
-    rich_utils.Table = HelpTable  # type: ignore[misc]
+    setattr(rich_utils, "Table", HelpTable)  # noqa: B010 (typer names it; no public hook)
 
     def wide(stderr: bool = False) -> Console:
         con = make(stderr=stderr)
