@@ -533,14 +533,12 @@ def export_cmd(
     db: DbOption = _DB,
 ) -> None:
     """Export trials as CSV (a spreadsheet, no encoder logs) or JSON (everything)."""
+    from odolab.app.exports import ExportRequest, export_trials, format_of
     from odolab.cli._output import check_output_path
 
     check_output_path(file, "trials export")
     k = kind.value if kind else None
     s = status.value if status else None
-    with _open(db) as nb:
-        if file.suffix.lower() == ".json":
-            n = nb.export_json(file, campaign, terrain, k, s)
-        else:
-            n = nb.export_csv(file, campaign, terrain, k, s)
+    with _open(db) as nb:  # the web's /data/export makes the same request
+        n = export_trials(nb, file, ExportRequest(format_of(file), campaign, terrain, k, s))
     echo(f"{n} trials exported from {db} to {file}")
