@@ -46,15 +46,18 @@ def test_effective_values_are_the_calibrated_ones() -> None:
 
 
 def test_covariance_follows_the_documented_formula() -> None:
-    v, f, d = 0.4, 20.0, 2.0
+    v, f, d, w = 0.4, 20.0, 2.0, 10
     p = _load(diff_drive_controller_yaml(CALIBRATED, speed=v, rate=f, horizon=d))
     k = 1.2e-4 + 2.3e-4
     b = CALIBRATED.track_width
     twist = p["twist_covariance_diagonal"]
     pose = p["pose_covariance_diagonal"]
-    assert twist == pytest.approx(
-        [k * v * f / 4, k * v * f / 4, UNOBSERVED, UNOBSERVED, UNOBSERVED, k * v * f / b**2]
-    )
+    # the controller's own estimate: a rolling mean over its window of 10 update cycles
+    assert p["velocity_rolling_window_size"] == w
+    vx, wz = k * v * f / (4 * w), k * v * f / (w * b**2)
+    assert twist == pytest.approx([vx, vx, UNOBSERVED, UNOBSERVED, UNOBSERVED, wz])
+    p5 = _load(diff_drive_controller_yaml(CALIBRATED, speed=v, rate=f, horizon=d, window=5))
+    assert p5["twist_covariance_diagonal"][0] == pytest.approx(2 * vx)  # type: ignore[index]
     assert pose == pytest.approx(
         [k * d / 4, k * d**3 / (3 * b**2), UNOBSERVED, UNOBSERVED, UNOBSERVED, k * d / b**2]
     )
@@ -93,7 +96,14 @@ def test_cli_writes_provenance_as_comments(tmp_path: Path) -> None:
     text = out.read_text()
     assert "#   method: ratios" in text and "#   q_d: 0.905" in text
     p = _load(text, "base_controller")
-    assert p["wheels_per_side"] == 2 and p["right_wheel_names"] == ["fr", "rr"]
+    assert "wheels_per_side" not in p and p["right_wheel_names"] == ["fr", "rr"]  # jazzy
+    res = CliRunner().invoke(
+        app,
+        ["export", "ros2-controller", str(src), "-o", str(out), "--ros-distro", "humble",
+         "--left-wheel", "fl", "--left-wheel", "rl", "--right-wheel", "fr", "--right-wheel", "rr"],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    assert _load(out.read_text())["wheels_per_side"] == 2  # humble still has it
 
 
 @pytest.mark.parametrize(
@@ -165,3 +175,68 @@ def test_provenance_cannot_add_yaml_keys(tmp_path: Path) -> None:
     assert "#   evil\\x0akey: 1\\x0ax: v" in text
     assert "#   note: a\\x0dinjected: true\\u2028b: 2\\x85c: 3" in text
     assert all(line.startswith(("#", "diff_drive_controller:", "  ")) for line in text.splitlines())
+
+
+# --- each ROS 2 distribution's own keys; floats that load as floats (issue 26.4) ----------------
+
+SCHEMAS = Path(__file__).parent / "ros2_schemas"
+
+
+def _schema_keys(distro: str) -> set[str]:
+    """Top-level parameters of the recorded diff_drive_controller schema (its text is not
+    plain YAML: ``validation`` entries like ``gt<>`` are read by generate_parameter_library)."""
+    import re
+
+    text = (SCHEMAS / f"{distro}.yaml").read_text()
+    return set(re.findall(r"^  ([a-z_]+):", text, flags=re.MULTILINE))
+
+
+@pytest.mark.parametrize("distro", ["humble", "jazzy", "kilted", "rolling"])
+def test_key_lists_are_the_recorded_schemas(distro: str) -> None:
+    from odolab.export.ros2_controller import DISTRO_KEYS
+
+    assert set(DISTRO_KEYS[distro]) == _schema_keys(distro)
+
+
+@pytest.mark.parametrize("distro", ["humble", "jazzy", "kilted", "rolling"])
+def test_each_distro_gets_only_its_own_keys(distro: str) -> None:
+    text = diff_drive_controller_yaml(
+        CALIBRATED.with_(noise=NoiseParams(5e-5, 7e-6, 1e-3)), distro=distro
+    )
+    p = _load(text)
+    assert set(p) <= _schema_keys(distro)
+    removed = {"humble": set(), "jazzy": {"wheels_per_side"}, "kilted": {"wheels_per_side"}}
+    for key in removed.get(distro, {"wheels_per_side", "publish_rate"}):
+        assert key not in p, (distro, key)
+    assert f"for ROS 2 {distro}" in text
+    # every covariance value loads as a float in YAML 1.1 (5e-05 would be a string)
+    values = [*p["pose_covariance_diagonal"], *p["twist_covariance_diagonal"]]  # type: ignore[misc]
+    assert all(type(v) is float for v in values), values
+    for key in ("wheel_radius", "wheel_separation", "left_wheel_radius_multiplier"):
+        assert type(p[key]) is float
+
+
+def test_yaml_floats_keep_a_dot_in_the_mantissa() -> None:
+    from odolab.export.ros2_controller import yaml_float
+
+    for v in (5e-05, 1e-300, 1e22, -2.5e-7, 0.5, 1e6, 123456789012345678.0):
+        text = yaml_float(v)
+        assert yaml.safe_load(text) == v and type(yaml.safe_load(text)) is float, text
+    assert yaml_float(5e-05) == "5.0e-05"
+    assert isinstance(yaml.safe_load(repr(5e-05)), str)  # what repr gave before
+
+
+def test_an_unknown_distro_is_one_sentence() -> None:
+    with pytest.raises(ParamsError, match="--ros-distro is 'iron'; expected one of humble"):
+        diff_drive_controller_yaml(CALIBRATED, distro="iron")
+
+
+def test_multipliers_without_nominal_are_the_radii_over_their_mean() -> None:
+    """docs/ros2.md said 1 without --nominal; with unequal radii they are not."""
+    p = _load(diff_drive_controller_yaml(CALIBRATED))
+    mean = (CALIBRATED.left_wheel_radius + CALIBRATED.right_wheel_radius) / 2
+    assert p["wheel_radius"] == pytest.approx(mean, rel=1e-12)
+    assert p["left_wheel_radius_multiplier"] == pytest.approx(
+        CALIBRATED.left_wheel_radius / mean, rel=1e-12
+    )
+    assert p["left_wheel_radius_multiplier"] != 1.0 and p["wheel_separation_multiplier"] == 1.0

@@ -15,6 +15,13 @@ from odolab.cli.core import MethodChoice
 __all__: list[str] = []
 
 
+class RosDistro(StrEnum):
+    humble = "humble"
+    jazzy = "jazzy"
+    kilted = "kilted"
+    rolling = "rolling"
+
+
 class RunFormatChoice(StrEnum):
     csv = "csv"
     optiodom = "optiodom"
@@ -33,7 +40,25 @@ def ros2_controller_cmd(
         str, typer.Option(help="Controller name (the YAML's top key).")
     ] = "diff_drive_controller",
     speed: Annotated[float, typer.Option(help="Speed (m/s) the covariance is stated at.")] = 0.5,
-    rate: Annotated[float, typer.Option(help="Odometry publish rate (Hz).")] = 50.0,
+    rate: Annotated[
+        float,
+        typer.Option(
+            help="The controller's update rate (Hz: the controller_manager's update_rate; also "
+            "publish_rate where the distribution has it)."
+        ),
+    ] = 50.0,
+    window: Annotated[
+        int,
+        typer.Option(help="The controller's velocity_rolling_window_size (cycles)."),
+    ] = 10,
+    ros_distro: Annotated[
+        RosDistro,
+        typer.Option(
+            "--ros-distro",
+            help="ROS 2 distribution: exactly the keys its diff_drive_controller declares "
+            "(default: jazzy, the newest LTS).",
+        ),
+    ] = RosDistro.jazzy,
     horizon: Annotated[
         float, typer.Option(help="Straight path (m) the pose covariance is stated after.")
     ] = 1.0,
@@ -70,12 +95,14 @@ def ros2_controller_cmd(
         speed=speed,
         rate=rate,
         horizon=horizon,
+        window=window,
+        distro=ros_distro.value,
         left_wheel_names=left,
         right_wheel_names=right,
         provenance=provenance,
     )
     write_output_text(output, text, "controller parameters")
-    echo(f"wrote {output}")
+    echo(f"wrote {output} (diff_drive_controller of ROS 2 {ros_distro.value})")
 
 
 @export_app.command("mcap")

@@ -8,12 +8,15 @@ equals the calibrated effective radii and track exactly, and a person reading th
 far the calibration moved each one.
 
 The controller publishes a *fixed* diagonal covariance. odolab derives it from the ``[noise]``
-table (per-wheel slip ``var(ds) = k |ds|``) at a stated speed ``v`` (m/s) and odometry rate ``f``
-(Hz), for a straight run:
+table (per-wheel slip ``var(ds) = k |ds|``) at a stated speed ``v`` (m/s), for a straight run,
+for the controller's own estimate:
 
-* twist (``vx``, ``wz``; per cycle of ``1/f`` s each wheel rolls ``v/f`` m, so a wheel speed has
-  variance ``k v f``): ``var(vx) = (k_l + k_r) v f / 4``, ``var(wz) = (k_l + k_r) v f / b^2``
-  (+ ``k_scrub`` does not enter a straight run); ``vy`` gets ``var(vx)`` (tracks and skid-steer
+* twist (``vx``, ``wz``): the controller's velocity is the rolling mean of its last ``W``
+  (``velocity_rolling_window_size``, default 10) per-cycle wheel-speed estimates at its update
+  rate ``f`` (Hz), i.e. the displacement over ``W / f`` seconds divided by that time; each wheel
+  rolls ``v W / f`` m in it, so a wheel speed has variance ``k v f / W``:
+  ``var(vx) = (k_l + k_r) v f / (4 W)``, ``var(wz) = (k_l + k_r) v f / (W b^2)``
+  (``k_scrub`` does not enter a straight run); ``vy`` gets ``var(vx)`` (tracks and skid-steer
   bases do slip sideways; a wheeled base may lower it);
 * pose: the covariance of a straight run of ``horizon`` metres (default 1 m;
   :func:`odolab.uncertainty.straight_line_covariance`): ``var x = k d / 4``,
@@ -23,6 +26,12 @@ table (per-wheel slip ``var(ds) = k |ds|``) at a stated speed ``v`` (m/s) and od
 The fixed values can only describe one motion; the propagated covariance
 (:func:`odolab.uncertainty.propagate_covariance`, the ``/odom`` messages of ``odolab export
 mcap``) grows with the path as it should.
+
+Keys: exactly those of the chosen ROS 2 distribution's ``diff_drive_controller`` parameter
+schema (:data:`DISTRO_KEYS`; ``wheels_per_side`` left ros2_controllers in 4.5.0, after Humble,
+``publish_rate`` in 6.7.0, Rolling), since a key the controller does not declare is ignored
+without a word. Floats are written so that YAML 1.1 loaders (PyYAML, as ROS 2 launch files use)
+read them as floats: ``5.0e-05``, never ``5e-05`` (a string there).
 
 Models the controller cannot express (``extended`` with unequal weights, ``icr``): the file says
 so and gives the best differential-drive equivalent: radius multipliers from the rotation terms
@@ -42,7 +51,10 @@ from odolab.params import RobotParams
 from odolab.text import safe_terminal
 
 __all__ = [
+    "DEFAULT_DISTRO",
+    "DISTRO_KEYS",
     "LIMITS",
+    "ROS_DISTROS",
     "UNOBSERVED",
     "ControllerExport",
     "controller_numbers",
@@ -51,6 +63,48 @@ __all__ = [
 
 #: Variance written for the terms planar odometry does not observe (z, roll, pitch).
 UNOBSERVED = 1e6
+
+#: The ``diff_drive_controller`` parameters (top level of ``ros__parameters``; ``linear`` and
+#: ``angular`` are groups of limits) of each ROS 2 distribution, from ros-controls/
+#: ros2_controllers ``diff_drive_controller/src/diff_drive_controller_parameter.yaml`` on the
+#: branches humble (ad559d9c), jazzy (ed360c97), kilted (0f8eb14e) and master (94e74de3, for
+#: rolling), read 2026-11. ``wheels_per_side`` was removed in 4.5.0 (jazzy has none),
+#: ``use_stamped_vel`` after humble, ``publish_rate`` in 6.7.0 (rolling). The schemas are kept
+#: in tests/export/ros2_schemas/, and a test checks these lists against them.
+_COMMON_KEYS = (
+    "left_wheel_names",
+    "right_wheel_names",
+    "wheel_separation",
+    "wheel_radius",
+    "wheel_separation_multiplier",
+    "left_wheel_radius_multiplier",
+    "right_wheel_radius_multiplier",
+    "tf_frame_prefix_enable",
+    "tf_frame_prefix",
+    "odom_frame_id",
+    "base_frame_id",
+    "pose_covariance_diagonal",
+    "twist_covariance_diagonal",
+    "open_loop",
+    "position_feedback",
+    "enable_odom_tf",
+    "cmd_vel_timeout",
+    "publish_limited_velocity",
+    "velocity_rolling_window_size",
+    "linear",
+    "angular",
+)
+DISTRO_KEYS: dict[str, frozenset[str]] = {
+    "humble": frozenset(_COMMON_KEYS + ("wheels_per_side", "use_stamped_vel", "publish_rate")),
+    "jazzy": frozenset(_COMMON_KEYS + ("publish_rate",)),
+    "kilted": frozenset(_COMMON_KEYS + ("publish_rate",)),
+    "rolling": frozenset(_COMMON_KEYS),
+}
+ROS_DISTROS = tuple(DISTRO_KEYS)
+#: The newest long-term-support distribution (Jazzy Jalisco, May 2024 - May 2029).
+DEFAULT_DISTRO = "jazzy"
+#: The controller's ``velocity_rolling_window_size`` default (every distribution).
+DEFAULT_WINDOW = 10
 #: Largest ``--speed`` (m/s), ``--rate`` (Hz) and ``--horizon`` (m) accepted: far beyond any
 #: wheeled robot, small enough that every covariance term stays a finite number.
 LIMITS = {"--speed": 100.0, "--rate": 100_000.0, "--horizon": 100_000.0}
@@ -98,6 +152,27 @@ def _check_positive(name: str, value: float) -> float:
     return float(value)
 
 
+def _check_window(window: int) -> int:
+    if isinstance(window, bool) or not isinstance(window, int) or not 1 <= window <= 100_000:
+        raise ParamsError(
+            f"--window is {window!r}; expected a whole number of cycles from 1 to 100000 "
+            "(the controller's velocity_rolling_window_size)"
+        )
+    return window
+
+
+def yaml_float(value: float) -> str:
+    """``value`` as a YAML 1.1 float: a mantissa with a dot (``5.0e-05``, ``1000000.0``), which
+    PyYAML reads as a float where ``5e-05`` would be a string; shortest round-trip digits."""
+    text = repr(float(value))
+    if not math.isfinite(value):
+        return {"inf": ".inf", "-inf": "-.inf"}.get(text, ".nan")
+    mantissa, e, exponent = text.partition("e")
+    if "." not in mantissa:
+        mantissa += ".0"
+    return mantissa + (e + exponent if e else "")
+
+
 def controller_numbers(
     params: RobotParams,
     *,
@@ -105,11 +180,14 @@ def controller_numbers(
     speed: float = 0.5,
     rate: float = 50.0,
     horizon: float = 1.0,
+    window: int = DEFAULT_WINDOW,
 ) -> ControllerExport:
-    """What :func:`diff_drive_controller_yaml` writes, as numbers."""
+    """What :func:`diff_drive_controller_yaml` writes, as numbers. ``rate``: the controller's
+    update rate (Hz); ``window``: its ``velocity_rolling_window_size`` (cycles)."""
     v = _check_positive("--speed", speed)
     f = _check_positive("--rate", rate)
     d = _check_positive("--horizon", horizon)
+    w = _check_window(window)
     c = params.coefficients
     notes: list[str] = []
     # effective radii and separation of the best differential-drive equivalent
@@ -146,8 +224,8 @@ def controller_numbers(
     else:
         k = noise.k_left + noise.k_right
         b = separation
-        var_vx = k * v * f / 4.0
-        twist = (var_vx, var_vx, UNOBSERVED, UNOBSERVED, UNOBSERVED, k * v * f / b**2)
+        var_vx = k * v * f / (4.0 * w)
+        twist = (var_vx, var_vx, UNOBSERVED, UNOBSERVED, UNOBSERVED, k * v * f / (w * b**2))
         pose = (
             k * d / 4.0, k * d**3 / (3.0 * b**2), UNOBSERVED, UNOBSERVED, UNOBSERVED, k * d / b**2
         )  # fmt: skip
@@ -210,24 +288,37 @@ def diff_drive_controller_yaml(
     speed: float = 0.5,
     rate: float = 50.0,
     horizon: float = 1.0,
+    window: int = DEFAULT_WINDOW,
+    distro: str = DEFAULT_DISTRO,
     left_wheel_names: tuple[str, ...] = ("left_wheel_joint",),
     right_wheel_names: tuple[str, ...] = ("right_wheel_joint",),
     provenance: dict[str, Any] | None = None,
 ) -> str:
-    """The YAML text: ``<controller>: ros__parameters: ...`` with provenance as comments."""
+    """The YAML text: ``<controller>: ros__parameters: ...`` with provenance as comments, with
+    exactly the keys ``distro``'s ``diff_drive_controller`` declares (:data:`DISTRO_KEYS`)."""
+    if distro not in DISTRO_KEYS:
+        raise ParamsError(f"--ros-distro is {distro!r}; expected one of {', '.join(ROS_DISTROS)}")
+    keys = DISTRO_KEYS[distro]
     name = _yaml_name(controller)
     for side, joints in (("--left-wheel", left_wheel_names), ("--right-wheel", right_wheel_names)):
         for joint in joints:
             _yaml_name(joint, side, "joint")
-    n = controller_numbers(params, nominal=nominal, speed=speed, rate=rate, horizon=horizon)
+    n = controller_numbers(
+        params, nominal=nominal, speed=speed, rate=rate, horizon=horizon, window=window
+    )
     head = [
-        f"# diff_drive_controller parameters written by odolab from {_scalar(repr(params.name))}.",
+        f"# diff_drive_controller parameters written by odolab from {_scalar(repr(params.name))}"
+        f" for ROS 2 {distro}.",
         "# Effective values (value x multiplier) are the calibrated ones:",
         f"#   left wheel radius  {n.effective_left_radius!r} m",
         f"#   right wheel radius {n.effective_right_radius!r} m",
         f"#   wheel separation   {n.effective_separation!r} m",
-        f"# Covariance from [noise] at {speed!r} m/s and {rate!r} Hz, pose after {horizon!r} m"
-        " of straight driving (see odolab docs/ros2.md for the formula).",
+        f"# Twist covariance: the controller's own velocity estimate, the rolling mean over "
+        f"velocity_rolling_window_size = {window} cycles at its update rate {rate!r} Hz (the "
+        "controller_manager's update_rate; give it as --rate), straight driving at "
+        f"{speed!r} m/s.",
+        f"# Pose covariance: after {horizon!r} m of straight driving. Both from [noise] "
+        "(see odolab docs/ros2.md for the formulas).",
     ]
     for note in n.notes:
         head += _comment("NOTE: " + note)
@@ -237,29 +328,30 @@ def diff_drive_controller_yaml(
             head.append(f"#   {_scalar(key)}: {_scalar(value)}")
 
     def flist(values: tuple[float, ...]) -> str:
-        return "[" + ", ".join(repr(float(v)) for v in values) + "]"
+        return "[" + ", ".join(yaml_float(v) for v in values) + "]"
 
     def slist(values: tuple[str, ...]) -> str:
         return "[" + ", ".join(f'"{v}"' for v in values) + "]"
 
-    body = [
-        f"{name}:",
-        "  ros__parameters:",
-        f"    left_wheel_names: {slist(left_wheel_names)}",
-        f"    right_wheel_names: {slist(right_wheel_names)}",
-        f"    wheels_per_side: {len(left_wheel_names)}",
-        f"    wheel_separation: {n.wheel_separation!r}",
-        f"    wheel_radius: {n.wheel_radius!r}",
-        f"    wheel_separation_multiplier: {n.wheel_separation_multiplier!r}",
-        f"    left_wheel_radius_multiplier: {n.left_wheel_radius_multiplier!r}",
-        f"    right_wheel_radius_multiplier: {n.right_wheel_radius_multiplier!r}",
-        f"    publish_rate: {float(rate)!r}",
-        f"    pose_covariance_diagonal: {flist(n.pose_covariance_diagonal)}",
-        f"    twist_covariance_diagonal: {flist(n.twist_covariance_diagonal)}",
-        "    odom_frame_id: odom",
-        "    base_frame_id: base_link",
-        "    open_loop: false",
-        "    position_feedback: true",
-        "    enable_odom_tf: true",
+    lines = [
+        ("left_wheel_names", slist(left_wheel_names)),
+        ("right_wheel_names", slist(right_wheel_names)),
+        ("wheels_per_side", str(len(left_wheel_names))),
+        ("wheel_separation", yaml_float(n.wheel_separation)),
+        ("wheel_radius", yaml_float(n.wheel_radius)),
+        ("wheel_separation_multiplier", yaml_float(n.wheel_separation_multiplier)),
+        ("left_wheel_radius_multiplier", yaml_float(n.left_wheel_radius_multiplier)),
+        ("right_wheel_radius_multiplier", yaml_float(n.right_wheel_radius_multiplier)),
+        ("publish_rate", yaml_float(rate)),
+        ("velocity_rolling_window_size", str(window)),
+        ("pose_covariance_diagonal", flist(n.pose_covariance_diagonal)),
+        ("twist_covariance_diagonal", flist(n.twist_covariance_diagonal)),
+        ("odom_frame_id", "odom"),
+        ("base_frame_id", "base_link"),
+        ("open_loop", "false"),
+        ("position_feedback", "true"),
+        ("enable_odom_tf", "true"),
     ]
+    body = [f"{name}:", "  ros__parameters:"]
+    body += [f"    {key}: {value}" for key, value in lines if key in keys]
     return "\n".join(head + body) + "\n"
