@@ -95,9 +95,9 @@ _COMMON_KEYS = (
     "angular",
 )
 DISTRO_KEYS: dict[str, frozenset[str]] = {
-    "humble": frozenset(_COMMON_KEYS + ("wheels_per_side", "use_stamped_vel", "publish_rate")),
-    "jazzy": frozenset(_COMMON_KEYS + ("publish_rate",)),
-    "kilted": frozenset(_COMMON_KEYS + ("publish_rate",)),
+    "humble": frozenset((*_COMMON_KEYS, "wheels_per_side", "use_stamped_vel", "publish_rate")),
+    "jazzy": frozenset((*_COMMON_KEYS, "publish_rate")),
+    "kilted": frozenset((*_COMMON_KEYS, "publish_rate")),
     "rolling": frozenset(_COMMON_KEYS),
 }
 ROS_DISTROS = tuple(DISTRO_KEYS)
