@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
+from typer.core import TyperCommand
 
 from odolab.cli._apps import app, calibrate_app
 from odolab.cli._output import markup_text
@@ -30,6 +31,8 @@ class RunFormat(StrEnum):
 class DeltaUnitChoice(StrEnum):
     frames = "frames"
     m = "m"
+    deg = "deg"
+    rad = "rad"
 
 
 class AlignChoice(StrEnum):
@@ -114,7 +117,12 @@ def evaluate_cmd(
         float | None, typer.Option(help="RPE step (default 1 frame; runs 1 m).")
     ] = None,
     delta_unit: Annotated[
-        DeltaUnitChoice | None, typer.Option("--delta-unit", help="Unit of --delta.")
+        DeltaUnitChoice | None,
+        typer.Option(
+            "--delta-unit",
+            help="Unit of --delta: frames, m, or the angle turned in deg or rad (evo's d, r: "
+            "for runs that turn in place). A unit alone: 1 frame, 1 m, 90 deg, pi/2 rad.",
+        ),
     ] = None,
     all_pairs: Annotated[bool, typer.Option(help="RPE over all pairs, not consecutive.")] = False,
     pairs_from_reference: Annotated[
@@ -130,6 +138,9 @@ def evaluate_cmd(
         float | None, typer.Option(help="Largest stamp difference to associate (s).")
     ] = None,
     drift_segment: Annotated[float, typer.Option(help="Path length per drift segment (m).")] = 1.0,
+    drift_turn: Annotated[
+        float, typer.Option(help="Angle turned per piece of the drift per angle turned (deg).")
+    ] = 90.0,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write the numbers here.")] = None,
     workers: WorkersOpt = 2,
     scheduler: SchedulerOpt = None,
@@ -163,122 +174,73 @@ def evaluate_cmd(
 ) -> None:
     """APE, RPE (evo's definitions) and drift per distance: of EST against GT, or of runs.
 
+    Planar: x, y and heading (evo's 3-D numbers differ where a trajectory leaves the plane).
     Runs (--format) may be files, folders (searched recursively for CSV runs), quoted glob
     patterns, thousands of them: they are evaluated on Dask (a local cluster, or --scheduler).
     A run that fails is reported with its error; the others still get their results."""
-    from dataclasses import replace
-
-    from odolab.errors import OdolabError
-    from odolab.metrics import (
-        RUN_OPTIONS,
-        Alignment,
-        DeltaUnit,
-        EvaluationOptions,
-        SyncMethod,
+    from odolab.app.evaluate import (
+        PLANAR_NOTE,
+        EvaluationRequest,
+        evaluate_run_set,
+        evaluate_trajectories,
+        load_request_params,
     )
-    from odolab.params import load_params
 
-    base = RUN_OPTIONS if fmt is not None else EvaluationOptions()
-    changes: dict[str, Any] = {"all_pairs": all_pairs, "drift_delta_m": drift_segment}
-    if delta_unit is not None:
-        changes["delta_unit"] = DeltaUnit(delta_unit.value)
-        changes["delta"] = 1.0
-    if delta is not None:
-        changes["delta"] = delta
-    if align is not None:
-        changes["alignment"] = Alignment(align.value)
-    if sync is not None:
-        changes["sync"] = SyncMethod(sync.value)
-    if max_diff is not None:
-        changes["max_diff"] = max_diff
-    if pairs_from_reference is not None:
-        changes["pairs_from_reference"] = pairs_from_reference
-    options = replace(base, **changes)
-    robot = load_params(params) if params else None
-    if nees:  # checked before any file is read: a typo costs nothing
-        import math
-
-        if not (math.isfinite(nees_segment) and nees_segment > 0):
-            raise OdolabError(
-                f"--nees-segment is {nees_segment}; expected a positive number of seconds"
-            )
-        if robot is not None and robot.noise is None:
-            raise OdolabError(
-                f"--nees: the parameters {params} have no [noise] table (k_left, k_right); "
-                "give --params with one (e.g. from `odolab calibrate noise`)"
-            )
+    request = EvaluationRequest(
+        paths=tuple(paths),
+        fmt=fmt.value if fmt is not None else None,
+        params=params,
+        delta=delta,
+        delta_unit=delta_unit.value if delta_unit is not None else None,
+        all_pairs=all_pairs,
+        pairs_from_reference=pairs_from_reference,
+        alignment=align.value if align is not None else None,
+        sync=sync.value if sync is not None else None,
+        max_diff=max_diff,
+        drift_segment_m=drift_segment,
+        drift_turn_deg=drift_turn,
+        chunk_rows=chunk_rows,
+        nees=nees,
+        nees_segment_s=nees_segment,
+    )
+    robot = load_request_params(request)  # every option checked before any file is read
     if fmt is None:
-        from odolab.io import read_trajectory
-        from odolab.metrics import evaluate
+        from odolab.app.evaluate import chunk_rows_for
 
-        if nees:
-            raise OdolabError(
-                "--nees needs runs with encoder increments (--format), not two trajectories"
-            )
-        if len(paths) != 2:
-            from odolab.numfmt import count
-
-            raise OdolabError(
-                f"evaluate takes GT EST (two trajectory files), got {count(len(paths), 'path')}; "
-                "use --format for runs"
-            )
-        if chunk_rows is not None and chunk_rows < 0:
-            raise OdolabError(
-                f"--chunk-rows is {chunk_rows}; expected a number of rows >= 1 (or 0)"
-            )
-        from odolab.cli.core import auto_chunk_rows
-
-        rows = auto_chunk_rows(*paths) if chunk_rows is None else chunk_rows
-        names = (str(paths[0]), str(paths[1]))
-        if rows > 0:
+        if chunk_rows_for(request) > 0:
             from odolab.cli._progress import progress_bar
-            from odolab.metrics.chunked import evaluate_files
 
             with progress_bar("evaluate", unit="rows") as report:
-                ev = evaluate_files(
-                    paths[0], paths[1], options, chunk_rows=rows, names=names, progress=report
-                )
+                one = evaluate_trajectories(request, progress=report)
         else:
-            ev = evaluate(
-                read_trajectory(paths[0]), read_trajectory(paths[1]), options, names=names
-            )
-        _write_json(ev.to_dict(), json_out)
-        _print_table([(paths[1].name, ev)])
+            one = evaluate_trajectories(request)
+        _write_json(one.to_dict(), json_out)
+        _print_table([(paths[1].name, one.evaluation)])
+        _print_notes([PLANAR_NOTE, *one.evaluation.notes])
         return
-    if chunk_rows is not None:
-        raise OdolabError(
-            "--chunk-rows reads two trajectory files (GT EST) in chunks; runs (--format) are "
-            "read whole, one per task"
-        )
     from odolab.cli._fleet import expand_runs, print_fleet, report_failures
-    from odolab.metrics.cluster import Cluster, MapReport
-    from odolab.metrics.runs import evaluate_runs
+    from odolab.metrics.cluster import Cluster
 
-    cluster = Cluster(scheduler=scheduler, workers=workers)
     runs = expand_runs(paths, fmt.value)
-    ro = _read_options(robot, joint_topic, joints, gt_topic)
-    rep = MapReport(cluster.describe())
     with _progress_bar("evaluate") as report:
-        outcomes = evaluate_runs(
+        done = evaluate_run_set(
+            request,
             runs,
-            fmt.value,
-            params=robot,
-            options=options,
-            read_options=ro,
-            cluster=cluster,
+            read_options=_read_options(robot, joint_topic, joints, gt_topic),
+            cluster=Cluster(scheduler=scheduler, workers=workers),
             progress=report,
-            report=rep,
         )
-    done = [o.result for o in outcomes if o.result is not None]
-    doc: dict[str, Any] = {"runs": [r.to_dict() for r in done]}
+    doc = done.to_dict()
     if results is not None:
         from odolab.fleet.table import fleet_rows, write_fleet_table
 
-        write_fleet_table(fleet_rows(outcomes), results)
-    if len(outcomes) > 20:
-        print_fleet(outcomes)
-    elif done:  # (every run failed: no empty table; report_failures lists them)
-        _print_table(list(zip(run_labels(done), [r.evaluation for r in done], strict=True)))
+        write_fleet_table(fleet_rows(done.outcomes), results)
+    if len(done.outcomes) > 20:
+        print_fleet(done.outcomes)
+    elif done.done:  # (every run failed: no empty table; report_failures lists them)
+        evs = [r.evaluation for r in done.done]
+        _print_table(list(zip(run_labels(done.done), evs, strict=True)))
+    _print_notes(done.notes)
     if nees:
         from odolab.cli.consistency import print_nees
 
@@ -286,7 +248,16 @@ def evaluate_cmd(
             paths, fmt.value, robot, "midpoint", nees_segment, fit_gt_yaw_offset=gt_yaw_offset
         )
     _write_json(doc, json_out)
-    report_failures(outcomes, rep, results)
+    report_failures(done.outcomes, done.report, results)
+
+
+def _print_notes(notes: list[str]) -> None:
+    """``note: ...`` lines under a table (the planar note, why a value is n/a)."""
+    from odolab.cli._console import console
+
+    con = console()
+    for note in notes:
+        con.print(f"note: {note}", markup=False, soft_wrap=True)
 
 
 def run_labels(runs: list[Any]) -> list[str]:
@@ -314,8 +285,15 @@ def _group_of(name: str) -> str:
 
 def _mean_rows(names: list[str], values: list[list[float]]) -> list[tuple[str, list[float]]]:
     """One mean row per folder with two or more runs, and one over all runs when there are
-    several folders (the means the docs quote)."""
+    several folders (the means the docs quote). A mean is over the runs where the value is
+    defined (NaN: undefined, e.g. drift per metre of a run that turns in place)."""
+    import math
+
     import numpy as np
+
+    def mean(xs: list[float]) -> float:  # over the runs where the value is defined
+        ok = [x for x in xs if not math.isnan(x)]
+        return float(np.mean(ok)) if ok else math.nan
 
     groups: dict[str, list[int]] = {}
     for i, n in enumerate(names):
@@ -327,17 +305,24 @@ def _mean_rows(names: list[str], values: list[list[float]]) -> list[tuple[str, l
             out.append(
                 (
                     label,
-                    [float(np.mean([values[i][k] for i in idx])) for k in range(len(values[0]))],
+                    [mean([values[i][k] for i in idx]) for k in range(len(values[0]))],
                 )
             )
     if len(groups) > 1 and len(names) > 1:
         out.append(
             (
                 f"mean, all ({len(names)} runs)",
-                [float(np.mean([v[k] for v in values])) for k in range(len(values[0]))],
+                [mean([v[k] for v in values]) for k in range(len(values[0]))],
             )
         )
     return out
+
+
+def _cell(value: float, decimals: int) -> str:
+    """A number for a table; an undefined one (NaN) is ``n/a`` (the notes say why)."""
+    import math
+
+    return "n/a" if math.isnan(value) else f"{value:.{decimals}f}"
 
 
 def _print_table(rows: list[tuple[str, Any]]) -> None:
@@ -347,10 +332,13 @@ def _print_table(rows: list[tuple[str, Any]]) -> None:
 
     from odolab.cli._console import console, print_table
 
-    table = Table(title="trajectory error (translation m, rotation deg)")
-    for col in ("run", "APE rmse", "RPE rmse", "RPE rot rmse", "end err", "drift %", "deg/m"):
+    table = Table(title="trajectory error, planar (translation m, rotation deg)")
+    for col in (
+        "run", "APE rmse", "RPE rmse", "RPE rot rmse", "end err", "drift %", "deg/m",
+        "rot % of turn",
+    ):  # fmt: skip
         table.add_column(col, justify="right")
-    decimals = (4, 4, 3, 4, 2, 3)
+    decimals = (4, 4, 3, 4, 2, 3, 2)
     values = [
         [
             ev.ape.rmse,
@@ -359,6 +347,7 @@ def _print_table(rows: list[tuple[str, Any]]) -> None:
             ev.drift.endpoint_error,
             ev.drift.translation_pct,
             ev.drift.rotation_deg_per_m,
+            ev.drift.rotation_pct_of_turn,
         ]
         for _, ev in rows
     ]
@@ -366,17 +355,56 @@ def _print_table(rows: list[tuple[str, Any]]) -> None:
     for i, (name, vals) in enumerate(zip(names, values, strict=True)):
         table.add_row(
             markup_text(name),
-            *(f"{v:.{d}f}" for v, d in zip(vals, decimals, strict=True)),
+            *(_cell(v, d) for v, d in zip(vals, decimals, strict=True)),
             end_section=i == len(rows) - 1,
         )
     for label, vals in _mean_rows(names, values) if values else []:
         table.add_row(
-            markup_text(label), *(f"{v:.{d}f}" for v, d in zip(vals, decimals, strict=True))
+            markup_text(label), *(_cell(v, d) for v, d in zip(vals, decimals, strict=True))
         )
     print_table(console(), table)
 
 
-@calibrate_app.command("lsq")
+class _SeveralAfterValidate(TyperCommand):
+    """``--validate D E F``: every path after ``--validate`` up to the next option is held out.
+
+    A shell glob (``--validate runs/circular/*``) gives ``--validate D E F``; click would hold
+    out only D and fit E and F with the other runs, without a word. Here the command line is
+    read as ``--validate D --validate E --validate F`` before click parses it."""
+
+    def parse_args(self, ctx: Any, args: list[str]) -> list[str]:
+        return super().parse_args(ctx, spread_option_values(args, "--validate"))
+
+
+def spread_option_values(args: list[str], option: str) -> list[str]:
+    """``args`` with each value after ``option`` (up to the next option, or ``--``) given its
+    own ``option``: ``[--validate, D, E]`` -> ``[--validate, D, --validate, E]``."""
+    out: list[str] = []
+    taking = False  # the previous value belonged to ``option``
+    i = 0
+    while i < len(args):
+        a = args[i]
+        if a == "--":
+            out.extend(args[i:])
+            break
+        if a == option and i + 1 < len(args):
+            out.extend((a, args[i + 1]))
+            taking = True
+            i += 2
+            continue
+        if a.startswith(option + "="):
+            out.append(a)
+            taking = True
+        elif taking and not (a.startswith("-") and len(a) > 1):
+            out.extend((option, a))
+        else:
+            taking = False
+            out.append(a)
+        i += 1
+    return out
+
+
+@calibrate_app.command("lsq", cls=_SeveralAfterValidate)
 def calibrate_lsq_cmd(
     runs: Annotated[list[Path], typer.Argument(help="Runs (files or folders) with ground truth.")],
     output: Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")],
@@ -386,7 +414,11 @@ def calibrate_lsq_cmd(
     params: ParamsOpt = None,
     validate: Annotated[
         list[Path] | None,
-        typer.Option("--validate", help="Held-out runs to compare nominal vs calibrated."),
+        typer.Option(
+            "--validate",
+            help="Held-out runs (files, folders, quoted globs) to compare nominal vs calibrated: "
+            "every path after --validate up to the next option (a shell glob works).",
+        ),
     ] = None,
     segment: Annotated[float, typer.Option(help="Segment length (s) of the residuals.")] = 2.0,
     no_gt_yaw_offset: Annotated[
@@ -414,48 +446,58 @@ def calibrate_lsq_cmd(
         ),
     ] = None,
 ) -> None:
-    """Least-squares kinematic model (radii and track width, or ICRs) from runs with ground truth."""
-    from dataclasses import replace
+    """Least-squares kinematic model (radii and track width, or ICRs) from runs with ground truth.
 
-    from odolab.calibration.lsq import LsqOptions, calibrate_lsq_files
+    The output lists the runs fitted and the runs held out (--validate)."""
+    from odolab.app.evaluate import LsqRequest, calibrate_lsq_runs
     from odolab.cli._fleet import expand_runs
-    from odolab.errors import OdolabError
     from odolab.metrics.cluster import Cluster
     from odolab.params import load_params, save_params
 
-    cluster = Cluster(scheduler=scheduler, workers=workers)
-    if ground_truth is not None:  # checked before any run is read
-        if len(runs) != 1 or validate:
-            raise OdolabError(
-                f"--ground-truth is one run's ground truth; expected exactly one run and no "
-                f"--validate, got {len(runs)} run(s)" + (" and --validate" if validate else "")
-            )
-        if not ground_truth.is_file():
-            raise OdolabError(f"--ground-truth {ground_truth}: no such file")
-    if any(not p.exists() for p in [*runs, *(validate or [])]):  # glob patterns
+    held = list(validate or [])
+    if any(not p.exists() for p in [*runs, *held]):  # glob patterns
         runs = expand_runs(runs, fmt.value)
-        validate = expand_runs(validate, fmt.value) if validate else validate
+        held = expand_runs(held, fmt.value) if held else held
+    request = LsqRequest(
+        runs=tuple(runs),
+        fmt=fmt.value,
+        params=params,
+        held_out=tuple(held),
+        segment_s=segment,
+        fit_gt_yaw_offset=not no_gt_yaw_offset,
+        model=model.value,
+        ground_truth=ground_truth,
+    )
     robot = load_params(params) if params else None
-    ro = _read_options(robot, joint_topic, joints, gt_topic)
-    if ground_truth is not None:
-        ro = replace(ro, ground_truth=str(ground_truth))
     with _progress_bar("calibrate") as report:
-        result = calibrate_lsq_files(
-            runs,
-            fmt.value,
-            nominal=robot,
-            validate=validate or [],
-            options=LsqOptions(
-                segment_s=segment, fit_gt_yaw_offset=not no_gt_yaw_offset, model=model.value
-            ),
-            read_options=ro,
+        result = calibrate_lsq_runs(
+            request,
+            read_options=_read_options(robot, joint_topic, joints, gt_topic),
+            cluster=Cluster(scheduler=scheduler, workers=workers),
             workers=workers,
             progress=report,
-            cluster=cluster,
         )
-    save_params(output, result.params, provenance=result.provenance)
+    save_params(output, result.calibration.params, provenance=result.calibration.provenance)
     _write_json(result.to_dict(), json_out)
-    _print_calibration(result, output)
+    _print_calibration(result.calibration, output)
+    _print_run_sets(result.fitted, result.held_out, result.params_source)
+
+
+def _print_run_sets(fitted: list[Path], held: list[Path], source: str) -> None:
+    """Which run files were fitted and which held out (a shell glob cannot hide one)."""
+    from odolab.numfmt import count
+
+    lines = [f"fitted: {count(len(fitted), 'run')}: " + ", ".join(str(p) for p in fitted)]
+    if held:
+        lines.append(f"held out: {count(len(held), 'run')}: " + ", ".join(str(p) for p in held))
+    else:
+        lines.append("held out: none (--validate)")
+    lines.append(source)
+    from odolab.cli._console import console
+
+    con = console()
+    for line in lines:
+        con.print(line, markup=False, soft_wrap=True)
 
 
 def _print_calibration(result: Any, output: Path) -> None:
@@ -503,9 +545,9 @@ def _print_calibration(result: Any, output: Path) -> None:
     for i, (name, x) in enumerate([*rows, *means]):
         val.add_row(
             markup_text(name),
-            f"{x[0]:.4f} -> {x[1]:.4f}",
-            f"{x[2]:.2f} -> {x[3]:.2f}",
-            f"{x[4]:.3f} -> {x[5]:.3f}",
+            f"{_cell(x[0], 4)} -> {_cell(x[1], 4)}",
+            f"{_cell(x[2], 2)} -> {_cell(x[3], 2)}",
+            f"{_cell(x[4], 3)} -> {_cell(x[5], 3)}",
             end_section=i == len(rows) - 1,
         )
     print_table(console, val)
