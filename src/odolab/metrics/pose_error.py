@@ -225,8 +225,43 @@ def consecutive_by_path_from(
     return ids[:k], current
 
 
+#: Above this many pairs expected, :func:`_consecutive` leaves the path to the compiled loop.
+_NUMPY_PAIRS_MAX = 20_000
+
+
+def _consecutive(steps: FloatArray, delta: float) -> IntArray | None:
+    """:func:`consecutive_by_steps_from` from pose 0, in numpy (``steps[k]``: from pose ``k``
+    to ``k + 1``); loading a compiled kernel (numba's CPU target, which imports scipy.linalg)
+    was half a second of ``odolab evaluate``. Each stretch's running sum is ``np.cumsum`` of its
+    steps: the kernel's additions, in its order, from 0.0, so the kernel's indexes. One call
+    per pair: None where more than :data:`_NUMPY_PAIRS_MAX` are expected (the kernel's turn)."""
+    n = steps.shape[0] + 1
+    if not float(np.sum(steps)) / delta <= _NUMPY_PAIRS_MAX:  # (also: nan, inf)
+        return None
+    ids = [0]
+    start = 0  # the stretch starts at pose ``start``: its steps are steps[start:]
+    window = 256
+    while start < n - 1:
+        run = np.cumsum(steps[start : start + window])
+        k = int(np.searchsorted(run, delta, side="left"))  # first running sum >= delta
+        if k < run.size:
+            start += k + 1
+            ids.append(start)
+            window = max(64, 2 * (k + 1))
+        elif start + window >= n - 1:
+            break
+        else:
+            window *= 4
+    return np.asarray(ids, dtype=np.int64)
+
+
 def _consecutive_by_path(x: FloatArray, y: FloatArray, delta: float) -> IntArray:
-    return consecutive_by_path_from(x, y, delta, 0.0, True)[0]
+    if x.shape[0] < 2:
+        return np.zeros(x.shape[0], dtype=np.int64)
+    dx = np.diff(x)
+    dy = np.diff(y)
+    ids = _consecutive(np.sqrt(dx * dx + dy * dy), delta)  # the kernel's steps
+    return consecutive_by_path_from(x, y, delta, 0.0, True)[0] if ids is None else ids
 
 
 @njit(cache=True)
@@ -307,7 +342,8 @@ def pair_indices(
             i, j = pairs[:, 0].copy(), pairs[:, 1].copy()
         else:
             steps = np.concatenate((np.zeros(1), np.abs(wrap_angle(np.diff(traj.heading)))))
-            ids = consecutive_by_steps_from(steps, rad, 0.0, True)[0]
+            found = _consecutive(steps[1:], rad) if n > 1 else None
+            ids = consecutive_by_steps_from(steps, rad, 0.0, True)[0] if found is None else found
             i, j = ids[:-1], ids[1:]
     elif all_pairs:
         pairs = all_pairs_by_path(path_distances(traj), float(delta), float(delta) * rel_tol)
