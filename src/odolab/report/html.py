@@ -440,9 +440,10 @@ def _evidence_plans(evidence: ModelEvidence | None) -> list[_Plan]:
         plans.append(
             _Plan(
                 "model_comparison",
-                "Held-out end-point error per kinematic model",
-                "Mean over the held-out runs with its 95 % bootstrap CI; green: the recommended "
-                "model (the simplest that is not worse than the best).",
+                "Held-out segment error per kinematic model",
+                "Mean over the held-out segments (1 m of path or 90 degrees of turn each) with "
+                "its 95 % bootstrap CI; green: the recommended model (the simplest that is not "
+                "worse than the best; none when the data cannot separate them).",
                 partial(plot_model_comparison, cmp),
                 "models",
                 (6.0, 3.6),
