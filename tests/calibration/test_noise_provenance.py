@@ -81,3 +81,25 @@ def test_umbmark_carries_the_notebooks_noise() -> None:
     assert got.noise.k_left == pytest.approx(split.k_left.value * q_d, rel=1e-9)
     q_r = q_d * NOM.track_width / got.track_width
     assert got.noise.k_scrub == pytest.approx(split.k_scrub.value / q_r, rel=1e-9)  # type: ignore[operator]
+
+
+def test_the_cli_says_each_constant_and_umbmark_writes_them(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from dataclasses import replace
+
+    lab = lab_trials(3)  # one robot: the squares driven with the lab trials' parameters
+    squares = [replace(t, params=lab[0].params) for t in _square_trials(_truth(1.12, 1.01), runs=2)]
+    db = _db(tmp_path, lab + squares)
+    out = tmp_path / "umb.toml"
+    assert main(["calibrate", "umbmark", "-p", "jaguar-lite", "--db", str(db), "-o", str(out)]) == 0
+    text = " ".join(capsys.readouterr().out.split())  # the console may wrap lines
+    assert "[noise] k_left = " in text and "k_scrub = " in text and "rad [" in text
+    got = load_params(out)
+    assert got.noise is not None and got.noise.k_scrub > 0
+    fit = tomllib.loads(out.read_text())["provenance"]["noise_fit"]
+    assert all(t.startswith("rotation") for t in fit["k_scrub"]["trials"])
+    with Notebook(db) as nb:
+        version = nb.params_versions("jaguar-lite")[-1]
+    assert set(fit["k_left"]["trials"]) <= set(version.source_trials)
+    assert any(t.startswith("sq-") for t in version.source_trials)

@@ -282,6 +282,9 @@ def calibrate(nb: Notebook, request: CalibrationRequest) -> CalibrationOutcome:
             )
         base = choose_base(nb, robot, squares, request.params, request.params_source)
         umb, how = umbmark_from_squares(squares, base.params, request.side)
+        from odolab.analysis import analyze_trials  # [noise]: the selection's straight runs, turns
+
+        umb = umb.with_noise(analyze_trials(sel.trials))
         result, used = umb.calibration, squares
     version = None
     if request.record:

@@ -204,6 +204,11 @@ def _from_notebook(
     con = _console()
     _say(con, outcome.selection.describe())
     _say(con, f"starting from {outcome.base.reason}")
+    from odolab.calibration.ratios import describe_noise
+
+    noise = describe_noise(outcome.result)  # each constant, its interval, or why unknown
+    if noise:
+        _say(con, noise)
     return outcome
 
 
