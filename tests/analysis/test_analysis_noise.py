@@ -148,3 +148,11 @@ def test_a_missing_kind_of_motion_leaves_its_constant_unknown() -> None:
     )
     d = no_straight.to_dict()
     assert d["k_left"]["value"] is None and "straight runs" in d["k_left"]["unknown"]
+
+
+def test_an_unbounded_interval_is_zero_to_inf_not_an_overflow() -> None:
+    from odolab.analysis.noise import _wald95
+
+    assert _wald95(-8.0, 1e4) == (0.0, float("inf"))  # math.exp(19592) raised OverflowError
+    lo, hi = _wald95(-8.0, 0.1)
+    assert lo == pytest.approx(np.exp(-8 - 0.196), rel=1e-3) and hi > lo

@@ -157,12 +157,6 @@ def test_excluded_trials_count_nowhere(tmp_path: Path) -> None:
     assert table_of(doc["table1"]) == after != before
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=OverflowError,
-    reason="analysis/noise.py fit_wheel_noise: math.exp of a huge CI bound (k_left's, from few "
-    "translations of one robot) overflows; a library bug, not the faces'",
-)
 def test_a_noise_fit_that_cannot_bound_its_constant_is_no_traceback(tmp_path: Path) -> None:
     gen = make_notebook(tmp_path, 3)
     from odolab.app.report import report_results

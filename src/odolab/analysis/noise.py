@@ -207,6 +207,17 @@ class WheelNoise:
         }
 
 
+def _wald95(u: float, se: float) -> tuple[float, float]:
+    """95 % Wald interval of ``exp(u)`` from the log-scale standard error ``se``; a bound past
+    what a float holds (a constant the trials barely bound) is 0 or inf, not an OverflowError."""
+    half = _Z95 * se
+    lo, hi = u - half, u + half
+    return (
+        math.exp(lo) if lo > -745.0 else 0.0,
+        math.exp(hi) if hi < 709.0 else math.inf,
+    )
+
+
 def _fit_sum(records: list[NoiseRecord]) -> tuple[float, float, tuple[float, float]]:
     """Fit one ``k = k_r + k_l`` (k_r = k_l = k/2); returns (k, loglik, ci95)."""
     from scipy import optimize
@@ -228,7 +239,7 @@ def _fit_sum(records: list[NoiseRecord]) -> tuple[float, float, tuple[float, flo
     u = float(res.x[0])
     h = float(np.asarray(approx_hess3(np.array([u]), nll))[0, 0])
     se = 1.0 / math.sqrt(h) if h > 0 else math.inf
-    return math.exp(u), -float(res.fun), (math.exp(u - _Z95 * se), math.exp(u + _Z95 * se))
+    return math.exp(u), -float(res.fun), _wald95(u, se)
 
 
 def fit_wheel_noise(records: list[NoiseRecord]) -> WheelNoise:
@@ -291,8 +302,8 @@ def fit_wheel_noise(records: list[NoiseRecord]) -> WheelNoise:
         n_trials=len(records),
         k_right=k_r,
         k_left=k_l,
-        k_right_ci95=(math.exp(u[0] - _Z95 * se[0]), math.exp(u[0] + _Z95 * se[0])),
-        k_left_ci95=(math.exp(u[1] - _Z95 * se[1]), math.exp(u[1] + _Z95 * se[1])),
+        k_right_ci95=_wald95(float(u[0]), float(se[0])),
+        k_left_ci95=_wald95(float(u[1]), float(se[1])),
         k_sum=k_sum,
         k_sum_ci95=k_sum_ci,
         identifiable=True,
