@@ -43,8 +43,8 @@ __all__ = [
 
 #: What every evaluation says about its dimensions (the CLI prints it, the JSON carries it).
 PLANAR_NOTE = (
-    "planar: x, y and heading only; z, roll and pitch are not read, so a trajectory that "
-    "leaves the plane (a hand-held camera) has a smaller APE and RPE here than evo's 3-D ones"
+    "planar: x, y and heading only; z, roll and pitch are not read, so where a trajectory "
+    "leaves the plane (a hand-held camera) APE and RPE differ from evo's 3-D ones"
 )
 
 
