@@ -262,12 +262,15 @@ def test_bad_json_is_refused_and_changes_nothing(tmp_path: Path) -> None:
         deep.write_text('{"trials": ' + "[" * 100_000 + "]" * 100_000 + "}")
         with pytest.raises(StoreError, match=r"deep\.json: JSON nested too deeply"):
             nb.import_json(deep)
-        with pytest.raises(StoreError, match=r"trials\[0\]: trial 'T00000' is already"):
+        # every key's type is checked first (reading the file), then against the notebook
+        with pytest.raises(StoreError, match=r"trials\[0\], key 'predicted_x': 'abc'; expected"):
             nb.import_json(tmp_path / "d.json")
+        with pytest.raises(StoreError, match=r"trials\[0\], key 'trial_id': 'T00000' is already"):
+            nb.import_json(tmp_path / "a.json")
     assert _dump(db) == before
     with Notebook(tmp_path / "fresh.db") as nb:
         with pytest.raises(
-            StoreError, match=r"trials\[0\]: key 'predicted_x' is 'abc'; expected a number"
+            StoreError, match=r"trials\[0\], key 'predicted_x': 'abc'; expected a finite number"
         ):
             nb.import_json(tmp_path / "d.json")
         assert nb.info().trials == 0
@@ -288,7 +291,9 @@ def test_json_duplicate_inside_the_file_says_so(tmp_path: Path) -> None:
     doc["trials"][3]["trial_id"] = doc["trials"][1]["trial_id"]
     (tmp_path / "dup.json").write_text(json.dumps(doc))
     with Notebook(tmp_path / "b.db") as b:  # empty: "already in the notebook" would be wrong
-        with pytest.raises(StoreError, match=r"trials\[3\]: .* is a duplicate of trials\[1\]"):
+        with pytest.raises(
+            StoreError, match=r"trials\[3\], key 'trial_id': .* is a duplicate of trials\[1\]"
+        ):
             b.import_json(tmp_path / "dup.json")
         assert not b.trial_ids()  # nothing imported
 

@@ -232,14 +232,15 @@ class _Row:
         assert value is not None
         return value
 
-    def integer(self, column: str, *, minimum: int = 0) -> int | None:
+    def integer(self, column: str, *, minimum: int = 0, maximum: int = 2**62) -> int | None:
         value = self.number(column)
         if value is None:
             return None
-        if not value.is_integer() or value < minimum:
+        if not value.is_integer() or not minimum <= value <= maximum:
             raise self.fail(
                 column,
-                f"{quote_input(self.cells[column].strip())}; expected a whole number >= {minimum}",
+                f"{quote_input(self.cells[column].strip())}; expected a whole number from "
+                f"{minimum} to {maximum}",
             )
         return int(value)
 
@@ -393,7 +394,7 @@ def _params_by_value(row: _Row, robot: str, version: int | None, known: bool) ->
             track_width=values["track_width_m"],
             ticks_per_rev=values["ticks_per_rev"],
             encoder_modulus=_plausible(
-                row, "encoder_modulus", row.integer("encoder_modulus", minimum=2)
+                row, "encoder_modulus", row.integer("encoder_modulus", minimum=2, maximum=2**63 - 1)
             ),
             model=kinematic,
             noise=random,
@@ -408,7 +409,9 @@ def _params(
     """Parameters by version, by value, or both (then they must agree); the known version."""
     robot = row.required_text("robot")
     version = row.integer("params_version", minimum=1)
-    row.integer("encoder_modulus", minimum=2)  # checked even when the version decides
+    row.integer(
+        "encoder_modulus", minimum=2, maximum=2**63 - 1
+    )  # checked even when the version decides
     stored = lookup_params(robot, version) if version is not None else None
     by_value = any(row.given(c) for c in (*_PARAM_COLUMNS, *_TABLE_COLUMNS))
     if stored is not None and not by_value:

@@ -24,8 +24,10 @@ from __future__ import annotations
 
 import base64
 import binascii
+import datetime as _dt
 import json
-from collections.abc import Mapping, Sequence
+import math
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -33,8 +35,9 @@ from typing import Any
 from odolab.errors import ParamsError, StoreError
 from odolab.params import RobotParams, params_from_mapping
 from odolab.store.codec import EncodedLog, decode_log
-from odolab.store.records import PARAMS_FIELDS, TRIAL_COLUMNS, params_tables
-from odolab.trials import EncoderLog
+from odolab.store.records import HISTORY_KEYS, PARAMS_FIELDS, TRIAL_COLUMNS, params_tables
+from odolab.text import quote_input
+from odolab.trials import TRIAL_FIELDS, EncoderLog, FieldType, MotionKind, TrialStatus
 from odolab.writing import write_text_file
 
 __all__ = [
@@ -128,6 +131,134 @@ def _need(obj: Any, keys: Sequence[str], where: str) -> dict[str, Any]:
     return obj
 
 
+#: The largest integer SQLite stores (a parameter version, an encoder modulus, a count).
+_MAX_INT = 2**63 - 1
+
+
+def _bad(where: str, key: str, value: object, expected: str) -> StoreError:
+    return StoreError(f"{where}, key {key!r}: {quote_input(value)}; expected {expected}")
+
+
+def _text(item: dict[str, Any], key: str, where: str, *, null: bool = False) -> None:
+    v = item[key]
+    if not (isinstance(v, str) or (null and v is None)):
+        raise _bad(where, key, v, "text" + (" or null" if null else ""))
+
+
+def _integer(item: dict[str, Any], key: str, where: str, low: int, high: int = _MAX_INT) -> None:
+    """An integer from ``low`` to ``high`` (an integral float such as 3.0 is taken as 3)."""
+    v = item[key]
+    if isinstance(v, float) and v.is_integer() and low <= v <= high:
+        v = item[key] = int(v)
+    if isinstance(v, bool) or not isinstance(v, int) or not low <= v <= high:
+        raise _bad(where, key, v, f"a whole number from {low} to {high}")
+
+
+def _number(item: dict[str, Any], key: str, where: str, *, null: bool = True) -> None:
+    v = item[key]
+    if v is None and null:
+        return
+    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+        raise _bad(where, key, v, "a finite number" + (" or null" if null else ""))
+
+
+def _stamp(item: dict[str, Any], key: str, where: str) -> None:
+    v = item[key]
+    try:
+        _dt.datetime.fromisoformat(v)
+    except (TypeError, ValueError):
+        raise _bad(where, key, v, "a date and time (ISO 8601, as exported)") from None
+
+
+def _readings(item: dict[str, Any], key: str, where: str) -> None:
+    v = item[key]
+    if v is None:
+        item[key] = {}
+        return
+    if not isinstance(v, dict):
+        raise _bad(where, key, v, "an object of readings (name: number)")
+    for name, reading in v.items():
+        if isinstance(reading, bool) or not isinstance(reading, int | float):
+            raise StoreError(
+                f"{where}, key {key!r}: reading {quote_input(name)} is {quote_input(reading)}; "
+                "expected a number"
+            )
+
+
+def _check_trial_keys(rec: dict[str, Any], where: str) -> None:
+    """Every key of one ``trials[i]`` entry has its type (values are range-checked on import by
+    :func:`odolab.trials.validate_trial`). ``created`` and ``updated`` may be left out (the
+    import's time), or one given for both."""
+    _number(rec, "true_x", where)  # first: it decides whether the true pose is there
+    for f in TRIAL_FIELDS:
+        if f.name == "params_version":
+            _integer(rec, f.name, where, 1, int(f.high or _MAX_INT))
+        elif f.type is FieldType.TEXT:
+            if rec[f.name] is None and f.name == "notes":
+                rec[f.name] = ""
+            _text(rec, f.name, where, null=not f.required)
+        elif f.type is FieldType.JSON:
+            _readings(rec, f.name, where)
+        else:  # the predicted pose is stored whole (NOT NULL), the true pose whole or not at all
+            true = f.name.startswith("true_") and rec.get("true_x") is not None
+            whole = f.name.startswith("predicted_") or true
+            if true and rec[f.name] is None:
+                raise _bad(where, f.name, None, "a finite number (true_x is given: the whole pose)")
+            _number(rec, f.name, where, null=not (f.required or whole))
+    for key, enum in (("kind", MotionKind), ("status", TrialStatus)):
+        if rec[key] not in {e.value for e in enum}:
+            raise _bad(where, key, rec[key], "one of " + ", ".join(e.value for e in enum))
+    stamps = [k for k in ("created", "updated") if rec.get(k) is not None]
+    for k in stamps:
+        _stamp(rec, k, where)
+    if len(stamps) == 1:  # one given: it stands for both
+        rec["created"] = rec["updated"] = rec[stamps[0]]
+    history = rec.get("measurement_history")
+    if history is None:
+        rec["measurement_history"] = []
+    elif not isinstance(history, list):
+        raise _bad(where, "measurement_history", history, "a list (or null)")
+    for j, h in enumerate(rec["measurement_history"]):
+        at = f"{where}.measurement_history[{j}]"
+        _need(h, HISTORY_KEYS, at)
+        _stamp(h, "replaced", at)
+        _text(h, "instrument", at)
+        for k in HISTORY_KEYS:
+            if k not in ("replaced", "instrument", "raw"):
+                _number(h, k, at)
+        _readings(h, "raw", at)
+
+
+def _check_version_keys(pv: dict[str, Any], where: str) -> None:
+    _text(pv, "robot", where)
+    _integer(pv, "version", where, 1)
+    _text(pv, "method", where)
+    _stamp(pv, "created", where)
+    if pv["notes"] is None:
+        pv["notes"] = ""
+    _text(pv, "notes", where)
+    src = pv["source_trials"]
+    if not isinstance(src, list) or not all(isinstance(t, str) for t in src):
+        raise _bad(where, "source_trials", src, "a list of trial ids")
+    for key in ("model", "noise"):
+        if not isinstance(pv.get(key), dict | None):
+            raise _bad(where, key, pv[key], "an object or null")
+
+
+def _check_campaign_keys(c: dict[str, Any], where: str) -> None:
+    for key in ("name", "kind", "terrain"):
+        _text(c, key, where)
+    for key in ("operator", "notes"):
+        if c[key] is None:
+            c[key] = ""
+        _text(c, key, where)
+    if c["date"] is not None:
+        try:
+            _dt.date.fromisoformat(c["date"])
+        except (TypeError, ValueError):
+            raise _bad(where, "date", c["date"], "a date YYYY-MM-DD or null") from None
+
+
 def _check_ranges(doc: NotebookDocument, source: str) -> None:
     """The range checks every other entry path applies: parameters, measured positions, and a
     translation's commanded distance (``odolab trials add`` and CSV import refuse the same)."""
@@ -159,6 +290,13 @@ def _check_ranges(doc: NotebookDocument, source: str) -> None:
                     raise StoreError(f"{source}: trials[{i}]: {err}") from err
 
 
+_CHECKS: dict[str, Callable[[dict[str, Any], str], None]] = {
+    "params_versions": _check_version_keys,
+    "campaigns": _check_campaign_keys,
+    "trials": _check_trial_keys,
+}
+
+
 def read_notebook_json(path: str | Path) -> NotebookDocument:
     """Read and shape-check a notebook JSON file (values are checked on import)."""
     p = Path(path)
@@ -184,8 +322,11 @@ def read_notebook_json(path: str | Path) -> NotebookDocument:
         items = doc[key]
         if not isinstance(items, list):
             raise StoreError(f"{p}: {key!r} must be a list")
+        check = _CHECKS[key]
         for i, item in enumerate(items):
-            dest.append(_need(item, keys, f"{p}: {key}[{i}]"))
+            where = f"{p}: {key}[{i}]"
+            check(_need(item, keys, where), where)
+            dest.append(item)
     _check_ranges(out, str(p))
     for i, rec in enumerate(out.trials):
         log = rec["encoder_log"]
@@ -193,6 +334,11 @@ def read_notebook_json(path: str | Path) -> NotebookDocument:
             continue
         where = f"{p}: trials[{i}].encoder_log"
         _need(log, _LOG_KEYS, where)
+        _integer(log, "n", where, 0)
+        if log["modulus"] is not None:
+            _integer(log, "modulus", where, 2)
+        for key in ("codec", "t", "left_ticks", "right_ticks"):
+            _text(log, key, where)
         try:
             enc = EncodedLog(
                 int(log["n"]),

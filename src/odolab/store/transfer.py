@@ -25,6 +25,7 @@ from odolab.store.jsonio import (
     write_notebook_json,
 )
 from odolab.store.records import HISTORY_KEYS, NUMERIC_COLUMNS, PARAMS_FIELDS, trial_from_record
+from odolab.text import quote_input
 from odolab.trials import Trial, validate_trial
 
 if TYPE_CHECKING:
@@ -145,10 +146,13 @@ def _new_params_versions(nb: Notebook, doc: NotebookDocument, source: str) -> li
 def _new_campaigns(nb: Notebook, doc: NotebookDocument, source: str) -> list[dict[str, Any]]:
     """The file's campaigns the notebook lacks; refuse ones that differ."""
     new: list[dict[str, Any]] = []
-    for c in doc.campaigns:
+    for i, c in enumerate(doc.campaigns):
         row = nb._one("SELECT * FROM campaigns WHERE name = ?", (c["name"],))
         if row is None:
-            nb._check_campaign(c["name"], c["kind"], c["terrain"])
+            try:
+                nb._check_campaign(c["name"], c["kind"], c["terrain"])
+            except StoreError as err:
+                raise StoreError(f"{source}: campaigns[{i}]: {err}") from err
             new.append(c)
         elif (row["kind"], row["terrain"]) != (c["kind"], c["terrain"]):
             raise StoreError(
@@ -166,7 +170,10 @@ def _params_for(
             return params_of_version(pv, where)
     params = nb._lookup_params(*key)
     if params is None:
-        raise StoreError(f"{where}: unknown parameter version {key[1]} of {key[0]!r}")
+        raise StoreError(
+            f"{where}, key 'params_version': no parameter version {key[1]} of robot "
+            f"{quote_input(key[0])} in the file or the notebook"
+        )
     return params
 
 
@@ -209,13 +216,18 @@ def _incoming_trials(
         tid = rec["trial_id"]
         if tid in first_in_file:
             raise StoreError(
-                f"{where}: trial {tid!r} is a duplicate of trials[{first_in_file[tid]}]"
+                f"{where}, key 'trial_id': {quote_input(tid)} is a duplicate of "
+                f"trials[{first_in_file[tid]}]"
             )
         if tid in known_ids:
-            raise StoreError(f"{where}: trial {tid!r} is already in the notebook")
+            raise StoreError(
+                f"{where}, key 'trial_id': {quote_input(tid)} is already in the notebook"
+            )
         first_in_file[tid] = i
         if rec["campaign"] not in campaign_names:
-            raise StoreError(f"{where}: unknown campaign {rec['campaign']!r}")
+            raise StoreError(
+                f"{where}, key 'campaign': unknown campaign {quote_input(rec['campaign'])}"
+            )
         trial, version = _trial_of(nb, doc, rec, where)
         out.trials.append(trial)
         out.versions.append(version)
