@@ -125,8 +125,12 @@ def validate_cmd(
         from odolab.cli._output import check_output_path
 
         check_output_path(plot, "figure")
+        from odolab.cli._output import OutputError
+        from odolab.writing import replacing_path
+
         fig = validation_figure(result)
-        fig.savefig(plot, dpi=120)
+        with replacing_path(plot, what="figure", error=OutputError) as tmp:
+            fig.savefig(tmp, dpi=120, format=plot.suffix.lstrip(".").lower() or "png")
         plt.close(fig)
     if json_out is not None:
         from odolab.cli._output import write_output_text

@@ -134,12 +134,9 @@ def save_camera(
     doc: dict[str, Any] = {"camera": camera.to_dict()}
     if provenance:
         doc["provenance"] = provenance
-    try:
-        p.parent.mkdir(parents=True, exist_ok=True)
-        p.write_text(tomli_w.dumps(doc), encoding="utf-8")
-    except OSError as err:
-        raise TrackingError(f"{p}: cannot write the camera file ({err.strerror or err})") from err
-    return p
+    from odolab.writing import write_text_file
+
+    return write_text_file(p, tomli_w.dumps(doc), what="camera file", error=TrackingError)
 
 
 @dataclass(frozen=True)
@@ -197,9 +194,6 @@ def write_floor_csv(path: str | Path, markers: list[FloorMarker]) -> Path:
     """Write FLOOR.csv."""
     p = Path(path)
     rows = ["id,x,y,yaw,size"] + [f"{m.id},{m.x!r},{m.y!r},{m.yaw!r},{m.size!r}" for m in markers]
-    try:
-        p.parent.mkdir(parents=True, exist_ok=True)
-        p.write_text("\n".join(rows) + "\n", encoding="utf-8")
-    except OSError as err:
-        raise TrackingError(f"{p}: cannot write the floor table ({err.strerror or err})") from err
-    return p
+    from odolab.writing import write_text_file
+
+    return write_text_file(p, "\n".join(rows) + "\n", what="floor table", error=TrackingError)
