@@ -103,36 +103,34 @@ def _print_comparison(result: ModelComparison) -> None:
     from rich.markup import escape
     from rich.table import Table
 
+    from odolab.calibration.compare import NOT_WORSE
+
     console = Console()
     how = "cross-validated" if result.cross_validated else "held out"
     table = Table(
         title=f"kinematic models: {len(result.train)} training runs, "
-        f"{len(result.held_out)} runs {how} (mean, 95 % CI)"
+        f"{len(result.held_out)} runs {how}; {result.segments} held-out segments (mean, 95 % CI)"
     )
-    for col in ("model", "k", "end err (m)", "RPE (m)", "drift %", "deg/m", "dBIC", "vs best"):
+    columns = ("model", "k", "segment err (m)", "vs best", "verdict", "end err (m)", "RPE (m)")
+    for col in (*columns, "drift %", "dBIC"):
         table.add_column(col, justify="right")
     for s in result.scores:
         if s.problem is not None:
-            table.add_row(s.model, str(s.n_params), escape(s.problem), "", "", "", "", "")
+            table.add_row(s.model, str(s.n_params), escape(s.problem), *[""] * 6)
             continue
         h = s.held_out
-        cells = [
-            _ci(h[k].value, h[k].low, h[k].high, f)
-            for k, f in (
-                ("endpoint_error", ".4f"),
-                ("rpe_rmse", ".4f"),
-                ("drift_pct", ".2f"),
-                ("drift_deg_per_m", ".3f"),
-            )
-        ]
-        d = s.delta_bic
-        r = s.ratio_to_best
+        g, r, d = s.segment_error, s.ratio_to_best, s.delta_bic
         table.add_row(
             s.model,
             str(s.n_params),
-            *cells,
-            _ci(d.value, d.low, d.high, ".1f") if d else "",
+            _ci(g.value, g.low, g.high, ".4f") if g else "",
             _ci(r.value, r.low, r.high, ".3f") if r else "",
+            s.verdict,
+            *[
+                _ci(h[k].value, h[k].low, h[k].high, f)
+                for k, f in (("endpoint_error", ".4f"), ("rpe_rmse", ".4f"), ("drift_pct", ".2f"))
+            ],
+            _ci(d.value, d.low, d.high, ".1f") if d else "",
         )
     console.print(table)
     for s in result.scores:
@@ -142,7 +140,16 @@ def _print_comparison(result: ModelComparison) -> None:
             f"{k} = {v:.6g} ± {s.fit.stderr[k]:.2g}" for k, v in s.fit.values.items()
         )
         console.print(f"{s.model}: {values}")
-    console.print(f"recommended: [bold]{result.recommended}[/bold] ({escape(result.reason)})")
+    console.print(
+        "decided on the held-out segments (1 m of path or 90 deg of turn each): the simplest "
+        f"model whose error ratio to the best has its 95 % CI within 1 + {NOT_WORSE:g}",
+        highlight=False,
+    )
+    if result.decided:
+        console.print(f"recommended: [bold]{result.recommended}[/bold] ({escape(result.reason)})")
+    else:
+        why = escape(result.reason.removeprefix("undecided: "))
+        console.print(f"recommended: [bold]undecided[/bold], no model ({why})")
 
 
 @sim_app.command("questions")

@@ -28,7 +28,7 @@ import numpy as np
 
 from odolab import numfmt
 from odolab.analysis.questions import ExperimentResult
-from odolab.calibration.compare import Estimate, ModelComparison
+from odolab.calibration.compare import UNDECIDED, Estimate, ModelComparison
 from odolab.metrics.consistency import DOF, RunNees, nees_summary
 from odolab.report.view import Cell
 
@@ -57,25 +57,35 @@ def _ci(e: Estimate | None, fmt: str) -> str:
     return f"{e.value:{fmt}} [{e.low:{fmt}}, {e.high:{fmt}}]"
 
 
+def _recommendation_html(result: ModelComparison) -> str:
+    if result.decided:
+        return f"<p><b>Recommended: {escape(result.recommended)}</b> ({escape(result.reason)}).</p>"
+    why = result.reason.removeprefix(f"{UNDECIDED}: ")
+    return f"<p><b>Undecided: no model recommended</b> ({escape(why)}).</p>"
+
+
 def model_comparison_html(result: ModelComparison) -> str:
-    """An HTML table of every model's held-out scores and the recommendation."""
+    """An HTML table of every model's held-out scores and the recommendation (or why there is
+    none: the data cannot separate the models)."""
     how = "cross-validated over" if result.cross_validated else "held out:"
     rows = []
     for s in result.scores:
         if s.problem is not None:
             rows.append(
                 f"<tr><td>{escape(s.model)}</td><td>{s.n_params}</td>"
-                f'<td colspan="6">{escape(s.problem)}</td></tr>'
+                f'<td colspan="8">{escape(s.problem)}</td></tr>'
             )
             continue
         h = s.held_out
         cells = [
+            _ci(s.segment_error, ".4f"),
+            _ci(s.ratio_to_best, ".3f"),
+            s.verdict,
             _ci(h["endpoint_error"], ".4f"),
             _ci(h["rpe_rmse"], ".4f"),
             _ci(h["drift_pct"], ".2f"),
             _ci(h["drift_deg_per_m"], ".3f"),
             _ci(s.delta_bic, ".1f"),
-            _ci(s.ratio_to_best, ".3f"),
         ]
         rows.append(
             f"<tr><td>{escape(s.model)}</td><td>{s.n_params}</td>"
@@ -93,15 +103,25 @@ def model_comparison_html(result: ModelComparison) -> str:
     return (
         '<table class="models">'
         f"<caption>Kinematic models: {len(result.train)} training runs, {how} "
-        f"{len(result.held_out)} runs (mean, 95 % CI)</caption>"
-        "<tr><th>model</th><th>k</th><th>end-point error (m)</th><th>RPE (m)</th>"
-        "<th>drift (%)</th><th>drift (deg/m)</th><th>&Delta;BIC vs diff</th>"
-        "<th>error / best</th></tr>"
+        f"{len(result.held_out)} runs, {result.segments} segments (mean, 95 % CI)</caption>"
+        "<tr><th>model</th><th>k</th><th>segment error (m)</th><th>error / best</th>"
+        "<th>verdict</th><th>end-point error (m)</th><th>RPE (m)</th>"
+        "<th>drift (%)</th><th>drift (deg/m)</th><th>&Delta;BIC vs diff</th></tr>"
         + "".join(rows)
         + "</table>"
         + f"<ul>{''.join(params)}</ul>"
-        + f"<p><b>Recommended: {escape(result.recommended)}</b> ({escape(result.reason)}).</p>"
+        + f"<p>{escape(_DECISION)}</p>"
+        + _recommendation_html(result)
     )
+
+
+#: How the recommendation is made, in words (the report and the HTML fragment).
+_DECISION = (
+    "Decided on the held-out segments (each 1 m of path or 90 degrees of turn; error "
+    "sqrt(e_t^2 + (1 m e_r)^2)): the simplest model whose mean error is within 5 % of the best's "
+    "(95 % CI of the ratio, paired bootstrap over segments); undecided when the CI neither "
+    "rules that out nor shows it."
+)
 
 
 def questions_html(results: Sequence[ExperimentResult]) -> str:
@@ -146,22 +166,24 @@ def models_section_html(
 
 
 def plot_model_comparison(result: ModelComparison, ax: Axes | None = None) -> Axes:
-    """Held-out end-point error of each model: mean with its 95 % CI."""
+    """Held-out segment error of each model (what decides): mean with its 95 % CI."""
     import matplotlib.pyplot as plt
 
     if ax is None:
         _, ax = plt.subplots(figsize=(5.6, 3.6))
-    ok = [s for s in result.scores if s.problem is None]
+    ok = [s for s in result.scores if s.problem is None and s.segment_error is not None]
     for i, s in enumerate(ok):
-        e = s.held_out["endpoint_error"]
+        e = s.segment_error
+        assert e is not None
         lo = e.value - e.low if math.isfinite(e.low) else 0.0
         hi = e.high - e.value if math.isfinite(e.high) else 0.0
         color = "tab:green" if s.model == result.recommended else "tab:blue"
         ax.errorbar([i], [e.value], yerr=[[lo], [hi]], fmt="o", capsize=5, color=color)
     ax.set_xticks(range(len(ok)), [s.model for s in ok])
-    ax.set_ylabel("held-out end-point error (m)")
+    ax.set_ylabel(f"held-out segment error (m), {result.segments} segments")
     ax.set_ylim(bottom=0)
-    ax.set_title(f"recommended: {result.recommended}")
+    title = result.recommended if result.decided else "undecided (the data cannot separate them)"
+    ax.set_title(f"recommended: {title}")
     return ax
 
 
@@ -274,22 +296,28 @@ def models_view(m: Mapping[str, Any]) -> dict[str, Any]:
             [
                 Cell("model", name, "l"),
                 Cell("parameters", str(s.get("n_params", "-"))),
+                Cell("held-out segment error (m)", _est(s.get("segment_error"))),
+                Cell("error / best", _est(best)),
+                Cell("verdict", str(s.get("verdict") or "-"), "l"),
                 Cell("held-out end-point error (m)", _est(h.get("endpoint_error"))),
                 Cell("RPE over 1 m (m)", _est(h.get("rpe_rmse"))),
                 Cell("drift (%)", _est(h.get("drift_pct"))),
                 Cell("ΔBIC vs diff", _est(s.get("delta_bic"))),
-                Cell("error / best", _est(best)),
                 Cell("fitted values (± std. error)", fitted or "-", "l"),
             ]
         )
     how = "cross-validated over" if m.get("cross_validated") else "scored on"
     n_train, n_held = len(m.get("train") or []), len(m.get("held_out") or [])
     runs = f"fitted on {numfmt.count(n_train, 'run')}, {how} {numfmt.count(n_held, 'held-out run')}"
+    recommended = str(m.get("recommended", "-"))
+    reason = str(m.get("reason", ""))
+    if recommended == UNDECIDED:  # "Recommended: undecided (why)", no "undecided" twice
+        reason = reason.removeprefix(f"{UNDECIDED}: ")
     return {
         "rows": rows,
         "problems": problems,
-        "recommended": str(m.get("recommended", "-")),
-        "reason": str(m.get("reason", "")),
+        "recommended": recommended,
+        "reason": reason,
         "runs": runs,
         "about": str(m.get("about", "")),
     }
