@@ -221,13 +221,14 @@ def evaluate_cmd(
     from odolab.cli._fleet import expand_runs, print_fleet, report_failures
     from odolab.metrics.cluster import Cluster
 
+    cluster = Cluster(scheduler=scheduler, workers=workers)  # (its address checked first)
     runs = expand_runs(paths, fmt.value)
     with _progress_bar("evaluate") as report:
         done = evaluate_run_set(
             request,
             runs,
             read_options=_read_options(robot, joint_topic, joints, gt_topic),
-            cluster=Cluster(scheduler=scheduler, workers=workers),
+            cluster=cluster,
             progress=report,
         )
     doc = done.to_dict()
@@ -454,6 +455,7 @@ def calibrate_lsq_cmd(
     from odolab.metrics.cluster import Cluster
     from odolab.params import load_params, save_params
 
+    cluster = Cluster(scheduler=scheduler, workers=workers)  # (its address checked first)
     held = list(validate or [])
     if any(not p.exists() for p in [*runs, *held]):  # glob patterns
         runs = expand_runs(runs, fmt.value)
@@ -473,7 +475,7 @@ def calibrate_lsq_cmd(
         result = calibrate_lsq_runs(
             request,
             read_options=_read_options(robot, joint_topic, joints, gt_topic),
-            cluster=Cluster(scheduler=scheduler, workers=workers),
+            cluster=cluster,
             workers=workers,
             progress=report,
         )
