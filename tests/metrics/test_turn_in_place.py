@@ -97,7 +97,7 @@ def test_turn_drift_by_hand() -> None:
     assert doc["drift"]["translation_pct"] is None and doc["rpe"]["rmse"] is None
     assert doc["notes"] == [
         "RPE is undefined: delta = 1 m gives no pose pairs on 201 poses (the reference travels "
-        "0 m; a run that turns in place: --delta-unit deg); a smaller --delta gives some",
+        "0 m); a smaller --delta gives some (or, for a run that turns in place, --delta-unit deg)",
         "drift per metre is undefined: the reference travels 0 m, less than one 1 m segment "
         "(it turns in place: 364 deg)",
     ]

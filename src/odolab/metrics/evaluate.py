@@ -200,14 +200,15 @@ def rpe_undefined_note(options: EvaluationOptions, poses: int, chooser: str, mea
     """Why RPE is undefined: ``options``' step gives no pose pairs on ``poses`` poses of the
     trajectory that chooses them (``chooser``), which travels or turns ``measure``."""
     unit = DeltaUnit(options.delta_unit)
-    how = ""
+    how, hint = "", ""
     if unit is DeltaUnit.METRES:
-        how = f" ({chooser} travels {measure:.3g} m; a run that turns in place: --delta-unit deg)"
+        how = f" ({chooser} travels {measure:.3g} m)"
+        hint = " (or, for a run that turns in place, --delta-unit deg)"
     elif unit in ANGLE_UNITS:
         how = f" ({chooser} turns {math.degrees(measure):.3g} deg)"
     return (
         f"RPE is undefined: delta = {options.delta:g} {unit.value} gives no pose pairs on "
-        f"{poses} poses{how}; a smaller --delta gives some"
+        f"{poses} poses{how}; a smaller --delta gives some{hint}"
     )
 
 
