@@ -388,3 +388,24 @@ def test_a_campaign_has_no_velocity_spike_at_its_trial_boundaries(tmp_path: Path
     # the fastest forward speed anywhere is a plausible one (the old boundary said -1.08 m/s,
     # the wheels -214 rad/s)
     assert np.max(np.abs(vx)) < 0.5 and np.max(np.abs(speeds)) < 10.0
+
+
+def test_the_export_says_where_first_order_stops_holding(tmp_path: Path) -> None:
+    n = 401  # a straight 7 m in 20 s at a noise that takes it past first order's range
+    t = np.arange(n) * 0.05
+    per_cycle = 20  # counts a cycle: 20 x 1.38 mm
+    log = tmp_path / "log.csv"
+    rows = "\n".join(f"{a:.2f},{0 if i == 0 else per_cycle},{0 if i == 0 else per_cycle}"
+                     for i, a in enumerate(t))  # fmt: skip
+    log.write_text("t,dticks_left,dticks_right\n" + rows + "\n")
+    noisy = save_params(tmp_path / "n.toml", PARAMS.with_(noise=NoiseParams(3e-4, 3e-4)))
+    quiet = save_params(tmp_path / "q.toml", PARAMS.with_(noise=NoiseParams(1e-6, 1e-6)))
+    for p, said in ((noisy, True), (quiet, False)):
+        res = CliRunner().invoke(
+            app,
+            ["export", "mcap", str(log), "--format", "csv", "-p", str(p), "-o",
+             str(tmp_path / "r.mcap")],
+        )  # fmt: skip
+        assert res.exit_code == 0, res.output
+        out = " ".join(res.output.split())
+        assert ("understates the spread from t = " in out) is said, out

@@ -243,3 +243,20 @@ def test_fit_noise_recovers_each_constant_of_the_documented_model() -> None:
     assert fit2.provenance()["k_scrub"] == {"unknown": fit2.unknown["k_scrub"]}
     lo, hi = fit2.ci95["k_left"]
     assert lo <= MODEL_NOISE.k_left <= hi
+
+
+def test_pieces_past_first_order_are_counted() -> None:
+    """Long straight pieces with large noise: their index passes the limit, and print_nees says
+    so (short pieces of the same runs stay inside)."""
+    from nees_model_runs import NOMINAL as NOM
+    from nees_model_runs import model_run
+
+    from odolab.uncertainty import SECOND_ORDER_LIMIT
+
+    runs = [model_run(seed, turning=False) for seed in range(2)]
+    noisy = NOM.with_(noise=NoiseParams(1e-2, 1e-2))
+    long = run_nees(runs[0], noisy, segment_s=20.0)
+    short = run_nees(runs[0], noisy, segment_s=0.5)
+    assert long.second_order is not None and short.second_order is not None
+    assert np.all(long.second_order > SECOND_ORDER_LIMIT)
+    assert np.all(short.second_order < SECOND_ORDER_LIMIT)

@@ -176,3 +176,7 @@ def mcap_cmd(
         )
     counts = write_mcap(output, stream, start_time=start_time)
     echo(f"wrote {output}: " + ", ".join(f"{topic} {n}" for topic, n in counts.items()))
+    from odolab.export.mcap import first_order_notes
+
+    for note in first_order_notes(stream):  # the covariance's range (docs/ros2.md)
+        echo(f"note: /odom pose covariance: {note}")

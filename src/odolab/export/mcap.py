@@ -23,6 +23,7 @@ the previous trial's end to this one's start.
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 from collections.abc import Iterator
@@ -50,6 +51,7 @@ __all__ = [
     "TWIST_VARIANCE_FLOOR",
     "OdometryStream",
     "check_start_time",
+    "first_order_notes",
     "stamp_parts",
     "stream_from_campaign",
     "stream_from_encoder_log",
@@ -263,6 +265,29 @@ def _messages(
                     },
                 },
             )
+
+
+def first_order_notes(stream: OdometryStream) -> list[str]:
+    """Where the stream's propagated covariance stops holding to first order
+    (:func:`odolab.uncertainty.first_order_note`), per segment (a campaign's trial starts its
+    covariance again), each sentence prefixed by the segment's name when there are several."""
+    from odolab.uncertainty import first_order_note
+
+    if stream.covariance is None:
+        return []
+    traj = stream.odometry
+    bounds = [*sorted(set(stream.segment_starts) | {0}), len(traj)]
+    names = [name for _, name in stream.segments]
+    notes = []
+    for j, (a, b) in enumerate(itertools.pairwise(bounds)):
+        if b - a < 2:
+            continue
+        part = Trajectory.from_xyh(traj.t[a:b], traj.x[a:b], traj.y[a:b], traj.heading[a:b])
+        note = first_order_note(part, stream.covariance[a:b])
+        if note:
+            where = f"{names[j]}: " if len(bounds) > 2 and j < len(names) else ""
+            notes.append(where + note)
+    return notes
 
 
 def write_mcap(

@@ -229,6 +229,18 @@ def controller_numbers(
         pose = (
             k * d / 4.0, k * d**3 / (3.0 * b**2), UNOBSERVED, UNOBSERVED, UNOBSERVED, k * d / b**2
         )  # fmt: skip
+        from odolab.uncertainty import SECOND_ORDER_LIMIT
+
+        # second-order index of the straight horizon (odolab.uncertainty.second_order_index):
+        # shortening 1/2 integral of var(h) = d var(h_end) / 4 over the along-track deviation
+        rho = (d * (k * d / b**2) / 4.0) / math.sqrt(k * d / 4.0) if k > 0 else 0.0
+        if rho > SECOND_ORDER_LIMIT:
+            notes.append(
+                f"after --horizon {d:g} m the first-order pose covariance understates the spread "
+                f"(heading variance {k * d / b**2:.3g} rad^2, second-order index {rho:.3g} > "
+                f"{SECOND_ORDER_LIMIT:g}): state it over a shorter horizon, or treat it as a "
+                "lower bound"
+            )
     return ControllerExport(
         wheel_separation=base_b,
         wheel_radius=base_r,

@@ -42,7 +42,7 @@ from odolab.metrics.association import interpolate_trajectory
 from odolab.odometry import integrate_increments
 from odolab.params import NoiseParams, RobotParams
 from odolab.trajectory import Trajectory
-from odolab.uncertainty import covariance_matrix, propagate_covariance
+from odolab.uncertainty import covariance_matrix, propagate_covariance, second_order_index
 
 __all__ = [
     "DOF",
@@ -74,6 +74,9 @@ class RunNees:
     dof_removed: int = 0
     #: standard error of a fitted offset (rad); None when it was given, not fitted
     gt_yaw_offset_se: float | None = None
+    #: (k,) second-order index at each piece's end (odolab.uncertainty.second_order_index):
+    #: above SECOND_ORDER_LIMIT the first-order covariance understates the spread
+    second_order: NDArray[np.float64] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict."""
@@ -140,6 +143,7 @@ class _Pieces:
     covs: list[NDArray[np.float64]]  #: one (k, 3, 3) per noise asked for
     dist: NDArray[np.float64]  #: (k,)
     gt: Trajectory
+    second_order: NDArray[np.float64]  #: (k,) second-order index at each piece's end
 
 
 def _run_pieces(
@@ -171,6 +175,7 @@ def _run_pieces(
     gtr = np.empty((len(pieces), 3))
     covs = [np.empty((len(pieces), 3, 3)) for _ in noises]
     dist = np.empty(len(pieces))
+    rho = np.zeros(len(pieces))
     step = np.hypot(np.diff(gt.x), np.diff(gt.y))
     for k, (a, b) in enumerate(pieces):
         sl = slice(a, b + 1)
@@ -179,14 +184,16 @@ def _run_pieces(
         ddl[0] = ddr[0] = 0.0
         est = integrate_increments(t[sl], ddl, ddr, params, method)
         odo[k] = est.x[-1], est.y[-1], est.heading[-1]
-        for cov, noise in zip(covs, noises, strict=True):
-            last = propagate_covariance(ddl, ddr, params, method, noise=noise)[-1]
-            cov[k] = covariance_matrix(last)
+        for j, (cov, noise) in enumerate(zip(covs, noises, strict=True)):
+            terms = propagate_covariance(ddl, ddr, params, method, noise=noise)
+            cov[k] = covariance_matrix(terms[-1])
+            if j == 0:  # how far the piece is past first order's range (odolab.uncertainty)
+                rho[k] = second_order_index(est, terms)[-1]
         c, s = math.cos(gt.heading[a]), math.sin(gt.heading[a])
         dx, dy = gt.x[b] - gt.x[a], gt.y[b] - gt.y[a]
         gtr[k] = c * dx + s * dy, -s * dx + c * dy, gt.heading[b] - gt.heading[a]
         dist[k] = float(step[a:b].sum())
-    return _Pieces(odo, gtr, covs, dist, gt_full)
+    return _Pieces(odo, gtr, covs, dist, gt_full, rho)
 
 
 def run_nees(
@@ -233,6 +240,7 @@ def run_nees(
         dist[keep],
         dof_removed=removed,
         gt_yaw_offset_se=se,
+        second_order=pcs.second_order[keep],
     )
 
 
