@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from odolab.cli import main
-from odolab.cli.evaluate import spread_option_values
+from odolab.cli._several import spread_option_values
 from shared_data import require
 
 IVANJKO = "ivanjko/231220200057"

@@ -10,10 +10,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
-from typer.core import TyperCommand
 
 from odolab.cli._apps import app, calibrate_app
 from odolab.cli._output import markup_text
+from odolab.cli._several import several_values_command
 
 if TYPE_CHECKING:
     from odolab.io.run import ReadOptions
@@ -366,46 +366,8 @@ def _print_table(rows: list[tuple[str, Any]]) -> None:
     print_table(console(), table)
 
 
-class _SeveralAfterValidate(TyperCommand):
-    """``--validate D E F``: every path after ``--validate`` up to the next option is held out.
-
-    A shell glob (``--validate runs/circular/*``) gives ``--validate D E F``; click would hold
-    out only D and fit E and F with the other runs, without a word. Here the command line is
-    read as ``--validate D --validate E --validate F`` before click parses it."""
-
-    def parse_args(self, ctx: Any, args: list[str]) -> list[str]:
-        return super().parse_args(ctx, spread_option_values(args, "--validate"))
-
-
-def spread_option_values(args: list[str], option: str) -> list[str]:
-    """``args`` with each value after ``option`` (up to the next option, or ``--``) given its
-    own ``option``: ``[--validate, D, E]`` -> ``[--validate, D, --validate, E]``."""
-    out: list[str] = []
-    taking = False  # the previous value belonged to ``option``
-    i = 0
-    while i < len(args):
-        a = args[i]
-        if a == "--":
-            out.extend(args[i:])
-            break
-        if a == option and i + 1 < len(args):
-            out.extend((a, args[i + 1]))
-            taking = True
-            i += 2
-            continue
-        if a.startswith(option + "="):
-            out.append(a)
-            taking = True
-        elif taking and not (a.startswith("-") and len(a) > 1):
-            out.extend((option, a))
-        else:
-            taking = False
-            out.append(a)
-        i += 1
-    return out
-
-
-@calibrate_app.command("lsq", cls=_SeveralAfterValidate)
+# ``--validate D E F`` (a shell glob) holds out D, E and F; click alone would fit E and F
+@calibrate_app.command("lsq", cls=several_values_command("--validate"))
 def calibrate_lsq_cmd(
     runs: Annotated[list[Path], typer.Argument(help="Runs (files or folders) with ground truth.")],
     output: Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")],
