@@ -44,6 +44,26 @@ def test_lsq_holds_out_a_shell_glob(
     assert f"fitted: 1 run: {fit}" in text and f"held out: 2 runs: {held[0]}, {held[1]}" in text
 
 
+def test_lsq_holds_out_a_run_that_turns_in_place(
+    tmp_path: Path, optiodom_dir: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A held-out run that turns in place: drift per metre n/a with the reason, no NaN."""
+    fit = optiodom_dir / "square/231220200029/231220200029_run-01.csv"
+    spin = optiodom_dir / IVANJKO / "231220200057_run-04.csv"
+    out = tmp_path / "lsq.json"
+    code = main(
+        ["calibrate", "lsq", str(fit), "--validate", str(spin), "-o", str(tmp_path / "p.toml"),
+         "--json", str(out), "--workers", "1"]
+    )  # fmt: skip
+    assert code == 0
+    assert "n/a -> n/a" in capsys.readouterr().out
+    raw = out.read_text()
+    assert "NaN" not in raw
+    row = json.loads(raw)["validation"][0]["nominal"]
+    assert row["drift_pct"] is None and row["drift_rotation_pct_of_turn"] > 0
+    assert row["notes"][1].startswith("drift per metre is undefined: the reference travels")
+
+
 def test_runs_that_turn_in_place_are_evaluated(
     tmp_path: Path, optiodom_dir: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -28,6 +28,7 @@ which keeps its original sentence).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -315,18 +316,24 @@ class RunComparison:
     calibrated: RunEvaluation
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready summary (end-point error, drift, APE rmse for both)."""
+        """JSON-ready summary (end-point error, drift, APE rmse for both). A value that is
+        undefined for the run (drift per metre of a run that turns in place) is ``None``, and
+        ``notes`` says why."""
 
-        def row(e: RunEvaluation) -> dict[str, float]:
+        def row(e: RunEvaluation) -> dict[str, Any]:
             d = e.evaluation.drift
-            return {
+            values = {
                 "endpoint_error": d.endpoint_error,
                 "endpoint_heading_error": d.endpoint_heading_error,
                 "drift_pct": d.translation_pct,
                 "drift_deg_per_m": d.rotation_deg_per_m,
+                "drift_rotation_pct_of_turn": d.rotation_pct_of_turn,
                 "rpe_rmse": e.evaluation.rpe.rmse,
                 "ape_rmse": e.evaluation.ape.rmse,
             }
+            out: dict[str, Any] = {k: None if math.isnan(v) else v for k, v in values.items()}
+            out["notes"] = list(e.evaluation.notes)
+            return out
 
         return {
             "name": self.nominal.name,
