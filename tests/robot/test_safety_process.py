@@ -340,9 +340,10 @@ def test_a_frozen_host_stops_the_robot_and_fails_the_run(tmp_path: Path) -> None
     rows = b.lines()
     assert drv.returncode == 1, err
     assert "late, more than the watchdog bound 0.5 s" in err and "run failed" in err
-    # the driver's stop reached the board at once after the resume, and nothing drove after it
+    # the driver's stop reached the board at once after the resume (1 s allows for scheduling
+    # both processes on a loaded machine; the old loop drove on for 8 s), and nothing after it
     stop, why = b.final_stop()
-    assert why == "command" and t_cont <= stop <= t_cont + W, (stop - t_cont, rows[-4:])
+    assert why == "command" and t_cont <= stop <= t_cont + 1.0, (stop - t_cont, rows[-4:])
     assert not [r for r in rows if r[0] > t_cont and (r[1], r[2]) != (0.0, 0.0)]
     doc = json.loads((tmp_path / "run" / "run.json").read_text())
     assert doc["completed"] is False and "LateCycleError" in doc["aborted"]
