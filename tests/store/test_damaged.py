@@ -107,7 +107,7 @@ def test_damaged_notebooks_give_one_sentence_never_a_traceback(
                 assert "Traceback" not in err, where
                 if "the notebook is damaged" in err:
                     damaged_said += 1
-                    assert "integrity check:" in err and "odolab trials export --db" in err
+                    assert "integrity check:" in err and "odolab notebook rescue NEW.db" in err
     # the damage is real: many commands met it and said so (126 and 110 of 150 runs; the
     # others read only sound pages, or a zeroed index page hid a trial: "no trial 'T3'")
     assert failures >= 60 and damaged_said >= 50, (failures, damaged_said)
@@ -129,7 +129,7 @@ def test_a_damaged_notebook_names_sqlites_words_and_the_way_back(
     text = str(caught.value)
     assert text.startswith(f"{db}: the notebook is damaged (SQLite: ")
     assert "integrity check: " in text and "integrity check: ok" not in text
-    assert f"odolab trials export --db {db} rescued.json" in text
+    assert f"`odolab notebook rescue NEW.db --db {db}`" in text
 
 
 @pytest.mark.parametrize("size", [1, 16, 99])

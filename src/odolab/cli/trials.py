@@ -118,6 +118,33 @@ def notebook_info(db: DbOption = _DB) -> None:
         echo(term(f"  campaign {c.name}: {c.kind} on {c.terrain}, {c.date or ''} {c.operator}"))
 
 
+@notebook_app.command("rescue")
+def notebook_rescue(
+    new: Annotated[Path, typer.Argument(help="The new notebook file to write (must not exist).")],
+    db: DbOption = _DB,
+) -> None:
+    """Copy every record a damaged notebook still holds into a new notebook (the damaged file
+    is only read)."""
+    from odolab.store.rescue import rescue_notebook
+
+    report = rescue_notebook(db, new)
+    stretches = sum(report.unreadable_stretches.values())
+    broken = sum(report.broken_rows.values())
+    kept = ", ".join(f"{n} {t.replace('_', ' ')}" for t, n in report.kept.items())
+    echo(f"{new}: rescued {report.trials} trials from {db} ({kept})")
+    echo(
+        f"  {stretches} unreadable stretch{'es' if stretches != 1 else ''} skipped, "
+        f"{broken} broken row{'s' if broken != 1 else ''} left out"
+        + (
+            f", {len(report.dropped_trials)} invalid trials dropped"
+            if report.dropped_trials
+            else ""
+        )
+    )
+    if report.dropped_trials:
+        echo(term(f"  dropped: {', '.join(report.dropped_trials[:20])}"))
+
+
 # -- campaigns and parameter versions ------------------------------------------------------------
 
 

@@ -122,9 +122,9 @@ def create_notebook_file(path: Path, build: Callable[[Path], None]) -> bool:
 def recovery_hint(path: str | Path) -> str:
     """How to get a damaged notebook's trials back, in odolab's own commands."""
     return (
-        "go back to your last copy of it, or copy what can still be read into a new notebook "
-        f"with `odolab trials export --db {path} rescued.json` and `odolab trials import "
-        "rescued.json --db NEW.db` (SQLite's own `sqlite3 FILE .recover` may save more)"
+        "copy every record it still holds into a new notebook with `odolab notebook rescue "
+        f"NEW.db --db {path}` (the damaged file is only read), or go back to your last copy "
+        "of it (docs/notebook.md, 'Not a notebook, or a damaged one')"
     )
 
 
