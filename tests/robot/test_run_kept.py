@@ -352,3 +352,18 @@ def test_a_notebook_failure_after_driving_says_where_the_run_is(
     assert f"could not be recorded in the notebook {tmp_path / 'lab.db'}" in err
     assert f"the run is saved to {out}" in err
     assert json.loads((out / "run.json").read_text())["completed"] is True
+
+
+def test_a_db_that_is_not_a_notebook_is_refused_before_anything_is_sent(
+    tmp_path: Path, listener: socket.socket, capsys: pytest.CaptureFixture[str]
+) -> None:
+    db = tmp_path / "notes.db"
+    db.write_text("my own notes, not a notebook\n")
+    out = tmp_path / "run"
+    code = cli(out, f"udp://127.0.0.1:{listener.getsockname()[1]}", "--db", str(db))
+    err = capsys.readouterr().err
+    assert code == 1 and err.startswith(f"odolab: error: {db}: ") and err.count("\n") == 1
+    with pytest.raises(BlockingIOError):
+        listener.recv(2048)
+    assert db.read_text() == "my own notes, not a notebook\n"
+    assert not out.exists()  # the run folder made by the check is taken back

@@ -7,6 +7,7 @@ so that the measured pose can be entered afterwards.
 
 from __future__ import annotations
 
+import contextlib
 import inspect
 import math
 from collections.abc import Callable
@@ -301,12 +302,19 @@ def _run(
     # every output precondition before the robot moves: the notebook opens and is one (create,
     # migrate), the run folder can be created and written and holds no earlier run
     folder = out if out is not None else _default_folder(command)
+    new_folder = not folder.exists()
     check_run_folder(folder)
     notebook = None
     if db is not None:
         from odolab.store import Notebook
 
-        notebook = Notebook(db)
+        try:
+            notebook = Notebook(db)
+        except BaseException:
+            if new_folder:  # refused before driving: leave no empty run folder behind
+                with contextlib.suppress(OSError):
+                    folder.rmdir()
+            raise
     try:
         _drive(
             command, config, url=url, nominal=nominal, plant=plant, seed=seed, terrain=terrain,
