@@ -232,3 +232,18 @@ def test_a_newer_notebook_is_refused_before_anything_is_written(tmp_path: Path) 
     with pytest.raises(StoreError, match=r"written by a newer odolab \(schema 9\)"):
         Notebook(db)
     assert db.read_bytes() == before  # not even switched to WAL
+
+
+def test_a_file_system_without_hard_links_still_gets_a_notebook(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import errno
+    import os
+
+    def no_link(src: object, dst: object) -> None:
+        raise OSError(errno.EPERM, "Operation not permitted")
+
+    monkeypatch.setattr(os, "link", no_link)
+    with Notebook(tmp_path / "fat.db") as nb:
+        assert nb.migrated_from == 0 and nb.integrity_check() == "ok"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fat.db"]

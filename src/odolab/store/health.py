@@ -13,6 +13,7 @@
 
 from __future__ import annotations
 
+import errno
 import os
 import sqlite3
 import tempfile
@@ -39,6 +40,8 @@ SQLITE_MAGIC = b"SQLite format 3\x00"
 #: SQLite's primary result codes that mean the file itself is damaged: CORRUPT, NOTADB.
 _DAMAGED_CODES = frozenset({11, 26})
 _BUSY_CODES = frozenset({5, 6})  # BUSY, LOCKED
+#: os.link's errors on a file system without hard links (FAT, some network and FUSE mounts).
+_NO_LINKS = frozenset({errno.EPERM, errno.ENOTSUP, errno.EOPNOTSUPP, errno.EXDEV, errno.EMLINK})
 _WORDS = {
     8: "the notebook or its folder is read-only",  # READONLY
     13: "the disk is full",  # FULL
@@ -108,9 +111,13 @@ def create_notebook_file(path: Path, build: Callable[[Path], None]) -> bool:
     try:
         build(tmp)  # SQLite takes the empty temporary file as a new database
         try:
-            os.link(tmp, path)
+            os.link(tmp, path)  # fails if path exists: never replaces another's notebook
         except FileExistsError:
             return False
+        except OSError as err:
+            if err.errno not in _NO_LINKS or path.exists():
+                raise
+            tmp.replace(path)  # a file system without hard links: a rename, checked before
         return True
     except OSError as err:
         raise StoreError(f"{path}: cannot create the notebook ({err.strerror or err})") from err
