@@ -19,6 +19,7 @@ Two rules, each in one place:
 from __future__ import annotations
 
 import os
+import stat
 import tempfile
 import warnings
 from collections.abc import Iterator
@@ -123,8 +124,12 @@ def replacing_path(
             prefix=f".{p.name[:100]}.", suffix=f".part{p.suffix}", dir=p.parent
         )
         tmp = Path(name)
+        # the permissions open() would give a new file, or those of the file it replaces
+        mode = NEW_FILE_MODE
+        if p.is_file() and not p.is_symlink():
+            mode = stat.S_IMODE(p.stat().st_mode)
         try:
-            os.fchmod(fd, NEW_FILE_MODE)
+            os.fchmod(fd, mode)
         finally:
             os.close(fd)
         yield tmp

@@ -169,3 +169,11 @@ def test_the_fleet_table_replaces_a_link(tmp_path: Path) -> None:
     write_fleet_table(row, out)
     assert outside.read_bytes() == SECRET
     assert read_fleet_table(out)["robot"] == ["jag"]
+
+
+def test_a_replaced_file_keeps_its_permissions(tmp_path: Path) -> None:
+    path = tmp_path / "params.toml"
+    path.write_text("old", encoding="utf-8")
+    path.chmod(0o600)
+    write_text_file(path, "new", what="test file")
+    assert path.read_text() == "new" and stat.S_IMODE(path.stat().st_mode) == 0o600
