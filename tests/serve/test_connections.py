@@ -81,6 +81,19 @@ def test_connections_that_send_nothing_are_closed(quick_server: int) -> None:
             s.close()
 
 
+def test_a_client_is_served_while_hundreds_hold_half_open_connections(lab_db: Path) -> None:
+    """No connection limit that idle connections use up (uvicorn's limit_concurrency counts
+    them: with it, 250 half-open connections got everyone else a 503)."""
+    with run_in_thread(settings_for(lab_db, "127.0.0.1")) as info:  # the default timeouts
+        held = [_connect(info.port) for _ in range(250)]
+        try:
+            with _connect(info.port) as sock:
+                assert _get(sock) == b"HTTP/1.1 200 OK"
+        finally:
+            for s in held:
+                s.close()
+
+
 def test_half_headers_and_half_a_body_are_closed(quick_server: int) -> None:
     with _connect(quick_server) as headers:
         headers.sendall(b"GET /api/trials HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Slow: ")

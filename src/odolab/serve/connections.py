@@ -17,7 +17,7 @@ is missing, per connection, checked every :attr:`Limits.tick` seconds:
 - a connection whose request has arrived whole waits for the application as long as it takes.
 
 :func:`uvicorn_config` puts these together with uvicorn's own limits: ``timeout_keep_alive``,
-``limit_concurrency`` (new requests beyond it get 503), h11's limit on incomplete headers, and
+h11's limit on incomplete headers, and
 ``timeout_graceful_shutdown`` (after SIGTERM, requests still running are cancelled after it, so
 the server stops within about a second whatever the clients do).
 """
@@ -43,7 +43,6 @@ class Limits:
     body_idle_timeout: float = 10.0
     min_body_rate: float = 1024.0  # bytes/s, averaged over the body so far
     keep_alive: int = 5
-    max_connections: int = 200
     max_header_bytes: int = 64 * 1024
     graceful_shutdown: float = 0.5
     tick: float = 0.5
@@ -148,7 +147,8 @@ def uvicorn_config(app: Any, limits: Limits = DEFAULT_LIMITS) -> Any:
         access_log=False,
         timeout_keep_alive=limits.keep_alive,
         timeout_graceful_shutdown=limits.graceful_shutdown,  # type: ignore[arg-type]
-        limit_concurrency=limits.max_connections,
+        # no limit_concurrency: uvicorn counts open connections, idle ones too, so a flood of
+        # half-open connections made it answer 503 to everyone until they timed out
         h11_max_incomplete_event_size=limits.max_header_bytes,
     )
     error_log = logging.getLogger("uvicorn.error")
