@@ -4,6 +4,7 @@ has driven is always kept (folder and notebook), an earlier run is never overwri
 
 from __future__ import annotations
 
+import gc
 import json
 import os
 import shutil
@@ -98,6 +99,17 @@ def test_warm_up_leaves_the_odometry_as_it_was() -> None:
     for t, left, right in ((0.0, 10, 10), (0.05, 60, 80), (0.1, 110, 150)):
         ref.update(t, left, right)
     assert odo.pose == ref.pose
+
+
+def test_the_heap_the_run_starts_with_is_frozen_during_the_cycles() -> None:
+    # a full GC collection inside a cycle would scan it all (0.4 s for the CLI's heap)
+    loop, _board, _driver, _clock = rig()
+    frozen: list[int] = []
+    loop.on_cycle = lambda info: frozen.append(gc.get_freeze_count())
+    assert gc.get_freeze_count() == 0
+    loop.run(Straight(0.2, speed=0.5))
+    assert len(frozen) > 10 and min(frozen) > 1000  # every cycle ran with the heap frozen
+    assert gc.get_freeze_count() == 0  # and it is given back afterwards
 
 
 # -- 2. a late cycle stops the robot and fails the run -------------------------------------------
