@@ -120,6 +120,57 @@ def test_a_body_trickled_a_byte_at_a_time_is_closed(quick_server: int) -> None:
         assert closed
 
 
+BIG = 64 * 1024 * 1024  # a response far larger than the sockets' buffers
+
+
+async def _big_response(scope: dict, receive: object, send: object) -> None:  # type: ignore[type-arg]
+    """A tiny ASGI app: 64 MiB of zeros to every request."""
+    assert scope["type"] == "http"
+    await send(  # type: ignore[operator]
+        {"type": "http.response.start", "status": 200,
+         "headers": [(b"content-length", str(BIG).encode())]}
+    )  # fmt: skip
+    chunk = bytes(1024 * 1024)
+    for k in range(BIG // len(chunk)):
+        await send(  # type: ignore[operator]
+            {"type": "http.response.body", "body": chunk, "more_body": k < BIG // len(chunk) - 1}
+        )
+
+
+def test_a_client_that_stops_reading_the_response_is_closed() -> None:
+    import threading
+
+    import uvicorn
+
+    from odolab.serve.connections import uvicorn_config
+    from odolab.serve.server import bind
+
+    sock = bind("127.0.0.1", 0)
+    server = uvicorn.Server(uvicorn_config(_big_response, QUICK))
+    thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
+    thread.start()
+    try:
+        client = socket.socket()
+        client.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        client.connect(sock.getsockname())
+        with client:
+            client.sendall(b"GET / HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n")
+            time.sleep(2.0)  # the client reads nothing: the server's send buffer fills, stalls
+            client.settimeout(PATIENCE)
+            got = 0
+            try:
+                while chunk := client.recv(1 << 20):
+                    got += len(chunk)
+            except ConnectionResetError:
+                pass
+            # before: the whole 64 MiB came (the server waited for the client for ever)
+            assert got < BIG // 2
+    finally:
+        server.should_exit = True
+        thread.join(timeout=10)
+        sock.close()
+
+
 def test_a_client_that_keeps_asking_is_served_past_the_timeouts(quick_server: int) -> None:
     """The timeouts are on what a client owes, not on a connection's age."""
     with _connect(quick_server) as sock:

@@ -14,6 +14,8 @@ is missing, per connection, checked every :attr:`Limits.tick` seconds:
   :attr:`Limits.header_timeout` seconds have passed (a client trickling a byte now and then is
   closed too). Time while the application, not the client, holds the body back (uvicorn's flow
   control has paused reading) does not count against the client;
+- a response must keep leaving: a client that stops reading it (the server's send buffer full,
+  no byte taken for :attr:`Limits.body_idle_timeout` seconds) is closed;
 - a connection whose request has arrived whole waits for the application as long as it takes.
 
 :func:`uvicorn_config` puts these together with uvicorn's own limits: ``timeout_keep_alive``,
@@ -63,6 +65,8 @@ class GuardedH11Protocol(H11Protocol):
         self._since = 0.0  # when the client started to owe bytes (less paused time)
         self._last_byte = 0.0
         self._request_bytes = 0  # bytes of the current request (headers and body) so far
+        self._unsent = 0  # bytes waiting in the send buffer at the last check
+        self._sent_at = 0.0  # when the client last took some of the response
 
     # -- uvicorn's protocol interface --------------------------------------------------------
 
@@ -91,6 +95,7 @@ class GuardedH11Protocol(H11Protocol):
     def _restart(self, phase: object) -> None:
         now = self.loop.time()
         self._phase, self._since, self._last_byte, self._request_bytes = phase, now, now, 0
+        self._sent_at = now
 
     def _arm(self) -> None:
         self._guard = self.loop.call_later(self.limits.tick, self._check)
@@ -111,6 +116,13 @@ class GuardedH11Protocol(H11Protocol):
         waiting = state is h11.IDLE and (self.cycle is None or self.cycle.response_complete)
         if state is not self._phase:  # a new phase (headers -> body -> application): new clock
             self._phase, self._since, self._last_byte = state, now, now
+        unsent = self.transport.get_write_buffer_size()
+        if not self.flow.write_paused or unsent < self._unsent:
+            self._sent_at = now  # the client reads (or nothing waits for it)
+        self._unsent = unsent
+        if now - self._sent_at > lim.body_idle_timeout:
+            self._close()  # the client stopped reading the response
+            return
         if self.flow.read_paused:  # the application holds the body back, not the client
             self._since += lim.tick
             self._last_byte = now
