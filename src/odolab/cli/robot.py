@@ -291,7 +291,7 @@ def _run(
     live_table = _LiveTable(config.rate, target)
     every = max(1, round(config.rate / 8))
 
-    view = _FoxgloveView(nominal, foxglove_port) if foxglove else None
+    view: _FoxgloveView | None = None  # started once every check has passed
 
     def on_cycle(info: CycleInfo) -> None:
         if live is not None and (info.index % every == 0 or not info.link_ok):
@@ -316,6 +316,7 @@ def _run(
                     folder.rmdir()
             raise
     try:
+        view = _FoxgloveView(nominal, foxglove_port) if foxglove else None
         _drive(
             command, config, url=url, nominal=nominal, plant=plant, seed=seed, terrain=terrain,
             on_cycle=on_cycle, on_event=on_event, realtime=realtime, folder=folder,
