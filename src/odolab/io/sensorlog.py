@@ -21,9 +21,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import datetime, timedelta, timezone
 from pathlib import Path
+from typing import Any
 
 import numpy as np
-import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from odolab.errors import ImuLogError
@@ -166,7 +166,9 @@ def _base(name: str) -> str:
 
 
 class _Table:
-    """The raw text cells of a SensorLog CSV, with lookups by column base name."""
+    """The text cells of a SensorLog CSV (stripped; empty where missing), with lookups by
+    column base name. Read by polars' parser as text (row ``i`` is the file's line ``i + 2``:
+    blank lines are rows of empty cells); a layout polars refuses is read by pandas' C parser."""
 
     def __init__(self, path: Path) -> None:
         self.path = path
@@ -190,23 +192,60 @@ class _Table:
             if _base(name) not in self.by_base:
                 self.by_base[_base(name)] = name
                 self._pos[_base(name)] = j
+        self._cells: dict[int, NDArray[np.str_]] = {}
+        self._frame = self._read_polars()
+        if self._frame is None:
+            self._cells = dict(enumerate(self._read_pandas()))
+
+    def _read_polars(self) -> Any:
+        """The cells as a polars frame of text; None where polars cannot be trusted with the
+        layout (lines ended by a bare carriage return, quotes)."""
+        import polars as pl
+
+        data = self.path.read_bytes()  # (checked: UTF-8, lines of at most 1 MB)
+        if b"\r" in data.replace(b"\r\n", b"") or b'"' in data:
+            return None
+        names = [f"c{j}" for j in range(len(self.header))]
         try:
-            frame = pd.read_csv(
-                path,
-                sep=self.sep,
-                header=None,
-                skiprows=1,
-                names=range(len(self.header)),
-                dtype=str,
-                keep_default_na=False,
-                skip_blank_lines=False,
-                encoding="utf-8-sig",
-                index_col=False,
-            )
-        except (ValueError, pd.errors.ParserError) as err:
+            frame = pl.read_csv(
+                data, has_header=False, skip_rows=1, separator=self.sep, new_columns=names,
+                infer_schema=False, truncate_ragged_lines=False, encoding="utf8",
+                quote_char=None,
+            )  # fmt: skip
+        except pl.exceptions.PolarsError:
+            return None
+        if frame.width != len(names):
+            return None
+        return frame
+
+    def _read_pandas(self) -> list[NDArray[np.str_]]:
+        import warnings
+
+        import pandas as pd
+
+        try:
+            with warnings.catch_warnings():  # (short rows: pandas' ParserWarning says so)
+                warnings.simplefilter("ignore")
+                frame = pd.read_csv(
+                    self.path,
+                    sep=self.sep,
+                    header=None,
+                    skiprows=1,
+                    names=range(len(self.header)),
+                    dtype=str,
+                    keep_default_na=False,
+                    skip_blank_lines=False,
+                    encoding="utf-8-sig",
+                    index_col=False,
+                )
+        except Exception as err:
             why = " ".join(str(err).split())
-            raise ImuLogError(f"{path}: not a readable CSV table ({why})") from err
-        self.frame = frame.fillna("")  # short rows: missing cells are empty cells
+            raise ImuLogError(f"{self.path}: not a readable CSV table ({why})") from err
+        frame = frame.fillna("")  # short rows: missing cells are empty cells
+        return [
+            np.asarray(frame.iloc[:, j].astype(str).str.strip().to_numpy(), dtype=str)
+            for j in range(frame.shape[1])
+        ]
 
     def has(self, base: str) -> bool:
         return base in self.by_base
@@ -214,45 +253,60 @@ class _Table:
     def name(self, base: str) -> str:
         return self.by_base[base]
 
-    def _column(self, base: str) -> pd.Series[str]:
-        return self.frame.iloc[:, self._pos[base]].astype(str).str.strip()
+    def _column(self, base: str) -> NDArray[np.str_]:
+        j = self._pos[base]
+        if j not in self._cells:  # polars' column, stripped, missing cells empty
+            series = self._frame.get_column(f"c{j}").fill_null("").str.strip_chars()
+            self._cells[j] = np.asarray(series.to_numpy(), dtype=str)
+        return self._cells[j]
 
     def present(self, base: str) -> NDArray[np.bool_]:
         """Rows whose cell in the column is not empty."""
-        return np.asarray(self._column(base).ne("").to_numpy(dtype=bool))
+        return np.asarray(self._column(base) != "", dtype=bool)
 
     def numbers(self, base: str) -> FloatArray:
         """The column as float64; empty cells are nan; text is an error naming the line."""
-        name = self.name(base)
         col = self._column(base)
-        values = pd.to_numeric(col, errors="coerce").to_numpy(dtype=np.float64)
-        bad = np.isnan(values) & col.ne("").to_numpy(dtype=bool)
-        bad &= ~col.str.lower().isin(("nan", "-nan")).to_numpy(dtype=bool)
-        if bad.any():
-            i = int(np.argmax(bad))
-            raise ImuLogError(
-                f"{self.path}: line {i + 2}, column {name!r} is {col.iloc[i]!r}, expected a number"
-            )
+        filled = col != ""
+        values = np.full(col.shape, np.nan)
+        try:
+            values[filled] = col[filled].astype(np.float64)  # (Python's float, in C)
+        except ValueError:
+            for i in np.flatnonzero(filled):  # the first cell that is not a number
+                try:
+                    values[i] = float(col[i])
+                except ValueError:
+                    raise ImuLogError(
+                        f"{self.path}: line {i + 2}, column {self.name(base)!r} is "
+                        f"{str(col[i])!r}, expected a number"
+                    ) from None
         return values
 
     def posix_times(self) -> FloatArray:
-        """``loggingTime(txt)`` as POSIX seconds (nan where empty); bad text names the line."""
-        name = self.name("loggingTime")
+        """``loggingTime(txt)`` as POSIX seconds (nan where empty); bad text names the line.
+        SensorLog's own form by polars; any other (ISO 8601) cell by Python, one at a time."""
+        import polars as pl
+
         col = self._column("loggingTime")
-        filled = col.ne("").to_numpy(dtype=bool)
-        parsed = pd.to_datetime(col, format="%Y-%m-%d %H:%M:%S.%f %z", utc=True, errors="coerce")
-        if parsed[filled].isna().any():
-            parsed = pd.to_datetime(col, format="ISO8601", utc=True, errors="coerce")
-        bad = parsed.isna().to_numpy(dtype=bool) & filled
-        if bad.any():
-            i = int(np.argmax(bad))
-            raise ImuLogError(
-                f"{self.path}: line {i + 2}, column {name!r} is {col.iloc[i]!r}, expected a "
-                "date-time like '2013-10-03 14:05:11.532 -0700'"
-            )
-        epoch = pd.Timestamp("1970-01-01", tz="UTC")
-        secs = ((parsed - epoch) / pd.Timedelta(seconds=1)).to_numpy(dtype=np.float64)
-        return np.where(filled, secs, np.nan)
+        filled = col != ""
+        parsed = pl.Series(col).str.to_datetime(
+            "%Y-%m-%d %H:%M:%S%.f %z", strict=False, time_unit="us", time_zone="UTC"
+        )
+        us = parsed.dt.epoch("us").to_numpy()  # (microseconds, as pandas parsed them before)
+        out = np.where(filled, us.astype(np.float64) / 1e6, np.nan)  # (null: nan)
+        for i in np.flatnonzero(filled & np.isnan(out)):
+            text = str(col[i])
+            try:
+                stamp: datetime | None = datetime.fromisoformat(text)
+            except ValueError:
+                stamp = None
+            if stamp is None or stamp.tzinfo is None:
+                raise ImuLogError(
+                    f"{self.path}: line {i + 2}, column {self.name('loggingTime')!r} is "
+                    f"{text!r}, expected a date-time like '2013-10-03 14:05:11.532 -0700'"
+                )
+            out[i] = stamp.timestamp()
+        return out
 
 
 #: Heading sources, best first: (kind, column base name, its own time column base name).
