@@ -136,6 +136,21 @@ def test_cli_fits_noise_and_judges_held_out_runs(optiodom_dir, tmp_path) -> None
     doc = json.loads(js.read_text())
     assert doc["nees"]["summary"]["n"] > 10
     assert "covariance" in res.output and "mean NEES" in res.output
+    # OptiOdom's ground truth starts in the odometry's frame: no offset fitted unless asked
+    assert not any(r["gt_yaw_offset_fitted"] for r in doc["nees"]["runs"])
+    n = doc["nees"]["summary"]["n"]
+    assert doc["nees"]["summary"]["dof"] == 3 * n
+    res = runner.invoke(
+        app,
+        ["evaluate", str(held), "--format", "optiodom", "--params", str(out), "--nees",
+         "--nees-segment", "5", "--json", str(js), "--workers", "1", "--gt-yaw-offset"],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    doc = json.loads(js.read_text())
+    runs = doc["nees"]["runs"]
+    assert all(r["gt_yaw_offset_fitted"] and r["gt_yaw_offset_se_rad"] > 0 for r in runs)
+    assert doc["nees"]["summary"]["dof"] == 3 * n - len(runs)
+    assert "(fitted)" in res.output and "fitted offsets" in res.output
     res = runner.invoke(app, ["evaluate", str(held), "--format", "optiodom", "--nees"])
     assert res.exit_code != 0  # the runs' own parameters have no [noise]
 
