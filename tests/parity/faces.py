@@ -18,7 +18,7 @@ LOCAL = "http://127.0.0.1:8000"
 
 _ROW = re.compile(
     r'<tr class="row" data-motion="([^"]*)" data-terrain="([^"]*)">.*?'
-    r'<td class="n">(\d+)</td>\s*<td class="ratio" data-value="([^"]*)">([^<]*)</td>',
+    r'<td class="n"[^>]*>(\d+)</td>\s*<td class="ratio"[^>]*?data-value="([^"]*)"[^>]*>([^<]*)</td>',
     re.S,
 )
 
@@ -65,7 +65,7 @@ def page_calibration(text: str) -> dict[str, float]:
     """The new parameters the calibration page shows (data-value, checked against its digits)."""
     out: dict[str, float] = {}
     for key in ("left_wheel_radius", "right_wheel_radius", "track_width"):
-        found = re.search(rf'id="{key}" data-value="([^"]*)">([^<]*)<', text)
+        found = re.search(rf'id="{key}"[^>]*?data-value="([^"]*)"[^>]*>([^<]*)<', text)
         assert found, (key, text[:2000])
         value = float(found.group(1))
         assert format(value, ".5g") == found.group(2).strip()
