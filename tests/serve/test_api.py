@@ -13,6 +13,7 @@ from starlette.testclient import TestClient
 
 from odolab.cli import main
 from odolab.serve import ServeSettings, create_app
+from odolab.serve.routes._measure import in_words
 
 from .conftest import (
     HOSTILE_TRIAL,
@@ -149,8 +150,38 @@ def test_every_refusal_is_the_clis_sentence(
         headers={"content-type": "application/json"},
     )
     assert 400 <= r.status_code < 500
-    assert r.json() == {"error": sentence}
+    # the CLI's sentence, its flags in the API's words; a JSON number the API checks first
+    # (NaN, sigma not more than 0) has the API's own sentence
+    own = API_OWN.get(json.dumps(body))
+    assert r.json() == {"error": own or in_words(sentence, api=True)}
+    assert "--" not in r.json()["error"] and "sigma_reading_rad" not in r.json()["error"]
     assert snapshot(client) == before  # nothing stored, by the CLI or the API
+
+
+_DEFAULT = "(leave it out for the default: 0.05 rad of one compass reading, 0.005 m for x and y)"
+API_OWN = {
+    json.dumps({"initial": math.nan, "final": 136, "turns": 9}):
+        '"initial" is NaN; send a finite number',
+    json.dumps({"initial": 100, "final": 136, "turns": 9, "sigma": -0.1}):
+        f'"sigma" is -0.1; it must be more than 0 {_DEFAULT}',
+    json.dumps({"x": 2.5, "y": 0, "sigma": -1}): f'"sigma" is -1; it must be more than 0 {_DEFAULT}',
+}  # fmt: skip
+
+
+def test_the_api_names_its_keys_not_the_clis_flags(client: TestClient) -> None:
+    def error(tid: str, body: dict[str, Any]) -> str:
+        return str(client.post(url(tid, "/measurement"), json=body).json()["error"])
+
+    # the old answers: "give --replace ...", "it is measured with --initial, --final and --turns"
+    assert error("R1", {"initial": 1, "final": 0, "turns": 0}).endswith(
+        '; send "replace": true to overwrite its measurement'
+    )
+    assert error("R20", {"x": 1.0, "y": 0.0}) == (
+        'trial R20 is a rotation: it is measured with "initial", "final" and "turns"'
+    )
+    assert error("F1", {"initial": 1, "final": 0, "turns": 0}) == (
+        'trial F1 is a translation: it is measured with "x" and "y"'
+    )
 
 
 def test_the_sentences_say_what_to_fix(client: TestClient) -> None:
@@ -160,7 +191,7 @@ def test_the_sentences_say_what_to_fix(client: TestClient) -> None:
     assert "about 9 would fit" in error("R20", {"initial": 100, "final": 136, "turns": 3})
     assert "was it typed in cm or mm?" in error("F1", {"x": 250, "y": 3})
     assert error("R1", {"initial": 1, "final": 0, "turns": 0}).startswith(
-        "trial R1 is already measured (rot 5.655 rad (1.80 pi) [compass]); give --replace"
+        'trial R1 is already measured (rot 5.655 rad (1.80 pi) [compass]); send "replace": true'
     )
 
 
@@ -193,7 +224,7 @@ def test_malformed_bodies(client: TestClient) -> None:
     }
     text = client.post(url("R20", "/measurement"), json={"initial": "ten", "final": 2, "turns": 9})
     assert text.json() == {
-        "error": "trial R20: compass initial reading must be a number, got 'ten'"
+        "error": '"initial" is text; send a JSON number, e.g. "initial": 0.5 (not "0.5")'
     }
     assert snapshot(client) == before
 

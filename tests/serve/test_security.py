@@ -182,7 +182,8 @@ def test_hostile_names_are_text_on_every_page(lab_db: Path) -> None:
         data={"id": "F1", "x": '"><script>alert(3)</script>', "y": "0", "csrf": token},
     )
     assert r.status_code == 400
-    assert "x must be a number" in r.text
+    assert "x has 27 characters; type a measurement of at most 24 (e.g. -0.031)" in r.text
+    assert 'value="&#34;&gt;&lt;script&gt;alert(3)&lt;/script&gt;"' in r.text  # kept, as text
     _assert_inert(r.text)
     assert "alert(3)</script>" not in r.text
 

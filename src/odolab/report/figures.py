@@ -22,6 +22,8 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
 __all__ = [
+    "LEGEND_FONTSIZE",
+    "legend_outside",
     "plot_calibration_effect",
     "plot_error_ellipses",
     "plot_fit",
@@ -46,10 +48,44 @@ def _axes(ax: Axes | None) -> Axes:
     return new
 
 
-def _headroom(ax: Axes, frac: float = 0.3) -> None:
-    """Raise the top of the y axis by ``frac`` of its span: room for the legend above the data."""
-    lo, hi = ax.get_ylim()
-    ax.set_ylim(lo, hi + frac * (hi - lo))
+#: Legend text size (pt): the report draws figures 6 in wide and shows them down to a phone's
+#: 368 px, the web notebook draws its own phone-size rendering (:mod:`odolab.serve.plots`).
+LEGEND_FONTSIZE = 9
+
+
+def legend_outside(
+    ax: Axes,
+    *,
+    fontsize: float = LEGEND_FONTSIZE,
+    ncol: int | None = None,
+    title: str | None = None,
+    wrap: int | None = None,
+) -> None:
+    """The legend of ``ax`` under the axes (never on the data), centred, in ``ncol`` columns
+    (chosen from the labels' length when None), each label wrapped at ``wrap`` characters when
+    given (a narrow figure). A figure with ``layout="constrained"`` makes room for it; nothing
+    is drawn when ``ax`` has no labelled artist."""
+    import textwrap
+
+    handles, labels = ax.get_legend_handles_labels()
+    if not labels:
+        return
+    if wrap is not None:
+        labels = [textwrap.fill(t, wrap) for t in labels]
+    if ncol is None:
+        longest = max(len(t) for t in labels)
+        ncol = 1 if longest > 38 else (2 if longest > 18 or len(labels) < 6 else 3)
+    ax.legend(
+        handles,
+        labels,
+        title=title,
+        loc="upper center",
+        bbox_to_anchor=(0.5, -0.14),
+        ncol=max(1, min(ncol, len(labels))),
+        frameon=False,
+        fontsize=fontsize,
+        title_fontsize=fontsize,
+    )
 
 
 def _title(m: MotionAnalysis) -> str:
@@ -124,7 +160,7 @@ def plot_fit(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
     ax.set_ylabel(MOTIONS[m.motion]["y"])
     ax.set_title(_title(m))
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=9, loc="best")
+    legend_outside(ax)
     return ax
 
 
@@ -155,8 +191,7 @@ def plot_residuals(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
     ax.set_ylabel(f"residual ({unit})")
     ax.set_title(f"Residuals: {_title(m)}")
     ax.grid(alpha=0.3)
-    _headroom(ax)
-    ax.legend(fontsize=9, loc="upper left")
+    legend_outside(ax)
     return ax
 
 
@@ -188,8 +223,7 @@ def plot_histogram(
     ax.set_title(f"Error at {group.at:.3g} {unit}{pv}")
     ax.grid(alpha=0.3)
     ax.set_ylim(0.0, None)
-    _headroom(ax, 0.35)
-    ax.legend(fontsize=9, loc="upper left")
+    legend_outside(ax)
     return ax
 
 
@@ -235,7 +269,7 @@ def plot_growth(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
     ax.set_ylabel(f"σ of the error ({unit})")
     ax.set_title(f"Growth of σ: {_title(m)}")
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=9)
+    legend_outside(ax)
     return ax
 
 
@@ -262,7 +296,7 @@ def plot_terrains(analysis: LabAnalysis, motion: str = "x", ax: Axes | None = No
     ax.set_ylabel(MOTIONS[motion]["y"])
     ax.set_title(f"{motion} on each terrain")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=9)
+    legend_outside(ax)
     return ax
 
 
@@ -314,7 +348,7 @@ def plot_terrain_slopes(analysis: LabAnalysis, motion: str = "x", ax: Axes | Non
     )
     ax.set_ylabel("terrain")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=9)
+    legend_outside(ax)
     return ax
 
 
@@ -366,7 +400,7 @@ def plot_error_ellipses(analysis: LabAnalysis, terrain: str, ax: Axes | None = N
     ax.grid(alpha=0.3)
     ax.axhline(0, color="gray", lw=0.8)
     ax.axvline(0, color="gray", lw=0.8)
-    ax.legend(fontsize=8 if k > 6 else 9, title="commanded distance", ncol=2 if k > 6 else 1)
+    legend_outside(ax, title="commanded distance", ncol=3 if k > 6 else 2)
     return ax
 
 
@@ -419,7 +453,7 @@ def plot_calibration_effect(
     ax.set_ylabel(MOTIONS[motion]["y"])
     ax.set_title(f"Old vs new parameters: {_title(m)}")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=9)
+    legend_outside(ax)
     return ax
 
 
@@ -469,5 +503,5 @@ def plot_umbmark(
     ax.set_title("UMBmark return-position errors")
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=9, ncol=2)
+    legend_outside(ax, ncol=2)
     return ax

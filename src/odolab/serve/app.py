@@ -47,9 +47,13 @@ class ServeSettings:
 
 async def _http_error(request: Request, exc: Exception) -> Response:
     assert isinstance(exc, HTTPException)
+    detail = exc.detail
+    if exc.status_code == 405:  # Starlette's "Method Not Allowed", in words, with its Allow
+        allowed = (exc.headers or {}).get("Allow", "")
+        detail = f"{request.url.path} does not take {request.method}; it takes {allowed}"
     if request.url.path.startswith("/api/"):
-        return JSONResponse({"error": exc.detail}, status_code=exc.status_code)
-    return Response(exc.detail, exc.status_code, media_type="text/plain")
+        return JSONResponse({"error": detail}, status_code=exc.status_code, headers=exc.headers)
+    return Response(detail, exc.status_code, media_type="text/plain", headers=exc.headers)
 
 
 async def _odolab_error(request: Request, exc: Exception) -> Response:

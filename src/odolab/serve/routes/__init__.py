@@ -5,12 +5,13 @@ from __future__ import annotations
 
 from starlette.routing import Route
 
-from odolab.serve.routes import api, calibrate, data, params, report, table1, trials
+from odolab.serve.routes import api, calibrate, data, favicon, params, report, table1, trials
 
 __all__ = ["ROUTES"]
 
 ROUTES = [
     Route("/", trials.index),
+    Route("/favicon.ico", favicon.favicon),
     Route("/trial", trials.trial_page),
     Route("/trial/measure", trials.measure, methods=["POST"]),
     Route("/trial/exclude", trials.exclude, methods=["POST"]),

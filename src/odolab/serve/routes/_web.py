@@ -74,6 +74,12 @@ def templates() -> jinja2.Environment:
     env.filters["num"] = fnum
     env.filters["exact"] = exact
     env.globals["pi"] = math.pi
+    from odolab.serve.routes import _measure
+
+    env.filters["readings"] = _measure.reading_words
+    env.globals["max_chars"] = _measure.MAX_CHARS
+    env.globals["signed"] = _measure.HTML_PATTERN
+    env.globals["unsigned"] = _measure.HTML_PATTERN_UNSIGNED
     return env
 
 
@@ -206,10 +212,18 @@ async def json_body(request: Request) -> dict[str, Any]:
     ctype = request.headers.get("content-type", "").split(";")[0].strip().lower()
     if ctype != "application/json":
         raise HTTPException(415, "send the body as JSON (Content-Type: application/json)")
+    import json
+
     try:
         body = await request.json()
-    except ValueError as err:
-        raise StoreError(f"the body is not valid JSON ({err})") from err
+    except json.JSONDecodeError as err:
+        where = f"line {err.lineno}, column {err.colno}"
+        raise StoreError(f"the body is not valid JSON ({err.msg.lower()} at {where})") from err
+    except ValueError as err:  # an integer of more than 4300 digits, text that is not UTF-8
+        raise StoreError(
+            "the body is not valid JSON for odolab (a number with thousands of digits, or "
+            "text that is not UTF-8)"
+        ) from err
     except RecursionError as err:  # [[[[...]]]] nested deeper than the parser recurses
         raise StoreError("the body is not valid JSON (nested too deeply)") from err
     if not isinstance(body, dict):

@@ -12,6 +12,7 @@ from starlette.requests import Request
 from starlette.responses import JSONResponse, Response
 
 from odolab.errors import OdolabError, StoreError
+from odolab.serve.routes._measure import in_words, json_readings
 from odolab.serve.routes._web import (
     KINDS,
     STATUSES,
@@ -32,6 +33,7 @@ if TYPE_CHECKING:
 __all__ = ["calibrate", "report", "table1", "trial", "trials"]
 
 _MEASUREMENT_KEYS = ("initial", "final", "turns", "x", "y", "sigma", "replace")
+_POST_ONLY = ("measurement", "exclude", "include")
 _CALIBRATE_KEYS = ("method", "robot", "terrain", "campaign", "exclude_campaign", "record")
 
 
@@ -105,6 +107,15 @@ async def trial(request: Request) -> Response:
     try:
         return JSONResponse(await web(request).run(load))
     except StoreError as err:
+        action = trial_id.rsplit("/", 1)[-1] if "/" in trial_id else ""
+        if action in _POST_ONLY and request.method in ("GET", "HEAD"):
+            # GET .../measurement: the route exists for POST (a trial called "A/measurement"
+            # would have been found above)
+            return JSONResponse(
+                {"error": f"{request.url.path} takes POST (a JSON body), not GET"},
+                status_code=405,
+                headers={"allow": "POST"},
+            )
         return error_json(err, 404)
 
 
@@ -120,15 +131,15 @@ async def measure(request: Request) -> Response:
         replace = body.get("replace", False)
         if not isinstance(replace, bool):
             raise StoreError(f"replace is {replace!r}; expected true or false")
+        readings = json_readings(body)
     except StoreError as err:
         return error_json(err)
-    readings = {k: body.get(k) for k in _MEASUREMENT_KEYS if k != "replace"}
 
     def save(nb: Notebook) -> tuple[int, dict[str, Any]]:
         try:
             saved = record_measurement(nb, trial_id, **readings, replace=replace)
         except StoreError as err:
-            return status_of(err), {"error": str(err)}
+            return status_of(err), {"error": in_words(str(err), api=True)}
         return 200, trial_json(saved)
 
     status, out = await web(request).run(save)

@@ -61,5 +61,6 @@ async def fit_plot(request: Request) -> Response:
     result, _, _ = await analysis_now(web(request), selection_of(request.query_params))
     if result is None or not 0 <= index < len(result.analysis.motions):
         return plain("no such row of Table I", 404)
-    png = await run_in_threadpool(fit_png, result.analysis.motions[index])
+    size = request.query_params.get("size")
+    png = await run_in_threadpool(fit_png, result.analysis.motions[index], size)
     return Response(png, media_type="image/png")

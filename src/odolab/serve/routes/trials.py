@@ -100,23 +100,30 @@ async def trial_page(request: Request) -> Response:
         w.saved_signature(trial_id, saved), request.query_params.get("sig", "")
     ):
         saved = None  # a link made elsewhere cannot show "measured: ..." on the page
-    return w.page(request, "trial.html.j2", values={}, error=None, saved=saved, **ctx)
+    return w.page(request, "trial.html.j2", values={}, error=None, invalid=(), saved=saved, **ctx)
 
 
 async def _refused(
     request: Request, trial_id: str, err: StoreError, values: dict[str, str | None]
 ) -> Response:
-    """The trial page again with the refusal's sentence and the values typed (nothing
-    stored); the error page when the trial itself is unknown."""
+    """The trial page again with the refusal's sentence in the page's words, the fields it is
+    about marked, and the values typed (nothing stored); the error page when the trial itself
+    is unknown."""
+    from odolab.serve.routes._measure import fields_of, in_words
+
     w = web(request)
     try:
         ctx = await w.run(lambda nb: trial_context(nb, trial_id))
     except StoreError as err2:
         return w.error_page(request, err2, 404)
-    return w.page(request, "trial.html.j2", 400, values=values, error=str(err), saved=None, **ctx)
+    return w.page(
+        request, "trial.html.j2", 400, values=values, error=in_words(str(err)),
+        invalid=fields_of(err), saved=None, **ctx,
+    )  # fmt: skip
 
 
 async def measure(request: Request) -> Response:
+    from odolab.serve.routes._measure import FIELDS, form_readings
     from odolab.store.measure import describe_measurement, record_measurement
 
     w = web(request)
@@ -125,13 +132,16 @@ async def measure(request: Request) -> Response:
     except FormError as err:
         return w.error_page(request, err, 403)
     trial_id = str(form.get("id", ""))
-    values = {k: text_field(form, k) for k in ("initial", "final", "turns", "x", "y", "sigma")}
+    values = {k: text_field(form, k) for k in FIELDS}
     replace = form.get("replace") == "on"
+    values["replace"] = "on" if replace else None
 
     def save(nb: Notebook) -> str:
-        return describe_measurement(record_measurement(nb, trial_id, **values, replace=replace))
+        saved = record_measurement(nb, trial_id, **readings, replace=replace)
+        return describe_measurement(saved)
 
     try:
+        readings = form_readings(form)
         text = await w.run(save)
     except StoreError as err:
         return await _refused(request, trial_id, err, values)
@@ -166,8 +176,9 @@ async def plot(request: Request) -> Response:
     from odolab.serve.plots import run_png
 
     trial_id = request.query_params.get("id", "")
+    size = request.query_params.get("size")
     try:
-        png = await web(request).run(lambda nb: run_png(nb.get_trial(trial_id)))
+        png = await web(request).run(lambda nb: run_png(nb.get_trial(trial_id), size))
     except OdolabError as err:
         return plain(str(err), 404)
     if png is None:
