@@ -25,18 +25,22 @@ from odolab.text import shorten
 from odolab.writing import NEW_FILE_MODE
 
 __all__ = [
+    "SMALLEST_DATABASE",
     "SQLITE_MAGIC",
     "NotebookDamagedError",
     "NotebookFileError",
     "check_notebook_file",
     "create_notebook_file",
     "integrity_words",
+    "not_a_database",
     "recovery_hint",
     "store_error",
 ]
 
 #: The first 16 bytes of every SQLite 3 database file.
 SQLITE_MAGIC = b"SQLite format 3\x00"
+#: The smallest SQLite database file: one page of the smallest page size.
+SMALLEST_DATABASE = 512
 #: SQLite's primary result codes that mean the file itself is damaged: CORRUPT, NOTADB.
 _DAMAGED_CODES = frozenset({11, 26})
 _BUSY_CODES = frozenset({5, 6})  # BUSY, LOCKED
@@ -61,37 +65,62 @@ class NotebookDamagedError(StoreError):
 def check_notebook_file(path: Path) -> bool:
     """Refuse what cannot be a notebook; return whether ``path`` exists (False: to be created).
 
-    Only the first bytes are read; nothing is written.
+    Nothing is written. The file is *opened* only when it is smaller than any SQLite database
+    (:data:`SMALLEST_DATABASE`): closing a descriptor of a database file drops every POSIX lock
+    this process holds on it, so reading a live notebook's header while another thread has a
+    connection open lets two writers in at once and loses commits (SQLite's "How To Corrupt",
+    2.2). A larger file that is not a database is refused by :func:`not_a_database` when SQLite
+    first reads it.
     """
     if path.is_dir():
         raise NotebookFileError(f"{path}: is a folder; expected a notebook file")
-    if not path.exists():
-        if not path.parent.is_dir():
-            raise NotebookFileError(f"{path}: the folder {path.parent} does not exist")
-        return False
     try:
+        size = path.stat().st_size
+    except FileNotFoundError:
+        if not path.parent.is_dir():
+            raise NotebookFileError(f"{path}: the folder {path.parent} does not exist") from None
+        return False
+    except OSError as err:
+        raise NotebookFileError(
+            f"{path}: cannot read the notebook ({err.strerror or err})"
+        ) from err
+    if size == 0:
+        raise NotebookFileError(
+            f"{path}: is an empty file, not an odolab notebook; remove it, or give a new file "
+            "name to create a notebook there"
+        )
+    if size >= SMALLEST_DATABASE:
+        return True
+    try:  # no connection can hold a lock on a file this small: reading it is safe
         with path.open("rb") as fh:
             head = fh.read(100)
     except OSError as err:
         raise NotebookFileError(
             f"{path}: cannot read the notebook ({err.strerror or err})"
         ) from err
-    if not head:
-        raise NotebookFileError(
-            f"{path}: is an empty file, not an odolab notebook; remove it, or give a new file "
-            "name to create a notebook there"
-        )
     if not head.startswith(SQLITE_MAGIC):
         raise NotebookFileError(
             f"{path}: is not an odolab notebook (not a SQLite database; it starts with "
             f"{shorten(repr(head[:16]), 40)}); expected a notebook file made by odolab"
         )
-    if len(head) < 100:
-        raise NotebookDamagedError(
-            f"{path}: the notebook is damaged (cut off after {len(head)} bytes, inside its "
-            f"header); {recovery_hint(path)}"
+    raise NotebookDamagedError(
+        f"{path}: the notebook is damaged (cut off after {size} bytes, "
+        f"{'inside its header' if size < 100 else 'inside its first page'}); "
+        f"{recovery_hint(path)}"
+    )
+
+
+def not_a_database(path: str | Path, err: sqlite3.Error) -> NotebookFileError | None:
+    """SQLite's "file is not a database" on first reading ``path``, as one sentence (None for
+    any other error)."""
+    code = getattr(err, "sqlite_errorcode", None)
+    if (code is not None and code & 0xFF == 26) or "not a database" in str(err).lower():
+        return NotebookFileError(
+            f"{path}: is not an odolab notebook (not a SQLite database, or one whose header is "
+            "damaged); expected a notebook file made by odolab; if it was a notebook, "
+            f"{recovery_hint(path)}"
         )
-    return True
+    return None
 
 
 def create_notebook_file(path: Path, build: Callable[[Path], None]) -> bool:

@@ -25,7 +25,7 @@ from contextlib import suppress
 from pathlib import Path
 
 from odolab.errors import StoreError
-from odolab.store.health import NotebookFileError, store_error
+from odolab.store.health import NotebookFileError, not_a_database, store_error
 
 __all__ = ["APPLICATION_ID", "SCHEMA_V1", "SCHEMA_VERSION", "connect", "migrate"]
 
@@ -260,7 +260,13 @@ def connect(path: str | Path, *, timeout: float = 30.0) -> sqlite3.Connection:
         conn = sqlite3.connect(str(path), timeout=timeout, isolation_level=None)
         conn.execute(f"PRAGMA busy_timeout = {int(timeout * 1000)}")
         # another program's database is refused before anything (WAL mode) is written to it
-        version = int(conn.execute("PRAGMA user_version").fetchone()[0])
+        try:  # SQLite's first read of the file: its header
+            version = int(conn.execute("PRAGMA user_version").fetchone()[0])
+        except sqlite3.DatabaseError as err:
+            refusal = not_a_database(path, err)
+            if refusal is None:
+                raise
+            raise refusal from err
         _check_odolab(conn, version, str(path))
         _check_not_newer(version, str(path))
         mode = conn.execute("PRAGMA journal_mode = WAL").fetchone()[0]
