@@ -67,6 +67,11 @@ def test_the_project_keeps_its_contract(tmp_path: Path) -> None:
         ),
         # a reader must not know the calibration
         ("io/run.py", "import odolab.calibration.lsq", "odolab.io.run -> odolab.calibration.lsq"),
+        # the live stack gets its plant through robot.plant, never from the simulator (issue 27)
+        ("robot/loop.py", "import odolab.sim.physics", "odolab.robot.loop -> odolab.sim.physics"),
+        # nor does the simulator know the robot stack, nor tracking either
+        ("sim/physics.py", "import odolab.robot.plant", "odolab.sim.physics -> odolab.robot.plant"),
+        ("tracking/__init__.py", "import odolab.robot", "odolab.tracking -> odolab.robot"),
         # a new top-level module must be placed in a layer
         ("unplaced.py", "import odolab.errors", "odolab.unplaced"),
     ],
