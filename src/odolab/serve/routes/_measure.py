@@ -194,8 +194,9 @@ _RAW = {
 
 def reading_words(raw: Mapping[str, Any]) -> str:
     """``compass before 100°, compass after 136°, turns 9`` for the stored readings."""
+    order = list(_RAW)
     parts = []
-    for key, value in raw.items():
+    for key, value in sorted(raw.items(), key=lambda kv: [*order, kv[0]].index(kv[0])):
         label, unit = _RAW.get(key, (key.replace("_", " "), ""))
         shown = format(value, "g") if isinstance(value, int | float) else str(value)
         parts.append(f"{label} {shown}{unit}")

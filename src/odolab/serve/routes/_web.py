@@ -132,6 +132,8 @@ class Web:
     settings: ServeSettings
     env: jinja2.Environment = field(default_factory=templates)
     cache: AnalysisCache = field(default_factory=AnalysisCache)
+    #: results of recent form posts, for the page their redirect shows (post/redirect/get)
+    recent: dict[str, Any] = field(default_factory=dict)
 
     @property
     def db(self) -> Path:
@@ -178,6 +180,27 @@ class Web:
         """HMAC of the confirmation shown after a post, under the server's secret."""
         msg = f"saved\0{trial_id}\0{text}".encode()
         return hmac.new(self.settings.secret, msg, hashlib.sha256).hexdigest()
+
+    def remember(self, key: str, value: Any) -> None:
+        """Keep ``value`` for the page a redirect shows (the 16 latest)."""
+        self.recent.pop(key, None)
+        self.recent[key] = value
+        while len(self.recent) > 16:
+            self.recent.pop(next(iter(self.recent)))
+
+    def signed_redirect(self, path: str, text: str) -> Response:
+        """303 to ``path?done=TEXT&sig=...`` (post/redirect/get): the page says ``text`` only
+        when this server signed it."""
+        sig = self.saved_signature(f"page\0{path}", text)
+        return RedirectResponse(f"{path}?{urlencode({'done': text, 'sig': sig})}", status_code=303)
+
+    def signed_text(self, request: Request) -> str | None:
+        """The ``done`` text of a :meth:`signed_redirect` to this page (None when unsigned)."""
+        text = request.query_params.get("done")
+        sig = self.saved_signature(f"page\0{request.url.path}", text or "")
+        if text is None or not hmac.compare_digest(sig, request.query_params.get("sig", "")):
+            return None
+        return text
 
     def trial_saved(self, trial_id: str, text: str) -> Response:
         """Back to the trial page (post/redirect/get), saying what was stored; the message is

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
+from urllib.parse import urlencode
 
 from starlette.requests import Request
-from starlette.responses import Response
+from starlette.responses import RedirectResponse, Response
 
 from odolab.errors import OdolabError
 from odolab.serve.routes._web import FormError, text_field, web
@@ -23,9 +24,23 @@ def _choices(nb: Notebook) -> dict[str, Any]:
 
 
 async def page(request: Request) -> Response:
-    w = web(request)
-    ctx = await w.run(_choices)
-    return w.page(request, "calibrate.html.j2", result=None, error=None, **ctx)
+    """The form; after a calibration (``?robot=R&version=V``, where its post redirects) the
+    version it recorded: in full while this server remembers the calibration, else as the
+    notebook stores it."""
+    w, q = web(request), request.query_params
+    robot, version = q.get("robot"), q.get("version", "")
+
+    def load(nb: Notebook) -> dict[str, Any]:
+        ctx = _choices(nb)
+        ctx["stored"] = None
+        if robot and version.isdigit():
+            found = [v for v in nb.params_versions(robot) if v.version == int(version)]
+            ctx["stored"] = found[0] if found else None
+        return ctx
+
+    ctx = await w.run(load)
+    result = w.recent.get(f"calibrate\0{robot}\0{version}") if ctx["stored"] else None
+    return w.page(request, "calibrate.html.j2", result=result, error=None, **ctx)
 
 
 def _run(nb: Notebook, req: CalibrationRequest) -> dict[str, Any]:
@@ -53,4 +68,10 @@ async def post(request: Request) -> Response:
         terrain=text_field(form, "terrain"),
     )
     ctx = await w.run(lambda nb: _run(nb, req))
-    return w.page(request, "calibrate.html.j2", 400 if ctx["error"] else 200, **ctx)
+    result = ctx["result"]
+    if result is None or result.version is None:
+        return w.page(request, "calibrate.html.j2", 400, stored=None, **ctx)
+    # post/redirect/get: a reload of the result page does not calibrate again
+    w.remember(f"calibrate\0{result.robot}\0{result.version}", result)
+    query = urlencode({"robot": result.robot, "version": result.version})
+    return RedirectResponse(f"/calibrate?{query}#calibration", status_code=303)

@@ -26,7 +26,8 @@ def _names(nb: Notebook) -> list[str]:
 async def page(request: Request) -> Response:
     w = web(request)
     names = await w.run(_names)
-    return w.page(request, "data.html.j2", message=None, error=None, campaign_names=names)
+    message = w.signed_text(request)  # "N trials imported from NAME", after an import
+    return w.page(request, "data.html.j2", message=message, error=None, campaign_names=names)
 
 
 async def upload(request: Request) -> Response:
@@ -61,9 +62,8 @@ async def upload(request: Request) -> Response:
         return w.page(
             request, "data.html.j2", 400, message=None, error=str(err), campaign_names=names
         )
-    message = f"{n} trials imported from {name}"
-    names = await w.run(_names)
-    return w.page(request, "data.html.j2", message=message, error=None, campaign_names=names)
+    # post/redirect/get: a reload of the page that says so does not import again
+    return w.signed_redirect("/data", f"{n} trials imported from {name}")
 
 
 async def export(request: Request) -> Response:
