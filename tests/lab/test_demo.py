@@ -262,12 +262,15 @@ def test_demo_compares_the_models_and_checks_the_covariance(lab) -> None:  # typ
     pieces = [v for r in c["runs"] for v in r["nees"]]
     assert c["summary"]["n"] == len(pieces) >= 6 * 2
     assert c["summary"]["mean_nees"] == pytest.approx(sum(pieces) / len(pieces), rel=1e-12)
-    # the [noise] the analysis measured has no turn scrub (k_scrub = 0), the virtual Jaguar
-    # scrubs its tracks in every turn: the covariance is too small, and the report says so
+    # issue 26: the wheels' noise from the straight runs, the turn scrub from the rotations
+    # (pooled, both were 0.0247 m and k_scrub 0). The runs with ground truth still leave the
+    # covariance too small: the ratios calibration cannot express the virtual Jaguar's
+    # direction-dependent radii, a systematic error no noise constant describes.
     from odolab.params import load_params
 
     noise = load_params(result.params_files["ratios"]).noise
-    assert noise is not None and noise.k_left > 0 and noise.k_scrub == 0
+    assert noise is not None and 0 < noise.k_left < 1e-3 and 0 < noise.k_right < 1e-3
+    assert noise.k_scrub > 0
     assert c["summary"]["mean_nees"] > c["summary"]["mean_bounds95"][1]
     assert c["summary"]["verdict"].startswith("too small")
     page = result.report.read_text()
