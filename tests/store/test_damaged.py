@@ -247,3 +247,33 @@ def test_a_file_system_without_hard_links_still_gets_a_notebook(
     with Notebook(tmp_path / "fat.db") as nb:
         assert nb.migrated_from == 0 and nb.integrity_check() == "ok"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["fat.db"]
+
+
+def test_report_and_analysis_of_a_notebook_with_a_lost_trials_page(
+    template: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    conn = sqlite3.connect(template)
+    try:
+        leaves = [
+            int(r[0])
+            for r in conn.execute(
+                "SELECT pageno FROM dbstat WHERE name = 'trials' AND pagetype = 'leaf'"
+            )
+        ]
+    except sqlite3.OperationalError:
+        pytest.skip("this SQLite has no dbstat table")
+    finally:
+        conn.close()
+    db = tmp_path / "lost.db"
+    data = bytearray(template.read_bytes())
+    page = leaves[len(leaves) // 2]
+    data[(page - 1) * PAGE : page * PAGE] = bytes(PAGE)
+    db.write_bytes(bytes(data))
+    for args in (["report", "--db", str(db), "--out", str(tmp_path / "rep")],
+                 ["analyze", "--db", str(db)], ["trials", "list", "--db", str(db)],
+                 ["trials", "export", str(tmp_path / "all.csv"), "--db", str(db)]):  # fmt: skip
+        assert main(args) == 1, args
+        err = capsys.readouterr().err
+        assert err.startswith(f"odolab: error: {db}: the notebook is damaged (SQLite: "), err
+        assert err.count("\n") == 1 and "odolab notebook rescue NEW.db" in err
+    assert not (tmp_path / "rep" / "report.html").exists()
