@@ -26,7 +26,13 @@ from numpy.typing import NDArray
 
 from odolab.errors import EncoderJumpError, LogFormatError
 from odolab.io._table import data_line_numbers
-from odolab.io.encoder_csv import INCREMENTS, RAW, _ticks, check_counter_range
+from odolab.io.encoder_csv import (
+    INCREMENTS,
+    RAW,
+    _ticks,
+    check_counter_range,
+    check_encoder_header,
+)
 from odolab.io.tabular import (
     BINARY_SUFFIXES,
     ChunkWriter,
@@ -104,7 +110,9 @@ def iter_encoder_chunks(
         from odolab.io.limits import check_columns_unique, check_text_file, first_line_cells
 
         check_text_file(p, expected="an encoder log CSV")
-        check_columns_unique(p, first_line_cells(p))
+        cells = first_line_cells(p)
+        check_encoder_header(p, cells)
+        check_columns_unique(p, cells)
     header = read_header(p)
     increments = "dticks_left" in header and "left_ticks" not in header
     cols = INCREMENTS if increments else RAW

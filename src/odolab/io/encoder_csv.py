@@ -23,10 +23,36 @@ from odolab.trajectory import check_times
 from odolab.trials import EncoderLog
 from odolab.writing import path_first
 
-__all__ = ["read_encoder_csv", "write_encoder_csv"]
+__all__ = ["check_encoder_header", "read_encoder_csv", "write_encoder_csv"]
 
 RAW = ("t", "left_ticks", "right_ticks")
 INCREMENTS = ("t", "dticks_left", "dticks_right")
+
+
+def _is_number(cell: str) -> bool:
+    try:
+        float(cell)
+    except ValueError:
+        return False
+    return True
+
+
+def check_encoder_header(p: Path, cells: list[str]) -> None:
+    """Refuse a CSV whose first line is data, not a header (one sentence: what is expected)."""
+    if not cells or not all(_is_number(c) for c in cells):
+        return
+    from odolab.text import safe_terminal, shorten
+
+    raise LogFormatError(
+        f"{p}: line 1 ({safe_terminal(shorten(','.join(cells), 80))}) is data, not a header; "
+        "expected the header line t,left_ticks,right_ticks (raw counters) or "
+        "t,dticks_left,dticks_right (per-cycle increments) first"
+        + (
+            " (an OptiOdom run: give --format optiodom)"
+            if len(cells) == 6 and "_run-" in p.name
+            else ""
+        )
+    )
 
 
 #: Largest count a float64 holds exactly (2**53).
@@ -65,7 +91,9 @@ def read_encoder_csv(path: str | Path, *, modulus: int | None = None) -> Encoder
     text = table_format(p) == "csv"
     if text:
         check_text_file(p, expected="an encoder log CSV")
-        check_columns_unique(p, first_line_cells(p))
+        cells = first_line_cells(p)
+        check_encoder_header(p, cells)
+        check_columns_unique(p, cells)
     header = read_header(p)  # the header without pandas (its import is a second of a run)
     increments = "dticks_left" in header and "left_ticks" not in header
     cols = INCREMENTS if increments else RAW
