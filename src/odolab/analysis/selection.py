@@ -83,6 +83,11 @@ def select_trials(
         t.campaign for t in kept if t.status is TrialStatus.MEASURED and t.measured is not None
     )
     used = {c: measured.get(c, 0) for c in present if c in keep}
+    if not present:
+        raise SelectionError(
+            "the notebook holds no trial yet; record some first (odolab sim run, odolab robot, "
+            "odolab trials add or import)"
+        )
     if not kept:
         raise SelectionError(
             "the campaign filters leave no trial; campaigns: "
