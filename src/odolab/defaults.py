@@ -2,13 +2,25 @@
 
 - :data:`DEFAULT_ROBOT`: the nominal parameter preset (:data:`odolab.params.PRESETS`).
 - :data:`DEFAULT_TRUTH`: the virtual robot's true behaviour (:data:`odolab.sim.presets.TRUTH_PRESETS`).
+- :class:`LogFormat`: the formats of recorded runs, the keys of :data:`odolab.io.registry.READERS`
+  (here so that the command line names them without importing the readers).
 """
 
 from __future__ import annotations
 
-__all__ = ["DEFAULT_ROBOT", "DEFAULT_TRUTH"]
+from enum import StrEnum
+
+__all__ = ["DEFAULT_ROBOT", "DEFAULT_TRUTH", "LogFormat"]
 
 #: The nominal preset every command uses unless told otherwise (the lab's Jaguar Lite).
 DEFAULT_ROBOT = "jaguar-lite"
 #: The true robot every simulation uses unless told otherwise: derived from the lab report.
 DEFAULT_TRUTH = "jaguar-lab"
+
+
+class LogFormat(StrEnum):
+    """Formats of recorded runs (each has one reader in :data:`odolab.io.registry.READERS`)."""
+
+    CSV = "csv"
+    OPTIODOM = "optiodom"
+    BAG = "bag"

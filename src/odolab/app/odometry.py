@@ -1,8 +1,9 @@
 """An encoder log integrated into a trajectory: ``odolab odometry``.
 
 The rule for which parameters a log is integrated with: the ones the user names (``--params``),
-else the ones the log names (a robot run folder's ``run.json`` beside its ``encoders.csv``),
-else the default preset (:data:`odolab.defaults.DEFAULT_ROBOT`), and then the result says so.
+else the ones the log names (a robot run folder's ``run.json`` beside its ``encoders.csv``; the
+nominal parameters of a recorded run in another :class:`~odolab.defaults.LogFormat`, such as an
+OptiOdom run's ``<id>_metadata.csv``), else the default preset (:data:`odolab.defaults.DEFAULT_ROBOT`), and then the result says so.
 :class:`ParamsChoice` carries the choice (which file, which version, and why), and every face
 prints :meth:`ParamsChoice.describe`.
 """
@@ -15,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
-from odolab.defaults import DEFAULT_ROBOT
+from odolab.defaults import DEFAULT_ROBOT, LogFormat
 from odolab.errors import OdolabError, ParamsError
 
 if TYPE_CHECKING:
@@ -33,6 +34,7 @@ __all__ = [
     "auto_chunk_rows",
     "choose_params",
     "integrate_log",
+    "resolve_formats",
 ]
 
 #: Logs larger than this are integrated in chunks unless chunk_rows says otherwise.
@@ -51,6 +53,8 @@ class ParamsChoice:
     by: Literal["user", "log", "default"]
     source: str  #: a file, or "preset NAME"
     version: str | None = None  #: the notebook version (a TOML's [provenance]) or odolab's
+    #: where a log's own parameters were found (said after them)
+    found: str = "its run folder names them"
 
     def describe(self) -> str:
         """One sentence every face prints: which parameters, from which file and version."""
@@ -62,7 +66,7 @@ class ParamsChoice:
         if self.version:
             what += f", {self.version}"
         if self.by == "log":
-            return what + " (the log's: its run folder names them)"
+            return what + f" (the log's: {self.found})"
         if self.by == "default":
             return (
                 what + " (the default: neither --params nor the log named any; give --params "
@@ -133,13 +137,63 @@ def _from_run_json(log: Path) -> ParamsChoice | None:
     return ParamsChoice(params, "log", str(doc_path))
 
 
-def choose_params(logs: Sequence[Path], params: str | None) -> ParamsChoice:
-    """Which parameters ``logs`` are integrated with (see the module's rule)."""
+def _from_run(log: Path, log_format: LogFormat) -> ParamsChoice | None:
+    """The nominal parameters a recorded run carries (OptiOdom: its metadata file)."""
+    from odolab import __version__
+    from odolab.io.registry import read_run
+
+    if not log.is_file():
+        return None
+    run = read_run(log, log_format)
+    if run.params is None:
+        return None
+    source = str(run.meta.get("params_source", run.source))
+    return ParamsChoice(
+        run.params,
+        "log",
+        source,
+        f"its nominal values, read by odolab {__version__}",
+        found=f"the {log_format.value} run's metadata names them",
+    )
+
+
+def resolve_formats(fmt: str, to: str | None) -> tuple[LogFormat, Literal["csv", "tum"]]:
+    """The log's format and the output's from ``--format`` and ``--to``.
+
+    ``--format`` names a :class:`~odolab.defaults.LogFormat`; ``tum`` there (odolab's older
+    spelling) means a CSV encoder log written as TUM, the same as ``--to tum``."""
+    if fmt == "tum":
+        if to == "csv":
+            raise OdolabError(
+                "--format tum with --to csv: --format tum (the older spelling) means a TUM "
+                "output; expected --format csv --to csv, or --to tum alone"
+            )
+        return LogFormat.CSV, "tum"
+    try:
+        log_format = LogFormat(fmt)
+    except ValueError:
+        names = ", ".join(f.value for f in LogFormat)
+        raise OdolabError(
+            f"--format {fmt!r} is not a log format; expected one of {names}"
+        ) from None
+    if to not in (None, "csv", "tum"):
+        raise OdolabError(f"--to {to!r} is not an output format; expected csv or tum")
+    return log_format, "tum" if to == "tum" else "csv"
+
+
+def choose_params(
+    logs: Sequence[Path], params: str | None, log_format: LogFormat | str = LogFormat.CSV
+) -> ParamsChoice:
+    """Which parameters ``logs`` (in ``log_format``) are integrated with (the module's rule)."""
     from odolab.params import PRESETS
 
     if params is not None:
         return _named(params)
-    if len(logs) == 1:
+    if len(logs) == 1 and LogFormat(log_format) != LogFormat.CSV:
+        found = _from_run(Path(logs[0]), LogFormat(log_format))
+        if found is not None:
+            return found
+    elif len(logs) == 1:
         found = _from_run_json(Path(logs[0]))
         if found is not None:
             return found
@@ -174,7 +228,9 @@ def auto_chunk_rows(*paths: Path) -> int:
 class OdometryRequest:
     """One log to integrate into ``output`` (``fmt`` csv or tum), with the chosen parameters.
 
-    ``chunk_rows``: rows per chunk (0: whole; None: :func:`auto_chunk_rows`)."""
+    ``chunk_rows``: rows per chunk (0: whole; None: :func:`auto_chunk_rows`). ``log_format``:
+    an encoder log (``csv``) or one recorded run of another format, read by its registry
+    reader and integrated from its increments (whole)."""
 
     log: Path
     output: Path
@@ -185,9 +241,12 @@ class OdometryRequest:
     max_dticks: int | None = None
     chunk_rows: int | None = None
     covariance: bool = False
+    log_format: LogFormat = LogFormat.CSV
 
     def chunks(self) -> int:
         """Rows per chunk it will be integrated in (0: the whole log at once)."""
+        if self.log_format != LogFormat.CSV:
+            return 0
         rows = auto_chunk_rows(self.log) if self.chunk_rows is None else self.chunk_rows
         return rows if self.fmt == "csv" else 0
 
@@ -210,9 +269,26 @@ class OdometryOutcome:
 
 
 def check_request(
-    params: ParamsChoice, *, fmt: str, covariance: bool, chunk_rows: int | None
+    params: ParamsChoice,
+    *,
+    fmt: str,
+    covariance: bool,
+    chunk_rows: int | None,
+    log_format: LogFormat | str = LogFormat.CSV,
+    max_dticks: int | None = None,
 ) -> None:
     """Refuse options that cannot go together (one sentence each)."""
+    lf = LogFormat(log_format)
+    if lf != LogFormat.CSV and covariance:
+        raise OdolabError(
+            f"--covariance with --format {lf.value}: the covariance is propagated for encoder "
+            "logs only; expected --format csv (or leave out --covariance)"
+        )
+    if lf != LogFormat.CSV and max_dticks is not None:
+        raise OdolabError(
+            f"--max-dticks with --format {lf.value}: a {lf.value} run holds increments, not "
+            "counters that wrap; expected it without --max-dticks"
+        )
     if chunk_rows is not None and chunk_rows < 0:
         raise OdolabError(f"--chunk-rows is {chunk_rows}; expected a number of rows >= 1 (or 0)")
     if covariance and fmt != "csv":
@@ -230,8 +306,13 @@ def check_request(
 def integrate_log(req: OdometryRequest, progress: Progress | None = None) -> OdometryOutcome:
     """Integrate ``req.log`` into ``req.output``: chunk by chunk for a big log (bounded
     memory), else whole; ``progress(rows done, total, name)`` after each chunk."""
-    check_request(req.params, fmt=req.fmt, covariance=req.covariance, chunk_rows=req.chunk_rows)
+    check_request(
+        req.params, fmt=req.fmt, covariance=req.covariance, chunk_rows=req.chunk_rows,
+        log_format=req.log_format, max_dticks=req.max_dticks,
+    )  # fmt: skip
     robot = req.params.params
+    if req.log_format != LogFormat.CSV:
+        return _integrate_run(req)
     chunk_rows = req.chunks()
     if chunk_rows > 0:
         from odolab.io.chunked import integrate_file
@@ -262,4 +343,21 @@ def integrate_log(req: OdometryRequest, progress: Progress | None = None) -> Odo
         from odolab.io.tabular import write_columns
 
         write_columns(req.output, OdometryChunk(traj, cov).columns(), "trajectory table")
+    return OdometryOutcome(len(traj), req.output, traj.final, req.params)
+
+
+def _integrate_run(req: OdometryRequest) -> OdometryOutcome:
+    """A recorded run of another format: its increments integrated with ``req.params``."""
+    from odolab.io import write_trajectory
+    from odolab.io.registry import read_run
+    from odolab.io.run import ReadOptions
+    from odolab.odometry import integrate_increments
+
+    robot = req.params.params
+    run = read_run(req.log, req.log_format, ReadOptions(ticks_per_rev=robot.ticks_per_rev))
+    traj = integrate_increments(
+        run.t, run.dticks_left, run.dticks_right, robot, req.method, start=req.start,
+        source=run.source,
+    )  # fmt: skip
+    write_trajectory(req.output, traj, req.fmt)
     return OdometryOutcome(len(traj), req.output, traj.final, req.params)

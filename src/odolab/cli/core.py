@@ -11,7 +11,7 @@ import typer
 from odolab.app.odometry import DEFAULT_CHUNK_ROWS
 from odolab.cli._apps import app, params_app
 from odolab.cli._output import echo
-from odolab.defaults import DEFAULT_ROBOT
+from odolab.defaults import DEFAULT_ROBOT, LogFormat
 
 __all__: list[str] = []
 
@@ -33,13 +33,21 @@ class FormatChoice(StrEnum):
     tum = "tum"
 
 
+#: --format: the log formats of the registry (odolab.io.registry.READERS), and ``tum``, the older
+#: spelling of --to tum (an encoder log written as TUM)
+LogFormatChoice = StrEnum(  # type: ignore[misc]
+    "LogFormatChoice", {**{f.value: f.value for f in LogFormat}, "tum": "tum"}
+)
+
+
 @app.command("odometry")
 def odometry_cmd(
     logs: Annotated[
         list[Path],
         typer.Argument(
             help="Encoder log: t,left_ticks,right_ticks (CSV, .parquet or .arrow/.feather); or "
-            "many logs, folders, quoted globs (then --output is a folder).",
+            "many logs, folders, quoted globs (then --output is a folder); or one recorded run "
+            "in another --format.",
             metavar="LOG...",
         ),
     ],
@@ -48,8 +56,8 @@ def odometry_cmd(
         typer.Option(
             "--params",
             "-p",
-            help="Parameters TOML file or preset name (default: the log's run.json, else "
-            f"{DEFAULT_ROBOT}, and the output says which).",
+            help="Parameters TOML file or preset name (default: the log's run.json or a run's "
+            f"metadata, else {DEFAULT_ROBOT}, and the output says which).",
         ),
     ] = None,
     output: Annotated[
@@ -60,8 +68,17 @@ def odometry_cmd(
     ] = Path("trajectory.csv"),
     method: Annotated[MethodChoice, typer.Option(help="Pose step rule.")] = MethodChoice.midpoint,
     fmt: Annotated[
-        FormatChoice, typer.Option("--format", help="Output format.")
-    ] = FormatChoice.csv,
+        LogFormatChoice,
+        typer.Option(
+            "--format",
+            "-f",
+            help="Log format (csv: an encoder log; optiodom, bag: one recorded run, with its "
+            "nominal parameters when it has any). tum: the older spelling of --to tum.",
+        ),
+    ] = LogFormatChoice.csv,  # type: ignore[attr-defined]
+    to: Annotated[
+        FormatChoice | None, typer.Option("--to", help="Output format (default csv).")
+    ] = None,
     start: Annotated[
         tuple[float, float, float] | None,
         typer.Option(help="Start pose X Y HEADING (m, m, rad); default the origin."),
@@ -97,16 +114,33 @@ def odometry_cmd(
 
     With many logs (or a folder, or a quoted glob), each is integrated on Dask and written to
     OUTPUT/<its path below the logs' common folder>, in its own format."""
-    from odolab.app.odometry import OdometryRequest, check_request, choose_params, integrate_log
+    from odolab.app.odometry import (
+        OdometryRequest,
+        check_request,
+        choose_params,
+        integrate_log,
+        resolve_formats,
+    )
+    from odolab.errors import OdolabError
 
-    choice = choose_params(logs, params)
-    check_request(choice, fmt=fmt.value, covariance=covariance, chunk_rows=chunk_rows)
-    echo(choice.describe())
-    if (
+    log_format, out_fmt = resolve_formats(fmt.value, to.value if to else None)
+    many = (
         len(logs) != 1
         or logs[0].is_dir()
         or (not logs[0].exists() and set("*?[") & set(str(logs[0])))
-    ):
+    )
+    if many and log_format != LogFormat.CSV:
+        raise OdolabError(
+            f"--format {log_format.value} integrates one run file at a time; expected one run "
+            f"(for many runs against their ground truth: odolab evaluate --format {log_format.value})"
+        )
+    choice = choose_params(logs, params, log_format)
+    check_request(
+        choice, fmt=out_fmt, covariance=covariance, chunk_rows=chunk_rows,
+        log_format=log_format, max_dticks=max_dticks,
+    )  # fmt: skip
+    echo(choice.describe())
+    if many:
         from odolab.cli._fleet import odometry_many
 
         odometry_many(
@@ -116,8 +150,8 @@ def odometry_cmd(
         )  # fmt: skip
         return
     req = OdometryRequest(
-        logs[0], output, choice, method.value, fmt.value, start, max_dticks, chunk_rows,
-        covariance,
+        logs[0], output, choice, method.value, out_fmt, start, max_dticks, chunk_rows,
+        covariance, log_format,
     )  # fmt: skip
     if req.chunks() > 0:
         from odolab.cli._progress import progress_bar

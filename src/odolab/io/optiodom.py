@@ -81,7 +81,11 @@ def read_optiodom_run(path: str | Path) -> OdometryRun:
     gt = Trajectory.from_xytheta(t, d["x_gt"], d["y_gt"], d["theta_gt"])
     kind = p.parent.parent.name
     params = params_from_metadata(meta, meta_path, name=f"optiodom-{m['id']}")
-    info: dict[str, float | str] = {"experiment": m["id"], "run": int(m["nn"])}
+    info: dict[str, float | str] = {
+        "experiment": m["id"],
+        "run": int(m["nn"]),
+        "params_source": str(meta_path),  # where the nominal parameters come from
+    }
     if meta.get("L"):
         info["side_length"] = _number(meta, "L", meta_path)
     dl = d["dticks_left"].copy()

@@ -11,10 +11,10 @@ runs lie under a path (``find``), and what one of them holds (``read``).
 from __future__ import annotations
 
 from collections.abc import Iterable
-from enum import StrEnum
 from pathlib import Path
 from typing import Protocol
 
+from odolab.defaults import LogFormat  # (defined there: the CLI names them at no cost)
 from odolab.io.csv_run import CsvRunReader
 from odolab.io.optiodom import OptiOdomReader
 from odolab.io.rosbag import RosbagReader
@@ -29,14 +29,6 @@ __all__ = [
     "read_run",
     "read_trajectory",
 ]
-
-
-class LogFormat(StrEnum):
-    """Formats of recorded runs."""
-
-    CSV = "csv"
-    OPTIODOM = "optiodom"
-    BAG = "bag"
 
 
 class RunReader(Protocol):
