@@ -23,7 +23,16 @@ from numpy.typing import ArrayLike, NDArray
 from odolab._fastmath import SINCOS_LIMIT, sincos_poly
 from odolab.encoders import EncoderUnwrapper, as_tick_array, default_max_dticks, unwrap_diff
 from odolab.errors import EncoderJumpError, LogFormatError, OdolabError
-from odolab.kinematics import Method, body_motion, chord, step_pose, wrap, wrap_angle
+from odolab.kinematics import (
+    SMALL_ANGLE,
+    Method,
+    body_motion,
+    chord,
+    step_pose,
+    wrap,
+    wrap_angle,
+)
+from odolab.models.slip import SlipModel
 from odolab.params import NoiseParams, RobotParams
 from odolab.trajectory import Pose, Trajectory, check_times
 
@@ -253,6 +262,58 @@ def _model_arrays(params: RobotParams, n: int) -> tuple[F64, F64]:
     return c, np.empty(n if c[5] != 0.0 else 0)
 
 
+def _slip_steps(
+    t: F64,
+    dl: F64,
+    dr: F64,
+    params: RobotParams,
+    arc: bool,
+    h0: float,
+    heading: F64,
+    step: F64,
+    lat: F64,
+    mid: F64,
+) -> float:
+    """Phase A for the slip model (:mod:`odolab.models.slip`), whose body motion depends on
+    each cycle's duration: the same arrays as the compiled phase A (``dl[0]``, ``dr[0]``
+    ignored). Agrees with :class:`Odometry` to rounding."""
+    model = params.model
+    assert isinstance(model, SlipModel)
+    n = dl.size
+    if n == 0:
+        return 0.0
+    dsl = dl * params.left_metres_per_tick
+    dsr = dr * params.right_metres_per_tick
+    dt = np.diff(t, prepend=t[0])
+    fwd, side, dth = model.body_motion_arrays(dsl, dsr, dt, params.track_width)
+    fwd[0] = side[0] = dth[0] = 0.0
+    if arc:
+        u = 0.5 * dth
+        small = np.abs(u) < SMALL_ANGLE
+        safe = np.where(small, 1.0, u)
+        ch = np.where(small, 1.0 - u * u / 6.0, np.sin(safe) / safe)
+    else:
+        ch = np.ones(n)
+    dth[0] = h0
+    heading[:] = np.cumsum(dth)  # the streaming order: h0 + d1 + d2 + ...
+    mid[0] = h0
+    mid[1:] = heading[:-1] + 0.5 * dth[1:]
+    step[:] = fwd * ch
+    lat[:] = side * ch
+    step[0] = lat[0] = 0.0
+    return float(np.max(np.abs(mid)))
+
+
+def _unwrapped(ticks: I64, modulus: int | None) -> F64:
+    """Per-sample counter increments (``[0]`` = 0), rollover corrected as the compiled pass
+    does (call after it has checked the jumps)."""
+    d = np.diff(ticks, prepend=ticks[:1]).astype(np.int64)
+    if modulus:
+        half = modulus // 2
+        d = (d + half) % modulus - half
+    return d.astype(np.float64)
+
+
 def _start_pose(start: tuple[float, float, float] | None) -> tuple[float, float, float]:
     if start is None:
         return 0.0, 0.0, 0.0
@@ -326,6 +387,12 @@ def integrate(
         lat,
         y,
     )
+    if code == 0 and params.model.kind == "slip":
+        lat = np.empty(n)
+        largest = _slip_steps(
+            tt, _unwrapped(left, params.encoder_modulus), _unwrapped(right, params.encoder_modulus),
+            params, m is Method.ARC, h0, heading, x, lat, y,
+        )  # fmt: skip
     if code == 0:
         _finish(x, y, lat, heading, theta, x0, y0, largest, parallel)
     if code in (1, 2):
@@ -429,19 +496,23 @@ def integrate_increments(
     n = dl.size
     x, y, theta, heading = (np.empty(n) for _ in range(4))
     coef, lat = _model_arrays(params, n)
-    largest = _steps_from_dticks(
-        dl,
-        dr,
-        params.left_metres_per_tick,
-        params.right_metres_per_tick,
-        coef,
-        m is Method.ARC,
-        h0,
-        heading,
-        x,
-        lat,
-        y,
-    )
+    if params.model.kind == "slip":
+        lat = np.empty(n)
+        largest = _slip_steps(tt, dl, dr, params, m is Method.ARC, h0, heading, x, lat, y)
+    else:
+        largest = _steps_from_dticks(
+            dl,
+            dr,
+            params.left_metres_per_tick,
+            params.right_metres_per_tick,
+            coef,
+            m is Method.ARC,
+            h0,
+            heading,
+            x,
+            lat,
+            y,
+        )
     _finish(x, y, lat, heading, theta, x0, y0, largest, parallel)
     return Trajectory(tt, x, y, theta, heading)
 
@@ -499,6 +570,7 @@ class Odometry:
         self._kl = params.left_metres_per_tick
         self._kr = params.right_metres_per_tick
         self._coef = params.coefficients
+        self._slip = params.model if isinstance(params.model, SlipModel) else None
         self._cov: CovarianceStepper | None = None
         if covariance:  # needs params.noise; imported here: the plain path stays as it was
             from odolab.uncertainty import CovarianceStepper
@@ -579,13 +651,17 @@ class Odometry:
 
     def _advance(self, t: float, dl: float, dr: float) -> Pose:
         first = self._t is None
+        dt = 0.0 if self._t is None else t - self._t
         self._t = t
         if not first:
             dsl = dl * self._kl
             dsr = dr * self._kr
             if self._cov is not None:
                 self._cov.step(self._h, dsl, dsr)
-            fwd, side, dth = body_motion(*self._coef, dsl, dsr)
+            if self._slip is None:
+                fwd, side, dth = body_motion(*self._coef, dsl, dsr)
+            else:
+                fwd, side, dth = self._slip.body_motion(dsl, dsr, dt, self.params.track_width)
             self._x, self._y, self._h = step_pose(
                 self._x, self._y, self._h, fwd, side, dth, self._arc
             )

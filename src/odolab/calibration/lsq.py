@@ -44,7 +44,7 @@ from odolab.kinematics import Method
 from odolab.metrics.association import interpolate_trajectory
 from odolab.metrics.cluster import Cluster
 from odolab.metrics.runs import RUN_OPTIONS, Progress, RunEvaluation, evaluate_run, parallel_map
-from odolab.models import DIFF_DRIVE, ExtendedDiffDrive, IcrModel
+from odolab.models import DIFF_DRIVE, ExtendedDiffDrive, IcrModel, SlipModel
 from odolab.odometry import integrate_increments
 from odolab.params import RobotParams, plausible_range
 
@@ -101,6 +101,7 @@ class FitModel:
         icr = model if isinstance(model, IcrModel) else IcrModel.from_track(b)
         out.update(ext.to_dict())
         out.update(icr.to_dict())
+        out.update((model if isinstance(model, SlipModel) else SlipModel()).to_dict())
         return {k: out[k] for k in self.names}
 
     def bounds(self, x0: FloatArray, nominal: RobotParams) -> tuple[FloatArray, FloatArray]:
@@ -135,6 +136,8 @@ class FitModel:
                 track_width=v["track_width"],
                 model=DIFF_DRIVE,
             )
+        if self.kind == "slip":
+            return template.with_(model=SlipModel(**v))  # type: ignore[arg-type]
         if self.kind == "extended":
             return template.with_(
                 model=ExtendedDiffDrive(v["scale_left"], v["scale_right"], v["track_scale"])
@@ -166,6 +169,9 @@ FIT_MODELS: dict[str, FitModel] = {
             "turns of both signs at speed",
         ),
     ),
+    # Bayesian linear regression (odolab.calibration.slipfit): the prior keeps every
+    # coefficient finite, so none is reported as not identifiable
+    "slip": FitModel("slip", SlipModel.COEF_KEYS, ("driving",) * len(SlipModel.COEF_KEYS)),
 }
 
 
@@ -434,6 +440,8 @@ def calibrate_lsq(
     if not prepared:
         raise InsufficientDataError("no runs to calibrate on; expected at least one run")
     scale = o.heading_scale if o.heading_scale is not None else nominal.track_width / 2.0
+    if spec.kind == "slip":
+        return _calibrate_slip(prepared, nominal, o, scale)
     x0 = spec.start(nominal)
     lo, hi = spec.bounds(x0, nominal)
     n_off = len(prepared) if o.fit_gt_yaw_offset else 0
@@ -513,6 +521,35 @@ def calibrate_lsq(
         model=spec.kind,
         run_rss=[float(np.sum(r**2)) for r in residuals],
         run_sizes=[int(r.size) for r in residuals],
+    )
+
+
+def _calibrate_slip(
+    prepared: list[PreparedRun], nominal: RobotParams, o: LsqOptions, scale: float
+) -> LsqCalibration:
+    """The slip model by Bayesian linear regression (closed form, no yaw offsets), its
+    segment residuals as every other model's (so its BIC compares)."""
+    from odolab.calibration.slipfit import fit_slip_model
+
+    model, cov, windows = fit_slip_model(prepared, nominal)
+    base = nominal.with_(model=DIFF_DRIVE)
+    params = nominal.with_(model=model, name=f"{nominal.name}-lsq")
+    before = [_residuals(base, r, scale, o.method, 0.0) for r in prepared]
+    after = [_residuals(params, r, scale, o.method, 0.0) for r in prepared]
+    r0, r1 = np.concatenate(before), np.concatenate(after)
+    return LsqCalibration(
+        params=params,
+        nominal=nominal,
+        stderr={k: float(np.sqrt(cov[i, i])) for i, k in enumerate(SlipModel.COEF_KEYS)},
+        covariance=cov,
+        rms_before=float(np.sqrt(np.mean(r0**2))),
+        rms_after=float(np.sqrt(np.mean(r1**2))),
+        runs=[r.name for r in prepared],
+        segments=windows,
+        heading_scale=scale,
+        model="slip",
+        run_rss=[float(np.sum(r**2)) for r in after],
+        run_sizes=[int(r.size) for r in after],
     )
 
 

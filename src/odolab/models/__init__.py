@@ -32,6 +32,7 @@ from odolab.errors import ParamsError
 from odolab.models.diff import DiffDrive
 from odolab.models.extended import ExtendedDiffDrive
 from odolab.models.icr import IcrModel
+from odolab.models.slip import SlipModel
 
 __all__ = [
     "DIFF_DRIVE",
@@ -40,6 +41,7 @@ __all__ = [
     "IcrModel",
     "KinematicModel",
     "ModelCoefficients",
+    "SlipModel",
     "model_from_mapping",
 ]
 
@@ -92,6 +94,7 @@ MODELS: dict[str, type[Any]] = {
     DiffDrive.kind: DiffDrive,
     ExtendedDiffDrive.kind: ExtendedDiffDrive,
     IcrModel.kind: IcrModel,
+    SlipModel.kind: SlipModel,
 }
 
 

@@ -1,0 +1,223 @@
+"""A slip-aware model: the body's slip as a function of the measured track speeds.
+
+After DRIVE (Baril et al., ICRA 2024): the differential drive of the ``[robot]`` table gives the
+commanded body speeds from the measured track speeds ``v_l = ds_l / dt``, ``v_r = ds_r / dt``::
+
+    v = (v_l + v_r) / 2          w = (v_r - v_l) / track_width
+
+and the body's true velocity is that plus a slip that is linear in a small basis of them::
+
+    v_x = v + phi . beta_fwd     v_y = phi . beta_lat     omega = w + phi . beta_yaw
+    phi = (v, w, v|v|, v|w|, w|v|, w|w|, v w)              (SI units: m/s, rad/s)
+
+The linear terms are what the extended differential drive fits (scales, track); the quadratic
+ones let the slip grow with speed and turn rate (a tracked robot turns less at speed, slides
+sideways in a fast curve). One cycle of ``dt`` seconds moves the body by ``dt`` times these
+velocities; a cycle of zero duration has no quadratic terms. The coefficients come from Bayesian
+linear regression on runs with ground truth (:mod:`odolab.calibration.slipfit`), which also gives
+the noise of the slip: a white body-velocity noise of spectral density ``q_fwd``, ``q_lat``
+(m^2/s) and ``q_yaw`` (rad^2/s), so a cycle's body motion has variance ``q dt`` on top of the
+posterior variance of ``phi . beta`` (:meth:`SlipModel.step_variance`).
+
+In a parameters file the ``[model]`` table has ``kind = "slip"``, the 21 coefficients
+``fwd_v``, ``fwd_w``, ..., ``yaw_vw`` (missing ones are 0) and the three ``q_*``. The posterior
+covariance of the coefficients is not stored in the file (only in a fit's result): a model read
+from a file has the noise part of the predictive variance only.
+
+Everything that uses a model's six linear coefficients (the covariance stepper, the virtual
+board's truth, the ROS 2 export) sees the linear part of this model (:meth:`coefficients`);
+batch and streaming odometry integrate the whole model.
+
+This module imports neither numpy nor numba (numpy is imported inside the array functions).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, ClassVar
+
+from odolab.errors import ParamsError
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    from odolab.models import ModelCoefficients
+
+__all__ = ["FEATURES", "OUTPUTS", "SlipModel"]
+
+#: The basis, in order (v: forward speed m/s, w: turn rate rad/s, both from the measured tracks).
+FEATURES: tuple[str, ...] = ("v", "w", "v_absv", "v_absw", "w_absv", "w_absw", "vw")
+#: The slipping body velocities: forward, lateral (left), yaw rate.
+OUTPUTS: tuple[str, ...] = ("fwd", "lat", "yaw")
+_COEF_KEYS = tuple(f"{o}_{f}" for o in OUTPUTS for f in FEATURES)
+_NOISE_KEYS = ("q_fwd", "q_lat", "q_yaw")
+
+
+def _features(v: float, w: float) -> tuple[float, ...]:
+    return (v, w, v * abs(v), v * abs(w), w * abs(v), w * abs(w), v * w)
+
+
+@dataclass(frozen=True)
+class SlipModel:
+    """Differential drive plus body slip linear in a basis of the measured speeds (see module)."""
+
+    fwd_v: float = 0.0
+    fwd_w: float = 0.0
+    fwd_v_absv: float = 0.0
+    fwd_v_absw: float = 0.0
+    fwd_w_absv: float = 0.0
+    fwd_w_absw: float = 0.0
+    fwd_vw: float = 0.0
+    lat_v: float = 0.0
+    lat_w: float = 0.0
+    lat_v_absv: float = 0.0
+    lat_v_absw: float = 0.0
+    lat_w_absv: float = 0.0
+    lat_w_absw: float = 0.0
+    lat_vw: float = 0.0
+    yaw_v: float = 0.0
+    yaw_w: float = 0.0
+    yaw_v_absv: float = 0.0
+    yaw_v_absw: float = 0.0
+    yaw_w_absv: float = 0.0
+    yaw_w_absw: float = 0.0
+    yaw_vw: float = 0.0
+    q_fwd: float = 0.0
+    q_lat: float = 0.0
+    q_yaw: float = 0.0
+    #: posterior covariance of the coefficients, row-major 21 x 21 in :data:`KEYS` order (empty:
+    #: unknown); not part of the ``[model]`` table
+    posterior: tuple[float, ...] = field(default=(), compare=False, repr=False)
+    kind: ClassVar[str] = "slip"
+    KEYS: ClassVar[tuple[str, ...]] = (*_COEF_KEYS, *_NOISE_KEYS)
+    COEF_KEYS: ClassVar[tuple[str, ...]] = _COEF_KEYS
+    #: a slip coefficient beyond this size (in SI units of its feature) is a wrong file, not slip
+    LIMIT: ClassVar[float] = 100.0
+
+    def __post_init__(self) -> None:
+        for key in self.KEYS:
+            value = getattr(self, key)
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise ParamsError(f"{key} must be a number, got {value!r}")
+            if not math.isfinite(value):
+                raise ParamsError(f"{key} must be finite, got {value!r}")
+            if key in _NOISE_KEYS and value < 0:
+                raise ParamsError(f"{key} must be >= 0 (a noise spectral density), got {value!r}")
+            if key in _COEF_KEYS and abs(value) > self.LIMIT:
+                raise ParamsError(
+                    f"{key} = {value:.6g} is outside the plausible -{self.LIMIT:g} to "
+                    f"{self.LIMIT:g} (a slip coefficient in SI units)"
+                )
+            object.__setattr__(self, key, float(value))
+        k = len(_COEF_KEYS)
+        if self.posterior and len(self.posterior) != k * k:
+            raise ParamsError(
+                f"posterior has {len(self.posterior)} values; expected {k * k} ({k} x {k})"
+            )
+        object.__setattr__(self, "posterior", tuple(float(v) for v in self.posterior))
+
+    # -- the KinematicModel protocol ------------------------------------------------------------
+
+    def coefficients(self, track_width: float) -> ModelCoefficients:
+        """The model's linear part (its ``v`` and ``w`` terms; no sideways motion)."""
+        from odolab.models import ModelCoefficients
+
+        b = float(track_width)
+        a = 1.0 + self.fwd_v
+        c = 1.0 + self.yaw_w
+        return ModelCoefficients(
+            0.5 * a - self.fwd_w / b,
+            0.5 * a + self.fwd_w / b,
+            c / b - 0.5 * self.yaw_v,
+            c / b + 0.5 * self.yaw_v,
+            1.0,
+            0.0,
+        )
+
+    def to_dict(self) -> dict[str, float]:
+        return {k: float(getattr(self, k)) for k in self.KEYS}
+
+    @property
+    def is_differential_drive(self) -> bool:
+        return all(getattr(self, k) == 0.0 for k in _COEF_KEYS)
+
+    # -- the model itself -----------------------------------------------------------------------
+
+    def beta(self, output: str) -> tuple[float, ...]:
+        """The coefficients of one output (``fwd``, ``lat``, ``yaw``) in :data:`FEATURES` order."""
+        return tuple(float(getattr(self, f"{output}_{f}")) for f in FEATURES)
+
+    def body_motion(
+        self, ds_left: float, ds_right: float, dt: float, track_width: float
+    ) -> tuple[float, float, float]:
+        """(d_forward, d_lateral, d_theta) of one cycle of ``dt`` s (streaming odometry)."""
+        ds = 0.5 * (ds_left + ds_right)
+        dth = (ds_right - ds_left) / track_width
+        if dt > 0.0:
+            phi = _features(ds / dt, dth / dt)
+        else:  # no time: only the linear terms (dt * v = ds)
+            phi = (ds / 1.0, dth / 1.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+            dt = 1.0
+        out = []
+        for o in OUTPUTS:
+            b = self.beta(o)
+            out.append(dt * sum(p * c for p, c in zip(phi, b, strict=True)))
+        return ds + out[0], out[1], dth + out[2]
+
+    def body_motion_arrays(
+        self,
+        ds_left: NDArray[Any],
+        ds_right: NDArray[Any],
+        dt: NDArray[Any],
+        track_width: float,
+    ) -> tuple[NDArray[Any], NDArray[Any], NDArray[Any]]:
+        """:meth:`body_motion` for arrays of cycles (batch odometry)."""
+        import numpy as np
+
+        ds = 0.5 * (ds_left + ds_right)
+        dth = (ds_right - ds_left) / track_width
+        timed = dt > 0.0
+        tt = np.where(timed, dt, 1.0)
+        phi = self.features(ds / tt, dth / tt)
+        phi[2:, ~timed] = 0.0
+        out = [tt * (np.array(self.beta(o)) @ phi) for o in OUTPUTS]
+        return ds + out[0], out[1], dth + out[2]
+
+    @staticmethod
+    def features(v: NDArray[Any], w: NDArray[Any]) -> NDArray[Any]:
+        """The basis at speeds ``v`` (m/s) and turn rates ``w`` (rad/s): shape (7, n)."""
+        import numpy as np
+
+        av, aw = np.abs(v), np.abs(w)
+        return np.array([v, w, v * av, v * aw, w * av, w * aw, v * w], dtype=np.float64)
+
+    def step_variance(
+        self, ds_left: NDArray[Any], ds_right: NDArray[Any], dt: NDArray[Any], track_width: float
+    ) -> NDArray[Any]:
+        """Predictive variance of each cycle's body motion (d_forward, d_lateral, d_theta):
+        shape (n, 3), ``q dt`` plus ``dt^2 phi^T Sigma phi`` where the posterior is known."""
+        import numpy as np
+
+        dt = np.asarray(dt, dtype=np.float64)
+        tt = np.where(dt > 0.0, dt, 0.0)
+        safe = np.where(dt > 0.0, dt, 1.0)
+        ds = 0.5 * (ds_left + ds_right)
+        dth = (ds_right - ds_left) / track_width
+        phi = self.features(ds / safe, dth / safe)
+        q = np.array([self.q_fwd, self.q_lat, self.q_yaw])
+        var = tt[:, None] * q[None, :]
+        if self.posterior:
+            k = len(FEATURES)
+            sigma = np.array(self.posterior).reshape(3 * k, 3 * k)
+            for j in range(3):
+                s = sigma[j * k : (j + 1) * k, j * k : (j + 1) * k]
+                var[:, j] += tt**2 * np.einsum("in,ij,jn->n", phi, s, phi)
+        return np.asarray(var, dtype=np.float64)
+
+    def speed_slip(self, v: float) -> float:
+        """Longitudinal slip ``1 - v_x / v`` when driving straight at ``v`` m/s."""
+        if v == 0.0:
+            raise ParamsError("speed_slip needs a speed other than 0 m/s")
+        b = self.beta("fwd")
+        return -(b[0] * v + b[2] * v * abs(v)) / v

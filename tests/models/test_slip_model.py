@@ -1,0 +1,99 @@
+"""The slip model (issue 29): integrated by batch and streaming odometry alike, read from a
+``[model]`` table, and fitted by Bayesian linear regression to the slip the truth has."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from odolab.calibration.lsq import LsqOptions, calibrate_lsq
+from odolab.errors import ParamsError
+from odolab.io.run import OdometryRun
+from odolab.models import SlipModel, model_from_mapping
+from odolab.odometry import Odometry, integrate, integrate_increments
+from odolab.params import PRESETS
+from odolab.sim.drives import drive, random_legs
+from odolab.sim.physics import TrueParams
+from odolab.trajectory import Trajectory
+
+NOMINAL = PRESETS["jaguar-lite"]
+#: a robot that loses 20 % of its wheel speed per m/s and turns as if 25 % wider; little noise
+SPEEDY = TrueParams(
+    0.0835, 0.0835, 0.0835, 0.0835, 0.56 * 1.25, k_left=2e-6, k_right=2e-6, speed_slip=0.2
+)
+MODEL = SlipModel(fwd_v=-0.05, fwd_v_absv=-0.2, lat_vw=0.03, yaw_w=-0.2, yaw_w_absv=-0.1)
+
+
+def _run(truth: TrueParams, seed: int, legs: int, speed: float) -> OdometryRun:
+    plan = random_legs(np.random.default_rng(seed), legs, track_width=0.56, speed=speed)
+    d = drive(truth, NOMINAL, plan, seed=seed)
+    gt = Trajectory.from_xyh(d.t, d.x, d.y, d.heading)
+    return OdometryRun(f"r{seed}", f"r{seed}", d.t, d.dticks_left, d.dticks_right, ground_truth=gt)
+
+
+def test_streaming_equals_batch() -> None:
+    rng = np.random.default_rng(3)
+    n = 600
+    t = np.cumsum(rng.uniform(0.01, 0.06, n))
+    t[5] = t[4]  # a cycle of zero duration: linear terms only
+    left = np.cumsum(rng.integers(-40, 60, n))
+    right = np.cumsum(rng.integers(-60, 40, n))
+    p = NOMINAL.with_(model=MODEL)
+    for method in ("midpoint", "arc"):
+        batch = integrate(t, left % 32768, right % 32768, p, method)
+        incr = integrate_increments(
+            t, np.diff(left, prepend=left[0]), np.diff(right, prepend=right[0]), p, method
+        )
+        odo = Odometry(p, method)
+        poses = [
+            odo.update(ti, int(a % 32768), int(b % 32768))
+            for ti, a, b in zip(t, left, right, strict=True)
+        ]
+        x = np.array([q.x for q in poses])
+        h = np.array([q.heading for q in poses])
+        assert np.max(np.abs(batch.x - x)) < 1e-9
+        assert np.max(np.abs(batch.heading - h)) < 1e-9
+        assert np.max(np.abs(incr.y - batch.y)) < 1e-9
+    # and it is not the differential drive: the slip moved the robot
+    diff = integrate(t, left % 32768, right % 32768, NOMINAL)
+    assert abs(diff.x[-1] - batch.x[-1]) > 0.05
+
+
+def test_zero_slip_is_the_differential_drive() -> None:
+    rng = np.random.default_rng(4)
+    t = np.arange(300) * 0.05
+    left = np.cumsum(rng.integers(0, 50, 300))
+    right = np.cumsum(rng.integers(0, 50, 300))
+    a = integrate(t, left, right, NOMINAL.with_(model=SlipModel()))
+    b = integrate(t, left, right, NOMINAL)
+    assert np.max(np.abs(a.x - b.x)) < 1e-9 and np.max(np.abs(a.heading - b.heading)) < 1e-12
+
+
+def test_model_table_round_trip_and_errors() -> None:
+    table = {"kind": "slip", **MODEL.to_dict()}
+    assert model_from_mapping(table) == MODEL
+    assert model_from_mapping({"kind": "slip", "fwd_v_absv": -0.1}).fwd_v_absv == -0.1
+    with pytest.raises(ParamsError, match="q_yaw must be >= 0"):
+        model_from_mapping({"kind": "slip", "q_yaw": -1.0}, source="robot.toml")
+    with pytest.raises(ParamsError, match="unknown key 'fwd_x'"):
+        model_from_mapping({"kind": "slip", "fwd_x": 1.0})
+    # the linear part, for the users of the six coefficients
+    c = MODEL.coefficients(0.5)
+    fwd, _, dth = c.body_motion(0.1, 0.1)
+    assert fwd == pytest.approx(0.1 * 0.95)
+    assert dth == 0.0
+
+
+def test_fit_recovers_speed_slip_and_track() -> None:
+    train = [_run(SPEEDY, 1, 30, 1.0)]
+    fit = calibrate_lsq(train, NOMINAL, LsqOptions(model="slip"))
+    v = fit.values
+    # per side 1 - 0.2 |v|: the forward speed loses 0.2 v|v| (straight driving)
+    assert v["fwd_v_absv"] == pytest.approx(-0.2, abs=0.04)
+    # turning as if 1.25 times wider: the yaw rate is 0.8 times the drive's
+    assert v["yaw_w"] == pytest.approx(-0.2, abs=0.03)
+    assert fit.stderr["fwd_v_absv"] < 0.02
+    assert fit.rms_after < 0.05 * fit.rms_before
+    model = fit.params.model
+    assert isinstance(model, SlipModel) and model.q_fwd > 0 and len(model.posterior) == 21 * 21
+    assert model.speed_slip(0.5) == pytest.approx(0.1, abs=0.03)  # 0.2 per m/s at 0.5 m/s
