@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from odolab.cli._apps import calibrate_app, sim_app
+from odolab.cli._several import several_values_command
 from odolab.cli.evaluate import (
     GtTopicOpt,
     JointsOpt,
@@ -28,7 +29,7 @@ if TYPE_CHECKING:
 __all__: list[str] = []
 
 
-@calibrate_app.command("compare")
+@calibrate_app.command("compare", cls=several_values_command("--validate"))
 def calibrate_compare_cmd(
     runs: Annotated[
         list[Path], typer.Argument(help="Training runs (files or folders) with ground truth.")
@@ -40,7 +41,9 @@ def calibrate_compare_cmd(
     validate: Annotated[
         list[Path] | None,
         typer.Option(
-            "--validate", help="Held-out runs (default: cross-validation over the training runs)."
+            "--validate",
+            help="Held-out runs (default: cross-validation over the training runs); every "
+            "value up to the next option (a shell glob's files).",
         ),
     ] = None,
     models: Annotated[
