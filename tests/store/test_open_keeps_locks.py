@@ -38,3 +38,12 @@ def test_a_second_notebook_keeps_the_first_ones_commits(tmp_path: Path) -> None:
         assert {c.name for c in first.campaigns()} >= {"mine-1", "mine-2", "theirs"}
     with Notebook(db) as again:
         assert {c.name for c in again.campaigns()} == {"mine-1", "mine-2", "theirs"}
+
+
+def test_a_wrong_call_is_not_taken_for_a_damaged_file(tmp_path: Path) -> None:
+    """The store's error guard turns an unreadable stored value into a sentence, but a call
+    with a wrong argument stays the programming error it is."""
+    import pytest
+
+    with Notebook(tmp_path / "lab.db") as nb, pytest.raises(TypeError, match="unexpected"):
+        nb.add_trials([], create_campaign=True)  # type: ignore[call-arg]

@@ -915,7 +915,8 @@ def _unreadable(nb: Notebook, err: Exception, name: str) -> StoreError:
         )
     return StoreError(
         f"{nb.path}: holds a value odolab cannot read ({type(err).__name__}: {err}) while "
-        f"running {name}; the file was changed outside odolab; {recovery_hint(nb.path)}"
+        f"running {name}, although SQLite finds the file sound (was it changed outside "
+        f"odolab?); {recovery_hint(nb.path)}"
     )
 
 
@@ -929,8 +930,9 @@ def _guard(name: str, method: Callable[..., Any]) -> Callable[..., Any]:
         except sqlite3.Error as err:
             raise self._error(err, f"running {name.lstrip('_')}") from err
         except _DECODE_ERRORS as err:
-            if not decode:
-                raise
+            tb = err.__traceback__
+            if not decode or tb is None or tb.tb_next is None:
+                raise  # a call with the wrong arguments, not a stored value
             raise _unreadable(self, err, name.lstrip("_")) from err
 
     return guarded
