@@ -10,7 +10,7 @@ from odolab.params import PRESETS
 from odolab.robot.clock import SimClock
 from odolab.robot.errors import LinkLostError
 from odolab.robot.jaguar.board import BoardConfig, Faults, InProcessLink, VirtualJaguar
-from odolab.robot.jaguar.driver import JaguarDriver
+from odolab.robot.jaguar.driver import JaguarDriver, driver_config_for
 from odolab.robot.jaguar.protocol import (
     STOP_PWM,
     MessageType,
@@ -21,7 +21,6 @@ from odolab.robot.jaguar.protocol import (
 from odolab.robot.loop import ControlLoop
 from odolab.robot.motions import Straight
 from odolab.robot.plant import IdealPlant
-from odolab.robot.session import driver_config_for
 
 NOMINAL = PRESETS["jaguar-lite"]
 ACK = encode_system(SystemCode.ACK)

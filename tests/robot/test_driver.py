@@ -74,7 +74,7 @@ def test_ping_is_answered_and_sensor_parsed() -> None:
         b"garbage" + encode_motor_sensor(MotorSensorData((101, 202))),
     ]
     assert drv.poll() == 2
-    assert drv.stats.pings_answered == 1
+    assert drv.stats.link.pings_answered == 1
     assert decode_system(sent_packets(t)[0]) is SystemCode.ACK
     r = drv.latest
     assert r is not None and (r.t, r.left_ticks, r.right_ticks) == (2.5, 101, 202)

@@ -18,10 +18,9 @@ from odolab.odometry import Odometry
 from odolab.params import PRESETS
 from odolab.robot.clock import RealClock
 from odolab.robot.jaguar.board import BoardConfig, VirtualJaguar, VirtualJaguarServer
-from odolab.robot.jaguar.driver import JaguarDriver, UdpTransport
+from odolab.robot.jaguar.driver import JaguarDriver, UdpTransport, driver_config_for
 from odolab.robot.loop import ControlLoop
 from odolab.robot.motions import Straight
-from odolab.robot.session import driver_config_for
 from odolab.sim.physics import VirtualRobot
 from odolab.sim.presets import TRUTH_PRESETS
 

@@ -12,11 +12,10 @@ from odolab.odometry import Odometry, integrate
 from odolab.params import PRESETS, RobotParams
 from odolab.robot.clock import SimClock
 from odolab.robot.jaguar.board import BoardConfig, Faults, InProcessLink, VirtualJaguar
-from odolab.robot.jaguar.driver import JaguarDriver
+from odolab.robot.jaguar.driver import JaguarDriver, driver_config_for
 from odolab.robot.loop import ControlLoop, CycleInfo, LoopResult, Watchdog, timing_stats
 from odolab.robot.motions import Rotate, Straight
 from odolab.robot.plant import IdealPlant
-from odolab.robot.session import driver_config_for
 
 NOMINAL = PRESETS["jaguar-lite"]
 

@@ -25,14 +25,13 @@ from odolab.params import PRESETS
 from odolab.robot.clock import SimClock
 from odolab.robot.errors import LateCycleError, RunFolderError
 from odolab.robot.jaguar.board import BoardConfig, InProcessLink, VirtualJaguar
-from odolab.robot.jaguar.driver import JaguarDriver
+from odolab.robot.jaguar.driver import JaguarDriver, driver_config_for
 from odolab.robot.loop import ControlLoop, CycleInfo
 from odolab.robot.motions import Straight
 from odolab.robot.plant import IdealPlant
 from odolab.robot.session import (
     RUN_FILES,
     check_run_folder,
-    driver_config_for,
     keep_run,
     run_motion,
 )

@@ -15,10 +15,9 @@ from odolab.odometry import Odometry, integrate
 from odolab.params import PRESETS
 from odolab.robot.clock import RealClock
 from odolab.robot.jaguar.board import BoardConfig, Faults, VirtualJaguar, VirtualJaguarServer
-from odolab.robot.jaguar.driver import JaguarDriver, UdpTransport
+from odolab.robot.jaguar.driver import JaguarDriver, UdpTransport, driver_config_for
 from odolab.robot.loop import ControlLoop, CycleInfo, LoopResult
 from odolab.robot.motions import Rotate, Straight
-from odolab.robot.session import driver_config_for
 from odolab.sim.physics import TrueParams, VirtualRobot
 from odolab.sim.presets import TRUTH_PRESETS
 

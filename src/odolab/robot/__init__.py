@@ -27,7 +27,7 @@ from odolab.robot.errors import (
     RunFolderError,
     RunNotSavedError,
 )
-from odolab.robot.interface import Driver, DriverStats, EncoderReading, Transport
+from odolab.robot.interface import Driver, DriverStats, EncoderReading
 from odolab.robot.loop import ControlLoop, CycleInfo, CycleLog, LoopResult, LoopStats, Watchdog
 from odolab.robot.motions import (
     Motion,
@@ -87,7 +87,6 @@ __all__ = [
     "RunNotSavedError",
     "SimClock",
     "Straight",
-    "Transport",
     "VirtualSpec",
     "Watchdog",
     "check_motion",

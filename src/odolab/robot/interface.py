@@ -1,76 +1,68 @@
 """The interface between the control loop and a robot link: :class:`Driver`.
 
-The loop (:mod:`odolab.robot.loop`) knows only this interface; a robot link (the Jaguar over
-UDP, :mod:`odolab.robot.jaguar`) implements it, and :mod:`odolab.robot.registry` picks one by
-the scheme of the ``--robot`` URL. A new robot link is one new package plus one registry line.
+The loop (:mod:`odolab.robot.loop`) knows only this interface, in wheel terms: counters per side
+and the time a report arrived. A robot link implements it (the Jaguar over UDP,
+:mod:`odolab.robot.jaguar`; the Jaguar 4x4 of 2014 over TCP, :mod:`odolab.robot.jaguar2014`);
+:mod:`odolab.robot.registry` picks one by the scheme of the ``--robot`` URL. What a link sees
+beyond that (rates, status bits, keep-alives, a second board) is the link's own typed record, in
+:attr:`EncoderReading.link` and :attr:`DriverStats.link`; nothing here names a link's messages.
+A new robot link is one new package plus one registry line.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Any, Generic, Protocol, TypeVar
 
-__all__ = ["Datagram", "Driver", "DriverStats", "EncoderReading", "Transport"]
+from odolab.robot.plant import PlantFactory
+from odolab.trajectory import Pose
+
+__all__ = ["Driver", "DriverStats", "EncoderReading", "RobotLink", "VirtualSpec"]
+
+D = TypeVar("D")
 
 
 @dataclass(frozen=True)
 class EncoderReading:
-    """One sensor report in the robot frame: counters (signed and wrapped) and ARRIVAL time.
+    """One sensor report in the robot frame: counters per side (signed and wrapped) and ARRIVAL
+    time.
 
     ``t`` is when the report arrived at the host (the receive timestamp, on the driver's clock),
-    not when the loop got round to reading it: the watchdog is timed from it.
+    not when the loop got round to reading it: the watchdog is timed from it. ``left_ticks`` and
+    ``right_ticks`` count up when that side rolls forward and wrap at the nominal parameters'
+    ``encoder_modulus``. ``link`` is the link's own typed record of the rest of the report
+    (None when it has none); the loop never reads it.
     """
 
     t: float
     left_ticks: int
     right_ticks: int
-    left_rate: int  #: encoder velocity field (counts/s, magnitude)
-    right_rate: int
-    direction: int
+    link: object | None = None
 
 
 @dataclass
-class DriverStats:
-    """What a driver has seen and sent (counts)."""
+class DriverStats(Generic[D]):
+    """What a driver has seen and sent (counts); ``link`` is the link's own typed record."""
 
-    datagrams: int = 0
-    sensor_packets: int = 0
-    bad_sensor_packets: int = 0
-    pings_answered: int = 0
-    acks_received: int = 0
-    other_packets: int = 0
+    received: int = 0  #: messages received (datagrams, lines)
+    sensor_packets: int = 0  #: encoder reports decoded
+    bad_sensor_packets: int = 0  #: encoder reports that did not decode
+    other_packets: int = 0  #: messages that were not encoder reports
     commands_sent: int = 0
     stops_sent: int = 0
-
-
-#: One datagram and the time it arrived (s, on the receiver's clock).
-Datagram = tuple[bytes, float]
-
-
-class Transport(Protocol):
-    """Datagrams to and from one board."""
-
-    def send(self, data: bytes) -> None:
-        """Send one datagram to the board."""
-        ...
-
-    def receive(self) -> list[Datagram]:
-        """All datagrams that have arrived, with their arrival times (never blocks)."""
-        ...
-
-    def close(self) -> None:
-        """Release the link."""
-        ...
+    keepalives: int = 0  #: keep-alive messages exchanged (answered or sent)
+    link: D | None = None
 
 
 class Driver(Protocol):
     """What the control loop needs from a robot link.
 
-    ``stop`` sends the link's fixed stop packet (never computed from user settings);
+    ``stop`` sends the link's fixed stop message (never computed from user settings);
     ``confirm_stopped`` says whether the robot's own sensor data shows it has stopped.
     """
 
-    stats: DriverStats
+    stats: DriverStats[Any]
 
     @property
     def latest(self) -> EncoderReading | None:
@@ -79,7 +71,7 @@ class Driver(Protocol):
 
     @property
     def decode_errors(self) -> int:
-        """Packets discarded as malformed."""
+        """Messages discarded as malformed."""
         ...
 
     def connect(self) -> EncoderReading:
@@ -95,7 +87,7 @@ class Driver(Protocol):
         ...
 
     def stop(self) -> None:
-        """Send the fixed stop packet."""
+        """Send the fixed stop message."""
         ...
 
     def confirm_stopped(self, timeout: float) -> bool:
@@ -105,3 +97,27 @@ class Driver(Protocol):
     def close(self) -> None:
         """Stop the robot and release the link (safe to call twice)."""
         ...
+
+
+@dataclass(frozen=True)
+class VirtualSpec:
+    """What a virtual robot needs from outside: its plant (None: an ideal one), faults, seed.
+
+    ``faults`` is link-specific (for the Jaguar over UDP: :class:`odolab.robot.jaguar.board.Faults`);
+    a link that has none refuses any.
+    """
+
+    plant: PlantFactory | None = None
+    faults: object | None = None
+    seed: int = 0
+    report_rate: float = 10.0
+
+
+@dataclass(frozen=True, eq=False)
+class RobotLink:
+    """An open link: its driver, a description, the true pose (virtual robots) and a closer."""
+
+    driver: Driver
+    description: str
+    true_pose: Callable[[], Pose | None]
+    close: Callable[[], None]

@@ -160,7 +160,7 @@ class LoopStats:
     stops_sent: int
     commands_sent: int
     decode_errors: int
-    pings_answered: int
+    keepalives: int  #: keep-alive messages the link exchanged (answered or sent)
 
     def describe(self) -> str:
         """One line for people."""
@@ -452,6 +452,6 @@ class ControlLoop:
             stops_sent=ds.stops_sent,
             commands_sent=ds.commands_sent,
             decode_errors=driver.decode_errors,
-            pings_answered=ds.pings_answered,
+            keepalives=ds.keepalives,
         )
         return LoopResult(log, stats, completed, pose, tuple(events), aborted)

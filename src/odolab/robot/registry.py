@@ -1,12 +1,15 @@
 """Robot links by the scheme of the ``--robot`` URL (an explicit registry, no discovery).
 
 =========================  ==========================================================
-``udp://HOST:PORT``        a Jaguar board over UDP (:mod:`odolab.robot.jaguar`)
+``udp://HOST:PORT``        a Jaguar board over UDP, binary frames (:mod:`odolab.robot.jaguar`)
+``tcp://HOST:PORT``        a Jaguar 4x4 of 2014 or later, text lines over TCP
+                           (:mod:`odolab.robot.jaguar2014`)
 ``sim://`` (the default)   a virtual Jaguar board started on 127.0.0.1 for the run
 =========================  ==========================================================
 
-A new kind of robot is one package that implements :class:`odolab.robot.interface.Driver` and
-an opener, plus one line in :data:`LINKS`.
+A new kind of robot is one package that implements :class:`odolab.robot.interface.Driver`, an
+opener and a URL check, plus one row in :data:`LINKS` (and one in :data:`IN_PROCESS` for runs in
+simulated time). Links never import this module: the table imports them, lazily.
 """
 
 from __future__ import annotations
@@ -16,43 +19,41 @@ from dataclasses import dataclass
 from urllib.parse import urlparse
 
 from odolab.params import RobotParams
-from odolab.robot.clock import Clock
+from odolab.robot.clock import Clock, SimClock
 from odolab.robot.config import RunConfig
 from odolab.robot.errors import RobotUrlError
-from odolab.robot.interface import Driver
-from odolab.robot.plant import PlantFactory
-from odolab.trajectory import Pose
+from odolab.robot.interface import RobotLink, VirtualSpec
+from odolab.robot.plant import Plant
 
-__all__ = ["DEFAULT_ROBOT_URL", "LINKS", "LinkOpener", "RobotLink", "VirtualSpec", "open_link"]
+__all__ = [
+    "DEFAULT_ROBOT_URL",
+    "IN_PROCESS",
+    "LINKS",
+    "InProcessOpener",
+    "LinkEntry",
+    "LinkOpener",
+    "RobotLink",
+    "VirtualSpec",
+    "check_robot_url",
+    "open_in_process",
+    "open_link",
+]
 
 DEFAULT_ROBOT_URL = "sim://"
 
-
-@dataclass(frozen=True)
-class VirtualSpec:
-    """What a virtual robot needs from outside: its plant (None: an ideal one), faults, seed.
-
-    ``faults`` is link-specific (for the Jaguar: :class:`odolab.robot.jaguar.board.Faults`).
-    """
-
-    plant: PlantFactory | None = None
-    faults: object | None = None
-    seed: int = 0
-    report_rate: float = 10.0
-
-
-@dataclass(frozen=True, eq=False)
-class RobotLink:
-    """An open link: its driver, a description, the true pose (virtual robots) and a closer."""
-
-    driver: Driver
-    description: str
-    true_pose: Callable[[], Pose | None]
-    close: Callable[[], None]
-
-
 #: opener(url, config, nominal params, clock, virtual) -> an open link
 LinkOpener = Callable[[str, RunConfig, RobotParams, Clock, VirtualSpec], RobotLink]
+#: opener(config, nominal params, simulated clock, plant, virtual) -> a link in simulated time
+InProcessOpener = Callable[[RunConfig, RobotParams, SimClock, Plant, VirtualSpec], RobotLink]
+
+
+@dataclass(frozen=True)
+class LinkEntry:
+    """One row of :data:`LINKS`: the URL's form for people, its check and the opener."""
+
+    form: str  #: e.g. "udp://HOST:PORT (a Jaguar board, binary over UDP)"
+    check: Callable[[str], object]  #: raises RobotUrlError for a URL of this scheme it refuses
+    open: LinkOpener
 
 
 def _jaguar_udp(
@@ -71,26 +72,53 @@ def _jaguar_virtual(
     return open_virtual(url, config, params, clock, virtual)
 
 
-LINKS: dict[str, LinkOpener] = {"udp": _jaguar_udp, "sim": _jaguar_virtual}
+def _check_udp(url: str) -> object:
+    from odolab.robot.jaguar.driver import parse_robot_url
+
+    return parse_robot_url(url)
 
 
-def check_robot_url(url: str | None) -> str:
-    """The URL (``sim://`` for None) if its scheme is registered; else :class:`RobotUrlError`."""
-    url = DEFAULT_ROBOT_URL if url is None else url
-    scheme = urlparse(url).scheme
-    if scheme not in LINKS:
-        raise RobotUrlError(
-            f"--robot {url!r} has no known scheme; expected udp://HOST:PORT or sim://"
-        )
-    if scheme == "udp":
-        from odolab.robot.jaguar.driver import parse_robot_url
-
-        parse_robot_url(url)
-    if scheme == "sim" and url != DEFAULT_ROBOT_URL:  # a host, a query: nothing reads them
+def _check_sim(url: str) -> object:
+    if url != DEFAULT_ROBOT_URL:  # a host, a query: nothing reads them
         raise RobotUrlError(
             f"--robot {url!r}: expected plain sim:// (a virtual Jaguar on 127.0.0.1; its true "
             "behaviour is --truth)"
         )
+    return url
+
+
+LINKS: dict[str, LinkEntry] = {
+    "udp": LinkEntry("udp://HOST:PORT (a Jaguar board, binary over UDP)", _check_udp, _jaguar_udp),
+    "sim": LinkEntry("sim:// (a virtual Jaguar on 127.0.0.1)", _check_sim, _jaguar_virtual),
+}
+
+
+def _jaguar_in_process(
+    config: RunConfig, params: RobotParams, clock: SimClock, plant: Plant, virtual: VirtualSpec
+) -> RobotLink:
+    from odolab.robot.jaguar.links import open_in_process as open_jaguar
+
+    return open_jaguar(
+        config, params, clock, plant,
+        faults=virtual.faults, seed=virtual.seed, report_rate=virtual.report_rate,
+    )  # fmt: skip
+
+
+#: Links that run in simulated time, in-process, over a plant: by link name.
+IN_PROCESS: dict[str, InProcessOpener] = {
+    "jaguar": _jaguar_in_process,
+}
+
+
+def check_robot_url(url: str | None) -> str:
+    """The URL (``sim://`` for None) if its scheme is registered and the link takes it; else
+    :class:`RobotUrlError`."""
+    url = DEFAULT_ROBOT_URL if url is None else url
+    scheme = urlparse(url).scheme
+    if scheme not in LINKS:
+        forms = ", ".join(entry.form for entry in LINKS.values())
+        raise RobotUrlError(f"--robot {url!r} has no known scheme; expected one of {forms}")
+    LINKS[scheme].check(url)
     return url
 
 
@@ -103,4 +131,21 @@ def open_link(
 ) -> RobotLink:
     """Open the link ``url`` names (None: a virtual robot)."""
     url = check_robot_url(url)
-    return LINKS[urlparse(url).scheme](url, config, params, clock, virtual or VirtualSpec())
+    return LINKS[urlparse(url).scheme].open(url, config, params, clock, virtual or VirtualSpec())
+
+
+def open_in_process(
+    link: str,
+    config: RunConfig,
+    params: RobotParams,
+    clock: SimClock,
+    plant: Plant,
+    virtual: VirtualSpec | None = None,
+) -> RobotLink:
+    """The virtual board of link ``link`` (a key of :data:`IN_PROCESS`) over ``plant``, wired to
+    its driver in-process, in ``clock``'s time."""
+    if link not in IN_PROCESS:
+        raise RobotUrlError(
+            f"no in-process link {link!r}; expected one of {', '.join(sorted(IN_PROCESS))}"
+        )
+    return IN_PROCESS[link](config, params, clock, plant, virtual or VirtualSpec())

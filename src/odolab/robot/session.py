@@ -32,12 +32,11 @@ from odolab.params import PRESETS, RobotParams
 from odolab.robot.clock import Clock, RealClock, SimClock, set_realtime
 from odolab.robot.config import RunConfig, check_motion
 from odolab.robot.errors import RobotConfigError, RunFolderError
-from odolab.robot.interface import Driver
-from odolab.robot.jaguar.driver import DriverConfig
+from odolab.robot.interface import Driver, RobotLink, VirtualSpec
 from odolab.robot.loop import ControlLoop, CycleInfo, LoopResult, LoopStats
 from odolab.robot.motions import Motion, motion_from_command
 from odolab.robot.plant import IdealPlant, Plant, PlantFactory
-from odolab.robot.registry import RobotLink, VirtualSpec, open_link
+from odolab.robot.registry import open_in_process, open_link
 from odolab.trajectory import Pose
 from odolab.trials import Command, MotionKind, Trial, TrialStatus
 from odolab.writing import write_text_file
@@ -47,7 +46,6 @@ __all__ = [
     "AbortReport",
     "RobotRun",
     "check_run_folder",
-    "driver_config_for",
     "keep_run",
     "rescue_folder",
     "run_motion",
@@ -85,17 +83,6 @@ class AbortReport:
     stop_confirmed: bool
     run: RobotRun | None = None  #: the partial run (None when the loop never ran a cycle)
     save_note: str = ""  #: why it is not where it was asked to go ("" when it is)
-
-
-def driver_config_for(params: RobotParams, **changes: Any) -> DriverConfig:
-    """Jaguar driver settings whose velocity unit and counter modulus follow ``params``."""
-    base: dict[str, Any] = {
-        "left_metres_per_tick": params.left_metres_per_tick,
-        "right_metres_per_tick": params.right_metres_per_tick,
-        "modulus": min(params.encoder_modulus or 65536, 65536),
-    }
-    base.update(changes)
-    return DriverConfig(**base)
 
 
 def _trial(
@@ -288,18 +275,19 @@ def run_motion_simulated(
     max_duration: float | None = 3600.0,
     campaign: str = "sim",
     on_cycle: Callable[[CycleInfo], None] | None = None,
+    link: str = "jaguar",
 ) -> tuple[Trial, LoopStats]:
     """Drive a command (or a motion) through the same driver and loop, in simulated time.
 
-    A virtual Jaguar over ``plant`` is wired to the driver in-process; a :class:`SimClock`
+    The virtual board of ``link`` (``"jaguar"``: the UDP Jaguar's, ``"jaguar2014"``: the 2014
+    Jaguar's; :data:`odolab.robot.registry.IN_PROCESS`) over ``plant`` is wired to its driver
+    in-process; a :class:`SimClock`
     jumps from deadline to deadline. Without a plant, ``truth`` must be a :class:`RobotParams`
     (an :class:`IdealPlant` with those true parameters) or None (ideal, nominal); build a
     simulator plant with ``odolab.sim.plants.make_plant``. ``rate`` is used when ``config`` is
     not given. Returns the trial (predicted pose from the loop, true pose from the plant) and
     the loop statistics (whose timing errors are zero: simulated time is exact).
     """
-    from odolab.robot.jaguar.links import open_in_process
-
     nominal = nominal or PRESETS["jaguar-lite"]
     config = config or RunConfig(rate=rate)
     if isinstance(motion, Command):
@@ -318,11 +306,11 @@ def run_motion_simulated(
                 "(odolab.sim.plants.make_plant(...)) or truth as RobotParams"
             )
     clock = SimClock(plant.time)
-    link = open_in_process(
-        config, nominal, clock, plant, faults=faults, seed=seed, report_rate=report_rate
+    opened = open_in_process(
+        link, config, nominal, clock, plant, VirtualSpec(None, faults, seed, report_rate)
     )
     run = _drive_link(
-        link, command, mot, nominal, config, clock,
+        opened, command, mot, nominal, config, clock,
         terrain=terrain, campaign=campaign, max_duration=max_duration, on_cycle=on_cycle,
         on_event=None, realtime=False, save_to=None, on_abort=None,
     )  # fmt: skip

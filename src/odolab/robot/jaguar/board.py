@@ -45,7 +45,7 @@ from odolab.errors import ProtocolError, RobotLinkError
 from odolab.params import RobotParams
 from odolab.robot.config import BOUNDS, Bound, check_bound
 from odolab.robot.errors import BoardConfigError, RobotConfigError
-from odolab.robot.interface import Datagram
+from odolab.robot.jaguar.driver import Datagram
 from odolab.robot.jaguar.protocol import (
     DES_BOARD,
     DES_PC,

@@ -17,6 +17,7 @@ import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Protocol
 from urllib.parse import urlparse
 
 from odolab.errors import ProtocolError, RobotLinkError
@@ -24,7 +25,7 @@ from odolab.params import RobotParams
 from odolab.robot.clock import Clock
 from odolab.robot.config import CommandMode, RunConfig
 from odolab.robot.errors import NoSensorDataError, RobotConfigError, RobotUrlError
-from odolab.robot.interface import Datagram, DriverStats, EncoderReading, Transport
+from odolab.robot.interface import DriverStats, EncoderReading
 from odolab.robot.jaguar.protocol import (
     DES_PC,
     N_CHANNELS,
@@ -43,14 +44,55 @@ from odolab.robot.jaguar.protocol import (
 __all__ = [
     "ChannelMap",
     "CommandMode",
+    "Datagram",
     "DriverConfig",
     "DriverStats",
     "EncoderReading",
     "JaguarDriver",
+    "JaguarLinkStats",
+    "JaguarReport",
     "Transport",
     "UdpTransport",
+    "driver_config_for",
     "parse_robot_url",
 ]
+
+
+#: One datagram and the time it arrived (s, on the receiver's clock).
+Datagram = tuple[bytes, float]
+
+
+class Transport(Protocol):
+    """Datagrams to and from one board."""
+
+    def send(self, data: bytes) -> None:
+        """Send one datagram to the board."""
+        ...
+
+    def receive(self) -> list[Datagram]:
+        """All datagrams that have arrived, with their arrival times (never blocks)."""
+        ...
+
+    def close(self) -> None:
+        """Release the link."""
+        ...
+
+
+@dataclass(frozen=True)
+class JaguarReport:
+    """What a motor sensor packet says beyond the counters (:attr:`EncoderReading.link`)."""
+
+    left_rate: int  #: encoder velocity field (counts/s, magnitude)
+    right_rate: int
+    direction: int  #: direction bits as sent (bit 0 motor 0, bit 1 motor 1; 1 = forward)
+
+
+@dataclass
+class JaguarLinkStats:
+    """The Jaguar link's own counts (:attr:`DriverStats.link`)."""
+
+    pings_answered: int = 0
+    acks_received: int = 0
 
 
 def parse_robot_url(url: str) -> tuple[str, int]:
@@ -208,6 +250,17 @@ class DriverConfig:
         )
 
 
+def driver_config_for(params: RobotParams, **changes: object) -> DriverConfig:
+    """Jaguar driver settings whose velocity unit and counter modulus follow ``params``."""
+    base: dict[str, object] = {
+        "left_metres_per_tick": params.left_metres_per_tick,
+        "right_metres_per_tick": params.right_metres_per_tick,
+        "modulus": min(params.encoder_modulus or 65536, 65536),
+    }
+    base.update(changes)
+    return DriverConfig(**base)  # type: ignore[arg-type]
+
+
 class JaguarDriver:
     """Client of one Jaguar board over ``transport``; times come from ``clock``.
 
@@ -219,7 +272,8 @@ class JaguarDriver:
         self.clock = clock
         self.config = config or DriverConfig()
         self.decoder = Decoder({DES_PC})
-        self.stats = DriverStats()
+        self._link = JaguarLinkStats()
+        self.stats: DriverStats[JaguarLinkStats] = DriverStats(link=self._link)
         self._latest: EncoderReading | None = None
         self.last_command: tuple[float, float] = (0.0, 0.0)
         self._stop_packet = STOP_PWM if self.config.mode is CommandMode.PWM else STOP_VELOCITY
@@ -260,7 +314,7 @@ class JaguarDriver:
         """Read everything that has arrived; answer PINGs; return the number of new readings."""
         n = 0
         for datagram, arrived in self.transport.receive():
-            self.stats.datagrams += 1
+            self.stats.received += 1
             for packet in self.decoder.feed_datagram(datagram):
                 if packet.type == MessageType.MOTOR_SENSOR:
                     try:
@@ -277,9 +331,10 @@ class JaguarDriver:
                     code = decode_system(packet)
                     if code == SystemCode.PING:
                         self.transport.send(encode_system(SystemCode.ACK))
-                        self.stats.pings_answered += 1
+                        self._link.pings_answered += 1
+                        self.stats.keepalives += 1
                     elif code == SystemCode.ACK:
-                        self.stats.acks_received += 1
+                        self._link.acks_received += 1
                     else:
                         self.stats.other_packets += 1
                 else:
@@ -297,7 +352,9 @@ class JaguarDriver:
             left = (-left) % m
         if ch.right_encoder_sign < 0:
             right = (-right) % m
-        return EncoderReading(t, left, right, velocity[ch.left], velocity[ch.right], direction)
+        return EncoderReading(
+            t, left, right, JaguarReport(velocity[ch.left], velocity[ch.right], direction)
+        )
 
     def _value(self, speed: float, metres_per_tick: float) -> int:
         vmax = self.config.max_wheel_speed

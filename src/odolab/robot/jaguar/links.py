@@ -9,6 +9,7 @@ from odolab.params import RobotParams
 from odolab.robot.clock import Clock, SimClock
 from odolab.robot.config import RunConfig
 from odolab.robot.errors import RobotUrlError
+from odolab.robot.interface import RobotLink, VirtualSpec
 from odolab.robot.jaguar.board import (
     BoardConfig,
     Faults,
@@ -18,7 +19,6 @@ from odolab.robot.jaguar.board import (
 )
 from odolab.robot.jaguar.driver import DriverConfig, JaguarDriver, UdpTransport, parse_robot_url
 from odolab.robot.plant import IdealPlant, Plant
-from odolab.robot.registry import RobotLink, VirtualSpec
 
 __all__ = ["open_in_process", "open_udp", "open_virtual"]
 
