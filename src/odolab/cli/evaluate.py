@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 from odolab.cli._apps import app, calibrate_app
-from odolab.cli._output import markup_text
+from odolab.cli._output import echo, markup_text
 from odolab.cli._several import several_values_command
 
 if TYPE_CHECKING:
@@ -26,6 +26,23 @@ class RunFormat(StrEnum):
     csv = "csv"
     optiodom = "optiodom"
     bag = "bag"
+
+
+RUN_FORMAT_HELP = (
+    "Run format (default: detected from the files found: a bag, OptiOdom runs beside their "
+    "<id>_metadata.csv, else odolab's encoder log CSV; the output says which)."
+)
+
+
+def run_format(fmt: RunFormat | None, paths: list[Path]) -> RunFormat:
+    """``fmt``, else the format detected at ``paths`` (said on the output, with why)."""
+    if fmt is not None:
+        return fmt
+    from odolab.io.registry import detect_format
+
+    found, why = detect_format(paths)
+    echo(f"format: {found.value}, detected: {why} (--format chooses another)")
+    return RunFormat(found.value)
 
 
 class DeltaUnitChoice(StrEnum):
@@ -371,9 +388,7 @@ def _print_table(rows: list[tuple[str, Any]]) -> None:
 def calibrate_lsq_cmd(
     runs: Annotated[list[Path], typer.Argument(help="Runs (files or folders) with ground truth.")],
     output: Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")],
-    fmt: Annotated[RunFormat, typer.Option("--format", "-f", help="Run format.")] = (
-        RunFormat.optiodom
-    ),
+    fmt: Annotated[RunFormat | None, typer.Option("--format", "-f", help=RUN_FORMAT_HELP)] = None,
     params: ParamsOpt = None,
     validate: Annotated[
         list[Path] | None,
@@ -419,6 +434,7 @@ def calibrate_lsq_cmd(
 
     cluster = Cluster(scheduler=scheduler, workers=workers)  # (its address checked first)
     held = list(validate or [])
+    fmt = run_format(fmt, [*runs, *held])
     if any(not p.exists() for p in [*runs, *held]):  # glob patterns
         runs = expand_runs(runs, fmt.value)
         held = expand_runs(held, fmt.value) if held else held

@@ -13,6 +13,7 @@ import typer
 from odolab.cli._apps import calibrate_app, sim_app
 from odolab.cli._several import several_values_command
 from odolab.cli.evaluate import (
+    RUN_FORMAT_HELP,
     GtTopicOpt,
     JointsOpt,
     JointTopicOpt,
@@ -21,6 +22,7 @@ from odolab.cli.evaluate import (
     WorkersOpt,
     _progress_bar,
     _read_options,
+    run_format,
 )
 
 if TYPE_CHECKING:
@@ -34,9 +36,7 @@ def calibrate_compare_cmd(
     runs: Annotated[
         list[Path], typer.Argument(help="Training runs (files or folders) with ground truth.")
     ],
-    fmt: Annotated[RunFormat, typer.Option("--format", "-f", help="Run format.")] = (
-        RunFormat.optiodom
-    ),
+    fmt: Annotated[RunFormat | None, typer.Option("--format", "-f", help=RUN_FORMAT_HELP)] = None,
     params: ParamsOpt = None,
     validate: Annotated[
         list[Path] | None,
@@ -78,7 +78,7 @@ def calibrate_compare_cmd(
     with _progress_bar("compare") as report:
         result = compare_model_files(
             runs,
-            fmt.value,
+            run_format(fmt, [*runs, *(validate or [])]).value,
             validate=validate or [],
             nominal=robot,
             models=chosen,

@@ -21,10 +21,22 @@ from odolab.params import RobotParams
 from odolab.text import quote_input
 from odolab.trajectory import Trajectory, check_times
 
-__all__ = ["OptiOdomReader", "find_optiodom_runs", "read_optiodom_metadata", "read_optiodom_run"]
+__all__ = [
+    "OptiOdomReader",
+    "find_optiodom_runs",
+    "is_optiodom_run",
+    "read_optiodom_metadata",
+    "read_optiodom_run",
+]
 
 COLUMNS = ("t", "x_gt", "y_gt", "theta_gt", "dticks_right", "dticks_left")
 _RUN = re.compile(r"^(?P<id>.+)_run-(?P<nn>\d+)\.csv$")
+
+
+def is_optiodom_run(path: Path) -> bool:
+    """Whether ``path`` is named ``<id>_run-NN.csv`` and has its ``<id>_metadata.csv`` beside it."""
+    m = _RUN.match(path.name)
+    return m is not None and path.with_name(f"{m['id']}_metadata.csv").is_file()
 
 
 def read_optiodom_metadata(path: str | Path) -> dict[str, list[str]]:

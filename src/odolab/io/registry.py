@@ -14,9 +14,10 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Protocol
 
-from odolab.defaults import LogFormat  # (defined there: the CLI names them at no cost)
+from odolab.defaults import LogFormat
+from odolab.errors import LogFormatError  # (defined there: the CLI names them at no cost)
 from odolab.io.csv_run import CsvRunReader
-from odolab.io.optiodom import OptiOdomReader
+from odolab.io.optiodom import OptiOdomReader, is_optiodom_run
 from odolab.io.rosbag import RosbagReader
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.io.trajectory_csv import read_trajectory
@@ -25,6 +26,7 @@ __all__ = [
     "READERS",
     "LogFormat",
     "RunReader",
+    "detect_format",
     "find_runs",
     "read_run",
     "read_trajectory",
@@ -68,3 +70,55 @@ def read_run(
 ) -> OdometryRun:
     """Read one run in the given format."""
     return READERS[LogFormat(fmt)].read(Path(path), options or ReadOptions())
+
+
+_BAG_SUFFIXES = (".bag", ".mcap", ".db3")
+
+
+def _format_of(p: Path) -> LogFormat | None:
+    """The format of the runs at ``p`` (a file or a folder), None when it holds none."""
+    if p.is_file():
+        if p.suffix.lower() in _BAG_SUFFIXES:
+            return LogFormat.BAG
+        return LogFormat.OPTIODOM if is_optiodom_run(p) else LogFormat.CSV
+    if not p.is_dir():
+        return None
+    if (p / "metadata.yaml").is_file():
+        return LogFormat.BAG
+    if any(is_optiodom_run(q) for q in p.rglob("*_run-*.csv")):
+        return LogFormat.OPTIODOM
+    if any(not q.stem.endswith("_gt") for q in p.glob("*.csv")):
+        return LogFormat.CSV
+    if any(q.suffix.lower() in _BAG_SUFFIXES or (q / "metadata.yaml").is_file()
+           for q in p.iterdir()):  # fmt: skip
+        return LogFormat.BAG
+    return None
+
+
+def detect_format(paths: Iterable[str | Path]) -> tuple[LogFormat, str]:
+    """The format of the runs at ``paths`` and one clause saying why.
+
+    A bag (``.bag``, ``.mcap``, ``.db3``, a folder with ``metadata.yaml``); an OptiOdom run
+    (``<id>_run-NN.csv`` beside its ``<id>_metadata.csv``); any other CSV is odolab's own encoder
+    log, and so is a path that does not exist yet (a glob pattern). Paths of two formats are
+    refused: one sentence asks for ``--format``."""
+    found: dict[LogFormat, Path] = {}
+    for raw in paths:
+        fmt = _format_of(Path(raw))
+        if fmt is not None:
+            found.setdefault(fmt, Path(raw))
+    if len(found) > 1:
+        (a, pa), (b, pb) = list(found.items())[:2]
+        raise LogFormatError(
+            f"{pa} holds {a.value} runs but {pb} holds {b.value} runs; expected runs of one "
+            "format (give --format)"
+        )
+    if not found:
+        return LogFormat.CSV, "odolab's own encoder log CSV (nothing else found)"
+    fmt, where = next(iter(found.items()))
+    why = {
+        LogFormat.CSV: "odolab's own encoder log CSV (no OptiOdom <id>_metadata.csv beside it)",
+        LogFormat.OPTIODOM: "OptiOdom runs (<id>_run-NN.csv beside <id>_metadata.csv)",
+        LogFormat.BAG: "a ROS bag",
+    }[fmt]
+    return fmt, f"{why}, found at {where}"
