@@ -42,8 +42,8 @@ _EM_ITERATIONS = 30
 
 @dataclass(frozen=True)
 class SlipDesign:
-    """The regression of one or more runs: x/y rows (14 columns: fwd then lat coefficients),
-    heading rows (7 columns), and the windows' durations."""
+    """The regression of one or more runs: x/y rows (16 columns: fwd then lat coefficients),
+    heading rows (8 columns), and the windows' durations."""
 
     a_xy: FloatArray
     y_xy: FloatArray
@@ -80,9 +80,9 @@ def slip_design(
         timed = dt > 0
         tt = np.where(timed, dt, 1.0)
         phi = SlipModel.features(ds / tt, dth / tt)
-        phi[2:, ~timed] = 0.0
+        phi[4:, ~timed] = 0.0
         phi[:, 0] = 0.0
-        big_phi = phi * tt[None, :]  # dt * phi, (7, n)
+        big_phi = phi * tt[None, :]  # dt * phi, (8, n)
         v_sq += float(np.sum((ds / tt)[timed] ** 2))
         w_sq += float(np.sum((dth / tt)[timed] ** 2))
         phi_sq += np.sum(phi[:, timed] ** 2, axis=1)
@@ -112,7 +112,7 @@ def slip_design(
         # into the window's start frame
         yx = c0 * ex + s0 * ey
         yy = -s0 * ex + c0 * ey
-        wx_f, wy_f = s(fxx), s(fxy)  # world-frame regressors of beta_fwd: (7, m)
+        wx_f, wy_f = s(fxx), s(fxy)  # world-frame regressors of beta_fwd: (8, m)
         # beta_lat moves the body left: world (-sin, cos) * Phi
         wx_l, wy_l = -wy_f, wx_f
         rx_f = c0 * wx_f + s0 * wy_f
@@ -174,7 +174,7 @@ def fit_slip_model(
     window_s: float = WINDOW_S,
     prior_scale: float = 1.0,
 ) -> tuple[SlipModel, FloatArray, int]:
-    """The slip model of prepared runs: (model with its posterior, 21 x 21 posterior
+    """The slip model of prepared runs: (model with its posterior, 24 x 24 posterior
     covariance in :attr:`SlipModel.COEF_KEYS` order, number of windows)."""
     d = slip_design(runs, nominal, window_s)
     k = len(FEATURES)

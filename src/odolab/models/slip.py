@@ -8,19 +8,20 @@ commanded body speeds from the measured track speeds ``v_l = ds_l / dt``, ``v_r 
 and the body's true velocity is that plus a slip that is linear in a small basis of them::
 
     v_x = v + phi . beta_fwd     v_y = phi . beta_lat     omega = w + phi . beta_yaw
-    phi = (v, w, v|v|, v|w|, w|v|, w|w|, v w)              (SI units: m/s, rad/s)
+    phi = (v, w, |v|, |w|, v|v|, v|w|, w|v|, w|w|)          (SI units: m/s, rad/s)
 
-The linear terms are what the extended differential drive fits (scales, track); the quadratic
-ones let the slip grow with speed and turn rate (a tracked robot turns less at speed, slides
-sideways in a fast curve). One cycle of ``dt`` seconds moves the body by ``dt`` times these
+The terms of degree one are what the ICR model fits (per-side scales, the turning track, the
+sideways offset) and, with ``|v|`` and ``|w|``, a robot that drives differently forward and in
+reverse (the lab's forward and reverse ratios); the quadratic ones let the slip grow with speed
+and turn rate (a tracked robot turns less at speed). One cycle of ``dt`` seconds moves the body by ``dt`` times these
 velocities; a cycle of zero duration has no quadratic terms. The coefficients come from Bayesian
 linear regression on runs with ground truth (:mod:`odolab.calibration.slipfit`), which also gives
 the noise of the slip: a white body-velocity noise of spectral density ``q_fwd``, ``q_lat``
 (m^2/s) and ``q_yaw`` (rad^2/s), so a cycle's body motion has variance ``q dt`` on top of the
 posterior variance of ``phi . beta`` (:meth:`SlipModel.step_variance`).
 
-In a parameters file the ``[model]`` table has ``kind = "slip"``, the 21 coefficients
-``fwd_v``, ``fwd_w``, ..., ``yaw_vw`` (missing ones are 0) and the three ``q_*``. The posterior
+In a parameters file the ``[model]`` table has ``kind = "slip"``, the 24 coefficients
+``fwd_v``, ``fwd_w``, ..., ``yaw_w_absw`` (missing ones are 0) and the three ``q_*``. The posterior
 covariance of the coefficients is not stored in the file (only in a fit's result): a model read
 from a file has the noise part of the predictive variance only.
 
@@ -47,7 +48,7 @@ if TYPE_CHECKING:
 __all__ = ["FEATURES", "OUTPUTS", "SlipModel"]
 
 #: The basis, in order (v: forward speed m/s, w: turn rate rad/s, both from the measured tracks).
-FEATURES: tuple[str, ...] = ("v", "w", "v_absv", "v_absw", "w_absv", "w_absw", "vw")
+FEATURES: tuple[str, ...] = ("v", "w", "absv", "absw", "v_absv", "v_absw", "w_absv", "w_absw")
 #: The slipping body velocities: forward, lateral (left), yaw rate.
 OUTPUTS: tuple[str, ...] = ("fwd", "lat", "yaw")
 _COEF_KEYS = tuple(f"{o}_{f}" for o in OUTPUTS for f in FEATURES)
@@ -55,7 +56,8 @@ _NOISE_KEYS = ("q_fwd", "q_lat", "q_yaw")
 
 
 def _features(v: float, w: float) -> tuple[float, ...]:
-    return (v, w, v * abs(v), v * abs(w), w * abs(v), w * abs(w), v * w)
+    av, aw = abs(v), abs(w)
+    return (v, w, av, aw, v * av, v * aw, w * av, w * aw)
 
 
 @dataclass(frozen=True)
@@ -64,29 +66,32 @@ class SlipModel:
 
     fwd_v: float = 0.0
     fwd_w: float = 0.0
+    fwd_absv: float = 0.0
+    fwd_absw: float = 0.0
     fwd_v_absv: float = 0.0
     fwd_v_absw: float = 0.0
     fwd_w_absv: float = 0.0
     fwd_w_absw: float = 0.0
-    fwd_vw: float = 0.0
     lat_v: float = 0.0
     lat_w: float = 0.0
+    lat_absv: float = 0.0
+    lat_absw: float = 0.0
     lat_v_absv: float = 0.0
     lat_v_absw: float = 0.0
     lat_w_absv: float = 0.0
     lat_w_absw: float = 0.0
-    lat_vw: float = 0.0
     yaw_v: float = 0.0
     yaw_w: float = 0.0
+    yaw_absv: float = 0.0
+    yaw_absw: float = 0.0
     yaw_v_absv: float = 0.0
     yaw_v_absw: float = 0.0
     yaw_w_absv: float = 0.0
     yaw_w_absw: float = 0.0
-    yaw_vw: float = 0.0
     q_fwd: float = 0.0
     q_lat: float = 0.0
     q_yaw: float = 0.0
-    #: posterior covariance of the coefficients, row-major 21 x 21 in :data:`KEYS` order (empty:
+    #: posterior covariance of the coefficients, row-major 24 x 24 in :data:`KEYS` order (empty:
     #: unknown); not part of the ``[model]`` table
     posterior: tuple[float, ...] = field(default=(), compare=False, repr=False)
     kind: ClassVar[str] = "slip"
@@ -157,7 +162,7 @@ class SlipModel:
         if dt > 0.0:
             phi = _features(ds / dt, dth / dt)
         else:  # no time: only the linear terms (dt * v = ds)
-            phi = (ds / 1.0, dth / 1.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+            phi = (ds, dth, abs(ds), abs(dth), 0.0, 0.0, 0.0, 0.0)
             dt = 1.0
         out = []
         for o in OUTPUTS:
@@ -180,17 +185,17 @@ class SlipModel:
         timed = dt > 0.0
         tt = np.where(timed, dt, 1.0)
         phi = self.features(ds / tt, dth / tt)
-        phi[2:, ~timed] = 0.0
+        phi[4:, ~timed] = 0.0
         out = [tt * (np.array(self.beta(o)) @ phi) for o in OUTPUTS]
         return ds + out[0], out[1], dth + out[2]
 
     @staticmethod
     def features(v: NDArray[Any], w: NDArray[Any]) -> NDArray[Any]:
-        """The basis at speeds ``v`` (m/s) and turn rates ``w`` (rad/s): shape (7, n)."""
+        """The basis at speeds ``v`` (m/s) and turn rates ``w`` (rad/s): shape (8, n)."""
         import numpy as np
 
         av, aw = np.abs(v), np.abs(w)
-        return np.array([v, w, v * av, v * aw, w * av, w * aw, v * w], dtype=np.float64)
+        return np.array([v, w, av, aw, v * av, v * aw, w * av, w * aw], dtype=np.float64)
 
     def step_variance(
         self, ds_left: NDArray[Any], ds_right: NDArray[Any], dt: NDArray[Any], track_width: float
@@ -220,4 +225,4 @@ class SlipModel:
         if v == 0.0:
             raise ParamsError("speed_slip needs a speed other than 0 m/s")
         b = self.beta("fwd")
-        return -(b[0] * v + b[2] * v * abs(v)) / v
+        return -(b[0] * v + b[2] * abs(v) + b[4] * v * abs(v)) / v
