@@ -97,9 +97,9 @@ def test_run_plot_of_a_trial_with_an_encoder_log(lab_db: Path) -> None:
     assert png.status_code == 200 and png.headers["content-type"] == "image/png"
     img = imread(io.BytesIO(png.content))
     assert img.shape[:2] == (442, 936)  # 7.2 x 3.4 in at 130 dpi, side by side
-    # a phone (under 600 px) gets its own rendering: one panel above the other, 3.7 in wide
+    # a phone (under 600 px) gets its own rendering: one panel above the other, 3.3 in wide
     assert 'media="(max-width: 37.5rem)" srcset="/trial/plot.png?id=L1&amp;size=phone"' in page
     phone = imread(io.BytesIO(c.get("/trial/plot.png?id=L1&size=phone").content))
-    assert phone.shape[:2] == (1240, 740)
+    assert phone.shape[:2] == (1276, 726)
     assert c.get("/trial/plot.png?id=F1").status_code == 404  # no log: no plot
     assert "no run to plot" in c.get("/trial?id=F1").text

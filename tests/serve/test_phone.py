@@ -328,3 +328,55 @@ def test_api_json_body_errors_speak_json(c: TestClient) -> None:
         "error": "the body is not valid JSON (expecting value at line 1, column 7)"
     }
     assert json.loads(bad.text)
+
+
+# -- the report: drawn once per state of the notebook ---------------------------------------
+
+
+def test_the_report_is_drawn_once_per_notebook_state(
+    c: TestClient, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import odolab.app.report
+
+    drawn: list[int] = []
+
+    def fake_report(nb: Notebook, req: object) -> bytes:
+        drawn.append(len(nb.load_trials(with_logs=False)))
+        return f"<!doctype html><p>report {len(drawn)}</p>".encode()
+
+    monkeypatch.setattr(odolab.app.report, "report_html", fake_report)
+    first = c.get("/report.html")
+    assert first.status_code == 200 and first.text == "<!doctype html><p>report 1</p>"
+    assert first.headers["content-disposition"] == 'attachment; filename="odolab-report.html"'
+    assert c.get("/report.html").text == first.text  # kept: not drawn again
+    page = c.get("/report").text
+    assert "Ready: drawn in" in page and 'http-equiv="refresh"' not in page
+    assert drawn == [10]
+    # a measurement changes the notebook: the next report is drawn anew
+    assert c.post("/api/trials/F1/measurement", json={"x": 2.4, "y": 0.0}).status_code == 200
+    assert c.get("/report.html").text == "<!doctype html><p>report 2</p>"
+    assert drawn == [10, 10]
+
+
+def test_the_report_page_says_how_far_the_drawing_is(
+    c: TestClient, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import threading
+
+    import odolab.app.report
+
+    release = threading.Event()
+
+    def slow_report(nb: Notebook, req: object) -> bytes:
+        release.wait(10)
+        return b"<!doctype html>"
+
+    monkeypatch.setattr(odolab.app.report, "report_html", slow_report)
+    page = c.get("/report").text
+    # it was "It takes a few seconds" while a download took 22-46 s
+    assert "a few seconds" not in page
+    assert "Drawing the report: 0 s so far." in page
+    assert '<meta http-equiv="refresh" content="3">' in page
+    release.set()
+    assert c.get("/report.html").text == "<!doctype html>"
+    assert "Ready: drawn in" in c.get("/report").text

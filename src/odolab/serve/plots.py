@@ -1,8 +1,8 @@
 """PNG figures for the pages: a trial's run and the fits of Table I (matplotlib, no pyplot).
 
 Each figure is drawn for the width it is shown at (:data:`LAYOUTS`): ``wide`` for a computer's
-page (at most 48 rem, 768 CSS px), ``phone`` for a page under 600 px (shown about 368 px
-wide). Sizes are chosen so that the smallest text (tick labels, legend) stays at least 11 CSS
+page (at most 48 rem, 768 CSS px), ``phone`` for a page under 600 px (the page's width less
+its margins: 336 px on a 360 px phone, 376 px on a 400 px one). Sizes are chosen so that the smallest text (tick labels, legend) stays at least 11 CSS
 px at that width: a point of a figure ``w`` inches wide shown ``s`` px wide is ``s / (72 w)``
 px. Legends sit under the axes, never on the data. No rcParams are changed (the server draws
 in several threads at once): every size is given to the artist.
@@ -44,7 +44,7 @@ class Layout:
 
 LAYOUTS = {
     "wide": Layout(width_in=7.2, shown_px=768, dpi=130, text_pt=9.0, label_pt=10.0, wrap=None),
-    "phone": Layout(width_in=3.7, shown_px=368, dpi=200, text_pt=8.0, label_pt=8.5, wrap=44),
+    "phone": Layout(width_in=3.3, shown_px=336, dpi=220, text_pt=8.0, label_pt=8.5, wrap=40),
 }
 
 
@@ -85,7 +85,7 @@ def run_png(trial: Trial, size: str | None = None) -> bytes | None:
         log.t, log.left_ticks, log.right_ticks, trial.params, source=f"trial {trial.trial_id}"
     )
     phone = lay is LAYOUTS["phone"]
-    fig = Figure(figsize=(lay.width_in, 6.2 if phone else 3.4), layout="constrained")
+    fig = Figure(figsize=(lay.width_in, 5.8 if phone else 3.4), layout="constrained")
     ax_xy, ax_h = fig.subplots(2, 1) if phone else fig.subplots(1, 2)
     ax_xy.plot(traj.x, traj.y, color="tab:blue", lw=1.2, label="path")
     ax_xy.plot([traj.x[0]], [traj.y[0]], "o", color="tab:green", label="start")
@@ -112,8 +112,7 @@ def fit_png(m: MotionAnalysis, size: str | None = None) -> bytes:
     from odolab.report.figures import legend_outside, plot_fit
 
     lay = layout(size)
-    phone = lay is LAYOUTS["phone"]
-    fig = Figure(figsize=(lay.width_in, 5.0 if phone else 4.6), layout="constrained")
+    fig = Figure(figsize=(lay.width_in, 4.6), layout="constrained")
     ax = fig.subplots()
     plot_fit(m, ax)
     _sizes(ax, lay)

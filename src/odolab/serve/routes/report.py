@@ -1,32 +1,130 @@
 """The report page and its download: :func:`odolab.app.report.report_html` (what ``odolab
-report`` writes, for the same selection)."""
+report`` writes, for the same selection).
+
+Drawing the report takes tens of seconds (every figure anew: 22-46 s for the demo notebook's
+38 figures on the project's machine), so it is drawn once per state of the notebook and kept:
+opening the report page starts it in the background, the page says how far it is (it reloads
+itself every few seconds while the report is drawn), and the download is immediate once it is
+ready; a download asked for before waits for the drawing under way (it never draws twice).
+Any change to a trial, a campaign or a parameter version makes a new report.
+"""
 
 from __future__ import annotations
 
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+from starlette.concurrency import run_in_threadpool
 from starlette.requests import Request
 from starlette.responses import Response
 
 from odolab.errors import OdolabError
-from odolab.serve.routes._web import selection_of, web
+from odolab.serve.routes._web import Web, selection_of, web
 
-__all__ = ["download", "page"]
+if TYPE_CHECKING:
+    from odolab.app.selection import SelectionRequest
+    from odolab.store import Notebook
+
+__all__ = ["ReportJob", "download", "notebook_state", "page"]
+
+#: Seconds between the page's reloads while the report is drawn.
+REFRESH_S = 3
+
+
+def notebook_state(nb: Notebook) -> str:
+    """What the report depends on, as text: every trial (without its log), campaign and
+    parameter version. Equal text, equal report."""
+    import hashlib
+
+    parts = [repr(nb.load_trials(with_logs=False)), repr(nb.campaigns())]
+    parts += [repr(nb.params_versions(r)) for r in nb.robots()]
+    return hashlib.sha256("\0".join(parts).encode()).hexdigest()
+
+
+@dataclass
+class ReportJob:
+    """One drawing of the report, for one selection and one state of the notebook."""
+
+    state: str
+    started: float = field(default_factory=time.monotonic)
+    finished: float | None = None
+    body: bytes | None = None
+    error: str | None = None
+    done: threading.Event = field(default_factory=threading.Event)
+
+    @property
+    def seconds(self) -> float:
+        return (self.finished or time.monotonic()) - self.started
+
+
+_LOCK = threading.Lock()
+
+
+def _job(w: Web, sel: SelectionRequest) -> ReportJob:
+    """The report job of the notebook as it is now: the one kept or under way when nothing
+    changed since it started, else a new one started in a thread of its own."""
+    from odolab.app.report import ReportRequest, report_html
+
+    with w.notebook() as nb:
+        state = notebook_state(nb)
+    key = f"report\0{sel!r}"
+    with _LOCK:
+        job = w.recent.get(key)
+        if isinstance(job, ReportJob) and job.state == state and job.error is None:
+            return job
+        job = ReportJob(state)
+        w.remember(key, job)
+
+    def draw() -> None:
+        try:
+            with w.notebook() as nb:
+                job.body = report_html(nb, ReportRequest(sel))
+        except OdolabError as err:
+            job.error = str(err)
+        finally:
+            job.finished = time.monotonic()
+            job.done.set()
+
+    threading.Thread(target=draw, name="odolab-report", daemon=True).start()
+    return job
 
 
 async def page(request: Request) -> Response:
-    return web(request).page(request, "report.html.j2")
+    w = web(request)
+    try:
+        sel = selection_of(request.query_params)
+        job = await run_in_threadpool(_job, w, sel)
+    except OdolabError as err:
+        return w.error_page(request, err)
+    last = _last_seconds(w)
+    return w.page(
+        request, "report.html.j2", job=job, seconds=job.seconds, last=last,
+        refresh=REFRESH_S, query=request.url.query,
+    )  # fmt: skip
+
+
+def _last_seconds(w: Web) -> float | None:
+    """How long the latest finished drawing took (for the page's estimate)."""
+    times = [
+        j.seconds for j in w.recent.values() if isinstance(j, ReportJob) and j.body is not None
+    ]
+    return times[-1] if times else None
 
 
 async def download(request: Request) -> Response:
-    from odolab.app.report import ReportRequest, report_html
-
     w = web(request)
-    req = ReportRequest(selection_of(request.query_params))
     try:
-        body = await w.run(lambda nb: report_html(nb, req))
+        sel = selection_of(request.query_params)
+        job = await run_in_threadpool(_job, w, sel)
     except OdolabError as err:
         return w.error_page(request, err)
+    await run_in_threadpool(job.done.wait)
+    if job.body is None:
+        return w.error_page(request, OdolabError(job.error or "the report could not be drawn"))
     return Response(
-        body,
+        job.body,
         media_type="text/html; charset=utf-8",
         headers={"content-disposition": 'attachment; filename="odolab-report.html"'},
     )

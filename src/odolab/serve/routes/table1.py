@@ -37,6 +37,13 @@ async def analysis_now(
     return await w.run(job)
 
 
+def _in_words(text: str) -> str:
+    """The selection's sentence with the page's way of naming a campaign, not the CLI's."""
+    return text.replace(
+        "name it with --campaign to include it", "add ?campaign=NAME to the address to include it"
+    )
+
+
 async def page(request: Request) -> Response:
     w = web(request)
     result, error, key = await analysis_now(w, selection_of(request.query_params))
@@ -45,7 +52,7 @@ async def page(request: Request) -> Response:
         "table1.html.j2",
         rows=result.table1 if result else [],
         analysis=result.analysis if result else None,
-        selection=result.selection.describe() if result else None,
+        selection=_in_words(result.selection.describe()) if result else None,
         error=error,
         version=f"{key & 0xFFFFFFFF:x}",
     )
