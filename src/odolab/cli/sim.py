@@ -131,3 +131,53 @@ def sim_list() -> None:
     for name, t in TERRAINS.items():
         echo(f"  {name}: {t.description}")
     echo("truths: " + ", ".join(TRUTH_PRESETS))
+
+
+@sim_app.command("explore")
+def sim_explore(
+    output: Annotated[
+        Path,
+        typer.Option("--output", "-o", help="Folder for the run: explore.csv and explore_gt.csv."),
+    ],
+    seconds: Annotated[float, typer.Option(help="How long to explore (s).")] = 60.0,
+    max_speed: Annotated[float, typer.Option(help="Largest wheel speed (m/s).")] = 1.0,
+    max_turn_rate: Annotated[float, typer.Option(help="Largest turn rate (rad/s).")] = 2.0,
+    fence: Annotated[float, typer.Option(help="Geofence radius about the start (m).")] = 4.0,
+    distribution: Annotated[
+        str, typer.Option(help="How commands are drawn: uniform, or edges (mostly fast).")
+    ] = "uniform",
+    terrain: Annotated[str, typer.Option(help="tile, concrete or grass.")] = "tile",
+    truth: Annotated[
+        str, typer.Option(help="True-behaviour preset of the virtual robot.")
+    ] = "jaguar-lab-tracked",
+    params: Annotated[
+        str, typer.Option("--params", "-p", help="Nominal parameters (TOML file or preset).")
+    ] = DEFAULT_ROBOT,
+    seed: Annotated[int, typer.Option(min=0, help="Random seed.")] = 0,
+    name: Annotated[str, typer.Option(help="File name stem of the run.")] = "explore",
+) -> None:
+    """Drive commands sampled over speed and turn rate inside a geofence; record with truth."""
+    from odolab.errors import SimError
+    from odolab.params import load_params
+    from odolab.sim.explore import ExploreSettings, explore, write_exploration
+    from odolab.sim.presets import TRUTH_PRESETS
+    from odolab.text import safe_file_name
+
+    if truth not in TRUTH_PRESETS:
+        raise SimError(
+            f"--truth: unknown preset {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}"
+        )
+    stem = safe_file_name(name, what="run name", suffix=".csv")[: -len(".csv")]
+    settings = ExploreSettings(
+        seconds=seconds,
+        max_speed=max_speed,
+        max_turn_rate=max_turn_rate,
+        fence_radius=fence,
+        distribution=distribution,
+    )
+    run = explore(TRUTH_PRESETS[truth], load_params(params), settings, terrain=terrain, seed=seed)
+    log, gt = write_exploration(output, run, stem)
+    echo(
+        f"explored {run.t[-1] - run.t[0]:.1f} s ({truth}, seed {seed}) -> {log}, {gt}"
+        + ("; the robot stalled (turns in place on this terrain)" if run.stalled else "")
+    )

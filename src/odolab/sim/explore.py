@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -35,7 +36,13 @@ from odolab.params import RobotParams
 from odolab.sim.drives import Drive
 from odolab.sim.physics import TrueParams, VirtualRobot
 
-__all__ = ["DISTRIBUTIONS", "ExploreSettings", "explore", "sample_command"]
+__all__ = [
+    "DISTRIBUTIONS",
+    "ExploreSettings",
+    "explore",
+    "sample_command",
+    "write_exploration",
+]
 
 DISTRIBUTIONS = ("uniform", "edges")
 
@@ -166,3 +173,28 @@ def explore(
     dl = np.diff(ticks_l, prepend=ticks_l[0])
     dr = np.diff(ticks_r, prepend=ticks_r[0])
     return Drive(a[:, 0], dl, dr, a[:, 3], a[:, 4], a[:, 5], stalled)
+
+
+def write_exploration(folder: str | Path, run: Drive, name: str = "explore") -> tuple[Path, Path]:
+    """Write a recorded run as ``<folder>/<name>.csv`` (``t,dticks_left,dticks_right``) and
+    its ground truth as ``<folder>/<name>_gt.csv`` (read back by ``--format csv``)."""
+    from odolab.io.tabular import write_columns
+    from odolab.io.trajectory_csv import write_trajectory_csv
+    from odolab.trajectory import Trajectory
+
+    out = Path(folder)
+    if out.exists() and not out.is_dir():
+        raise SimError(f"{out}: is a file; expected a folder for the exploration run")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise SimError(f"{out}: cannot create the folder ({err.strerror or err})") from err
+    log = write_columns(
+        out / f"{name}.csv",
+        {"t": run.t, "dticks_left": run.dticks_left, "dticks_right": run.dticks_right},
+        "encoder log",
+    )
+    gt = write_trajectory_csv(
+        out / f"{name}_gt.csv", Trajectory.from_xyh(run.t, run.x, run.y, run.heading)
+    )
+    return log, gt
