@@ -60,6 +60,12 @@ def _f(value: Any, digits: int = 3) -> str:
     return f"{value:.{digits}f}"
 
 
+def _name_column(table: Any, header: str, names: Sequence[Any], justify: str = "right") -> None:
+    """A column of names (run, robot, date) never cut: as wide as its longest name."""
+    width = max([len(header), *(len(markup_text(n)) for n in names)])
+    table.add_column(header, justify=justify, no_wrap=True, min_width=width)
+
+
 def print_fleet(outcomes: Sequence[Any], *, worst: int = 5) -> None:
     """The fleet summary: per robot, per robot and day, and the worst runs."""
     from rich.console import Console
@@ -70,7 +76,9 @@ def print_fleet(outcomes: Sequence[Any], *, worst: int = 5) -> None:
     s = summarize(fleet_rows(outcomes), worst=worst)
     console = Console()
     t = Table(title=f"fleet: {len(outcomes)} runs, per robot (drift in % of distance)")
-    for col in ("robot", "runs", "failed", "km", "drift % mean", "drift % max", "deg/m", "end %"):
+    # names whole on a narrow terminal (the numbers' headers wrap instead)
+    _name_column(t, "robot", [r["robot"] for r in s.per_robot])
+    for col in ("runs", "failed", "km", "drift % mean", "drift % max", "deg/m", "end %"):
         t.add_column(col, justify="right")
     for r in s.per_robot:
         t.add_row(
@@ -88,7 +96,7 @@ def print_fleet(outcomes: Sequence[Any], *, worst: int = 5) -> None:
     dates = sorted({str(r["date"]) for r in s.per_day})
     robots = sorted({str(r["robot"]) for r in s.per_day})
     cell = {(str(r["robot"]), str(r["date"])): r for r in s.per_day}
-    d.add_column("robot")
+    _name_column(d, "robot", robots, justify="left")
     for day in dates:
         d.add_column(markup_text(day) or "(no date)", justify="right")
     for robot in robots:
@@ -99,7 +107,9 @@ def print_fleet(outcomes: Sequence[Any], *, worst: int = 5) -> None:
         d.add_row(*row)
     console.print(d)
     w = Table(title=f"worst {len(s.worst)} runs by drift")
-    for col in ("run", "robot", "date", "drift %", "end err m", "length m"):
+    for col in ("run", "robot", "date"):
+        _name_column(w, col, [r[col] for r in s.worst])
+    for col in ("drift %", "end err m", "length m"):
         w.add_column(col, justify="right")
     for r in s.worst:
         w.add_row(

@@ -30,6 +30,7 @@ __all__ = [
 ]
 
 _DATE = re.compile(r"^\d{4}-\d{2}-\d{2}$")
+_SESSION = re.compile(r"^\d{12}$")  # OptiOdom: DDMMYYYYHHMM
 
 #: Columns of the fleet table, in order (lengths m, angles deg, drift % of distance).
 COLUMNS = (
@@ -58,14 +59,30 @@ COLUMNS = (
 _TEXT = ("run", "source", "robot", "date", "error")
 
 
+def _session_date(name: str) -> str | None:
+    """An OptiOdom session folder's date: its id is the date-time ``DDMMYYYYHHMM``
+    (``231220200121``: 23 Dec 2020, 01:21) -> ``2020-12-23``; None for any other name."""
+    if not _SESSION.match(name):
+        return None
+    import datetime
+
+    try:
+        when = datetime.datetime.strptime(name, "%d%m%Y%H%M")
+    except ValueError:
+        return None
+    return when.date().isoformat()
+
+
 def robot_and_date(path: str | Path) -> tuple[str, str]:
-    """``(robot, date)`` from ``.../<robot>/<YYYY-MM-DD>/<run>``; else (folder name, '')."""
+    """``(robot, date)`` from ``.../<robot>/<YYYY-MM-DD>/<run>`` or OptiOdom's
+    ``.../<kind>/<DDMMYYYYHHMM>/<run>``; else (folder name, '')."""
     p = Path(path)
     parents = [q.name for q in p.parents]
     for k, name in enumerate(parents):
-        if _DATE.match(name):
+        day = name if _DATE.match(name) else _session_date(name)
+        if day is not None:
             robot = parents[k + 1] if k + 1 < len(parents) else ""
-            return robot, name
+            return robot, day
     return (parents[0] if parents else ""), ""
 
 
