@@ -13,9 +13,12 @@ motion is turned by the ground truth's own heading (mid-cycle, relative to the w
 fitted together on the x and y rows, the yaw ones on the heading rows; each with a Gaussian prior
 ``beta ~ N(0, tau^2)`` per coefficient, ``tau`` the size of a slip as large as the robot's typical
 speed (``rms(v) / rms(phi_j)``: a weak prior that keeps the fit finite on a few seconds of data),
-and a Gaussian noise whose variance is found by expectation-maximisation. The posterior is closed
-form (``Sigma = (X^T X / s^2 + T^-1)^-1``, ``mu = Sigma X^T y / s^2``); the noise variance per
-window of ``T`` seconds becomes the model's white body-velocity noise ``q = s^2 / T``.
+and a Gaussian noise whose variance grows with the window's duration ``T``, its track travel
+``L`` (m) and (heading rows) its commanded turn ``A`` (rad): ``q T + k L`` (x, y) and
+``q T + k A`` (heading), the form of the lab's wheel noise and turn scrub; ``q`` and ``k`` are
+found by expectation-maximisation. The posterior is closed form
+(``Sigma = (X^T W X + T^-1)^-1``, ``mu = Sigma X^T W y``, ``W`` the inverse noise variances);
+``q`` and ``k`` become the model's predictive noise per cycle.
 
 The ground truth's yaw offset is not fitted (its frame is taken as the robot's).
 """
@@ -24,6 +27,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from itertools import pairwise
 
 import numpy as np
 from numpy.typing import NDArray
@@ -32,7 +36,18 @@ from odolab.errors import InsufficientDataError
 from odolab.models.slip import FEATURES, SlipModel
 from odolab.params import RobotParams
 
-__all__ = ["WINDOW_S", "SlipDesign", "fit_slip_model", "slip_design"]
+__all__ = [
+    "WINDOW_S",
+    "SlipDesign",
+    "endpoint_error",
+    "first_seconds",
+    "fit_slip_model",
+    "learning_curve",
+    "nees_bounds",
+    "nees_pieces",
+    "propagate_covariance",
+    "slip_design",
+]
 
 FloatArray = NDArray[np.float64]
 #: Length of a regression window (s).
@@ -50,6 +65,9 @@ class SlipDesign:
     a_yaw: FloatArray
     y_yaw: FloatArray
     durations: FloatArray
+    #: per window: track travel (m, mean of |ds_l| and |ds_r|) and commanded turn (rad, |dtheta|)
+    travel: FloatArray
+    turn: FloatArray
     v_rms: float
     w_rms: float
     phi_rms: FloatArray
@@ -59,7 +77,7 @@ def slip_design(
     runs: Sequence[object], nominal: RobotParams, window_s: float = WINDOW_S
 ) -> SlipDesign:
     """The regression rows of prepared runs (:class:`odolab.calibration.lsq.PreparedRun`)."""
-    axy, yxy, ayaw, yyaw, dur = [], [], [], [], []
+    axy, yxy, ayaw, yyaw, dur, trav, turn = [], [], [], [], [], [], []
     v_sq, w_sq, n_steps = 0.0, 0.0, 0
     phi_sq = np.zeros(len(FEATURES))
     b = nominal.track_width
@@ -96,6 +114,8 @@ def slip_design(
         cx, cy = cum(ca * ds), cum(sa * ds)
         fxx, fxy = cum(ca * big_phi), cum(sa * big_phi)  # fwd: (cos, sin) * Phi
         cth = cum(dth)
+        ctr = cum(0.5 * (np.abs(dsl) + np.abs(dsr)) * (np.arange(n) > 0))
+        ctu = cum(np.abs(dth))
         cphi = cum(big_phi)
         edges = np.unique(np.searchsorted(t, np.arange(t[0], t[-1] + window_s, window_s)))
         edges = edges[edges < n]
@@ -124,6 +144,8 @@ def slip_design(
         ayaw.append(s(cphi).T)
         yyaw.append((gh[j] - gh[i]) - s(cth))
         dur.append(t[j] - t[i])
+        trav.append(s(ctr))
+        turn.append(s(ctu))
     if not axy or n_steps == 0:
         raise InsufficientDataError("no motion with ground truth to fit the slip model on")
     return SlipDesign(
@@ -132,6 +154,8 @@ def slip_design(
         np.vstack(ayaw),
         np.concatenate(yyaw),
         np.concatenate(dur),
+        np.concatenate(trav),
+        np.concatenate(turn),
         float(np.sqrt(v_sq / n_steps)),
         float(np.sqrt(w_sq / n_steps)),
         np.sqrt(phi_sq / n_steps),
@@ -149,22 +173,36 @@ def _window_sum(c: FloatArray, i: NDArray[np.int64], j: NDArray[np.int64]) -> Fl
     return np.asarray(c[..., j + 1] - c[..., i + 1], dtype=np.float64)
 
 
-def _blr(x: FloatArray, y: FloatArray, tau: FloatArray) -> tuple[FloatArray, FloatArray, float]:
-    """Posterior mean, covariance and noise variance (EM) of ``y = X beta + e``,
-    ``beta ~ N(0, diag(tau^2))``, ``e ~ N(0, s2)``."""
+def _blr(
+    x: FloatArray, y: FloatArray, tau: FloatArray, scales: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Posterior mean and covariance of ``y = X beta + e``, ``beta ~ N(0, diag(tau^2))``, with
+    a noise variance per row linear in ``scales`` (n, m): ``var_i = scales_i . c``, ``c >= 0``
+    found by expectation-maximisation (non-negative least squares of the expected squared
+    residuals). Returns (mean, covariance, c)."""
+    from scipy.optimize import nnls
+
     n = y.size
-    prior = 1.0 / tau**2
-    xtx = x.T @ x
-    xty = x.T @ y
-    s2 = max(float(np.mean(y**2)), 1e-18)
+    prior = np.diag(1.0 / tau**2)
+    c = np.full(scales.shape[1], 0.0)
+    c[0] = max(float(np.mean(y**2)) / max(float(np.mean(scales[:, 0])), 1e-12), 1e-18)
     mu = np.zeros(x.shape[1])
     sigma: FloatArray = np.diag(tau**2)
     for _ in range(_EM_ITERATIONS):
-        sigma = np.asarray(np.linalg.inv(xtx / s2 + np.diag(prior)), dtype=np.float64)
-        mu = sigma @ xty / s2
+        var = np.maximum(scales @ c, 1e-18 * max(float(np.mean(y**2)), 1e-30))
+        w = 1.0 / var
+        xtwx = (x * w[:, None]).T @ x
+        sigma = np.asarray(np.linalg.inv(xtwx + prior), dtype=np.float64)
+        mu = sigma @ ((x * w[:, None]).T @ y)
         r = y - x @ mu
-        s2 = max(float(r @ r + np.trace(xtx @ sigma)) / n, 1e-18)
-    return mu, sigma, s2
+        expected = r**2 + np.einsum("ij,jk,ik->i", x, sigma, x)
+        # rows weighted by 1/var: each residual counts as one measurement of its variance
+        sol, _ = nnls(scales / var[:, None], expected / var)
+        if not np.any(sol > 0):
+            break
+        c = sol
+    del n
+    return mu, sigma, c
 
 
 def fit_slip_model(
@@ -185,13 +223,17 @@ def fit_slip_model(
     phi_rms = np.where(d.phi_rms > 0, d.phi_rms, 1.0)
     tau_v = prior_scale * max(d.v_rms, 1e-3) / phi_rms
     tau_w = prior_scale * max(d.w_rms, 1e-3) / phi_rms
-    mu_xy, sig_xy, s2_xy = _blr(d.a_xy, d.y_xy, np.concatenate((tau_v, tau_v)))
-    mu_yaw, sig_yaw, s2_yaw = _blr(d.a_yaw, d.y_yaw, tau_w)
+    # noise of a window: white velocity noise (duration) plus noise per metre of track travel
+    # (xy rows) or per radian of commanded turn (heading rows), as the lab's wheel noise and
+    # turn scrub
+    sc_xy = np.tile(np.column_stack((d.durations, d.travel)), (2, 1))
+    sc_yaw = np.column_stack((d.durations, d.turn))
+    mu_xy, sig_xy, c_xy = _blr(d.a_xy, d.y_xy, np.concatenate((tau_v, tau_v)), sc_xy)
+    mu_yaw, sig_yaw, c_yaw = _blr(d.a_yaw, d.y_yaw, tau_w, sc_yaw)
     cov = np.zeros((3 * k, 3 * k))
     cov[: 2 * k, : 2 * k] = sig_xy
     cov[2 * k :, 2 * k :] = sig_yaw
     beta = np.concatenate((mu_xy, mu_yaw))
-    mean_t = float(np.mean(d.durations)) if d.durations.size else window_s
     limit = SlipModel.LIMIT
     values = {
         key: float(np.clip(v, -limit, limit))
@@ -199,9 +241,160 @@ def fit_slip_model(
     }
     model = SlipModel(
         **values,
-        q_fwd=s2_xy / mean_t,
-        q_lat=s2_xy / mean_t,
-        q_yaw=s2_yaw / mean_t,
+        q_fwd=float(c_xy[0]),
+        q_lat=float(c_xy[0]),
+        q_yaw=float(c_yaw[0]),
+        k_fwd=float(c_xy[1]),
+        k_lat=float(c_xy[1]),
+        k_yaw=float(c_yaw[1]),
         posterior=tuple(cov.ravel().tolist()),
     )
     return model, cov, int(d.y_yaw.size)
+
+
+def propagate_covariance(
+    t: FloatArray,
+    dticks_left: FloatArray,
+    dticks_right: FloatArray,
+    params: RobotParams,
+    start: tuple[float, float, float] = (0.0, 0.0, 0.0),
+) -> tuple[FloatArray, FloatArray]:
+    """Poses (n, 3: x, y, heading) and their covariance (n, 3, 3) along a run with the slip
+    model's predictive variance (:meth:`SlipModel.step_variance`), midpoint rule, from an exact
+    start. The poses are :func:`odolab.odometry.integrate_increments`'s to rounding."""
+    model = params.model
+    if not isinstance(model, SlipModel):
+        raise InsufficientDataError(
+            f"the parameters' model is {model.kind!r}; expected the slip model (kind = 'slip')"
+        )
+    t = np.asarray(t, dtype=np.float64)
+    n = t.size
+    dsl = np.asarray(dticks_left, dtype=np.float64) * params.left_metres_per_tick
+    dsr = np.asarray(dticks_right, dtype=np.float64) * params.right_metres_per_tick
+    dt = np.diff(t, prepend=t[:1])
+    fwd, lat, dth = model.body_motion_arrays(dsl, dsr, dt, params.track_width)
+    var = model.step_variance(dsl, dsr, dt, params.track_width)
+    poses = np.empty((n, 3))
+    cov = np.zeros((n, 3, 3))
+    x, y, h = start
+    p = np.zeros((3, 3))
+    poses[0] = start
+    for k in range(1, n):
+        m = h + 0.5 * dth[k]
+        c, s = np.cos(m), np.sin(m)
+        dx = fwd[k] * c - lat[k] * s
+        dy = fwd[k] * s + lat[k] * c
+        f = np.array([[1.0, 0.0, -dy], [0.0, 1.0, dx], [0.0, 0.0, 1.0]])
+        g = np.array([[c, -s, -0.5 * dy], [s, c, 0.5 * dx], [0.0, 0.0, 1.0]])
+        p = f @ p @ f.T + (g * var[k]) @ g.T
+        x, y, h = x + dx, y + dy, h + dth[k]
+        poses[k] = (x, y, h)
+        cov[k] = p
+    return poses, cov
+
+
+def nees_pieces(runs: Sequence[object], params: RobotParams, piece_s: float = 10.0) -> FloatArray:
+    """NEES of the end pose of every ``piece_s`` piece of runs with ground truth
+    (:class:`odolab.io.run.OdometryRun`), each piece started at the ground truth's pose with zero
+    covariance: ``e^T P^-1 e`` with ``e`` the (x, y, heading) error; chi-square with 3 degrees of
+    freedom where the covariance is honest."""
+    from odolab.metrics.association import interpolate_trajectory
+
+    out: list[float] = []
+    for run in runs:
+        gt = run.require_ground_truth()  # type: ignore[attr-defined]
+        t = np.asarray(run.t, dtype=np.float64)  # type: ignore[attr-defined]
+        inside = (t >= gt.t[0]) & (t <= gt.t[-1])
+        t = t[inside]
+        dl = np.asarray(run.dticks_left)[inside]  # type: ignore[attr-defined]
+        dr = np.asarray(run.dticks_right)[inside]  # type: ignore[attr-defined]
+        g = interpolate_trajectory(gt, t)
+        edges = np.unique(np.searchsorted(t, np.arange(t[0], t[-1] + 1e-9, piece_s)))
+        for a, b in pairwise(edges):
+            poses, cov = propagate_covariance(
+                t[a : b + 1], dl[a : b + 1], dr[a : b + 1], params,
+                (float(g.x[a]), float(g.y[a]), float(g.heading[a])),
+            )  # fmt: skip
+            e = np.array([g.x[b] - poses[-1, 0], g.y[b] - poses[-1, 1], 0.0])
+            e[2] = np.angle(np.exp(1j * (g.heading[b] - poses[-1, 2])))
+            out.append(float(e @ np.linalg.solve(cov[-1], e)))
+    return np.array(out)
+
+
+def nees_bounds(pieces: int, dof: int = 3) -> tuple[float, float]:
+    """Two-sided 95 % bounds of the mean of ``pieces`` NEES values (chi-square, ``dof`` each)."""
+    from scipy import stats
+
+    k = dof * pieces
+    return float(stats.chi2.ppf(0.025, k) / pieces), float(stats.chi2.ppf(0.975, k) / pieces)
+
+
+def first_seconds(run: object, seconds: float) -> object:
+    """The first ``seconds`` of a run with ground truth (:class:`odolab.io.run.OdometryRun`)."""
+    from dataclasses import replace
+
+    from odolab.trajectory import Trajectory
+
+    t = np.asarray(run.t)  # type: ignore[attr-defined]
+    keep = t <= t[0] + seconds
+    gt = run.require_ground_truth()  # type: ignore[attr-defined]
+    g = gt.t <= t[0] + seconds + 1e-9
+    truth = Trajectory.from_xyh(gt.t[g], gt.x[g], gt.y[g], gt.heading[g])
+    return replace(
+        run,  # type: ignore[type-var]
+        name=f"{run.name}-{seconds:g}s",  # type: ignore[attr-defined]
+        source=f"{run.source} (first {seconds:g} s)",  # type: ignore[attr-defined]
+        t=t[keep],
+        dticks_left=np.asarray(run.dticks_left)[keep],  # type: ignore[attr-defined]
+        dticks_right=np.asarray(run.dticks_right)[keep],  # type: ignore[attr-defined]
+        ground_truth=truth,
+    )
+
+
+def learning_curve(
+    exploration: object,
+    held_out: Sequence[object],
+    nominal: RobotParams,
+    seconds: Sequence[float] = (10.0, 20.0, 30.0, 45.0, 60.0),
+    models: Sequence[str] = ("diff", "icr", "slip"),
+) -> list[dict[str, object]]:
+    """Held-out mean end-point error (m) of each model fitted on the first ``s`` seconds of an
+    exploration run, for each ``s``: rows ``{"seconds", "model", "endpoint_error", "problem"}``
+    (``endpoint_error`` None where the model could not be fitted, ``problem`` says why)."""
+    from odolab.calibration.lsq import LsqOptions, calibrate_lsq
+    from odolab.errors import CalibrationError
+
+    rows: list[dict[str, object]] = []
+    for s in seconds:
+        part = first_seconds(exploration, s)
+        for m in models:
+            try:
+                fit = calibrate_lsq([part], nominal, LsqOptions(model=m))  # type: ignore[list-item]
+            except (CalibrationError, InsufficientDataError) as err:
+                rows.append({"seconds": s, "model": m, "endpoint_error": None, "problem": str(err)})
+                continue
+            errs = [endpoint_error(r, fit.params) for r in held_out]
+            rows.append(
+                {"seconds": s, "model": m, "endpoint_error": float(np.mean(errs)), "problem": None}
+            )
+    return rows
+
+
+def endpoint_error(run: object, params: RobotParams) -> float:
+    """Distance (m) between the odometry's and the ground truth's last position, the odometry
+    started at the ground truth's first pose (no alignment)."""
+    from odolab.metrics.association import interpolate_trajectory
+
+    gt = run.require_ground_truth()  # type: ignore[attr-defined]
+    t = np.asarray(run.t, dtype=np.float64)  # type: ignore[attr-defined]
+    inside = (t >= gt.t[0]) & (t <= gt.t[-1])
+    g = interpolate_trajectory(gt, t[inside])
+    from odolab.odometry import integrate_increments
+
+    dl = np.asarray(run.dticks_left, dtype=np.float64)[inside]  # type: ignore[attr-defined]
+    dr = np.asarray(run.dticks_right, dtype=np.float64)[inside]  # type: ignore[attr-defined]
+    dl[0] = dr[0] = 0.0
+    odo = integrate_increments(
+        t[inside], dl, dr, params, start=(float(g.x[0]), float(g.y[0]), float(g.heading[0]))
+    )
+    return float(np.hypot(odo.x[-1] - g.x[-1], odo.y[-1] - g.y[-1]))

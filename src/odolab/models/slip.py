@@ -17,11 +17,13 @@ and turn rate (a tracked robot turns less at speed). One cycle of ``dt`` seconds
 velocities; a cycle of zero duration has no quadratic terms. The coefficients come from Bayesian
 linear regression on runs with ground truth (:mod:`odolab.calibration.slipfit`), which also gives
 the noise of the slip: a white body-velocity noise of spectral density ``q_fwd``, ``q_lat``
-(m^2/s) and ``q_yaw`` (rad^2/s), so a cycle's body motion has variance ``q dt`` on top of the
-posterior variance of ``phi . beta`` (:meth:`SlipModel.step_variance`).
+(m^2/s) and ``q_yaw`` (rad^2/s) plus a noise per metre of track travel ``k_fwd``, ``k_lat``
+(m^2/m) and per radian of commanded turn ``k_yaw`` (rad^2/rad: the lab's turn scrub), so a
+cycle's body motion has variance ``q dt + k L`` on top of the posterior variance of
+``phi . beta`` (:meth:`SlipModel.step_variance`).
 
 In a parameters file the ``[model]`` table has ``kind = "slip"``, the 24 coefficients
-``fwd_v``, ``fwd_w``, ..., ``yaw_w_absw`` (missing ones are 0) and the three ``q_*``. The posterior
+``fwd_v``, ``fwd_w``, ..., ``yaw_w_absw`` (missing ones are 0) and the six noise terms ``q_*``, ``k_*``. The posterior
 covariance of the coefficients is not stored in the file (only in a fit's result): a model read
 from a file has the noise part of the predictive variance only.
 
@@ -52,7 +54,7 @@ FEATURES: tuple[str, ...] = ("v", "w", "absv", "absw", "v_absv", "v_absw", "w_ab
 #: The slipping body velocities: forward, lateral (left), yaw rate.
 OUTPUTS: tuple[str, ...] = ("fwd", "lat", "yaw")
 _COEF_KEYS = tuple(f"{o}_{f}" for o in OUTPUTS for f in FEATURES)
-_NOISE_KEYS = ("q_fwd", "q_lat", "q_yaw")
+_NOISE_KEYS = ("q_fwd", "q_lat", "q_yaw", "k_fwd", "k_lat", "k_yaw")
 
 
 def _features(v: float, w: float) -> tuple[float, ...]:
@@ -91,6 +93,9 @@ class SlipModel:
     q_fwd: float = 0.0
     q_lat: float = 0.0
     q_yaw: float = 0.0
+    k_fwd: float = 0.0
+    k_lat: float = 0.0
+    k_yaw: float = 0.0
     #: posterior covariance of the coefficients, row-major 24 x 24 in :data:`KEYS` order (empty:
     #: unknown); not part of the ``[model]`` table
     posterior: tuple[float, ...] = field(default=(), compare=False, repr=False)
@@ -201,7 +206,8 @@ class SlipModel:
         self, ds_left: NDArray[Any], ds_right: NDArray[Any], dt: NDArray[Any], track_width: float
     ) -> NDArray[Any]:
         """Predictive variance of each cycle's body motion (d_forward, d_lateral, d_theta):
-        shape (n, 3), ``q dt`` plus ``dt^2 phi^T Sigma phi`` where the posterior is known."""
+        shape (n, 3), ``q dt + k L`` (``L`` the track travel, m, or for the heading the
+        commanded turn, rad) plus ``dt^2 phi^T Sigma phi`` where the posterior is known."""
         import numpy as np
 
         dt = np.asarray(dt, dtype=np.float64)
@@ -212,6 +218,10 @@ class SlipModel:
         phi = self.features(ds / safe, dth / safe)
         q = np.array([self.q_fwd, self.q_lat, self.q_yaw])
         var = tt[:, None] * q[None, :]
+        travel = 0.5 * (np.abs(ds_left) + np.abs(ds_right))
+        var[:, 0] += self.k_fwd * travel
+        var[:, 1] += self.k_lat * travel
+        var[:, 2] += self.k_yaw * np.abs(dth)
         if self.posterior:
             k = len(FEATURES)
             sigma = np.array(self.posterior).reshape(3 * k, 3 * k)
