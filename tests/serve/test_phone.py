@@ -380,3 +380,25 @@ def test_the_report_page_says_how_far_the_drawing_is(
     release.set()
     assert c.get("/report.html").text == "<!doctype html>"
     assert "Ready: drawn in" in c.get("/report").text
+
+
+def test_the_reports_figures_are_legible_at_a_phones_width(lab_db: Path, tmp_path: Path) -> None:
+    """The report shows each figure at the column's width, 368 px on a 400 px phone: its
+    smallest text (10 pt) must stay 11 px there (it was 9 pt on 6 in: 7.7 px)."""
+    from PIL import Image
+
+    from odolab.app.report import write_notebook_report
+    from odolab.report.html import _RC
+
+    c = TestClient(create_app(ServeSettings(db=lab_db)), base_url=LOCAL)
+    body = {"initial": 100, "final": 136, "turns": 9}  # (the fixture's four rotations alone:
+    assert c.post("/api/trials/R20/measurement", json=body).status_code == 200  # a traceback)
+    with Notebook(lab_db) as nb:
+        out = write_notebook_report(nb, tmp_path / "report")
+    smallest_pt = min(_RC["font.size"], _RC["legend.fontsize"])
+    figures = sorted((out.path.parent / "figures").glob("*.png"))
+    assert figures
+    for png in figures:
+        with Image.open(png) as im:
+            inches = im.width / im.info["dpi"][0]
+        assert smallest_pt * 368 / (72 * inches) >= 11, (png.name, inches)

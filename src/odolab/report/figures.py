@@ -60,32 +60,41 @@ def legend_outside(
     ncol: int | None = None,
     title: str | None = None,
     wrap: int | None = None,
-) -> None:
+) -> int:
     """The legend of ``ax`` under the axes (never on the data), centred, in ``ncol`` columns
-    (chosen from the labels' length when None), each label wrapped at ``wrap`` characters when
+    (when None: as many as the figure's width holds, at most 3), each label wrapped at ``wrap`` characters when
     given (a narrow figure). A figure with ``layout="constrained"`` makes room for it; nothing
-    is drawn when ``ax`` has no labelled artist."""
+    is drawn when ``ax`` has no labelled artist. Returns the lines of text the legend takes
+    (its title included; 0 without a legend)."""
     import textwrap
 
     handles, labels = ax.get_legend_handles_labels()
     if not labels:
-        return
+        return 0
     if wrap is not None:
         labels = [textwrap.fill(t, wrap) for t in labels]
-    if ncol is None:
-        longest = max(len(t) for t in labels)
-        ncol = 1 if longest > 38 else (2 if longest > 18 or len(labels) < 6 else 3)
+    if ncol is None:  # as many as fit the figure's width (a character is about 0.55 em)
+        fig = ax.get_figure(root=True)
+        width_pt = 72.0 * (fig.get_figwidth() if fig is not None else 6.0)
+        longest = max(len(line) for t in labels for line in t.split("\n"))
+        ncol = min(3, int(width_pt / (0.55 * fontsize)) // (longest + 6))
+    ncol = max(1, min(ncol, len(labels)))
+    lines: list[int] = [str(t).count("\n") + 1 for t in labels]
+    per_column = -(-len(labels) // ncol)
+    # matplotlib fills the columns one after the other
+    columns = [lines[i * per_column : (i + 1) * per_column] or [0] for i in range(ncol)]
     ax.legend(
         handles,
         labels,
         title=title,
         loc="upper center",
         bbox_to_anchor=(0.5, -0.14),
-        ncol=max(1, min(ncol, len(labels))),
+        ncol=ncol,
         frameon=False,
         fontsize=fontsize,
         title_fontsize=fontsize,
     )
+    return max(sum(c) for c in columns) + (1 if title else 0)
 
 
 def _title(m: MotionAnalysis) -> str:

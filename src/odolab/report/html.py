@@ -194,13 +194,18 @@ class _Plan:
     size: tuple[float, float] = (6.0, 4.0)
 
 
-#: figure text legible when the figure is shown at 100 % of a phone's width
+#: figure text legible when the figure is shown at 100 % of a phone's width: the plans' sizes
+#: are drawn _SCALE times smaller (6 in -> 4.5 in) at a dpi as much higher (the same pixels),
+#: so 10 pt is 11.4 px where a phone shows the figure 368 px wide (9 pt on 6 in was 7.7 px)
 _RC: dict[str, Any] = {
     "font.size": 10,
     "axes.titlesize": 11,
     "axes.labelsize": 10,
-    "legend.fontsize": 9,
+    "legend.fontsize": 10,
 }
+_SCALE = 0.75
+_DPI = 160
+_LEGEND_WRAP = 44  #: characters of a legend line (a 4.5 in figure holds about 50 at 10 pt)
 
 
 def _legend_below(fig: Any, ax: Axes, size: tuple[float, float]) -> None:
@@ -208,25 +213,10 @@ def _legend_below(fig: Any, ax: Axes, size: tuple[float, float]) -> None:
     leg = ax.get_legend()
     if leg is None:
         return
-    handles, labels = ax.get_legend_handles_labels()
-    if not labels:
-        return
     title = leg.get_title().get_text() or None
-    longest = max(len(t) for t in labels)
-    ncol = 1 if longest > 38 else (2 if longest > 18 or len(labels) < 6 else 3)
-    ncol = min(ncol, len(labels))
-    ax.legend(
-        handles,
-        labels,
-        title=title,
-        loc="upper center",
-        bbox_to_anchor=(0.5, -0.13),
-        ncol=ncol,
-        frameon=False,
-        fontsize=9,
-    )
-    rows = -(-len(labels) // ncol) + (1 if title else 0)
-    fig.set_size_inches(size[0], size[1] + 0.2 * rows + 0.3)
+    rows = F.legend_outside(ax, fontsize=_RC["legend.fontsize"], title=title, wrap=_LEGEND_WRAP)
+    if rows:
+        fig.set_size_inches(size[0], size[1] + 0.2 * rows + 0.3)
 
 
 def _render(fig_dir: Path, plans: list[_Plan]) -> list[_Figure]:
@@ -236,10 +226,11 @@ def _render(fig_dir: Path, plans: list[_Plan]) -> list[_Figure]:
     done: list[_Figure] = []
     with mpl.rc_context(_RC):  # type: ignore[arg-type]
         for p in plans:
-            fig = Figure(figsize=p.size, dpi=120, layout="constrained")
+            size = (p.size[0] * _SCALE, p.size[1] * _SCALE)
+            fig = Figure(figsize=size, dpi=_DPI, layout="constrained")
             ax = fig.add_subplot()
             p.draw(ax)
-            _legend_below(fig, ax, p.size)
+            _legend_below(fig, ax, size)
             name = safe_file_name(p.name, what="figure name")  # terrains are user text
             with replacing_path(fig_dir / f"{name}.png", what="report figure") as tmp:
                 fig.savefig(tmp, format="png")
