@@ -165,6 +165,9 @@ class ModelComparison:
     cross_validated: bool
     best: str = ""
     segments: int = 0
+    #: held-out end-point error against seconds of the first training run (an exploration run):
+    #: rows ``{"seconds", "model", "endpoint_error", "problem"}``; empty unless asked for
+    learning_curve: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def decided(self) -> bool:
@@ -196,6 +199,7 @@ class ModelComparison:
             "held_out": self.held_out,
             "cross_validated": self.cross_validated,
             "models": [s.to_dict() for s in self.scores],
+            **({"learning_curve": self.learning_curve} if self.learning_curve else {}),
         }
 
 
@@ -350,11 +354,15 @@ def compare_models(
     folds: int = 5,
     n_boot: int = 2000,
     seed: int = 0,
+    curve: Sequence[float] = (),
 ) -> ModelComparison:
     """Fit every model on ``train`` and score it on ``held_out`` (see the module).
 
     Without ``held_out`` the runs of ``train`` are split into ``min(folds, len(train))`` folds
-    (run i in fold i mod k); each fold is held out once from a fit on the others."""
+    (run i in fold i mod k); each fold is held out once from a fit on the others.
+    ``curve`` (seconds): also the learning curve, each model fitted on the first that many
+    seconds of ``train[0]`` (an exploration run) and its mean end-point error on the held-out
+    runs (:func:`odolab.calibration.slipfit.learning_curve`)."""
     o = options or LsqOptions()
     _check_seed(seed)
     if not train:
@@ -416,7 +424,13 @@ def compare_models(
                 segment_errors=[seg for _, seg in rows],
             )
         )  # fmt: skip
-    return _recommend(scores, train, test_runs, cv, rng, n_boot)
+    result = _recommend(scores, train, test_runs, cv, rng, n_boot)
+    if curve:
+        from odolab.calibration.slipfit import learning_curve
+
+        curve_rows = learning_curve(train[0], test_runs, base, tuple(curve), tuple(order))
+        result = replace(result, learning_curve=[dict(r) for r in curve_rows])
+    return result
 
 
 def _ratio_text(r: Estimate) -> str:
@@ -554,6 +568,7 @@ def compare_model_files(
     workers: int = 2,
     progress: Progress | None = None,
     seed: int = 0,
+    curve: Sequence[float] = (),
 ) -> ModelComparison:
     """:func:`compare_models` on every run found under ``paths`` (and ``validate``)."""
     _check_seed(seed)  # before any file is read
@@ -565,4 +580,6 @@ def compare_model_files(
         _read, jobs, workers=workers, progress=progress, label=lambda j: str(j.path)
     )
     train, held = runs[: len(train_paths)], runs[len(train_paths) :]
-    return compare_models(train, held, nominal, models=models, options=options, seed=seed)
+    return compare_models(
+        train, held, nominal, models=models, options=options, seed=seed, curve=curve
+    )

@@ -47,8 +47,19 @@ def calibrate_compare_cmd(
         ),
     ] = None,
     models: Annotated[
-        str, typer.Option(help="Comma-separated models to compare: diff, extended, icr.")
+        str,
+        typer.Option(
+            help="Comma-separated models to compare: diff, extended, icr, slip (the slip model, "
+            "learned from data, is scored only when named)."
+        ),
     ] = "diff,extended,icr",
+    learning_curve: Annotated[
+        str,
+        typer.Option(
+            help="Also a learning curve: comma-separated seconds of the first training run "
+            "(an exploration run) to fit each model on, e.g. 10,20,30,60."
+        ),
+    ] = "",
     segment: Annotated[float, typer.Option(help="Segment length (s) of the residuals.")] = 2.0,
     seed: Annotated[int, typer.Option(help="Seed of the bootstrap confidence intervals.")] = 0,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write the report here.")] = None,
@@ -73,6 +84,18 @@ def calibrate_compare_cmd(
             )
     if not chosen:
         raise CalibrationError("--models: empty; expected e.g. diff,icr")
+    curve: list[float] = []
+    for item in (x.strip() for x in learning_curve.split(",") if x.strip()):
+        try:
+            value = float(item)
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and value > 0):
+            raise CalibrationError(
+                f"--learning-curve: {item!r} is not a positive number of seconds; expected e.g. "
+                "10,20,30,60"
+            )
+        curve.append(value)
     robot = load_params(params) if params else None
     ro = _read_options(robot, joint_topic, joints, gt_topic)
     with _progress_bar("compare") as report:
@@ -87,6 +110,7 @@ def calibrate_compare_cmd(
             workers=workers,
             progress=report,
             seed=seed,
+            curve=curve,
         )
     if json_out is not None:
         write_output_text(
@@ -148,6 +172,20 @@ def _print_comparison(result: ModelComparison) -> None:
         f"model whose error ratio to the best has its 95 % CI within 1 + {NOT_WORSE:g}",
         highlight=False,
     )
+    if result.learning_curve:
+        seconds = sorted({float(r["seconds"]) for r in result.learning_curve})
+        curve_table = Table(title="learning curve: held-out mean end-point error (m)")
+        curve_table.add_column("model")
+        for sec in seconds:
+            curve_table.add_column(f"{sec:g} s", justify="right")
+        for name in dict.fromkeys(str(r["model"]) for r in result.learning_curve):
+            cells = {float(r["seconds"]): r["endpoint_error"] for r in result.learning_curve
+                     if r["model"] == name}  # fmt: skip
+            curve_table.add_row(
+                name,
+                *["not fitted" if cells.get(x) is None else f"{cells[x]:.4f}" for x in seconds],
+            )
+        console.print(curve_table)
     if result.decided:
         console.print(f"recommended: [bold]{result.recommended}[/bold] ({escape(result.reason)})")
     else:

@@ -178,6 +178,6 @@ def sim_explore(
     run = explore(TRUTH_PRESETS[truth], load_params(params), settings, terrain=terrain, seed=seed)
     log, gt = write_exploration(output, run, stem)
     echo(
-        f"explored {run.t[-1] - run.t[0]:.1f} s ({truth}, seed {seed}) -> {log}, {gt}"
+        f"explored {settings.seconds:.1f} s ({truth}, seed {seed}) -> {log}, {gt}"
         + ("; the robot stalled (turns in place on this terrain)" if run.stalled else "")
     )

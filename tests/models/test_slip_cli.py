@@ -1,0 +1,45 @@
+"""`odolab sim explore` and `calibrate compare --models ...,slip --learning-curve` (issue 29)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from odolab.cli import main
+
+
+def test_explore_then_compare_with_a_learning_curve(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run = tmp_path / "run"
+    assert main(["sim", "explore", "-o", str(run), "--seconds", "30", "--seed", "1"]) == 0
+    assert "explored 30.0 s (jaguar-lab-tracked, seed 1)" in capsys.readouterr().out
+    assert (run / "explore.csv").read_text().startswith("t,dticks_left,dticks_right\n")
+    assert (run / "explore_gt.csv").is_file()
+    assert main(["sim", "explore", "-o", str(run), "--seconds", "20", "--seed", "2",
+                 "--name", "held", "--max-speed", "0.5"]) == 0  # fmt: skip
+    out = tmp_path / "cmp.json"
+    code = main([
+        "calibrate", "compare", str(run / "explore.csv"), "--validate", str(run / "held.csv"),
+        "--format", "csv", "--params", "jaguar-lite", "--models", "diff,slip",
+        "--learning-curve", "10,30", "--json", str(out),
+    ])  # fmt: skip
+    assert code == 0
+    doc = json.loads(out.read_text())
+    assert [m["model"] for m in doc["models"]] == ["diff", "slip"]
+    curve = doc["learning_curve"]
+    assert [(r["seconds"], r["model"]) for r in curve] == [
+        (10.0, "diff"), (10.0, "slip"), (30.0, "diff"), (30.0, "slip"),
+    ]  # fmt: skip
+    assert all(r["endpoint_error"] >= 0 for r in curve)
+    assert "learning curve" in capsys.readouterr().out
+
+
+def test_bad_learning_curve_is_one_sentence(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code = main(["calibrate", "compare", str(tmp_path), "--learning-curve", "10,soon"])
+    assert code == 1
+    assert "--learning-curve: 'soon' is not a positive number of seconds" in capsys.readouterr().err
