@@ -244,6 +244,8 @@ class RunSetEvaluation:
         """What the numbers are: planar, the parameters, and each kind of undefined number with
         how many runs have it (a run that turns in place has no drift per metre)."""
         out = [PLANAR_NOTE, self.params_source]
+        for r in self.done:  # what a reader says its data are (a bag's odometry, AMCL)
+            out.extend(f"{n} ({r.name})" for n in r.data_notes if f"{n} ({r.name})" not in out)
         seen: dict[str, tuple[int, str]] = {}  # what is undefined: runs, the first run's reason
         for r in self.done:
             for note in r.evaluation.notes:

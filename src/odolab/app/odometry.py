@@ -148,12 +148,15 @@ def _from_run(log: Path, log_format: LogFormat) -> ParamsChoice | None:
     if run.params is None:
         return None
     source = str(run.meta.get("params_source", run.source))
+    # a bag's wheel turns made from the robot's own odometry carry the parameters they were
+    # made with: say that, not "nominal"
+    made = run.meta.get("wheels")
     return ParamsChoice(
         run.params,
         "log",
         source,
-        f"its nominal values, read by odolab {__version__}",
-        found=f"the {log_format.value} run's metadata names them",
+        None if made else f"its nominal values, read by odolab {__version__}",
+        found=str(made) if made else f"the {log_format.value} run's metadata names them",
     )
 
 
@@ -354,7 +357,8 @@ def _integrate_run(req: OdometryRequest) -> OdometryOutcome:
     from odolab.odometry import integrate_increments
 
     robot = req.params.params
-    run = read_run(req.log, req.log_format, ReadOptions(ticks_per_rev=robot.ticks_per_rev))
+    options = ReadOptions(ticks_per_rev=robot.ticks_per_rev, params=robot)
+    run = read_run(req.log, req.log_format, options)
     traj = integrate_increments(
         run.t, run.dticks_left, run.dticks_right, robot, req.method, start=req.start,
         source=run.source,

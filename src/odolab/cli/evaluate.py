@@ -111,6 +111,7 @@ def _read_options(
         ground_truth_topic=gt_topic,
         ticks_per_rev=params.ticks_per_rev if params else 2.0 * math.pi,
         modulus=params.encoder_modulus if params else None,
+        params=params,
     )
 
 

@@ -5,9 +5,15 @@
   ``angle * ticks_per_rev / (2 pi)`` (default ``ticks_per_rev`` 2 pi: one tick per radian, so use
   parameters with ``ticks_per_rev = 6.283185307179586``, or pass your params' ``ticks_per_rev``).
   Angles are unwrapped first, so drivers that wrap them to (-pi, pi] work too.
-* ``geometry_msgs/msg/PoseStamped`` or ``nav_msgs/msg/Odometry`` on
-  ``ReadOptions.ground_truth_topic``: the ground truth (x, y, yaw from the quaternion).
+* ``geometry_msgs/msg/PoseStamped``, ``PoseWithCovarianceStamped`` or ``nav_msgs/msg/Odometry``
+  on ``ReadOptions.ground_truth_topic``: the ground truth (x, y, yaw from the quaternion). Where
+  the default ``/ground_truth`` is missing and ``/amcl_pose`` is there (a Nav2 robot), AMCL's pose
+  is the reference, and the run says so (``meta["reference"]``).
 * ``nav_msgs/msg/Odometry`` on ``ReadOptions.odometry_topic`` (optional): the robot's own estimate.
+* A bag without the default ``/joint_states`` (a TurtleBot under Nav2 records none) but with
+  ``nav_msgs/Odometry`` on ``odometry_topic`` (default ``/odom``): the wheel increments are that
+  odometry turned back into wheel turns (midpoint rule inverted) with ``ReadOptions.params``. They
+  are the robot's own odometry, not encoder counts, and the run says so (``meta["wheels"]``).
 
 Stamps are the messages' ``header.stamp``; where that is zero, the bag's receive time.
 """
@@ -24,12 +30,22 @@ import numpy as np
 
 from odolab.errors import LogFormatError, OdolabError
 from odolab.io.run import OdometryRun, ReadOptions
+from odolab.params import RobotParams
 from odolab.trajectory import Trajectory
 
 __all__ = ["RosbagReader", "bag_topics", "read_bag", "read_bag_trajectory"]
 
-POSE_TYPES = ("geometry_msgs/msg/PoseStamped", "nav_msgs/msg/Odometry")
+POSE_TYPES = (
+    "geometry_msgs/msg/PoseStamped",
+    "geometry_msgs/msg/PoseWithCovarianceStamped",
+    "nav_msgs/msg/Odometry",
+)
 JOINT_TYPE = "sensor_msgs/msg/JointState"
+ODOMETRY_TYPE = "nav_msgs/msg/Odometry"
+DEFAULT_JOINT_TOPIC = ReadOptions.joint_topic
+DEFAULT_GROUND_TRUTH_TOPIC = ReadOptions.ground_truth_topic
+ODOMETRY_TOPIC = "/odom"  #: where a bag without joint states is looked for wheel odometry
+AMCL_TOPIC = "/amcl_pose"  #: the reference of a Nav2 bag without a ground-truth topic
 
 
 def _why(err: BaseException) -> str:
@@ -160,7 +176,7 @@ def read_bag(path: str | Path, options: ReadOptions | None = None) -> OdometryRu
     reader = _open(p)
     try:
         with reading(p):
-            tt, dl, dr, gt, est, meta = _read_open_bag(reader, p, o)
+            tt, dl, dr, gt, est, meta, params = _read_open_bag(reader, p, o)
     finally:
         _close(reader, p)
     if o.ground_truth is not None:
@@ -174,18 +190,106 @@ def read_bag(path: str | Path, options: ReadOptions | None = None) -> OdometryRu
         dticks_left=dl,
         dticks_right=dr,
         ground_truth=gt,
+        params=params,
         estimate=est,
         kind="bag",
         meta=meta,
     )
 
 
+def increments_from_odometry(
+    odom: Trajectory, params: RobotParams
+) -> tuple[np.ndarray, np.ndarray]:
+    """Wheel increments (ticks of ``params``) that give ``odom`` back under the midpoint rule:
+    ``ds = dx cos m + dy sin m`` (``m`` the mid-step heading), ``ds_l,r = ds -+ dtheta b / 2``;
+    a sideways step (which no wheel makes) is dropped."""
+    h = np.asarray(odom.heading, dtype=np.float64)
+    dth = np.diff(h)
+    m = h[:-1] + 0.5 * dth
+    ds = np.diff(odom.x) * np.cos(m) + np.diff(odom.y) * np.sin(m)
+    half = 0.5 * dth * params.track_width
+    dl = np.concatenate(([0.0], (ds - half) / params.left_metres_per_tick))
+    dr = np.concatenate(([0.0], (ds + half) / params.right_metres_per_tick))
+    return dl, dr
+
+
+def _replay_params(o: ReadOptions) -> RobotParams:
+    """The parameters a bag's own odometry is turned back into wheel turns with."""
+    if o.params is not None:
+        return o.params
+    return RobotParams(
+        left_wheel_radius=1.0,
+        right_wheel_radius=1.0,
+        track_width=1.0,
+        ticks_per_rev=o.ticks_per_rev,
+        name="odom-replay",
+    )
+
+
 def _read_open_bag(
     reader: Any, p: Path, o: ReadOptions
 ) -> tuple[
-    np.ndarray, np.ndarray, np.ndarray, Trajectory | None, Trajectory | None, dict[str, float | str]
+    np.ndarray,
+    np.ndarray,
+    np.ndarray,
+    Trajectory | None,
+    Trajectory | None,
+    dict[str, float | str],
+    RobotParams | None,
 ]:
-    """Stamps, wheel increments, ground truth, estimate and meta of an open bag."""
+    """Stamps, wheel increments, ground truth, estimate, meta and (for wheel increments made
+    from the robot's odometry) the parameters of an open bag."""
+    topics = {c.topic: str(c.msgtype) for c in reader.connections}
+    have = ", ".join(f"{c.topic} ({c.msgtype})" for c in reader.connections) or "none"
+    meta: dict[str, float | str] = {"ticks_per_rev": o.ticks_per_rev}
+    params: RobotParams | None = None
+    est: Trajectory | None = None
+    if o.joint_topic in topics or o.joint_topic != DEFAULT_JOINT_TOPIC:
+        tt, dl, dr = _joint_increments(reader, p, o)
+    else:
+        odom_topic = o.odometry_topic or ODOMETRY_TOPIC
+        if topics.get(odom_topic) != ODOMETRY_TYPE:
+            raise LogFormatError(
+                f"{p}: no wheel data: no {JOINT_TYPE} on {o.joint_topic!r} (wheel angles, the "
+                f"encoder path) and no {ODOMETRY_TYPE} on {odom_topic!r} (the robot's own "
+                f"odometry); the bag has {have}; expected one of them (--joint-topic)"
+            )
+        est = _poses(reader, p, odom_topic)
+        params = _replay_params(o)
+        dl, dr = increments_from_odometry(est, params)
+        tt = est.t
+        meta["wheels"] = (
+            f"the robot's own odometry on {odom_topic!r} ({ODOMETRY_TYPE}) turned back into "
+            f"wheel turns with {params.name}: not encoder counts (the bag has no {JOINT_TYPE})"
+        )
+    gt_topic = o.ground_truth_topic
+    if (
+        gt_topic not in topics
+        and gt_topic == DEFAULT_GROUND_TRUTH_TOPIC
+        and AMCL_TOPIC in topics
+        and o.ground_truth is None
+    ):
+        gt_topic = AMCL_TOPIC
+        meta["reference"] = (
+            f"AMCL's pose on {AMCL_TOPIC!r} ({topics[AMCL_TOPIC]}): a localisation in the map, "
+            "not motion capture"
+        )
+    gt = None
+    if gt_topic in topics:
+        gt = _poses(reader, p, gt_topic)
+    elif o.ground_truth is None:
+        meta["no_ground_truth"] = (
+            f"no ground-truth topic {o.ground_truth_topic!r} in the bag; it has {have}"
+        )
+    if o.odometry_topic and est is None:
+        est = _poses(reader, p, o.odometry_topic)
+    return tt, dl, dr, gt, est, meta, params
+
+
+def _joint_increments(
+    reader: Any, p: Path, o: ReadOptions
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Stamps and wheel increments (ticks) of the JointState topic."""
     left_name, right_name = o.joint_names
     t, left, right = [], [], []
     for bag_ns, msg in _messages(reader, p, o.joint_topic, (JOINT_TYPE,)):
@@ -213,18 +317,7 @@ def _read_open_bag(
     scale = o.ticks_per_rev / (2.0 * math.pi)
     dl = np.concatenate(([0.0], np.diff(np.unwrap(np.array(left))) * scale))
     dr = np.concatenate(([0.0], np.diff(np.unwrap(np.array(right))) * scale))
-    topics = {c.topic for c in reader.connections}
-    meta: dict[str, float | str] = {"ticks_per_rev": o.ticks_per_rev}
-    gt = None
-    if o.ground_truth_topic in topics:
-        gt = _poses(reader, p, o.ground_truth_topic)
-    elif o.ground_truth is None:
-        have = ", ".join(f"{c.topic} ({c.msgtype})" for c in reader.connections)
-        meta["no_ground_truth"] = (
-            f"no ground-truth topic {o.ground_truth_topic!r} in the bag; it has {have}"
-        )
-    est = _poses(reader, p, o.odometry_topic) if o.odometry_topic else None
-    return tt, dl, dr, gt, est, meta
+    return tt, dl, dr
 
 
 def read_bag_trajectory(path: str | Path, topic: str) -> Trajectory:
@@ -250,7 +343,7 @@ class RosbagReader:
         bags = sorted(
             q
             for q in path.iterdir()
-            if q.suffix == ".bag" or (q.is_dir() and (q / "metadata.yaml").is_file())
+            if q.suffix in (".bag", ".mcap") or (q.is_dir() and (q / "metadata.yaml").is_file())
         )
         if not bags:
             raise LogFormatError(f"{path}: no ROS bags (*.bag or rosbag2 folders) in this folder")

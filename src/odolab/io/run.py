@@ -28,6 +28,10 @@ class ReadOptions:
       ``odometry_topic`` (nav_msgs/Odometry, read as an estimate), and ``ticks_per_rev``: wheel
       angles (rad) become ticks as ``angle * ticks_per_rev / (2 pi)``; the default 2 pi makes one
       tick one radian.
+    * Bags without joint states: the wheel increments are the robot's own odometry
+      (``nav_msgs/Odometry`` on ``odometry_topic``, default ``/odom``) turned back into wheel
+      turns with ``params`` (default: a virtual robot with 1 m wheels and a 1 m track); the run
+      carries those parameters, so integrating it with them gives the robot's odometry back.
     """
 
     ground_truth: str | None = None
@@ -37,6 +41,7 @@ class ReadOptions:
     ground_truth_topic: str = "/ground_truth"
     odometry_topic: str | None = None
     ticks_per_rev: float = 2.0 * math.pi
+    params: RobotParams | None = None
 
 
 @dataclass(frozen=True, eq=False)

@@ -89,16 +89,22 @@ class RunEvaluation:
     params: RobotParams
     evaluation: Evaluation
     duration_s: float = math.nan  #: the log's time span (s)
+    #: what the run's data are where a reader says so ("wheels: ...", "reference: ...": a bag's
+    #: wheel increments made from the robot's own odometry, AMCL's pose as the reference)
+    data_notes: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict."""
-        return {
+        out = {
             "name": self.name,
             "source": self.source,
             "kind": self.kind,
             "params": self.params.to_dict(),
             **self.evaluation.to_dict(),
         }
+        if self.data_notes:
+            out["data_notes"] = list(self.data_notes)
+        return out
 
 
 def evaluate_run(
@@ -115,7 +121,8 @@ def evaluate_run(
         run.require_ground_truth(), est, options, names=(f"{run.source} ground truth", "odometry")
     )
     duration = float(run.t[-1] - run.t[0])
-    return RunEvaluation(run.name, run.source, run.kind, p, ev, duration)
+    data = tuple(f"{k}: {run.meta[k]}" for k in ("wheels", "reference") if k in run.meta)
+    return RunEvaluation(run.name, run.source, run.kind, p, ev, duration, data)
 
 
 @dataclass(frozen=True)
