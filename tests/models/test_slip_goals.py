@@ -5,6 +5,7 @@ systematic, and `calibrate compare` recommends it only where the held-out data s
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from odolab.calibration.compare import compare_models
 from odolab.calibration.lsq import LsqOptions, calibrate_lsq
@@ -60,10 +61,13 @@ def test_speed_question_from_the_coefficients() -> None:
     fit = calibrate_lsq([ex], NOMINAL, LsqOptions(model="slip"))
     model = fit.params.model
     assert isinstance(model, SlipModel)
-    # the truth loses 0.05 per m/s on each side: the robot's forward slip at 0.5 m/s exceeds
-    # that at 0.1 m/s by about 0.05 * 0.4 = 2 points
-    gain = model.speed_slip(0.5) - model.speed_slip(0.1)
+    # `odolab sim questions speed-sweep` measures on this truth (500 runs a speed) that
+    # 0.5 m/s slips 1.5 points more than 0.1 m/s ([+1.4, +1.5]); the slip model, from one minute
+    # of exploration: 1.51 [1.28, 1.74] points
+    gain, low, high = model.speed_slip_gain(0.1, 0.5)
+    assert gain == pytest.approx(model.speed_slip(0.5) - model.speed_slip(0.1))
     assert 0.005 < gain < 0.04
+    assert low < 0.015 < high and high - low < 0.01
 
 
 def test_learning_curve_converges_within_a_minute() -> None:

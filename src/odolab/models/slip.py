@@ -236,3 +236,19 @@ class SlipModel:
             raise ParamsError("speed_slip needs a speed other than 0 m/s")
         b = self.beta("fwd")
         return -(b[0] * v + b[2] * abs(v) + b[4] * v * abs(v)) / v
+
+    def speed_slip_gain(self, v_low: float, v_high: float) -> tuple[float, float, float]:
+        """How much more the robot slips driving straight at ``v_high`` than at ``v_low``
+        (both m/s, same sign): ``speed_slip(v_high) - speed_slip(v_low)``, with its 95 %
+        interval from the posterior (nan bounds without one). The lab's speed question."""
+        if v_low == 0.0 or v_high == 0.0 or (v_low > 0) != (v_high > 0):
+            raise ParamsError(
+                f"speed_slip_gain needs two speeds of the same sign, got {v_low} and {v_high} m/s"
+            )
+        gain = self.speed_slip(v_high) - self.speed_slip(v_low)
+        if not self.posterior:
+            return gain, math.nan, math.nan
+        k = len(_COEF_KEYS)
+        i = _COEF_KEYS.index("fwd_v_absv")
+        se = abs(abs(v_high) - abs(v_low)) * math.sqrt(max(self.posterior[i * k + i], 0.0))
+        return gain, gain - 1.96 * se, gain + 1.96 * se
