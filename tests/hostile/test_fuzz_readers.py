@@ -199,6 +199,22 @@ def test_an_mcap_record_length_of_2_64_is_refused_before_it_is_read(
     assert "a damaged or truncated bag" in err
 
 
+def test_a_summary_offset_into_garbage_is_walked_too(tmp_path: Path) -> None:
+    """rosbags reads the summary where the footer says it starts, not where the records lead:
+    a footer pointing into a chunk made it allocate a length read from the chunk's bytes."""
+    from odolab.io._bagcheck import check_mcap
+
+    p = _scan_mcap(tmp_path)
+    data = bytearray(p.read_bytes())
+    chunk = next(pos for pos, op, _ in _records(bytes(data)) if op == 0x06)
+    at = chunk + 9  # the chunk's start time: nothing checks it
+    data[at : at + 9] = b"\x03" + struct.pack("<Q", 2**63)
+    data[len(data) - 37 + 9 : len(data) - 37 + 17] = struct.pack("<Q", at)  # the footer
+    p.write_bytes(bytes(data))
+    with pytest.raises(LogFormatError, match=rf"byte {at:,}: a record \(opcode 0x03\) declares"):
+        check_mcap(p)
+
+
 def test_an_mcap_chunk_that_expands_past_a_gigabyte_is_refused(tmp_path: Path) -> None:
     from odolab.io._bagcheck import check_mcap
     from odolab.io.scans import read_scans

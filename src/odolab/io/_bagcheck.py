@@ -75,30 +75,43 @@ def _check_chunk_size(p: Path, at: int, size: int) -> None:
 
 
 def check_mcap(path: Path) -> None:
-    """Every record of an MCAP file fits in the file; every chunk fits in its record and
+    """Every record of an MCAP file fits in the file, walked from its start and from where its
+    footer says the summary starts (rosbags reads both); every chunk fits in its record and
     expands to at most :data:`MAX_CHUNK_BYTES`; every chunk index points inside the file."""
     p = Path(path)
     size = p.stat().st_size
     with p.open("rb") as fh:
         if fh.read(8) != _MCAP_MAGIC:
             return  # not MCAP: rosbags says so
-        pos = 8
-        while pos < size - len(_MCAP_MAGIC):
-            fh.seek(pos)
-            op, length = struct.unpack("<BQ", _read(fh, 9, p, pos, "a record header"))
-            if length > size - pos - 9:
-                raise _damaged(
-                    p,
-                    f"byte {pos:,}: a record (opcode 0x{op:02x}) declares {length:,} bytes "
-                    f"where {max(0, size - pos - 9):,} remain",
-                )
-            if op == 0x06:
-                _check_mcap_chunk(fh, p, pos, length)
-            elif op == 0x08:
-                _check_mcap_chunk_index(fh, p, pos, length, size)
-            elif op == 0x02:  # the footer: the end magic follows
-                break
-            pos += 9 + length
+        _walk_mcap(fh, p, size, 8, (0x02,))
+        if size >= 8 + 37:
+            fh.seek(size - 37)
+            footer = fh.read(37)
+            if footer[:9] == b"\x02\x14\x00\x00\x00\x00\x00\x00\x00":
+                summary = _U64.unpack_from(footer, 9)[0]
+                if 8 <= summary <= size - 37:
+                    _walk_mcap(fh, p, size, summary, (0x02, 0x0E))
+
+
+def _walk_mcap(fh: BinaryIO, p: Path, size: int, pos: int, stops: tuple[int, ...]) -> None:
+    """The records from byte ``pos`` to one of opcode ``stops`` (the footer; the summary's
+    end) or the end of the file."""
+    while pos < size - len(_MCAP_MAGIC):
+        fh.seek(pos)
+        op, length = struct.unpack("<BQ", _read(fh, 9, p, pos, "a record header"))
+        if length > size - pos - 9:
+            raise _damaged(
+                p,
+                f"byte {pos:,}: a record (opcode 0x{op:02x}) declares {length:,} bytes "
+                f"where {max(0, size - pos - 9):,} remain",
+            )
+        if op == 0x06:
+            _check_mcap_chunk(fh, p, pos, length)
+        elif op == 0x08:
+            _check_mcap_chunk_index(fh, p, pos, length, size)
+        if op in stops:
+            break
+        pos += 9 + length
 
 
 def _check_mcap_chunk(fh: BinaryIO, p: Path, pos: int, length: int) -> None:
