@@ -102,3 +102,29 @@ def test_fit_recovers_speed_slip_and_track() -> None:
     # forward motion) is found as noise per metre, not per second
     assert 5e-7 < model.k_fwd < 1e-5
     assert model.speed_slip(0.5) == pytest.approx(0.1, abs=0.03)  # 0.2 per m/s at 0.5 m/s
+
+
+def test_covariance_propagation_follows_the_odometry_and_grows() -> None:
+    from dataclasses import replace
+
+    from odolab.calibration.slipfit import nees_bounds, propagate_covariance
+
+    run = _run(SPEEDY, 1, 30, 1.0)
+    fit = calibrate_lsq([run], NOMINAL, LsqOptions(model="slip"))
+    held = _run(SPEEDY, 2, 10, 0.6)
+    poses, cov = propagate_covariance(held.t, held.dticks_left, held.dticks_right, fit.params)
+    odo = integrate_increments(held.t, held.dticks_left, held.dticks_right, fit.params)
+    assert np.max(np.abs(poses[:, 0] - odo.x)) < 1e-9
+    assert np.max(np.abs(poses[:, 2] - odo.heading)) < 1e-9
+    assert cov[-1, 0, 0] > 0 and cov[-1, 1, 1] > 0 and cov[0].max() == 0.0
+    # the coefficients' posterior adds to the cycles' own noise
+    model = fit.params.model
+    assert isinstance(model, SlipModel)
+    _, white = propagate_covariance(
+        held.t, held.dticks_left, held.dticks_right,
+        fit.params.with_(model=replace(model, posterior=())),
+    )  # fmt: skip
+    assert cov[-1, 2, 2] > white[-1, 2, 2]
+    assert np.all(np.diff(white[:, 2, 2]) >= 0)  # the cycles' noise only adds up
+    low, high = nees_bounds(100)
+    assert low == pytest.approx(2.5, abs=0.05) and high == pytest.approx(3.5, abs=0.05)

@@ -26,7 +26,7 @@ The ground truth's yaw offset is not fitted (its frame is taken as the robot's).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from itertools import pairwise
 
 import numpy as np
@@ -260,8 +260,9 @@ def propagate_covariance(
     start: tuple[float, float, float] = (0.0, 0.0, 0.0),
 ) -> tuple[FloatArray, FloatArray]:
     """Poses (n, 3: x, y, heading) and their covariance (n, 3, 3) along a run with the slip
-    model's predictive variance (:meth:`SlipModel.step_variance`), midpoint rule, from an exact
-    start. The poses are :func:`odolab.odometry.integrate_increments`'s to rounding."""
+    model's predictive variance, midpoint rule, from an exact start: each cycle's noise
+    (``q dt + k L``, :meth:`SlipModel.step_variance`) independently, and the coefficients'
+    posterior through the pose's sensitivity to them (one error for the whole run). The poses are :func:`odolab.odometry.integrate_increments`'s to rounding."""
     model = params.model
     if not isinstance(model, SlipModel):
         raise InsufficientDataError(
@@ -273,23 +274,37 @@ def propagate_covariance(
     dsr = np.asarray(dticks_right, dtype=np.float64) * params.right_metres_per_tick
     dt = np.diff(t, prepend=t[:1])
     fwd, lat, dth = model.body_motion_arrays(dsl, dsr, dt, params.track_width)
-    var = model.step_variance(dsl, dsr, dt, params.track_width)
+    # the noise of every cycle (independent), and the coefficients' posterior as what it is:
+    # one error shared by every cycle, carried by the pose's sensitivity to the coefficients
+    var = replace(model, posterior=()).step_variance(dsl, dsr, dt, params.track_width)
+    k = len(FEATURES)
+    sigma = np.array(model.posterior).reshape(3 * k, 3 * k) if model.posterior else None
+    timed = dt > 0
+    tt = np.where(timed, dt, 1.0)
+    phi = SlipModel.features(0.5 * (dsl + dsr) / tt, (dsr - dsl) / params.track_width / tt)
+    phi[4:, ~timed] = 0.0
+    big_phi = (phi * tt[None, :]).T  # (n, 8): d(body motion) / d(coefficients) of a cycle
     poses = np.empty((n, 3))
     cov = np.zeros((n, 3, 3))
     x, y, h = start
     p = np.zeros((3, 3))
+    jac = np.zeros((3, 3 * k))
     poses[0] = start
-    for k in range(1, n):
-        m = h + 0.5 * dth[k]
+    for i in range(1, n):
+        m = h + 0.5 * dth[i]
         c, s = np.cos(m), np.sin(m)
-        dx = fwd[k] * c - lat[k] * s
-        dy = fwd[k] * s + lat[k] * c
+        dx = fwd[i] * c - lat[i] * s
+        dy = fwd[i] * s + lat[i] * c
         f = np.array([[1.0, 0.0, -dy], [0.0, 1.0, dx], [0.0, 0.0, 1.0]])
         g = np.array([[c, -s, -0.5 * dy], [s, c, 0.5 * dx], [0.0, 0.0, 1.0]])
-        p = f @ p @ f.T + (g * var[k]) @ g.T
-        x, y, h = x + dx, y + dy, h + dth[k]
-        poses[k] = (x, y, h)
-        cov[k] = p
+        p = f @ p @ f.T + (g * var[i]) @ g.T
+        if sigma is not None:
+            jac = f @ jac
+            for j in range(3):
+                jac[:, j * k : (j + 1) * k] += np.outer(g[:, j], big_phi[i])
+        x, y, h = x + dx, y + dy, h + dth[i]
+        poses[i] = (x, y, h)
+        cov[i] = p if sigma is None else p + jac @ sigma @ jac.T
     return poses, cov
 
 
