@@ -402,3 +402,27 @@ def test_the_reports_figures_are_legible_at_a_phones_width(lab_db: Path, tmp_pat
         with Image.open(png) as im:
             inches = im.width / im.info["dpi"][0]
         assert smallest_pt * 368 / (72 * inches) >= 11, (png.name, inches)
+
+
+def test_table1s_figures_are_of_the_tables_selection(c: TestClient) -> None:
+    # the figures' addresses lacked ?campaign=: they showed every campaign's fits
+    page = c.get("/table1", params=[("campaign", "rot-lab"), ("exclude_campaign", "fwd-lab")]).text
+    assert re.search(
+        r'src="/table1/fit\.png\?i=0&amp;v=[0-9a-f]+&amp;campaign=rot-lab&amp;exclude_campaign=fwd-lab"',
+        page,
+    )
+    assert "&amp;campaign=rot-lab&amp;exclude_campaign=fwd-lab&amp;size=phone" in page
+    assert "&amp;campaign=" not in c.get("/table1").text
+
+
+def test_a_report_that_fails_is_a_sentence(c: TestClient, monkeypatch: pytest.MonkeyPatch) -> None:
+    import odolab.app.report
+
+    def broken(nb: Notebook, req: object) -> bytes:
+        return float(None)  # type: ignore[arg-type,return-value]  # a bug, as in numfmt.with_ci
+
+    monkeypatch.setattr(odolab.app.report, "report_html", broken)
+    r = c.get("/report.html")
+    assert r.status_code == 400
+    assert "the report could not be drawn (TypeError in odolab; the server&#39;s log" in r.text
+    assert "Traceback" not in r.text

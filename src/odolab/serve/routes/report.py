@@ -11,6 +11,7 @@ Any change to a trial, a campaign or a parameter version makes a new report.
 
 from __future__ import annotations
 
+import logging
 import threading
 import time
 from dataclasses import dataclass, field
@@ -83,6 +84,12 @@ def _job(w: Web, sel: SelectionRequest) -> ReportJob:
                 job.body = report_html(nb, ReportRequest(sel))
         except OdolabError as err:
             job.error = str(err)
+        except Exception as err:  # a bug in the report: a sentence here, the traceback logged
+            logging.getLogger(__name__).exception("the report could not be drawn")
+            job.error = (
+                f"the report could not be drawn ({type(err).__name__} in odolab; the server's "
+                "log has the details); odolab report --db gives the same report"
+            )
         finally:
             job.finished = time.monotonic()
             job.done.set()

@@ -45,8 +45,15 @@ def _in_words(text: str) -> str:
 
 
 async def page(request: Request) -> Response:
+    from urllib.parse import urlencode
+
     w = web(request)
-    result, error, key = await analysis_now(w, selection_of(request.query_params))
+    sel = selection_of(request.query_params)
+    result, error, key = await analysis_now(w, sel)
+    # the figures are of the same selection as the table
+    picked = [("campaign", c) for c in sel.campaigns] + [
+        ("exclude_campaign", c) for c in sel.exclude
+    ]
     return w.page(
         request,
         "table1.html.j2",
@@ -55,6 +62,7 @@ async def page(request: Request) -> Response:
         selection=_in_words(result.selection.describe()) if result else None,
         error=error,
         version=f"{key & 0xFFFFFFFF:x}",
+        selected=("&" + urlencode(picked)) if picked else "",
     )
 
 
