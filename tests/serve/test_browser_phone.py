@@ -34,6 +34,7 @@ PAGES = [
     f"/trial?id={quote(HOSTILE_TRIAL, safe='')}",
     f"/trial?id={quote(PATH_TRIAL, safe='')}",
     "/trial?id=nope",  # the error page
+    "/report",
 ]
 
 

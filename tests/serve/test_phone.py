@@ -90,6 +90,13 @@ def test_a_refused_field_is_marked_and_described(c: TestClient, lab_db: Path) ->
         assert nb.get_trial("F1").measured is None and nb.get_trial("R20").measured is None
 
 
+def test_an_exclusion_without_a_reason_marks_the_reason(c: TestClient) -> None:
+    token = csrf_of(c.get("/trial?id=R2").text)
+    r = c.post("/trial/exclude", data={"csrf": token, "id": "R2", "reason": " "})
+    assert r.status_code == 400 and "excluding trial R2 needs a reason" in r.text
+    assert 'aria-invalid="true"' in input_tag(r.text, "reason")
+
+
 def test_sigma_zero_is_refused_not_replaced_by_the_default(c: TestClient, lab_db: Path) -> None:
     # it was stored with the default 0.005 m: "sigma or METERSTICK_SIGMA_M"
     r = measure(c, "F1", x="2.4", y="0", sigma="0")

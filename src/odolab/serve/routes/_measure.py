@@ -179,6 +179,8 @@ def fields_of(err: Exception) -> tuple[str, ...]:
         return ("sigma",)
     if _REPLACE in text:
         return ("replace",)
+    if text.startswith("excluding trial ") and text.endswith(" needs a reason"):
+        return ("reason",)
     return ()
 
 
