@@ -433,3 +433,18 @@ def test_a_report_that_fails_is_a_sentence(c: TestClient, monkeypatch: pytest.Mo
     assert r.status_code == 400
     assert "the report could not be drawn (TypeError in odolab; the server&#39;s log" in r.text
     assert "Traceback" not in r.text
+
+
+def test_two_robots_the_calibrate_sentence_names_the_form_not_the_flag(tmp_path: Path) -> None:
+    from tests.parity.notebooks import make_notebook
+
+    gen = make_notebook(tmp_path, 0, two_robots=True)
+    c = TestClient(create_app(ServeSettings(db=gen.db)), base_url=LOCAL)
+    form = c.post(
+        "/calibrate", data={"csrf": csrf_of(c.get("/calibrate").text), "method": "ratios"}
+    )
+    assert form.status_code == 400
+    assert "name the one to calibrate (choose it under robot)" in form.text
+    api = c.post("/api/calibrate", json={"method": "ratios"})
+    assert api.json()["error"].endswith('name the one to calibrate (send "robot")')
+    assert "--robot" not in form.text and "--robot" not in api.text

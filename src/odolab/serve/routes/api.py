@@ -213,7 +213,8 @@ async def calibrate(request: Request) -> Response:
         )
         return JSONResponse(await web(request).run(lambda nb: run(nb, req).to_dict()))
     except OdolabError as err:
-        return error_json(err)
+        text = str(err).replace("(--robot, or the form's robot)", '(send "robot")')
+        return error_json(StoreError(text))
 
 
 async def report(request: Request) -> Response:

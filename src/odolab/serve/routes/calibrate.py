@@ -50,7 +50,8 @@ def _run(nb: Notebook, req: CalibrationRequest) -> dict[str, Any]:
     try:
         ctx["result"], ctx["error"] = calibrate(nb, req), None
     except OdolabError as err:
-        ctx["result"], ctx["error"] = None, str(err)
+        text = str(err).replace("(--robot, or the form's robot)", "(choose it under robot)")
+        ctx["result"], ctx["error"] = None, text
     return ctx
 
 
