@@ -1,7 +1,7 @@
 """The report page and its download: :func:`odolab.app.report.report_html` (what ``odolab
 report`` writes, for the same selection).
 
-Drawing the report takes tens of seconds (every figure anew: 22-46 s for the demo notebook's
+Drawing the report takes tens of seconds (every figure anew: 19-46 s for the demo notebook's
 38 figures on the project's machine), so it is drawn once per state of the notebook and kept:
 opening the report page starts it in the background, the page says how far it is (it reloads
 itself every few seconds while the report is drawn), and the download is immediate once it is
@@ -114,9 +114,9 @@ async def page(request: Request) -> Response:
 
 def _last_seconds(w: Web) -> float | None:
     """How long the latest finished drawing took (for the page's estimate)."""
-    times = [
-        j.seconds for j in w.recent.values() if isinstance(j, ReportJob) and j.body is not None
-    ]
+    with _LOCK:  # a worker thread may be adding a job
+        jobs = list(w.recent.values())
+    times = [j.seconds for j in jobs if isinstance(j, ReportJob) and j.body is not None]
     return times[-1] if times else None
 
 
