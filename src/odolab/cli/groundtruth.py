@@ -312,6 +312,13 @@ def track_cmd(
             "or longer start a new heading segment (its whole turns unknown)."
         ),
     ] = 180.0,
+    corners: Annotated[
+        str,
+        typer.Option(
+            help="Corner refinement: subpix, contour or apriltag (contour or apriltag for a "
+            "film with motion blur: docs/ground-truth.md).",
+        ),
+    ] = "subpix",
 ) -> None:
     """Robot poses from a video: floor markers define the floor, the robot's marker its pose.
     Writes t,x,y,theta,heading,quality,segment (t from 0 at the first frame, or on the encoder
@@ -330,7 +337,7 @@ def track_cmd(
         )
     options = TrackOptions(
         robot_marker, marker_size, marker_height, marker_offset, dictionary,
-        max_yaw_rate=math.radians(max_yaw_rate),
+        max_yaw_rate=math.radians(max_yaw_rate), corners=corners,
     )  # fmt: skip
     if encoders is not None and params is None:
         raise OptionError("--encoders needs --params (the robot's nominal parameters)")

@@ -5,6 +5,10 @@ Each frame draws a textured floor, the floor markers, the robot's top plate and 
 height H (the robot's true pose at the frame's time, interpolated from a trajectory), at twice
 the resolution, then shrinks it (anti-aliasing), blurs it (Gaussian, ``blur`` px), adds noise
 (``noise`` grey levels) and writes it through a JPEG-based codec (MJPG AVI) at ``quality``.
+
+Motion blur: with ``exposure`` (s) > 0 each frame is the mean of ``exposure_steps`` drawings of
+the robot at evenly spaced times across the exposure, centred on the frame's time (the frame's
+time is the middle of its exposure), as a shutter open for that long records it.
 """
 
 from __future__ import annotations
@@ -106,12 +110,21 @@ def render_video(
     seed: int = 0,
     hidden: Sequence[tuple[float, float]] = (),
     progress: Callable[[int, int], None] | None = None,
+    exposure: float = 0.0,
+    exposure_steps: int = 9,
 ) -> Path:
     """Write an MJPG AVI of the robot following ``truth`` (frame k at time ``k / fps``).
 
     ``hidden``: time spans ``(start, end)`` (s, the truth's clock) in which the robot's marker is
-    not drawn (covered: a person walking past, the robot under a table); its plate still is."""
+    not drawn (covered: a person walking past, the robot under a table); its plate still is.
+    ``exposure``: motion blur (see the module)."""
     import cv2
+
+    if not (exposure >= 0.0 and math.isfinite(exposure)) or exposure_steps < 1:
+        raise TrackingError(
+            f"exposure {exposure!r} s in {exposure_steps!r} steps; expected exposure >= 0 s "
+            "and at least one step"
+        )
 
     model = scene.model
     p = Path(path)
@@ -145,19 +158,33 @@ def render_video(
     end = truth.t[-1] if duration is None else min(truth.t[0] + duration, truth.t[-1])
     n = math.floor((end - truth.t[0]) * fps + 1e-9) + 1
     dx, dy = marker_offset
+    steps = exposure_steps if exposure > 0 else 1
+
+    def drawn(t: float, shown: bool) -> NDArray[np.uint8]:
+        """The full-resolution frame with the robot at its pose at time ``t``."""
+        x = float(np.interp(t, truth.t, truth.x))
+        y = float(np.interp(t, truth.t, truth.y))
+        h = float(np.interp(t, truth.t, truth.heading))
+        frame = base.copy()
+        _paste(frame, plate, big.project(_placed(0.5, 8, 8, x, y, h, marker_height)))
+        if shown:
+            cs, sn = math.cos(h), math.sin(h)
+            mx, my = x + cs * dx - sn * dy, y + sn * dx + cs * dy
+            corners = _placed(marker_size, px, robot_img.shape[0], mx, my, h, marker_height)
+            _paste(frame, robot_img, big.project(corners))
+        return np.asarray(frame, dtype=np.uint8)
+
     try:
         for k in range(n):
             t = truth.t[0] + k / fps
-            x = float(np.interp(t, truth.t, truth.x))
-            y = float(np.interp(t, truth.t, truth.y))
-            h = float(np.interp(t, truth.t, truth.heading))
-            frame = base.copy()
-            _paste(frame, plate, big.project(_placed(0.5, 8, 8, x, y, h, marker_height)))
-            if not any(a <= t <= b for a, b in hidden):
-                cs, sn = math.cos(h), math.sin(h)
-                mx, my = x + cs * dx - sn * dy, y + sn * dx + cs * dy
-                corners = _placed(marker_size, px, robot_img.shape[0], mx, my, h, marker_height)
-                _paste(frame, robot_img, big.project(corners))
+            shown = not any(a <= t <= b for a, b in hidden)
+            if steps == 1:
+                frame = drawn(t, shown)
+            else:
+                acc = np.zeros(base.shape, np.float32)
+                for j in range(steps):
+                    acc += drawn(t + exposure * (j / (steps - 1) - 0.5), shown)
+                frame = np.clip(acc / steps + 0.5, 0, 255).astype(np.uint8)
             small = cv2.resize(frame, (model.width, model.height), interpolation=cv2.INTER_AREA)
             if blur > 0:
                 small = cv2.GaussianBlur(small, (0, 0), blur)
