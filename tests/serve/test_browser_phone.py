@@ -1,7 +1,7 @@
 """The pages in Debian's Chromium at a phone's 400 px and a computer's 1280 px (issue 30): a
 negative y typed and stored, no page wider than the screen, Table I as cards, tap targets of
-44 px, the phone-size figures chosen by the phone. Screenshots of every page go to
-``$ODOLAB_SCREENSHOTS`` (default: the test's tmp folder).
+44 px, the phone-size figures chosen by the phone. With ``$ODOLAB_SCREENSHOTS`` set, a
+screenshot of every page goes there.
 
 Skipped as ``test_browser.py`` is when Chromium or Playwright is missing (a failure in CI).
 """
@@ -39,27 +39,44 @@ PAGES = [
 
 
 @pytest.fixture
-def shots(tmp_path: Path) -> Path:
-    folder = Path(os.environ.get("ODOLAB_SCREENSHOTS") or tmp_path / "shots")
+def shots() -> Path | None:
+    """Where screenshots go: ``$ODOLAB_SCREENSHOTS`` when set (none otherwise: they are the
+    slow part)."""
+    where = os.environ.get("ODOLAB_SCREENSHOTS")
+    if not where:
+        return None
+    folder = Path(where)
     folder.mkdir(parents=True, exist_ok=True)
     return folder
 
 
-@pytest.fixture
-def browser(lab_db: Path) -> Iterator[tuple[Any, str]]:
-    """(browser, base URL) with the server running on an ephemeral loopback port."""
+@pytest.fixture(scope="module")
+def chromium_browser() -> Iterator[Any]:
+    """One Chromium for the module (Playwright launches Debian's, never downloads one)."""
     chromium = _chromium()
     from playwright.sync_api import sync_playwright
 
-    with run_in_thread(ServeSettings(db=lab_db)) as info, sync_playwright() as pw:
+    with sync_playwright() as pw:
         b = pw.chromium.launch(
             executable_path=chromium,
             args=["--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage"],
         )
         try:
-            yield b, info.base_url
+            yield b
         finally:
             b.close()
+
+
+@pytest.fixture
+def browser(chromium_browser: Any, lab_db: Path) -> Iterator[tuple[Any, str]]:
+    """(browser, base URL) with the server running on an ephemeral loopback port."""
+    with run_in_thread(ServeSettings(db=lab_db)) as info:
+        yield chromium_browser, info.base_url
+
+
+def _shot(page: Any, shots: Path | None, name: str) -> None:
+    if shots is not None:
+        page.screenshot(path=shots / name, full_page=True)
 
 
 def _page(browser: Any, width: int) -> Any:
@@ -78,7 +95,7 @@ def _overflow(page: Any) -> int:
 
 
 def test_a_negative_y_typed_on_a_phone_is_stored(
-    browser: tuple[Any, str], lab_db: Path, shots: Path
+    browser: tuple[Any, str], lab_db: Path, shots: Path | None
 ) -> None:
     b, base = browser
     page = _page(b, 400)
@@ -94,7 +111,7 @@ def test_a_negative_y_typed_on_a_phone_is_stored(
     page.fill("#y", "-0.031")
     page.click("#save")
     assert page.inner_text("[role=status]") == "measured: x 2.460 y -0.031 m [meterstick]"
-    page.screenshot(path=shots / "phone-negative-y.png", full_page=True)
+    _shot(page, shots, "phone-negative-y.png")
     with Notebook(lab_db) as nb:
         m = nb.get_trial("F1").measured
     assert m is not None and m.y == -0.031 and m.x == 2.46
@@ -102,14 +119,14 @@ def test_a_negative_y_typed_on_a_phone_is_stored(
 
 @pytest.mark.parametrize("width", [400, 1280])
 def test_no_page_is_wider_than_the_screen(
-    browser: tuple[Any, str], shots: Path, width: int
+    browser: tuple[Any, str], shots: Path | None, width: int
 ) -> None:
     b, base = browser
     page = _page(b, width)
     wide = {}
     for i, path in enumerate(PAGES):
         page.goto(base + path)
-        page.screenshot(path=shots / f"w{width}-{i:02d}.png", full_page=True)
+        _shot(page, shots, f"w{width}-{i:02d}.png")
         if _overflow(page) > 0:
             wide[path] = _overflow(page)
     # a refused entry (a long message, the values kept)
@@ -119,7 +136,7 @@ def test_no_page_is_wider_than_the_screen(
     page.fill("#turns", "3")
     page.click("#save")
     assert page.get_attribute("#turns", "aria-invalid") == "true"
-    page.screenshot(path=shots / f"w{width}-refused.png", full_page=True)
+    _shot(page, shots, f"w{width}-refused.png")
     if _overflow(page) > 0:
         wide["refused"] = _overflow(page)
     assert wide == {}
