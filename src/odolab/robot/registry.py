@@ -72,10 +72,24 @@ def _jaguar_virtual(
     return open_virtual(url, config, params, clock, virtual)
 
 
+def _jaguar2014_tcp(
+    url: str, config: RunConfig, params: RobotParams, clock: Clock, virtual: VirtualSpec
+) -> RobotLink:
+    from odolab.robot.jaguar2014.links import open_tcp
+
+    return open_tcp(url, config, params, clock)
+
+
 def _check_udp(url: str) -> object:
     from odolab.robot.jaguar.driver import parse_robot_url
 
     return parse_robot_url(url)
+
+
+def _check_tcp(url: str) -> object:
+    from odolab.robot.jaguar2014.driver import parse_tcp_url
+
+    return parse_tcp_url(url)
 
 
 def _check_sim(url: str) -> object:
@@ -89,6 +103,11 @@ def _check_sim(url: str) -> object:
 
 LINKS: dict[str, LinkEntry] = {
     "udp": LinkEntry("udp://HOST:PORT (a Jaguar board, binary over UDP)", _check_udp, _jaguar_udp),
+    "tcp": LinkEntry(
+        "tcp://HOST:PORT (a Jaguar 4x4 of 2014 or later, text over TCP)",
+        _check_tcp,
+        _jaguar2014_tcp,
+    ),
     "sim": LinkEntry("sim:// (a virtual Jaguar on 127.0.0.1)", _check_sim, _jaguar_virtual),
 }
 
@@ -104,9 +123,18 @@ def _jaguar_in_process(
     )  # fmt: skip
 
 
+def _jaguar2014_in_process(
+    config: RunConfig, params: RobotParams, clock: SimClock, plant: Plant, virtual: VirtualSpec
+) -> RobotLink:
+    from odolab.robot.jaguar2014.links import open_in_process as open_2014
+
+    return open_2014(config, params, clock, plant, virtual)
+
+
 #: Links that run in simulated time, in-process, over a plant: by link name.
 IN_PROCESS: dict[str, InProcessOpener] = {
     "jaguar": _jaguar_in_process,
+    "jaguar2014": _jaguar2014_in_process,
 }
 
 
