@@ -185,10 +185,13 @@ def test_a_calibration_post_redirects_and_a_reload_records_nothing(
         follow_redirects=False,
     )
     assert r.status_code == 303
-    assert r.headers["location"] == "/calibrate?robot=jaguar-lite&version=2#calibration"
+    assert r.headers["location"] == "/calibrate?robot=jaguar-lite&version=2"
     for _ in range(2):  # the result page, and a reload of it
         page = c.get(r.headers["location"]).text
         assert "new jaguar-lite parameters version 2 recorded" in page
+        # in words: no raw provenance keys, no CLI flag
+        assert "<dt>distance ratio</dt>" in page and "<dt>distance_ratio</dt>" not in page
+        assert "--campaign" not in page
     with Notebook(lab_db) as nb:
         assert nb.latest_params_version("jaguar-lite") == 2
     # another server (restarted) shows the stored version

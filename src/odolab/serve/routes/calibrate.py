@@ -75,4 +75,4 @@ async def post(request: Request) -> Response:
     # post/redirect/get: a reload of the result page does not calibrate again
     w.remember(f"calibrate\0{result.robot}\0{result.version}", result)
     query = urlencode({"robot": result.robot, "version": result.version})
-    return RedirectResponse(f"/calibrate?{query}#calibration", status_code=303)
+    return RedirectResponse(f"/calibrate?{query}", status_code=303)
