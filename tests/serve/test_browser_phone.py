@@ -203,3 +203,21 @@ def test_the_phone_gets_the_phone_figure(browser: tuple[Any, str], lab_db: Path)
         # the smallest text (8 pt on 3.3 in, 9 pt on 7.2 in) at the width it is shown
         smallest = 8 * shown / (72 * 3.3) if size else 9 * shown / (72 * 7.2)
         assert smallest >= 11, (width, shown)
+
+
+def test_the_measurement_history_is_cards_on_a_phone(
+    browser: tuple[Any, str], lab_db: Path
+) -> None:
+    from .conftest import cli
+
+    cli("trials", "measure", "R1", "--initial", "320", "--final", "0", "--turns", "0",
+        "--replace", "--db", str(lab_db))  # fmt: skip
+    b, base = browser
+    page = _page(b, 400)
+    page.goto(base + "/trial?id=R1")
+    row = page.locator("#history tr").nth(1)
+    assert row.evaluate("e => getComputedStyle(e).display") == "block"
+    readings = row.locator("td").nth(5)
+    assert readings.evaluate("e => getComputedStyle(e, '::before').content") == '"readings"'
+    assert "compass before 324°" in readings.inner_text()
+    assert _overflow(page) == 0
