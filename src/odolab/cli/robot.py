@@ -37,6 +37,11 @@ class ModeChoice(StrEnum):
     velocity = "velocity"
 
 
+class LinkChoice(StrEnum):
+    jaguar = "jaguar"
+    jaguar2014 = "jaguar2014"
+
+
 class DirectionChoice(StrEnum):
     cw = "cw"
     ccw = "ccw"
@@ -623,7 +628,10 @@ def square(
 def sim_server_cmd(
     host: Annotated[str, typer.Option("--host", help="Address to listen on.")] = "127.0.0.1",
     port: Annotated[
-        int, typer.Option("--port", min=0, max=65535, help="UDP port (0 = any free one).")
+        int,
+        typer.Option(
+            "--port", min=0, max=65535, help="UDP (TCP for jaguar2014) port (0 = any free one)."
+        ),
     ] = 10001,
     params: ParamsOpt = "jaguar-lite",
     truth: TruthOpt = "jaguar-lab",
@@ -658,9 +666,27 @@ def sim_server_cmd(
             "right speed (m/s), why.",
         ),
     ] = None,
+    link: Annotated[
+        LinkChoice,
+        typer.Option(
+            "--link",
+            help="jaguar: the binary board over UDP; jaguar2014: the Jaguar 4x4 of 2014, text "
+            "lines over TCP (--command-timeout is then its host-silence timeout, 0 = never).",
+        ),
+    ] = LinkChoice.jaguar,
+    variant: Annotated[
+        str, typer.Option("--variant", help="jaguar2014 only: wheel (4x4) or track.")
+    ] = "wheel",
 ) -> None:
-    """Run a virtual Jaguar board (UDP) until Ctrl-C (or SIGTERM)."""
+    """Run a virtual Jaguar board (UDP, or TCP for --link jaguar2014) until Ctrl-C (or SIGTERM)."""
     import signal
+
+    if link is LinkChoice.jaguar2014:
+        _serve_2014(
+            host, port, params, truth, terrain, seed, report_rate, max_wheel_speed,
+            command_timeout, trace, variant,
+        )  # fmt: skip
+        return
 
     from odolab.params import load_params
     from odolab.robot.jaguar.board import (
@@ -708,6 +734,78 @@ def sim_server_cmd(
                 f"# received {st.received} commands {st.commands} ignored {st.ignored_commands} "
                 f"rejected_acks {st.rejected_acks} takeovers {st.takeovers} "
                 f"command_timeouts {st.command_timeouts}\n"
+            )
+            trace_file.close()
+        pose = plant.true_pose
+        echo(
+            f"true pose: x={pose.x:.4f} m y={pose.y:.4f} m heading={pose.heading:.4f} rad", err=True
+        )
+
+
+def _serve_2014(
+    host: str,
+    port: int,
+    params: str,
+    truth: str,
+    terrain: str,
+    seed: int,
+    report_rate: float,
+    max_wheel_speed: float,
+    silence_timeout: float,
+    trace: Path | None,
+    variant: str,
+) -> None:
+    """The virtual Jaguar 4x4 of 2014 over TCP until Ctrl-C or SIGTERM."""
+    import signal
+
+    from odolab.params import load_params
+    from odolab.robot.jaguar2014.board import (
+        Board2014Config,
+        VirtualJaguar2014,
+        VirtualJaguar2014Server,
+    )
+    from odolab.sim.plants import make_plant
+
+    nominal = load_params(params)
+    config = Board2014Config.from_params(
+        nominal,
+        report_rate=report_rate,
+        max_wheel_speed=max_wheel_speed,
+        silence_timeout=silence_timeout,
+        variant=variant,
+    )
+    plant = make_plant(truth, nominal, terrain, seed=seed)
+    trace_file = trace.open("a", encoding="utf-8") if trace is not None else None
+
+    def on_speeds(t: float, left: float, right: float, why: str) -> None:
+        if trace_file is not None:
+            trace_file.write(f"{t:.6f} {left:.6f} {right:.6f} {why.replace(' ', '-')}\n")
+            trace_file.flush()
+
+    board = VirtualJaguar2014(plant, config, on_speeds=on_speeds)
+    server = VirtualJaguar2014Server(board, host, port)
+    h, p = server.address
+    echo(
+        f"virtual Jaguar 4x4 2014 ({truth}, {variant}) listening on tcp://{h}:{p}; Ctrl-C to stop",
+        err=True,
+    )
+
+    def on_term(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, on_term)
+    try:
+        server.serve_forever()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        server.close()
+        st = board.stats
+        if trace_file is not None:
+            trace_file.write(
+                f"# lines {st.lines} pings {st.pings} commands {st.commands} rejected "
+                f"{st.rejected} silence_stops {st.silence_stops} disconnect_stops "
+                f"{st.disconnect_stops} refused_peers {st.refused_peers}\n"
             )
             trace_file.close()
         pose = plant.true_pose

@@ -177,9 +177,11 @@ class VirtualJaguar2014:
         self._plant_last = now
 
     def _set_speeds(self, left: float, right: float, why: str, t: float) -> None:
+        """Set the wheel speeds; ``on_speeds`` hears of a change only."""
+        changed = (left, right) != self._speeds
         self._speeds = (left, right)
         self.plant.set_wheel_speeds(left, right)
-        if self.on_speeds is not None:
+        if changed and self.on_speeds is not None:
             self.on_speeds(t, left, right, why)
 
     def _say(self, t: float, text: str) -> None:
