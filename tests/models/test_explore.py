@@ -41,3 +41,45 @@ def test_bad_settings_are_one_sentence() -> None:
         ExploreSettings(distribution="gauss")
     with pytest.raises(SimError, match="exploration hold"):
         ExploreSettings(hold=(3.0, 1.0))
+
+
+def _drive_motion(motion, truth, seconds: float, rate: float = 20.0):  # type: ignore[no-untyped-def]
+    from odolab.odometry import Odometry
+    from odolab.sim.physics import VirtualRobot
+
+    robot = VirtualRobot(truth, NOMINAL, "tile", seed=1, dt=0.005)
+    robot.reset(misalign=False)
+    odo = Odometry(NOMINAL)
+    pose = odo.update(0.0, *robot.encoder_counts())
+    motion.start(pose, NOMINAL)
+    poses = [pose]
+    for k in range(1, round(seconds * rate) + 1):
+        speeds = motion.step(pose)
+        if speeds is None:
+            break
+        robot.set_wheel_speeds(*speeds)
+        robot.advance(1.0 / rate)
+        pose = odo.update(k / rate, *robot.encoder_counts())
+        poses.append(pose)
+    robot.set_wheel_speeds(0.0, 0.0)
+    return poses
+
+
+def test_live_exploration_motion_stays_inside_and_stops_at_the_fence() -> None:
+    from odolab.robot.explore_motion import Explore
+
+    motion = Explore(seconds=30.0, max_speed=0.5, fence_radius=2.0, seed=4)
+    poses = _drive_motion(motion, TRUTH, 40.0)
+    r = np.array([np.hypot(p.x, p.y) for p in poses])
+    assert poses[-1].t == pytest.approx(30.0, abs=0.06)  # ran its time, then stopped
+    assert not motion.fence_crossed and r.max() < 2.0 and r.max() > 0.8
+    # the fence is a hard limit: the cycle that finds the robot outside it stops it
+    from odolab.trajectory import Pose
+
+    fenced = Explore(seconds=30.0, fence_radius=1.0, seed=4)
+    fenced.start(Pose(0.0, 1.0, 2.0, 0.0, 0.0), NOMINAL)
+    assert fenced.step(Pose(0.05, 1.2, 2.3, 0.0, 0.0)) is not None
+    assert fenced.step(Pose(0.10, 1.6, 2.9, 0.0, 0.0)) is None  # 1.06 m from the start
+    assert fenced.fence_crossed
+    with pytest.raises(SimError, match="exploration fence_radius is 0"):
+        Explore(fence_radius=0)
