@@ -112,6 +112,35 @@ def model_comparison_html(result: ModelComparison) -> str:
         + f"<ul>{''.join(params)}</ul>"
         + f"<p>{escape(_DECISION)}</p>"
         + _recommendation_html(result)
+        + learning_curve_html(result.learning_curve)
+    )
+
+
+def learning_curve_html(rows: Sequence[Mapping[str, Any]]) -> str:
+    """The learning curve of :func:`odolab.calibration.compare.compare_models` (``curve=``):
+    held-out mean end-point error against seconds of exploration data; empty without one."""
+    if not rows:
+        return ""
+    seconds = sorted({float(r["seconds"]) for r in rows})
+    models = list(dict.fromkeys(str(r["model"]) for r in rows))
+    body = []
+    for m in models:
+        cells = {float(r["seconds"]): r["endpoint_error"] for r in rows if r["model"] == m}
+        body.append(
+            f"<tr><td>{escape(m)}</td>"
+            + "".join(
+                "<td>not fitted</td>" if cells.get(x) is None else f"<td>{cells[x]:.3f}</td>"
+                for x in seconds
+            )
+            + "</tr>"
+        )
+    return (
+        '<table class="models"><caption>Learning curve: held-out mean end-point error (m) of '
+        "each model fitted on the first seconds of the exploration run</caption><tr><th>model</th>"
+        + "".join(f"<th>{x:g} s</th>" for x in seconds)
+        + "</tr>"
+        + "".join(body)
+        + "</table>"
     )
 
 
