@@ -191,6 +191,10 @@ def _odolab(folder: Path, *args: str) -> None:
 
 
 def _readme(folder: Path) -> None:
+    require("optiodom")
+    (folder.parent / "shared").mkdir(exist_ok=True)
+    if not (folder.parent / "shared" / "data").exists():
+        (folder.parent / "shared" / "data").symlink_to(DATA)
     _encoder_log(folder / "log.csv")
     (folder / "my-robot.toml").write_text(JAGUAR_TOML, encoding="utf-8")
 
