@@ -43,3 +43,22 @@ def test_bad_learning_curve_is_one_sentence(
     code = main(["calibrate", "compare", str(tmp_path), "--learning-curve", "10,soon"])
     assert code == 1
     assert "--learning-curve: 'soon' is not a positive number of seconds" in capsys.readouterr().err
+
+
+def test_calibrate_lsq_model_slip_writes_a_loadable_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from odolab.models import SlipModel
+    from odolab.params import load_params
+
+    run = tmp_path / "run"
+    assert main(["sim", "explore", "-o", str(run), "--seconds", "30", "--seed", "3"]) == 0
+    out = tmp_path / "robot-slip.toml"
+    code = main([
+        "calibrate", "lsq", str(run / "explore.csv"), "--format", "csv", "--params",
+        "jaguar-lite", "--model", "slip", "-o", str(out),
+    ])  # fmt: skip
+    assert code == 0, capsys.readouterr().err
+    params = load_params(out)
+    assert isinstance(params.model, SlipModel) and params.model.k_yaw > 0
+    assert "Bayesian linear regression" in out.read_text()

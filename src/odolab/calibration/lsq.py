@@ -402,7 +402,12 @@ class LsqCalibration:
     def provenance_table(self) -> dict[str, Any]:
         """A ``[provenance]`` table for the saved parameters file."""
         return {
-            "method": "least squares on segment relative motion (odolab calibrate lsq)",
+            "method": (
+                "Bayesian linear regression of the body slip on 0.5 s windows "
+                "(odolab calibrate lsq --model slip)"
+                if self.model == "slip"
+                else "least squares on segment relative motion (odolab calibrate lsq)"
+            ),
             "model": self.model,
             "runs": self.runs,
             "segments": self.segments,

@@ -67,6 +67,7 @@ class ModelChoice(StrEnum):
     diff = "diff"
     extended = "extended"
     icr = "icr"
+    slip = "slip"
 
 
 FormatOpt = Annotated[
@@ -414,7 +415,7 @@ def calibrate_lsq_cmd(
     gt_topic: GtTopicOpt = "/ground_truth",
     model: Annotated[
         ModelChoice,
-        typer.Option(help="Kinematic model to fit (docs/models.md): diff, extended or icr."),
+        typer.Option(help="Model to fit (docs/models.md): diff, extended, icr or slip."),
     ] = ModelChoice.diff,
     ground_truth: Annotated[
         Path | None,
