@@ -163,6 +163,9 @@ def test_a_measurement_on_the_phone(
 
     # download the report
     page.goto(base + "/report")
+    # drawn in the background; the page reloads itself until the button appears
+    page.wait_for_selector("#download-report", timeout=120_000)
+    assert page.inner_text("#report-status").startswith("Ready: drawn in")
     with page.expect_download(timeout=120_000) as download:
         page.click("#download-report")
     report = tmp_path / "report.html"

@@ -387,6 +387,8 @@ def test_the_report_page_says_how_far_the_drawing_is(
     assert "a few seconds" not in page
     assert "Drawing the report: 0 s so far." in page
     assert '<meta http-equiv="refresh" content="3">' in page
+    # no download button while the page reloads itself (a reload would cut the download)
+    assert 'id="download-report"' not in page
     release.set()
     assert c.get("/report.html").text == "<!doctype html>"
     assert "Ready: drawn in" in c.get("/report").text

@@ -4,8 +4,9 @@ report`` writes, for the same selection).
 Drawing the report takes tens of seconds (every figure anew: 19-46 s for the demo notebook's
 38 figures on the project's machine), so it is drawn once per state of the notebook and kept:
 opening the report page starts it in the background, the page says how far it is (it reloads
-itself every few seconds while the report is drawn), and the download is immediate once it is
-ready; a download asked for before waits for the drawing under way (it never draws twice).
+itself every few seconds while the report is drawn: a download started from it would be cut by
+the reload, so its button appears only when the report is ready, and is then immediate);
+``/report.html`` asked for directly waits for the drawing under way (it never draws twice).
 Any change to a trial, a campaign or a parameter version makes a new report.
 """
 
