@@ -166,8 +166,11 @@ def test_ctrl_c_stops_within_one_cycle_and_a_second_host_is_refused(tmp_path: Pa
         drv = cli(b, tmp_path / "run", "drive", "--distance", "5", "--speed", "0.5")
         wait_moving(b)
         second = socket.create_connection(("127.0.0.1", b.port), timeout=5.0)
-        second.sendall(b"MMW !MG\r\nMMW !M 0 0\r\n")
-        assert second.recv(100) == b""  # closed at once: one host at a time
+        try:  # closed at once (a FIN, or a reset when our lines were still unread)
+            second.sendall(b"MMW !MG\r\nMMW !M 0 0\r\n")
+            assert second.recv(100) == b""
+        except (ConnectionResetError, BrokenPipeError):
+            pass
         second.close()
         assert b.moving()  # the stranger's stop line never reached the motors
         t_int = time.perf_counter()

@@ -82,7 +82,7 @@ def test_cli_drive_and_bad_robot_url(tmp_path: Path, capsys: pytest.CaptureFixtu
     text = capsys.readouterr().out
     assert "translation -0.2 m" in text and "saved to" in text
     assert (out / "encoders.csv").exists() and (out / "run.json").exists()
-    code = main(["robot", "rotate", "--turns", "1", "--robot", "tcp://127.0.0.1:1", "--quiet"])
+    code = main(["robot", "rotate", "--turns", "1", "--robot", "ftp://127.0.0.1:1", "--quiet"])
     assert code == 1
     assert "udp://HOST:PORT" in capsys.readouterr().err
 
