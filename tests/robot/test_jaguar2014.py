@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import socket
 import time
+from pathlib import Path
 
 import pytest
 
@@ -183,3 +184,23 @@ def test_tcp_server_one_peer_at_a_time_and_stop_on_close() -> None:
             assert time.monotonic() < deadline
             time.sleep(0.01)
         assert server.call(lambda b: b.stats.disconnect_stops) == 1
+
+
+def test_the_robots_gyro_is_saved_with_the_run_as_a_sensorlog(tmp_path: Path) -> None:
+    from odolab.io.sensorlog import read_sensorlog
+    from odolab.robot.session import run_motion
+
+    board = VirtualJaguar2014(IdealPlant(NOMINAL), Board2014Config.from_params(NOMINAL))
+    with VirtualJaguar2014Server(board) as server:
+        host, port = server.address
+        run = run_motion(
+            Command(MotionKind.ROTATION, angle=math.pi / 2, speed=1.0),
+            robot=f"tcp://{host}:{port}",
+            save_to=tmp_path / "run",
+        )
+    assert run.headings and run.headings[0][0] >= 0.0
+    imu = read_sensorlog(tmp_path / "run" / "imu.csv")
+    assert len(imu.t) == len(run.headings)
+    # the IMU's yaw turned by what the plant turned (a quarter turn, within the stopping error)
+    assert imu.yaw[-1] - imu.yaw[0] == pytest.approx(math.pi / 2, abs=0.15)
+    assert imu.yaw_rate is not None and float(imu.yaw_rate.max()) == pytest.approx(1.0, abs=0.1)

@@ -121,3 +121,6 @@ class RobotLink:
     description: str
     true_pose: Callable[[], Pose | None]
     close: Callable[[], None]
+    #: the robot's own heading sensor, if it has one: (arrival time on the driver's clock, yaw
+    #: rad or None, yaw rate rad/s or None) of every sample so far
+    headings: Callable[[], list[tuple[float, float | None, float | None]]] | None = None

@@ -230,6 +230,8 @@ class ControlLoop:
         self.on_event = on_event or _noop_event
         #: what the last run had recorded when it failed (None after a run that ended normally)
         self.partial: LoopResult | None = None
+        #: the clock time the last run's cycle times count from (log ``t`` = clock time - this)
+        self.started_at: float | None = None
 
     def _safe_stop(self) -> None:
         for _ in range(3):  # UDP may lose one; a stop is idempotent
@@ -316,6 +318,7 @@ class ControlLoop:
             self.watchdog.feed(reading.t)
             period = 1.0 / self.rate
             t0 = clock.now()
+            self.started_at = t0
             k = 0
             phase = "holding" if motion is None else "moving"
             lost_since: float | None = None

@@ -68,6 +68,9 @@ class RobotRun:
     config: RunConfig = field(default_factory=RunConfig)
     saved_to: Path | None = None  #: where the run was saved (None: not asked, or nowhere)
     save_note: str = ""  #: why it is not where it was asked to go ("" when it is)
+    #: the robot's own heading sensor during the run (a link that has one): (t in the encoder
+    #: log's time, yaw rad or None, yaw rate rad/s or None); saved as imu.csv
+    headings: tuple[tuple[float, float | None, float | None], ...] = ()
 
     @property
     def stats(self) -> LoopStats:
@@ -200,6 +203,7 @@ def _drive_link(
             link.description,
             confirmed,
             config,
+            headings=_headings(link, loop.started_at),
         )
         if save_to is not None:
             saved, note = keep_run(run, save_to)
@@ -209,6 +213,15 @@ def _drive_link(
         link.close()
         if rt:
             set_realtime(False)
+
+
+def _headings(
+    link: RobotLink, started_at: float | None
+) -> tuple[tuple[float, float | None, float | None], ...]:
+    """The link's heading samples from the loop's start on, in the encoder log's time."""
+    if link.headings is None or started_at is None:
+        return ()
+    return tuple((t - started_at, y, r) for t, y, r in link.headings() if t >= started_at)
 
 
 def run_motion(
@@ -416,7 +429,8 @@ def keep_run(run: RobotRun, folder: str | Path) -> tuple[Path | None, str]:
 
 
 def save_run(run: RobotRun, folder: str | Path) -> Path:
-    """Write ``encoders.csv``, ``predicted.csv`` (one pose per cycle) and ``run.json``.
+    """Write ``encoders.csv``, ``predicted.csv`` (one pose per cycle), ``imu.csv`` (when the
+    robot has its own heading sensor: the 2014 Jaguar's IMU lines) and ``run.json``.
 
     The folder is checked first (:func:`check_run_folder`): one that already holds a run is
     refused (:class:`RunFolderError`), never overwritten. Each file is written through a
@@ -428,6 +442,13 @@ def save_run(run: RobotRun, folder: str | Path) -> Path:
     assert trial.encoder_log is not None
     write_encoder_csv(out / "encoders.csv", trial.encoder_log)
     write_trajectory_csv(out / "predicted.csv", run.loop.log.trajectory())
+    if run.headings:  # the robot's own gyro, in the SensorLog columns odolab validate reads
+        rows = ["motionTimestamp_sinceReboot(s),motionYaw(rad),motionRotationRateZ(rad/s)"]
+        rows += [
+            f"{t:.6f},{'' if y is None else f'{y:.6f}'},{'' if r is None else f'{r:.6f}'}"
+            for t, y, r in run.headings
+        ]
+        write_text_file(out / "imu.csv", "\n".join(rows) + "\n", what="robot IMU log")
     cmd = {k: _jsonable(v) for k, v in asdict(trial.command).items() if v is not None}
     cmd["kind"] = trial.command.kind.value
     doc = {

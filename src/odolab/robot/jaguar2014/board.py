@@ -192,6 +192,7 @@ class VirtualJaguar2014:
         self._advance_to(t)
         self.connected = True
         self._heard = t
+        self._last_heading = self.plant.true_pose.heading  # the gyro counts from here
         self._report_base = t
         self._report_n = 0
         self._next_report = t

@@ -177,6 +177,7 @@ class Driver2014Config:
     odometry_board: int = 0  #: 0 front, 1 rear
     ping_interval: float = 0.1  #: s between PINGs
     connect_timeout: float = 2.0  #: s to wait for the first counter line
+    gyro_lsb_per_deg_s: float = 14.375  #: IMU GYRO units per deg/s (TRI's unit; unknown for yours)
 
     def __post_init__(self) -> None:
         for name in (
@@ -187,7 +188,7 @@ class Driver2014Config:
         ):
             if getattr(self, name) not in (1, -1):
                 raise RobotConfigError(f"{name} is {getattr(self, name)!r}, expected 1 or -1")
-        for name in ("max_wheel_speed", "ping_interval", "connect_timeout"):
+        for name in ("max_wheel_speed", "ping_interval", "connect_timeout", "gyro_lsb_per_deg_s"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
                 raise RobotConfigError(f"driver {name} is {v!r}; expected a positive number")
@@ -455,6 +456,18 @@ class Jaguar2014Driver:
             if now >= deadline:
                 return False
             clock.sleep_until(min(now + 0.005, deadline, next_stop))
+
+    def headings(self) -> list[tuple[float, float | None, float | None]]:
+        """The IMU lines so far as (arrival time, YAW rad, GYRO z in rad/s), the gyro from
+        ``gyro_lsb_per_deg_s`` (14.375, TRI's unit: check yours)."""
+        out: list[tuple[float, float | None, float | None]] = []
+        k = self.config.gyro_lsb_per_deg_s
+        for s in self.imu:
+            yaw = s.fields.get("YAW")
+            gyro = s.fields.get("GYRO")
+            rate = math.radians(gyro[2] / k) if gyro is not None and len(gyro) >= 3 else None
+            out.append((s.t, yaw[0] if yaw else None, rate))
+        return out
 
     def close(self) -> None:
         """Stop, set the E-stop, close the connection (safe to call twice)."""

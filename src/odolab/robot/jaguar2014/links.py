@@ -24,7 +24,7 @@ def open_tcp(url: str, config: RunConfig, params: RobotParams, clock: Clock) -> 
     host, port, variant = parse_tcp_url(url)
     transport = TcpTransport(host, port, clock.now, timeout=config.connect_timeout)
     driver = Jaguar2014Driver(transport, clock, Driver2014Config.from_run(config, params, variant))
-    return RobotLink(driver, url, lambda: None, driver.close)
+    return RobotLink(driver, url, lambda: None, driver.close, driver.headings)
 
 
 def open_in_process(
@@ -46,4 +46,6 @@ def open_in_process(
     )
     link = InProcessLines(board, clock.now)
     driver = Jaguar2014Driver(link, clock, Driver2014Config.from_run(config, params))
-    return RobotLink(driver, "simulated (Jaguar 2014)", lambda: plant.true_pose, driver.close)
+    return RobotLink(
+        driver, "simulated (Jaguar 2014)", lambda: plant.true_pose, driver.close, driver.headings
+    )
