@@ -213,3 +213,17 @@ def test_a_frozen_host_stops_the_robot_by_silence_and_fails_the_run(tmp_path: Pa
     assert drv.returncode == 1 and "late, more than the watchdog bound 0.5 s" in err
     # after the resume the driver never drove again (the late-cycle rule)
     assert not [r for r in rows if r[0] > silence[0][0] and (r[1], r[2]) != (0.0, 0.0)]
+
+
+def test_lost_link_stops_within_watchdog_plus_one_cycle(tmp_path: Path) -> None:
+    # the board goes silent 1.5 s after the host connects but obeys on: only the host's watchdog
+    # can stop it (its own silence timeout needs the host silent, and the host is not)
+    with board(tmp_path, "--silent-after", "1.5") as b:
+        drv = cli(b, tmp_path / "run", "drive", "--distance", "5", "--speed", "0.5")
+        _out, err = drv.communicate(timeout=60)
+    rows = b.lines()
+    silent = next(r[0] for r in rows if r[3] == "silent")
+    stop, why = b.final_stop()
+    late = lateness_max(tmp_path / "run")
+    assert why == "command" and stop - silent <= W + P + late + SLACK, (stop - silent, late, err)
+    assert drv.returncode == 1 and "does not confirm that it stopped" in err

@@ -684,7 +684,7 @@ def sim_server_cmd(
     if link is LinkChoice.jaguar2014:
         _serve_2014(
             host, port, params, truth, terrain, seed, report_rate, max_wheel_speed,
-            command_timeout, trace, variant,
+            command_timeout, trace, variant, silent_after,
         )  # fmt: skip
         return
 
@@ -754,6 +754,7 @@ def _serve_2014(
     silence_timeout: float,
     trace: Path | None,
     variant: str,
+    silent_after: float | None = None,
 ) -> None:
     """The virtual Jaguar 4x4 of 2014 over TCP until Ctrl-C or SIGTERM."""
     import signal
@@ -773,6 +774,7 @@ def _serve_2014(
         max_wheel_speed=max_wheel_speed,
         silence_timeout=silence_timeout,
         variant=variant,
+        silent_after=silent_after,
     )
     plant = make_plant(truth, nominal, terrain, seed=seed)
     trace_file = trace.open("a", encoding="utf-8") if trace is not None else None

@@ -70,6 +70,7 @@ class Board2014Config:
     plant_modulus: int | None = 32768  #: the plant's counters wrap here
     initial_count: int = 0  #: where the int32 C= counters start
     metres_per_tick: float = 2.0 * math.pi * 0.0835 / 380  #: for S= (RPM) only
+    silent_after: float | None = None  #: fault: s after a host connects, send nothing more
 
     def __post_init__(self) -> None:
         for name in ("max_wheel_speed", "report_rate", "metres_per_tick"):
@@ -81,6 +82,12 @@ class Board2014Config:
         if not (math.isfinite(self.silence_timeout) and 0 <= self.silence_timeout <= 60):
             raise BoardConfigError(
                 f"silence timeout is {self.silence_timeout!r} s; expected 0 (never) to 60 s"
+            )
+        if self.silent_after is not None and not (
+            math.isfinite(self.silent_after) and 0 <= self.silent_after <= 3600
+        ):
+            raise BoardConfigError(
+                f"--silent-after is {self.silent_after}; expected a number in [0, 3600] s"
             )
         if self.variant not in VARIANTS:
             raise BoardConfigError(
@@ -142,6 +149,8 @@ class VirtualJaguar2014:
         self._seq = 0
         self._last_heading = plant.true_pose.heading
         self._outbox: list[tuple[float, bytes]] = []
+        self._connected_at = math.inf
+        self._silent_noted = False
 
     @property
     def wheel_speeds(self) -> tuple[float, float]:
@@ -193,6 +202,8 @@ class VirtualJaguar2014:
         self.connected = True
         self._heard = t
         self._last_heading = self.plant.true_pose.heading  # the gyro counts from here
+        self._connected_at = t
+        self._silent_noted = False
         self._report_base = t
         self._report_n = 0
         self._next_report = t
@@ -296,6 +307,13 @@ class VirtualJaguar2014:
         self._advance_to(now)
         out = self._outbox
         self._outbox = []
+        quiet = self.config.silent_after
+        if quiet is not None:
+            cutoff = self._connected_at + quiet
+            out = [(t, data) for t, data in out if t < cutoff]
+            if now >= cutoff and not self._silent_noted and self.on_speeds is not None:
+                self._silent_noted = True
+                self.on_speeds(cutoff, *self._speeds, "silent")
         return [(data, t) for t, data in out]
 
     def next_event(self) -> float:
