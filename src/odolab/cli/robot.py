@@ -56,7 +56,8 @@ RobotOpt = Annotated[
     str | None,
     typer.Option(
         "--robot",
-        help="udp://HOST:PORT of a Jaguar board, or sim:// (the default) for a virtual Jaguar "
+        help="udp://HOST:PORT of a Jaguar board (binary), tcp://HOST:PORT[?variant=wheel|track] "
+        "of a Jaguar 4x4 of 2014 or later (text), or sim:// (the default) for a virtual Jaguar "
         "on loopback.",
     ),
 ]

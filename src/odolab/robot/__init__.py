@@ -2,8 +2,9 @@
 
 The control loop with its watchdog (:mod:`.loop`) and the motions (:mod:`.motions`) know a robot
 only through the :class:`Driver` interface (:mod:`.interface`); the ``--robot`` URL picks a link
-from :mod:`.registry` (``udp://`` a Jaguar board, ``sim://`` a virtual one). The Jaguar's codec,
-driver and virtual board are one package, :mod:`.jaguar`. Every run has one validated
+from :mod:`.registry` (``udp://`` a Jaguar board, ``tcp://`` a Jaguar 4x4 of 2014, ``sim://`` a
+virtual one). Each link's codec, driver and virtual board are one package: :mod:`.jaguar`
+(binary over UDP), :mod:`.jaguar2014` (text over TCP). Every run has one validated
 :class:`RunConfig` (:mod:`.config`). The virtual board's physics come in through the
 :class:`Plant` interface (:mod:`.plant`), never by importing the simulator.
 

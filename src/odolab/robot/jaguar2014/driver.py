@@ -17,6 +17,7 @@ from __future__ import annotations
 import contextlib
 import math
 import socket
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol
 from urllib.parse import parse_qs, urlparse
@@ -112,7 +113,9 @@ class TcpTransport:
     """A TCP client; chunks stamped with ``now()`` when read. A closed or broken connection is
     noted (:attr:`closed_by_peer`), never raised: the loop's watchdog sees the data stop."""
 
-    def __init__(self, host: str, port: int, now: object, timeout: float = 2.0) -> None:
+    def __init__(
+        self, host: str, port: int, now: Callable[[], float], timeout: float = 2.0
+    ) -> None:
         from odolab.errors import RobotLinkError
 
         self._now = now
@@ -155,7 +158,7 @@ class TcpTransport:
             if not data:
                 self.closed_by_peer = True
                 break
-            out.append((data, self._now()))  # type: ignore[operator]
+            out.append((data, self._now()))
         return out
 
     def close(self) -> None:
