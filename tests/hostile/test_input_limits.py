@@ -32,6 +32,10 @@ def test_a_1_gib_file_of_zero_bytes_is_one_short_line(
     zeros = tmp_path / "zeros.csv"
     with zeros.open("wb") as fh:
         fh.truncate(GIB)  # sparse: 1 GiB of zero bytes that take no disk
+    # the command's imports first (alone, this test would count them: 20 MB of modules)
+    small = tmp_path / "small.csv"
+    small.write_bytes(b"\0" * 100)
+    _fails(["odometry", str(small), "-o", str(tmp_path / "t.csv")], capsys)
     tracemalloc.start()
     try:
         err = _fails(["odometry", str(zeros), "-o", str(tmp_path / "t.csv")], capsys)

@@ -74,11 +74,21 @@ def load_commands(args: Sequence[str] = ()) -> Any:
         if name in wanted:
             importlib.import_module(f"odolab.cli.{name}")
     from odolab.cli._apps import app
-    from odolab.cli._console import wide_help_when_piped
 
-    wide_help_when_piped()
+    if _may_show_help(args):  # typer's help renderer imports rich.markdown and pygments: 8 MB
+        from odolab.cli._console import wide_help_when_piped
+
+        wide_help_when_piped()
     _add_version(app)
     return app
+
+
+def _may_show_help(args: Sequence[str]) -> bool:
+    """Whether ``odolab ARGS`` may print typer's help: ``--help``, or command words alone (a
+    group without its subcommand prints its help)."""
+    if not args or any(a in ("--help", "-h") for a in args):
+        return True
+    return len(args) <= 2 and not any(a.startswith("-") for a in args)
 
 
 def _add_version(app: Any) -> None:
