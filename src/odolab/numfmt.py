@@ -107,8 +107,14 @@ def interval(lo: float, hi: float, decimals: int | None = None) -> str:
     return f"[{_fixed(float(lo), d)}, {_fixed(float(hi), d)}]"
 
 
-def with_ci(x: float, lo: float, hi: float) -> str:
-    """``x [lo, hi]`` with the decimals the interval's half-width supports."""
+def with_ci(x: float | None, lo: float | None, hi: float | None) -> str:
+    """``x [lo, hi]`` with the decimals the interval's half-width supports; ``x`` alone when
+    there is no interval (an end is None, not finite, or the ends are not in order), ``-``
+    when there is no value."""
+    if x is None:
+        return "-"
+    if lo is None or hi is None:
+        return plain(x)
     lo, hi = float(lo), float(hi)
     if not (math.isfinite(lo) and math.isfinite(hi)) or hi <= lo:
         return plain(x)

@@ -33,6 +33,10 @@ def test_value_carries_the_digits_its_uncertainty_supports(
 def test_interval_and_plain_and_p() -> None:
     assert numfmt.with_ci(0.87504, 0.85786, 0.89222) == "0.875 [0.858, 0.892]"
     assert numfmt.with_ci(0.9049, 0.90314, 0.90667) == "0.9049 [0.9031, 0.9067]"
+    # no interval (a noise constant from too few trials), no value: never a TypeError
+    assert numfmt.with_ci(0.02471, None, None) == "0.02471"
+    assert numfmt.with_ci(0.02471, 0.01, None) == "0.02471"
+    assert numfmt.with_ci(None, None, None) == "-"
     assert numfmt.plain(7.806e-4) == "0.0007806"
     assert numfmt.plain(1.0002) == "1.000"  # trailing zeros are significant
     assert numfmt.plain(-2.5, strip=True) == "-2.5"
