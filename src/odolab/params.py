@@ -391,17 +391,10 @@ def _save_params(
         doc["noise"] = params.noise.to_dict()
     if provenance:
         doc["provenance"] = provenance
-    path = Path(path)
-    text = tomli_w.dumps(doc)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(text, encoding="utf-8")
-    except OSError as err:
-        raise ParamsError(
-            f"{path}: cannot write the parameters ({err.strerror or err}); expected a file name "
-            "in a writable folder"
-        ) from err
-    return path
+    from odolab.writing import write_text_file
+
+    # a temporary file beside it, renamed over it: a link at the path is replaced, not followed
+    return write_text_file(Path(path), tomli_w.dumps(doc), what="parameters", error=ParamsError)
 
 
 #: Nominal parameter sets. ``jaguar-lite``: wheel radius 0.0835 m and 380 counts per wheel

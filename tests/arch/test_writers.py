@@ -79,11 +79,7 @@ _SAFE_TARGETS = frozenset({"tmp", "buf"})
 #: a new raw write anywhere else fails the test below.
 _NOT_YET = {
     "cli/robot.py": {"open"},  # --trace appends a log as it runs
-    "io/scans.py": {"open"},
-    "io/sensorlog.py": {"open"},
     "io/tabular.py": {"write_csv", "write_parquet", "write_ipc", "open", "OSFile"},
-    "io/trajectory_csv.py": {"write_text"},
-    "params.py": {"write_text"},
     "serve/routes/data.py": {"write_bytes"},  # an upload, in its own temporary folder
 }
 

@@ -77,9 +77,9 @@ def test_writing_to_a_folder_is_one_sentence(tmp_path: Path) -> None:
     traj = Trajectory.from_xyh(np.array([0.0, 1.0]), np.zeros(2), np.zeros(2), np.zeros(2))
     with pytest.raises(LogFormatError, match="cannot write the trajectory CSV"):
         write_trajectory_csv(tmp_path, traj)
-    with pytest.raises(LogFormatError, match="cannot write the TUM trajectory"):
+    with pytest.raises(LogFormatError, match="is a folder; expected a file name for the TUM traj"):
         write_tum(tmp_path, traj)
-    with pytest.raises(ParamsError, match="cannot write the parameters"):
+    with pytest.raises(ParamsError, match="is a folder; expected a file name for the parameters"):
         save_params(tmp_path, PRESETS["jaguar-lite"])
 
 

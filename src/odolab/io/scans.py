@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from odolab.errors import LogFormatError, OdolabError
 from odolab.io.rosbag import _close, _messages, _open, _stamp, reading
+from odolab.writing import replacing_path
 
 __all__ = ["SCAN_TYPE", "LaserScans", "read_scans", "write_scan_mcap"]
 
@@ -214,8 +215,7 @@ def write_scan_mcap(
     store = get_typestore(Stores.ROS2_HUMBLE)
     counts: dict[str, int] = {}
     try:
-        p.parent.mkdir(parents=True, exist_ok=True)
-        with p.open("wb") as fh:
+        with replacing_path(p, what="scan bag", error=LogFormatError) as tmp, tmp.open("wb") as fh:
             writer = Writer(fh, compression=CompressionType.LZ4)
             schemas = {}
             for name, msgtype in ((topic, SCAN_TYPE), (joint_topic, _JOINT_TYPE)):

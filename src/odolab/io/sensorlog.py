@@ -546,9 +546,10 @@ def write_sensorlog(
     def f(v: float, digits: int = 6) -> str:
         return f"{v:.{digits}f}"
 
+    from odolab.writing import replacing_file
+
     p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    with p.open("w", newline="", encoding="utf-8") as fh:
+    with replacing_file(p, what="SensorLog", error=ImuLogError, newline="") as fh:
         w = csv.writer(fh)
         w.writerow(WRITTEN_COLUMNS)
         for i in range(n):

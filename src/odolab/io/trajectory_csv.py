@@ -9,8 +9,6 @@ comments); planar poses have ``tz = qx = qy = 0`` and the yaw in the quaternion.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 from typing import Literal, overload
 
@@ -40,19 +38,6 @@ __all__ = [
 
 COLUMNS = ("t", "x", "y", "theta", "heading")
 TUM_COLUMNS = ("t", "tx", "ty", "tz", "qx", "qy", "qz", "qw")
-
-
-@contextmanager
-def _writing(p: Path, what: str) -> Iterator[None]:
-    """Create the folder, and turn a failure to write into one sentence."""
-    try:
-        p.parent.mkdir(parents=True, exist_ok=True)
-        yield
-    except OSError as err:
-        raise LogFormatError(
-            f"{p}: cannot write the {what} ({err.strerror or err}); expected a file name in a "
-            "writable folder"
-        ) from err
 
 
 @overload
@@ -124,9 +109,9 @@ def _write_tum(traj: Trajectory, path: str | Path) -> Path:
     body = csv_lines(
         (traj.t, traj.x, traj.y, zeros, zeros, zeros, np.sin(half), np.cos(half)), sep=" "
     )
-    with _writing(p, "TUM trajectory"):
-        p.write_text(body, encoding="utf-8")
-    return p
+    from odolab.writing import write_text_file
+
+    return write_text_file(p, body, what="TUM trajectory", error=LogFormatError)
 
 
 def read_tum(path: str | Path) -> Trajectory:
