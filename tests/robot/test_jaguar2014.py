@@ -13,6 +13,7 @@ import pytest
 from odolab.errors import ProtocolError
 from odolab.params import PRESETS
 from odolab.robot.clock import RealClock, SimClock
+from odolab.robot.config import RunConfig
 from odolab.robot.errors import RobotUrlError
 from odolab.robot.jaguar2014.board import (
     Board2014Config,
@@ -204,3 +205,46 @@ def test_the_robots_gyro_is_saved_with_the_run_as_a_sensorlog(tmp_path: Path) ->
     # the IMU's yaw turned by what the plant turned (a quarter turn, within the stopping error)
     assert imu.yaw[-1] - imu.yaw[0] == pytest.approx(math.pi / 2, abs=0.15)
     assert imu.yaw_rate is not None and float(imu.yaw_rate.max()) == pytest.approx(1.0, abs=0.1)
+
+
+class _Scripted:
+    """A transport that replays bytes and records what the driver sent."""
+
+    def __init__(self, chunks: list[bytes]) -> None:
+        self.chunks = chunks
+        self.sent: list[bytes] = []
+
+    def send(self, data: bytes) -> None:
+        self.sent.append(data)
+
+    def receive(self) -> list[tuple[bytes, float]]:
+        out = [(c, 1.0) for c in self.chunks]
+        self.chunks = []
+        return out
+
+    def close(self) -> None:
+        pass
+
+
+def test_slip_wrap_unknown_lines_and_the_track_variant() -> None:
+    lines = (
+        b"MM0 C=2147483600:-2147483600\r\nMM1 C=2147483600:-2147483600\r\n"
+        b"MM0 C=-2147483596:2147483596\r\nMM1 C=-2147483606:2147483606\r\n"  # +100 / +90 wrapped
+        b"MM0 C=-2147483596:2147483596\r\nMM1 C=-2147483606:2147483606\r\nMM0 ZZ=1\r\nhello\r\n"
+    )
+    t = _Scripted([lines[:17], lines[17:]])  # split inside a line
+    drv = Jaguar2014Driver(t, SimClock(0.0), Driver2014Config(modulus=None))
+    assert drv.poll() == 3
+    r = drv.latest
+    assert r is not None and (r.left_ticks, r.right_ticks) == (100, 100)
+    assert isinstance(r.link, Jaguar2014Report)
+    assert r.link.front == (100, 100) and r.link.rear == (90, 90) and r.link.slip == (10, 10)
+    assert drv.decode_errors == 2 and drv.stats.link is not None
+    assert drv.stats.link.max_abs_slip == 10
+    # tracks: forward is "-v +v"
+    track = Driver2014Config.from_run(RunConfig(), NOMINAL, "track")
+    t2 = _Scripted([])
+    d2 = Jaguar2014Driver(t2, SimClock(0.0), track)
+    d2.set_wheel_speeds(0.5, 0.5)
+    d2.stop()
+    assert t2.sent == [b"MMW !M -500 500\r\n", b"MMW !M 0 0\r\n"]
