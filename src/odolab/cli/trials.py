@@ -504,9 +504,19 @@ def add_cmd(
             m = _measurement(trial, initial, final, turns, x, y, None)
             trial = dataclasses.replace(trial, measured=m, status=TrialStatus.MEASURED)
         nb.add_trial(trial, create_campaign=create_campaign)
+        _, version = nb.trial_params_version(trial_id)
+    if params_version is not None:
+        chosen = ""
+    elif version == 1 and robot in PRESETS:
+        chosen = f"; parameters {term(robot)} v1 (the preset; give --params-version to choose)"
+    else:
+        chosen = (
+            f"; parameters {term(robot)} v{version} (the robot's latest; give --params-version "
+            "to choose the version it was driven with)"
+        )
     echo(
         f"trial {term(trial_id)} ({trial.command.describe()}) recorded in {db}: "
-        f"{trial.status.value}"
+        f"{trial.status.value}{chosen}"
     )
 
 
