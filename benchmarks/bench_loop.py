@@ -30,9 +30,8 @@ import numpy as np
 from odolab.odometry import Odometry
 from odolab.params import PRESETS
 from odolab.robot.clock import RealClock, set_realtime
-from odolab.robot.jaguar.driver import JaguarDriver, UdpTransport
+from odolab.robot.jaguar.driver import JaguarDriver, UdpTransport, driver_config_for
 from odolab.robot.loop import ControlLoop, LoopStats, timing_stats
-from odolab.robot.session import driver_config_for
 
 NOMINAL = PRESETS["jaguar-lite"]
 
