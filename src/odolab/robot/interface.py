@@ -15,6 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Generic, Protocol, TypeVar
 
+from odolab.robot.clock import Clock
 from odolab.robot.plant import PlantFactory
 from odolab.trajectory import Pose
 
@@ -97,6 +98,53 @@ class Driver(Protocol):
     def close(self) -> None:
         """Stop the robot and release the link (safe to call twice)."""
         ...
+
+
+class _Stoppable(Protocol):
+    """What :func:`confirm_stopped` uses of a driver: its clock, stop, poll and latest."""
+
+    @property
+    def clock(self) -> Clock: ...
+
+    @property
+    def latest(self) -> EncoderReading | None: ...
+
+    def stop(self) -> None: ...
+
+    def poll(self) -> int: ...
+
+
+def confirm_stopped(driver: _Stoppable, timeout: float) -> bool:
+    """The stop rule of every link: send the link's fixed stop every 50 ms until two consecutive
+    readings, both arrived after the first stop, show the same counters; True then, False when
+    ``timeout`` s pass first.
+
+    False means the robot's state is unknown (no data, or the counters still move): the caller
+    must not claim it stopped.
+    """
+    clock = driver.clock
+    t_stop = clock.now()
+    deadline = t_stop + timeout
+    previous: EncoderReading | None = None
+    next_stop = t_stop
+    while True:
+        now = clock.now()
+        if now >= next_stop:
+            driver.stop()
+            next_stop = now + 0.05
+        if driver.poll() > 0:
+            reading = driver.latest
+            assert reading is not None
+            if reading.t >= t_stop:
+                if previous is not None and (previous.left_ticks, previous.right_ticks) == (
+                    reading.left_ticks,
+                    reading.right_ticks,
+                ):
+                    return True
+                previous = reading
+        if now >= deadline:
+            return False
+        clock.sleep_until(min(now + 0.005, deadline, next_stop))
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,7 @@ from odolab.params import RobotParams
 from odolab.robot.clock import Clock
 from odolab.robot.config import CommandMode, RunConfig
 from odolab.robot.errors import NoSensorDataError, RobotConfigError, RobotUrlError
-from odolab.robot.interface import DriverStats, EncoderReading
+from odolab.robot.interface import DriverStats, EncoderReading, confirm_stopped
 from odolab.robot.jaguar.protocol import (
     DES_PC,
     N_CHANNELS,
@@ -388,35 +388,8 @@ class JaguarDriver:
         self.stats.stops_sent += 1
 
     def confirm_stopped(self, timeout: float) -> bool:
-        """Send stop every 50 ms until two consecutive sensor reports, both arrived after the
-        first stop, show the same counters; True then, False when ``timeout`` s pass first.
-
-        False means the robot's state is unknown (no data, or the counters still move): the
-        caller must not claim it stopped.
-        """
-        clock = self.clock
-        t_stop = clock.now()
-        deadline = t_stop + timeout
-        previous: EncoderReading | None = None
-        next_stop = t_stop
-        while True:
-            now = clock.now()
-            if now >= next_stop:
-                self.stop()
-                next_stop = now + 0.05
-            if self.poll() > 0:
-                reading = self._latest
-                assert reading is not None
-                if reading.t >= t_stop:
-                    if previous is not None and (
-                        previous.left_ticks,
-                        previous.right_ticks,
-                    ) == (reading.left_ticks, reading.right_ticks):
-                        return True
-                    previous = reading
-            if now >= deadline:
-                return False
-            clock.sleep_until(min(now + 0.005, deadline, next_stop))
+        """Stop until two readings after the stop agree (:func:`~odolab.robot.interface.confirm_stopped`)."""
+        return confirm_stopped(self, timeout)
 
     def close(self) -> None:
         """Stop the robot and close the transport (safe to call twice)."""

@@ -26,7 +26,7 @@ from odolab.params import RobotParams
 from odolab.robot.clock import Clock
 from odolab.robot.config import RunConfig
 from odolab.robot.errors import NoSensorDataError, RobotConfigError, RobotUrlError
-from odolab.robot.interface import DriverStats, EncoderReading
+from odolab.robot.interface import DriverStats, EncoderReading, confirm_stopped
 from odolab.robot.jaguar2014.protocol import (
     PING,
     POWER_LIMIT,
@@ -434,31 +434,8 @@ class Jaguar2014Driver:
         self.stats.stops_sent += 1
 
     def confirm_stopped(self, timeout: float) -> bool:
-        """Send stop every 50 ms until two consecutive counter reports, both arrived after the
-        first stop, show the same counters; True then, False when ``timeout`` s pass first."""
-        clock = self.clock
-        t_stop = clock.now()
-        deadline = t_stop + timeout
-        previous: EncoderReading | None = None
-        next_stop = t_stop
-        while True:
-            now = clock.now()
-            if now >= next_stop:
-                self.stop()
-                next_stop = now + 0.05
-            if self.poll() > 0:
-                reading = self._latest
-                assert reading is not None
-                if reading.t >= t_stop:
-                    if previous is not None and (previous.left_ticks, previous.right_ticks) == (
-                        reading.left_ticks,
-                        reading.right_ticks,
-                    ):
-                        return True
-                    previous = reading
-            if now >= deadline:
-                return False
-            clock.sleep_until(min(now + 0.005, deadline, next_stop))
+        """Stop until two readings after the stop agree (:func:`~odolab.robot.interface.confirm_stopped`)."""
+        return confirm_stopped(self, timeout)
 
     def headings(self) -> list[tuple[float, float | None, float | None]]:
         """The IMU lines so far as (arrival time, YAW rad, GYRO z in rad/s), the gyro from
