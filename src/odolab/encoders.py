@@ -9,8 +9,9 @@ backward between two consecutive samples is handled. A change whose magnitude ex
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from odolab.errors import EncoderJumpError, LogFormatError
@@ -23,6 +24,19 @@ __all__ = [
     "unwrap_diff",
     "unwrap_ticks",
 ]
+
+if TYPE_CHECKING:
+    from odolab._encoders_jit import unwrap_diff
+
+
+def __getattr__(name: str) -> object:
+    """The compiled :func:`unwrap_diff` (in :mod:`odolab._encoders_jit`), loaded on first use
+    so that importing this module does not import numba."""
+    if name == "unwrap_diff":
+        from odolab._encoders_jit import unwrap_diff
+
+        return unwrap_diff
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def default_max_dticks(modulus: int | None) -> int | None:
@@ -129,19 +143,3 @@ class EncoderUnwrapper:
             )
         self._last = value
         return d
-
-
-@njit(cache=True, inline="always")
-def unwrap_diff(d: int, modulus: int, half: int) -> int:  # pragma: no cover - compiled
-    """Compiled: a raw counter difference ``d`` mapped into [-half, modulus - half)."""
-    # |d| < modulus for counters in range; map d into [-half, modulus - half) without a division
-    if modulus > 0:
-        if d >= modulus - half:
-            d -= modulus
-            if d >= modulus - half:  # raw values outside 0..modulus-1: fall back to modulo
-                d = (d + half) % modulus - half
-        elif d < -half:
-            d += modulus
-            if d < -half:
-                d = (d + half) % modulus - half
-    return d

@@ -15,17 +15,18 @@ the exact circular arc (constant body velocity over the cycle). One small-angle 
 
 :func:`body_motion` and :func:`step_pose` are numba-compiled and inlined into the batch kernels
 (:mod:`odolab.odometry`, :mod:`odolab.sim.physics`); called from Python (streaming odometry, the
-virtual board) they run the same compiled code, so every user agrees to rounding.
+virtual board) they run the same compiled code, so every user agrees to rounding. The compiled
+functions live in :mod:`odolab._kinematics_jit` and are loaded on first use of their names here
+(``from odolab.kinematics import step_pose``), so importing this module does not import numba.
 """
 
 from __future__ import annotations
 
 import math
 from enum import StrEnum
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
 __all__ = [
@@ -42,6 +43,22 @@ __all__ = [
     "wrap",
     "wrap_angle",
 ]
+
+if TYPE_CHECKING:
+    from odolab._kinematics_jit import body_motion, chord, chord_derivative, step_pose, wrap
+
+#: The compiled functions, defined in odolab._kinematics_jit (numba is imported on first use).
+_COMPILED = frozenset({"body_motion", "chord", "chord_derivative", "step_pose", "wrap"})
+
+
+def __getattr__(name: str) -> object:
+    """The compiled functions, loaded on first use (importing them imports numba)."""
+    if name in _COMPILED:
+        from odolab import _kinematics_jit
+
+        return getattr(_kinematics_jit, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 #: Below this |dtheta/2| the arc's chord factor uses its series ``1 - u^2/6`` (error < 1e-17).
 SMALL_ANGLE = 1e-4
@@ -77,73 +94,10 @@ def body_motion_from_wheel_displacements(
     return (ds_right + ds_left) * 0.5, (ds_right - ds_left) / track_width
 
 
-@njit(cache=True, inline="always")
-def chord(dtheta: float, arc: bool) -> float:  # pragma: no cover - compiled
-    """Ratio chord/arc length for one step: 1 (midpoint) or ``sin(u)/u``, ``u = dtheta/2`` (arc)."""
-    if not arc:
-        return 1.0
-    u = 0.5 * dtheta
-    if abs(u) < SMALL_ANGLE:
-        return 1.0 - u * u / 6.0
-    return math.sin(u) / u
-
-
-@njit(cache=True, inline="always")
-def chord_derivative(dtheta: float, arc: bool) -> float:  # pragma: no cover - compiled
-    """d chord / d dtheta: 0 (midpoint) or ``(u cos u - sin u) / (2 u^2)`` (arc, series near 0)."""
-    if not arc:
-        return 0.0
-    u = 0.5 * dtheta
-    if abs(u) < SMALL_ANGLE:
-        return -u / 6.0
-    return 0.5 * (u * math.cos(u) - math.sin(u)) / (u * u)
-
-
-@njit(cache=True, inline="always")
-def body_motion(  # pragma: no cover - compiled
-    w_left: float,
-    w_right: float,
-    e_left: float,
-    e_right: float,
-    denominator: float,
-    lateral: float,
-    ds_left: float,
-    ds_right: float,
-) -> tuple[float, float, float]:
-    """(d_forward, d_lateral, d_theta) from wheel displacements and a model's six coefficients.
-
-    The coefficients are :class:`odolab.models.ModelCoefficients` in order; for the differential
-    drive this is eqs. (3.3), (3.4) with the same floating-point operations."""
-    dth = (e_right * ds_right - e_left * ds_left) / denominator
-    return w_left * ds_left + w_right * ds_right, lateral * dth, dth
-
-
-@njit(cache=True, inline="always")
-def step_pose(  # pragma: no cover - compiled
-    x: float, y: float, heading: float, forward: float, lateral: float, dtheta: float, arc: bool
-) -> tuple[float, float, float]:
-    """The pose after one cycle's body motion (heading unwrapped): eqs. (3.5), (3.6) generalised."""
-    c = chord(dtheta, arc)
-    m = heading + 0.5 * dtheta
-    cs = math.cos(m)
-    sn = math.sin(m)
-    fx = forward * c
-    fy = lateral * c
-    return x + (fx * cs - fy * sn), y + (fx * sn + fy * cs), heading + dtheta
-
-
-@njit(cache=True, inline="always")
-def wrap(angle: float) -> float:  # pragma: no cover - compiled
-    """Compiled :func:`wrap_angle` for one float."""
-    a = angle + math.pi
-    w = a - _TWO_PI * math.floor(a / _TWO_PI) - math.pi
-    if w <= -math.pi:
-        w += 2.0 * math.pi
-    return w
-
-
 def chord_factor(dtheta: float, method: Method | str) -> float:
     """Ratio chord/arc length for one step: 1 for midpoint, ``sin(u)/u`` (u = dtheta/2) for arc."""
+    from odolab._kinematics_jit import chord
+
     return float(chord(float(dtheta), Method(method) is Method.ARC))
 
 
@@ -160,6 +114,8 @@ def pose_step(
 
     ``ds`` is the forward motion of the body, ``lateral`` its sideways motion (models with a
     lateral ICR offset), ``dtheta`` its heading change; all for one cycle."""
+    from odolab._kinematics_jit import step_pose
+
     nx, ny, nh = step_pose(
         float(x), float(y), float(heading), float(ds), float(lateral), float(dtheta),
         Method(method) is Method.ARC,

@@ -6,7 +6,10 @@ then the heading update. Both keep the unwrapped ``heading`` as state and report
 its wrap to (-pi, pi]; they perform the same floating-point operations in the same order, so
 their poses agree to rounding (far better than 1e-9).
 
-The batch version is compiled (numba): see :func:`integrate` for its three passes.
+The batch version is compiled (numba, :mod:`odolab._odometry_kernels`): see :func:`integrate`
+for its three passes. A log shorter than ``NUMPY_MAX_SAMPLES`` takes the same passes in numpy
+instead, so that a short run (a command on a small file) never loads numba (about half a second);
+the two agree to rounding (tests/core/test_odometry_numpy_path.py).
 """
 
 from __future__ import annotations
@@ -15,23 +18,12 @@ import math
 import threading
 from typing import TYPE_CHECKING
 
-import numba
 import numpy as np
-from numba import njit, prange
 from numpy.typing import ArrayLike, NDArray
 
-from odolab._fastmath import SINCOS_LIMIT, sincos_poly
-from odolab.encoders import EncoderUnwrapper, as_tick_array, default_max_dticks, unwrap_diff
+from odolab.encoders import EncoderUnwrapper, as_tick_array, default_max_dticks
 from odolab.errors import EncoderJumpError, LogFormatError, OdolabError
-from odolab.kinematics import (
-    SMALL_ANGLE,
-    Method,
-    body_motion,
-    chord,
-    step_pose,
-    wrap,
-    wrap_angle,
-)
+from odolab.kinematics import SMALL_ANGLE, Method, wrap_angle
 from odolab.models.slip import SlipModel
 from odolab.params import NoiseParams, RobotParams
 from odolab.trajectory import Pose, Trajectory, check_times
@@ -49,7 +41,6 @@ __all__ = [
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
-Coef = tuple[float, float, float, float, float, float]
 _NO_LIMIT = -1
 
 
@@ -66,194 +57,10 @@ def _check_max_dticks(max_dticks: int | None) -> None:
 
 #: From this many samples on, the position pass runs on several threads.
 PARALLEL_MIN_SAMPLES = 200_000
-
-
-@njit(cache=True, inline="always")
-def _one_step(  # pragma: no cover - compiled
-    dl: float, dr: float, kl: float, kr: float, c: Coef, arc: bool, hh: float
-) -> tuple[float, float, float, float]:
-    """Phase A for one sample: eqs. (3.1)-(3.4) through the model, the chord, the heading.
-
-    Returns (forward chord, sideways chord, mid-cycle heading, new heading): a pure function
-    of values; the loops store the results. (Given the arrays to store into, the same step
-    ran 9x slower.) ``c`` is the model's coefficients as a tuple, unpacked once per loop."""
-    fwd, side, dth = body_motion(c[0], c[1], c[2], c[3], c[4], c[5], dl * kl, dr * kr)
-    ch = chord(dth, arc)
-    return fwd * ch, side * ch, hh + 0.5 * dth, hh + dth
-
-
-@njit(cache=True, inline="always")
-def _first_step(h0: float, heading: F64, step: F64, lat: F64, mid: F64) -> None:  # pragma: no cover
-    heading[0] = h0
-    step[0] = 0.0
-    mid[0] = h0
-    if lat.shape[0] > 0:
-        lat[0] = 0.0
-
-
-@njit(cache=True)
-def _steps_from_ticks(  # pragma: no cover - compiled
-    t: F64,
-    left: I64,
-    right: I64,
-    modulus: int,
-    max_d: int,
-    kl: float,
-    kr: float,
-    c: F64,
-    arc: bool,
-    h0: float,
-    tout: F64,
-    heading: F64,
-    step: F64,
-    lat: F64,
-    mid: F64,
-) -> tuple[int, int, int, float]:
-    """Phase A (sequential, no trigonometry): time check, unwrap, the model, the heading.
-
-    Returns (code, index, value, largest |mid|); code 0 = ok, 1/2 = left/right jump,
-    3 = time not finite, 4 = time goes backwards."""
-    n = left.shape[0]
-    half = modulus // 2
-    hh = h0
-    big = 0.0
-    cc = (c[0], c[1], c[2], c[3], c[4], c[5])
-    has_lat = lat.shape[0] > 0
-    if n > 0:
-        if not math.isfinite(t[0]):
-            return 3, 0, 0, big
-        tout[0] = t[0]
-        _first_step(h0, heading, step, lat, mid)
-    for i in range(1, n):
-        ti = t[i]
-        if not math.isfinite(ti):
-            return 3, i, 0, big
-        if ti < t[i - 1]:
-            return 4, i, 0, big
-        tout[i] = ti
-        dl = unwrap_diff(left[i] - left[i - 1], modulus, half)
-        dr = unwrap_diff(right[i] - right[i - 1], modulus, half)
-        if max_d >= 0:
-            if abs(dl) > max_d:
-                return 1, i, dl, big
-            if abs(dr) > max_d:
-                return 2, i, dr, big
-        fwd, side, m, hh = _one_step(float(dl), float(dr), kl, kr, cc, arc, hh)
-        step[i] = fwd  # stored here: passed the arrays, a helper made this loop 7x slower
-        if has_lat:
-            lat[i] = side
-        mid[i] = m
-        heading[i] = hh
-        big = max(big, abs(m))
-    return 0, -1, 0, big
-
-
-@njit(cache=True, inline="always")
-def _rotate_one(
-    i: int, step: F64, mid: F64, heading: F64, theta: F64
-) -> None:  # pragma: no cover - compiled
-    sn, cs = sincos_poly(mid[i])
-    c = step[i]
-    step[i] = c * cs
-    mid[i] = c * sn
-    theta[i] = wrap(heading[i])
-
-
-@njit(cache=True)
-def _rotate_steps(
-    step: F64, mid: F64, heading: F64, theta: F64
-) -> None:  # pragma: no cover - compiled
-    """Phase B: step -> (dx, dy) in place, theta from heading. Independent per sample."""
-    for i in range(step.shape[0]):
-        _rotate_one(i, step, mid, heading, theta)
-
-
-@njit(cache=True, parallel=True)
-def _rotate_steps_parallel(
-    step: F64, mid: F64, heading: F64, theta: F64
-) -> None:  # pragma: no cover - compiled
-    """Phase B on all threads."""
-    for i in prange(step.shape[0]):
-        _rotate_one(i, step, mid, heading, theta)
-
-
-@njit(cache=True)
-def _rotate_steps_libm(
-    step: F64, mid: F64, heading: F64, theta: F64
-) -> None:  # pragma: no cover - compiled
-    """Phase B with libm's sin/cos, for headings beyond SINCOS_LIMIT."""
-    for i in range(step.shape[0]):
-        c = step[i]
-        m = mid[i]
-        step[i] = c * math.cos(m)
-        mid[i] = c * math.sin(m)
-        theta[i] = wrap(heading[i])
-
-
-@njit(cache=True)
-def _rotate_steps_lateral(
-    step: F64, lat: F64, mid: F64, heading: F64, theta: F64, poly: bool
-) -> None:  # pragma: no cover - compiled
-    """Phase B for models with sideways motion: (forward, lateral) chords -> (dx, dy)."""
-    for i in range(step.shape[0]):
-        m = mid[i]
-        if poly:
-            sn, cs = sincos_poly(m)
-        else:
-            sn = math.sin(m)
-            cs = math.cos(m)
-        fx = step[i]
-        fy = lat[i]
-        step[i] = fx * cs - fy * sn
-        mid[i] = fx * sn + fy * cs
-        theta[i] = wrap(heading[i])
-
-
-@njit(cache=True)
-def _accumulate(dx: F64, dy: F64, x0: float, y0: float) -> None:  # pragma: no cover - compiled
-    """Phase C: positions as running sums of the steps, in place (the streaming order)."""
-    n = dx.shape[0]
-    xx = x0
-    yy = y0
-    for i in range(n):
-        if i > 0:
-            xx = xx + dx[i]
-            yy = yy + dy[i]
-        dx[i] = xx
-        dy[i] = yy
-
-
-@njit(cache=True)
-def _steps_from_dticks(  # pragma: no cover - compiled
-    dleft: F64,
-    dright: F64,
-    kl: float,
-    kr: float,
-    c: F64,
-    arc: bool,
-    h0: float,
-    heading: F64,
-    step: F64,
-    lat: F64,
-    mid: F64,
-) -> float:
-    """Phase A for per-cycle increments (``dleft[0]``, ``dright[0]`` ignored)."""
-    n = dleft.shape[0]
-    hh = h0
-    big = 0.0
-    cc = (c[0], c[1], c[2], c[3], c[4], c[5])
-    has_lat = lat.shape[0] > 0
-    if n > 0:
-        _first_step(h0, heading, step, lat, mid)
-    for i in range(1, n):
-        fwd, side, m, hh = _one_step(dleft[i], dright[i], kl, kr, cc, arc, hh)
-        step[i] = fwd  # stored here: passed the arrays, a helper made this loop 7x slower
-        if has_lat:
-            lat[i] = side
-        mid[i] = m
-        heading[i] = hh
-        big = max(big, abs(m))
-    return big
+#: Logs shorter than this are integrated in numpy (no compiled kernel to load: numba and the
+#: cached kernels cost about 0.5 s per process), longer ones by the compiled passes. Chosen by
+#: size alone, so that one log always takes the same path.
+NUMPY_MAX_SAMPLES = 2048
 
 
 def _model_arrays(params: RobotParams, n: int) -> tuple[F64, F64]:
@@ -304,6 +111,111 @@ def _slip_steps(
     return float(np.max(np.abs(mid)))
 
 
+def _use_kernels(n: int) -> bool:
+    """Whether a log of ``n`` samples takes the compiled passes (else the numpy ones)."""
+    return n >= NUMPY_MAX_SAMPLES
+
+
+def _check_ticks(t: F64, left: I64, right: I64, modulus: int, max_d: int) -> tuple[int, int, int]:
+    """The compiled phase A's checks in numpy: (code, index, counts) of the first problem in
+    sample order, the same codes (0 ok, 1/2 left/right jump, 3 time not finite, 4 time goes
+    backwards) and, at one sample, the same order of checks."""
+    n = left.size
+    if n == 0:
+        return 0, -1, 0
+    dl, dr = np.diff(left), np.diff(right)
+    if modulus > 0:
+        half = modulus // 2
+        dl = (dl + half) % modulus - half
+        dr = (dr + half) % modulus - half
+    first: tuple[int, int, int] | None = None
+    flags = (
+        (3, ~np.isfinite(t), None),
+        (4, np.concatenate(([False], t[1:] < t[:-1])), None),
+        (1, np.concatenate(([False], np.abs(dl) > max_d)) if max_d >= 0 else None, dl),
+        (2, np.concatenate(([False], np.abs(dr) > max_d)) if max_d >= 0 else None, dr),
+    )
+    for code, flag, d in flags:
+        if flag is None or not flag.any():
+            continue
+        i = int(np.argmax(flag))
+        if first is None or i < first[1]:  # ties: the earlier check wins, as in the loop
+            first = (code, i, 0 if d is None else int(d[i - 1]))
+    return first if first is not None else (0, -1, 0)
+
+
+def _numpy_steps(
+    dl: F64,
+    dr: F64,
+    params: RobotParams,
+    coef: F64,
+    arc: bool,
+    h0: float,
+    heading: F64,
+    step: F64,
+    lat: F64,
+    mid: F64,
+) -> None:
+    """The compiled phase A (without its checks) in numpy: the same operations in the same
+    order (``dl[0]``, ``dr[0]`` ignored; the heading summed in sample order)."""
+    n = dl.size
+    if n == 0:
+        return
+    w_l, w_r, e_l, e_r, den, lateral = (float(v) for v in coef)
+    dsl = dl * params.left_metres_per_tick
+    dsr = dr * params.right_metres_per_tick
+    dth = (e_r * dsr - e_l * dsl) / den
+    fwd = w_l * dsl + w_r * dsr
+    if arc:
+        u = 0.5 * dth
+        small = np.abs(u) < SMALL_ANGLE
+        safe = np.where(small, 1.0, u)
+        ch = np.where(small, 1.0 - u * u / 6.0, np.sin(safe) / safe)
+    else:
+        ch = np.ones(n)
+    dth[0] = h0
+    heading[:] = np.cumsum(dth)
+    mid[0] = h0
+    mid[1:] = heading[:-1] + 0.5 * dth[1:]
+    step[:] = fwd * ch
+    step[0] = 0.0
+    if lat.size:
+        lat[:] = (lateral * dth) * ch
+        lat[0] = 0.0
+
+
+def _positions(
+    x: F64,
+    y: F64,
+    lat: F64,
+    heading: F64,
+    theta: F64,
+    x0: float,
+    y0: float,
+    largest_mid: float,
+    parallel: int | None,
+    kernels: bool,
+) -> None:
+    """Phases B and C: chord lengths (in x; sideways ones in lat) at mid headings (in y) into
+    positions, compiled or in numpy (the same operations, numpy's sin and cos)."""
+    if kernels:
+        from odolab._odometry_kernels import _finish
+
+        _finish(x, y, lat, heading, theta, x0, y0, largest_mid, parallel, PARALLEL_MIN_SAMPLES)
+        return
+    if x.size == 0:
+        return
+    sn, cs = np.sin(y), np.cos(y)
+    if lat.size:
+        dx, dy = x * cs - lat * sn, x * sn + lat * cs
+    else:
+        dx, dy = x * cs, x * sn
+    theta[:] = wrap_angle(heading)
+    dx[0], dy[0] = x0, y0
+    np.cumsum(dx, out=x)
+    np.cumsum(dy, out=y)
+
+
 def _unwrapped(ticks: I64, modulus: int | None) -> F64:
     """Per-sample counter increments (``[0]`` = 0), rollover corrected as the compiled pass
     does (call after it has checked the jumps)."""
@@ -352,9 +264,31 @@ def integrate(
     Three compiled passes: (A) sequentially, time check, rollover, eqs. (3.1)-(3.4) and the
     heading; (B) independently per sample, the position step (3.5)/(3.6), on ``parallel``
     threads for long logs (default numba's thread count; ``PARALLEL_MIN_SAMPLES`` or more);
-    (C) the running sums of the steps, in the streaming order. Results equal
-    :class:`Odometry`'s to rounding.
+    (C) the running sums of the steps, in the streaming order. A log shorter than
+    ``NUMPY_MAX_SAMPLES`` takes the same passes in numpy (no compiled code to load). Results
+    equal :class:`Odometry`'s to rounding.
     """
+    return _integrate(
+        t, left_ticks, right_ticks, params, method, start=start, max_dticks=max_dticks,
+        source=source, parallel=parallel, compiled=None,
+    )  # fmt: skip
+
+
+def _integrate(
+    t: ArrayLike,
+    left_ticks: ArrayLike,
+    right_ticks: ArrayLike,
+    params: RobotParams,
+    method: Method | str,
+    *,
+    start: tuple[float, float, float] | None,
+    max_dticks: int | None,
+    source: str,
+    parallel: int | None,
+    compiled: bool | None,
+) -> Trajectory:
+    """:func:`integrate`; ``compiled`` None: the compiled passes for long logs (see
+    :func:`_use_kernels`), True: always (:func:`warm_up`), False: never (tests)."""
     m = Method(method)
     left = as_tick_array(left_ticks, "left_ticks")
     right = as_tick_array(right_ticks, "right_ticks")
@@ -370,23 +304,39 @@ def integrate(
     n = left.size
     tt, x, y, theta, heading = (np.empty(n) for _ in range(5))
     coef, lat = _model_arrays(params, n)
-    code, i, d, largest = _steps_from_ticks(
-        tin,
-        left,
-        right,
-        params.encoder_modulus or 0,
-        _NO_LIMIT if max_dticks is None else int(max_dticks),
-        params.left_metres_per_tick,
-        params.right_metres_per_tick,
-        coef,
-        m is Method.ARC,
-        h0,
-        tt,
-        heading,
-        x,
-        lat,
-        y,
-    )
+    kernels = _use_kernels(n) if compiled is None else compiled
+    limit = _NO_LIMIT if max_dticks is None else int(max_dticks)
+    if not kernels:
+        code, i, d = _check_ticks(tin, left, right, params.encoder_modulus or 0, limit)
+        if code == 0:
+            tt[:] = tin
+            if params.model.kind != "slip":
+                _numpy_steps(
+                    _unwrapped(left, params.encoder_modulus),
+                    _unwrapped(right, params.encoder_modulus), params, coef,
+                    m is Method.ARC, h0, heading, x, lat, y,
+                )  # fmt: skip
+        largest = 0.0
+    else:
+        from odolab._odometry_kernels import _steps_from_ticks
+
+        code, i, d, largest = _steps_from_ticks(
+            tin,
+            left,
+            right,
+            params.encoder_modulus or 0,
+            limit,
+            params.left_metres_per_tick,
+            params.right_metres_per_tick,
+            coef,
+            m is Method.ARC,
+            h0,
+            tt,
+            heading,
+            x,
+            lat,
+            y,
+        )
     if code == 0 and params.model.kind == "slip":
         lat = np.empty(n)
         largest = _slip_steps(
@@ -394,7 +344,7 @@ def integrate(
             params, m is Method.ARC, h0, heading, x, lat, y,
         )  # fmt: skip
     if code == 0:
-        _finish(x, y, lat, heading, theta, x0, y0, largest, parallel)
+        _positions(x, y, lat, heading, theta, x0, y0, largest, parallel, kernels)
     if code in (1, 2):
         name = ("left_ticks", "right_ticks")[code - 1]
         raise EncoderJumpError(
@@ -441,31 +391,6 @@ def integrate_with_covariance(
     return traj, cov
 
 
-def _finish(
-    x: NDArray[np.float64],
-    y: NDArray[np.float64],
-    lat: NDArray[np.float64],
-    heading: NDArray[np.float64],
-    theta: NDArray[np.float64],
-    x0: float,
-    y0: float,
-    largest_mid: float,
-    parallel: int | None,
-) -> None:
-    """Phases B and C: turn chord lengths (in x; sideways ones in lat) at mid headings (in y)
-    into positions."""
-    threads = numba.get_num_threads() if parallel is None else max(1, int(parallel))
-    if lat.size:
-        _rotate_steps_lateral(x, lat, y, heading, theta, largest_mid < SINCOS_LIMIT)
-    elif largest_mid >= SINCOS_LIMIT:
-        _rotate_steps_libm(x, y, heading, theta)
-    elif threads > 1 and x.size >= PARALLEL_MIN_SAMPLES:
-        _rotate_steps_parallel(x, y, heading, theta)
-    else:
-        _rotate_steps(x, y, heading, theta)
-    _accumulate(x, y, x0, y0)
-
-
 def integrate_increments(
     t: ArrayLike,
     dticks_left: ArrayLike,
@@ -496,10 +421,16 @@ def integrate_increments(
     n = dl.size
     x, y, theta, heading = (np.empty(n) for _ in range(4))
     coef, lat = _model_arrays(params, n)
+    kernels = _use_kernels(n)
     if params.model.kind == "slip":
         lat = np.empty(n)
         largest = _slip_steps(tt, dl, dr, params, m is Method.ARC, h0, heading, x, lat, y)
+    elif not kernels:
+        _numpy_steps(dl, dr, params, coef, m is Method.ARC, h0, heading, x, lat, y)
+        largest = 0.0
     else:
+        from odolab._odometry_kernels import _steps_from_dticks
+
         largest = _steps_from_dticks(
             dl,
             dr,
@@ -513,7 +444,7 @@ def integrate_increments(
             lat,
             y,
         )
-    _finish(x, y, lat, heading, theta, x0, y0, largest, parallel)
+    _positions(x, y, lat, heading, theta, x0, y0, largest, parallel, kernels)
     return Trajectory(tt, x, y, theta, heading)
 
 
@@ -523,7 +454,8 @@ def warm_up(
     """Load (or compile) the batch kernels for these parameters on a background thread.
 
     Numba's first call costs about half a second (its own imports and the cached machine code);
-    a command that reads a log first can start this, read (the readers release the lock Python
+    a command that reads a long log (``NUMPY_MAX_SAMPLES`` or more: a shorter one is integrated
+    in numpy and needs no kernel) first can start this, read (the readers release the lock Python
     holds), and integrate when the read is done. Errors are left to the real call, which meets
     them again."""
 
@@ -531,10 +463,12 @@ def warm_up(
         t = np.array([0.0, 0.05])
         ticks = np.array([0, 1], dtype=np.int64)
         try:
+            _integrate(
+                t, ticks, ticks, params, method, start=None, max_dticks=None,
+                source="warm-up", parallel=None, compiled=True,
+            )  # fmt: skip
             if covariance:
                 integrate_with_covariance(t, ticks, ticks, params, method)
-            else:
-                integrate(t, ticks, ticks, params, method)
         except Exception:  # the real call meets it again and reports it
             pass
 
@@ -570,6 +504,13 @@ class Odometry:
         self._kl = params.left_metres_per_tick
         self._kr = params.right_metres_per_tick
         self._coef = params.coefficients
+        from odolab._kinematics_jit import (
+            body_motion,
+            step_pose,
+        )  # numba: loaded here, not on import
+
+        self._body_motion = body_motion
+        self._step_pose = step_pose
         self._slip = params.model if isinstance(params.model, SlipModel) else None
         self._cov: CovarianceStepper | None = None
         if covariance:  # needs params.noise; imported here: the plain path stays as it was
@@ -659,10 +600,10 @@ class Odometry:
             if self._cov is not None:
                 self._cov.step(self._h, dsl, dsr)
             if self._slip is None:
-                fwd, side, dth = body_motion(*self._coef, dsl, dsr)
+                fwd, side, dth = self._body_motion(*self._coef, dsl, dsr)
             else:
                 fwd, side, dth = self._slip.body_motion(dsl, dsr, dt, self.params.track_width)
-            self._x, self._y, self._h = step_pose(
+            self._x, self._y, self._h = self._step_pose(
                 self._x, self._y, self._h, fwd, side, dth, self._arc
             )
             self.cycles += 1

@@ -326,9 +326,10 @@ def integrate_log(req: OdometryRequest, progress: Progress | None = None) -> Odo
         )  # fmt: skip
         return OdometryOutcome(res.rows, req.output, res.final, req.params)
     from odolab.io import read_encoder_csv, write_trajectory
-    from odolab.odometry import integrate, integrate_with_covariance, warm_up
+    from odolab.odometry import NUMPY_MAX_SAMPLES, integrate, integrate_with_covariance, warm_up
 
-    warm_up(robot, req.method, covariance=req.covariance)  # kernels load while the log is read
+    if req.covariance or _may_have_rows(req.log, NUMPY_MAX_SAMPLES):
+        warm_up(robot, req.method, covariance=req.covariance)  # they load while the log is read
     enc = read_encoder_csv(req.log, modulus=robot.encoder_modulus)
     args = (enc.t, enc.left_ticks, enc.right_ticks, robot, req.method)
     cov = None
@@ -347,6 +348,15 @@ def integrate_log(req: OdometryRequest, progress: Progress | None = None) -> Odo
 
         write_columns(req.output, OdometryChunk(traj, cov).columns(), "trajectory table")
     return OdometryOutcome(len(traj), req.output, traj.final, req.params)
+
+
+def _may_have_rows(path: Path, rows: int) -> bool:
+    """Whether a CSV file may hold ``rows`` rows or more (each takes 6 bytes or more: ``0,0,0``
+    and a line end), so that a short log does not load the compiled kernels it will not use."""
+    try:
+        return path.stat().st_size >= 6 * rows
+    except OSError:  # the reader reports it
+        return True
 
 
 def _integrate_run(req: OdometryRequest) -> OdometryOutcome:
