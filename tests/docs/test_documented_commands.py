@@ -66,6 +66,16 @@ SKIP: dict[tuple[str, str], str] = {
         "needs the real Jaguar at 192.168.0.60"
     ),
     ("docs/robot.md", "odolab robot sim-server"): "a server that runs until Ctrl-C",
+    ("docs/robot.md", "odolab robot drive --distance 1 --robot tcp://192.168.0.60"): (
+        "needs the real Jaguar 4x4 at 192.168.0.60"
+    ),
+    ("docs/robot.md", "odolab robot rotate --turns 1 --robot 'tcp://192.168.0.60"): (
+        "needs the real tracked Jaguar at 192.168.0.60"
+    ),
+    ("docs/robot.md", "odolab robot square --side 1 --robot tcp://127.0.0.1:10001"): (
+        "needs the 2014 sim-server of the line before it running; tests/robot/test_safety_2014.py "
+        "drives the same commands against it"
+    ),
     ("docs/robot.md", "odolab robot rotate --turns 1 --robot udp://127.0.0.1:10001"): (
         "needs the sim-server of the line before it running"
     ),
@@ -317,6 +327,12 @@ def test_documented_commands_run_as_written(doc: str, tmp_path: Path) -> None:
             continue
         if _skip_reason(doc, line):
             continue
+        # a test sends traffic only to this machine: a documented robot address elsewhere (a
+        # real board on the robot's network) must be in SKIP, never tried
+        hosts = re.findall(r"(?:udp|tcp)://\[?([^\]:/?'\"\s]+)", line)
+        assert all(h in ("localhost", "::1") or h.startswith("127.") for h in hosts), (
+            f"{doc}: {line!r} names a robot off this machine; add it to SKIP"
+        )
         stdin = next((s for (d, st), s in STDIN.items() if d == doc and line.startswith(st)), None)
         proc = subprocess.run(
             ["bash", "-c", "; ".join([*assignments, line])],
