@@ -30,6 +30,7 @@ from odolab.robot.loop import ControlLoop, CycleInfo
 from odolab.robot.motions import Straight
 from odolab.robot.plant import IdealPlant
 from odolab.robot.session import (
+    OPTIONAL_RUN_FILES,
     RUN_FILES,
     check_run_folder,
     keep_run,
@@ -228,7 +229,7 @@ def test_out_below_a_file_is_refused_before_anything_is_sent(
     assert not db.exists()
 
 
-@pytest.mark.parametrize("name", RUN_FILES)
+@pytest.mark.parametrize("name", (*RUN_FILES, *OPTIONAL_RUN_FILES))
 def test_out_with_a_folder_in_place_of_a_run_file_is_refused(
     tmp_path: Path, listener: socket.socket, capsys: pytest.CaptureFixture[str], name: str
 ) -> None:

@@ -42,6 +42,7 @@ from odolab.trials import Command, MotionKind, Trial, TrialStatus
 from odolab.writing import write_text_file
 
 __all__ = [
+    "OPTIONAL_RUN_FILES",
     "RUN_FILES",
     "AbortReport",
     "RobotRun",
@@ -55,6 +56,8 @@ __all__ = [
 
 #: The files a run folder gets, in the order they are written (run.json last).
 RUN_FILES = ("encoders.csv", "predicted.csv", "run.json")
+#: Files a run writes when its link has them (the 2014 Jaguar's gyro), guarded the same way.
+OPTIONAL_RUN_FILES = ("imu.csv",)
 
 
 @dataclass(frozen=True, eq=False)
@@ -357,7 +360,7 @@ def check_run_folder(folder: str | Path) -> Path:
     if not base.is_dir():
         where = "is a file" if base == out else f"is below {base}, a file"
         raise RunFolderError(f"{out}: {where}; expected a folder for the run (--out)")
-    in_the_way = [n for n in RUN_FILES if os.path.lexists(out / n)]
+    in_the_way = [n for n in (*RUN_FILES, *OPTIONAL_RUN_FILES) if os.path.lexists(out / n)]
     if (out / "run.json").is_file():
         raise RunFolderError(
             f"{out}: holds an earlier run (run.json); a run folder is never overwritten, "
