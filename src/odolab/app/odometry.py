@@ -262,6 +262,8 @@ class OdometryOutcome:
     output: Path
     final: Pose
     params: ParamsChoice
+    #: what the user should know of the result (where the first-order covariance stops holding)
+    notes: tuple[str, ...] = ()
 
     def describe(self) -> str:
         e = self.final
@@ -347,7 +349,13 @@ def integrate_log(req: OdometryRequest, progress: Progress | None = None) -> Odo
         from odolab.io.tabular import write_columns
 
         write_columns(req.output, OdometryChunk(traj, cov).columns(), "trajectory table")
-    return OdometryOutcome(len(traj), req.output, traj.final, req.params)
+    notes: tuple[str, ...] = ()
+    if cov is not None:
+        from odolab.uncertainty import first_order_note
+
+        note = first_order_note(traj, cov)
+        notes = (note,) if note else ()
+    return OdometryOutcome(len(traj), req.output, traj.final, req.params, notes)
 
 
 def _may_have_rows(path: Path, rows: int) -> bool:

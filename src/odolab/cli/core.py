@@ -161,6 +161,8 @@ def odometry_cmd(
     else:
         outcome = integrate_log(req)
     echo(outcome.describe())
+    for note in outcome.notes:
+        echo(f"note: {note}")
 
 
 @params_app.command("show")
