@@ -10,6 +10,7 @@ size and speed of a motion. The bounds are in :data:`BOUNDS` (and docs/robot.md,
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, fields
 from enum import StrEnum
 
@@ -24,6 +25,7 @@ __all__ = [
     "RunConfig",
     "check_bound",
     "check_motion",
+    "check_signs",
 ]
 
 
@@ -140,11 +142,7 @@ class RunConfig:
                 f"--left-channel and --right-channel are both {self.left_channel}; expected one "
                 "track on channel 0 and the other on channel 1"
             )
-        for name in _SIGNS:
-            if getattr(self, name) not in (1, -1) or isinstance(getattr(self, name), bool):
-                raise RobotConfigError(
-                    f"{_option(name)} is {getattr(self, name)!r}; expected 1 or -1"
-                )
+        check_signs(self, _SIGNS, label=_option)
         period = 1.0 / self.rate
         if self.watchdog < 2.0 * period:
             raise RobotConfigError(
@@ -184,6 +182,15 @@ MOTION_BOUNDS: dict[str, Bound] = {
     "--turns": Bound("--turns", 0.0, 100.0, "turns (absolute value, not 0)", lo_open=True),
     "--degrees": Bound("--degrees", 0.0, 36000.0, "degrees (absolute value, not 0)", lo_open=True),
 }
+
+
+def check_signs(obj: object, names: tuple[str, ...], *, label: Callable[[str], str] = str) -> None:
+    """Each of ``obj``'s attributes ``names`` is a motor or encoder sign: 1 or -1 (not a bool);
+    else one sentence naming it (as ``label(name)``: an option, a field)."""
+    for name in names:
+        value = getattr(obj, name)
+        if value not in (1, -1) or isinstance(value, bool):
+            raise RobotConfigError(f"{label(name)} is {value!r}; expected 1 or -1")
 
 
 def check_motion(command: Command, config: RunConfig, params: RobotParams) -> None:

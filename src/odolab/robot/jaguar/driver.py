@@ -23,7 +23,7 @@ from urllib.parse import urlparse
 from odolab.errors import ProtocolError, RobotLinkError
 from odolab.params import RobotParams
 from odolab.robot.clock import Clock
-from odolab.robot.config import CommandMode, RunConfig
+from odolab.robot.config import CommandMode, RunConfig, check_signs
 from odolab.robot.errors import NoSensorDataError, RobotConfigError, RobotUrlError
 from odolab.robot.interface import DriverStats, EncoderReading, confirm_stopped
 from odolab.robot.jaguar.protocol import (
@@ -194,14 +194,15 @@ class ChannelMap:
                 f"channels left={self.left} right={self.right}: expected 0 and 1, one each "
                 "(the motor sensor packet reports encoders of motors 0 and 1 only)"
             )
-        for name in (
-            "left_encoder_sign",
-            "right_encoder_sign",
-            "left_motor_sign",
-            "right_motor_sign",
-        ):
-            if getattr(self, name) not in (1, -1):
-                raise RobotConfigError(f"{name} is {getattr(self, name)!r}, expected 1 or -1")
+        check_signs(
+            self,
+            (
+                "left_encoder_sign",
+                "right_encoder_sign",
+                "left_motor_sign",
+                "right_motor_sign",
+            ),
+        )
 
 
 @dataclass(frozen=True)

@@ -24,7 +24,7 @@ from urllib.parse import parse_qs, urlparse
 
 from odolab.params import RobotParams
 from odolab.robot.clock import Clock
-from odolab.robot.config import RunConfig
+from odolab.robot.config import RunConfig, check_signs
 from odolab.robot.errors import NoSensorDataError, RobotConfigError, RobotUrlError
 from odolab.robot.interface import DriverStats, EncoderReading, confirm_stopped
 from odolab.robot.jaguar2014.protocol import (
@@ -183,14 +183,15 @@ class Driver2014Config:
     gyro_lsb_per_deg_s: float = 14.375  #: IMU GYRO units per deg/s (TRI's unit; unknown for yours)
 
     def __post_init__(self) -> None:
-        for name in (
-            "left_command_sign",
-            "right_command_sign",
-            "left_encoder_sign",
-            "right_encoder_sign",
-        ):
-            if getattr(self, name) not in (1, -1):
-                raise RobotConfigError(f"{name} is {getattr(self, name)!r}, expected 1 or -1")
+        check_signs(
+            self,
+            (
+                "left_command_sign",
+                "right_command_sign",
+                "left_encoder_sign",
+                "right_encoder_sign",
+            ),
+        )
         for name in ("max_wheel_speed", "ping_interval", "connect_timeout", "gyro_lsb_per_deg_s"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
