@@ -1,0 +1,375 @@
+"""Issue 29's goals on simulators that odolab did not write (:mod:`.independent_sims`).
+
+odolab is run on their files the way a user runs it: ``odolab calibrate compare`` (training: the
+60 s exploration; held out: the square, arcs, spins and mixed runs) and ``odolab calibrate lsq
+--model diff/icr/slip`` on the exploration, whose parameters files give the held-out end-point
+errors (odometry from the ground truth's first pose, end against end) and the slip model's NEES.
+
+Measured (held-out end-point error in m, mean over the four held-out runs; "n/i": the ICR model
+refused as not identifiable; slip/best: slip over the best of diff, extended, icr; floor: the
+same runs' end points with and without the simulator's noise, what no model can predict;
+``pytest -s`` prints the table, the lsq files' errors and the NEES):
+
+    sim                seed  diff   extended  icr    slip   slip/best  floor  recommends
+    icr-speed             1  1.635  1.635     n/i    0.236  0.14       0.304  slip
+    icr-speed             2  2.084  2.084     n/i    0.609  0.29       0.142  slip
+    icr-speed             3  1.187  1.187     n/i    0.242  0.20       0.157  slip
+    icr-speed             4  1.503  1.503     n/i    0.299  0.20       0.200  slip
+    skid-dynamic          1  1.931  1.931     n/i    0.305  0.16       0.340  slip
+    skid-dynamic          2  1.516  1.516     n/i    0.764  0.50       0.167  slip
+    skid-dynamic          3  1.265  1.265     n/i    1.250  0.99       0.177  slip
+    skid-dynamic          4  1.147  1.147     n/i    0.695  0.61       0.186  slip
+    icr-speed-constant    1  0.497  0.497     0.367  0.548  1.49       0.344  icr
+    icr-speed-constant    2  0.415  0.415     0.250  0.268  1.07       0.188  icr
+    icr-speed-constant    3  0.261  0.261     0.173  0.280  1.62       0.185  icr
+    icr-speed-constant    4  0.611  0.611     0.110  0.724  6.59       0.174  icr
+
+(odolab at 703892d). With the slip fit being reworked at the time (uncommitted, 01:30 UTC) the
+slip column read 0.358, 0.431, 0.205, 0.158 | 1.128, 0.866, 0.956 (seeds 2-4; seed 1 0.359) |
+control 0.459, 0.167, 0.209, 0.609: icr-speed 0.22, 0.21, 0.17, 0.11 of the best kinematic
+model, skid-dynamic 0.19, 0.74, 0.68, 0.83. On skid-dynamic the slip model's error is bias,
+not data or noise: 180 s of exploration gives 0.90, 0.92, 0.86 m (seeds 2-4), the noiseless
+simulator 0.61-0.77 of diff; without its yaw lag or its yaw reduction the ratio falls to
+0.23-0.40 on two of three seeds. In the control, where the truth is linear in the track speeds
+(inside the slip model's basis), the slip model is 1.1-6.6 times the ICR model's error: its
+quadratic terms fit noise (what a sparsity prior, e.g. ARD, is for).
+
+Goals that hold are asserted below with margins; the ones that do not are xfail (strict: they
+report when they start to pass), not weakened.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from odolab.calibration.lsq import LsqOptions, calibrate_lsq
+from odolab.calibration.slipfit import nees_bounds, nees_pieces
+from odolab.cli import main
+from odolab.io.registry import read_run
+from odolab.models import SlipModel
+from odolab.odometry import integrate_increments
+from odolab.params import PRESETS, load_params
+
+from .independent_sims import (
+    METRES_PER_TICK,
+    TRACK_WIDTH,
+    IcrSpeedSim,
+    SkidDynamicSim,
+    constant_slip,
+    exploration,
+    held_out_runs,
+    simulate,
+    write_run,
+)
+
+SEEDS = (1, 2, 3, 4)
+SIMS: dict[str, IcrSpeedSim | SkidDynamicSim] = {
+    "icr-speed": IcrSpeedSim(),
+    "skid-dynamic": SkidDynamicSim(),
+}
+CONTROL = constant_slip(IcrSpeedSim())
+MODELS = ("diff", "extended", "icr", "slip")
+KINEMATIC = ("diff", "extended", "icr")
+NEES_PIECES = (1.0, 5.0)
+LSQ = ("diff", "icr", "slip")
+NOMINAL = PRESETS["jaguar-lite"]
+
+
+@dataclass
+class Measured:
+    """One simulator and seed, as odolab's CLI reports it."""
+
+    sim: str
+    seed: int
+    #: compare's held-out end-point error (mean over the runs), None where not fitted
+    endpoint: dict[str, float | None]
+    #: compare's per-run end-point errors
+    per_run: dict[str, list[float]]
+    problems: dict[str, str | None]
+    recommended: str
+    reason: str
+    #: held-out end-point error from `calibrate lsq --model M -o file` (computed here)
+    lsq_endpoint: dict[str, float | None] = field(default_factory=dict)
+    #: NEES of the slip model on held-out pieces: piece_s -> values (file's params)
+    nees: dict[float, list[float]] = field(default_factory=dict)
+    #: the same with the fit's posterior (`calibrate_lsq`'s result: a file does not keep it)
+    nees_posterior: dict[float, list[float]] = field(default_factory=dict)
+    #: held-out end-point distance between the noisy truth and the same run without noise
+    floor: float = 0.0
+    #: compare's segment error ratio to the best model, 95 % CI (None where not fitted)
+    ratio_ci: dict[str, list[float] | None] = field(default_factory=dict)
+
+    @property
+    def best_kinematic(self) -> float:
+        return min(v for m, v in self.endpoint.items() if m in KINEMATIC and v is not None)
+
+    @property
+    def ratio(self) -> float:
+        slip = self.endpoint["slip"]
+        assert slip is not None
+        return slip / self.best_kinematic
+
+
+def _cli(args: list[str]) -> int:
+    return main([*args, "--format", "csv", "--params", "jaguar-lite", "--workers", "1"])
+
+
+def _endpoint(log: Path, params_file: Path) -> float:
+    """Odometry of a held-out run with a parameters file, from the ground truth's first pose:
+    distance between its end and the ground truth's end."""
+    run = read_run(log, "csv")
+    gt = run.require_ground_truth()
+    assert np.allclose(run.t, gt.t)  # written on the same stamps
+    dl = np.asarray(run.dticks_left, dtype=np.float64)
+    dr = np.asarray(run.dticks_right, dtype=np.float64)
+    dl[0] = dr[0] = 0.0
+    odo = integrate_increments(
+        run.t, dl, dr, load_params(params_file),
+        start=(float(gt.x[0]), float(gt.y[0]), float(gt.heading[0])),
+    )  # fmt: skip
+    return float(np.hypot(odo.x[-1] - gt.x[-1], odo.y[-1] - gt.y[-1]))
+
+
+def _measure(
+    sim: IcrSpeedSim | SkidDynamicSim, seed: int, folder: Path, *, lsq: tuple[str, ...] = ()
+) -> Measured:
+    ex = write_run(folder / "train", exploration(sim, seed))
+    truth = held_out_runs(sim, seed)
+    held = [write_run(folder / "held", r) for r in truth]
+    quiet = held_out_runs(replace(sim, speed_noise=0.0, heading_walk=0.0), seed)
+    floor = float(
+        np.mean(
+            [
+                np.hypot(a.x[-1] - b.x[-1], a.y[-1] - b.y[-1])
+                for a, b in zip(truth, quiet, strict=True)
+            ]
+        )
+    )
+    out = folder / "compare.json"
+    code = _cli(["calibrate", "compare", str(ex), "--validate", *map(str, held),
+                 "--models", ",".join(MODELS), "--json", str(out)])  # fmt: skip
+    assert code == 0, (sim.name, seed)
+    doc = json.loads(out.read_text())
+    scores = {m["model"]: m for m in doc["models"]}
+    m = Measured(
+        sim.name,
+        seed,
+        endpoint={
+            k: (s["held_out"]["endpoint_error"]["value"] if s["problem"] is None else None)
+            for k, s in scores.items()
+        },
+        per_run={k: s["per_run"].get("endpoint_error", []) for k, s in scores.items()},
+        problems={k: s["problem"] for k, s in scores.items()},
+        recommended=doc["recommended"],
+        reason=doc["reason"],
+        floor=floor,
+        ratio_ci={
+            k: (s["ratio_to_best"]["ci95"] if s["ratio_to_best"] else None)
+            for k, s in scores.items()
+        },
+    )
+    for model in lsq:
+        params = folder / f"{model}.toml"
+        code = _cli(["calibrate", "lsq", str(ex), "--model", model, "-o", str(params)])
+        m.lsq_endpoint[model] = (
+            float(np.mean([_endpoint(h, params) for h in held])) if code == 0 else None
+        )
+        if model == "slip" and code == 0:
+            runs = [read_run(h, "csv") for h in held]
+            p = load_params(params)
+            m.nees = {s: nees_pieces(runs, p, s).tolist() for s in NEES_PIECES}
+            # the fit's own parameters carry the coefficients' posterior (a file does not)
+            fit = calibrate_lsq([read_run(ex, "csv")], NOMINAL, LsqOptions(model="slip"))
+            assert isinstance(fit.params.model, SlipModel) and fit.params.model.posterior
+            m.nees_posterior = {s: nees_pieces(runs, fit.params, s).tolist() for s in NEES_PIECES}
+    return m
+
+
+@pytest.fixture(scope="module")
+def measured(tmp_path_factory: pytest.TempPathFactory) -> dict[tuple[str, int], Measured]:
+    root = tmp_path_factory.mktemp("independent")
+    out: dict[tuple[str, int], Measured] = {}
+    for name, sim in SIMS.items():
+        for seed in SEEDS:
+            out[(name, seed)] = _measure(sim, seed, root / f"{name}-{seed}", lsq=LSQ)
+    return out
+
+
+@pytest.fixture(scope="module")
+def control(tmp_path_factory: pytest.TempPathFactory) -> dict[int, Measured]:
+    root = tmp_path_factory.mktemp("control")
+    return {seed: _measure(CONTROL, seed, root / f"control-{seed}", lsq=LSQ) for seed in SEEDS}
+
+
+def _fmt(v: float | None) -> str:
+    return "n/i" if v is None else f"{v:.3f}"
+
+
+def test_the_simulators_are_independent_deterministic_and_on_the_preset() -> None:
+    p = NOMINAL
+    assert p.left_metres_per_tick == pytest.approx(METRES_PER_TICK)
+    assert p.right_metres_per_tick == pytest.approx(METRES_PER_TICK)
+    assert p.track_width == TRACK_WIDTH
+    source = (Path(__file__).parent / "independent_sims.py").read_text()
+    assert "import odolab" not in source and "from odolab" not in source
+    for sim in (*SIMS.values(), CONTROL):
+        a, b = exploration(sim, 3), exploration(sim, 3)
+        assert np.array_equal(a.dticks_left, b.dticks_left) and np.array_equal(a.x, b.x)
+        c = exploration(sim, 4)
+        assert not np.array_equal(a.x, c.x)
+        # 20 Hz, 60 s, integer counts, near the start (the fence is 3 m)
+        assert a.t.size == 1201 and np.allclose(np.diff(a.t), 0.05)
+        assert np.array_equal(a.dticks_left, np.round(a.dticks_left))
+        assert float(np.max(np.hypot(a.x, a.y))) < 4.5
+        runs = held_out_runs(sim, 1)
+        assert [r.name for r in runs] == ["square", "arcs", "spins", "mixed"]
+        assert all(20.0 <= r.t[-1] <= 60.0 for r in runs)
+
+
+def test_slip_grows_with_speed_only_where_it_is_meant_to() -> None:
+    """Driving one turn rate at two speeds (no noise): the yaw achieved per commanded yaw falls
+    with speed in both simulators and stays the same in the negative control."""
+
+    def yaw_gain(sim: IcrSpeedSim | SkidDynamicSim, v: float) -> float:
+        quiet = replace(sim, speed_noise=0.0, heading_walk=0.0)
+        run = simulate(quiet, lambda t, x, y, h: (v, 0.6), 10.0, 1, "arc")
+        dth = (run.dticks_right - run.dticks_left) * METRES_PER_TICK / TRACK_WIDTH
+        return float(run.heading[-1] - run.heading[0]) / float(np.sum(dth))
+
+    for sim in SIMS.values():
+        assert yaw_gain(sim, 0.8) < 0.95 * yaw_gain(sim, 0.2), sim.name  # 0.92, 0.90
+    # 1.02: the right track's 1.2 % larger radius turns the robot more at speed
+    assert yaw_gain(CONTROL, 0.8) == pytest.approx(yaw_gain(CONTROL, 0.2), rel=0.03)
+
+
+def test_report(measured: dict[tuple[str, int], Measured], control: dict[int, Measured]) -> None:
+    """Print the measurement (run with ``-s``); the goals are asserted in the tests below."""
+    lines = [
+        "sim                 seed  diff   extended  icr    slip   slip/best  floor  recommends",
+    ]
+    for m in [*measured.values(), *control.values()]:
+        e = m.endpoint
+        lines.append(
+            f"{m.sim:19s} {m.seed:4d}  {_fmt(e['diff'])}  {_fmt(e['extended'])}     "
+            f"{_fmt(e['icr']):5s}  {_fmt(e['slip'])}  {m.ratio:9.2f}  {m.floor:.3f}  "
+            f"{m.recommended}"
+        )
+    for m in measured.values():
+        if m.lsq_endpoint:
+            lines.append(
+                f"{m.sim} seed {m.seed}: from the lsq files: "
+                + ", ".join(f"{k} {_fmt(v)}" for k, v in m.lsq_endpoint.items())
+            )
+    for m in measured.values():
+        for label, nees in (("file", m.nees), ("posterior", m.nees_posterior)):
+            for s, v in nees.items():
+                a = np.array(v)
+                lo, hi = nees_bounds(1)
+                glo, ghi = nees_bounds(a.size)
+                lines.append(
+                    f"{m.sim} seed {m.seed} NEES ({label}) {s:g} s pieces ({a.size}): mean "
+                    f"{a.mean():.3g} (95 % bounds of the mean [{glo:.2f}, {ghi:.2f}]), median "
+                    f"{np.median(a):.3g}, inside [{lo:.3f}, {hi:.2f}]: "
+                    f"{np.mean((a >= lo) & (a <= hi)):.0%}"
+                )
+    for m in [*measured.values(), *control.values()]:
+        lines.append(
+            f"{m.sim} seed {m.seed}: segment error ratio to the best, 95 % CI: "
+            + ", ".join(f"{k} {v[0]:.2f}-{v[1]:.2f}" for k, v in m.ratio_ci.items() if v)
+        )
+    for m in [*measured.values(), *control.values()]:
+        if m.problems["icr"]:
+            lines.append(f"{m.sim} seed {m.seed}: icr: {m.problems['icr']}")
+    print("\n" + "\n".join(lines), file=sys.stderr)
+
+
+def test_the_fit_files_give_the_end_point_errors_compare_reports(
+    measured: dict[tuple[str, int], Measured],
+) -> None:
+    """`calibrate lsq -o file` then odometry with the file: the held-out end-point errors that
+    `calibrate compare` reports for the same model (both fitted on the exploration)."""
+    for m in measured.values():
+        for model in LSQ:
+            assert (m.lsq_endpoint[model] is None) == (m.endpoint[model] is None), (m.sim, model)
+            if m.endpoint[model] is not None:
+                assert m.lsq_endpoint[model] == pytest.approx(m.endpoint[model], rel=1e-6)
+
+
+def test_slip_halves_the_best_kinematic_error_on_the_icr_speed_robot(
+    measured: dict[tuple[str, int], Measured],
+) -> None:
+    """Issue 29's goal on "icr-speed": from 60 s of exploration, held-out end-point error
+    <= 0.5 x the best kinematic model's, on every seed (measured 0.14, 0.29, 0.20, 0.20; with
+    the reworked fit 0.22, 0.21, 0.17, 0.11)."""
+    ratios = [measured[("icr-speed", seed)].ratio for seed in SEEDS]
+    assert all(r <= 0.4 for r in ratios), ratios
+    slip = sum(measured[("icr-speed", seed)].endpoint["slip"] or 0.0 for seed in SEEDS)
+    best = sum(measured[("icr-speed", seed)].best_kinematic for seed in SEEDS)
+    assert slip <= 0.3 * best, (slip, best)  # measured 0.22 (0.18 with the reworked fit)
+
+
+def test_slip_beats_the_kinematic_models_on_the_skid_dynamic_robot(
+    measured: dict[tuple[str, int], Measured],
+) -> None:
+    """What holds on "skid-dynamic" (the goal itself does not yet: see the next test): the slip
+    model is never worse than the best kinematic model, and over the four seeds clearly better
+    (measured per seed 0.16, 0.50, 0.99, 0.61; pooled 0.51; with the reworked fit 0.19, 0.74,
+    0.68, 0.83, pooled 0.56)."""
+    ratios = [measured[("skid-dynamic", seed)].ratio for seed in SEEDS]
+    assert all(r <= 1.05 for r in ratios), ratios
+    slip = sum(measured[("skid-dynamic", seed)].endpoint["slip"] or 0.0 for seed in SEEDS)
+    best = sum(measured[("skid-dynamic", seed)].best_kinematic for seed in SEEDS)
+    assert slip <= 0.7 * best, (slip, best)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    raises=AssertionError,
+    reason="issue 29's goal not met yet on skid-dynamic: slip / best kinematic per seed 0.16, "
+    "0.50, 0.99, 0.61 at 703892d (0.19, 0.74, 0.68, 0.83 with the reworked fit); remove this "
+    "mark when it passes",
+)
+def test_goal_slip_halves_the_best_kinematic_error_on_the_skid_dynamic_robot(
+    measured: dict[tuple[str, int], Measured],
+) -> None:
+    ratios = [measured[("skid-dynamic", seed)].ratio for seed in SEEDS]
+    assert all(r <= 0.5 for r in ratios), ratios
+
+
+def test_compare_recommends_slip_where_held_out_data_support_it(
+    measured: dict[tuple[str, int], Measured],
+) -> None:
+    """Both simulators with speed-dependent slip, every seed: slip is recommended (the
+    differential drive's held-out segment error ratio to slip: 95 % CIs from [1.12, 1.39] up)."""
+    for m in measured.values():
+        assert m.recommended == "slip", (m.sim, m.seed, m.reason)
+
+
+def test_compare_stays_with_a_simpler_model_without_speed_dependent_slip(
+    control: dict[int, Measured],
+) -> None:
+    """The negative control (constant ICRs and radii, the same noise): never slip."""
+    for m in control.values():
+        assert m.recommended != "slip", (m.seed, m.reason)
+        assert m.problems["icr"] is None  # the ICR model fits where it is the truth
+
+
+@pytest.mark.xfail(
+    strict=True,
+    raises=AssertionError,
+    reason="odolab refuses the ICR model on every speed-slip exploration: 'x_icr (standard "
+    "error 0.0035-0.0064) is not identifiable without turns of both signs at speed', though the "
+    "runs have such turns (the misfit of constant ICRs inflates the standard error past 5 % of "
+    "0.1 x track width = 2.8 mm); remove this mark when the ICR model is fitted and scored",
+)
+def test_icr_model_is_fitted_on_an_exploration_with_turns_of_both_signs(
+    measured: dict[tuple[str, int], Measured],
+) -> None:
+    for m in measured.values():
+        assert m.problems["icr"] is None, (m.sim, m.seed, m.problems["icr"])
