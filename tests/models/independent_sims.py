@@ -64,11 +64,11 @@ Defaults: ``b_eff`` 0.60 m, ``k_x`` 0.05 s/rad, ``k_w`` 0.2 s/rad, ``k_v`` 0.25 
 
 **Drives** (:func:`exploration`, :func:`held_out_runs`): a 60 s exploration of random commands
 (``v``, ``w`` uniform within ``|v| <= 1`` m/s, ``|w| <= 2`` rad/s and both track speeds within
-1 m/s, each held 1-3 s; beyond 3 m from the start (true pose) and moving outward it turns in place
-toward the start at 1.5 rad/s, then draws a forward command), and four held-out runs at other
-speeds: a square (2 m sides at 0.3 m/s, 90 degree turns in place at 0.8 rad/s), arcs (0.6 m/s
-on a 1.5 m radius, a circle's worth each way), spins (1.5 rad/s both ways with 0.4 m/s straights) and a
-mixed run at 0.8 m/s (straights, arcs of both signs, reverse).
+1 m/s, each held 1-3 s; beyond 3 m from the start (true pose) and moving outward it turns in
+place toward the start at 1.5 rad/s, then draws a forward command), and four held-out runs at
+other speeds: a square (2 m sides at 0.3 m/s, 90 degree turns in place at 0.8 rad/s), arcs
+(0.6 m/s on a 1.5 m radius, a circle's worth each way), spins (1.5 rad/s both ways with 0.4 m/s
+straights) and a mixed run at 0.8 m/s (straights, arcs of both signs, reverse).
 
 :func:`write_run` writes a run as odolab reads it: ``<name>.csv`` (``t,dticks_left,dticks_right``)
 and ``<name>_gt.csv`` (``t,x,y,theta``).
