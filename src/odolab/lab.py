@@ -28,7 +28,11 @@ through ``progress(step, done, total)``; the notebook is open in one ``with`` bl
    with ground truth, as a motion-capture system would; every kinematic model is fitted on four
    and scored on two (:func:`odolab.calibration.compare.compare_models`), and the NEES of all six
    says whether the covariance the calibrated ``[noise]`` propagates is honest
-   (:mod:`odolab.metrics.consistency`).
+   (:mod:`odolab.metrics.consistency`). When the truth has speed-dependent slip
+   (``jaguar-lab-tracked``) a one-minute exploration is driven too and diff, extended, icr and
+   the slip model are fitted on it plus the four training runs, scored on the same two held-out
+   runs, with a learning curve and the speed question from the slip model's coefficients
+   (:func:`odolab.app.models.slip_comparison`; the runs are written to ``runs/``).
 9. The report: HTML, PNGs and ``results.json``.
 """
 
@@ -476,7 +480,7 @@ def _rerun(cfg: LabConfig, new: RobotParams, progress: Progress) -> dict[str, fl
     return ratios
 
 
-def _mocap_runs(cfg: LabConfig, progress: Progress) -> list[Any]:
+def _mocap_runs(cfg: LabConfig, progress: Progress, total: int = MOCAP_RUNS + 1) -> list[Any]:
     """Free runs of the true robot on tile, each with its ground truth (motion capture)."""
     from odolab.io.run import OdometryRun
     from odolab.sim.drives import drive, random_legs
@@ -484,7 +488,7 @@ def _mocap_runs(cfg: LabConfig, progress: Progress) -> list[Any]:
 
     runs = []
     for k in range(MOCAP_RUNS):
-        progress("models", k, MOCAP_RUNS + 1)
+        progress("models", k, total)
         seed = cfg.seed * 1000 + 500 + k
         legs = random_legs(
             np.random.default_rng(seed), MOCAP_LEGS, track_width=cfg.nominal.track_width
@@ -496,18 +500,22 @@ def _mocap_runs(cfg: LabConfig, progress: Progress) -> list[Any]:
     return runs
 
 
-def _models(cfg: LabConfig, new: RobotParams, progress: Progress) -> Any:
+def _models(cfg: LabConfig, new: RobotParams, folder: Path, progress: Progress) -> Any:
     """Step 8: which kinematic model the robot needs, and whether the propagated covariance of
-    the calibrated ``[noise]`` is honest, both on free runs with ground truth."""
-    from odolab.calibration.compare import compare_models
+    the calibrated ``[noise]`` is honest, both on free runs with ground truth; on a truth with
+    speed-dependent slip also the slip model learned from a one-minute exploration
+    (:func:`odolab.app.models.slip_comparison`, the rule ``calibrate compare`` shares)."""
+    from odolab.app.models import CompareRequest, compare_runs, exploration_reason
     from odolab.errors import InsufficientDataError
     from odolab.metrics.consistency import run_nees
     from odolab.report.models_section import ModelEvidence
 
-    runs = _mocap_runs(cfg, progress)
+    why_not = exploration_reason(cfg.true_params, cfg.truth)
+    total = MOCAP_RUNS + (2 if why_not is None else 1)
+    runs = _mocap_runs(cfg, progress, total)
     train, held = runs[: MOCAP_RUNS - MOCAP_HELD_OUT], runs[MOCAP_RUNS - MOCAP_HELD_OUT :]
     missing: list[str] = []
-    comparison = compare_models(train, held, cfg.nominal, n_boot=1000, seed=cfg.seed)
+    comparison = compare_runs(train, held, cfg.nominal, CompareRequest(seed=cfg.seed, n_boot=1000))
     about_models = (
         f"{MOCAP_RUNS} free runs of {MOCAP_LEGS} legs each (straight, curves of 0.3 to 5 m "
         "radius, pivots on either track, turns in place, both directions) on tile, recorded "
@@ -535,11 +543,33 @@ def _models(cfg: LabConfig, new: RobotParams, progress: Progress) -> Any:
             f"{MOCAP_RUNS} runs (none of them was used to measure the noise)."
         )
     questions, about_questions = _open_questions(cfg)
-    progress("models", MOCAP_RUNS + 1, MOCAP_RUNS + 1)
+    slip: dict[str, Any] | None = None
+    slip_note = why_not or ""
+    if why_not is None:
+        progress("models", MOCAP_RUNS + 1, total)
+        slip, slip_note = _slip(cfg, train, held, questions, folder)
+    progress("models", total, total)
     return ModelEvidence(
         comparison, tuple(nees), about_models, about_nees, tuple(missing), questions,
-        about_questions,
+        about_questions, slip, slip_note,
     )  # fmt: skip
+
+
+def _slip(
+    cfg: LabConfig, train: list[Any], held: list[Any], questions: tuple[Any, ...], folder: Path
+) -> tuple[dict[str, Any] | None, str]:
+    """The slip model against the kinematic ones, from a one-minute exploration (the runs
+    written to ``runs/`` so that ``calibrate compare`` can repeat it); a failure is a note."""
+    from odolab.app.models import slip_comparison
+
+    try:
+        result = slip_comparison(
+            cfg.true_params, cfg.nominal, train, held, seed=cfg.seed, terrain="tile",
+            questions=questions, folder=folder / "runs", base=folder,
+        )  # fmt: skip
+    except OdolabError as err:
+        return None, f"No slip comparison: {err}"
+    return result.to_dict(), ""
 
 
 def _open_questions(cfg: LabConfig) -> tuple[tuple[Any, ...], str]:
@@ -645,7 +675,7 @@ def run_lab(
         cal = _calibrate(cfg, nb, folder, progress)
     val = _validate(cfg, live, cal.ratios.params, rows, folder, progress)
     after = _rerun(cfg, cal.ratios.params, progress)
-    evidence = _models(cfg, cal.ratios.params, progress)
+    evidence = _models(cfg, cal.ratios.params, folder, progress)
     html = _report(cfg, folder, db, analysis, cal, val, live, after, evidence, progress)
     return LabResult(
         folder=folder,

@@ -15,6 +15,8 @@ the report's numbers (results.json)     :func:`odolab.app.report.report_results`
 an export of the notebook's trials      :func:`odolab.app.exports.export_trials`       int
 which parameters a log is integrated    :func:`odolab.app.odometry.choose_params`      ParamsChoice
 integrate a log                         :func:`odolab.app.odometry.integrate_log`      OdometryOutcome
+which model a robot needs               :func:`odolab.app.models.compare_files`        ModelComparison
+the slip model from an exploration      :func:`odolab.app.models.slip_comparison`      SlipComparison
 ======================================  =============================================  ==========
 
 Submodules are imported on use (``from odolab.app.calibration import calibrate``), so that a

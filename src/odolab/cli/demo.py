@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -73,6 +74,10 @@ def demo_cmd(
         out_console.print(
             f"kinematic model: {cmp.recommended} ({cmp.reason})", markup=False, highlight=False
         )
+    if ev is not None and ev.slip:
+        _print_slip(out_console, ev.slip)
+    elif ev is not None and ev.slip_note:
+        out_console.print(ev.slip_note, markup=False, highlight=False)
     if ev is not None and ev.nees:
         s = ev.consistency_dict()["summary"]
         lo, hi = s["mean_bounds95"]
@@ -87,3 +92,37 @@ def demo_cmd(
         out_console.print(f"calibrated parameters ({name}): {path}", markup=False)
     out_console.print(f"lab notebook: {result.notebook}", markup=False)
     out_console.print(f"report: {result.report}", markup=False)
+
+
+def _print_slip(console: Any, slip: Mapping[str, Any]) -> None:
+    """The slip comparison in three lines: what was explored, what compare recommends, the
+    learning curve, and the speed question from the slip model's coefficients."""
+    from odolab import numfmt
+
+    ex = slip["exploration"]
+    cmp = slip["comparison"]
+    say = {"markup": False, "highlight": False}
+    console.print(
+        f"exploration: {ex['seconds']:g} s on {ex['terrain']}, seed {ex['seed']}, commands "
+        f"{ex['distribution']} over |v| <= {ex['max_speed']:g} m/s, |w| <= "
+        f"{ex['max_turn_rate']:g} rad/s, fence {ex['fence_radius']:g} m",
+        **say,
+    )
+    console.print(f"slip vs kinematic models: {cmp['recommended']} ({cmp['reason']})", **say)
+    curve = cmp.get("learning_curve") or []
+    for name in dict.fromkeys(str(r["model"]) for r in curve):
+        cells = [
+            f"{r['seconds']:g} s "
+            + (
+                "not fitted"
+                if r["endpoint_error"] is None
+                else numfmt.plain(r["endpoint_error"], 3)
+            )
+            for r in curve
+            if r["model"] == name
+        ]
+        console.print(f"  learning curve, {name} (held-out end-point error, m): "
+                      + ", ".join(cells), **say)  # fmt: skip
+    answer = slip["speed_question"].get("answer") or slip["speed_question"].get("problem")
+    if answer:
+        console.print(f"speed question: {answer}", **say)

@@ -69,7 +69,7 @@ def calibrate_compare_cmd(
     gt_topic: GtTopicOpt = "/ground_truth",
 ) -> None:
     """Fit every kinematic model on training runs, score it on held-out runs, recommend one."""
-    from odolab.calibration.compare import compare_model_files
+    from odolab.app.models import CompareRequest, compare_files
     from odolab.calibration.lsq import FIT_MODELS, LsqOptions
     from odolab.cli._output import write_output_text
     from odolab.errors import CalibrationError
@@ -99,18 +99,19 @@ def calibrate_compare_cmd(
     robot = load_params(params) if params else None
     ro = _read_options(robot, joint_topic, joints, gt_topic)
     with _progress_bar("compare") as report:
-        result = compare_model_files(
+        request = CompareRequest(
+            models=tuple(chosen), curve=tuple(curve), seed=seed,
+            options=LsqOptions(segment_s=segment),
+        )  # fmt: skip
+        result = compare_files(
             runs,
             run_format(fmt, [*runs, *(validate or [])]).value,
+            request,
             validate=validate or [],
             nominal=robot,
-            models=chosen,
-            options=LsqOptions(segment_s=segment),
             read_options=ro,
             workers=workers,
             progress=report,
-            seed=seed,
-            curve=curve,
         )
     if json_out is not None:
         write_output_text(

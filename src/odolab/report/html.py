@@ -29,9 +29,11 @@ from odolab.report.models_section import (
     ModelEvidence,
     consistency_view,
     models_view,
+    plot_learning_curve,
     plot_model_comparison,
     plot_nees,
     questions_view,
+    slip_view,
 )
 from odolab.report.view import (
     MOTION_NAMES,
@@ -134,6 +136,17 @@ def summary_sentences(results: Mapping[str, Any]) -> list[str]:
     models = results.get("models")
     if models:
         out.append(f"Kinematic model: {models['recommended']} ({models['reason']}).")
+    slip = results.get("slip")
+    if slip:
+        c = slip["comparison"]
+        seconds = slip["exploration"]["seconds"]
+        out.append(
+            f"Slip model from {fmt(seconds)} s of exploration: against diff, extended and icr "
+            f"fitted on the same runs, recommended {c['recommended']} ({c['reason']})."
+        )
+        answer = slip["speed_question"].get("answer")
+        if answer:
+            out.append(f"Speed question: {answer}.")
     cons = results.get("consistency")
     if cons:
         s = cons["summary"]
@@ -166,6 +179,8 @@ def build_results(
         "models": ev.models_dict(),
         "consistency": ev.consistency_dict(),
         "questions": ev.questions_dict(),
+        "slip": ev.slip_dict(),
+        "slip_note": ev.slip_note or None,
         "evidence_missing": list(ev.missing),
     }
     res = jsonable(res)
@@ -440,6 +455,22 @@ def _evidence_plans(evidence: ModelEvidence | None) -> list[_Plan]:
                 (6.0, 3.6),
             )
         )
+    curve = (
+        ((evidence.slip or {}).get("comparison") or {}).get("learning_curve") if evidence else None
+    )
+    if curve:
+        plans.append(
+            _Plan(
+                "learning_curve",
+                "Learning curve: held-out error against seconds of exploration",
+                "Each model fitted on the first seconds of the exploration run alone; mean "
+                "end-point error over the held-out runs. A model missing at a length could not "
+                "be fitted from that much data (the table says why).",
+                partial(plot_learning_curve, curve),
+                "slip",
+                (6.0, 4.0),
+            )
+        )
     if evidence is not None and evidence.nees:
         plans.append(
             _Plan(
@@ -511,7 +542,11 @@ def _page(
         ext=extra_view(results["extra"]) if results["extra"] else None,
         mdl=models_view(results["models"]) if results.get("models") else None,
         cons=consistency_view(results["consistency"]) if results.get("consistency") else None,
-        qst=questions_view(results["questions"]) if results.get("questions") else None,
+        qst=questions_view(results["questions"], results.get("slip"))
+        if results.get("questions")
+        else None,
+        slp=slip_view(results["slip"]) if results.get("slip") else None,
+        slip_note=results.get("slip_note") or "",
         missing=results.get("evidence_missing") or [],
     )
 

@@ -42,10 +42,12 @@ __all__ = [
     "model_comparison_html",
     "models_section_html",
     "models_view",
+    "plot_learning_curve",
     "plot_model_comparison",
     "plot_nees",
     "plot_questions",
     "questions_html",
+    "slip_view",
 ]
 
 
@@ -258,6 +260,11 @@ class ModelEvidence:
     #: the lab's open questions answered on the virtual robot (:func:`run_open_questions`)
     questions: tuple[ExperimentResult, ...] = ()
     about_questions: str = ""
+    #: the slip model against the kinematic ones from an exploration run: the ``slip`` entry of
+    #: ``results.json`` (:meth:`odolab.app.models.SlipComparison.to_dict`), None when none ran
+    slip: Mapping[str, Any] | None = None
+    #: why no exploration was run (or why the slip comparison failed); empty when it ran
+    slip_note: str = ""
 
     def questions_dict(self) -> dict[str, Any] | None:
         """The ``questions`` entry of ``results.json`` (None without experiments)."""
@@ -273,6 +280,10 @@ class ModelEvidence:
         if self.comparison is None:
             return None
         return {**self.comparison.to_dict(), "about": self.about_models}
+
+    def slip_dict(self) -> dict[str, Any] | None:
+        """The ``slip`` entry of ``results.json`` (None when no exploration was run)."""
+        return dict(self.slip) if self.slip is not None else None
 
     def consistency_dict(self) -> dict[str, Any] | None:
         """The ``consistency`` entry of ``results.json`` (None without NEES)."""
@@ -300,26 +311,43 @@ def _est(e: Any, unit: str = "") -> str:
     return f"{numfmt.with_ci(value, lo, hi)}{unit}"
 
 
-def models_view(m: Mapping[str, Any]) -> dict[str, Any]:
+#: More fitted values than this are shortened in the table (the slip model has 24) ...
+_MAX_VALUES = 8
+#: ... to these: the coefficients of the speed question (straight driving's slip)
+_SPEED_KEYS = ("fwd_v", "fwd_absv", "fwd_v_absv")
+
+
+def models_view(m: Mapping[str, Any], *, problems_in_table: bool = False) -> dict[str, Any]:
     """The "Which kinematic model?" section from ``results["models"]``: one row per model that
-    could be fitted, the fitted values, the recommendation, and why the others could not."""
+    could be fitted, the fitted values, the recommendation, and why the others could not (a
+    list beside the table, or with ``problems_in_table`` a row that says it in one sentence)."""
     rows: list[list[Cell]] = []
     problems: list[tuple[str, str]] = []
     for s in m.get("models", []):
         name = str(s.get("model"))
+        if s.get("problem") and problems_in_table:
+            rows.append(_not_fitted_row(name, s))
+            continue
         if s.get("problem"):
             problems.append((name, str(s["problem"])))
             continue
         h = s.get("held_out") or {}
         values = s.get("values") or {}
         stderr = s.get("stderr") or {}
+        shown = {k: v for k, v in values.items() if v is not None}
+        rest = 0
+        if len(shown) > _MAX_VALUES:  # the slip model's 24: the speed question's few
+            keys = [k for k in _SPEED_KEYS if k in shown] or list(shown)[:3]
+            rest = len(shown) - len(keys)
+            shown = {k: shown[k] for k in keys}
         fitted = "; ".join(
             f"{k} {numfmt.with_uncertainty(float(v), float(stderr[k]), show=True)}"
             if stderr.get(k) is not None and float(stderr[k]) > 0
             else f"{k} {numfmt.plain(float(v))}"
-            for k, v in values.items()
-            if v is not None
+            for k, v in shown.items()
         )
+        if rest:
+            fitted += f"; {rest} more in results.json"
         best = s.get("ratio_to_best")
         rows.append(
             [
@@ -349,6 +377,141 @@ def models_view(m: Mapping[str, Any]) -> dict[str, Any]:
         "reason": reason,
         "runs": runs,
         "about": str(m.get("about", "")),
+    }
+
+
+def _not_fitted_row(name: str, s: Mapping[str, Any]) -> list[Cell]:
+    """A model that could not be fitted, as a row of the models table: why, in one sentence."""
+    why = str(s.get("problem") or "").rstrip(".")
+    return [
+        Cell("model", name, "l"),
+        Cell("parameters", str(s.get("n_params", "-"))),
+        *(Cell(label, "-") for label in _SCORE_LABELS[:2]),
+        Cell("verdict", "not fitted", "l"),
+        *(Cell(label, "-") for label in _SCORE_LABELS[2:]),
+        Cell("fitted values (± std. error)", f"Not fitted from these runs: {why}.", "l"),
+    ]
+
+
+_SCORE_LABELS = (
+    "held-out segment error (m)",
+    "error / best",
+    "held-out end-point error (m)",
+    "RPE over 1 m (m)",
+    "drift (%)",
+    "ΔBIC vs diff",
+)
+
+
+def learning_curve_view(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """The learning curve as a table (one row per model, one column per number of seconds:
+    held-out mean end-point error, m) and one sentence per model that could not be fitted at
+    some length (at which seconds, and why at the longest)."""
+    seconds = sorted({float(r["seconds"]) for r in rows})
+    models = list(dict.fromkeys(str(r["model"]) for r in rows))
+    table: list[list[Cell]] = []
+    notes: list[str] = []
+    for m in models:
+        mine = {float(r["seconds"]): r for r in rows if str(r["model"]) == m}
+        cells = [Cell("model", m, "l")]
+        missing: list[float] = []
+        for x in seconds:
+            r = mine.get(x)
+            value = None if r is None else r.get("endpoint_error")
+            if value is None:
+                missing.append(x)
+                cells.append(Cell(f"{x:g} s", "not fitted"))
+            else:
+                cells.append(Cell(f"{x:g} s", numfmt.plain(float(value), 3)))
+        table.append(cells)
+        if missing:
+            last = mine.get(missing[-1]) or {}
+            why = str(last.get("problem") or "no fit").rstrip(".")
+            at = ", ".join(f"{x:g}" for x in missing)
+            notes.append(f"{m}: not fitted at {at} s (at {missing[-1]:g} s: {why}).")
+    return {"rows": table, "notes": notes, "seconds": seconds}
+
+
+def plot_learning_curve(rows: Sequence[Mapping[str, Any]], ax: Axes | None = None) -> Axes:
+    """Held-out mean end-point error against seconds of exploration: one line per model (the
+    points where it could not be fitted left out; a model never fitted says so in the
+    legend)."""
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(6.0, 4.0))
+    markers = {"diff": "o", "extended": "s", "icr": "^", "slip": "D"}
+    colors = {"diff": "tab:blue", "extended": "tab:green", "icr": "tab:red", "slip": "tab:orange"}
+    for m in dict.fromkeys(str(r["model"]) for r in rows):
+        pts = sorted(
+            (float(r["seconds"]), float(r["endpoint_error"]))
+            for r in rows
+            if str(r["model"]) == m and r.get("endpoint_error") is not None
+        )
+        if not pts:
+            ax.plot([], [], markers.get(m, "o"), color="0.6", label=f"{m} (not fitted)")
+            continue
+        xs, ys = zip(*pts, strict=True)
+        ax.plot(xs, ys, "-", marker=markers.get(m, "o"), ms=5, color=colors.get(m), label=m)
+    ax.set_xlabel("seconds of exploration the model is fitted on")
+    ax.set_ylabel("held-out mean end-point error (m)")
+    ax.set_ylim(bottom=0)
+    ax.grid(True, alpha=0.3)
+    ax.legend()
+    return ax
+
+
+def _pp(value: Any, ci: Any) -> str:
+    """A difference in percentage points with its 95 % interval."""
+    if value is None:
+        return "-"
+    lo, hi = [*list(ci or []), None, None][:2]
+    if lo is None or hi is None or not (math.isfinite(lo) and math.isfinite(hi)):
+        return f"{float(value):+.1f}"
+    return f"{float(value):+.1f} [{float(lo):+.1f}, {float(hi):+.1f}]"
+
+
+def slip_view(sl: Mapping[str, Any]) -> dict[str, Any]:
+    """The "slip model from an exploration" section from ``results["slip"]``: the comparison
+    (slip beside the kinematic models, failures as rows), the learning curve, the speed
+    question from the slip model's coefficients beside the simulator's measured answer."""
+    cmp = sl.get("comparison") or {}
+    models = models_view({**cmp, "about": ""}, problems_in_table=True)
+    curve = learning_curve_view(cmp.get("learning_curve") or [])
+    sq = sl.get("speed_question") or {}
+    v_low, v_high = sq.get("v_low"), sq.get("v_high")
+    head = f"slip {v_high:g} m/s − slip {v_low:g} m/s (pp, 95 % CI)"
+    speed_rows = [
+        [
+            Cell("answer from", "the slip model's coefficients (this exploration's fit)", "l"),
+            Cell(head, _pp(sq.get("gain_pct"), sq.get("ci95"))),
+        ]
+    ]
+    measured = sq.get("measured") or {}
+    if measured:
+        speed_rows.append(
+            [
+                Cell(
+                    "answer from",
+                    "the simulator's speed experiment (measured as the lab would, section IX)",
+                    "l",
+                ),
+                Cell(head, _pp(measured.get("difference_pct"), measured.get("ci95"))),
+            ]
+        )
+    answers = [str(sq["answer"])] if sq.get("answer") else []
+    if sq.get("problem"):
+        answers.append(str(sq["problem"]))
+    ex = sl.get("exploration") or {}
+    return {
+        "about": str(sl.get("about", "")),
+        "models": models,
+        "curve": curve,
+        "speed_rows": speed_rows,
+        "speed_answers": answers,
+        "measured_answer": str(measured.get("answer", "")),
+        "command": str(sl.get("command", "")).split(),
+        "seconds": ex.get("seconds"),
     }
 
 
@@ -407,9 +570,13 @@ def plot_nees(runs: Sequence[RunNees], ax: Axes | None = None) -> Axes:
     return ax
 
 
-def questions_view(q: Mapping[str, Any]) -> dict[str, Any]:
+def questions_view(
+    q: Mapping[str, Any], slip_model: Mapping[str, Any] | None = None
+) -> dict[str, Any]:
     """The "open questions" section from ``results["questions"]``: per question, a row per
-    condition (slip with its 95 % CI, or how many runs stalled) and the answers in words."""
+    condition (slip with its 95 % CI, or how many runs stalled) and the answers in words; with
+    ``slip_model`` (``results["slip"]``) the speed question also has the slip model's answer."""
+    model_answer = str(((slip_model or {}).get("speed_question") or {}).get("answer") or "")
     out = []
     for e in q.get("experiments", []):
         rows = []
@@ -434,6 +601,8 @@ def questions_view(q: Mapping[str, Any]) -> dict[str, Any]:
         answers = [str(a["answer"]) for a in e.get("effects", [])]
         if e.get("trend"):
             answers.append(str(e["trend"]["answer"]))
+        if model_answer and e.get("experiment") == "speed-sweep":
+            answers.append(f"From one minute of exploration, {model_answer}.")
         out.append(
             {"id": str(e.get("experiment", "")), "question": str(e.get("question", "")),
              "rows": rows, "answers": answers}

@@ -1,0 +1,349 @@
+"""Which model a robot needs: ``odolab calibrate compare`` and the lab's models step both call
+this module, so that the terminal, ``--json`` and the report give the same numbers.
+
+:func:`compare_runs` (runs in memory) and :func:`compare_files` (runs on disk) are the one call
+to :func:`odolab.calibration.compare.compare_models`; a :class:`CompareRequest` says which
+models, which seconds of a learning curve, which seed.
+
+**The slip rule** (issue 29), used by the lab when its truth has speed-dependent slip
+(:func:`exploration_reason` says when, or why not):
+
+- drive one exploration of :data:`EXPLORE_SECONDS` (:func:`odolab.sim.explore.explore`, default
+  limits: commands uniform over ``|v| <= 1 m/s``, ``|w| <= 2 rad/s``, held 1 to 3 s, inside a
+  4 m fence) with the lab's seed;
+- fit every model of :data:`SLIP_MODELS` on the *same* data: the exploration run first, then
+  the training runs the kinematic comparison uses; score them on the same held-out runs;
+- the learning curve (:data:`CURVE_SECONDS`): each model fitted on the first seconds of the
+  exploration run alone, mean held-out end-point error (``compare_models(curve=...)``);
+- the lab's speed question from the slip model's coefficients:
+  :meth:`odolab.models.slip.SlipModel.speed_slip_gain` between two speeds with its 95 % interval.
+
+:func:`slip_comparison` does all of it and returns a :class:`SlipComparison`, whose
+:meth:`~SlipComparison.to_dict` is the report's ``slip`` entry (with the equivalent
+``odolab calibrate compare`` command line when the runs were written to files).
+"""
+
+from __future__ import annotations
+
+import math
+import shlex
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from odolab.calibration.compare import DEFAULT_MODELS
+
+if TYPE_CHECKING:
+    from odolab.calibration.compare import ModelComparison
+    from odolab.calibration.lsq import LsqOptions
+    from odolab.io.run import OdometryRun, ReadOptions
+    from odolab.params import RobotParams
+    from odolab.sim.explore import ExploreSettings
+    from odolab.sim.physics import TrueParams
+
+__all__ = [
+    "CURVE_SECONDS",
+    "EXPLORE_SECONDS",
+    "SLIP_MODELS",
+    "SPEEDS",
+    "CompareRequest",
+    "SlipComparison",
+    "compare_files",
+    "compare_runs",
+    "exploration_reason",
+    "slip_comparison",
+    "slip_request",
+]
+
+#: The models of the slip comparison, simplest first (the recommendation prefers the left).
+SLIP_MODELS = ("diff", "extended", "icr", "slip")
+#: Seconds of the exploration run each point of the learning curve is fitted on.
+CURVE_SECONDS = (10.0, 20.0, 30.0, 45.0, 60.0)
+#: How long the lab explores (s).
+EXPLORE_SECONDS = 60.0
+#: The speed question's two speeds (m/s) when the lab has no speed experiment to take them from.
+SPEEDS = (0.1, 0.5)
+
+
+@dataclass(frozen=True)
+class CompareRequest:
+    """What to compare: ``models`` (simplest first), ``curve`` the learning curve's seconds of
+    the first training run (empty: none), ``seed`` of the bootstrap, ``n_boot`` resamples,
+    ``options`` of the least-squares fits (None: the defaults)."""
+
+    models: tuple[str, ...] = DEFAULT_MODELS
+    curve: tuple[float, ...] = ()
+    seed: int = 0
+    n_boot: int = 2000
+    options: LsqOptions | None = None
+
+
+def slip_request(seed: int) -> CompareRequest:
+    """The slip rule's request: :data:`SLIP_MODELS`, the curve over :data:`CURVE_SECONDS`."""
+    return CompareRequest(models=SLIP_MODELS, curve=CURVE_SECONDS, seed=seed)
+
+
+def compare_runs(
+    train: Sequence[OdometryRun],
+    held_out: Sequence[OdometryRun],
+    nominal: RobotParams | None,
+    request: CompareRequest,
+) -> ModelComparison:
+    """:func:`~odolab.calibration.compare.compare_models` of runs in memory."""
+    from odolab.calibration.compare import compare_models
+
+    return compare_models(
+        train, held_out, nominal, models=request.models, options=request.options,
+        n_boot=request.n_boot, seed=request.seed, curve=request.curve,
+    )  # fmt: skip
+
+
+def compare_files(
+    paths: Sequence[str | Path],
+    fmt: str,
+    request: CompareRequest,
+    *,
+    validate: Sequence[str | Path] = (),
+    nominal: RobotParams | None = None,
+    read_options: ReadOptions | None = None,
+    workers: int = 2,
+    progress: Callable[[int, int, str], None] | None = None,
+) -> ModelComparison:
+    """:func:`compare_runs` of the runs found under ``paths`` (and held out: ``validate``)."""
+    if request.n_boot != 2000:  # the files' comparison has the default resampling only
+        from odolab.errors import CalibrationError
+
+        raise CalibrationError(
+            f"n_boot is {request.n_boot}; comparing files uses 2000 bootstrap resamples"
+        )
+    from odolab.calibration.compare import compare_model_files  # looked up on each call
+
+    return compare_model_files(
+        paths, fmt, validate=validate, nominal=nominal, models=request.models,
+        options=request.options, read_options=read_options, workers=workers,
+        progress=progress, seed=request.seed, curve=request.curve,
+    )  # fmt: skip
+
+
+def exploration_reason(truth: TrueParams, truth_name: str) -> str | None:
+    """None when the lab explores on this truth (it has speed-dependent slip); else one
+    sentence saying why it does not."""
+    if truth.speed_slip > 0:
+        return None
+    return (
+        f"No exploration run: the truth preset {truth_name} has no speed-dependent slip "
+        f"(speed_slip {truth.speed_slip:g} s/m), so the slip model has nothing to learn that the "
+        "kinematic models miss; odolab demo --truth jaguar-lab-tracked drives a one-minute "
+        "exploration and compares the slip model with them."
+    )
+
+
+@dataclass(frozen=True)
+class SlipComparison:
+    """The slip rule's result (see the module)."""
+
+    settings: ExploreSettings
+    seed: int
+    terrain: str
+    comparison: ModelComparison
+    train: tuple[str, ...]
+    held_out: tuple[str, ...]
+    speeds: tuple[float, float]
+    #: slip(v_high) - slip(v_low) as a fraction, with its 95 % interval (None: no slip fit)
+    speed_gain: tuple[float, float, float] | None
+    speed_problem: str | None = None
+    #: the run files (exploration first, then the training runs; then the held-out ones)
+    files: tuple[Path, ...] = ()
+    held_files: tuple[Path, ...] = ()
+    #: the ``--params`` of :meth:`command`: a preset's name, or the file the nominal was written to
+    params_arg: str = ""
+    measured: dict[str, Any] = field(default_factory=dict)
+    #: :meth:`command`'s paths are relative to this folder (None: as they are)
+    base: Path | None = None
+
+    def command(self) -> str:
+        """The ``odolab calibrate compare`` line that gives the same comparison from the
+        written files (empty without files)."""
+        if not self.files:
+            return ""
+        req = slip_request(self.seed)
+        words = [
+            "odolab", "calibrate", "compare", *map(self._shown, self.files), "--validate",
+            *map(self._shown, self.held_files), "--format", "csv", "--params", self._shown(Path(self.params_arg))
+            if self.params_arg.endswith(".toml") else self.params_arg,
+            "--models", ",".join(req.models),
+            "--learning-curve", ",".join(f"{s:g}" for s in req.curve),
+            "--seed", str(self.seed), "--json", "compare.json",
+        ]  # fmt: skip
+        return shlex.join(words)
+
+    def _shown(self, path: Path) -> str:
+        if self.base is not None and path.is_relative_to(self.base):
+            return str(path.relative_to(self.base))
+        return str(path)
+
+    def about(self) -> str:
+        s = self.settings
+        return (
+            f"One exploration of {s.seconds:g} s on {self.terrain} (odolab sim explore, seed "
+            f"{self.seed}): commands drawn {s.distribution} over |v| <= {s.max_speed:g} m/s and "
+            f"|w| <= {s.max_turn_rate:g} rad/s (both tracks within {s.max_speed:g} m/s), each "
+            f"held {s.hold[0]:g} to {s.hold[1]:g} s, inside a fence of {s.fence_radius:g} m. "
+            f"Every model ({', '.join(SLIP_MODELS)}) is fitted on the same data: the exploration "
+            f"and the {len(self.train) - 1} training runs of the kinematic comparison "
+            f"({', '.join(self.train)}), and scored on the same "
+            f"{len(self.held_out)} held-out runs ({', '.join(self.held_out)}). The learning curve "
+            "fits each model on the first seconds of the exploration alone."
+        )
+
+    def speed_dict(self) -> dict[str, Any]:
+        v_low, v_high = self.speeds
+        out: dict[str, Any] = {"v_low": v_low, "v_high": v_high}
+        if self.speed_gain is None:
+            out.update(gain_pct=None, ci95=[None, None], problem=self.speed_problem, answer="")
+        else:
+            g, lo, hi = (100.0 * x for x in self.speed_gain)
+            more = "more" if g >= 0 else "less"
+            ci = (
+                f"95 % interval [{lo:+.1f}, {hi:+.1f}] percentage points"
+                if math.isfinite(lo) and math.isfinite(hi)
+                else "no interval: the fit has no posterior"
+            )
+            out.update(
+                gain_pct=g,
+                ci95=[lo, hi],
+                problem=None,
+                answer=(
+                    f"the slip model says {v_high:g} m/s slips {abs(g):.1f} % {more} than "
+                    f"{v_low:g} m/s driving straight ({ci}; from its coefficients "
+                    "fwd_v, fwd_absv, fwd_v_absv and their posterior)"
+                ),
+            )
+        if self.measured:
+            out["measured"] = dict(self.measured)
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """The report's ``slip`` entry."""
+        s = asdict(self.settings)
+        return {
+            "exploration": {**s, "seed": self.seed, "terrain": self.terrain},
+            "about": self.about(),
+            "comparison": self.comparison.to_dict(),
+            "speed_question": self.speed_dict(),
+            "files": [self._shown(p) for p in (*self.files, *self.held_files)],
+            "command": self.command(),
+        }
+
+
+def _measured_answer(questions: Sequence[Any], speeds: tuple[float, float]) -> dict[str, Any]:
+    """The speed experiment's measured answer between the two speeds, when the questions have
+    one (``speed-sweep``)."""
+    for res in questions:
+        if res.experiment.name != "speed-sweep":
+            continue
+        for e in res.effects:
+            a, b = res.condition(e.a).condition.speed, res.condition(e.b).condition.speed
+            if (min(a, b), max(a, b)) == speeds:
+                sign = 1.0 if a > b else -1.0
+                lo, hi = sorted((sign * e.low, sign * e.high))
+                return {
+                    "experiment": res.experiment.name,
+                    "difference_pct": sign * e.difference,
+                    "ci95": [lo, hi],
+                    "answer": e.sentence(),
+                }
+    return {}
+
+
+def speeds_of(questions: Sequence[Any]) -> tuple[float, float]:
+    """The speed question's two speeds: those of the speed experiment's first effect, else
+    :data:`SPEEDS`."""
+    for res in questions:
+        if res.experiment.name == "speed-sweep" and res.effects:
+            e = res.effects[0]
+            a, b = res.condition(e.a).condition.speed, res.condition(e.b).condition.speed
+            if a > 0 and b > 0 and a != b:
+                return (min(a, b), max(a, b))
+    return SPEEDS
+
+
+def _write_run(folder: Path, run: OdometryRun) -> Path:
+    from odolab.io.tabular import write_columns
+    from odolab.io.trajectory_csv import write_trajectory_csv
+
+    path = write_columns(
+        folder / f"{run.name}.csv",
+        {"t": run.t, "dticks_left": run.dticks_left, "dticks_right": run.dticks_right},
+        "encoder log",
+    )
+    write_trajectory_csv(folder / f"{run.name}_gt.csv", run.require_ground_truth())
+    return path
+
+
+def slip_comparison(
+    truth: TrueParams,
+    nominal: RobotParams,
+    train: Sequence[OdometryRun],
+    held_out: Sequence[OdometryRun],
+    *,
+    seed: int,
+    terrain: str = "tile",
+    questions: Sequence[Any] = (),
+    folder: Path | None = None,
+    base: Path | None = None,
+) -> SlipComparison:
+    """The slip rule (see the module): explore, compare, learning curve, speed question.
+
+    ``questions``: the lab's open questions (their speed experiment gives the speeds and the
+    measured answer); ``folder``: write every run there as CSV (``<name>.csv`` and
+    ``<name>_gt.csv``) so that :meth:`SlipComparison.command` reproduces the comparison (run from
+    ``base``, the folder its paths are relative to)."""
+    from odolab.errors import ParamsError
+    from odolab.io.run import OdometryRun
+    from odolab.models.slip import SlipModel
+    from odolab.sim.explore import ExploreSettings, explore
+    from odolab.trajectory import Trajectory
+
+    settings = ExploreSettings(seconds=EXPLORE_SECONDS)
+    d = explore(truth, nominal, settings, terrain=terrain, seed=seed)
+    gt = Trajectory.from_xyh(d.t, d.x, d.y, d.heading)
+    exploration = OdometryRun("explore", "explore", d.t, d.dticks_left, d.dticks_right,
+                              ground_truth=gt)  # fmt: skip
+    runs = [exploration, *train]
+    comparison = compare_runs(runs, held_out, nominal, slip_request(seed))
+    speeds = speeds_of(questions)
+    gain: tuple[float, float, float] | None = None
+    problem: str | None = None
+    slip = next((s for s in comparison.scores if s.model == "slip"), None)
+    if slip is None or slip.fit is None:
+        problem = f"no slip model: {slip.problem if slip else 'not compared'}"
+    elif not isinstance(slip.fit.params.model, SlipModel):
+        problem = "no slip model: the fit gave another model"
+    else:
+        try:
+            gain = slip.fit.params.model.speed_slip_gain(*speeds)
+        except ParamsError as err:
+            problem = str(err)
+    files: tuple[Path, ...] = ()
+    held_files: tuple[Path, ...] = ()
+    params_arg = ""
+    if folder is not None:
+        files = tuple(_write_run(folder, r) for r in runs)
+        held_files = tuple(_write_run(folder, r) for r in held_out)
+        params_arg = _params_arg(folder, nominal)
+    return SlipComparison(
+        settings, seed, terrain, comparison, tuple(r.name for r in runs),
+        tuple(r.name for r in held_out), speeds, gain, problem, files, held_files,
+        params_arg, _measured_answer(questions, speeds), base,
+    )  # fmt: skip
+
+
+def _params_arg(folder: Path, nominal: RobotParams) -> str:
+    """The preset's name when ``nominal`` is a preset, else the file it is written to."""
+    from odolab.params import PRESETS, save_params
+
+    if PRESETS.get(nominal.name) == nominal:
+        return nominal.name
+    return str(save_params(folder / "nominal.toml", nominal))
