@@ -138,6 +138,7 @@ class ModelScore:
             "model": self.model,
             "n_params": self.n_params,
             "problem": self.problem,
+            "warnings": self.fit.warnings if self.fit else [],
             "values": self.fit.values if self.fit else None,
             "stderr": self.fit.stderr if self.fit else None,
             "held_out": {k: v.to_dict() for k, v in self.held_out.items()},

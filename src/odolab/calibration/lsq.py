@@ -67,10 +67,12 @@ __all__ = [
 PARAM_NAMES = ("left_wheel_radius", "right_wheel_radius", "track_width")
 FloatArray = NDArray[np.float64]
 
-#: variance inflation factor above which a parameter counts as not determined by the runs
-_VIF_LIMIT = 1e4
-#: ... or a standard error above this fraction of the parameter's typical size
-#: (its value; 0.1 x the track width for x_icr)
+#: variance inflation factor above which a parameter counts as not determined by the runs (the
+#: others explain the same motion: the runs lack the motion that tells it apart)
+_VIF_LIMIT = 100.0
+#: a standard error above this fraction of the parameter's typical size (its value; 0.1 x the
+#: track width for x_icr) is said: the parameter is fitted but poorly determined (the runs'
+#: noise, or the model's misfit, is large for what they contain)
 _SE_LIMIT = 0.05
 
 
@@ -377,6 +379,8 @@ class LsqCalibration:
     run_rss: list[float] = field(default_factory=list)
     #: number of residuals of each run (same order as ``runs``)
     run_sizes: list[int] = field(default_factory=list)
+    #: sentences on what the fit could not determine well (poorly determined parameters)
+    warnings: list[str] = field(default_factory=list)
 
     @property
     def n_params(self) -> int:
@@ -416,6 +420,7 @@ class LsqCalibration:
             "residual_rms_after": self.rms_after,
             "stderr": self.stderr,
             "gt_yaw_offsets_rad": self.gt_yaw_offsets,
+            "warnings": self.warnings,
             "nominal": self.nominal.to_dict(),
         }
 
@@ -507,7 +512,10 @@ def calibrate_lsq(
     s2 = float(np.sum(sol.fun**2)) / (m - x0.size)
     jtj = jmat.T @ jmat
     norms = np.linalg.norm(jmat, axis=0)
-    _check_identifiable(spec, jmat, norms, s2, k_model, x_scale[:k_model])
+    # a parameter's typical size: its start's scale, or its fitted value where that is larger
+    # (a start at 1 mm does not make a 0.28 m result uncertain)
+    typical = np.maximum(x_scale[:k_model], np.abs(sol.x[:k_model]))
+    warnings = _check_identifiable(spec, jmat, norms, s2, k_model, typical)
     cov: FloatArray = np.asarray(np.linalg.inv(jtj) * s2, dtype=np.float64)
     theta = sol.x
     params = spec.params(nominal, theta[:k_model]).with_(name=f"{nominal.name}-lsq")
@@ -526,6 +534,7 @@ def calibrate_lsq(
         model=spec.kind,
         run_rss=[float(np.sum(r**2)) for r in residuals],
         run_sizes=[int(r.size) for r in residuals],
+        warnings=warnings,
     )
 
 
@@ -565,15 +574,17 @@ def _check_identifiable(
     s2: float,
     k_model: int,
     typical: FloatArray,
-) -> None:
-    """Raise one sentence when the runs do not determine a parameter (see the module)."""
+) -> list[str]:
+    """Raise one sentence when the runs do not determine a parameter (see the module): the
+    other parameters explain the same motion. Return a sentence for each parameter that is
+    determined but poorly (its standard error above :data:`_SE_LIMIT` of its typical size)."""
     if spec.kind == "diff":  # the original sentence for the original model
         if not np.all(norms > 0) or np.linalg.cond(jmat / norms) > 1e5:
             raise CalibrationError(
                 "the runs do not determine both radii and the track width (singular Jacobian); "
                 "expected runs with both straight driving and turning"
             )
-        return
+        return []
     for i in range(k_model):
         if not norms[i] > 0:
             raise CalibrationError(
@@ -585,13 +596,16 @@ def _check_identifiable(
     ginv = np.linalg.pinv(jn.T @ jn)
     vif = np.diag(ginv)[:k_model]
     se = np.sqrt(np.maximum(vif * s2, 0.0)) / norms[:k_model]
-    bad = [
-        i
-        for i in range(k_model)
-        if not (np.isfinite(vif[i]) and vif[i] <= _VIF_LIMIT and se[i] <= _SE_LIMIT * typical[i])
-    ]
+    bad = [i for i in range(k_model) if not (np.isfinite(vif[i]) and vif[i] <= _VIF_LIMIT)]
     if not bad:
-        return
+        return [
+            f"{spec.names[i]} is poorly determined by these runs (standard error {se[i]:.3g}, "
+            f"{100 * se[i] / typical[i]:.0f} % of its typical size {typical[i]:.3g}): their "
+            "noise, or the model's misfit, is large for what they contain; held-out runs "
+            "tell whether the model helps"
+            for i in range(k_model)
+            if se[i] > _SE_LIMIT * typical[i]
+        ]
     groups: dict[str, list[str]] = {}
     for i in sorted(bad, key=lambda i: spec.names[i] != "x_icr"):  # x_icr's sentence first
         groups.setdefault(spec.needs[i], []).append(f"{spec.names[i]} (standard error {se[i]:.3g})")
