@@ -547,7 +547,7 @@ def _models(cfg: LabConfig, new: RobotParams, folder: Path, progress: Progress) 
     slip_note = why_not or ""
     if why_not is None:
         progress("models", MOCAP_RUNS + 1, total)
-        slip, slip_note = _slip(cfg, train, held, questions, folder)
+        slip, slip_note = _slip(cfg, held, questions, folder)
     progress("models", total, total)
     return ModelEvidence(
         comparison, tuple(nees), about_models, about_nees, tuple(missing), questions,
@@ -556,7 +556,7 @@ def _models(cfg: LabConfig, new: RobotParams, folder: Path, progress: Progress) 
 
 
 def _slip(
-    cfg: LabConfig, train: list[Any], held: list[Any], questions: tuple[Any, ...], folder: Path
+    cfg: LabConfig, held: list[Any], questions: tuple[Any, ...], folder: Path
 ) -> tuple[dict[str, Any] | None, str]:
     """The slip model against the kinematic ones, from a one-minute exploration (the runs
     written to ``runs/`` so that ``calibrate compare`` can repeat it); a failure is a note."""
@@ -564,7 +564,7 @@ def _slip(
 
     try:
         result = slip_comparison(
-            cfg.true_params, cfg.nominal, train, held, seed=cfg.seed, terrain="tile",
+            cfg.true_params, cfg.nominal, held, seed=cfg.seed, terrain="tile",
             questions=questions, folder=folder / "runs", base=folder,
         )  # fmt: skip
     except OdolabError as err:

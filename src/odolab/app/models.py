@@ -11,8 +11,9 @@ models, which seconds of a learning curve, which seed.
 - drive one exploration of :data:`EXPLORE_SECONDS` (:func:`odolab.sim.explore.explore`, default
   limits: commands uniform over ``|v| <= 1 m/s``, ``|w| <= 2 rad/s``, held 1 to 3 s, inside a
   4 m fence) with the lab's seed;
-- fit every model of :data:`SLIP_MODELS` on the *same* data: the exploration run first, then
-  the training runs the kinematic comparison uses; score them on the same held-out runs;
+- fit every model of :data:`SLIP_MODELS` on the *same* data, the exploration run alone (the
+  minute of driving the slip model is meant to learn from), and score them on the held-out runs
+  of the kinematic comparison;
 - the learning curve (:data:`CURVE_SECONDS`): each model fitted on the first seconds of the
   exploration run alone, mean held-out end-point error (``compare_models(curve=...)``);
 - the lab's speed question from the slip model's coefficients:
@@ -153,7 +154,7 @@ class SlipComparison:
     #: slip(v_high) - slip(v_low) as a fraction, with its 95 % interval (None: no slip fit)
     speed_gain: tuple[float, float, float] | None
     speed_problem: str | None = None
-    #: the run files (exploration first, then the training runs; then the held-out ones)
+    #: the run files (the exploration; then the held-out ones)
     files: tuple[Path, ...] = ()
     held_files: tuple[Path, ...] = ()
     #: the ``--params`` of :meth:`command`: a preset's name, or the file the nominal was written to
@@ -190,11 +191,10 @@ class SlipComparison:
             f"{self.seed}): commands drawn {s.distribution} over |v| <= {s.max_speed:g} m/s and "
             f"|w| <= {s.max_turn_rate:g} rad/s (both tracks within {s.max_speed:g} m/s), each "
             f"held {s.hold[0]:g} to {s.hold[1]:g} s, inside a fence of {s.fence_radius:g} m. "
-            f"Every model ({', '.join(SLIP_MODELS)}) is fitted on the same data: the exploration "
-            f"and the {len(self.train) - 1} training runs of the kinematic comparison "
-            f"({', '.join(self.train)}), and scored on the same "
-            f"{len(self.held_out)} held-out runs ({', '.join(self.held_out)}). The learning curve "
-            "fits each model on the first seconds of the exploration alone."
+            f"Every model ({', '.join(SLIP_MODELS)}) is fitted on the same data, the exploration "
+            f"alone, and scored on the {len(self.held_out)} held-out runs of the kinematic "
+            f"comparison ({', '.join(self.held_out)}). The learning curve fits each model on the "
+            "first seconds of the exploration."
         )
 
     def speed_dict(self) -> dict[str, Any]:
@@ -285,7 +285,6 @@ def _write_run(folder: Path, run: OdometryRun) -> Path:
 def slip_comparison(
     truth: TrueParams,
     nominal: RobotParams,
-    train: Sequence[OdometryRun],
     held_out: Sequence[OdometryRun],
     *,
     seed: int,
@@ -311,7 +310,7 @@ def slip_comparison(
     gt = Trajectory.from_xyh(d.t, d.x, d.y, d.heading)
     exploration = OdometryRun("explore", "explore", d.t, d.dticks_left, d.dticks_right,
                               ground_truth=gt)  # fmt: skip
-    runs = [exploration, *train]
+    runs = [exploration]
     comparison = compare_runs(runs, held_out, nominal, slip_request(seed))
     speeds = speeds_of(questions)
     gain: tuple[float, float, float] | None = None
