@@ -366,3 +366,21 @@ def test_icr_model_is_fitted_on_an_exploration_with_turns_of_both_signs(
     have such turns (the misfit of constant ICRs inflated the standard error)."""
     for m in measured.values():
         assert m.problems["icr"] is None, (m.sim, m.seed, m.problems["icr"])
+
+
+@pytest.mark.xfail(
+    strict=True,
+    raises=AssertionError,
+    reason="issue 29: the slip model's predictive variance should feed the covariance; "
+    "`odolab odometry --covariance` with a slip parameters file refuses: 'the parameters ... "
+    "have no [noise] table; expected one with k_left and k_right (m)'",
+)
+def test_odometry_covariance_uses_the_slip_models_predictive_variance(tmp_path: Path) -> None:
+    sim = SIMS["icr-speed"]
+    ex = write_run(tmp_path, exploration(sim, 1))
+    arcs = write_run(tmp_path / "held", held_out_runs(sim, 1)[1])
+    params = tmp_path / "slip.toml"
+    assert _cli(["calibrate", "lsq", str(ex), "--model", "slip", "-o", str(params)]) == 0
+    out = tmp_path / "arcs_odometry.csv"
+    code = main(["odometry", str(arcs), "--params", str(params), "--covariance", "-o", str(out)])
+    assert code == 0 and out.is_file()
