@@ -24,12 +24,14 @@ from odolab.params import RobotParams
 from odolab.trajectory import Pose
 
 __all__ = [
+    "EXPLORE_DISTRIBUTIONS",
     "MAX_ANGLE_RAD",
     "MAX_DISTANCE_M",
     "MAX_POSITION_M",
     "TRIAL_FIELDS",
     "Command",
     "EncoderLog",
+    "Exploration",
     "FieldType",
     "Measurement",
     "MotionKind",
@@ -49,7 +51,7 @@ class MotionKind(StrEnum):
     TRANSLATION = "translation"  #: straight by ``distance`` (negative = reverse)
     PIVOT = "pivot"  #: turn by ``angle`` on one track, the other held
     SQUARE = "square"  #: UMBmark square of ``side``, ``direction`` "cw" or "ccw"
-    FREE = "free"  #: anything else (a recorded log)
+    FREE = "free"  #: anything else (a recorded log; an exploration: :attr:`Command.explore`)
 
 
 class TrialStatus(StrEnum):
@@ -58,6 +60,42 @@ class TrialStatus(StrEnum):
     AWAITING = "awaiting"  #: driven, not yet measured
     MEASURED = "measured"
     EXCLUDED = "excluded"  #: kept, but left out of the analysis (with a reason)
+
+
+#: How an exploration draws its commands: uniformly over what the robot can do, or three in four
+#: from the outer half of each range (more data where slip is largest).
+EXPLORE_DISTRIBUTIONS = ("uniform", "edges")
+
+
+@dataclass(frozen=True)
+class Exploration:
+    """What an exploration drives (issue 29, after DRIVE, Baril et al. 2024): for ``seconds``,
+    commands (forward speed m/s, turn rate rad/s) drawn by ``distribution`` within
+    ``|v| <= max_speed``, ``|w| <= max_turn_rate`` and both track speeds within ``max_speed``,
+    each held for a time drawn uniformly in ``hold`` (s), inside a circle of ``fence`` m about
+    the start (by odometry, a hard limit), from the random ``seed``.
+
+    ``max_speed`` / ``max_turn_rate`` None: not chosen yet (the robot layer fills them in from
+    the run's limits and says so). Validated by :func:`odolab.robot.config.check_motion`.
+    """
+
+    seconds: float = 60.0
+    max_speed: float | None = None
+    max_turn_rate: float | None = None
+    hold: tuple[float, float] = (1.0, 3.0)
+    fence: float = 3.0
+    distribution: str = "uniform"
+    seed: int = 0
+
+    def describe(self) -> str:
+        """One line, e.g. '60 s, speeds up to 0.5 m/s, turn rates up to 1 rad/s, ...'."""
+        v = "?" if self.max_speed is None else f"{self.max_speed:g}"
+        w = "?" if self.max_turn_rate is None else f"{self.max_turn_rate:g}"
+        return (
+            f"{self.seconds:g} s, speeds up to {v} m/s, turn rates up to {w} rad/s, each held "
+            f"{self.hold[0]:g}-{self.hold[1]:g} s, drawn {self.distribution} (seed {self.seed}), "
+            f"fence {self.fence:g} m about the start"
+        )
 
 
 @dataclass(frozen=True)
@@ -70,9 +108,24 @@ class Command:
     side: float | None = None
     direction: str | None = None  #: "cw"/"ccw" for a square; "left"/"right" track held for pivot
     speed: float | None = None  #: commanded speed, m/s (translation) or rad/s (rotation)
+    #: an exploration (a FREE command, :meth:`exploration`): what it drives
+    explore: Exploration | None = None
+
+    @classmethod
+    def exploration(cls, spec: Exploration) -> Command:
+        """The command of an exploration: a free motion (not one of Table I's kinds, so the
+        notebook's kinds and every analysis stay as they are) that carries its settings."""
+        return cls(MotionKind.FREE, explore=spec)
+
+    @property
+    def label(self) -> str:
+        """The motion's name in run ids and folders: ``explore`` or the kind."""
+        return "explore" if self.explore is not None else self.kind.value
 
     def describe(self) -> str:
-        """Short human text, e.g. 'rotation 20.0 pi' or 'translation -2.5 m'."""
+        """Short human text, e.g. 'rotation 20.0 pi', 'translation -2.5 m' or 'explore 60 s'."""
+        if self.explore is not None:
+            return f"explore {self.explore.seconds:g} s"
         if self.kind in (MotionKind.ROTATION, MotionKind.PIVOT) and self.angle is not None:
             return f"{self.kind.value} {self.angle / math.pi:g} pi"
         if self.kind is MotionKind.TRANSLATION and self.distance is not None:
@@ -323,6 +376,13 @@ def _check_text(value: object, name: str, where: str) -> None:
 def _check_command(c: Command, where: str) -> None:
     if not isinstance(c.kind, MotionKind):
         raise InvalidTrialError(f"{where}: command kind {c.kind!r} is not a MotionKind", "kind")
+    if c.explore is not None:  # the notebook has no column for its settings: never dropped
+        raise InvalidTrialError(
+            f"{where}: an exploration's settings have no place in the notebook (it is not a "
+            "Table I trial; its log and ground truth stay in its run folder); expected the "
+            "excluded free run that odolab robot explore --db records, its settings in the notes",
+            "kind",
+        )
     for name in ("angle", "distance", "side", "speed"):
         check_field(name, getattr(c, name), where)
     need = _COMMAND_NEEDS.get(c.kind)
@@ -371,7 +431,10 @@ def validate_trial(trial: Trial) -> None:
     """Refuse (:class:`InvalidTrialError`, naming the trial and the field) an unstorable trial.
 
     Every way into the notebook calls this: the robot and the simulator, ``odolab trials add``,
-    CSV and JSON import. Ranges are those of :data:`TRIAL_FIELDS`.
+    CSV and JSON import. Ranges are those of :data:`TRIAL_FIELDS`. A command that carries an
+    exploration (:attr:`Command.explore`) is refused: the notebook has no place for its settings
+    (``odolab.robot.explore.notebook_trial`` records an exploration as an excluded free run
+    with its settings in the notes).
     """
     tid = trial.trial_id
     if not isinstance(tid, str) or not tid.strip() or tid != tid.strip():

@@ -1,8 +1,10 @@
-"""CLI commands: ``odolab robot rotate|drive|pivot|square|sim-server``.
+"""CLI commands: ``odolab robot rotate|drive|pivot|square|explore|sim-server``.
 
 Each motion command drives a robot by odometry (by default a virtual Jaguar started on loopback),
 shows the pose and loop health live, and saves the run (encoder log, predicted trajectory, JSON)
-so that the measured pose can be entered afterwards.
+so that the measured pose can be entered afterwards. ``explore`` drives commands sampled over the
+robot's input space inside a geofence and keeps the run's ground truth
+(:mod:`odolab.robot.explore`).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from odolab.cli._output import echo
 
 if TYPE_CHECKING:
     from odolab.robot.config import RunConfig
+    from odolab.robot.explore import ExplorePlan
     from odolab.robot.loop import CycleInfo
     from odolab.robot.session import AbortReport, RobotRun
     from odolab.store import Notebook
@@ -50,6 +53,18 @@ class DirectionChoice(StrEnum):
 class TrackChoice(StrEnum):
     left = "left"
     right = "right"
+
+
+class DistributionChoice(StrEnum):
+    uniform = "uniform"
+    edges = "edges"
+
+
+class GroundTruthChoice(StrEnum):
+    virtual = "virtual"
+    mocap = "mocap"
+    track = "track"
+    laser = "laser"
 
 
 RobotOpt = Annotated[
@@ -249,6 +264,7 @@ def _run(
     realtime: bool,
     foxglove: bool = False,
     foxglove_port: int = 8765,
+    ground_truth: GroundTruthChoice | None = None,
 ) -> None:
     """Validate everything, then drive ``command`` with ``config``; nothing is sent before."""
     from rich.console import Console
@@ -261,6 +277,9 @@ def _run(
 
     url = check_robot_url(robot)
     nominal = load_params(params)
+    plan = _explore_plan(command, config, nominal, url, ground_truth, params)
+    if plan is not None:
+        command = plan.command
     check_motion(command, config, nominal)
     plant = None
     if url.startswith("sim:"):
@@ -327,19 +346,36 @@ def _run(
             command, config, url=url, nominal=nominal, plant=plant, seed=seed, terrain=terrain,
             on_cycle=on_cycle, on_event=on_event, realtime=realtime, folder=folder,
             notebook=notebook, db=db, quiet=quiet, live=live, view=view, events=events,
-            target=target,
+            target=target, plan=plan,
         )  # fmt: skip
     finally:
         if notebook is not None:
             notebook.close()
 
 
+def _explore_plan(
+    command: Command,
+    config: RunConfig,
+    nominal: Any,
+    url: str,
+    ground_truth: GroundTruthChoice | None,
+    params: str,
+) -> ExplorePlan | None:
+    """The checked plan of an exploration (its choices said), None for another motion."""
+    if command.explore is None:
+        return None
+    from odolab.robot.explore import plan_exploration
+
+    source = ground_truth.value if ground_truth is not None else None
+    plan = plan_exploration(command, config, nominal, url, source, params_name=params)
+    echo(plan.describe(), err=True)
+    return plan
+
+
 def _default_folder(command: Command) -> Path:
     """``runs/robot/<UTC time>-<motion>``, with ``-2``, ``-3``... when that is taken."""
     base = (
-        Path("runs")
-        / "robot"
-        / (datetime.now(UTC).strftime("%Y%m%dT%H%M%S") + f"-{command.kind.value}")
+        Path("runs") / "robot" / (datetime.now(UTC).strftime("%Y%m%dT%H%M%S") + f"-{command.label}")
     )
     folder, n = base, 1
     while folder.exists() or folder.is_symlink():
@@ -353,12 +389,16 @@ def _record(notebook: Notebook | None, db: Path | None, run: RobotRun) -> str:
     if notebook is None or db is None:
         return ""
     from odolab.errors import OdolabError
+    from odolab.robot.explore import notebook_trial
 
+    trial = notebook_trial(run.trial)  # an exploration: an excluded free run
     try:
-        notebook.add_trial(run.trial)
+        notebook.add_trial(trial)
     except OdolabError as err:
         return f"the run could not be recorded in the notebook {db}: {err}"
-    if run.trial.status.value == "excluded":
+    if trial is not run.trial:
+        echo(f"recorded in {db} as {trial.trial_id} (excluded: {trial.exclusion_reason})")
+    elif run.trial.status.value == "excluded":
         echo(f"recorded in {db} as {run.trial.trial_id} (excluded: the run failed)", err=True)
     else:
         echo(
@@ -388,6 +428,7 @@ def _drive(
     view: _FoxgloveView | None,
     events: list[str],
     target: str,
+    plan: ExplorePlan | None = None,
 ) -> None:
     """Drive the checked run; keep it (folder, notebook) whatever fails after the robot moved."""
     from odolab.errors import RobotLinkError
@@ -415,20 +456,27 @@ def _drive(
     if live is not None:
         live.start()
     try:
-        run = run_motion(
-            command,
-            config=config,
-            robot=url,
-            params=nominal,
-            plant=plant,
-            seed=seed,
-            terrain=terrain,
-            on_cycle=on_cycle,
-            on_event=on_event,
-            realtime=realtime,
-            save_to=folder,
-            on_abort=on_abort,
-        )
+        if plan is not None:
+            run = plan.run(
+                config=config, robot=url, params=nominal, plant=plant, seed=seed,
+                terrain=terrain, on_cycle=on_cycle, on_event=on_event, realtime=realtime,
+                save_to=folder, on_abort=on_abort,
+            )  # fmt: skip
+        else:
+            run = run_motion(
+                command,
+                config=config,
+                robot=url,
+                params=nominal,
+                plant=plant,
+                seed=seed,
+                terrain=terrain,
+                on_cycle=on_cycle,
+                on_event=on_event,
+                realtime=realtime,
+                save_to=folder,
+                on_abort=on_abort,
+            )
     finally:
         if live is not None:
             live.stop()
@@ -448,8 +496,11 @@ def _drive(
     echo(run.stats.describe())
     if run.save_note:
         echo(run.save_note, err=True)
-    if run.saved_to is not None:
+    outcome, crossed = plan.outcome(run) if plan is not None else ([], None)
+    if run.saved_to is not None and plan is None:
         echo(f"saved to {run.saved_to} (status: awaiting measurement)")
+    for line in outcome:
+        echo(line)
     problem = _record(notebook, db, run)
     if problem:
         echo(problem, err=True)
@@ -463,6 +514,10 @@ def _drive(
         raise RunNotSavedError(run.save_note)
     if problem:
         raise RunNotSavedError(f"{problem}; the run is saved to {run.saved_to}")
+    if crossed is not None:
+        from odolab.robot.errors import FenceCrossedError
+
+        raise FenceCrossedError(crossed)
 
 
 def _config(
@@ -535,9 +590,13 @@ _SHARED_OPTIONS: tuple[tuple[str, Any, Any], ...] = (
 _CONFIG_KEYS = frozenset(inspect.signature(_config).parameters)
 
 
-def _motion_command(name: str) -> Callable[[Callable[..., Command]], Callable[..., Command]]:
+def _motion_command(
+    name: str, run_options: tuple[tuple[str, Any, Any], ...] = ()
+) -> Callable[[Callable[..., Command]], Callable[..., Command]]:
     """Register ``build`` (its own options -> the Command; its docstring is the help) as
-    ``odolab robot NAME`` with the shared options after its own: validated, then driven."""
+    ``odolab robot NAME`` with the shared options after its own: validated, then driven.
+    ``run_options`` (name, type, default): options of this command that go to ``_run`` (after
+    the builder's in --help)."""
 
     def register(build: Callable[..., Command]) -> Callable[..., Command]:
         # the annotations are postponed strings; resolved here, the return type left out (it
@@ -552,7 +611,7 @@ def _motion_command(name: str) -> Callable[[Callable[..., Command]], Callable[..
         ]
         shared = [
             inspect.Parameter(n, inspect.Parameter.KEYWORD_ONLY, annotation=a, default=d)
-            for n, a, d in _SHARED_OPTIONS
+            for n, a, d in (*run_options, *_SHARED_OPTIONS)
         ]
 
         def command(**options: Any) -> None:
@@ -623,6 +682,93 @@ def square(
     from odolab.trials import Command, MotionKind
 
     return Command(MotionKind.SQUARE, side=side, direction=direction.value, speed=speed)
+
+
+def _hold(text: str) -> tuple[float, float]:
+    """``--hold LOW,HIGH`` (or one number: both) in seconds; one sentence when it is not."""
+    from odolab.robot.errors import RobotConfigError
+
+    parts = [p.strip() for p in text.split(",")]
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        values = []
+    if len(values) not in (1, 2):
+        raise RobotConfigError(
+            f"--hold is {text!r}; expected LOW,HIGH seconds (e.g. 1,3) or one number of seconds"
+        )
+    return (values[0], values[-1])
+
+
+GroundTruthOpt = Annotated[
+    GroundTruthChoice | None,
+    typer.Option(
+        "--ground-truth",
+        help="Where the run's ground truth comes from: virtual (sim://, recorded as "
+        "encoders_gt.csv; the default there); on a real robot, required: mocap, track (a filmed "
+        "marker, odolab track) or laser (odolab calibrate sensor --truth-out), attached "
+        "afterwards as the output says.",
+    ),
+]
+
+
+@_motion_command("explore", run_options=(("ground_truth", GroundTruthOpt, None),))
+def explore(
+    seconds: Annotated[
+        float, typer.Option("--seconds", help="How long to explore, s (at most 600).")
+    ] = 60.0,
+    max_speed: Annotated[
+        float | None,
+        typer.Option(
+            "--max-speed",
+            help="Largest forward speed and track speed, m/s (default 0.5, at most "
+            "--max-wheel-speed).",
+        ),
+    ] = None,
+    max_turn_rate: Annotated[
+        float | None,
+        typer.Option(
+            "--max-turn-rate",
+            help="Largest turn rate, rad/s (default 1, at most a turn in place at --max-speed).",
+        ),
+    ] = None,
+    hold: Annotated[
+        str, typer.Option("--hold", help="Each command is held LOW,HIGH s (uniform between).")
+    ] = "1,3",
+    fence: Annotated[
+        float,
+        typer.Option(
+            "--fence",
+            help="Geofence radius about the start, m, by odometry: the robot turns back near "
+            "it and is stopped (exit 1, run kept) beyond it.",
+        ),
+    ] = 3.0,
+    distribution: Annotated[
+        DistributionChoice,
+        typer.Option(
+            "--distribution",
+            help="How commands are drawn: uniform over what the robot can do, or edges (three "
+            "in four from the outer half of each range).",
+        ),
+    ] = DistributionChoice.uniform,
+    explore_seed: Annotated[
+        int, typer.Option("--explore-seed", min=0, help="Seed of the commands drawn (>= 0).")
+    ] = 0,
+) -> Command:
+    """Explore: commands sampled over speed and turn rate, held a few seconds each, inside a
+    geofence by odometry; one run kept with its ground truth (a slip model's data)."""
+    from odolab.trials import Command, Exploration
+
+    spec = Exploration(
+        seconds=seconds,
+        max_speed=max_speed,
+        max_turn_rate=max_turn_rate,
+        hold=_hold(hold),
+        fence=fence,
+        distribution=distribution.value,
+        seed=explore_seed,
+    )
+    return Command.exploration(spec)
 
 
 @robot_app.command("sim-server")

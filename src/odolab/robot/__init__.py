@@ -6,7 +6,9 @@ from :mod:`.registry` (``udp://`` a Jaguar board, ``tcp://`` a Jaguar 4x4 of 201
 virtual one). Each link's codec, driver and virtual board are one package: :mod:`.jaguar`
 (binary over UDP), :mod:`.jaguar2014` (text over TCP). Every run has one validated
 :class:`RunConfig` (:mod:`.config`). The virtual board's physics come in through the
-:class:`Plant` interface (:mod:`.plant`), never by importing the simulator.
+:class:`Plant` interface (:mod:`.plant`), never by importing the simulator. An exploration
+(``odolab robot explore``: commands over the input space inside a hard geofence, one run with its
+ground truth) is :mod:`.explore` over the motion :mod:`.explore_motion`.
 
 See docs/robot.md for the command line, the protocol choices and the safety guarantees.
 """
@@ -18,6 +20,7 @@ from odolab.robot.config import CommandMode, RunConfig, check_motion
 from odolab.robot.errors import (
     BoardConfigError,
     CommandsIgnoredError,
+    FenceCrossedError,
     LateCycleError,
     LinkLostError,
     MotionError,
@@ -28,6 +31,8 @@ from odolab.robot.errors import (
     RunFolderError,
     RunNotSavedError,
 )
+from odolab.robot.explore import ExplorePlan, plan_exploration
+from odolab.robot.explore_motion import Explore
 from odolab.robot.interface import Driver, DriverStats, EncoderReading
 from odolab.robot.loop import ControlLoop, CycleInfo, CycleLog, LoopResult, LoopStats, Watchdog
 from odolab.robot.motions import (
@@ -48,6 +53,7 @@ from odolab.robot.session import (
     keep_run,
     run_motion,
     run_motion_simulated,
+    run_simulated,
     save_run,
 )
 
@@ -64,6 +70,9 @@ __all__ = [
     "Driver",
     "DriverStats",
     "EncoderReading",
+    "Explore",
+    "ExplorePlan",
+    "FenceCrossedError",
     "IdealPlant",
     "LateCycleError",
     "LinkLostError",
@@ -95,8 +104,10 @@ __all__ = [
     "keep_run",
     "motion_from_command",
     "open_link",
+    "plan_exploration",
     "run_motion",
     "run_motion_simulated",
+    "run_simulated",
     "save_run",
     "square",
 ]

@@ -16,10 +16,11 @@ from enum import StrEnum
 
 from odolab.params import RobotParams
 from odolab.robot.errors import RobotConfigError
-from odolab.trials import Command, MotionKind
+from odolab.trials import EXPLORE_DISTRIBUTIONS, Command, Exploration, MotionKind
 
 __all__ = [
     "BOUNDS",
+    "EXPLORE_BOUNDS",
     "Bound",
     "CommandMode",
     "RunConfig",
@@ -193,14 +194,79 @@ def check_signs(obj: object, names: tuple[str, ...], *, label: Callable[[str], s
             raise RobotConfigError(f"{label(name)} is {value!r}; expected 1 or -1")
 
 
+#: Limits of an exploration's settings (its speeds are bounded by the run's, see check_motion).
+EXPLORE_BOUNDS: dict[str, Bound] = {
+    "seconds": Bound("--seconds", 0.0, 600.0, "s", lo_open=True),
+    "fence": Bound("--fence", 0.0, 100.0, "m (radius about the start)", lo_open=True),
+    "hold": Bound("--hold", 0.0, 60.0, "s", lo_open=True),
+}
+
+
+def _check_exploration(e: Exploration, config: RunConfig, params: RobotParams) -> None:
+    """Each setting of an exploration, one sentence naming its option (see check_motion)."""
+    check_bound(EXPLORE_BOUNDS["seconds"], e.seconds)
+    vmax = config.max_wheel_speed
+    if e.max_speed is None:
+        raise RobotConfigError("--max-speed is missing; expected a number of m/s")
+    v = check_bound(
+        Bound("--max-speed", 0.0, vmax, f"m/s (--max-wheel-speed {vmax:g} m/s)", lo_open=True),
+        e.max_speed,
+    )
+    if e.max_turn_rate is None:
+        raise RobotConfigError("--max-turn-rate is missing; expected a number of rad/s")
+    turn = v / (0.5 * params.track_width)
+    check_bound(
+        Bound(
+            "--max-turn-rate",
+            0.0,
+            turn,
+            f"rad/s (a turn in place with both tracks at --max-speed {v:g} m/s)",
+            lo_open=True,
+        ),
+        e.max_turn_rate,
+    )
+    hold = e.hold
+    if not (isinstance(hold, tuple | list) and len(hold) == 2):
+        raise RobotConfigError(f"--hold is {hold!r}; expected LOW,HIGH seconds, e.g. 1,3")
+    lo = check_bound(EXPLORE_BOUNDS["hold"], hold[0])
+    hi = check_bound(EXPLORE_BOUNDS["hold"], hold[1])
+    if lo > hi:
+        raise RobotConfigError(
+            f"--hold is {lo:g},{hi:g}; expected LOW,HIGH seconds with 0 < LOW <= HIGH"
+        )
+    check_bound(EXPLORE_BOUNDS["fence"], e.fence)
+    if e.distribution not in EXPLORE_DISTRIBUTIONS:
+        raise RobotConfigError(
+            f"--distribution is {e.distribution!r}; expected one of "
+            f"{', '.join(EXPLORE_DISTRIBUTIONS)}"
+        )
+    if isinstance(e.seed, bool) or not isinstance(e.seed, int) or e.seed < 0:
+        raise RobotConfigError(f"--explore-seed is {e.seed!r}; expected a whole number >= 0")
+    if config.decel != 0:
+        raise RobotConfigError(
+            f"--decel is {config.decel:g}; an exploration has no target to slow down to (its "
+            "commands change at once, as drawn); expected 0"
+        )
+
+
 def check_motion(command: Command, config: RunConfig, params: RobotParams) -> None:
     """Refuse a motion whose size or speed is not finite, zero, or beyond what the robot can do.
 
     Speeds must be positive and reachable within ``config.max_wheel_speed``: m/s for straight
     runs and the square's sides, rad/s for rotations (wheel speed = rate * track / 2) and pivots
-    (rate * track). The message names the CLI option.
+    (rate * track). An exploration: ``--seconds`` in (0, 600], ``--max-speed`` in (0,
+    ``--max-wheel-speed``], ``--max-turn-rate`` in (0, a turn in place at ``--max-speed``],
+    ``--hold`` 0 < LOW <= HIGH <= 60 s, ``--fence`` in (0, 100] m, a known ``--distribution``,
+    ``--explore-seed`` >= 0, no ``--decel``. The message names the CLI option.
     """
     kind = command.kind
+    if command.explore is not None:
+        if kind is not MotionKind.FREE:
+            raise RobotConfigError(
+                f"a {kind.value} command cannot carry an exploration; expected a free one"
+            )
+        _check_exploration(command.explore, config, params)
+        return
     if kind is MotionKind.TRANSLATION:
         size_option, size = "--distance", abs(_num(command.distance, "--distance"))
     elif kind is MotionKind.ROTATION:

@@ -11,6 +11,7 @@ from odolab.errors import OdolabError, RobotLinkError, SimError
 __all__ = [
     "BoardConfigError",
     "CommandsIgnoredError",
+    "FenceCrossedError",
     "LateCycleError",
     "LinkLostError",
     "MotionError",
@@ -62,6 +63,11 @@ class RunFolderError(RobotConfigError):
 
 class RunNotSavedError(OdolabError):
     """A run that has driven could be written neither where asked nor to any fallback."""
+
+
+class FenceCrossedError(OdolabError):
+    """An exploration left its geofence (by odometry): the robot was stopped there, the run ended
+    early and was kept."""
 
 
 class PlantError(OdolabError):

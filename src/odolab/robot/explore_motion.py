@@ -1,17 +1,21 @@
 """An exploration motion for the live stack: commands over the input space, a hard geofence.
 
 The control loop's :class:`~odolab.robot.motions.Motion` for issue 29's exploration (the live
-twin of :func:`odolab.sim.explore.explore`, which the robot layer may not import): every
-``hold`` seconds (uniform between its two values) it draws a forward speed and turn rate
-uniformly within ``|v| <= max_speed``, ``|w| <= max_turn_rate`` and both wheel speeds
-``v -+ w b/2`` within ``max_speed``; beyond ``return_fraction`` of the fence radius and moving
-outward it turns in place toward the centre, then drives a drawn command forward. The fence
-(a circle of ``fence_radius`` m about the start pose, by odometry) is a hard limit: the cycle
-that finds the robot outside it answers None (stop) and sets :attr:`Explore.fence_crossed`;
-after ``seconds`` it answers None too. Every other safety rule is the loop's own.
-
-Not yet registered as ``odolab robot explore``: the live commands are built from a
-:class:`odolab.trials.Command`, which has no exploration kind.
+twin of :func:`odolab.sim.explore.explore`, which the robot layer may not import), driven by
+``odolab robot explore`` (:mod:`odolab.robot.explore`; built from the
+:class:`odolab.trials.Command` of an exploration by :meth:`Explore.from_exploration`): every
+``hold`` seconds (uniform between its two values) it draws a forward speed and turn rate within
+``|v| <= max_speed``, ``|w| <= max_turn_rate`` and both wheel speeds ``v -+ w b/2`` within
+``max_speed`` - uniformly, or with ``distribution = "edges"`` three in four of each from the
+outer half of its range, as the simulator's twin does. A draw whose faster track would run
+below ``min_fraction`` of ``max_speed`` is drawn again: a motor's dead band would hold the
+robot still and the loop's stall rule would end the run. Beyond ``return_fraction`` of the fence
+radius and moving outward (or at the end of a hold there) it turns in place toward the centre,
+then drives a drawn command forward. The fence (a circle of ``fence_radius`` m about the start
+pose, by odometry) is a hard limit: the cycle that finds the robot outside it answers None (the
+loop stops the robot) and sets :attr:`Explore.fence_crossed`; after ``seconds`` it answers None
+too. Every command it starts is kept in :attr:`Explore.commands`. Every other safety rule is the
+loop's own.
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ import numpy as np
 from odolab.params import RobotParams
 from odolab.robot.errors import MotionError
 from odolab.trajectory import Pose
+from odolab.trials import EXPLORE_DISTRIBUTIONS, Command
 
 __all__ = ["Explore"]
 
@@ -39,8 +44,32 @@ class Explore:
     fence_radius: float = 3.0
     return_fraction: float = 0.6
     seed: int = 0
+    distribution: str = "uniform"
+    min_fraction: float = 0.1
     #: True once a cycle found the robot outside the fence (the motion then stopped)
     fence_crossed: bool = field(default=False, init=False)
+    #: (t, distance from the centre m) of the cycle that found the fence crossed
+    crossed_at: tuple[float, float] | None = field(default=None, init=False)
+    #: every command started: (t s, forward speed m/s, turn rate rad/s), t on the loop's clock
+    commands: list[tuple[float, float, float]] = field(default_factory=list, init=False)
+
+    @classmethod
+    def from_exploration(cls, command: Command) -> Explore:
+        """The motion of an exploration's command (its limits chosen; see check_motion)."""
+        e = command.explore
+        if e is None:
+            raise MotionError(f"cannot explore with a {command.describe()!r} command")
+        if e.max_speed is None or e.max_turn_rate is None:
+            raise MotionError("exploration speed limits are not chosen; expected numbers")
+        return cls(
+            seconds=e.seconds,
+            max_speed=e.max_speed,
+            max_turn_rate=e.max_turn_rate,
+            hold=(float(e.hold[0]), float(e.hold[1])),
+            fence_radius=e.fence,
+            seed=e.seed,
+            distribution=e.distribution,
+        )
 
     def __post_init__(self) -> None:
         for key in ("seconds", "max_speed", "max_turn_rate", "fence_radius"):
@@ -53,6 +82,15 @@ class Explore:
         if not 0 < self.return_fraction < 1:
             raise MotionError(
                 f"exploration return_fraction is {self.return_fraction!r}, expected 0 to 1"
+            )
+        if not 0 <= self.min_fraction < 0.5:
+            raise MotionError(
+                f"exploration min_fraction is {self.min_fraction!r}, expected 0 up to 0.5"
+            )
+        if self.distribution not in EXPLORE_DISTRIBUTIONS:
+            raise MotionError(
+                f"exploration distribution is {self.distribution!r}; expected one of "
+                f"{', '.join(EXPLORE_DISTRIBUTIONS)}"
             )
         self._rng = np.random.default_rng(self.seed)
         self._centre = (0.0, 0.0)
@@ -69,15 +107,30 @@ class Explore:
         self._until = -math.inf
         self._returning = False
         self.fence_crossed = False
+        self.crossed_at = None
+        self.commands = []
+
+    def _value(self, limit: float) -> float:
+        if self.distribution == "edges" and self._rng.random() < 0.75:
+            sign = 1.0 if self._rng.random() < 0.5 else -1.0
+            return float(self._rng.uniform(0.5, 1.0) * limit * sign)
+        return float(self._rng.uniform(-limit, limit))
+
+    def _set(self, t: float, v: float, w: float) -> None:
+        if (v, w) != self._cmd or not self.commands:
+            self.commands.append((t, v, w))
+        self._cmd = (v, w)
 
     def _draw(self, t: float, forward: bool = False) -> None:
+        floor = self.min_fraction * self.max_speed
         for _ in range(1000):
-            v = float(self._rng.uniform(-self.max_speed, self.max_speed))
-            w = float(self._rng.uniform(-self.max_turn_rate, self.max_turn_rate))
+            v = self._value(self.max_speed)
+            w = self._value(self.max_turn_rate)
             if forward:
                 v = abs(v)
-            if abs(v) + abs(w) * self._half <= self.max_speed:
-                self._cmd = (v, w)
+            fastest = abs(v) + abs(w) * self._half
+            if floor <= fastest <= self.max_speed:
+                self._set(t, v, w)
                 self._until = t + float(self._rng.uniform(*self.hold))
                 return
         raise MotionError("no exploration command within the wheel speed limit")
@@ -90,6 +143,7 @@ class Explore:
         r = math.hypot(dx, dy)
         if r > self.fence_radius:
             self.fence_crossed = True
+            self.crossed_at = (t, r)
             return None
         v, w = self._cmd
         outward = v * (dx * math.cos(pose.heading) + dy * math.sin(pose.heading)) > 0
@@ -101,7 +155,7 @@ class Explore:
                 self._draw(t, forward=True)
             else:
                 rate = min(self.max_turn_rate, self.max_speed / self._half)
-                self._cmd = (0.0, math.copysign(rate, err))
+                self._set(t, 0.0, math.copysign(rate, err))
         elif r > self.return_fraction * self.fence_radius and (outward or t >= self._until):
             self._returning = True
             return self.step(pose)

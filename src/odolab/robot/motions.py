@@ -15,6 +15,7 @@ from typing import Protocol
 
 from odolab.params import RobotParams
 from odolab.robot.errors import MotionError
+from odolab.robot.explore_motion import Explore
 from odolab.trajectory import Pose
 from odolab.trials import Command, MotionKind
 
@@ -219,8 +220,11 @@ def motion_from_command(
 ) -> Motion:
     """The motion that executes ``command`` (speed m/s, turn_speed rad/s; defaults as above).
 
-    ``command.speed`` is used when ``speed``/``turn_speed`` are not given.
+    ``command.speed`` is used when ``speed``/``turn_speed`` are not given. An exploration is
+    :class:`~odolab.robot.explore_motion.Explore` (its own speeds; no deceleration).
     """
+    if command.explore is not None:
+        return Explore.from_exploration(command)
     lin = (
         speed
         if speed is not None

@@ -12,6 +12,12 @@ the robot moves, a folder that cannot take the run (not a folder, not writable, 
 run's file already); :func:`keep_run` saves a run that has driven where asked or, when that
 fails after all, to a new sibling folder or to the rescue folder (:func:`rescue_folder`), and
 says where. A run that failed part way is saved too, its trial EXCLUDED with the reason.
+
+A run may carry more than its log: ``finish`` (of :func:`run_motion` and :func:`run_simulated`)
+turns the run into the one that is saved, before it is saved, e.g. with the virtual robot's true
+path (:attr:`RobotRun.truth`, written as ``encoders_gt.csv`` beside ``encoders.csv``, where
+``odolab calibrate lsq -f csv`` looks for ground truth) and keys of its own in ``run.json``
+(:attr:`RobotRun.extra`); :mod:`odolab.robot.explore` does both.
 """
 
 from __future__ import annotations
@@ -20,7 +26,7 @@ import json
 import math
 import os
 import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import asdict, dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
@@ -37,13 +43,14 @@ from odolab.robot.loop import ControlLoop, CycleInfo, LoopResult, LoopStats
 from odolab.robot.motions import Motion, motion_from_command
 from odolab.robot.plant import IdealPlant, Plant, PlantFactory
 from odolab.robot.registry import open_in_process, open_link
-from odolab.trajectory import Pose
+from odolab.trajectory import Pose, Trajectory
 from odolab.trials import Command, MotionKind, Trial, TrialStatus
 from odolab.writing import write_text_file
 
 __all__ = [
     "OPTIONAL_RUN_FILES",
     "RUN_FILES",
+    "TRUTH_FILE",
     "AbortReport",
     "RobotRun",
     "check_run_folder",
@@ -51,13 +58,17 @@ __all__ = [
     "rescue_folder",
     "run_motion",
     "run_motion_simulated",
+    "run_simulated",
     "save_run",
 ]
 
 #: The files a run folder gets, in the order they are written (run.json last).
 RUN_FILES = ("encoders.csv", "predicted.csv", "run.json")
-#: Files a run writes when its link has them (the 2014 Jaguar's gyro), guarded the same way.
-OPTIONAL_RUN_FILES = ("imu.csv",)
+#: The true path of a run that has one (an exploration of the virtual robot), beside the encoder
+#: log under the name the CSV run reader looks for (``<stem>_gt.csv``).
+TRUTH_FILE = "encoders_gt.csv"
+#: Files a run writes when it has them (the 2014 Jaguar's gyro, a true path), guarded the same way.
+OPTIONAL_RUN_FILES = ("imu.csv", TRUTH_FILE)
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,10 +85,19 @@ class RobotRun:
     #: the robot's own heading sensor during the run (a link that has one): (t in the encoder
     #: log's time, yaw rad or None, yaw rate rad/s or None); saved as imu.csv
     headings: tuple[tuple[float, float | None, float | None], ...] = ()
+    #: the true path on the encoder log's clock, in the start frame (an exploration of the
+    #: virtual robot); saved as :data:`TRUTH_FILE`
+    truth: Trajectory | None = None
+    #: keys of the run's own added to ``run.json`` (never one of the keys every run has)
+    extra: Mapping[str, Any] = field(default_factory=dict)
 
     @property
     def stats(self) -> LoopStats:
         return self.loop.stats
+
+
+#: A run's own change of the run it is about to save (see the module); it should not raise.
+Finish = Callable[[RobotRun], RobotRun]
 
 
 @dataclass(frozen=True, eq=False)
@@ -108,7 +128,7 @@ def _trial(
         status = ""
     failed = bool(result.aborted)  # kept, but out of the analysis until someone includes it
     return Trial(
-        trial_id=f"robot-{command.kind.value}-{stamp}",
+        trial_id=f"robot-{command.label}-{stamp}",
         campaign=campaign,
         terrain=terrain,
         command=command,
@@ -151,6 +171,7 @@ def _drive_link(
     realtime: bool,
     save_to: str | Path | None,
     on_abort: Callable[[AbortReport], object] | None,
+    finish: Finish | None = None,
 ) -> RobotRun:
     driver: Driver = link.driver
     rt = realtime and set_realtime(True)
@@ -185,6 +206,7 @@ def _drive_link(
                     confirmed,
                     config,
                 )
+                partial = _finished(partial, finish)
                 if save_to is not None:
                     saved, note = keep_run(partial, save_to)
                     partial = replace(partial, saved_to=saved, save_note=note)
@@ -208,6 +230,7 @@ def _drive_link(
             config,
             headings=_headings(link, loop.started_at),
         )
+        run = _finished(run, finish)
         if save_to is not None:
             saved, note = keep_run(run, save_to)
             run = replace(run, saved_to=saved, save_note=note)
@@ -216,6 +239,17 @@ def _drive_link(
         link.close()
         if rt:
             set_realtime(False)
+
+
+def _finished(run: RobotRun, finish: Finish | None) -> RobotRun:
+    """``finish(run)``; a failure there keeps the run as it was (it has driven: never lost),
+    with why in ``run.json`` (``"finish_error"``)."""
+    if finish is None:
+        return run
+    try:
+        return finish(run)
+    except Exception as err:
+        return replace(run, extra={**run.extra, "finish_error": f"{err!r}"})
 
 
 def _headings(
@@ -247,6 +281,7 @@ def run_motion(
     realtime: bool = False,
     save_to: str | Path | None = None,
     on_abort: Callable[[AbortReport], object] | None = None,
+    finish: Finish | None = None,
 ) -> RobotRun:
     """Drive ``command`` by odometry in real time over the link ``robot`` names; return the run.
 
@@ -257,7 +292,8 @@ def run_motion(
     created before anything is sent; the run is saved there (:func:`keep_run`: to a sibling or
     the rescue folder if that fails after driving; :attr:`RobotRun.saved_to` says where), also
     when it fails part way (Ctrl-C, lost link, stall, a late cycle); ``on_abort`` then hears
-    where it went and whether the robot's data confirmed the stop.
+    where it went and whether the robot's data confirmed the stop. ``finish``: see the module.
+    ``motion``: drive this instead of the command's own motion (the caller checks it).
     """
     if save_to is not None:
         check_run_folder(save_to)
@@ -271,7 +307,7 @@ def run_motion(
     return _drive_link(
         link, command, motion, params, config, clock,
         terrain=terrain, campaign=campaign, max_duration=max_duration, on_cycle=on_cycle,
-        on_event=on_event, realtime=realtime, save_to=save_to, on_abort=on_abort,
+        on_event=on_event, realtime=realtime, save_to=save_to, on_abort=on_abort, finish=finish,
     )  # fmt: skip
 
 
@@ -304,6 +340,38 @@ def run_motion_simulated(
     not given. Returns the trial (predicted pose from the loop, true pose from the plant) and
     the loop statistics (whose timing errors are zero: simulated time is exact).
     """
+    run = run_simulated(
+        motion, truth, nominal, terrain, seed, rate,
+        command=command, plant=plant, config=config, faults=faults, report_rate=report_rate,
+        max_duration=max_duration, campaign=campaign, on_cycle=on_cycle, link=link,
+    )  # fmt: skip
+    return run.trial, run.stats
+
+
+def run_simulated(
+    motion: Command | Motion,
+    truth: object = None,
+    nominal: RobotParams | None = None,
+    terrain: str = "tile",
+    seed: int = 0,
+    rate: float = 20.0,
+    *,
+    command: Command | None = None,
+    plant: Plant | None = None,
+    config: RunConfig | None = None,
+    faults: object | None = None,
+    report_rate: float = 10.0,
+    max_duration: float | None = 3600.0,
+    campaign: str = "sim",
+    on_cycle: Callable[[CycleInfo], None] | None = None,
+    link: str = "jaguar",
+    save_to: str | Path | None = None,
+    finish: Finish | None = None,
+) -> RobotRun:
+    """:func:`run_motion_simulated`, returning the whole :class:`RobotRun` (log, statistics,
+    ``finish``'s additions) and, with ``save_to``, saved there as :func:`run_motion` saves."""
+    if save_to is not None:
+        check_run_folder(save_to)
     nominal = nominal or PRESETS["jaguar-lite"]
     config = config or RunConfig(rate=rate)
     if isinstance(motion, Command):
@@ -325,12 +393,11 @@ def run_motion_simulated(
     opened = open_in_process(
         link, config, nominal, clock, plant, VirtualSpec(None, faults, seed, report_rate)
     )
-    run = _drive_link(
+    return _drive_link(
         opened, command, mot, nominal, config, clock,
         terrain=terrain, campaign=campaign, max_duration=max_duration, on_cycle=on_cycle,
-        on_event=None, realtime=False, save_to=None, on_abort=None,
+        on_event=None, realtime=False, save_to=save_to, on_abort=None, finish=finish,
     )  # fmt: skip
-    return run.trial, run.stats
 
 
 def _jsonable(obj: Any) -> Any:
@@ -433,7 +500,9 @@ def keep_run(run: RobotRun, folder: str | Path) -> tuple[Path | None, str]:
 
 def save_run(run: RobotRun, folder: str | Path) -> Path:
     """Write ``encoders.csv``, ``predicted.csv`` (one pose per cycle), ``imu.csv`` (when the
-    robot has its own heading sensor: the 2014 Jaguar's IMU lines) and ``run.json``.
+    robot has its own heading sensor: the 2014 Jaguar's IMU lines), ``encoders_gt.csv`` (when
+    the run has its true path, :attr:`RobotRun.truth`) and ``run.json`` (with
+    :attr:`RobotRun.extra`'s keys).
 
     The folder is checked first (:func:`check_run_folder`): one that already holds a run is
     refused (:class:`RunFolderError`), never overwritten. Each file is written through a
@@ -452,6 +521,8 @@ def save_run(run: RobotRun, folder: str | Path) -> Path:
             for t, y, r in run.headings
         ]
         write_text_file(out / "imu.csv", "\n".join(rows) + "\n", what="robot IMU log")
+    if run.truth is not None:  # the true path, where the CSV run reader looks for it
+        write_trajectory_csv(out / TRUTH_FILE, run.truth)
     cmd = {k: _jsonable(v) for k, v in asdict(trial.command).items() if v is not None}
     cmd["kind"] = trial.command.kind.value
     doc = {
@@ -474,5 +545,6 @@ def save_run(run: RobotRun, folder: str | Path) -> Path:
         "events": [list(e) for e in run.loop.events],
         "measured": None,
     }
+    doc.update({k: v for k, v in run.extra.items() if k not in doc})
     write_text_file(out / "run.json", json.dumps(doc, indent=2) + "\n", what="run record")
     return out
