@@ -381,6 +381,8 @@ class LsqCalibration:
     run_sizes: list[int] = field(default_factory=list)
     #: sentences on what the fit could not determine well (poorly determined parameters)
     warnings: list[str] = field(default_factory=list)
+    #: sentences on what the fit chose for the user (the slip model's prior centre)
+    notes: list[str] = field(default_factory=list)
 
     @property
     def n_params(self) -> int:
@@ -421,6 +423,7 @@ class LsqCalibration:
             "stderr": self.stderr,
             "gt_yaw_offsets_rad": self.gt_yaw_offsets,
             "warnings": self.warnings,
+            "notes": self.notes,
             "nominal": self.nominal.to_dict(),
         }
 
@@ -545,7 +548,7 @@ def _calibrate_slip(
     segment residuals as every other model's (so its BIC compares)."""
     from odolab.calibration.slipfit import fit_slip_model
 
-    model, cov, windows = fit_slip_model(prepared, nominal)
+    model, cov, windows, centre = fit_slip_model(prepared, nominal)
     base = nominal.with_(model=DIFF_DRIVE)
     params = nominal.with_(model=model, name=f"{nominal.name}-lsq")
     before = [_residuals(base, r, scale, o.method, 0.0) for r in prepared]
@@ -564,6 +567,13 @@ def _calibrate_slip(
         model="slip",
         run_rss=[float(np.sum(r**2)) for r in after],
         run_sizes=[int(r.size) for r in after],
+        notes=[
+            f"the slip coefficients' prior is centred on the {centre} model fitted to the same "
+            "runs (what the runs do not determine stays with it)"
+            if centre != "none"
+            else "no kinematic model could be fitted to these runs: the slip coefficients' "
+            "prior is centred on the nominal differential drive"
+        ],
     )
 
 

@@ -11,17 +11,19 @@ motion is turned by the ground truth's own heading (mid-cycle, relative to the w
 
 (``phi_k`` the basis at cycle k's measured speeds). The forward and lateral coefficients are
 fitted together on the x and y rows, the yaw ones on the heading rows; each with a Gaussian prior
-``beta ~ N(0, tau^2)`` per coefficient, ``tau`` the size of a slip as large as the robot's typical
-speed (``rms(v) / rms(phi_j)``: a weak prior that keeps the fit finite on a few seconds of data),
+``beta ~ N(beta_0, tau^2)`` per coefficient. Its centre ``beta_0`` is the kinematic model fitted
+to the same runs (:func:`kinematic_base`: the ICR model, else the extended one, else the
+differential drive, as slip coefficients of degree one, :func:`base_coefficients`), so what the
+runs do not determine stays with that model; ``tau`` the size of a slip as large as the robot's
+typical speed (``rms(v) / rms(phi_j)``: a weak prior that keeps the fit finite on a few seconds),
 and a Gaussian noise whose variance grows with the window's duration ``T``, its track travel
 ``L`` (m) and (heading rows) its commanded turn ``A`` (rad): ``q T + k L`` (x, y) and
 ``q T + k A`` (heading), the form of the lab's wheel noise and turn scrub; ``q`` and ``k`` are
 found by expectation-maximisation. The posterior is closed form
 (``Sigma = (X^T W X + T^-1)^-1``, ``mu = Sigma X^T W y``, ``W`` the inverse noise variances).
-The quadratic terms' prior variances are found the same way (automatic relevance
-determination: a term the data do not support shrinks to 0, so on a robot whose slip does not
-change with speed the model falls back to constant slip); the terms of degree one keep the weak
-prior. The commanded turn ``A`` is taken over a few cycles (:meth:`SlipModel.noise_multipliers`:
+Every coefficient's prior variance is found the same way, no larger than ``tau^2`` (automatic
+relevance determination: a term the data do not support shrinks back to the kinematic model's
+value, so on a robot whose slip does not change with speed the model stays that model). The commanded turn ``A`` is taken over a few cycles (:meth:`SlipModel.noise_multipliers`:
 on a straight drive the encoders' last counts flicker between the sides, a turn that is not).
 
 The predictive noise per cycle (the model's ``q_*``, ``k_*``: :data:`NOISE_TERMS`) is then
@@ -65,9 +67,9 @@ FloatArray = NDArray[np.float64]
 #: Length of a regression window (s).
 WINDOW_S = 0.5
 _EM_ITERATIONS = 30
-#: The coefficients automatic relevance determination acts on: the quadratic terms (the terms
-#: of degree one are what a kinematic model fits, and a robot always has them)
-_ARD_TERMS = np.array([False] * 4 + [True] * 4)
+#: The kinematic models the slip model's prior is centred on, in order of preference: the first
+#: that can be fitted to the runs (see :func:`kinematic_base`)
+BASE_MODELS = ("icr", "extended", "diff")
 #: Length (s) of the pieces the noise terms are fitted on (and NEES is judged on by default).
 NOISE_PIECE_S = 1.0
 #: Parts a run is cut into to fit the noise terms on data the coefficients were not fitted on.
@@ -200,48 +202,108 @@ def _blr(
     y: FloatArray,
     tau: FloatArray,
     scales: FloatArray,
+    mean: FloatArray | None = None,
+    ard: FloatArray | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Posterior mean and covariance of ``y = X beta + e``, ``beta ~ N(0, diag(tau^2))``, with
-    a noise variance per row linear in ``scales`` (n, m): ``var_i = scales_i . c``, ``c >= 0``
-    found by expectation-maximisation (non-negative least squares of the expected squared
-    residuals). Returns (mean, covariance, c)."""
+    """Posterior mean and covariance of ``y = X beta + e``, ``beta ~ N(mean, diag(tau^2))``
+    (``mean`` 0 unless given), with a noise variance per row linear in ``scales`` (n, m):
+    ``var_i = scales_i . c``, ``c >= 0`` found by expectation-maximisation (non-negative least
+    squares of the expected squared residuals). The prior variances of the coefficients ``ard``
+    marks (all unless given) are found the same way, no larger than ``tau^2`` (automatic
+    relevance determination). Returns (mean, covariance, c)."""
     from scipy.optimize import nnls
 
-    n = y.size
+    m0 = np.zeros(x.shape[1]) if mean is None else np.asarray(mean, dtype=np.float64)
+    marks = np.ones(x.shape[1], dtype=bool) if ard is None else ard
     prior = np.diag(1.0 / tau**2)
     c = np.full(scales.shape[1], 0.0)
-    c[0] = max(float(np.mean(y**2)) / max(float(np.mean(scales[:, 0])), 1e-12), 1e-18)
-    mu = np.zeros(x.shape[1])
+    r0 = y - x @ m0
+    c[0] = max(float(np.mean(r0**2)) / max(float(np.mean(scales[:, 0])), 1e-12), 1e-18)
+    mu = m0.copy()
     sigma: FloatArray = np.diag(tau**2)
     for _ in range(_EM_ITERATIONS):
-        var = np.maximum(scales @ c, 1e-18 * max(float(np.mean(y**2)), 1e-30))
+        var = np.maximum(scales @ c, 1e-18 * max(float(np.mean(r0**2)), 1e-30))
         w = 1.0 / var
         xtwx = (x * w[:, None]).T @ x
         sigma = np.asarray(np.linalg.inv(xtwx + prior), dtype=np.float64)
-        mu = sigma @ ((x * w[:, None]).T @ y)
+        mu = sigma @ ((x * w[:, None]).T @ y + prior @ m0)
         r = y - x @ mu
         expected = r**2 + np.einsum("ij,jk,ik->i", x, sigma, x)
         # rows weighted by 1/var: each residual counts as one measurement of its variance
         sol, _ = nnls(scales / var[:, None], expected / var)
-        # automatic relevance determination: each quadratic term's prior variance is what the
-        # data say of it (no more than the weak prior's), so terms the data do not support
-        # shrink to 0 and the model falls back toward a constant (kinematic) slip
-        t2 = np.minimum(mu**2 + np.diag(sigma), tau**2)
-        t2 = np.where(np.resize(_ARD_TERMS, tau.size), t2, tau**2)
+        # automatic relevance determination: each marked coefficient's prior variance is what
+        # the data say of its distance from the prior mean (no more than the weak prior's), so
+        # what the data do not support shrinks back to the prior mean
+        t2 = np.minimum((mu - m0) ** 2 + np.diag(sigma), tau**2)
+        t2 = np.where(marks, t2, tau**2)
         prior = np.diag(1.0 / np.maximum(t2, 1e-12 * tau**2))
         if not np.any(sol > 0):
             break
         c = sol
-    del n
     return mu, sigma, c
 
 
+def base_coefficients(params: RobotParams, nominal: RobotParams) -> FloatArray:
+    """The slip model's 24 coefficients (:attr:`SlipModel.COEF_KEYS` order) that move the body
+    as the linear kinematic model of ``params`` does, for encoder counts turned into distances
+    with ``nominal``'s wheels: its radii's ratios to the nominal ones ``g`` and its model's
+    coefficients (:class:`odolab.models.ModelCoefficients`) give the terms of degree one in
+    ``v`` and ``w`` (the others are 0)::
+
+        fwd_v = w_l g_l + w_r g_r - 1        fwd_w = (w_r g_r - w_l g_l) b / 2
+        yaw_v = (e_r g_r - e_l g_l) / D      yaw_w = (e_r g_r + e_l g_l) b / (2 D) - 1
+        lat_v = lateral yaw_v                lat_w = lateral (1 + yaw_w)
+
+    (``b`` the nominal track width)."""
+    k = len(FEATURES)
+    out = np.zeros(3 * k)
+    c = params.model.coefficients(params.track_width)
+    gl = params.left_metres_per_tick / nominal.left_metres_per_tick
+    gr = params.right_metres_per_tick / nominal.right_metres_per_tick
+    half = 0.5 * nominal.track_width
+    yaw_v = (c.e_right * gr - c.e_left * gl) / c.denominator
+    yaw_w = (c.e_right * gr + c.e_left * gl) * half / c.denominator
+    out[0] = c.w_left * gl + c.w_right * gr - 1.0
+    out[1] = (c.w_right * gr - c.w_left * gl) * half
+    out[k] = c.lateral * yaw_v
+    out[k + 1] = c.lateral * yaw_w
+    out[2 * k] = yaw_v
+    out[2 * k + 1] = yaw_w - 1.0
+    return out
+
+
+def kinematic_base(runs: Sequence[object], nominal: RobotParams) -> tuple[FloatArray, str]:
+    """The prior mean of the slip coefficients: the first of :data:`BASE_MODELS` that can be
+    fitted to the runs by least squares (no ground-truth yaw offsets, as the slip fit), as slip
+    coefficients (:func:`base_coefficients`); and its name ("none", all zeros: the nominal
+    differential drive, when none can)."""
+    from odolab.calibration.lsq import LsqOptions, calibrate_lsq
+    from odolab.errors import CalibrationError, ParamsError
+
+    for kind in BASE_MODELS:
+        try:
+            fit = calibrate_lsq(
+                runs,  # type: ignore[arg-type]
+                nominal,
+                LsqOptions(model=kind, fit_gt_yaw_offset=False, segment_s=2.0),
+            )
+        except (CalibrationError, InsufficientDataError, ParamsError):
+            continue
+        return base_coefficients(fit.params, nominal), kind
+    return np.zeros(3 * len(FEATURES)), "none"
+
+
 def _fit_mean(
-    runs: Sequence[object], nominal: RobotParams, window_s: float, prior_scale: float
+    runs: Sequence[object],
+    nominal: RobotParams,
+    window_s: float,
+    prior_scale: float,
+    base: FloatArray | None = None,
 ) -> tuple[SlipModel, FloatArray, int]:
     """The coefficients and their posterior by Bayesian linear regression with automatic
-    relevance determination, and the windows' noise by expectation-maximisation (see the
-    module): (model, 24 x 24 posterior covariance, number of windows)."""
+    relevance determination about the prior mean ``base`` (0 unless given), and the windows'
+    noise by expectation-maximisation (see the module): (model, 24 x 24 posterior covariance,
+    number of windows)."""
     d = slip_design(runs, nominal, window_s)
     k = len(FEATURES)
     if d.y_yaw.size < 2:
@@ -256,8 +318,9 @@ def _fit_mean(
     # turn scrub
     sc_xy = np.tile(np.column_stack((d.durations, d.travel)), (2, 1))
     sc_yaw = np.column_stack((d.durations, d.turn))
-    mu_xy, sig_xy, c_xy = _blr(d.a_xy, d.y_xy, np.concatenate((tau_v, tau_v)), sc_xy)
-    mu_yaw, sig_yaw, c_yaw = _blr(d.a_yaw, d.y_yaw, tau_w, sc_yaw)
+    m0 = np.zeros(3 * k) if base is None else base
+    mu_xy, sig_xy, c_xy = _blr(d.a_xy, d.y_xy, np.concatenate((tau_v, tau_v)), sc_xy, m0[: 2 * k])
+    mu_yaw, sig_yaw, c_yaw = _blr(d.a_yaw, d.y_yaw, tau_w, sc_yaw, m0[2 * k :])
     cov = np.zeros((3 * k, 3 * k))
     cov[: 2 * k, : 2 * k] = sig_xy
     cov[2 * k :, 2 * k :] = sig_yaw
@@ -312,36 +375,42 @@ def fit_slip_model(
     prior_scale: float = 1.0,
     folds: int = NOISE_FOLDS,
     piece_s: float = NOISE_PIECE_S,
-) -> tuple[SlipModel, FloatArray, int]:
+    base: bool = True,
+) -> tuple[SlipModel, FloatArray, int, str]:
     """The slip model of prepared runs: (model with its posterior, 24 x 24 posterior
-    covariance in :attr:`SlipModel.COEF_KEYS` order, number of windows).
+    covariance in :attr:`SlipModel.COEF_KEYS` order, number of windows, the kinematic model
+    its prior is centred on).
 
-    The coefficients come from all the runs. The noise terms are fitted to how far the model
+    The coefficients come from all the runs, their prior centred on the kinematic model fitted
+    to the same runs (:func:`kinematic_base`; with ``base`` False, on the nominal differential
+    drive): what the runs do not determine stays with that model. The noise terms are fitted to how far the model
     is off after ``piece_s`` seconds on data it was not fitted on (:func:`fit_noise`): each run
     is cut into ``folds`` parts of equal duration, and each part is predicted by the model
     fitted on the others (cross-fitting), so the predictive variance covers the model's own
     error on new data, not only the noise it saw; with ``folds`` 1 (or runs too short to cut),
     on the data it was fitted on."""
-    model, cov, windows = _fit_mean(runs, nominal, window_s, prior_scale)
+    mean, kind = kinematic_base(runs, nominal) if base else (np.zeros(3 * len(FEATURES)), "none")
+    parts = [_blocks(r, folds) for r in runs] if folds > 1 else []
+    cross = bool(parts) and all(len(p) == folds for p in parts)
+    scale = prior_scale
+    model, cov, windows = _fit_mean(runs, nominal, window_s, scale, mean)
     pieces: list[tuple[FloatArray, FloatArray, FloatArray]] = []
-    if folds > 1:
-        parts = [_blocks(r, folds) for r in runs]
-        if all(len(p) == folds for p in parts):
-            for f in range(folds):
-                train = [p[i] for p in parts for i in range(folds) if i != f]
-                try:
-                    m, _, _ = _fit_mean(train, nominal, window_s, prior_scale)
-                except InsufficientDataError:
-                    pieces = []
-                    break
-                pieces.append(_piece_errors([p[f] for p in parts], nominal.with_(model=m), piece_s))
+    if cross:
+        for f in range(folds):
+            train = [p[i] for p in parts for i in range(folds) if i != f]
+            try:
+                m, _, _ = _fit_mean(train, nominal, window_s, scale, mean)
+            except InsufficientDataError:
+                pieces = []
+                break
+            pieces.append(_piece_errors([p[f] for p in parts], nominal.with_(model=m), piece_s))
     if not pieces:
         pieces = [_piece_errors(runs, nominal.with_(model=model), piece_s)]
     e, basis, post = (np.concatenate(x) for x in zip(*pieces, strict=True))
     theta = fit_noise(e, basis, post, _noise_of(model))
     noise: dict[str, float] = {k: float(v) for k, v in zip(NOISE_TERMS, theta, strict=True)}
     model = replace(model, **noise)  # type: ignore[arg-type]
-    return model, cov, windows
+    return model, cov, windows, kind
 
 
 #: The six noise terms of :class:`SlipModel`, and the body output (forward, lateral, heading)
@@ -435,11 +504,13 @@ def propagate_covariance(
 
 
 def _piece_errors(
-    runs: Sequence[object], params: RobotParams, piece_s: float
+    runs: Sequence[object], params: RobotParams, piece_s: float, *, basis: bool = True
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Over every ``piece_s`` piece of prepared runs with motion, started at the ground
     truth's pose: the end pose error (m, 3), and its covariance per unit noise term (m, 6, 3, 3)
-    and from the posterior (m, 3, 3)."""
+    and from the posterior (m, 3, 3) (with ``basis`` False, zeros: the errors only)."""
+    from odolab.odometry import integrate_increments
+
     errs, bases, posts = [], [], []
     for run in runs:
         t = np.asarray(run.t, dtype=np.float64)  # type: ignore[attr-defined]
@@ -456,18 +527,28 @@ def _piece_errors(
             sl, sr = dsl[a + 1 : b + 1], dsr[a + 1 : b + 1]
             if np.sum(np.abs(sl) + np.abs(sr)) < 1e-3:  # standing: nothing to learn from
                 continue
-            piece_l = np.concatenate(([0.0], sl))
-            piece_r = np.concatenate(([0.0], sr))
-            poses, basis, post = _propagate(
-                t[a : b + 1], piece_l, piece_r, params, (float(gx[a]), float(gy[a]), float(gh[a]))
-            )
-            e = np.array([gx[b] - poses[-1, 0], gy[b] - poses[-1, 1], 0.0])
-            e[2] = np.angle(np.exp(1j * (gh[b] - poses[-1, 2])))
+            start = (float(gx[a]), float(gy[a]), float(gh[a]))
+            if basis:
+                piece_l = np.concatenate(([0.0], sl))
+                piece_r = np.concatenate(([0.0], sr))
+                poses, unit, post = _propagate(t[a : b + 1], piece_l, piece_r, params, start)
+                end = poses[-1]
+                bases.append(unit[-1])
+                posts.append(post[-1])
+            else:
+                ticks_l = np.asarray(run.dticks_left, dtype=np.float64)[a : b + 1].copy()  # type: ignore[attr-defined]
+                ticks_r = np.asarray(run.dticks_right, dtype=np.float64)[a : b + 1].copy()  # type: ignore[attr-defined]
+                ticks_l[0] = ticks_r[0] = 0.0
+                odo = integrate_increments(t[a : b + 1], ticks_l, ticks_r, params, start=start)
+                end = np.array([odo.x[-1], odo.y[-1], odo.heading[-1]])
+            e = np.array([gx[b] - end[0], gy[b] - end[1], 0.0])
+            e[2] = np.angle(np.exp(1j * (gh[b] - end[2])))
             errs.append(e)
-            bases.append(basis[-1])
-            posts.append(post[-1])
-    if not errs:
+    m = len(errs)
+    if not m:
         return np.zeros((0, 3)), np.zeros((0, len(NOISE_TERMS), 3, 3)), np.zeros((0, 3, 3))
+    if not basis:
+        return np.array(errs), np.zeros((m, len(NOISE_TERMS), 3, 3)), np.zeros((m, 3, 3))
     return np.array(errs), np.array(bases), np.array(posts)
 
 

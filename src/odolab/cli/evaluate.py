@@ -535,5 +535,5 @@ def _print_calibration(result: Any, output: Path) -> None:
     print_table(console, val)
     if math.isfinite(result.rms_after):
         console.print(f"residual rms {result.rms_before:.5f} -> {result.rms_after:.5f} m")
-    for warning in getattr(result, "warnings", []):
-        console.print(f"note: {warning}", markup=False, soft_wrap=True)
+    for line in [*getattr(result, "notes", []), *getattr(result, "warnings", [])]:
+        console.print(f"note: {line}", markup=False, soft_wrap=True)
