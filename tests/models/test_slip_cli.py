@@ -62,3 +62,45 @@ def test_calibrate_lsq_model_slip_writes_a_loadable_file(
     params = load_params(out)
     assert isinstance(params.model, SlipModel) and params.model.k_yaw > 0
     assert "Bayesian linear regression" in out.read_text()
+
+
+def test_odometry_covariance_with_a_slip_model_is_its_predictive_variance(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # issue 29: the slip model's predictive variance feeds the covariance of `odolab odometry`
+    import numpy as np
+
+    from odolab.calibration.slipfit import propagate_covariance
+    from odolab.io.tabular import read_columns
+    from odolab.params import load_params
+
+    run = tmp_path / "run"
+    assert main(["sim", "explore", "-o", str(run), "--seconds", "30", "--seed", "4"]) == 0
+    params = tmp_path / "slip.toml"
+    assert main(["calibrate", "lsq", str(run / "explore.csv"), "--format", "csv", "--params",
+                 "jaguar-lite", "--model", "slip", "-o", str(params)]) == 0  # fmt: skip
+    inc = read_columns(run / "explore.csv", ("t", "dticks_left", "dticks_right"))
+    counts = tmp_path / "counts.csv"
+    left, right = np.cumsum(inc["dticks_left"]), np.cumsum(inc["dticks_right"])
+    counts.write_text(
+        "t,left_ticks,right_ticks\n"
+        + "".join(
+            f"{float(t)!r},{int(a) % 32768},{int(b) % 32768}\n"
+            for t, a, b in zip(inc["t"], left, right, strict=True)
+        )
+    )
+    capsys.readouterr()
+    out = tmp_path / "odometry.csv"
+    code = main(["odometry", str(counts), "--params", str(params), "--covariance", "-o", str(out)])
+    assert code == 0, capsys.readouterr().err
+    said = capsys.readouterr()
+    assert "the slip model's predictive variance" in said.out + said.err
+    table = read_columns(out, ("t", "x", "cov_xx", "cov_xy", "cov_hh"))
+    p = load_params(str(params))
+    _, cov = propagate_covariance(
+        inc["t"], np.diff(left, prepend=left[0]), np.diff(right, prepend=right[0]), p
+    )
+    assert np.allclose(table["cov_hh"], cov[:, 2, 2], rtol=1e-9, atol=1e-15)
+    assert np.allclose(table["cov_xy"], cov[:, 0, 1], rtol=1e-9, atol=1e-15)
+    assert table["cov_hh"][0] == 0.0 and table["cov_hh"][-1] > 0.0
+    assert np.all(np.diff(table["cov_hh"]) >= -1e-15)  # noise only adds up

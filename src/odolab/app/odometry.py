@@ -301,7 +301,7 @@ def check_request(
             f"--covariance with --format {fmt}: TUM has no covariance columns; expected "
             "--format csv (a .csv, .parquet or .arrow output)"
         )
-    if covariance and params.params.noise is None:
+    if covariance and params.params.noise is None and params.params.model.kind != "slip":
         raise ParamsError(
             f"--covariance: the parameters {params.source} have no [noise] table; expected one "
             "with k_left and k_right (m), as `odolab calibrate noise RUNS -o P.toml` writes it"
@@ -318,6 +318,8 @@ def integrate_log(req: OdometryRequest, progress: Progress | None = None) -> Odo
     robot = req.params.params
     if req.log_format != LogFormat.CSV:
         return _integrate_run(req)
+    if req.covariance and robot.model.kind == "slip":
+        return _integrate_slip_covariance(req)
     chunk_rows = req.chunks()
     if chunk_rows > 0:
         from odolab.io.chunked import integrate_file
@@ -356,6 +358,54 @@ def integrate_log(req: OdometryRequest, progress: Progress | None = None) -> Odo
         note = first_order_note(traj, cov)
         notes = (note,) if note else ()
     return OdometryOutcome(len(traj), req.output, traj.final, req.params, notes)
+
+
+def _integrate_slip_covariance(req: OdometryRequest) -> OdometryOutcome:
+    """An encoder log integrated with a slip model, with the covariance its predictive variance
+    gives (:func:`odolab.calibration.slipfit.propagate_covariance`: the model's noise terms, and
+    its coefficients' posterior where the model carries one; a parameters file carries none).
+    The whole log at once: the posterior's share couples every cycle."""
+    import numpy as np
+
+    from odolab.calibration.slipfit import propagate_covariance
+    from odolab.encoders import default_max_dticks, dticks_from_ticks
+    from odolab.io import read_encoder_csv
+    from odolab.io.chunked import OdometryChunk
+    from odolab.io.tabular import write_columns
+    from odolab.odometry import integrate
+    from odolab.uncertainty import first_order_note
+
+    robot = req.params.params
+    enc = read_encoder_csv(req.log, modulus=robot.encoder_modulus)
+    traj = integrate(
+        enc.t, enc.left_ticks, enc.right_ticks, robot, req.method, start=req.start,
+        max_dticks=req.max_dticks, source=str(req.log),
+    )  # fmt: skip
+    limit = req.max_dticks or default_max_dticks(robot.encoder_modulus)
+    dl = dticks_from_ticks(enc.left_ticks, robot.encoder_modulus, limit, name="left_ticks")
+    dr = dticks_from_ticks(enc.right_ticks, robot.encoder_modulus, limit, name="right_ticks")
+    start = req.start or (0.0, 0.0, 0.0)
+    _, cov = propagate_covariance(
+        enc.t, np.concatenate(([0], dl)), np.concatenate(([0], dr)), robot, start
+    )
+    terms = cov[:, [0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]]
+    write_columns(req.output, OdometryChunk(traj, terms).columns(), "trajectory table")
+    model = robot.model
+    posterior = bool(getattr(model, "posterior", ()))
+    notes = [
+        "covariance: the slip model's predictive variance (its noise terms q_*, k_* per cycle"
+        + (
+            " and its coefficients' posterior)"
+            if posterior
+            else "; a parameters file does not carry the coefficients' posterior, so their "
+            "uncertainty is not in it)"
+        )
+        + (", the whole log at once (--chunk-rows does not apply)" if req.chunk_rows else "")
+    ]
+    note = first_order_note(traj, terms)
+    if note:
+        notes.append(note)
+    return OdometryOutcome(len(traj), req.output, traj.final, req.params, tuple(notes))
 
 
 def _may_have_rows(path: Path, rows: int) -> bool:
