@@ -11,29 +11,29 @@ same runs' end points with and without the simulator's noise, what no model can 
 ``pytest -s`` prints the table, the lsq files' errors and the NEES):
 
     sim                seed  diff   extended  icr    slip   slip/best  floor  recommends
-    icr-speed             1  1.635  1.635     1.154  0.276  0.24       0.304  slip
-    icr-speed             2  2.084  2.084     2.038  0.538  0.26       0.142  slip
-    icr-speed             3  1.187  1.187     1.428  0.163  0.14       0.157  slip
-    icr-speed             4  1.503  1.503     2.190  0.280  0.19       0.200  slip
-    skid-dynamic          1  1.931  1.931     1.870  0.330  0.18       0.340  slip
-    skid-dynamic          2  1.516  1.516     1.570  0.953  0.63       0.167  slip
-    skid-dynamic          3  1.265  1.265     1.117  1.204  1.08       0.177  slip
-    skid-dynamic          4  1.147  1.147     1.237  0.768  0.67       0.186  slip
-    icr-speed-constant    1  0.497  0.497     0.367  0.506  1.38       0.344  icr
-    icr-speed-constant    2  0.415  0.415     0.250  0.243  0.97       0.188  icr
-    icr-speed-constant    3  0.261  0.261     0.173  0.254  1.47       0.185  icr
-    icr-speed-constant    4  0.611  0.611     0.110  0.616  5.60       0.174  icr
+    icr-speed             1  1.635  1.635     1.154  0.295  0.26       0.304  slip
+    icr-speed             2  2.084  2.084     2.038  0.435  0.21       0.142  slip
+    icr-speed             3  1.187  1.187     1.428  0.264  0.22       0.157  slip
+    icr-speed             4  1.503  1.503     2.190  0.218  0.14       0.200  slip
+    skid-dynamic          1  1.931  1.931     1.870  0.792  0.42       0.340  slip
+    skid-dynamic          2  1.516  1.516     1.570  1.181  0.78       0.167  slip
+    skid-dynamic          3  1.265  1.265     1.117  0.967  0.87       0.177  slip
+    skid-dynamic          4  1.147  1.147     1.237  0.414  0.36       0.186  slip
+    icr-speed-constant    1  0.497  0.497     0.367  0.460  1.25       0.344  icr
+    icr-speed-constant    2  0.415  0.415     0.250  0.169  0.68       0.188  icr
+    icr-speed-constant    3  0.261  0.261     0.173  0.226  1.31       0.185  icr
+    icr-speed-constant    4  0.611  0.611     0.110  0.396  3.60       0.174  icr
 
-(odolab at 020942e: ARD on the slip fit's quadratic terms, the ICR model no longer refused). At
-703892d the ICR model was refused on every speed-slip exploration ("x_icr is not identifiable
-without turns of both signs at speed") and slip read 0.236, 0.609, 0.242, 0.299 | 0.305, 0.764,
-1.250, 0.695 | control 0.548, 0.268, 0.280, 0.724 (slip/best 0.14, 0.29, 0.20, 0.20 | 0.16,
-0.50, 0.99, 0.61). On skid-dynamic the slip model's error is bias, not data or noise (measured
-with the fit as it was at 01:30 UTC): 180 s of exploration gave 0.90, 0.92, 0.86 m (seeds 2-4),
-the noiseless simulator 0.61-0.77 of diff; without its yaw lag or its yaw reduction the ratio
-fell to 0.23-0.40 on two of three seeds. In the control, where the truth is linear in the track
-speeds (inside the slip model's basis), the slip model is up to 5.6 times the ICR model's error
-(seed 4).
+(odolab at 32fba30: ARD, the slip prior centred on the fitted kinematic model, the ICR model no
+longer refused). At 703892d the ICR model was refused on every speed-slip exploration ("x_icr is
+not identifiable without turns of both signs at speed") and slip read 0.236, 0.609, 0.242, 0.299
+| 0.305, 0.764, 1.250, 0.695 | control 0.548, 0.268, 0.280, 0.724 (slip/best 0.14, 0.29, 0.20,
+0.20 | 0.16, 0.50, 0.99, 0.61). On skid-dynamic the slip model's error was bias, not data or
+noise (measured with the fit as it was at 01:30 UTC): 180 s of exploration gave 0.90, 0.92,
+0.86 m (seeds 2-4), the noiseless simulator 0.61-0.77 of diff; without its yaw lag or its yaw
+reduction the ratio fell to 0.23-0.40 on two of three seeds. In the control, where the truth is
+linear in the track speeds (inside the slip model's basis), the slip model is up to 3.6 times
+the ICR model's error (seed 4: spurious yaw terms in v, |v|, v|v| at 020942e).
 
 Goals that hold are asserted below with margins; the ones that do not are xfail (strict: they
 report when they start to pass), not weakened.
@@ -306,21 +306,21 @@ def test_slip_halves_the_best_kinematic_error_on_the_icr_speed_robot(
     measured: dict[tuple[str, int], Measured],
 ) -> None:
     """Issue 29's goal on "icr-speed": from 60 s of exploration, held-out end-point error
-    <= 0.5 x the best kinematic model's, on every seed (measured 0.24, 0.26, 0.14, 0.19 at
-    020942e; 0.14, 0.29, 0.20, 0.20 at 703892d)."""
+    <= 0.5 x the best kinematic model's, on every seed (measured 0.26, 0.21, 0.22, 0.14 at
+    32fba30; 0.14, 0.29, 0.20, 0.20 at 703892d)."""
     ratios = [measured[("icr-speed", seed)].ratio for seed in SEEDS]
-    assert all(r <= 0.4 for r in ratios), ratios
+    assert all(r <= 0.5 for r in ratios), ratios
     slip = sum(measured[("icr-speed", seed)].endpoint["slip"] or 0.0 for seed in SEEDS)
     best = sum(measured[("icr-speed", seed)].best_kinematic for seed in SEEDS)
-    assert slip <= 0.3 * best, (slip, best)  # measured 0.21 (0.22 at 703892d)
+    assert slip <= 0.35 * best, (slip, best)  # measured 0.21 (0.22 at 703892d)
 
 
 def test_slip_beats_the_kinematic_models_on_the_skid_dynamic_robot(
     measured: dict[tuple[str, int], Measured],
 ) -> None:
     """What holds on "skid-dynamic" (the goal itself does not yet: see the next test): over the
-    four seeds the slip model is clearly better than the best kinematic model (pooled ratio 0.58;
-    per seed 0.18, 0.63, 1.08, 0.67: on seed 3 the ICR model, 1.12 m, beats slip, 1.20 m)."""
+    four seeds the slip model is clearly better than the best kinematic model (pooled ratio 0.59
+    at 32fba30, per seed 0.42, 0.78, 0.87, 0.36; 0.51 at 703892d)."""
     slip = sum(measured[("skid-dynamic", seed)].endpoint["slip"] or 0.0 for seed in SEEDS)
     best = sum(measured[("skid-dynamic", seed)].best_kinematic for seed in SEEDS)
     assert slip <= 0.7 * best, (slip, best)
@@ -329,8 +329,8 @@ def test_slip_beats_the_kinematic_models_on_the_skid_dynamic_robot(
 @pytest.mark.xfail(
     strict=True,
     raises=AssertionError,
-    reason="issue 29's goal not met yet on skid-dynamic: slip / best kinematic per seed 0.18, "
-    "0.63, 1.08, 0.67 at 020942e (0.16, 0.50, 0.99, 0.61 at 703892d); remove this mark when it "
+    reason="issue 29's goal not met yet on skid-dynamic: slip / best kinematic per seed 0.42, "
+    "0.78, 0.87, 0.36 at 32fba30 (0.16, 0.50, 0.99, 0.61 at 703892d); remove this mark when it "
     "passes",
 )
 def test_goal_slip_halves_the_best_kinematic_error_on_the_skid_dynamic_robot(
@@ -368,14 +368,9 @@ def test_icr_model_is_fitted_on_an_exploration_with_turns_of_both_signs(
         assert m.problems["icr"] is None, (m.sim, m.seed, m.problems["icr"])
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="issue 29: the slip model's predictive variance should feed the covariance; "
-    "`odolab odometry --covariance` with a slip parameters file refuses: 'the parameters ... "
-    "have no [noise] table; expected one with k_left and k_right (m)'",
-)
 def test_odometry_covariance_uses_the_slip_models_predictive_variance(tmp_path: Path) -> None:
+    """Issue 29: the slip model's predictive variance feeds the covariance of `odolab odometry
+    --covariance` with the parameters file `calibrate lsq --model slip` wrote."""
     sim = SIMS["icr-speed"]
     ex = write_run(tmp_path, exploration(sim, 1))
     arcs = write_run(tmp_path / "held", held_out_runs(sim, 1)[1])
@@ -383,4 +378,10 @@ def test_odometry_covariance_uses_the_slip_models_predictive_variance(tmp_path: 
     assert _cli(["calibrate", "lsq", str(ex), "--model", "slip", "-o", str(params)]) == 0
     out = tmp_path / "arcs_odometry.csv"
     code = main(["odometry", str(arcs), "--params", str(params), "--covariance", "-o", str(out)])
-    assert code == 0 and out.is_file()
+    assert code == 0 and out.is_file()  # before 32fba30: "... have no [noise] table"
+    table = np.genfromtxt(out, delimiter=",", names=True)
+    end = table[-1]
+    cov = np.array([[end["cov_xx"], end["cov_xy"]], [end["cov_xy"], end["cov_yy"]]])
+    assert np.all(np.linalg.eigvalsh(cov) > 0)
+    half = table[table.size // 2]
+    assert end["cov_xx"] + end["cov_yy"] > half["cov_xx"] + half["cov_yy"]  # it grows
