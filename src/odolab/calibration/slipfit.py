@@ -9,7 +9,12 @@ motion is turned by the ground truth's own heading (mid-cycle, relative to the w
                                                                         phi_k . beta_lat)
     (g_j - g_i) - sum_k dtheta_k                   =  sum_k dt_k phi_k . beta_yaw
 
-(``phi_k`` the basis at cycle k's measured speeds). The forward and lateral coefficients are
+(``phi_k`` the basis at cycle k's measured speeds). As DRIVE does, the fit keeps the windows in
+steady state (:func:`_steady`: the measured speed and turn rate settled for :data:`SETTLE_S`
+seconds before the window and through it), where the slip is a function of the speeds: after a
+change of command the body lags the tracks (its inertia), which no function of the speeds
+describes (with fewer than :data:`STEADY_SHARE` of the windows steady, all are kept). The
+forward and lateral coefficients are
 fitted together on the x and y rows, the yaw ones on the heading rows; each with a Gaussian prior
 ``beta ~ N(beta_0, tau^2)`` per coefficient. Its centre ``beta_0`` is the kinematic model fitted
 to the same runs (:func:`kinematic_base`: the ICR model, else the extended one, else the
@@ -67,6 +72,14 @@ FloatArray = NDArray[np.float64]
 #: Length of a regression window (s).
 WINDOW_S = 0.5
 _EM_ITERATIONS = 30
+#: Steady state (:func:`_steady`): speeds averaged over this many cycles, varying by no more than
+#: these (m/s, rad/s) over a window and the seconds before it
+SETTLE_CYCLES = 5
+STEADY_V = 0.2
+STEADY_W = 0.4
+SETTLE_S = 0.3
+#: A fit keeps only the windows in steady state when at least this share of them is (else all)
+STEADY_SHARE = 0.25
 #: The kinematic models the slip model's prior is centred on, in order of preference: the first
 #: that can be fitted to the runs (see :func:`kinematic_base`)
 BASE_MODELS = ("icr", "extended", "diff")
@@ -94,10 +107,33 @@ class SlipDesign:
     phi_rms: FloatArray
 
 
+def _steady(
+    t: FloatArray, v: FloatArray, w: FloatArray, i: NDArray[np.int64], j: NDArray[np.int64]
+) -> NDArray[np.bool_]:
+    """Which windows (cycles ``i+1 .. j``) are in steady state: the measured speed and turn rate
+    (averaged over :data:`SETTLE_CYCLES` cycles) vary by no more than :data:`STEADY_V` m/s and
+    :data:`STEADY_W` rad/s over the window and the :data:`SETTLE_S` seconds before it."""
+    from scipy.ndimage import uniform_filter1d
+
+    vs = uniform_filter1d(v, SETTLE_CYCLES, mode="nearest")
+    ws = uniform_filter1d(w, SETTLE_CYCLES, mode="nearest")
+    out = np.ones(i.size, dtype=bool)
+    for k, (a, b) in enumerate(zip(i, j, strict=True)):
+        a0 = int(np.searchsorted(t, t[a] - SETTLE_S))
+        seg = slice(a0, b + 1)
+        out[k] = np.ptp(vs[seg]) <= STEADY_V and np.ptp(ws[seg]) <= STEADY_W
+    return out
+
+
 def slip_design(
-    runs: Sequence[object], nominal: RobotParams, window_s: float = WINDOW_S
+    runs: Sequence[object],
+    nominal: RobotParams,
+    window_s: float = WINDOW_S,
+    *,
+    steady: bool = False,
 ) -> SlipDesign:
-    """The regression rows of prepared runs (:class:`odolab.calibration.lsq.PreparedRun`)."""
+    """The regression rows of prepared runs (:class:`odolab.calibration.lsq.PreparedRun`);
+    ``steady``: only the windows in steady state (:func:`_steady`)."""
     axy, yxy, ayaw, yyaw, dur, trav, turn = [], [], [], [], [], [], []
     v_sq, w_sq, n_steps = 0.0, 0.0, 0
     phi_sq = np.zeros(len(FEATURES))
@@ -146,6 +182,11 @@ def slip_design(
         if edges[-1] != n - 1:
             edges = np.append(edges, n - 1)
         i, j = edges[:-1], edges[1:]
+        if steady:
+            keep = _steady(t, ds / tt, dth / tt, i, j)
+            i, j = i[keep], j[keep]
+            if i.size == 0:
+                continue
 
         def s(c: FloatArray, i: NDArray[np.int64] = i, j: NDArray[np.int64] = j) -> FloatArray:
             return _window_sum(c, i, j)  # sums over cycles i+1..j
@@ -304,7 +345,9 @@ def _fit_mean(
     relevance determination about the prior mean ``base`` (0 unless given), and the windows'
     noise by expectation-maximisation (see the module): (model, 24 x 24 posterior covariance,
     number of windows)."""
-    d = slip_design(runs, nominal, window_s)
+    d = slip_design(runs, nominal, window_s, steady=True)
+    if d.y_yaw.size < max(2, STEADY_SHARE * slip_design(runs, nominal, window_s).y_yaw.size):
+        d = slip_design(runs, nominal, window_s)  # too few steady windows: all of them
     k = len(FEATURES)
     if d.y_yaw.size < 2:
         raise InsufficientDataError(
