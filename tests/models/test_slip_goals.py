@@ -51,9 +51,66 @@ def test_slip_model_halves_the_best_kinematic_error_on_systematic_slip() -> None
         slip.append(errors["slip"])
         best.append(min(errors["diff"], errors["icr"]))
         assert errors["slip"] < best[-1], (seed, errors)  # better on every seed
-    # measured: slip 0.152, 0.122, 0.271, 0.037 m; best kinematic 0.342, 0.155, 0.610, 0.350 m
-    # (per seed 0.44, 0.79, 0.44, 0.11 of it; 8 seeds: 6 of 8 within 0.5, pooled 0.34)
+    # measured at 75c3a5e: slip 0.080, 0.103, 0.265, 0.043 m; best kinematic 0.342, 0.155,
+    # 0.610, 0.350 m (per seed 0.23, 0.67, 0.43, 0.12 of it; pooled 0.34; 8 seeds pooled 0.31)
     assert sum(slip) <= 0.5 * sum(best), (slip, best)
+
+
+def test_with_the_lab_noise_no_model_can_halve_the_error_and_slip_is_no_worse() -> None:
+    """The tracked truth with the lab's full noise: the held-out runs' end points with and
+    without the noise (the same commands, noise-free truth) differ by more than half the best
+    kinematic model's error, so no model, however exact, can halve it (issue 29's ratio goal is
+    out of reach there, by the noise alone); the slip model stays about as good as the best
+    kinematic one."""
+    quiet_truth = TRACKED.noiseless
+    slip, best, floor = [], [], []
+    for seed in range(1, 5):
+        ex, held = _data(TRACKED, seed)
+        _, quiet = _data(quiet_truth, seed)
+        errors = {}
+        for model in ("diff", "icr", "slip"):
+            fit = calibrate_lsq([ex], NOMINAL, LsqOptions(model=model))
+            errors[model] = float(np.mean([endpoint_error(r, fit.params) for r in held]))
+        slip.append(errors["slip"])
+        best.append(min(errors["diff"], errors["icr"]))
+        gaps = []
+        for noisy, exact in zip(held, quiet, strict=True):
+            assert np.array_equal(noisy.dticks_left, exact.dticks_left)  # the same commands
+            a, b = noisy.require_ground_truth(), exact.require_ground_truth()
+            gaps.append(float(np.hypot(a.x[-1] - b.x[-1], a.y[-1] - b.y[-1])))
+        floor.append(float(np.mean(gaps)))
+    # measured at 75c3a5e: floor 2.02, 1.93, 3.24, 2.09 m; best kinematic 1.97, 2.07, 4.36,
+    # 2.73 m; slip 2.07, 1.94, 4.49, 3.79 m (pooled 1.10 of the best kinematic)
+    assert sum(floor) > 0.5 * sum(best), (floor, best)
+    assert sum(slip) <= 1.2 * sum(best), (slip, best)
+
+
+def test_predictive_variance_is_not_overconfident_on_held_out_runs() -> None:
+    """NEES of the slip model's predictive covariance on the held-out runs, pieces of 1 s started
+    at the truth's pose, 4 seeds: never above the two-sided 95 % chi-square bounds of the mean
+    (an overconfident covariance is the dangerous side). Measured at this commit, bounds [2.81,
+    3.19]: systematic slip only 2.31, a tenth of the lab's noise 2.81 (inside), all of it 2.39:
+    on the cautious side (docs/models.md). Before the posterior was the weak prior's, one seed's
+    reverse drift came out certain and wrong and the mean was 5.85."""
+    from odolab.calibration.slipfit import nees_bounds, nees_pieces
+
+    means = []
+    for share in (0.0, 0.1, 1.0):
+        truth = TRACKED.with_(
+            k_left=TRACKED.k_left * share,
+            k_right=TRACKED.k_right * share,
+            k_scrub=TRACKED.k_scrub * share,
+        )
+        values = []
+        for seed in range(1, 5):
+            ex, held = _data(truth, seed)
+            fit = calibrate_lsq([ex], NOMINAL, LsqOptions(model="slip"))
+            values.append(nees_pieces(held, fit.params, 1.0))
+        v = np.concatenate(values)
+        low, high = nees_bounds(v.size)
+        means.append(float(np.mean(v)))
+        assert means[-1] <= high, (share, means[-1], low, high)
+        assert means[-1] >= 0.7 * low, (share, means[-1], low)  # and not far too cautious
 
 
 def test_speed_question_from_the_coefficients() -> None:
