@@ -11,32 +11,37 @@ same runs' end points with and without the simulator's noise, what no model can 
 ``pytest -s`` prints the table, the lsq files' errors and the NEES):
 
     sim                seed  diff   extended  icr    slip   slip/best  floor  recommends
-    icr-speed             1  1.635  1.635     1.154  0.295  0.26       0.304  slip
-    icr-speed             2  2.084  2.084     2.038  0.435  0.21       0.142  slip
-    icr-speed             3  1.187  1.187     1.428  0.264  0.22       0.157  slip
-    icr-speed             4  1.503  1.503     2.190  0.218  0.14       0.200  slip
-    skid-dynamic          1  1.931  1.931     1.870  0.792  0.42       0.340  slip
-    skid-dynamic          2  1.516  1.516     1.570  1.181  0.78       0.167  slip
-    skid-dynamic          3  1.265  1.265     1.117  0.967  0.87       0.177  slip
-    skid-dynamic          4  1.147  1.147     1.237  0.414  0.36       0.186  slip
-    icr-speed-constant    1  0.497  0.497     0.367  0.460  1.25       0.344  icr
-    icr-speed-constant    2  0.415  0.415     0.250  0.169  0.68       0.188  icr
-    icr-speed-constant    3  0.261  0.261     0.173  0.226  1.31       0.185  icr
-    icr-speed-constant    4  0.611  0.611     0.110  0.396  3.60       0.174  icr
+    icr-speed             1  1.635  1.635     1.154  0.522  0.45       0.304  slip
+    icr-speed             2  2.084  2.084     2.038  0.517  0.25       0.142  slip
+    icr-speed             3  1.187  1.187     1.428  0.235  0.20       0.157  slip
+    icr-speed             4  1.503  1.503     2.190  0.369  0.25       0.200  slip
+    skid-dynamic          1  1.931  1.931     1.870  0.569  0.30       0.340  slip
+    skid-dynamic          2  1.516  1.516     1.570  0.473  0.31       0.167  slip
+    skid-dynamic          3  1.265  1.265     1.117  0.171  0.15       0.177  slip
+    skid-dynamic          4  1.147  1.147     1.237  0.232  0.20       0.186  slip
+    icr-speed-constant    1  0.497  0.497     0.367  0.574  1.56       0.344  icr
+    icr-speed-constant    2  0.415  0.415     0.250  0.176  0.70       0.188  icr
+    icr-speed-constant    3  0.261  0.261     0.173  0.167  0.97       0.185  icr
+    icr-speed-constant    4  0.611  0.611     0.110  0.187  1.70       0.174  icr
 
-(odolab at 32fba30: ARD, the slip prior centred on the fitted kinematic model, the ICR model no
-longer refused). At 703892d the ICR model was refused on every speed-slip exploration ("x_icr is
-not identifiable without turns of both signs at speed") and slip read 0.236, 0.609, 0.242, 0.299
-| 0.305, 0.764, 1.250, 0.695 | control 0.548, 0.268, 0.280, 0.724 (slip/best 0.14, 0.29, 0.20,
-0.20 | 0.16, 0.50, 0.99, 0.61). On skid-dynamic the slip model's error was bias, not data or
-noise (measured with the fit as it was at 01:30 UTC): 180 s of exploration gave 0.90, 0.92,
-0.86 m (seeds 2-4), the noiseless simulator 0.61-0.77 of diff; without its yaw lag or its yaw
-reduction the ratio fell to 0.23-0.40 on two of three seeds. In the control, where the truth is
-linear in the track speeds (inside the slip model's basis), the slip model is up to 3.6 times
-the ICR model's error (seed 4: spurious yaw terms in v, |v|, v|v| at 020942e).
+(odolab at cc3ea73: the slip fit on steady-state windows, its prior centred on the fitted ICR
+model, ARD). Before: at 703892d the ICR model was refused on every speed-slip exploration
+("x_icr is not identifiable without turns of both signs at speed") and slip/best read 0.14,
+0.29, 0.20, 0.20 | 0.16, 0.50, 0.99, 0.61; at 32fba30 0.26, 0.21, 0.22, 0.14 | 0.42, 0.78,
+0.87, 0.36. The skid-dynamic error then was bias, not data or noise: 180 s of exploration gave
+0.90, 0.92, 0.86 m (seeds 2-4, fit as at 01:30 UTC), the noiseless simulator 0.61-0.77 of diff,
+and without the simulator's yaw lag (a transient no function of the speeds describes) the ratio
+fell to 0.23-0.40 on two of three seeds: what the steady-state windows fixed.
 
-Goals that hold are asserted below with margins; the ones that do not are xfail (strict: they
-report when they start to pass), not weakened.
+NEES of the slip model on the held-out runs (printed by ``-s``), at cc3ea73: with the fit's
+posterior, mean over 1 s pieces 2.4-4.0 (icr-speed), 1.7-3.0 (skid-dynamic) against the mean's
+bounds [2.58, 3.45], 77-97 % of pieces inside a piece's [0.216, 9.35]; with the parameters
+file (noise terms only) on skid-dynamic seeds 2 and 3 the mean is 2.5e4 and 5.4e3: the file's
+q_fwd, q_lat, q_yaw are about 1e-12, 1e-12, 9e-10, so on a straight (no commanded turn) the
+heading variance is almost zero (NEES up to 6e5 on the square's straights).
+
+The end-point and recommendation goals hold and are asserted below (the goal itself per seed,
+the pooled ratio with a margin); the NEES is printed, not asserted.
 """
 
 from __future__ import annotations
@@ -306,38 +311,26 @@ def test_slip_halves_the_best_kinematic_error_on_the_icr_speed_robot(
     measured: dict[tuple[str, int], Measured],
 ) -> None:
     """Issue 29's goal on "icr-speed": from 60 s of exploration, held-out end-point error
-    <= 0.5 x the best kinematic model's, on every seed (measured 0.26, 0.21, 0.22, 0.14 at
-    32fba30; 0.14, 0.29, 0.20, 0.20 at 703892d)."""
+    <= 0.5 x the best kinematic model's, on every seed (measured 0.45, 0.25, 0.20, 0.25 at
+    cc3ea73; 0.26, 0.21, 0.22, 0.14 at 32fba30; 0.14, 0.29, 0.20, 0.20 at 703892d)."""
     ratios = [measured[("icr-speed", seed)].ratio for seed in SEEDS]
     assert all(r <= 0.5 for r in ratios), ratios
     slip = sum(measured[("icr-speed", seed)].endpoint["slip"] or 0.0 for seed in SEEDS)
     best = sum(measured[("icr-speed", seed)].best_kinematic for seed in SEEDS)
-    assert slip <= 0.35 * best, (slip, best)  # measured 0.21 (0.22 at 703892d)
+    assert slip <= 0.35 * best, (slip, best)  # measured 0.28 (0.21 at 32fba30)
 
 
-def test_slip_beats_the_kinematic_models_on_the_skid_dynamic_robot(
+def test_slip_halves_the_best_kinematic_error_on_the_skid_dynamic_robot(
     measured: dict[tuple[str, int], Measured],
 ) -> None:
-    """What holds on "skid-dynamic" (the goal itself does not yet: see the next test): over the
-    four seeds the slip model is clearly better than the best kinematic model (pooled ratio 0.59
-    at 32fba30, per seed 0.42, 0.78, 0.87, 0.36; 0.51 at 703892d)."""
-    slip = sum(measured[("skid-dynamic", seed)].endpoint["slip"] or 0.0 for seed in SEEDS)
-    best = sum(measured[("skid-dynamic", seed)].best_kinematic for seed in SEEDS)
-    assert slip <= 0.7 * best, (slip, best)
-
-
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="issue 29's goal not met yet on skid-dynamic: slip / best kinematic per seed 0.42, "
-    "0.78, 0.87, 0.36 at 32fba30 (0.16, 0.50, 0.99, 0.61 at 703892d); remove this mark when it "
-    "passes",
-)
-def test_goal_slip_halves_the_best_kinematic_error_on_the_skid_dynamic_robot(
-    measured: dict[tuple[str, int], Measured],
-) -> None:
+    """Issue 29's goal on "skid-dynamic" (measured per seed 0.30, 0.31, 0.15, 0.20 at cc3ea73,
+    pooled 0.26; it did not hold before the fit kept steady-state windows: 0.42, 0.78, 0.87,
+    0.36 at 32fba30, 0.16, 0.50, 0.99, 0.61 at 703892d)."""
     ratios = [measured[("skid-dynamic", seed)].ratio for seed in SEEDS]
     assert all(r <= 0.5 for r in ratios), ratios
+    slip = sum(measured[("skid-dynamic", seed)].endpoint["slip"] or 0.0 for seed in SEEDS)
+    best = sum(measured[("skid-dynamic", seed)].best_kinematic for seed in SEEDS)
+    assert slip <= 0.35 * best, (slip, best)
 
 
 def test_compare_recommends_slip_where_held_out_data_support_it(
