@@ -387,6 +387,9 @@ def _save_params(
     model = params.model_table()
     if model is not None:
         doc["model"] = model
+        posterior = getattr(params.model, "posterior", ())
+        if posterior:  # the slip model's coefficient covariance: its predictive variance needs it
+            model["posterior"] = [float(v) for v in posterior]
     if params.noise is not None:
         doc["noise"] = params.noise.to_dict()
     if provenance:

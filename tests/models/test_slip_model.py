@@ -132,3 +132,25 @@ def test_covariance_propagation_follows_the_odometry_and_grows() -> None:
     assert np.all(np.diff(white[:, 2, 2]) >= 0)  # the cycles' noise only adds up
     low, high = nees_bounds(100)
     assert low == pytest.approx(2.5, abs=0.05) and high == pytest.approx(3.5, abs=0.05)
+
+
+def test_the_posterior_goes_through_the_parameters_file(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    # the predictive variance of a model read back is the fit's: on a straight the heading's
+    # variance comes from the coefficients' posterior (the noise terms hold turning only)
+    from odolab.calibration.slipfit import propagate_covariance
+    from odolab.params import load_params, save_params
+
+    fit = calibrate_lsq([_run(SPEEDY, 1, 30, 1.0)], NOMINAL, LsqOptions(model="slip"))
+    path = save_params(tmp_path / "slip.toml", fit.params)
+    back = load_params(str(path))
+    model = back.model
+    assert isinstance(model, SlipModel) and model.posterior == fit.params.model.posterior  # type: ignore[union-attr]
+    held = _run(SPEEDY, 2, 10, 0.6)
+    _, a = propagate_covariance(held.t, held.dticks_left, held.dticks_right, fit.params)
+    _, b = propagate_covariance(held.t, held.dticks_left, held.dticks_right, back)
+    assert np.allclose(a, b, rtol=1e-12, atol=0.0)
+    text = path.read_text()
+    bad = text.replace("posterior = [", "posterior = [true, ", 1)
+    (tmp_path / "bad.toml").write_text(bad)
+    with pytest.raises(ParamsError, match=r"posterior has 577 values; expected a list of 576"):
+        load_params(str(tmp_path / "bad.toml"))

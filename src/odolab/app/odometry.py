@@ -363,7 +363,8 @@ def integrate_log(req: OdometryRequest, progress: Progress | None = None) -> Odo
 def _integrate_slip_covariance(req: OdometryRequest) -> OdometryOutcome:
     """An encoder log integrated with a slip model, with the covariance its predictive variance
     gives (:func:`odolab.calibration.slipfit.propagate_covariance`: the model's noise terms, and
-    its coefficients' posterior where the model carries one; a parameters file carries none).
+    its coefficients' posterior where the model carries one, as the file ``calibrate lsq``
+    writes does).
     The whole log at once: the posterior's share couples every cycle."""
     import numpy as np
 
@@ -397,7 +398,7 @@ def _integrate_slip_covariance(req: OdometryRequest) -> OdometryOutcome:
         + (
             " and its coefficients' posterior)"
             if posterior
-            else "; a parameters file does not carry the coefficients' posterior, so their "
+            else "; the parameters have no [model] posterior, so the coefficients' own "
             "uncertainty is not in it)"
         )
         + (", the whole log at once (--chunk-rows does not apply)" if req.chunk_rows else "")

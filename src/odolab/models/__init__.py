@@ -109,7 +109,10 @@ def model_from_mapping(data: dict[str, Any], *, source: str = "parameters") -> K
             f"{', '.join(sorted(MODELS))}"
         )
     cls = MODELS[kind]
-    keys = {k: v for k, v in data.items() if k != "kind"}
+    keys = {k: v for k, v in data.items() if k not in ("kind", "posterior")}
+    extra: dict[str, Any] = {}
+    if "posterior" in data:
+        extra["posterior"] = _posterior(data["posterior"], cls, kind, source)
     allowed = tuple(getattr(cls, "KEYS", ()))
     unknown = sorted(set(keys) - set(allowed))
     if unknown:
@@ -128,12 +131,31 @@ def model_from_mapping(data: dict[str, Any], *, source: str = "parameters") -> K
         ):
             raise ParamsError(f"{source}: [model] {key} must be a finite number, got {value!r}")
     try:
-        model: KinematicModel = cls(**{k: float(v) for k, v in keys.items()})
+        model: KinematicModel = cls(**{k: float(v) for k, v in keys.items()}, **extra)
     except ParamsError as err:
         raise ParamsError(f"{source}: [model] {err}") from err
     except TypeError as err:
         raise ParamsError(f"{source}: [model] of kind {kind!r}: {err}") from err
     return model
+
+
+def _posterior(value: Any, cls: type[Any], kind: str, source: str) -> tuple[float, ...]:
+    """A ``[model]`` ``posterior`` (the slip model's coefficient covariance, row-major):
+    checked to be a list of finite numbers of the model's size."""
+    size = len(getattr(cls, "COEF_KEYS", ())) ** 2
+    if not size:
+        raise ParamsError(f"{source}: unknown key 'posterior' in [model] of kind {kind!r}")
+    if not isinstance(value, list) or len(value) != size:
+        got = f"{len(value)} values" if isinstance(value, list) else type(value).__name__
+        raise ParamsError(
+            f"{source}: [model] posterior has {got}; expected a list of {size} numbers"
+        )
+    for i, v in enumerate(value):
+        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+            raise ParamsError(
+                f"{source}: [model] posterior[{i}] must be a finite number, got {v!r}"
+            )
+    return tuple(float(v) for v in value)
 
 
 def _defaults(cls: type[Any]) -> set[str]:

@@ -23,9 +23,10 @@ cycle's body motion has variance ``q dt + k L`` on top of the posterior variance
 ``phi . beta`` (:meth:`SlipModel.step_variance`).
 
 In a parameters file the ``[model]`` table has ``kind = "slip"``, the 24 coefficients
-``fwd_v``, ``fwd_w``, ..., ``yaw_w_absw`` (missing ones are 0) and the six noise terms ``q_*``, ``k_*``. The posterior
-covariance of the coefficients is not stored in the file (only in a fit's result): a model read
-from a file has the noise part of the predictive variance only.
+``fwd_v``, ``fwd_w``, ..., ``yaw_w_absw`` (missing ones are 0), the six noise terms ``q_*``,
+``k_*``, and ``posterior``, the coefficients' posterior covariance (576 numbers, row-major;
+optional: without it the predictive variance has the noise part only). The notebook keeps a
+parameter set's coefficients and noise terms, not its posterior.
 
 Everything that uses a model's six linear coefficients (the covariance stepper, the virtual
 board's truth, the ROS 2 export) sees the linear part of this model (:meth:`coefficients`);
