@@ -24,7 +24,7 @@ same runs' end points with and without the simulator's noise, what no model can 
     icr-speed-constant    3  0.261  0.261     0.173  0.167  0.97       0.185  icr
     icr-speed-constant    4  0.611  0.611     0.110  0.187  1.70       0.174  icr
 
-(odolab at cc3ea73: the slip fit on steady-state windows, its prior centred on the fitted ICR
+(odolab at cc3ea73 and afb2c58: the slip fit on steady-state windows, its prior on the fitted ICR
 model, ARD). Before: at 703892d the ICR model was refused on every speed-slip exploration
 ("x_icr is not identifiable without turns of both signs at speed") and slip/best read 0.14,
 0.29, 0.20, 0.20 | 0.16, 0.50, 0.99, 0.61; at 32fba30 0.26, 0.21, 0.22, 0.14 | 0.42, 0.78,
@@ -33,12 +33,14 @@ model, ARD). Before: at 703892d the ICR model was refused on every speed-slip ex
 and without the simulator's yaw lag (a transient no function of the speeds describes) the ratio
 fell to 0.23-0.40 on two of three seeds: what the steady-state windows fixed.
 
-NEES of the slip model on the held-out runs (printed by ``-s``), at cc3ea73: with the fit's
-posterior, mean over 1 s pieces 2.4-4.0 (icr-speed), 1.7-3.0 (skid-dynamic) against the mean's
-bounds [2.58, 3.45], 77-97 % of pieces inside a piece's [0.216, 9.35]; with the parameters
-file (noise terms only) on skid-dynamic seeds 2 and 3 the mean is 2.5e4 and 5.4e3: the file's
-q_fwd, q_lat, q_yaw are about 1e-12, 1e-12, 9e-10, so on a straight (no commanded turn) the
-heading variance is almost zero (NEES up to 6e5 on the square's straights).
+NEES of the slip model on the held-out runs (printed by ``-s``), at afb2c58 (the parameters file
+carries the coefficients' posterior, so the file's NEES is the fit's): mean over 1 s pieces
+2.4-4.0 (icr-speed), 1.7-3.0 (skid-dynamic) against the mean's bounds [2.58, 3.45], 77-97 % of
+pieces inside one piece's [0.216, 9.35]; over 5 s pieces 3.8-6.8 (icr-speed, bounds [2.08,
+4.08]) and 1.0-2.1 (skid-dynamic). At cc3ea73 the file (noise terms only) gave means of 2.5e4
+and 5.4e3 on skid-dynamic seeds 2 and 3: its q_fwd, q_lat, q_yaw were about 1e-12, 1e-12,
+9e-10, so on a straight (no commanded turn) the heading variance was almost zero (NEES up to
+6e5 on the square's straights); the posterior now hides that, the noise terms still lack it.
 
 The end-point and recommendation goals hold and are asserted below (the goal itself per seed,
 the pooled ratio with a margin); the NEES is printed, not asserted.
@@ -102,9 +104,9 @@ class Measured:
     reason: str
     #: held-out end-point error from `calibrate lsq --model M -o file` (computed here)
     lsq_endpoint: dict[str, float | None] = field(default_factory=dict)
-    #: NEES of the slip model on held-out pieces: piece_s -> values (file's params)
+    #: NEES of the slip model on held-out pieces: piece_s -> values (the parameters file's)
     nees: dict[float, list[float]] = field(default_factory=dict)
-    #: the same with the fit's posterior (`calibrate_lsq`'s result: a file does not keep it)
+    #: the same with `calibrate_lsq`'s result (its posterior; a file keeps it since afb2c58)
     nees_posterior: dict[float, list[float]] = field(default_factory=dict)
     #: held-out end-point distance between the noisy truth and the same run without noise
     floor: float = 0.0
@@ -190,7 +192,7 @@ def _measure(
             runs = [read_run(h, "csv") for h in held]
             p = load_params(params)
             m.nees = {s: nees_pieces(runs, p, s).tolist() for s in NEES_PIECES}
-            # the fit's own parameters carry the coefficients' posterior (a file does not)
+            # the fit's own parameters carry the coefficients' posterior
             fit = calibrate_lsq([read_run(ex, "csv")], NOMINAL, LsqOptions(model="slip"))
             assert isinstance(fit.params.model, SlipModel) and fit.params.model.posterior
             m.nees_posterior = {s: nees_pieces(runs, fit.params, s).tolist() for s in NEES_PIECES}
