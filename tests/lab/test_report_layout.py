@@ -47,11 +47,13 @@ def _browser() -> str | None:
     return None
 
 
-@pytest.fixture(scope="module")
-def report(tmp_path_factory: pytest.TempPathFactory) -> Path:
+@pytest.fixture(scope="module", params=["jaguar-lab", "jaguar-lab-tracked"])
+def report(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The demo's report, on the default truth and on the tracked one (whose report has the
+    slip model's section and its wide tables)."""
     if _browser() is None:
         pytest.skip("no chromium to render the report (.ci/run installs it)")
-    return run_lab(tmp_path_factory.mktemp("layout")).report
+    return run_lab(tmp_path_factory.mktemp("layout"), truth=request.param).report
 
 
 def _chromium(*args: str) -> str:
