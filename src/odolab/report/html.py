@@ -465,7 +465,8 @@ def _evidence_plans(evidence: ModelEvidence | None) -> list[_Plan]:
                 "Learning curve: held-out error against seconds of exploration",
                 "Each model fitted on the first seconds of the exploration run alone; mean "
                 "end-point error over the held-out runs. A model missing at a length could not "
-                "be fitted from that much data (the table says why).",
+                "be fitted from that much data (the table says why); lines that coincide (diff "
+                "and extended: the same motion in other units) are drawn one over the other.",
                 partial(plot_learning_curve, curve),
                 "slip",
                 (6.0, 4.0),
