@@ -39,6 +39,7 @@ __all__ = [
     "TrialField",
     "TrialStatus",
     "check_field",
+    "draw_exploration_value",
     "trial_field",
     "validate_trial",
 ]
@@ -65,6 +66,17 @@ class TrialStatus(StrEnum):
 #: How an exploration draws its commands: uniformly over what the robot can do, or three in four
 #: from the outer half of each range (more data where slip is largest).
 EXPLORE_DISTRIBUTIONS = ("uniform", "edges")
+
+
+def draw_exploration_value(rng: np.random.Generator, limit: float, distribution: str) -> float:
+    """One speed (or turn rate) of an exploration command, within ``+-limit``: uniformly, or
+    (``"edges"``) three in four from the outer half of the range, either sign. The one draw of
+    the live exploration (:mod:`odolab.robot.explore_motion`) and the simulator's
+    (:mod:`odolab.sim.explore`)."""
+    if distribution == "edges" and rng.random() < 0.75:
+        sign = 1.0 if rng.random() < 0.5 else -1.0
+        return float(rng.uniform(0.5, 1.0) * limit * sign)
+    return float(rng.uniform(-limit, limit))
 
 
 @dataclass(frozen=True)

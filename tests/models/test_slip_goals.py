@@ -40,14 +40,20 @@ def _data(truth: TrueParams, seed: int) -> tuple[OdometryRun, list[OdometryRun]]
     return ex, held
 
 
+def _errors(ex: OdometryRun, held: list[OdometryRun]) -> dict[str, float]:
+    """Mean held-out end-point error (m) of diff, icr and slip fitted on the exploration."""
+    errors = {}
+    for model in ("diff", "icr", "slip"):
+        fit = calibrate_lsq([ex], NOMINAL, LsqOptions(model=model))
+        errors[model] = float(np.mean([endpoint_error(r, fit.params) for r in held]))
+    return errors
+
+
 def test_slip_model_halves_the_best_kinematic_error_on_systematic_slip() -> None:
     slip, best = [], []
     for seed in range(1, 5):
         ex, held = _data(TRACKED_QUIET, seed)
-        errors = {}
-        for model in ("diff", "icr", "slip"):
-            fit = calibrate_lsq([ex], NOMINAL, LsqOptions(model=model))
-            errors[model] = float(np.mean([endpoint_error(r, fit.params) for r in held]))
+        errors = _errors(ex, held)
         slip.append(errors["slip"])
         best.append(min(errors["diff"], errors["icr"]))
         assert errors["slip"] < best[-1], (seed, errors)  # better on every seed
@@ -67,10 +73,7 @@ def test_with_the_lab_noise_no_model_can_halve_the_error_and_slip_is_no_worse() 
     for seed in range(1, 5):
         ex, held = _data(TRACKED, seed)
         _, quiet = _data(quiet_truth, seed)
-        errors = {}
-        for model in ("diff", "icr", "slip"):
-            fit = calibrate_lsq([ex], NOMINAL, LsqOptions(model=model))
-            errors[model] = float(np.mean([endpoint_error(r, fit.params) for r in held]))
+        errors = _errors(ex, held)
         slip.append(errors["slip"])
         best.append(min(errors["diff"], errors["icr"]))
         gaps = []

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import socket
+from collections.abc import Iterator
 from typing import Any
 
 import pytest
@@ -59,3 +61,12 @@ class FakePlant:
 @pytest.fixture
 def fake_plant() -> FakePlant:
     return FakePlant()
+
+
+@pytest.fixture
+def listener() -> Iterator[socket.socket]:
+    """A UDP socket on loopback standing in for a board: it must receive nothing."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        sock.bind(("127.0.0.1", 0))
+        sock.setblocking(False)
+        yield sock

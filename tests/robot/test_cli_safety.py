@@ -26,15 +26,6 @@ from odolab.robot.plant import IdealPlant
 NOMINAL = PRESETS["jaguar-lite"]
 
 
-@pytest.fixture
-def listener() -> Iterator[socket.socket]:
-    """A UDP socket on loopback standing in for a board: it must receive nothing."""
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
-        sock.bind(("127.0.0.1", 0))
-        sock.setblocking(False)
-        yield sock
-
-
 # (command, option, value, what the sentence must say about the accepted values)
 INVALID = [
     ("drive", "--max-wheel-speed", "-1", "(0, 3] m/s"),

@@ -10,7 +10,6 @@ from __future__ import annotations
 import json
 import math
 import socket
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -30,15 +29,6 @@ from odolab.store import Notebook
 from odolab.trials import Command, Exploration, MotionKind, TrialStatus
 
 NOMINAL = PRESETS["jaguar-lite"]
-
-
-@pytest.fixture
-def listener() -> Iterator[socket.socket]:
-    """A UDP socket on loopback standing in for a board: it must receive nothing."""
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
-        sock.bind(("127.0.0.1", 0))
-        sock.setblocking(False)
-        yield sock
 
 
 # (option, value, what the one sentence must say)

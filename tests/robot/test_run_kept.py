@@ -12,7 +12,6 @@ import socket
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -43,15 +42,6 @@ from odolab.writing import OutputFileError
 
 NOMINAL = PRESETS["jaguar-lite"]
 SHORT = Command(MotionKind.TRANSLATION, distance=0.1, speed=0.5)
-
-
-@pytest.fixture
-def listener() -> Iterator[socket.socket]:
-    """A UDP socket on loopback standing in for a board: it must receive nothing."""
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
-        sock.bind(("127.0.0.1", 0))
-        sock.setblocking(False)
-        yield sock
 
 
 # -- 1. nothing compiles or loads inside a control cycle -----------------------------------------

@@ -105,6 +105,8 @@ class SlipDesign:
     v_rms: float
     w_rms: float
     phi_rms: FloatArray
+    #: windows the runs were cut into, before any was left out for not being in steady state
+    windows_seen: int = 0
 
 
 def _steady(
@@ -135,7 +137,7 @@ def slip_design(
     """The regression rows of prepared runs (:class:`odolab.calibration.lsq.PreparedRun`);
     ``steady``: only the windows in steady state (:func:`_steady`)."""
     axy, yxy, ayaw, yyaw, dur, trav, turn = [], [], [], [], [], [], []
-    v_sq, w_sq, n_steps = 0.0, 0.0, 0
+    v_sq, w_sq, n_steps, seen = 0.0, 0.0, 0, 0
     phi_sq = np.zeros(len(FEATURES))
     b = nominal.track_width
     tick = 0.5 * (nominal.left_metres_per_tick + nominal.right_metres_per_tick)
@@ -182,6 +184,7 @@ def slip_design(
         if edges[-1] != n - 1:
             edges = np.append(edges, n - 1)
         i, j = edges[:-1], edges[1:]
+        seen += i.size
         if steady:
             keep = _steady(t, ds / tt, dth / tt, i, j)
             i, j = i[keep], j[keep]
@@ -224,6 +227,7 @@ def slip_design(
         float(np.sqrt(v_sq / n_steps)),
         float(np.sqrt(w_sq / n_steps)),
         np.sqrt(phi_sq / n_steps),
+        seen,
     )
 
 
@@ -244,20 +248,17 @@ def _blr(
     tau: FloatArray,
     scales: FloatArray,
     mean: FloatArray | None = None,
-    ard: FloatArray | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Posterior mean and covariance of ``y = X beta + e``, ``beta ~ N(mean, diag(tau^2))``
     (``mean`` 0 unless given), with a noise variance per row linear in ``scales`` (n, m):
     ``var_i = scales_i . c``, ``c >= 0`` found by expectation-maximisation (non-negative least
-    squares of the expected squared residuals). The prior variances of the coefficients ``ard``
-    marks (all unless given) are found the same way, no larger than ``tau^2`` (automatic
-    relevance determination); the covariance returned is the weak prior's posterior at the
+    squares of the expected squared residuals). The coefficients' prior variances are found the
+    same way, no larger than ``tau^2`` (automatic relevance determination); the covariance returned is the weak prior's posterior at the
     final noise (what the data say of each coefficient, not what the shrinkage assumed).
     Returns (mean, covariance, c)."""
     from scipy.optimize import nnls
 
     m0 = np.zeros(x.shape[1]) if mean is None else np.asarray(mean, dtype=np.float64)
-    marks = np.ones(x.shape[1], dtype=bool) if ard is None else ard
     prior = np.diag(1.0 / tau**2)
     c = np.full(scales.shape[1], 0.0)
     r0 = y - x @ m0
@@ -274,11 +275,10 @@ def _blr(
         expected = r**2 + np.einsum("ij,jk,ik->i", x, sigma, x)
         # rows weighted by 1/var: each residual counts as one measurement of its variance
         sol, _ = nnls(scales / var[:, None], expected / var)
-        # automatic relevance determination: each marked coefficient's prior variance is what
-        # the data say of its distance from the prior mean (no more than the weak prior's), so
-        # what the data do not support shrinks back to the prior mean
+        # automatic relevance determination: each coefficient's prior variance is what the data
+        # say of its distance from the prior mean (no more than the weak prior's), so what the
+        # data do not support shrinks back to the prior mean
         t2 = np.minimum((mu - m0) ** 2 + np.diag(sigma), tau**2)
-        t2 = np.where(marks, t2, tau**2)
         prior = np.diag(1.0 / np.maximum(t2, 1e-12 * tau**2))
         if not np.any(sol > 0):
             break
@@ -336,7 +336,7 @@ def kinematic_base(runs: Sequence[object], nominal: RobotParams) -> tuple[FloatA
             fit = calibrate_lsq(
                 runs,  # type: ignore[arg-type]
                 nominal,
-                LsqOptions(model=kind, fit_gt_yaw_offset=False, segment_s=2.0),
+                LsqOptions(model=kind, fit_gt_yaw_offset=False),
             )
         except (CalibrationError, InsufficientDataError, ParamsError):
             continue
@@ -356,7 +356,7 @@ def _fit_mean(
     noise by expectation-maximisation (see the module): (model, 24 x 24 posterior covariance,
     number of windows)."""
     d = slip_design(runs, nominal, window_s, steady=True)
-    if d.y_yaw.size < max(2, STEADY_SHARE * slip_design(runs, nominal, window_s).y_yaw.size):
+    if d.y_yaw.size < max(2, STEADY_SHARE * d.windows_seen):
         d = slip_design(runs, nominal, window_s)  # too few steady windows: all of them
     k = len(FEATURES)
     if d.y_yaw.size < 2:
@@ -445,14 +445,13 @@ def fit_slip_model(
     mean, kind = kinematic_base(runs, nominal) if base else (np.zeros(3 * len(FEATURES)), "none")
     parts = [_blocks(r, folds) for r in runs] if folds > 1 else []
     cross = bool(parts) and all(len(p) == folds for p in parts)
-    scale = prior_scale
-    model, cov, windows = _fit_mean(runs, nominal, window_s, scale, mean)
+    model, cov, windows = _fit_mean(runs, nominal, window_s, prior_scale, mean)
     pieces: list[tuple[FloatArray, FloatArray, FloatArray]] = []
     if cross:
         for f in range(folds):
             train = [p[i] for p in parts for i in range(folds) if i != f]
             try:
-                m, _, _ = _fit_mean(train, nominal, window_s, scale, mean)
+                m, _, _ = _fit_mean(train, nominal, window_s, prior_scale, mean)
             except InsufficientDataError:
                 pieces = []
                 break

@@ -28,7 +28,7 @@ import numpy as np
 from odolab.params import RobotParams
 from odolab.robot.errors import MotionError
 from odolab.trajectory import Pose
-from odolab.trials import EXPLORE_DISTRIBUTIONS, Command
+from odolab.trials import EXPLORE_DISTRIBUTIONS, Command, draw_exploration_value
 
 __all__ = ["Explore"]
 
@@ -110,12 +110,6 @@ class Explore:
         self.crossed_at = None
         self.commands = []
 
-    def _value(self, limit: float) -> float:
-        if self.distribution == "edges" and self._rng.random() < 0.75:
-            sign = 1.0 if self._rng.random() < 0.5 else -1.0
-            return float(self._rng.uniform(0.5, 1.0) * limit * sign)
-        return float(self._rng.uniform(-limit, limit))
-
     def _set(self, t: float, v: float, w: float) -> None:
         if (v, w) != self._cmd or not self.commands:
             self.commands.append((t, v, w))
@@ -124,8 +118,8 @@ class Explore:
     def _draw(self, t: float, forward: bool = False) -> None:
         floor = self.min_fraction * self.max_speed
         for _ in range(1000):
-            v = self._value(self.max_speed)
-            w = self._value(self.max_turn_rate)
+            v = draw_exploration_value(self._rng, self.max_speed, self.distribution)
+            w = draw_exploration_value(self._rng, self.max_turn_rate, self.distribution)
             if forward:
                 v = abs(v)
             fastest = abs(v) + abs(w) * self._half

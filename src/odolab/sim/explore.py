@@ -35,6 +35,7 @@ from odolab.odometry import Odometry
 from odolab.params import RobotParams
 from odolab.sim.drives import Drive
 from odolab.sim.physics import TrueParams, VirtualRobot
+from odolab.trials import EXPLORE_DISTRIBUTIONS, draw_exploration_value
 
 __all__ = [
     "DISTRIBUTIONS",
@@ -44,7 +45,7 @@ __all__ = [
     "write_exploration",
 ]
 
-DISTRIBUTIONS = ("uniform", "edges")
+DISTRIBUTIONS = EXPLORE_DISTRIBUTIONS
 
 
 @dataclass(frozen=True)
@@ -81,20 +82,14 @@ class ExploreSettings:
             )
 
 
-def _draw(rng: np.random.Generator, limit: float, edges: bool) -> float:
-    if edges and rng.random() < 0.75:
-        return float(rng.uniform(0.5, 1.0) * limit * (1.0 if rng.random() < 0.5 else -1.0))
-    return float(rng.uniform(-limit, limit))
-
-
 def sample_command(
     rng: np.random.Generator, s: ExploreSettings, track_width: float, *, forward: bool = False
 ) -> tuple[float, float]:
     """One command ``(v, w)`` within the limits (see the module); ``forward``: ``v >= 0``."""
     half = 0.5 * track_width
     for _ in range(1000):
-        v = _draw(rng, s.max_speed, s.distribution == "edges")
-        w = _draw(rng, s.max_turn_rate, s.distribution == "edges")
+        v = draw_exploration_value(rng, s.max_speed, s.distribution)
+        w = draw_exploration_value(rng, s.max_turn_rate, s.distribution)
         if forward:
             v = abs(v)
         if abs(v) + abs(w) * half <= s.max_speed:
