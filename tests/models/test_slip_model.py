@@ -154,3 +154,24 @@ def test_the_posterior_goes_through_the_parameters_file(tmp_path) -> None:  # ty
     (tmp_path / "bad.toml").write_text(bad)
     with pytest.raises(ParamsError, match=r"posterior has 577 values; expected a list of 576"):
         load_params(str(tmp_path / "bad.toml"))
+
+
+def test_a_run_never_in_steady_state_is_fitted_on_all_its_windows() -> None:
+    # the turn rate flips every half second: no window is steady, so the fit takes them all
+    # (it said "no motion with ground truth" before)
+    from odolab.calibration.lsq import prepare_run
+    from odolab.calibration.slipfit import first_seconds, slip_design
+    from odolab.errors import InsufficientDataError
+    from odolab.sim.drives import Leg
+
+    plan = [Leg(0.6, 0.2, 0.5) if k % 2 else Leg(0.2, 0.6, 0.5) for k in range(60)]
+    d = drive(SPEEDY, NOMINAL, plan, seed=5)
+    gt = Trajectory.from_xyh(d.t, d.x, d.y, d.heading)
+    whole = OdometryRun("jerky", "jerky", d.t, d.dticks_left, d.dticks_right, ground_truth=gt)
+    run = first_seconds(whole, 29.0)  # without the final stop, the one steady moment
+    assert isinstance(run, OdometryRun)
+    prepared = prepare_run(run, 2.0)
+    with pytest.raises(InsufficientDataError):
+        slip_design([prepared], NOMINAL, steady=True)
+    fit = calibrate_lsq([run], NOMINAL, LsqOptions(model="slip"))
+    assert fit.segments == slip_design([prepared], NOMINAL).y_yaw.size

@@ -355,8 +355,11 @@ def _fit_mean(
     relevance determination about the prior mean ``base`` (0 unless given), and the windows'
     noise by expectation-maximisation (see the module): (model, 24 x 24 posterior covariance,
     number of windows)."""
-    d = slip_design(runs, nominal, window_s, steady=True)
-    if d.y_yaw.size < max(2, STEADY_SHARE * d.windows_seen):
+    try:
+        d: SlipDesign | None = slip_design(runs, nominal, window_s, steady=True)
+    except InsufficientDataError:  # no window in steady state at all
+        d = None
+    if d is None or d.y_yaw.size < max(2, STEADY_SHARE * d.windows_seen):
         d = slip_design(runs, nominal, window_s)  # too few steady windows: all of them
     k = len(FEATURES)
     if d.y_yaw.size < 2:
