@@ -56,6 +56,7 @@ __all__ = [
     "NoiseParams",
     "RobotParams",
     "check_param",
+    "covariance_source",
     "load_params",
     "params_from_mapping",
     "plausible_range",
@@ -315,6 +316,16 @@ def _check_integer_sizes(doc: Any, path: Path, where: str = "") -> None:
             )
         if isinstance(value, dict | list):
             _check_integer_sizes(value, path, name)
+
+
+def covariance_source(params: RobotParams) -> str | None:
+    """Which covariance a parameter set gives, the one rule every face asks: ``"slip"`` (a slip
+    model's own predictive variance, :mod:`odolab.slip_uncertainty`; a ``[noise]`` table does
+    not apply to it), ``"noise"`` (the ``[noise]`` wheel constants, :func:`propagate_covariance`)
+    or None (neither: no covariance)."""
+    if params.model.kind == "slip":
+        return "slip"
+    return "noise" if params.noise is not None else None
 
 
 def load_params(path_or_preset: str | Path) -> RobotParams:

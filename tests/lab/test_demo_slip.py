@@ -14,6 +14,7 @@ from typing import Any
 
 import pytest
 
+from odolab import numfmt
 from odolab.app.models import CURVE_SECONDS, SLIP_MODELS
 from odolab.cli import main
 from odolab.lab import LabResult, run_lab
@@ -112,6 +113,36 @@ def test_learning_curve_equals_calibrate_compare_on_the_written_runs(
         assert (a["model"], a["problem"], a["segment_error"]) == (
             b["model"], b["problem"], b["segment_error"],
         )  # fmt: skip
+
+
+def test_slip_covariance_nees_in_the_report_equals_evaluate_on_the_written_files(
+    tracked: tuple[LabResult, dict[str, Any]],
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """The report judges the slip fit's predictive covariance on the held-out runs (NEES over
+    3 s pieces), and the `odolab evaluate --nees` line it gives reproduces the numbers from the
+    run folder's files (runs/slip.toml, the held-out runs)."""
+    result, res = tracked
+    nees = res["slip"]["nees"]
+    assert nees["piece_s"] == 3.0 and nees["n"] > 10
+    lo, hi = nees["mean_bounds95"]
+    assert lo < 3.0 < hi
+    page = (result.folder / "report.html").read_text()
+    assert "Is its predictive covariance honest?" in page
+    assert f"mean NEES {numfmt.plain(nees['mean_nees'], 3)} over {nees['n']} pieces" in page
+    words = shlex.split(res["slip"]["nees_command"])
+    assert words[:2] == ["odolab", "evaluate"] and "runs/slip.toml" in words
+    out = tmp_path / "nees.json"
+    monkeypatch.chdir(result.folder)
+    capsys.readouterr()
+    assert main([*words[1:], "--json", str(out)]) == 0
+    assert "the slip model's predictive variance" in capsys.readouterr().out
+    cli = json.loads(out.read_text())["nees"]["summary"]
+    assert cli["n"] == nees["n"]
+    assert cli["mean_nees"] == pytest.approx(nees["mean_nees"], rel=1e-12)
+    assert cli["verdict"] == nees["verdict"]
 
 
 def test_default_truth_explores_nothing_and_says_why(tmp_path: Path) -> None:

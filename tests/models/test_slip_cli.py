@@ -115,3 +115,42 @@ def test_odometry_covariance_with_a_slip_model_is_its_predictive_variance(
     )  # fmt: skip
     assert np.all(np.diff(noise[:, 2, 2]) >= -1e-15)
     assert np.all(table["cov_hh"] >= noise[:, 2, 2] - 1e-12)
+
+
+def test_evaluate_nees_uses_the_slip_models_predictive_variance(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`evaluate --nees` with a slip file judges the model's own predictive variance (it was
+    refused for want of a [noise] table), with the numbers of slipfit.nees_pieces."""
+    import numpy as np
+
+    from odolab.calibration.slipfit import nees_pieces
+    from odolab.io.registry import read_run
+    from odolab.params import load_params
+
+    run = tmp_path / "run"
+    assert main(["sim", "explore", "-o", str(run), "--seconds", "40", "--seed", "5"]) == 0
+    assert main(["sim", "explore", "-o", str(run), "--seconds", "30", "--seed", "6",
+                 "--name", "held"]) == 0  # fmt: skip
+    params = tmp_path / "slip.toml"
+    assert main(["calibrate", "lsq", str(run / "explore.csv"), "--format", "csv", "--params",
+                 "jaguar-lite", "--model", "slip", "-o", str(params)]) == 0  # fmt: skip
+    capsys.readouterr()
+    out = tmp_path / "nees.json"
+    code = main(["evaluate", str(run / "held.csv"), "--format", "csv", "--params", str(params),
+                 "--nees", "--nees-segment", "3", "--json", str(out)])  # fmt: skip
+    said = capsys.readouterr()
+    assert code == 0, said.err
+    assert "the slip model's predictive variance" in said.out
+    summary = json.loads(out.read_text())["nees"]["summary"]
+    expected = nees_pieces([read_run(run / "held.csv", "csv")], load_params(str(params)), 3.0)
+    assert summary["n"] == expected.size
+    assert summary["mean_nees"] == pytest.approx(float(np.mean(expected)), rel=1e-9)
+    assert summary["pieces_past_first_order"] == 0  # its covariance has the second-order share
+    # a file with neither a [noise] table nor a slip model: one sentence, nothing computed
+    plain = tmp_path / "plain.toml"
+    plain.write_text(params.read_text().split("[model]")[0])
+    code = main(["evaluate", str(run / "held.csv"), "--format", "csv", "--params", str(plain),
+                 "--nees"])  # fmt: skip
+    err = capsys.readouterr().err
+    assert code != 0 and "no [noise] table" in err and "slip model" in err

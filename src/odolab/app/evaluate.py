@@ -34,6 +34,7 @@ from odolab.metrics import (
     SyncMethod,
 )
 from odolab.numfmt import count
+from odolab.params import covariance_source
 
 if TYPE_CHECKING:
     from odolab.calibration.lsq import LsqCalibration
@@ -131,10 +132,11 @@ def _check(request: EvaluationRequest, robot: RobotParams | None) -> None:
             raise OdolabError(
                 f"--nees-segment is {request.nees_segment_s}; expected a positive number of seconds"
             )
-        if robot is not None and robot.noise is None:
+        if robot is not None and covariance_source(robot) is None:
             raise OdolabError(
                 f"--nees: the parameters {request.params} have no [noise] table (k_left, "
-                "k_right); give --params with one (e.g. from `odolab calibrate noise`)"
+                "k_right) and no slip model; give --params with one (e.g. from `odolab "
+                "calibrate noise`, or `odolab calibrate lsq --model slip`)"
             )
     if request.fmt is None:
         if request.nees:

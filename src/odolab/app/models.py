@@ -65,6 +65,9 @@ CURVE_SECONDS = (10.0, 20.0, 30.0, 45.0, 60.0)
 EXPLORE_SECONDS = 60.0
 #: The speed question's two speeds (m/s) when the lab has no speed experiment to take them from.
 SPEEDS = (0.1, 0.5)
+#: Length (s) of the pieces the slip model's predictive covariance is judged on (NEES) on the
+#: held-out runs: a horizon its variance terms were fitted for (1 s and 3 s pieces).
+NEES_PIECE_S = 3.0
 
 
 @dataclass(frozen=True)
@@ -162,6 +165,12 @@ class SlipComparison:
     measured: dict[str, Any] = field(default_factory=dict)
     #: :meth:`command`'s paths are relative to this folder (None: as they are)
     base: Path | None = None
+    #: NEES of the slip fit's predictive covariance on the held-out runs (pieces of
+    #: :data:`NEES_PIECE_S`): :meth:`odolab.metrics.consistency.NeesSummary.to_dict` and
+    #: ``piece_s``, or ``{"problem": why}``; empty without a slip fit
+    nees: dict[str, Any] = field(default_factory=dict)
+    #: where the slip fit's parameters were written (for :meth:`nees_command`), else None
+    slip_params: Path | None = None
 
     def command(self) -> str:
         """The ``odolab calibrate compare`` line that gives the same comparison from the
@@ -176,6 +185,18 @@ class SlipComparison:
             "--models", ",".join(req.models),
             "--learning-curve", ",".join(f"{s:g}" for s in req.curve),
             "--seed", str(self.seed), "--json", "compare.json",
+        ]  # fmt: skip
+        return shlex.join(words)
+
+    def nees_command(self) -> str:
+        """The ``odolab evaluate --nees`` line that gives :attr:`nees` from the written files
+        (empty without them)."""
+        if not self.held_files or self.slip_params is None:
+            return ""
+        words = [
+            "odolab", "evaluate", *map(self._shown, self.held_files), "--format", "csv",
+            "--params", self._shown(self.slip_params), "--nees", "--nees-segment",
+            f"{NEES_PIECE_S:g}",
         ]  # fmt: skip
         return shlex.join(words)
 
@@ -234,6 +255,8 @@ class SlipComparison:
             "speed_question": self.speed_dict(),
             "files": [self._shown(p) for p in (*self.files, *self.held_files)],
             "command": self.command(),
+            "nees": dict(self.nees),
+            "nees_command": self.nees_command(),
         }
 
 
@@ -325,18 +348,39 @@ def slip_comparison(
             gain = slip.fit.params.model.speed_slip_gain(*speeds)
         except ParamsError as err:
             problem = str(err)
+    nees: dict[str, Any] = {}
+    if slip is not None and slip.fit is not None:
+        nees = _held_out_nees(slip.fit.params, held_out)
     files: tuple[Path, ...] = ()
     held_files: tuple[Path, ...] = ()
     params_arg = ""
+    slip_params: Path | None = None
     if folder is not None:
         files = tuple(_write_run(folder, r) for r in runs)
         held_files = tuple(_write_run(folder, r) for r in held_out)
         params_arg = _params_arg(folder, nominal)
+        if slip is not None and slip.fit is not None:
+            from odolab.params import save_params
+
+            slip_params = save_params(folder / "slip.toml", slip.fit.params)
     return SlipComparison(
         settings, seed, terrain, comparison, tuple(r.name for r in runs),
         tuple(r.name for r in held_out), speeds, gain, problem, files, held_files,
-        params_arg, _measured_answer(questions, speeds), base,
+        params_arg, _measured_answer(questions, speeds), base, nees, slip_params,
     )  # fmt: skip
+
+
+def _held_out_nees(params: RobotParams, held_out: Sequence[OdometryRun]) -> dict[str, Any]:
+    """NEES of a slip fit's predictive covariance on the held-out runs, as `odolab evaluate
+    --nees --nees-segment` gives it (pieces of :data:`NEES_PIECE_S`)."""
+    from odolab.errors import OdolabError
+    from odolab.metrics.consistency import nees_summary, run_nees
+
+    try:
+        summary = nees_summary([run_nees(r, params, segment_s=NEES_PIECE_S) for r in held_out])
+    except OdolabError as err:
+        return {"piece_s": NEES_PIECE_S, "problem": str(err)}
+    return {"piece_s": NEES_PIECE_S, **summary.to_dict()}
 
 
 def _params_arg(folder: Path, nominal: RobotParams) -> str:

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from odolab.defaults import DEFAULT_ROBOT, LogFormat
 from odolab.errors import OdolabError, ParamsError
+from odolab.params import covariance_source
 
 if TYPE_CHECKING:
     from odolab.params import RobotParams
@@ -301,7 +302,7 @@ def check_request(
             f"--covariance with --format {fmt}: TUM has no covariance columns; expected "
             "--format csv (a .csv, .parquet or .arrow output)"
         )
-    if covariance and params.params.noise is None and params.params.model.kind != "slip":
+    if covariance and covariance_source(params.params) is None:
         raise ParamsError(
             f"--covariance: the parameters {params.source} have no [noise] table; expected one "
             "with k_left and k_right (m), as `odolab calibrate noise RUNS -o P.toml` writes it"
@@ -362,18 +363,18 @@ def integrate_log(req: OdometryRequest, progress: Progress | None = None) -> Odo
 
 def _integrate_slip_covariance(req: OdometryRequest) -> OdometryOutcome:
     """An encoder log integrated with a slip model, with the covariance its predictive variance
-    gives (:func:`odolab.calibration.slipfit.propagate_covariance`: the model's noise terms, and
-    its coefficients' posterior where the model carries one, as the file ``calibrate lsq``
-    writes does).
-    The whole log at once: the posterior's share couples every cycle."""
+    gives (:func:`odolab.slip_uncertainty.propagate_covariance`: the model's white noise and
+    drift terms, its coefficients' posterior where the model carries one, as the file
+    ``calibrate lsq`` writes does, and the path's mean shortfall under heading uncertainty).
+    The whole log at once: the drift's and the posterior's shares couple every cycle."""
     import numpy as np
 
-    from odolab.calibration.slipfit import propagate_covariance
     from odolab.encoders import default_max_dticks, dticks_from_ticks
     from odolab.io import read_encoder_csv
     from odolab.io.chunked import OdometryChunk
     from odolab.io.tabular import write_columns
     from odolab.odometry import integrate
+    from odolab.slip_uncertainty import propagate_covariance
     from odolab.uncertainty import first_order_note
 
     robot = req.params.params
@@ -394,7 +395,8 @@ def _integrate_slip_covariance(req: OdometryRequest) -> OdometryOutcome:
     model = robot.model
     posterior = bool(getattr(model, "posterior", ()))
     notes = [
-        "covariance: the slip model's predictive variance (its noise terms q_*, k_* per cycle"
+        "covariance: the slip model's predictive variance (its white noise q_*, k_* per "
+        "cycle, its drift d_* over the whole log"
         + (
             " and its coefficients' posterior)"
             if posterior

@@ -45,6 +45,7 @@ from odolab.metrics.association import interpolate_trajectory
 from odolab.metrics.cluster import Cluster
 from odolab.metrics.runs import RUN_OPTIONS, Progress, RunEvaluation, evaluate_run, parallel_map
 from odolab.models import DIFF_DRIVE, ExtendedDiffDrive, IcrModel, SlipModel
+from odolab.models.slip import DRIFT_KEYS, NOISE_KEYS
 from odolab.odometry import integrate_increments
 from odolab.params import RobotParams, plausible_range
 
@@ -572,7 +573,13 @@ def _calibrate_slip(
             "runs (what the runs do not determine stays with it)"
             if centre != "none"
             else "no kinematic model could be fitted to these runs: the slip coefficients' "
-            "prior is centred on the nominal differential drive"
+            "prior is centred on the nominal differential drive",
+            "the slip model's predictive variance, fitted to how far models fitted without "
+            "a piece are off "
+            "after 1 s and 3 s (docs/models.md): white noise "
+            + ", ".join(f"{k} {getattr(model, k):.3g}" for k in NOISE_KEYS)
+            + "; drift "
+            + ", ".join(f"{k} {getattr(model, k):.3g}" for k in DRIFT_KEYS),
         ],
     )
 

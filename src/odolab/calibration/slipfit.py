@@ -52,8 +52,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from odolab.errors import InsufficientDataError
-from odolab.models.slip import FEATURES, NOISE_KEYS, SlipModel
+from odolab.models.slip import FEATURES, SlipModel
 from odolab.params import RobotParams
+from odolab.slip_uncertainty import (
+    HEADING_TERMS,
+    TERMS,
+    EndPairs,
+    end_second_order,
+    propagate_covariance,
+    propagate_terms,
+    terms_of,
+)
 
 __all__ = [
     "WINDOW_S",
@@ -83,8 +92,11 @@ STEADY_SHARE = 0.25
 #: The kinematic models the slip model's prior is centred on, in order of preference: the first
 #: that can be fitted to the runs (see :func:`kinematic_base`)
 BASE_MODELS = ("icr", "extended", "diff")
-#: Length (s) of the pieces the noise terms are fitted on (and NEES is judged on by default).
-NOISE_PIECE_S = 1.0
+#: Lengths (s) of the pieces the variance terms are fitted on, together.
+NOISE_PIECE_S: tuple[float, ...] = (1.0, 3.0)
+#: At most this many pieces of each length are fitted on (evenly spread over the runs): ten
+#: terms need no more, and the second-order share costs memory as the square of a piece's cycles.
+NOISE_PIECES_MAX = 400
 #: Parts a run is cut into to fit the noise terms on data the coefficients were not fitted on.
 NOISE_FOLDS = 4
 
@@ -430,7 +442,7 @@ def fit_slip_model(
     window_s: float = WINDOW_S,
     prior_scale: float = 1.0,
     folds: int = NOISE_FOLDS,
-    piece_s: float = NOISE_PIECE_S,
+    piece_s: Sequence[float] = NOISE_PIECE_S,
     base: bool = True,
 ) -> tuple[SlipModel, FloatArray, int, str]:
     """The slip model of prepared runs: (model with its posterior, 24 x 24 posterior
@@ -439,17 +451,19 @@ def fit_slip_model(
 
     The coefficients come from all the runs, their prior centred on the kinematic model fitted
     to the same runs (:func:`kinematic_base`; with ``base`` False, on the nominal differential
-    drive): what the runs do not determine stays with that model. The noise terms are fitted to how far the model
-    is off after ``piece_s`` seconds on data it was not fitted on (:func:`fit_noise`): each run
-    is cut into ``folds`` parts of equal duration, and each part is predicted by the model
-    fitted on the others (cross-fitting), so the predictive variance covers the model's own
-    error on new data, not only the noise it saw; with ``folds`` 1 (or runs too short to cut),
-    on the data it was fitted on."""
+    drive): what the runs do not determine stays with that model. The variance terms (white
+    noise and drift) are fitted to how far the model is off after each of ``piece_s`` seconds
+    on data it was not fitted on (:func:`fit_noise`; pieces of several lengths, so that the
+    variance grows with the horizon as the errors do): each run is cut into ``folds`` parts of
+    equal duration, and each part is predicted by the model fitted on the others
+    (cross-fitting), so the predictive variance covers the model's own error on new data, not
+    only the noise it saw; with ``folds`` 1 (or runs too short to cut), on the data it was
+    fitted on."""
     mean, kind = kinematic_base(runs, nominal) if base else (np.zeros(3 * len(FEATURES)), "none")
     parts = [_blocks(r, folds) for r in runs] if folds > 1 else []
     cross = bool(parts) and all(len(p) == folds for p in parts)
     model, cov, windows = _fit_mean(runs, nominal, window_s, prior_scale, mean)
-    pieces: list[tuple[FloatArray, FloatArray, FloatArray]] = []
+    pieces: list[_Pieces] = []
     if cross:
         for f in range(folds):
             train = [p[i] for p in parts for i in range(folds) if i != f]
@@ -458,115 +472,71 @@ def fit_slip_model(
             except InsufficientDataError:
                 pieces = []
                 break
-            pieces.append(_piece_errors([p[f] for p in parts], nominal.with_(model=m), piece_s))
+            for length in piece_s:
+                pieces.append(_piece_errors([p[f] for p in parts], nominal.with_(model=m), length))
     if not pieces:
-        pieces = [_piece_errors(runs, nominal.with_(model=model), piece_s)]
-    e, basis, post = (np.concatenate(x) for x in zip(*pieces, strict=True))
-    theta = fit_noise(e, basis, post, _noise_of(model))
-    noise: dict[str, float] = {k: float(v) for k, v in zip(NOISE_TERMS, theta, strict=True)}
-    model = replace(model, **noise)  # type: ignore[arg-type]
+        pieces = [_piece_errors(runs, nominal.with_(model=model), length) for length in piece_s]
+    groups = [
+        _Pieces.join(pieces[i :: len(piece_s)]).take(NOISE_PIECES_MAX) for i in range(len(piece_s))
+    ]
+    theta = fit_noise(groups, terms_of(model))
+    terms: dict[str, float] = {k: float(v) for k, v in zip(TERMS, theta, strict=True)}
+    model = replace(model, **terms)  # type: ignore[arg-type]
     return model, cov, windows, kind
 
 
-#: The six noise terms of :class:`SlipModel`, and the body output (forward, lateral, heading)
-#: each one feeds: ``q_*`` per second, ``k_fwd``/``k_lat`` per metre of track travel, ``k_yaw``
-#: per radian of commanded turn.
-NOISE_TERMS: tuple[str, ...] = NOISE_KEYS
-_NOISE_OUTPUT = np.array([0, 1, 2, 0, 1, 2])
+@dataclass(frozen=True, eq=False)
+class _Pieces:
+    """Pieces of runs with ground truth, each started at the truth's pose: the end pose error
+    ``e`` (m, 3); at the end, the first-order covariance per unit variance term ``basis``
+    (m, T, 3, 3) and from the posterior ``post`` (m, 3, 3); and what the second-order share
+    depends on (:class:`odolab.slip_uncertainty.EndPairs`)."""
 
+    e: FloatArray
+    basis: FloatArray
+    post: FloatArray
+    pairs: EndPairs
 
-def _propagate(
-    t: FloatArray,
-    dsl: FloatArray,
-    dsr: FloatArray,
-    params: RobotParams,
-    start: tuple[float, float, float],
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Poses (n, 3) along a run with the slip model's mean, and at every cycle the pose
-    covariance of each noise term at unit size, (n, 6, 3, 3), and of the coefficients'
-    posterior, (n, 3, 3): the covariance is linear in the noise terms."""
-    model = params.model
-    assert isinstance(model, SlipModel)
-    n = t.size
-    dt = np.diff(t, prepend=t[:1])
-    fwd, lat, dth = model.body_motion_arrays(dsl, dsr, dt, params.track_width)
-    tick_turn = 0.5 * (params.left_metres_per_tick + params.right_metres_per_tick)
-    mult = SlipModel.noise_multipliers(
-        dsl, dsr, dt, params.track_width, tick_turn / params.track_width
-    )
-    k = len(FEATURES)
-    sigma = np.array(model.posterior).reshape(3 * k, 3 * k) if model.posterior else None
-    timed = dt > 0
-    tt = np.where(timed, dt, 1.0)
-    phi = SlipModel.features(0.5 * (dsl + dsr) / tt, (dsr - dsl) / params.track_width / tt)
-    phi[4:, ~timed] = 0.0
-    big_phi = (phi * tt[None, :]).T  # (n, 8): d(body motion) / d(coefficients) of a cycle
-    poses = np.empty((n, 3))
-    basis = np.zeros((n, len(NOISE_TERMS), 3, 3))
-    post = np.zeros((n, 3, 3))
-    x, y, h = start
-    b = np.zeros((len(NOISE_TERMS), 3, 3))
-    jac = np.zeros((3, 3 * k))
-    poses[0] = start
-    for i in range(1, n):
-        m = h + 0.5 * dth[i]
-        c, s = np.cos(m), np.sin(m)
-        dx = fwd[i] * c - lat[i] * s
-        dy = fwd[i] * s + lat[i] * c
-        f = np.array([[1.0, 0.0, -dy], [0.0, 1.0, dx], [0.0, 0.0, 1.0]])
-        g = np.array([[c, -s, -0.5 * dy], [s, c, 0.5 * dx], [0.0, 0.0, 1.0]])
-        b = f @ b @ f.T
-        cols = g[:, _NOISE_OUTPUT].T  # (6, 3): the column each term enters through
-        b += mult[i][:, None, None] * (cols[:, :, None] * cols[:, None, :])
-        basis[i] = b
-        if sigma is not None:
-            jac = f @ jac
-            for j in range(3):
-                jac[:, j * k : (j + 1) * k] += np.outer(g[:, j], big_phi[i])
-            post[i] = jac @ sigma @ jac.T
-        x, y, h = x + dx, y + dy, h + dth[i]
-        poses[i] = (x, y, h)
-    return poses, basis, post
-
-
-def _noise_of(model: SlipModel) -> FloatArray:
-    return np.array([getattr(model, key) for key in NOISE_TERMS], dtype=np.float64)
-
-
-def propagate_covariance(
-    t: FloatArray,
-    dticks_left: FloatArray,
-    dticks_right: FloatArray,
-    params: RobotParams,
-    start: tuple[float, float, float] = (0.0, 0.0, 0.0),
-) -> tuple[FloatArray, FloatArray]:
-    """Poses (n, 3: x, y, heading) and their covariance (n, 3, 3) along a run with the slip
-    model's predictive variance, midpoint rule, from an exact start: each cycle's noise
-    (``q dt + k L``, :meth:`SlipModel.step_variance`) independently, and the coefficients'
-    posterior through the pose's sensitivity to them (one error for the whole run). The poses
-    are :func:`odolab.odometry.integrate_increments`'s to rounding."""
-    model = params.model
-    if not isinstance(model, SlipModel):
-        raise InsufficientDataError(
-            f"the parameters' model is {model.kind!r}; expected the slip model (kind = 'slip')"
+    @staticmethod
+    def join(parts: Sequence[_Pieces]) -> _Pieces:
+        return _Pieces(
+            np.concatenate([p.e for p in parts]),
+            np.concatenate([p.basis for p in parts]),
+            np.concatenate([p.post for p in parts]),
+            EndPairs.join([p.pairs for p in parts]),
         )
-    t = np.asarray(t, dtype=np.float64)
-    dsl = np.asarray(dticks_left, dtype=np.float64) * params.left_metres_per_tick
-    dsr = np.asarray(dticks_right, dtype=np.float64) * params.right_metres_per_tick
-    poses, basis, post = _propagate(t, dsl, dsr, params, start)
-    cov = np.einsum("c,ncij->nij", _noise_of(model), basis) + post
-    return poses, cov
+
+    def take(self, count: int) -> _Pieces:
+        """At most ``count`` of the pieces, evenly spread (all of them when there are fewer)."""
+        m = self.e.shape[0]
+        if m <= count:
+            return self
+        keep = np.unique(np.linspace(0, m - 1, count).round().astype(np.int64))
+        p = self.pairs
+        return _Pieces(
+            self.e[keep], self.basis[keep], self.post[keep],
+            EndPairs(p.steps[keep], p.cc[keep], p.c0[keep], p.ce[keep], p.ce0[keep]),
+        )  # fmt: skip
+
+    def covariance(self, theta: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """The end covariance (m, 3, 3) with the terms ``theta`` and its derivative by each
+        term (m, T, 3, 3)."""
+        cov = np.einsum("c,mcij->mij", theta, self.basis) + self.post
+        xy, xyh, d_xy, d_xyh = end_second_order(theta, self.pairs)
+        cov[:, :2, :2] += xy
+        cov[:, :2, 2] += xyh
+        cov[:, 2, :2] += xyh
+        grad = self.basis.copy()
+        grad[:, :, :2, :2] += d_xy
+        grad[:, :, :2, 2] += d_xyh
+        grad[:, :, 2, :2] += d_xyh
+        return cov, grad
 
 
-def _piece_errors(
-    runs: Sequence[object], params: RobotParams, piece_s: float, *, basis: bool = True
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Over every ``piece_s`` piece of prepared runs with motion, started at the ground
-    truth's pose: the end pose error (m, 3), and its covariance per unit noise term (m, 6, 3, 3)
-    and from the posterior (m, 3, 3) (with ``basis`` False, zeros: the errors only)."""
-    from odolab.odometry import integrate_increments
-
-    errs, bases, posts = [], [], []
+def _piece_errors(runs: Sequence[object], params: RobotParams, piece_s: float) -> _Pieces:
+    """Every ``piece_s`` piece of prepared runs with motion, started at the ground truth's
+    pose (:class:`_Pieces`)."""
+    errs, bases, posts, pairs = [], [], [], []
     for run in runs:
         t = np.asarray(run.t, dtype=np.float64)  # type: ignore[attr-defined]
         dsl = np.asarray(run.dticks_left) * params.left_metres_per_tick  # type: ignore[attr-defined]
@@ -583,61 +553,65 @@ def _piece_errors(
             if np.sum(np.abs(sl) + np.abs(sr)) < 1e-3:  # standing: nothing to learn from
                 continue
             start = (float(gx[a]), float(gy[a]), float(gh[a]))
-            if basis:
-                piece_l = np.concatenate(([0.0], sl))
-                piece_r = np.concatenate(([0.0], sr))
-                poses, unit, post = _propagate(t[a : b + 1], piece_l, piece_r, params, start)
-                end = poses[-1]
-                bases.append(unit[-1])
-                posts.append(post[-1])
-            else:
-                ticks_l = np.asarray(run.dticks_left, dtype=np.float64)[a : b + 1].copy()  # type: ignore[attr-defined]
-                ticks_r = np.asarray(run.dticks_right, dtype=np.float64)[a : b + 1].copy()  # type: ignore[attr-defined]
-                ticks_l[0] = ticks_r[0] = 0.0
-                odo = integrate_increments(t[a : b + 1], ticks_l, ticks_r, params, start=start)
-                end = np.array([odo.x[-1], odo.y[-1], odo.heading[-1]])
+            prop = propagate_terms(
+                t[a : b + 1], np.concatenate(([0.0], sl)), np.concatenate(([0.0], sr)),
+                params, start,
+            )  # fmt: skip
+            end = prop.poses[-1]
             e = np.array([gx[b] - end[0], gy[b] - end[1], 0.0])
             e[2] = np.angle(np.exp(1j * (gh[b] - end[2])))
             errs.append(e)
-    m = len(errs)
-    if not m:
-        return np.zeros((0, 3)), np.zeros((0, len(NOISE_TERMS), 3, 3)), np.zeros((0, 3, 3))
-    if not basis:
-        return np.array(errs), np.zeros((m, len(NOISE_TERMS), 3, 3)), np.zeros((m, 3, 3))
-    return np.array(errs), np.array(bases), np.array(posts)
+            bases.append(prop.basis[-1])
+            posts.append(prop.post[-1])
+            pairs.append(prop.end_pairs())
+    nt = len(TERMS)
+    if not errs:
+        z = np.zeros
+        h = len(HEADING_TERMS)
+        return _Pieces(z((0, 3)), z((0, nt, 3, 3)), z((0, 3, 3)),
+                       EndPairs(z((0, 0, 2)), z((0, 0, 0, h)), z((0, 0, 0)), z((0, 0, h)),
+                                z((0, 0))))  # fmt: skip
+    return _Pieces(np.array(errs), np.array(bases), np.array(posts), EndPairs.join(pairs))
 
 
-def fit_noise(e: FloatArray, basis: FloatArray, post: FloatArray, start: FloatArray) -> FloatArray:
-    """The six noise terms (:data:`NOISE_TERMS`) that make the slip model's predictive
-    covariance fit how far its pose is off at the end of pieces (:func:`_piece_errors`: end
-    errors ``e`` (m, 3), covariance per unit term ``basis`` (m, 6, 3, 3) and from the
-    coefficients' posterior ``post`` (m, 3, 3)): maximum likelihood, the covariance being
-    linear in the terms. Starts from (and with fewer pieces than terms, returns) ``start``."""
+def fit_noise(groups: Sequence[_Pieces], start: FloatArray) -> FloatArray:
+    """The variance terms (:data:`TERMS`: white noise and drift) that make the slip model's
+    predictive covariance (:mod:`odolab.slip_uncertainty`, second-order share included) fit how
+    far its pose is off at the end of the pieces of ``groups`` (one group a piece length):
+    maximum likelihood. Starts from (and with fewer pieces than terms, returns) ``start``."""
     from scipy.optimize import minimize
 
-    if e.shape[0] < len(NOISE_TERMS):
+    groups = [g for g in groups if g.e.shape[0]]
+    m = sum(g.e.shape[0] for g in groups)
+    if m < len(TERMS):
         return start
     # scale each term by its typical contribution so the search is well conditioned
-    size = np.einsum("mcii->c", basis) / e.shape[0]
+    size = sum(np.einsum("mcii->c", g.basis) for g in groups) / m
     size = np.where(size > 0, size, 1.0)
-    typical = float(np.mean(e**2)) + 1e-18
+    typical = float(sum(np.sum(g.e**2) for g in groups) / (3 * m)) + 1e-18
     floor = 1e-9 * typical / size  # a term this small is no term
-    theta0 = np.maximum(start, floor)
+    ceiling = 1e6 * typical / size  # a term this large would explain far more than was seen
+    theta0 = np.clip(np.maximum(start, 1e-3 * typical / size), floor, ceiling)
 
     def nll(phi: FloatArray) -> tuple[float, FloatArray]:
         theta = np.exp(phi)
-        p = np.einsum("c,mcij->mij", theta, basis) + post
-        p[:, [0, 1, 2], [0, 1, 2]] += 1e-12 * typical  # keep it positive definite
-        _, logdet = np.linalg.slogdet(p)
-        pinv = np.linalg.inv(p)
-        a = np.einsum("mij,mj->mi", pinv, e)
-        value = float(np.sum(logdet) + np.einsum("mi,mi->", e, a))
-        trace = np.einsum("mij,mcji->c", pinv, basis)
-        quad = np.einsum("mi,mcij,mj->c", a, basis, a)
-        return value, (trace - quad) * theta
+        value, grad = 0.0, np.zeros(theta.size)
+        for g in groups:
+            p, dp = g.covariance(theta)
+            p[:, [0, 1, 2], [0, 1, 2]] += 1e-12 * typical  # keep it positive definite
+            _, logdet = np.linalg.slogdet(p)
+            pinv = np.linalg.inv(p)
+            a = np.einsum("mij,mj->mi", pinv, g.e)
+            value += float(np.sum(logdet) + np.einsum("mi,mi->", g.e, a))
+            grad += np.einsum("mij,mcji->c", pinv, dp) - np.einsum("mi,mcij,mj->c", a, dp, a)
+        return value, grad * theta
 
-    best = minimize(nll, np.log(theta0), jac=True, method="L-BFGS-B",
-                    bounds=[(float(np.log(lo)), None) for lo in floor])  # fmt: skip
+    try:
+        best = minimize(nll, np.log(theta0), jac=True, method="L-BFGS-B",
+                        bounds=[(float(np.log(lo)), float(np.log(hi)))
+                                for lo, hi in zip(floor, ceiling, strict=True)])  # fmt: skip
+    except np.linalg.LinAlgError:  # a covariance went singular on the way: keep the start
+        return start
     if not np.all(np.isfinite(best.x)):
         return start
     return np.asarray(np.exp(best.x), dtype=np.float64)
@@ -646,29 +620,13 @@ def fit_noise(e: FloatArray, basis: FloatArray, post: FloatArray, start: FloatAr
 def nees_pieces(runs: Sequence[object], params: RobotParams, piece_s: float = 10.0) -> FloatArray:
     """NEES of the end pose of every ``piece_s`` piece of runs with ground truth
     (:class:`odolab.io.run.OdometryRun`), each piece started at the ground truth's pose with zero
-    covariance: ``e^T P^-1 e`` with ``e`` the (x, y, heading) error; chi-square with 3 degrees of
+    covariance, the ground truth's frame taken as the robot's: `odolab evaluate --nees`'s
+    numbers (:func:`odolab.metrics.consistency.run_nees`), pooled; chi-square with 3 degrees of
     freedom where the covariance is honest."""
-    from odolab.metrics.association import interpolate_trajectory
+    from odolab.metrics.consistency import run_nees
 
-    out: list[float] = []
-    for run in runs:
-        gt = run.require_ground_truth()  # type: ignore[attr-defined]
-        t = np.asarray(run.t, dtype=np.float64)  # type: ignore[attr-defined]
-        inside = (t >= gt.t[0]) & (t <= gt.t[-1])
-        t = t[inside]
-        dl = np.asarray(run.dticks_left)[inside]  # type: ignore[attr-defined]
-        dr = np.asarray(run.dticks_right)[inside]  # type: ignore[attr-defined]
-        g = interpolate_trajectory(gt, t)
-        edges = np.unique(np.searchsorted(t, np.arange(t[0], t[-1] + 1e-9, piece_s)))
-        for a, b in pairwise(edges):
-            poses, cov = propagate_covariance(
-                t[a : b + 1], dl[a : b + 1], dr[a : b + 1], params,
-                (float(g.x[a]), float(g.y[a]), float(g.heading[a])),
-            )  # fmt: skip
-            e = np.array([g.x[b] - poses[-1, 0], g.y[b] - poses[-1, 1], 0.0])
-            e[2] = np.angle(np.exp(1j * (g.heading[b] - poses[-1, 2])))
-            out.append(float(e @ np.linalg.solve(cov[-1], e)))
-    return np.array(out)
+    out = [run_nees(r, params, segment_s=piece_s, fit_gt_yaw_offset=False).nees for r in runs]  # type: ignore[arg-type]
+    return np.concatenate(out) if out else np.zeros(0)
 
 
 def nees_bounds(pieces: int, dof: int = 3) -> tuple[float, float]:

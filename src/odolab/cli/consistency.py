@@ -45,15 +45,19 @@ def print_nees(
     from odolab.cli._output import markup_text
     from odolab.errors import ParamsError
     from odolab.metrics.consistency import nees_summary, run_nees
+    from odolab.params import covariance_source
 
     results = []
+    sources = set()
     for run in _runs(paths, fmt, robot):
         p = robot or run.params
-        if p is None or p.noise is None:
+        source = covariance_source(p) if p is not None else None
+        if p is None or source is None:
             raise ParamsError(
-                f"{run.source}: NEES needs the parameters' [noise] (k_left, k_right); give "
-                "--params with a [noise] table (e.g. from `odolab calibrate noise`)"
+                f"{run.source}: NEES needs the parameters' [noise] (k_left, k_right) or a slip "
+                "model; give --params with a [noise] table (e.g. from `odolab calibrate noise`)"
             )
+        sources.add(source)
         results.append(
             run_nees(run, p, method, segment_s=segment, fit_gt_yaw_offset=fit_gt_yaw_offset)
         )
@@ -89,12 +93,20 @@ def print_nees(
 
     from odolab.uncertainty import SECOND_ORDER_LIMIT
 
+    if "slip" in sources:
+        console.print(
+            "note: covariance: the slip model's predictive variance (its white noise q_*, k_*, "
+            "drift d_* and coefficients' posterior, with the exact second moments of an "
+            "uncertain heading; docs/models.md)",
+            markup=False,
+            highlight=False,
+        )
     beyond = sum(
         int(np.sum(r.second_order > SECOND_ORDER_LIMIT))
         for r in results
         if r.second_order is not None
     )
-    if beyond:
+    if beyond and sources == {"noise"}:
         console.print(
             f"note: {beyond} of {summary.n} pieces go past the first-order covariance's range "
             f"(second-order index > {SECOND_ORDER_LIMIT:g}, docs/ros2.md): there it understates "

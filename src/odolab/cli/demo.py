@@ -126,3 +126,8 @@ def _print_slip(console: Any, slip: Mapping[str, Any]) -> None:
     answer = slip["speed_question"].get("answer") or slip["speed_question"].get("problem")
     if answer:
         console.print(f"speed question: {answer}", **say)
+    from odolab.report.models_section import slip_nees_sentence
+
+    nees = slip_nees_sentence(slip.get("nees") or {})
+    if nees:
+        console.print(f"slip model's covariance: {nees}", **say)

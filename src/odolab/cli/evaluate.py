@@ -501,6 +501,10 @@ def _print_calibration(result: Any, output: Path) -> None:
     for key, err in result.stderr.items():
         table.add_row(key, f"{nominal[key]:.6f}", f"{fitted[key]:.6f}", f"{err:.2e}")
     print_table(console, table)
+    for line in result.warnings:
+        console.print(f"warning: {line}", markup=False, soft_wrap=True)
+    for line in result.notes:
+        console.print(f"note: {line}", markup=False, soft_wrap=True)
     if not result.validation:
         return
     val = Table(title="held-out runs: nominal -> calibrated")

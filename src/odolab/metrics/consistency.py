@@ -2,7 +2,8 @@
 
 For each run, the ground truth is cut into pieces of ``segment_s`` seconds. Over each piece the
 odometry is integrated from a zero pose and its covariance propagated from zero
-(:func:`odolab.uncertainty.propagate_covariance`, with the parameters' ``[noise]``); the ground
+(:func:`odolab.uncertainty.propagate_covariance`, with the parameters' ``[noise]``; a slip
+model's own predictive variance, :mod:`odolab.slip_uncertainty`); the ground
 truth's motion over the same piece is expressed in the robot's frame at the piece's start. With
 ``e`` = odometry - ground truth (x, y, heading; error = predicted - actual) and ``P`` the
 propagated covariance, the normalized estimation error squared is ``NEES = e^T P^-1 e``. If the
@@ -40,9 +41,14 @@ from odolab.io.run import OdometryRun
 from odolab.kinematics import Method, wrap_angle
 from odolab.metrics.association import interpolate_trajectory
 from odolab.odometry import integrate_increments
-from odolab.params import NoiseParams, RobotParams
+from odolab.params import NoiseParams, RobotParams, covariance_source
+from odolab.slip_uncertainty import propagate_covariance as slip_covariance
 from odolab.trajectory import Trajectory
-from odolab.uncertainty import covariance_matrix, propagate_covariance, second_order_index
+from odolab.uncertainty import (
+    covariance_matrix,
+    propagate_covariance,
+    second_order_index,
+)
 
 __all__ = [
     "DOF",
@@ -171,6 +177,12 @@ def _run_pieces(
             f"{run.source}: {t[-1] - t[0]:.3g} s of ground truth is shorter than one piece of "
             f"{segment_s:g} s"
         )
+    slip = covariance_source(params) == "slip"
+    if slip and any(n is not None for n in noises):
+        raise OdolabError(
+            f"the parameters {params.name!r} have a slip model, which carries its own predictive "
+            "variance; wheel noise constants ([noise]) do not apply to it"
+        )
     odo = np.empty((len(pieces), 3))
     gtr = np.empty((len(pieces), 3))
     covs = [np.empty((len(pieces), 3, 3)) for _ in noises]
@@ -185,9 +197,14 @@ def _run_pieces(
         est = integrate_increments(t[sl], ddl, ddr, params, method)
         odo[k] = est.x[-1], est.y[-1], est.heading[-1]
         for j, (cov, noise) in enumerate(zip(covs, noises, strict=True)):
-            terms = propagate_covariance(ddl, ddr, params, method, noise=noise)
+            if slip:
+                _, full = slip_covariance(t[sl], ddl, ddr, params)
+                terms = full[:, [0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]]
+            else:
+                terms = propagate_covariance(ddl, ddr, params, method, noise=noise)
             cov[k] = covariance_matrix(terms[-1])
-            if j == 0:  # how far the piece is past first order's range (odolab.uncertainty)
+            if j == 0 and not slip:  # how far the piece is past first order's range
+                # (odolab.uncertainty); the slip model's covariance has its second-order share
                 rho[k] = second_order_index(est, terms)[-1]
         c, s = math.cos(gt.heading[a]), math.sin(gt.heading[a])
         dx, dy = gt.x[b] - gt.x[a], gt.y[b] - gt.y[a]

@@ -20,11 +20,15 @@ the noise of the slip: a white body-velocity noise of spectral density ``q_fwd``
 (m^2/s) and ``q_yaw`` (rad^2/s) plus a noise per metre of track travel ``k_fwd``, ``k_lat``
 (m^2/m) and per radian of commanded turn ``k_yaw`` (rad^2/rad: the lab's turn scrub), so a
 cycle's body motion has variance ``q dt + k L`` on top of the posterior variance of
-``phi . beta`` (:meth:`SlipModel.step_variance`).
+``phi . beta`` (:meth:`SlipModel.step_variance`). The drift terms ``d_fwd``, ``d_lat`` (m^2/m^2),
+``d_yaw`` (rad^2/m^2) and ``d_turn`` (rad^2/rad^2) are the variances of a slip error that
+persists (per metre of track travel; per radian of turn): one value over a whole stretch, not
+a new one every cycle (:mod:`odolab.slip_uncertainty` propagates all of them).
 
 In a parameters file the ``[model]`` table has ``kind = "slip"``, the 24 coefficients
 ``fwd_v``, ``fwd_w``, ..., ``yaw_w_absw`` (missing ones are 0), the six noise terms ``q_*``,
-``k_*``, and ``posterior``, the coefficients' posterior covariance (576 numbers, row-major;
+``k_*``, the four drift terms ``d_*`` (missing ones are 0: a file written before they existed
+reads as it did), and ``posterior``, the coefficients' posterior covariance (576 numbers, row-major;
 optional: without it the predictive variance has the noise part only). The notebook keeps a
 parameter set's coefficients and noise terms, not its posterior.
 
@@ -48,7 +52,7 @@ if TYPE_CHECKING:
 
     from odolab.models import ModelCoefficients
 
-__all__ = ["FEATURES", "NOISE_KEYS", "OUTPUTS", "TURN_CYCLES", "SlipModel"]
+__all__ = ["DRIFT_KEYS", "FEATURES", "NOISE_KEYS", "OUTPUTS", "TURN_CYCLES", "SlipModel"]
 
 #: The basis, in order (v: forward speed m/s, w: turn rate rad/s, both from the measured tracks).
 FEATURES: tuple[str, ...] = ("v", "w", "absv", "absw", "v_absv", "v_absw", "w_absv", "w_absw")
@@ -58,6 +62,8 @@ _COEF_KEYS = tuple(f"{o}_{f}" for o in OUTPUTS for f in FEATURES)
 #: The noise terms, in the order of :meth:`SlipModel.noise_multipliers`.
 NOISE_KEYS: tuple[str, ...] = ("q_fwd", "q_lat", "q_yaw", "k_fwd", "k_lat", "k_yaw")
 _NOISE_KEYS = NOISE_KEYS
+#: The drift terms, in the order of :meth:`SlipModel.drift_multipliers`.
+DRIFT_KEYS: tuple[str, ...] = ("d_fwd", "d_lat", "d_yaw", "d_turn")
 #: Cycles the commanded turn of a cycle is averaged over (:meth:`SlipModel.noise_multipliers`).
 TURN_CYCLES = 5
 
@@ -101,11 +107,15 @@ class SlipModel:
     k_fwd: float = 0.0
     k_lat: float = 0.0
     k_yaw: float = 0.0
+    d_fwd: float = 0.0
+    d_lat: float = 0.0
+    d_yaw: float = 0.0
+    d_turn: float = 0.0
     #: posterior covariance of the coefficients, row-major 24 x 24 in :data:`KEYS` order (empty:
     #: unknown); not part of the ``[model]`` table
     posterior: tuple[float, ...] = field(default=(), compare=False, repr=False)
     kind: ClassVar[str] = "slip"
-    KEYS: ClassVar[tuple[str, ...]] = (*_COEF_KEYS, *_NOISE_KEYS)
+    KEYS: ClassVar[tuple[str, ...]] = (*_COEF_KEYS, *_NOISE_KEYS, *DRIFT_KEYS)
     COEF_KEYS: ClassVar[tuple[str, ...]] = _COEF_KEYS
     #: a slip coefficient beyond this size (in SI units of its feature) is a wrong file, not slip
     LIMIT: ClassVar[float] = 100.0
@@ -119,6 +129,8 @@ class SlipModel:
                 raise ParamsError(f"{key} must be finite, got {value!r}")
             if key in _NOISE_KEYS and value < 0:
                 raise ParamsError(f"{key} must be >= 0 (a noise spectral density), got {value!r}")
+            if key in DRIFT_KEYS and value < 0:
+                raise ParamsError(f"{key} must be >= 0 (a drift variance), got {value!r}")
             if key in _COEF_KEYS and abs(value) > self.LIMIT:
                 raise ParamsError(
                     f"{key} = {value:.6g} is outside the plausible -{self.LIMIT:g} to "
@@ -235,6 +247,19 @@ class SlipModel:
         turn = np.maximum(np.abs(dth) - tick_turn / TURN_CYCLES, 0.0)
         return np.column_stack((tt, tt, tt, travel, travel, turn))
 
+    @staticmethod
+    def drift_multipliers(
+        ds_left: NDArray[Any], ds_right: NDArray[Any], track_width: float
+    ) -> NDArray[Any]:
+        """What each drift rate (``d_fwd, d_lat, d_yaw, d_turn``; their variances are the
+        model's drift terms) is multiplied by in each cycle's motion, shape (n, 4): the track
+        travel ``(|ds_l| + |ds_r|) / 2`` (three times) and the turn ``|ds_r - ds_l| / b``."""
+        import numpy as np
+
+        travel = 0.5 * (np.abs(ds_left) + np.abs(ds_right))
+        turn = np.abs(np.asarray(ds_right, dtype=np.float64) - ds_left) / track_width
+        return np.column_stack((travel, travel, travel, turn))
+
     def step_variance(
         self,
         ds_left: NDArray[Any],
@@ -246,7 +271,7 @@ class SlipModel:
         """Predictive variance of each cycle's body motion (d_forward, d_lateral, d_theta):
         shape (n, 3), ``q dt + k L`` (:meth:`noise_multipliers`; ``L`` the track travel, m, or
         for the heading the commanded turn, rad) plus ``dt^2 phi^T Sigma phi`` where the
-        posterior is known."""
+        posterior is known. The drift terms are left out: they are not a cycle's own."""
         import numpy as np
 
         dt = np.asarray(dt, dtype=np.float64)

@@ -147,6 +147,11 @@ def summary_sentences(results: Mapping[str, Any]) -> list[str]:
         answer = slip["speed_question"].get("answer")
         if answer:
             out.append(f"Speed question: {answer}.")
+        from odolab.report.models_section import slip_nees_sentence
+
+        nees = slip_nees_sentence(slip.get("nees") or {})
+        if nees:
+            out.append(f"Slip model's covariance: {nees}")
     cons = results.get("consistency")
     if cons:
         s = cons["summary"]

@@ -47,6 +47,7 @@ __all__ = [
     "plot_nees",
     "plot_questions",
     "questions_html",
+    "slip_nees_sentence",
     "slip_view",
 ]
 
@@ -504,6 +505,8 @@ def slip_view(sl: Mapping[str, Any]) -> dict[str, Any]:
         answers.append(str(sq["problem"]))
     ex = sl.get("exploration") or {}
     return {
+        "nees": slip_nees_sentence(sl.get("nees") or {}),
+        "nees_command": str(sl.get("nees_command", "")).split(),
         "about": str(sl.get("about", "")),
         "models": models,
         "curve": curve,
@@ -513,6 +516,23 @@ def slip_view(sl: Mapping[str, Any]) -> dict[str, Any]:
         "command": str(sl.get("command", "")).split(),
         "seconds": ex.get("seconds"),
     }
+
+
+def slip_nees_sentence(n: Mapping[str, Any]) -> str:
+    """One sentence on the slip fit's predictive covariance on the held-out runs."""
+    if not n:
+        return ""
+    piece = f"{float(n.get('piece_s', 0.0)):g}"
+    if n.get("problem"):
+        return f"No NEES on pieces of {piece} s: {n['problem']}"
+    lo, hi = n["mean_bounds95"]
+    return (
+        f"On the held-out runs, pieces of {piece} s each started at the ground truth's pose: "
+        f"mean NEES {numfmt.plain(float(n['mean_nees']), 3)} over {n['n']} pieces (expected "
+        f"{numfmt.plain(float(n['dof']) / float(n['n']), 3)}, 95 % bounds "
+        f"[{numfmt.plain(float(lo), 3)}, {numfmt.plain(float(hi), 3)}]): the covariance is "
+        f"{n['verdict']}."
+    )
 
 
 def consistency_view(c: Mapping[str, Any]) -> dict[str, Any]:
