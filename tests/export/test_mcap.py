@@ -409,3 +409,46 @@ def test_the_export_says_where_first_order_stops_holding(tmp_path: Path) -> None
         assert res.exit_code == 0, res.output
         out = " ".join(res.output.split())
         assert ("understates the spread from t = " in out) is said, out
+
+
+def test_a_slip_file_gives_odom_the_slip_models_covariance(tmp_path: Path) -> None:
+    """With a slip model's parameters the /odom pose covariance is the model's predictive one
+    (odolab.slip_uncertainty, as `odometry --covariance` and `evaluate --nees` use it) and the
+    twist's is each cycle's body-motion variance over dt**2; the output says which; without
+    a [noise] table or a slip model it says there is none."""
+    from odolab.models import SlipModel
+    from odolab.slip_uncertainty import propagate_covariance
+
+    rng = np.random.default_rng(8)
+    n = 160
+    t = np.arange(n) * 0.05
+    dl = rng.integers(10, 40, n)
+    dr = rng.integers(20, 60, n)
+    dl[0] = dr[0] = 0
+    log = tmp_path / "log.csv"
+    rows = "\n".join(f"{a:.2f},{b},{c}" for a, b, c in zip(t, dl, dr, strict=True))
+    log.write_text("t,dticks_left,dticks_right\n" + rows + "\n")
+    model = SlipModel(yaw_w=-0.1, fwd_v_absv=-0.05, q_fwd=1e-4, q_yaw=1e-3, k_yaw=0.02, d_yaw=1e-3)
+    params = PARAMS.with_(model=model, noise=None)
+    p = save_params(tmp_path / "slip.toml", params)
+    out = tmp_path / "run.mcap"
+    res = CliRunner().invoke(
+        app, ["export", "mcap", str(log), "--format", "csv", "-p", str(p), "-o", str(out)]
+    )
+    assert res.exit_code == 0, res.output
+    assert "the slip model's predictive variance" in res.output
+    odom = _decoded(out)["/odom"]
+    _, cov = propagate_covariance(t, dl, dr, params)
+    for i in (40, 100, n - 1):
+        c = odom[i].pose.covariance  # type: ignore[attr-defined]
+        assert c[0] == pytest.approx(cov[i, 0, 0], rel=1e-9)
+        assert c[1] == pytest.approx(cov[i, 0, 1], rel=1e-9)
+        assert c[35] == pytest.approx(cov[i, 2, 2], rel=1e-9)
+        vx_var, wz_var, *_ = _twist_terms(odom[i])
+        assert vx_var > 0 and wz_var > 0
+    plain = save_params(tmp_path / "plain.toml", PARAMS.with_(noise=None))
+    res = CliRunner().invoke(
+        app, ["export", "mcap", str(log), "--format", "csv", "-p", str(plain), "-o", str(out)]
+    )
+    assert res.exit_code == 0, res.output
+    assert "has no covariance" in res.output

@@ -180,3 +180,8 @@ def mcap_cmd(
 
     for note in first_order_notes(stream):  # the covariance's range (docs/ros2.md)
         echo(f"note: /odom pose covariance: {note}")
+    if stream.covariance_source == "slip":
+        echo("note: /odom covariance: the slip model's predictive variance (docs/models.md)")
+    elif stream.covariance is None and len(paths) != 2:
+        echo("note: /odom has no covariance (written as zeros): the parameters have neither a "
+             "[noise] table nor a slip model")  # fmt: skip

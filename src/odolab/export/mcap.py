@@ -37,7 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 from odolab.errors import LogFormatError, OdolabError
 from odolab.export.ros2_controller import UNOBSERVED
 from odolab.kinematics import Method
-from odolab.params import RobotParams
+from odolab.params import RobotParams, covariance_source
 from odolab.trajectory import Trajectory
 from odolab.writing import replacing_path
 
@@ -89,6 +89,9 @@ class OdometryStream:
     joint_names: tuple[str, str] = ("left_wheel_joint", "right_wheel_joint")
     segments: list[tuple[float, str]] = field(default_factory=list)
     segment_starts: tuple[int, ...] = ()
+    #: where the covariance came from (:func:`odolab.params.covariance_source`: "noise",
+    #: "slip"; None: no covariance)
+    covariance_source: str | None = None
 
 
 #: Smallest variance written for the forward and sideways speed ((m/s)**2) and the yaw rate
@@ -273,8 +276,8 @@ def first_order_notes(stream: OdometryStream) -> list[str]:
     covariance again), each sentence prefixed by the segment's name when there are several."""
     from odolab.uncertainty import first_order_note
 
-    if stream.covariance is None:
-        return []
+    if stream.covariance is None or stream.covariance_source == "slip":
+        return []  # the slip model's covariance has its second-order share (slip_uncertainty)
     traj = stream.odometry
     bounds = [*sorted(set(stream.segment_starts) | {0}), len(traj)]
     names = [name for _, name in stream.segments]
@@ -364,27 +367,34 @@ def stream_from_encoder_log(
     ground_truth: Trajectory | None = None,
     source: str = "encoder log",
 ) -> OdometryStream:
-    """Odometry, its covariance (when ``params.noise`` is known) and wheel angles from counters."""
+    """Odometry, its covariance (:func:`odolab.params.covariance_source`: the ``[noise]``
+    table's, or a slip model's own) and wheel angles from counters."""
     from odolab.encoders import unwrap_ticks
     from odolab.odometry import integrate, integrate_with_covariance
 
     cov = twist = None
-    if params.noise is None:
-        traj = integrate(t, left_ticks, right_ticks, params, method, source=source)
-    else:
+    source_of_cov = covariance_source(params)
+    if source_of_cov == "noise":
         traj, cov = integrate_with_covariance(
             t, left_ticks, right_ticks, params, method, source=source
         )
+    else:
+        traj = integrate(t, left_ticks, right_ticks, params, method, source=source)
     m = params.encoder_modulus
     ul = unwrap_ticks(left_ticks, m, name="left_ticks")
     ur = unwrap_ticks(right_ticks, m, name="right_ticks")
-    if params.noise is not None:
-        twist = _twist_from_increments(
-            traj.t, np.diff(ul, prepend=ul[0]), np.diff(ur, prepend=ur[0]), params
-        )
+    dl = np.diff(ul, prepend=ul[0]).astype(np.float64)
+    dr = np.diff(ur, prepend=ur[0]).astype(np.float64)
+    if source_of_cov == "noise":
+        twist = _twist_from_increments(traj.t, dl, dr, params)
+    elif source_of_cov == "slip":
+        cov, twist = _slip_covariances(traj.t, dl, dr, params)
     scale = 2.0 * math.pi / params.ticks_per_rev
     angles = np.stack([(ul - ul[0]) * scale, (ur - ur[0]) * scale], axis=1)
-    return OdometryStream(traj, cov, twist, angles, ground_truth)
+    return OdometryStream(
+        traj, cov, twist, angles, ground_truth,
+        covariance_source=source_of_cov if cov is not None else None,
+    )  # fmt: skip
 
 
 def stream_from_run_folder(
@@ -461,12 +471,42 @@ def stream_from_run(
     dl = np.asarray(run.dticks_left, dtype=np.float64).copy()
     dr = np.asarray(run.dticks_right, dtype=np.float64).copy()
     dl[0] = dr[0] = 0.0
-    if p.noise is not None:
+    source = covariance_source(p)
+    if source == "noise":
         cov = propagate_covariance(run.dticks_left, run.dticks_right, p, method)
         twist = _twist_from_increments(traj.t, dl, dr, p)
+    elif source == "slip":
+        cov, twist = _slip_covariances(traj.t, dl, dr, p)
     scale = 2.0 * math.pi / p.ticks_per_rev
     angles = np.stack([np.cumsum(dl) * scale, np.cumsum(dr) * scale], axis=1)
-    return OdometryStream(traj, cov, twist, angles, run.ground_truth)
+    return OdometryStream(
+        traj, cov, twist, angles, run.ground_truth,
+        covariance_source=source if cov is not None else None,
+    )  # fmt: skip
+
+
+def _slip_covariances(
+    t: NDArray[np.float64], dl: NDArray[np.float64], dr: NDArray[np.float64], p: RobotParams
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The slip model's pose covariance (n, 6 in COV_COLUMNS; :mod:`odolab.slip_uncertainty`)
+    and its twist covariance (n, 6 in TWIST_COLUMNS): each cycle's body-motion variance
+    (:meth:`SlipModel.step_variance`: white noise and posterior; the drift is not a cycle's
+    own) over its duration squared."""
+    from odolab.models import SlipModel
+    from odolab.slip_uncertainty import propagate_covariance as slip_covariance
+
+    model = p.model
+    assert isinstance(model, SlipModel)
+    _, full = slip_covariance(t, dl, dr, p)
+    pose = full[:, [0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]]
+    dsl, dsr = dl * p.left_metres_per_tick, dr * p.right_metres_per_tick
+    dt = np.diff(t, prepend=t[:1])
+    tick = 0.5 * (p.left_metres_per_tick + p.right_metres_per_tick)
+    var = model.step_variance(dsl, dsr, dt, p.track_width, tick / p.track_width)
+    rate = np.where(dt > 0, 1.0 / np.where(dt > 0, dt, 1.0) ** 2, 0.0)
+    twist = np.zeros((t.size, 6))
+    twist[:, [0, 3, 5]] = var * rate[:, None]
+    return np.asarray(pose, dtype=np.float64), twist
 
 
 def stream_from_campaign(
@@ -526,4 +566,7 @@ def stream_from_campaign(
         None,
         segments=marks,
         segment_starts=tuple(starts),
+        covariance_source=(
+            parts[0].covariance_source if len({s.covariance_source for s in parts}) == 1 else None
+        ),
     )
