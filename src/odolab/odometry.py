@@ -29,6 +29,7 @@ from odolab.params import NoiseParams, RobotParams
 from odolab.trajectory import Pose, Trajectory, check_times
 
 if TYPE_CHECKING:
+    from odolab.slip_uncertainty import SlipCovarianceStepper
     from odolab.uncertainty import CovarianceStepper
 
 __all__ = [
@@ -512,11 +513,16 @@ class Odometry:
         self._body_motion = body_motion
         self._step_pose = step_pose
         self._slip = params.model if isinstance(params.model, SlipModel) else None
-        self._cov: CovarianceStepper | None = None
-        if covariance:  # needs params.noise; imported here: the plain path stays as it was
-            from odolab.uncertainty import CovarianceStepper
+        self._cov: CovarianceStepper | SlipCovarianceStepper | None = None
+        if covariance:  # imported here: the plain path stays as it was
+            if self._slip is not None:  # the slip model's own predictive variance
+                from odolab.slip_uncertainty import SlipCovarianceStepper
 
-            self._cov = CovarianceStepper(params, self.method)
+                self._cov = SlipCovarianceStepper(params)
+            else:  # needs params.noise
+                from odolab.uncertainty import CovarianceStepper
+
+                self._cov = CovarianceStepper(params, self.method)
         self._left = EncoderUnwrapper(params.encoder_modulus, max_dticks, "left_ticks")
         self._right = EncoderUnwrapper(params.encoder_modulus, max_dticks, "right_ticks")
         self.reset()
@@ -551,7 +557,8 @@ class Odometry:
     def covariance(self) -> tuple[float, float, float, float, float, float]:
         """The propagated covariance now, six terms in ``odolab.uncertainty.COV_COLUMNS``.
 
-        Only with ``covariance=True`` (and a ``[noise]`` table in the parameters)."""
+        Only with ``covariance=True`` (and a ``[noise]`` table in the parameters, or a slip
+        model: its own predictive variance, :mod:`odolab.slip_uncertainty`)."""
         if self._cov is None:
             raise OdolabError("this Odometry was made without covariance=True")
         return self._cov.terms
@@ -598,7 +605,10 @@ class Odometry:
             dsl = dl * self._kl
             dsr = dr * self._kr
             if self._cov is not None:
-                self._cov.step(self._h, dsl, dsr)
+                if self._slip is not None:
+                    self._cov.step(self._h, dsl, dsr, dt)  # type: ignore[call-arg]
+                else:
+                    self._cov.step(self._h, dsl, dsr)  # type: ignore[call-arg]
             if self._slip is None:
                 fwd, side, dth = self._body_motion(*self._coef, dsl, dsr)
             else:

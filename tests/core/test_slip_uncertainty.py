@@ -169,3 +169,34 @@ def test_drift_terms_are_read_and_written_and_old_files_read_as_before(tmp_path)
     assert load_params(path).model == replace(model, d_fwd=0.0, d_turn=0.0)
     with pytest.raises(ParamsError, match="d_yaw must be >= 0"):
         SlipModel(d_yaw=-1e-3)
+
+
+def test_streaming_odometry_gives_the_batch_covariance_at_every_cycle() -> None:
+    """Odometry(covariance=True) with a slip model: the slip model's own predictive variance,
+    cycle by cycle, the whole-log propagate_covariance's to rounding (a cycle of zero duration
+    and reversing tracks included)."""
+    from odolab.odometry import Odometry
+
+    rng = np.random.default_rng(2)
+    n = 300
+    t = np.cumsum(rng.uniform(0.03, 0.07, n))
+    t[0] = 0.0
+    t[7] = t[6]
+    dl = rng.integers(-10, 40, n).astype(float)
+    dr = rng.integers(-10, 60, n).astype(float)
+    dl[0] = dr[0] = 0.0
+    model = SlipModel(
+        yaw_w=-0.1, fwd_v_absv=-0.05, q_fwd=1e-4, q_yaw=1e-3, k_yaw=0.05, d_yaw=1e-3,
+        d_turn=1e-3, d_fwd=1e-4, posterior=tuple((np.eye(24) * 1e-4).ravel()),
+    )  # fmt: skip
+    params = NOMINAL.with_(model=model)
+    _, cov = propagate_covariance(t, dl, dr, params)
+    odo = Odometry(params, covariance=True)
+    for i in range(n):
+        odo.update_increments(float(t[i]), dl[i], dr[i])
+        got = np.array(odo.covariance)
+        want = cov[i][[0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]]
+        assert np.allclose(got, want, rtol=1e-9, atol=1e-18), i
+    assert cov[-1, 0, 0] > 1e-3
+    odo.reset()
+    assert odo.covariance == (0.0,) * 6

@@ -93,8 +93,8 @@ def test_predictive_variance_is_not_overconfident_on_held_out_runs() -> None:
     1, 3 and 10 s started at the truth's pose (`odolab evaluate --nees`'s numbers): never
     overconfident (above the two-sided 95 % chi-square bounds of the mean, less 5 % for the
     fit's own uncertainty), nor far too cautious. Measured at this commit (bounds about [2.8,
-    3.2], [2.7, 3.35], [2.4, 3.7]): systematic slip only 2.05, 2.76, 3.46; a tenth of the lab's
-    noise 3.11, 2.31, 2.58; all of it 3.20, 2.47, 2.93. Before the drift terms and the heading's
+    3.2], [2.7, 3.35], [2.4, 3.7]): systematic slip only 2.47, 3.06, 3.69; a tenth of the lab's
+    noise 3.08, 2.26, 2.48; all of it 3.23, 2.41, 2.80. Before the drift terms and the heading's
     exact second moments the 10 s pieces were 4.6, 7.8 and 34 (overconfident: white noise alone
     grows like the square root of the distance, and first order misses the path's shortfall
     under an uncertain heading); before the posterior was the weak prior's, one seed's reverse

@@ -230,22 +230,30 @@ class SlipModel:
         """What each noise term (``q_fwd, q_lat, q_yaw, k_fwd, k_lat, k_yaw``) is multiplied by
         in each cycle's variance, shape (n, 6): the duration ``dt`` (three times), the track
         travel ``(|ds_l| + |ds_r|) / 2`` (twice) and the commanded turn. The turn is the
-        magnitude of the cycles' turn averaged over :data:`TURN_CYCLES` cycles about each: on a
-        straight drive the encoders' last count flickers between the sides, and taken cycle by
-        cycle that flicker would add up to a turn the robot never made. ``tick_turn`` (rad): the
-        turn of one count of either encoder; so much of the averaged turn (one count over the
-        cycles averaged) is taken as that flicker, not as turning."""
+        magnitude of the turn of the last :data:`TURN_CYCLES` cycles (this one included; none
+        before the first) averaged: on a straight drive the encoders' last count flickers
+        between the sides, and taken cycle by cycle that flicker would add up to a turn the
+        robot never made. The average looks back only, so that streaming odometry, which has
+        no later cycles yet, gives the same. ``tick_turn`` (rad): the turn of one count of
+        either encoder; so much of the averaged turn (one count over the cycles averaged) is
+        taken as that flicker, not as turning."""
         import numpy as np
-        from scipy.ndimage import uniform_filter1d
 
         dt = np.asarray(dt, dtype=np.float64)
         tt = np.where(dt > 0.0, dt, 0.0)
         travel = 0.5 * (np.abs(ds_left) + np.abs(ds_right))
         dth = (np.asarray(ds_right, dtype=np.float64) - ds_left) / track_width
-        if dth.size:
-            dth = uniform_filter1d(dth, TURN_CYCLES, mode="nearest")
-        turn = np.maximum(np.abs(dth) - tick_turn / TURN_CYCLES, 0.0)
+        c = np.concatenate(([0.0], np.cumsum(dth)))
+        back = np.maximum(np.arange(dth.size) + 1 - TURN_CYCLES, 0)
+        mean = (c[1:] - c[back]) / TURN_CYCLES
+        turn = np.maximum(np.abs(mean) - tick_turn / TURN_CYCLES, 0.0)
         return np.column_stack((tt, tt, tt, travel, travel, turn))
+
+    @staticmethod
+    def turn_multiplier(recent_turns: Any, tick_turn: float = 0.0) -> float:
+        """:meth:`noise_multipliers`' turn for one cycle from the turns (rad) of the last
+        :data:`TURN_CYCLES` cycles, this one last (fewer at the start): streaming odometry's."""
+        return float(max(abs(sum(recent_turns)) / TURN_CYCLES - tick_turn / TURN_CYCLES, 0.0))
 
     @staticmethod
     def drift_multipliers(
