@@ -358,18 +358,29 @@ class SlipCovarianceStepper:
         """Back to an exact start (zero covariance, heading 0)."""
         nw = len(NOISE_KEYS)
         k = len(FEATURES)
-        self._h = 0.0
         self._white = np.zeros((nw, 3, 3))
         self._jd = np.zeros((len(DRIFT_KEYS), 3))
         self._jac = np.zeros((3, 3 * k))
         self._turns: list[float] = []
-        # per pose so far: the heading's white variance, its u and v (heading_covariance)
-        self._w: list[float] = [0.0]
-        self._u: list[FloatArray] = [np.zeros(len(DRIFT_KEYS) + 3 * k)]
-        self._v: list[FloatArray] = [np.zeros(len(DRIFT_KEYS) + 3 * k)]
-        self._a: list[FloatArray] = []
+        # per pose so far (buffers that grow by doubling; ``_n`` poses held): the heading's
+        # white variance, its u and v (heading_covariance), its total variance; per step after
+        # it: the step and the step turned left by 90 degrees
+        self._n = 1
+        self._w = np.zeros(64)
+        self._u = np.zeros((64, len(DRIFT_KEYS) + 3 * k))
+        self._v = np.zeros_like(self._u)
+        self._s = np.zeros(64)
+        self._a = np.zeros((64, 2))
+        self._ap = np.zeros((64, 2))
         self._acc = np.zeros((2, 2))
         self.cov = np.zeros((3, 3))
+
+    def _grow(self) -> None:
+        for name in ("_w", "_u", "_v", "_s", "_a", "_ap"):
+            old = getattr(self, name)
+            new = np.zeros((2 * old.shape[0], *old.shape[1:]))
+            new[: old.shape[0]] = old
+            setattr(self, name, new)
 
     @property
     def terms(self) -> tuple[float, float, float, float, float, float]:
@@ -398,18 +409,17 @@ class SlipCovarianceStepper:
         f = np.array([[1.0, 0.0, -dy], [0.0, 1.0, dx], [0.0, 0.0, 1.0]])
         g = np.array([[c, -s, -0.5 * dy], [s, c, 0.5 * dx], [0.0, 0.0, 1.0]])
         # the second-order share of this step, from the poses before it (_second_order)
+        n = self._n
+        if n + 1 > self._w.shape[0]:
+            self._grow()
         a = np.array([dx, dy])
-        self._a.append(a)
-        w = np.array(self._w)
-        u, v = np.array(self._u), np.array(self._v)
-        s_all = w + np.einsum("ni,ni->n", u, v)
+        ap = np.array([-dy, dx])
+        self._a[n - 1], self._ap[n - 1] = a, ap
+        w, u, v, s_all = self._w[:n], self._u[:n], self._v[:n], self._s[:n]
         half = np.exp(-0.5 * s_all)
-        steps = np.array(self._a)
-        perp = np.column_stack((-steps[:, 1], steps[:, 0]))
         cj = w + u @ v[-1]
         f2, g2 = heading_moments(s_all, s_all[-1], cj, half, half[-1])
-        fa, ga = f2 @ steps, g2 @ perp
-        ap = perp[-1]
+        fa, ga = f2 @ self._a[:n], g2 @ self._ap[:n]
         self._acc += np.outer(fa, a) + np.outer(a, fa) - f2[-1] * np.outer(a, a)
         self._acc += np.outer(ga, ap) + np.outer(ap, ga) - g2[-1] * np.outer(ap, ap)
         # first order
@@ -435,10 +445,10 @@ class SlipCovarianceStepper:
         u_new = np.concatenate((self._jd[:, 2], self._jac[2]))
         v_new = np.concatenate((self._jd[:, 2] * self.theta[nw:], self._jac[2] @ self.sigma))
         c_end = w + u @ v_new
-        cross = ((half - 1.0) * c_end) @ perp
-        self._w.append(w_new)
-        self._u.append(u_new)
-        self._v.append(v_new)
+        cross = ((half - 1.0) * c_end) @ self._ap[:n]
+        self._w[n], self._u[n], self._v[n] = w_new, u_new, v_new
+        self._s[n] = w_new + u_new @ v_new
+        self._n = n + 1
         cov[:2, :2] += self._acc
         cov[:2, 2] += cross
         cov[2, :2] += cross
