@@ -1,0 +1,85 @@
+"""Cost of the slip model's covariance (odolab.slip_uncertainty), against the slip model's
+odometry without it and the kinematic covariance, measured in the same run.
+
+The whole-log covariance costs time as the square of the log's cycles (its second-order share
+sums over every pair of steps): printed for 3,000, 6,000 and 12,000 cycles (20 Hz: 2.5, 5 and 10
+minutes) as a ratio to the poses alone. The streaming stepper's cost per cycle is printed at the
+start and after the longest log (it grows with the cycles so far; a 20 Hz loop has 50 ms).
+
+Usage: python benchmarks/bench_slip_covariance.py [--repeats R]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from odolab import PRESETS
+from odolab.models import SlipModel
+from odolab.odometry import integrate_increments
+from odolab.params import NoiseParams
+from odolab.slip_uncertainty import SlipCovarianceStepper, propagate_covariance
+from odolab.uncertainty import covariance_from_ticks
+
+
+def best(fn, repeats: int) -> float:  # type: ignore[no-untyped-def]
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=2)
+    args = ap.parse_args()
+    nominal = PRESETS["jaguar-lite"]
+    sigma = np.eye(24) * 1e-4
+    slip = nominal.with_(
+        model=SlipModel(
+            yaw_w=-0.1, fwd_v_absv=-0.05, q_fwd=1e-4, q_yaw=1e-3, k_yaw=0.05, d_yaw=1e-3,
+            d_turn=1e-3, posterior=tuple(sigma.ravel()),
+        )
+    )  # fmt: skip
+    kinematic = nominal.with_(noise=NoiseParams(3e-4, 2e-4, 0.17))
+    rng = np.random.default_rng(1)
+    biggest = 12_000
+    t = np.arange(biggest) * 0.05
+    dl = rng.integers(-5, 40, biggest).astype(float)
+    dr = rng.integers(-5, 50, biggest).astype(float)
+    dl[0] = dr[0] = 0.0
+    integrate_increments(t[:100], dl[:100], dr[:100], slip)  # compile before timing
+    covariance_from_ticks(np.cumsum(dl[:100]), np.cumsum(dr[:100]), kinematic)
+    print("cycles  poses (s)  slip covariance (s)  ratio  kinematic covariance (s)")
+    for n in (3_000, 6_000, biggest):
+        a = best(lambda n=n: integrate_increments(t[:n], dl[:n], dr[:n], slip), args.repeats)
+        b = best(lambda n=n: propagate_covariance(t[:n], dl[:n], dr[:n], slip), args.repeats)
+        c = best(
+            lambda n=n: covariance_from_ticks(np.cumsum(dl[:n]), np.cumsum(dr[:n]), kinematic),
+            args.repeats,
+        )
+        print(f"{n:6d}  {a:9.4f}  {b:19.3f}  {b / a:5.0f}x  {c:24.4f}")
+    stepper = SlipCovarianceStepper(slip)
+    kl, kr = slip.left_metres_per_tick, slip.right_metres_per_tick
+    t0 = time.perf_counter()
+    for i in range(1, 201):
+        stepper.step(0.0, dl[i] * kl, dr[i] * kr, 0.05)
+    first = (time.perf_counter() - t0) / 200
+    for i in range(201, biggest):
+        stepper.step(0.0, dl[i] * kl, dr[i] * kr, 0.05)
+    t0 = time.perf_counter()
+    for _ in range(100):
+        stepper.step(0.0, 20 * kl, 30 * kr, 0.05)
+    last = (time.perf_counter() - t0) / 100
+    print(
+        f"streaming stepper: {1e3 * first:.3f} ms a cycle at the start, {1e3 * last:.3f} ms after "
+        f"{biggest} cycles ({last / first:.1f}x; a 20 Hz loop has 50 ms)"
+    )
+
+
+if __name__ == "__main__":
+    main()
