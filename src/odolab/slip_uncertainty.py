@@ -24,8 +24,13 @@ exact: with ``s_k``, ``s_j`` the heading variances at two steps and ``c`` their 
 + 1`` and ``E[sin d_k sin d_j] = exp(-(s_k + s_j) / 2) sinh c``. The heading's share of the
 position covariance is taken from these over every pair of steps instead of first order's ``c``
 (:func:`heading_moments`), so the covariance is the second moment of the error about the
-odometry's pose, which is what NEES compares it with. The heading itself, and the motion's own
-noise along and across the path, stay first order.
+odometry's pose, which is what NEES compares it with; the position's covariance with the
+heading likewise (``E[sin d_k d] = c exp(-s_k / 2)``, where first order has ``c``). The heading
+itself, and the motion's own noise along and across the path, stay first order.
+
+:func:`propagate_covariance` gives it along a whole log; :class:`SlipCovarianceStepper` the same
+one cycle at a time (streaming odometry); :func:`end_second_order` at the end of many pieces at
+once, with its derivatives by the terms (fitting them, :mod:`odolab.calibration.slipfit`).
 """
 
 from __future__ import annotations
