@@ -53,6 +53,27 @@ def test_consistency_numbers_match_the_chi_square_table() -> None:
     assert cells["inside one piece's bounds"] == "80 %" and cells["above"] == "20 %"
     assert view["single"] == "[0.216, 9.35]"
     assert view["per_run"] == "run-a 2.00 (3); <b>run-b</b> 9.00 (2)"
+    assert "95 % bounds of the mean (χ², 15 dof)" in cells  # 5 pieces of 3
+
+
+def test_fitted_yaw_offsets_take_their_degrees_of_freedom_in_the_labels() -> None:
+    """With a fitted yaw offset per run, the mean's bounds say how many degrees of freedom are
+    left (not "3 dof" a piece), and the figure's expected mean is below 3."""
+    from dataclasses import replace
+
+    import matplotlib.pyplot as plt
+
+    from odolab.report.models_section import plot_nees
+
+    runs = tuple(replace(r, dof_removed=1) for r in RUNS)
+    d = ModelEvidence(nees=runs, about_nees="offsets fitted").consistency_dict()
+    assert d is not None
+    cells = {c.label: c.text for c in consistency_view(d)["rows"][0]}
+    assert "95 % bounds of the mean (χ², 13 dof)" in cells
+    ax = plot_nees(runs)
+    labels = ax.get_legend_handles_labels()[1]
+    assert "expected mean (2.6: 2 fitted yaw offsets)" in labels
+    plt.close(ax.figure)
 
 
 def _score(model: str, k: int, err: float, lo: float, hi: float, ratio: Estimate) -> ModelScore:

@@ -545,7 +545,7 @@ def consistency_view(c: Mapping[str, Any]) -> dict[str, Any]:
             Cell("pieces", str(s["n"])),
             Cell("mean NEES", numfmt.plain(float(s["mean_nees"]), 3)),
             Cell(
-                "95 % bounds of the mean (χ², 3 dof)",
+                f"95 % bounds of the mean (χ², {int(s['dof'])} dof)",
                 numfmt.interval(lo, hi, numfmt.decimals_for((hi - lo) / 2.0) + 1),
             ),
             Cell("inside one piece's bounds", f"{100.0 * float(s['fraction_inside']):.0f} %"),
@@ -576,7 +576,14 @@ def plot_nees(runs: Sequence[RunNees], ax: Axes | None = None) -> Axes:
         _, ax = plt.subplots(figsize=(6.0, 4.0))
     lo, hi = (float(chi2.ppf(q, DOF)) for q in (0.025, 0.975))
     ax.axhspan(lo, hi, color="tab:green", alpha=0.12, label="95 % band of one piece (χ², 3 dof)")
-    ax.axhline(DOF, color="tab:green", lw=1.0, label="expected mean (3)")
+    pieces = sum(int(np.asarray(r.nees).size) for r in runs)
+    removed = sum(r.dof_removed for r in runs if np.asarray(r.nees).size)
+    expected = (DOF * pieces - removed) / pieces if pieces else float(DOF)
+    label = (
+        f"expected mean ({expected:.3g}: {removed} fitted yaw offsets)" if removed
+        else f"expected mean ({DOF})"
+    )  # fmt: skip
+    ax.axhline(expected, color="tab:green", lw=1.0, label=label)
     for i, r in enumerate(runs):
         v = np.asarray(r.nees, dtype=float)
         v = v[np.isfinite(v) & (v > 0)]
