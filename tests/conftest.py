@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Any
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -31,3 +32,13 @@ OPTIODOM = data_dir() / "optiodom"
 @pytest.fixture(scope="session")
 def optiodom_dir() -> Path:
     return require("optiodom")
+
+
+@pytest.fixture(scope="session")
+def tracked_demo(tmp_path_factory: pytest.TempPathFactory) -> Any:
+    """The demo on the tracked truth with its defaults (odolab.lab.run_lab), run once per test
+    process and only read: the tests that take it are in the xdist group "tracked_demo", so
+    that `make test` (--dist loadgroup) runs them on one worker, on one demo."""
+    from odolab.lab import run_lab
+
+    return run_lab(tmp_path_factory.mktemp("tracked-demo"), truth="jaguar-lab-tracked")

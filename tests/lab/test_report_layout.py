@@ -53,6 +53,8 @@ def report(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFact
     slip model's section and its wide tables)."""
     if _browser() is None:
         pytest.skip("no chromium to render the report (.ci/run installs it)")
+    if request.param == "jaguar-lab-tracked":  # the session's one tracked demo (conftest)
+        return Path(request.getfixturevalue("tracked_demo").report)
     return run_lab(tmp_path_factory.mktemp("layout"), truth=request.param).report
 
 
@@ -65,6 +67,7 @@ def _chromium(*args: str) -> str:
     return proc.stdout
 
 
+@pytest.mark.xdist_group("tracked_demo")
 @pytest.mark.parametrize("width", [1280, 800, 400])
 def test_no_table_or_figure_is_wider_than_the_screen(
     report: Path, width: int, tmp_path: Path

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -62,10 +63,11 @@ def test_cli_sim_questions(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     assert "--truth: unknown preset 'tank'" in capsys.readouterr().err
 
 
-def test_the_demo_on_the_tracked_jaguar_still_gives_table_1(tmp_path: Path) -> None:
-    from odolab.lab import LAB_REPORT_TABLE1, LAB_REPORT_Y_SIGMA, pooled_y_sigmas, run_lab
+@pytest.mark.xdist_group("tracked_demo")
+def test_the_demo_on_the_tracked_jaguar_still_gives_table_1(tracked_demo: Any) -> None:
+    from odolab.lab import LAB_REPORT_TABLE1, LAB_REPORT_Y_SIGMA, pooled_y_sigmas
 
-    result = run_lab(tmp_path / "demo", truth="jaguar-lab-tracked")
+    result = tracked_demo
     rows = {(r["motion"], r["terrain"]): r for r in result.table1}
     for key, (ratio, unc, sigmas) in LAB_REPORT_TABLE1.items():
         assert abs(rows[key]["ratio"] - ratio) <= unc, (key, rows[key]["ratio"])
