@@ -18,7 +18,7 @@ demo: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/odolab demo
 
 test: $(STAMP)
-	MPLBACKEND=Agg $(BIN)/python -m pytest -n 2 --dist loadgroup -q
+	MPLBACKEND=Agg $(BIN)/python -m pytest -n 2 -q
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks

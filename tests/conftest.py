@@ -37,8 +37,9 @@ def optiodom_dir() -> Path:
 @pytest.fixture(scope="session")
 def tracked_demo(tmp_path_factory: pytest.TempPathFactory) -> Any:
     """The demo on the tracked truth with its defaults (odolab.lab.run_lab), run once per test
-    process and only read: the tests that take it are in the xdist group "tracked_demo", so
-    that `make test` (--dist loadgroup) runs them on one worker, on one demo."""
+    process and only read (the tests that take it are marked with the xdist group
+    "tracked_demo": `pytest --dist loadgroup` runs them on one worker, on one demo; `make test`
+    keeps the default scheduling, which measured faster over the whole suite)."""
     from odolab.lab import run_lab
 
     return run_lab(tmp_path_factory.mktemp("tracked-demo"), truth="jaguar-lab-tracked")
