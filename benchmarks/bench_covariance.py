@@ -16,20 +16,12 @@ import time
 
 import numba
 import numpy as np
+from _timing import best  # benchmarks/_timing.py (run as python benchmarks/...)
 
 from odolab import PRESETS, Odometry, integrate
 from odolab.odometry import integrate_with_covariance
 from odolab.params import NoiseParams
 from odolab.uncertainty import covariance_from_ticks
-
-
-def best(fn, repeats: int) -> float:  # type: ignore[no-untyped-def]
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def main() -> None:

@@ -14,9 +14,9 @@ from __future__ import annotations
 import argparse
 import math
 import statistics
-import time
 
 import numpy as np
+from _timing import best  # benchmarks/_timing.py (run as python benchmarks/...)
 
 from odolab import PRESETS, integrate
 
@@ -50,15 +50,6 @@ def lab_pseudocode_loop(t, left, right, params):  # type: ignore[no-untyped-def]
         ys.append(y)
         ths.append(th)
     return xs, ys, ths
-
-
-def best(fn, repeats: int) -> float:  # type: ignore[no-untyped-def]
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def main() -> None:

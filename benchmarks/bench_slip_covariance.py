@@ -15,6 +15,7 @@ import argparse
 import time
 
 import numpy as np
+from _timing import best  # benchmarks/_timing.py (run as python benchmarks/...)
 
 from odolab import PRESETS
 from odolab.models import SlipModel
@@ -22,15 +23,6 @@ from odolab.odometry import integrate_increments
 from odolab.params import NoiseParams
 from odolab.slip_uncertainty import SlipCovarianceStepper, propagate_covariance
 from odolab.uncertainty import covariance_from_ticks
-
-
-def best(fn, repeats: int) -> float:  # type: ignore[no-untyped-def]
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def main() -> None:
