@@ -13,21 +13,13 @@ from __future__ import annotations
 
 import argparse
 import tempfile
-import time
 from pathlib import Path
+
+from _timing import best  # benchmarks/_timing.py (run as python benchmarks/...)
 
 from odolab.calibration.scanmatch import scan_motions
 from odolab.io.scans import LaserScans, read_scans, write_scan_mcap
 from odolab.sim.laser import simulate_laser_drive
-
-
-def best_of(repeats: int, fn) -> float:  # type: ignore[no-untyped-def]
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def main() -> None:
@@ -46,9 +38,9 @@ def main() -> None:
         with tempfile.TemporaryDirectory() as tmp:
             bag = Path(tmp) / "drive.mcap"
             write_scan_mcap(bag, scans, joint_t=drive.joint_t, wheel_angles=drive.wheel_angles)
-            t_read = best_of(args.repeats, lambda b=bag: read_scans(b))
-        t_match = best_of(
-            args.repeats, lambda s=scans, e=every: scan_motions(s, every=e, threads=args.threads)
+            t_read = best(lambda b=bag: read_scans(b), args.repeats)
+        t_match = best(
+            lambda s=scans, e=every: scan_motions(s, every=e, threads=args.threads), args.repeats
         )
         result = scan_motions(scans, every=every, threads=args.threads)
         n, matched = len(scans), len(result.index)

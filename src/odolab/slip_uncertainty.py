@@ -35,6 +35,7 @@ once, with its derivatives by the terms (fitting them, :mod:`odolab.calibration.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -127,10 +128,7 @@ class SlipPropagation:
         for j in range(n - 1):
             c = white[: j + 1] + u[: j + 1] @ v[j]  # covariance of the steps k <= j with step j
             f, g = heading_moments(s[: j + 1], s[j], c, half[: j + 1], half[j])
-            fa = f @ a[: j + 1]
-            ga = g @ ap[: j + 1]
-            acc += np.outer(fa, a[j]) + np.outer(a[j], fa) - f[-1] * np.outer(a[j], a[j])
-            acc += np.outer(ga, ap[j]) + np.outer(ap[j], ga) - g[-1] * np.outer(ap[j], ap[j])
+            _add_pair_shares(acc, f, g, a[: j + 1], ap[: j + 1])
             out[j + 1] = acc
             c_end = white[: j + 1] + u[: j + 1] @ v[j + 1]  # ... and with the heading after it
             cross[j + 1] = ((half[: j + 1] - 1.0) * c_end) @ ap[: j + 1]
@@ -240,6 +238,55 @@ def end_second_order(
     return xy, xyh, d_xy, d_xyh
 
 
+def _cycle(
+    heading: float,
+    motion: tuple[float, float, float],
+    mult: FloatArray,
+    drift: FloatArray,
+    dphi: FloatArray,
+    state: tuple[FloatArray, FloatArray, FloatArray | None],
+) -> tuple[float, float, tuple[FloatArray, FloatArray, FloatArray | None]]:
+    """One cycle of the first-order propagation, midpoint rule: the body ``motion`` (forward,
+    lateral, dtheta) from ``heading``; the cycle's white-noise multipliers ``mult`` (6,), drift
+    multipliers ``drift`` (4,) and d(body motion)/d(coefficients) ``dphi`` (8,). ``state``: the
+    pose covariance per unit white term (6, 3, 3), d(pose)/d(drift rates) (4, 3) and
+    d(pose)/d(coefficients) (3, 24; None: no posterior). Returns the step (dx, dy) and the new
+    state: what :func:`propagate_terms` and :class:`SlipCovarianceStepper` both do each cycle."""
+    fwd, lat, dth = motion
+    white, jd, jac = state
+    m = heading + 0.5 * dth
+    c, s = math.cos(m), math.sin(m)
+    dx = fwd * c - lat * s
+    dy = fwd * s + lat * c
+    f = np.array([[1.0, 0.0, -dy], [0.0, 1.0, dx], [0.0, 0.0, 1.0]])
+    g = np.array([[c, -s, -0.5 * dy], [s, c, 0.5 * dx], [0.0, 0.0, 1.0]])
+    cols = g[:, _NOISE_OUTPUT].T  # (6, 3): the column each term enters through
+    white = f @ white @ f.T + mult[:, None, None] * (cols[:, :, None] * cols[:, None, :])
+    jd = jd @ f.T + drift[:, None] * g[:, _DRIFT_OUTPUT].T
+    if jac is not None:
+        k = dphi.size
+        jac = f @ jac
+        for j in range(3):
+            jac[:, j * k : (j + 1) * k] += np.outer(g[:, j], dphi)
+    return dx, dy, (white, jd, jac)
+
+
+def _add_pair_shares(
+    acc: FloatArray,
+    f: FloatArray,
+    g: FloatArray,
+    steps: FloatArray,
+    perps: FloatArray,
+) -> None:
+    """Add to ``acc`` (2, 2) the pairs of the last of ``steps`` (k, 2) with every one up to it
+    (itself once): ``f``, ``g`` (k,) from :func:`heading_moments`, along the steps and across
+    them (``perps``, the steps turned left by 90 degrees)."""
+    a, ap = steps[-1], perps[-1]
+    fa, ga = f @ steps, g @ perps
+    acc += np.outer(fa, a) + np.outer(a, fa) - f[-1] * np.outer(a, a)
+    acc += np.outer(ga, ap) + np.outer(ap, ga) - g[-1] * np.outer(ap, ap)
+
+
 def terms_of(model: SlipModel) -> FloatArray:
     """The model's variance terms in :data:`TERMS` order."""
     return np.array([getattr(model, key) for key in TERMS], dtype=np.float64)
@@ -287,26 +334,17 @@ def propagate_terms(
     coef_heading = np.zeros((n, 3 * k))
     if n:
         poses[0] = start
+    state = (white, jd, jac if sigma is not None else None)
     for i in range(1, n):
-        m = h + 0.5 * dth[i]
-        c, s = np.cos(m), np.sin(m)
-        dx = fwd[i] * c - lat[i] * s
-        dy = fwd[i] * s + lat[i] * c
-        f = np.array([[1.0, 0.0, -dy], [0.0, 1.0, dx], [0.0, 0.0, 1.0]])
-        g = np.array([[c, -s, -0.5 * dy], [s, c, 0.5 * dx], [0.0, 0.0, 1.0]])
-        white = f @ white @ f.T
-        cols = g[:, _NOISE_OUTPUT].T  # (6, 3): the column each term enters through
-        white += mult[i][:, None, None] * (cols[:, :, None] * cols[:, None, :])
+        motion = (float(fwd[i]), float(lat[i]), float(dth[i]))
+        dx, dy, state = _cycle(h, motion, mult[i], drift[i], big_phi[i], state)
+        white, jd, jac_i = state
         basis[i, :nw] = white
-        jd = jd @ f.T + drift[i][:, None] * g[:, _DRIFT_OUTPUT].T
         basis[i, nw:] = jd[:, :, None] * jd[:, None, :]
         drift_heading[i] = jd[:, 2]
-        if sigma is not None:
-            jac = f @ jac
-            for j in range(3):
-                jac[:, j * k : (j + 1) * k] += np.outer(g[:, j], big_phi[i])
-            post[i] = jac @ sigma @ jac.T
-            coef_heading[i] = jac[2]
+        if sigma is not None and jac_i is not None:
+            post[i] = jac_i @ sigma @ jac_i.T
+            coef_heading[i] = jac_i[2]
         x, y, h = x + dx, y + dy, h + dth[i]
         poses[i] = (x, y, h)
     if sigma is None:
@@ -396,7 +434,6 @@ class SlipCovarianceStepper:
     def step(self, heading: float, ds_left: float, ds_right: float, dt: float) -> None:
         """One cycle of track motion (m) over ``dt`` seconds from ``heading`` (rad)."""
         nw = len(NOISE_KEYS)
-        k = len(FEATURES)
         model = self.model
         b = self.track_width
         dsl, dsr = np.array([ds_left]), np.array([ds_right])
@@ -407,40 +444,26 @@ class SlipCovarianceStepper:
         mult = np.array([tt, tt, tt, travel, travel,
                          SlipModel.turn_multiplier(self._turns, self.tick_turn)])  # fmt: skip
         drift = SlipModel.drift_multipliers(dsl, dsr, b)[0]
-        m = heading + 0.5 * dth
-        c, s = np.cos(m), np.sin(m)
-        dx = fwd * c - lat * s
-        dy = fwd * s + lat * c
-        f = np.array([[1.0, 0.0, -dy], [0.0, 1.0, dx], [0.0, 0.0, 1.0]])
-        g = np.array([[c, -s, -0.5 * dy], [s, c, 0.5 * dx], [0.0, 0.0, 1.0]])
-        # the second-order share of this step, from the poses before it (_second_order)
-        n = self._n
-        if n + 1 > self._w.shape[0]:
-            self._grow()
-        a = np.array([dx, dy])
-        ap = np.array([-dy, dx])
-        self._a[n - 1], self._ap[n - 1] = a, ap
-        w, u, v, s_all = self._w[:n], self._u[:n], self._v[:n], self._s[:n]
-        half = np.exp(-0.5 * s_all)
-        cj = w + u @ v[-1]
-        f2, g2 = heading_moments(s_all, s_all[-1], cj, half, half[-1])
-        fa, ga = f2 @ self._a[:n], g2 @ self._ap[:n]
-        self._acc += np.outer(fa, a) + np.outer(a, fa) - f2[-1] * np.outer(a, a)
-        self._acc += np.outer(ga, ap) + np.outer(ap, ga) - g2[-1] * np.outer(ap, ap)
-        # first order
-        self._white = f @ self._white @ f.T
-        cols = g[:, _NOISE_OUTPUT].T
-        self._white += mult[:, None, None] * (cols[:, :, None] * cols[:, None, :])
-        self._jd = self._jd @ f.T + drift[:, None] * g[:, _DRIFT_OUTPUT].T
         timed = dt > 0
         t1 = dt if timed else 1.0
         phi = SlipModel.features(np.array([0.5 * (ds_left + ds_right) / t1]),
                                  np.array([(ds_right - ds_left) / b / t1]))[:, 0]  # fmt: skip
         if not timed:
             phi[4:] = 0.0
-        self._jac = f @ self._jac
-        for j in range(3):
-            self._jac[:, j * k : (j + 1) * k] += np.outer(g[:, j], phi * t1)
+        n = self._n
+        if n + 1 > self._w.shape[0]:
+            self._grow()
+        w, u, v, s_all = self._w[:n], self._u[:n], self._v[:n], self._s[:n]
+        half = np.exp(-0.5 * s_all)
+        dx, dy, (self._white, self._jd, jac) = _cycle(
+            heading, (fwd, lat, dth), mult, drift, phi * t1, (self._white, self._jd, self._jac)
+        )
+        assert jac is not None
+        self._jac = jac
+        # the second-order share of this step, from the poses before it (_second_order)
+        self._a[n - 1], self._ap[n - 1] = (dx, dy), (-dy, dx)
+        f2, g2 = heading_moments(s_all, s_all[-1], w + u @ v[-1], half, half[-1])
+        _add_pair_shares(self._acc, f2, g2, self._a[:n], self._ap[:n])
         jd2 = self._jd[:, :, None] * self._jd[:, None, :]
         cov = np.einsum("c,cij->ij", self.theta[:nw], self._white)
         cov += np.einsum("c,cij->ij", self.theta[nw:], jd2)

@@ -45,20 +45,25 @@ def test_bad_learning_curve_is_one_sentence(
     assert "--learning-curve: 'soon' is not a positive number of seconds" in capsys.readouterr().err
 
 
+def _explore_and_fit(tmp_path: Path, seed: int, seconds: int = 30) -> tuple[Path, Path]:
+    """`odolab sim explore` then `calibrate lsq --model slip` on it: (run folder, slip file)."""
+    run = tmp_path / "run"
+    assert main(["sim", "explore", "-o", str(run), "--seconds", str(seconds), "--seed",
+                 str(seed)]) == 0  # fmt: skip
+    params = tmp_path / "slip.toml"
+    code = main(["calibrate", "lsq", str(run / "explore.csv"), "--format", "csv", "--params",
+                 "jaguar-lite", "--model", "slip", "-o", str(params)])  # fmt: skip
+    assert code == 0
+    return run, params
+
+
 def test_calibrate_lsq_model_slip_writes_a_loadable_file(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     from odolab.models import SlipModel
     from odolab.params import load_params
 
-    run = tmp_path / "run"
-    assert main(["sim", "explore", "-o", str(run), "--seconds", "30", "--seed", "3"]) == 0
-    out = tmp_path / "robot-slip.toml"
-    code = main([
-        "calibrate", "lsq", str(run / "explore.csv"), "--format", "csv", "--params",
-        "jaguar-lite", "--model", "slip", "-o", str(out),
-    ])  # fmt: skip
-    assert code == 0, capsys.readouterr().err
+    _, out = _explore_and_fit(tmp_path, 3)
     params = load_params(out)
     assert isinstance(params.model, SlipModel) and params.model.k_yaw > 0
     assert "Bayesian linear regression" in out.read_text()
@@ -74,11 +79,7 @@ def test_odometry_covariance_with_a_slip_model_is_its_predictive_variance(
     from odolab.io.tabular import read_columns
     from odolab.params import load_params
 
-    run = tmp_path / "run"
-    assert main(["sim", "explore", "-o", str(run), "--seconds", "30", "--seed", "4"]) == 0
-    params = tmp_path / "slip.toml"
-    assert main(["calibrate", "lsq", str(run / "explore.csv"), "--format", "csv", "--params",
-                 "jaguar-lite", "--model", "slip", "-o", str(params)]) == 0  # fmt: skip
+    run, params = _explore_and_fit(tmp_path, 4)
     inc = read_columns(run / "explore.csv", ("t", "dticks_left", "dticks_right"))
     counts = tmp_path / "counts.csv"
     left, right = np.cumsum(inc["dticks_left"]), np.cumsum(inc["dticks_right"])
@@ -128,13 +129,9 @@ def test_evaluate_nees_uses_the_slip_models_predictive_variance(
     from odolab.io.registry import read_run
     from odolab.params import load_params
 
-    run = tmp_path / "run"
-    assert main(["sim", "explore", "-o", str(run), "--seconds", "40", "--seed", "5"]) == 0
+    run, params = _explore_and_fit(tmp_path, 5, seconds=40)
     assert main(["sim", "explore", "-o", str(run), "--seconds", "30", "--seed", "6",
                  "--name", "held"]) == 0  # fmt: skip
-    params = tmp_path / "slip.toml"
-    assert main(["calibrate", "lsq", str(run / "explore.csv"), "--format", "csv", "--params",
-                 "jaguar-lite", "--model", "slip", "-o", str(params)]) == 0  # fmt: skip
     capsys.readouterr()
     out = tmp_path / "nees.json"
     code = main(["evaluate", str(run / "held.csv"), "--format", "csv", "--params", str(params),
