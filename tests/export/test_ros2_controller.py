@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 from odolab.cli import app
 from odolab.errors import ParamsError
 from odolab.export.ros2_controller import UNOBSERVED, controller_numbers, diff_drive_controller_yaml
-from odolab.params import PRESETS, NoiseParams, save_params
+from odolab.params import PRESETS, NoiseParams, RobotParams, save_params
 
 NOMINAL = PRESETS["jaguar-lite"]
 CALIBRATED = NOMINAL.with_(
@@ -248,3 +248,87 @@ def test_a_horizon_past_first_order_is_said_so() -> None:
     noisy = CALIBRATED.with_(noise=NoiseParams(1.87e-4, 1.87e-4))
     assert "understates the spread" in diff_drive_controller_yaml(noisy, horizon=5.0)
     assert "understates" not in diff_drive_controller_yaml(noisy, horizon=1.0)
+
+
+# --- the slip model (issue 29): its equivalent at --speed and its own covariance ---------------
+
+
+def _slip(**coefficients: float) -> RobotParams:
+    from odolab.models import SlipModel
+
+    return NOMINAL.with_(name="slip", model=SlipModel(**coefficients))
+
+
+def test_a_linear_slip_model_is_a_differential_drive_of_the_right_size() -> None:
+    """The slip model's linear part has a rotation denominator of 1 m; the export took it for the
+    separation and the radius from the rotation term: 1.55x the wheel radius and 1 m of track
+    for a fit of the tracked Jaguar (its straight runs 1.55x too long)."""
+    p = _slip(fwd_v=-0.1, yaw_w=-0.15, q_fwd=1e-4, k_yaw=1e-3)
+    n = controller_numbers(p, nominal=NOMINAL)
+    assert n.exact and not n.notes
+    assert n.effective_left_radius == pytest.approx(0.9 * NOMINAL.left_wheel_radius, rel=1e-12)
+    assert n.effective_right_radius == pytest.approx(0.9 * NOMINAL.right_wheel_radius, rel=1e-12)
+    assert n.effective_separation == pytest.approx(NOMINAL.track_width * 0.9 / 0.85, rel=1e-12)
+    assert n.covariance_source == "slip"
+
+
+def test_a_speed_dependent_slip_model_is_its_equivalent_at_the_stated_speed() -> None:
+    v, b = 0.8, NOMINAL.track_width
+    p = _slip(fwd_v_absv=-0.2, yaw_w_absw=-0.1, yaw_v=0.02)
+    n = controller_numbers(p, nominal=NOMINAL, speed=v)
+    assert not n.exact
+    (note,) = n.notes
+    assert "equivalent at --speed 0.8 m/s" in note and "0.92 at 0.4 m/s" in note
+    assert "0.68 at 1.6 m/s" in note
+    r = NOMINAL.left_wheel_radius
+    forward = 1.0 - 0.2 * v  # per metre of track, straight at v
+    turn = 1.0 - 0.1 * (2.0 * v / b)  # per commanded radian, in place at wheel speed v
+    assert (n.effective_left_radius + n.effective_right_radius) / 2 == pytest.approx(r * forward)
+    assert n.effective_separation == pytest.approx(b * forward / turn)
+    # the straight run's heading drift (0.02 rad per metre) is in the radii
+    drift = (n.effective_right_radius - n.effective_left_radius) / r / n.effective_separation
+    assert drift == pytest.approx(0.02 * forward / forward, rel=1e-9)
+    assert controller_numbers(p, nominal=NOMINAL, speed=0.3).effective_separation != pytest.approx(
+        n.effective_separation
+    )
+
+
+def test_the_slip_models_covariance_is_its_predictive_variance_of_a_straight_run() -> None:
+    import numpy as np
+
+    from odolab.slip_uncertainty import propagate_covariance
+
+    v, f, d, w = 0.5, 50.0, 1.0, 10
+    p = _slip(fwd_v=-0.1, q_fwd=2e-4, q_lat=1e-4, q_yaw=3e-4, k_fwd=1e-4, d_yaw=1e-3)
+    text = diff_drive_controller_yaml(p, speed=v, rate=f, horizon=d, window=w)
+    assert "the slip model's predictive variance" in text and "no [noise] table" not in text
+    loaded = _load(text)
+    n = round(d / v * f)
+    t = np.arange(n + 1) / f
+    ticks = np.full(n + 1, v / f / NOMINAL.left_metres_per_tick)
+    ticks[0] = 0.0
+    _, cov = propagate_covariance(t, ticks, ticks, p)
+    pose = loaded["pose_covariance_diagonal"]
+    assert pose == pytest.approx(  # type: ignore[comparison-overlap]
+        [cov[-1, 0, 0], cov[-1, 1, 1], UNOBSERVED, UNOBSERVED, UNOBSERVED, cov[-1, 2, 2]],
+        rel=1e-9,
+    )
+    span = w / f  # the controller's velocity: the displacement over its window, over that time
+    twist = loaded["twist_covariance_diagonal"]
+    assert twist[0] == pytest.approx(cov[w, 0, 0] / span**2, rel=1e-9)  # type: ignore[index]
+    assert twist[5] == pytest.approx(cov[w, 2, 2] / span**2, rel=1e-9)  # type: ignore[index]
+    assert all(x > 0 for x in pose[:2])  # type: ignore[index]
+
+
+def test_a_model_that_cannot_drive_is_one_sentence(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from odolab.cli import main
+
+    src = save_params(tmp_path / "s.toml", _slip(fwd_v=-1.5))
+    out = tmp_path / "x.yaml"
+    assert main(["export", "ros2-controller", str(src), "-o", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert "moves -0.5 m forward per metre of straight driving" in err, err
+    assert "a differential drive needs both positive" in err and err.count("\n") == 1
+    assert not out.exists()

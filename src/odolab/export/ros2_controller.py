@@ -33,11 +33,13 @@ schema (:data:`DISTRO_KEYS`; ``wheels_per_side`` left ros2_controllers in 4.5.0,
 without a word. Floats are written so that YAML 1.1 loaders (PyYAML, as ROS 2 launch files use)
 read them as floats: ``5.0e-05``, never ``5e-05`` (a string there).
 
-Models the controller cannot express (``extended`` with unequal weights, ``icr``): the file says
-so and gives the best differential-drive equivalent: radius multipliers from the rotation terms
-and the separation from the model's rotation denominator, so that straight runs and turns in
-place match; the forward motion during a turn in place and the sideways motion (``x_icr``) are
-lost.
+Models the controller cannot express (``extended`` with unequal weights, ``icr``, ``slip``): the
+file says so and gives the best differential-drive equivalent (:func:`_equivalent`): straight
+runs (distance and heading drift) and turns in place match; the forward motion during a turn in
+place and the sideways motion (``x_icr``) are lost. The slip model's equivalent is taken at
+``speed`` (its slip changes with the speed; the note says by how much), and its covariance
+diagonals are its own predictive variance of that straight run (:mod:`odolab.slip_uncertainty`;
+:func:`odolab.params.covariance_source`, the rule every face uses).
 """
 
 from __future__ import annotations
@@ -47,7 +49,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from odolab.errors import ParamsError
-from odolab.params import RobotParams
+from odolab.models.slip import FEATURES, SlipModel
+from odolab.params import RobotParams, covariance_source
 from odolab.text import safe_terminal
 
 __all__ = [
@@ -61,6 +64,8 @@ __all__ = [
     "diff_drive_controller_yaml",
 ]
 
+#: Steps the slip model's covariance is propagated over, at most (:func:`_slip_diagonals`).
+_SLIP_STEPS = 2000
 #: Variance written for the terms planar odometry does not observe (z, roll, pitch).
 UNOBSERVED = 1e6
 
@@ -123,6 +128,9 @@ class ControllerExport:
     twist_covariance_diagonal: tuple[float, ...]
     exact: bool
     notes: tuple[str, ...]
+    #: where the covariance diagonals came from: "noise" (the ``[noise]`` table), "slip" (the
+    #: slip model's predictive variance) or None (placeholders)
+    covariance_source: str | None = None
 
     @property
     def effective_left_radius(self) -> float:
@@ -173,6 +181,128 @@ def yaml_float(value: float) -> str:
     return mantissa + (e + exponent if e else "")
 
 
+def _motion(
+    params: RobotParams, ds_left: float, ds_right: float, speed: float
+) -> tuple[float, ...]:
+    """(forward, lateral, heading) the model gives for wheel displacements (m) rolled at the wheel
+    speed ``speed`` (m/s): the slip model depends on the speed, the kinematic models do not."""
+    model = params.model
+    if isinstance(model, SlipModel):
+        dt = max(abs(ds_left), abs(ds_right)) / speed
+        return model.body_motion(ds_left, ds_right, dt, params.track_width)
+    return params.coefficients.body_motion(ds_left, ds_right)
+
+
+def _equivalent(params: RobotParams, speed: float) -> tuple[float, float, float, bool]:
+    """The differential drive (left and right radius multipliers of the ``[robot]`` radii, and
+    the separation, m) that matches the model on a straight run (its distance and its heading
+    drift) and on turns in place (the mean of both directions), with the wheels at ``speed``;
+    and whether it is the model itself (every motion the same).
+
+    A differential drive with radius multipliers ``u_l``, ``u_r`` and separation ``B`` moves
+    ``(u_l ds_l + u_r ds_r) / 2`` forward and turns ``(u_r ds_r - u_l ds_l) / B``. With the
+    model's straight run (``ds_l = ds_r = 1 m``) going ``F`` forward and turning ``T``, and its
+    turn in place (``ds_r = -ds_l = 1 m``) turning ``G`` on average: ``u_l + u_r = 2F``, ``B =
+    2F / G`` and ``u_r - u_l = T B``. For the differential drive, the extended model and the ICR
+    model this is their rotation terms scaled to their forward weights (their own numbers when
+    those agree)."""
+    fwd, lat, straight_turn = _motion(params, 1.0, 1.0, speed)
+    _, lat_left, turn_left = _motion(params, -1.0, 1.0, speed)
+    _, lat_right, turn_right = _motion(params, 1.0, -1.0, speed)
+    turn = 0.5 * (turn_left - turn_right)
+    if not (fwd > 0.0 and turn > 0.0):
+        raise ParamsError(
+            f"the parameters' model ({params.model.kind}) moves {fwd:.6g} m forward per metre of "
+            f"straight driving and turns {turn:.6g} rad per metre of turning in place at "
+            f"{speed:g} m/s; a differential drive needs both positive"
+        )
+    separation = 2.0 * fwd / turn
+    u_left = fwd - 0.5 * straight_turn * separation
+    u_right = fwd + 0.5 * straight_turn * separation
+    model = params.model
+    linear = not isinstance(model, SlipModel) or all(
+        getattr(model, k) == 0.0
+        for k in model.COEF_KEYS
+        if k.startswith("lat_") or k.split("_", 1)[1] not in ("v", "w")
+    )
+    exact = linear and lat == lat_left == lat_right == 0.0
+    if exact:  # every wheel motion: the two unit motions above and one on one wheel
+        for dl, dr in ((1.0, 0.0), (0.0, 1.0), (-1.0, 1.0)):
+            f_m, _, h_m = _motion(params, dl, dr, speed)
+            f_d, h_d = 0.5 * (u_left * dl + u_right * dr), (u_right * dr - u_left * dl) / separation
+            exact = exact and math.isclose(f_m, f_d, rel_tol=1e-9, abs_tol=1e-12)
+            exact = exact and math.isclose(h_m, h_d, rel_tol=1e-9, abs_tol=1e-12)
+    return u_left, u_right, separation, exact
+
+
+def _slip_note(params: RobotParams, speed: float) -> str:
+    """What the file loses of a slip model: how its straight distance and its turn change with
+    the wheel speed, which a differential drive cannot follow."""
+
+    def factors(v: float) -> tuple[float, float]:
+        f = _motion(params, 1.0, 1.0, v)[0]
+        g = 0.5 * (_motion(params, -1.0, 1.0, v)[2] - _motion(params, 1.0, -1.0, v)[2])
+        return f, g * 0.5 * params.track_width
+
+    lo, hi = 0.5 * speed, 2.0 * speed
+    (f_lo, g_lo), (f_hi, g_hi) = factors(lo), factors(hi)
+    drift = _motion(params, 1.0, 1.0, speed)[2]
+    model = params.model
+    assert isinstance(model, SlipModel)
+    spread = ""
+    if model.posterior:  # the straight run's heading rate and its posterior sd, per metre
+        import numpy as np
+
+        k = len(FEATURES)
+        phi = np.zeros(3 * k)
+        phi[2 * k : 3 * k] = (speed, 0.0, speed, 0.0, speed * speed, 0.0, 0.0, 0.0)
+        post = np.asarray(model.posterior).reshape(3 * k, 3 * k)
+        spread = f" +- {math.sqrt(max(float(phi @ post @ phi), 0.0)) / speed:.2g}"
+    return (
+        "the slip model's slip changes with speed and turn rate, which diff_drive_controller "
+        f"cannot express: these values are its differential-drive equivalent at --speed {speed:g}"
+        " m/s (straight runs and turns in place at that wheel speed match, turns averaged over "
+        f"both directions). Its distance per metre of track is {f_lo:.4g} at {lo:g} m/s and "
+        f"{f_hi:.4g} at {hi:g} m/s, its turn per commanded radian in place {g_lo:.4g} and "
+        f"{g_hi:.4g}; a straight run turns {drift:.3g}{spread} rad per metre (the "
+        "coefficients' posterior standard deviation), which the radius multipliers carry; "
+        "sideways slip is lost. Give --speed the speed the robot mostly drives at, "
+        "or use odolab's own odometry where that matters."
+    )
+
+
+def _slip_diagonals(
+    params: RobotParams, speed: float, rate: float, horizon: float, window: int
+) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """The slip model's predictive variance (:mod:`odolab.slip_uncertainty`, with its
+    coefficients' posterior) for straight driving at ``speed``: the pose after ``horizon`` m,
+    and the controller's velocity, its displacement over ``window`` cycles at ``rate`` Hz over
+    that time. Propagated over at most :data:`_SLIP_STEPS` steps (on a straight run at one
+    speed the step does not change the variance, only how finely the heading's share is
+    summed)."""
+    import numpy as np
+
+    from odolab.slip_uncertainty import propagate_terms, terms_of
+
+    model = params.model
+    assert isinstance(model, SlipModel)
+
+    def end_variance(seconds: float, cycles: int) -> tuple[float, float, float]:
+        n = max(1, min(cycles, _SLIP_STEPS))
+        t = np.linspace(0.0, seconds, n + 1)
+        ds = np.full(n + 1, speed * seconds / n)
+        ds[0] = 0.0
+        cov = propagate_terms(t, ds, ds, params, (0.0, 0.0, 0.0)).covariance(terms_of(model))[-1]
+        return float(cov[0, 0]), float(cov[1, 1]), float(cov[2, 2])
+
+    px, py, ph = end_variance(horizon / speed, math.ceil(horizon / speed * rate))
+    span = window / rate
+    tx, ty, th = end_variance(span, window)
+    pose = (px, py, UNOBSERVED, UNOBSERVED, UNOBSERVED, ph)
+    twist = (tx / span**2, ty / span**2, UNOBSERVED, UNOBSERVED, UNOBSERVED, th / span**2)
+    return pose, twist
+
+
 def controller_numbers(
     params: RobotParams,
     *,
@@ -188,18 +318,14 @@ def controller_numbers(
     f = _check_positive("--rate", rate)
     d = _check_positive("--horizon", horizon)
     w = _check_window(window)
-    c = params.coefficients
     notes: list[str] = []
-    # effective radii and separation of the best differential-drive equivalent
-    r_left = params.left_wheel_radius * c.e_left
-    r_right = params.right_wheel_radius * c.e_right
-    separation = c.denominator
-    exact = (
-        math.isclose(2.0 * c.w_left, c.e_left, rel_tol=1e-12)
-        and math.isclose(2.0 * c.w_right, c.e_right, rel_tol=1e-12)
-        and c.lateral == 0.0
-    )
-    if not exact:
+    # the best differential-drive equivalent, as multipliers of the [robot] radii
+    u_left, u_right, separation, exact = _equivalent(params, v)
+    r_left = params.left_wheel_radius * u_left
+    r_right = params.right_wheel_radius * u_right
+    if isinstance(params.model, SlipModel) and not exact:
+        notes.append(_slip_note(params, v))
+    elif not exact:
         notes.append(
             f"the robot's kinematic model ({params.model.kind}) is not a differential drive: "
             "diff_drive_controller cannot express it. These values are its best "
@@ -214,7 +340,10 @@ def controller_numbers(
         base_r = 0.5 * (nominal.left_wheel_radius + nominal.right_wheel_radius)
         base_b = nominal.track_width
     noise = params.noise
-    if noise is None:
+    source = covariance_source(params)
+    if source == "slip":
+        pose, twist = _slip_diagonals(params, v, f, d, w)
+    elif noise is None:
         notes.append(
             "the parameters have no [noise] table: the covariance diagonals are placeholders "
             "(1e-3); measure k_left, k_right with `odolab analyze` or `odolab calibrate noise`"
@@ -222,6 +351,7 @@ def controller_numbers(
         twist = (1e-3, 1e-3, UNOBSERVED, UNOBSERVED, UNOBSERVED, 1e-3)
         pose = (1e-3, 1e-3, UNOBSERVED, UNOBSERVED, UNOBSERVED, 1e-3)
     else:
+        assert noise is not None
         k = noise.k_left + noise.k_right
         b = separation
         var_vx = k * v * f / (4.0 * w)
@@ -251,6 +381,7 @@ def controller_numbers(
         twist_covariance_diagonal=tuple(twist),
         exact=exact,
         notes=tuple(notes),
+        covariance_source=source,
     )
 
 
@@ -329,8 +460,12 @@ def diff_drive_controller_yaml(
         f"velocity_rolling_window_size = {window} cycles at its update rate {rate!r} Hz (the "
         "controller_manager's update_rate; give it as --rate), straight driving at "
         f"{speed!r} m/s.",
-        f"# Pose covariance: after {horizon!r} m of straight driving. Both from [noise] "
-        "(see odolab docs/ros2.md for the formulas).",
+        f"# Pose covariance: after {horizon!r} m of straight driving. Both from "
+        + {
+            "noise": "[noise] (see odolab docs/ros2.md for the formulas).",
+            "slip": "the slip model's predictive variance (docs/ros2.md).",
+            None: "nothing: placeholders (see the note below).",
+        }[n.covariance_source],
     ]
     for note in n.notes:
         head += _comment("NOTE: " + note)
