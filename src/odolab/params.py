@@ -268,6 +268,23 @@ class RobotParams:
             return None
         return {"kind": self.model.kind, **self.model.to_dict()}
 
+    def model_words(self) -> tuple[tuple[str, str], ...]:
+        """The kinematic model and the ``[noise]`` table in words, as (label, text) pairs: what
+        every face shows of a parameter set besides its ``[robot]`` numbers (``odolab trials
+        params-versions``, the web's parameter versions). Empty for a plain differential drive
+        without noise."""
+        out: list[tuple[str, str]] = []
+        table = self.model_table()
+        if table is not None:
+            unit = " m" if table["kind"] == "icr" else ""
+            keys = ", ".join(f"{k} {v:g}" for k, v in table.items() if k != "kind")
+            out.append(("model", f"{table['kind']} ({keys}{unit})"))
+        if self.noise is not None:
+            n = self.noise
+            scrub = f", k_scrub {n.k_scrub:g} rad" if n.k_scrub else ""
+            out.append(("noise", f"k_left {n.k_left:g}, k_right {n.k_right:g} m{scrub}"))
+        return tuple(out)
+
 
 def params_from_mapping(
     data: dict[str, Any],

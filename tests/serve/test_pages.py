@@ -8,6 +8,7 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
+import pytest
 from matplotlib.image import imread
 from starlette.testclient import TestClient
 
@@ -103,3 +104,30 @@ def test_run_plot_of_a_trial_with_an_encoder_log(lab_db: Path) -> None:
     assert phone.shape[:2] == (1276, 726)
     assert c.get("/trial/plot.png?id=F1").status_code == 404  # no log: no plot
     assert "no run to plot" in c.get("/trial?id=F1").text
+
+
+def test_parameter_versions_show_the_model_and_noise_as_the_cli_does(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The web listed only radii and track: an ICR or slip version looked like its nominal."""
+    import html
+
+    from odolab.cli import main
+    from odolab.models import IcrModel
+    from odolab.params import PRESETS, NoiseParams
+
+    db = tmp_path / "lab.db"
+    icr = PRESETS["jaguar-lite"].with_(
+        model=IcrModel(0.3, -0.28, 0.04), noise=NoiseParams(1e-4, 2e-4, 0.01)
+    )
+    with Notebook(db) as nb:
+        nb.add_params_version(icr, method="lsq")
+    page = TestClient(create_app(ServeSettings(db=db)), base_url=LOCAL).get("/params").text
+    assert main(["trials", "params-versions", "jaguar-lite", "--db", str(db)]) == 0
+    line = capsys.readouterr().out
+    words = icr.model_words()
+    assert [label for label, _ in words] == ["model", "noise"]
+    for label, text in words:
+        assert f"; {label} {text}" in line.replace("\n", "")
+        assert f"<dt>{label}</dt><dd>{html.escape(text)}</dd>" in page
+    assert "icr (y_icr_left 0.3, y_icr_right -0.28, x_icr 0.04 m)" in page

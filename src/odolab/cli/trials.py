@@ -230,17 +230,7 @@ def params_versions_cmd(
 
 def _model_words(p: RobotParams) -> str:
     """``; model icr (y_icr_left 0.34, ... m); noise k_left ..`` for a set that has them."""
-    out = ""
-    table = p.model_table()
-    if table is not None:
-        unit = " m" if table["kind"] == "icr" else ""
-        keys = ", ".join(f"{k} {v:g}" for k, v in table.items() if k != "kind")
-        out += f"; model {table['kind']} ({keys}{unit})"
-    if p.noise is not None:
-        n = p.noise
-        scrub = f", k_scrub {n.k_scrub:g} rad" if n.k_scrub else ""
-        out += f"; noise k_left {n.k_left:g}, k_right {n.k_right:g} m{scrub}"
-    return out
+    return "".join(f"; {label} {text}" for label, text in p.model_words())
 
 
 # -- trials --------------------------------------------------------------------------------------
