@@ -44,6 +44,7 @@ from odolab.models import (
     MODELS,
     KinematicModel,
     ModelCoefficients,
+    SlipModel,
     model_from_mapping,
 )
 from odolab.text import quote_input
@@ -275,7 +276,20 @@ class RobotParams:
         without noise."""
         out: list[tuple[str, str]] = []
         table = self.model_table()
-        if table is not None:
+        if table is not None and isinstance(self.model, SlipModel):
+            coefs = sorted(SlipModel.COEF_KEYS, key=lambda k: -abs(table[k]))
+            big = ", ".join(f"{k} {table[k]:.3g}" for k in coefs[:3] if table[k])
+            terms = [k for k in SlipModel.KEYS if k not in coefs and table[k] >= 1e-6]
+            shown = ", ".join(f"{k} {table[k]:.3g}" for k in terms) or "none"
+            out.append(
+                (
+                    "model",
+                    f"slip (24 coefficients, the largest {big or 'all 0'}; variance terms "
+                    f"{shown}, those under 1e-6 not shown; every value is in the parameters "
+                    "file)",
+                )
+            )
+        elif table is not None:
             unit = " m" if table["kind"] == "icr" else ""
             keys = ", ".join(f"{k} {v:g}" for k, v in table.items() if k != "kind")
             out.append(("model", f"{table['kind']} ({keys}{unit})"))

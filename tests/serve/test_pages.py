@@ -131,3 +131,31 @@ def test_parameter_versions_show_the_model_and_noise_as_the_cli_does(
         assert f"; {label} {text}" in line.replace("\n", "")
         assert f"<dt>{label}</dt><dd>{html.escape(text)}</dd>" in page
     assert "icr (y_icr_left 0.3, y_icr_right -0.28, x_icr 0.04 m)" in page
+
+
+def test_a_slip_version_is_summed_up_not_listed(tmp_path: Path) -> None:
+    """34 numbers in a row filled a phone's screen; the file keeps them all."""
+    from odolab.models import SlipModel
+    from odolab.params import PRESETS
+
+    slip = PRESETS["jaguar-lite"].with_(
+        model=SlipModel(
+            yaw_w=-0.154,
+            fwd_v=-0.118,
+            yaw_v=-0.0794,
+            lat_w=0.01,
+            k_yaw=0.115,
+            q_fwd=6e-11,
+            d_turn=0.0117,
+        )
+    )
+    ((label, text),) = slip.model_words()
+    assert label == "model"
+    assert text.startswith("slip (24 coefficients, the largest yaw_w -0.154, fwd_v -0.118, yaw_v")
+    assert "variance terms k_yaw 0.115, d_turn 0.0117, those under 1e-6 not shown" in text
+    assert "lat_w" not in text and "q_fwd" not in text
+    db = tmp_path / "lab.db"
+    with Notebook(db) as nb:
+        nb.add_params_version(slip, method="lsq")
+    page = TestClient(create_app(ServeSettings(db=db)), base_url=LOCAL).get("/params").text
+    assert "<dt>model</dt><dd>slip (24 coefficients, the largest yaw_w -0.154" in page
