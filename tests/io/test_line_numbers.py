@@ -75,7 +75,9 @@ def test_writing_to_a_folder_is_one_sentence(tmp_path: Path) -> None:
     from odolab.trajectory import Trajectory
 
     traj = Trajectory.from_xyh(np.array([0.0, 1.0]), np.zeros(2), np.zeros(2), np.zeros(2))
-    with pytest.raises(LogFormatError, match="cannot write the trajectory CSV"):
+    with pytest.raises(
+        LogFormatError, match="is a folder; expected a file name for the trajectory CSV"
+    ):
         write_trajectory_csv(tmp_path, traj)
     with pytest.raises(LogFormatError, match="is a folder; expected a file name for the TUM traj"):
         write_tum(tmp_path, traj)

@@ -121,7 +121,9 @@ def test_writing_into_a_missing_parent_folder_creates_it(tmp_path: Path) -> None
 
 def test_an_unwritable_target_is_one_sentence(tmp_path: Path) -> None:
     (tmp_path / "dir.csv").mkdir()
-    with pytest.raises(LogFormatError, match=r"dir\.csv: cannot write the table"):
+    with pytest.raises(
+        LogFormatError, match=r"dir\.csv: is a folder; expected a file name for the table"
+    ):
         write_columns(tmp_path / "dir.csv", {"x": np.ones(2)}, "table")
 
 

@@ -17,7 +17,6 @@ from typing import Any
 
 from odolab.metrics.cluster import Outcome
 from odolab.metrics.runs import RunEvaluation
-from odolab.writing import replacing_path
 
 __all__ = [
     "COLUMNS",
@@ -139,7 +138,6 @@ def write_fleet_table(columns: dict[str, list[Any]], path: str | Path) -> Path:
     error message starting with ``-``) gets a leading ``'`` (:func:`odolab.text.inert_csv_cell`);
     :func:`read_fleet_table` takes it off again.
     """
-    from odolab.errors import LogFormatError
     from odolab.io.tabular import table_format, write_frame
     from odolab.text import inert_csv_cell
 
@@ -148,9 +146,7 @@ def write_fleet_table(columns: dict[str, list[Any]], path: str | Path) -> Path:
         columns = dict(columns)
         for c in _TEXT:
             columns[c] = [None if v is None else inert_csv_cell(str(v)) for v in columns[c]]
-    with replacing_path(p, what="fleet table", error=LogFormatError) as tmp:
-        write_frame(tmp, _frame(columns), "fleet table")
-    return p
+    return write_frame(p, _frame(columns), "fleet table")  # through a temporary file
 
 
 def read_fleet_table(path: str | Path) -> dict[str, list[Any]]:

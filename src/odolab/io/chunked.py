@@ -45,6 +45,7 @@ from odolab.io.tabular import (
 from odolab.kinematics import Method
 from odolab.params import RobotParams
 from odolab.trajectory import Pose, Trajectory, check_times
+from odolab.writing import replacing_path
 
 __all__ = [
     "DEFAULT_CHUNK_ROWS",
@@ -381,27 +382,17 @@ def integrate_file(
         covariance=covariance,
     )
     chunks = 0
-    partial = out.with_name(f".{out.stem}.partial{out.suffix}")
-    try:
-        with ChunkWriter(partial, "trajectory", shown=out) as writer:
-            chunks_in = iter_encoder_chunks(
-                src, modulus=params.encoder_modulus, chunk_rows=chunk_rows
-            )
-            for chunk in prefetched(chunks_in):  # the next chunk is read meanwhile
-                writer.write(odo.step(chunk.t, chunk.left, chunk.right).columns())
-                chunks += 1
-                if progress is not None:
-                    progress(odo.rows, total, src.name)
-        try:
-            partial.replace(out)
-        except OSError as err:
-            raise LogFormatError(
-                f"{out}: cannot write the trajectory ({err.strerror or err}); expected a file "
-                "name in a writable folder"
-            ) from err
-    except BaseException:
-        partial.unlink(missing_ok=True)
-        raise
+    # a temporary file beside ``out``, renamed over it when whole (odolab.writing)
+    with (
+        replacing_path(out, what="trajectory", error=LogFormatError) as partial,
+        ChunkWriter(partial, "trajectory", shown=out) as writer,
+    ):
+        chunks_in = iter_encoder_chunks(src, modulus=params.encoder_modulus, chunk_rows=chunk_rows)
+        for chunk in prefetched(chunks_in):  # the next chunk is read meanwhile
+            writer.write(odo.step(chunk.t, chunk.left, chunk.right).columns())
+            chunks += 1
+            if progress is not None:
+                progress(odo.rows, total, src.name)
     assert odo.pose is not None  # iter_encoder_chunks raised on an empty log
     return OdometryFileResult(odo.rows, odo.pose, chunks, out)
 

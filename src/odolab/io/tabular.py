@@ -559,16 +559,20 @@ def write_frame(path: str | Path, frame: Any, what: str) -> Path:
     one sentence naming the file and ``what`` it holds."""
     import polars as pl
 
+    from odolab.writing import replacing_path
+
     p = Path(path)
     fmt = table_format(p)
     try:
-        p.parent.mkdir(parents=True, exist_ok=True)
-        if fmt == "csv":
-            frame.write_csv(p)
-        elif fmt == "parquet":
-            frame.write_parquet(p)
-        else:
-            frame.write_ipc(p)
+        # through a temporary file renamed over the path (odolab.writing): never through a
+        # link planted at the path, and no half file when the disk fills
+        with replacing_path(p, what=what, error=LogFormatError) as tmp:
+            if fmt == "csv":
+                frame.write_csv(tmp)
+            elif fmt == "parquet":
+                frame.write_parquet(tmp)
+            else:
+                frame.write_ipc(tmp)
     except (OSError, pl.exceptions.PolarsError) as err:
         raise _cannot_write(p, what, err) from err
     return p
