@@ -232,6 +232,8 @@ class Calibrated:
     ratios: Any
     umbmark: Any
     files: dict[str, Path]
+    #: where each started (odolab.app.calibration.BaseChoice.reason)
+    starts: dict[str, str] = field(default_factory=dict)
 
 
 @dataclass
@@ -378,16 +380,10 @@ def _calibrate(cfg: LabConfig, nb: Any, folder: Path, progress: Progress) -> Cal
     progress("calibration", 0, 2)
     by_ratio = calibrate(nb, CalibrationRequest("ratios", terrain="tile"))
     progress("calibration", 1, 2)
-    # UMBmark corrects the track and the left/right diameter ratio, never the scale: start it
-    # from the ratios result, iterate on the squares' encoder logs until it converges
-    by_umbmark = calibrate(
-        nb,
-        CalibrationRequest(
-            "umbmark",
-            params=by_ratio.params,
-            params_source="the ratios calibration (UMBmark does not fix the scale)",
-        ),
-    )
+    # UMBmark corrects the track and the left/right diameter ratio, never the scale: it starts
+    # from the ratios result and iterates on the squares' encoder logs (the rule of every face,
+    # odolab.app.calibration.umbmark_start)
+    by_umbmark = calibrate(nb, CalibrationRequest("umbmark", terrain="tile"))
     assert by_umbmark.umbmark is not None
     files: dict[str, Path] = {}
     for name, cal in (("ratios", by_ratio.result), ("umbmark", by_umbmark.result)):
@@ -395,7 +391,8 @@ def _calibrate(cfg: LabConfig, nb: Any, folder: Path, progress: Progress) -> Cal
             folder / f"params-{name}.toml", cal.params, provenance=_toml_safe(cal.provenance)
         )
     progress("calibration", 2, 2)
-    return Calibrated(by_ratio.result, by_umbmark.umbmark, files)
+    starts = {"ratios": by_ratio.base.reason, "umbmark": by_umbmark.base.reason}
+    return Calibrated(by_ratio.result, by_umbmark.umbmark, files, starts)
 
 
 def _phone_log(t_run: np.ndarray, h_run: np.ndarray, seed: int) -> Any:
@@ -619,6 +616,8 @@ def _report(
             "ratios": after,
             "note": "the lab-report campaign re-run with the ratios-calibrated parameters, same seed",
         },
+        "calibrated_from": cal.starts.get("ratios"),
+        "umbmark_from": cal.starts.get("umbmark"),
         "live_runs": live.loop,
         "notebook": str(db),
         "phone_log": str(val.phone_log),

@@ -83,9 +83,17 @@ def test_a_calibration_is_the_same_on_every_face(tmp_path: Path, seed: int, meth
         want = geometry(by_cli["params"])
         assert geometry(api.json()["params"]) == want
         assert page_calibration(form.text) == want
-        # each started from the version the trials were driven with, not the latest one
+        # each started from the version the trials were driven with, not the latest one;
+        # UMBmark on the squares' logs from the ratios of the same trials, which fix the scale
         for doc in (by_cli, api.json()):
-            assert doc["base"]["version"] == gen.driven_version[robot]
+            if method == "ratios":
+                assert doc["base"]["version"] == gen.driven_version[robot]
+            else:
+                assert doc["base"]["version"] is None
+                assert doc["base"]["reason"].startswith("the ratios calibration of the same")
+            assert (
+                f"{robot} parameters version {gen.driven_version[robot]}" in doc["base"]["reason"]
+            )
         assert f"{robot} parameters version {gen.driven_version[robot]}" in form.text
         # three calibrations recorded: three new versions, all the same numbers
         with Notebook(gen.db) as nb:
@@ -98,11 +106,10 @@ def test_a_calibration_is_the_same_on_every_face(tmp_path: Path, seed: int, meth
             driven = nb.get_params(robot, gen.driven_version[robot])
         assert [geometry(v.params.to_dict()) for v in versions] == [want] * 3
         # and the library, called directly on the trials a user means, agrees
-        if method == "ratios":
-            ref = ratios_from_analysis(analyze_trials(trials), driven).params
-        else:
+        ref = ratios_from_analysis(analyze_trials(trials), driven).params
+        if method == "umbmark":
             squares = [t for t in trials if t.command.kind is MotionKind.SQUARE]
-            ref = umbmark_iterated(squares, driven).params
+            ref = umbmark_iterated(squares, ref).params
         assert geometry(ref.to_dict()) == want
 
 
@@ -123,8 +130,9 @@ def test_several_robots_and_no_robot_named_is_one_sentence_everywhere(tmp_path: 
     assert code == 1
 
 
-def test_the_reports_numbers_are_the_faces_numbers(tmp_path: Path) -> None:
-    gen = make_notebook(tmp_path, 1, two_robots=False)
+@pytest.mark.parametrize("seed", [1, 4])
+def test_the_reports_numbers_are_the_faces_numbers(tmp_path: Path, seed: int) -> None:
+    gen = make_notebook(tmp_path, seed, two_robots=False)
     cli("report", "--db", gen.db, "--out", tmp_path / "rep")
     results = json.loads((tmp_path / "rep" / "results.json").read_text(encoding="utf-8"))
     c = client(gen.db)
@@ -140,6 +148,16 @@ def test_the_reports_numbers_are_the_faces_numbers(tmp_path: Path) -> None:
     cal = c.post("/api/calibrate", json={"method": "ratios", "record": False}).json()
     assert geometry(results["calibration"]["ratios"]["params"]) == geometry(cal["params"])
     assert results["extra"]["calibrated_from"] == cal["base"]["reason"]
+    # ... and its UMBmark is `calibrate umbmark`'s, from the same start (it was from another)
+    umb = c.post("/api/calibrate", json={"method": "umbmark", "record": False})
+    if "umbmark" in results["calibration"]:  # seed 4
+        assert geometry(results["calibration"]["umbmark"]["params"]) == geometry(
+            umb.json()["params"]
+        )
+        assert results["extra"]["umbmark_from"] == umb.json()["base"]["reason"]
+    else:  # seed 1: squares too far off for UMBmark's small-error model, on both faces
+        assert umb.status_code == 400 and "too large for its small-error model" in umb.text
+        assert "umbmark_from" not in results["extra"]
     assert f"left out: {VALIDATION} (validation campaign" in results["extra"]["trials_used"]
 
 

@@ -39,6 +39,7 @@ __all__ = [
     "calibrate",
     "choose_base",
     "choose_robot",
+    "umbmark_start",
 ]
 
 #: The calibrations from the notebook's trials.
@@ -204,6 +205,38 @@ def choose_base(
     return BaseChoice(base, robot, version, reason)
 
 
+def umbmark_start(
+    nb: Notebook,
+    robot: str,
+    squares: list[Trial],
+    ratios: tuple[CalibrationResult, BaseChoice] | None,
+    params: RobotParams | None = None,
+    params_source: str | None = None,
+) -> BaseChoice:
+    """Where UMBmark of ``robot`` from ``squares`` starts, for every face (``calibrate umbmark
+    --db``, the web, the report, the demo): the ``params`` the user named; else, when every square has its encoder log
+    (UMBmark iterated on the logs, which integrates them again) and a ``ratios`` calibration of
+    the same trials could be made, that ratios result: UMBmark fixes the track and the wheels'
+    ratio, never the scale, and the ratios fix the scale (``ratios``: that result and where it
+    started); else ``base``, the version the squares were driven with (the single linearized step corrects the predictions they were driven
+    with, and correcting an earlier calibration of them would correct twice)."""
+    base = choose_base(nb, robot, squares, params, params_source)
+    logs = bool(squares) and all(t.encoder_log is not None for t in squares)
+    if params is not None or not logs or ratios is None:
+        return base
+    result, start = ratios
+    terrain = result.provenance.get("terrain")
+    on = f" on {terrain}" if terrain else ""
+    return BaseChoice(
+        result.params.with_(name=base.robot),
+        base.robot,
+        None,
+        f"the ratios calibration of the same trials{on} (UMBmark iterated on the squares' "
+        f"encoder logs fixes the track and the wheels' ratio, not the scale), itself from "
+        f"{start.reason}",
+    )
+
+
 def _ratios(
     nb: Notebook, sel: Selection, req: CalibrationRequest, robot: str
 ) -> tuple[CalibrationResult, BaseChoice, list[Trial], LabAnalysis]:
@@ -280,7 +313,14 @@ def calibrate(nb: Notebook, request: CalibrationRequest) -> CalibrationOutcome:
                 f"UMBmark needs measured square trials of robot {robot!r} in both directions; "
                 "the selection has none"
             )
-        base = choose_base(nb, robot, squares, request.params, request.params_source)
+        ratios: tuple[CalibrationResult, BaseChoice] | None = None
+        if request.params is None and all(t.encoder_log is not None for t in squares):
+            try:  # the ratios of the same selection fix the scale UMBmark cannot
+                by_ratios, ratios_base, _, _ = _ratios(nb, sel, request, robot)
+                ratios = (by_ratios, ratios_base)
+            except CalibrationError:
+                ratios = None
+        base = umbmark_start(nb, robot, squares, ratios, request.params, request.params_source)
         umb, how = umbmark_from_squares(squares, base.params, request.side)
         from odolab.analysis import analyze_trials  # [noise]: the selection's straight runs, turns
 

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from odolab.app.analysis import AnalysisResult, analyze_selection
-from odolab.app.calibration import BaseChoice, choose_base, umbmark_from_squares
+from odolab.app.calibration import BaseChoice, choose_base, umbmark_from_squares, umbmark_start
 from odolab.app.selection import (
     EVERY_CAMPAIGN,
     Selection,
@@ -91,26 +91,31 @@ def report_calibrations(
     trials: list[Trial],
     validation: set[str],
     request: ReportRequest,
-) -> tuple[dict[str, CalibrationResult | UmbmarkResult], list[str], BaseChoice | None]:
-    """The report's calibrations (see the module's rule), the notes on what is missing, and
-    the parameters they start from."""
+) -> tuple[
+    dict[str, CalibrationResult | UmbmarkResult], list[str], BaseChoice | None, BaseChoice | None
+]:
+    """The report's calibrations (see the module's rule), the notes on what is missing, the
+    parameters they start from, and where UMBmark started
+    (:func:`odolab.app.calibration.umbmark_start`; None: no UMBmark)."""
     from odolab.analysis import analyze_trials
     from odolab.calibration import ratios_from_analysis
 
     notes: list[str] = []
     robot = _report_robot(selection.trials, request.params)
     if robot is None:
-        return {}, ["no calibration: no measured trial"], None
+        return {}, ["no calibration: no measured trial"], None, None
     req = SelectionRequest(request.selection.campaigns, request.selection.exclude, robot)
     mine = select_among(trials, validation, req)
     try:
         base = choose_base(nb, robot, mine.trials, request.params, request.params_source)
     except CalibrationError as err:
-        return {}, [f"no calibration: {err}"], None
+        return {}, [f"no calibration: {err}"], None, None
     out: dict[str, CalibrationResult | UmbmarkResult] = {}
+    ratios: CalibrationResult | None = None
+    umb_start: BaseChoice | None = None
     try:
         analysis = analyze_trials(mine.trials)
-        out["ratios"] = ratios_from_analysis(analysis, base.params)
+        ratios = out["ratios"] = ratios_from_analysis(analysis, base.params)
     except OdolabError as err:
         notes.append(f"no ratios calibration: {err}")
     squares = [
@@ -121,17 +126,21 @@ def report_calibrations(
         and t.measured is not None
     ]
     if squares:
-        logs = all(t.encoder_log is not None for t in squares)
-        ratios = out.get("ratios")
-        # iterated on the logs from the ratios result (UMBmark does not fix the scale); the
-        # single step only from the version the squares' predictions came from
-        start = ratios.params if logs and ratios is not None else base.params
         try:
-            umb, _ = umbmark_from_squares(squares, start)
+            start = umbmark_start(
+                nb,
+                robot,
+                squares,
+                None if ratios is None else (ratios, base),
+                request.params,
+                request.params_source,
+            )
+            umb, _ = umbmark_from_squares(squares, start.params)
             out["umbmark"] = umb
+            umb_start = start
         except CalibrationError as err:
             notes.append(f"no UMBmark calibration: {err}")
-    return out, notes, base
+    return out, notes, base, umb_start
 
 
 def report_content(nb: Notebook, request: ReportRequest = ReportRequest()) -> ReportContent:
@@ -143,10 +152,14 @@ def report_content(nb: Notebook, request: ReportRequest = ReportRequest()) -> Re
     validation = validation_campaigns(nb)
     selection = select_among(trials, validation, request.selection)
     analysis = analyze_selection(selection)
-    calibrations, notes, base = report_calibrations(nb, selection, trials, validation, request)
+    calibrations, notes, base, umb_start = report_calibrations(
+        nb, selection, trials, validation, request
+    )
     extra: dict[str, Any] = {"trials_used": selection.describe()}
     if base is not None:
         extra["calibrated_from"] = base.reason
+    if umb_start is not None:
+        extra["umbmark_from"] = umb_start.reason
     if truths:
         extra["ground_truth"] = truths
     return ReportContent(analysis, calibrations, notes, base, extra)
