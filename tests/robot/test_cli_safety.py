@@ -62,6 +62,12 @@ INVALID = [
     ("drive", "--right-channel", "0", "expected one track on channel 0"),
     ("drive", "--left-encoder-sign", "0", "expected 1 or -1"),
     ("drive", "--right-motor-sign", "2", "expected 1 or -1"),
+    # the virtual Jaguar's options on a real link: a typo, or any value, drove the robot
+    ("drive", "--truth", "foo", "--truth is 'foo'; expected one of"),
+    ("rotate", "--terrain", "gras", "expected one of"),
+    ("drive", "--truth", "jaguar-lab-tracked", "for the virtual Jaguar (sim://) only"),
+    ("pivot", "--terrain", "grass", "for the virtual Jaguar (sim://) only"),
+    ("square", "--seed", "5", "for the virtual Jaguar (sim://) only"),
 ]
 
 

@@ -58,6 +58,10 @@ INVALID = [
     ("--explore-seed", "-1", "--explore-seed"),
     ("--ground-truth", "gps", "'virtual', 'mocap', 'track', 'laser'"),
     ("--decel", "0.3", "an exploration has no target to slow down to"),
+    # the virtual Jaguar's options on a real link: these drove the robot
+    ("--truth", "foo", "--truth is 'foo'; expected one of"),
+    ("--terrain", "gras", "--terrain is 'gras'; expected one of"),
+    ("--terrain", "grass", "for the virtual Jaguar (sim://) only"),
 ]
 
 

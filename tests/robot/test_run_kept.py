@@ -198,7 +198,8 @@ CLI_DRIVE = ["robot", "drive", "--distance", "0.1", "--speed", "0.5", "--quiet",
 
 
 def cli(out: Path, robot: str, *extra: str) -> int:
-    return main([*CLI_DRIVE, "--truth", "ideal", "--robot", robot, "--out", str(out), *extra])
+    truth = ["--truth", "ideal"] if robot.startswith("sim:") else []  # sim:// only
+    return main([*CLI_DRIVE, *truth, "--robot", robot, "--out", str(out), *extra])
 
 
 def test_out_below_a_file_is_refused_before_anything_is_sent(

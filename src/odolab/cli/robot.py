@@ -249,6 +249,36 @@ def _confirm_line(confirmed: bool) -> str:
     )
 
 
+#: The virtual Jaguar's options and their defaults (what a real link must leave as they are).
+_VIRTUAL_DEFAULTS = {"--truth": "jaguar-lab", "--terrain": "tile", "--seed": 0}
+
+
+def _check_virtual_options(url: str, truth: str, terrain: str, seed: int) -> None:
+    """``--truth``, ``--terrain`` and ``--seed`` name presets (typos are refused on any link),
+    and only the virtual Jaguar (``sim://``) has them: on a real link one that is not its
+    default is refused, before anything is sent (a user who means the simulator must not
+    drive the robot instead)."""
+    from odolab.robot.errors import RobotConfigError
+    from odolab.sim.presets import TRUTH_PRESETS
+    from odolab.sim.terrains import TERRAINS
+
+    if truth not in TRUTH_PRESETS:
+        raise RobotConfigError(f"--truth is {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}")
+    if terrain not in TERRAINS:
+        raise RobotConfigError(f"--terrain is {terrain!r}; expected one of {', '.join(TERRAINS)}")
+    if url.startswith("sim:"):
+        return
+    given = {"--truth": truth, "--terrain": terrain, "--seed": seed}
+    changed = [k for k, v in given.items() if v != _VIRTUAL_DEFAULTS[k]]
+    if changed:
+        raise RobotConfigError(
+            f"{', '.join(changed)} {'is' if len(changed) == 1 else 'are'} for the virtual Jaguar "
+            f"(sim://) only, and the robot is {url}: nothing was sent; leave "
+            f"{'it' if len(changed) == 1 else 'them'} out to drive this robot, or use "
+            "--robot sim:// to drive the simulator"
+        )
+
+
 def _run(
     command: Command,
     config: RunConfig,
@@ -276,6 +306,7 @@ def _run(
     from odolab.robot.session import check_run_folder
 
     url = check_robot_url(robot)
+    _check_virtual_options(url, truth, terrain, seed)
     nominal = load_params(params)
     plan = _explore_plan(command, config, nominal, url, ground_truth, params)
     if plan is not None:
@@ -284,21 +315,6 @@ def _run(
     plant = None
     if url.startswith("sim:"):
         from odolab.sim.plants import make_plant
-        from odolab.sim.presets import TRUTH_PRESETS
-        from odolab.sim.terrains import TERRAINS
-
-        if truth not in TRUTH_PRESETS:
-            from odolab.robot.errors import RobotConfigError
-
-            raise RobotConfigError(
-                f"--truth is {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}"
-            )
-        if terrain not in TERRAINS:
-            from odolab.robot.errors import RobotConfigError
-
-            raise RobotConfigError(
-                f"--terrain is {terrain!r}; expected one of {', '.join(TERRAINS)}"
-            )
 
         def plant() -> Any:
             return make_plant(truth, nominal, terrain, seed=seed)
@@ -572,9 +588,9 @@ _SHARED_OPTIONS: tuple[tuple[str, Any, Any], ...] = (
     ("command_timeout", CommandTimeoutOpt, 0.5),
     ("out", OutOpt, None),
     ("db", DbOpt, None),
-    ("truth", TruthOpt, "jaguar-lab"),
-    ("terrain", TerrainOpt, "tile"),
-    ("seed", SeedOpt, 0),
+    ("truth", TruthOpt, _VIRTUAL_DEFAULTS["--truth"]),
+    ("terrain", TerrainOpt, _VIRTUAL_DEFAULTS["--terrain"]),
+    ("seed", SeedOpt, _VIRTUAL_DEFAULTS["--seed"]),
     ("left_channel", LeftChOpt, 0),
     ("right_channel", RightChOpt, 1),
     ("left_encoder_sign", LeftSignOpt, 1),
