@@ -151,3 +151,49 @@ def test_evaluate_nees_uses_the_slip_models_predictive_variance(
                  "--nees"])  # fmt: skip
     err = capsys.readouterr().err
     assert code != 0 and "no [noise] table" in err and "slip model" in err
+
+
+def test_a_failed_exploration_keeps_the_earlier_pair(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The log was renamed into place before the truth failed: a new log beside an old truth."""
+    run = tmp_path / "run"
+    assert main(["sim", "explore", "-o", str(run), "--seconds", "3", "--seed", "1"]) == 0
+    before = (run / "explore.csv").read_bytes()
+    (run / "explore_gt.csv").unlink()
+    (run / "explore_gt.csv").mkdir()  # in the way
+    capsys.readouterr()
+    assert main(["sim", "explore", "-o", str(run), "--seconds", "4", "--seed", "2"]) == 1
+    err = capsys.readouterr().err
+    assert "explore_gt.csv: is a folder; expected a file name for the exploration's ground" in err
+    assert (run / "explore.csv").read_bytes() == before
+    assert sorted(p.name for p in run.iterdir()) == ["explore.csv", "explore_gt.csv"]
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--max-speed", "1e9"], "--max-speed is 1e+09; expected a number in (0, 3] m/s"),
+        (["--max-turn-rate", "9"], "--max-turn-rate is 9; expected a number in (0, 3.57143]"),
+        (["--fence", "1e4"], "--fence is 10000; expected a number in (0, 100] m"),
+        (["--seconds", "1e6"], "--seconds is 1e+06; expected a number in (0, 600] s"),
+    ],
+)
+def test_sim_explore_has_the_robots_bounds(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], args: list[str], message: str
+) -> None:
+    assert main(["sim", "explore", "-o", str(tmp_path / "r"), *args]) == 1
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1, err
+    assert not (tmp_path / "r").exists()
+
+
+def test_sim_explore_says_when_the_robot_left_its_fence(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run = tmp_path / "r"
+    assert main(["sim", "explore", "-o", str(run), "--seconds", "5", "--fence", "0.01"]) == 0
+    out = capsys.readouterr().out
+    assert "beyond the 0.01 m fence" in out
+    assert main(["sim", "explore", "-o", str(run), "--seconds", "5"]) == 0
+    assert "fence" not in capsys.readouterr().out

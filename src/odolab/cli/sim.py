@@ -157,17 +157,29 @@ def sim_explore(
     name: Annotated[str, typer.Option(help="File name stem of the run.")] = "explore",
 ) -> None:
     """Drive commands sampled over speed and turn rate inside a geofence; record with truth."""
+    import numpy as np
+
     from odolab.errors import SimError
     from odolab.params import load_params
+    from odolab.robot.config import BOUNDS, check_exploration
     from odolab.sim.explore import ExploreSettings, explore, write_exploration
     from odolab.sim.presets import TRUTH_PRESETS
     from odolab.text import safe_file_name
+    from odolab.trials import Exploration
 
     if truth not in TRUTH_PRESETS:
         raise SimError(
             f"--truth: unknown preset {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}"
         )
     stem = safe_file_name(name, what="run name", suffix=".csv")[: -len(".csv")]
+    nominal = load_params(params)
+    # the bounds robot explore has (odolab.robot.config), up to the fastest wheel odolab drives
+    check_exploration(
+        Exploration(seconds, max_speed, max_turn_rate, fence=fence, distribution=distribution),
+        nominal,
+        BOUNDS["max_wheel_speed"].hi,
+        "the largest wheel speed odolab drives,",
+    )
     settings = ExploreSettings(
         seconds=seconds,
         max_speed=max_speed,
@@ -175,9 +187,16 @@ def sim_explore(
         fence_radius=fence,
         distribution=distribution,
     )
-    run = explore(TRUTH_PRESETS[truth], load_params(params), settings, terrain=terrain, seed=seed)
+    run = explore(TRUTH_PRESETS[truth], nominal, settings, terrain=terrain, seed=seed)
     log, gt = write_exploration(output, run, stem)
     echo(
         f"explored {settings.seconds:.1f} s ({truth}, seed {seed}) -> {log}, {gt}"
         + ("; the robot stalled (turns in place on this terrain)" if run.stalled else "")
     )
+    reach = float(np.max(np.hypot(run.x - run.x[0], run.y - run.y[0])))
+    if reach > fence:  # the simulator's fence turns the robot back; it does not stop it
+        echo(
+            f"note: the robot went {reach:.3g} m from its start, beyond the {fence:g} m fence "
+            "(odometry turns it back near the edge; a fence smaller than one held command's "
+            "travel cannot hold it)"
+        )

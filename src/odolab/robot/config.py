@@ -202,14 +202,18 @@ EXPLORE_BOUNDS: dict[str, Bound] = {
 }
 
 
-def _check_exploration(e: Exploration, config: RunConfig, params: RobotParams) -> None:
-    """Each setting of an exploration, one sentence naming its option (see check_motion)."""
+def check_exploration(
+    e: Exploration, params: RobotParams, max_wheel_speed: float, limit: str = "--max-wheel-speed"
+) -> None:
+    """Each setting of an exploration, one sentence naming its option: on a robot
+    (:func:`check_motion`, ``limit`` its ``--max-wheel-speed``) and on the simulator (``odolab
+    sim explore``, up to the largest wheel speed odolab drives)."""
     check_bound(EXPLORE_BOUNDS["seconds"], e.seconds)
-    vmax = config.max_wheel_speed
+    vmax = max_wheel_speed
     if e.max_speed is None:
         raise RobotConfigError("--max-speed is missing; expected a number of m/s")
     v = check_bound(
-        Bound("--max-speed", 0.0, vmax, f"m/s (--max-wheel-speed {vmax:g} m/s)", lo_open=True),
+        Bound("--max-speed", 0.0, vmax, f"m/s ({limit} {vmax:g} m/s)", lo_open=True),
         e.max_speed,
     )
     if e.max_turn_rate is None:
@@ -242,6 +246,11 @@ def _check_exploration(e: Exploration, config: RunConfig, params: RobotParams) -
         )
     if isinstance(e.seed, bool) or not isinstance(e.seed, int) or e.seed < 0:
         raise RobotConfigError(f"--explore-seed is {e.seed!r}; expected a whole number >= 0")
+
+
+def _check_exploration(e: Exploration, config: RunConfig, params: RobotParams) -> None:
+    """Each setting of an exploration, one sentence naming its option (see check_motion)."""
+    check_exploration(e, params, config.max_wheel_speed)
     if config.decel != 0:
         raise RobotConfigError(
             f"--decel is {config.decel:g}; an exploration has no target to slow down to (its "

@@ -176,6 +176,7 @@ def write_exploration(folder: str | Path, run: Drive, name: str = "explore") -> 
     from odolab.io.tabular import write_columns
     from odolab.io.trajectory_csv import write_trajectory_csv
     from odolab.trajectory import Trajectory
+    from odolab.writing import replacing_path
 
     out = Path(folder)
     if out.exists() and not out.is_dir():
@@ -184,12 +185,17 @@ def write_exploration(folder: str | Path, run: Drive, name: str = "explore") -> 
         out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise SimError(f"{out}: cannot create the folder ({err.strerror or err})") from err
-    log = write_columns(
-        out / f"{name}.csv",
-        {"t": run.t, "dticks_left": run.dticks_left, "dticks_right": run.dticks_right},
-        "encoder log",
-    )
-    gt = write_trajectory_csv(
-        out / f"{name}_gt.csv", Trajectory.from_xyh(run.t, run.x, run.y, run.heading)
-    )
+    log, gt = out / f"{name}.csv", out / f"{name}_gt.csv"
+    # both through temporary files, renamed only when both are written: a failure leaves an
+    # earlier run's pair as it was, never a new log beside an old truth
+    with (
+        replacing_path(log, what="exploration's encoder log", error=SimError) as log_tmp,
+        replacing_path(gt, what="exploration's ground truth", error=SimError) as gt_tmp,
+    ):
+        write_columns(
+            log_tmp,
+            {"t": run.t, "dticks_left": run.dticks_left, "dticks_right": run.dticks_right},
+            "encoder log",
+        )
+        write_trajectory_csv(gt_tmp, Trajectory.from_xyh(run.t, run.x, run.y, run.heading))
     return log, gt
