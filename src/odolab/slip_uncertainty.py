@@ -51,6 +51,7 @@ __all__ = [
     "TERMS",
     "EndPairs",
     "SlipPropagation",
+    "describe_covariance",
     "end_second_order",
     "heading_moments",
     "propagate_covariance",
@@ -285,6 +286,22 @@ def _add_pair_shares(
     fa, ga = f @ steps, g @ perps
     acc += np.outer(fa, a) + np.outer(a, fa) - f[-1] * np.outer(a, a)
     acc += np.outer(ga, ap) + np.outer(ap, ga) - g[-1] * np.outer(ap, ap)
+
+
+def describe_covariance(model: SlipModel) -> str:
+    """What the slip model's covariance is made of, in words, for every face that uses it
+    (``odometry --covariance``, ``evaluate --nees``, ``export mcap``): whether the file carries
+    the coefficients' posterior is said, as it changes the covariance."""
+    head = (
+        "the slip model's predictive variance (its white noise q_*, k_* per cycle, its drift "
+        "d_* over each stretch integrated"
+    )
+    if model.posterior:
+        return head + " and its coefficients' posterior; docs/models.md)"
+    return (
+        head + "; the parameters have no [model] posterior, so the coefficients' own "
+        "uncertainty is not in it; docs/models.md)"
+    )
 
 
 def terms_of(model: SlipModel) -> FloatArray:

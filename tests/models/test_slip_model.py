@@ -175,3 +175,42 @@ def test_a_run_never_in_steady_state_is_fitted_on_all_its_windows() -> None:
         slip_design([prepared], NOMINAL, steady=True)
     fit = calibrate_lsq([run], NOMINAL, LsqOptions(model="slip"))
     assert fit.segments == slip_design([prepared], NOMINAL).y_yaw.size
+
+
+def _posterior(**changes: float) -> tuple[float, ...]:
+    m = np.eye(24) * 1e-4
+    for key, value in changes.items():
+        i, j = (int(x) for x in key[1:].split("_"))
+        m[i, j] = value
+    return tuple(m.ravel())
+
+
+@pytest.mark.parametrize(
+    ("changes", "message"),
+    [
+        ({"q_fwd": 1e308}, r"q_fwd = 1e\+308 is outside the plausible 0 to 100"),
+        ({"d_yaw": 101.0}, r"d_yaw = 101 is outside the plausible 0 to 100"),
+        ({"posterior": _posterior(p0_0=-5.0)}, r"posterior variance of fwd_v is -5"),
+        ({"posterior": _posterior(p0_1=1e-5)}, r"posterior is not symmetric \(entry 0,1"),
+        (
+            {"posterior": _posterior(p0_1=1e-3, p1_0=1e-3)},
+            r"posterior is not positive semi-definite \(smallest eigenvalue -0.0009",
+        ),
+        ({"posterior": _posterior(p3_3=1e5)}, r"posterior variance of fwd_absw is 100000"),
+    ],
+)
+def test_a_covariance_that_is_none_is_refused(changes: dict[str, object], message: str) -> None:
+    """A negative posterior variance gave negative /odom covariances; q_fwd 1e308 infinite
+    ones (found by a hostile-input review)."""
+    with pytest.raises(ParamsError, match=message):
+        SlipModel(**changes)  # type: ignore[arg-type]
+    SlipModel(q_fwd=100.0, posterior=_posterior(p0_1=5e-5, p1_0=5e-5))  # the edge is fine
+
+
+def test_the_covariance_says_whether_the_file_has_its_posterior() -> None:
+    from odolab.slip_uncertainty import describe_covariance
+
+    assert "and its coefficients' posterior" in describe_covariance(
+        SlipModel(posterior=_posterior())
+    )
+    assert "the parameters have no [model] posterior" in describe_covariance(SlipModel())

@@ -373,8 +373,9 @@ def _integrate_slip_covariance(req: OdometryRequest) -> OdometryOutcome:
     from odolab.io import read_encoder_csv
     from odolab.io.chunked import OdometryChunk
     from odolab.io.tabular import write_columns
+    from odolab.models import SlipModel
     from odolab.odometry import integrate
-    from odolab.slip_uncertainty import propagate_covariance
+    from odolab.slip_uncertainty import describe_covariance, propagate_covariance
     from odolab.uncertainty import first_order_note
 
     robot = req.params.params
@@ -393,16 +394,10 @@ def _integrate_slip_covariance(req: OdometryRequest) -> OdometryOutcome:
     terms = cov[:, [0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]]
     write_columns(req.output, OdometryChunk(traj, terms).columns(), "trajectory table")
     model = robot.model
-    posterior = bool(getattr(model, "posterior", ()))
+    assert isinstance(model, SlipModel)
     notes = [
-        "covariance: the slip model's predictive variance (its white noise q_*, k_* per "
-        "cycle, its drift d_* over the whole log"
-        + (
-            " and its coefficients' posterior)"
-            if posterior
-            else "; the parameters have no [model] posterior, so the coefficients' own "
-            "uncertainty is not in it)"
-        )
+        "covariance: "
+        + describe_covariance(model)
         + (", the whole log at once (--chunk-rows does not apply)" if req.chunk_rows else "")
     ]
     note = first_order_note(traj, terms)

@@ -392,6 +392,7 @@ def _fit_mean(
     cov = np.zeros((3 * k, 3 * k))
     cov[: 2 * k, : 2 * k] = sig_xy
     cov[2 * k :, 2 * k :] = sig_yaw
+    cov = 0.5 * (cov + cov.T)  # an inverse, symmetric to rounding: exactly so
     beta = np.concatenate((mu_xy, mu_yaw))
     limit = SlipModel.LIMIT
     values = {

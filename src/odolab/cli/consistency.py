@@ -45,10 +45,12 @@ def print_nees(
     from odolab.cli._output import markup_text
     from odolab.errors import ParamsError
     from odolab.metrics.consistency import nees_summary, run_nees
+    from odolab.models import SlipModel
     from odolab.params import covariance_source
 
     results = []
     sources = set()
+    slip_models: list[SlipModel] = []
     for run in _runs(paths, fmt, robot):
         p = robot or run.params
         source = covariance_source(p) if p is not None else None
@@ -58,6 +60,8 @@ def print_nees(
                 "model; give --params with a [noise] table (e.g. from `odolab calibrate noise`)"
             )
         sources.add(source)
+        if isinstance(p.model, SlipModel) and p.model not in slip_models:
+            slip_models.append(p.model)
         results.append(
             run_nees(run, p, method, segment_s=segment, fit_gt_yaw_offset=fit_gt_yaw_offset)
         )
@@ -93,13 +97,11 @@ def print_nees(
 
     from odolab.uncertainty import SECOND_ORDER_LIMIT
 
-    if "slip" in sources:
+    for model in slip_models:
+        from odolab.slip_uncertainty import describe_covariance
+
         console.print(
-            "note: covariance: the slip model's predictive variance (its white noise q_*, k_*, "
-            "drift d_* and coefficients' posterior, with the exact second moments of an "
-            "uncertain heading; docs/models.md)",
-            markup=False,
-            highlight=False,
+            "note: covariance: " + describe_covariance(model), markup=False, highlight=False
         )
     beyond = sum(
         int(np.sum(r.second_order > SECOND_ORDER_LIMIT))

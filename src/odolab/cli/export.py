@@ -181,7 +181,18 @@ def mcap_cmd(
     for note in first_order_notes(stream):  # the covariance's range (docs/ros2.md)
         echo(f"note: /odom pose covariance: {note}")
     if stream.covariance_source == "slip":
-        echo("note: /odom covariance: the slip model's predictive variance (docs/models.md)")
+        from odolab.models import SlipModel
+        from odolab.slip_uncertainty import describe_covariance
+
+        model = robot.model if robot is not None else None
+        echo(
+            "note: /odom covariance: "
+            + (
+                describe_covariance(model)
+                if isinstance(model, SlipModel)
+                else "the slip model's predictive variance (docs/models.md)"
+            )
+        )
     elif stream.covariance is None and len(paths) != 2:
         echo("note: /odom has no covariance (written as zeros): the parameters have neither a "
              "[noise] table nor a slip model")  # fmt: skip

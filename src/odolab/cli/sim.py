@@ -141,7 +141,13 @@ def sim_explore(
     ],
     seconds: Annotated[float, typer.Option(help="How long to explore (s).")] = 60.0,
     max_speed: Annotated[float, typer.Option(help="Largest wheel speed (m/s).")] = 1.0,
-    max_turn_rate: Annotated[float, typer.Option(help="Largest turn rate (rad/s).")] = 2.0,
+    max_turn_rate: Annotated[
+        float | None,
+        typer.Option(
+            help="Largest turn rate (rad/s). [default: 2, or a turn in place at --max-speed "
+            "when that is less]"
+        ),
+    ] = None,
     fence: Annotated[float, typer.Option(help="Geofence radius about the start (m).")] = 4.0,
     distribution: Annotated[
         str, typer.Option(help="How commands are drawn: uniform, or edges (mostly fast).")
@@ -157,6 +163,8 @@ def sim_explore(
     name: Annotated[str, typer.Option(help="File name stem of the run.")] = "explore",
 ) -> None:
     """Drive commands sampled over speed and turn rate inside a geofence; record with truth."""
+    import math
+
     import numpy as np
 
     from odolab.errors import SimError
@@ -173,6 +181,15 @@ def sim_explore(
         )
     stem = safe_file_name(name, what="run name", suffix=".csv")[: -len(".csv")]
     nominal = load_params(params)
+    chosen = ""
+    if max_turn_rate is None:
+        in_place = max_speed / (0.5 * nominal.track_width) if max_speed > 0 else 0.0
+        max_turn_rate = min(2.0, in_place) if math.isfinite(in_place) and in_place > 0 else 2.0
+        if max_turn_rate < 2.0:
+            chosen = (
+                f"--max-turn-rate not given: {max_turn_rate:.3g} rad/s, a turn in place at "
+                f"--max-speed {max_speed:g} m/s (the default 2 rad/s is beyond it)"
+            )
     # the bounds robot explore has (odolab.robot.config), up to the fastest wheel odolab drives
     check_exploration(
         Exploration(seconds, max_speed, max_turn_rate, fence=fence, distribution=distribution),
@@ -187,6 +204,8 @@ def sim_explore(
         fence_radius=fence,
         distribution=distribution,
     )
+    if chosen:
+        echo(chosen)
     run = explore(TRUTH_PRESETS[truth], nominal, settings, terrain=terrain, seed=seed)
     log, gt = write_exploration(output, run, stem)
     echo(

@@ -73,6 +73,37 @@ def _features(v: float, w: float) -> tuple[float, ...]:
     return (v, w, av, aw, v * av, v * aw, w * av, w * aw)
 
 
+def _check_posterior(values: tuple[float, ...], k: int, limit: float) -> None:
+    """A posterior covariance (``k`` x ``k``, row-major) must be one: every value finite, the
+    matrix symmetric and positive semi-definite, no variance beyond ``limit`` squared (a
+    negative variance gave negative covariances on /odom and in the odometry's output)."""
+    import numpy as np
+
+    m = np.asarray(values, dtype=np.float64).reshape(k, k)
+    if not np.all(np.isfinite(m)):
+        raise ParamsError("posterior has a value that is not a finite number")
+    scale = max(float(np.max(np.abs(np.diag(m)))), 1e-300)
+    worst = np.unravel_index(int(np.argmax(np.abs(m - m.T))), m.shape)
+    if abs(m[worst] - m[worst[::-1]]) > 1e-6 * scale:  # an inverse is symmetric to rounding
+        i, j = (int(x) for x in worst)
+        raise ParamsError(
+            f"posterior is not symmetric (entry {i},{j} is {m[i, j]:.6g}, entry {j},{i} "
+            f"{m[j, i]:.6g}); expected a covariance matrix"
+        )
+    d = np.diag(m)
+    if np.any(d < 0) or np.any(d > limit**2):
+        i = int(np.argmax((d < 0) | (d > limit**2)))
+        raise ParamsError(
+            f"posterior variance of {_COEF_KEYS[i]} is {d[i]:.6g}; expected 0 to {limit**2:g}"
+        )
+    low = float(np.linalg.eigvalsh(0.5 * (m + m.T))[0])
+    if low < -1e-9 * scale:
+        raise ParamsError(
+            f"posterior is not positive semi-definite (smallest eigenvalue {low:.6g}); expected "
+            "a covariance matrix"
+        )
+
+
 @dataclass(frozen=True)
 class SlipModel:
     """Differential drive plus body slip linear in a basis of the measured speeds (see module)."""
@@ -119,6 +150,9 @@ class SlipModel:
     COEF_KEYS: ClassVar[tuple[str, ...]] = _COEF_KEYS
     #: a slip coefficient beyond this size (in SI units of its feature) is a wrong file, not slip
     LIMIT: ClassVar[float] = 100.0
+    #: a variance term (q_*, k_*, d_*) beyond this is a wrong file: a heading variance of 100
+    #: rad^2 per second, metre or radian leaves nothing known of the pose
+    VARIANCE_LIMIT: ClassVar[float] = 100.0
 
     def __post_init__(self) -> None:
         for key in self.KEYS:
@@ -131,6 +165,11 @@ class SlipModel:
                 raise ParamsError(f"{key} must be >= 0 (a noise spectral density), got {value!r}")
             if key in DRIFT_KEYS and value < 0:
                 raise ParamsError(f"{key} must be >= 0 (a drift variance), got {value!r}")
+            if key in (*_NOISE_KEYS, *DRIFT_KEYS) and value > self.VARIANCE_LIMIT:
+                raise ParamsError(
+                    f"{key} = {value:.6g} is outside the plausible 0 to {self.VARIANCE_LIMIT:g} "
+                    "(a variance term in SI units: larger would be no odometry at all)"
+                )
             if key in _COEF_KEYS and abs(value) > self.LIMIT:
                 raise ParamsError(
                     f"{key} = {value:.6g} is outside the plausible -{self.LIMIT:g} to "
@@ -143,6 +182,8 @@ class SlipModel:
                 f"posterior has {len(self.posterior)} values; expected {k * k} ({k} x {k})"
             )
         object.__setattr__(self, "posterior", tuple(float(v) for v in self.posterior))
+        if self.posterior:
+            _check_posterior(self.posterior, k, self.LIMIT)
 
     # -- the KinematicModel protocol ------------------------------------------------------------
 
