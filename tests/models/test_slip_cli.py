@@ -197,3 +197,30 @@ def test_sim_explore_says_when_the_robot_left_its_fence(
     assert "beyond the 0.01 m fence" in out
     assert main(["sim", "explore", "-o", str(run), "--seconds", "5"]) == 0
     assert "fence" not in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["calibrate", "lsq", "RUN", "-f", "csv", "--model", "slip"],
+        ["calibrate", "noise", "RUN", "-f", "csv"],
+        ["calibrate", "ratios", "--distance-ratio", "0.9", "--rotation-ratio", "0.88"],
+    ],
+)
+def test_new_parameters_never_replace_the_params_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], command: list[str]
+) -> None:
+    """`robot explore` printed `... -p slip.toml --model slip -o slip.toml`: run as printed, it
+    replaced the user's calibrated file (found by a hostile-input review)."""
+    from odolab.params import PRESETS, save_params
+
+    run = tmp_path / "run"
+    assert main(["sim", "explore", "-o", str(run), "--seconds", "5", "--seed", "1"]) == 0
+    mine = save_params(tmp_path / "mine.toml", PRESETS["jaguar-lite"].with_(name="mine"))
+    before = mine.read_bytes()
+    capsys.readouterr()
+    args = [str(run / "explore.csv") if a == "RUN" else a for a in command]
+    assert main([*args, "-p", str(mine), "-o", str(mine)]) == 1
+    err = capsys.readouterr().err
+    assert "is the --params file this calibration starts from" in err and err.count("\n") == 1
+    assert mine.read_bytes() == before

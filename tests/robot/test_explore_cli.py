@@ -158,6 +158,8 @@ def test_explore_on_the_virtual_robot_then_fit_a_slip_model(
     assert "robot stopped (its sensor data confirms it)" in err
     assert f"ground truth: {run / 'encoders_gt.csv'}" in out
     assert f"odolab calibrate lsq {run / 'encoders.csv'} -f csv" in out
+    # the line printed writes into the run folder, never over the -p file it names
+    assert f"--model slip -o {run / 'slip.toml'}" in out
     for name in ("encoders.csv", "encoders_gt.csv", "predicted.csv", "run.json"):
         assert (run / name).is_file()
     doc = json.loads((run / "run.json").read_text())

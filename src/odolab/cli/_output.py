@@ -45,6 +45,23 @@ def check_output_path(path: Path, what: str) -> None:
         raise OutputError(f"{path}: cannot create its folder for the {what} ({err})") from err
 
 
+def check_not_the_input(output: Path, params: str | None) -> None:
+    """Refuse writing new parameters over the ``--params`` file they start from: the result
+    would replace what the calibration was made from (nothing already recorded is lost)."""
+    if params is None:
+        return
+    source = Path(params)
+    try:
+        same = source.is_file() and output.exists() and source.samefile(output)
+    except OSError:
+        same = False
+    if same:
+        raise OutputError(
+            f"{output}: is the --params file this calibration starts from; writing the new "
+            "parameters there would replace it; expected another file name for -o"
+        )
+
+
 def write_output_text(path: Path, text: str, what: str) -> None:
     """Write ``text`` to ``path`` (UTF-8), creating its folder."""
     from odolab.writing import write_text_file

@@ -144,10 +144,12 @@ def calibrate_noise_cmd(
 ) -> None:
     """Fit the \\[noise] table to runs with ground truth: k_left, k_right, k_scrub by maximum
     likelihood over the runs' pieces; judge it on held-out runs."""
+    from odolab.cli._output import check_not_the_input
     from odolab.errors import OdolabError
     from odolab.metrics.consistency import fit_noise
     from odolab.params import load_params, save_params
 
+    check_not_the_input(output, params)
     robot = load_params(params) if params else None
     found = _runs(runs, fmt.value, robot)
     base = robot or found[0].params

@@ -431,9 +431,11 @@ def calibrate_lsq_cmd(
     The output lists the runs fitted and the runs held out (--validate)."""
     from odolab.app.evaluate import LsqRequest, calibrate_lsq_runs
     from odolab.cli._fleet import expand_runs
+    from odolab.cli._output import check_not_the_input
     from odolab.metrics.cluster import Cluster
     from odolab.params import load_params, save_params
 
+    check_not_the_input(output, params)
     cluster = Cluster(scheduler=scheduler, workers=workers)  # (its address checked first)
     held = list(validate or [])
     fmt = run_format(fmt, [*runs, *held])

@@ -170,7 +170,7 @@ def calibrate_sensor_cmd(
         read_sensor_trajectory,
         wheel_angles,
     )
-    from odolab.cli._output import check_output_path
+    from odolab.cli._output import check_not_the_input, check_output_path
     from odolab.cli.evaluate import _write_json
     from odolab.io.registry import read_run
     from odolab.io.run import ReadOptions
@@ -184,6 +184,7 @@ def calibrate_sensor_cmd(
     options = SensorOptions(max_outliers=max_outliers)
     nominal = load_params(params)
     check_output_path(output, "parameters file")
+    check_not_the_input(output, params)
     if json_out is not None:
         check_output_path(json_out, "JSON result")
     if truth_out is not None:

@@ -245,8 +245,11 @@ def calibrate_ratios_cmd(
 ) -> None:
     """New wheel radius = old x distance ratio; new track = old x distance/rotation ratio."""
     from odolab.calibration import ratios
+    from odolab.cli._output import check_not_the_input
     from odolab.errors import OdolabError
     from odolab.params import load_params
+
+    check_not_the_input(output, params)
 
     if distance_ratio is not None and rotation_ratio is not None:
         if params is None:
@@ -309,8 +312,11 @@ def calibrate_umbmark_cmd(
     --errors (or squares without logs) it is the single linearized step.
     """
     from odolab.calibration import umbmark
+    from odolab.cli._output import check_not_the_input
     from odolab.errors import OdolabError
     from odolab.params import load_params
+
+    check_not_the_input(output, params)
 
     if errors is not None:
         if side is None:

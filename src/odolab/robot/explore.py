@@ -412,7 +412,7 @@ class ExplorePlan:
                 )
                 lines.append(
                     f"fit a slip model: odolab calibrate lsq {log} -f csv -p {self.params_name} "
-                    f"--model slip -o slip.toml"
+                    f"--model slip -o {folder / 'slip.toml'}"
                 )
             elif self.ground_truth == "virtual":
                 lines.append(f"run: {log}; no ground truth: {gt.get('attach')}")
