@@ -156,10 +156,11 @@ def test_cli_fits_noise_and_judges_held_out_runs(optiodom_dir, tmp_path) -> None
 
 
 def test_an_implausible_fit_names_the_piece_length(optiodom_dir) -> None:  # type: ignore[no-untyped-def]
-    # pieces of one sample: the fit said "[noise] k_left must be a number from 0 to 1, got 1e16"
+    # pieces of one sample: the fit said "[noise] k_left must be a number from 0 to 1, got 1e16";
+    # a piece shorter than a sample is now refused by name before any fit
     run = read_run(find_runs([optiodom_dir / "square"], "optiodom")[0], "optiodom")
     assert run.params is not None
-    with pytest.raises(InsufficientDataError, match=r"the noise fitted to pieces of 1e-09 s is "):
+    with pytest.raises(OdolabError, match=r"piece length 1e-09 s is shorter than the log's samp"):
         fit_noise_scale([run], run.params, segment_s=1e-9)
 
 

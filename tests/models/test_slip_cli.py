@@ -224,3 +224,54 @@ def test_new_parameters_never_replace_the_params_file(
     err = capsys.readouterr().err
     assert "is the --params file this calibration starts from" in err and err.count("\n") == 1
     assert mine.read_bytes() == before
+
+
+@pytest.fixture(scope="module")
+def two_runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, Path]:
+    """A 20 s exploration, a held-out one and a slip fit of the first."""
+    folder = tmp_path_factory.mktemp("two")
+    assert main(["sim", "explore", "-o", str(folder), "--seconds", "20", "--seed", "1"]) == 0
+    assert main(["sim", "explore", "-o", str(folder), "--seconds", "10", "--seed", "2",
+                 "--name", "held"]) == 0  # fmt: skip
+    slip = folder / "slip.toml"
+    assert main(["calibrate", "lsq", str(folder / "explore.csv"), "-f", "csv", "-p",
+                 "jaguar-lite", "--model", "slip", "-o", str(slip)]) == 0  # fmt: skip
+    return folder / "explore.csv", folder / "held.csv", slip
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--learning-curve", "10,,20"], "--learning-curve '10,,20' has an empty item"),
+        (["--learning-curve", ","], "--learning-curve ',' has an empty item"),
+        (["--learning-curve", "10,10"], "--learning-curve: 10 s is given twice"),
+        (["--learning-curve", "100"], "--learning-curve: 100 s is longer than the first training"),
+        (["--segment", "1e9"], "with segments of 1e+09 s: diff, extended: 3 residuals for 4"),
+    ],
+)
+def test_compare_options_that_meant_nothing_are_refused(
+    two_runs: tuple[Path, Path, Path],
+    capsys: pytest.CaptureFixture[str],
+    args: list[str],
+    message: str,
+) -> None:
+    """Each was accepted: an empty item dropped, a repeated point, a point past the run (the
+    whole run under another label), a reason repeated once a model (hostile-input review)."""
+    explore, held, _ = two_runs
+    capsys.readouterr()
+    code = main(["calibrate", "compare", str(explore), "--validate", str(held), "-f", "csv",
+                 "-p", "jaguar-lite", "--workers", "1", *args])  # fmt: skip
+    err = capsys.readouterr().err
+    assert code == 1 and message in err and err.count("\n") == 1, err
+
+
+def test_a_nees_piece_shorter_than_a_cycle_is_refused(
+    two_runs: tuple[Path, Path, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
+    _, held, slip = two_runs
+    capsys.readouterr()
+    code = main(["evaluate", str(held), "-f", "csv", "--params", str(slip), "--nees",
+                 "--nees-segment", "1e-9"])  # fmt: skip
+    err = capsys.readouterr().err
+    assert code == 1
+    assert "piece length 1e-09 s is shorter than the log's sample spacing (0.05 s)" in err

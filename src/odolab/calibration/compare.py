@@ -374,6 +374,7 @@ def compare_models(
     base = nominal or train[0].params
     if base is None:
         raise CalibrationError(f"{train[0].source}: the run has no nominal parameters")
+    _check_curve(curve, train[0])
     prepared = [prepare_run(r, o.segment_s) for r in train]
     rng = np.random.default_rng(seed)
     cv = not held_out
@@ -425,6 +426,14 @@ def compare_models(
                 segment_errors=[seg for _, seg in rows],
             )
         )  # fmt: skip
+    if all(sc.problem is not None for sc in scores):
+        why: dict[str, list[str]] = {}
+        for sc in scores:
+            why.setdefault(str(sc.problem), []).append(sc.model)
+        raise CalibrationError(
+            f"no model could be fitted to these runs with segments of {o.segment_s:g} s: "
+            + "; ".join(f"{', '.join(ms)}: {problem}" for problem, ms in why.items())
+        )
     result = _recommend(scores, train, test_runs, cv, rng, n_boot)
     if curve:
         from odolab.calibration.slipfit import learning_curve
@@ -432,6 +441,29 @@ def compare_models(
         curve_rows = learning_curve(train[0], test_runs, base, tuple(curve), tuple(order))
         result = replace(result, learning_curve=[dict(r) for r in curve_rows])
     return result
+
+
+def _check_curve(curve: Sequence[float], run: OdometryRun) -> None:
+    """The learning curve's seconds: positive, each once, none beyond the first training run
+    (a point past its end was the whole run under another label)."""
+    t = np.asarray(run.t, dtype=np.float64)
+    span = float(t[-1] - t[0]) if t.size else 0.0
+    step = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    seen: set[float] = set()
+    for s in curve:
+        if not (math.isfinite(s) and s > 0):
+            raise CalibrationError(
+                f"--learning-curve: {s!r} is not a positive number of seconds; expected e.g. "
+                "10,20,30,60"
+            )
+        if s in seen:
+            raise CalibrationError(f"--learning-curve: {s:g} s is given twice; expected each once")
+        seen.add(s)
+        if s > span + step:
+            raise CalibrationError(
+                f"--learning-curve: {s:g} s is longer than the first training run "
+                f"{run.source} ({span:.4g} s); expected at most its length"
+            )
 
 
 def _ratio_text(r: Estimate) -> str:

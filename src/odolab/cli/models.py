@@ -85,7 +85,13 @@ def calibrate_compare_cmd(
     if not chosen:
         raise CalibrationError("--models: empty; expected e.g. diff,icr")
     curve: list[float] = []
-    for item in (x.strip() for x in learning_curve.split(",") if x.strip()):
+    items = [x.strip() for x in learning_curve.split(",")] if learning_curve.strip() else []
+    for item in items:
+        if not item:
+            raise CalibrationError(
+                f"--learning-curve {learning_curve!r} has an empty item; expected seconds "
+                "separated by commas, e.g. 10,20,30,60"
+            )
         try:
             value = float(item)
         except ValueError:

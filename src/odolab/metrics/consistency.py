@@ -167,6 +167,12 @@ def _run_pieces(
     if idx.size < 2:
         raise InsufficientDataError(f"{run.source}: the ground truth does not cover the log")
     t = run.t[idx]
+    spacing = float(np.median(np.diff(t)))
+    if segment_s < spacing * (1.0 - 1e-9):  # a piece of one cycle, labelled as shorter
+        raise OdolabError(
+            f"{run.source}: piece length {segment_s:g} s is shorter than the log's sample "
+            f"spacing ({spacing:.3g} s); expected a piece length of at least {spacing:.3g} s"
+        )
     dl = run.dticks_left[idx].copy()
     dr = run.dticks_right[idx].copy()
     dl[0] = dr[0] = 0.0
