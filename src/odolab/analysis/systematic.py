@@ -110,6 +110,8 @@ def fit_line(
     ids = tuple(trial_ids) if trial_ids else tuple(str(i) for i in range(n))
     design = xa[:, None] if through_origin else sm.add_constant(xa, has_constant="add")
     res = sm.OLS(ya, design).fit()
+    with np.errstate(invalid="ignore", divide="ignore"):  # no spread in y: R² is undefined
+        r2 = float(res.rsquared)
     ci = np.asarray(res.conf_int(alpha=0.05))
     k = 0 if through_origin else 1  # index of the slope among the coefficients
     return LinearFit(
@@ -121,7 +123,7 @@ def fit_line(
         intercept_se=0.0 if through_origin else float(res.bse[0]),
         slope_ci95=(float(ci[k, 0]), float(ci[k, 1])),
         intercept_ci95=(0.0, 0.0) if through_origin else (float(ci[0, 0]), float(ci[0, 1])),
-        r2=float(res.rsquared),
+        r2=r2,
         residual_sd=float(np.sqrt(res.mse_resid)),
         df_resid=round(float(res.df_resid)),
         x=xa,

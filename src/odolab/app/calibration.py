@@ -246,7 +246,16 @@ def _ratios(
     base = choose_base(nb, robot, sel.trials, req.params, req.params_source)
     analysis = analyze_trials(sel.trials)
     result = ratios_from_analysis(analysis, base.params, terrain=req.terrain)
-    return result, base, sel.trials, analysis
+    # the trials it comes from: those of the two fits on its terrain (record_calibration adds
+    # the [noise] fit's), not every trial of the selection (the squares were listed too)
+    terrain = str(result.provenance.get("terrain") or "")
+    ids: set[str] = set()
+    for motion in ("x", "rotation"):
+        fit = analysis.get(motion, terrain)
+        if fit is not None:
+            ids.update(fit.fit.trial_ids)
+    used = [t for t in sel.trials if t.trial_id in ids] if ids else sel.trials
+    return result, base, used, analysis
 
 
 def umbmark_from_squares(

@@ -2,10 +2,11 @@
 
 Convention (``ratio = actual / predicted``, both from the fits):
 
-* distance ratio ``q_d`` (x fit slope): each wheel rolls ``q_d`` times what odometry assumed,
-  so every wheel radius is MULTIPLIED by it: ``r_new = q_d * r_old``;
-* rotation ratio ``q_r`` (rotation fit slope): the heading change is ``(ds_r - ds_l) / b``;
-  with the new radii the wheel distances grow by ``q_d`` while the robot actually turned only
+* distance ratio ``q_d`` (the x fit's ratio through the origin, Table I's ratio): each wheel
+  rolls ``q_d`` times what odometry assumed, so every wheel radius is MULTIPLIED by it:
+  ``r_new = q_d * r_old``;
+* rotation ratio ``q_r`` (the rotation fit's ratio through the origin): the heading change is
+  ``(ds_r - ds_l) / b``; with the new radii the wheel distances grow by ``q_d`` while the robot actually turned only
   ``q_r`` of the prediction, so ``b_new = b_old * q_d / q_r``.
 
 Example: ``q_d = 0.905``, ``q_r = 0.875`` turn ``r`` and ``b`` into ``0.905 r`` and
@@ -250,7 +251,8 @@ def ratios_from_analysis(
     *,
     terrain: str | None = None,
 ) -> CalibrationResult:
-    """Ratios taken from the notebook's fits: the x and rotation slopes on one terrain.
+    """Ratios taken from the notebook's fits: the x and rotation ratios (through the origin,
+    Table I's ratio column; not the slopes of the lines with an intercept) on one terrain.
 
     ``terrain`` defaults to the first terrain (alphabetical) that has both a rotation and an x
     fit; ``params`` default to the parameters the trials were run with.
@@ -270,8 +272,8 @@ def ratios_from_analysis(
                 distance_ratio_ci95=x.ratio_ci95,
                 rotation_ratio_ci95=rot.ratio_ci95,
                 source=(
-                    f"analysis fits on {t}: x slope from {x.fit.n} trials, rotation slope "
-                    f"from {rot.fit.n} trials"
+                    f"analysis fits on {t}: x ratio (through the origin) from {x.fit.n} "
+                    f"trials, rotation ratio from {rot.fit.n} trials"
                 ),
                 terrain=t,
             )

@@ -44,7 +44,7 @@ def print_nees(
 
     from odolab.cli._output import markup_text
     from odolab.errors import ParamsError
-    from odolab.metrics.consistency import nees_summary, run_nees
+    from odolab.metrics.consistency import first_order_note, nees_summary, run_nees
     from odolab.models import SlipModel
     from odolab.params import covariance_source
 
@@ -93,9 +93,6 @@ def print_nees(
         markup=False,
         highlight=False,
     )
-    import numpy as np
-
-    from odolab.uncertainty import SECOND_ORDER_LIMIT
 
     for model in slip_models:
         from odolab.slip_uncertainty import describe_covariance
@@ -103,20 +100,9 @@ def print_nees(
         console.print(
             "note: covariance: " + describe_covariance(model), markup=False, highlight=False
         )
-    beyond = sum(
-        int(np.sum(r.second_order > SECOND_ORDER_LIMIT))
-        for r in results
-        if r.second_order is not None
-    )
-    if beyond and sources == {"noise"}:
-        console.print(
-            f"note: {beyond} of {summary.n} pieces go past the first-order covariance's range "
-            f"(second-order index > {SECOND_ORDER_LIMIT:g}, docs/ros2.md): there it understates "
-            "the spread, and their NEES runs high for that reason alone; shorter pieces "
-            "(--nees-segment) stay inside it",
-            markup=False,
-            highlight=False,
-        )
+    beyond, note = first_order_note(results)
+    if note:
+        console.print(f"note: {note}", markup=False, highlight=False)
     head = {**summary.to_dict(), "pieces_past_first_order": beyond}
     return {"summary": head, "runs": [r.to_dict() for r in results]}
 

@@ -228,10 +228,18 @@ def calibrate_ratios_cmd(
     output: Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")],
     params: ParamsOpt = None,
     distance_ratio: Annotated[
-        float | None, typer.Option(help="actual/predicted distance (x fit slope).")
+        float | None,
+        typer.Option(
+            help="actual/predicted distance: the x fit's ratio through the origin (Table I's "
+            "ratio, not the slope of the line with an intercept)."
+        ),
     ] = None,
     rotation_ratio: Annotated[
-        float | None, typer.Option(help="actual/predicted rotation (rotation fit slope).")
+        float | None,
+        typer.Option(
+            help="actual/predicted rotation: the rotation fit's ratio through the origin "
+            "(Table I's ratio, not the slope of the line with an intercept)."
+        ),
     ] = None,
     db: Annotated[
         Path | None,
@@ -279,6 +287,12 @@ def calibrate_ratios_cmd(
     else:
         raise OdolabError("give both --distance-ratio and --rotation-ratio, or neither")
     p = result.params
+    fits_terrain = result.provenance.get("terrain")
+    if fits_terrain and terrain is None:  # chosen for the user: say so
+        echo(
+            f"terrain: {fits_terrain} (not given, so chosen: the first, alphabetically, with both "
+            "a rotation and an x fit; --terrain picks another)"
+        )
     echo(
         f"ratios: distance {result.provenance['distance_ratio']:.4g}, rotation "
         f"{result.provenance['rotation_ratio']:.4g} -> wheel radius {p.left_wheel_radius:.5g} m, "

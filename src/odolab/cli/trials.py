@@ -465,9 +465,14 @@ def add_cmd(
             params = PRESETS[robot]
         else:
             raise StoreError(f"no parameters of robot {robot!r} in {db} and no such preset")
+        if campaign not in nb.campaign_names() and not (create_campaign and terrain):
+            # one sentence whatever was given (it said "give --terrain to create it", and with
+            # --terrain "add it first")
+            raise StoreError(
+                f"unknown campaign {campaign!r} in {db}; expected one of its campaigns, or "
+                "--create-campaign with --terrain to create it (or odolab trials campaign-add)"
+            )
         if terrain is None:
-            if campaign not in nb.campaign_names():
-                raise StoreError(f"unknown campaign {campaign!r}: give --terrain to create it")
             terrain = nb.get_campaign(campaign).terrain
         if not math.isfinite(predicted_heading):
             raise StoreError(

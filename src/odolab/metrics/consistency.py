@@ -339,6 +339,26 @@ def nees_summary(runs: Sequence[RunNees]) -> NeesSummary:
     return NeesSummary(n, mean, (lo, hi), dof, (s_lo, s_hi), inside, above, verdict)
 
 
+def first_order_note(runs: Sequence[RunNees]) -> tuple[int, str | None]:
+    """How many pieces go past the first-order covariance's range (second-order index above
+    :data:`odolab.uncertainty.SECOND_ORDER_LIMIT`; the ``[noise]`` covariance only: the slip
+    model's has the exact second moments), and the sentence every face says about them (None
+    when there are none)."""
+    from odolab.uncertainty import SECOND_ORDER_LIMIT
+
+    n = sum(r.nees.size for r in runs)
+    beyond = sum(
+        int(np.sum(r.second_order > SECOND_ORDER_LIMIT)) for r in runs if r.second_order is not None
+    )
+    if not beyond:
+        return 0, None
+    return beyond, (
+        f"{beyond} of {n} pieces go past the first-order covariance's range (second-order index "
+        f"> {SECOND_ORDER_LIMIT:g}, docs/ros2.md): there it understates the spread, and their "
+        "NEES runs high for that reason alone; shorter pieces (--nees-segment) stay inside it"
+    )
+
+
 def fit_noise_scale(
     runs: Sequence[OdometryRun],
     params: RobotParams,

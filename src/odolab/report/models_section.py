@@ -29,7 +29,7 @@ import numpy as np
 from odolab import numfmt
 from odolab.analysis.questions import ExperimentResult
 from odolab.calibration.compare import UNDECIDED, Estimate, ModelComparison
-from odolab.metrics.consistency import DOF, RunNees, nees_summary
+from odolab.metrics.consistency import DOF, RunNees, first_order_note, nees_summary
 from odolab.report.view import Cell
 
 if TYPE_CHECKING:
@@ -290,10 +290,12 @@ class ModelEvidence:
         """The ``consistency`` entry of ``results.json`` (None without NEES)."""
         if not self.nees:
             return None
+        beyond, note = first_order_note(self.nees)
         return {
-            "summary": nees_summary(self.nees).to_dict(),
+            "summary": {**nees_summary(self.nees).to_dict(), "pieces_past_first_order": beyond},
             "runs": [r.to_dict() for r in self.nees],
             "about": self.about_nees,
+            "first_order_note": note,
         }
 
 
@@ -564,6 +566,7 @@ def consistency_view(c: Mapping[str, Any]) -> dict[str, Any]:
         "expected_inside": "95 %",
         "per_run": "; ".join(per_run),
         "about": str(c.get("about", "")),
+        "first_order_note": str(c.get("first_order_note") or ""),
     }
 
 

@@ -5,6 +5,7 @@ Numbers follow :mod:`odolab.numfmt`: a value carries the decimals its 95 % inter
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
@@ -55,7 +56,7 @@ def table1_rich(rows: Sequence[dict[str, Any]], *, title: str = "Table I") -> Ta
             numfmt.with_ci(r["ratio"], lo, hi),
             r["ratio_unit"],
             numfmt.with_ci(r["error_per_predicted"], elo, ehi).split(" [")[0],
-            f"{r['r2']:.3f}",
+            f"{r['r2']:.3f}" if math.isfinite(r["r2"]) else "-",  # no spread in y: undefined
             sig or "-",
             growth,
         )

@@ -7,6 +7,7 @@ The template only lays these out; it formats nothing and marks nothing as safe (
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -275,7 +276,7 @@ def fits_rows(analysis: LabAnalysis) -> list[list[Cell]]:
                 Cell(
                     "intercept [95 % CI]", f"{numfmt.with_ci(f.intercept, *f.intercept_ci95)} {u}"
                 ),
-                Cell("R²", f"{f.r2:.4f}"),
+                Cell("R²", f"{f.r2:.4f}" if math.isfinite(f.r2) else "–"),
                 Cell(
                     "ratio through the origin [95 % CI]",
                     "-" if rf is None else numfmt.with_ci(rf.slope, *rf.slope_ci95),
@@ -318,10 +319,14 @@ def provenance_rows(prov: Mapping[str, Any]) -> tuple[list[tuple[str, str]], lis
         if k in ("old",) or k.endswith("_ci95"):
             continue
         if k == "iterations" and isinstance(v, list):
-            for i, it in enumerate(v, start=1):
+            # the columns of the first iterate for every row: the last iterate (the result)
+            # has no step taken from it, and its cells were shifted under the step's columns
+            cols = _iteration_columns(v)
+            for i, it in enumerate(v):
                 if isinstance(it, Mapping):
                     iterations.append(
-                        [str(i)] + [fmt(it.get(c), 5) for c in sorted(it) if c != "iteration"]
+                        [str(it.get("iteration", i))]
+                        + [fmt(it[c], 5) if c in it else "–" for c in cols]
                     )
             continue
         label = _PROV_LABELS.get(k, k.replace("_", " "))
@@ -336,11 +341,18 @@ def provenance_rows(prov: Mapping[str, Any]) -> tuple[list[tuple[str, str]], lis
     return rows, iterations
 
 
+def _iteration_columns(its: list[Any]) -> list[str]:
+    """The columns of the iterations table: every key of any iterate but its number, sorted."""
+    keys = {c for it in its if isinstance(it, Mapping) for c in it}
+    return sorted(keys - {"iteration"})
+
+
 def iteration_header(prov: Mapping[str, Any]) -> list[str]:
-    """Column names of the iterations table (the keys of one iterate, sorted)."""
+    """Column names of the iterations table: the iterate's number (0: the start, as the
+    parameters file counts them) and the keys of the iterates, sorted."""
     its = prov.get("iterations")
     if isinstance(its, list) and its and isinstance(its[0], Mapping):
-        return ["step"] + [c.replace("_", " ") for c in sorted(its[0]) if c != "iteration"]
+        return ["iterate"] + [c.replace("_", " ") for c in _iteration_columns(its)]
     return []
 
 
