@@ -228,7 +228,7 @@ def umbmark_start(
     terrain = result.provenance.get("terrain")
     on = f" on {terrain}" if terrain else ""
     return BaseChoice(
-        result.params.with_(name=base.robot),
+        result.params,  # named as the ratios result, so the provenance says where it started
         base.robot,
         None,
         f"the ratios calibration of the same trials{on} (UMBmark iterated on the squares' "
