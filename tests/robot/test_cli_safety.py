@@ -256,3 +256,38 @@ def test_commands_without_effect_abort_the_cli_run(
     assert speeds == (0.0, 0.0)
     # the counters never moved, so two equal reports after the stop confirm it honestly
     assert "robot stopped (its sensor data confirms it)" in err
+
+
+def test_the_control_loop_never_draws_the_live_view(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The live view was drawn inside the control cycle: a terminal that stopped reading
+    (Ctrl-S, a stalled ssh session) froze the loop with the motion in force, 8 s on a board
+    with a 5 s timeout (a robot-safety review). rich's own thread draws it now, from the
+    latest cycle; the loop only hands the cycle over."""
+    import threading
+
+    from rich.live import Live
+
+    loop_thread = threading.current_thread()
+    drawn: list[str] = []
+
+    def update(self: Live, *args: object, **kwargs: object) -> None:
+        raise AssertionError("the control loop updated the live view")
+
+    original = Live.refresh
+
+    def refresh(self: Live) -> None:
+        if threading.current_thread() is loop_thread and self.is_started and drawn:
+            raise AssertionError("the control loop drew the live view")
+        drawn.append(threading.current_thread().name)
+        original(self)
+
+    monkeypatch.setattr(Live, "update", update)
+    monkeypatch.setattr(Live, "refresh", refresh)
+    out = tmp_path / "run"
+    code = main(["robot", "drive", "--distance", "0.5", "--speed", "0.5", "--no-realtime",
+                 "--out", str(out)])  # fmt: skip
+    err = capsys.readouterr().err
+    assert code == 0, err
+    assert (out / "run.json").is_file()

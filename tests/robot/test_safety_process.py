@@ -181,6 +181,39 @@ def test_ctrl_c_stops_within_one_cycle(tmp_path: Path) -> None:
     assert (tmp_path / "run" / "run.json").exists()
 
 
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP])
+def test_sigterm_and_sighup_stop_the_robot_and_keep_the_run(
+    tmp_path: Path, sig: signal.Signals
+) -> None:
+    """They killed the driver at once: no stop sent (the board's own timeout stopped the
+    wheels), nothing saved, nothing said (a robot-safety review)."""
+    with board(tmp_path) as b:
+        drv = drive(b, tmp_path, "--distance", "5", "--speed", "0.5")
+        wait_moving(b)
+        drv.send_signal(sig)
+        _out, err = drv.communicate(timeout=30)
+        _, why = b.final_stop()
+    assert why != "command-timeout", b.lines()[-3:]  # the host's stop, not the board's timeout
+    assert drv.returncode == 130, err
+    assert "robot stopped (its sensor data confirms it)" in err
+    assert err.rstrip().endswith("odolab: interrupted")
+    assert (tmp_path / "run" / "run.json").exists()
+
+
+def test_a_second_ctrl_c_while_stopping_keeps_the_run(tmp_path: Path) -> None:
+    """A second Ctrl-C during the stop's confirmation skipped the saving: no run, no word."""
+    with board(tmp_path) as b:
+        drv = drive(b, tmp_path, "--distance", "5", "--speed", "0.5")
+        wait_moving(b)
+        drv.send_signal(signal.SIGINT)
+        time.sleep(0.05)
+        drv.send_signal(signal.SIGINT)
+        _out, err = drv.communicate(timeout=30)
+    assert drv.returncode == 130, err
+    assert "the partial run is saved to" in err
+    assert (tmp_path / "run" / "run.json").exists()
+
+
 DRIVER_WITH_A_BUG = """
 import sys, time
 from odolab.robot.config import RunConfig

@@ -243,6 +243,8 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         sys.stderr.write("odolab: interrupted\n")
         return 130
+    if code == 130:  # typer turns Ctrl-C (and a run's SIGTERM) into exit 130 without a word
+        sys.stderr.write("odolab: interrupted\n")
     return code if isinstance(code, int) else 0
 
 

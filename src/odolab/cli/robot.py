@@ -193,8 +193,42 @@ class _LiveTable:
         self.rate = rate
         self.title = f"odolab robot: {markup_text(target)}"
 
+    #: the latest cycle, set by the control loop (a plain assignment, no lock)
+    latest: CycleInfo | None = None
+
     def __call__(self, info: CycleInfo) -> Any:
         return _live_table(self._table(title=self.title, show_header=False), info, self.rate)
+
+    def render(self) -> Any:
+        """The view of the latest cycle, for rich's refresh thread."""
+        info = self.latest
+        return self(info) if info is not None else self.title
+
+
+class _EventPrinter:
+    """Prints lines on stderr from its own thread, so that the control loop never waits on
+    the terminal; :meth:`flush` waits until every line given so far is out."""
+
+    def __init__(self) -> None:
+        import queue
+        import threading
+
+        self._lines: queue.Queue[str] = queue.Queue()
+        threading.Thread(target=self._work, name="odolab-events", daemon=True).start()
+
+    def put(self, line: str) -> None:
+        self._lines.put(line)
+
+    def _work(self) -> None:
+        while True:
+            line = self._lines.get()
+            try:
+                echo(line, err=True)
+            finally:
+                self._lines.task_done()
+
+    def flush(self) -> None:
+        self._lines.join()
 
 
 def _live_table(table: Any, info: CycleInfo, rate: float) -> Any:
@@ -322,21 +356,32 @@ def _run(
     console = Console(stderr=True)
     target = command.describe()
     events: list[str] = []
+    # nothing the control loop calls writes to the terminal: a terminal that stops reading
+    # (Ctrl-S, a stalled ssh session) blocked the loop with the motion in force; the live view
+    # is drawn by rich's own thread from the latest cycle, and events by a printer thread
+    printer = _EventPrinter() if quiet else None
 
     def on_event(t: float, message: str) -> None:
         events.append(f"t={t:.2f} s: {message}")
-        if quiet:  # no live view: say it at once, a lost link must not be silent
-            echo(events[-1], err=True)
+        if printer is not None:  # no live view: say it at once, a lost link must not be silent
+            printer.put(events[-1])
 
-    live = Live(console=console, refresh_per_second=8, transient=False) if not quiet else None
     live_table = _LiveTable(config.rate, target)
-    every = max(1, round(config.rate / 8))
+    live = (
+        Live(
+            console=console,
+            refresh_per_second=8,
+            transient=False,
+            get_renderable=live_table.render,
+        )
+        if not quiet
+        else None
+    )
 
     view: _FoxgloveView | None = None  # started once every check has passed
 
     def on_cycle(info: CycleInfo) -> None:
-        if live is not None and (info.index % every == 0 or not info.link_ok):
-            live.update(live_table(info))
+        live_table.latest = info  # one assignment: the drawing thread reads it
         if view is not None:
             view.publish(info)
 
@@ -362,7 +407,7 @@ def _run(
             command, config, url=url, nominal=nominal, plant=plant, seed=seed, terrain=terrain,
             on_cycle=on_cycle, on_event=on_event, realtime=realtime, folder=folder,
             notebook=notebook, db=db, quiet=quiet, live=live, view=view, events=events,
-            target=target, plan=plan,
+            target=target, plan=plan, printer=printer,
         )  # fmt: skip
     finally:
         if notebook is not None:
@@ -445,6 +490,7 @@ def _drive(
     events: list[str],
     target: str,
     plan: ExplorePlan | None = None,
+    printer: _EventPrinter | None = None,
 ) -> None:
     """Drive the checked run; keep it (folder, notebook) whatever fails after the robot moved."""
     from odolab.errors import RobotLinkError
@@ -453,6 +499,8 @@ def _drive(
 
     def on_abort(report: AbortReport) -> None:
         nonlocal live
+        if printer is not None:
+            printer.flush()
         if live is not None:
             live.stop()
             live = None
@@ -494,6 +542,8 @@ def _drive(
                 on_abort=on_abort,
             )
     finally:
+        if printer is not None:
+            printer.flush()
         if live is not None:
             live.stop()
         if view is not None:

@@ -22,11 +22,13 @@ path (:attr:`RobotRun.truth`, written as ``encoders_gt.csv`` beside ``encoders.c
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
 import tempfile
 from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
@@ -150,6 +152,65 @@ def _true_pose(link: RobotLink) -> Pose | None:
         return None
 
 
+class RunSignal(KeyboardInterrupt):
+    """SIGTERM or SIGHUP during a run (a ``kill``, a closed ssh session): handled as Ctrl-C
+    is, the robot stopped, the stop confirmed and what was driven saved."""
+
+    def __init__(self, signum: int) -> None:
+        import signal
+
+        self.signum = signum
+        super().__init__(signal.Signals(signum).name)
+
+
+@dataclass
+class _Signals:
+    """While a run drives: whether the stop and the saving that follow an interrupt are under
+    way (a second signal then waits for them: it cut them short and lost the run), and the
+    signal that arrived meanwhile."""
+
+    deferring: bool = False
+    pending: int | None = None
+
+
+@contextmanager
+def _run_signals() -> Iterator[_Signals]:
+    """Ctrl-C, SIGTERM and SIGHUP stop the run the same way: the first raises in the control
+    loop (the loop's stop, :meth:`Driver.confirm_stopped`, the partial run kept); any further
+    one while that is under way is held until it is done. SIGTERM and SIGHUP killed the
+    process at once before: no stop sent, the run lost. A signal the process ignores (``nohup``,
+    a background job's SIGINT) stays ignored; off the main thread nothing changes."""
+    import signal
+    import threading
+
+    state = _Signals()
+    if threading.current_thread() is not threading.main_thread():
+        yield state
+        return
+
+    def handler(signum: int, frame: object) -> None:
+        if state.deferring:
+            state.pending = signum
+            return
+        state.deferring = True  # the stop and the saving that follow are not cut short
+        raise KeyboardInterrupt if signum == signal.SIGINT else RunSignal(signum)
+
+    wanted = {
+        signal.SIGINT: signal.default_int_handler,
+        signal.SIGTERM: signal.SIG_DFL,
+        signal.SIGHUP: signal.SIG_DFL,
+    }
+    old = {s: signal.getsignal(s) for s in wanted}
+    for sig, default in wanted.items():
+        if old[sig] is default:  # only where the signal would end the process
+            signal.signal(sig, handler)
+    try:
+        yield state
+    finally:
+        for sig, previous in old.items():
+            signal.signal(sig, previous)
+
+
 def confirm_timeout(config: RunConfig) -> float:
     """How long to wait for the robot's data to confirm a stop: 2 watchdog times, >= 1 s."""
     return max(1.0, 2.0 * config.watchdog)
@@ -176,6 +237,8 @@ def _drive_link(
     driver: Driver = link.driver
     rt = realtime and set_realtime(True)
     loop: ControlLoop | None = None
+    signals = contextlib.ExitStack()
+    state = signals.enter_context(_run_signals())
     try:
         try:
             loop = ControlLoop(
@@ -195,6 +258,7 @@ def _drive_link(
                 stall_timeout=config.stall_timeout,
             )
         except BaseException as err:
+            state.deferring = True  # a second Ctrl-C must not cut the stop and the saving short
             confirmed = driver.confirm_stopped(confirm_timeout(config))
             partial: RobotRun | None = None
             if loop is not None and loop.partial is not None and len(loop.partial.log) > 0:
@@ -221,6 +285,7 @@ def _drive_link(
                     )
                 )
             raise
+        state.deferring = True  # the motion is done: a Ctrl-C now must not lose the run
         confirmed = driver.confirm_stopped(confirm_timeout(config))
         run = RobotRun(
             _trial(command, result, params, terrain, _true_pose(link), campaign),
@@ -236,9 +301,12 @@ def _drive_link(
             run = replace(run, saved_to=saved, save_note=note)
         return run
     finally:
-        link.close()
-        if rt:
-            set_realtime(False)
+        try:
+            link.close()
+            if rt:
+                set_realtime(False)
+        finally:
+            signals.close()
 
 
 def _finished(run: RobotRun, finish: Finish | None) -> RobotRun:
