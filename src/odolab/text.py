@@ -36,9 +36,11 @@ __all__ = [
     "MAX_ECHO_CHARS",
     "MAX_NAME_CHARS",
     "UnsafeNameError",
+    "display_value",
     "inert_csv_cell",
     "quote_input",
     "read_csv_cell",
+    "safe_display",
     "safe_file_name",
     "safe_html",
     "safe_terminal",
@@ -101,6 +103,26 @@ def safe_terminal(text: object, *, limit: int | None = None, unicode_escapes: bo
         else:
             out.append(f"\\U{ord(ch):08x}")
     return "".join(out)
+
+
+def safe_display(text: object) -> str:
+    """``text`` for a page: every control or invisible character shown as an escape, as
+    :func:`safe_terminal` does (a right-to-left override in a name reversed the page's own
+    sentences after it), but line breaks and tabs kept (on a page they are white space)."""
+    s = str(text)
+    if s.isprintable():
+        return s
+    return "\n".join(safe_terminal(part).replace("\\x09", "\t") for part in s.split("\n"))
+
+
+def display_value(value: object) -> object:
+    """A page template's ``finalize``: every text it prints through :func:`safe_display`
+    (markup odolab made is left as it is)."""
+    from markupsafe import Markup
+
+    if isinstance(value, str) and not isinstance(value, Markup):
+        return safe_display(value)
+    return value
 
 
 def quote_input(value: object, limit: int = MAX_ECHO_CHARS) -> str:

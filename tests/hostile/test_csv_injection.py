@@ -58,7 +58,13 @@ def _excluded_with(db: Path, reasons: list[str], notes: list[str]) -> list[str]:
     trials = make_trials(len(reasons), seed=9, measured_every=1)
     with Notebook(db) as nb:
         nb.add_campaign("rot-lab", "rotation", "lab")
-        nb.add_trials([replace(t, notes=n) for t, n in zip(trials, notes, strict=True)])
+        # measured, not excluded yet: excluding again keeps the earlier reason (store)
+        nb.add_trials(
+            [
+                replace(t, notes=n, status=TrialStatus.MEASURED, exclusion_reason=None)
+                for t, n in zip(trials, notes, strict=True)
+            ]
+        )
         for t, reason in zip(trials, reasons, strict=True):
             nb.exclude_trial(t.trial_id, reason)
     return [t.trial_id for t in trials]

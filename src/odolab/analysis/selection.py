@@ -9,21 +9,71 @@ through :func:`select_trials` and print :meth:`TrialSelection.describe`.
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
 from odolab.errors import OdolabError
 from odolab.numfmt import count
 from odolab.trials import Trial, TrialStatus
 
-__all__ = ["VALIDATION_TAG", "SelectionError", "TrialSelection", "select_trials"]
+__all__ = [
+    "CLI_WORDS",
+    "VALIDATION_TAG",
+    "WEB_WORDS",
+    "SelectionError",
+    "TrialSelection",
+    "UnknownCampaignError",
+    "Wording",
+    "reason_in_words",
+    "select_trials",
+]
 
 #: the start of a campaign's notes that marks it as a validation campaign
 VALIDATION_TAG = "validation:"
 
 
+@dataclass(frozen=True)
+class Wording:
+    """How a face names the selection's options in its sentences."""
+
+    campaign: str  #: the option that names campaigns
+    exclude: str  #: the option that leaves one out
+    include: str  #: how to include a validation campaign
+
+
+#: The CLI's words (what a sentence says unless a face asks for its own).
+CLI_WORDS = Wording("--campaign", "--exclude-campaign", "name it with --campaign to include it")
+#: The web's (the query and JSON keys of its pages and API).
+WEB_WORDS = Wording(
+    "campaign", "exclude_campaign", "select it by name (campaign=NAME) to include it"
+)
+
+
 class SelectionError(OdolabError):
-    """A campaign filter names no campaign of the notebook, or leaves no trial."""
+    """A campaign filter names no campaign of the notebook, or leaves no trial. ``words``:
+    the sentence in a face's words (:meth:`worded`); ``str()`` is the CLI's."""
+
+    def __init__(self, message: str | Callable[[Wording], str]) -> None:
+        self._words = message if callable(message) else None
+        super().__init__(message(CLI_WORDS) if callable(message) else message)
+
+    def worded(self, words: Wording) -> str:
+        """The sentence with ``words`` for the options."""
+        return self._words(words) if self._words is not None else str(self)
+
+
+class UnknownCampaignError(SelectionError):
+    """A campaign filter names a campaign the notebook does not have (a bad request)."""
+
+
+def reason_in_words(why: str, words: Wording) -> str:
+    """A left-out campaign's reason (as stored: ``validation campaign``, ``excluded``, ``not
+    selected``) in a face's words."""
+    if why == "validation campaign":
+        return f"{why}; {words.include}"
+    if why == "excluded":
+        return words.exclude
+    return why
 
 
 @dataclass(frozen=True)
@@ -34,13 +84,15 @@ class TrialSelection:
     used: dict[str, int]  #: campaign -> number of measured trials used
     left_out: dict[str, str]  #: campaign -> why it was left out
 
-    def describe(self) -> str:
+    def describe(self, words: Wording = CLI_WORDS) -> str:
         """One sentence: which campaigns (and how many measured trials each) were used."""
         n = sum(self.used.values())
         parts = ", ".join(f"{c} ({k})" for c, k in self.used.items()) or "none"
         text = f"using {count(n, 'measured trial')} from {parts}"
         if self.left_out:
-            text += "; left out: " + ", ".join(f"{c} ({why})" for c, why in self.left_out.items())
+            text += "; left out: " + ", ".join(
+                f"{c} ({reason_in_words(why, words)})" for c, why in self.left_out.items()
+            )
         return text
 
 
@@ -59,13 +111,18 @@ def select_trials(
     wanted = list(dict.fromkeys(campaigns))
     dropped = list(dict.fromkeys(exclude))
     present = list(dict.fromkeys(t.campaign for t in trials))
-    for option, names in (("--campaign", wanted), ("--exclude-campaign", dropped)):
+    expected = ", ".join(present) or "(none: the notebook has no trials)"
+    for option, names in (("campaign", wanted), ("exclude", dropped)):
         unknown = [c for c in names if c not in present]
         if unknown:
-            raise SelectionError(
-                f"{option} {', '.join(unknown)}: no such campaign; expected one of "
-                f"{', '.join(present) or '(none: the notebook has no trials)'}"
-            )
+
+            def sentence(w: Wording, option: str = option, unknown: list[str] = unknown) -> str:
+                return (
+                    f"{getattr(w, option)} {', '.join(unknown)}: no such campaign; expected one "
+                    f"of {expected}"
+                )
+
+            raise UnknownCampaignError(sentence)
     validation = set(validation_campaigns)
     left_out: dict[str, str] = {}
     keep: set[str] = set()
@@ -73,9 +130,9 @@ def select_trials(
         if wanted and c not in wanted:
             left_out[c] = "not selected"
         elif c in dropped:
-            left_out[c] = "--exclude-campaign"
+            left_out[c] = "excluded"
         elif c in validation and c not in wanted:
-            left_out[c] = "validation campaign; name it with --campaign to include it"
+            left_out[c] = "validation campaign"
         else:
             keep.add(c)
     kept = [t for t in trials if t.campaign in keep]
@@ -90,7 +147,9 @@ def select_trials(
         )
     if not kept:
         raise SelectionError(
-            "the campaign filters leave no trial; campaigns: "
-            + ", ".join(f"{c} ({why})" for c, why in left_out.items())
+            lambda w: (
+                "the campaign filters leave no trial; campaigns: "
+                + ", ".join(f"{c} ({reason_in_words(why, w)})" for c, why in left_out.items())
+            )
         )
     return TrialSelection(trials=kept, used=used, left_out=left_out)

@@ -16,7 +16,7 @@ from odolab.errors import StoreError
 from odolab.trials import Trial, TrialStatus
 
 if TYPE_CHECKING:
-    from odolab.analysis.selection import TrialSelection
+    from odolab.analysis.selection import TrialSelection, Wording
     from odolab.store import Notebook
 
 __all__ = [
@@ -66,15 +66,21 @@ class Selection:
     def measured(self) -> list[Trial]:
         return [t for t in self.trials if t.status is TrialStatus.MEASURED and t.measured]
 
-    def describe(self) -> str:
-        """One sentence: which campaigns (and how many measured trials each) were used."""
+    def describe(self, words: Wording | None = None) -> str:
+        """One sentence: which campaigns (and how many measured trials each) were used, in a
+        face's ``words`` (the CLI's unless given)."""
+        from odolab.analysis.selection import CLI_WORDS, reason_in_words
+
+        w = words or CLI_WORDS
         n = sum(self.used.values())
         parts = ", ".join(f"{c} ({k})" for c, k in self.used.items()) or "none"
         text = f"using {n} measured trial{'' if n == 1 else 's'} from {parts}"
         if self.robot is not None:
             text += f" (robot {self.robot})"
         if self.left_out:
-            text += "; left out: " + ", ".join(f"{c} ({why})" for c, why in self.left_out.items())
+            text += "; left out: " + ", ".join(
+                f"{c} ({reason_in_words(why, w)})" for c, why in self.left_out.items()
+            )
         return text
 
     def to_dict(self) -> dict[str, Any]:

@@ -512,11 +512,14 @@ def _page(
 ) -> str:
     import jinja2
 
+    from odolab.text import display_value
+
     env = jinja2.Environment(
         loader=jinja2.PackageLoader("odolab.report", "templates"),
         # every template escaped (report.html.j2's ".j2" never matched select_autoescape(["html"]))
         autoescape=True,
         undefined=jinja2.StrictUndefined,
+        finalize=display_value,  # control and bidi characters shown, as the CLI shows them
     )
     cal_views = []
     for name, c in calibrations.items():

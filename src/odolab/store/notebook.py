@@ -695,21 +695,31 @@ class Notebook:
         if not isinstance(reason, str) or not reason.strip():
             raise StoreError(f"excluding trial {trial_id} needs a reason")
         with self._write() as conn:
+            # excluded again: the earlier reason is kept after the new one (it was replaced)
             cur = conn.execute(
-                "UPDATE trials SET status = 'excluded', exclusion_reason = ?, updated = ? "
-                "WHERE trial_id = ?",
-                (reason.strip(), _now(), trial_id),
+                "UPDATE trials SET status = 'excluded', exclusion_reason = CASE "
+                "WHEN status = 'excluded' AND exclusion_reason IS NOT NULL "
+                "AND exclusion_reason != ? THEN ? || '; earlier: ' || exclusion_reason "
+                "ELSE ? END, updated = ? WHERE trial_id = ?",
+                (reason.strip(), reason.strip(), reason.strip(), _now(), trial_id),
             )
             if cur.rowcount == 0:
                 raise StoreError(f"no trial {trial_id!r} in {self.path}")
 
     def include_trial(self, trial_id: str) -> None:
-        """Undo :meth:`exclude_trial`: the status goes back to measured or awaiting."""
+        """Undo :meth:`exclude_trial`: the status goes back to measured or awaiting; the
+        reason it was excluded for is kept in the trial's notes (``excluded until <time>:
+        <reason>``), not dropped."""
+        now = _now()
         with self._write() as conn:
             cur = conn.execute(
                 "UPDATE trials SET status = CASE WHEN instrument IS NULL THEN 'awaiting' "
-                "ELSE 'measured' END, exclusion_reason = NULL, updated = ? WHERE trial_id = ?",
-                (_now(), trial_id),
+                "ELSE 'measured' END, notes = CASE WHEN status = 'excluded' AND "
+                "exclusion_reason IS NOT NULL THEN notes || CASE WHEN notes = '' THEN '' "
+                "ELSE '; ' END || 'excluded until ' || ? || ': ' || exclusion_reason "
+                "ELSE notes END, "
+                "exclusion_reason = NULL, updated = ? WHERE trial_id = ?",
+                (now, now, trial_id),
             )
             if cur.rowcount == 0:
                 raise StoreError(f"no trial {trial_id!r} in {self.path}")

@@ -26,6 +26,7 @@ from starlette.responses import HTMLResponse, JSONResponse, RedirectResponse, Re
 from odolab.app.analysis import AnalysisCache
 from odolab.errors import StoreError
 from odolab.serve.security import csrf_ok, csrf_token
+from odolab.text import display_value
 from odolab.trials import MotionKind, TrialStatus
 
 if TYPE_CHECKING:
@@ -69,6 +70,7 @@ def templates() -> jinja2.Environment:
         undefined=jinja2.StrictUndefined,
         trim_blocks=True,
         lstrip_blocks=True,
+        finalize=display_value,  # control and bidi characters shown, as the CLI shows them
     )
     env.filters["q"] = lambda s: quote(str(s), safe="")
     env.filters["num"] = fnum
@@ -96,6 +98,24 @@ def safe_upload_name(filename: str | None) -> str:
     base = (filename or "").replace("\\", "/").rsplit("/", 1)[-1]
     name = _SAFE_NAME.sub("_", base).strip("._")[:80]
     return name or "upload.csv"
+
+
+def web_text(err: BaseException) -> str:
+    """An error's sentence in the web's words: a selection's options named as the pages' and
+    the API's keys (``campaign``, ``exclude_campaign``), not the CLI's flags."""
+    from odolab.analysis.selection import WEB_WORDS, SelectionError
+
+    return err.worded(WEB_WORDS) if isinstance(err, SelectionError) else str(err)
+
+
+def web_status(err: BaseException) -> int:
+    """400, 404 or 409 for a store error (:func:`status_of`); 400 for a campaign the
+    notebook does not have (a bad request), as for any other bad input."""
+    from odolab.analysis.selection import UnknownCampaignError
+
+    if isinstance(err, UnknownCampaignError):
+        return 400
+    return status_of(err) if isinstance(err, StoreError) else 400
 
 
 def status_of(err: StoreError) -> int:
@@ -166,7 +186,7 @@ class Web:
         return HTMLResponse(html, status_code=status_code)
 
     def error_page(self, request: Request, err: Exception, status_code: int = 400) -> Response:
-        return self.page(request, "error.html.j2", status_code, error=str(err))
+        return self.page(request, "error.html.j2", status_code, error=web_text(err))
 
     async def form(self, request: Request) -> Mapping[str, Any]:
         form = await request.form(max_files=2, max_fields=50)
@@ -224,7 +244,7 @@ def text_field(form: Mapping[str, Any], name: str) -> str | None:
 
 
 def error_json(err: Exception, status: int = 400) -> JSONResponse:
-    return JSONResponse({"error": str(err)}, status_code=status)
+    return JSONResponse({"error": web_text(err)}, status_code=status)
 
 
 def plain(text: str, status: int) -> Response:

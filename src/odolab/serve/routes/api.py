@@ -22,6 +22,7 @@ from odolab.serve.routes._web import (
     selection_of,
     status_of,
     web,
+    web_text,
 )
 from odolab.serve.routes.table1 import analysis_now
 from odolab.serve.routes.trials import awaiting_first, trial_context
@@ -174,9 +175,9 @@ async def table1(request: Request) -> Response:
         sel = selection_of(request.query_params)
     except StoreError as err:
         return error_json(err)
-    result, error, _ = await analysis_now(web(request), sel)
+    result, error, _, status = await analysis_now(web(request), sel)
     if result is None:
-        return JSONResponse({"rows": [], "error": error})
+        return JSONResponse({"rows": [], "error": error}, status_code=status)
     return JSONResponse(
         {
             "rows": result.table1,
@@ -213,7 +214,7 @@ async def calibrate(request: Request) -> Response:
         )
         return JSONResponse(await web(request).run(lambda nb: run(nb, req).to_dict()))
     except OdolabError as err:
-        text = str(err).replace("(--robot, or the form's robot)", '(send "robot")')
+        text = web_text(err).replace("(--robot, or the form's robot)", '(send "robot")')
         return error_json(StoreError(text))
 
 

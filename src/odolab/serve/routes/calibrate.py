@@ -9,7 +9,7 @@ from starlette.requests import Request
 from starlette.responses import RedirectResponse, Response
 
 from odolab.errors import OdolabError
-from odolab.serve.routes._web import FormError, text_field, web
+from odolab.serve.routes._web import FormError, text_field, web, web_text
 
 if TYPE_CHECKING:
     from odolab.app.calibration import CalibrationRequest
@@ -33,7 +33,7 @@ async def page(request: Request) -> Response:
     def load(nb: Notebook) -> dict[str, Any]:
         ctx = _choices(nb)
         ctx["stored"] = None
-        if robot and version.isdigit():
+        if robot and version.isascii() and version.isdigit():  # "²" is a digit to isdigit
             found = [v for v in nb.params_versions(robot) if v.version == int(version)]
             ctx["stored"] = found[0] if found else None
         return ctx
@@ -50,7 +50,7 @@ def _run(nb: Notebook, req: CalibrationRequest) -> dict[str, Any]:
     try:
         ctx["result"], ctx["error"] = calibrate(nb, req), None
     except OdolabError as err:
-        text = str(err).replace("(--robot, or the form's robot)", "(choose it under robot)")
+        text = web_text(err).replace("(--robot, or the form's robot)", "(choose it under robot)")
         ctx["result"], ctx["error"] = None, text
     return ctx
 

@@ -23,7 +23,7 @@ from starlette.requests import Request
 from starlette.responses import Response
 
 from odolab.errors import OdolabError
-from odolab.serve.routes._web import Web, selection_of, web
+from odolab.serve.routes._web import Web, selection_of, web, web_text
 
 if TYPE_CHECKING:
     from odolab.app.selection import SelectionRequest
@@ -84,7 +84,7 @@ def _job(w: Web, sel: SelectionRequest) -> ReportJob:
             with w.notebook() as nb:
                 job.body = report_html(nb, ReportRequest(sel))
         except OdolabError as err:
-            job.error = str(err)
+            job.error = web_text(err)
         except Exception as err:  # a bug in the report: a sentence here, the traceback logged
             logging.getLogger(__name__).exception("the report could not be drawn")
             job.error = (

@@ -8,8 +8,9 @@ from starlette.concurrency import run_in_threadpool
 from starlette.requests import Request
 from starlette.responses import Response
 
+from odolab.analysis.selection import WEB_WORDS
 from odolab.errors import OdolabError
-from odolab.serve.routes._web import Web, plain, selection_of, web
+from odolab.serve.routes._web import Web, plain, selection_of, web, web_text
 
 if TYPE_CHECKING:
     from odolab.app.analysis import AnalysisResult
@@ -21,27 +22,23 @@ __all__ = ["analysis_now", "fit_plot", "page"]
 
 async def analysis_now(
     w: Web, request: SelectionRequest
-) -> tuple[AnalysisResult | None, str | None, int]:
-    """The analysis of the selection (cached until a trial changes), or the sentence why not,
-    and the cache key (a version for the figures' URLs)."""
+) -> tuple[AnalysisResult | None, str | None, int, int]:
+    """The analysis of the selection (cached until a trial changes), or the sentence why not
+    (in the web's words), the cache key (a version for the figures' URLs) and the HTTP status:
+    200, or 400 for a campaign the notebook does not have."""
     from odolab.app.analysis import analyze_selection
     from odolab.app.selection import select
 
-    def job(nb: Notebook) -> tuple[AnalysisResult | None, str | None, int]:
+    def job(nb: Notebook) -> tuple[AnalysisResult | None, str | None, int, int]:
         try:
             sel = select(nb, request)
-            return analyze_selection(sel, w.cache), None, w.cache.key(sel.trials)
+            return analyze_selection(sel, w.cache), None, w.cache.key(sel.trials), 200
         except OdolabError as err:
-            return None, str(err), 0
+            from odolab.analysis.selection import UnknownCampaignError
+
+            return None, web_text(err), 0, 400 if isinstance(err, UnknownCampaignError) else 200
 
     return await w.run(job)
-
-
-def _in_words(text: str) -> str:
-    """The selection's sentence with the page's way of naming a campaign, not the CLI's."""
-    return text.replace(
-        "name it with --campaign to include it", "add ?campaign=NAME to the address to include it"
-    )
 
 
 async def page(request: Request) -> Response:
@@ -49,7 +46,7 @@ async def page(request: Request) -> Response:
 
     w = web(request)
     sel = selection_of(request.query_params)
-    result, error, key = await analysis_now(w, sel)
+    result, error, key, status = await analysis_now(w, sel)
     # the figures are of the same selection as the table
     picked = [("campaign", c) for c in sel.campaigns] + [
         ("exclude_campaign", c) for c in sel.exclude
@@ -57,9 +54,10 @@ async def page(request: Request) -> Response:
     return w.page(
         request,
         "table1.html.j2",
+        status,
         rows=result.table1 if result else [],
         analysis=result.analysis if result else None,
-        selection=_in_words(result.selection.describe()) if result else None,
+        selection=result.selection.describe(WEB_WORDS) if result else None,
         error=error,
         version=f"{key & 0xFFFFFFFF:x}",
         selected=("&" + urlencode(picked)) if picked else "",
@@ -73,7 +71,7 @@ async def fit_plot(request: Request) -> Response:
         index = int(request.query_params.get("i", ""))
     except ValueError:
         return plain("i must be a row number of Table I", 400)
-    result, _, _ = await analysis_now(web(request), selection_of(request.query_params))
+    result, _, _, _ = await analysis_now(web(request), selection_of(request.query_params))
     if result is None or not 0 <= index < len(result.analysis.motions):
         return plain("no such row of Table I", 404)
     size = request.query_params.get("size")
