@@ -35,6 +35,7 @@ INVALID = [
     ("drive", "--rate", "0.2", "[5, 1000] Hz"),
     ("drive", "--rate", "nan", "[5, 1000] Hz"),
     ("drive", "--rate", "1e6", "[5, 1000] Hz"),
+    ("drive", "--rate", "4.9999999", "--rate is 4.9999999; expected"),  # it said "is 5"
     ("drive", "--watchdog", "1e9", "[0.05, 2] s"),
     ("drive", "--watchdog", "0", "[0.05, 2] s"),
     ("drive", "--watchdog", "-1", "[0.05, 2] s"),

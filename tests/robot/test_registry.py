@@ -28,6 +28,12 @@ def test_schemes() -> None:
         ("ftp://127.0.0.1:1", "no known scheme"),
         ("udp://127.0.0.1:99999", "bad port"),
         ("127.0.0.1:10001", "no known scheme"),
+        # extras were ignored on udp:// and the board driven (a robot-safety review)
+        ("udp://127.0.0.1:17201/some/path", "not of the form udp://HOST:PORT"),
+        ("udp://user:pw@127.0.0.1:17201", "not of the form udp://HOST:PORT"),
+        ("udp://127.0.0.1:17201#frag", "not of the form udp://HOST:PORT"),
+        ("udp://127.0.0.1:17201?variant=track", "takes no query"),
+        ("tcp://user@127.0.0.1:17201", "not of the form tcp://HOST:PORT"),
     ):
         with pytest.raises(RobotUrlError, match=what):
             check_robot_url(bad)

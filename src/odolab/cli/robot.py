@@ -507,7 +507,12 @@ def _drive(
         if not quiet:
             for line in events:
                 echo(line, err=True)
-        echo(_confirm_line(report.stop_confirmed), err=True)
+        if report.run is None and not report.stop_confirmed:
+            # no cycle ran: no sensor data ever came, and no motion was commanded
+            echo("nothing was driven (no sensor data came from the robot); the stop was sent "
+                 "anyway", err=True)  # fmt: skip
+        else:
+            echo(_confirm_line(report.stop_confirmed), err=True)
         if report.save_note:
             echo(report.save_note, err=True)
         if report.saved_to is not None:

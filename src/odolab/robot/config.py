@@ -67,8 +67,13 @@ def check_bound(bound: Bound, value: float) -> float:
 
 
 def _show(value: object) -> str:
+    """A refused value as given: short (``1e+09``) where that is exact, else every digit
+    (``4.9999999`` was refused as ``5``, a value inside the bound)."""
     if isinstance(value, float | int) and not isinstance(value, bool):
-        return f"{value:g}"
+        short = f"{value:g}"
+        if not math.isfinite(value) or float(short) == value:
+            return short
+        return repr(float(value))
     return repr(value)
 
 

@@ -105,8 +105,20 @@ def parse_robot_url(url: str) -> tuple[str, int]:
             f"--robot {url!r} has a bad port ({err}); expected udp://HOST:PORT with a port "
             "in 0..65535"
         ) from err
-    if parsed.scheme != "udp" or not parsed.hostname or port is None:
+    if (
+        parsed.scheme != "udp"
+        or not parsed.hostname
+        or port is None
+        or parsed.path not in ("", "/")
+        or parsed.fragment
+        or parsed.username is not None
+    ):
         raise RobotUrlError(f"--robot {url!r} is not of the form udp://HOST:PORT")
+    if parsed.query:  # was ignored: udp://...?variant=track, meant for tcp://, drove the board
+        raise RobotUrlError(
+            f"--robot {url!r}: udp://HOST:PORT takes no query (variant= is for the 2014 "
+            "Jaguar's tcp://HOST:PORT?variant=wheel|track)"
+        )
     return parsed.hostname, port
 
 
@@ -307,7 +319,8 @@ class JaguarDriver:
             if now >= deadline:
                 raise NoSensorDataError(
                     f"no sensor data from the robot within {self.config.connect_timeout:g} s "
-                    "after ACK; is it on and reachable?"
+                    "after ACK; is it on and reachable, and not held by another host (a board "
+                    "answers one host at a time)?"
                 )
             clock.sleep_until(min(now + 0.005, deadline, next_ack))
 

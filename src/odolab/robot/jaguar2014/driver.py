@@ -78,6 +78,7 @@ def parse_tcp_url(url: str) -> tuple[str, int, str]:
         or not parsed.hostname
         or port is None
         or parsed.path not in ("", "/")
+        or parsed.username is not None
     ):
         raise RobotUrlError(f"--robot {url!r} is not of the form tcp://HOST:PORT")
     query = parse_qs(parsed.query, keep_blank_values=True)
