@@ -310,9 +310,19 @@ def read_notebook_json(path: str | Path) -> NotebookDocument:
         raise StoreError(
             f"{p}: JSON nested too deeply to read; expected a notebook export (a few levels)"
         ) from err
-    _need(doc, ("format", "params_versions", "campaigns", "trials"), str(p))
+    _need(doc, ("format",), str(p))
     if doc["format"] != FORMAT:
         raise StoreError(f"{p}: format is {doc['format']!r}; expected {FORMAT!r}")
+    schema = doc.get("schema")
+    if schema is not None and (
+        isinstance(schema, bool) or not isinstance(schema, int) or not 1 <= schema <= 3
+    ):
+        # it was refused as "missing key 'params_versions'" when other keys were missing too
+        raise StoreError(
+            f"{p}: schema is {schema!r}; expected 1 to 3 (a file written by a newer odolab "
+            "needs that odolab to import it)"
+        )
+    _need(doc, ("params_versions", "campaigns", "trials"), str(p))
     out = NotebookDocument()
     for key, keys, dest in (
         ("params_versions", _PV_KEYS, out.params_versions),
