@@ -238,13 +238,18 @@ def umbmark_start(
 
 
 def _ratios(
-    nb: Notebook, sel: Selection, req: CalibrationRequest, robot: str
+    nb: Notebook,
+    sel: Selection,
+    req: CalibrationRequest,
+    robot: str,
+    analysis: LabAnalysis | None = None,
 ) -> tuple[CalibrationResult, BaseChoice, list[Trial], LabAnalysis]:
     from odolab.analysis import analyze_trials
     from odolab.calibration import ratios_from_analysis
 
     base = choose_base(nb, robot, sel.trials, req.params, req.params_source)
-    analysis = analyze_trials(sel.trials)
+    if analysis is None:
+        analysis = analyze_trials(sel.trials)
     result = ratios_from_analysis(analysis, base.params, terrain=req.terrain)
     # the trials it comes from: those of the two fits on its terrain (record_calibration adds
     # the [noise] fit's), not every trial of the selection (the squares were listed too)
@@ -322,18 +327,20 @@ def calibrate(nb: Notebook, request: CalibrationRequest) -> CalibrationOutcome:
                 f"UMBmark needs measured square trials of robot {robot!r} in both directions; "
                 "the selection has none"
             )
+        from odolab.analysis import analyze_trials
+
+        # one analysis of the selection: the ratios start and the [noise] (straight runs, turns)
+        analysis = analyze_trials(sel.trials)
         ratios: tuple[CalibrationResult, BaseChoice] | None = None
         if request.params is None and all(t.encoder_log is not None for t in squares):
             try:  # the ratios of the same selection fix the scale UMBmark cannot
-                by_ratios, ratios_base, _, _ = _ratios(nb, sel, request, robot)
+                by_ratios, ratios_base, _, _ = _ratios(nb, sel, request, robot, analysis)
                 ratios = (by_ratios, ratios_base)
             except CalibrationError:
                 ratios = None
         base = umbmark_start(nb, robot, squares, ratios, request.params, request.params_source)
         umb, how = umbmark_from_squares(squares, base.params, request.side)
-        from odolab.analysis import analyze_trials  # [noise]: the selection's straight runs, turns
-
-        umb = umb.with_noise(analyze_trials(sel.trials))
+        umb = umb.with_noise(analysis)
         result, used = umb.calibration, squares
     version = None
     if request.record:

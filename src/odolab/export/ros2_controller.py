@@ -254,8 +254,8 @@ def _slip_note(params: RobotParams, speed: float) -> str:
         import numpy as np
 
         k = len(FEATURES)
-        phi = np.zeros(3 * k)
-        phi[2 * k : 3 * k] = (speed, 0.0, speed, 0.0, speed * speed, 0.0, 0.0, 0.0)
+        phi = np.zeros(3 * k)  # the yaw output's basis on a straight run at ``speed``
+        phi[2 * k : 3 * k] = SlipModel.features(np.array([speed]), np.array([0.0]))[:, 0]
         post = np.asarray(model.posterior).reshape(3 * k, 3 * k)
         spread = f" +- {math.sqrt(max(float(phi @ post @ phi), 0.0)) / speed:.2g}"
     return (
