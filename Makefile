@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint typecheck bench clean
+.PHONY: demo test test-fast test-determinism lint typecheck bench clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -17,8 +17,20 @@ $(STAMP): $(BIN)/python pyproject.toml
 demo: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/odolab demo
 
+# every test, in a new random order each run (pytest-randomly prints the seed: rerun an order with
+# `-p randomly --randomly-seed=N`); docs/testing.md has the timings
 test: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python -m pytest -n 2 -q
+
+# while developing: leaves out the tests marked slow (documented commands, real-time robot runs,
+# the demos in chromium, the independent simulators); `make test` and CI run everything
+test-fast: $(STAMP)
+	MPLBACKEND=Agg $(BIN)/python -m pytest -n 2 -q -m "not slow"
+
+# the statistical tests twice, in two random orders, two hash seeds and two xdist distributions:
+# every asserted number must come out the same (tests/determinism.py)
+test-determinism: $(STAMP)
+	MPLBACKEND=Agg $(BIN)/python tests/determinism.py
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks

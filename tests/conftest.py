@@ -9,7 +9,11 @@ from typing import Any
 import pytest
 from hypothesis import HealthCheck, settings
 
+from fixture_cache import cached
 from shared_data import data_dir, require
+
+#: the suite's own rules: no skips in CI, and the opt-in bound measurements (tests/bounds.py)
+pytest_plugins = ["suite_plugin"]
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 
@@ -34,12 +38,30 @@ def optiodom_dir() -> Path:
     return require("optiodom")
 
 
-@pytest.fixture(scope="session")
-def tracked_demo(tmp_path_factory: pytest.TempPathFactory) -> Any:
-    """The demo on the tracked truth with its defaults (odolab.lab.run_lab), run once per test
-    process and only read (the tests that take it are marked with the xdist group
-    "tracked_demo": `pytest --dist loadgroup` runs them on one worker, on one demo; `make test`
-    keeps the default scheduling, which measured faster over the whole suite)."""
+def _demo(truth: str) -> Any:
     from odolab.lab import run_lab
 
-    return run_lab(tmp_path_factory.mktemp("tracked-demo"), truth="jaguar-lab-tracked")
+    def build(folder: Path) -> Any:
+        steps: list[str] = []
+        result = run_lab(folder, truth=truth, progress=lambda s, d, t: steps.append(s))
+        return result, steps
+
+    return build
+
+
+@pytest.fixture(scope="session")
+def default_demo(tmp_path_factory: pytest.TempPathFactory) -> Any:
+    """The demo with its defaults (`odolab demo`, truth jaguar-lab), as ``(LabResult, the
+    progress steps it reported)``: built once for every test process (tests/fixture_cache.py),
+    each process reading and writing its own copy."""
+    return cached("default-demo", _demo("jaguar-lab"), tmp_path_factory.mktemp("default-demo"))
+
+
+@pytest.fixture(scope="session")
+def tracked_demo(tmp_path_factory: pytest.TempPathFactory) -> Any:
+    """The demo on the tracked truth with its defaults (odolab.lab.run_lab), built once for
+    every test process (tests/fixture_cache.py), each reading its own copy."""
+    result, _steps = cached(
+        "tracked-demo", _demo("jaguar-lab-tracked"), tmp_path_factory.mktemp("tracked-demo")
+    )
+    return result

@@ -9,11 +9,20 @@ What a document takes for granted (a log file of your own, a protocol file, a de
 is made by that document's fixture below, and a line that cannot run here (a real robot, a
 server that runs until Ctrl-C, a usage synopsis) is in ``SKIP`` with the reason. A command that
 exits with anything but 0 fails the test, with its output.
+
+How a line runs: bash expands it (the document's variables, quotes, globs) into words, and
+``odolab ...`` is then called in this test's process (``odolab.cli.main`` with those words, in the
+document's folder, stdin as typed), which is what the ``odolab`` script does, without paying
+Python's and the libraries' start-up again for each of the 90 lines (it was most of these tests'
+4 minutes). A line with a pipe or a redirection, ``python -c``, and every line of the documents in
+:data:`SUBPROCESS_DOCS` (the README's, which also checks the installed script, and the robot's,
+which installs signal handlers) run in their own shell and process, as a user's would.
 """
 
 from __future__ import annotations
 
 import csv
+import io
 import os
 import re
 import subprocess
@@ -25,6 +34,9 @@ import numpy as np
 import pytest
 
 from shared_data import data_dir, require
+
+#: `make test-fast` leaves these out (every documented command line, about 2 minutes); `make test` and CI run them
+pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = data_dir()
@@ -123,6 +135,9 @@ SKIP: dict[tuple[str, str], str] = {
     ),
 }
 
+#: documents whose lines run in their own shell and process (see the module's docstring)
+SUBPROCESS_DOCS = {"README.md", "docs/robot.md", "docs/scale.md"}
+
 #: (document, start of the command line) -> what is typed at its questions
 STDIN: dict[tuple[str, str], str] = {
     ("docs/notebook.md", "odolab trials measure R01"): "200\n290\n8\n",
@@ -194,10 +209,8 @@ def _encoder_log(path: Path, n: int = 600) -> None:
 
 
 def _odolab(folder: Path, *args: str) -> None:
-    proc = subprocess.run(
-        ["odolab", *args], cwd=folder, env=_env(), capture_output=True, text=True, timeout=300
-    )
-    assert proc.returncode == 0, proc.stderr
+    code, out = _in_process(folder, list(args), None)
+    assert code == 0, out
 
 
 def _readme(folder: Path) -> None:
@@ -308,6 +321,47 @@ def _env() -> dict[str, str]:
     return env
 
 
+#: what makes a line a shell's job rather than one command's words
+_SHELL = re.compile(r"[|<>;&`]|\$\(")
+
+
+def _words(folder: Path, assignments: list[str], line: str) -> list[str] | None:
+    """The words bash makes of ``line`` after the document's assignments; None for a line
+    with a pipe, a redirection or a command substitution (it runs in a shell)."""
+    if _SHELL.search(line.replace("->", "")):
+        return None
+    script = "; ".join([*assignments, f"printf '%s\\0' {line[len('odolab') :]}"])
+    proc = subprocess.run(
+        ["bash", "-c", script], cwd=folder, env=_env(), capture_output=True, check=True
+    )
+    words = proc.stdout.decode().split("\0")[:-1]
+    return ["odolab", *words] if line.startswith("odolab ") else None
+
+
+def _in_process(folder: Path, args: list[str], stdin: str | None) -> tuple[int, str]:
+    """``odolab ARGS`` in this process, in ``folder``, as the script runs it: (exit code, what it
+    printed)."""
+    from odolab.cli import main
+
+    saved = (Path.cwd(), sys.stdin, sys.stdout, sys.stderr, dict(os.environ))
+    raw = io.BytesIO()
+    out = io.TextIOWrapper(raw, encoding="utf-8", errors="replace", write_through=True)
+    try:
+        os.chdir(folder)
+        os.environ.clear()
+        os.environ.update(_env())
+        sys.stdin = io.StringIO(stdin or "")
+        sys.stdout = sys.stderr = out
+        code = main(args)
+    finally:
+        os.chdir(saved[0])
+        sys.stdin, sys.stdout, sys.stderr = saved[1:4]
+        os.environ.clear()
+        os.environ.update(saved[4])
+    out.flush()
+    return code, raw.getvalue().decode("utf-8", errors="replace")
+
+
 def test_every_document_has_commands_and_every_skip_names_one() -> None:
     found = {doc: documented_lines(doc) for doc in DOCS}
     assert all(found[d] for d in DOCS if d != "docs/robot.md")
@@ -334,16 +388,23 @@ def test_documented_commands_run_as_written(doc: str, tmp_path: Path) -> None:
             f"{doc}: {line!r} names a robot off this machine; add it to SKIP"
         )
         stdin = next((s for (d, st), s in STDIN.items() if d == doc and line.startswith(st)), None)
-        proc = subprocess.run(
-            ["bash", "-c", "; ".join([*assignments, line])],
-            cwd=tmp_path,
-            env=_env(),
-            input=stdin,
-            capture_output=True,
-            text=True,
-            timeout=300,
-        )
-        assert proc.returncode == 0, f"{doc}: {line}\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
+        words = None if doc in SUBPROCESS_DOCS else _words(tmp_path, assignments, line)
+        if words is not None and words[:1] == ["odolab"]:
+            code, out = _in_process(tmp_path, words[1:], stdin)
+            assert code == 0, f"{doc}: {line}\n{out[-6000:]}"
+        else:
+            proc = subprocess.run(
+                ["bash", "-c", "; ".join([*assignments, line])],
+                cwd=tmp_path,
+                env=_env(),
+                input=stdin,
+                capture_output=True,
+                text=True,
+                timeout=300,
+            )
+            assert proc.returncode == 0, (
+                f"{doc}: {line}\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
+            )
         ran += 1
     if doc != "docs/robot.md":
         assert ran > 0

@@ -17,6 +17,9 @@ from pathlib import Path
 
 import pytest
 
+#: `make test-fast` leaves these out (the README's hand session, in real time); `make test` and CI run them
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[2]
 README = ROOT / "README.md"
 

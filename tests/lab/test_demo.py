@@ -13,10 +13,9 @@ from odolab.lab import LAB_REPORT_TABLE1, LAB_REPORT_Y_SIGMA, pooled_y_sigmas, r
 
 
 @pytest.fixture(scope="module")
-def lab(tmp_path_factory: pytest.TempPathFactory):  # type: ignore[no-untyped-def]
-    steps: list[str] = []
-    result = run_lab(tmp_path_factory.mktemp("demo"), progress=lambda s, d, t: steps.append(s))
-    return result, steps
+def lab(default_demo):  # type: ignore[no-untyped-def]
+    """The session's default demo (conftest.py): (LabResult, its progress steps)."""
+    return default_demo
 
 
 def test_demo_reproduces_table1_within_the_reports_uncertainties(lab) -> None:  # type: ignore[no-untyped-def]

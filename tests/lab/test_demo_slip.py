@@ -17,14 +17,16 @@ import pytest
 from odolab import numfmt
 from odolab.app.models import CURVE_SECONDS, SLIP_MODELS
 from odolab.cli import main
-from odolab.lab import LabResult, run_lab
+from odolab.lab import LabResult
+
+#: `make test-fast` leaves these out (the tracked demo); `make test` and CI run them
+pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")
-def tracked(tmp_path_factory: pytest.TempPathFactory) -> tuple[LabResult, dict[str, Any]]:
-    out = tmp_path_factory.mktemp("tracked")
-    result = run_lab(out, truth="jaguar-lab-tracked", square_runs=1, phone_runs=1)
-    return result, json.loads(result.results.read_text())
+def tracked(tracked_demo: LabResult) -> tuple[LabResult, dict[str, Any]]:
+    """The session's tracked demo (conftest.py; it built its own smaller one before)."""
+    return tracked_demo, json.loads(tracked_demo.results.read_text())
 
 
 def test_tracked_demo_compares_the_slip_model_with_a_learning_curve(
@@ -145,8 +147,8 @@ def test_slip_covariance_nees_in_the_report_equals_evaluate_on_the_written_files
     assert cli["verdict"] == nees["verdict"]
 
 
-def test_default_truth_explores_nothing_and_says_why(tmp_path: Path) -> None:
-    result = run_lab(tmp_path, square_runs=1, phone_runs=1)
+def test_default_truth_explores_nothing_and_says_why(default_demo: tuple[LabResult, Any]) -> None:
+    result = default_demo[0]
     res = json.loads(result.results.read_text())
     assert res["slip"] is None
     assert res["slip_note"].startswith("No exploration run: the truth preset jaguar-lab has no")

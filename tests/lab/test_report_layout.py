@@ -19,7 +19,9 @@ from pathlib import Path
 
 import pytest
 
-from odolab.lab import run_lab
+#: `make test-fast` leaves these out (two demos rendered in chromium at three widths); `make test` and CI run them
+pytestmark = pytest.mark.slow
+
 
 MEASURE = """<script>
 window.addEventListener('load', function () {
@@ -48,14 +50,14 @@ def _browser() -> str | None:
 
 
 @pytest.fixture(scope="module", params=["jaguar-lab", "jaguar-lab-tracked"])
-def report(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> Path:
+def report(request: pytest.FixtureRequest) -> Path:
     """The demo's report, on the default truth and on the tracked one (whose report has the
     slip model's section and its wide tables)."""
     if _browser() is None:
         pytest.skip("no chromium to render the report (.ci/run installs it)")
-    if request.param == "jaguar-lab-tracked":  # the session's one tracked demo (conftest)
+    if request.param == "jaguar-lab-tracked":  # the session's demos (conftest)
         return Path(request.getfixturevalue("tracked_demo").report)
-    return run_lab(tmp_path_factory.mktemp("layout"), truth=request.param).report
+    return Path(request.getfixturevalue("default_demo")[0].report)
 
 
 def _chromium(*args: str) -> str:
@@ -67,7 +69,6 @@ def _chromium(*args: str) -> str:
     return proc.stdout
 
 
-@pytest.mark.xdist_group("tracked_demo")
 @pytest.mark.parametrize("width", [1280, 800, 400])
 def test_no_table_or_figure_is_wider_than_the_screen(
     report: Path, width: int, tmp_path: Path

@@ -56,6 +56,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from fixture_cache import cached
 from odolab.calibration.slipfit import nees_bounds, nees_pieces
 from odolab.cli import main
 from odolab.io.registry import read_run
@@ -74,6 +75,9 @@ from .independent_sims import (
     simulate,
     write_run,
 )
+
+#: `make test-fast` leaves these out (80 s of fits on the independent simulators); `make test` and CI run them
+pytestmark = pytest.mark.slow
 
 SEEDS = (1, 2, 3, 4)
 SIMS: dict[str, IcrSpeedSim | SkidDynamicSim] = {
@@ -197,9 +201,11 @@ def _measure(
     return m
 
 
-@pytest.fixture(scope="module")
-def measured(tmp_path_factory: pytest.TempPathFactory) -> dict[tuple[str, int], Measured]:
-    root = tmp_path_factory.mktemp("independent")
+#: what the measurements depend on besides odolab's source (tests/fixture_cache.py)
+_DEPENDS = (Path(__file__), Path(__file__).with_name("independent_sims.py"))
+
+
+def _measure_all(root: Path) -> dict[tuple[str, int], Measured]:
     out: dict[tuple[str, int], Measured] = {}
     for name, sim in SIMS.items():
         for seed in SEEDS:
@@ -207,10 +213,21 @@ def measured(tmp_path_factory: pytest.TempPathFactory) -> dict[tuple[str, int], 
     return out
 
 
+def _measure_control(root: Path) -> dict[int, Measured]:
+    return {seed: _measure(CONTROL, seed, root / f"control-{seed}") for seed in SEEDS}
+
+
+@pytest.fixture(scope="module")
+def measured(tmp_path_factory: pytest.TempPathFactory) -> dict[tuple[str, int], Measured]:
+    """Built once for every test process (tests/fixture_cache.py): 80 s of fits."""
+    dest = tmp_path_factory.mktemp("independent")
+    return cached("independent-sims", _measure_all, dest, depends_on=_DEPENDS)
+
+
 @pytest.fixture(scope="module")
 def control(tmp_path_factory: pytest.TempPathFactory) -> dict[int, Measured]:
-    root = tmp_path_factory.mktemp("control")
-    return {seed: _measure(CONTROL, seed, root / f"control-{seed}") for seed in SEEDS}
+    dest = tmp_path_factory.mktemp("control")
+    return cached("independent-control", _measure_control, dest, depends_on=_DEPENDS)
 
 
 def _fmt(v: float | None) -> str:

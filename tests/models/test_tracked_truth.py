@@ -63,7 +63,6 @@ def test_cli_sim_questions(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     assert "--truth: unknown preset 'tank'" in capsys.readouterr().err
 
 
-@pytest.mark.xdist_group("tracked_demo")
 def test_the_demo_on_the_tracked_jaguar_still_gives_table_1(tracked_demo: Any) -> None:
     from odolab.lab import LAB_REPORT_TABLE1, LAB_REPORT_Y_SIGMA, pooled_y_sigmas
 

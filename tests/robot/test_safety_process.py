@@ -27,7 +27,11 @@ import pytest
 
 from odolab.robot.jaguar.protocol import SystemCode, encode_system
 
-pytestmark = pytest.mark.skipif(sys.platform != "linux", reason="needs a shared monotonic clock")
+#: slow: real-time robot processes (`make test-fast` leaves them out; `make test` runs them)
+pytestmark = [
+    pytest.mark.skipif(sys.platform != "linux", reason="needs a shared monotonic clock"),
+    pytest.mark.slow,
+]
 
 W, P, C = 0.5, 0.05, 0.5
 SLACK = 0.15
