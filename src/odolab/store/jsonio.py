@@ -313,10 +313,14 @@ def read_notebook_json(path: str | Path) -> NotebookDocument:
     _need(doc, ("format",), str(p))
     if doc["format"] != FORMAT:
         raise StoreError(f"{p}: format is {doc['format']!r}; expected {FORMAT!r}")
-    schema = doc.get("schema")
-    if schema is not None and (
-        isinstance(schema, bool) or not isinstance(schema, int) or not 1 <= schema <= 3
-    ):
+    if doc.get("schema") is None:  # every odolab has written it: a file without it is not ours
+        raise StoreError(
+            f"{p}: "
+            + ("schema is null" if "schema" in doc else "no key 'schema'")
+            + "; expected the schema number (1 to 3) that every odolab notebook export carries"
+        )
+    schema = doc["schema"]
+    if isinstance(schema, bool) or not isinstance(schema, int) or not 1 <= schema <= 3:
         # it was refused as "missing key 'params_versions'" when other keys were missing too
         raise StoreError(
             f"{p}: schema is {schema!r}; expected 1 to 3 (a file written by a newer odolab "

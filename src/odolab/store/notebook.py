@@ -26,6 +26,7 @@ from odolab.progress import Progress, no_progress
 from odolab.store.codec import EncodedLog, decode_log, encode_log
 from odolab.store.health import (
     check_notebook_file,
+    check_sound,
     create_notebook_file,
     integrity_words,
     store_error,
@@ -109,7 +110,7 @@ _LOG_INSERT = (
 
 def _build(path: Path, timeout: float) -> None:
     """A new, empty notebook of the current schema in the file ``path``."""
-    conn = connect(path, timeout=timeout)
+    conn = connect(path, timeout=timeout, new=True)
     try:
         migrate(conn, str(path))
     finally:
@@ -132,9 +133,16 @@ class Notebook:
     """The lab notebook in the SQLite file ``path`` (created and migrated on open).
 
     Use as a context manager, or call :meth:`close`. One ``Notebook`` per thread.
+
+    An existing file is checked first (``check``, SQLite's quick check: every page read once),
+    and a damaged one refused (:class:`~odolab.store.health.NotebookDamagedError`) before
+    anything reads or writes its records; ``check=False`` where the file was just checked (the
+    web server checks it when it starts, then opens one connection per request).
     """
 
-    def __init__(self, path: str | Path = "odolab.db", *, timeout: float = 30.0) -> None:
+    def __init__(
+        self, path: str | Path = "odolab.db", *, timeout: float = 30.0, check: bool = True
+    ) -> None:
         self.path = Path(path)
         # an empty file, a folder, a text file: refused before SQLite touches it
         created = False
@@ -144,6 +152,8 @@ class Notebook:
         self._conn.row_factory = sqlite3.Row
         self._params_cache: dict[tuple[str, int], RobotParams] = {}
         try:
+            if check and not created:
+                check_sound(self._conn, self.path)
             self.migrated_from = 0 if created else migrate(self._conn, str(self.path))
         except BaseException:
             self._conn.close()

@@ -164,7 +164,7 @@ class Web:
 
         if not self.db.is_file():
             raise StoreError(f"{self.db}: no such notebook")
-        return Notebook(self.db)
+        return Notebook(self.db, check=False)  # checked when the server started
 
     async def run(self, fn: Callable[[Notebook], _T]) -> _T:
         """``fn(notebook)`` in a worker thread, on a connection of its own."""
