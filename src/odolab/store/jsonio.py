@@ -37,7 +37,14 @@ from odolab.params import RobotParams, params_from_mapping
 from odolab.store.codec import EncodedLog, decode_log
 from odolab.store.records import HISTORY_KEYS, PARAMS_FIELDS, TRIAL_COLUMNS, params_tables
 from odolab.text import quote_input
-from odolab.trials import TRIAL_FIELDS, EncoderLog, FieldType, MotionKind, TrialStatus
+from odolab.trials import (
+    TRIAL_FIELDS,
+    EncoderLog,
+    FieldType,
+    MotionKind,
+    TrialStatus,
+    check_no_nul,
+)
 from odolab.writing import write_text_file
 
 __all__ = [
@@ -143,6 +150,7 @@ def _text(item: dict[str, Any], key: str, where: str, *, null: bool = False) -> 
     v = item[key]
     if not (isinstance(v, str) or (null and v is None)):
         raise _bad(where, key, v, "text" + (" or null" if null else ""))
+    check_no_nul(v, f"key {key!r}", where, StoreError)  # (as the CSV import refuses it)
 
 
 def _integer(item: dict[str, Any], key: str, where: str, low: int, high: int = _MAX_INT) -> None:

@@ -46,7 +46,7 @@ from odolab.store.records import (
 )
 from odolab.store.schema import SCHEMA_VERSION, connect, migrate
 from odolab.trajectory import Pose
-from odolab.trials import EncoderLog, Measurement, Trial, TrialStatus
+from odolab.trials import EncoderLog, Measurement, Trial, TrialStatus, check_no_nul
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -417,6 +417,9 @@ class Notebook:
     ) -> None:
         """Add a campaign; a name already used is refused (nothing changes)."""
         kind = str(kind)
+        for what, text in (("name", name), ("terrain", terrain), ("operator", operator),
+                           ("notes", notes)):  # fmt: skip
+            check_no_nul(text, what, "campaign", StoreError)
         self._check_campaign(name, kind, terrain)
         day = date.isoformat() if isinstance(date, _dt.date) else date
         if day is None:
@@ -704,6 +707,7 @@ class Notebook:
         """Leave ``trial_id`` out of the analysis, keeping it and saying why."""
         if not isinstance(reason, str) or not reason.strip():
             raise StoreError(f"excluding trial {trial_id} needs a reason")
+        check_no_nul(reason, "the reason", f"excluding trial {trial_id}", StoreError)
         with self._write() as conn:
             # excluded again: the earlier reason is kept after the new one (it was replaced)
             cur = conn.execute(
