@@ -143,6 +143,10 @@ def _sensorlog(t: np.ndarray) -> Callable[[Path], Path]:
     return make
 
 
+#: Where :func:`notebook_json` writes a number of 5000 digits.
+HUGE = "<a number of 5000 digits>"
+
+
 def notebook_json(d: Path, change: Callable[[dict[str, object]], None]) -> Path:
     """A real notebook's JSON export (two trials with encoder logs), changed by ``change``."""
     from odolab.store import Notebook
@@ -156,7 +160,8 @@ def notebook_json(d: Path, change: Callable[[dict[str, object]], None]) -> Path:
     p = d / "nb.json"
     doc = json.loads(p.read_text(encoding="utf-8"))
     change(doc)
-    p.write_text(json.dumps(doc), encoding="utf-8")
+    # (json cannot write an integer of 5000 digits: a placeholder, replaced in the text)
+    p.write_text(json.dumps(doc).replace(f'"{HUGE}"', "9" * 5000), encoding="utf-8")
     return p
 
 
@@ -264,6 +269,13 @@ def _drop(key: str) -> Callable[[dict[str, object]], None]:
 def _set(key: str, value: object) -> Callable[[dict[str, object]], None]:
     def change(doc: dict[str, object]) -> None:
         doc[key] = value
+
+    return change
+
+
+def _first_trial(key: str, value: object) -> Callable[[dict[str, object]], None]:
+    def change(doc: dict[str, object]) -> None:
+        doc["trials"][0][key] = value  # type: ignore[index]
 
     return change
 
@@ -432,6 +444,18 @@ CASES: dict[str, Case] = {
             lambda d: notebook_json(d, _set("schema", None)),
             _read_json,
             ("nb.json: schema is null", "expected the schema number"),
+        ),
+        Case(
+            "notebook-json/number-of-5000-digits",
+            lambda d: notebook_json(d, _set("campaigns", HUGE)),
+            _read_json,
+            ("nb.json: a number in it has more digits than can be read",),
+        ),
+        Case(
+            "notebook-json/integer-past-a-float",
+            lambda d: notebook_json(d, _first_trial("predicted_x", 10**400)),
+            _read_json,
+            ("nb.json: trials[0], key 'predicted_x': ", "expected a finite number"),
         ),
         Case(
             "notebook-json-import/schema-absent",

@@ -316,9 +316,31 @@ def _notebook_json(d: Path) -> tuple[Path, Path]:
         nb.add_campaign("rot-lab", "rotation", "lab", operator="me", notes="n")
         nb.add_trials(make_trials(3, seed=5, with_logs=True))
         nb.export_json(d / "nb.json")
+    _fixed_times(d / "nb.json")
     with Notebook(d / "into.db"):
         pass
     return d / "nb.json", d / "nb.json"
+
+
+def _fixed_times(p: Path) -> None:
+    """The export's times of writing made fixed, so that a (target, case) pair is the same
+    file on every run."""
+    import json
+
+    def fix(node: object) -> None:
+        if isinstance(node, dict):
+            for key, value in node.items():
+                if key in ("created", "updated", "replaced", "date") and isinstance(value, str):
+                    node[key] = "2026-01-02" if key == "date" else "2026-01-02T03:04:05+00:00"
+                else:
+                    fix(value)
+        elif isinstance(node, list):
+            for item in node:
+                fix(item)
+
+    doc = json.loads(p.read_text(encoding="utf-8"))
+    fix(doc)
+    p.write_text(json.dumps(doc, indent=1), encoding="utf-8")
 
 
 def _notebook_csv(d: Path) -> tuple[Path, Path]:

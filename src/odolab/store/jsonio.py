@@ -166,8 +166,15 @@ def _number(item: dict[str, Any], key: str, where: str, *, null: bool = True) ->
     v = item[key]
     if v is None and null:
         return
-    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+    if isinstance(v, bool) or not isinstance(v, int | float) or not _finite(v):
         raise _bad(where, key, v, "a finite number" + (" or null" if null else ""))
+
+
+def _finite(v: float) -> bool:
+    try:
+        return math.isfinite(v)
+    except OverflowError:  # an integer past a float's range (1e400 written out)
+        return False
 
 
 def _stamp(item: dict[str, Any], key: str, where: str) -> None:
@@ -314,6 +321,11 @@ def read_notebook_json(path: str | Path) -> NotebookDocument:
         raise StoreError(f"{p}: cannot read ({err.strerror or err})") from err
     except (json.JSONDecodeError, UnicodeDecodeError) as err:
         raise StoreError(f"{p}: not valid JSON ({err})") from err
+    except ValueError as err:  # Python's limit on an integer's digits (4300)
+        raise StoreError(
+            f"{p}: a number in it has more digits than can be read ({err}); expected a "
+            "notebook export (its numbers have at most 17 significant digits)"
+        ) from err
     except RecursionError as err:
         raise StoreError(
             f"{p}: JSON nested too deeply to read; expected a notebook export (a few levels)"
