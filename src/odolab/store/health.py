@@ -202,7 +202,8 @@ def integrity_words(conn: sqlite3.Connection | None, limit: int = 120) -> str:
 def check_sound(conn: sqlite3.Connection, path: str | Path) -> None:
     """Refuse a notebook that fails SQLite's ``PRAGMA quick_check`` (a damaged page, zeroed
     bytes): its records could be read wrong without a word. The check reads every page once
-    (about 1 GB/s); nothing is written. Raises :class:`NotebookDamagedError` with the integrity
+    (0.11 s for 13 MB, 10,000 trials with their encoder logs, on a loaded 2-core machine);
+    nothing is written. Raises :class:`NotebookDamagedError` with the integrity
     check's words and how to recover."""
     try:
         rows = [str(r[0]) for r in conn.execute("PRAGMA quick_check(1)")]
