@@ -121,6 +121,30 @@ def _csv_run_with_gt(gt_text: str) -> Callable[[Path], Path]:
     return make
 
 
+def _bag(
+    *, t: np.ndarray | None = None, x: float | None = None, q: tuple[float, ...] | None = None
+) -> Callable[[Path], Path]:
+    """A rosbag2 (sqlite3) folder written by rosbags: joint states at ``t`` (default 20 Hz),
+    ground truth at 10 Hz with ``x`` as every position's x and ``q`` as every orientation."""
+
+    def make(d: Path) -> Path:
+        import sys
+
+        sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "io"))
+        from bag_fixtures import write_bag  # tests/io: rosbags' own writers
+
+        from odolab.trajectory import Trajectory
+
+        tt = 100.0 + 0.05 * np.arange(N) if t is None else t
+        k = np.arange(N)
+        g = 100.0 + 0.1 * np.arange(N // 2)
+        gx = 0.01 * np.arange(g.size) if x is None else np.full(g.size, x)
+        gt = Trajectory.from_xytheta(g, gx, np.zeros(g.size), np.zeros(g.size))
+        return write_bag(d / "run_ros2", tt, 0.2 * k, 0.25 * k, gt, gt_quaternion=q)  # type: ignore[arg-type]
+
+    return make
+
+
 def _sensorlog(t: np.ndarray) -> Callable[[Path], Path]:
     def make(d: Path) -> Path:
         from odolab.io.sensorlog import write_sensorlog
@@ -418,6 +442,29 @@ CASES: dict[str, Case] = {
             lambda d: _optiodom_far(d),
             _read_run("optiodom"),
             ("2312_run-01.csv: line 3, position x is 1e+308 m",),
+        ),
+        # a rosbag2 folder: its joint states and its ground-truth topic
+        Case(
+            "bag/zero-quaternion",
+            _bag(q=(0.0, 0.0, 0.0, 0.0)),
+            _read_run("bag"),
+            (
+                "topic '/ground_truth': message 1, the quaternion qx qy qz qw = 0 0 0 0 has "
+                "length 0",
+                "expected a unit quaternion",
+            ),
+        ),
+        Case(
+            "bag/position-1e308",
+            _bag(x=1e308),
+            _read_run("bag"),
+            ("topic '/ground_truth': message 1, position x is 1e+308 m",),
+        ),
+        Case(
+            "bag/constant-time",
+            _bag(t=np.full(N, 100.0)),
+            _read_run("bag"),
+            ("topic '/joint_states': the time is 100 s at every message from 1 to 30", _NO_ADVANCE),
         ),
         # the phone's log
         Case(

@@ -24,7 +24,7 @@ from odolab.io.tabular import (
     table_format,
     write_columns,
 )
-from odolab.trajectory import Trajectory, check_positions, check_times
+from odolab.trajectory import Trajectory, check_positions, check_times, yaw_from_quaternions
 from odolab.writing import path_first
 
 __all__ = [
@@ -139,19 +139,7 @@ def read_tum(path: str | Path) -> Trajectory:
 
     check_times(d["t"], str(p), line_of=line_of)
     check_positions(d["tx"], d["ty"], str(p), line_of=line_of)
-    qx, qy, qz, qw = d["qx"], d["qy"], d["qz"], d["qw"]
-    length = np.hypot(np.hypot(qx, qy), np.hypot(qz, qw))  # (no overflow at 1e200)
-    off = ~((length >= 0.5) & (length <= 1.5))  # (NaN, inf too)
-    if off.any():
-        i = int(np.argmax(off))
-        raise LogFormatError(
-            f"{p}: line {line_of(i)}, the quaternion qx qy qz qw = {qx[i]:g} {qy[i]:g} {qz[i]:g} "
-            f"{qw[i]:g} has length {length[i]:.3g}; expected a unit quaternion (length 1), "
-            "which is a rotation"
-        )
-    # the yaw of the rotation the quaternion stands for, whatever its length (TUM files keep
-    # 4 decimals, so |q| is 1 only to about 1e-4): both arguments scale with |q|^2
-    yaw = np.arctan2(2.0 * (qw * qz + qx * qy), qw * qw + qx * qx - qy * qy - qz * qz)
+    yaw = yaw_from_quaternions(d["qx"], d["qy"], d["qz"], d["qw"], str(p), line_of=line_of)
     return Trajectory.from_xytheta(d["t"], d["tx"], d["ty"], yaw)
 
 
