@@ -15,7 +15,8 @@ One pure ASGI middleware, outermost, so nothing reaches a page or the API withou
   refused with 403 (:func:`cross_site`), whatever token it carries.
 - **Session**: a random ``odolab_session`` cookie (HttpOnly, SameSite=Strict) keys the CSRF token
   that every form carries (:func:`csrf_token`, :func:`csrf_ok`).
-- **Headers**: a Content-Security-Policy without scripts, no framing, no sniffing, no referrer.
+- **Headers**: a Content-Security-Policy without scripts, no framing, no sniffing, no referrer
+  to another site.
 """
 
 from __future__ import annotations
@@ -59,7 +60,9 @@ _SECURITY_HEADERS = [
     ),
     (b"x-content-type-options", b"nosniff"),
     (b"x-frame-options", b"DENY"),
-    (b"referrer-policy", b"no-referrer"),
+    # same-origin: no referrer to another site, and the browser gives our own forms their real
+    # Origin (with no-referrer it sent "null", which the cross-site check cannot tell apart)
+    (b"referrer-policy", b"same-origin"),
     (b"cache-control", b"no-store"),
 ]
 
