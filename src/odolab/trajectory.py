@@ -12,7 +12,23 @@ from numpy.typing import ArrayLike, NDArray
 from odolab.errors import LogFormatError
 from odolab.kinematics import wrap_angle
 
-__all__ = ["Pose", "Trajectory", "check_times"]
+__all__ = [
+    "MAX_COORDINATE_M",
+    "MAX_TIME_S",
+    "Pose",
+    "Trajectory",
+    "check_positions",
+    "check_times",
+    "yaw_from_quaternions",
+]
+
+#: Largest time stamp a log or trajectory may hold (s): a robot clock or a Unix time (the year
+#: 2286). Past it a float64 loses the sample spacing (at 1e308 t + 0.05 == t): nanoseconds read
+#: as seconds, or damage.
+MAX_TIME_S = 1.0e10
+#: Largest position coordinate a trajectory may hold (m): ten times a UTM northing. Past it the
+#: squares of errors overflow a float64 (1e308 m gave numpy's overflow warning and an APE of inf).
+MAX_COORDINATE_M = 1.0e8
 
 
 class Pose(NamedTuple):
@@ -47,6 +63,12 @@ def check_times(
     if not np.isfinite(t).all():  # (no index array on the usual, clean input)
         i = int(np.argmax(~np.isfinite(t)))
         raise LogFormatError(f"{source}: time at {what} {line(i)} is {t[i]}, expected a number")
+    if t.size and not (t.min() >= -MAX_TIME_S and t.max() <= MAX_TIME_S):
+        i = int(np.argmax(np.abs(t) > MAX_TIME_S))
+        raise LogFormatError(
+            f"{source}: time at {what} {line(i)} is {t[i]:g} s; expected seconds from "
+            f"{-MAX_TIME_S:g} to {MAX_TIME_S:g} (a robot clock or a Unix time)"
+        )
     if t.size > 1:
         back = t[1:] < t[:-1]  # (no array of differences: a 10 M-sample log is 80 MB less)
         if back.any():
@@ -55,6 +77,62 @@ def check_times(
                 f"{source}: time goes backwards at {what} {line(i)} "
                 f"({t[i]} after {t[i - 1]}); expected non-decreasing times"
             )
+        if t[-1] == t[0]:  # (non-decreasing: every time is the first)
+            raise LogFormatError(
+                f"{source}: the time is {t[0]:g} s at every {what} from {line(0)} to "
+                f"{line(t.size - 1)}; expected times that advance"
+            )
+
+
+def check_positions(
+    x: NDArray[np.float64],
+    y: NDArray[np.float64],
+    source: str,
+    *,
+    line_of: Callable[[int], int] | None = None,
+    what: str = "line",
+) -> None:
+    """Raise :class:`LogFormatError` if a position coordinate is not a number or lies beyond
+    :data:`MAX_COORDINATE_M` (``line_of``: index -> the line or row named in the message)."""
+    for name, v in (("x", x), ("y", y)):
+        bad = ~(np.abs(v) <= MAX_COORDINATE_M)  # (NaN too)
+        if bad.any():
+            i = int(np.argmax(bad))
+            where = line_of(i) if line_of is not None else i
+            raise LogFormatError(
+                f"{source}: {what} {where}, position {name} is {v[i]:g} m; expected a number "
+                f"of metres from {-MAX_COORDINATE_M:g} to {MAX_COORDINATE_M:g}"
+            )
+
+
+def yaw_from_quaternions(
+    qx: ArrayLike,
+    qy: ArrayLike,
+    qz: ArrayLike,
+    qw: ArrayLike,
+    source: str,
+    *,
+    line_of: Callable[[int], int] | None = None,
+    what: str = "line",
+) -> NDArray[np.float64]:
+    """The yaw (rad) of each quaternion ``(qx, qy, qz, qw)``, whatever its length near 1 (TUM
+    files keep 4 decimals, so ``|q|`` is 1 only to about 1e-4: both arguments of the arctangent
+    scale with ``|q|^2``). A quaternion of length outside 0.5 to 1.5 (the zero quaternion, which
+    is no rotation and was read as heading 0; NaN) is refused with :class:`LogFormatError`
+    naming its line (``line_of``: index -> line or message number)."""
+    x, y, z, w = (np.asarray(a, dtype=np.float64) for a in (qx, qy, qz, qw))
+    length = np.hypot(np.hypot(x, y), np.hypot(z, w))  # (no overflow at 1e200)
+    off = ~((length >= 0.5) & (length <= 1.5))  # (NaN, inf too)
+    if off.any():
+        i = int(np.argmax(off))
+        where = line_of(i) if line_of is not None else i
+        raise LogFormatError(
+            f"{source}: {what} {where}, the quaternion qx qy qz qw = {x[i]:g} {y[i]:g} {z[i]:g} "
+            f"{w[i]:g} has length {length[i]:.3g}; expected a unit quaternion (length 1), "
+            "which is a rotation"
+        )
+    yaw: NDArray[np.float64] = np.arctan2(2.0 * (w * z + x * y), w * w + x * x - y * y - z * z)
+    return yaw
 
 
 def _f64(a: ArrayLike, name: str) -> NDArray[np.float64]:

@@ -19,7 +19,7 @@ from enum import StrEnum
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import InvalidTrialError
+from odolab.errors import InvalidTrialError, StoreError
 from odolab.params import RobotParams
 from odolab.trajectory import Pose
 
@@ -385,6 +385,20 @@ def _check_text(value: object, name: str, where: str) -> None:
         raise InvalidTrialError(f"{where}: {name} must be non-empty text, got {value!r}", name)
 
 
+def check_no_nul(
+    value: object, name: str, where: str, error: type[StoreError] = InvalidTrialError
+) -> None:
+    """Refuse text with a NUL character, at every way into the notebook, as the CSV import
+    does (one stored through the web's API made the notebook's CSV export unreadable)."""
+    if isinstance(value, str) and "\x00" in value:
+        at = value.index("\x00") + 1
+        message = (
+            f"{where}: {name} has a NUL character (character {at}); expected text without "
+            "NUL characters"
+        )
+        raise InvalidTrialError(message, name) if error is InvalidTrialError else error(message)
+
+
 def _check_command(c: Command, where: str) -> None:
     if not isinstance(c.kind, MotionKind):
         raise InvalidTrialError(f"{where}: command kind {c.kind!r} is not a MotionKind", "kind")
@@ -454,6 +468,15 @@ def validate_trial(trial: Trial) -> None:
             f"trial id {tid!r} must be non-empty text without surrounding spaces", "trial_id"
         )
     where = f"trial {tid}"
+    for name, text in (
+        ("trial_id", tid),
+        ("campaign", trial.campaign),
+        ("terrain", trial.terrain),
+        ("exclusion_reason", trial.exclusion_reason),
+        ("notes", trial.notes),
+        ("instrument", None if trial.measured is None else trial.measured.instrument),
+    ):
+        check_no_nul(text, name, where)
     _check_text(trial.campaign, "campaign", where)
     _check_text(trial.terrain, "terrain", where)
     _check_command(trial.command, where)

@@ -306,6 +306,86 @@ def _scan_mcap(d: Path) -> tuple[Path, Path]:
     return p, p
 
 
+def _notebook_json(d: Path) -> tuple[Path, Path]:
+    """A real notebook's JSON export: three trials (encoder logs included), two campaigns, a
+    parameter version; an empty notebook beside it for the import target."""
+    from odolab.store import Notebook
+    from store.conftest import make_trials  # (tests/ is on the path)
+
+    with Notebook(d / "src.db") as nb:
+        nb.add_campaign("rot-lab", "rotation", "lab", operator="me", notes="n")
+        nb.add_trials(make_trials(3, seed=5, with_logs=True))
+        nb.export_json(d / "nb.json")
+    _fixed_times(d / "nb.json")
+    with Notebook(d / "into.db"):
+        pass
+    return d / "nb.json", d / "nb.json"
+
+
+def _fixed_times(p: Path) -> None:
+    """The export's times of writing made fixed, so that a (target, case) pair is the same
+    file on every run."""
+    import json
+
+    def fix(node: object) -> None:
+        if isinstance(node, dict):
+            for key, value in node.items():
+                if key in ("created", "updated", "replaced", "date") and isinstance(value, str):
+                    node[key] = "2026-01-02" if key == "date" else "2026-01-02T03:04:05+00:00"
+                else:
+                    fix(value)
+        elif isinstance(node, list):
+            for item in node:
+                fix(item)
+
+    doc = json.loads(p.read_text(encoding="utf-8"))
+    fix(doc)
+    p.write_text(json.dumps(doc, indent=1), encoding="utf-8")
+
+
+def _notebook_csv(d: Path) -> tuple[Path, Path]:
+    from odolab.store import Notebook
+    from store.conftest import make_trials
+
+    with Notebook(d / "src.db") as nb:
+        nb.add_campaign("rot-lab", "rotation", "lab")
+        nb.add_trials(make_trials(3, seed=5))
+        nb.export_csv(d / "nb.csv")
+    with Notebook(d / "into.db"):
+        pass
+    return d / "nb.csv", d / "nb.csv"
+
+
+def _read_notebook_json(p: Path) -> object:
+    from odolab.store.jsonio import read_notebook_json
+
+    return read_notebook_json(p)
+
+
+def _import_notebook(p: Path) -> object:
+    """Import into the empty notebook beside the file; what was imported is taken out again
+    (deleted notebook file), so that every case meets an empty notebook."""
+    from odolab.store import Notebook
+
+    db = p.with_name("into.db")
+    template = p.with_name("into.template")
+    if not template.exists():
+        shutil.copyfile(db, template)
+    shutil.copyfile(template, db)
+    for extra in ("-wal", "-shm"):
+        Path(f"{db}{extra}").unlink(missing_ok=True)
+    with Notebook(db) as nb:
+        if p.suffix == ".json":
+            return nb.import_json(p)
+        return nb.import_csv(p, create_campaigns=True)
+
+
+def _read_optiodom(p: Path) -> object:
+    from odolab.io.optiodom import read_optiodom_run
+
+    return read_optiodom_run(p)
+
+
 def _read_run(fmt: str) -> Callable[[Path], object]:
     def read(p: Path) -> object:
         from odolab.io import read_run
@@ -382,6 +462,11 @@ TARGETS: dict[str, Target] = {
         Target("bag-metadata-yaml", _bag("metadata"), _read_run("bag")),
         Target("bag-trajectory-mcap", _bag("mcap"), _read_bag_topics),
         Target("scans-mcap", _scan_mcap, _read_scans),
+        Target("optiodom-run", _optiodom("run"), _read_optiodom),
+        Target("optiodom-metadata", _optiodom("meta"), _read_optiodom),
+        Target("notebook-json", _notebook_json, _read_notebook_json),
+        Target("notebook-json-import", _notebook_json, _import_notebook),
+        Target("notebook-csv-import", _notebook_csv, _import_notebook),
     )
 }
 

@@ -27,8 +27,10 @@ def write_bag(
     joint_names: tuple[str, str] = ("left_wheel_joint", "right_wheel_joint"),
     gt_topic: str = "/ground_truth",
     gt_as_odometry: bool = False,
+    gt_quaternion: tuple[float, float, float, float] | None = None,
 ) -> Path:
-    """A bag with /joint_states (JointState: wheel angles in rad) and PoseStamped ground truth."""
+    """A bag with /joint_states (JointState: wheel angles in rad) and PoseStamped ground truth
+    (``gt_quaternion``: every pose's orientation (x, y, z, w) instead of the heading's)."""
     from rosbags.typesys import Stores, get_typestore
 
     store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
@@ -62,7 +64,16 @@ def write_bag(
                 header=header(float(gt.t[k]), k),
                 pose=Pose(
                     position=Point(x=float(gt.x[k]), y=float(gt.y[k]), z=0.0),
-                    orientation=Quaternion(x=0.0, y=0.0, z=math.sin(h), w=math.cos(h)),
+                    orientation=(
+                        Quaternion(x=0.0, y=0.0, z=math.sin(h), w=math.cos(h))
+                        if gt_quaternion is None
+                        else Quaternion(
+                            x=gt_quaternion[0],
+                            y=gt_quaternion[1],
+                            z=gt_quaternion[2],
+                            w=gt_quaternion[3],
+                        )
+                    ),
                 ),
             )
             if gt_as_odometry:

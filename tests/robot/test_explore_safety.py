@@ -109,7 +109,9 @@ def test_a_normal_exploration_stays_inside_the_fence_by_odometry(
     odometry = run.loop.log.trajectory()
     radius = np.hypot(odometry.x - odometry.x[0], odometry.y - odometry.y[0])
     assert radius.max() <= 1.5
-    assert radius.max() > 0.6 * 1.5  # it does go out to the edge, and turns back
+    # it does go out to the edge, and turns back: the return radius shrunk by the odometry's
+    # uncertainty (issue 39), the margin only growing
+    assert radius.max() + record["largest_margin"] > 0.6 * 1.5
     half = 0.5 * NOMINAL.track_width
     for c in cycles:  # no track ever commanded beyond the exploration's speed limit
         assert max(abs(c.command[0]), abs(c.command[1])) <= 0.8 + 1e-12

@@ -168,9 +168,11 @@ def test_cli_late_cycle_fails_and_is_recorded_in_the_notebook(
     calls = {"n": 0}
     original = JaguarDriver.set_wheel_speeds
 
-    def slow_tenth(self: JaguarDriver, left: float, right: float) -> None:
+    def slow_tenth(
+        self: JaguarDriver, left: float, right: float, *, send_by: float | None = None
+    ) -> None:
         calls["n"] += 1
-        original(self, left, right)
+        original(self, left, right, send_by=send_by)
         if calls["n"] == 10:
             time.sleep(0.8)  # the host stalls with the command in force
 

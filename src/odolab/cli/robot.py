@@ -23,6 +23,7 @@ import typer
 
 from odolab.cli._apps import robot_app
 from odolab.cli._output import echo
+from odolab.defaults import DEFAULT_TRUTH
 
 if TYPE_CHECKING:
     from odolab.robot.config import RunConfig
@@ -115,7 +116,8 @@ CommandTimeoutOpt = Annotated[
     float,
     typer.Option(
         "--command-timeout",
-        help="Virtual Jaguar only: its motors stop when no motor command came for this many s.",
+        help="Virtual Jaguar (sim://) only: its motors stop when no motor command came for "
+        "this many s (a real board has its own; refused on one).",
     ),
 ]
 OutOpt = Annotated[
@@ -170,7 +172,9 @@ FoxgloveOpt = Annotated[
         "--foxglove", help="Serve the run live to Foxglove (ws://127.0.0.1:PORT; loopback only)."
     ),
 ]
-FoxglovePortOpt = Annotated[int, typer.Option("--foxglove-port", help="Foxglove server port.")]
+FoxglovePortOpt = Annotated[
+    int, typer.Option("--foxglove-port", help="Foxglove server port (with --foxglove; 0: any).")
+]
 RealtimeOpt = Annotated[
     bool,
     typer.Option(
@@ -283,16 +287,31 @@ def _confirm_line(confirmed: bool) -> str:
     )
 
 
-#: The virtual Jaguar's options and their defaults (what a real link must leave as they are).
-_VIRTUAL_DEFAULTS = {"--truth": "jaguar-lab", "--terrain": "tile", "--seed": 0}
+#: The Foxglove server's port when --foxglove-port is not given.
+_FOXGLOVE_PORT = 8765
 
 
-def _check_virtual_options(url: str, truth: str, terrain: str, seed: int) -> None:
-    """``--truth``, ``--terrain`` and ``--seed`` name presets (typos are refused on any link),
-    and only the virtual Jaguar (``sim://``) has them: on a real link one that is not its
-    default is refused, before anything is sent (a user who means the simulator must not
-    drive the robot instead)."""
+def _check_foxglove(foxglove: bool, port: int) -> None:
+    """The port is checked whether or not --foxglove is given, and one given without it (it
+    would do nothing) is refused."""
+    from odolab.export.foxglove import check_port
     from odolab.robot.errors import RobotConfigError
+
+    check_port(port)
+    if not foxglove and port != _FOXGLOVE_PORT:
+        raise RobotConfigError(
+            f"--foxglove-port {port} without --foxglove does nothing; expected --foxglove with "
+            "it (to serve the run to Foxglove), or neither"
+        )
+
+
+def _check_virtual_options(
+    url: str, truth: str, terrain: str, seed: int, config: RunConfig
+) -> None:
+    """``--truth`` and ``--terrain`` name presets (typos are refused on any link); the virtual
+    Jaguar's own options on a real link are refused (:func:`odolab.robot.registry.check_virtual_only`)."""
+    from odolab.robot.errors import RobotConfigError
+    from odolab.robot.registry import check_virtual_only
     from odolab.sim.presets import TRUTH_PRESETS
     from odolab.sim.terrains import TERRAINS
 
@@ -300,17 +319,8 @@ def _check_virtual_options(url: str, truth: str, terrain: str, seed: int) -> Non
         raise RobotConfigError(f"--truth is {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}")
     if terrain not in TERRAINS:
         raise RobotConfigError(f"--terrain is {terrain!r}; expected one of {', '.join(TERRAINS)}")
-    if url.startswith("sim:"):
-        return
     given = {"--truth": truth, "--terrain": terrain, "--seed": seed}
-    changed = [k for k, v in given.items() if v != _VIRTUAL_DEFAULTS[k]]
-    if changed:
-        raise RobotConfigError(
-            f"{', '.join(changed)} {'is' if len(changed) == 1 else 'are'} for the virtual Jaguar "
-            f"(sim://) only, and the robot is {url}: nothing was sent; leave "
-            f"{'it' if len(changed) == 1 else 'them'} out to drive this robot, or use "
-            "--robot sim:// to drive the simulator"
-        )
+    check_virtual_only(url, {**given, "--command-timeout": config.command_timeout})
 
 
 def _run(
@@ -327,7 +337,7 @@ def _run(
     quiet: bool,
     realtime: bool,
     foxglove: bool = False,
-    foxglove_port: int = 8765,
+    foxglove_port: int = _FOXGLOVE_PORT,
     ground_truth: GroundTruthChoice | None = None,
 ) -> None:
     """Validate everything, then drive ``command`` with ``config``; nothing is sent before."""
@@ -340,7 +350,8 @@ def _run(
     from odolab.robot.session import check_run_folder
 
     url = check_robot_url(robot)
-    _check_virtual_options(url, truth, terrain, seed)
+    _check_virtual_options(url, truth, terrain, seed, config)
+    _check_foxglove(foxglove, foxglove_port)
     nominal = load_params(params)
     plan = _explore_plan(command, config, nominal, url, ground_truth, params)
     if plan is not None:
@@ -643,9 +654,9 @@ _SHARED_OPTIONS: tuple[tuple[str, Any, Any], ...] = (
     ("command_timeout", CommandTimeoutOpt, 0.5),
     ("out", OutOpt, None),
     ("db", DbOpt, None),
-    ("truth", TruthOpt, _VIRTUAL_DEFAULTS["--truth"]),
-    ("terrain", TerrainOpt, _VIRTUAL_DEFAULTS["--terrain"]),
-    ("seed", SeedOpt, _VIRTUAL_DEFAULTS["--seed"]),
+    ("truth", TruthOpt, DEFAULT_TRUTH),
+    ("terrain", TerrainOpt, "tile"),
+    ("seed", SeedOpt, 0),
     ("left_channel", LeftChOpt, 0),
     ("right_channel", RightChOpt, 1),
     ("left_encoder_sign", LeftSignOpt, 1),
@@ -656,7 +667,7 @@ _SHARED_OPTIONS: tuple[tuple[str, Any, Any], ...] = (
     ("quiet", QuietOpt, False),
     ("realtime", RealtimeOpt, True),
     ("foxglove", FoxgloveOpt, False),
-    ("foxglove_port", FoxglovePortOpt, 8765),
+    ("foxglove_port", FoxglovePortOpt, _FOXGLOVE_PORT),
 )
 _CONFIG_KEYS = frozenset(inspect.signature(_config).parameters)
 

@@ -52,14 +52,15 @@ class StatusChoice(StrEnum):
     excluded = "excluded"
 
 
-def _open(db: Path, *, create: bool = False) -> Notebook:
-    """Open the notebook; only commands that add things may create a new file."""
+def _open(db: Path, *, create: bool = False, check: bool = True) -> Notebook:
+    """Open the notebook; only commands that add things may create a new file. ``check``:
+    refuse a damaged one (``notebook info`` reports the integrity check instead)."""
     from odolab.errors import StoreError
     from odolab.store import Notebook
 
     if not create and not db.exists():
         raise StoreError(f"{db}: no such notebook; create it with `odolab notebook init --db {db}`")
-    return Notebook(db)
+    return Notebook(db, check=check)
 
 
 def _fmt(value: float | None, spec: str = ".3f") -> str:
@@ -106,7 +107,7 @@ def notebook_init(db: DbOption = _DB) -> None:
 @notebook_app.command("info")
 def notebook_info(db: DbOption = _DB) -> None:
     """Counts of robots, parameter versions, campaigns and trials."""
-    with _open(db) as nb:
+    with _open(db, check=False) as nb:  # it says what the integrity check says
         info = nb.info()
         check = nb.integrity_check()
         campaigns = nb.campaigns()

@@ -25,7 +25,20 @@ from typing import Any
 from odolab.errors import OdolabError
 from odolab.trajectory import Pose
 
-__all__ = ["FoxgloveLive", "check_loopback"]
+__all__ = ["FoxgloveLive", "check_loopback", "check_port"]
+
+
+def check_port(port: object) -> int:
+    """``port`` if it is a port number 0..65535 (0: any free one, said when it listens);
+    otherwise one sentence (a long number shown shortened)."""
+    if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
+        from odolab.text import quote_input
+
+        raise OdolabError(
+            f"--foxglove-port is {quote_input(port, 40)}; expected a port number 0..65535 "
+            "(0: any free one)"
+        )
+    return port
 
 
 def check_loopback(host: str) -> str:
@@ -52,8 +65,7 @@ class FoxgloveLive:
         import foxglove
         from foxglove.channels import FrameTransformsChannel, PoseInFrameChannel
 
-        if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
-            raise OdolabError(f"--foxglove-port {port!r}; expected a port number 0..65535")
+        check_port(port)
         host = check_loopback(host)
         self._ctx = foxglove.Context()
         try:

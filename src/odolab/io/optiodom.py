@@ -19,7 +19,7 @@ from odolab.io.limits import check_text_file
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.params import RobotParams
 from odolab.text import quote_input
-from odolab.trajectory import Trajectory, check_times
+from odolab.trajectory import Trajectory, check_positions, check_times
 
 __all__ = [
     "OptiOdomReader",
@@ -89,7 +89,12 @@ def read_optiodom_run(path: str | Path) -> OdometryRun:
     if d["t"].size < 2:
         raise LogFormatError(f"{p}: {d['t'].size} samples; expected at least two")
     t = d["t"]
-    check_times(t, str(p), line_of=lambda i: int(data_line_numbers(p, has_header=False)[i]))
+
+    def line_of(i: int) -> int:
+        return int(data_line_numbers(p, has_header=False)[i])
+
+    check_times(t, str(p), line_of=line_of)
+    check_positions(d["x_gt"], d["y_gt"], str(p), line_of=line_of)
     gt = Trajectory.from_xytheta(t, d["x_gt"], d["y_gt"], d["theta_gt"])
     kind = p.parent.parent.name
     params = params_from_metadata(meta, meta_path, name=f"optiodom-{m['id']}")

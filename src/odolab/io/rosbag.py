@@ -31,7 +31,12 @@ import numpy as np
 from odolab.errors import LogFormatError, OdolabError
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.params import RobotParams
-from odolab.trajectory import Trajectory
+from odolab.trajectory import (
+    Trajectory,
+    check_positions,
+    check_times,
+    yaw_from_quaternions,
+)
 
 __all__ = ["RosbagReader", "bag_topics", "read_bag", "read_bag_trajectory"]
 
@@ -140,32 +145,30 @@ def _stamp(msg: Any, bag_ns: int) -> float:
 
 
 def _poses(reader: Any, path: Path, topic: str) -> Trajectory:
-    t, x, y, yaw = [], [], [], []
+    t, x, y, q = [], [], [], []
     for bag_ns, msg in _messages(reader, path, topic, POSE_TYPES):
         pose = msg.pose.pose if hasattr(msg.pose, "pose") else msg.pose
-        q = pose.orientation
+        o = pose.orientation
         t.append(_stamp(msg, bag_ns))
         x.append(pose.position.x)
         y.append(pose.position.y)
-        # scale-invariant: the yaw of q for any length |q| (stored quaternions are rounded)
-        yaw.append(
-            math.atan2(2.0 * (q.w * q.z + q.x * q.y), q.w * q.w + q.x * q.x - q.y * q.y - q.z * q.z)
-        )
+        q.append((o.x, o.y, o.z, o.w))
     if len(t) < 2:
         raise LogFormatError(f"{path}: topic {topic!r} has {len(t)} poses; expected at least two")
-    return _checked_trajectory(path, topic, np.array(t), np.array(x), np.array(y), np.array(yaw))
+    return _checked_trajectory(path, topic, np.array(t), np.array(x), np.array(y), np.array(q))
 
 
 def _checked_trajectory(
-    path: Path, topic: str, t: np.ndarray, x: np.ndarray, y: np.ndarray, yaw: np.ndarray
+    path: Path, topic: str, t: np.ndarray, x: np.ndarray, y: np.ndarray, q: np.ndarray
 ) -> Trajectory:
-    back = np.diff(t) < 0
-    if back.any():
-        i = int(np.argmax(back)) + 1
-        raise LogFormatError(
-            f"{path}: topic {topic!r} time goes backwards at message {i} ({t[i]} after "
-            f"{t[i - 1]}); expected non-decreasing header stamps"
-        )
+    """The poses of a topic, checked as every trajectory reader checks them: times, positions,
+    unit quaternions (the yaw whatever the length near 1: stored quaternions are rounded)."""
+    source = f"{path}: topic {topic!r}"
+    check_times(t, source, row_offset=1, what="message")
+    check_positions(x, y, source, line_of=lambda i: i + 1, what="message")
+    yaw = yaw_from_quaternions(
+        q[:, 0], q[:, 1], q[:, 2], q[:, 3], source, line_of=lambda i: i + 1, what="message"
+    )
     return Trajectory.from_xytheta(t, x, y, yaw)
 
 
@@ -307,13 +310,7 @@ def _joint_increments(
     if len(t) < 2:
         raise LogFormatError(f"{p}: {o.joint_topic!r} has {len(t)} messages; expected two+")
     tt = np.array(t)
-    back = np.diff(tt) < 0
-    if back.any():
-        i = int(np.argmax(back)) + 1
-        raise LogFormatError(
-            f"{p}: topic {o.joint_topic!r} time goes backwards at message {i} ({tt[i]} "
-            f"after {tt[i - 1]}); expected non-decreasing header stamps"
-        )
+    check_times(tt, f"{p}: topic {o.joint_topic!r}", row_offset=1, what="message")
     scale = o.ticks_per_rev / (2.0 * math.pi)
     dl = np.concatenate(([0.0], np.diff(np.unwrap(np.array(left))) * scale))
     dr = np.concatenate(([0.0], np.diff(np.unwrap(np.array(right))) * scale))

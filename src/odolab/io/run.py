@@ -13,7 +13,12 @@ from odolab.kinematics import Method
 from odolab.params import RobotParams
 from odolab.trajectory import Trajectory, check_times
 
-__all__ = ["OdometryRun", "ReadOptions"]
+__all__ = ["MAX_WHEEL_SPEED_M_S", "OdometryRun", "ReadOptions"]
+
+#: Fastest a wheel's rim may move between two samples of a run (m/s): far past any wheeled lab
+#: robot (the Jaguar's top speed is about 1.5 m/s). Increments past it are damage, or counts
+#: of a different unit; a run whose parameters are known is refused for them.
+MAX_WHEEL_SPEED_M_S = 20.0
 
 
 @dataclass(frozen=True)
@@ -78,6 +83,15 @@ class OdometryRun:
             raise LogFormatError(f"{self.source}: {t.size} samples; expected at least two")
         # file readers check their times first and name the line; here only the sample (from 1)
         check_times(t, self.source, row_offset=1, what="sample")
+        for side, d in (("left", dl), ("right", dr)):
+            if not np.isfinite(d).all():
+                i = int(np.argmax(~np.isfinite(d)))
+                raise LogFormatError(
+                    f"{self.source}: sample {i + 1}, the {side} increment is {d[i]}; expected a "
+                    "number of counts"
+                )
+        if self.params is not None:
+            _check_wheel_speeds(self.source, t, dl, dr, self.params)
         object.__setattr__(self, "t", t)
         object.__setattr__(self, "dticks_left", dl)
         object.__setattr__(self, "dticks_right", dr)
@@ -103,3 +117,32 @@ class OdometryRun:
             why = self.meta.get("no_ground_truth", "no ground truth in this run; expected one")
             raise LogFormatError(f"{self.source}: {why}")
         return self.ground_truth
+
+
+def _check_wheel_speeds(
+    source: str,
+    t: NDArray[np.float64],
+    dl: NDArray[np.float64],
+    dr: NDArray[np.float64],
+    params: RobotParams,
+) -> None:
+    """Refuse increments that move a wheel's rim faster than :data:`MAX_WHEEL_SPEED_M_S` over
+    their sample's interval (at least the run's median spacing, so that a repeated time stamp
+    is not an infinite speed)."""
+    dt = np.diff(t)
+    floor = float(np.median(dt))
+    span = np.maximum(dt, floor)
+    for side, d, per_tick in (
+        ("left", dl, params.left_metres_per_tick),
+        ("right", dr, params.right_metres_per_tick),
+    ):
+        speed = np.abs(d[1:]) * per_tick / span
+        fast = ~(speed <= MAX_WHEEL_SPEED_M_S)
+        if fast.any():
+            i = int(np.argmax(fast))
+            raise LogFormatError(
+                f"{source}: sample {i + 2}, the {side} increment of {d[i + 1]:.10g} counts moves "
+                f"the wheel {abs(d[i + 1]) * per_tick:.4g} m in {dt[i]:.4g} s ({speed[i]:.4g} "
+                f"m/s with the run's parameters, {params.ticks_per_rev:g} counts per revolution); "
+                f"expected at most {MAX_WHEEL_SPEED_M_S:g} m/s"
+            )

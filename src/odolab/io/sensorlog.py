@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from odolab.errors import ImuLogError
+from odolab.trajectory import MAX_TIME_S
 
 __all__ = [
     "DEFAULT_START",
@@ -331,6 +332,14 @@ def _times_for(
             raise ImuLogError(
                 f"{tab.path}: line {line}, column {tab.name(time_base)!r} is empty on a row with "
                 "a heading sample; expected its time stamp"
+            )
+        far = ~(np.abs(t) <= MAX_TIME_S)
+        if far.any():  # (past it the spacing is lost, and the clock offset overflows)
+            k = int(np.argmax(far))
+            line = int(np.flatnonzero(rows)[k]) + 2
+            raise ImuLogError(
+                f"{tab.path}: line {line}, column {tab.name(time_base)!r} is {float(t[k]):g} s; "
+                f"expected seconds from {-MAX_TIME_S:g} to {MAX_TIME_S:g}"
             )
         return t, tab.name(time_base)
     if wall is None:

@@ -24,7 +24,7 @@ from odolab.io.tabular import (
     table_format,
     write_columns,
 )
-from odolab.trajectory import Trajectory, check_times
+from odolab.trajectory import Trajectory, check_positions, check_times, yaw_from_quaternions
 from odolab.writing import path_first
 
 __all__ = [
@@ -71,7 +71,9 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
     if table_format(p) != "csv":
         header = read_header(p)
         d = read_columns(p, trajectory_columns(header))
+        _check_some(p, d["t"].size)
         check_times(d["t"], str(p), row_offset=1, what="row")
+        check_positions(d["x"], d["y"], str(p), line_of=lambda i: i + 1, what="row")
         if "heading" in d:
             return Trajectory.from_xyh(d["t"], d["x"], d["y"], d["heading"])
         return Trajectory.from_xytheta(d["t"], d["x"], d["y"], d["theta"])
@@ -84,10 +86,21 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
         raise LogFormatError(f"{p}: empty file; expected header {','.join(COLUMNS)}")
     check_columns_unique(p, header)
     d = read_columns(p, trajectory_columns(header), checked=True)
-    check_times(d["t"], str(p), line_of=lambda i: int(data_line_numbers(p)[i]))
+    _check_some(p, d["t"].size)
+
+    def line_of(i: int) -> int:
+        return int(data_line_numbers(p)[i])
+
+    check_times(d["t"], str(p), line_of=line_of)
+    check_positions(d["x"], d["y"], str(p), line_of=line_of)
     if "heading" in d:
         return Trajectory.from_xyh(d["t"], d["x"], d["y"], d["heading"])
     return Trajectory.from_xytheta(d["t"], d["x"], d["y"], d["theta"])
+
+
+def _check_some(p: Path, rows: int) -> None:
+    if rows == 0:
+        raise LogFormatError(f"{p}: no poses after the header; expected at least one row")
 
 
 @overload
@@ -120,13 +133,13 @@ def read_tum(path: str | Path) -> Trajectory:
     d = read_numeric_columns(p, TUM_COLUMNS, sep=r"\s+", names=TUM_COLUMNS)
     if d["t"].size == 0:
         raise LogFormatError(f"{p}: no poses")
-    check_times(
-        d["t"], str(p), line_of=lambda i: int(data_line_numbers(p, sep=r"\s+", has_header=False)[i])
-    )
-    qx, qy, qz, qw = d["qx"], d["qy"], d["qz"], d["qw"]
-    # the yaw of the rotation the quaternion stands for, whatever its length (TUM files keep
-    # 4 decimals, so |q| is 1 only to about 1e-4): both arguments scale with |q|^2
-    yaw = np.arctan2(2.0 * (qw * qz + qx * qy), qw * qw + qx * qx - qy * qy - qz * qz)
+
+    def line_of(i: int) -> int:
+        return int(data_line_numbers(p, sep=r"\s+", has_header=False)[i])
+
+    check_times(d["t"], str(p), line_of=line_of)
+    check_positions(d["tx"], d["ty"], str(p), line_of=line_of)
+    yaw = yaw_from_quaternions(d["qx"], d["qy"], d["qz"], d["qw"], str(p), line_of=line_of)
     return Trajectory.from_xytheta(d["t"], d["tx"], d["ty"], yaw)
 
 

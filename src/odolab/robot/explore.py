@@ -294,7 +294,18 @@ class ExplorePlan:
                 "crossed_at": list(motion.crossed_at) if motion.crossed_at else None,
                 "largest_radius": radius,
                 "commands": [list(c) for c in motion.commands],
+                # the fence under the odometry's uncertainty (issue 39)
+                "confidence": motion.confidence,
+                "margin_source": motion.noise_source,
+                "largest_margin": motion.largest_margin,
+                "uncertainty_stop": (
+                    list(motion.uncertainty_stop) if motion.uncertainty_stop else None
+                ),
             }
+            if truth is not None and len(truth) > 0:  # the virtual robot: where it truly went
+                true_r = np.hypot(truth.x - truth.x[0], truth.y - truth.y[0])
+                record["true_largest_radius"] = float(true_r.max())
+                record["true_time_outside"] = _time_outside(truth.t, true_r, e.fence)
             source = self.ground_truth
             gt: dict[str, Any] = {"source": source, "file": None, "attach": None}
             if source == "virtual":
@@ -421,13 +432,58 @@ class ExplorePlan:
                     f"run: {log}; ground truth: {GROUND_TRUTH_SOURCES[self.ground_truth]}, not "
                     f"attached yet: {attach_sentence(self.ground_truth, folder)}"
                 )
+        lines.extend(_uncertainty_lines(record, e.fence, e.seconds))
         error = None
+        kept = f"is kept{f' in {folder}' if folder is not None else ''}"
         if record.get("fence_crossed"):
             error = (
                 f"the exploration left its {e.fence:g} m fence ({run.loop.aborted}): it ended "
-                f"early and is kept{f' in {folder}' if folder is not None else ''}"
+                f"early and {kept}"
+            )
+        elif record.get("true_largest_radius", 0.0) > e.fence:
+            error = (
+                f"the virtual robot truly left the {e.fence:g} m fence, though its odometry did "
+                f"not: {record['true_largest_radius']:.3f} m from the start at most, "
+                f"{record['true_time_outside']:.1f} s outside (odometry said {radius:.3f} m at "
+                f"most); the run {kept}"
             )
         return lines, error
+
+
+def _time_outside(t: np.ndarray, r: np.ndarray, fence: float) -> float:
+    """Seconds of the log the true robot spent beyond the fence (each row holds until the
+    next)."""
+    if t.size < 2:
+        return 0.0
+    return float(np.sum(np.diff(t)[r[:-1] > fence]))
+
+
+def _uncertainty_lines(record: dict[str, Any], fence: float, seconds: float) -> list[str]:
+    """What the fence under uncertainty did: its margin (and where its covariance came from),
+    an early end for the uncertainty, where the virtual robot truly went."""
+    lines = []
+    confidence = float(record.get("confidence", 0.0))
+    if confidence > 0:
+        lines.append(
+            f"fence kept at {confidence:.0%} confidence under the odometry's uncertainty: "
+            f"margin up to {record.get('largest_margin', 0.0):.3f} m (covariance: "
+            f"{record.get('margin_source') or 'none'})"
+        )
+    stop = record.get("uncertainty_stop")
+    if stop:
+        t, r, margin = stop
+        lines.append(
+            f"ended at t={t:.1f} s of its {seconds:g} s: {r:.3f} m from the start by odometry "
+            f"with a margin of {margin:.3f} m left no room inside the {fence:g} m fence (the "
+            "robot may be off by that much); a larger fence, or calibrated parameters with a "
+            "[noise] table, let it explore longer"
+        )
+    if "true_largest_radius" in record:
+        lines.append(
+            f"the virtual robot's true path: {record['true_largest_radius']:.3f} m from the "
+            f"start at most, {record.get('true_time_outside', 0.0):.1f} s outside the fence"
+        )
+    return lines
 
 
 def plan_exploration(

@@ -19,7 +19,14 @@ from odolab.robot.clock import Clock
 from odolab.robot.plant import PlantFactory
 from odolab.trajectory import Pose
 
-__all__ = ["Driver", "DriverStats", "EncoderReading", "RobotLink", "VirtualSpec"]
+__all__ = [
+    "Driver",
+    "DriverStats",
+    "EncoderReading",
+    "RobotLink",
+    "VirtualSpec",
+    "check_send_by",
+]
 
 D = TypeVar("D")
 
@@ -83,8 +90,13 @@ class Driver(Protocol):
         """Read what arrived; return the number of new readings."""
         ...
 
-    def set_wheel_speeds(self, left_mps: float, right_mps: float) -> None:
-        """Command the track speeds (m/s, forward positive)."""
+    def set_wheel_speeds(
+        self, left_mps: float, right_mps: float, *, send_by: float | None = None
+    ) -> None:
+        """Command the track speeds (m/s, forward positive). ``send_by`` (the driver's clock):
+        the latest time the command may go out; the driver checks it with
+        :func:`check_send_by` just before the bytes go to its transport, and sends stop instead
+        when it has passed."""
         ...
 
     def stop(self) -> None:
@@ -98,6 +110,23 @@ class Driver(Protocol):
     def close(self) -> None:
         """Stop the robot and release the link (safe to call twice)."""
         ...
+
+
+def check_send_by(now: float, send_by: float | None) -> None:
+    """The control loop's lateness check at the moment of sending: raise
+    :class:`~odolab.robot.errors.LateCycleError` when ``now`` is past ``send_by``. A driver calls
+    it with its clock read just before a motion command's bytes go to the transport (after
+    encoding them), so that a host frozen between the loop's own check and the send (SIGSTOP,
+    swapping) never sends the stale command; the driver then sends stop."""
+    if send_by is not None and now > send_by:
+        from odolab.robot.errors import LateCycleError
+
+        raise LateCycleError(
+            f"the motion command was {now - send_by:.3f} s past its send-by time when it was "
+            "about to go out (the host was frozen, swapped out or starved after the loop's "
+            "lateness check); not sent, stop sent and the run failed instead of resuming the "
+            "motion"
+        )
 
 
 class _Stoppable(Protocol):

@@ -383,7 +383,10 @@ class ControlLoop:
                         else:
                             command = step
                             self._check_on_time(clock.now() - deadline, k)
-                            driver.set_wheel_speeds(*step)
+                            # and again by the driver, just before the bytes go out: a freeze
+                            # between this check and the send must not send a stale command
+                            send_by = deadline + self.watchdog.timeout
+                            driver.set_wheel_speeds(*step, send_by=send_by)
                     else:
                         driver.stop()
                     shown = phase

@@ -11,8 +11,9 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Protocol, runtime_checkable
 
+from odolab.odometry import Odometry
 from odolab.params import RobotParams
 from odolab.robot.errors import MotionError
 from odolab.robot.explore_motion import Explore
@@ -22,10 +23,12 @@ from odolab.trials import Command, MotionKind
 __all__ = [
     "Motion",
     "MotionSequence",
+    "OwnsOdometry",
     "Pivot",
     "Rotate",
     "Straight",
     "motion_from_command",
+    "odometry_for",
     "square",
 ]
 
@@ -40,6 +43,23 @@ class Motion(Protocol):
     def step(self, pose: Pose) -> tuple[float, float] | None:
         """Wheel speeds (left, right) in m/s for this cycle, or None when the target is reached."""
         ...
+
+
+@runtime_checkable
+class OwnsOdometry(Protocol):
+    """A motion that needs more of the loop's odometry than its pose (the exploration's fence
+    reads the propagated covariance): it makes the loop's :class:`~odolab.odometry.Odometry`."""
+
+    def odometry(self, params: RobotParams) -> Odometry:
+        """The odometry the loop runs with ``params`` (it keeps it to read each cycle)."""
+        ...
+
+
+def odometry_for(motion: Motion | None, params: RobotParams) -> Odometry:
+    """The loop's odometry for ``motion``: its own (:class:`OwnsOdometry`), else the plain one."""
+    if isinstance(motion, OwnsOdometry):
+        return motion.odometry(params)
+    return Odometry(params)
 
 
 def _scale(remaining: float, decel: float, min_fraction: float) -> float:

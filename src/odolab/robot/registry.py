@@ -14,14 +14,16 @@ simulated time). Links never import this module: the table imports them, lazily.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass
+import socket
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, fields
 from urllib.parse import urlparse
 
+from odolab.defaults import DEFAULT_TRUTH
 from odolab.params import RobotParams
 from odolab.robot.clock import Clock, SimClock
 from odolab.robot.config import RunConfig
-from odolab.robot.errors import RobotUrlError
+from odolab.robot.errors import RobotConfigError, RobotUrlError
 from odolab.robot.interface import RobotLink, VirtualSpec
 from odolab.robot.plant import Plant
 
@@ -29,12 +31,14 @@ __all__ = [
     "DEFAULT_ROBOT_URL",
     "IN_PROCESS",
     "LINKS",
+    "VIRTUAL_ONLY",
     "InProcessOpener",
     "LinkEntry",
     "LinkOpener",
     "RobotLink",
     "VirtualSpec",
     "check_robot_url",
+    "check_virtual_only",
     "open_in_process",
     "open_link",
 ]
@@ -142,12 +146,69 @@ def check_robot_url(url: str | None) -> str:
     """The URL (``sim://`` for None) if its scheme is registered and the link takes it; else
     :class:`RobotUrlError`."""
     url = DEFAULT_ROBOT_URL if url is None else url
+    _check_characters(url)  # (urlparse drops spaces around, and tabs and line ends inside)
     scheme = urlparse(url).scheme
     if scheme not in LINKS:
         forms = ", ".join(entry.form for entry in LINKS.values())
         raise RobotUrlError(f"--robot {url!r} has no known scheme; expected one of {forms}")
     LINKS[scheme].check(url)
+    _check_host(url)
     return url
+
+
+def _check_characters(url: str) -> None:
+    bad = next((i for i, c in enumerate(url) if c.isspace() or not c.isprintable()), None)
+    if bad is not None:
+        raise RobotUrlError(
+            f"--robot {url!r} has a space or control character at position {bad + 1}; "
+            "expected the URL alone (SCHEME://HOST:PORT, nothing around it)"
+        )
+
+
+def _check_host(url: str) -> None:
+    """Refuse an IPv4 address written other than as four decimal numbers (``0x7f000001``,
+    ``2130706433``, ``127.1``, ``0177.0.0.1``): the resolver takes them for an address a
+    reader of the command line does not see."""
+    host = urlparse(url).hostname
+    if not host or ":" in host:  # none (sim://), or an IPv6 literal
+        return
+    try:
+        packed = socket.inet_aton(host)
+    except OSError:  # a name
+        return
+    dotted = socket.inet_ntoa(packed)
+    if dotted != host:
+        raise RobotUrlError(
+            f"--robot {url!r}: the host {host!r} is the IPv4 address {dotted} written another "
+            f"way; expected it as four decimal numbers ({dotted}) or a host name"
+        )
+
+
+#: The options that only the virtual board started for a ``sim://`` run reads, with their
+#: defaults: on a real link, one that is not its default is refused before anything is sent
+#: (a user who means the simulator must not drive the robot instead).
+VIRTUAL_ONLY: dict[str, object] = {
+    "--truth": DEFAULT_TRUTH,
+    "--terrain": "tile",
+    "--seed": 0,
+    "--command-timeout": next(f.default for f in fields(RunConfig) if f.name == "command_timeout"),
+}
+
+
+def check_virtual_only(url: str, given: Mapping[str, object]) -> None:
+    """Refuse options of :data:`VIRTUAL_ONLY` that differ from their defaults (``given``:
+    option -> value) when ``url`` is a real link (one sentence, naming them)."""
+    if urlparse(url).scheme == "sim":
+        return
+    changed = [k for k, v in given.items() if k in VIRTUAL_ONLY and v != VIRTUAL_ONLY[k]]
+    if changed:
+        one = len(changed) == 1
+        raise RobotConfigError(
+            f"{', '.join(changed)} {'is' if one else 'are'} for the virtual Jaguar (sim://) "
+            f"only, and the robot is {url}: nothing was sent; leave {'it' if one else 'them'} "
+            "out to drive this robot (a real board has its own command timeout), or use "
+            "--robot sim:// to drive the simulator"
+        )
 
 
 def open_link(

@@ -35,14 +35,13 @@ from pathlib import Path
 from typing import Any
 
 from odolab.errors import OdolabError
-from odolab.odometry import Odometry
 from odolab.params import PRESETS, RobotParams
 from odolab.robot.clock import Clock, RealClock, SimClock, set_realtime
 from odolab.robot.config import RunConfig, check_motion
 from odolab.robot.errors import RobotConfigError, RunFolderError
 from odolab.robot.interface import Driver, RobotLink, VirtualSpec
 from odolab.robot.loop import ControlLoop, CycleInfo, LoopResult, LoopStats
-from odolab.robot.motions import Motion, motion_from_command
+from odolab.robot.motions import Motion, motion_from_command, odometry_for
 from odolab.robot.plant import IdealPlant, Plant, PlantFactory
 from odolab.robot.registry import open_in_process, open_link
 from odolab.trajectory import Pose, Trajectory
@@ -243,7 +242,7 @@ def _drive_link(
         try:
             loop = ControlLoop(
                 driver,
-                Odometry(params),
+                odometry_for(motion, params),
                 clock,
                 rate=config.rate,
                 watchdog_timeout=config.watchdog,

@@ -10,9 +10,13 @@ One pure ASGI middleware, outermost, so nothing reaches a page or the API withou
   ``X-Odolab-Token`` header. Anything else gets 401.
 - **Body size**: a request body larger than ``max_body`` bytes is refused with 413, whether it
   says so in ``Content-Length`` or not.
+- **Another site**: a request that changes something (not GET, HEAD or OPTIONS) whose
+  ``Origin`` is not this server, or that a browser marks ``Sec-Fetch-Site: cross-site``, is
+  refused with 403 (:func:`cross_site`), whatever token it carries.
 - **Session**: a random ``odolab_session`` cookie (HttpOnly, SameSite=Strict) keys the CSRF token
   that every form carries (:func:`csrf_token`, :func:`csrf_ok`).
-- **Headers**: a Content-Security-Policy without scripts, no framing, no sniffing, no referrer.
+- **Headers**: a Content-Security-Policy without scripts, no framing, no sniffing, no referrer
+  to another site.
 """
 
 from __future__ import annotations
@@ -20,20 +24,24 @@ from __future__ import annotations
 import hashlib
 import hmac
 import json
+import re
 import secrets
 from http.cookies import SimpleCookie
 from typing import Any
-from urllib.parse import parse_qsl, quote, urlencode
+from urllib.parse import parse_qsl, quote, urlencode, urlsplit
 
 from starlette.datastructures import Headers
 from starlette.exceptions import HTTPException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+from odolab.text import shorten
 
 __all__ = [
     "LOOPBACK_HOSTS",
     "SESSION_COOKIE",
     "TOKEN_COOKIE",
     "Guard",
+    "cross_site",
     "csrf_ok",
     "csrf_token",
     "make_token",
@@ -52,7 +60,9 @@ _SECURITY_HEADERS = [
     ),
     (b"x-content-type-options", b"nosniff"),
     (b"x-frame-options", b"DENY"),
-    (b"referrer-policy", b"no-referrer"),
+    # same-origin: no referrer to another site, and the browser gives our own forms their real
+    # Origin (with no-referrer it sent "null", which the cross-site check cannot tell apart)
+    (b"referrer-policy", b"same-origin"),
     (b"cache-control", b"no-store"),
 ]
 
@@ -74,11 +84,40 @@ def csrf_ok(secret: bytes, session: str | None, given: object) -> bool:
     return hmac.compare_digest(csrf_token(secret, session).encode(), given.encode("utf-8"))
 
 
+_HOST = re.compile(r"(?:\[(?P<v6>[0-9a-f:.]+)\]|(?P<name>[^\[\]:/@\s]+))(?::\d{1,5})?")
+
+
 def _host_name(host_header: str) -> str:
-    host = host_header.strip().lower()
-    if host.startswith("["):  # [::1]:8000
-        return host[1 : host.find("]")] if "]" in host else host
-    return host.rsplit(":", 1)[0] if host.count(":") == 1 else host
+    """The host of a ``Host`` header (``[::1]:8000`` -> ``::1``); "" unless the whole header
+    is a host and an optional port (``[::1].evil.example`` and ``[::1]evil.example:80`` were
+    read as ``::1``)."""
+    m = _HOST.fullmatch(host_header.strip().lower())
+    if m is None:
+        return ""
+    return m["v6"] or m["name"]
+
+
+#: Methods that change nothing: the cross-site check is for the others.
+_SAFE_METHODS = frozenset({"GET", "HEAD", "OPTIONS"})
+
+
+def cross_site(headers: Headers, host_header: str) -> str | None:
+    """Why a request that changes something comes from another site (None when it does not
+    say so): an ``Origin`` that is not this server's (``null`` included), or a browser's
+    ``Sec-Fetch-Site: cross-site``/``same-site``. A client without them (curl, odolab's CLI)
+    is not refused here; the CSRF token and the SameSite cookies are the first line."""
+    site = headers.get("sec-fetch-site", "").strip().lower()
+    if site in ("cross-site", "same-site"):
+        return f"Sec-Fetch-Site is {site}"
+    origin = headers.get("origin")
+    if origin is None:
+        return None
+    parsed = urlsplit(origin.strip())
+    if parsed.scheme not in ("http", "https") or not parsed.netloc:
+        return f"its Origin is {shorten(origin, 80)!r}"
+    if parsed.netloc.lower() != host_header.strip().lower():
+        return f"its Origin {shorten(origin, 80)!r} is not this server ({shorten(host_header, 80)})"
+    return None
 
 
 def _same_site(path: str) -> str:
@@ -147,6 +186,18 @@ class Guard:
                     send,
                     400,
                     f"this odolab server answers only to {', '.join(sorted(self.allowed_hosts))}",
+                    api=api,
+                    extra=[],
+                )
+                return
+        if scope.get("method", "GET").upper() not in _SAFE_METHODS:
+            why = cross_site(headers, headers.get("host", ""))
+            if why is not None:  # a second line behind the CSRF token and SameSite cookies
+                await self._reply(
+                    send,
+                    403,
+                    f"a write from another site is refused ({why}); expected a request from "
+                    "this server's own pages or a client of its own (no Origin header)",
                     api=api,
                     extra=[],
                 )

@@ -71,10 +71,25 @@ class ServerInfo:
 
 
 def _uvicorn_server(settings: ServeSettings, limits: Limits) -> object:
-    """uvicorn with odolab's connection limits: slow and idle clients closed, a quick stop."""
+    """uvicorn with odolab's connection limits: slow and idle clients closed, a quick stop.
+
+    SIGTERM is a request to stop, and a server that stopped as asked exits 0: uvicorn raises
+    the signal again once it has shut down, so the process died by it (status -15). Ctrl-C's
+    SIGINT is still raised again (odolab says "interrupted")."""
+    import contextlib
+    import signal
+
     import uvicorn
 
-    return uvicorn.Server(uvicorn_config(create_app(settings), limits))
+    class _Server(uvicorn.Server):
+        @contextlib.contextmanager
+        def capture_signals(self) -> Iterator[None]:
+            with super().capture_signals():
+                yield
+                captured = self._captured_signals  # (uvicorn's list; raised again on exit)
+                captured[:] = [s for s in captured if s != signal.SIGTERM]
+
+    return _Server(uvicorn_config(create_app(settings), limits))
 
 
 def serve(

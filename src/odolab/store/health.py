@@ -30,6 +30,7 @@ __all__ = [
     "NotebookDamagedError",
     "NotebookFileError",
     "check_notebook_file",
+    "check_sound",
     "create_notebook_file",
     "integrity_words",
     "not_a_database",
@@ -196,6 +197,29 @@ def integrity_words(conn: sqlite3.Connection | None, limit: int = 120) -> str:
     more = len(problems) - 1
     tail = f" (and {more}{'+' if len(rows) >= 50 else ''} more)" if more else ""
     return repr(shorten(problems[0], limit)) + tail
+
+
+def check_sound(conn: sqlite3.Connection, path: str | Path) -> None:
+    """Refuse a notebook that fails SQLite's ``PRAGMA quick_check`` (a damaged page, zeroed
+    bytes): its records could be read wrong without a word. The check reads every page once
+    (0.11 s for 13 MB, 10,000 trials with their encoder logs, on a loaded 2-core machine);
+    nothing is written. Raises :class:`NotebookDamagedError` with the integrity
+    check's words and how to recover."""
+    try:
+        rows = [str(r[0]) for r in conn.execute("PRAGMA quick_check(1)")]
+    except sqlite3.Error as err:
+        if not _is_damage(err):
+            raise store_error(path, err, conn, "checking it") from err
+        rows = [str(err)]
+    if rows == ["ok"]:
+        return
+    lines = [x.strip() for r in rows for x in r.splitlines() if x.strip()]
+    said = [x for x in lines if not x.startswith("***")] or ["no answer"]
+    first = shorten(said[0], 120)
+    raise NotebookDamagedError(
+        f"{path}: the notebook is damaged (SQLite: {first}; integrity check: "
+        f"{integrity_words(conn)}) while opening it; {recovery_hint(path)}"
+    )
 
 
 def _is_damage(err: sqlite3.Error) -> bool:

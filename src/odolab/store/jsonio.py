@@ -37,7 +37,14 @@ from odolab.params import RobotParams, params_from_mapping
 from odolab.store.codec import EncodedLog, decode_log
 from odolab.store.records import HISTORY_KEYS, PARAMS_FIELDS, TRIAL_COLUMNS, params_tables
 from odolab.text import quote_input
-from odolab.trials import TRIAL_FIELDS, EncoderLog, FieldType, MotionKind, TrialStatus
+from odolab.trials import (
+    TRIAL_FIELDS,
+    EncoderLog,
+    FieldType,
+    MotionKind,
+    TrialStatus,
+    check_no_nul,
+)
 from odolab.writing import write_text_file
 
 __all__ = [
@@ -143,6 +150,7 @@ def _text(item: dict[str, Any], key: str, where: str, *, null: bool = False) -> 
     v = item[key]
     if not (isinstance(v, str) or (null and v is None)):
         raise _bad(where, key, v, "text" + (" or null" if null else ""))
+    check_no_nul(v, f"key {key!r}", where, StoreError)  # (as the CSV import refuses it)
 
 
 def _integer(item: dict[str, Any], key: str, where: str, low: int, high: int = _MAX_INT) -> None:
@@ -158,8 +166,15 @@ def _number(item: dict[str, Any], key: str, where: str, *, null: bool = True) ->
     v = item[key]
     if v is None and null:
         return
-    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+    if isinstance(v, bool) or not isinstance(v, int | float) or not _finite(v):
         raise _bad(where, key, v, "a finite number" + (" or null" if null else ""))
+
+
+def _finite(v: float) -> bool:
+    try:
+        return math.isfinite(v)
+    except OverflowError:  # an integer past a float's range (1e400 written out)
+        return False
 
 
 def _stamp(item: dict[str, Any], key: str, where: str) -> None:
@@ -306,6 +321,11 @@ def read_notebook_json(path: str | Path) -> NotebookDocument:
         raise StoreError(f"{p}: cannot read ({err.strerror or err})") from err
     except (json.JSONDecodeError, UnicodeDecodeError) as err:
         raise StoreError(f"{p}: not valid JSON ({err})") from err
+    except ValueError as err:  # Python's limit on an integer's digits (4300)
+        raise StoreError(
+            f"{p}: a number in it has more digits than can be read ({err}); expected a "
+            "notebook export (its numbers have at most 17 significant digits)"
+        ) from err
     except RecursionError as err:
         raise StoreError(
             f"{p}: JSON nested too deeply to read; expected a notebook export (a few levels)"
@@ -313,10 +333,14 @@ def read_notebook_json(path: str | Path) -> NotebookDocument:
     _need(doc, ("format",), str(p))
     if doc["format"] != FORMAT:
         raise StoreError(f"{p}: format is {doc['format']!r}; expected {FORMAT!r}")
-    schema = doc.get("schema")
-    if schema is not None and (
-        isinstance(schema, bool) or not isinstance(schema, int) or not 1 <= schema <= 3
-    ):
+    if doc.get("schema") is None:  # every odolab has written it: a file without it is not ours
+        raise StoreError(
+            f"{p}: "
+            + ("schema is null" if "schema" in doc else "no key 'schema'")
+            + "; expected the schema number (1 to 3) that every odolab notebook export carries"
+        )
+    schema = doc["schema"]
+    if isinstance(schema, bool) or not isinstance(schema, int) or not 1 <= schema <= 3:
         # it was refused as "missing key 'params_versions'" when other keys were missing too
         raise StoreError(
             f"{p}: schema is {schema!r}; expected 1 to 3 (a file written by a newer odolab "

@@ -26,6 +26,7 @@ from odolab.progress import Progress, no_progress
 from odolab.store.codec import EncodedLog, decode_log, encode_log
 from odolab.store.health import (
     check_notebook_file,
+    check_sound,
     create_notebook_file,
     integrity_words,
     store_error,
@@ -45,7 +46,7 @@ from odolab.store.records import (
 )
 from odolab.store.schema import SCHEMA_VERSION, connect, migrate
 from odolab.trajectory import Pose
-from odolab.trials import EncoderLog, Measurement, Trial, TrialStatus
+from odolab.trials import EncoderLog, Measurement, Trial, TrialStatus, check_no_nul
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -109,7 +110,7 @@ _LOG_INSERT = (
 
 def _build(path: Path, timeout: float) -> None:
     """A new, empty notebook of the current schema in the file ``path``."""
-    conn = connect(path, timeout=timeout)
+    conn = connect(path, timeout=timeout, new=True)
     try:
         migrate(conn, str(path))
     finally:
@@ -132,9 +133,16 @@ class Notebook:
     """The lab notebook in the SQLite file ``path`` (created and migrated on open).
 
     Use as a context manager, or call :meth:`close`. One ``Notebook`` per thread.
+
+    An existing file is checked first (``check``, SQLite's quick check: every page read once),
+    and a damaged one refused (:class:`~odolab.store.health.NotebookDamagedError`) before
+    anything reads or writes its records; ``check=False`` where the file was just checked (the
+    web server checks it when it starts, then opens one connection per request).
     """
 
-    def __init__(self, path: str | Path = "odolab.db", *, timeout: float = 30.0) -> None:
+    def __init__(
+        self, path: str | Path = "odolab.db", *, timeout: float = 30.0, check: bool = True
+    ) -> None:
         self.path = Path(path)
         # an empty file, a folder, a text file: refused before SQLite touches it
         created = False
@@ -144,6 +152,8 @@ class Notebook:
         self._conn.row_factory = sqlite3.Row
         self._params_cache: dict[tuple[str, int], RobotParams] = {}
         try:
+            if check and not created:
+                check_sound(self._conn, self.path)
             self.migrated_from = 0 if created else migrate(self._conn, str(self.path))
         except BaseException:
             self._conn.close()
@@ -407,6 +417,9 @@ class Notebook:
     ) -> None:
         """Add a campaign; a name already used is refused (nothing changes)."""
         kind = str(kind)
+        for what, text in (("name", name), ("terrain", terrain), ("operator", operator),
+                           ("notes", notes)):  # fmt: skip
+            check_no_nul(text, what, "campaign", StoreError)
         self._check_campaign(name, kind, terrain)
         day = date.isoformat() if isinstance(date, _dt.date) else date
         if day is None:
@@ -694,6 +707,7 @@ class Notebook:
         """Leave ``trial_id`` out of the analysis, keeping it and saying why."""
         if not isinstance(reason, str) or not reason.strip():
             raise StoreError(f"excluding trial {trial_id} needs a reason")
+        check_no_nul(reason, "the reason", f"excluding trial {trial_id}", StoreError)
         with self._write() as conn:
             # excluded again: the earlier reason is kept after the new one (it was replaced)
             cur = conn.execute(

@@ -248,8 +248,11 @@ def _run_script(conn: sqlite3.Connection, script: str) -> None:
         conn.execute(buf)
 
 
-def connect(path: str | Path, *, timeout: float = 30.0) -> sqlite3.Connection:
+def connect(path: str | Path, *, timeout: float = 30.0, new: bool = False) -> sqlite3.Connection:
     """Open ``path`` with WAL, foreign keys on and a busy timeout; autocommit mode.
+
+    ``new``: ``path`` is a notebook being built (an empty file); otherwise an empty SQLite
+    database (no schema, no tables) is refused as the empty file is, before anything is written.
 
     Writes are then wrapped in explicit ``BEGIN IMMEDIATE ... COMMIT`` by the caller, so that a
     writer waits for the lock up front (and the busy timeout applies) instead of failing on a
@@ -269,6 +272,8 @@ def connect(path: str | Path, *, timeout: float = 30.0) -> sqlite3.Connection:
             raise refusal from err
         _check_odolab(conn, version, str(path))
         _check_not_newer(version, str(path))
+        if not new and version == 0:
+            _check_not_empty(conn, str(path))
         mode = conn.execute("PRAGMA journal_mode = WAL").fetchone()[0]
         if str(mode).lower() != "wal":
             raise StoreError(f"{path}: cannot switch the notebook to WAL mode (got {mode!r})")
@@ -309,6 +314,17 @@ def _check_odolab(conn: sqlite3.Connection, version: int, source: str) -> None:
         f"{source}: a SQLite database of another program, not an odolab notebook ({what}); "
         "expected a notebook file made by odolab"
     )
+
+
+def _check_not_empty(conn: sqlite3.Connection, source: str) -> None:
+    """Refuse an empty SQLite database (no schema version, no tables): odolab builds a new
+    notebook whole in a file of its own, so this was never one of its notebooks, and reading it
+    must not write odolab's tables into it."""
+    if conn.execute("SELECT COUNT(*) FROM sqlite_master").fetchone()[0] == 0:
+        raise NotebookFileError(
+            f"{source}: is an empty SQLite database, not an odolab notebook; remove it, or give "
+            "a new file name to create a notebook there"
+        )
 
 
 def _check_not_newer(version: int, source: str) -> None:

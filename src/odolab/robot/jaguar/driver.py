@@ -24,8 +24,13 @@ from odolab.errors import ProtocolError, RobotLinkError
 from odolab.params import RobotParams
 from odolab.robot.clock import Clock
 from odolab.robot.config import CommandMode, RunConfig, check_signs
-from odolab.robot.errors import NoSensorDataError, RobotConfigError, RobotUrlError
-from odolab.robot.interface import DriverStats, EncoderReading, confirm_stopped
+from odolab.robot.errors import (
+    LateCycleError,
+    NoSensorDataError,
+    RobotConfigError,
+    RobotUrlError,
+)
+from odolab.robot.interface import DriverStats, EncoderReading, check_send_by, confirm_stopped
 from odolab.robot.jaguar.protocol import (
     DES_PC,
     N_CHANNELS,
@@ -377,8 +382,11 @@ class JaguarDriver:
             return int(min(max(round(PWM_STOP + s / vmax * PWM_STOP), 0), 32767))
         return int(min(max(round(s / metres_per_tick), -32767), 32767))
 
-    def set_wheel_speeds(self, left_mps: float, right_mps: float) -> None:
-        """Command the left and right track speeds (m/s, forward positive; clipped)."""
+    def set_wheel_speeds(
+        self, left_mps: float, right_mps: float, *, send_by: float | None = None
+    ) -> None:
+        """Command the left and right track speeds (m/s, forward positive; clipped); not after
+        ``send_by`` (see :func:`odolab.robot.interface.check_send_by`)."""
         if not (math.isfinite(left_mps) and math.isfinite(right_mps)):
             self.stop()
             raise RobotConfigError(
@@ -390,7 +398,13 @@ class JaguarDriver:
         values[ch.left] = self._value(ch.left_motor_sign * left_mps, cfg.left_metres_per_tick)
         values[ch.right] = self._value(ch.right_motor_sign * right_mps, cfg.right_metres_per_tick)
         kind = MessageType.PWM_ALL if cfg.mode is CommandMode.PWM else MessageType.VELOCITY_ALL
-        self.transport.send(encode_motor_command(kind, values))
+        frame = encode_motor_command(kind, values)
+        try:
+            check_send_by(self.clock.now(), send_by)  # the last thing before the bytes go out
+        except LateCycleError:
+            self.stop()
+            raise
+        self.transport.send(frame)
         self.last_command = (left_mps, right_mps)
         self.stats.commands_sent += 1
 

@@ -25,8 +25,13 @@ from urllib.parse import parse_qs, urlparse
 from odolab.params import RobotParams
 from odolab.robot.clock import Clock
 from odolab.robot.config import RunConfig, check_signs
-from odolab.robot.errors import NoSensorDataError, RobotConfigError, RobotUrlError
-from odolab.robot.interface import DriverStats, EncoderReading, confirm_stopped
+from odolab.robot.errors import (
+    LateCycleError,
+    NoSensorDataError,
+    RobotConfigError,
+    RobotUrlError,
+)
+from odolab.robot.interface import DriverStats, EncoderReading, check_send_by, confirm_stopped
 from odolab.robot.jaguar2014.protocol import (
     PING,
     POWER_LIMIT,
@@ -412,8 +417,11 @@ class Jaguar2014Driver:
         s = min(max(speed, -vmax), vmax)
         return int(min(max(round(sign * s / vmax * POWER_LIMIT), -POWER_LIMIT), POWER_LIMIT))
 
-    def set_wheel_speeds(self, left_mps: float, right_mps: float) -> None:
-        """Command the left and right speeds (m/s, forward positive; clipped) as ``!M``."""
+    def set_wheel_speeds(
+        self, left_mps: float, right_mps: float, *, send_by: float | None = None
+    ) -> None:
+        """Command the left and right speeds (m/s, forward positive; clipped) as ``!M``; not
+        after ``send_by`` (see :func:`odolab.robot.interface.check_send_by`)."""
         if not (math.isfinite(left_mps) and math.isfinite(right_mps)):
             self.stop()
             raise RobotConfigError(
@@ -424,6 +432,11 @@ class Jaguar2014Driver:
             self._value(left_mps, cfg.left_command_sign),
             self._value(right_mps, cfg.right_command_sign),
         )
+        try:
+            check_send_by(self.clock.now(), send_by)  # the last thing before the bytes go out
+        except LateCycleError:
+            self.stop()
+            raise
         self._send(line)
         self.last_command = (left_mps, right_mps)
         self.stats.commands_sent += 1

@@ -42,8 +42,18 @@ KINDS = tuple(k.value for k in MotionKind)
 _SAFE_NAME = re.compile(r"[^A-Za-z0-9._-]+")
 
 
+#: The longest header line of one part of a form that python-multipart reads (bytes; its
+#: ``DEFAULT_MAX_HEADER_SIZE``): a longer file name makes the whole form unreadable.
+_MAX_PART_HEADER = 4096 + 128
+
+
 class FormError(Exception):
-    """A form post refused before it reached the notebook (no CSRF token...)."""
+    """A form post refused before it reached the notebook (no CSRF token...); ``status``: the
+    HTTP status its page is answered with."""
+
+    def __init__(self, message: str, status: int = 403) -> None:
+        super().__init__(message)
+        self.status = status
 
 
 def fnum(value: object, spec: str = ".4g") -> str:
@@ -164,7 +174,7 @@ class Web:
 
         if not self.db.is_file():
             raise StoreError(f"{self.db}: no such notebook")
-        return Notebook(self.db)
+        return Notebook(self.db, check=False)  # checked when the server started
 
     async def run(self, fn: Callable[[Notebook], _T]) -> _T:
         """``fn(notebook)`` in a worker thread, on a connection of its own."""
@@ -189,7 +199,21 @@ class Web:
         return self.page(request, "error.html.j2", status_code, error=web_text(err))
 
     async def form(self, request: Request) -> Mapping[str, Any]:
-        form = await request.form(max_files=2, max_fields=50)
+        try:
+            form = await request.form(max_files=2, max_fields=50)
+        except HTTPException as err:  # python-multipart's bare "Invalid multipart data."
+            if err.status_code != 400:
+                raise
+            detail = str(err.detail).rstrip(".")
+            if "invalid multipart" not in detail.lower():  # starlette's own sentence
+                raise FormError(f"the form could not be read: {detail}", 400) from err
+            raise FormError(
+                "the form could not be read (invalid multipart data): a header line of one of "
+                f"its parts, such as the file's name, is longer than {_MAX_PART_HEADER:,} "
+                "bytes, or the form is damaged; expected a file name of at most a few hundred "
+                "characters",
+                400,
+            ) from err
         if not csrf_ok(self.settings.secret, request.state.session, form.get("csrf")):
             raise FormError(
                 "form refused: its CSRF token is missing or wrong; reload the page and send it again"

@@ -62,7 +62,7 @@ async def post(request: Request) -> Response:
     try:
         form = await w.form(request)
     except FormError as err:
-        return w.error_page(request, err, 403)
+        return w.error_page(request, err, err.status)
     req = CalibrationRequest(
         str(form.get("method", "")),
         robot=text_field(form, "robot"),

@@ -35,7 +35,7 @@ async def upload(request: Request) -> Response:
     try:
         form = await w.form(request)
     except FormError as err:
-        return w.error_page(request, err, 403)
+        return w.error_page(request, err, err.status)
     file = form.get("file")
     create_campaigns = form.get("create_campaigns") == "on"
     names = await w.run(_names)

@@ -130,7 +130,7 @@ async def measure(request: Request) -> Response:
     try:
         form = await w.form(request)
     except FormError as err:
-        return w.error_page(request, err, 403)
+        return w.error_page(request, err, err.status)
     trial_id = str(form.get("id", ""))
     values = {k: text_field(form, k) for k in FIELDS}
     replace = form.get("replace") == "on"
@@ -153,7 +153,7 @@ async def exclude(request: Request) -> Response:
     try:
         form = await w.form(request)
     except FormError as err:
-        return w.error_page(request, err, 403)
+        return w.error_page(request, err, err.status)
     trial_id = str(form.get("id", ""))
     include = request.url.path.endswith("/include")
     reason = str(form.get("reason", ""))
