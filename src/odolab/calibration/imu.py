@@ -48,9 +48,11 @@ __all__ = [
     "ImuOptions",
     "OffsetEstimate",
     "TurnReference",
+    "YawScaleFit",
     "calibrate_imu",
     "check_saturation",
     "reference_from_heading",
+    "yaw_scale_from_heading",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -251,7 +253,9 @@ def check_saturation(run: GyroRun, gyro_range: float | None = None, flat: int = 
                 )
             continue
         peak = float(mag.max())
-        if peak == 0.0:
+        # a real gyro's readings change from sample to sample (its noise): a flat stretch at
+        # the peak is then its clipping; a log that is mostly flat (noise-free) says nothing
+        if peak == 0.0 or float(np.mean(np.diff(wz) == 0)) > 0.5:
             continue
         at = mag >= peak * (1.0 - 1e-9)
         # the longest run of consecutive samples at the peak
@@ -529,22 +533,33 @@ def _still(data: list[_RunData], y: FloatArray) -> tuple[float | None, float | N
     return mean, math.sqrt(var), total
 
 
+def _encoder_windows(
+    runs: Sequence[GyroRun], window_s: float
+) -> tuple[FloatArray, FloatArray, FloatArray, list[str]]:
+    """(dl, dr, dt) of the encoder logs alone, in windows of about ``window_s``."""
+    dl, dr, dt = [], [], []
+    for run in runs:
+        for seg in run.segments:
+            step = float(np.median(np.diff(seg.t)))
+            m = max(1, round(window_s / step)) if step > 0 else 1
+            idx = np.arange(0, seg.t.size, m)
+            dl.append(np.diff(seg.left[idx]))
+            dr.append(np.diff(seg.right[idx]))
+            dt.append(np.diff(seg.t[idx]))
+    return np.concatenate(dl), np.concatenate(dr), np.concatenate(dt), [r.source for r in runs]
+
+
 def _check_turning(
-    data: list[_RunData], nominal: RobotParams, o: ImuOptions, still_s: float
+    runs: Sequence[GyroRun], nominal: RobotParams, o: ImuOptions
 ) -> tuple[float, float]:
-    yaw = np.concatenate(
-        [
-            (d.dr * nominal.right_wheel_radius - d.dl * nominal.left_wheel_radius)
-            / nominal.track_width
-            for d in data
-        ]
-    )
+    dl, dr, dt, names = _encoder_windows(runs, o.window_s)
+    yaw = (dr * nominal.right_wheel_radius - dl * nominal.left_wheel_radius) / nominal.track_width
+    still_s = float(dt[(np.abs(dl) < 1e-9) & (np.abs(dr) < 1e-9)].sum())
     ccw, cw = float(yaw[yaw > 0].sum()), float(-yaw[yaw < 0].sum())
     if min(ccw, cw) < o.min_turn and not (max(ccw, cw) >= o.min_turn and still_s >= 2.0):
-        names = ", ".join(d.run.source for d in data)
         raise CalibrationError(
-            f"{names}: the robot turned {ccw:.2f} rad counter-clockwise and {cw:.2f} rad "
-            f"clockwise by the encoders ({still_s:.1f} s standing still); turn at least "
+            f"{', '.join(names)}: the robot turned {ccw:.2f} rad counter-clockwise and {cw:.2f} "
+            f"rad clockwise by the encoders ({still_s:.1f} s standing still); turn at least "
             f"{o.min_turn:.2f} rad in each direction (or in one, with 2 s standing still) to "
             "determine the track and the gyro's bias"
         )
@@ -623,6 +638,7 @@ def calibrate_imu(
     check_track_model(params, "the gyro calibration")
     for run in runs:
         check_saturation(run, o.gyro_range)
+    ccw, cw = _check_turning(runs, params, o)
     data = []
     seg0 = 0
     for i, run in enumerate(runs):
@@ -631,7 +647,6 @@ def calibrate_imu(
     n_runs = len(data)
     y0 = _ys(data, [d.offset for d in data])
     still_bias, still_se, still_s = _still(data, y0)
-    ccw, cw = _check_turning(data, params, o, still_s)
     ratio_note = ""
     fixed_ratio: float | None = None
     if not _ratio_observable(data):
@@ -781,3 +796,48 @@ def calibrate_imu(
         a_cov=((float(ca[0, 0]), float(ca[0, 1])), (float(ca[1, 0]), float(ca[1, 1]))),
         provenance=prov,
     )
+
+
+@dataclass(frozen=True)
+class YawScaleFit:
+    """The rotation ratio actual/predicted of ``params`` fitted to a reference heading (a lidar,
+    a tracker), through the origin, one piece per segment, with its 95 % interval
+    (clustered by segment group)."""
+
+    yaw_scale: float
+    ci95: tuple[float, float]
+    pieces: int
+
+
+def yaw_scale_from_heading(run: GyroRun, params: RobotParams) -> YawScaleFit:
+    """Fit ``actual = k * predicted`` over each segment's span: the reference heading's change
+    (up to its last update: a lidar's heading is held between scans) against the odometry's
+    heading change with ``params``. The independent check of the gyro's ``yaw_scale``."""
+    import statsmodels.api as sm
+
+    xs, ys, groups = [], [], []
+    for seg in run.segments:
+        if seg.heading is None or seg.heading_t is None:
+            continue
+        h = seg.heading
+        changed = np.flatnonzero(np.diff(h) != 0) + 1
+        if changed.size == 0:
+            continue
+        t_end = float(seg.heading_t[int(changed[-1])])
+        t0 = float(seg.heading_t[0])
+        wr = np.interp([t0, t_end], seg.t, seg.right)
+        wl = np.interp([t0, t_end], seg.t, seg.left)
+        xs.append(
+            (params.right_wheel_radius * (wr[1] - wr[0]) - params.left_wheel_radius * (wl[1] - wl[0]))
+            / params.track_width
+        )
+        ys.append(float(h[int(changed[-1])] - h[0]))
+        groups.append(seg.group)
+    if len(xs) < 3:
+        raise CalibrationError(f"{run.source}: fewer than 3 pieces with a reference heading")
+    fit = sm.OLS(np.array(ys), np.array(xs)[:, None]).fit(
+        cov_type="cluster", cov_kwds={"groups": np.array(groups)}
+    )
+    k = float(fit.params[0])
+    se = float(fit.bse[0])
+    return YawScaleFit(k, (k - Z95 * se, k + Z95 * se), len(xs))

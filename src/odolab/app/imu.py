@@ -1,0 +1,162 @@
+"""A gyro calibration from runs (``odolab calibrate imu``): which runs and gyro logs, which
+parameters it starts from, which reference fixes the gyro's scale; recorded in the notebook.
+
+:func:`calibrate_gyro` takes an :class:`ImuRequest` and returns an :class:`ImuOutcome` that says
+what it chose (the parameters and where they came from, the reference or its absence, the
+notebook version it wrote).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from odolab.calibration.imu import (
+    ImuCalibration,
+    ImuOptions,
+    TurnReference,
+    calibrate_imu,
+    reference_from_heading,
+)
+from odolab.errors import CalibrationError
+from odolab.io.gyro import GyroRun, read_gyro_run
+
+__all__ = ["ImuOutcome", "ImuRequest", "calibrate_gyro"]
+
+
+@dataclass(frozen=True)
+class ImuRequest:
+    """What the user asked: ``runs`` (encoder logs, robot run folders, a DRIVE table),
+    ``params`` (a TOML or preset; None: a run folder's own, else the default preset), ``imu``
+    (the gyro log of the one run), ``turned`` (reference turns, rad, one per run in order) with
+    ``reference_sd`` (rad), ``gt_reference`` (the ground truth beside each log as the reference),
+    the estimator's ``options`` and the notebook ``db`` to record the new version in."""
+
+    runs: Sequence[Path]
+    params: str | None = None
+    imu: Path | None = None
+    turned: Sequence[float] = ()
+    reference_sd: float = math.radians(1.0)
+    gt_reference: bool = False
+    options: ImuOptions = field(default_factory=ImuOptions)
+    db: Path | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class ImuOutcome:
+    """The calibration, the parameters it started from (in words) and the notebook version."""
+
+    calibration: ImuCalibration
+    params_from: str
+    version: int | None = None
+    source_trials: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            **self.calibration.to_dict(),
+            "params_from": self.params_from,
+            "version": self.version,
+            "source_trials": list(self.source_trials),
+        }
+
+
+def _trial_id(path: Path) -> str | None:
+    folder = path if path.is_dir() else path.parent
+    doc = folder / "run.json"
+    if not doc.is_file():
+        return None
+    try:
+        value = json.loads(doc.read_text(encoding="utf-8")).get("trial_id")
+    except (OSError, ValueError, AttributeError):
+        return None
+    return value if isinstance(value, str) else None
+
+
+def _references(req: ImuRequest, runs: Sequence[GyroRun]) -> list[TurnReference]:
+    if req.turned and req.gt_reference:
+        raise CalibrationError(
+            "give the reference turns or the ground truth as the reference, not both"
+        )
+    if req.turned:
+        if len(req.turned) != len(runs):
+            raise CalibrationError(
+                f"{len(req.turned)} reference turn(s) for {len(runs)} run(s); expected one per "
+                "run, in the runs' order"
+            )
+        return [
+            TurnReference(float(v), req.reference_sd, "turns given", i)
+            for i, v in enumerate(req.turned)
+        ]
+    if req.gt_reference:
+        return [
+            reference_from_heading(r, i, req.reference_sd, "the ground truth's heading")
+            for i, r in enumerate(runs)
+        ]
+    return []
+
+
+def calibrate_gyro(req: ImuRequest) -> ImuOutcome:
+    """Read the runs and their gyros, estimate, and record a new version when ``db`` is given."""
+    from odolab.app.odometry import choose_params
+
+    if not req.runs:
+        raise CalibrationError("no runs given; expected encoder logs with a gyro")
+    if req.imu is not None and len(req.runs) != 1:
+        raise CalibrationError(
+            f"one gyro log for {len(req.runs)} runs; a gyro log given by name is for one run "
+            "(put NAME_imu.csv beside each NAME.csv for several)"
+        )
+    first = Path(req.runs[0])
+    choice = choose_params([first / "encoders.csv" if first.is_dir() else first], req.params)
+    params = choice.params
+    runs = [
+        read_gyro_run(
+            p, ticks_per_rev=params.ticks_per_rev, modulus=params.encoder_modulus, imu=req.imu
+        )
+        for p in req.runs
+    ]
+    refs = _references(req, runs)
+    cal = calibrate_imu(
+        runs,
+        params,
+        options=req.options,
+        references=refs,
+        sources=[str(p) for p in req.runs],
+    )
+    version = None
+    trials: tuple[str, ...] = ()
+    if req.db is not None:
+        version, trials = _record(req.db, cal, [Path(p) for p in req.runs])
+    return ImuOutcome(cal, choice.describe(), version, trials)
+
+
+def _notes(cal: ImuCalibration) -> str:
+    b0, b1 = cal.track_width_ci95
+    q0, q1 = cal.radius_ratio_ci95
+    return (
+        f"gyro calibration from {cal.provenance['source']} (gyro: {cal.provenance['imu']}); "
+        f"track {cal.track_width:.6g} m, 95 % [{b0:.6g}, {b1:.6g}]; radius ratio "
+        f"{cal.radius_ratio:.6g}, 95 % [{q0:.6g}, {q1:.6g}]; gyro scale: {cal.scale_source}; "
+        f"distance scale: {cal.radii_source}"
+    )
+
+
+def _record(db: Path, cal: ImuCalibration, paths: Sequence[Path]) -> tuple[int, tuple[str, ...]]:
+    from odolab.app.selection import open_notebook
+
+    with open_notebook(db) as nb:
+        ids = [t for t in (_trial_id(p) for p in paths) if t is not None]
+        known = {t.trial_id for t in nb.load_trials(with_logs=False)}
+        used = tuple(t for t in ids if t in known)
+        base = cal.old_params
+        version = nb.add_params_version(
+            cal.params.with_(name=base.name),
+            method="imu",
+            source_trials=used,
+            notes=_notes(cal),
+        )
+    return version, used
