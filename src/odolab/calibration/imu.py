@@ -515,7 +515,13 @@ def _covariance(
     else:
         fit = model.fit(cov_type="hac-panel", cov_kwds={"groups": segs, "maxlags": maxlags})
         how = f"Newey-West (lags {maxlags}) within each segment"
-    return np.asarray(fit.cov_params(), dtype=np.float64), how
+    robust = np.asarray(fit.cov_params(), dtype=np.float64)
+    plain = np.asarray(model.fit().cov_params(), dtype=np.float64)
+    # each variance the larger of the two (the robust one can fall short where one column
+    # lives on few windows, as the clock offset on the turns' starts and stops), the
+    # correlations of the plain one: D C D with D diagonal stays a covariance
+    d = np.sqrt(np.maximum(1.0, np.diag(robust) / np.maximum(np.diag(plain), 1e-300)))
+    return plain * np.outer(d, d), how + ", no smaller than the plain least-squares variance"
 
 
 def _still(data: list[_RunData], y: FloatArray) -> tuple[float | None, float | None, float]:
