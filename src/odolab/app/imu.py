@@ -24,8 +24,9 @@ from odolab.calibration.imu import (
 )
 from odolab.errors import CalibrationError
 from odolab.io.gyro import GyroRun, read_gyro_run
+from odolab.robot.session import RobotRun
 
-__all__ = ["ImuOutcome", "ImuRequest", "calibrate_gyro"]
+__all__ = ["ImuOutcome", "ImuRequest", "calibrate_gyro", "gyro_after_run", "gyro_run_of"]
 
 
 @dataclass(frozen=True)
@@ -160,3 +161,70 @@ def _record(db: Path, cal: ImuCalibration, paths: Sequence[Path]) -> tuple[int, 
             notes=_notes(cal),
         )
     return version, used
+
+
+def gyro_run_of(run: RobotRun) -> GyroRun | None:
+    """A robot run's encoder log and its own gyro (a link with an IMU) as a :class:`GyroRun`,
+    or None when the run has no gyro rates."""
+    import numpy as np
+
+    from odolab.encoders import dticks_from_ticks
+    from odolab.io.gyro import GyroSegment
+
+    log = run.trial.encoder_log
+    rates = [(t, r) for t, _, r in run.headings if r is not None]
+    if log is None or len(log) < 2 or len(rates) < 2:
+        return None
+    params = run.trial.params
+    scale = 2.0 * math.pi / float(params.ticks_per_rev)
+    left = np.concatenate(([0.0], np.cumsum(dticks_from_ticks(log.left_ticks, log.modulus))))
+    right = np.concatenate(([0.0], np.cumsum(dticks_from_ticks(log.right_ticks, log.modulus))))
+    g = np.asarray(rates, dtype=np.float64)
+    keep = np.concatenate(([True], np.diff(g[:, 0]) > 0))
+    seg = GyroSegment(
+        np.asarray(log.t, dtype=np.float64), scale * left, scale * right, g[keep, 0], g[keep, 1]
+    )
+    return GyroRun("this run", "the run's encoders", "the robot's gyro", (seg,), same_clock=True)
+
+
+def gyro_after_run(run: RobotRun) -> list[str]:
+    """What ``odolab robot rotate|square|explore`` prints after a run on a link with an IMU: the
+    gyro's effective track with its interval beside the parameters in use (the bias fitted when
+    the run turned both ways or stood still, else taken as 0 +- 0.005 rad/s, said), and the drift
+    monitor's flags. Empty for a run without a gyro."""
+    from odolab.errors import OdolabError
+
+    gyro = gyro_run_of(run)
+    if gyro is None:
+        return []
+    params = run.trial.params
+    lines: list[str] = []
+    try:
+        try:
+            cal = calibrate_imu([gyro], params, options=ImuOptions(min_turn=1.0))
+        except CalibrationError as err:
+            if "in each direction" not in str(err):
+                raise
+            cal = calibrate_imu([gyro], params, options=ImuOptions(min_turn=1.0, bias=0.0))
+    except OdolabError as err:
+        lines.append(f"gyro: no estimate of the effective track: {err}")
+    else:
+        lo, hi = cal.track_width_ci95
+        inside = lo <= params.track_width <= hi
+        verdict = (
+            "inside its interval"
+            if inside
+            else "outside its interval: calibrate (odolab calibrate imu on the saved run)"
+        )
+        lines.append(
+            f"gyro: effective track {cal.track_width:.4f} m, 95 % [{lo:.4f}, {hi:.4f}]; the "
+            f"parameters in use ({params.name}) say {params.track_width:.4f} m: {verdict} "
+            f"(gyro scale taken as 1 +- 1 %; bias {cal.bias_how})"
+        )
+    drift = run.extra.get("drift") if isinstance(run.extra, dict) else None
+    flags = drift.get("flags", []) if isinstance(drift, dict) else []
+    for t, message in flags:
+        lines.append(f"drift monitor at {float(t):.1f} s: {message}")
+    if isinstance(drift, dict) and not flags:
+        lines.append("drift monitor: no change of the yaw-rate ratio seen")
+    return lines

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -92,6 +92,10 @@ class ImuOptions:
     min_turn: float = math.pi
     gyro_range: float | None = None
     maxlags: int = 2
+    #: the gyro's bias when it is known (rad/s) and its standard uncertainty: for a run that
+    #: turns one way without standing still (None: fitted, one per run)
+    bias: float | None = None
+    bias_sd: float = 0.005
 
 
 @dataclass(frozen=True)
@@ -160,6 +164,7 @@ class ImuCalibration:
     a: tuple[float, float]  #: s * r_R / B, s * r_L / B
     a_cov: tuple[tuple[float, float], tuple[float, float]]
     provenance: dict[str, Any] = field(default_factory=dict)
+    bias_how: str = "fitted jointly"
 
     @property
     def result(self) -> CalibrationResult:
@@ -182,7 +187,7 @@ class ImuCalibration:
             f"rotation ratio actual/predicted of {self.old_params.name}: {self.yaw_scale:.5f}, "
             f"95 % [{k0:.5f}, {k1:.5f}]",
             f"gyro scale {self.gyro_scale:.5f}, 95 % [{s0:.5f}, {s1:.5f}] ({self.scale_source})",
-            f"gyro bias {self.bias:+.5f} rad/s +- {Z95 * self.bias_se:.5f} (fitted jointly)"
+            f"gyro bias {self.bias:+.5f} rad/s +- {Z95 * self.bias_se:.5f} ({self.bias_how})"
             + (
                 f"; {self.still_bias:+.5f} +- {Z95 * (self.still_bias_se or 0.0):.5f} rad/s "
                 f"from {self.still_s:.1f} s standing still"
@@ -311,6 +316,7 @@ class _RunData:
     offset: float
     fixed: bool
     how: str
+    bias0: float = 0.0  #: a known bias, taken off the gyro (0 when the bias is fitted)
 
     def y(self, tau: float) -> FloatArray:
         out = np.empty(self.dt.size)
@@ -318,7 +324,7 @@ class _RunData:
             a = np.interp(self.ta[r0:r1] + tau, seg.gyro_t, cum)
             b = np.interp(self.tb[r0:r1] + tau, seg.gyro_t, cum)
             out[r0:r1] = b - a
-        return out
+        return out - self.bias0 * self.dt
 
     def dy(self, tau: float) -> FloatArray:
         """d y / d offset: the gyro's rate (lightly smoothed) at the windows' ends."""
@@ -446,10 +452,12 @@ def _run_data(
 # the fit
 
 
-def _design(data: list[_RunData], ratio: float | None) -> FloatArray:
-    """Columns: a_R and a_L (or a_L alone with a_R = ratio * a_L), then one bias per run."""
+def _design(data: list[_RunData], ratio: float | None, fit_bias: bool = True) -> FloatArray:
+    """Columns: a_R and a_L (or a_L alone with a_R = ratio * a_L), then one bias per run (none
+    when the bias is known)."""
     n = sum(d.dt.size for d in data)
-    ncol = (1 if ratio is not None else 2) + len(data)
+    nb = len(data) if fit_bias else 0
+    ncol = (1 if ratio is not None else 2) + nb
     x = np.zeros((n, ncol))
     row = 0
     for j, d in enumerate(data):
@@ -459,7 +467,8 @@ def _design(data: list[_RunData], ratio: float | None) -> FloatArray:
             x[r, 1] = -d.dl
         else:
             x[r, 0] = ratio * d.dr - d.dl
-        x[r, ncol - len(data) + j] = d.dt
+        if fit_bias:
+            x[r, ncol - nb + j] = d.dt
         row += d.dt.size
     return x
 
@@ -644,11 +653,23 @@ def calibrate_imu(
     check_track_model(params, "the gyro calibration")
     for run in runs:
         check_saturation(run, o.gyro_range)
-    ccw, cw = _check_turning(runs, params, o)
+    fit_bias = o.bias is None
+    if fit_bias:
+        ccw, cw = _check_turning(runs, params, o)
+    else:
+        ccw, cw = _check_turning(runs, params, replace(o, min_turn=0.0))
+        if ccw + cw < o.min_turn:
+            raise CalibrationError(
+                f"{', '.join(r.source for r in runs)}: the robot turned {ccw + cw:.2f} rad by the "
+                f"encoders; turn at least {o.min_turn:.2f} rad to determine the track"
+            )
     data = []
     seg0 = 0
     for i, run in enumerate(runs):
-        data.append(_run_data(run, i, seg0, o, params))
+        d = _run_data(run, i, seg0, o, params)
+        if not fit_bias:
+            d.bias0 = float(o.bias or 0.0)
+        data.append(d)
         seg0 += len(run.segments)
     n_runs = len(data)
     y0 = _ys(data, [d.offset for d in data])
@@ -661,7 +682,7 @@ def calibrate_imu(
             "not seen by turning in place alone: kept from the given parameters; drive "
             "straight or in arcs to measure it"
         )
-    x = _design(data, fixed_ratio)
+    x = _design(data, fixed_ratio, fit_bias)
     taus = _fit_offsets(data, x)
     y = _ys(data, taus)
     theta, rss = _solve(x, y)
@@ -682,6 +703,12 @@ def calibrate_imu(
     jac = np.hstack(cols)
     cov, how_cov = _covariance(r, jac, data, o.maxlags)
     nlin = x.shape[1]
+    if not fit_bias:
+        # a known bias, and its uncertainty: theta moves by -(X'X)^-1 X' dt per rad/s of it
+        dt_all = np.concatenate([d.dt for d in data])
+        g_b = np.linalg.lstsq(x, dt_all, rcond=None)[0]
+        cov = cov.copy()
+        cov[:nlin, :nlin] += o.bias_sd**2 * np.outer(g_b, g_b)
     # a_R, a_L and their covariance
     if fixed_ratio is None:
         a_r, a_l = float(theta[0]), float(theta[1])
@@ -696,8 +723,12 @@ def calibrate_imu(
             f"the gyro's fit gives r_R/B = {a_r:.4g} and r_L/B = {a_l:.4g}; expected both "
             "positive: is the gyro upside down (its yaw rate against the turn)?"
         )
-    biases = tuple(float(v) for v in theta[nlin - n_runs : nlin])
-    bias_ses = [math.sqrt(max(cov[k, k], 0.0)) for k in range(nlin - n_runs, nlin)]
+    if fit_bias:
+        biases = tuple(float(v) for v in theta[nlin - n_runs : nlin])
+        bias_ses = [math.sqrt(max(cov[k, k], 0.0)) for k in range(nlin - n_runs, nlin)]
+    else:
+        biases = tuple(float(o.bias or 0.0) for _ in data)
+        bias_ses = [o.bias_sd for _ in data]
     offsets = []
     for j, d in enumerate(data):
         if d.fixed:
@@ -801,6 +832,11 @@ def calibrate_imu(
         a=(a_r, a_l),
         a_cov=((float(ca[0, 0]), float(ca[0, 1])), (float(ca[1, 0]), float(ca[1, 1]))),
         provenance=prov,
+        bias_how=(
+            "fitted jointly"
+            if fit_bias
+            else f"taken as {o.bias or 0.0:+g} +- {o.bias_sd:g} rad/s, not fitted"
+        ),
     )
 
 
