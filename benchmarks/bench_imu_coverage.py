@@ -29,8 +29,10 @@ def one(seed: int) -> dict[str, float]:
     ref = TurnReference(d.turned + REF_SD * float(rng.standard_normal()), REF_SD, "tracker")
     plain = calibrate_imu([d.run], d.nominal)
     withref = calibrate_imu([d.run], d.nominal, references=[ref])
-    b, rho, off = d.truth.track_width, d.truth.right_wheel_radius / d.truth.left_wheel_radius, (
-        d.clock_offset
+    b, rho, off = (
+        d.truth.track_width,
+        d.truth.right_wheel_radius / d.truth.left_wheel_radius,
+        (d.clock_offset),
     )
 
     def cover(ci: tuple[float, float], v: float) -> float:

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import shared_data
 
+import shared_data
 from odolab.calibration.imu import (
     ImuOptions,
     TurnReference,
@@ -120,7 +120,7 @@ def test_saturated_gyro_is_refused() -> None:
     run = GyroRun("clip", "clip.csv", "clip_imu.csv", (clipped,))
     with pytest.raises(CalibrationError, match="saturated"):
         calibrate_imu([run], NOMINAL)
-    with pytest.raises(CalibrationError, match="at its range of 1.5 rad/s"):
+    with pytest.raises(CalibrationError, match=r"at its range of 1\.5 rad/s"):
         calibrate_imu([d.run], NOMINAL, options=ImuOptions(gyro_range=1.5))
 
 
@@ -148,9 +148,7 @@ def test_db_records_a_version_with_provenance(
         nb.add_params_version(NOMINAL, method="preset")
     d = simulate_gyro_drive(seed=5)
     log = write_gyro_drive(tmp_path, d, "drive")
-    code = main(
-        ["calibrate", "imu", str(log), "-o", str(tmp_path / "n.toml"), "--db", str(db)]
-    )
+    code = main(["calibrate", "imu", str(log), "-o", str(tmp_path / "n.toml"), "--db", str(db)])
     assert code == 0
     assert "parameters version 2" in capsys.readouterr().out
     with Notebook(db) as nb:

@@ -391,9 +391,7 @@ def _bracket(
     return (lo, hi), found.clock_offset, False, how
 
 
-def _run_data(
-    run: GyroRun, index: int, seg0: int, o: ImuOptions, nominal: RobotParams
-) -> _RunData:
+def _run_data(run: GyroRun, index: int, seg0: int, o: ImuOptions, nominal: RobotParams) -> _RunData:
     (lo, hi), start, fixed, how = _bracket(run, o, nominal, index)
     dl, dr, dt, ta, tb, sg, gr = [], [], [], [], [], [], []
     pieces = []
@@ -503,8 +501,9 @@ def _fit_offsets(data: list[_RunData], x: FloatArray) -> list[float]:
             vals = [rss(float(g)) for g in grid]
             k = int(np.argmin(vals))
             a, b = float(grid[max(k - 1, 0)]), float(grid[min(k + 1, grid.size - 1)])
-            res = optimize.minimize_scalar(rss, bounds=(a, b), method="bounded",
-                                           options={"xatol": 1e-5})
+            res = optimize.minimize_scalar(
+                rss, bounds=(a, b), method="bounded", options={"xatol": 1e-5}
+            )
             taus[j] = float(res.x) if res.fun <= vals[k] else float(grid[k])
     return taus
 
@@ -870,7 +869,10 @@ def yaw_scale_from_heading(run: GyroRun, params: RobotParams) -> YawScaleFit:
         wr = np.interp([t0, t_end], seg.t, seg.right)
         wl = np.interp([t0, t_end], seg.t, seg.left)
         xs.append(
-            (params.right_wheel_radius * (wr[1] - wr[0]) - params.left_wheel_radius * (wl[1] - wl[0]))
+            (
+                params.right_wheel_radius * (wr[1] - wr[0])
+                - params.left_wheel_radius * (wl[1] - wl[0])
+            )
             / params.track_width
         )
         ys.append(float(h[int(changed[-1])] - h[0]))

@@ -59,8 +59,8 @@ def calibrate_imu_cmd(
     gt_reference: Annotated[
         bool,
         typer.Option(
-            "--gt-reference", help="Use the ground truth beside each log (NAME_gt.csv) as the "
-            "reference turn."
+            "--gt-reference",
+            help="Use the ground truth beside each log (NAME_gt.csv) as the reference turn.",
         ),
     ] = False,
     reference_sd: Annotated[
@@ -119,7 +119,11 @@ def calibrate_imu_cmd(
         echo(
             f"recorded in {db} as {safe_terminal(cal.old_params.name)} parameters version "
             f"{outcome.version}"
-            + (f" (source trials: {', '.join(outcome.source_trials)})" if outcome.source_trials else "")
+            + (
+                f" (source trials: {', '.join(outcome.source_trials)})"
+                if outcome.source_trials
+                else ""
+            )
         )
     if json_out is not None:
         write_output_text(json_out, json.dumps(outcome.to_dict(), indent=2), "calibration JSON")

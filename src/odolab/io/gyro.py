@@ -143,9 +143,7 @@ def read_gyro_csv(path: str | Path) -> ImuLog:
         raise ImuLogError(f"{p}: {t.size} gyro sample(s); expected at least two rows of t,wz")
     _check_increasing(p, t, "gyro")
     yaw = np.concatenate(([0.0], np.cumsum(0.5 * (wz[1:] + wz[:-1]) * np.diff(t))))
-    return ImuLog(
-        t, yaw, wz, source=str(p), heading_column="wz", rate_column="wz", time_column="t"
-    )
+    return ImuLog(t, yaw, wz, source=str(p), heading_column="wz", rate_column="wz", time_column="t")
 
 
 def read_gyro(path: str | Path) -> ImuLog:

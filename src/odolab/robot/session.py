@@ -333,9 +333,7 @@ class _DriftHook:
         self.seen = 0
         self.events: list[tuple[float, str]] = []
 
-    def wrap(
-        self, on_cycle: Callable[[CycleInfo], None] | None
-    ) -> Callable[[CycleInfo], None]:
+    def wrap(self, on_cycle: Callable[[CycleInfo], None] | None) -> Callable[[CycleInfo], None]:
         def cycle(info: CycleInfo) -> None:
             self.cycle(info)
             if on_cycle is not None:

@@ -98,7 +98,7 @@ def simulate_gyro_drive(
     fine = 1e-3
     total = sum(d for d, _, _ in legs)
     n = math.ceil(total / fine) + 1
-    tf = fine * np.arange(n)
+    tf = np.asarray(fine * np.arange(n), dtype=np.float64)
     v = np.zeros(n)
     w = np.zeros(n)
     t0 = 0.0
@@ -147,9 +147,7 @@ def simulate_gyro_drive(
         lt, rt = lt % modulus, rt % modulus
     log = EncoderLog(te, lt, rt, modulus)
     turned = float(np.interp(te[-1], tf, heading) - np.interp(te[0], tf, heading))
-    return GyroDrive(
-        run, truth, nom, bias, scale, clock_offset, noise_density, turned, log, tg, wz
-    )
+    return GyroDrive(run, truth, nom, bias, scale, clock_offset, noise_density, turned, log, tg, wz)
 
 
 def write_gyro_drive(folder: str | Path, drive: GyroDrive, name: str = "drive") -> Path:
