@@ -75,8 +75,8 @@ class DriftMonitor:
 
     expected: tuple[float, float] = (1.0 / 1.03, 1.0 / 0.97)
     window_s: float = 0.5
-    memory_s: float = 2.0
-    hold_s: float = 1.5
+    memory_s: float = 1.5
+    hold_s: float = 1.0
     #: the flag's test: the ratio's interval at this z (99.9 %, two-sided) must stay outside
     #: ``expected`` for ``hold_s``; a 95 % test repeated every window would cry wolf
     z_flag: float = 3.29
@@ -176,7 +176,7 @@ class DriftMonitor:
                 return DriftFlag(t, self._out_since, k, ci)
             return None
         self._out_since = None
-        if self._raised and lo <= k <= hi:
+        if self._raised and lo <= ci[0] and ci[1] <= hi:  # back, and surely so
             self._raised = False
             return DriftFlag(t, t, k, ci, cleared=True)
         return None
