@@ -181,8 +181,33 @@ def test_husky_gyro_agrees_with_lidar() -> None:
     l0, l1 = lidar.ci95
     assert g0 < lidar.yaw_scale < g1 or l0 < gyro.yaw_scale < l1
     se = math.hypot((g1 - g0) / 3.92, (l1 - l0) / 3.92)
-    # measured |difference| 0.013 = 1.1 combined standard errors; bound 1.96
+    # measured |difference| 0.013 = 1.2 combined standard errors; bound 1.96
     assert abs(gyro.yaw_scale - lidar.yaw_scale) < 1.96 * se
     # Clearpath's wheel_separation_multiplier 1.875 is a rotation ratio of 0.53 on hard ground;
     # these windows turn far less than the wheels say (measured 0.38)
     assert 0.3 < gyro.yaw_scale < 0.45
+
+
+def test_robot_run_folder_with_its_gyro(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A 2014 Jaguar's run folder (encoders.csv, imu.csv in SensorLog columns on the encoders'
+    clock): one turn in place one way, so the bias is given (--bias 0) and the ratio kept."""
+    from odolab.robot.plant import IdealPlant
+    from odolab.robot.session import run_simulated
+    from odolab.trials import Command, MotionKind
+
+    truth = NOMINAL.with_(track_width=0.6)
+    run_simulated(
+        Command(MotionKind.ROTATION, angle=4 * math.pi, speed=1.0),
+        nominal=NOMINAL,
+        plant=IdealPlant(truth),
+        link="jaguar2014",
+        save_to=tmp_path / "run",
+    )
+    args = ["calibrate", "imu", str(tmp_path / "run"), "-o", str(tmp_path / "n.toml")]
+    assert main(args) == 1
+    assert "turn at least" in capsys.readouterr().err
+    assert main([*args, "--bias", "0", "--json", str(tmp_path / "c.json")]) == 0
+    out = capsys.readouterr().out
+    assert "from " in out and "kept from the given parameters" in out
+    # measured 0.5997 m for the true 0.6; bound 1 %
+    assert load_params(tmp_path / "n.toml").track_width == pytest.approx(0.6, rel=0.01)

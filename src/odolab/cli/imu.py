@@ -71,6 +71,16 @@ def calibrate_imu_cmd(
         typer.Option(help="Without a reference: the gyro scale's assumed 95 % uncertainty."),
     ] = 0.01,
     window: Annotated[float, typer.Option(help="Window length (s).")] = 0.5,
+    bias: Annotated[
+        float | None,
+        typer.Option(
+            help="The gyro's bias when known (rad/s; default: fitted): for runs that turn one "
+            "way without standing still."
+        ),
+    ] = None,
+    bias_sd: Annotated[
+        float, typer.Option(help="Standard uncertainty of a known --bias (rad/s).")
+    ] = 0.005,
     gyro_range: Annotated[
         float | None, typer.Option(help="The gyro's full scale (rad/s), to spot saturation.")
     ] = None,
@@ -105,6 +115,8 @@ def calibrate_imu_cmd(
             max_offset=max_offset,
             scale_ci95=scale_ci,
             gyro_range=gyro_range,
+            bias=bias,
+            bias_sd=bias_sd,
         ),
         db=db,
     )
