@@ -176,7 +176,7 @@ def test_husky_gyro_agrees_with_lidar() -> None:
     assert len(run.segments) == 603
     gyro = calibrate_imu([run], husky, options=ImuOptions(max_offset=0.0))
     lidar = yaw_scale_from_heading(run, husky)
-    # measured gyro 0.3777 [0.3630, 0.3931], lidar 0.3904 [0.3743, 0.4065]
+    # measured gyro 0.3778 [0.3641, 0.3919], lidar 0.3904 [0.3743, 0.4065]
     g0, g1 = gyro.yaw_scale_ci95
     l0, l1 = lidar.ci95
     assert g0 < lidar.yaw_scale < g1 or l0 < gyro.yaw_scale < l1
