@@ -168,23 +168,26 @@ def gyro_run_of(run: RobotRun) -> GyroRun | None:
     or None when the run has no gyro rates."""
     import numpy as np
 
-    from odolab.encoders import dticks_from_ticks
-    from odolab.io.gyro import GyroSegment
+    from odolab.io.gyro import gyro_run_from_log
+    from odolab.io.sensorlog import ImuLog
 
     log = run.trial.encoder_log
     rates = [(t, r) for t, _, r in run.headings if r is not None]
     if log is None or len(log) < 2 or len(rates) < 2:
         return None
-    params = run.trial.params
-    scale = 2.0 * math.pi / float(params.ticks_per_rev)
-    left = np.concatenate(([0.0], np.cumsum(dticks_from_ticks(log.left_ticks, log.modulus))))
-    right = np.concatenate(([0.0], np.cumsum(dticks_from_ticks(log.right_ticks, log.modulus))))
     g = np.asarray(rates, dtype=np.float64)
     keep = np.concatenate(([True], np.diff(g[:, 0]) > 0))
-    seg = GyroSegment(
-        np.asarray(log.t, dtype=np.float64), scale * left, scale * right, g[keep, 0], g[keep, 1]
+    t, wz = g[keep, 0], g[keep, 1]
+    yaw = np.concatenate(([0.0], np.cumsum(0.5 * (wz[1:] + wz[:-1]) * np.diff(t))))
+    imu = ImuLog(t, yaw, wz, source="the robot's gyro")
+    return gyro_run_from_log(
+        "this run",
+        log,
+        imu,
+        run.trial.params.ticks_per_rev,
+        source="the run's encoders",
+        same_clock=True,
     )
-    return GyroRun("this run", "the run's encoders", "the robot's gyro", (seg,), same_clock=True)
 
 
 def gyro_after_run(run: RobotRun) -> list[str]:

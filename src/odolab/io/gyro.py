@@ -34,6 +34,7 @@ from odolab.io.sensorlog import ImuLog, read_sensorlog
 from odolab.io.tabular import read_columns, read_header
 from odolab.io.trajectory_csv import read_trajectory
 from odolab.trajectory import Trajectory
+from odolab.trials import EncoderLog
 
 __all__ = [
     "DRIVE_COLUMNS",
@@ -41,6 +42,7 @@ __all__ = [
     "GyroRun",
     "GyroSegment",
     "gyro_beside",
+    "gyro_run_from_log",
     "is_drive_table",
     "read_drive_windows",
     "read_gyro",
@@ -211,20 +213,40 @@ def read_gyro_run(
             "robot run folder's imu.csv); name one with --imu"
         )
     log = read_encoder_csv(p, modulus=modulus)
-    from odolab.encoders import dticks_from_ticks
-
-    scale = 2.0 * math.pi / float(ticks_per_rev)
-    left = np.concatenate(([0.0], np.cumsum(dticks_from_ticks(log.left_ticks, log.modulus))))
-    right = np.concatenate(([0.0], np.cumsum(dticks_from_ticks(log.right_ticks, log.modulus))))
     gyro = read_gyro(gyro_path)
     gt_path = ground_truth_beside(p)
     truth = read_trajectory(gt_path) if gt_path is not None else None
     same = gyro_path.name == "imu.csv" or gyro_path.name.endswith("_imu.csv")
-    seg = _segment_from_log(
-        np.asarray(log.t, dtype=np.float64), scale * left, scale * right, gyro, truth
-    )
     name = p.parent.name if p.name == "encoders.csv" else p.stem
-    return GyroRun(name, str(p), str(gyro_path), (seg,), same_clock=same)
+    run = gyro_run_from_log(
+        name, log, gyro, ticks_per_rev, source=str(p), same_clock=same, truth=truth
+    )
+    return GyroRun(name, str(p), str(gyro_path), run.segments, same_clock=same)
+
+
+def gyro_run_from_log(
+    name: str,
+    log: EncoderLog,
+    imu: ImuLog,
+    ticks_per_rev: float,
+    *,
+    source: str = "encoder log",
+    same_clock: bool = False,
+    truth: Trajectory | None = None,
+) -> GyroRun:
+    """An encoder log (raw counters, unwrapped here) and a gyro log with rates as a one-piece
+    :class:`GyroRun`; ``same_clock``: the gyro is stamped on the encoders' clock."""
+    from odolab.encoders import dticks_from_ticks
+
+    if imu.yaw_rate is None:
+        raise ImuLogError(f"{imu.source}: no yaw rate; the gyro calibration needs the gyro's rate")
+    scale = 2.0 * math.pi / float(ticks_per_rev)
+    left = np.concatenate(([0.0], np.cumsum(dticks_from_ticks(log.left_ticks, log.modulus))))
+    right = np.concatenate(([0.0], np.cumsum(dticks_from_ticks(log.right_ticks, log.modulus))))
+    seg = _segment_from_log(
+        np.asarray(log.t, dtype=np.float64), scale * left, scale * right, imu, truth
+    )
+    return GyroRun(name, source, imu.source, (seg,), same_clock=same_clock)
 
 
 def is_drive_table(path: str | Path) -> bool:
