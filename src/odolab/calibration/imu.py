@@ -121,10 +121,12 @@ class OffsetEstimate:
             if half <= 0.01
             else "poorly determined: turns that start and stop often fix it better"
         )
-        return (
-            f"{self.run}: clock offset {1000 * self.offset:.1f} ms +- {1000 * half:.1f} ms "
-            f"(gyro minus encoders; {verdict}; {self.how})"
+        value = (
+            f"{1000 * self.offset:.1f} ms +- {1000 * half:.1f} ms"
+            if half < 0.1
+            else f"{self.offset:.3f} s +- {half:.3f} s"
         )
+        return f"{self.run}: clock offset {value} (gyro minus encoders; {verdict}; {self.how})"
 
 
 def _ci(value: float, log_sd: float) -> tuple[float, float]:
@@ -326,18 +328,20 @@ class _RunData:
             out[r0:r1] = b - a
         return out - self.bias0 * self.dt
 
-    def dy(self, tau: float) -> FloatArray:
-        """d y / d offset: the gyro's rate (lightly smoothed) at the windows' ends."""
+    def dy(self, a_r: float, a_l: float) -> FloatArray:
+        """d y / d offset, from the model: the yaw rate the encoders predict (``a_R phidot_R -
+        a_L phidot_L``, the wheel rates lightly smoothed) at the windows' ends. Not the gyro's
+        own rate: its noise (a skid-steer's scrub, a noisy gyro) would pass for information
+        about the offset."""
         from scipy import ndimage
 
         out = np.empty(self.dt.size)
         for r0, r1, seg, _ in self.pieces:
-            step = float(np.median(np.diff(seg.gyro_t)))
-            sigma = max(0.02 / step, 0.5)
-            w = ndimage.gaussian_filter1d(seg.wz, sigma, mode="nearest")
-            out[r0:r1] = np.interp(self.tb[r0:r1] + tau, seg.gyro_t, w) - np.interp(
-                self.ta[r0:r1] + tau, seg.gyro_t, w
-            )
+            step = float(np.median(np.diff(seg.t)))
+            sigma = max(0.05 / step, 0.5) if step > 0 else 0.5
+            rate = a_r * np.gradient(seg.right, seg.t) - a_l * np.gradient(seg.left, seg.t)
+            w = ndimage.gaussian_filter1d(rate, sigma, mode="nearest")
+            out[r0:r1] = np.interp(self.tb[r0:r1], seg.t, w) - np.interp(self.ta[r0:r1], seg.t, w)
         return out
 
 
@@ -686,6 +690,14 @@ def calibrate_imu(
     y = _ys(data, taus)
     theta, rss = _solve(x, y)
     r = y - x @ theta
+    a_fit = (
+        (float(theta[0]), float(theta[1]))
+        if fixed_ratio is None
+        else (
+            fixed_ratio * float(theta[0]),
+            float(theta[0]),
+        )
+    )
     # the Jacobian of the fitted values: X, and d y / d offset for each estimated offset
     cols = [x]
     est = [j for j, d in enumerate(data) if not d.fixed]
@@ -697,7 +709,7 @@ def calibrate_imu(
     for j in est:
         col = np.zeros(y.size)
         d = data[j]
-        col[starts[j] : starts[j] + d.dt.size] = d.dy(taus[j])
+        col[starts[j] : starts[j] + d.dt.size] = d.dy(a_fit[0], a_fit[1])
         cols.append(col[:, None])
     jac = np.hstack(cols)
     cov, how_cov = _covariance(r, jac, data, o.maxlags)
