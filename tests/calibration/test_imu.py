@@ -211,3 +211,64 @@ def test_robot_run_folder_with_its_gyro(tmp_path: Path, capsys: pytest.CaptureFi
     assert "from " in out and "kept from the given parameters" in out
     # measured 0.5997 m for the true 0.6; bound 1 %
     assert load_params(tmp_path / "n.toml").track_width == pytest.approx(0.6, rel=0.01)
+
+
+def _write_imu_bag(path: Path, d) -> Path:  # type: ignore[no-untyped-def]
+    """A ROS 2 MCAP bag with /joint_states (the wheels' angles) and /imu/data (the gyro)."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    ty = store.types
+
+    def header(t: float):  # type: ignore[no-untyped-def]
+        sec = math.floor(t)
+        stamp = ty["builtin_interfaces/msg/Time"](sec=sec, nanosec=round((t - sec) * 1e9))
+        return ty["std_msgs/msg/Header"](stamp=stamp, frame_id="base_link")
+
+    seg = d.run.segments[0]
+    vec = ty["geometry_msgs/msg/Vector3"]
+    quat = ty["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)
+    msgs = []
+    for t, left, right in zip(seg.t, seg.left, seg.right, strict=True):
+        js = ty["sensor_msgs/msg/JointState"](
+            header=header(float(t) + 100.0),
+            name=["left_wheel_joint", "right_wheel_joint"],
+            position=np.array([left, right]),
+            velocity=np.zeros(0),
+            effort=np.zeros(0),
+        )
+        msgs.append(("/joint_states", "sensor_msgs/msg/JointState", float(t) + 100.0, js))
+    for t, w in zip(seg.gyro_t, seg.wz, strict=True):
+        imu = ty["sensor_msgs/msg/Imu"](
+            header=header(float(t) + 100.0),
+            orientation=quat,
+            orientation_covariance=np.zeros(9),
+            angular_velocity=vec(x=0.0, y=0.0, z=float(w)),
+            angular_velocity_covariance=np.zeros(9),
+            linear_acceleration=vec(x=0.0, y=0.0, z=9.81),
+            linear_acceleration_covariance=np.zeros(9),
+        )
+        msgs.append(("/imu/data", "sensor_msgs/msg/Imu", float(t) + 100.0, imu))
+    msgs.sort(key=lambda m: m[2])
+    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        conns = {
+            topic: w.add_connection(topic, typ, typestore=store)
+            for topic, typ in sorted({(m[0], m[1]) for m in msgs})
+        }
+        for topic, typ, t, msg in msgs:
+            w.write(conns[topic], int(t * 1e9), store.serialize_cdr(msg, typ))
+    return path
+
+
+def test_ros2_bag_with_joint_states_and_imu(tmp_path: Path) -> None:
+    d = simulate_gyro_drive(seed=6)
+    bag = _write_imu_bag(tmp_path / "drive", d)
+    run = read_gyro_run(bag, ticks_per_rev=2 * math.pi)
+    assert run.same_clock and "/imu/data" in run.imu_source
+    cal = calibrate_imu([run], NOMINAL)
+    # measured 0.49 % off (the gyro's 0.5 % scale, no reference); its +-1 % interval holds it
+    lo, hi = cal.track_width_ci95
+    assert lo < d.truth.track_width < hi
+    # measured 39.8 ms for the true 40 ms; bound 5 ms
+    assert cal.offsets[0].offset == pytest.approx(0.04, abs=0.005)

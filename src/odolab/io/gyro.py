@@ -10,8 +10,10 @@ gyro's clock), sharing one gyro bias and one clock offset. Readers:
   writes in the same columns) through :func:`odolab.io.sensorlog.read_sensorlog`;
 - :func:`read_drive_windows`: the DRIVE project's Husky window table (``imu_yaw`` and the wheel
   speeds, 2 s windows, each its own segment);
-- :func:`read_gyro_run`: an encoder log (or a robot run folder) with its gyro, whichever of the
-  above it has.
+- :func:`read_bag_gyro_run`: a ROS 1/2 bag or MCAP file: the wheels' joint states and
+  ``sensor_msgs/Imu`` (``/imu/data``) from the same bag;
+- :func:`read_gyro_run`: an encoder log (or a robot run folder, a bag) with its gyro, whichever
+  of the above it has.
 
 Conventions: wheel angles in rad (cumulative, counter-clockwise wheel turn forward), yaw rate in
 rad/s counter-clockwise positive about the vertical; the gyro's clock reads ``clock_offset``
@@ -30,6 +32,7 @@ from numpy.typing import NDArray
 from odolab.errors import ImuLogError, LogFormatError
 from odolab.io.csv_run import ground_truth_beside
 from odolab.io.encoder_csv import read_encoder_csv
+from odolab.io.run import ReadOptions
 from odolab.io.sensorlog import ImuLog, read_sensorlog
 from odolab.io.tabular import read_columns, read_header
 from odolab.io.trajectory_csv import read_trajectory
@@ -44,6 +47,7 @@ __all__ = [
     "gyro_beside",
     "gyro_run_from_log",
     "is_drive_table",
+    "read_bag_gyro_run",
     "read_drive_windows",
     "read_gyro",
     "read_gyro_csv",
@@ -184,19 +188,57 @@ def _segment_from_log(
     )
 
 
+_BAG_SUFFIXES = (".bag", ".mcap", ".db3")
+
+
+def _is_bag(p: Path) -> bool:
+    return p.suffix.lower() in _BAG_SUFFIXES or (p.is_dir() and (p / "metadata.yaml").is_file())
+
+
+def read_bag_gyro_run(
+    path: str | Path,
+    *,
+    ticks_per_rev: float,
+    imu_topic: str = "/imu/data",
+    options: ReadOptions | None = None,
+) -> GyroRun:
+    """A ROS bag or MCAP file: the wheels' joint states (or the robot's odometry, as
+    :func:`odolab.io.rosbag.read_bag` reads them) and ``sensor_msgs/Imu`` on ``imu_topic``,
+    both on the header stamps' clock."""
+    from odolab.io.rosbag import read_bag, read_bag_gyro
+
+    p = Path(path)
+    o = options or ReadOptions(ticks_per_rev=ticks_per_rev)
+    run = read_bag(p, o)
+    gyro = read_bag_gyro(p, imu_topic)
+    scale = 2.0 * math.pi / float(o.ticks_per_rev)
+    seg = _segment_from_log(
+        np.asarray(run.t, dtype=np.float64),
+        scale * np.cumsum(run.dticks_left),
+        scale * np.cumsum(run.dticks_right),
+        gyro,
+        run.ground_truth,
+    )
+    return GyroRun(p.stem, str(p), gyro.source, (seg,), same_clock=True)
+
+
 def read_gyro_run(
     path: str | Path,
     *,
     ticks_per_rev: float,
     modulus: int | None = None,
     imu: str | Path | None = None,
+    imu_topic: str = "/imu/data",
 ) -> GyroRun:
     """An encoder log with its gyro: ``imu`` when given, else ``NAME_imu.csv`` beside
     ``NAME.csv`` (a robot run folder or its ``encoders.csv``: the folder's ``imu.csv``). A DRIVE
-    window table is read whole (:func:`read_drive_windows`). Ticks become wheel angles with
+    window table is read whole (:func:`read_drive_windows`); a ROS bag or MCAP file gives both
+    from its topics (:func:`read_bag_gyro_run`). Ticks become wheel angles with
     ``ticks_per_rev``. A ground truth beside the log (``NAME_gt.csv``) gives the reference
     heading."""
     p = Path(path)
+    if imu is None and _is_bag(p):
+        return read_bag_gyro_run(p, ticks_per_rev=ticks_per_rev, imu_topic=imu_topic)
     if p.is_dir():
         if not (p / "encoders.csv").is_file():
             raise LogFormatError(
