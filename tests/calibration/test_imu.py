@@ -272,3 +272,37 @@ def test_ros2_bag_with_joint_states_and_imu(tmp_path: Path) -> None:
     assert lo < d.truth.track_width < hi
     # measured 39.8 ms for the true 40 ms; bound 5 ms
     assert cal.offsets[0].offset == pytest.approx(0.04, abs=0.005)
+
+
+def test_notebook_turns_are_the_scale_reference(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """With --db, a run folder whose trial is measured in the notebook (compass and counted
+    turns) gives the gyro's scale its reference."""
+    from odolab.robot.plant import IdealPlant
+    from odolab.robot.session import run_simulated
+    from odolab.store import Notebook
+    from odolab.trials import Command, Measurement, MotionKind
+
+    truth = NOMINAL.with_(track_width=0.6)
+    run = run_simulated(
+        Command(MotionKind.ROTATION, angle=4 * math.pi, speed=1.0),
+        nominal=NOMINAL,
+        plant=IdealPlant(truth),
+        link="jaguar2014",
+        save_to=tmp_path / "run",
+    )
+    assert run.trial.true is not None
+    db = tmp_path / "lab.db"
+    with Notebook(db) as nb:
+        nb.add_params_version(NOMINAL, method="preset")
+        nb.add_trial(run.trial)
+        measured = Measurement("compass", rotation=run.trial.true.heading, sigma_rotation=0.07)
+        nb.set_measurement(run.trial.trial_id, measured)
+    args = ["calibrate", "imu", str(tmp_path / "run"), "-o", str(tmp_path / "n.toml")]
+    assert main([*args, "--bias", "0", "--db", str(db)]) == 0
+    out = capsys.readouterr().out
+    assert "the notebook's measurement of trial" in out and "parameters version 2" in out
+    assert f"source trials: {run.trial.trial_id}" in out
+    # measured 0.6000 m (an ideal gyro, the true turn as the reference); bound 0.5 %
+    assert load_params(tmp_path / "n.toml").track_width == pytest.approx(0.6, rel=0.005)

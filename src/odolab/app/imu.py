@@ -121,6 +121,8 @@ def calibrate_gyro(req: ImuRequest) -> ImuOutcome:
         for p in req.runs
     ]
     refs = _references(req, runs)
+    if not refs and req.db is not None:
+        refs = _notebook_references(req.db, [Path(p) for p in req.runs])
     cal = calibrate_imu(
         runs,
         params,
@@ -133,6 +135,40 @@ def calibrate_gyro(req: ImuRequest) -> ImuOutcome:
     if req.db is not None:
         version, trials = _record(req.db, cal, [Path(p) for p in req.runs])
     return ImuOutcome(cal, choice.describe(), version, trials)
+
+
+def _notebook_references(db: Path, paths: Sequence[Path]) -> list[TurnReference]:
+    """The notebook's measured turns of the runs' trials (a compass and counted turns), when
+    every run is a robot run folder whose trial is measured there; else none."""
+    from odolab.app.selection import open_notebook
+    from odolab.errors import StoreError
+    from odolab.measurement import COMPASS_SIGMA_RAD
+    from odolab.trials import TrialStatus
+
+    ids = [_trial_id(p) for p in paths]
+    if any(i is None for i in ids):
+        return []
+    refs = []
+    with open_notebook(db) as nb:
+        for k, trial_id in enumerate(ids):
+            assert trial_id is not None
+            try:
+                trial = nb.get_trial(trial_id)
+            except StoreError:
+                return []
+            m = trial.measured
+            if trial.status is not TrialStatus.MEASURED or m is None or m.rotation is None:
+                return []
+            sd = m.sigma_rotation or math.sqrt(2.0) * COMPASS_SIGMA_RAD
+            refs.append(
+                TurnReference(
+                    float(m.rotation),
+                    float(sd),
+                    f"the notebook's measurement of trial {trial_id} ({m.instrument})",
+                    k,
+                )
+            )
+    return refs
 
 
 def _notes(cal: ImuCalibration) -> str:

@@ -573,7 +573,7 @@ def _check_turning(
     dl, dr, dt, names = _encoder_windows(runs, o.window_s)
     yaw = (dr * nominal.right_wheel_radius - dl * nominal.left_wheel_radius) / nominal.track_width
     still_s = float(dt[(np.abs(dl) < 1e-9) & (np.abs(dr) < 1e-9)].sum())
-    ccw, cw = float(yaw[yaw > 0].sum()), float(-yaw[yaw < 0].sum())
+    ccw, cw = float(yaw[yaw > 0].sum()), abs(float(yaw[yaw < 0].sum()))
     if min(ccw, cw) < o.min_turn and not (max(ccw, cw) >= o.min_turn and still_s >= 2.0):
         raise CalibrationError(
             f"{', '.join(names)}: the robot turned {ccw:.2f} rad counter-clockwise and {cw:.2f} "
