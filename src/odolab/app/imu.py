@@ -45,6 +45,7 @@ class ImuRequest:
     gt_reference: bool = False
     options: ImuOptions = field(default_factory=ImuOptions)
     db: Path | None = None
+    imu_topic: str = "/imu/data"  #: a bag's sensor_msgs/Imu topic
 
 
 @dataclass(frozen=True, eq=False)
@@ -116,7 +117,11 @@ def calibrate_gyro(req: ImuRequest) -> ImuOutcome:
     params = choice.params
     runs = [
         read_gyro_run(
-            p, ticks_per_rev=params.ticks_per_rev, modulus=params.encoder_modulus, imu=req.imu
+            p,
+            ticks_per_rev=params.ticks_per_rev,
+            modulus=params.encoder_modulus,
+            imu=req.imu,
+            imu_topic=req.imu_topic,
         )
         for p in req.runs
     ]

@@ -38,6 +38,9 @@ def calibrate_imu_cmd(
             "--imu", help="The gyro log of the one run: t,wz CSV or a SensorLog CSV (a phone)."
         ),
     ] = None,
+    imu_topic: Annotated[
+        str, typer.Option(help="A bag's sensor_msgs/Imu topic (with its joint states).")
+    ] = "/imu/data",
     offset: Annotated[
         float, typer.Option(help="Nominal clock offset, gyro minus encoders (s).")
     ] = 0.0,
@@ -119,6 +122,7 @@ def calibrate_imu_cmd(
             bias_sd=bias_sd,
         ),
         db=db,
+        imu_topic=imu_topic,
     )
     outcome = calibrate_gyro(req)
     cal = outcome.calibration
