@@ -351,7 +351,7 @@ def _cum(seg: GyroSegment) -> FloatArray:
 
 
 def _bracket(
-    run: GyroRun, o: ImuOptions, nominal: RobotParams, index: int
+    run: GyroRun, o: ImuOptions, nominal: RobotParams
 ) -> tuple[tuple[float, float], float, bool, str]:
     max_offset = o.max_offset
     if max_offset is None:
@@ -371,11 +371,9 @@ def _bracket(
     from odolab.validation.align import find_clock_offset
 
     seg = run.segments[0]
-    c = nominal.coefficients
     heading = (seg.right * nominal.right_wheel_radius - seg.left * nominal.left_wheel_radius) / (
         nominal.track_width
     )
-    del c
     yaw = np.concatenate(([0.0], np.cumsum(0.5 * (seg.wz[1:] + seg.wz[:-1]) * np.diff(seg.gyro_t))))
     imu = ImuLog(seg.gyro_t, yaw, seg.wz, source=run.imu_source)
     found = find_clock_offset(
@@ -396,7 +394,7 @@ def _bracket(
 
 
 def _run_data(run: GyroRun, index: int, seg0: int, o: ImuOptions, nominal: RobotParams) -> _RunData:
-    (lo, hi), start, fixed, how = _bracket(run, o, nominal, index)
+    (lo, hi), start, fixed, how = _bracket(run, o, nominal)
     dl, dr, dt, ta, tb, sg, gr = [], [], [], [], [], [], []
     pieces = []
     row = 0
@@ -677,6 +675,8 @@ def calibrate_imu(
     n_runs = len(data)
     y0 = _ys(data, [d.offset for d in data])
     still_bias, still_se, still_s = _still(data, y0)
+    if still_bias is not None and not fit_bias:  # y0 has the given bias taken off
+        still_bias += float(o.bias or 0.0)
     ratio_note = ""
     fixed_ratio: float | None = None
     if not _ratio_observable(data):
