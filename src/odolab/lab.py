@@ -116,6 +116,8 @@ class LabResult:
     phone_runs: Any = None  #: the phone runs against the predicted random error (RunsSummary)
     #: the model comparison and NEES of step 8 (odolab.report.models_section.ModelEvidence)
     evidence: Any = None
+    #: the phone runs' gyro calibration beside the ratios one (lab._gyro; docs/imu.md)
+    gyro: Any = None
 
 
 def _new_run_folder(out: Path) -> Path:
@@ -245,6 +247,7 @@ class Validated:
     checks: list[Any]
     band: Any
     phone_log: Path
+    imus: list[Any] = field(default_factory=list)  #: each phone run's ImuLog
 
 
 def _config(
@@ -421,10 +424,12 @@ def _validate(
 
     progress("validation", 0, len(live.phone))
     checks = []
+    imus = []
     phone_csv = folder / "phone-sensorlog.csv"
     for k, (trial, (t_run, h_run)) in enumerate(zip(live.phone, live.phone_truth, strict=True)):
         assert trial.encoder_log is not None
         imu = _phone_log(t_run, h_run, cfg.seed + k)
+        imus.append(imu)
         if k == 0:  # the first run's phone log is kept for `odolab validate`
             assert imu.yaw_rate is not None
             write_sensorlog(phone_csv, imu.t, imu.yaw, imu.yaw_rate)
@@ -441,7 +446,81 @@ def _validate(
         progress("validation", k + 1, len(live.phone))
     band = _random_band(rows)
     runs = summarize_runs(checks, band, offset_true=PHONE_CLOCK_OFFSET)
-    return Validated(checks[0], runs, checks, band, phone_csv)
+    return Validated(checks[0], runs, checks, band, phone_csv, imus)
+
+
+def _gyro(live: LiveRuns, val: Validated, ratios: Any) -> dict[str, Any]:
+    """Step 6b: the phone runs' gyro calibrates the rotation part (docs/imu.md), beside the
+    ratios calibration: the same radii (the distance scale the gyro cannot see), the phone's
+    bias from its still seconds before each run, its scale taken as 1 +- 1 %."""
+    from odolab.calibration.imu import Z95, ImuOptions, calibrate_imu
+    from odolab.io.gyro import gyro_run_from_log
+
+    params = ratios.params
+    runs, still = [], []
+    for trial, imu in zip(live.phone, val.imus, strict=True):
+        assert trial.encoder_log is not None and imu.yaw_rate is not None
+        runs.append(
+            gyro_run_from_log(
+                trial.trial_id,
+                trial.encoder_log,
+                imu,
+                params.ticks_per_rev,
+                source=f"trial {trial.trial_id}",
+            )
+        )
+        # the robot stood still for 10 s before the run; the clock offset is known to +-5 s
+        before = imu.t < float(trial.encoder_log.t[0]) + PHONE_CLOCK_OFFSET - 5.5
+        still.append(imu.yaw_rate[before])
+    w = np.concatenate(still)
+    bias, bias_sd = float(w.mean()), float(w.std(ddof=1) / math.sqrt(w.size))
+    gyro = calibrate_imu(
+        runs,
+        params,
+        options=ImuOptions(offset=PHONE_CLOCK_OFFSET, max_offset=5.0, bias=bias, bias_sd=bias_sd),
+        radii_source=(
+            f"the ratios calibration's mean wheel radius {params.left_wheel_radius:.6g} m (the "
+            "straight runs measured in the notebook)"
+        ),
+    )
+    b, (b0, b1) = gyro.track_width, gyro.track_width_ci95
+    rci = ratios.provenance.get("track_width_ci95")
+    rb = params.track_width
+    rows = [
+        ("runs", f"{len(runs)} phone runs (20 pi in place), the phone's gyro at 100 Hz"),
+        ("effective track, gyro", f"{b:.4f} m, 95 % [{b0:.4f}, {b1:.4f}]"),
+    ]
+    out: dict[str, Any] = {"track_width": b, "track_width_ci95": [b0, b1], "ratios": rb}
+    if isinstance(rci, list | tuple) and len(rci) == 2:
+        r0, r1 = float(rci[0]), float(rci[1])
+        se = math.hypot(math.log(b1 / b0) / (2 * Z95), math.log(r1 / r0) / (2 * Z95))
+        z = abs(math.log(b / rb)) / se
+        agree = z < Z95
+        rows.append(
+            ("effective track, ratios calibration", f"{rb:.4f} m, 95 % [{r0:.4f}, {r1:.4f}]")
+        )
+        rows.append(
+            (
+                "agreement",
+                f"the difference is {z:.2f} combined standard errors: "
+                + ("they agree" if agree else "they DISAGREE"),
+            )
+        )
+        out.update({"ratios_ci95": [r0, r1], "z": z, "agree": agree})
+    else:
+        rows.append(("effective track, ratios calibration", f"{rb:.4f} m (no interval)"))
+    rows += [
+        ("gyro bias", f"{bias:+.5f} rad/s from {w.size} samples standing still before the runs"),
+        ("gyro scale", gyro.scale_source),
+        ("clock offset (phone - robot)", "; ".join(o.describe() for o in gyro.offsets[:1])),
+        ("radius ratio", f"{gyro.radius_ratio:.5f} ({gyro.ratio_note or 'fitted'})"),
+        ("distance scale", gyro.radii_source),
+    ]
+    out["section"] = {
+        "title": "The phone's gyro: the effective track from the phone runs, beside the ratios",
+        "rows": [list(r) for r in rows],
+    }
+    return out
 
 
 def _random_band(rows: list[dict[str, Any]]) -> Any:
@@ -598,6 +677,7 @@ def _report(
     after: dict[str, float],
     evidence: Any,
     progress: Progress,
+    gyro: dict[str, Any] | None = None,
 ) -> Path:
     """Step 9: report.html, figures and results.json."""
     from odolab.report import write_report
@@ -623,6 +703,9 @@ def _report(
         "phone_log": str(val.phone_log),
         "phone_trial": live.phone[0].trial_id,
     }
+    if gyro is not None:  # the gyro's calibration, a section of its own
+        extra["ground_truth"] = [gyro["section"]]
+        extra["gyro_calibration"] = {k: v for k, v in gyro.items() if k != "section"}
     html = write_report(
         folder,
         analysis,
@@ -673,9 +756,10 @@ def run_lab(
         analysis, _trials, rows = _analysis(nb, progress)
         cal = _calibrate(cfg, nb, folder, progress)
     val = _validate(cfg, live, cal.ratios.params, rows, folder, progress)
+    gyro = _gyro(live, val, cal.ratios)
     after = _rerun(cfg, cal.ratios.params, progress)
     evidence = _models(cfg, cal.ratios.params, folder, progress)
-    html = _report(cfg, folder, db, analysis, cal, val, live, after, evidence, progress)
+    html = _report(cfg, folder, db, analysis, cal, val, live, after, evidence, progress, gyro)
     return LabResult(
         folder=folder,
         notebook=db,
@@ -689,6 +773,7 @@ def run_lab(
         loop=live.loop,
         phone_runs=val.runs,
         evidence=evidence,
+        gyro=gyro,
     )
 
 

@@ -55,6 +55,7 @@ DOCS = [
     "docs/serve.md",
     "docs/ground-truth.md",
     "docs/scale.md",
+    "docs/imu.md",
 ]
 
 #: (document, start of the command line) -> why it is not run here
@@ -302,7 +303,13 @@ def _scale(folder: Path) -> None:
     write_trajectory_csv(folder / "traj.csv", est)
 
 
+def _imu(folder: Path) -> None:
+    """The DRIVE Husky windows (shared data) where the page's Husky lines read them."""
+    (folder / "husky_windows.csv").symlink_to(require("drive-husky") / "husky_windows.csv")
+
+
 FIXTURES: dict[str, Callable[[Path], None]] = {
+    "docs/imu.md": _imu,
     "docs/scale.md": _scale,
     "README.md": _readme,
     "docs/analysis.md": _analysis,

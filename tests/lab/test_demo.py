@@ -324,3 +324,19 @@ def test_every_face_gives_the_demos_table1_and_ratios_calibration(lab, tmp_path:
     res = json.loads((tmp_path / "rep" / "results.json").read_text())
     assert table_of(res["table1"]) == table
     assert geometry(res["calibration"]["ratios"]["params"]) == demo
+
+
+def test_phone_runs_get_a_gyro_calibration_beside_the_ratios(lab) -> None:  # type: ignore[no-untyped-def]
+    """The five phone runs' gyro gives the effective track (docs/imu.md) with the ratios
+    calibration's radii; it agrees with the ratios calibration and the report shows both."""
+    result, _ = lab
+    res = json.loads(result.results.read_text())
+    g = res["extra"]["gyro_calibration"]
+    lo, hi = g["track_width_ci95"]
+    r0, r1 = g["ratios_ci95"]
+    assert lo < g["track_width"] < hi and r0 < g["ratios"] < r1
+    # measured 0.30 combined standard errors apart (seed 4314); bound 1.96
+    assert g["agree"] and g["z"] < 1.96
+    html = result.report.read_text()
+    assert "The phone&#39;s gyro" in html or "The phone's gyro" in html
+    assert "effective track, ratios calibration" in html

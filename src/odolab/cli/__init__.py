@@ -34,7 +34,7 @@ from odolab.text import safe_terminal  # noqa: E402
 #: The modules that add commands, in the order a full load imports them (their commands are
 #: listed in this order, as before lazy loading).
 COMMAND_MODULES: tuple[str, ...] = (
-    "consistency", "core", "demo", "evaluate", "export", "fleet", "groundtruth", "lab",
+    "consistency", "core", "demo", "evaluate", "export", "fleet", "groundtruth", "imu", "lab",
     "models", "robot", "scans", "serve", "sim", "trials", "validate",
 )  # fmt: skip
 
@@ -43,7 +43,7 @@ COMMAND_MODULES: tuple[str, ...] = (
 #: checks the table against the commands each module registers.
 COMMAND_WORDS: dict[str, tuple[str, ...]] = {
     "analyze": ("lab",),
-    "calibrate": ("consistency", "evaluate", "groundtruth", "lab", "models"),
+    "calibrate": ("consistency", "evaluate", "groundtruth", "imu", "lab", "models"),
     "camera": ("groundtruth",),
     "demo": ("demo",),
     "evaluate": ("evaluate",),

@@ -576,6 +576,11 @@ def _drive(
         q = run.trial.true
         echo(f"true (virtual): x={q.x:.4f} m y={q.y:.4f} m heading={q.heading:.4f} rad")
     echo(run.stats.describe())
+    if run.headings:  # a link with an IMU: the gyro's word on the track, and the drift monitor
+        from odolab.app.imu import gyro_after_run
+
+        for line in gyro_after_run(run):
+            echo(line)
     if run.save_note:
         echo(run.save_note, err=True)
     outcome, crossed = plan.outcome(run) if plan is not None else ([], None)

@@ -30,6 +30,7 @@ import numpy as np
 
 from odolab.errors import LogFormatError, OdolabError
 from odolab.io.run import OdometryRun, ReadOptions
+from odolab.io.sensorlog import ImuLog
 from odolab.params import RobotParams
 from odolab.trajectory import (
     Trajectory,
@@ -38,7 +39,14 @@ from odolab.trajectory import (
     yaw_from_quaternions,
 )
 
-__all__ = ["RosbagReader", "bag_topics", "read_bag", "read_bag_trajectory"]
+__all__ = [
+    "IMU_TYPE",
+    "RosbagReader",
+    "bag_topics",
+    "read_bag",
+    "read_bag_gyro",
+    "read_bag_trajectory",
+]
 
 POSE_TYPES = (
     "geometry_msgs/msg/PoseStamped",
@@ -46,6 +54,8 @@ POSE_TYPES = (
     "nav_msgs/msg/Odometry",
 )
 JOINT_TYPE = "sensor_msgs/msg/JointState"
+IMU_TYPE = "sensor_msgs/msg/Imu"
+DEFAULT_IMU_TOPIC = "/imu/data"
 ODOMETRY_TYPE = "nav_msgs/msg/Odometry"
 DEFAULT_JOINT_TOPIC = ReadOptions.joint_topic
 DEFAULT_GROUND_TRUTH_TOPIC = ReadOptions.ground_truth_topic
@@ -198,6 +208,43 @@ def read_bag(path: str | Path, options: ReadOptions | None = None) -> OdometryRu
         kind="bag",
         meta=meta,
     )
+
+
+def read_bag_gyro(path: str | Path, topic: str = DEFAULT_IMU_TOPIC) -> ImuLog:
+    """The yaw rate (``angular_velocity.z``, rad/s) of a ``sensor_msgs/Imu`` topic, on the
+    header stamps' clock (the bag's receive time where a stamp is zero), as an
+    :class:`~odolab.io.sensorlog.ImuLog` (yaw: the rate's integral). A message repeated with
+    the same stamp is kept once."""
+    p = Path(path)
+    reader = _open(p)
+    t: list[float] = []
+    wz: list[float] = []
+    try:
+        with reading(p):
+            for bag_ns, msg in _messages(reader, p, topic, (IMU_TYPE,)):
+                t.append(_stamp(msg, bag_ns))
+                wz.append(float(msg.angular_velocity.z))
+    finally:
+        _close(reader, p)
+    ta, wa = np.asarray(t, dtype=np.float64), np.asarray(wz, dtype=np.float64)
+    back = np.flatnonzero(np.diff(ta) < 0)
+    if back.size:
+        i = int(back[0]) + 1
+        raise LogFormatError(
+            f"{p}: topic {topic!r} time goes backwards at message {i + 1} ({ta[i]} after "
+            f"{ta[i - 1]}); expected non-decreasing header stamps"
+        )
+    keep = np.concatenate(([True], np.diff(ta) > 0))
+    ta, wa = ta[keep], wa[keep]
+    if ta.size < 2:
+        raise LogFormatError(
+            f"{p}: topic {topic!r} has {ta.size} IMU samples; expected at least two"
+        )
+    yaw = np.concatenate(([0.0], np.cumsum(0.5 * (wa[1:] + wa[:-1]) * np.diff(ta))))
+    return ImuLog(
+        ta, yaw, wa, source=f"{p} ({topic})", heading_column=topic, rate_column=topic,
+        time_column="header.stamp",
+    )  # fmt: skip
 
 
 def increments_from_odometry(

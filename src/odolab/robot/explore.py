@@ -330,7 +330,7 @@ class ExplorePlan:
                 trial=trial,
                 loop=loop,
                 truth=truth,
-                extra={"exploration": record, "ground_truth": gt},
+                extra={**run.extra, "exploration": record, "ground_truth": gt},
             )
 
         return finish

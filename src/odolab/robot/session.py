@@ -236,6 +236,9 @@ def _drive_link(
     driver: Driver = link.driver
     rt = realtime and set_realtime(True)
     loop: ControlLoop | None = None
+    drift = _DriftHook(link, on_event) if link.headings is not None else None
+    if drift is not None:
+        on_cycle = drift.wrap(on_cycle)
     signals = contextlib.ExitStack()
     state = signals.enter_context(_run_signals())
     try:
@@ -249,6 +252,8 @@ def _drive_link(
                 on_cycle=on_cycle,
                 on_event=on_event,
             )
+            if drift is not None:
+                drift.loop = loop
             result = loop.run(
                 motion,
                 settle=config.settle,
@@ -293,6 +298,7 @@ def _drive_link(
             confirmed,
             config,
             headings=_headings(link, loop.started_at),
+            extra=drift.extra() if drift is not None else {},
         )
         run = _finished(run, finish)
         if save_to is not None:
@@ -306,6 +312,63 @@ def _drive_link(
                 set_realtime(False)
         finally:
             signals.close()
+
+
+class _DriftHook:
+    """Feeds the drift monitor (:mod:`odolab.robot.drift`) from the control loop's cycles and
+    the link's gyro; its flags go to ``on_event`` as they are raised and into ``run.json``
+    (``"drift"``). It never stops the robot."""
+
+    #: read the link's gyro every this many cycles
+    EVERY = 5
+
+    def __init__(self, link: RobotLink, on_event: Callable[[float, str], None] | None) -> None:
+        from odolab.robot.drift import DriftMonitor
+
+        self.link = link
+        self.on_event = on_event
+        self.monitor = DriftMonitor()
+        self.loop: ControlLoop | None = None
+        self.seen = 0
+        self.events: list[tuple[float, str]] = []
+
+    def wrap(self, on_cycle: Callable[[CycleInfo], None] | None) -> Callable[[CycleInfo], None]:
+        def cycle(info: CycleInfo) -> None:
+            self.cycle(info)
+            if on_cycle is not None:
+                on_cycle(info)
+
+        return cycle
+
+    def cycle(self, info: CycleInfo) -> None:
+        self.monitor.odometry(info.t, info.pose.heading)
+        loop, headings = self.loop, self.link.headings
+        if info.index % self.EVERY or loop is None or loop.started_at is None or headings is None:
+            return
+        samples = headings()
+        new = samples[self.seen :]
+        self.seen = len(samples)
+        t0 = loop.started_at
+        for flag in self.monitor.gyro((t - t0, r) for t, _, r in new if r is not None):
+            message = flag.message()
+            self.events.append((flag.t, message))
+            if self.on_event is not None:
+                self.on_event(flag.t, message)
+
+    def extra(self) -> dict[str, Any]:
+        state = self.monitor.state
+
+        def num(v: float) -> float | None:
+            return v if math.isfinite(v) else None
+
+        return {
+            "drift": {
+                "flags": [[t, m] for t, m in self.events],
+                "expected_ratio": list(self.monitor.expected),
+                "last_ratio": None if state is None else num(state.ratio),
+                "last_ratio_ci95": None if state is None else [num(v) for v in state.ci95],
+            }
+        }
 
 
 def _finished(run: RobotRun, finish: Finish | None) -> RobotRun:
