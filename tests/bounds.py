@@ -50,6 +50,11 @@ def comparison(expl: str) -> tuple[float, str, float] | None:
     first = expl.splitlines()[0] if expl else ""
     first = re.sub(r"^(assert|AssertionError:)\s+", "", first.strip())
     first = re.sub(r"^assert\s+", "", first)
+    approx = re.match(r"^(\S+) == (\S+) \u00b1 (\S+)", first)
+    if approx:
+        got, want, tol = (_value(approx.group(i)) for i in (1, 2, 3))
+        if got is not None and want is not None and tol is not None:
+            return got, "approx", (want, tol)  # type: ignore[return-value]
     parts = re.split(r" (>=|<=|>|<) ", first)
     if len(parts) == 3:
         lv, rv = _value(parts[0]), _value(parts[2])
@@ -67,6 +72,9 @@ def comparison(expl: str) -> tuple[float, str, float] | None:
 def margin(left: float, op: str, right: float) -> float:
     """How far ``left`` is inside its bound ``right``, as a fraction of the bound (negative:
     outside); inside an interval (op "in"), as a fraction of the interval's width."""
+    if op == "approx":
+        want, tol = right  # type: ignore[misc]
+        return (tol - abs(left - want)) / tol if tol else 0.0
     if op == "in":
         lo, hi = right  # type: ignore[misc]
         width = hi - lo if hi != lo else max(abs(hi), 1e-300)

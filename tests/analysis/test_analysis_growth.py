@@ -28,7 +28,11 @@ def test_profile_loglik_is_the_gaussian_loglik_at_the_best_a() -> None:
 def test_recovers_exponent_and_rejects_the_wrong_laws() -> None:
     d, r = _sample(7, 1.5, n_per=200)
     g = fit_growth(d, r)
+    # measured |value - expected| 0.00646-0.0451 over seed shifts 0-3; tolerance 0.08; at seed shift
+    # 0 it is 0.902x the spread over seeds away
     assert g.p == pytest.approx(1.5, abs=0.08)
+    # measured |value - expected| 0.000158-0.00215 over seed shifts 0-3; tolerance 0.003; at seed
+    # shift 0 it is 0.429x the spread over seeds away
     assert g.a == pytest.approx(0.03, rel=0.1)
     assert g.compatible(1.5)
     assert not g.compatible(0.5)
@@ -43,6 +47,8 @@ def test_p_interval_covers_truth_about_95_percent() -> None:
         lo, hi = fit_growth(d, r).p_ci95
         hits += lo <= 1.0 <= hi
     # profile-likelihood interval, 60 residuals: close to nominal
+    # measured 0.947 (284 of 300 seeds; the same with seeds shifted by 1-3); bounds 0.92 and 0.98
+    # are 8 and 10 seeds away, the binomial sd is 4 seeds
     assert 0.92 <= hits / n_seeds <= 0.98
 
 

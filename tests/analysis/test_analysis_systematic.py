@@ -37,6 +37,8 @@ def test_slope_interval_covers_truth_95_percent_of_seeds() -> None:
         lo, hi = fit_line(x, y).slope_ci95
         hits += lo <= truth <= hi
     # binomial(400, 0.95): sd 4.4 trials; 0.92..0.98 is about +-2.7 sd
+    # measured 0.948 (379 of 400 seeds; the same with seeds shifted by 1-3); bounds 0.92 and 0.98
+    # are 11 and 13 seeds away, the binomial sd is 4.5 seeds
     assert 0.92 <= hits / n_seeds <= 0.98
 
 

@@ -35,6 +35,7 @@ def test_ratios_write_each_constant_from_its_own_trials(tmp_path: Path) -> None:
     noise = load_params(out).noise
     assert noise is not None
     # the synthetic rotations spread far more than wheel noise explains: scrub, not pooled k
+    # measured k_scrub 0.12-0.20 and k_left 1.1e-4-2.4e-4 over seed shifts 0-3; bound 1e-2
     assert noise.k_scrub > 0 and noise.k_left < 1e-2
     fit = tomllib.loads(out.read_text())["provenance"]["noise_fit"]
     assert {t.split("-")[0] for t in fit["k_left"]["trials"]} == {"translation", "outdoor"}

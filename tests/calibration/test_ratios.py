@@ -26,6 +26,8 @@ def test_convention_multiplies_radius_and_scales_track() -> None:
     res = ratios(OLD, 0.905, 0.875)
     assert res.params.left_wheel_radius == pytest.approx(0.905 * OLD.left_wheel_radius)
     assert res.params.right_wheel_radius == pytest.approx(0.905 * OLD.right_wheel_radius)
+    # measured |value - expected| 8e-06 over seed shifts 0-3; tolerance 5.8e-05; the same at every
+    # seed
     assert res.params.track_width == pytest.approx(1.0343 * OLD.track_width, rel=1e-4)
     assert res.params.ticks_per_rev == OLD.ticks_per_rev
     assert res.provenance["method"] == "ratios"

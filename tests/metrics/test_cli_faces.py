@@ -106,4 +106,6 @@ def test_gt_est_says_it_is_planar(tmp_path: Path, capsys: pytest.CaptureFixture[
     assert "note: planar: x, y and heading only" in capsys.readouterr().out
     doc = json.loads(out.read_text())
     assert doc["planar"] is True and "z, roll and pitch are not read" in doc["planar_note"]
+    # measured |value - expected| 8.75e-06 over seed shifts 0-3; tolerance 5e-05; the same at every
+    # seed
     assert doc["ape"]["rmse"] == pytest.approx(0.0186, abs=5e-5)

@@ -85,6 +85,7 @@ def test_the_data_has_quaternions_off_unit_length() -> None:
         np.abs(np.linalg.norm(np.loadtxt(DATA / n, comments="#")[:, 4:8], axis=1) - 1.0).max()
         for n in sorted({n for pair in PAIRS for n in pair})
     ]
+    # measured 8.6e-05 (evo's files: no seed); bound 1e-5
     assert max(off) > 1e-5
 
 
@@ -141,6 +142,7 @@ def test_se2_alignment_matches_evo_umeyama_where_evo_stays_planar(gt: str, est: 
         assert np.linalg.det(r[:2, :2]) == pytest.approx(-1.0)
         # our proper rotation cannot fit better than evo's extra freedom, and differs
         assert ours.ape.rmse >= theirs["rmse"] - 1e-12
+        # measured 0.22 against 0.037, 1.60 against 0.62, 1.62 against 1.23 (evo's files: no seed)
         assert ours.ape.rmse != pytest.approx(theirs["rmse"], rel=1e-6)
 
 

@@ -44,11 +44,14 @@ def test_virtual_board_driven_by_an_icr_parameters_file(tmp_path: Path, angle: f
     assert abs(trial.predicted.heading) >= abs(angle) - 1e-9  # stopped on the ICR odometry
     assert trial.true is not None
     # the odometry and the truth follow the same model: they agree to the last cycle's motion
+    # measured |value - expected| 0.00153-0.00162 over seed shifts 0-3 (2 cases); tolerance 0.02;
+    # the same at every seed
     assert trial.true.heading == pytest.approx(trial.predicted.heading, abs=0.02)
     assert (trial.true.x, trial.true.y) == pytest.approx(
         (trial.predicted.x, trial.predicted.y), abs=2e-3
     )
     # a turn in place about a vehicle ICR 4 cm ahead moves the axle centre sideways
+    # measured 0.0418-0.0604 over seed shifts 0-3 (2 cases); bound 0.02; the same at every seed
     assert abs(trial.true.y) > 0.02
 
 
@@ -61,6 +64,8 @@ def test_the_differential_drive_misjudges_the_same_tracked_robot(tmp_path: Path)
     )
     assert trial.true is not None
     # diff odometry turns pi over 0.56 m of track; the vehicle turns over 0.58 m
+    # measured |value - expected| 0.000155 over seed shifts 0-3; tolerance 0.002; the same at every
+    # seed
     assert trial.true.heading / trial.predicted.heading == pytest.approx(0.56 / 0.58, abs=2e-3)
 
 
@@ -77,5 +82,8 @@ def test_extended_model_drives_straight(tmp_path: Path) -> None:
         plant=make_plant(truth, params, seed=1),
     )
     assert trial.true is not None
+    # measured 1.03 over seed shifts 0-3; bound 1; the same at every seed
     assert trial.predicted.x >= 1.0
+    # measured |value - expected| 0.00038 over seed shifts 0-3; tolerance 0.002; the same at every
+    # seed
     assert trial.true.x == pytest.approx(trial.predicted.x, abs=2e-3)

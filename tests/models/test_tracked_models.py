@@ -74,6 +74,8 @@ def test_streaming_equals_batch_for_every_model(method: str, model: KinematicMod
         assert abs(pose.x - batch.x[i]) <= 1e-9
         assert abs(pose.y - batch.y[i]) <= 1e-9
         assert abs(pose.heading - batch.heading[i]) <= 1e-9
+    # measured 1.44-2.09 rad at the test's seed 5 (a precondition on its data: other seeds turn
+    # less, 0.38 rad at seed 6); bound 1.0
     assert abs(batch.heading[-1]) > 1.0  # it turned: the model's turning terms were exercised
 
 
