@@ -48,8 +48,12 @@ def check_times(
     row_offset: int = 0,
     line_of: Callable[[int], int] | None = None,
     what: str = "line",
+    advancing: bool = True,
 ) -> None:
-    """Raise :class:`LogFormatError` if ``t`` has a non-finite value or goes backwards.
+    """Raise :class:`LogFormatError` if ``t`` has a non-finite value or goes backwards, or
+    (``advancing``) if every time is the same: a reader of chunks passes False for each chunk
+    (a chunk of equal stamps is fine inside a file whose time advances) and checks the whole
+    file's first and last time at its end (:func:`check_advanced`).
 
     ``row_offset`` is added to indexes in the message (e.g. 2 for a CSV with a header, so the
     message names the file's line number); ``line_of`` (index -> line), when given, is used
@@ -77,11 +81,22 @@ def check_times(
                 f"{source}: time goes backwards at {what} {line(i)} "
                 f"({t[i]} after {t[i - 1]}); expected non-decreasing times"
             )
-        if t[-1] == t[0]:  # (non-decreasing: every time is the first)
+        if advancing and t[-1] == t[0]:  # (non-decreasing: every time is the first)
             raise LogFormatError(
                 f"{source}: the time is {t[0]:g} s at every {what} from {line(0)} to "
                 f"{line(t.size - 1)}; expected times that advance"
             )
+
+
+def check_advanced(
+    first: float, last: float, rows: int, source: str, first_line: int, last_line: int, what: str
+) -> None:
+    """The whole file's time advanced (a chunked reader's end of :func:`check_times`)."""
+    if rows > 1 and last == first:
+        raise LogFormatError(
+            f"{source}: the time is {first:g} s at every {what} from {first_line} to "
+            f"{last_line}; expected times that advance"
+        )
 
 
 def check_positions(

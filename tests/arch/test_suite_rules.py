@@ -31,7 +31,8 @@ def test_draws():
 
 def _pytest(folder: Path, env: dict[str, str], *args: str) -> subprocess.CompletedProcess[str]:
     (folder / "test_sample.py").write_text(SAMPLE, encoding="utf-8")
-    full = {k: v for k, v in os.environ.items() if k not in ("CI", "ODOLAB_ASSERT_LOG")}
+    drop = ("CI", "ODOLAB_ASSERT_LOG", "PYTEST_XDIST_WORKER", "ODOLAB_TEST_SEED_SHIFT")
+    full = {k: v for k, v in os.environ.items() if k not in drop}
     full.update({"PYTHONPATH": str(TESTS), "PYTHONDONTWRITEBYTECODE": "1", **env})
     cmd = [sys.executable, "-m", "pytest", "-p", "suite_plugin", "-p", "no:randomly", "-q", "-s"]
     cmd += ["-p", "no:cacheprovider", "--rootdir", str(folder), *args, str(folder)]

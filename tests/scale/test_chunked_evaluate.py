@@ -312,3 +312,23 @@ def test_blocks_regrouped_into_chunks_of_exactly_the_chunk_size(
     for col, sign in (("a", 1.0), ("b", -1.0)):
         joined = np.concatenate([c[col] for c in got]) if got else np.zeros(0)
         np.testing.assert_array_equal(joined, sign * whole)
+
+
+def test_a_chunk_of_equal_stamps_is_not_a_file_whose_time_stands_still(tmp_path: Path) -> None:
+    """Coarse stamps repeat: a chunk holding only repeats is fine when the file's time advances
+    (the chunked reader refused it, the whole reader did not); a file whose every time is the
+    same is refused by both, with one sentence."""
+    p = tmp_path / "coarse.csv"
+    p.write_text("t,x,y,theta\n0.0,0,0,0\n0.1,1,0,0\n0.1,2,0,0\n0.2,3,0,0\n")
+    whole = read_trajectory(p)
+    for size in (1, 2, 3):
+        got = np.concatenate([c.x for c in iter_trajectory_chunks(p, chunk_rows=size)])
+        np.testing.assert_array_equal(got, whole.x)
+    still = tmp_path / "still.csv"
+    still.write_text("t,x,y,theta\n0.3,0,0,0\n0.3,1,0,0\n0.3,2,0,0\n")
+    with pytest.raises(LogFormatError, match="expected times that advance") as whole_err:
+        read_trajectory(still)
+    for size in (1, 2):
+        with pytest.raises(LogFormatError, match="expected times that advance") as err:
+            list(iter_trajectory_chunks(still, chunk_rows=size))
+        assert str(err.value) == str(whole_err.value)

@@ -44,7 +44,7 @@ from odolab.io.tabular import (
 )
 from odolab.kinematics import Method
 from odolab.params import RobotParams
-from odolab.trajectory import Pose, Trajectory, check_times
+from odolab.trajectory import Pose, Trajectory, check_advanced, check_times
 from odolab.writing import replacing_path
 
 __all__ = [
@@ -119,6 +119,8 @@ def iter_encoder_chunks(
     cols = INCREMENTS if increments else RAW
     lines = _Lines(p)
     last_t: float | None = None
+    first_t: float | None = None
+    rows = 0
     carry = np.zeros(2, dtype=np.int64)
     any_rows = False
     for row0, data in iter_columns(p, cols, chunk_rows=chunk_rows, integer=cols[1:], checked=text):
@@ -131,7 +133,9 @@ def iter_encoder_chunks(
             return lines(row0 + i)
 
         _check_times_from(t, last_t, str(p), row0, lines)
+        first_t = float(t[0]) if first_t is None else first_t
         last_t = float(t[-1])
+        rows = row0 + t.size
 
         left = _ticks(p, data[cols[1]], cols[1], line_of, lines.where)
         right = _ticks(p, data[cols[2]], cols[2], line_of, lines.where)
@@ -147,6 +151,7 @@ def iter_encoder_chunks(
         yield EncoderChunk(row0, t, left, right)
     if not any_rows:
         raise LogFormatError(f"{p}: no samples after the header")
+    _check_advanced(first_t, last_t, rows, str(p), lines)
 
 
 def _check_times_from(t: F64, last_t: float | None, source: str, row0: int, lines: _Lines) -> None:
@@ -159,9 +164,24 @@ def _check_times_from(t: F64, last_t: float | None, source: str, row0: int, line
         return lines(row0 + i - 1)
 
     if last_t is None:
-        check_times(t, source, line_of=line_of, what=lines.where)
+        check_times(t, source, line_of=line_of, what=lines.where, advancing=False)
     else:
-        check_times(np.concatenate(([last_t], t)), source, line_of=line_before, what=lines.where)
+        check_times(
+            np.concatenate(([last_t], t)),
+            source,
+            line_of=line_before,
+            what=lines.where,
+            advancing=False,
+        )
+
+
+def _check_advanced(
+    first_t: float | None, last_t: float | None, rows: int, source: str, lines: _Lines
+) -> None:
+    """At the end of a chunked read: the whole file's time advanced, as the whole reader asks
+    (the line numbers are looked up only for the message: finding them reads the file)."""
+    if first_t is not None and last_t is not None and rows > 1 and last_t == first_t:
+        check_advanced(first_t, last_t, rows, source, lines(0), lines(rows - 1), lines.where)
 
 
 def iter_trajectory_chunks(
@@ -196,11 +216,15 @@ def iter_trajectory_chunks(
     cols = trajectory_columns(header)
     lines = _Lines(p)
     last: tuple[float, float, float] | None = None  # t, theta read, heading of the last row
+    first_t: float | None = None
+    rows = 0
     for row0, d in iter_columns(p, cols, chunk_rows=chunk_rows, checked=text):
         t = d["t"]
         if t.size == 0:
             continue
         _check_times_from(t, None if last is None else last[0], str(p), row0, lines)
+        first_t = float(t[0]) if first_t is None else first_t
+        rows = row0 + t.size
         if "heading" in d:
             traj = Trajectory.from_xyh(t, d["x"], d["y"], d["heading"])
             last = (float(t[-1]), 0.0, float(traj.heading[-1]))
@@ -213,6 +237,7 @@ def iter_trajectory_chunks(
             traj = Trajectory(t, d["x"], d["y"], wrap_angle(th), heading)
             last = (float(t[-1]), float(th[-1]), float(heading[-1]))
         yield traj
+    _check_advanced(first_t, None if last is None else last[0], rows, str(p), lines)
 
 
 _SAMPLES = re.compile(r"between samples (\d+) and (\d+)")
