@@ -43,15 +43,24 @@ def _numbers(expl: str) -> list[float]:
 
 
 def load(log: Path) -> dict[tuple[str, str, int, int], list[float]]:
-    """(test, file, line, occurrence) -> the numbers its explanation printed."""
+    """(test, file, line, occurrence) -> the numbers its explanation printed. An assert in a
+    fixture is logged against whichever test first asked for the fixture, which the order
+    decides: those are keyed by their place alone, as a sorted multiset."""
     out: dict[tuple[str, str, int, int], list[float]] = {}
     seen: dict[tuple[str, str, int], int] = defaultdict(int)
+    setup: dict[tuple[str, int], list[list[float]]] = defaultdict(list)
     for path in sorted(log.parent.glob(log.name + ".*")):
         for line in path.read_text(encoding="utf-8").splitlines():
             rec = json.loads(line)
+            if rec.get("phase") == "setup":
+                setup[(rec["file"], rec["line"])].append(_numbers(rec["expl"]))
+                continue
             key = (rec["test"], rec["file"], rec["line"])
             out[(*key, seen[key])] = _numbers(rec["expl"])
             seen[key] += 1
+    for (file, line), values in setup.items():
+        for k, v in enumerate(sorted(values)):
+            out[("(a fixture)", file, line, k)] = v
     return out
 
 

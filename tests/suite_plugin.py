@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -49,14 +50,45 @@ if _SHIFT:
     _shift_seeds()
 
 
+#: the phase of the running test ("setup": an assert in a fixture, logged against whichever test
+#: first asked for it, which the order decides)
+_PHASE = ["call"]
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_setup(item: pytest.Item) -> Any:
+    _PHASE[0] = "setup"
+    try:
+        return (yield)
+    finally:
+        _PHASE[0] = "call"
+
+
+def _asserting_file(lineno: int) -> Path | None:
+    """The file of the frame whose assert passed (the frame under pytest's hook caller), when it
+    is not a library's: pytest also rewrites the asserts of plugins."""
+    frame = sys._getframe(2)
+    for _ in range(12):
+        if frame is None:
+            return None
+        name = frame.f_code.co_filename
+        if frame.f_lineno == lineno and "site-packages" not in name and "pluggy" not in name:
+            return Path(name).resolve()
+        frame = frame.f_back
+    return None
+
+
 def pytest_assertion_pass(item: pytest.Item, lineno: int, orig: str, expl: str) -> None:
     if not _LOG:
         return
     worker = os.environ.get("PYTEST_XDIST_WORKER", "main")
-    path = Path(item.path)
+    path = _asserting_file(lineno)
+    if path is None:  # an assert of a plugin pytest rewrote (hypothesis'), not a test's
+        return
     root = Path(__file__).resolve().parents[1]
     record = {
         "test": item.nodeid,
+        "phase": _PHASE[0],
         "file": str(path.relative_to(root)) if path.is_relative_to(root) else str(path),
         "line": lineno,
         "orig": orig,
