@@ -25,8 +25,8 @@ def sim_photo_legs(seconds: float) -> list[tuple[float, float, float]]:
     different speeds (the speed changes are what place the dashes in time), ``seconds`` long
     (20: the lab report's Fig. 2; 6: its Fig. 1)."""
     legs = [
-        (0.25, 0.25, 3.0), (0.18, 0.34, 4.0), (0.38, 0.38, 3.0), (0.34, 0.16, 4.0),
-        (0.20, 0.20, 3.0), (0.30, 0.15, 3.0),
+        (0.25, 0.25, 2.0), (0.12, 0.22, 2.0), (0.38, 0.38, 2.0), (0.18, 0.34, 3.0),
+        (0.34, 0.16, 4.0), (0.20, 0.20, 3.0), (0.30, 0.15, 4.0),
     ]  # fmt: skip
     out, left = [], seconds
     for vl, vr, d in legs:

@@ -264,6 +264,10 @@ def _centre_line(
     return np.asarray(line, dtype=np.float64), rms
 
 
+#: more bright pieces than this and the photo is not a long exposure of one LED
+MAX_PIECES = 1000
+
+
 def find_dashes(
     image: FloatArray,
     homography: FloorHomography,
@@ -286,10 +290,18 @@ def find_dashes(
     signal = img - bg.astype(np.float32)
     noise = 1.4826 * float(np.median(np.abs(signal - np.median(signal))))
     peak_local = cv2.dilate(signal, np.ones((window, window), np.uint8))
-    floor_level = max(8.0 * noise, 12.0)
+    # well above the noise, and a fifth of the brightest light (the floor's own texture, tile
+    # joints and grain, stays below it; a lamp much brighter than the LED raises it)
+    top = float(cv2.GaussianBlur(signal, (0, 0), 1.0).max())
+    floor_level = max(8.0 * noise, 12.0, 0.2 * top)
     mask = (signal > 0.5 * peak_local) & (signal > floor_level)
     mask = cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_OPEN, np.ones((2, 2), np.uint8))
     count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    if count - 1 > MAX_PIECES:
+        raise PhotoError(
+            f"{count - 1} bright pieces in the photo; expected at most {MAX_PIECES} dashes (a "
+            "photo taken with the lights on, or a textured bright floor?)"
+        )
     h, w = img.shape
     found: list[tuple[Dash, float, tuple[float, float], bool]] = []
     aside: list[tuple[str, float, float]] = []
@@ -359,23 +371,25 @@ def _exit_dir(d: Dash) -> FloatArray:
     return np.asarray(v / n if n > 0 else v, dtype=np.float64)
 
 
-def _greedy(dashes: list[Dash], first: int, flip: bool, gap: float) -> tuple[float, list[Dash]]:
+def _greedy(dashes: list[Dash], first: int, flip: bool, duty: float) -> tuple[float, list[Dash]]:
     """Chain from ``dashes[first]`` (reversed when ``flip``): each next dash is the one whose
-    nearer end is closest to where the path would be one ``gap`` beyond the current exit."""
+    nearer end is closest to where the path would be one OFF interval beyond the current exit
+    (at the current dash's speed); it is entered at that nearer end."""
     left = set(range(len(dashes)))
     left.discard(first)
     cur = dashes[first].reversed() if flip else dashes[first]
     chain, cost = [cur], 0.0
     while left:
         p = cur.xy[-1]
-        want = p + _exit_dir(cur) * gap
+        want = p + _exit_dir(cur) * cur.length * (1.0 - duty) / duty
         best, best_cost, best_flip = -1, math.inf, False
         for j in left:
             d = dashes[j]
-            for f, q in ((False, d.xy[0]), (True, d.xy[-1])):
-                c = float(np.hypot(*(q - want)))
-                if c < best_cost:
-                    best, best_cost, best_flip = j, c, f
+            f = bool(np.hypot(*(d.xy[-1] - p)) < np.hypot(*(d.xy[0] - p)))
+            q = d.xy[-1] if f else d.xy[0]
+            c = float(np.hypot(*(q - want)))
+            if c < best_cost:
+                best, best_cost, best_flip = j, c, f
         left.discard(best)
         cur = dashes[best].reversed() if best_flip else dashes[best]
         chain.append(cur)
@@ -389,12 +403,10 @@ def order_dashes(dashes: list[Dash], duty: float) -> DashChain:
     intervals it skipped (a dash missing, set aside or too faint)."""
     if not dashes:
         raise PhotoError("no dashes to order")
-    lengths = np.array([d.length for d in dashes])
-    gap = float(np.median(lengths)) * (1.0 - duty) / duty
     best: tuple[float, list[Dash]] | None = None
     for i in range(len(dashes)):
         for flip in (False, True):
-            cand = _greedy(dashes, i, flip, gap)
+            cand = _greedy(dashes, i, flip, duty)
             if best is None or cand[0] < best[0]:
                 best = cand
     assert best is not None
