@@ -114,10 +114,6 @@ SKIP: dict[tuple[str, str], str] = {
         "needs your film of the printed board; tests/groundtruth/test_tracking.py calibrates "
         "from a rendered board video"
     ),
-    ("docs/ground-truth.md", "odolab track-photo long-exposure.jpg"): (
-        "needs your photo; the same command runs on the simulated photo above "
-        "(tests/groundtruth/test_photo.py)"
-    ),
     ("docs/ground-truth.md", "odolab track run.mp4"): (
         "needs your film; the same command runs on the simulated video above"
     ),
