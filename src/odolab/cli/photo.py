@@ -108,7 +108,9 @@ def sim_photo_cmd(
         f"{u:g},{v:g},{x:g},{y:g}" for (u, v), (x, y) in zip(uv, corners, strict=True)
     ]
     write_text_file(folder / "points.csv", "\n".join(lines) + "\n", what="floor points")
-    write_encoder_csv(folder / "run.csv", EncoderLog(drive.t, drive.counts_left, drive.counts_right))
+    write_encoder_csv(
+        folder / "run.csv", EncoderLog(drive.t, drive.counts_left, drive.counts_right)
+    )
     write_trajectory_csv(folder / "truth.csv", truth)
     echo(
         f"{tr.t[-1]:.1f} s drive, LED {led_hz:g} Hz duty {duty:g} -> {folder / name} "

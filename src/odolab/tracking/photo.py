@@ -34,7 +34,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -104,8 +103,8 @@ class FloorHomography:
         root of the homography's Jacobian determinant."""
         e = 0.5
         c = self.floor_from_pixels(uv)
-        du = self.floor_from_pixels(uv + [e, 0.0]) - c
-        dv = self.floor_from_pixels(uv + [0.0, e]) - c
+        du = self.floor_from_pixels(uv + np.array([e, 0.0])) - c
+        dv = self.floor_from_pixels(uv + np.array([0.0, e])) - c
         det = np.abs(du[:, 0] * dv[:, 1] - du[:, 1] * dv[:, 0]) / (e * e)
         return np.asarray(np.sqrt(det), dtype=np.float64)
 
@@ -227,14 +226,15 @@ def read_photo(path: str | Path) -> FloatArray:
     p = Path(path)
     if not p.is_file():
         raise PhotoError(f"{p}: no such file; expected the long-exposure photo")
-    img = cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
-    if img is None:
+    raw = cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
+    if raw is None:
         raise PhotoError(f"{p}: not an image OpenCV can read; expected a PNG or JPEG photo")
-    if img.dtype == np.uint16:
+    img = np.asarray(raw, dtype=np.float64)
+    if raw.dtype == np.uint16:
         img = img / 257.0
     if img.ndim == 3:
         img = img[:, :, :3].max(axis=2)
-    return np.asarray(img, dtype=np.float64)
+    return img
 
 
 def _centre_line(
@@ -246,7 +246,7 @@ def _centre_line(
     m = np.array([np.average(us, weights=w), np.average(vs, weights=w)])
     d = np.column_stack((us, vs)) - m
     cov = (d * w[:, None]).T @ d / w.sum()
-    evals, evecs = np.linalg.eigh(cov)
+    _, evecs = np.linalg.eigh(cov)
     axis, normal = evecs[:, 1], evecs[:, 0]
     a = d @ axis
     b = d @ normal
@@ -294,8 +294,8 @@ def find_dashes(
     # joints and grain, stays below it; a lamp much brighter than the LED raises it)
     top = float(cv2.GaussianBlur(signal, (0, 0), 1.0).max())
     floor_level = max(8.0 * noise, 12.0, 0.2 * top)
-    mask = (signal > 0.5 * peak_local) & (signal > floor_level)
-    mask = cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_OPEN, np.ones((2, 2), np.uint8))
+    bright = ((signal > 0.5 * peak_local) & (signal > floor_level)).astype(np.uint8)
+    mask = cv2.morphologyEx(bright, cv2.MORPH_OPEN, np.ones((2, 2), np.uint8))
     count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
     if count - 1 > MAX_PIECES:
         raise PhotoError(
@@ -319,8 +319,8 @@ def find_dashes(
         length_px = float(np.hypot(*(line[-1] - line[0])))
         width_px = area / max(length_px, 1.0)
         if length_px < 1.5 * width_px:
-            aside.append(("a round spot, not a dash (a lamp, or the robot standing still)",)
-                         + centre)  # fmt: skip
+            spot = "a round spot, not a dash (a lamp, or the robot standing still)"
+            aside.append((spot, *centre))
             continue
         edge = x0 <= 1 or y0 <= 1 or x0 + bw >= w - 1 or y0 + bh >= h - 1
         dash = Dash(line, homography.floor_from_pixels(line), float(wts.max()), area)
@@ -330,12 +330,10 @@ def find_dashes(
         kept = []
         for dash, width, centre, edge in found:
             if width > 2.5 * typical:
-                aside.append(
-                    ("much wider than the dashes (a reflection, or the path crossing itself)",)
-                    + centre
-                )
+                wide = "much wider than the dashes (a reflection, or the path crossing itself)"
+                aside.append((wide, *centre))
             elif edge:
-                aside.append(("cut by the frame's edge",) + centre)
+                aside.append(("cut by the frame's edge", *centre))
             else:
                 kept.append(dash)
         return DashSearch(kept, aside)
@@ -517,8 +515,8 @@ def _fit(
 
     def linear(t0: float) -> tuple[FloatArray, FloatArray]:
         a = design(t0)
-        coef, *_ = np.linalg.lstsq(a, s_photo, rcond=None)
-        return coef, s_photo - a @ coef
+        coef = np.asarray(np.linalg.lstsq(a, s_photo, rcond=None)[0], dtype=np.float64)
+        return coef, np.asarray(s_photo - a @ coef, dtype=np.float64)
 
     lo, hi = t[0] - 0.5 * tau[-1], t[-1] - 0.5 * tau[-1]
     grid = np.arange(lo, hi, 0.01)

@@ -93,9 +93,9 @@ def render_photo(
     for du, dv, wt in ((0, 0, (1 - fu) * (1 - fv)), (1, 0, fu * (1 - fv)),
                        (0, 1, (1 - fu) * fv), (1, 1, fu * fv)):  # fmt: skip
         np.add.at(acc, (v0[keep] + dv, u0[keep] + du), wt[keep] * power * dt)
-    light = acc[:h, :w].astype(np.float32)
+    light = np.asarray(acc[:h, :w], dtype=np.float32)
     if blur > 0:
-        light = cv2.GaussianBlur(light, (0, 0), blur)
+        light = np.asarray(cv2.GaussianBlur(light, (0, 0), blur), dtype=np.float32)
     # a dim floor with tile joints, as a long exposure in a dark room shows it
     vv, uu = np.mgrid[0:h, 0:w].astype(np.float64)
     ray_u, ray_v = (uu - model.cx) / model.fx, (vv - model.cy) / model.fy
@@ -107,8 +107,8 @@ def render_photo(
     joint = (np.abs(np.mod(fx + tile / 2, tile) - tile / 2) < 0.006) | (
         np.abs(np.mod(fy + tile / 2, tile) - tile / 2) < 0.006
     )
-    floor = np.where(lam > 0, np.where(joint, 40.0, 25.0), 5.0).astype(np.float32)
-    floor = cv2.GaussianBlur(floor, (0, 0), 0.8)
+    plain = np.where(lam > 0, np.where(joint, 40.0, 25.0), 5.0).astype(np.float32)
+    floor = np.asarray(cv2.GaussianBlur(plain, (0, 0), 0.8), dtype=np.float32)
     rng = np.random.default_rng(seed)
     img = floor + light + rng.normal(0.0, noise, (h, w)).astype(np.float32)
     out = np.clip(np.round(img), 0, 255).astype(np.uint8)
