@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -133,3 +134,35 @@ def test_position_only_truth_reads_with_the_tangent_as_heading(tmp_path: Path) -
     p.write_text("t,x,y,quality\n0,0,0,0.001\n1,1,0,0.001\n2,1,1,0.001\n3,0,1,0.001\n")
     got = read_trajectory(p)
     assert got.heading.tolist() == pytest.approx([0.0, math.pi / 2, math.pi, math.pi])
+
+
+def test_a_lamp_and_a_missing_dash_are_said_and_the_others_keep_their_times(
+    fig2: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import cv2
+
+    from odolab.tracking.photo import floor_homography, read_floor_points
+
+    img = cv2.imread(str(fig2 / "photo.png"), cv2.IMREAD_GRAYSCALE)
+    hom = floor_homography(read_floor_points(fig2 / "points.csv"))
+    truth = read_trajectory(fig2 / "truth.csv")
+    mid = PHASE + 10.0 + 0.125  # the middle of dash 20
+    u, v = hom.pixels_from_floor(
+        np.array([[np.interp(mid, truth.t, truth.x), np.interp(mid, truth.t, truth.y)]])
+    )[0]
+    cv2.circle(img, (round(u), round(v)), 16, 25, -1)  # dash 20 painted over with the floor
+    cv2.circle(img, (300, 300), 10, 255, -1)  # a lamp
+    cv2.imwrite(str(tmp_path / "photo.png"), img)
+    code = main(
+        ["track-photo", str(tmp_path / "photo.png"), "--floor-points", str(fig2 / "points.csv"),
+         "--encoders", str(fig2 / "run.csv"), "-p", "jaguar-lite", "-o", str(tmp_path / "gt.csv")]
+    )  # fmt: skip
+    assert code == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "39 dashes in order" in out
+    assert re.search(r"set aside at \((299|30[012]), (299|30[012])\) px: a round spot", out)
+    assert "between dashes 19 and 20" in out and "1 ON interval(s) missing" in out
+    rows = np.genfromtxt(tmp_path / "gt.csv", delimiter=",", names=True)
+    expected = PHASE + 0.5 * np.array([k for k in range(40) if k != 20])
+    # measured: every start within 2 ms of its true ON interval; bound 20 ms
+    assert np.max(np.abs(rows["t"][0::3] - expected)) < 0.02
