@@ -332,3 +332,16 @@ def test_a_chunk_of_equal_stamps_is_not_a_file_whose_time_stands_still(tmp_path:
         with pytest.raises(LogFormatError, match="expected times that advance") as err:
             list(iter_trajectory_chunks(still, chunk_rows=size))
         assert str(err.value) == str(whole_err.value)
+
+
+def test_a_position_only_truth_is_read_whole_by_the_chunked_reader(tmp_path: Path) -> None:
+    """``t,x,y`` (odolab track-photo's ground truth): its heading is the whole path's tangent, so
+    the chunked reader gives it as one chunk, the whole reader's poses (it raised KeyError)."""
+    p = tmp_path / "photo_gt.csv"
+    p.write_text(
+        "t,x,y\n" + "".join(f"{0.1 * i!r},{0.05 * i!r},{0.01 * i * i!r}\n" for i in range(30))
+    )
+    chunks = list(iter_trajectory_chunks(p, chunk_rows=4))
+    whole = read_trajectory(p)
+    assert len(chunks) == 1
+    np.testing.assert_array_equal(chunks[0].heading, whole.heading)

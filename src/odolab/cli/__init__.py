@@ -35,7 +35,7 @@ from odolab.text import safe_terminal  # noqa: E402
 #: listed in this order, as before lazy loading).
 COMMAND_MODULES: tuple[str, ...] = (
     "consistency", "core", "demo", "evaluate", "export", "fleet", "groundtruth", "imu", "lab",
-    "models", "robot", "scans", "serve", "sim", "trials", "validate",
+    "models", "photo", "robot", "scans", "serve", "sim", "trials", "validate",
 )  # fmt: skip
 
 #: For each top-level word, the modules that add its command or its group's commands. A
@@ -57,8 +57,9 @@ COMMAND_WORDS: dict[str, tuple[str, ...]] = {
     "robot": ("robot",),
     "scans": ("scans",),
     "serve": ("serve",),
-    "sim": ("groundtruth", "models", "scans", "sim"),
+    "sim": ("groundtruth", "models", "photo", "scans", "sim"),
     "track": ("groundtruth",),
+    "track-photo": ("photo",),
     "trials": ("trials",),
     "validate": ("validate",),
 }

@@ -195,7 +195,7 @@ def iter_trajectory_chunks(
     it comes as one chunk. The same checks and messages as the whole-file reader.
     """
     from odolab.io.limits import check_columns_unique, check_text_file, first_line_cells
-    from odolab.io.trajectory_csv import read_tum, trajectory_columns
+    from odolab.io.trajectory_csv import read_trajectory_csv, read_tum, trajectory_columns
     from odolab.kinematics import wrap_angle
 
     p = Path(path)
@@ -214,6 +214,9 @@ def iter_trajectory_chunks(
     else:
         header = read_header(p)
     cols = trajectory_columns(header)
+    if "theta" not in cols and "heading" not in cols:  # t,x,y: the heading is the whole path's
+        yield read_trajectory_csv(p)  # tangent (odolab.io.trajectory_csv.heading_from_path)
+        return
     lines = _Lines(p)
     last: tuple[float, float, float] | None = None  # t, theta read, heading of the last row
     first_t: float | None = None

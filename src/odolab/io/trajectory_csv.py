@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Literal, overload
 
 import numpy as np
+from numpy.typing import NDArray
 
 from odolab.errors import LogFormatError
 from odolab.io._table import data_line_numbers, read_numeric_columns
@@ -28,6 +29,7 @@ from odolab.trajectory import Trajectory, check_positions, check_times, yaw_from
 from odolab.writing import path_first
 
 __all__ = [
+    "heading_from_path",
     "read_trajectory",
     "read_trajectory_csv",
     "read_tum",
@@ -55,8 +57,25 @@ def write_trajectory_csv(path: str | Path | Trajectory, traj: Trajectory | str |
     return write_columns(p, columns, what)
 
 
+def heading_from_path(x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Heading (rad, unwrapped) of a position-only path: the direction from each point to the
+    next (the last point keeps the one before it); a point that repeats the one before keeps its
+    heading. Right for a robot driving forwards; half a turn off where it reverses."""
+    dx, dy = np.diff(x), np.diff(y)
+    if len(dx) == 0:
+        return np.zeros(len(x))
+    still = np.hypot(dx, dy) == 0
+    h = np.arctan2(dy, dx)
+    for i in np.nonzero(still)[0]:
+        h[i] = h[i - 1] if i > 0 else 0.0
+    return np.asarray(np.unwrap(np.append(h, h[-1])), dtype=np.float64)
+
+
 def trajectory_columns(header: list[str]) -> tuple[str, ...]:
-    """The trajectory columns a file with this header is read by."""
+    """The trajectory columns a file with this header is read by (``t,x,y`` alone: position-only
+    ground truth, such as ``odolab track-photo`` writes)."""
+    if "theta" not in header and "heading" not in header:
+        return COLUMNS[:3]
     if "heading" in header and "theta" not in header:  # t,x,y,heading (odolab track writes it)
         return ("t", "x", "y", "heading")
     return COLUMNS if "heading" in header else COLUMNS[:4]
@@ -64,7 +83,9 @@ def trajectory_columns(header: list[str]) -> tuple[str, ...]:
 
 def read_trajectory_csv(path: str | Path) -> Trajectory:
     """Read a trajectory CSV; ``heading`` is optional (derived by unwrapping theta), and so is
-    ``theta`` where ``heading`` is there (``t,x,y,heading``; theta is derived by wrapping)."""
+    ``theta`` where ``heading`` is there (``t,x,y,heading``; theta is derived by wrapping); with
+    neither (``t,x,y``, position-only ground truth) the heading is the path's tangent
+    (:func:`heading_from_path`)."""
     p = Path(path)
     if p.exists() and not p.is_file():
         raise LogFormatError(f"{p}: is not a file (a folder?); expected a trajectory CSV")
@@ -74,9 +95,7 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
         _check_some(p, d["t"].size)
         check_times(d["t"], str(p), row_offset=1, what="row")
         check_positions(d["x"], d["y"], str(p), line_of=lambda i: i + 1, what="row")
-        if "heading" in d:
-            return Trajectory.from_xyh(d["t"], d["x"], d["y"], d["heading"])
-        return Trajectory.from_xytheta(d["t"], d["x"], d["y"], d["theta"])
+        return _trajectory(d)
     check_text_file(p, expected="a trajectory CSV")
     try:
         header = first_line_cells(p)  # checked text: the header without pandas' import
@@ -93,9 +112,15 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
 
     check_times(d["t"], str(p), line_of=line_of)
     check_positions(d["x"], d["y"], str(p), line_of=line_of)
+    return _trajectory(d)
+
+
+def _trajectory(d: dict[str, NDArray[np.float64]]) -> Trajectory:
     if "heading" in d:
         return Trajectory.from_xyh(d["t"], d["x"], d["y"], d["heading"])
-    return Trajectory.from_xytheta(d["t"], d["x"], d["y"], d["theta"])
+    if "theta" in d:
+        return Trajectory.from_xytheta(d["t"], d["x"], d["y"], d["theta"])
+    return Trajectory.from_xyh(d["t"], d["x"], d["y"], heading_from_path(d["x"], d["y"]))
 
 
 def _check_some(p: Path, rows: int) -> None:
