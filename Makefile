@@ -18,9 +18,9 @@ demo: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/odolab demo
 
 # every test, in a new random order each run (pytest-randomly prints the seed: rerun an order with
-# `-p randomly --randomly-seed=N`); docs/testing.md has the timings
+# `-p randomly --randomly-seed=N`), then the 20 slowest; docs/testing.md has the timings
 test: $(STAMP)
-	MPLBACKEND=Agg $(BIN)/python -m pytest -n 2 -q
+	MPLBACKEND=Agg $(BIN)/python -m pytest -n 2 -q --durations=20
 
 # while developing: leaves out the tests marked slow (documented commands, real-time robot runs,
 # the demos in chromium, the independent simulators); `make test` and CI run everything
