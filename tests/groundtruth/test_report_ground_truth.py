@@ -32,6 +32,45 @@ SENSOR = {
 }
 
 
+PHOTO = (
+    "t,x,y,quality\n"
+    "2.0,0.0,0.0,0.002\n"
+    "2.1,0.3,0.4,0.004\n"  # 0.5 m
+    "2.25,0.3,0.4,0.003\n"
+)
+
+
+def _png(path: Path) -> Path:
+    """A small real PNG (an overlay stands in for `odolab track-photo --overlay`'s)."""
+    import cv2
+    import numpy as np
+
+    img = np.zeros((12, 20, 3), dtype=np.uint8)
+    img[4:8, 2:18] = 255
+    assert cv2.imwrite(str(path), img)
+    return path
+
+
+def test_photo_path_and_overlay_summaries(tmp_path: Path) -> None:
+    """`odolab track-photo`'s t,x,y,quality (position only) and its overlay PNG (issue 43: the
+    report shows the photo when a run has one); numbers by hand."""
+    p = tmp_path / "photo_gt.csv"
+    p.write_text(PHOTO)
+    g = ground_truth_summary(p)
+    rows = dict(g["rows"])
+    assert g["title"] == "Read from a long-exposure photo: photo_gt.csv"
+    assert rows["rows (start, centre and end of each timed dash)"] == "3"
+    assert rows["time"] == "2 to 2.25 s" and rows["path length"] == "0.5 m"
+    assert rows["quality, median / worst"] == "3 / 4 mm"
+    img = ground_truth_summary(_png(tmp_path / "overlay.png"))
+    assert img["title"] == "The photo with the estimated path: overlay.png"
+    assert img["image"].startswith("iVBORw0KGgo")  # base64 of the PNG signature
+    with pytest.raises(LogFormatError, match="photo_bad.csv: line 3"):
+        bad = tmp_path / "photo_bad.csv"
+        bad.write_text("t,x,y,quality\n1,0,0,0\n2,x,0,0\n")
+        ground_truth_summary(bad)
+
+
 def test_tracked_path_summary_by_hand(tmp_path: Path) -> None:
     p = tmp_path / "run_gt.csv"
     p.write_text(TRACK)
@@ -79,11 +118,22 @@ def test_report_has_the_section(tmp_path: Path, capsys: pytest.CaptureFixture[st
     cal.write_text(json.dumps(SENSOR))
     out = tmp_path / "report"
     args = ["report", "--db", str(db), "--out", str(out)]
-    assert main([*args, "--ground-truth", str(track), "--ground-truth", str(cal)]) == 0
+    photo, overlay = tmp_path / "photo_gt.csv", _png(tmp_path / "overlay.png")
+    photo.write_text(PHOTO)
+    truths = ["--ground-truth", str(track), "--ground-truth", str(cal)]
+    truths += ["--ground-truth", str(photo), "--ground-truth", str(overlay)]
+    assert main([*args, *truths]) == 0
     text = html.unescape((out / "report.html").read_text())
     section = text.split("<h2>Ground truth without a motion-capture lab</h2>", 1)[1]
     assert "Tracked by a camera: run_gt.csv" in section
     assert "0.60003 ± 0.00070" in section
+    assert "Read from a long-exposure photo: photo_gt.csv" in section
+    assert (
+        '<figure id="ground-truth-image-4"><img alt="The photo with the estimated path' in section
+    )
+    # results.json keeps the numbers, not the photo's megabytes
+    saved = json.loads((out / "results.json").read_text())["extra"]["ground_truth"]
+    assert "image" not in saved[3] and saved[3]["image_base64_chars"] > 0
     # without --ground-truth there is no such section; a wrong file stops before any work
     assert main([*args[:-1], str(tmp_path / "plain")]) == 0
     assert "Ground truth without" not in (tmp_path / "plain" / "report.html").read_text()

@@ -560,6 +560,22 @@ def _page(
     )
 
 
+def _numbers_only(results: dict[str, Any]) -> dict[str, Any]:
+    """``results`` for results.json: a ground truth's embedded photo (base64 PNG, megabytes) is
+    the page's, not a number; results.json says its size instead."""
+    extra = results.get("extra")
+    if not isinstance(extra, dict) or not isinstance(extra.get("ground_truth"), list):
+        return results
+    truths = [
+        {k: v for k, v in g.items() if k != "image"}
+        | ({"image_base64_chars": len(g["image"])} if isinstance(g.get("image"), str) else {})
+        if isinstance(g, dict)
+        else g
+        for g in extra["ground_truth"]
+    ]
+    return {**results, "extra": {**extra, "ground_truth": truths}}
+
+
 def write_report(
     out_dir: str | Path,
     analysis: LabAnalysis,
@@ -592,7 +608,8 @@ def write_report(
     figs = _render(fig_dir, plans)
     results["figures"] = {f.name: f"figures/{f.name}.png" for f in figs}
     # through a temporary file in ``out``: a link planted at either name is replaced, not followed
-    write_text_file(out / "results.json", json.dumps(results, indent=2), what="report results")
+    write_text_file(out / "results.json", json.dumps(_numbers_only(results), indent=2),
+                    what="report results")  # fmt: skip
     path = out / "report.html"
     page = _page(results, analysis, calibrations, figs, reference)
     write_text_file(path, page, what="report")

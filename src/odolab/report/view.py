@@ -567,9 +567,14 @@ def extra_view(extra: Mapping[str, Any]) -> dict[str, Any]:
         elif k == "live_runs" and isinstance(v, Mapping):
             view["live"] = [(_LIVE_LABELS.get(kk, kk), fmt(vv, 6)) for kk, vv in v.items()]
         elif k == "ground_truth" and isinstance(v, list):
-            # odolab.report.ground_truth summaries: a title and (label, text) rows each
+            # odolab.report.ground_truth summaries: a title and (label, text) rows each, and a
+            # photo's overlay as base64 PNG (escaped like any text where the page shows it)
             view["ground_truth"] = [
-                {"title": str(g.get("title", "")), "rows": [(str(a), str(b)) for a, b in g["rows"]]}
+                {
+                    "title": str(g.get("title", "")),
+                    "rows": [(str(a), str(b)) for a, b in g["rows"]],
+                    "image": str(g["image"]) if isinstance(g.get("image"), str) else None,
+                }
                 for g in v
                 if isinstance(g, Mapping) and isinstance(g.get("rows"), list)
             ]
