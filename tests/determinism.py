@@ -32,14 +32,18 @@ _NOISE = [
     re.compile(r"0x[0-9a-fA-F]+"),  # object addresses
     re.compile(r"/tmp/\S*|/var/folders/\S*|pytest-of-\S*"),  # temporary paths
     re.compile(r"\bat \d+\b"),
+    re.compile(r"\d{4}-\d\d-\d\d[T ]\d\d:\d\d:\d\d(\.\d+)?Z?|\d{8}[-T_]?\d{6,}"),  # stamps
 ]
 _FLOAT = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?|nan|inf")
 
 
 def _numbers(expl: str) -> list[float]:
+    """The numbers of the explanation's first line, the comparison itself (the lines under it
+    are reprs of the objects, with their addresses, paths and times of day)."""
+    first = expl.splitlines()[0] if expl else ""
     for pat in _NOISE:
-        expl = pat.sub("", expl)
-    return [float(x) for x in _FLOAT.findall(expl)]
+        first = pat.sub("", first)
+    return [float(x) for x in _FLOAT.findall(first)]
 
 
 def load(log: Path) -> dict[tuple[str, str, int, int], list[float]]:
@@ -58,9 +62,9 @@ def load(log: Path) -> dict[tuple[str, str, int, int], list[float]]:
             key = (rec["test"], rec["file"], rec["line"])
             out[(*key, seen[key])] = _numbers(rec["expl"])
             seen[key] += 1
-    for (file, line), values in setup.items():
-        for k, v in enumerate(sorted(values)):
-            out[("(a fixture)", file, line, k)] = v
+    for (file, line), values in setup.items():  # (built once or once a worker: distinct)
+        for k, v in enumerate(sorted({tuple(v) for v in values})):
+            out[("(a fixture)", file, line, k)] = list(v)
     return out
 
 
