@@ -65,7 +65,7 @@ def test_photo_path_and_overlay_summaries(tmp_path: Path) -> None:
     img = ground_truth_summary(_png(tmp_path / "overlay.png"))
     assert img["title"] == "The photo with the estimated path: overlay.png"
     assert img["image"].startswith("iVBORw0KGgo")  # base64 of the PNG signature
-    with pytest.raises(LogFormatError, match="photo_bad.csv: line 3"):
+    with pytest.raises(LogFormatError, match=r"photo_bad\.csv: line 3"):
         bad = tmp_path / "photo_bad.csv"
         bad.write_text("t,x,y,quality\n1,0,0,0\n2,x,0,0\n")
         ground_truth_summary(bad)
