@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from odolab import numfmt
 from odolab.errors import LogFormatError
@@ -38,8 +39,11 @@ _MAX_IMAGE_BYTES = 20_000_000  #: embedded in the page: a phone's photo, not a f
 _PNG = b"\x89PNG\r\n\x1a\n"
 
 
-def _photo_track(path: Path, head: list[str], rows: list[list[str]]) -> dict[str, Any]:
-    idx = [head.index(c) for c in _PHOTO_COLUMNS]
+def _numbers(
+    path: Path, head: list[str], rows: list[list[str]], columns: tuple[str, ...], what: str
+) -> NDArray[np.float64]:
+    """The data rows' ``columns`` as numbers (two finite rows at least), one sentence if not."""
+    idx = [head.index(c) for c in columns]
     values = []
     for n, row in enumerate(rows, start=2):
         try:
@@ -48,9 +52,14 @@ def _photo_track(path: Path, head: list[str], rows: list[list[str]]) -> dict[str
             raise LogFormatError(
                 f"{path}: line {n} is {','.join(row)[:80]!r}; expected numbers in every column"
             ) from None
-    a = np.array(values, dtype=np.float64).reshape(-1, len(_PHOTO_COLUMNS))
+    a = np.array(values, dtype=np.float64).reshape(-1, len(columns))
     if len(a) < 2 or not np.isfinite(a).all():
-        raise LogFormatError(f"{path}: {len(a)} finite rows; expected a path read from a photo")
+        raise LogFormatError(f"{path}: {len(a)} finite rows; expected {what}")
+    return a
+
+
+def _photo_track(path: Path, head: list[str], rows: list[list[str]]) -> dict[str, Any]:
+    a = _numbers(path, head, rows, _PHOTO_COLUMNS, "a path read from a photo")
     t, x, y, q = a.T
     path_m = float(np.sum(np.hypot(np.diff(x), np.diff(y))))
     return {
@@ -96,18 +105,7 @@ def _track(path: Path, text: str) -> dict[str, Any]:
             f"{path}: line 1 has no column {missing[0]!r}; expected odolab track's "
             "t,x,y,theta,heading,quality or odolab track-photo's t,x,y,quality"
         )
-    idx = [head.index(c) for c in _TRACK_COLUMNS]
-    values = []
-    for n, row in enumerate(rows[1:], start=2):
-        try:
-            values.append([float(row[i]) for i in idx])
-        except (ValueError, IndexError):
-            raise LogFormatError(
-                f"{path}: line {n} is {','.join(row)[:80]!r}; expected numbers in every column"
-            ) from None
-    a = np.array(values, dtype=np.float64).reshape(-1, len(_TRACK_COLUMNS))
-    if len(a) < 2 or not np.isfinite(a).all():
-        raise LogFormatError(f"{path}: {len(a)} finite rows; expected a tracked path")
+    a = _numbers(path, head, rows[1:], _TRACK_COLUMNS, "a tracked path")
     t, x, y, _, q = a.T
     dt = np.diff(t)
     frame = float(np.median(dt))
