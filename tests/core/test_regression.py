@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 import pytest
+import statsmodels.api as sm
 from numpy.typing import NDArray
 
 from odolab.regression import (
@@ -18,8 +19,6 @@ from odolab.regression import (
     newey_west_panel_cov,
     ols,
 )
-
-sm = pytest.importorskip("statsmodels.api")
 
 RTOL = 1e-9
 

@@ -221,6 +221,7 @@ def _wald95(u: float, se: float) -> tuple[float, float]:
 def _fit_sum(records: list[NoiseRecord]) -> tuple[float, float, tuple[float, float]]:
     """Fit one ``k = k_r + k_l`` (k_r = k_l = k/2); returns (k, loglik, ci95)."""
     from scipy import optimize
+
     from odolab.regression import approx_hess3
 
     stack = _Stack(records)
@@ -245,6 +246,7 @@ def _fit_sum(records: list[NoiseRecord]) -> tuple[float, float, tuple[float, flo
 def fit_wheel_noise(records: list[NoiseRecord]) -> WheelNoise:
     """Maximum-likelihood ``k_r``, ``k_l`` from residual records (see the module docstring)."""
     from scipy import optimize, stats
+
     from odolab.regression import approx_hess3
 
     if len(records) < 3:

@@ -292,30 +292,27 @@ def _careful_csv(
     idx = [header.index(c) for c in columns]
     out: list[list[float]] = [[] for _ in columns]
     with p.open(newline="", encoding="utf-8-sig", errors="replace") as fh:
-        reader = csv.reader(fh, delimiter=sep)
-        try:
-            for row in reader:
-                lineno = reader.line_num
-                if (has_header and lineno == 1) or not row:
-                    continue  # the header; a blank line is no row (a line of commas is one)
-                if len(row) > len(header):
+        for lineno, line in enumerate(fh, start=1):  # a quote never spans lines here
+            if (has_header and lineno == 1) or not line.strip():
+                continue  # the header; a blank line is no row (a line of commas is one)
+            try:
+                row = next(csv.reader([line], delimiter=sep), [])
+            except csv.Error:  # a cell over csv's 128 KiB field limit (lines may have 1 MB)
+                row = line.rstrip("\r\n").split(sep)
+            if len(row) > len(header):
+                raise LogFormatError(
+                    f"{p}: line {lineno} has {len(row)} cells, expected at most "
+                    f"{len(header)} (the header's)"
+                )
+            for k, (name, j) in enumerate(zip(columns, idx, strict=True)):
+                cell = row[j].strip() if j < len(row) else ""
+                value = _cell_value(cell)
+                if value is None or (not allow_nan and not math.isfinite(value)):
+                    shown = quote_input(cell) if cell else "empty"
                     raise LogFormatError(
-                        f"{p}: line {lineno} has {len(row)} cells, expected at most "
-                        f"{len(header)} (the header's)"
+                        f"{p}: line {lineno}, column {name!r} is {shown}, expected a number"
                     )
-                for k, (name, j) in enumerate(zip(columns, idx, strict=True)):
-                    cell = row[j].strip() if j < len(row) else ""
-                    value = _cell_value(cell)
-                    if value is None or (not allow_nan and not math.isfinite(value)):
-                        shown = quote_input(cell) if cell else "empty"
-                        raise LogFormatError(
-                            f"{p}: line {lineno}, column {name!r} is {shown}, expected a number"
-                        )
-                    out[k].append(value)
-        except csv.Error as err:  # a cell over csv's 128 KiB field limit, a stray quote
-            raise LogFormatError(
-                _locate_bad_cell(p, header, columns, sep, has_header=has_header)
-            ) from err
+                out[k].append(value)
     return {c: np.asarray(v, dtype=np.float64) for c, v in zip(columns, out, strict=True)}
 
 

@@ -222,7 +222,7 @@ class _Table:
     def _read_csv(self) -> list[NDArray[np.str_]]:
         """Every cell as text by Python's csv reader (lines ended by a bare carriage return,
         quotes): a line is a row (a blank one of empty cells), short rows' missing cells are
-        empty, cells past the header's are left out."""
+        empty; a row longer than the header is refused."""
         width = len(self.header)
         cols: list[list[str]] = [[] for _ in range(width)]
         try:
@@ -230,6 +230,11 @@ class _Table:
                 reader = csv.reader(fh, delimiter=self.sep)
                 next(reader, None)  # the header
                 for row in reader:
+                    if len(row) > width:
+                        raise ImuLogError(
+                            f"{self.path}: not a readable CSV table (line {reader.line_num} "
+                            f"has {len(row)} cells, the header {width})"
+                        )
                     for j in range(width):
                         cols[j].append(row[j].strip() if j < len(row) else "")
         except (csv.Error, UnicodeDecodeError) as err:

@@ -456,6 +456,7 @@ def fit_noise(
     (written 0 and said).
     A run's yaw offset, when fitted, is fitted first with the scale fit's noise."""
     from scipy import optimize
+
     from odolab.regression import approx_hess3
 
     if not runs:
