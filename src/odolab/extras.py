@@ -45,6 +45,7 @@ EXTRAS: dict[str, tuple[str, ...]] = {
 #: are refused where the package is first imported, before the output is written.
 COMMAND_EXTRAS: dict[tuple[str, ...], str] = {
     ("report",): "report",
+    ("demo",): "report",  # it ends in the lab report
     ("serve",): "web",
     ("track",): "video",
     ("track-photo",): "video",

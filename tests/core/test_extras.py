@@ -172,6 +172,7 @@ def test_the_core_commands_run_without_any_extra(tmp_path: Path) -> None:
 
 REFUSED = [
     (["report", "--db", "lab.db", "--out", "rep"], "odolab report", "report", "rep"),
+    (["demo", "--out", "demo"], "odolab demo", "report", "demo"),
     (["serve", "--db", "lab.db"], "odolab serve", "web", None),
     (["track", "v.mp4", "-o", "gt.csv"], "odolab track", "video", "gt.csv"),
     (["markers", "-o", "m"], "odolab markers", "video", "m"),
