@@ -16,7 +16,7 @@ covariance linear in ``(k_r, k_l)``:
 
 The instrument's variance (``sigma_rotation**2``, ``sigma_xy**2``) is added. The log-likelihood of
 all trials is maximised over ``log k_r, log k_l`` (scipy); 95% intervals are Wald intervals on the
-log scale from the numerical Hessian (statsmodels). Straight-line trials with both x and y
+log scale from the numerical Hessian (odolab.regression). Straight-line trials with both x and y
 measured, or pivots, separate the wheels; in-place rotations alone give only ``k_r + k_l`` (then
 ``identifiable`` is False and ``k_r = k_l = (k_r + k_l) / 2``).
 
@@ -221,7 +221,8 @@ def _wald95(u: float, se: float) -> tuple[float, float]:
 def _fit_sum(records: list[NoiseRecord]) -> tuple[float, float, tuple[float, float]]:
     """Fit one ``k = k_r + k_l`` (k_r = k_l = k/2); returns (k, loglik, ci95)."""
     from scipy import optimize
-    from statsmodels.tools.numdiff import approx_hess3
+
+    from odolab.regression import approx_hess3
 
     stack = _Stack(records)
 
@@ -245,7 +246,8 @@ def _fit_sum(records: list[NoiseRecord]) -> tuple[float, float, tuple[float, flo
 def fit_wheel_noise(records: list[NoiseRecord]) -> WheelNoise:
     """Maximum-likelihood ``k_r``, ``k_l`` from residual records (see the module docstring)."""
     from scipy import optimize, stats
-    from statsmodels.tools.numdiff import approx_hess3
+
+    from odolab.regression import approx_hess3
 
     if len(records) < 3:
         raise InsufficientDataError(

@@ -1,4 +1,4 @@
-"""Systematic error: ordinary least-squares lines with honest uncertainty (statsmodels OLS).
+"""Systematic error: ordinary least-squares lines with honest uncertainty (odolab.regression).
 
 The lab's fits (section VI): actual rotation vs predicted heading (slope = actual/predicted),
 actual x vs predicted x, and the y error (predicted - actual) vs predicted x. A fit needs at least
@@ -85,12 +85,11 @@ def fit_line(
     """OLS of ``y`` on ``x`` with an intercept. ``x``, ``y``: shape (n,), n >= 3.
 
     With ``through_origin`` the model is ``y = slope * x`` (no intercept: intercept, its SE and
-    interval are 0, and R² is the uncentered one statsmodels gives for a model without constant).
+    interval are 0, and R² is the uncentered one, as for any model without constant).
 
     Raises :class:`InsufficientDataError` when there are too few points or ``x`` is constant.
     """
-    from statsmodels.regression.linear_model import OLS  # not statsmodels.api: 1 s to import
-    from statsmodels.tools.tools import add_constant
+    from odolab.regression import ols
 
     xa = np.asarray(x, dtype=np.float64).ravel()
     ya = np.asarray(y, dtype=np.float64).ravel()
@@ -109,11 +108,10 @@ def fit_line(
             "two or more different distances or angles"
         )
     ids = tuple(trial_ids) if trial_ids else tuple(str(i) for i in range(n))
-    design = xa[:, None] if through_origin else add_constant(xa, has_constant="add")
-    res = OLS(ya, design).fit()
-    with np.errstate(invalid="ignore", divide="ignore"):  # no spread in y: R² is undefined
-        r2 = float(res.rsquared)
-    ci = np.asarray(res.conf_int(alpha=0.05))
+    design = xa[:, None] if through_origin else np.column_stack([np.ones_like(xa), xa])
+    res = ols(ya, design)
+    r2 = res.rsquared(ya, centered=not through_origin)  # no spread in y: nan
+    ci = res.conf_int()
     k = 0 if through_origin else 1  # index of the slope among the coefficients
     return LinearFit(
         name=name,
@@ -125,11 +123,11 @@ def fit_line(
         slope_ci95=(float(ci[k, 0]), float(ci[k, 1])),
         intercept_ci95=(0.0, 0.0) if through_origin else (float(ci[0, 0]), float(ci[0, 1])),
         r2=r2,
-        residual_sd=float(np.sqrt(res.mse_resid)),
+        residual_sd=float(np.sqrt(res.scale)),
         df_resid=round(float(res.df_resid)),
         x=xa,
         y=ya,
-        fitted=np.asarray(res.fittedvalues, dtype=np.float64),
-        residuals=np.asarray(res.resid, dtype=np.float64),
+        fitted=res.fitted,
+        residuals=res.resid,
         trial_ids=ids,
     )

@@ -1,6 +1,6 @@
 """Do terrains differ in systematic error? An F-test on the slopes, with an effect size.
 
-For one motion (e.g. x translation) measured on several terrains, two OLS models (statsmodels):
+For one motion (e.g. x translation) measured on several terrains, two OLS models (odolab.regression):
 
 * full: a separate line per terrain (``actual = a_t + b_t * predicted``);
 * reduced: one common slope, separate intercepts (``actual = a_t + b * predicted``).
@@ -84,7 +84,8 @@ def compare_terrains(
     3 or more trials each.
     """
     from scipy import stats
-    from statsmodels.regression.linear_model import OLS  # not statsmodels.api: 1 s to import
+
+    from odolab.regression import f_test, ols
 
     names = tuple(sorted(t for t, (x, _) in data.items() if np.asarray(x).size >= 3))
     if len(names) < 2:
@@ -106,13 +107,13 @@ def compare_terrains(
         reduced[sl, j] = 1.0
         reduced[sl, k] = x
         row += x.size
-    res_full = OLS(y, full).fit()
-    res_red = OLS(y, reduced).fit()
-    f, p, df_diff = res_full.compare_f_test(res_red)
+    res_full = ols(y, full)
+    res_red = ols(y, reduced)
+    f, p, df_diff = f_test(res_full, res_red)
     rss_full, rss_red = float(res_full.ssr), float(res_red.ssr)
     eta2 = (rss_red - rss_full) / rss_red if rss_red > 0 else 0.0
     slopes = {t: float(res_full.params[k + j]) for j, t in enumerate(names)}
-    cov = np.asarray(res_full.cov_params())
+    cov = res_full.cov
     best = (0, 1, 0.0)
     for i in range(k):
         for j in range(i + 1, k):

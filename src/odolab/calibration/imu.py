@@ -14,7 +14,7 @@ cumulative integral (trapezoid) is interpolated at the window's ends shifted by 
   of each run minimises the residual sum of squares (a bounded scalar search, started from the
   rates' cross-correlation of :func:`odolab.validation.find_clock_offset` when the clocks differ).
 - The covariance of all of them, the offsets included, is the sandwich of the linearised model
-  with Newey-West weights inside each segment (statsmodels ``hac-panel``), or clustered by
+  with Newey-West weights inside each segment (statsmodels' ``hac-panel``, :mod:`odolab.regression`), or clustered by
   segment group where there are many (the DRIVE windows' command steps).
 - The radius ratio ``r_R / r_L = a_R / a_L`` does not depend on ``s``. The effective track is
   ``B = 2 r_mean s / (a_R + a_L)``: ``r_mean`` (the distance scale) comes from the given
@@ -513,20 +513,19 @@ def _fit_offsets(data: list[_RunData], x: FloatArray) -> list[float]:
 def _covariance(
     r: FloatArray, jac: FloatArray, data: list[_RunData], maxlags: int
 ) -> tuple[FloatArray, str]:
-    import statsmodels.api as sm
+    from odolab.regression import cluster_cov, newey_west_panel_cov, ols
 
     groups = np.concatenate([d.group + 1_000_000 * d.index for d in data])
     segs = np.concatenate([d.seg for d in data])
     n_groups = np.unique(groups).size
-    model = sm.OLS(r, jac)
+    fit = ols(r, jac)
     if n_groups >= 20:
-        fit = model.fit(cov_type="cluster", cov_kwds={"groups": groups})
+        robust = cluster_cov(fit, jac, groups)
         how = f"clustered by {n_groups} segment groups"
     else:
-        fit = model.fit(cov_type="hac-panel", cov_kwds={"groups": segs, "maxlags": maxlags})
+        robust = newey_west_panel_cov(fit, jac, segs, maxlags)
         how = f"Newey-West (lags {maxlags}) within each segment"
-    robust = np.asarray(fit.cov_params(), dtype=np.float64)
-    plain = np.asarray(model.fit().cov_params(), dtype=np.float64)
+    plain = fit.cov
     # each variance the larger of the two (the robust one can fall short where one column
     # lives on few windows, as the clock offset on the turns' starts and stops), the
     # correlations of the plain one: D C D with D diagonal stays a covariance
@@ -866,7 +865,7 @@ def yaw_scale_from_heading(run: GyroRun, params: RobotParams) -> YawScaleFit:
     """Fit ``actual = k * predicted`` over each segment's span: the reference heading's change
     (up to its last update: a lidar's heading is held between scans) against the odometry's
     heading change with ``params``. The independent check of the gyro's ``yaw_scale``."""
-    import statsmodels.api as sm
+    from odolab.regression import cluster_cov, ols
 
     xs, ys, groups = [], [], []
     for seg in run.segments:
@@ -891,9 +890,8 @@ def yaw_scale_from_heading(run: GyroRun, params: RobotParams) -> YawScaleFit:
         groups.append(seg.group)
     if len(xs) < 3:
         raise CalibrationError(f"{run.source}: fewer than 3 pieces with a reference heading")
-    fit = sm.OLS(np.array(ys), np.array(xs)[:, None]).fit(
-        cov_type="cluster", cov_kwds={"groups": np.array(groups)}
-    )
+    design = np.array(xs)[:, None]
+    fit = ols(np.array(ys), design)
     k = float(fit.params[0])
-    se = float(fit.bse[0])
+    se = float(np.sqrt(cluster_cov(fit, design, np.array(groups))[0, 0]))
     return YawScaleFit(k, (k - Z95 * se, k + Z95 * se), len(xs))

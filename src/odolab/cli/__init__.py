@@ -29,6 +29,13 @@ for _name, _value in NATIVE_SETTINGS.items():
     os.environ.setdefault(_name, _value)
 
 from odolab.errors import OdolabError  # noqa: E402
+from odolab.extras import (  # noqa: E402
+    COMMAND_PREFERS,
+    MissingExtraError,
+    command_extra,
+    extra_of_missing,
+    require,
+)
 from odolab.text import safe_terminal  # noqa: E402
 
 #: The modules that add commands, in the order a full load imports them (their commands are
@@ -199,6 +206,22 @@ def __getattr__(name: str) -> Any:
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
+def _words_of(args: Sequence[str]) -> list[str]:
+    """The command's words (``calibrate sensor``): the arguments before the first option, at
+    most two, those that name a command group and its command."""
+    words: list[str] = []
+    for a in args[:2]:
+        if a.startswith("-") or (words and words[0] not in _GROUPS):
+            break
+        words.append(a)
+    return words
+
+
+#: The top-level words that are groups of commands (their second word is the command).
+_GROUPS = frozenset(
+    {"calibrate", "camera", "export", "fleet", "notebook", "params", "robot", "sim", "trials"}
+)
+
 #: Longest error line printed (characters): a message echoing a huge input stays one line.
 _MAX_ERROR_CHARS = 2000
 
@@ -208,7 +231,11 @@ __all__ = ["app", "main"]
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``odolab`` script; returns the exit code."""
     args = sys.argv[1:] if argv is None else list(argv)
+    asks_help = any(a in ("--help", "-h") for a in args)
+    needed = None if asks_help else command_extra(_words_of(args))
     try:
+        if needed is not None:  # before the command runs: nothing written
+            require(needed, f"odolab {' '.join(_words_of(args))}")
         with _start_up(freeze=argv is None):
             app = load_commands(args)
             if "--help" not in args:
@@ -232,6 +259,14 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     except OdolabError as err:
         sys.stderr.write(f"odolab: error: {safe_terminal(err, limit=_MAX_ERROR_CHARS)}\n")
+        return 1
+    except ImportError as err:  # an extra's package, first asked for by this input
+        extra = extra_of_missing(err, needed or command_extra(_words_of(args), COMMAND_PREFERS))
+        if extra is None:
+            raise
+        words = " ".join(_words_of(args))
+        line = str(MissingExtraError(extra, f"odolab {words}".strip()))
+        sys.stderr.write(f"odolab: error: {safe_terminal(line, limit=_MAX_ERROR_CHARS)}\n")
         return 1
     except OSError as err:  # a file the command could not read or write: one line, no traceback
         where = f"{err.filename}: " if err.filename else ""

@@ -295,8 +295,11 @@ def _check_foxglove(foxglove: bool, port: int) -> None:
     """The port is checked whether or not --foxglove is given, and one given without it (it
     would do nothing) is refused."""
     from odolab.export.foxglove import check_port
+    from odolab.extras import require
     from odolab.robot.errors import RobotConfigError
 
+    if foxglove:  # before the run's folder is made
+        require("ros", "--foxglove")
     check_port(port)
     if not foxglove and port != _FOXGLOVE_PORT:
         raise RobotConfigError(

@@ -150,8 +150,8 @@ def read_numeric_columns(
     caller already did) and a header that names a column twice is refused.
 
     One fast path (polars' parser, on every core) reads the usual file; only a file it refuses
-    is read again by a careful reader that names the line: pandas' C parser for a comma-separated
-    file, a line-by-line scan for a whitespace-separated one.
+    is read again by a careful reader that names the line: Python's csv reader for a
+    comma-separated file, a line-by-line scan for a whitespace-separated one.
     """
     p = Path(path)
     if not p.exists():
@@ -270,6 +270,13 @@ def _careful_whitespace(
     return {c: np.asarray(v, dtype=np.float64) for c, v in zip(columns, out, strict=True)}
 
 
+#: The cells pandas' CSV parser took for a missing value (read as nan; refused unless allowed).
+_MISSING = frozenset(
+    {"", "#N/A", "#N/A N/A", "#NA", "-1.#IND", "-1.#QNAN", "-NaN", "-nan", "1.#IND", "1.#QNAN",
+     "<NA>", "N/A", "NA", "NULL", "NaN", "None", "n/a", "nan", "null"}
+)  # fmt: skip
+
+
 def _careful_csv(
     p: Path,
     header: list[str],
@@ -279,34 +286,44 @@ def _careful_csv(
     *,
     has_header: bool,
 ) -> dict[str, NDArray[np.float64]]:
-    """pandas' C parser (what the fast path refused: quotes, spaces around numbers, a line of
-    another width), and on any failure the first bad cell's line and column."""
-    import pandas as pd  # here, not at the top: the fast readers never need it
-
-    try:
-        frame = pd.read_csv(
-            p,
-            sep=sep,
-            header=0 if has_header else None,
-            names=header,
-            usecols=list(columns),
-            dtype=dict.fromkeys(columns, np.float64),
-            skip_blank_lines=True,
-            encoding="utf-8-sig",
-            engine="c",
-        )
-    except Exception as err:
-        raise LogFormatError(
-            _locate_bad_cell(p, header, columns, sep, has_header=has_header)
-        ) from err
-    out: dict[str, NDArray[np.float64]] = {}
-    for name in columns:
-        arr = frame[name].to_numpy(dtype=np.float64)
-        if not allow_nan:
-            bad = ~np.isfinite(arr)
-            if bad.any():
+    """Python's csv reader, line by line (what the fast path refused: quotes, spaces around
+    numbers, a short line), and on any failure the first bad cell's line and column. A short
+    line's missing cells are empty; a line with more cells than the header is refused."""
+    idx = [header.index(c) for c in columns]
+    out: list[list[float]] = [[] for _ in columns]
+    with p.open(newline="", encoding="utf-8-sig", errors="replace") as fh:
+        for lineno, line in enumerate(fh, start=1):  # a quote never spans lines here
+            if (has_header and lineno == 1) or not line.strip():
+                continue  # the header; a blank line is no row (a line of commas is one)
+            try:
+                row = next(csv.reader([line], delimiter=sep), [])
+            except csv.Error:  # a cell over csv's 128 KiB field limit (lines may have 1 MB)
+                row = line.rstrip("\r\n").split(sep)
+            if len(row) > len(header):
                 raise LogFormatError(
-                    _locate_bad_cell(p, header, [name], sep, has_header=has_header, finite=True)
+                    f"{p}: line {lineno} has {len(row)} cells, expected at most "
+                    f"{len(header)} (the header's)"
                 )
-        out[name] = arr
-    return out
+            for k, (name, j) in enumerate(zip(columns, idx, strict=True)):
+                cell = row[j].strip() if j < len(row) else ""
+                value = _cell_value(cell)
+                if value is None or (not allow_nan and not math.isfinite(value)):
+                    shown = quote_input(cell) if cell else "empty"
+                    raise LogFormatError(
+                        f"{p}: line {lineno}, column {name!r} is {shown}, expected a number"
+                    )
+                out[k].append(value)
+    return {c: np.asarray(v, dtype=np.float64) for c, v in zip(columns, out, strict=True)}
+
+
+def _cell_value(cell: str) -> float | None:
+    """A cell as a number (nan for a missing value); None for anything else (a word, and the
+    digit separators Python's float alone accepts)."""
+    if cell in _MISSING:
+        return math.nan
+    if "_" in cell:
+        return None
+    try:
+        return float(cell)
+    except ValueError:
+        return None

@@ -169,7 +169,7 @@ def _base(name: str) -> str:
 class _Table:
     """The text cells of a SensorLog CSV (stripped; empty where missing), with lookups by
     column base name. Read by polars' parser as text (row ``i`` is the file's line ``i + 2``:
-    blank lines are rows of empty cells); a layout polars refuses is read by pandas' C parser."""
+    blank lines are rows of empty cells); a layout polars refuses is read by Python's csv reader."""
 
     def __init__(self, path: Path) -> None:
         self.path = path
@@ -196,7 +196,7 @@ class _Table:
         self._cells: dict[int, NDArray[np.str_]] = {}
         self._frame = self._read_polars()
         if self._frame is None:
-            self._cells = dict(enumerate(self._read_pandas()))
+            self._cells = dict(enumerate(self._read_csv()))
 
     def _read_polars(self) -> Any:
         """The cells as a polars frame of text; None where polars cannot be trusted with the
@@ -219,34 +219,28 @@ class _Table:
             return None
         return frame
 
-    def _read_pandas(self) -> list[NDArray[np.str_]]:
-        import warnings
-
-        import pandas as pd
-
+    def _read_csv(self) -> list[NDArray[np.str_]]:
+        """Every cell as text by Python's csv reader (lines ended by a bare carriage return,
+        quotes): a line is a row (a blank one of empty cells), short rows' missing cells are
+        empty; a row longer than the header is refused."""
+        width = len(self.header)
+        cols: list[list[str]] = [[] for _ in range(width)]
         try:
-            with warnings.catch_warnings():  # (short rows: pandas' ParserWarning says so)
-                warnings.simplefilter("ignore")
-                frame = pd.read_csv(
-                    self.path,
-                    sep=self.sep,
-                    header=None,
-                    skiprows=1,
-                    names=range(len(self.header)),
-                    dtype=str,
-                    keep_default_na=False,
-                    skip_blank_lines=False,
-                    encoding="utf-8-sig",
-                    index_col=False,
-                )
-        except Exception as err:
+            with self.path.open(newline="", encoding="utf-8-sig") as fh:
+                reader = csv.reader(fh, delimiter=self.sep)
+                next(reader, None)  # the header
+                for row in reader:
+                    if len(row) > width:
+                        raise ImuLogError(
+                            f"{self.path}: not a readable CSV table (line {reader.line_num} "
+                            f"has {len(row)} cells, the header {width})"
+                        )
+                    for j in range(width):
+                        cols[j].append(row[j].strip() if j < len(row) else "")
+        except (csv.Error, UnicodeDecodeError) as err:
             why = " ".join(str(err).split())
             raise ImuLogError(f"{self.path}: not a readable CSV table ({why})") from err
-        frame = frame.fillna("")  # short rows: missing cells are empty cells
-        return [
-            np.asarray(frame.iloc[:, j].astype(str).str.strip().to_numpy(), dtype=str)
-            for j in range(frame.shape[1])
-        ]
+        return [np.asarray(c, dtype=str) for c in cols]
 
     def has(self, base: str) -> bool:
         return base in self.by_base

@@ -451,12 +451,13 @@ def fit_noise(
     Each piece's covariance is linear in the three constants (``k_l A_l + k_r A_r + k_s A_s``,
     the ``A``'s propagated with unit noise), so the Gaussian log-likelihood of all pieces'
     errors is maximised over their logarithms (scipy), with Wald intervals on the log scale
-    (statsmodels' numerical Hessian). Straight pieces carry the wheels' noise, turning pieces
+    (the numerical Hessian, :func:`odolab.regression.approx_hess3`). Straight pieces carry the wheels' noise, turning pieces
     the scrub as well; without a turning piece (:data:`TURNING_RAD`) ``k_scrub`` stays unknown
     (written 0 and said).
     A run's yaw offset, when fitted, is fitted first with the scale fit's noise."""
     from scipy import optimize
-    from statsmodels.tools.numdiff import approx_hess3
+
+    from odolab.regression import approx_hess3
 
     if not runs:
         raise InsufficientDataError("no runs to fit the noise to")

@@ -777,8 +777,12 @@ class Notebook:
         params_version left_wheel_radius right_wheel_radius track_width ticks_per_rev
         encoder_modulus instrument measured_rotation measured_x measured_y sigma_rotation
         sigma_xy raw true_t true_x true_y true_theta true_heading status exclusion_reason notes
-        has_encoder_log campaign_date operator``. Missing values are NaN / None.
+        has_encoder_log campaign_date operator``. Missing values are NaN / None. Needs the
+        pandas extra (``pip install 'odolab[pandas]'``); the commands never call it.
         """
+        from odolab.extras import require
+
+        require("pandas", "Notebook.trials_frame")
         import pandas as pd
 
         status = None if include_excluded else ("awaiting", "measured")
