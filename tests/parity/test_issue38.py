@@ -1,0 +1,102 @@
+"""Issue 38's wrong results 1-7, each as a user meets it on the faces (each failed on the code
+before its fix): a reverse run's direction column, the simulator's cw rotations and stalled trials
+into a notebook, an infinite interval, two robots in one selection, UMBmark's two answers, a JSON
+export its own import refused, and the /table1 page's digits."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from odolab.cli import main
+
+from .faces import cli, cli_json
+
+_HEAD = [
+    "trial_id",
+    "campaign",
+    "terrain",
+    "kind",
+    "distance_m",
+    "direction",
+    "predicted_x_m",
+    "predicted_y_m",
+    "predicted_heading_rad",
+    "robot",
+    "left_wheel_radius_m",
+    "right_wheel_radius_m",
+    "track_width_m",
+    "ticks_per_rev",
+    "measured_x_m",
+    "measured_y_m",
+]
+
+
+def _straight_runs(path: Path, convention: str, *, flip: int | None = None) -> Path:
+    """Forward and reverse runs of 1 m and 2 m, three each (seeded), written with the reverse
+    runs as a negative distance ("signed") or as ``direction = reverse`` with a positive one
+    ("direction"); ``flip``: that row's predicted x gets the wrong sign."""
+    rng = np.random.default_rng(3)
+    rows: list[list[object]] = []
+    for d in (1.0, 2.0):
+        for sgn in (1, -1):
+            for _ in range(3):
+                px = sgn * d * (1 + rng.normal(0, 0.01))
+                py = sgn * 0.02 * d + rng.normal(0, 0.005)
+                mx = px * (0.93 if sgn > 0 else 0.9) + rng.normal(0, 0.005)
+                my = py - (0.04 if sgn > 0 else -0.08) * abs(px)
+                dist = sgn * d if convention == "signed" else d
+                way = "" if convention == "signed" else ("forward" if sgn > 0 else "reverse")
+                if flip == len(rows):
+                    px = -px
+                rows.append([f"T{len(rows)}", "straight", "tile", "translation", dist, way,
+                             px, py, 0.0, "jaguar-lite", 0.0825, 0.0825, 0.52, 1200, mx, my])  # fmt: skip
+    with path.open("w", newline="", encoding="utf-8") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(_HEAD)
+        writer.writerows(rows)
+    return path
+
+
+def test_1_a_reverse_run_is_a_reverse_run_whatever_the_sign_convention(tmp_path: Path) -> None:
+    docs = {}
+    for convention in ("signed", "direction"):
+        sheet = _straight_runs(tmp_path / f"{convention}.csv", convention)
+        db = tmp_path / f"{convention}.db"
+        cli("trials", "import", sheet, "--create-campaigns", "--db", db)
+        docs[convention] = cli_json(tmp_path / f"{convention}.json", "analyze", "--db", db)
+    signed, direction = docs["signed"], docs["direction"]
+    assert direction["table1"] == signed["table1"]
+    assert direction["motions"] == signed["motions"]
+    rows = {r["motion"]: r for r in direction["table1"]}
+    assert rows["y_forward"]["n"] == rows["y_reverse"]["n"] == 6
+    # x's sigma at each repeated distance: forward and reverse apart
+    assert sorted(s["commanded"] for s in rows["x"]["sigmas"]) == [-2.0, -1.0, 1.0, 2.0]
+
+
+@pytest.mark.parametrize(
+    ("flip", "edit", "said"),
+    [
+        (4, None, "line 6, column 'predicted_x_m'"),  # reverse 1 m, x +1.0
+        (None, (",1.0,reverse,-", ",-1.0,reverse,"), "line 5, column 'predicted_x_m'"),
+        (None, (",1.0,forward,", ",-1.0,forward,"), "line 2, column 'direction'"),
+    ],
+)
+def test_1_a_contradiction_is_refused_with_its_line(
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    flip: int | None,
+    edit: tuple[str, str] | None,
+    said: str,
+) -> None:
+    sheet = _straight_runs(tmp_path / "s.csv", "direction", flip=flip)
+    if edit is not None:  # the distance made negative, the predicted x made positive
+        text = sheet.read_text(encoding="utf-8")
+        sheet.write_text(text.replace(edit[0], edit[1], 1), encoding="utf-8")
+    assert main(["trials", "import", str(sheet), "--create-campaigns", "--db",
+                 str(tmp_path / "x.db")]) == 1  # fmt: skip
+    err = capsys.readouterr().err
+    assert said in err and "Traceback" not in err, err
