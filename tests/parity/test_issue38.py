@@ -100,3 +100,47 @@ def test_1_a_contradiction_is_refused_with_its_line(
                  str(tmp_path / "x.db")]) == 1  # fmt: skip
     err = capsys.readouterr().err
     assert said in err and "Traceback" not in err, err
+
+
+_CW = """
+[protocol]
+campaign = "cw"
+terrain = "{terrain}"
+report_rate = 10.0
+dt = 0.05
+turn_speed = 0.6
+
+[[trials]]
+motion = "rotation"
+angle_pi = [2, 4, 7]
+direction = "{way}"
+"""
+
+
+@pytest.mark.parametrize(("way", "terrain"), [("cw", "tile"), ("ccw", "concrete")])
+def test_2_sim_run_records_its_cw_rotations_and_stalled_trials(
+    tmp_path: Path, way: str, terrain: str
+) -> None:
+    """`sim run` with cw rotations into --db failed ("raw reading 'turns' is -1") and recorded
+    nothing; so did stalled rotations (a tracked robot on concrete)."""
+    from odolab.store import Notebook, read_trials_csv
+
+    proto = tmp_path / "p.toml"
+    proto.write_text(_CW.format(terrain=terrain, way=way), encoding="utf-8")
+    db = tmp_path / "s.db"
+    cli("sim", "run", proto, "--db", db, "-o", tmp_path / "t.csv", "--seed", "5")
+    written = [p.trial for p in read_trials_csv(tmp_path / "t.csv")]
+    with Notebook(db) as nb:
+        stored = nb.load_trials(with_logs=False)
+    assert [t.trial_id for t in stored] == [t.trial_id for t in written] and len(stored) == 3
+    for s, w in zip(stored, written, strict=True):
+        assert s.measured is not None and w.measured is not None
+        assert s.measured.rotation == w.measured.rotation
+        assert s.measured.raw["turns"] >= 0
+        assert s.true is not None
+        if terrain == "tile":  # the compass and the turns counted read the true rotation
+            assert s.command.angle is not None and s.command.angle < 0
+            assert abs(s.measured.rotation - s.true.heading) < 0.4  # measured: <= 0.18 in 30
+        else:  # stalled: nothing turned, and the reading says about none
+            assert s.status.value == "excluded" and "stalled" in (s.exclusion_reason or "")
+            assert abs(s.measured.rotation) < 0.4  # measured: <= 0.13 rad in 30 trials
