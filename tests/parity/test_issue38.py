@@ -6,6 +6,7 @@ export its own import refused, and the /table1 page's digits."""
 from __future__ import annotations
 
 import csv
+import json
 from pathlib import Path
 
 import numpy as np
@@ -144,3 +145,60 @@ def test_2_sim_run_records_its_cw_rotations_and_stalled_trials(
         else:  # stalled: nothing turned, and the reading says about none
             assert s.status.value == "excluded" and "stalled" in (s.exclusion_reason or "")
             assert abs(s.measured.rotation) < 0.4  # measured: <= 0.13 rad in 30 trials
+
+
+def _unbounded_growth(path: Path) -> Path:
+    """Six straight runs at 1 m and 1.25 m (seeded): too close together for the growth of sigma
+    to be bounded (y_forward's exponent stops at the search's edge, its interval open below)."""
+    rng = np.random.default_rng(1)
+    head = [h for h in _HEAD if h != "direction"]
+    rows: list[list[object]] = []
+    for d in (1.0, 1.25):
+        for _ in range(3):
+            mx, my = 0.93 * d + rng.normal(0, 0.01), rng.normal(0, 0.01)
+            rows.append([f"T{len(rows)}", "straight", "tile", "translation", d, d, 0.0, 0.0,
+                         "jaguar-lite", 0.0825, 0.0825, 0.52, 1200, mx, my])  # fmt: skip
+    with path.open("w", newline="", encoding="utf-8") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(head)
+        writer.writerows(rows)
+    return path
+
+
+def _strict(text: str) -> object:
+    def refuse(name: str) -> None:
+        raise AssertionError(f"{name} in JSON")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_3_an_unbounded_interval_is_said_so_on_every_face(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """/api/table1 answered 500 ("Out of range float values are not JSON compliant"), analyze
+    --json wrote -Infinity, the terminal showed -3.000 (the search's edge) without a word."""
+    from .faces import client
+
+    db = tmp_path / "g.db"
+    cli("trials", "import", _unbounded_growth(tmp_path / "g.csv"), "--create-campaigns", "--db", db)
+    capsys.readouterr()
+    cli("analyze", "--db", db, "--json", tmp_path / "a.json")
+    terminal = capsys.readouterr().out
+    doc = _strict((tmp_path / "a.json").read_text(encoding="utf-8"))
+    c = client(db)
+    api = c.get("/api/table1")
+    assert api.status_code == 200, api.text
+    report = c.get("/api/report")
+    assert report.status_code == 200, report.text
+    for rows in (doc["table1"], _strict(api.text)["rows"], _strict(report.text)["table1"]):  # type: ignore[index]
+        y = {r["motion"]: r for r in rows}["y_forward"]
+        assert y["growth_p_ci95"][0] is None and y["growth_p_ci95"][1] is not None
+        assert y["growth_p_at_bound"] is True
+        assert "unbounded" in y["growth_p_note"] and "search's edge" in y["growth_p_note"]
+    assert "≤ -3.0 (search's edge) [unbounded, 0.1]" in terminal
+    assert "-3.000" not in terminal
+    # the report's HTML table (report.view, what report.html shows) writes it alike
+    from odolab.report.view import table1_rows
+
+    cells = {c.label: c.text for c in table1_rows(doc["table1"])[1]}  # type: ignore[index]
+    assert cells["growth p [95 % CI]"] == "≤ -3.0 (search's edge) [unbounded, 0.1]"

@@ -14,6 +14,7 @@ from typing import Any
 
 from odolab import numfmt
 from odolab.analysis.core import MOTIONS, LabAnalysis
+from odolab.analysis.table1 import growth_text
 from odolab.calibration.ratios import CalibrationResult
 from odolab.calibration.umbmark import UmbmarkResult
 
@@ -255,7 +256,7 @@ def table1_rows(
                 else "-"
             )
             cells.append(Cell("lab σ", lab_sig, "l"))
-        growth = numfmt.with_ci(r["growth_p"], *r["growth_p_ci95"]) if "growth_p" in r else "-"
+        growth = growth_text(r)
         cells.append(Cell("growth p [95 % CI]", growth))
         out.append(cells)
     return out
