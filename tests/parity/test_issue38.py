@@ -202,3 +202,33 @@ def test_3_an_unbounded_interval_is_said_so_on_every_face(
 
     cells = {c.label: c.text for c in table1_rows(doc["table1"])[1]}  # type: ignore[index]
     assert cells["growth p [95 % CI]"] == "≤ -3.0 (search's edge) [unbounded, 0.1]"
+
+
+def test_4_two_robots_in_one_selection_one_rule_on_every_face(tmp_path: Path) -> None:
+    """`calibrate --db` and POST /api/calibrate refused two robots ("name the one"); the report
+    and /api/report calibrated one of them silently beside a Table I that pooled both."""
+    from .faces import client, geometry, table_of
+    from .notebooks import make_notebook
+
+    gen = make_notebook(tmp_path, 0, two_robots=True)
+    c = client(gen.db)
+    refused = c.post("/api/calibrate", json={"method": "ratios", "record": False})
+    assert refused.status_code == 400
+    sentence = "the selected trials are of 2 robots (jaguar-lite, rover-b); name the one"
+    assert sentence in refused.json()["error"]
+    report = c.get("/api/report").json()
+    assert report["calibration"] == {}
+    assert sentence in report["extra"]["not_calibrated"]
+    assert "of 2 robots, pooled: jaguar-lite, rover-b" in report["extra"]["trials_used"]
+    # named, one robot's trials: its Table I and its calibration, alike on every face
+    robot = "rover-b"
+    mine = c.get("/api/report", params={"robot": robot}).json()
+    doc = cli_json(tmp_path / "a.json", "analyze", "--db", gen.db, "--robot", robot)
+    assert table_of(mine["table1"]) == table_of(doc["table1"]) != table_of(report["table1"])
+    assert table_of(c.get("/api/table1", params={"robot": robot}).json()["rows"]) == table_of(
+        doc["table1"]
+    )
+    cal = c.post("/api/calibrate", json={"method": "ratios", "robot": robot, "record": False})
+    assert cal.status_code == 200, cal.text
+    assert geometry(mine["calibration"]["ratios"]["params"]) == geometry(cal.json()["params"])
+    assert "(robot rover-b)" in mine["extra"]["trials_used"]

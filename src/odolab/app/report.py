@@ -2,8 +2,10 @@
 ``/api/report`` all come from :func:`report_content`.
 
 The report's Table I is the selection's (:func:`odolab.app.analysis.analyze`); its calibrations
-are of one robot (the one the user's parameters name, else the robot with the most measured
-trials), from that robot's trials and from the version they were driven with
+are of one robot, chosen as every calibrate face chooses it
+(:func:`odolab.app.calibration.choose_robot`: the one named by the selection's robot, else the
+selection's one robot, else the one the user's parameters are of; several robots and none named:
+no calibration, and the report says why), from that robot's trials and from the version they were driven with
 (:func:`odolab.app.calibration.choose_base`): ratios, then UMBmark iterated from the ratios
 result on the squares' encoder logs (the demo's order), or UMBmark's single step from the driven
 version when a square has no log. What was chosen is written into the report (``extra``).
@@ -11,13 +13,18 @@ version when a square has no log. What was chosen is written into the report (``
 
 from __future__ import annotations
 
-from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from odolab.app.analysis import AnalysisResult, analyze_selection
-from odolab.app.calibration import BaseChoice, choose_base, umbmark_from_squares, umbmark_start
+from odolab.app.calibration import (
+    BaseChoice,
+    choose_base,
+    choose_robot,
+    umbmark_from_squares,
+    umbmark_start,
+)
 from odolab.app.selection import (
     EVERY_CAMPAIGN,
     Selection,
@@ -75,16 +82,6 @@ class ReportContent:
         return LAB_REPORT_TABLE1 if jaguar else None
 
 
-def _report_robot(trials: list[Trial], params: RobotParams | None) -> str | None:
-    measured = Counter(
-        t.params.name for t in trials if t.status is TrialStatus.MEASURED and t.measured
-    )
-    if params is not None and params.name in measured:
-        return params.name
-    top = measured.most_common(1)
-    return top[0][0] if top else None
-
-
 def report_calibrations(
     nb: Notebook,
     selection: Selection,
@@ -101,9 +98,12 @@ def report_calibrations(
     from odolab.calibration import ratios_from_analysis
 
     notes: list[str] = []
-    robot = _report_robot(selection.trials, request.params)
-    if robot is None:
+    if not selection.measured:
         return {}, ["no calibration: no measured trial"], None, None
+    try:  # the calibrate faces' rule: several robots and none named is refused, and said
+        robot = choose_robot(selection.trials, request.selection.robot, request.params)
+    except CalibrationError as err:
+        return {}, [f"no calibration: {err}"], None, None
     req = SelectionRequest(request.selection.campaigns, request.selection.exclude, robot)
     mine = select_among(trials, validation, req)
     try:
@@ -160,6 +160,8 @@ def report_content(nb: Notebook, request: ReportRequest = ReportRequest()) -> Re
         extra["calibrated_from"] = base.reason
     if umb_start is not None:
         extra["umbmark_from"] = umb_start.reason
+    if notes:  # why a calibration is missing: on every face (results.json, /api/report)
+        extra["not_calibrated"] = "; ".join(notes)
     if truths:
         extra["ground_truth"] = truths
     return ReportContent(analysis, calibrations, notes, base, extra)

@@ -137,8 +137,8 @@ def status_of(err: StoreError) -> int:
 
 
 def selection_of(q: QueryParams | Mapping[str, Any]) -> SelectionRequest:
-    """``?campaign=A&campaign=B&exclude_campaign=C`` (the CLI's ``--campaign``,
-    ``--exclude-campaign``) as a selection request."""
+    """``?campaign=A&campaign=B&exclude_campaign=C&robot=R`` (the CLI's ``--campaign``,
+    ``--exclude-campaign``, ``--robot``) as a selection request."""
     from odolab.app.selection import SelectionRequest
 
     def many(key: str) -> tuple[str, ...]:
@@ -149,10 +149,13 @@ def selection_of(q: QueryParams | Mapping[str, Any]) -> SelectionRequest:
             values = [raw] if isinstance(raw, str) else list(raw)
         for v in values:
             if not isinstance(v, str):
-                raise StoreError(f"{key} is {v!r}; expected campaign names (text)")
+                raise StoreError(f"{key} is {v!r}; expected names (text)")
         return tuple(v for v in values if v)
 
-    return SelectionRequest(many("campaign"), many("exclude_campaign"))
+    robot = many("robot")
+    if len(robot) > 1:
+        raise StoreError(f"robot is given {len(robot)} times; expected one robot's name")
+    return SelectionRequest(many("campaign"), many("exclude_campaign"), robot[0] if robot else None)
 
 
 @dataclass
