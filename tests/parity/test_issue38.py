@@ -232,3 +232,51 @@ def test_4_two_robots_in_one_selection_one_rule_on_every_face(tmp_path: Path) ->
     assert cal.status_code == 200, cal.text
     assert geometry(mine["calibration"]["ratios"]["params"]) == geometry(cal.json()["params"])
     assert "(robot rover-b)" in mine["extra"]["trials_used"]
+
+
+def test_5_umbmark_gives_one_answer_and_its_interval(tmp_path: Path) -> None:
+    """The documented `calibrate umbmark --params jaguar-lite --db` iterated from the preset
+    (its scale: track 0.602 m) where the report and `calibrate umbmark --db` started from the
+    ratios of the same trials (0.549 m); the report's "new [95 % CI]" showed no interval."""
+    from odolab.app.report import report_content
+    from odolab.report.view import verdict
+    from odolab.store import Notebook
+
+    from .faces import geometry
+    from .notebooks import make_notebook
+
+    gen = make_notebook(tmp_path, 4, two_robots=False)
+    named = cli_json(tmp_path / "n.json", "calibrate", "umbmark", "--params", "jaguar-lite",
+                     "--db", gen.db, "-o", tmp_path / "n.toml")  # fmt: skip
+    plain = cli_json(tmp_path / "p.json", "calibrate", "umbmark", "--db", gen.db,
+                     "-o", tmp_path / "p.toml")  # fmt: skip
+    with Notebook(gen.db) as nb:
+        content = report_content(nb)
+    umb = content.calibrations["umbmark"]
+    assert geometry(named["params"]) == geometry(plain["params"]) == geometry(umb.params.to_dict())
+    assert named["base"]["reason"].startswith("the ratios calibration of the same trials")
+    assert "--params jaguar-lite" in named["base"]["reason"]
+    # the report's UMBmark table: each new value with its interval, or why there is none
+    # (these 2 + 2 squares scatter by up to 0.75 m: past the small-error model at 95 %)
+    v = verdict(content.analysis.analysis, content.calibrations, content.analysis.table1, None,
+                content.extra)  # fmt: skip
+    rows = dict((name, prows) for name, _, prows in v.calibrations)["umbmark"]
+    assert all("(no interval: the 2 + 2 squares' return errors scatter" in r.new for r in rows)
+
+
+def test_5_umbmarks_interval_holds_its_value() -> None:
+    from odolab.calibration import umbmark
+    from odolab.params import PRESETS
+    from odolab.report.view import _calibration_rows
+
+    rng = np.random.default_rng(5)
+    cw = np.array([0.12, -0.30]) + 0.01 * rng.standard_normal((5, 2))
+    ccw = np.array([-0.05, 0.25]) + 0.01 * rng.standard_normal((5, 2))
+    umb = umbmark(cw, ccw, 4.0, PRESETS["jaguar-lite"])
+    prov = umb.calibration.provenance
+    _, rows = _calibration_rows(umb)  # the rows verdict() gives the report's table
+    for row, key in zip(rows, ("left_wheel_radius", "right_wheel_radius", "track_width"),
+                        strict=True):  # fmt: skip
+        lo, hi = prov[f"{key}_ci95"]
+        assert lo < getattr(umb.params, key) < hi
+        assert row.new.endswith("]") and " [" in row.new, row

@@ -11,7 +11,7 @@ or angle); ``sigmas`` lists every repeated distance.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from odolab.analysis.core import MOTIONS, LabAnalysis
@@ -37,7 +37,7 @@ def pooled_y_sigmas(rows: Sequence[dict[str, Any]], terrain: str = "tile") -> di
     return {d: math.sqrt(ss / df) for d, (ss, df) in sorted(acc.items()) if df > 0}
 
 
-def growth_text(row: dict[str, Any]) -> str:
+def growth_text(row: Mapping[str, Any]) -> str:
     """A Table I row's growth exponent as every text face writes it: ``p [lo, hi]``, an open
     end ``unbounded``, a value at the search's edge ``<= p (search's edge)``; ``-`` without one
     (:func:`odolab.numfmt.with_open_ci`)."""

@@ -214,15 +214,18 @@ def umbmark_start(
     params_source: str | None = None,
 ) -> BaseChoice:
     """Where UMBmark of ``robot`` from ``squares`` starts, for every face (``calibrate umbmark
-    --db``, the web, the report, the demo): the ``params`` the user named; else, when every square has its encoder log
-    (UMBmark iterated on the logs, which integrates them again) and a ``ratios`` calibration of
-    the same trials could be made, that ratios result: UMBmark fixes the track and the wheels'
-    ratio, never the scale, and the ratios fix the scale (``ratios``: that result and where it
-    started); else ``base``, the version the squares were driven with (the single linearized step corrects the predictions they were driven
-    with, and correcting an earlier calibration of them would correct twice)."""
+    --db``, the web, the report, the demo): when every square has its encoder log (UMBmark
+    iterated on the logs, which integrates them again) and a ``ratios`` calibration of the same
+    trials could be made, that ratios result: UMBmark fixes the track and the wheels' ratio,
+    never the scale, and the ratios fix the scale (``ratios``: that result and where it
+    started, from the ``params`` the user named when named, so that naming the parameters the
+    trials were driven with gives what the report gives); else ``base``: the ``params`` the user
+    named, or the version the squares were driven with (the single linearized step corrects the
+    predictions they were driven with, and correcting an earlier calibration of them would
+    correct twice)."""
     base = choose_base(nb, robot, squares, params, params_source)
     logs = bool(squares) and all(t.encoder_log is not None for t in squares)
-    if params is not None or not logs or ratios is None:
+    if not logs or ratios is None:
         return base
     result, start = ratios
     terrain = result.provenance.get("terrain")
@@ -332,7 +335,7 @@ def calibrate(nb: Notebook, request: CalibrationRequest) -> CalibrationOutcome:
         # one analysis of the selection: the ratios start and the [noise] (straight runs, turns)
         analysis = analyze_trials(sel.trials)
         ratios: tuple[CalibrationResult, BaseChoice] | None = None
-        if request.params is None and all(t.encoder_log is not None for t in squares):
+        if all(t.encoder_log is not None for t in squares):
             try:  # the ratios of the same selection fix the scale UMBmark cannot
                 by_ratios, ratios_base, _, _ = _ratios(nb, sel, request, robot, analysis)
                 ratios = (by_ratios, ratios_base)

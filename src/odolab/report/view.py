@@ -115,9 +115,9 @@ def _pct(new: float, old: float) -> str:
 def _calibration_rows(c: Calibration) -> tuple[str, list[ParamRow]]:
     cal = c.calibration if isinstance(c, UmbmarkResult) else c
     prov = cal.provenance
-    cis = {
-        "left_wheel_radius": prov.get("wheel_radius_ci95"),
-        "right_wheel_radius": prov.get("wheel_radius_ci95"),
+    cis = {  # the ratios give one interval for both wheels; UMBmark one each
+        "left_wheel_radius": prov.get("left_wheel_radius_ci95", prov.get("wheel_radius_ci95")),
+        "right_wheel_radius": prov.get("right_wheel_radius_ci95", prov.get("wheel_radius_ci95")),
         "track_width": prov.get("track_width_ci95"),
     }
     rows: list[ParamRow] = []
@@ -130,6 +130,8 @@ def _calibration_rows(c: Calibration) -> tuple[str, list[ParamRow]]:
             if isinstance(ci, list | tuple) and len(ci) == 2
             else numfmt.plain(new, 5)
         )
+        if not isinstance(ci, list | tuple) and prov.get("ci95_note"):
+            new_text += f" ({prov['ci95_note']})"  # why the column's interval is missing
         rows.append(ParamRow(label, numfmt.plain(old, 5, strip=True), new_text, _pct(new, old)))
     how = (
         "from the rotation and distance ratios (the lab's section VIII, done right)"
