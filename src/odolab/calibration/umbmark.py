@@ -297,7 +297,6 @@ def umbmark(
             f"beta = {beta:.3f} rad per 90 deg turn / leg); check the side ({L} m) and the sign "
             "convention (measured - odometry, x along the first leg)"
         )
-    b = params.track_width
     e_b, e_d, left, right, track = _corrected(params, alpha, beta, L)
     if e_d <= 0:
         raise CalibrationError(f"UMBmark gives a negative diameter ratio (beta = {beta:.3f})")
