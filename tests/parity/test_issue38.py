@@ -280,3 +280,35 @@ def test_5_umbmarks_interval_holds_its_value() -> None:
         lo, hi = prov[f"{key}_ci95"]
         assert lo < getattr(umb.params, key) < hi
         assert row.new.endswith("]") and " [" in row.new, row
+
+
+def test_6_an_export_of_the_same_preset_imports(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Two notebooks that each recorded preset jaguar-lite as version 1 (one by `sim run --db`,
+    "recorded with a trial"; one by the demo's way, "nominal preset"): the one's JSON export was
+    refused by the other ("parameter version 1 of 'jaguar-lite' differs")."""
+    from odolab.params import PRESETS
+    from odolab.store import Notebook
+
+    proto = tmp_path / "p.toml"
+    proto.write_text(_CW.format(terrain="tile", way="ccw"), encoding="utf-8")
+    a, b = tmp_path / "a.db", tmp_path / "b.db"
+    cli("sim", "run", proto, "--db", a, "-o", tmp_path / "t.csv", "--seed", "5")
+    cli("trials", "export", tmp_path / "a.json", "--db", a)
+    with Notebook(b) as nb:
+        nb.add_params_version(PRESETS["jaguar-lite"], method="nominal preset")
+        nb.add_params_version(PRESETS["jaguar-lite"].with_(track_width=0.6), method="ratios")
+    cli("trials", "import", tmp_path / "a.json", "--db", b)
+    with Notebook(b) as nb:
+        assert len(nb.params_versions("jaguar-lite")) == 2  # no copy of version 1
+        trials = nb.load_trials(with_logs=False)
+        assert len(trials) == 3 and all(t.params == PRESETS["jaguar-lite"] for t in trials)
+    # other numbers under the same version number: refused, saying which
+    c = tmp_path / "c.db"
+    with Notebook(c) as nb:
+        nb.add_params_version(PRESETS["jaguar-lite"].with_(track_width=0.6), method="ratios")
+    assert main(["trials", "import", str(tmp_path / "a.json"), "--db", str(c)]) == 1
+    err = capsys.readouterr().err
+    assert "parameter version 1 of 'jaguar-lite' differs from the notebook's version 1" in err
+    assert "track_width 0.6 here, 0.56 in the file" in err, err
