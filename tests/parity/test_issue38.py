@@ -312,3 +312,43 @@ def test_6_an_export_of_the_same_preset_imports(
     err = capsys.readouterr().err
     assert "parameter version 1 of 'jaguar-lite' differs from the notebook's version 1" in err
     assert "track_width 0.6 here, 0.56 in the file" in err, err
+
+
+def test_7_the_table1_page_writes_the_clis_digits_and_signs(tmp_path: Path) -> None:
+    """The page showed 4 significant digits (``0.9326 [0.8876, 0.9776]``) where the CLI and the
+    report follow the interval rule (``0.933 [0.888, 0.978]``), and "σ @ 1" for the reverse
+    runs the CLI shows "@ -1"."""
+    import html
+    import re
+
+    from odolab import numfmt
+    from odolab.report.table import sigma_text
+
+    from .faces import client
+
+    db = tmp_path / "s.db"
+    cli("trials", "import", _straight_runs(tmp_path / "s.csv", "direction"), "--create-campaigns",
+        "--db", db)  # fmt: skip
+    rows = cli_json(tmp_path / "a.json", "analyze", "--db", db)["table1"]
+    page = client(db).get("/table1").text
+    for r in rows:
+        found = re.search(
+            rf'data-motion="{r["motion"]}" data-terrain="{r["terrain"]}">.*?'
+            r'<td class="ratio"[^>]*>([^<]*)</td><td data-label="95 % CI">([^<]*)</td>.*?'
+            r'<td class="sigma"[^>]*>(.*?)</td>',
+            page,
+            re.S,
+        )
+        assert found, r["motion"]
+        assert f"{found.group(1)} {found.group(2)}" == numfmt.with_ci(r["ratio"], *r["ratio_ci95"])
+        shown = html.unescape(found.group(3)).split("<br>")
+        cli_cells = [sigma_text(s, r["unit"]) for s in r["sigmas"]]  # what the terminal shows
+        if not cli_cells:  # no repeats: none on either face
+            assert shown == ["–"]
+            continue
+        assert len(shown) == len(cli_cells)
+        for web, term in zip(shown, cli_cells, strict=True):
+            assert web.split(" (n ")[0] == term.split(" [")[0], (web, term)
+    # the repeats: forward @ 1, 2 and reverse @ -1, -2, each with its sign
+    x_cells = re.search(r'data-motion="x".*?<td class="sigma"[^>]*>(.*?)</td>', page, re.S)
+    assert x_cells and all(f" @ {d} (n 3)" in x_cells.group(1) for d in (-1, -2, 1, 2))
