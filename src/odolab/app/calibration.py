@@ -27,6 +27,7 @@ from odolab.trials import MotionKind, Trial, TrialStatus
 
 if TYPE_CHECKING:
     from odolab.analysis import LabAnalysis
+    from odolab.app.analysis import AnalysisCache
     from odolab.calibration import CalibrationResult, UmbmarkResult
     from odolab.params import RobotParams
     from odolab.store import Notebook
@@ -298,11 +299,14 @@ def umbmark_from_squares(
     return result, how
 
 
-def calibrate(nb: Notebook, request: CalibrationRequest) -> CalibrationOutcome:
+def calibrate(
+    nb: Notebook, request: CalibrationRequest, cache: AnalysisCache | None = None
+) -> CalibrationOutcome:
     """Calibrate a robot from the notebook's selected trials (see the module's rule).
 
     ``ratios``: from Table I's rotation and x fits on one terrain; ``umbmark``: from the
     measured square trials. Recorded as a new parameter version when ``request.record``.
+    ``cache``: a server's analysis cache (the same trials are not analysed twice).
     """
     from odolab.calibration.record import record_calibration
 
@@ -321,7 +325,8 @@ def calibrate(nb: Notebook, request: CalibrationRequest) -> CalibrationOutcome:
     how = ""
     terrain: str | None = None
     if request.method == "ratios":
-        result, base, used, _ = _ratios(nb, sel, request, robot)
+        known = None if cache is None else cache.get(sel.trials)
+        result, base, used, _ = _ratios(nb, sel, request, robot, known)
         terrain = str(result.provenance.get("terrain") or "") or None
     else:
         squares = [t for t in _measured(sel.trials) if t.command.kind is MotionKind.SQUARE]
@@ -333,7 +338,7 @@ def calibrate(nb: Notebook, request: CalibrationRequest) -> CalibrationOutcome:
         from odolab.analysis import analyze_trials
 
         # one analysis of the selection: the ratios start and the [noise] (straight runs, turns)
-        analysis = analyze_trials(sel.trials)
+        analysis = analyze_trials(sel.trials) if cache is None else cache.get(sel.trials)
         ratios: tuple[CalibrationResult, BaseChoice] | None = None
         if all(t.encoder_log is not None for t in squares):
             try:  # the ratios of the same selection fix the scale UMBmark cannot

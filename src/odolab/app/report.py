@@ -36,6 +36,8 @@ from odolab.errors import CalibrationError, OdolabError
 from odolab.trials import MotionKind, TrialStatus
 
 if TYPE_CHECKING:
+    from odolab.analysis import LabAnalysis
+    from odolab.app.analysis import AnalysisCache
     from odolab.calibration import CalibrationResult, UmbmarkResult
     from odolab.params import RobotParams
     from odolab.store import Notebook
@@ -88,12 +90,14 @@ def report_calibrations(
     trials: list[Trial],
     validation: set[str],
     request: ReportRequest,
+    analysis: LabAnalysis | None = None,
 ) -> tuple[
     dict[str, CalibrationResult | UmbmarkResult], list[str], BaseChoice | None, BaseChoice | None
 ]:
     """The report's calibrations (see the module's rule), the notes on what is missing, the
     parameters they start from, and where UMBmark started
-    (:func:`odolab.app.calibration.umbmark_start`; None: no UMBmark)."""
+    (:func:`odolab.app.calibration.umbmark_start`; None: no UMBmark). ``analysis``: the
+    selection's, reused when the robot's trials are the selection's."""
     from odolab.analysis import analyze_trials
     from odolab.calibration import ratios_from_analysis
 
@@ -114,7 +118,9 @@ def report_calibrations(
     ratios: CalibrationResult | None = None
     umb_start: BaseChoice | None = None
     try:
-        analysis = analyze_trials(mine.trials)
+        same = [t.trial_id for t in mine.trials] == [t.trial_id for t in selection.trials]
+        if analysis is None or not same:
+            analysis = analyze_trials(mine.trials)
         ratios = out["ratios"] = ratios_from_analysis(analysis, base.params)
     except OdolabError as err:
         notes.append(f"no ratios calibration: {err}")
@@ -143,17 +149,20 @@ def report_calibrations(
     return out, notes, base, umb_start
 
 
-def report_content(nb: Notebook, request: ReportRequest = ReportRequest()) -> ReportContent:
-    """Table I, the calibrations and the notes of the report of the notebook's selection."""
+def report_content(
+    nb: Notebook, request: ReportRequest = ReportRequest(), cache: AnalysisCache | None = None
+) -> ReportContent:
+    """Table I, the calibrations and the notes of the report of the notebook's selection
+    (``cache``: a server's analysis cache)."""
     from odolab.report.ground_truth import ground_truth_summary
 
     truths = [ground_truth_summary(g) for g in request.ground_truth]  # checked first
     trials = nb.load_trials()
     validation = validation_campaigns(nb)
     selection = select_among(trials, validation, request.selection)
-    analysis = analyze_selection(selection)
+    analysis = analyze_selection(selection, cache)
     calibrations, notes, base, umb_start = report_calibrations(
-        nb, selection, trials, validation, request
+        nb, selection, trials, validation, request, analysis.analysis
     )
     extra: dict[str, Any] = {"trials_used": selection.describe()}
     if base is not None:
@@ -167,11 +176,13 @@ def report_content(nb: Notebook, request: ReportRequest = ReportRequest()) -> Re
     return ReportContent(analysis, calibrations, notes, base, extra)
 
 
-def report_results(nb: Notebook, request: ReportRequest = ReportRequest()) -> dict[str, Any]:
+def report_results(
+    nb: Notebook, request: ReportRequest = ReportRequest(), cache: AnalysisCache | None = None
+) -> dict[str, Any]:
     """The numbers ``results.json`` holds (without the figures' file names): ``/api/report``."""
     from odolab.report import build_results
 
-    c = report_content(nb, request)
+    c = report_content(nb, request, cache)
     return build_results(c.analysis.analysis, c.calibrations, extra=c.extra)
 
 
