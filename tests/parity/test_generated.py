@@ -34,6 +34,7 @@ def _strict(text: str) -> Any:
     return json.loads(text, parse_constant=refuse)
 
 
+@pytest.mark.slow  # about 1.5 s of CPU a notebook (three analyses: the CLI's two, the web's one)
 @pytest.mark.parametrize("seed", SEEDS)
 def test_every_face_on_a_random_notebook(
     tmp_path: Path, seed: int, capsys: pytest.CaptureFixture[str]
