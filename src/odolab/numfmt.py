@@ -32,6 +32,7 @@ __all__ = [
     "plain",
     "shortest",
     "with_ci",
+    "with_open_ci",
     "with_uncertainty",
 ]
 
@@ -120,6 +121,27 @@ def with_ci(x: float | None, lo: float | None, hi: float | None) -> str:
         return plain(x)
     d = decimals_for((hi - lo) / 2.0)
     return f"{_fixed(float(x), d)} {interval(lo, hi, d)}"
+
+
+def with_open_ci(x: float, lo: float | None, hi: float | None, *, at_bound: bool = False) -> str:
+    """``x [lo, hi]`` where an end may be open (None or infinite: the data do not bound it),
+    written ``unbounded``; the decimals come from the finite half of the interval.
+    ``at_bound``: ``x`` is where a bounded search stopped (the likelihood still rises beyond it),
+    not an estimate: written ``<= x`` or ``>= x`` (the side away from the finite end)."""
+    ends = [None if v is None or not math.isfinite(float(v)) else float(v) for v in (lo, hi)]
+    if ends[0] is not None and ends[1] is not None:
+        text = with_ci(x, ends[0], ends[1])
+        d = decimals_for((ends[1] - ends[0]) / 2.0)
+    else:
+        finite = [v for v in ends if v is not None]
+        d = decimals_for(abs(float(x) - finite[0]) / 2.0) if finite else 2
+        shown = ["unbounded" if v is None else _fixed(v, d) for v in ends]
+        text = f"{_fixed(float(x), d)} [{shown[0]}, {shown[1]}]"
+    if at_bound:
+        side = "≤" if ends[0] is None or (ends[1] is not None and float(x) < ends[1]) else "≥"
+        head, _, rest = text.partition(" ")
+        text = f"{side} {head} (search's edge) {rest}".rstrip()
+    return text
 
 
 def p_value(p: float) -> str:

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import StrEnum
 
 import numpy as np
@@ -38,8 +38,10 @@ __all__ = [
     "Trial",
     "TrialField",
     "TrialStatus",
+    "check_direction",
     "check_field",
     "draw_exploration_value",
+    "signed_command",
     "trial_field",
     "validate_trial",
 ]
@@ -414,6 +416,61 @@ def _check_command(c: Command, where: str) -> None:
     need = _COMMAND_NEEDS.get(c.kind)
     if need is not None and getattr(c, need) is None:
         raise InvalidTrialError(f"{where}: a {c.kind.value} command needs its {need}", need)
+
+
+#: A translation's ``direction`` words; without one, the distance's sign says which way.
+TRANSLATION_DIRECTIONS = ("forward", "reverse")
+
+
+def signed_command(command: Command) -> Command:
+    """The command with a translation's distance signed by its ``direction``: a row that says
+    ``direction = reverse`` with a positive distance is the same run as one with a negative
+    distance (the two sign conventions of a spreadsheet), so every analysis, which goes by the
+    sign, reads it as a reverse run. Every other command as it is. The notebook reads every trial
+    through this (:func:`odolab.store.records.trial_from_record`), and the imports check a row's
+    words against its numbers first (:func:`check_direction`)."""
+    if (
+        command.kind is MotionKind.TRANSLATION
+        and command.direction == "reverse"
+        and command.distance is not None
+        and command.distance > 0
+    ):
+        return replace(command, distance=-command.distance)
+    return command
+
+
+def check_direction(trial: Trial) -> None:
+    """Refuse (:class:`InvalidTrialError`, naming the field) a translation whose ``direction``
+    contradicts its numbers: ``forward`` with a negative distance, or a predicted or measured x
+    on the other side of the start than the direction says by more than half the distance (a
+    reverse run ends behind its start, x < 0, in its start frame). Without a direction word the
+    distance's sign is the convention, and nothing is checked."""
+    c = trial.command
+    if c.kind is not MotionKind.TRANSLATION or c.direction not in TRANSLATION_DIRECTIONS:
+        return
+    where = f"trial {trial.trial_id}"
+    d = c.distance
+    if d is None:
+        return
+    if c.direction == "forward" and d < 0:
+        raise InvalidTrialError(
+            f"{where}: direction 'forward' with a distance of {d:g} m (a negative distance is a "
+            "reverse run); expected a positive distance, or direction 'reverse'",
+            "direction",
+        )
+    sign = -1.0 if c.direction == "reverse" else 1.0
+    xs = [("predicted_x", trial.predicted.x)]
+    if trial.measured is not None and trial.measured.x is not None:
+        xs.append(("measured_x", trial.measured.x))
+    for name, x in xs:
+        if x * sign < 0 and abs(x) > 0.5 * abs(d):
+            raise InvalidTrialError(
+                f"{where}: a {c.direction} run of {abs(d):g} m ends "
+                f"{'ahead of' if x > 0 else 'behind'} its start ({name.replace('_', ' ')} "
+                f"{x:g} m); expected x {'< 0' if sign < 0 else '> 0'} (start frame: a reverse "
+                "run ends behind its start), or the other direction",
+                name,
+            )
 
 
 def _check_pose(pose: Pose | None, prefix: str, where: str) -> None:

@@ -18,7 +18,8 @@ LOCAL = "http://127.0.0.1:8000"
 
 _ROW = re.compile(
     r'<tr class="row" data-motion="([^"]*)" data-terrain="([^"]*)">.*?'
-    r'<td class="n"[^>]*>(\d+)</td>\s*<td class="ratio"[^>]*?data-value="([^"]*)"[^>]*>([^<]*)</td>',
+    r'<td class="n"[^>]*>(\d+)</td>\s*<td class="ratio"[^>]*?data-value="([^"]*)"[^>]*>([^<]*)</td>'
+    r'<td data-label="95 % CI">([^<]*)</td>',
     re.S,
 )
 
@@ -45,11 +46,15 @@ def table_of(rows: list[dict[str, Any]]) -> dict[tuple[str, str], tuple[int, flo
 
 def page_table1(text: str) -> dict[tuple[str, str], tuple[int, float]]:
     """Table I read from the web page: n, and the ratio the page shows (its data-value, checked
-    against the digits on the page)."""
+    against the digits on the page: the interval rule, the value with its interval's decimals,
+    as the CLI and the report write it)."""
     out: dict[tuple[str, str], tuple[int, float]] = {}
-    for motion, terrain, n, exact, shown in _ROW.findall(text):
+    for motion, terrain, n, exact, shown, ci in _ROW.findall(text):
         value = float(exact)
-        assert format(value, ".4g") == shown.strip(), (motion, terrain, exact, shown)
+        decimals = len(shown.strip().partition(".")[2])
+        ends = ci.strip().strip("[]").split(", ")
+        assert all(len(e.partition(".")[2]) == decimals for e in ends), (shown, ci)
+        assert f"{value:.{decimals}f}" == shown.strip(), (motion, terrain, exact, shown)
         out[(html.unescape(motion), html.unescape(terrain))] = (int(n), value)
     assert out, "no Table I rows on the page"
     return out

@@ -177,7 +177,10 @@ def test_excluded_trials_count_nowhere(tmp_path: Path) -> None:
 
 def test_a_noise_fit_that_cannot_bound_its_constant_is_no_traceback(tmp_path: Path) -> None:
     gen = make_notebook(tmp_path, 3)
-    from odolab.app.report import report_results
+    from odolab.app.report import ReportRequest, report_results
+    from odolab.app.selection import SelectionRequest
 
-    with Notebook(gen.db) as nb:
-        assert report_results(nb)["calibration"]
+    with Notebook(gen.db) as nb:  # two robots: the report calibrates the one named (issue 38)
+        for robot in gen.robots:
+            request = ReportRequest(SelectionRequest(robot=robot))
+            assert report_results(nb, request)["calibration"], robot

@@ -22,10 +22,16 @@ def test_compass_reads_bearing_and_counts_turns() -> None:
     h0 = np.array([0.0, 1.0, -2.0])
     total = np.array([20 * math.pi + 0.3, 0.5, -3 * math.pi - 0.2])
     r = compass.read_rotation(h0, h0 + total, rng)
-    # bearings are clockwise: a counter-clockwise rotation lowers them
-    diff = np.radians(np.mod(r.initial_deg - r.final_deg, 360.0))
-    np.testing.assert_allclose(r.rotation, 2 * math.pi * r.turns + diff)
-    np.testing.assert_array_equal(r.turns, [10, 0, -2])
+    # bearings are clockwise: a counter-clockwise rotation lowers them; a clockwise one's
+    # turns are counted clockwise (never negative: the notebook refuses those), and the
+    # readings give the rotation back as the notebook's entry computes it
+    from odolab.measurement import rotation_from_compass
+
+    ways = ("ccw", "ccw", "cw")
+    back = [rotation_from_compass(a, b, int(n), w)
+            for a, b, n, w in zip(r.initial_deg, r.final_deg, r.turns, ways, strict=True)]  # fmt: skip
+    np.testing.assert_allclose(r.rotation, back)
+    np.testing.assert_array_equal(r.turns, [10, 0, 1])
     np.testing.assert_allclose(r.rotation, total, atol=math.radians(1.0))  # marks every degree
     assert ((r.initial_deg >= 0) & (r.initial_deg < 360)).all()
 

@@ -57,21 +57,70 @@ class GrowthFit:
     def sigma_at(self, d: ArrayLike) -> NDArray[np.float64]:
         return self.a * np.abs(np.asarray(d, dtype=np.float64)) ** self.p
 
+    @property
+    def at_bound(self) -> bool:
+        """True when ``p`` is where the search's range ends (the likelihood still rises beyond
+        it): then ``p`` is no estimate, only a side."""
+        return min(abs(self.p - edge) for edge in _P_RANGE) < 1e-3
+
+    def p_ci95_json(self) -> list[float | None]:
+        """The interval for JSON: an end the data do not bound is None (never Infinity)."""
+        return [v if math.isfinite(v) else None for v in self.p_ci95]
+
+    def note(self) -> str | None:
+        """Why ``p`` or its interval is not a plain number, in one sentence; None when it is."""
+        parts = []
+        if self.at_bound:
+            edge = min(_P_RANGE, key=lambda e: abs(self.p - e))
+            parts.append(
+                f"p stopped at the search's edge ({edge:g}; the likelihood still rises beyond "
+                "it), so it is no estimate"
+            )
+        reach = {
+            "below": f"down to p = {_P_RANGE[0] - 5:g}",
+            "above": f"up to p = {_P_RANGE[1] + 5:g}",
+        }
+        open_ends = [w for w, v in zip(("below", "above"), self.p_ci95, strict=True)
+                     if not math.isfinite(v)]  # fmt: skip
+        if open_ends:
+            parts.append(
+                f"the data do not bound p {' or '.join(open_ends)}: its 95% interval is "
+                f"unbounded (the likelihood stays within the 95% level "
+                f"{' and '.join(reach[w] for w in open_ends)})"
+            )
+        if not parts:
+            return None
+        return (
+            "; ".join(parts)
+            + f" ({self.n} trials at {self.d_min:.3g} to {self.d_max:.3g}: more, farther apart, "
+            "would tell how sigma grows)"
+        )
+
+    def text(self) -> str:
+        """``p [lo, hi]`` as every face writes it (:func:`odolab.numfmt.with_open_ci`)."""
+        from odolab import numfmt
+
+        return numfmt.with_open_ci(self.p, *self.p_ci95, at_bound=self.at_bound)
+
     def verdict(self) -> str:
         """One sentence: which of the candidate laws the data allow."""
         ok = [e for e in self.tests if self.compatible(e)]
-        span = f"p = {self.p:.2f} (95% CI {self.p_ci95[0]:.2f} to {self.p_ci95[1]:.2f})"
+        span = f"p {'' if self.at_bound else '= '}{self.text()} (95% CI)"
+        note = self.note()
+        tail = "" if note is None else f"; {note}"
         if not ok:
-            return f"{span}: none of p = 0.5, 1, 1.5 fits"
+            return f"{span}: none of p = 0.5, 1, 1.5 fits{tail}"
         names = ", ".join(f"{e:g}" for e in ok)
-        return f"{span}: compatible with p = {names}"
+        return f"{span}: compatible with p = {names}{tail}"
 
     def to_dict(self) -> dict[str, Any]:
         return {
             "n": self.n,
             "a": self.a,
             "p": self.p,
-            "p_ci95": list(self.p_ci95),
+            "p_ci95": self.p_ci95_json(),
+            "p_at_bound": self.at_bound,
+            "p_note": self.note(),
             "lr_test_pvalues": {f"{k:g}": v for k, v in self.tests.items()},
             "compatible": {f"{k:g}": self.compatible(k) for k in self.tests},
             "d_range": [self.d_min, self.d_max],

@@ -11,12 +11,12 @@ or angle); ``sigmas`` lists every repeated distance.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from odolab.analysis.core import MOTIONS, LabAnalysis
 
-__all__ = ["pooled_y_sigmas", "table1"]
+__all__ = ["growth_text", "pooled_y_sigmas", "table1"]
 
 
 def pooled_y_sigmas(rows: Sequence[dict[str, Any]], terrain: str = "tile") -> dict[float, float]:
@@ -35,6 +35,18 @@ def pooled_y_sigmas(rows: Sequence[dict[str, Any]], terrain: str = "tile") -> di
             ss_df[0] += (g["n"] - 1) * g["sigma"] ** 2
             ss_df[1] += g["n"] - 1
     return {d: math.sqrt(ss / df) for d, (ss, df) in sorted(acc.items()) if df > 0}
+
+
+def growth_text(row: Mapping[str, Any]) -> str:
+    """A Table I row's growth exponent as every text face writes it: ``p [lo, hi]``, an open
+    end ``unbounded``, a value at the search's edge ``<= p (search's edge)``; ``-`` without one
+    (:func:`odolab.numfmt.with_open_ci`)."""
+    from odolab import numfmt
+
+    if "growth_p" not in row:
+        return "-"
+    lo, hi = row["growth_p_ci95"]
+    return numfmt.with_open_ci(row["growth_p"], lo, hi, at_bound=bool(row.get("growth_p_at_bound")))
 
 
 def table1(analysis: LabAnalysis) -> list[dict[str, Any]]:
@@ -82,7 +94,10 @@ def table1(analysis: LabAnalysis) -> list[dict[str, Any]]:
             row["sigma_n"] = g.n
         if m.growth is not None:
             row["growth_p"] = m.growth.p
-            row["growth_p_ci95"] = list(m.growth.p_ci95)
+            row["growth_p_ci95"] = m.growth.p_ci95_json()  # an open end: None, never Infinity
+            row["growth_p_at_bound"] = m.growth.at_bound
+            if m.growth.note() is not None:
+                row["growth_p_note"] = m.growth.note()
         if m.outliers:
             row["outliers"] = [o.trial_id for o in m.outliers]
         rows.append(row)

@@ -4,7 +4,7 @@ page and ``/api/table1`` show."""
 from __future__ import annotations
 
 import threading
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 from odolab.app.selection import EVERY_CAMPAIGN, Selection, SelectionRequest, select
@@ -47,7 +47,9 @@ class AnalysisCache:
         self._error: Exception | None = None
 
     def key(self, trials: list[Trial]) -> int:
-        return hash(repr(trials))
+        """The trials' every field but their encoder logs, which no analysis reads (Table I
+        loads trials without them, the report and UMBmark with)."""
+        return hash(repr([replace(t, encoder_log=None) for t in trials]))
 
     def get(self, trials: list[Trial]) -> LabAnalysis:
         from odolab.analysis import analyze_trials

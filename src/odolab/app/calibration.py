@@ -27,6 +27,7 @@ from odolab.trials import MotionKind, Trial, TrialStatus
 
 if TYPE_CHECKING:
     from odolab.analysis import LabAnalysis
+    from odolab.app.analysis import AnalysisCache
     from odolab.calibration import CalibrationResult, UmbmarkResult
     from odolab.params import RobotParams
     from odolab.store import Notebook
@@ -214,15 +215,18 @@ def umbmark_start(
     params_source: str | None = None,
 ) -> BaseChoice:
     """Where UMBmark of ``robot`` from ``squares`` starts, for every face (``calibrate umbmark
-    --db``, the web, the report, the demo): the ``params`` the user named; else, when every square has its encoder log
-    (UMBmark iterated on the logs, which integrates them again) and a ``ratios`` calibration of
-    the same trials could be made, that ratios result: UMBmark fixes the track and the wheels'
-    ratio, never the scale, and the ratios fix the scale (``ratios``: that result and where it
-    started); else ``base``, the version the squares were driven with (the single linearized step corrects the predictions they were driven
-    with, and correcting an earlier calibration of them would correct twice)."""
+    --db``, the web, the report, the demo): when every square has its encoder log (UMBmark
+    iterated on the logs, which integrates them again) and a ``ratios`` calibration of the same
+    trials could be made, that ratios result: UMBmark fixes the track and the wheels' ratio,
+    never the scale, and the ratios fix the scale (``ratios``: that result and where it
+    started, from the ``params`` the user named when named, so that naming the parameters the
+    trials were driven with gives what the report gives); else ``base``: the ``params`` the user
+    named, or the version the squares were driven with (the single linearized step corrects the
+    predictions they were driven with, and correcting an earlier calibration of them would
+    correct twice)."""
     base = choose_base(nb, robot, squares, params, params_source)
     logs = bool(squares) and all(t.encoder_log is not None for t in squares)
-    if params is not None or not logs or ratios is None:
+    if not logs or ratios is None:
         return base
     result, start = ratios
     terrain = result.provenance.get("terrain")
@@ -295,11 +299,14 @@ def umbmark_from_squares(
     return result, how
 
 
-def calibrate(nb: Notebook, request: CalibrationRequest) -> CalibrationOutcome:
+def calibrate(
+    nb: Notebook, request: CalibrationRequest, cache: AnalysisCache | None = None
+) -> CalibrationOutcome:
     """Calibrate a robot from the notebook's selected trials (see the module's rule).
 
     ``ratios``: from Table I's rotation and x fits on one terrain; ``umbmark``: from the
     measured square trials. Recorded as a new parameter version when ``request.record``.
+    ``cache``: a server's analysis cache (the same trials are not analysed twice).
     """
     from odolab.calibration.record import record_calibration
 
@@ -318,7 +325,8 @@ def calibrate(nb: Notebook, request: CalibrationRequest) -> CalibrationOutcome:
     how = ""
     terrain: str | None = None
     if request.method == "ratios":
-        result, base, used, _ = _ratios(nb, sel, request, robot)
+        known = None if cache is None else cache.get(sel.trials)
+        result, base, used, _ = _ratios(nb, sel, request, robot, known)
         terrain = str(result.provenance.get("terrain") or "") or None
     else:
         squares = [t for t in _measured(sel.trials) if t.command.kind is MotionKind.SQUARE]
@@ -330,9 +338,9 @@ def calibrate(nb: Notebook, request: CalibrationRequest) -> CalibrationOutcome:
         from odolab.analysis import analyze_trials
 
         # one analysis of the selection: the ratios start and the [noise] (straight runs, turns)
-        analysis = analyze_trials(sel.trials)
+        analysis = analyze_trials(sel.trials) if cache is None else cache.get(sel.trials)
         ratios: tuple[CalibrationResult, BaseChoice] | None = None
-        if request.params is None and all(t.encoder_log is not None for t in squares):
+        if all(t.encoder_log is not None for t in squares):
             try:  # the ratios of the same selection fix the scale UMBmark cannot
                 by_ratios, ratios_base, _, _ = _ratios(nb, sel, request, robot, analysis)
                 ratios = (by_ratios, ratios_base)

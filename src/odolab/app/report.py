@@ -2,8 +2,10 @@
 ``/api/report`` all come from :func:`report_content`.
 
 The report's Table I is the selection's (:func:`odolab.app.analysis.analyze`); its calibrations
-are of one robot (the one the user's parameters name, else the robot with the most measured
-trials), from that robot's trials and from the version they were driven with
+are of one robot, chosen as every calibrate face chooses it
+(:func:`odolab.app.calibration.choose_robot`: the one named by the selection's robot, else the
+selection's one robot, else the one the user's parameters are of; several robots and none named:
+no calibration, and the report says why), from that robot's trials and from the version they were driven with
 (:func:`odolab.app.calibration.choose_base`): ratios, then UMBmark iterated from the ratios
 result on the squares' encoder logs (the demo's order), or UMBmark's single step from the driven
 version when a square has no log. What was chosen is written into the report (``extra``).
@@ -11,13 +13,18 @@ version when a square has no log. What was chosen is written into the report (``
 
 from __future__ import annotations
 
-from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from odolab.app.analysis import AnalysisResult, analyze_selection
-from odolab.app.calibration import BaseChoice, choose_base, umbmark_from_squares, umbmark_start
+from odolab.app.calibration import (
+    BaseChoice,
+    choose_base,
+    choose_robot,
+    umbmark_from_squares,
+    umbmark_start,
+)
 from odolab.app.selection import (
     EVERY_CAMPAIGN,
     Selection,
@@ -29,6 +36,8 @@ from odolab.errors import CalibrationError, OdolabError
 from odolab.trials import MotionKind, TrialStatus
 
 if TYPE_CHECKING:
+    from odolab.analysis import LabAnalysis
+    from odolab.app.analysis import AnalysisCache
     from odolab.calibration import CalibrationResult, UmbmarkResult
     from odolab.params import RobotParams
     from odolab.store import Notebook
@@ -75,35 +84,30 @@ class ReportContent:
         return LAB_REPORT_TABLE1 if jaguar else None
 
 
-def _report_robot(trials: list[Trial], params: RobotParams | None) -> str | None:
-    measured = Counter(
-        t.params.name for t in trials if t.status is TrialStatus.MEASURED and t.measured
-    )
-    if params is not None and params.name in measured:
-        return params.name
-    top = measured.most_common(1)
-    return top[0][0] if top else None
-
-
 def report_calibrations(
     nb: Notebook,
     selection: Selection,
     trials: list[Trial],
     validation: set[str],
     request: ReportRequest,
+    analysis: LabAnalysis | None = None,
 ) -> tuple[
     dict[str, CalibrationResult | UmbmarkResult], list[str], BaseChoice | None, BaseChoice | None
 ]:
     """The report's calibrations (see the module's rule), the notes on what is missing, the
     parameters they start from, and where UMBmark started
-    (:func:`odolab.app.calibration.umbmark_start`; None: no UMBmark)."""
+    (:func:`odolab.app.calibration.umbmark_start`; None: no UMBmark). ``analysis``: the
+    selection's, reused when the robot's trials are the selection's."""
     from odolab.analysis import analyze_trials
     from odolab.calibration import ratios_from_analysis
 
     notes: list[str] = []
-    robot = _report_robot(selection.trials, request.params)
-    if robot is None:
+    if not selection.measured:
         return {}, ["no calibration: no measured trial"], None, None
+    try:  # the calibrate faces' rule: several robots and none named is refused, and said
+        robot = choose_robot(selection.trials, request.selection.robot, request.params)
+    except CalibrationError as err:
+        return {}, [f"no calibration: {err}"], None, None
     req = SelectionRequest(request.selection.campaigns, request.selection.exclude, robot)
     mine = select_among(trials, validation, req)
     try:
@@ -114,7 +118,9 @@ def report_calibrations(
     ratios: CalibrationResult | None = None
     umb_start: BaseChoice | None = None
     try:
-        analysis = analyze_trials(mine.trials)
+        same = [t.trial_id for t in mine.trials] == [t.trial_id for t in selection.trials]
+        if analysis is None or not same:
+            analysis = analyze_trials(mine.trials)
         ratios = out["ratios"] = ratios_from_analysis(analysis, base.params)
     except OdolabError as err:
         notes.append(f"no ratios calibration: {err}")
@@ -143,33 +149,40 @@ def report_calibrations(
     return out, notes, base, umb_start
 
 
-def report_content(nb: Notebook, request: ReportRequest = ReportRequest()) -> ReportContent:
-    """Table I, the calibrations and the notes of the report of the notebook's selection."""
+def report_content(
+    nb: Notebook, request: ReportRequest = ReportRequest(), cache: AnalysisCache | None = None
+) -> ReportContent:
+    """Table I, the calibrations and the notes of the report of the notebook's selection
+    (``cache``: a server's analysis cache)."""
     from odolab.report.ground_truth import ground_truth_summary
 
     truths = [ground_truth_summary(g) for g in request.ground_truth]  # checked first
     trials = nb.load_trials()
     validation = validation_campaigns(nb)
     selection = select_among(trials, validation, request.selection)
-    analysis = analyze_selection(selection)
+    analysis = analyze_selection(selection, cache)
     calibrations, notes, base, umb_start = report_calibrations(
-        nb, selection, trials, validation, request
+        nb, selection, trials, validation, request, analysis.analysis
     )
     extra: dict[str, Any] = {"trials_used": selection.describe()}
     if base is not None:
         extra["calibrated_from"] = base.reason
     if umb_start is not None:
         extra["umbmark_from"] = umb_start.reason
+    if notes:  # why a calibration is missing: on every face (results.json, /api/report)
+        extra["not_calibrated"] = "; ".join(notes)
     if truths:
         extra["ground_truth"] = truths
     return ReportContent(analysis, calibrations, notes, base, extra)
 
 
-def report_results(nb: Notebook, request: ReportRequest = ReportRequest()) -> dict[str, Any]:
+def report_results(
+    nb: Notebook, request: ReportRequest = ReportRequest(), cache: AnalysisCache | None = None
+) -> dict[str, Any]:
     """The numbers ``results.json`` holds (without the figures' file names): ``/api/report``."""
     from odolab.report import build_results
 
-    c = report_content(nb, request)
+    c = report_content(nb, request, cache)
     return build_results(c.analysis.analysis, c.calibrations, extra=c.extra)
 
 

@@ -77,6 +77,10 @@ class Selection:
         text = f"using {n} measured trial{'' if n == 1 else 's'} from {parts}"
         if self.robot is not None:
             text += f" (robot {self.robot})"
+        else:
+            robots = sorted({t.params.name for t in self.measured})
+            if len(robots) > 1:
+                text += f" (of {len(robots)} robots, pooled: {', '.join(robots)})"
         if self.left_out:
             text += "; left out: " + ", ".join(
                 f"{c} ({reason_in_words(why, w)})" for c, why in self.left_out.items()

@@ -215,6 +215,65 @@ class UmbmarkResult:
         }
 
 
+def _corrected(
+    params: RobotParams, alpha: float, beta: float, side: float
+) -> tuple[float, float, float, float, float]:
+    """UMBmark's corrections for errors ``alpha`` (per turn) and ``beta`` (per leg):
+    ``(E_b, E_d, left radius, right radius, track width)``."""
+    b = params.track_width
+    e_b = (math.pi / 2) / (math.pi / 2 - alpha)
+    if abs(beta) < 1e-12:
+        e_d = 1.0
+    else:
+        radius = (side / 2) / math.sin(beta / 2)
+        e_d = (radius + b / 2) / (radius - b / 2)
+    c_l = 2.0 / (e_d + 1.0) if e_d > 0 else math.nan
+    c_r = 2.0 / (1.0 / e_d + 1.0) if e_d > 0 else math.nan
+    return e_b, e_d, params.left_wheel_radius * c_l, params.right_wheel_radius * c_r, b * e_b
+
+
+def umbmark_intervals(
+    cw: NDArray[np.float64], ccw: NDArray[np.float64], side: float, params: RobotParams
+) -> dict[str, Any]:
+    """95 % intervals of UMBmark's new parameters from the scatter of the return errors:
+    ``alpha`` and ``beta`` are means of the errors (``alpha = -(x_cw + y_cw + x_ccw - y_ccw) /
+    (8 L)``, ``beta = -(x_cw + y_cw - x_ccw + y_ccw) / (8 L)``), so their standard errors come
+    from each direction's sample variance (x and y of one run together) over its number of
+    runs, with Student's t on the smaller direction's degrees of freedom; the track width
+    follows ``alpha`` alone and the wheel radii ``beta`` alone, monotonically, so their
+    intervals are the corrections at the ends of those of ``alpha`` and ``beta``. Empty with
+    fewer than 2 runs in a direction (no scatter to go by) or an end past the small-error model.
+    Keys: ``left_wheel_radius_ci95``, ``right_wheel_radius_ci95``, ``track_width_ci95``."""
+    from scipy import stats
+
+    n1, n2 = int(cw.shape[0]), int(ccw.shape[0])
+    if min(n1, n2) < 2:
+        return {"ci95_note": f"no interval: {n1} + {n2} squares, none to tell their scatter by"}
+    L = float(side)
+    s_cw = float(np.var(cw[:, 0] + cw[:, 1], ddof=1)) / n1
+    alpha = -(cw[:, 0].mean() + cw[:, 1].mean() + ccw[:, 0].mean() - ccw[:, 1].mean()) / (8 * L)
+    beta = -(cw[:, 0].mean() + cw[:, 1].mean() - ccw[:, 0].mean() + ccw[:, 1].mean()) / (8 * L)
+    se_a = math.sqrt(s_cw + float(np.var(ccw[:, 0] - ccw[:, 1], ddof=1)) / n2) / (8 * L)
+    se_b = math.sqrt(s_cw + float(np.var(ccw[:, 1] - ccw[:, 0], ddof=1)) / n2) / (8 * L)
+    t = float(stats.t.ppf(0.975, min(n1, n2) - 1))
+    ends = [(float(alpha) + k * t * se_a, float(beta) + k * t * se_b) for k in (-1.0, 1.0)]
+    values = [_corrected(params, a, bb, L) for a, bb in ends]
+    wide = {
+        "ci95_note": f"no interval: the {n1} + {n2} squares' return errors scatter too much "
+        f"(alpha {alpha:.3f} ± {t * se_a:.3f} rad, beta {beta:.3f} ± {t * se_b:.3f} rad at 95 %) "
+        "for UMBmark's small-error model"
+    }
+    if any(abs(a) >= math.pi / 4 or abs(bb) >= math.pi / 4 for a, bb in ends):
+        return wide
+    out: dict[str, Any] = {}
+    for key, i in (("left_wheel_radius", 2), ("right_wheel_radius", 3), ("track_width", 4)):
+        lo, hi = sorted(float(v[i]) for v in values)
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo > 0):
+            return wide
+        out[f"{key}_ci95"] = [lo, hi]
+    return out
+
+
 def umbmark(
     cw_errors: ArrayLike, ccw_errors: ArrayLike, side: float, params: RobotParams
 ) -> UmbmarkResult:
@@ -238,21 +297,13 @@ def umbmark(
             f"beta = {beta:.3f} rad per 90 deg turn / leg); check the side ({L} m) and the sign "
             "convention (measured - odometry, x along the first leg)"
         )
-    b = params.track_width
-    e_b = (math.pi / 2) / (math.pi / 2 - alpha)
-    if abs(beta) < 1e-12:
-        e_d = 1.0
-    else:
-        radius = (L / 2) / math.sin(beta / 2)
-        e_d = (radius + b / 2) / (radius - b / 2)
-        if e_d <= 0:
-            raise CalibrationError(f"UMBmark gives a negative diameter ratio (beta = {beta:.3f})")
-    c_l = 2.0 / (e_d + 1.0)
-    c_r = 2.0 / (1.0 / e_d + 1.0)
+    e_b, e_d, left, right, track = _corrected(params, alpha, beta, L)
+    if e_d <= 0:
+        raise CalibrationError(f"UMBmark gives a negative diameter ratio (beta = {beta:.3f})")
     new = params.with_(
-        left_wheel_radius=params.left_wheel_radius * c_l,
-        right_wheel_radius=params.right_wheel_radius * c_r,
-        track_width=b * e_b,
+        left_wheel_radius=left,
+        right_wheel_radius=right,
+        track_width=track,
         name=f"{params.name}-umbmark",
     )
     emax = e_max_syst(cw, ccw)
@@ -277,6 +328,7 @@ def umbmark(
             "right radius *= 2/(1/E_d+1)"
         ),
         "old": params.to_dict(),
+        **umbmark_intervals(cw, ccw, L, params),
     }
     return UmbmarkResult(
         params=new,
@@ -399,6 +451,12 @@ def umbmark_iterated(
         radius = half_b * (e_d + 1.0) / (e_d - 1.0)
         beta = 2.0 * math.asin(max(-1.0, min(1.0, (side / 2) / radius)))
     prov = dict(first.calibration.provenance)
+    for key in ("left_wheel_radius_ci95", "right_wheel_radius_ci95", "track_width_ci95",
+                "ci95_note"):  # fmt: skip
+        prov.pop(key, None)  # the first step's: about its own start, not the result
+    # about the result: the step from the final parameters with their errors (it moves them by
+    # less than tol), its scatter the runs'
+    prov.update(umbmark_intervals(cw, ccw, side, current))
     prov.update(
         method="umbmark-iterated",
         alpha=alpha,

@@ -33,10 +33,22 @@ ExcludeOpt = Annotated[
 ]
 
 
-def _selection(campaign: list[str] | None, exclude: list[str] | None) -> Any:
+def _selection(
+    campaign: list[str] | None, exclude: list[str] | None, robot: str | None = None
+) -> Any:
     from odolab.app.selection import SelectionRequest
 
-    return SelectionRequest(tuple(campaign or ()), tuple(exclude or ()))
+    return SelectionRequest(tuple(campaign or ()), tuple(exclude or ()), robot)
+
+
+SelectRobotOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--robot",
+        help="Only this robot's trials (default: every robot's; with several, Table I pools "
+        "them and the report calibrates none, and says so).",
+    ),
+]
 
 
 def _say(con: Any, text: str) -> None:
@@ -60,6 +72,7 @@ def analyze_cmd(
     json_out: Annotated[
         Path | None, typer.Option("--json", help="Also write the whole analysis as JSON here.")
     ] = None,
+    robot: SelectRobotOpt = None,
 ) -> None:
     """Fit systematic and random error of every motion and terrain; print Table I."""
     import json
@@ -72,7 +85,7 @@ def analyze_cmd(
 
     con = _console()
     with open_notebook(db) as nb:
-        result = analyze(nb, _selection(campaign, exclude_campaign))
+        result = analyze(nb, _selection(campaign, exclude_campaign, robot))
     _say(con, result.selection.describe())
     analysis = result.analysis
     print_table(con, table1_rich(result.table1))
@@ -121,6 +134,7 @@ def report_cmd(
             "ground-truth section (repeatable; docs/ground-truth.md).",
         ),
     ] = None,
+    robot: SelectRobotOpt = None,
 ) -> None:
     """Write the lab report (HTML with figures, PNGs, results.json) and print Table I."""
     from odolab.app.report import ReportRequest, write_notebook_report
@@ -132,7 +146,7 @@ def report_cmd(
 
     con = _console()
     request = ReportRequest(
-        _selection(campaign, exclude_campaign),
+        _selection(campaign, exclude_campaign, robot),
         load_params(params) if params else None,
         f"--params {params}" if params else None,
         tuple(ground_truth or ()),

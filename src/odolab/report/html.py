@@ -574,6 +574,7 @@ def _page(
         fmt=fmt,
         p_value=numfmt.p_value,
         with_ci=numfmt.with_ci,
+        with_open_ci=numfmt.with_open_ci,
         val=validation_view(results["validation"]) if results["validation"] else None,
         ext=extra_view(results["extra"]) if results["extra"] else None,
         mdl=models_view(results["models"]) if results.get("models") else None,

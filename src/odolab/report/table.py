@@ -10,6 +10,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 from odolab import numfmt
+from odolab.analysis.table1 import growth_text
 from odolab.text import safe_terminal
 
 if TYPE_CHECKING:
@@ -48,7 +49,7 @@ def table1_rich(rows: Sequence[dict[str, Any]], *, title: str = "Table I") -> Ta
         lo, hi = r["ratio_ci95"]
         elo, ehi = r.get("error_per_predicted_ci95", (lo, hi))
         sig = "\n".join(sigma_text(s, r["unit"]) for s in r.get("sigmas", []))
-        growth = numfmt.with_ci(r["growth_p"], *r["growth_p_ci95"]) if "growth_p" in r else "-"
+        growth = growth_text(r)
         t.add_row(
             Text(safe_terminal(r["motion"])),  # user text: no markup, no escape sequences
             Text(safe_terminal(r["terrain"])),
@@ -58,7 +59,7 @@ def table1_rich(rows: Sequence[dict[str, Any]], *, title: str = "Table I") -> Ta
             numfmt.with_ci(r["error_per_predicted"], elo, ehi).split(" [")[0],
             f"{r['r2']:.3f}" if math.isfinite(r["r2"]) else "-",  # no spread in y: undefined
             sig or "-",
-            growth,
+            Text(growth),  # "[unbounded, 0.1]" is no markup
         )
     return t
 

@@ -14,6 +14,7 @@ from typing import Any
 
 from odolab import numfmt
 from odolab.analysis.core import MOTIONS, LabAnalysis
+from odolab.analysis.table1 import growth_text
 from odolab.calibration.ratios import CalibrationResult
 from odolab.calibration.umbmark import UmbmarkResult
 
@@ -114,9 +115,9 @@ def _pct(new: float, old: float) -> str:
 def _calibration_rows(c: Calibration) -> tuple[str, list[ParamRow]]:
     cal = c.calibration if isinstance(c, UmbmarkResult) else c
     prov = cal.provenance
-    cis = {
-        "left_wheel_radius": prov.get("wheel_radius_ci95"),
-        "right_wheel_radius": prov.get("wheel_radius_ci95"),
+    cis = {  # the ratios give one interval for both wheels; UMBmark one each
+        "left_wheel_radius": prov.get("left_wheel_radius_ci95", prov.get("wheel_radius_ci95")),
+        "right_wheel_radius": prov.get("right_wheel_radius_ci95", prov.get("wheel_radius_ci95")),
         "track_width": prov.get("track_width_ci95"),
     }
     rows: list[ParamRow] = []
@@ -129,6 +130,8 @@ def _calibration_rows(c: Calibration) -> tuple[str, list[ParamRow]]:
             if isinstance(ci, list | tuple) and len(ci) == 2
             else numfmt.plain(new, 5)
         )
+        if not isinstance(ci, list | tuple) and prov.get("ci95_note"):
+            new_text += f" ({prov['ci95_note']})"  # why the column's interval is missing
         rows.append(ParamRow(label, numfmt.plain(old, 5, strip=True), new_text, _pct(new, old)))
     how = (
         "from the rotation and distance ratios (the lab's section VIII, done right)"
@@ -255,7 +258,7 @@ def table1_rows(
                 else "-"
             )
             cells.append(Cell("lab σ", lab_sig, "l"))
-        growth = numfmt.with_ci(r["growth_p"], *r["growth_p_ci95"]) if "growth_p" in r else "-"
+        growth = growth_text(r)
         cells.append(Cell("growth p [95 % CI]", growth))
         out.append(cells)
     return out

@@ -2,9 +2,11 @@
 
 - :class:`Compass`: an analog compass read to ``sigma`` (0.05 rad) and rounded to its marks
   (``resolution_deg``). A compass reads a *bearing* (clockwise from north, degrees), so it knows
-  the heading only modulo 2 pi; the operator counts the whole turns and can miscount by one
-  (``miscount_probability`` per trial). The measured rotation (counter-clockwise positive) is
-  ``2 pi * turns + ((initial_bearing - final_bearing) mod 360 deg)``.
+  the heading only modulo 2 pi; the operator counts the whole turns (in the way the robot
+  turned, never fewer than none) and can miscount by one (``miscount_probability`` per trial).
+  The measured rotation (counter-clockwise positive) is
+  ``2 pi * turns + ((initial_bearing - final_bearing) mod 360 deg)`` counter-clockwise and
+  ``-(2 pi * turns + ((final_bearing - initial_bearing) mod 360 deg))`` clockwise.
 - :class:`Meterstick`: x, y of the robot in the tape frame, read with ``sigma`` and rounded to
   ``resolution`` (m). Outdoors the lab used tape marks and a meterstick: a larger ``sigma``.
 
@@ -75,15 +77,26 @@ class Compass:
         north = rng.uniform(0.0, _TWO_PI, h0.shape)  # where north happens to be in the lab
         b0 = self._bearing(h0, north, rng)
         b1 = self._bearing(h1, north, rng)
-        diff = np.radians(np.mod(b0 - b1, 360.0))  # in [0, 2 pi)
         true_total = h1 - h0
-        turns = np.rint((true_total - diff) / _TWO_PI).astype(np.int64)
+        # the operator counts whole turns (never fewer than none) in the way the robot turned,
+        # and reads the rest of the turn from the compass in that direction, as
+        # odolab.measurement.rotation_from_compass takes them back (a clockwise rotation's turns
+        # are positive too: the notebook refuses negative ones)
+        cw = true_total < 0
+        frac = np.radians(np.where(cw, np.mod(b1 - b0, 360.0), np.mod(b0 - b1, 360.0)))
+        turns = np.rint((np.abs(true_total) - frac) / _TWO_PI).astype(np.int64)
+        back = turns < 0  # (almost) no motion, the readings a hair the other way: that way
+        cw = np.where(back, ~cw, cw)
+        frac = np.where(back & (frac > 0), _TWO_PI - frac, frac)
+        turns = np.maximum(turns, 0)
         miss = np.zeros_like(turns)
         if self.miscount_probability > 0:
             wrong = rng.random(h0.shape) < self.miscount_probability
             miss = np.where(wrong, rng.choice(np.array([-1, 1]), h0.shape), 0).astype(np.int64)
+            miss = np.maximum(turns + miss, 0) - turns
         turns = turns + miss
-        rotation = np.asarray(_TWO_PI * turns + diff, dtype=np.float64)
+        sign = np.where(cw, -1.0, 1.0)
+        rotation = np.asarray(sign * (_TWO_PI * turns + frac), dtype=np.float64)
         return CompassReadings(b0, b1, turns, rotation, miss)
 
 

@@ -11,7 +11,9 @@ Columns (header: meaning; *required* ones are marked; the rest may be left out o
 ``angle_rad``              commanded angle (rad, ccw positive)
 ``distance_m``             commanded distance (m, negative = reverse)
 ``side_m``                 square side (m)
-``direction``              cw/ccw (square), left/right (pivot)
+``direction``              cw/ccw (square), left/right (pivot), forward/reverse (translation:
+                           ``reverse`` with a positive distance is a reverse run; a row whose
+                           words contradict its numbers is refused)
 ``speed``                  commanded speed (m/s, or rad/s for a rotation)
 ``predicted_t_s``          time of the predicted pose (s; default 0)
 ``predicted_x_m``          *required*, odometry's final x (m)
@@ -87,6 +89,8 @@ from odolab.trials import (
     MotionKind,
     Trial,
     TrialStatus,
+    check_direction,
+    signed_command,
     trial_field,
     validate_trial,
 )
@@ -289,13 +293,15 @@ def _command(row: _Row) -> Command:
     kind = row.choice("kind", MotionKind)
     if kind is None:
         raise row.fail("kind", "missing value")
-    command = Command(
-        kind=kind,
-        angle=row.number("angle_rad"),
-        distance=row.number("distance_m"),
-        side=row.number("side_m", positive=True),
-        direction=row.text("direction"),
-        speed=row.number("speed"),
+    command = signed_command(
+        Command(
+            kind=kind,
+            angle=row.number("angle_rad"),
+            distance=row.number("distance_m"),
+            side=row.number("side_m", positive=True),
+            direction=row.text("direction"),
+            speed=row.number("speed"),
+        )
     )
     if kind is MotionKind.TRANSLATION and command.distance is None:
         raise row.fail("distance_m", "missing value (a translation needs its commanded distance)")
@@ -543,6 +549,7 @@ def _parse_row(
     )
     try:
         validate_trial(trial)
+        check_direction(trial)
     except InvalidTrialError as err:
         column = trial_field(err.field).csv if err.field else "trial_id"
         raise row.fail(column, str(err).removeprefix(f"trial {trial.trial_id}: ")) from err

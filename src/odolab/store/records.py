@@ -25,6 +25,7 @@ from odolab.trials import (
     MotionKind,
     Trial,
     TrialStatus,
+    signed_command,
     validate_trial,
 )
 
@@ -213,13 +214,15 @@ def trial_from_record(
         trial_id=rec["trial_id"],
         campaign=rec["campaign"],
         terrain=rec["terrain"],
-        command=Command(
-            kind=MotionKind(rec["kind"]),
-            angle=_opt(rec.get("angle")),
-            distance=_opt(rec.get("distance")),
-            side=_opt(rec.get("side")),
-            direction=rec.get("direction"),
-            speed=_opt(rec.get("speed")),
+        command=signed_command(
+            Command(
+                kind=MotionKind(rec["kind"]),
+                angle=_opt(rec.get("angle")),
+                distance=_opt(rec.get("distance")),
+                side=_opt(rec.get("side")),
+                direction=rec.get("direction"),
+                speed=_opt(rec.get("speed")),
+            )
         ),
         predicted=Pose(
             float(rec["predicted_t"]),

@@ -24,9 +24,9 @@ from odolab.store.jsonio import (
     read_notebook_json,
     write_notebook_json,
 )
-from odolab.store.records import HISTORY_KEYS, NUMERIC_COLUMNS, PARAMS_FIELDS, trial_from_record
+from odolab.store.records import HISTORY_KEYS, NUMERIC_COLUMNS, trial_from_record
 from odolab.text import quote_input
-from odolab.trials import Trial, validate_trial
+from odolab.trials import Trial, check_direction, validate_trial
 
 if TYPE_CHECKING:
     from odolab.store.notebook import Notebook
@@ -120,10 +120,26 @@ class _Incoming:
     histories: list[list[dict[str, Any]]] = field(default_factory=list)
 
 
-def _new_params_versions(nb: Notebook, doc: NotebookDocument, source: str) -> list[dict[str, Any]]:
-    """The file's parameter versions the notebook lacks; refuse ones that differ."""
+def _new_params_versions(
+    nb: Notebook, doc: NotebookDocument, source: str
+) -> tuple[list[dict[str, Any]], dict[tuple[str, int], int]]:
+    """The file's parameter versions the notebook lacks, and the versions the file's trials are
+    to be recorded with where the notebook numbers the same parameters otherwise.
+
+    A version is the same when its numbers are (wheel radii, track width, ticks, modulus, model,
+    noise): its method and notes are words about it, and two notebooks that each recorded preset
+    jaguar-lite as version 1 (one "nominal preset", one "recorded with a trial") hold the same
+    version. The file's version goes to the notebook's version with the same numbers when there
+    is one; else it is added under its own number; a number the notebook already uses for other
+    numbers is refused, naming what differs."""
     new: list[dict[str, Any]] = []
+    remap: dict[tuple[str, int], int] = {}
     for pv in doc.params_versions:
+        theirs = params_of_version(pv, f"{source}: parameter version {pv['version']}")
+        same = nb.find_params_version(theirs)
+        if same is not None:
+            remap[(pv["robot"], int(pv["version"]))] = same
+            continue
         row = nb._one(
             "SELECT * FROM params_versions WHERE robot = ? AND version = ?",
             (pv["robot"], pv["version"]),
@@ -131,16 +147,19 @@ def _new_params_versions(nb: Notebook, doc: NotebookDocument, source: str) -> li
         if row is None:
             new.append(pv)
             continue
-        keys = (*PARAMS_FIELDS, "method")
-        theirs = params_of_version(pv, f"{source}: parameter version {pv['version']}")
-        if {k: row[k] for k in keys} != {k: pv[k] for k in keys} or (
-            nb._params_from_row(row) != theirs
-        ):
-            raise StoreError(
-                f"{source}: parameter version {pv['version']} of {pv['robot']!r} differs from "
-                "the one in the notebook; nothing was imported"
-            )
-    return new
+        ours = nb._params_from_row(row).to_dict()
+        differ = [
+            f"{k} {ours.get(k)!r} here, {v!r} in the file"
+            for k, v in theirs.to_dict().items()
+            if ours.get(k) != v and k != "name"
+        ]
+        raise StoreError(
+            f"{source}: parameter version {pv['version']} of {quote_input(pv['robot'])} differs "
+            f"from the notebook's version {pv['version']} ({'; '.join(differ) or 'its tables'}); "
+            "nothing was imported (import into a notebook without that robot, or rename the "
+            "robot in the file)"
+        )
+    return new, remap
 
 
 def _new_campaigns(nb: Notebook, doc: NotebookDocument, source: str) -> list[dict[str, Any]]:
@@ -194,6 +213,7 @@ def _trial_of(
     try:
         trial = trial_from_record(rec, params, doc.logs.get(rec["trial_id"]))
         validate_trial(trial)
+        check_direction(trial)
     except (KeyError, ValueError, TypeError) as err:
         raise StoreError(f"{where}: malformed trial record ({err})") from err
     except InvalidTrialError as err:
@@ -242,10 +262,14 @@ def import_json(
     """Import what :func:`export_json` wrote; see :meth:`odolab.store.Notebook.import_json`."""
     doc = read_notebook_json(path)
     source = str(path)
-    new_versions = _new_params_versions(nb, doc, source)
+    new_versions, remap = _new_params_versions(nb, doc, source)
     new_campaigns = _new_campaigns(nb, doc, source)
     names = nb.campaign_names() | {c["name"] for c in new_campaigns}
     incoming = _incoming_trials(nb, doc, source, names)
+    incoming.versions = [
+        v if v is None else remap.get((t.params.name, v), v)
+        for t, v in zip(incoming.trials, incoming.versions, strict=True)
+    ]
     with nb._write() as conn:
         for pv in new_versions:
             nb._insert_params_version(

@@ -73,6 +73,31 @@ def exact(value: object) -> str:
     return ""
 
 
+def ci_parts(value: object, ci: object) -> tuple[str, str]:
+    """A value and its 95 % interval as the CLI and the report write them (the interval rule,
+    :func:`odolab.numfmt.with_ci`), apart for a page's two columns: ``("0.933", "[0.888,
+    0.978]")``; ``–`` for what is missing."""
+    from odolab import numfmt
+
+    if not isinstance(value, int | float) or isinstance(value, bool):
+        return "–", "–"
+    lo, hi = ci if isinstance(ci, list | tuple) and len(ci) == 2 else (None, None)
+    text = numfmt.with_ci(float(value), lo, hi)
+    head, sep, tail = text.partition(" [")
+    return head, f"[{tail}" if sep else "–"
+
+
+def sigma_words(group: dict[str, Any], unit: str) -> str:
+    """One repeated group's sigma on a page: ``0.0033 m @ -1 (n 3)``: its digits by the interval
+    rule and the commanded distance or angle with its sign, as the CLI and the report write
+    them (a reverse run's group is ``@ -1``)."""
+    from odolab import numfmt
+
+    value, _ = ci_parts(group.get("sigma"), group.get("sigma_ci95"))
+    at = numfmt.plain(float(group["commanded"]), strip=True)
+    return f"{value} {unit} @ {at} (n {group['n']})"
+
+
 def templates() -> jinja2.Environment:
     env = jinja2.Environment(
         loader=jinja2.PackageLoader("odolab.serve", "templates"),
@@ -85,6 +110,8 @@ def templates() -> jinja2.Environment:
     env.filters["q"] = lambda s: quote(str(s), safe="")
     env.filters["num"] = fnum
     env.filters["exact"] = exact
+    env.filters["ci_parts"] = ci_parts
+    env.filters["sigma_words"] = sigma_words
     env.globals["pi"] = math.pi
     from odolab.serve.routes import _measure
 
@@ -137,8 +164,8 @@ def status_of(err: StoreError) -> int:
 
 
 def selection_of(q: QueryParams | Mapping[str, Any]) -> SelectionRequest:
-    """``?campaign=A&campaign=B&exclude_campaign=C`` (the CLI's ``--campaign``,
-    ``--exclude-campaign``) as a selection request."""
+    """``?campaign=A&campaign=B&exclude_campaign=C&robot=R`` (the CLI's ``--campaign``,
+    ``--exclude-campaign``, ``--robot``) as a selection request."""
     from odolab.app.selection import SelectionRequest
 
     def many(key: str) -> tuple[str, ...]:
@@ -149,10 +176,13 @@ def selection_of(q: QueryParams | Mapping[str, Any]) -> SelectionRequest:
             values = [raw] if isinstance(raw, str) else list(raw)
         for v in values:
             if not isinstance(v, str):
-                raise StoreError(f"{key} is {v!r}; expected campaign names (text)")
+                raise StoreError(f"{key} is {v!r}; expected names (text)")
         return tuple(v for v in values if v)
 
-    return SelectionRequest(many("campaign"), many("exclude_campaign"))
+    robot = many("robot")
+    if len(robot) > 1:
+        raise StoreError(f"robot is given {len(robot)} times; expected one robot's name")
+    return SelectionRequest(many("campaign"), many("exclude_campaign"), robot[0] if robot else None)
 
 
 @dataclass

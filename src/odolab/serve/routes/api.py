@@ -212,7 +212,8 @@ async def calibrate(request: Request) -> Response:
             terrain=body.get("terrain") or None,
             record=record,
         )
-        return JSONResponse(await web(request).run(lambda nb: run(nb, req).to_dict()))
+        w = web(request)
+        return JSONResponse(await w.run(lambda nb: run(nb, req, w.cache).to_dict()))
     except OdolabError as err:
         text = web_text(err).replace("(--robot, or the form's robot)", '(send "robot")')
         return error_json(StoreError(text))
@@ -224,6 +225,7 @@ async def report(request: Request) -> Response:
 
     try:
         req = ReportRequest(selection_of(request.query_params))
-        return JSONResponse(await web(request).run(lambda nb: report_results(nb, req)))
+        w = web(request)
+        return JSONResponse(await w.run(lambda nb: report_results(nb, req, w.cache)))
     except OdolabError as err:
         return error_json(err)
