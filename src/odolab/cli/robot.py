@@ -480,6 +480,20 @@ def _record(notebook: Notebook | None, db: Path | None, run: RobotRun) -> str:
     return ""
 
 
+def _virtual_instruments(run: RobotRun) -> RobotRun:
+    """``run`` with what the lab's instruments would show after it (``run.json``
+    ``"virtual_instruments"``), when a virtual board gave its true pose; else as it is."""
+    import dataclasses
+
+    from odolab.store.measure import describe_readings, virtual_readings
+
+    readings = virtual_readings(run.trial)
+    if readings is None:
+        return run
+    shown = {"readings": readings, "shows": describe_readings(readings)}
+    return dataclasses.replace(run, extra={**run.extra, "virtual_instruments": shown})
+
+
 def _drive(
     command: Command,
     config: RunConfig,
@@ -556,6 +570,7 @@ def _drive(
                 realtime=realtime,
                 save_to=folder,
                 on_abort=on_abort,
+                finish=_virtual_instruments,
             )
     finally:
         if printer is not None:
@@ -575,6 +590,13 @@ def _drive(
     if run.trial.true is not None:
         q = run.trial.true
         echo(f"true (virtual): x={q.x:.4f} m y={q.y:.4f} m heading={q.heading:.4f} rad")
+        shown = run.extra.get("virtual_instruments") if isinstance(run.extra, dict) else None
+        if isinstance(shown, dict):
+            where = f" --db {db}" if db is not None else ""
+            echo(
+                f"the virtual instruments show: {shown['shows']} ('odolab trials measure "
+                f"{run.trial.trial_id} --virtual{where}' takes them)"
+            )
     echo(run.stats.describe())
     if run.headings:  # a link with an IMU: the gyro's word on the track, and the drift monitor
         from odolab.app.imu import gyro_after_run

@@ -62,6 +62,7 @@ from odolab.robot.jaguar.protocol import (
     encode_system,
 )
 from odolab.robot.plant import Plant
+from odolab.robot.virtual_truth import encode_trailer
 
 __all__ = [
     "BoardConfig",
@@ -356,12 +357,14 @@ class VirtualJaguar:
                     self._direction &= ~(1 << i)
         self._last_counts = counts
         self.stats.reports += 1
+        pose = self.plant.true_pose  # the side channel only a virtual board speaks
         return encode_motor_sensor(
             MotorSensorData(
                 encoder_position=counts,
                 encoder_velocity=(vel[0], vel[1]),
                 direction=self._direction,
                 pwm=tuple(self._pwm),
+                extra=encode_trailer(pose.x, pose.y, pose.heading),
             )
         )
 

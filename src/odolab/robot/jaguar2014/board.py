@@ -46,6 +46,7 @@ from odolab.robot.jaguar2014.protocol import (
     parse_host_line,
 )
 from odolab.robot.plant import Plant
+from odolab.robot.virtual_truth import encode_line
 
 __all__ = [
     "Board2014Config",
@@ -278,6 +279,8 @@ class VirtualJaguar2014:
         ticks_per_rev = 2 * math.pi * 0.0835 / self.config.metres_per_tick
         rpm = [round(v / period / ticks_per_rev * 60) for v in cr]
         ff = 16 if self.estop else 0
+        pose = self.plant.true_pose  # the side channel only a virtual board speaks
+        self._say(t, encode_line(pose.x, pose.y, pose.heading))
         for b in (0, 1):
             self._say(t, f"MM{b} C={c[0]}:{c[1]}")
         for b in (0, 1):
