@@ -331,6 +331,8 @@ class _DriftHook:
         self.loop: ControlLoop | None = None
         self.seen = 0
         self.events: list[tuple[float, str]] = []
+        self._odo_t: list[float] = []  # every cycle's odometry heading, for the sense check
+        self._odo_h: list[float] = []
 
     def wrap(self, on_cycle: Callable[[CycleInfo], None] | None) -> Callable[[CycleInfo], None]:
         def cycle(info: CycleInfo) -> None:
@@ -342,6 +344,8 @@ class _DriftHook:
 
     def cycle(self, info: CycleInfo) -> None:
         self.monitor.odometry(info.t, info.pose.heading)
+        self._odo_t.append(info.t)
+        self._odo_h.append(info.pose.heading)
         loop, headings = self.loop, self.link.headings
         if info.index % self.EVERY or loop is None or loop.started_at is None or headings is None:
             return
@@ -354,6 +358,30 @@ class _DriftHook:
             self.events.append((flag.t, message))
             if self.on_event is not None:
                 self.on_event(flag.t, message)
+        problem = self.sense()
+        if problem is not None:  # raised in the cycle: the loop stops the robot, keeps the run
+            from odolab.robot.drift import SenseCheckError
+
+            raise SenseCheckError(
+                f"sense check at t={info.t:.1f} s, the run was stopped: {problem}"
+            )
+
+    def sense(self) -> str | None:
+        """:func:`odolab.robot.drift.sense_check` on the turns so far (None: they agree)."""
+        import numpy as np
+
+        from odolab.robot.drift import sense_check
+
+        span = self.monitor.gyro_span()
+        if span is None or not self._odo_t:
+            return None
+        t0, t1 = span[0], min(span[1], self._odo_t[-1])
+        if t1 <= t0:
+            return None
+        odo = np.interp([t0, t1], self._odo_t, self._odo_h)
+        return sense_check(
+            float(odo[1] - odo[0]), self.monitor.gyro_turn(t0, t1), t1 - t0, self.monitor.expected
+        )
 
     def extra(self) -> dict[str, Any]:
         state = self.monitor.state
@@ -367,7 +395,9 @@ class _DriftHook:
                 "expected_ratio": list(self.monitor.expected),
                 "last_ratio": None if state is None else num(state.ratio),
                 "last_ratio_ci95": None if state is None else [num(v) for v in state.ci95],
-            }
+            },
+            # odometry against the gyro over the whole run (None: they agree, or too little turn)
+            "sense_check": self.sense(),
         }
 
 
