@@ -933,14 +933,26 @@ def sim_server_cmd(
     variant: Annotated[
         str, typer.Option("--variant", help="jaguar2014 only: wheel (4x4) or track.")
     ] = "wheel",
+    idle_exit: Annotated[
+        float | None,
+        typer.Option(
+            "--idle-exit",
+            help="Exit after this many s in which nothing came from a host (default: run until "
+            "Ctrl-C); for a board started in the background.",
+        ),
+    ] = None,
 ) -> None:
     """Run a virtual Jaguar board (UDP, or TCP for --link jaguar2014) until Ctrl-C (or SIGTERM)."""
     import signal
 
+    if idle_exit is not None and not (math.isfinite(idle_exit) and 1 <= idle_exit <= 3600):
+        from odolab.robot.errors import RobotConfigError
+
+        raise RobotConfigError(f"--idle-exit is {idle_exit!r}; expected 1 to 3600 s")
     if link is LinkChoice.jaguar2014:
         _serve_2014(
             host, port, params, truth, terrain, seed, report_rate, max_wheel_speed,
-            command_timeout, trace, variant, silent_after,
+            command_timeout, trace, variant, silent_after, idle_exit,
         )  # fmt: skip
         return
 
@@ -979,7 +991,7 @@ def sim_server_cmd(
 
     signal.signal(signal.SIGTERM, on_term)
     try:
-        server.serve_forever()
+        _serve(server, lambda: server.call(lambda b: b.stats.received), idle_exit)
     except KeyboardInterrupt:
         pass
     finally:
@@ -998,6 +1010,29 @@ def sim_server_cmd(
         )
 
 
+def _serve(server: Any, activity: Callable[[], int], idle_exit: float | None) -> None:
+    """``server.serve_forever()``; with ``idle_exit``, served from its thread until nothing has
+    come from a host (``activity()``, a count, unchanged) for that many seconds."""
+    if idle_exit is None:
+        server.serve_forever()
+        return
+    import time
+
+    server.start()
+    seen, since = activity(), time.monotonic()
+    while server.error is None:
+        time.sleep(0.2)
+        now, count = time.monotonic(), activity()
+        if count != seen:
+            seen, since = count, now
+        elif now - since >= idle_exit:
+            echo(f"nothing came from a host for {idle_exit:g} s (--idle-exit): exiting", err=True)
+            return
+    from odolab.errors import RobotLinkError
+
+    raise RobotLinkError(f"the virtual board stopped: {server.error!r}") from server.error
+
+
 def _serve_2014(
     host: str,
     port: int,
@@ -1011,6 +1046,7 @@ def _serve_2014(
     trace: Path | None,
     variant: str,
     silent_after: float | None = None,
+    idle_exit: float | None = None,
 ) -> None:
     """The virtual Jaguar 4x4 of 2014 over TCP until Ctrl-C or SIGTERM."""
     import signal
@@ -1053,7 +1089,7 @@ def _serve_2014(
 
     signal.signal(signal.SIGTERM, on_term)
     try:
-        server.serve_forever()
+        _serve(server, lambda: server.call(lambda b: b.stats.lines), idle_exit)
     except KeyboardInterrupt:
         pass
     finally:
