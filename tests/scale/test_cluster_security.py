@@ -13,6 +13,7 @@ import urllib.error
 import urllib.request
 
 import psutil
+import pytest
 
 from odolab.metrics.cluster import Cluster, _client, map_outcomes
 
