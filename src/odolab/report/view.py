@@ -179,11 +179,19 @@ def verdict(
                     _pct(new, old),
                 )
             )
+    # "before" is the squares integrated with the parameters UMBmark started from (the report
+    # chains it from the ratios calibration of the same trials): say which
+    start = (extra or {}).get("umbmark_from")
+    started = (
+        str(start).split(" (")[0].split(", ")[0]
+        if isinstance(start, str) and start
+        else "the parameters UMBmark started from"
+    )
     for name, c in calibrations.items():
         if isinstance(c, UmbmarkResult) and c.e_max_syst_after is not None:
             v.improvements.append(
                 (
-                    f"UMBmark E_max,syst, same squares ({name}) (m)",
+                    f"UMBmark E_max,syst, same squares ({name}; before: with {started}) (m)",
                     numfmt.plain(c.e_max_syst, 3),
                     numfmt.plain(c.e_max_syst_after, 3),
                     _pct(c.e_max_syst_after, c.e_max_syst),
