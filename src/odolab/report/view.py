@@ -318,6 +318,25 @@ _PROV_LABELS = {
 }
 
 
+#: a provenance cell longer than this (characters) is collapsed: its start shown, the whole
+#: text a tap away (a list of 77 trial ids made the report 42,000 px tall on a phone)
+COLLAPSE_AT = 240
+
+
+def collapsed(text: str) -> str:
+    """``text`` as it is when short; else an HTML ``<details>`` showing its start and how long
+    it is, the whole (escaped) text inside: a safe :class:`markupsafe.Markup`."""
+    from markupsafe import Markup, escape
+
+    if len(text) <= COLLAPSE_AT:
+        return text
+    head = text[: COLLAPSE_AT // 3].rsplit(" ", 1)[0]
+    return Markup(
+        f'<details class="long"><summary>{escape(head)} … ({len(text):,} characters: show '
+        f"all)</summary>{escape(text)}</details>"
+    )
+
+
 def provenance_rows(prov: Mapping[str, Any]) -> tuple[list[tuple[str, str]], list[list[str]]]:
     """A calibration's provenance as readable rows, and its iterations (if any) as a table."""
     rows: list[tuple[str, str]] = []
@@ -342,7 +361,7 @@ def provenance_rows(prov: Mapping[str, Any]) -> tuple[list[tuple[str, str]], lis
         if isinstance(v, int | float) and not isinstance(v, bool) and isinstance(ci, list):
             rows.append((label, numfmt.with_ci(float(v), ci[0], ci[1])))
         else:
-            rows.append((label, fmt(v, 6)))
+            rows.append((label, collapsed(fmt(v, 6))))
     for k, ci in ci_of.items():
         if k not in prov and isinstance(ci, list) and len(ci) == 2:
             rows.append((f"{k.replace('_', ' ')}, 95 % CI", numfmt.interval(ci[0], ci[1])))
