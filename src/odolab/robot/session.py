@@ -368,8 +368,6 @@ class _DriftHook:
 
     def sense(self) -> str | None:
         """:func:`odolab.robot.drift.sense_check` on the turns so far (None: they agree)."""
-        import numpy as np
-
         from odolab.robot.drift import sense_check
 
         span = self.monitor.gyro_span()
@@ -378,10 +376,22 @@ class _DriftHook:
         t0, t1 = span[0], min(span[1], self._odo_t[-1])
         if t1 <= t0:
             return None
-        odo = np.interp([t0, t1], self._odo_t, self._odo_h)
-        return sense_check(
-            float(odo[1] - odo[0]), self.monitor.gyro_turn(t0, t1), t1 - t0, self.monitor.expected
-        )
+        turn = self._odo_at(t1) - self._odo_at(t0)
+        return sense_check(turn, self.monitor.gyro_turn(t0, t1), t1 - t0, self.monitor.expected)
+
+    def _odo_at(self, t: float) -> float:
+        """The odometry's heading at ``t``, linear between cycles (a bisection: the check runs
+        in the cycle, and a long run at a high rate has many cycles)."""
+        import bisect
+
+        ts, hs = self._odo_t, self._odo_h
+        i = bisect.bisect_left(ts, t)
+        if i <= 0:
+            return hs[0]
+        if i >= len(ts):
+            return hs[-1]
+        w = (t - ts[i - 1]) / (ts[i] - ts[i - 1]) if ts[i] > ts[i - 1] else 1.0
+        return hs[i - 1] + w * (hs[i] - hs[i - 1])
 
     def extra(self) -> dict[str, Any]:
         state = self.monitor.state
