@@ -130,3 +130,22 @@ def test_the_2014_virtual_board_says_its_true_pose_in_a_line() -> None:
         math.hypot(plant.true_pose.x - START.x, plant.true_pose.y - START.y)
     )
     drv.close()
+
+
+def test_a_straight_run_reads_the_meterstick_in_the_start_frame() -> None:
+    from odolab.robot.session import run_motion_simulated
+    from odolab.store.measure import describe_readings, virtual_measurement, virtual_readings
+    from odolab.trials import Command, MotionKind
+
+    trial, _ = run_motion_simulated(
+        Command(MotionKind.TRANSLATION, distance=-0.5, speed=0.5), nominal=NOMINAL
+    )
+    assert trial.true is not None
+    readings = virtual_readings(trial)
+    assert readings is not None and set(readings) == {"x_m", "y_m"}
+    assert describe_readings(readings).startswith("meterstick x -0.")
+    m = virtual_measurement(trial)
+    # the meterstick: 3 mm, read to the mm
+    assert m.instrument == "virtual meterstick" and m.x is not None and m.y is not None
+    assert abs(m.x - trial.true.x) < 0.015 and abs(m.y - trial.true.y) < 0.015
+    assert virtual_readings(trial) == readings  # the same trial always reads the same

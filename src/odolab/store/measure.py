@@ -204,14 +204,14 @@ def virtual_readings(t: Trial) -> dict[str, float] | None:
 
 
 def describe_readings(readings: dict[str, float]) -> str:
-    """``compass 12 -> 305 deg, 1 whole turn counted`` or ``tape x 1.003 m, y -0.012 m``."""
+    """``compass 12 -> 305 deg, 1 whole turn counted`` or ``meterstick x 1.003 m, y -0.012 m``."""
     if "turns" in readings:
         n = int(readings["turns"])
         return (
             f"compass {readings['compass_initial_deg']:g} -> {readings['compass_final_deg']:g} deg, "
             f"{n} whole turn{'' if n == 1 else 's'} counted"
         )
-    return f"tape x {readings['x_m']:.3f} m, y {readings['y_m']:.3f} m"
+    return f"meterstick x {readings['x_m']:.3f} m, y {readings['y_m']:.3f} m"
 
 
 def virtual_measurement(t: Trial, sigma: object = None) -> Measurement:
