@@ -21,6 +21,8 @@ Choices where JAGUAR_PROTOCOL.md leaves one (see docs/robot.md):
   ``command_timeout`` seconds. It also pings its peer every ``ping_interval`` seconds.
 - Command timeout (like real motor boards): when no valid motor command came from the peer for
   ``command_timeout`` seconds (0.5), the motors stop, at exactly that time in the board's clock.
+- Motor sensor packets carry the plant's true pose after their 33 documented bytes (a tagged
+  trailer only a virtual board sends: :mod:`odolab.robot.virtual_truth`).
 - Encoder velocity fields: |counter change| over the last report interval, in counts per second;
   direction bits: 1 when the counter went up (forward), 0 when it went down, unchanged when
   it did not move (1 at start).

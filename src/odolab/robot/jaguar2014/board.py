@@ -15,7 +15,8 @@ Choices where the fact sheet leaves one (docs/robot.md):
 - Host silence: when nothing came from the host for ``silence_timeout`` s (0.5 by default; 0 =
   never, as the real board may behave: unknown) the motors stop, at exactly that time. A closed
   connection stops them at once.
-- Reports every 1/``report_rate`` s, in this order: ``MM0 C=``, ``MM1 C=`` (front and rear
+- Reports every 1/``report_rate`` s, in this order: the plant's true pose ``ODOLAB-TRUTH x y
+  heading`` (a line only a virtual board speaks: :mod:`odolab.robot.virtual_truth`), ``MM0 C=``, ``MM1 C=`` (front and rear
   count the same plant track: no per-wheel slip), ``MM0 CR=``, ``MM1 CR=``, ``MM0 S=``,
   ``MM1 S=``, ``MM0 FF=``, ``MM1 FF=`` and an IMU line ``#seq,YAW,<rad>,GYRO,x,y,z,ACC,...``
   (gyro z in the TRI unit's 14.375 LSB per deg/s, from the plant's heading change).
