@@ -22,6 +22,7 @@ path (:attr:`RobotRun.truth`, written as ``encoders_gt.csv`` beside ``encoders.c
 
 from __future__ import annotations
 
+import bisect
 import contextlib
 import json
 import math
@@ -382,8 +383,6 @@ class _DriftHook:
     def _odo_at(self, t: float) -> float:
         """The odometry's heading at ``t``, linear between cycles (a bisection: the check runs
         in the cycle, and a long run at a high rate has many cycles)."""
-        import bisect
-
         ts, hs = self._odo_t, self._odo_h
         i = bisect.bisect_left(ts, t)
         if i <= 0:
