@@ -149,3 +149,14 @@ def test_a_straight_run_reads_the_meterstick_in_the_start_frame() -> None:
     assert m.instrument == "virtual meterstick" and m.x is not None and m.y is not None
     assert abs(m.x - trial.true.x) < 0.015 and abs(m.y - trial.true.y) < 0.015
     assert virtual_readings(trial) == readings  # the same trial always reads the same
+
+
+def test_sim_server_exits_when_idle_and_refuses_a_bad_idle_exit(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert main(["robot", "sim-server", "--port", "0", "--idle-exit", "1"]) == 0
+    err = capsys.readouterr().err
+    assert "nothing came from a host for 1 s (--idle-exit): exiting" in err
+    assert main(["robot", "sim-server", "--port", "0", "--idle-exit", "0"]) == 1
+    err = capsys.readouterr().err
+    assert "--idle-exit is 0.0; expected 1 to 3600 s" in err and "Traceback" not in err

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Annotated, Any, get_type_hints
 import typer
 
 from odolab.cli._apps import robot_app
-from odolab.cli._output import echo
+from odolab.cli._output import echo, term
 from odolab.defaults import DEFAULT_TRUTH
 
 if TYPE_CHECKING:
@@ -594,8 +594,10 @@ def _drive(
         if isinstance(shown, dict):
             where = f" --db {db}" if db is not None else ""
             echo(
-                f"the virtual instruments show: {shown['shows']} ('odolab trials measure "
-                f"{run.trial.trial_id} --virtual{where}' takes them)"
+                term(
+                    f"the virtual instruments show: {shown['shows']} ('odolab trials measure "
+                    f"{run.trial.trial_id} --virtual{where}' takes them)"
+                )
             )
     echo(run.stats.describe())
     if run.headings:  # a link with an IMU: the gyro's word on the track, and the drift monitor
