@@ -42,6 +42,7 @@ def sim_server() -> Iterator[tuple[str, IdealPlant]]:
         server.close()
 
 
+@pytest.mark.slow  # a real-time run over UDP and the CLI: about 4 s
 def test_a_sim_server_run_is_measured_by_its_virtual_instruments(
     sim_server: tuple[str, IdealPlant], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
