@@ -2,13 +2,12 @@
 
 Each line runs in a shell in an empty folder with only the installed ``odolab`` put on the PATH
 (what the README's ``export PATH=...`` line does). The one question-asking step
-(``trials measure``) gets the answers the README tells a user of the virtual Jaguar to give,
-computed from the true heading ``robot rotate`` printed.
+(``trials measure``) gets the answers the README tells a user of the virtual Jaguar to give:
+the virtual instruments' readings ``robot rotate`` printed, as typed from a compass.
 """
 
 from __future__ import annotations
 
-import math
 import os
 import re
 import subprocess
@@ -40,13 +39,13 @@ def user_env() -> dict[str, str]:
 
 
 def compass_answers(robot_output: str) -> str:
-    """What the README says to answer for a virtual run: from its printed true heading."""
-    m = re.search(r"true \(virtual\):.*heading=([-+0-9.]+) rad", robot_output)
+    """What the README says to answer for a virtual run: what its virtual instruments show,
+    typed as printed (no arithmetic by hand)."""
+    m = re.search(
+        r"the virtual instruments show: compass (\S+) -> (\S+) deg, (\d+) whole turn", robot_output
+    )
     assert m, robot_output
-    h = float(m.group(1))
-    turns = math.floor(h / (2 * math.pi))
-    final = (-math.degrees(h % (2 * math.pi))) % 360
-    return f"0\n{final:.1f}\n{turns}\n"
+    return f"{m.group(1)}\n{m.group(2)}\n{m.group(3)}\n"
 
 
 def test_readme_hand_session_reaches_a_report(tmp_path: Path) -> None:

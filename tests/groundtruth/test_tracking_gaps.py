@@ -139,8 +139,10 @@ def test_cli_track_bridges_the_gap_with_the_encoders(
             "jaguar-lite", "--max-offset", "3"]  # fmt: skip
     assert main(args) == 0
     got = read_trajectory(out)
-    # the clock offset from the yaw rates (the gap's unknown rate left out): within a frame
-    assert got.t[0] == pytest.approx(CLOCK, abs=1 / 15)
+    # the clock offset from the yaw rates (the gap's unknown rate left out): within half a
+    # frame (measured 1.485 s with the default corners, contour; before, with the gap's rate
+    # taken as zero, 1.539 s with subpix corners and 1.571 s with contour)
+    assert got.t[0] == pytest.approx(CLOCK, abs=1 / 30)
     truth = _truth(drive)
     h = np.interp(got.t - CLOCK, truth.t, truth.heading)
     # before: 360 deg off after the gap; now the whole run within degrees (the offset's error
@@ -152,6 +154,23 @@ def test_cli_track_bridges_the_gap_with_the_encoders(
     assert set(segments) == {0}
     err = " ".join(capsys.readouterr().err.split())
     assert "bridged with the encoders" in err and "segment 1" not in err
+
+
+@pytest.mark.parametrize("corners", ["subpix", "apriltag"])
+def test_the_clock_offset_does_not_depend_on_the_corner_method(
+    folder: Path, tmp_path: Path, corners: str
+) -> None:
+    """Issue 38, item 14: the better corners moved the offset by a frame (1.571 s with contour
+    and apriltag, 1.539 s with subpix, true 1.5 s): the gap's unknown rate, taken as zero, met
+    the encoders' turn, and the few turning frames at the gap's edges fitted a range of offsets
+    equally. Left out of the search, every method finds it within half a frame (measured
+    1.485, 1.485 and 1.475 s for contour, subpix and apriltag; the true heading sampled at the
+    same frames gives 1.486 s: what is left is the 15 fps sampling's, not the corners')."""
+    out = tmp_path / "track.csv"
+    args = [*_track_args(folder, out), "--encoders", str(folder / "enc.csv"), "-p",
+            "jaguar-lite", "--max-offset", "3", "--corners", corners]  # fmt: skip
+    assert main(args) == 0
+    assert read_trajectory(out).t[0] == pytest.approx(CLOCK, abs=1 / 30)
 
 
 def test_a_reversed_yaw_rate_is_reported_without_an_imu(drive: RecordedDrive) -> None:

@@ -57,8 +57,14 @@ def test_bad_optiodom_paths(tmp_path: Path) -> None:
     with pytest.raises(LogFormatError, match="not an OptiOdom run file"):
         read_optiodom_run(bad)
     run = tmp_path / "x_run-01.csv"
+    # a missing log is named as the log (issue 38, item 13: it was "x_metadata.csv: no such
+    # OptiOdom metadata file")
+    with pytest.raises(LogFormatError, match=r"x_run-01\.csv: no such OptiOdom run log$"):
+        read_optiodom_run(run)
     run.write_text("0,0,0,0,0,0\n0.05,0,0,0,1,1\n")
-    with pytest.raises(LogFormatError, match=r"x_metadata\.csv: no such OptiOdom metadata file"):
+    with pytest.raises(
+        LogFormatError, match=r"x_run-01\.csv: its OptiOdom metadata file x_metadata"
+    ):
         read_optiodom_run(run)
     (tmp_path / "x_metadata.csv").write_text("type,diff\nngear,43.7\nencRes,64\nLi,0.2\n")
     with pytest.raises(LogFormatError, match="missing value 1 of key 'Di'"):

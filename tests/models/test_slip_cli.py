@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -34,7 +35,11 @@ def test_explore_then_compare_with_a_learning_curve(
         (10.0, "diff"), (10.0, "slip"), (30.0, "diff"), (30.0, "slip"),
     ]  # fmt: skip
     assert all(r["endpoint_error"] >= 0 for r in curve)
-    assert "learning curve" in capsys.readouterr().out
+    text = capsys.readouterr().out
+    assert "learning curve" in text
+    # piped output is never cut (issue 38, item 13: 80 columns, 12 cut cells): whole cells
+    assert "…" not in text
+    assert re.search(r"│ +diff │ +3 │ [0-9.]+ \[[0-9.]+, [0-9.]+\] │", text), text
 
 
 def test_bad_learning_curve_is_one_sentence(

@@ -78,6 +78,37 @@ def test_html_is_self_contained_and_matches_the_json(report: Path) -> None:
     assert '<meta name="viewport"' in text
 
 
+def test_long_provenance_cells_are_collapsed(report: Path) -> None:
+    """Issue 38, item 13: provenance cells that were walls of trial ids (the report 42,000 px
+    tall on a phone) show their start; the whole text is a tap away, escaped."""
+    text = report.read_text()
+    cells = re.findall(r'<td class="l" data-label="value">(.*?)</td>', text, re.S)
+    visible = [re.sub(r"<details.*?</details>", "", c, flags=re.S) for c in cells]
+    assert max(len(c) for c in visible) <= 240
+    folded = [c for c in cells if c.startswith('<details class="long"><summary>')]
+    assert folded and all("characters: show all)</summary>" in c for c in folded)
+    assert any("k_left" in c and len(c) > 1000 for c in folded)  # the noise fit's trial lists
+
+
+def test_the_umbmark_verdict_says_what_before_is(analysis: LabAnalysis) -> None:
+    """Issue 38, item 13: "UMBmark E_max,syst 1.58 -> 1.32 m" took the ratios version as
+    "before" without saying so."""
+    from odolab.report.view import verdict
+
+    umb = umbmark([[-0.11, -0.12]], [[-0.05, 0.05]], 4.0, analysis.params).with_after(
+        [[0.01, 0.0]], [[0.0, 0.005]]
+    )
+    start = "the ratios calibration of the same trials on tile (UMBmark iterated ...), itself from"
+    v = verdict(analysis, {"umbmark": umb}, [], None, {"umbmark_from": start})
+    labels = [row[0] for row in v.improvements]
+    assert labels == [
+        "UMBmark E_max,syst, same squares (umbmark; before: with the ratios calibration of the "
+        "same trials on tile) (m)"
+    ]
+    v = verdict(analysis, {"umbmark": umb}, [], None, None)
+    assert "before: with the parameters UMBmark started from" in v.improvements[0][0]
+
+
 def test_summary_numbers_come_from_the_analysis(report: Path, analysis: LabAnalysis) -> None:
     res = json.loads((report.parent / "results.json").read_text())
     rot = analysis.get("rotation")

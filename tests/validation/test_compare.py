@@ -44,6 +44,21 @@ def test_rms_drops_with_the_corrected_track_width(scenario) -> None:  # type: ig
     assert r.old.max_abs >= abs(r.old.final)
 
 
+def test_a_ratio_far_off_is_flagged_with_its_likely_cause(scenario) -> None:  # type: ignore[no-untyped-def]
+    """Issue 38, item 10, after the run: a phone that turned a third of what the odometry says
+    (one encoder counting backwards, wrong counts per revolution) is flagged in one sentence;
+    the lab's 0.875 is not (the test above: no warning)."""
+    phone = simulate_phone_log(
+        scenario.true_t, 0.3 * scenario.true_heading, clock_offset=0.0, seed=7
+    )
+    r = validate(scenario.encoder_log, phone, scenario.old, scenario.new)
+    flagged = [w for w in r.warnings if w.startswith("sense check")]
+    assert len(flagged) == 1 and "one encoder counting backwards" in flagged[0]
+    fine = simulate_phone_log(scenario.true_t, scenario.true_heading, clock_offset=0.0, seed=7)
+    assert not [w for w in validate(scenario.encoder_log, fine, scenario.old, scenario.new).warnings
+                if w.startswith("sense check")]  # fmt: skip
+
+
 def test_no_imu_error_gives_zero_error_for_the_true_model(scenario) -> None:  # type: ignore[no-untyped-def]
     phone = simulate_phone_log(
         scenario.true_t, scenario.true_heading, clock_offset=0.0, gyro_noise=0.0, seed=1

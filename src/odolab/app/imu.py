@@ -266,6 +266,9 @@ def gyro_after_run(run: RobotRun) -> list[str]:
             f"(gyro scale taken as 1 +- 1 %; bias {cal.bias_how})"
         )
     drift = run.extra.get("drift") if isinstance(run.extra, dict) else None
+    sense = run.extra.get("sense_check") if isinstance(run.extra, dict) else None
+    if isinstance(sense, str):  # odometry against the gyro over the whole run
+        lines.append(f"sense check: {sense}")
     flags = drift.get("flags", []) if isinstance(drift, dict) else []
     for t, message in flags:
         lines.append(f"drift monitor at {float(t):.1f} s: {message}")

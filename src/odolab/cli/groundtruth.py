@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 import statistics
+from collections.abc import Sequence
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -59,10 +60,16 @@ def _time_offset(text: str) -> float | None:
 
 
 def estimate_time_offset(
-    enc_t: Any, enc_heading: Any, sensor: Trajectory, source: str, max_offset: float
+    enc_t: Any,
+    enc_heading: Any,
+    sensor: Trajectory,
+    source: str,
+    max_offset: float,
+    gaps: Sequence[tuple[float, float]] = (),
 ) -> float:
     """Sensor-minus-encoder clock offset by cross-correlating yaw rates, as ``validate`` does
-    for a phone's IMU (:func:`odolab.validation.align.find_clock_offset`)."""
+    for a phone's IMU (:func:`odolab.validation.align.find_clock_offset`); ``gaps``: intervals
+    of the sensor's clock where its rate is unknown, left out."""
     from odolab.errors import ImuLogError
     from odolab.validation.align import find_clock_offset
     from odolab.validation.sensorlog import ImuLog
@@ -72,7 +79,9 @@ def estimate_time_offset(
     keep[1:] &= sensor.t[1:] > sensor.t[:-1]
     imu = ImuLog(sensor.t[keep], sensor.heading[keep], None, source=source)
     try:
-        return find_clock_offset(enc_t, enc_heading, imu, max_offset=max_offset).clock_offset
+        return find_clock_offset(
+            enc_t, enc_heading, imu, max_offset=max_offset, gaps=gaps
+        ).clock_offset
     except ImuLogError as err:  # worded for a phone's IMU and `validate`'s options: reword
         raise OptionError(_offset_sentence(str(err), source, max_offset)) from err
 
@@ -316,10 +325,10 @@ def track_cmd(
     corners: Annotated[
         str,
         typer.Option(
-            help="Corner refinement: subpix, contour or apriltag (contour or apriltag for a "
-            "film with motion blur: docs/ground-truth.md).",
+            help="Corner refinement: contour (edges fitted as lines: steady under motion "
+            "blur), subpix (the grey-level saddle) or apriltag (docs/ground-truth.md).",
         ),
-    ] = "subpix",
+    ] = "contour",
 ) -> None:
     """Robot poses from a video: floor markers define the floor, the robot's marker its pose.
     Writes t,x,y,theta,heading,quality,segment (t from 0 at the first frame, or on the encoder
@@ -372,9 +381,11 @@ def track_cmd(
         )
         odo = run.odometry(nominal)
         if given_offset is None:
-            # the yaw rate across a gap is unknown: the track's is taken as zero there
+            # the yaw rate across a gap is unknown: left out of the search (taken as zero
+            # there, it moved the offset by up to a frame, more with the better corners)
             seen = Trajectory.from_xyh(result.t, result.x, result.y, result.heading_without_gaps())
-            offset = estimate_time_offset(run.t, odo.heading, seen, str(video), max_offset)
+            unknown = [(g.t_before, g.t_after) for g in result.gaps]
+            offset = estimate_time_offset(run.t, odo.heading, seen, str(video), max_offset, unknown)
         else:
             offset = given_offset
         result, bridges = bridge_gaps(result, run.t, odo.heading, offset)

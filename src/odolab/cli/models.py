@@ -133,13 +133,14 @@ def _ci(value: float, low: float, high: float, fmt: str) -> str:
 
 
 def _print_comparison(result: ModelComparison) -> None:
-    from rich.console import Console
     from rich.markup import escape
     from rich.table import Table
 
     from odolab.calibration.compare import NOT_WORSE
+    from odolab.cli._console import console as make_console
+    from odolab.cli._console import print_table
 
-    console = Console()
+    console = make_console()  # piped: lines as long as their content, never cut
     how = "cross-validated" if result.cross_validated else "held out"
     table = Table(
         title=f"kinematic models: {len(result.train)} training runs, "
@@ -166,7 +167,7 @@ def _print_comparison(result: ModelComparison) -> None:
             ],
             _ci(d.value, d.low, d.high, ".1f") if d else "",
         )
-    console.print(table)
+    print_table(console, table)
     for s in result.scores:
         if s.fit is None:
             continue
@@ -192,7 +193,7 @@ def _print_comparison(result: ModelComparison) -> None:
                 name,
                 *["not fitted" if cells.get(x) is None else f"{cells[x]:.4f}" for x in seconds],
             )
-        console.print(curve_table)
+        print_table(console, curve_table)
     if result.decided:
         console.print(f"recommended: [bold]{result.recommended}[/bold] ({escape(result.reason)})")
     else:

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Annotated, Any, get_type_hints
 import typer
 
 from odolab.cli._apps import robot_app
-from odolab.cli._output import echo
+from odolab.cli._output import echo, term
 from odolab.defaults import DEFAULT_TRUTH
 
 if TYPE_CHECKING:
@@ -483,6 +483,20 @@ def _record(notebook: Notebook | None, db: Path | None, run: RobotRun) -> str:
     return ""
 
 
+def _virtual_instruments(run: RobotRun) -> RobotRun:
+    """``run`` with what the lab's instruments would show after it (``run.json``
+    ``"virtual_instruments"``), when a virtual board gave its true pose; else as it is."""
+    import dataclasses
+
+    from odolab.store.measure import describe_readings, virtual_readings
+
+    readings = virtual_readings(run.trial)
+    if readings is None:
+        return run
+    shown = {"readings": readings, "shows": describe_readings(readings)}
+    return dataclasses.replace(run, extra={**run.extra, "virtual_instruments": shown})
+
+
 def _drive(
     command: Command,
     config: RunConfig,
@@ -559,6 +573,7 @@ def _drive(
                 realtime=realtime,
                 save_to=folder,
                 on_abort=on_abort,
+                finish=_virtual_instruments,
             )
     finally:
         if printer is not None:
@@ -578,6 +593,15 @@ def _drive(
     if run.trial.true is not None:
         q = run.trial.true
         echo(f"true (virtual): x={q.x:.4f} m y={q.y:.4f} m heading={q.heading:.4f} rad")
+        shown = run.extra.get("virtual_instruments") if isinstance(run.extra, dict) else None
+        if isinstance(shown, dict):
+            where = f" --db {db}" if db is not None else ""
+            echo(
+                term(
+                    f"the virtual instruments show: {shown['shows']} ('odolab trials measure "
+                    f"{run.trial.trial_id} --virtual{where}' takes them)"
+                )
+            )
     echo(run.stats.describe())
     if run.headings:  # a link with an IMU: the gyro's word on the track, and the drift monitor
         from odolab.app.imu import gyro_after_run
@@ -914,14 +938,26 @@ def sim_server_cmd(
     variant: Annotated[
         str, typer.Option("--variant", help="jaguar2014 only: wheel (4x4) or track.")
     ] = "wheel",
+    idle_exit: Annotated[
+        float | None,
+        typer.Option(
+            "--idle-exit",
+            help="Exit after this many s in which nothing came from a host (default: run until "
+            "Ctrl-C); for a board started in the background.",
+        ),
+    ] = None,
 ) -> None:
     """Run a virtual Jaguar board (UDP, or TCP for --link jaguar2014) until Ctrl-C (or SIGTERM)."""
     import signal
 
+    if idle_exit is not None and not (math.isfinite(idle_exit) and 1 <= idle_exit <= 3600):
+        from odolab.robot.errors import RobotConfigError
+
+        raise RobotConfigError(f"--idle-exit is {idle_exit!r}; expected 1 to 3600 s")
     if link is LinkChoice.jaguar2014:
         _serve_2014(
             host, port, params, truth, terrain, seed, report_rate, max_wheel_speed,
-            command_timeout, trace, variant, silent_after,
+            command_timeout, trace, variant, silent_after, idle_exit,
         )  # fmt: skip
         return
 
@@ -960,7 +996,7 @@ def sim_server_cmd(
 
     signal.signal(signal.SIGTERM, on_term)
     try:
-        server.serve_forever()
+        _serve(server, lambda: server.call(lambda b: b.stats.received), idle_exit)
     except KeyboardInterrupt:
         pass
     finally:
@@ -979,6 +1015,29 @@ def sim_server_cmd(
         )
 
 
+def _serve(server: Any, activity: Callable[[], int], idle_exit: float | None) -> None:
+    """``server.serve_forever()``; with ``idle_exit``, served from its thread until nothing has
+    come from a host (``activity()``, a count, unchanged) for that many seconds."""
+    if idle_exit is None:
+        server.serve_forever()
+        return
+    import time
+
+    server.start()
+    seen, since = activity(), time.monotonic()
+    while server.error is None:
+        time.sleep(0.2)
+        now, count = time.monotonic(), activity()
+        if count != seen:
+            seen, since = count, now
+        elif now - since >= idle_exit:
+            echo(f"nothing came from a host for {idle_exit:g} s (--idle-exit): exiting", err=True)
+            return
+    from odolab.errors import RobotLinkError
+
+    raise RobotLinkError(f"the virtual board stopped: {server.error!r}") from server.error
+
+
 def _serve_2014(
     host: str,
     port: int,
@@ -992,6 +1051,7 @@ def _serve_2014(
     trace: Path | None,
     variant: str,
     silent_after: float | None = None,
+    idle_exit: float | None = None,
 ) -> None:
     """The virtual Jaguar 4x4 of 2014 over TCP until Ctrl-C or SIGTERM."""
     import signal
@@ -1034,7 +1094,7 @@ def _serve_2014(
 
     signal.signal(signal.SIGTERM, on_term)
     try:
-        server.serve_forever()
+        _serve(server, lambda: server.call(lambda b: b.stats.lines), idle_exit)
     except KeyboardInterrupt:
         pass
     finally:

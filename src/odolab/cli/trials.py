@@ -387,25 +387,51 @@ def measure_cmd(
         typer.Option(help="Uncertainty: of one compass reading (rad) or of x and y (m)."),
     ] = None,
     replace: Annotated[bool, typer.Option(help="Overwrite an earlier measurement.")] = False,
+    virtual: Annotated[
+        bool,
+        typer.Option(
+            "--virtual",
+            help="Take what the virtual instruments show (a run on a virtual board only: "
+            "sim://, odolab robot sim-server).",
+        ),
+    ] = False,
     db: DbOption = _DB,
 ) -> None:
     """Enter what was measured: compass readings and turns, or x and y (asks what is missing)."""
+    from odolab.errors import StoreError
+
     with _open(db) as nb:
         if trial_id is None:
-            from odolab.errors import StoreError
-
             waiting = nb.load_trials(status="awaiting", with_logs=False)
             if not waiting:
                 raise StoreError(f"{db}: no trial is awaiting measurement; give the trial id")
             trial_id = waiting[-1].trial_id
         t = nb.get_trial(trial_id)
-        from odolab.store.measure import refuse_if_measured
+        from odolab.store.measure import (
+            describe_readings,
+            refuse_if_measured,
+            virtual_measurement,
+            virtual_readings,
+        )
 
         refuse_if_measured(t, replace)  # before asking for the readings, not after they were typed
         echo(
             term(f"trial {t.trial_id}: {t.command.describe()}; predicted {_describe_prediction(t)}")
         )
-        m = _measurement(t, initial, final, turns, x, y, sigma)
+        readings = virtual_readings(t)
+        if virtual:
+            if any(v is not None for v in (initial, final, turns, x, y)):
+                raise StoreError(
+                    f"trial {t.trial_id}: --virtual takes the readings from the virtual "
+                    "instruments; expected no --initial, --final, --turns, --x or --y with it"
+                )
+            m = virtual_measurement(t, sigma)
+            assert readings is not None  # virtual_measurement refuses a run without them
+            echo(term(f"the virtual instruments show: {describe_readings(readings)}"))
+        else:
+            if readings is not None:  # what a student on the virtual board would read off
+                echo(term(f"the virtual instruments show: {describe_readings(readings)}"))
+            m = _measurement(t, initial, final, turns, x, y, sigma)
         nb.set_measurement(trial_id, m, replace=replace)
         saved = nb.get_trial(trial_id)
     echo(term(f"trial {trial_id} measured: {_describe_measurement(saved)}"))

@@ -84,6 +84,13 @@ def read_optiodom_run(path: str | Path) -> OdometryRun:
     if m is None:
         raise LogFormatError(f"{p}: not an OptiOdom run file; expected a name like <id>_run-01.csv")
     meta_path = p.with_name(f"{m['id']}_metadata.csv")
+    if not p.is_file():  # name the log the user gave, not the metadata looked for beside it
+        raise LogFormatError(f"{p}: no such OptiOdom run log")
+    if not meta_path.is_file():
+        raise LogFormatError(
+            f"{p}: its OptiOdom metadata file {meta_path.name} is not beside it; expected the "
+            "run's folder as OptiOdom writes it"
+        )
     meta = read_optiodom_metadata(meta_path)
     d = read_numeric_columns(p, COLUMNS, names=COLUMNS)
     if d["t"].size < 2:

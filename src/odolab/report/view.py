@@ -182,11 +182,19 @@ def verdict(
                     _pct(new, old),
                 )
             )
+    # "before" is the squares integrated with the parameters UMBmark started from (the report
+    # chains it from the ratios calibration of the same trials): say which
+    start = (extra or {}).get("umbmark_from")
+    started = (
+        str(start).split(" (")[0].split(", ")[0]
+        if isinstance(start, str) and start
+        else "the parameters UMBmark started from"
+    )
     for name, c in calibrations.items():
         if isinstance(c, UmbmarkResult) and c.e_max_syst_after is not None:
             v.improvements.append(
                 (
-                    f"UMBmark E_max,syst, same squares ({name}) (m)",
+                    f"UMBmark E_max,syst, same squares ({name}; before: with {started}) (m)",
                     numfmt.plain(c.e_max_syst, 3),
                     numfmt.plain(c.e_max_syst_after, 3),
                     _pct(c.e_max_syst_after, c.e_max_syst),
@@ -313,6 +321,25 @@ _PROV_LABELS = {
 }
 
 
+#: a provenance cell longer than this (characters) is collapsed: its start shown, the whole
+#: text a tap away (a list of 77 trial ids made the report 42,000 px tall on a phone)
+COLLAPSE_AT = 240
+
+
+def collapsed(text: str) -> str:
+    """``text`` as it is when short; else an HTML ``<details>`` showing its start and how long
+    it is, the whole (escaped) text inside: a safe :class:`markupsafe.Markup`."""
+    from markupsafe import Markup, escape
+
+    if len(text) <= COLLAPSE_AT:
+        return text
+    head = text[: COLLAPSE_AT // 3].rsplit(" ", 1)[0]
+    return Markup(
+        f'<details class="long"><summary>{escape(head)} … ({len(text):,} characters: show '
+        f"all)</summary>{escape(text)}</details>"
+    )
+
+
 def provenance_rows(prov: Mapping[str, Any]) -> tuple[list[tuple[str, str]], list[list[str]]]:
     """A calibration's provenance as readable rows, and its iterations (if any) as a table."""
     rows: list[tuple[str, str]] = []
@@ -337,7 +364,7 @@ def provenance_rows(prov: Mapping[str, Any]) -> tuple[list[tuple[str, str]], lis
         if isinstance(v, int | float) and not isinstance(v, bool) and isinstance(ci, list):
             rows.append((label, numfmt.with_ci(float(v), ci[0], ci[1])))
         else:
-            rows.append((label, fmt(v, 6)))
+            rows.append((label, collapsed(fmt(v, 6))))
     for k, ci in ci_of.items():
         if k not in prov and isinstance(ci, list) and len(ci) == 2:
             rows.append((f"{k.replace('_', ' ')}, 95 % CI", numfmt.interval(ci[0], ci[1])))

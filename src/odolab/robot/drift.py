@@ -11,6 +11,12 @@ calibrated since 12.4 s: terrain or tyres changed``); it clears when ``k``'s int
 The robot is never stopped for it. A fit over too little turning (under ``min_turn`` rad in its
 memory) says nothing: a gyro's bias and scale cannot be told apart there.
 
+The **sense check** (:func:`sense_check`) is the coarse test beside it: odometry and gyro must
+turn the same way, at a ratio near the calibrated one. A wrong link variant, swapped left and
+right channels or a reversed encoder make them disagree by a sign or a large factor; that stops
+the run (live, :class:`SenseCheckError`) or flags it (after the run), with one sentence naming
+the likely cause.
+
 Pure Python and numpy on a few numbers per window: cheap enough for the control loop.
 """
 
@@ -22,7 +28,67 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["DriftFlag", "DriftMonitor", "DriftState"]
+from odolab.errors import OdolabError
+
+__all__ = ["DriftFlag", "DriftMonitor", "DriftState", "SenseCheckError", "sense_check"]
+
+#: the sense check's bounds: a turn must reach this much (rad) beyond the gyro's possible bias
+#: drift before odometry and gyro are compared; a ratio this many times outside the calibrated
+#: range is "far outside" (a wrong track width or counts per revolution, not terrain)
+SENSE_MIN_TURN = 0.5
+SENSE_BIAS_ALLOWANCE = 0.01  #: rad/s of gyro bias a sense check allows for
+#: a ratio outside the calibrated range widened by this factor is "far outside" (the lab's
+#: jaguar-lab truth turns at 0.67-0.88 of its odometry on tile: slip, not a wiring fault)
+SENSE_FAR = 2.0
+#: opposite signs count when the smaller turn is at least this much (rad): a lagging sensor
+#: at the very start of a turn is not a disagreement
+SENSE_SIGN_FLOOR = 0.2
+
+
+class SenseCheckError(OdolabError):
+    """Odometry and the robot's gyro disagree in sign or by a large factor: the run was stopped."""
+
+
+def sense_check(
+    odometry_turn: float,
+    gyro_turn: float,
+    elapsed: float,
+    expected: tuple[float, float] = (1.0 / 1.03, 1.0 / 0.97),
+) -> str | None:
+    """None when odometry and gyro agree on a run's turn (rad, ccw positive, over ``elapsed``
+    s); else one sentence saying how they disagree and the likely cause. Nothing is said before
+    either has turned ``SENSE_MIN_TURN`` plus what a gyro bias of ``SENSE_BIAS_ALLOWANCE`` could
+    add; ``expected`` is the calibrated range of gyro/odometry (the drift monitor's)."""
+    o, g = float(odometry_turn), float(gyro_turn)
+    need = SENSE_MIN_TURN + SENSE_BIAS_ALLOWANCE * max(float(elapsed), 0.0)
+    if not (math.isfinite(o) and math.isfinite(g)) or max(abs(o), abs(g)) < need:
+        return None
+    said = f"odometry {o:+.2f} rad, gyro {g:+.2f} rad over {elapsed:.1f} s"
+    if o * g < 0 and min(abs(o), abs(g)) >= SENSE_SIGN_FLOOR:
+        return (
+            f"odometry and gyro turn opposite ways ({said}): the robot turns against its "
+            "commands while the encoders follow them; likely a wrong link variant (tcp://...?"
+            "variant=wheel or track), swapped left and right channels, or both motor and "
+            "encoder signs reversed"
+        )
+    lo, hi = expected[0] / SENSE_FAR, expected[1] * SENSE_FAR
+    ratio = g / o if o != 0 else math.inf
+    # a ratio needs twice the turn: early in a turn one sensor's lag moves it most
+    if max(abs(o), abs(g)) < 2 * need or lo <= ratio <= hi:
+        return None
+    shown = "infinite" if not math.isfinite(ratio) else f"{ratio:.2f}"
+    which = (
+        "the gyro saw much more turning"
+        if abs(g) > abs(o)
+        else "the odometry saw much more turning"
+    )
+    return (
+        f"{which} than the other ({said}; gyro/odometry {shown}, calibrated "
+        f"{expected[0]:.2f} to {expected[1]:.2f}): likely one encoder counting backwards "
+        "(--left-encoder-sign/--right-encoder-sign) or on the wrong channel, or counts per "
+        "revolution or track width in --params far from this robot's"
+    )
+
 
 _Z95 = 1.959963984540054
 
@@ -123,6 +189,14 @@ class DriftMonitor:
 
     def _gyro_at(self, t: float) -> float:
         return float(np.interp(t, self._gt, self._gcum))
+
+    def gyro_span(self) -> tuple[float, float] | None:
+        """The first and last gyro sample times (None before two samples)."""
+        return (self._gt[0], self._gt[-1]) if len(self._gt) >= 2 else None
+
+    def gyro_turn(self, t0: float, t1: float) -> float:
+        """The gyro's integral (rad) from ``t0`` to ``t1``, inside :meth:`gyro_span`."""
+        return self._gyro_at(t1) - self._gyro_at(t0)
 
     def _consume(self) -> list[DriftFlag]:
         out: list[DriftFlag] = []

@@ -22,6 +22,7 @@ path (:attr:`RobotRun.truth`, written as ``encoders_gt.csv`` beside ``encoders.c
 
 from __future__ import annotations
 
+import bisect
 import contextlib
 import json
 import math
@@ -331,6 +332,8 @@ class _DriftHook:
         self.loop: ControlLoop | None = None
         self.seen = 0
         self.events: list[tuple[float, str]] = []
+        self._odo_t: list[float] = []  # every cycle's odometry heading, for the sense check
+        self._odo_h: list[float] = []
 
     def wrap(self, on_cycle: Callable[[CycleInfo], None] | None) -> Callable[[CycleInfo], None]:
         def cycle(info: CycleInfo) -> None:
@@ -342,6 +345,8 @@ class _DriftHook:
 
     def cycle(self, info: CycleInfo) -> None:
         self.monitor.odometry(info.t, info.pose.heading)
+        self._odo_t.append(info.t)
+        self._odo_h.append(info.pose.heading)
         loop, headings = self.loop, self.link.headings
         if info.index % self.EVERY or loop is None or loop.started_at is None or headings is None:
             return
@@ -354,6 +359,38 @@ class _DriftHook:
             self.events.append((flag.t, message))
             if self.on_event is not None:
                 self.on_event(flag.t, message)
+        problem = self.sense()
+        if problem is not None:  # raised in the cycle: the loop stops the robot, keeps the run
+            from odolab.robot.drift import SenseCheckError
+
+            raise SenseCheckError(
+                f"sense check at t={info.t:.1f} s, the run was stopped: {problem}"
+            )
+
+    def sense(self) -> str | None:
+        """:func:`odolab.robot.drift.sense_check` on the turns so far (None: they agree)."""
+        from odolab.robot.drift import sense_check
+
+        span = self.monitor.gyro_span()
+        if span is None or not self._odo_t:
+            return None
+        t0, t1 = span[0], min(span[1], self._odo_t[-1])
+        if t1 <= t0:
+            return None
+        turn = self._odo_at(t1) - self._odo_at(t0)
+        return sense_check(turn, self.monitor.gyro_turn(t0, t1), t1 - t0, self.monitor.expected)
+
+    def _odo_at(self, t: float) -> float:
+        """The odometry's heading at ``t``, linear between cycles (a bisection: the check runs
+        in the cycle, and a long run at a high rate has many cycles)."""
+        ts, hs = self._odo_t, self._odo_h
+        i = bisect.bisect_left(ts, t)
+        if i <= 0:
+            return hs[0]
+        if i >= len(ts):
+            return hs[-1]
+        w = (t - ts[i - 1]) / (ts[i] - ts[i - 1]) if ts[i] > ts[i - 1] else 1.0
+        return hs[i - 1] + w * (hs[i] - hs[i - 1])
 
     def extra(self) -> dict[str, Any]:
         state = self.monitor.state
@@ -367,7 +404,9 @@ class _DriftHook:
                 "expected_ratio": list(self.monitor.expected),
                 "last_ratio": None if state is None else num(state.ratio),
                 "last_ratio_ci95": None if state is None else [num(v) for v in state.ci95],
-            }
+            },
+            # odometry against the gyro over the whole run (None: they agree, or too little turn)
+            "sense_check": self.sense(),
         }
 
 

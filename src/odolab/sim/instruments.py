@@ -99,6 +99,22 @@ class Compass:
         rotation = np.asarray(sign * (_TWO_PI * turns + frac), dtype=np.float64)
         return CompassReadings(b0, b1, turns, rotation, miss)
 
+    def read_turn(
+        self, heading_change: float, clockwise: bool, rng: np.random.Generator
+    ) -> tuple[float, float, int]:
+        """One run's readings as the operator takes them: (initial bearing, final bearing, whole
+        turns counted in the run's direction), for a true heading change (rad, ccw positive).
+        North lies where ``rng`` puts it; the turns are counted right (no miscount)."""
+        north = rng.uniform(0.0, _TWO_PI, 1)
+        b = self._bearing(np.array([0.0, float(heading_change)]), np.repeat(north, 2), rng)
+        b0, b1 = float(b[0]), float(b[1])
+        if clockwise:  # cw: rotation = -(turns * 2 pi + radians((final - initial) mod 360))
+            frac, total = math.radians((b1 - b0) % 360.0), -heading_change
+        else:  # ccw: rotation = turns * 2 pi + radians((initial - final) mod 360)
+            frac, total = math.radians((b0 - b1) % 360.0), heading_change
+        turns = max(0, round((total - frac) / _TWO_PI))
+        return b0, b1, turns
+
 
 @dataclass(frozen=True)
 class Meterstick:

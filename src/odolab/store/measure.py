@@ -7,12 +7,17 @@ call these functions, so a refusal reads the same everywhere:
 - :func:`check_reading_names`: a rotation takes compass readings and turns, a translation x and y;
 - :func:`measurement_for_trial`: the :class:`~odolab.trials.Measurement` from the readings (the
   checks of :mod:`odolab.measurement`: "typed in cm?", "about 9 turns would fit");
-- :func:`record_measurement`: all of the above, then :meth:`Notebook.set_measurement`.
+- :func:`record_measurement`: all of the above, then :meth:`Notebook.set_measurement`;
+- :func:`virtual_readings`: what the instruments would show after a run on a virtual board
+  (its true pose, through :mod:`odolab.robot.virtual_truth`), as a student reads them: compass
+  bearings and whole turns, or the meterstick's x and y; never for a real robot's run.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import zlib
 from typing import TYPE_CHECKING
 
 from odolab.errors import StoreError
@@ -31,10 +36,13 @@ __all__ = [
     "build_measurement",
     "check_reading_names",
     "describe_measurement",
+    "describe_readings",
     "is_rotation",
     "measurement_for_trial",
     "record_measurement",
     "refuse_if_measured",
+    "virtual_measurement",
+    "virtual_readings",
 ]
 
 
@@ -166,3 +174,64 @@ def record_measurement(
     m = measurement_for_trial(t, initial, final, turns, x, y, sigma)
     nb.set_measurement(trial_id, m, replace=replace)
     return nb.get_trial(trial_id)
+
+
+def virtual_readings(t: Trial) -> dict[str, float] | None:
+    """What the lab's instruments would show after ``t`` on a virtual board, with their noise:
+    ``compass_initial_deg``, ``compass_final_deg`` (degrees clockwise from north, read to the
+    compass's 0.05 rad and its 1 degree marks) and ``turns`` (whole turns counted in the run's
+    direction) for a rotation or a pivot; ``x_m``, ``y_m`` (meterstick, 3 mm, read to the mm) in
+    the start frame otherwise. The same trial always reads the same (the noise is drawn from its
+    id). None when ``t`` has no true pose (a real robot's run: its instruments are real).
+    """
+    import numpy as np
+
+    from odolab.sim.instruments import Instruments
+
+    true = t.true
+    if true is None:
+        return None
+    rng = np.random.default_rng(zlib.crc32(t.trial_id.encode("utf-8")))
+    tools = Instruments()
+    if is_rotation(t):
+        clockwise = t.command.direction == "cw" or (
+            t.command.angle is not None and t.command.angle < 0
+        )
+        b0, b1, turns = tools.compass.read_turn(true.heading, clockwise, rng)
+        return {"compass_initial_deg": b0, "compass_final_deg": b1, "turns": float(turns)}
+    xy = tools.meterstick.read(np.array([true.x, true.y]), rng)
+    return {"x_m": float(xy[0]), "y_m": float(xy[1])}
+
+
+def describe_readings(readings: dict[str, float]) -> str:
+    """``compass 12 -> 305 deg, 1 whole turn counted`` or ``meterstick x 1.003 m, y -0.012 m``."""
+    if "turns" in readings:
+        n = int(readings["turns"])
+        return (
+            f"compass {readings['compass_initial_deg']:g} -> {readings['compass_final_deg']:g} deg, "
+            f"{n} whole turn{'' if n == 1 else 's'} counted"
+        )
+    return f"meterstick x {readings['x_m']:.3f} m, y {readings['y_m']:.3f} m"
+
+
+def virtual_measurement(t: Trial, sigma: object = None) -> Measurement:
+    """The measurement of ``t`` from :func:`virtual_readings` (the same checks and arithmetic as
+    readings typed by hand); refused, in one sentence, for a run without a virtual board."""
+    readings = virtual_readings(t)
+    if readings is None:
+        raise StoreError(
+            f"trial {t.trial_id} was not driven on a virtual board (it has no true pose), so "
+            "there are no virtual instruments to read; measure it with the real ones "
+            "(--initial, --final and --turns, or --x and --y)"
+        )
+    if "turns" in readings:
+        m = measurement_for_trial(
+            t,
+            readings["compass_initial_deg"],
+            readings["compass_final_deg"],
+            int(readings["turns"]),
+            sigma=sigma,
+        )
+    else:
+        m = measurement_for_trial(t, x=readings["x_m"], y=readings["y_m"], sigma=sigma)
+    return dataclasses.replace(m, instrument=f"virtual {m.instrument}")

@@ -1,6 +1,6 @@
 """Track a robot's marker in a video of the floor: ground truth from a phone camera.
 
-Frames are searched for ArUco markers (sub-pixel corners): the whole frame every
+Frames are searched for ArUco markers (corners from lines fitted to the edges): the whole frame every
 ``full_every`` frames (30: once a second) and whenever the robot's marker was lost; in between
 only a window around where the robot's marker was in the previous frame (the camera stands
 still, so only the robot moves; this makes 720p tracking several times faster). Markers lying on the floor at
@@ -68,7 +68,7 @@ class TrackOptions:
     dictionary: str = "DICT_4X4_50"
     full_every: int = 30
     max_yaw_rate: float = math.pi  # rad/s: a gap the robot may turn half a turn in is a new segment
-    corners: str = "subpix"  #: corner refinement, one of :data:`CORNER_METHODS`
+    corners: str = "contour"  #: corner refinement, one of :data:`CORNER_METHODS`
 
     def __post_init__(self) -> None:
         if self.corners not in _REFINEMENT:
@@ -283,7 +283,7 @@ _REFINEMENT = {
 CORNER_METHODS = tuple(_REFINEMENT)
 
 
-def _detector(dictionary: str, corners: str = "subpix") -> Any:
+def _detector(dictionary: str, corners: str = "contour") -> Any:
     import cv2
 
     params = cv2.aruco.DetectorParameters()

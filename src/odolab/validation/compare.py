@@ -226,6 +226,14 @@ def validate(
             f"the IMU turned {imu_total:.2f} rad but the odometry {old_total:.2f} rad: opposite "
             "senses; is the phone face down (flip the IMU)?"
         )
+    else:  # the same rule as a robot's live sense check (odolab.robot.drift.sense_check)
+        from odolab.robot.drift import sense_check
+
+        problem = sense_check(float(old_total), float(imu_total), float(t[-1] - t[0]))
+        if problem is not None:
+            warnings.append(
+                f"sense check of the odometry (old parameters) against the IMU: {problem}"
+            )
     progress("done")
     return ValidationResult(
         t,

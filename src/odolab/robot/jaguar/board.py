@@ -21,6 +21,8 @@ Choices where JAGUAR_PROTOCOL.md leaves one (see docs/robot.md):
   ``command_timeout`` seconds. It also pings its peer every ``ping_interval`` seconds.
 - Command timeout (like real motor boards): when no valid motor command came from the peer for
   ``command_timeout`` seconds (0.5), the motors stop, at exactly that time in the board's clock.
+- Motor sensor packets carry the plant's true pose after their 33 documented bytes (a tagged
+  trailer only a virtual board sends: :mod:`odolab.robot.virtual_truth`).
 - Encoder velocity fields: |counter change| over the last report interval, in counts per second;
   direction bits: 1 when the counter went up (forward), 0 when it went down, unchanged when
   it did not move (1 at start).
@@ -62,6 +64,7 @@ from odolab.robot.jaguar.protocol import (
     encode_system,
 )
 from odolab.robot.plant import Plant
+from odolab.robot.virtual_truth import encode_trailer
 
 __all__ = [
     "BoardConfig",
@@ -356,12 +359,14 @@ class VirtualJaguar:
                     self._direction &= ~(1 << i)
         self._last_counts = counts
         self.stats.reports += 1
+        pose = self.plant.true_pose  # the side channel only a virtual board speaks
         return encode_motor_sensor(
             MotorSensorData(
                 encoder_position=counts,
                 encoder_velocity=(vel[0], vel[1]),
                 direction=self._direction,
                 pwm=tuple(self._pwm),
+                extra=encode_trailer(pose.x, pose.y, pose.heading),
             )
         )
 

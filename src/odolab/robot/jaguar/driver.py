@@ -45,6 +45,7 @@ from odolab.robot.jaguar.protocol import (
     encode_motor_command,
     encode_system,
 )
+from odolab.robot.virtual_truth import TruthTracker, decode_trailer
 
 __all__ = [
     "ChannelMap",
@@ -296,6 +297,9 @@ class JaguarDriver:
         self.last_command: tuple[float, float] = (0.0, 0.0)
         self._stop_packet = STOP_PWM if self.config.mode is CommandMode.PWM else STOP_VELOCITY
         self._closed = False
+        #: the true pose a virtual board sends (:mod:`odolab.robot.virtual_truth`); a real
+        #: board's run leaves it empty
+        self.virtual_truth = TruthTracker()
 
     @property
     def latest(self) -> EncoderReading | None:
@@ -341,6 +345,9 @@ class JaguarDriver:
                     except ProtocolError:
                         self.stats.bad_sensor_packets += 1
                         continue
+                    truth = decode_trailer(sensor.extra)
+                    if truth is not None:
+                        self.virtual_truth.heard(truth)
                     self._latest = self._reading(
                         arrived, sensor.encoder_position, sensor.encoder_velocity, sensor.direction
                     )

@@ -28,7 +28,8 @@ def open_udp(url: str, config: RunConfig, params: RobotParams, clock: Clock) -> 
     host, port = parse_robot_url(url)
     transport = UdpTransport(host, port, clock.now)
     driver = JaguarDriver(transport, clock, DriverConfig.from_run(config, params))
-    return RobotLink(driver, url, lambda: None, driver.close)
+    # a virtual board (odolab robot sim-server) says its true pose; a real board never does
+    return RobotLink(driver, url, driver.virtual_truth.relative, driver.close)
 
 
 def open_virtual(

@@ -15,7 +15,8 @@ Choices where the fact sheet leaves one (docs/robot.md):
 - Host silence: when nothing came from the host for ``silence_timeout`` s (0.5 by default; 0 =
   never, as the real board may behave: unknown) the motors stop, at exactly that time. A closed
   connection stops them at once.
-- Reports every 1/``report_rate`` s, in this order: ``MM0 C=``, ``MM1 C=`` (front and rear
+- Reports every 1/``report_rate`` s, in this order: the plant's true pose ``ODOLAB-TRUTH x y
+  heading`` (a line only a virtual board speaks: :mod:`odolab.robot.virtual_truth`), ``MM0 C=``, ``MM1 C=`` (front and rear
   count the same plant track: no per-wheel slip), ``MM0 CR=``, ``MM1 CR=``, ``MM0 S=``,
   ``MM1 S=``, ``MM0 FF=``, ``MM1 FF=`` and an IMU line ``#seq,YAW,<rad>,GYRO,x,y,z,ACC,...``
   (gyro z in the TRI unit's 14.375 LSB per deg/s, from the plant's heading change).
@@ -46,6 +47,7 @@ from odolab.robot.jaguar2014.protocol import (
     parse_host_line,
 )
 from odolab.robot.plant import Plant
+from odolab.robot.virtual_truth import encode_line
 
 __all__ = [
     "Board2014Config",
@@ -278,6 +280,8 @@ class VirtualJaguar2014:
         ticks_per_rev = 2 * math.pi * 0.0835 / self.config.metres_per_tick
         rpm = [round(v / period / ticks_per_rev * 60) for v in cr]
         ff = 16 if self.estop else 0
+        pose = self.plant.true_pose  # the side channel only a virtual board speaks
+        self._say(t, encode_line(pose.x, pose.y, pose.heading))
         for b in (0, 1):
             self._say(t, f"MM{b} C={c[0]}:{c[1]}")
         for b in (0, 1):

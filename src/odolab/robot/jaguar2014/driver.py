@@ -48,6 +48,7 @@ from odolab.robot.jaguar2014.protocol import (
     int32,
     parse_robot_line,
 )
+from odolab.robot.virtual_truth import LINE_PREFIX, TruthTracker, decode_line
 
 __all__ = [
     "VARIANTS",
@@ -291,6 +292,9 @@ class Jaguar2014Driver:
         self.imu: list[ImuSample] = []
         self.last_command: tuple[float, float] = (0.0, 0.0)
         self._closed = False
+        #: the true pose a virtual board sends (:mod:`odolab.robot.virtual_truth`); a real
+        #: board's run leaves it empty
+        self.virtual_truth = TruthTracker()
 
     @property
     def latest(self) -> EncoderReading | None:
@@ -346,6 +350,12 @@ class Jaguar2014Driver:
     def _line(self, text: str, t: float) -> int:
         line = parse_robot_line(text)
         link = self._link
+        if line is None and text.startswith(LINE_PREFIX):
+            truth = decode_line(text)
+            if truth is not None:  # a virtual board's true pose (odolab.robot.virtual_truth)
+                self.virtual_truth.heard(truth)
+                self.stats.other_packets += 1
+                return 0
         if line is None:
             link.lines.unknown += 1
             self.stats.other_packets += 1

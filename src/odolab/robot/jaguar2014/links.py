@@ -24,7 +24,9 @@ def open_tcp(url: str, config: RunConfig, params: RobotParams, clock: Clock) -> 
     host, port, variant = parse_tcp_url(url)
     transport = TcpTransport(host, port, clock.now, timeout=config.connect_timeout)
     driver = Jaguar2014Driver(transport, clock, Driver2014Config.from_run(config, params, variant))
-    return RobotLink(driver, url, lambda: None, driver.close, driver.headings)
+    # a virtual board (odolab robot sim-server --link jaguar2014) says its true pose; a real
+    # board never does
+    return RobotLink(driver, url, driver.virtual_truth.relative, driver.close, driver.headings)
 
 
 def open_in_process(

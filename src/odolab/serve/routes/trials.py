@@ -74,9 +74,13 @@ async def index(request: Request) -> Response:
 
 
 def trial_context(nb: Notebook, trial_id: str) -> dict[str, Any]:
+    from odolab.store.measure import describe_readings, virtual_readings
+
     t = nb.get_trial(trial_id)
     robot, version = nb.trial_params_version(trial_id)
+    readings = virtual_readings(t)  # a run on a virtual board: what its instruments show
     return {
+        "virtual": describe_readings(readings) if readings is not None else None,
         "t": t,
         "robot": robot,
         "version": version,
