@@ -3,8 +3,9 @@
 ``.parquet``/``.pq`` is Parquet, ``.arrow``/``.feather``/``.ipc`` is Arrow IPC (Feather v2),
 anything else is CSV. A CSV is read as blocks of lines that polars parses on every core;
 Parquet and IPC as pyarrow's record batches; whole files are copied block by block into arrays
-allocated once, so memory is what is kept plus a block (see docs/scale.md). polars writes CSV and
-whole Parquet and IPC tables; pyarrow's writers write Parquet and IPC in chunks.
+allocated once, so memory is what is kept plus a block (see docs/scale.md). polars writes CSV;
+pyarrow's writers write Parquet and IPC tables of numbers (whole or in chunks, on a writer
+thread: :class:`ChunkWriter`), polars other tables.
 
 CSV numbers are written as the shortest text that reads back to the same double (``0.05`` stays
 ``0.05``). The fast CSV reader names no line: when it refuses a block (an empty cell, a word, a
