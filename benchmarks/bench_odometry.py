@@ -6,6 +6,10 @@ Prints samples per second and two ratios (lower is better):
 - loop:  ``integrate`` time / a plain per-sample Python loop of the lab's pseudocode (Figs. 6-8),
   timed on a slice and scaled (a full 10-million-sample Python loop takes minutes).
 
+Then where ``integrate``'s time goes against the floor: each compiled pass timed alone on arrays
+already in memory (best of the repeats), and the first touch of the five fresh output arrays
+(page faults, which the floor pays too).
+
 Usage: python benchmarks/bench_odometry.py [--samples N] [--repeats R]
 """
 
@@ -19,6 +23,7 @@ import numpy as np
 from _timing import best  # benchmarks/_timing.py (run as python benchmarks/...)
 
 from odolab import PRESETS, integrate
+from odolab.params import RobotParams
 
 
 def lab_pseudocode_loop(t, left, right, params):  # type: ignore[no-untyped-def]
@@ -94,6 +99,52 @@ def main() -> None:
     print(
         f"python loop / floor: {t_loop / tf:.0f}x   integrate speed-up over the loop: {t_loop / ti:.0f}x"
     )
+    breakdown(t, left, right, params, args.repeats, ti, tf)
+
+
+def breakdown(t, left, right, params: RobotParams, repeats: int, total: float, floor: float):  # type: ignore[no-untyped-def]
+    """The passes of ``integrate`` one at a time (best of ``repeats``), as it calls them."""
+    import odolab._odometry_kernels as k
+    from odolab.odometry import _model_arrays
+
+    n = len(t)
+    coef, lat = _model_arrays(params, n)
+    tt, x, y, theta, heading = (np.ones(n) for _ in range(5))  # touched: no page faults
+    max_d = params.encoder_modulus // 4
+
+    def phase_a() -> None:
+        k._steps_from_ticks(t, left, right, params.encoder_modulus, max_d,
+                            params.left_metres_per_tick, params.right_metres_per_tick, coef,
+                            False, 0.0, tt, heading, x, lat, y)  # fmt: skip
+
+    def first_touch() -> None:
+        for a in (np.empty(n) for _ in range(5)):
+            a[::512] = 0.0  # one write a page
+
+    def copies() -> None:  # the floor's work without its page faults
+        np.copyto(tt, t)
+        np.copyto(x, left)
+        np.copyto(y, right)
+        np.copyto(theta, t)
+        np.copyto(heading, t)
+
+    parts = {
+        "A: time check, unwrap, model, heading (sequential)": best(phase_a, repeats),
+        "B: sin/cos of the mid heading, theta (parallel)": best(
+            lambda: k._rotate_steps_parallel(x, y, heading, theta), repeats
+        ),
+        "B on one thread": best(lambda: k._rotate_steps(x, y, heading, theta), repeats),
+        "C: running sums of the steps (sequential)": best(
+            lambda: k._accumulate(x, y, 0.0, 0.0), repeats
+        ),
+        "first touch of 5 fresh output arrays (page faults)": best(first_touch, repeats),
+        "the floor's copies into arrays already touched": best(copies, repeats),
+    }
+    print(
+        f"\nwhere the time goes (best of {repeats}; integrate {total:.3f} s, floor {floor:.3f} s)"
+    )
+    for name, sec in parts.items():
+        print(f"  {name:52s} {sec:.3f} s = {sec / floor:.2f} x the floor")
 
 
 if __name__ == "__main__":

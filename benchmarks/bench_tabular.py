@@ -27,11 +27,13 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -91,12 +93,18 @@ print(json.dumps({"s": time.perf_counter() - t0,
 )
 
 
-def run(script: str, *args: str) -> dict[str, float]:
-    """Run a Python snippet in a fresh process; wall time (s) from outside, its JSON line."""
+def run(script: str, *args: str, src: Path | None = None) -> dict[str, float]:
+    """Run a Python snippet in a fresh process; wall time (s) from outside, its JSON line.
+    ``src``: another odolab source tree first on the path (``--before``)."""
+    env = None
+    if src is not None:
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+            [str(src), *filter(None, [os.environ.get("PYTHONPATH")])])}  # fmt: skip
     t0 = time.perf_counter()
     proc = subprocess.run(
-        [sys.executable, "-c", script, *args], capture_output=True, text=True, check=False
-    )
+        [sys.executable, "-c", script, *args], capture_output=True, text=True, check=False,
+        env=env,
+    )  # fmt: skip
     wall = time.perf_counter() - t0
     last = proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else "{}"
     try:
@@ -219,6 +227,14 @@ def main() -> None:
     ap.add_argument("--skip-libraries", action="store_true")
     ap.add_argument("--skip-odometry", action="store_true")
     ap.add_argument("--skip-evaluate", action="store_true")
+    ap.add_argument(
+        "--skip-extras",
+        action="store_true",
+        help="section 2 without --covariance, and no section 3 (peak memory)",
+    )
+    ap.add_argument("--before", type=Path, default=None,
+                    help="another odolab source tree (its src/): its odometry runs in the same "
+                    "rounds, for a before/after")  # fmt: skip
     a = ap.parse_args()
     if a.dir is not None:
         a.dir.mkdir(parents=True, exist_ok=True)
@@ -229,7 +245,7 @@ def main() -> None:
         make_log(csv, n)
         make_log(parquet, n)
         make_log(tiny, 3)
-        prepare(d, tiny)
+        prepare(d, tiny, a.before)
         print(f"log: {n:,} rows, CSV {csv.stat().st_size / 1e6:.0f} MB, "
               f"Parquet {parquet.stat().st_size / 1e6:.0f} MB")  # fmt: skip
         if not a.skip_libraries:
@@ -240,7 +256,7 @@ def main() -> None:
             evaluation(d, a.eval_rows, a.chunk)
 
 
-def prepare(d: Path, tiny: Path) -> None:
+def prepare(d: Path, tiny: Path, before: Path | None = None) -> None:
     """What an installed odolab has before its first timed command: its modules compiled to
     bytecode (pip compiles them at install; an editable install under PYTHONDONTWRITEBYTECODE
     would compile them in every command, 0.07 s) and numba's cache of the kernels."""
@@ -249,8 +265,13 @@ def prepare(d: Path, tiny: Path) -> None:
     import odolab
 
     compileall.compile_dir(Path(odolab.__file__).parent, quiet=1)
-    for chunk in ("0", "1000"):  # the batch and the chunked kernels
-        run(RUN, "odometry", str(tiny), "-o", str(d / "warm.csv"), "--chunk-rows", chunk)
+    if before is not None:
+        compileall.compile_dir(before / "odolab", quiet=1)
+    warm = d / "warm.csv"
+    make_log(warm, 3000)  # long enough for the compiled kernels
+    for src in (None, before) if before is not None else (None,):
+        for chunk in ("0", "1000"):  # the batch and the chunked kernels
+            run(RUN, "odometry", str(warm), "-o", str(d / "w.csv"), "--chunk-rows", chunk, src=src)
 
 
 def odometry(d: Path, a: argparse.Namespace, csv: Path, parquet: Path, tiny: Path) -> None:
@@ -261,17 +282,27 @@ def odometry(d: Path, a: argparse.Namespace, csv: Path, parquet: Path, tiny: Pat
         f"\n2. odolab odometry, end to end (fresh processes; wall s; {a.repeat} rounds, each "
         "runs every command once; medians, ratios within a round)"
     )
-    jobs = {
+    jobs: dict[str, tuple[Any, ...]] = {
         "base_csv": (POLARS, str(csv), str(d / "polars.csv")),
         "whole_csv": (RUN, "odometry", str(csv), "-o", str(d / "o.csv"), "--chunk-rows", "0"),
         "chunk_csv": (RUN, "odometry", str(csv), "-o", str(d / "c.csv")),
         "base_pq": (PYARROW, str(parquet), str(d / "pyarrow.parquet")),
         "whole_pq": (RUN, "odometry", str(parquet), "-o", str(d / "o.parquet"),
                      "--chunk-rows", "0"),
-        "chunk_pq": (RUN, "odometry", str(parquet), "-o", str(d / "c.parquet"),
-                     "--chunk-rows", "1000000"),
+        "chunk_pq": (RUN, "odometry", str(parquet), "-o", str(d / "c.parquet")),
     }  # fmt: skip
-    rounds = [{name: run(*job) for name, job in jobs.items()} for _ in range(a.repeat)]
+    if a.before is not None:  # the same commands with the older tree
+        for name in ("whole_csv", "chunk_csv", "whole_pq", "chunk_pq"):
+            script, *args = jobs[name]
+            k = args.index("-o") + 1
+            out = Path(args[k])
+            args[k] = str(out.with_name(f"{out.stem}.before{out.suffix}"))
+            jobs[f"{name}_before"] = (script, *args, {"src": a.before})
+    rounds = []
+    for _ in range(a.repeat):
+        rounds.append({name: run(*(job[:-1] if isinstance(job[-1], dict) else job),
+                                 **(job[-1] if isinstance(job[-1], dict) else {}))
+                       for name, job in jobs.items()})  # fmt: skip
 
     def med(name: str, key: str = "wall") -> float:
         return float(np.median([r[name][key] for r in rounds]))
@@ -280,17 +311,28 @@ def odometry(d: Path, a: argparse.Namespace, csv: Path, parquet: Path, tiny: Pat
         each = [r[name]["wall"] / r[base]["wall"] for r in rounds]
         return f"{np.median(each):.2f} ({', '.join(f'{x:.2f}' for x in each)})"
 
-    print(
-        f"   CSV -> CSV      polars read+write {med('base_csv'):6.2f}   odolab whole "
-        f"{med('whole_csv'):6.2f} (ratio {ratio('whole_csv', 'base_csv')}, acceptance <= 1.5)"
-        f"   odolab default (chunks of 1 M) {med('chunk_csv'):6.2f} "
-        f"(ratio {ratio('chunk_csv', 'base_csv')})"
-    )
-    print(
-        f"   Parquet -> Parq pyarrow read+write {med('base_pq'):5.2f}   odolab whole "
-        f"{med('whole_pq'):6.2f} (ratio {ratio('whole_pq', 'base_pq')}, acceptance <= 1.2)"
-        f"   odolab chunks of 1 M {med('chunk_pq'):6.2f} (ratio {ratio('chunk_pq', 'base_pq')})"
-    )
+    def spread(name: str) -> str:
+        w = [r[name]["wall"] for r in rounds]
+        return f"best {min(w):5.2f} s ({min(w):.2f}-{max(w):.2f})"
+
+    def best_ratio(name: str, base: str) -> float:
+        return min(r[name]["wall"] for r in rounds) / min(r[base]["wall"] for r in rounds)
+
+    print("   best of the rounds (spread), ratio of the bests; then the median of the rounds'"
+          " ratios (each round's)")  # fmt: skip
+    for base, label in (("base_csv", "polars read+write CSV"),
+                        ("base_pq", "pyarrow read+write Parquet")):  # fmt: skip
+        print(f"   {label:34s} {spread(base)}")
+        kind = "csv" if base == "base_csv" else "pq"
+        for mode, what in (("chunk", "odolab default (chunks of 1 M)"),
+                           ("whole", "odolab whole (--chunk-rows 0)")):  # fmt: skip
+            for suffix in ("", "_before") if a.before is not None else ("",):
+                name = f"{mode}_{kind}{suffix}"
+                print(f"   {what + (' BEFORE' if suffix else ''):34s} {spread(name)}  "
+                      f"ratio {best_ratio(name, base):.2f} (goal <= 1.2); rounds "
+                      f"{ratio(name, base)}")  # fmt: skip
+    if a.skip_extras:
+        return
     whole_csv = {"wall": med("whole_csv"), "rss": med("whole_csv", "rss")}
     whole_pq = {"wall": med("whole_pq"), "rss": med("whole_pq", "rss")}
     from odolab.params import PRESETS, NoiseParams, save_params

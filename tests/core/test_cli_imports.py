@@ -101,3 +101,9 @@ def test_odometry_loads_only_its_libraries(imported: dict[str, set[str]], comman
     assert ("pyarrow" in imported[command]) == command.endswith("Parquet")
     # a 3-row log is integrated in numpy: numba (0.35 s to import, its kernels 0.5 s) not loaded
     assert _loaded(imported[command], ("numba", *KERNELS)) == []
+
+
+def test_evaluate_loads_no_numba(imported: dict[str, set[str]]) -> None:
+    """The pair choosers' kernels are loaded on first use (odolab.metrics._pairs_jit): the
+    default evaluation chooses its pairs in numpy, so numba (0.15-0.35 s) is not imported."""
+    assert _loaded(imported["evaluate TUM"], ("numba", "odolab._kinematics_jit")) == []

@@ -180,6 +180,38 @@ PRELOAD: dict[str, tuple[str, ...]] = {
 }
 
 
+_BINARY_TABLES = (".parquet", ".pq", ".arrow", ".feather", ".ipc")
+
+
+def preloaded(args: Sequence[str]) -> tuple[str, ...]:
+    """The modules of :data:`PRELOAD` that the command in ``args`` loads before it runs.
+
+    ``odometry`` between Parquet or Arrow IPC files (an input and ``-o``/``--output`` of those
+    formats, no CSV named, no ``--format`` or ``--to``) reads and writes with pyarrow alone:
+    polars (0.2-0.4 s to import) is not loaded for it. A guess from the words alone: a command
+    that needs a module not loaded here still imports it when it uses it."""
+    names = PRELOAD.get(args[0] if args else "", ())
+    if not args or args[0] != "odometry":
+        return names
+    words = list(args[1:])
+    out = None
+    for i, word in enumerate(words):
+        if word in ("-o", "--output") and i + 1 < len(words):
+            out = words[i + 1]
+        elif word.startswith("--output="):
+            out = word.partition("=")[2]
+    binary = [w for w in words if w.lower().endswith(_BINARY_TABLES)]
+    if (
+        out is not None
+        and out.lower().endswith(_BINARY_TABLES)
+        and len(binary) >= 2
+        and not any(w.lower().endswith(".csv") for w in words)
+        and not any(w.split("=")[0] in ("-f", "--format", "--to") for w in words)
+    ):
+        return tuple(n for n in names if n != "polars")
+    return names
+
+
 @contextmanager
 def _start_up(freeze: bool) -> Iterator[None]:
     """The garbage collector waits while a command's modules load.
@@ -239,7 +271,7 @@ def main(argv: list[str] | None = None) -> int:
         with _start_up(freeze=argv is None):
             app = load_commands(args)
             if "--help" not in args:
-                for name in PRELOAD.get(args[0] if args else "", ()):
+                for name in preloaded(args):
                     importlib.import_module(name)
         # (the program's own arguments as None: click expands wildcards itself on Windows)
         code = app(args=None if argv is None else args, prog_name="odolab", standalone_mode=False)

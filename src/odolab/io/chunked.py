@@ -398,9 +398,13 @@ def integrate_file(
             "writable folder"
         )
     total = row_count(src) or 0
-    from odolab.odometry import warm_up
+    from odolab.odometry import NUMPY_MAX_SAMPLES, warm_up
 
-    warm_up(params, method, covariance=covariance)  # the kernels load while the first chunk is read
+    # the kernels load while the first chunk is read, where a chunk (with the previous chunk's
+    # last sample) may be long enough for them: a shorter one is integrated in numpy
+    most = total if total else _csv_rows_at_most(src)
+    if covariance or min(chunk_rows + 1, most) >= NUMPY_MAX_SAMPLES:
+        warm_up(params, method, covariance=covariance)
     odo = ChunkedOdometry(
         params,
         method,
@@ -423,6 +427,14 @@ def integrate_file(
                 progress(odo.rows, total, src.name)
     assert odo.pose is not None  # iter_encoder_chunks raised on an empty log
     return OdometryFileResult(odo.rows, odo.pose, chunks, out)
+
+
+def _csv_rows_at_most(path: Path) -> int:
+    """The most rows a CSV file may hold (each takes 6 bytes or more: ``0,0,0`` and a line end)."""
+    try:
+        return path.stat().st_size // 6
+    except OSError:  # the reader reports it
+        return 1 << 62
 
 
 @dataclass(frozen=True)

@@ -3,8 +3,9 @@
 ``.parquet``/``.pq`` is Parquet, ``.arrow``/``.feather``/``.ipc`` is Arrow IPC (Feather v2),
 anything else is CSV. A CSV is read as blocks of lines that polars parses on every core;
 Parquet and IPC as pyarrow's record batches; whole files are copied block by block into arrays
-allocated once, so memory is what is kept plus a block (see docs/scale.md). polars writes CSV and
-whole Parquet and IPC tables; pyarrow's writers write Parquet and IPC in chunks.
+allocated once, so memory is what is kept plus a block (see docs/scale.md). polars writes CSV;
+pyarrow's writers write Parquet and IPC tables of numbers (whole or in chunks, on a writer
+thread: :class:`ChunkWriter`), polars other tables.
 
 CSV numbers are written as the shortest text that reads back to the same double (``0.05`` stays
 ``0.05``). The fast CSV reader names no line: when it refuses a block (an empty cell, a word, a
@@ -543,8 +544,25 @@ def write_columns(path: str | Path, columns: Mapping[str, NDArray[Any]], what: s
     """Write equal-length 1-D arrays as a table, in the format of the file's extension.
 
     Float columns stay float64 (CSV: shortest round-trip text), integer columns stay int64.
-    The arrays are handed to polars without a copy (numeric numpy arrays), then written at once.
+    CSV: the arrays are handed to polars without a copy, then written at once. Parquet and Arrow
+    IPC of float64 and int64 columns: pyarrow's writer over the arrays (no copy, no polars), with
+    the settings of :class:`ChunkWriter`; other columns go through polars.
     """
+    p = Path(path)
+    arrays = [np.asarray(v) for v in columns.values()]
+    if (
+        table_format(p) != "csv"
+        and arrays
+        and all(a.ndim == 1 and a.dtype in (np.float64, np.int64) for a in arrays)
+    ):
+        from odolab.writing import replacing_path
+
+        with (
+            replacing_path(p, what=what, error=LogFormatError) as tmp,
+            ChunkWriter(tmp, what, shown=p, background=False) as writer,
+        ):
+            writer.write(columns)
+        return p
     import polars as pl
 
     try:
@@ -578,20 +596,109 @@ def write_frame(path: str | Path, frame: Any, what: str) -> Path:
     return p
 
 
+#: Rows of a Parquet row group (or an Arrow IPC record batch) that :class:`ChunkWriter` writes:
+#: chunks are gathered until at least ``ROW_GROUP_MIN_ROWS`` rows (so that small chunks do not
+#: make a file of tiny row groups, which readers read slowly), and a bigger chunk is cut into
+#: groups of at most ``ROW_GROUP_MAX_ROWS`` (pyarrow's own largest row group). The default
+#: chunk of ``odolab odometry`` (1,000,000 rows) is one row group, written as it is.
+ROW_GROUP_MIN_ROWS = 1 << 16
+ROW_GROUP_MAX_ROWS = 1 << 20
+
+#: pyarrow's ParquetWriter settings for the numeric tables odolab writes (docs/scale.md measures
+#: them): no dictionary (every float of a trajectory is distinct, and pyarrow's default tries a
+#: dictionary for each column of each row group before giving up on it: half the writing time);
+#: min/max statistics of every column (what a reader filters row groups on; cheap); snappy.
+PARQUET_WRITER_OPTIONS: dict[str, Any] = {
+    "use_dictionary": False,
+    "write_statistics": True,
+    "compression": "snappy",
+}
+
+
+def _arrow_array(values: NDArray[Any]) -> Any:
+    """A pyarrow array over a numeric numpy array without a copy. (``pa.array`` of a numpy array
+    imports pandas to check for its types: 0.3-1 s of a command that writes Parquet.)"""
+    import pyarrow as pa
+
+    a = np.ascontiguousarray(values)
+    types = {"f8": pa.float64(), "i8": pa.int64(), "f4": pa.float32(), "i4": pa.int32()}
+    typ = types.get(f"{a.dtype.kind}{a.dtype.itemsize}") if a.dtype.isnative else None
+    if typ is None:  # pragma: no cover - odolab writes float64 and int64 columns
+        return pa.array(a)
+    return pa.Array.from_buffers(typ, len(a), [None, pa.py_buffer(a)])
+
+
+class _WriterThread:
+    """One background thread that runs write jobs in order, one at a time.
+
+    :meth:`submit` waits until the previous job is done (so one chunk is written while the
+    caller makes the next, and memory holds at most those two), and raises the error of an
+    earlier job there; after an error no further job runs. :meth:`finish` waits for the last
+    job and raises its error."""
+
+    def __init__(self, name: str) -> None:
+        self._jobs: queue.Queue[Callable[[], None] | None] = queue.Queue()
+        self._free = threading.Semaphore(1)
+        self.error: BaseException | None = None
+        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while (job := self._jobs.get()) is not None:
+            try:
+                if self.error is None:
+                    job()
+            except BaseException as err:  # kept, raised in the caller's thread
+                self.error = err
+            finally:
+                self._free.release()
+
+    def submit(self, job: Callable[[], None]) -> None:
+        self._free.acquire()  # the previous job is done
+        if self.error is not None:
+            self._free.release()
+            raise self.error
+        self._jobs.put(job)
+
+    def finish(self, *, raise_error: bool = True) -> None:
+        self._free.acquire()
+        self._jobs.put(None)
+        self._thread.join()
+        if raise_error and self.error is not None:
+            raise self.error
+
+
 class ChunkWriter:
     """Write a table chunk by chunk (same columns each time); one format per file extension.
 
-    Use as a context manager; the file is complete when it closes. Memory is one chunk.
+    Use as a context manager; the file is complete when it closes. Each chunk is written on a
+    background thread while the caller makes the next one (``background=False``: in the
+    caller's thread); an error of the writer is raised at the next :meth:`write` or at the
+    close, as one sentence naming the file. Memory: the chunk being written and the one being
+    made (Parquet and IPC: row groups of :data:`ROW_GROUP_MIN_ROWS` to
+    :data:`ROW_GROUP_MAX_ROWS` rows; smaller chunks are gathered until one is full).
     """
 
-    def __init__(self, path: str | Path, what: str = "table", *, shown: Path | None = None) -> None:
+    def __init__(
+        self,
+        path: str | Path,
+        what: str = "table",
+        *,
+        shown: Path | None = None,
+        background: bool = True,
+    ) -> None:
         self.path = Path(path)
         self.shown = shown or self.path  # the name in error messages
         self.what = what
         self.format = table_format(self.path)
         self.rows = 0
+        self.background = background
         self._sink: Any = None
         self._writer: Any = None
+        self._thread: _WriterThread | None = None
+        self._gathered: list[dict[str, NDArray[Any]]] = []  # Parquet, IPC: the next row group
+        self._gathered_rows = 0
+        self._header = True
 
     def __enter__(self) -> ChunkWriter:
         try:
@@ -600,32 +707,63 @@ class ChunkWriter:
                 self._sink = self.path.open("wb")
         except OSError as err:
             raise _cannot_write(self.shown, self.what, err) from err
+        if self.background:
+            self._thread = _WriterThread("odolab-write")
         return self
 
     def write(self, columns: Mapping[str, NDArray[Any]]) -> None:
-        """Append one chunk (a mapping of column name to 1-D array)."""
-        try:
-            if self.format == "csv":
-                _frame(columns).write_csv(self._sink, include_header=self.rows == 0)
-            else:
-                self._write_arrow(columns)
-        except OSError as err:
-            raise _cannot_write(self.shown, self.what, err) from err
-        self.rows += len(next(iter(columns.values())))
+        """Append one chunk (a mapping of column name to 1-D array; not changed afterwards)."""
+        cols = dict(columns)
+        rows = len(next(iter(cols.values())))
+        self.rows += rows
+        if self.format == "csv":
+            header, self._header = self._header, False
+            self._run(lambda: _frame(cols).write_csv(self._sink, include_header=header))
+            return
+        self._gathered.append(cols)
+        self._gathered_rows += rows
+        if self._gathered_rows >= ROW_GROUP_MIN_ROWS:
+            self._flush()
 
-    def _write_arrow(self, columns: Mapping[str, NDArray[Any]]) -> None:
+    def _flush(self) -> None:
+        """Hand the gathered chunks to the writer as row groups."""
+        parts, self._gathered, self._gathered_rows = self._gathered, [], 0
+        if parts:
+            self._run(lambda: self._write_arrow(parts))
+
+    def _run(self, job: Callable[[], None]) -> None:
+        def guarded() -> None:
+            try:
+                job()
+            except _write_errors() as err:
+                raise _cannot_write(self.shown, self.what, err) from err
+
+        if self._thread is None:
+            guarded()
+        else:
+            self._thread.submit(guarded)
+
+    def _write_arrow(self, parts: list[dict[str, NDArray[Any]]]) -> None:
         import pyarrow as pa
         import pyarrow.ipc as ipc
         import pyarrow.parquet as pq
 
-        table = pa.table({k: np.asarray(v) for k, v in columns.items()})
+        names = list(parts[0])
+        if len(parts) == 1:
+            arrays = [_arrow_array(parts[0][k]) for k in names]
+        else:  # small chunks gathered into one row group: one copy
+            arrays = [_arrow_array(np.concatenate([p[k] for p in parts])) for k in names]
+        table = pa.Table.from_arrays(arrays, names=names)
         if self._writer is None:
             if self.format == "parquet":
-                self._writer = pq.ParquetWriter(self.path, table.schema)
+                self._writer = pq.ParquetWriter(self.path, table.schema, **PARQUET_WRITER_OPTIONS)
             else:
                 self._sink = pa.OSFile(str(self.path), "wb")
                 self._writer = ipc.new_file(self._sink, table.schema)
-        self._writer.write_table(table)
+        if self.format == "parquet":
+            self._writer.write_table(table, row_group_size=ROW_GROUP_MAX_ROWS)
+        else:
+            self._writer.write_table(table, max_chunksize=ROW_GROUP_MAX_ROWS)
 
     def __exit__(
         self,
@@ -633,14 +771,37 @@ class ChunkWriter:
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> None:
+        error: BaseException | None = None
+        try:
+            if exc is None:
+                self._flush()
+            if self._thread is not None:
+                self._thread.finish(raise_error=exc is None)
+        except BaseException as err:  # raised once the files are closed
+            error = err
         try:
             if self._writer is not None:
                 self._writer.close()
             if self._sink is not None:
                 self._sink.close()
-        except OSError as err:
-            if exc is None:
-                raise _cannot_write(self.shown, self.what, err) from err
+        except _write_errors() as err:
+            if exc is None and error is None:
+                error = _cannot_write(self.shown, self.what, err)
+        if error is not None:
+            raise error
+
+
+def _write_errors() -> tuple[type[BaseException], ...]:
+    """What a writer raises for a file it cannot write (a full disk, a file grown past a
+    limit): Python's and pyarrow's OSError, and polars' own errors."""
+    import sys
+
+    errors: list[type[BaseException]] = [OSError]
+    if "polars" in sys.modules:
+        errors.append(sys.modules["polars"].exceptions.PolarsError)
+    if "pyarrow" in sys.modules:
+        errors.append(sys.modules["pyarrow"].ArrowException)
+    return tuple(errors)
 
 
 def progress_of(
