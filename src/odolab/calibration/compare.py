@@ -13,8 +13,10 @@ translation error ``e_t`` and heading error ``e_r`` combined as ``sqrt(e_t^2 + (
 all held-out runs are pooled; a model's score is the mean of its segment errors (the mean, not
 the RMS: on real logs a few segments with a ground-truth glitch would dominate an RMS).
 Models are compared in pairs on the *same* segments: the ratio of a model's mean to the best
-model's, with a 95 % CI from a paired bootstrap over segments (resampled within each run, so
-each run keeps its weight). With ``delta`` = 5 % (:data:`NOT_WORSE`), from the simplest model
+model's, with a 95 % CI from a paired bootstrap (with 10 held-out runs or more, the runs are
+resampled, each with all its segments: segments of one run share its ground truth's frame and
+its stretch of ground; with fewer, each run's segments are resampled within it, so each run
+keeps its weight). With ``delta`` = 5 % (:data:`NOT_WORSE`), from the simplest model
 (diff < extended < icr < slip) on:
 
 - CI of the ratio at most ``1 + delta``: the model is *not worse* than the best; it is chosen;
@@ -191,8 +193,9 @@ class ModelComparison:
             "criterion": (
                 f"mean over {self.segments} held-out segments (each {SEGMENT_M:g} m of path or "
                 f"{math.degrees(SEGMENT_RAD):g} deg of turn) of the segment's pose error "
-                f"sqrt(e_t^2 + ({SEGMENT_M:g} m e_r)^2); paired bootstrap 95 % CI (segments "
-                f"resampled within runs) of each model's ratio to the best; not worse: CI "
+                f"sqrt(e_t^2 + ({SEGMENT_M:g} m e_r)^2); paired bootstrap 95 % CI (runs "
+                f"resampled, or segments within runs under {CLUSTER_RUNS} runs) of each "
+                f"model's ratio to the best; not worse: CI "
                 f"within 1 + {NOT_WORSE:g}"
             ),
             "segments": self.segments,
@@ -218,34 +221,58 @@ def _t_interval(values: NDArray[np.float64]) -> Estimate:
     return Estimate(mean, max(mean - half, 0.0), mean + half)  # errors are >= 0
 
 
-def _stratified(sizes: Sequence[int], rng: np.random.Generator, n: int) -> NDArray[np.int64]:
-    """``n`` bootstrap resamples (rows) of the pooled segment indices, each run's segments
-    resampled within that run (so each run keeps its number of segments)."""
-    parts = []
-    start = 0
-    for size in sizes:
-        if size:
-            parts.append(start + rng.integers(0, size, size=(n, size)))
-        start += size
-    if not parts:
-        return np.zeros((n, 0), dtype=np.int64)
-    return np.concatenate(parts, axis=1)
+#: With at least this many held-out runs that have segments, the bootstrap resamples runs
+#: (each with all its segments); with fewer, the segments within each run.
+CLUSTER_RUNS = 10
+
+
+def _resample_weights(
+    sizes: Sequence[int], rng: np.random.Generator, n: int
+) -> NDArray[np.float64]:
+    """``n`` bootstrap resamples of the pooled segments as weights (rows: how many times each
+    segment is drawn). Segments of one run are not independent (one ground-truth frame, one
+    stretch of terrain), so with :data:`CLUSTER_RUNS` runs or more the *runs* are resampled,
+    each keeping all its segments: a table of short windows (one segment each) resampled within
+    its runs would have no spread at all. With fewer runs, each run's segments are resampled
+    within it (so each run keeps its number of segments)."""
+    total = int(sum(sizes))
+    used = [k for k, size in enumerate(sizes) if size]
+    w = np.zeros((n, total))
+    if not used:
+        return w
+    starts = np.concatenate(([0], np.cumsum(sizes)[:-1])).astype(np.int64)
+    if len(used) >= CLUSTER_RUNS:
+        counts = rng.multinomial(len(used), np.full(len(used), 1.0 / len(used)), size=n)
+        for c, k in enumerate(used):
+            w[:, starts[k] : starts[k] + sizes[k]] = counts[:, c : c + 1]
+        return w
+    for k in used:
+        size = sizes[k]
+        w[:, starts[k] : starts[k] + size] = rng.multinomial(
+            size, np.full(size, 1.0 / size), size=n
+        )
+    return w
 
 
 def _mean(e: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.asarray(np.mean(e, axis=-1), dtype=np.float64)
 
 
-def _segment_mean(errors: NDArray[np.float64], idx: NDArray[np.int64]) -> Estimate:
+def _weighted(e: NDArray[np.float64], w: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The mean of ``e`` under each row of weights ``w``."""
+    return np.asarray((w @ e) / w.sum(axis=1), dtype=np.float64)
+
+
+def _segment_mean(errors: NDArray[np.float64], w: NDArray[np.float64]) -> Estimate:
     value = float(_mean(errors))
     if errors.size < 2:
         return Estimate(value, math.nan, math.nan)
-    lo, hi = np.percentile(_mean(errors[idx]), [2.5, 97.5])
+    lo, hi = np.percentile(_weighted(errors, w), [2.5, 97.5])
     return Estimate(value, float(lo), float(hi))
 
 
 def _paired_ratio(
-    a: NDArray[np.float64], b: NDArray[np.float64], idx: NDArray[np.int64]
+    a: NDArray[np.float64], b: NDArray[np.float64], w: NDArray[np.float64]
 ) -> Estimate:
     """Mean of a / mean of b on the same segments; the same resamples for both."""
     rb = float(_mean(b))
@@ -253,7 +280,7 @@ def _paired_ratio(
     if a.size < 2:
         return Estimate(value, math.nan, math.nan)
     with np.errstate(divide="ignore", invalid="ignore"):
-        boot = _mean(a[idx]) / _mean(b[idx])
+        boot = _weighted(a, w) / _weighted(b, w)
     boot = np.where(np.isnan(boot), 1.0, boot)  # 0/0: both exact on that resample
     lo, hi = np.percentile(boot, [2.5, 97.5])
     return Estimate(value, float(lo), float(hi))
@@ -489,7 +516,7 @@ def _recommend(
         s.model: np.array([e for run in s.segment_errors for e in run], dtype=np.float64)
         for s in ok
     }
-    idx = _stratified(sizes, rng, n_boot)
+    idx = _resample_weights(sizes, rng, n_boot)
     best = min(ok, key=lambda s: float(_mean(errors[s.model])) if n_segments else math.inf)
     diff = next((s for s in ok if s.model == "diff"), None)
     train_idx = rng.integers(0, len(train), size=(n_boot, len(train)))

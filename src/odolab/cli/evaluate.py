@@ -26,6 +26,7 @@ class RunFormat(StrEnum):
     csv = "csv"
     optiodom = "optiodom"
     bag = "bag"
+    drive = "drive"
 
 
 RUN_FORMAT_HELP = (

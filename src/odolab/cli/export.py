@@ -26,6 +26,7 @@ class RunFormatChoice(StrEnum):
     csv = "csv"
     optiodom = "optiodom"
     bag = "bag"
+    drive = "drive"
 
 
 @export_app.command("ros2-controller")

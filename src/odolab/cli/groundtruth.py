@@ -36,6 +36,7 @@ class EncoderFormat(StrEnum):
     csv = "csv"
     optiodom = "optiodom"
     bag = "bag"
+    drive = "drive"
 
 
 class OptionError(OdolabError):

@@ -29,7 +29,7 @@ bring it back inside.)
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -55,8 +55,10 @@ __all__ = [
     "NeesSummary",
     "NoiseFit",
     "RunNees",
+    "ShorterThanPiece",
     "fit_noise",
     "fit_noise_scale",
+    "nees_of_runs",
     "nees_summary",
     "run_nees",
     "starts_in_odometry_frame",
@@ -64,6 +66,10 @@ __all__ = [
 
 #: Degrees of freedom of one NEES: x, y, heading.
 DOF = 3
+
+
+class ShorterThanPiece(InsufficientDataError):
+    """A run whose ground truth covers less time than one NEES piece."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -179,7 +185,7 @@ def _run_pieces(
     gt = interpolate_trajectory(gt_full, t)
     pieces = _pieces(t, segment_s)
     if not pieces:
-        raise InsufficientDataError(
+        raise ShorterThanPiece(
             f"{run.source}: {t[-1] - t[0]:.3g} s of ground truth is shorter than one piece of "
             f"{segment_s:g} s"
         )
@@ -313,6 +319,49 @@ def _fit_yaw_offset(
         if abs(step) < 1e-12:
             break
     return float(wrap_angle(np.array([phi]))[0]), (1.0 / math.sqrt(info) if info > 0 else math.inf)
+
+
+def nees_of_runs(
+    runs: Sequence[OdometryRun],
+    params_of: Callable[[OdometryRun], RobotParams],
+    method: Method | str = Method.MIDPOINT,
+    *,
+    segment_s: float = 10.0,
+    fit_gt_yaw_offset: bool | None = None,
+) -> tuple[list[RunNees], list[str], str | None]:
+    """:func:`run_nees` of every run with ``params_of(run)``, skipping the runs shorter than one
+    piece; returns the results, the skipped runs' names and the sentence that says so (None when
+    none was skipped). Every run too short is refused with one sentence."""
+    results: list[RunNees] = []
+    skipped: list[str] = []
+    longest = 0.0
+    for run in runs:
+        try:
+            results.append(
+                run_nees(
+                    run,
+                    params_of(run),
+                    method,
+                    segment_s=segment_s,
+                    fit_gt_yaw_offset=fit_gt_yaw_offset,
+                )
+            )
+        except ShorterThanPiece:
+            skipped.append(run.name)
+            if run.ground_truth is not None:
+                longest = max(longest, float(run.ground_truth.t[-1] - run.ground_truth.t[0]))
+    if not results:
+        raise InsufficientDataError(
+            f"all {len(skipped)} runs are shorter than one NEES piece of {segment_s:g} s (the "
+            f"longest ground truth covers {longest:.3g} s); expected a shorter --nees-segment"
+        )
+    note = None
+    if skipped:
+        note = (
+            f"{len(skipped)} of {len(runs)} runs skipped: shorter than one {segment_s:g} s "
+            f"piece (e.g. {skipped[0]})"
+        )
+    return results, skipped, note
 
 
 def nees_summary(runs: Sequence[RunNees]) -> NeesSummary:
