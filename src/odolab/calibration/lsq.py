@@ -627,14 +627,15 @@ def _calibrate_slip(
 ) -> LsqCalibration:
     """The slip model by Bayesian linear regression (closed form, no yaw offsets), its
     segment residuals as every other model's (so its BIC compares)."""
-    from odolab.calibration.slipfit import fit_slip_model
+    from odolab.calibration.slipfit import fit_slip_model, undetermined
 
-    model, cov, windows, centre = fit_slip_model(prepared, nominal)
+    model, cov, windows, centre, spread = fit_slip_model(prepared, nominal)
     base = nominal.with_(model=DIFF_DRIVE)
     params = nominal.with_(model=model, name=f"{nominal.name}-lsq")
     before = [_residuals(base, r, scale, o.method, 0.0) for r in prepared]
     after = [_residuals(params, r, scale, o.method, 0.0) for r in prepared]
     r0, r1 = np.concatenate(before), np.concatenate(after)
+    flag = undetermined(spread, windows, centre)
     return LsqCalibration(
         params=params,
         nominal=nominal,
@@ -648,6 +649,7 @@ def _calibrate_slip(
         model="slip",
         run_rss=[float(np.sum(r**2)) for r in after],
         run_sizes=[int(r.size) for r in after],
+        warnings=[flag] if flag else [],
         notes=[
             f"the slip coefficients' prior is centred on the {centre} model fitted to the same "
             "runs (what the runs do not determine stays with it)"
