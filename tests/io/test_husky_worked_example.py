@@ -56,6 +56,10 @@ def test_husky_even_steps_fitted_odd_steps_held_out() -> None:
     icr = ratios["icr"]
     assert icr is not None
     assert (round(icr.value, 3), round(icr.low, 3), round(icr.high, 3)) == (1.150, 1.090, 1.218)
+    # the risk per run, against the best kinematic model on the decision's segments (diff)
+    assert c.score("slip").runs_worse == (55, 153)
+    assert c.score("extended").runs_worse == (0, 153)  # the same model as diff here
+    assert "slip is worse than diff (the best kinematic model) on 55 of 153" in c.reason
     seg = c.score("slip").segment_error
     assert seg is not None and round(seg.value, 3) == 0.218
 

@@ -134,6 +134,10 @@ class ModelScore:
     segment_errors: list[list[float]] = field(default_factory=list)
     #: "best", "not worse", "worse" or "undecided": this model against the best
     verdict: str = ""
+    #: the risk per run: on how many held-out runs (with segments) this model's mean segment
+    #: error is above the best kinematic model's (by pooled mean), and of how many; None for
+    #: that model itself, or without a kinematic model
+    runs_worse: tuple[int, int] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -151,6 +155,9 @@ class ModelScore:
             "delta_bic": self.delta_bic.to_dict() if self.delta_bic else None,
             "ratio_to_best": self.ratio_to_best.to_dict() if self.ratio_to_best else None,
             "verdict": self.verdict,
+            "runs_worse_than_best_kinematic": (
+                {"runs": self.runs_worse[0], "of": self.runs_worse[1]} if self.runs_worse else None
+            ),
         }
 
 
@@ -493,6 +500,24 @@ def _check_curve(curve: Sequence[float], run: OdometryRun) -> None:
             )
 
 
+#: The kinematic models (the per-run risk of the others is counted against the best of them).
+KINEMATIC = ("diff", "extended", "icr")
+
+
+def _runs_worse(s: ModelScore, best_kin: ModelScore | None) -> tuple[int, int] | None:
+    """On how many held-out runs with segments ``s``'s mean segment error is above
+    ``best_kin``'s, and of how many (None for that model itself)."""
+    if best_kin is None or s.model == best_kin.model:
+        return None
+    pairs = [
+        (float(np.mean(a)), float(np.mean(b)))
+        for a, b in zip(s.segment_errors, best_kin.segment_errors, strict=True)
+        if len(a)
+    ]
+    # (above by more than a millionth: two fits of the same model to rounding tie)
+    return sum(a > b * (1.0 + 1e-6) for a, b in pairs), len(pairs)
+
+
 def _ratio_text(r: Estimate) -> str:
     return f"{r.value:.3f}, 95 % CI [{r.low:.3f}, {r.high:.3f}]"
 
@@ -518,6 +543,12 @@ def _recommend(
     }
     idx = _resample_weights(sizes, rng, n_boot)
     best = min(ok, key=lambda s: float(_mean(errors[s.model])) if n_segments else math.inf)
+    kinematic = [s for s in ok if s.model in KINEMATIC]
+    best_kin = (
+        min(kinematic, key=lambda s: float(_mean(errors[s.model])))
+        if kinematic and n_segments
+        else None
+    )
     diff = next((s for s in ok if s.model == "diff"), None)
     train_idx = rng.integers(0, len(train), size=(n_boot, len(train)))
     out: list[ModelScore] = []
@@ -545,8 +576,16 @@ def _recommend(
             )
             lo, hi = np.percentile(boot, [2.5, 97.5])
             dbic = Estimate(s.bic - diff.bic, float(lo), float(hi))
+        risk = _runs_worse(s, best_kin)
         out.append(
-            replace(s, delta_bic=dbic, ratio_to_best=ratio, segment_error=segment, verdict=verdict)
+            replace(
+                s,
+                delta_bic=dbic,
+                ratio_to_best=ratio,
+                segment_error=segment,
+                verdict=verdict,
+                runs_worse=risk,
+            )
         )
     fitted = [s for s in out if s.problem is None]
     what = f"{n_segments} held-out segments ({SEGMENT_M:g} m or {math.degrees(SEGMENT_RAD):g} deg)"
@@ -593,6 +632,13 @@ def _recommend(
                 f"{chosen.model} is not worse than {best.model} on {what} (error ratio "
                 f"{_ratio_text(r)}, within {NOT_WORSE:.0%}) and is simpler"
             )
+    rec = next((x for x in fitted if x.model == recommended), None)
+    if rec is not None and rec.model not in KINEMATIC and rec.runs_worse and best_kin:
+        k, n = rec.runs_worse
+        reason += (
+            f"; per run, {rec.model} is worse than {best_kin.model} (the best kinematic model) "
+            f"on {k} of {n} held-out runs"
+        )
     return ModelComparison(
         out,
         recommended,
