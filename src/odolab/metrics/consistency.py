@@ -56,6 +56,7 @@ __all__ = [
     "NoiseFit",
     "RunNees",
     "ShorterThanPiece",
+    "choose_nees_piece",
     "fit_noise",
     "fit_noise_scale",
     "nees_of_runs",
@@ -404,7 +405,55 @@ def first_order_note(runs: Sequence[RunNees]) -> tuple[int, str | None]:
     return beyond, (
         f"{beyond} of {n} pieces go past the first-order covariance's range (second-order index "
         f"> {SECOND_ORDER_LIMIT:g}, docs/ros2.md): there it understates the spread, and their "
-        "NEES runs high for that reason alone; shorter pieces (--nees-segment) stay inside it"
+        "NEES runs high for that reason alone; shorter pieces (--nees-segment) go past it less often"
+    )
+
+
+#: Piece lengths (s) :func:`choose_nees_piece` tries, the longest first.
+NEES_PIECES_S = (10.0, 5.0, 2.0, 1.0)
+#: The share of pieces that may go past the first-order range at the chosen length.
+PAST_FIRST_ORDER_SHARE = 0.1
+
+
+def choose_nees_piece(
+    runs: Sequence[OdometryRun],
+    params: RobotParams,
+    lengths: Sequence[float] = NEES_PIECES_S,
+) -> tuple[float, list[RunNees], str]:
+    """The NEES of ``runs`` on pieces of the longest of ``lengths`` at which the first-order
+    covariance holds (at most :data:`PAST_FIRST_ORDER_SHARE` of the pieces past its range,
+    :func:`first_order_note`): a verdict on longer pieces would judge the first-order
+    approximation, not the noise constants. Returns (the length, the results, the sentence that
+    says what was chosen and why, or plainly why none holds)."""
+    tried: list[str] = []
+    results: list[RunNees] = []
+    length = float(lengths[0])
+    for length in (float(v) for v in lengths):
+        results, _, _ = nees_of_runs(runs, lambda _r: params, segment_s=length)
+        beyond, _ = first_order_note(results)
+        n = sum(r.nees.size for r in results)
+        if beyond <= PAST_FIRST_ORDER_SHARE * n:
+            said = f" ({'; '.join(tried)})" if tried else ""
+            return (
+                length,
+                results,
+                (
+                    f"Pieces of {length:g} s: the longest of "
+                    f"{', '.join(f'{v:g}' for v in lengths)} s at which at most "
+                    f"{PAST_FIRST_ORDER_SHARE:.0%} of the pieces go past the first-order covariance's "
+                    f"range{said}"
+                ),
+            )
+        tried.append(f"at {length:g} s, {beyond} of {n} pieces went past it")
+    return (
+        length,
+        results,
+        (
+            f"Pieces of {length:g} s, the shortest tried, though the first-order covariance does not "
+            f"hold there either ({'; '.join(tried)}): the heading's spread after a piece's turning is "
+            "past first order's range, so this verdict judges the first-order approximation as much "
+            "as the noise constants"
+        ),
     )
 
 
