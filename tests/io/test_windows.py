@@ -17,7 +17,7 @@ from odolab.io import find_runs, read_run
 from odolab.io.registry import detect_format
 from odolab.io.run import ReadOptions
 from odolab.io.windows import read_window_run, truth_updates, wheel_angles
-from odolab.metrics.consistency import nees_of_runs
+from odolab.metrics.consistency import choose_nees_piece, nees_of_runs
 from odolab.params import NoiseParams, RobotParams, save_params
 
 HEADER = "window,calib_step,t,left_wheel_vel,right_wheel_vel,icp_x,icp_y,icp_yaw,imu_yaw\n"
@@ -183,3 +183,23 @@ def test_the_husky_table_reads_as_603_windows_with_only_real_truth_updates() -> 
     assert run.meta["truth_rows"] == 40 and run.meta["truth_updates"] == 19  # about 10 Hz
     steps = np.diff(np.c_[gt.x, gt.y, gt.heading], axis=0)
     assert np.all(np.any(steps != 0, axis=1))  # no held value left
+
+
+def test_nees_pieces_are_the_longest_where_the_first_order_covariance_holds(
+    tmp_path: Path,
+) -> None:
+    """Issue 38, item 12 (the rule the demo uses): 4 s windows, a small noise: 10 s pieces do
+    not exist, 5 s neither, 2 s hold."""
+    table = _write_table(tmp_path / "w.csv", [(0, 0, 81), (1, 1, 81)])
+    p = RobotParams(
+        left_wheel_radius=0.1,
+        right_wheel_radius=0.1,
+        track_width=0.5,
+        ticks_per_rev=100.0,
+        noise=NoiseParams(1e-5, 1e-5),
+    )
+    runs = [read_run(q, "drive", ReadOptions(params=p)) for q in find_runs([table], "drive")]
+    length, results, why = choose_nees_piece(runs, p)
+    assert length == 2.0 and len(results) == 2
+    assert why.startswith("Pieces of 2 s: the longest of 10, 5, 2, 1 s at which at most 10%")
+    assert "at 10 s, every run is shorter than a piece; at 5 s, every run is shorter" in why

@@ -429,7 +429,13 @@ def choose_nees_piece(
     results: list[RunNees] = []
     length = float(lengths[0])
     for length in (float(v) for v in lengths):
-        results, _, _ = nees_of_runs(runs, lambda _r: params, segment_s=length)
+        try:
+            results, _, _ = nees_of_runs(runs, lambda _r: params, segment_s=length)
+        except InsufficientDataError:
+            if length == float(lengths[-1]):
+                raise
+            tried.append(f"at {length:g} s, every run is shorter than a piece")
+            continue
         beyond, _ = first_order_note(results)
         n = sum(r.nees.size for r in results)
         if beyond <= PAST_FIRST_ORDER_SHARE * n:
