@@ -108,6 +108,9 @@ NOISE_FOLDS = 4
 #: median share 0.44 (all 24 above) after the documented 12 s exploration, 0.04 after 30 s,
 #: 0.02 after 60 s, 0.03 on the DRIVE Husky's 289 windows.
 UNDETERMINED_SPREAD = 0.1
+#: Degrees of freedom of the rows' Student-t noise in the regression (None: Gaussian); see
+#: docs/models.md for what each measured.
+ROBUST_NU: float | None = None
 
 
 @dataclass(frozen=True)
@@ -286,16 +289,19 @@ def _blr(
     c[0] = max(float(np.mean(r0**2)) / max(float(np.mean(scales[:, 0])), 1e-12), 1e-18)
     mu = m0.copy()
     sigma: FloatArray = np.diag(tau**2)
+    u = np.ones(y.size)  # Student-t weights of the rows (1: Gaussian)
     for _ in range(_EM_ITERATIONS):
         var = np.maximum(scales @ c, 1e-18 * max(float(np.mean(r0**2)), 1e-30))
-        w = 1.0 / var
+        w = u / var
         xtwx = (x * w[:, None]).T @ x
         sigma = np.asarray(np.linalg.inv(xtwx + prior), dtype=np.float64)
         mu = sigma @ ((x * w[:, None]).T @ y + prior @ m0)
         r = y - x @ mu
         expected = r**2 + np.einsum("ij,jk,ik->i", x, sigma, x)
+        if ROBUST_NU is not None:  # a row far off its variance weighs less (a scan-match glitch)
+            u = (ROBUST_NU + 1.0) / (ROBUST_NU + expected / var)
         # rows weighted by 1/var: each residual counts as one measurement of its variance
-        sol, _ = nnls(scales / var[:, None], expected / var)
+        sol, _ = nnls(scales / var[:, None], u * expected / var)
         # automatic relevance determination: each coefficient's prior variance is what the data
         # say of its distance from the prior mean (no more than the weak prior's), so what the
         # data do not support shrinks back to the prior mean
