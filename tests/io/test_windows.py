@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -96,9 +97,24 @@ def test_selectors_split_by_command_step_and_detection_names_the_format(tmp_path
         ),
         (HEADER + "0.5,0,0,1,1,0,0,0,0\n", "", "line 2, column 'window' is 0.5"),
         (
-            HEADER + "0,0,0,1,1,0,0,0,0\n0,0,0,1,1,0,0,0,0\n",
+            HEADER + "0,0,0,1,1,0,0,0,0\n0,0,0.05,1,1,0,0,0,0\n0,0,0.05,1,1,0,0,0,0\n",
             "#window-0",
-            "line 3, window 0: time 0 s does not advance",
+            "line 4, window 0: time 0.05 s does not advance",
+        ),
+        (
+            HEADER + "0,0,0,1,1,0,0,0,0\n0,0,0.05,1e308,1,0,0,0,0\n",
+            "#window-0",
+            "line 3, window 0: left_wheel_vel is 1e+308; expected at most 1000 rad/s either way",
+        ),
+        (
+            HEADER + "0,0,0,1,1,0,0,0,0\n0,0,0.05,1,1,0,1e308,0,0\n",
+            "#window-0",
+            "window 0: line 3, position y is 1e+308 m",
+        ),
+        (
+            HEADER + "0,0,1e308,1,1,0,0,0,0\n0,0,1e308,1,1,0,0,0,0\n",
+            "#window-0",
+            "window 0: time at line 2 is 1e+308 s",
         ),
         (
             HEADER + "0,0,0,1,1,0,0,0,0\n0,0,0.05,1,1,0,0,0,0\n",
@@ -118,7 +134,7 @@ def test_malformed_tables_are_refused_with_the_line(
 ) -> None:
     table = tmp_path / "bad.csv"
     table.write_text(body)
-    with pytest.raises(LogFormatError, match=expected) as err:
+    with pytest.raises(LogFormatError, match=re.escape(expected)) as err:
         for p in find_runs([f"{table}{selector}"], "drive"):
             read_run(p, "drive")
     assert str(table) in str(err.value)

@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 from odolab.errors import LogFormatError
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.text import quote_input
-from odolab.trajectory import Trajectory
+from odolab.trajectory import Trajectory, check_positions, check_times
 
 __all__ = [
     "WINDOW_COLUMNS",
@@ -61,6 +61,10 @@ _SELECTOR = re.compile(
     r"^(?:window-(?P<window>\d+)|(?P<parity>even|odd)|steps-(?P<a>\d+)-(?P<b>\d+))$"
 )
 _SELECTORS_TEXT = "#window-N, #even, #odd or #steps-A-B"
+#: Fastest a wheel may turn (rad/s): far past any robot's (the Husky's wheels reach about 10).
+MAX_WHEEL_RAD_S = 1000.0
+#: Largest heading a window's pose may have (rad): wrapped, or a few turns at most.
+MAX_YAW_RAD = 100.0
 
 
 def wheel_angles(t: NDArray[np.float64], speed: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -218,25 +222,31 @@ def read_window_run(path: str | Path, ticks_per_rev: float = 2.0 * math.pi) -> O
     if b - a < 2:
         raise LogFormatError(f"{where} has {b - a} row; expected at least two")
     t = c["t"]
+
+    def line_of(i: int) -> int:
+        return int(table.lines[a + i])
+
+    check_times(t, f"{table_path}: window {w}", line_of=line_of)
     dt = np.diff(t)
-    if not (np.isfinite(t).all() and (dt > 0).all()):
-        i = (
-            int(np.argmax(~(dt > 0))) + 1
-            if np.isfinite(t).all()
-            else int(np.argmax(~np.isfinite(t)))
-        )
+    if not (dt > 0).all():
+        i = int(np.argmax(~(dt > 0))) + 1
         raise LogFormatError(
-            f"{table_path}: line {table.lines[a + i]}, window {w}: time {t[i]:g} s does not "
+            f"{table_path}: line {line_of(i)}, window {w}: time {t[i]:g} s does not "
             "advance; expected increasing times within a window"
         )
-    for name in ("left_wheel_vel", "right_wheel_vel", "icp_x", "icp_y", "icp_yaw"):
+    check_positions(c["icp_x"], c["icp_y"], f"{table_path}: window {w}", line_of=line_of)
+    for name, limit, unit in (
+        ("left_wheel_vel", MAX_WHEEL_RAD_S, "rad/s"),
+        ("right_wheel_vel", MAX_WHEEL_RAD_S, "rad/s"),
+        ("icp_yaw", MAX_YAW_RAD, "rad"),
+    ):
         v = c[name]
-        bad = ~(np.abs(v) <= 1e6)
+        bad = ~(np.abs(v) <= limit)  # (NaN too)
         if bad.any():
             i = int(np.argmax(bad))
             raise LogFormatError(
-                f"{table_path}: line {table.lines[a + i]}, window {w}: {name} is {v[i]:g}; "
-                "expected a finite number"
+                f"{table_path}: line {line_of(i)}, window {w}: {name} is {v[i]:g}; expected "
+                f"at most {limit:g} {unit} either way"
             )
     per_rad = float(ticks_per_rev) / (2.0 * math.pi)
     left = per_rad * wheel_angles(t, c["left_wheel_vel"])
