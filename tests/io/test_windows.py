@@ -219,3 +219,13 @@ def test_nees_pieces_are_the_longest_where_the_first_order_covariance_holds(
     assert length == 2.0 and len(results) == 2
     assert why.startswith("Pieces of 2 s: the longest of 10, 5, 2, 1 s at which at most 10%")
     assert "at 10 s, every run is shorter than a piece; at 5 s, every run is shorter" in why
+
+
+def test_run_lists_name_a_tables_windows_in_ranges() -> None:
+    """calibrate lsq's fitted/held-out lines: every window named, in ranges, not a wall."""
+    from odolab.cli.evaluate import _run_list
+
+    paths = [Path(f"w.csv#window-{n}") for n in (0, 1, 2, 6, 8, 9)]
+    assert _run_list([*paths[:4], Path("b.csv"), *paths[4:]]) == (
+        "w.csv#window-0-2,6,8-9 (6 windows), b.csv"
+    )
