@@ -24,3 +24,4 @@ class LogFormat(StrEnum):
     CSV = "csv"
     OPTIODOM = "optiodom"
     BAG = "bag"
+    DRIVE = "drive"

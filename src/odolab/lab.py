@@ -91,8 +91,6 @@ STEPS = (
 MOCAP_RUNS = 6
 MOCAP_HELD_OUT = 2
 MOCAP_LEGS = 20
-#: NEES piece length (s)
-NEES_SEGMENT_S = 10.0
 
 
 def _noop(step: str, done: int, total: int) -> None:
@@ -583,7 +581,7 @@ def _models(cfg: LabConfig, new: RobotParams, folder: Path, progress: Progress) 
     (:func:`odolab.app.models.slip_comparison`, the rule ``calibrate compare`` shares)."""
     from odolab.app.models import CompareRequest, compare_runs, exploration_reason
     from odolab.errors import InsufficientDataError
-    from odolab.metrics.consistency import run_nees
+    from odolab.metrics.consistency import choose_nees_piece
     from odolab.report.models_section import ModelEvidence
 
     why_not = exploration_reason(cfg.true_params, cfg.truth)
@@ -607,16 +605,17 @@ def _models(cfg: LabConfig, new: RobotParams, folder: Path, progress: Progress) 
             "estimate the per-wheel noise)."
         )
     else:
+        chosen = ""
         try:
-            nees = [run_nees(r, new, segment_s=NEES_SEGMENT_S) for r in runs]
+            _, nees, chosen = choose_nees_piece(runs, new)
         except InsufficientDataError as err:
             missing.append(f"No NEES: {err}")
         n = new.noise
         about_nees = (
             f"The ratios-calibrated parameters with the [noise] the analysis measured (k_left "
             f"{numfmt.plain(n.k_left, 3)} m, k_right {numfmt.plain(n.k_right, 3)} m, k_scrub "
-            f"{numfmt.plain(n.k_scrub, 3)} rad), on pieces of {NEES_SEGMENT_S:g} s of all "
-            f"{MOCAP_RUNS} runs (none of them was used to measure the noise)."
+            f"{numfmt.plain(n.k_scrub, 3)} rad), on pieces of all {MOCAP_RUNS} runs (none of "
+            f"them was used to measure the noise).{f' {chosen}.' if chosen else ''}"
         )
     questions, about_questions = _open_questions(cfg)
     slip: dict[str, Any] | None = None

@@ -270,8 +270,14 @@ def test_demo_compares_the_models_and_checks_the_covariance(lab) -> None:  # typ
     noise = load_params(result.params_files["ratios"]).noise
     assert noise is not None and 0 < noise.k_left < 1e-3 and 0 < noise.k_right < 1e-3
     assert noise.k_scrub > 0
-    assert c["summary"]["mean_nees"] > c["summary"]["mean_bounds95"][1]
-    assert c["summary"]["verdict"].startswith("too small")
+    # issue 38, item 12: the verdict is on the longest pieces where the first-order covariance
+    # holds, or says plainly why none does. Measured: at 10 s all 21 pieces went past its range
+    # (mean NEES 166, "too small"); the lab's turn scrub (k_scrub 0.175 rad) takes the heading
+    # past first order within a second of turning, so 1 s pieces are used and the page says why
+    assert {r["segment_s"] for r in c["runs"]} == {1.0}
+    assert "the shortest tried, though the first-order covariance does not hold" in c["about"]
+    assert "at 10 s, 21 of 21 pieces went past it" in c["about"]
+    assert c["first_order_note"].endswith("go past it less often")
     page = result.report.read_text()
     assert 'id="kinematic-model"' in page and 'id="consistency"' in page
     assert result.evidence is not None and result.evidence.comparison is not None

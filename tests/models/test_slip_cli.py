@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import re
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -280,3 +281,26 @@ def test_a_nees_piece_shorter_than_a_cycle_is_refused(
     err = capsys.readouterr().err
     assert code == 1
     assert "piece length 1e-09 s is shorter than the log's sample spacing (0.05 s)" in err
+
+
+def test_a_slip_fit_its_exploration_cannot_determine_is_flagged_on_every_face(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 38, item 11: 12 s of exploration fit 24 coefficients; every face says so."""
+    run, params = _explore_and_fit(tmp_path, seed=0, seconds=12)
+    printed = capsys.readouterr().out
+    assert "warning: the slip model is not determined by these runs" in printed
+    provenance = tomllib.loads(params.read_text())["provenance"]
+    assert provenance["warnings"][0].startswith("the slip model is not determined")
+    out = tmp_path / "c.yaml"
+    assert main(["export", "ros2-controller", str(params), "--nominal", "jaguar-lite",
+                 "-o", str(out)]) == 0  # fmt: skip
+    assert f"warning: {params}: the slip model is not determined" in capsys.readouterr().out
+    # 30 s of the same exploration determine it (median share 0.04 measured): no warning
+    assert main(["sim", "explore", "-o", str(run), "--seconds", "30", "--seed", "0",
+                 "--name", "long"]) == 0  # fmt: skip
+    doc = tmp_path / "long.json"
+    assert main(["calibrate", "lsq", str(run / "long.csv"), "--format", "csv", "--params",
+                 "jaguar-lite", "--model", "slip", "--json", str(doc),
+                 "-o", str(tmp_path / "long.toml")]) == 0  # fmt: skip
+    assert json.loads(doc.read_text())["warnings"] == []

@@ -13,8 +13,10 @@ translation error ``e_t`` and heading error ``e_r`` combined as ``sqrt(e_t^2 + (
 all held-out runs are pooled; a model's score is the mean of its segment errors (the mean, not
 the RMS: on real logs a few segments with a ground-truth glitch would dominate an RMS).
 Models are compared in pairs on the *same* segments: the ratio of a model's mean to the best
-model's, with a 95 % CI from a paired bootstrap over segments (resampled within each run, so
-each run keeps its weight). With ``delta`` = 5 % (:data:`NOT_WORSE`), from the simplest model
+model's, with a 95 % CI from a paired bootstrap (with 10 held-out runs or more, the runs are
+resampled, each with all its segments: segments of one run share its ground truth's frame and
+its stretch of ground; with fewer, each run's segments are resampled within it, so each run
+keeps its weight). With ``delta`` = 5 % (:data:`NOT_WORSE`), from the simplest model
 (diff < extended < icr < slip) on:
 
 - CI of the ratio at most ``1 + delta``: the model is *not worse* than the best; it is chosen;
@@ -132,6 +134,10 @@ class ModelScore:
     segment_errors: list[list[float]] = field(default_factory=list)
     #: "best", "not worse", "worse" or "undecided": this model against the best
     verdict: str = ""
+    #: the risk per run: on how many held-out runs (with segments) this model's mean segment
+    #: error is above the best kinematic model's (by pooled mean), and of how many; None for
+    #: that model itself, or without a kinematic model
+    runs_worse: tuple[int, int] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -149,6 +155,9 @@ class ModelScore:
             "delta_bic": self.delta_bic.to_dict() if self.delta_bic else None,
             "ratio_to_best": self.ratio_to_best.to_dict() if self.ratio_to_best else None,
             "verdict": self.verdict,
+            "runs_worse_than_best_kinematic": (
+                {"runs": self.runs_worse[0], "of": self.runs_worse[1]} if self.runs_worse else None
+            ),
         }
 
 
@@ -191,8 +200,9 @@ class ModelComparison:
             "criterion": (
                 f"mean over {self.segments} held-out segments (each {SEGMENT_M:g} m of path or "
                 f"{math.degrees(SEGMENT_RAD):g} deg of turn) of the segment's pose error "
-                f"sqrt(e_t^2 + ({SEGMENT_M:g} m e_r)^2); paired bootstrap 95 % CI (segments "
-                f"resampled within runs) of each model's ratio to the best; not worse: CI "
+                f"sqrt(e_t^2 + ({SEGMENT_M:g} m e_r)^2); paired bootstrap 95 % CI (runs "
+                f"resampled, or segments within runs under {CLUSTER_RUNS} runs) of each "
+                f"model's ratio to the best; not worse: CI "
                 f"within 1 + {NOT_WORSE:g}"
             ),
             "segments": self.segments,
@@ -218,34 +228,58 @@ def _t_interval(values: NDArray[np.float64]) -> Estimate:
     return Estimate(mean, max(mean - half, 0.0), mean + half)  # errors are >= 0
 
 
-def _stratified(sizes: Sequence[int], rng: np.random.Generator, n: int) -> NDArray[np.int64]:
-    """``n`` bootstrap resamples (rows) of the pooled segment indices, each run's segments
-    resampled within that run (so each run keeps its number of segments)."""
-    parts = []
-    start = 0
-    for size in sizes:
-        if size:
-            parts.append(start + rng.integers(0, size, size=(n, size)))
-        start += size
-    if not parts:
-        return np.zeros((n, 0), dtype=np.int64)
-    return np.concatenate(parts, axis=1)
+#: With at least this many held-out runs that have segments, the bootstrap resamples runs
+#: (each with all its segments); with fewer, the segments within each run.
+CLUSTER_RUNS = 10
+
+
+def _resample_weights(
+    sizes: Sequence[int], rng: np.random.Generator, n: int
+) -> NDArray[np.float64]:
+    """``n`` bootstrap resamples of the pooled segments as weights (rows: how many times each
+    segment is drawn). Segments of one run are not independent (one ground-truth frame, one
+    stretch of terrain), so with :data:`CLUSTER_RUNS` runs or more the *runs* are resampled,
+    each keeping all its segments: a table of short windows (one segment each) resampled within
+    its runs would have no spread at all. With fewer runs, each run's segments are resampled
+    within it (so each run keeps its number of segments)."""
+    total = int(sum(sizes))
+    used = [k for k, size in enumerate(sizes) if size]
+    w = np.zeros((n, total))
+    if not used:
+        return w
+    starts = np.concatenate(([0], np.cumsum(sizes)[:-1])).astype(np.int64)
+    if len(used) >= CLUSTER_RUNS:
+        counts = rng.multinomial(len(used), np.full(len(used), 1.0 / len(used)), size=n)
+        for c, k in enumerate(used):
+            w[:, starts[k] : starts[k] + sizes[k]] = counts[:, c : c + 1]
+        return w
+    for k in used:
+        size = sizes[k]
+        w[:, starts[k] : starts[k] + size] = rng.multinomial(
+            size, np.full(size, 1.0 / size), size=n
+        )
+    return w
 
 
 def _mean(e: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.asarray(np.mean(e, axis=-1), dtype=np.float64)
 
 
-def _segment_mean(errors: NDArray[np.float64], idx: NDArray[np.int64]) -> Estimate:
+def _weighted(e: NDArray[np.float64], w: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The mean of ``e`` under each row of weights ``w``."""
+    return np.asarray((w @ e) / w.sum(axis=1), dtype=np.float64)
+
+
+def _segment_mean(errors: NDArray[np.float64], w: NDArray[np.float64]) -> Estimate:
     value = float(_mean(errors))
     if errors.size < 2:
         return Estimate(value, math.nan, math.nan)
-    lo, hi = np.percentile(_mean(errors[idx]), [2.5, 97.5])
+    lo, hi = np.percentile(_weighted(errors, w), [2.5, 97.5])
     return Estimate(value, float(lo), float(hi))
 
 
 def _paired_ratio(
-    a: NDArray[np.float64], b: NDArray[np.float64], idx: NDArray[np.int64]
+    a: NDArray[np.float64], b: NDArray[np.float64], w: NDArray[np.float64]
 ) -> Estimate:
     """Mean of a / mean of b on the same segments; the same resamples for both."""
     rb = float(_mean(b))
@@ -253,7 +287,7 @@ def _paired_ratio(
     if a.size < 2:
         return Estimate(value, math.nan, math.nan)
     with np.errstate(divide="ignore", invalid="ignore"):
-        boot = _mean(a[idx]) / _mean(b[idx])
+        boot = _weighted(a, w) / _weighted(b, w)
     boot = np.where(np.isnan(boot), 1.0, boot)  # 0/0: both exact on that resample
     lo, hi = np.percentile(boot, [2.5, 97.5])
     return Estimate(value, float(lo), float(hi))
@@ -466,6 +500,24 @@ def _check_curve(curve: Sequence[float], run: OdometryRun) -> None:
             )
 
 
+#: The kinematic models (the per-run risk of the others is counted against the best of them).
+KINEMATIC = ("diff", "extended", "icr")
+
+
+def _runs_worse(s: ModelScore, best_kin: ModelScore | None) -> tuple[int, int] | None:
+    """On how many held-out runs with segments ``s``'s mean segment error is above
+    ``best_kin``'s, and of how many (None for that model itself)."""
+    if best_kin is None or s.model == best_kin.model:
+        return None
+    pairs = [
+        (float(np.mean(a)), float(np.mean(b)))
+        for a, b in zip(s.segment_errors, best_kin.segment_errors, strict=True)
+        if len(a)
+    ]
+    # (above by more than a millionth: two fits of the same model to rounding tie)
+    return sum(a > b * (1.0 + 1e-6) for a, b in pairs), len(pairs)
+
+
 def _ratio_text(r: Estimate) -> str:
     return f"{r.value:.3f}, 95 % CI [{r.low:.3f}, {r.high:.3f}]"
 
@@ -489,8 +541,14 @@ def _recommend(
         s.model: np.array([e for run in s.segment_errors for e in run], dtype=np.float64)
         for s in ok
     }
-    idx = _stratified(sizes, rng, n_boot)
+    idx = _resample_weights(sizes, rng, n_boot)
     best = min(ok, key=lambda s: float(_mean(errors[s.model])) if n_segments else math.inf)
+    kinematic = [s for s in ok if s.model in KINEMATIC]
+    best_kin = (
+        min(kinematic, key=lambda s: float(_mean(errors[s.model])))
+        if kinematic and n_segments
+        else None
+    )
     diff = next((s for s in ok if s.model == "diff"), None)
     train_idx = rng.integers(0, len(train), size=(n_boot, len(train)))
     out: list[ModelScore] = []
@@ -518,8 +576,16 @@ def _recommend(
             )
             lo, hi = np.percentile(boot, [2.5, 97.5])
             dbic = Estimate(s.bic - diff.bic, float(lo), float(hi))
+        risk = _runs_worse(s, best_kin)
         out.append(
-            replace(s, delta_bic=dbic, ratio_to_best=ratio, segment_error=segment, verdict=verdict)
+            replace(
+                s,
+                delta_bic=dbic,
+                ratio_to_best=ratio,
+                segment_error=segment,
+                verdict=verdict,
+                runs_worse=risk,
+            )
         )
     fitted = [s for s in out if s.problem is None]
     what = f"{n_segments} held-out segments ({SEGMENT_M:g} m or {math.degrees(SEGMENT_RAD):g} deg)"
@@ -566,6 +632,13 @@ def _recommend(
                 f"{chosen.model} is not worse than {best.model} on {what} (error ratio "
                 f"{_ratio_text(r)}, within {NOT_WORSE:.0%}) and is simpler"
             )
+    rec = next((x for x in fitted if x.model == recommended), None)
+    if rec is not None and rec.model not in KINEMATIC and rec.runs_worse and best_kin:
+        k, n = rec.runs_worse
+        reason += (
+            f"; per run, {rec.model} is worse than {best_kin.model} (the best kinematic model) "
+            f"on {k} of {n} held-out runs"
+        )
     return ModelComparison(
         out,
         recommended,

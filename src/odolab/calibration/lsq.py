@@ -223,6 +223,9 @@ class PreparedRun:
     gt_heading: FloatArray
     starts: NDArray[np.int64]
     ends: NDArray[np.int64]
+    #: runs with one ``frame`` share one ground-truth yaw offset (the windows of one table were
+    #: measured by one mounted sensor); "" means the run's own
+    frame: str = ""
 
 
 def prepare_run(run: OdometryRun, segment_s: float = 2.0) -> PreparedRun:
@@ -257,7 +260,16 @@ def prepare_run(run: OdometryRun, segment_s: float = 2.0) -> PreparedRun:
     if edges.size < 2:
         raise InsufficientDataError(f"{run.source}: too short for one {segment_s:g} s segment")
     return PreparedRun(
-        run.name, t, dl, dr, g.x, g.y, g.heading, edges[:-1].copy(), edges[1:].copy()
+        run.name,
+        t,
+        dl,
+        dr,
+        g.x,
+        g.y,
+        g.heading,
+        edges[:-1].copy(),
+        edges[1:].copy(),
+        frame=str(run.meta.get("truth_frame", "")),
     )
 
 
@@ -458,23 +470,29 @@ def calibrate_lsq(
         return _calibrate_slip(prepared, nominal, o, scale)
     x0 = spec.start(nominal)
     lo, hi = spec.bounds(x0, nominal)
-    n_off = len(prepared) if o.fit_gt_yaw_offset else 0
+    # one offset a run, or a frame's runs share one (PreparedRun.frame); a frame's runs are
+    # integrated as one (their residuals are the same, each segment in its own start frame)
+    units, unit_runs = _units(prepared)
+    n_off = len(units) if o.fit_gt_yaw_offset else 0
     x_scale = np.concatenate((spec.scales(x0, nominal), np.full(n_off, 0.01)))
     x0 = np.concatenate((x0, np.zeros(n_off)))
     lower = np.concatenate((lo, np.full(n_off, -0.5)))
     upper = np.concatenate((hi, np.full(n_off, 0.5)))
 
-    def per_run(theta: FloatArray) -> list[FloatArray]:
+    def per_unit(theta: FloatArray) -> list[FloatArray]:
         p = spec.params(nominal, theta[:k_model])  # built once for every run
         return [
-            _residuals(p, r, scale, o.method, theta[k_model + k] if n_off else 0.0)
-            for k, r in enumerate(prepared)
+            _residuals(p, u, scale, o.method, theta[k_model + k] if n_off else 0.0)
+            for k, u in enumerate(units)
         ]
 
-    def fun(theta: FloatArray) -> FloatArray:
-        return np.concatenate(per_run(theta))
+    def per_run(theta: FloatArray) -> list[FloatArray]:
+        return _split_units(per_unit(theta), unit_runs)
 
-    parts0 = per_run(x0)
+    def fun(theta: FloatArray) -> FloatArray:
+        return np.concatenate(per_unit(theta))
+
+    parts0 = per_unit(x0)
     r0 = np.concatenate(parts0)
     m = r0.size
     if m <= x0.size:
@@ -493,20 +511,20 @@ def calibrate_lsq(
                 return fun(t)
 
             cols.append(_difference(moved, theta[k], steps[k], lower[k], upper[k]))
-        # run k's ground-truth yaw offset moves only run k's residuals: its column is zero
-        # elsewhere (exactly, as the full difference gave), so only that run is integrated
+        # a ground-truth yaw offset moves only its unit's residuals: its column is zero
+        # elsewhere (exactly, as the full difference gave), so only that unit is integrated
         p = spec.params(nominal, theta[:k_model])
-        for k, run in enumerate(prepared[:n_off]):
+        off_cols = [np.zeros(m) for _ in range(n_off)]
+        for k, unit in enumerate(units[:n_off]):
             i = k_model + k
 
-            def rotated(v: float, run: PreparedRun = run) -> FloatArray:
-                return _residuals(p, run, scale, o.method, v)
+            def rotated(v: float, unit: PreparedRun = unit) -> FloatArray:
+                return _residuals(p, unit, scale, o.method, v)
 
-            col = np.zeros(m)
-            col[edges[k] : edges[k + 1]] = _difference(
+            off_cols[k][edges[k] : edges[k + 1]] = _difference(
                 rotated, theta[i], steps[i], lower[i], upper[i]
             )
-            cols.append(col)
+        cols.extend(off_cols)
         return np.column_stack(cols)
 
     sol = least_squares(fun, x0, jac=jac, x_scale=x_scale, loss=o.loss, bounds=(lower, upper))
@@ -542,19 +560,82 @@ def calibrate_lsq(
     )
 
 
+def _units(
+    prepared: list[PreparedRun],
+) -> tuple[list[PreparedRun], list[list[tuple[int, int]]]]:
+    """The runs as the fit integrates them: a run alone, or the runs of one
+    :attr:`PreparedRun.frame` joined end to end (each run's first increment is zero, so every
+    segment's motion in its own start frame is the same as in its run alone; one integration
+    instead of hundreds for a table of short windows). Also each unit's runs as (index,
+    number of segments)."""
+    groups: dict[str, list[int]] = {}
+    for k, r in enumerate(prepared):
+        groups.setdefault(r.frame or f"\0run {k}", []).append(k)
+    units: list[PreparedRun] = []
+    for members in groups.values():
+        rs = [prepared[k] for k in members]
+        if len(rs) == 1:
+            units.append(rs[0])
+            continue
+        ts, starts, ends = [], [], []
+        shift, offset = 0.0, 0
+        for r in rs:
+            ts.append(r.t - r.t[0] + shift)
+            shift = float(ts[-1][-1]) + 1.0  # (a gap: the joined times keep increasing)
+            starts.append(r.starts + offset)
+            ends.append(r.ends + offset)
+            offset += r.t.size
+        dl = [r.dticks_left.copy() for r in rs]
+        dr = [r.dticks_right.copy() for r in rs]
+        for a, b in zip(dl, dr, strict=True):
+            a[0] = b[0] = 0.0
+        units.append(
+            PreparedRun(
+                rs[0].name,
+                np.concatenate(ts),
+                np.concatenate(dl),
+                np.concatenate(dr),
+                np.concatenate([r.gt_x for r in rs]),
+                np.concatenate([r.gt_y for r in rs]),
+                np.concatenate([r.gt_heading for r in rs]),
+                np.concatenate(starts),
+                np.concatenate(ends),
+                frame=rs[0].frame,
+            )
+        )
+    sizes = [[(k, int(prepared[k].starts.size)) for k in members] for members in groups.values()]
+    return units, sizes
+
+
+def _split_units(
+    parts: list[FloatArray], unit_runs: list[list[tuple[int, int]]]
+) -> list[FloatArray]:
+    """Residuals of each unit back to each run, in the runs' order (a unit's residuals are
+    its segments' x, then y, then heading components, as a run's)."""
+    out: dict[int, FloatArray] = {}
+    for part, members in zip(parts, unit_runs, strict=True):
+        xyh = part.reshape(3, -1)
+        at = 0
+        for k, size in members:
+            out[k] = xyh[:, at : at + size].reshape(-1)
+            at += size
+    return [out[k] for k in range(len(out))]
+
+
 def _calibrate_slip(
     prepared: list[PreparedRun], nominal: RobotParams, o: LsqOptions, scale: float
 ) -> LsqCalibration:
     """The slip model by Bayesian linear regression (closed form, no yaw offsets), its
     segment residuals as every other model's (so its BIC compares)."""
-    from odolab.calibration.slipfit import fit_slip_model
+    from odolab.calibration.slipfit import fit_slip_model, undetermined
 
-    model, cov, windows, centre = fit_slip_model(prepared, nominal)
+    model, cov, windows, centre, spread = fit_slip_model(prepared, nominal)
     base = nominal.with_(model=DIFF_DRIVE)
     params = nominal.with_(model=model, name=f"{nominal.name}-lsq")
     before = [_residuals(base, r, scale, o.method, 0.0) for r in prepared]
     after = [_residuals(params, r, scale, o.method, 0.0) for r in prepared]
     r0, r1 = np.concatenate(before), np.concatenate(after)
+    flag = undetermined(spread, windows, centre)
     return LsqCalibration(
         params=params,
         nominal=nominal,
@@ -568,6 +649,7 @@ def _calibrate_slip(
         model="slip",
         run_rss=[float(np.sum(r**2)) for r in after],
         run_sizes=[int(r.size) for r in after],
+        warnings=[flag] if flag else [],
         notes=[
             f"the slip coefficients' prior is centred on the {centre} model fitted to the same "
             "runs (what the runs do not determine stays with it)"

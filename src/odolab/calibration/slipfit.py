@@ -65,6 +65,7 @@ from odolab.slip_uncertainty import (
 )
 
 __all__ = [
+    "UNDETERMINED_SPREAD",
     "WINDOW_S",
     "SlipDesign",
     "endpoint_error",
@@ -75,6 +76,7 @@ __all__ = [
     "nees_pieces",
     "propagate_covariance",
     "slip_design",
+    "undetermined",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -99,6 +101,16 @@ NOISE_PIECE_S: tuple[float, ...] = (1.0, 3.0)
 NOISE_PIECES_MAX = 400
 #: Parts a run is cut into to fit the noise terms on data the coefficients were not fitted on.
 NOISE_FOLDS = 4
+#: A slip coefficient is *not determined* by the runs when its standard error moves the body
+#: by more than this share of the runs' typical speed (forward and lateral terms) or turn
+#: rate (yaw terms): its posterior standard deviation over the weak prior's ``tau``, which is
+#: a coefficient as large as the typical speed (module doc). Measured (issue 38, item 11):
+#: median share 0.44 (all 24 above) after the documented 12 s exploration, 0.04 after 30 s,
+#: 0.02 after 60 s, 0.03 on the DRIVE Husky's 289 windows.
+UNDETERMINED_SPREAD = 0.1
+#: Degrees of freedom of the rows' Student-t noise in the regression (None: Gaussian); see
+#: docs/models.md for what each measured.
+ROBUST_NU: float | None = None
 
 
 @dataclass(frozen=True)
@@ -277,16 +289,19 @@ def _blr(
     c[0] = max(float(np.mean(r0**2)) / max(float(np.mean(scales[:, 0])), 1e-12), 1e-18)
     mu = m0.copy()
     sigma: FloatArray = np.diag(tau**2)
+    u = np.ones(y.size)  # Student-t weights of the rows (1: Gaussian)
     for _ in range(_EM_ITERATIONS):
         var = np.maximum(scales @ c, 1e-18 * max(float(np.mean(r0**2)), 1e-30))
-        w = 1.0 / var
+        w = u / var
         xtwx = (x * w[:, None]).T @ x
         sigma = np.asarray(np.linalg.inv(xtwx + prior), dtype=np.float64)
         mu = sigma @ ((x * w[:, None]).T @ y + prior @ m0)
         r = y - x @ mu
         expected = r**2 + np.einsum("ij,jk,ik->i", x, sigma, x)
+        if ROBUST_NU is not None:  # a row far off its variance weighs less (a scan-match glitch)
+            u = (ROBUST_NU + 1.0) / (ROBUST_NU + expected / var)
         # rows weighted by 1/var: each residual counts as one measurement of its variance
-        sol, _ = nnls(scales / var[:, None], expected / var)
+        sol, _ = nnls(scales / var[:, None], u * expected / var)
         # automatic relevance determination: each coefficient's prior variance is what the data
         # say of its distance from the prior mean (no more than the weak prior's), so what the
         # data do not support shrinks back to the prior mean
@@ -362,11 +377,12 @@ def _fit_mean(
     window_s: float,
     prior_scale: float,
     base: FloatArray | None = None,
-) -> tuple[SlipModel, FloatArray, int]:
+) -> tuple[SlipModel, FloatArray, int, FloatArray]:
     """The coefficients and their posterior by Bayesian linear regression with automatic
     relevance determination about the prior mean ``base`` (0 unless given), and the windows'
     noise by expectation-maximisation (see the module): (model, 24 x 24 posterior covariance,
-    number of windows)."""
+    number of windows, each coefficient's posterior standard deviation over its weak prior's
+    (1: the runs told nothing of it))."""
     try:
         d: SlipDesign | None = slip_design(runs, nominal, window_s, steady=True)
     except InsufficientDataError:  # no window in steady state at all
@@ -409,7 +425,9 @@ def _fit_mean(
         k_yaw=float(c_yaw[1]),
         posterior=tuple(cov.ravel().tolist()),
     )
-    return model, cov, int(d.y_yaw.size)
+    tau = np.concatenate((tau_v, tau_v, tau_w))
+    spread = np.sqrt(np.maximum(np.diag(cov), 0.0)) / tau
+    return model, cov, int(d.y_yaw.size), spread
 
 
 def _blocks(run: object, count: int) -> list[object]:
@@ -445,10 +463,11 @@ def fit_slip_model(
     folds: int = NOISE_FOLDS,
     piece_s: Sequence[float] = NOISE_PIECE_S,
     base: bool = True,
-) -> tuple[SlipModel, FloatArray, int, str]:
+) -> tuple[SlipModel, FloatArray, int, str, FloatArray]:
     """The slip model of prepared runs: (model with its posterior, 24 x 24 posterior
     covariance in :attr:`SlipModel.COEF_KEYS` order, number of windows, the kinematic model
-    its prior is centred on).
+    its prior is centred on, each coefficient's posterior standard deviation over its weak
+    prior's: :func:`undetermined`).
 
     The coefficients come from all the runs, their prior centred on the kinematic model fitted
     to the same runs (:func:`kinematic_base`; with ``base`` False, on the nominal differential
@@ -463,13 +482,13 @@ def fit_slip_model(
     mean, kind = kinematic_base(runs, nominal) if base else (np.zeros(3 * len(FEATURES)), "none")
     parts = [_blocks(r, folds) for r in runs] if folds > 1 else []
     cross = bool(parts) and all(len(p) == folds for p in parts)
-    model, cov, windows = _fit_mean(runs, nominal, window_s, prior_scale, mean)
+    model, cov, windows, spread = _fit_mean(runs, nominal, window_s, prior_scale, mean)
     pieces: list[_Pieces] = []
     if cross:
         for f in range(folds):
             train = [p[i] for p in parts for i in range(folds) if i != f]
             try:
-                m, _, _ = _fit_mean(train, nominal, window_s, prior_scale, mean)
+                m, _, _, _ = _fit_mean(train, nominal, window_s, prior_scale, mean)
             except InsufficientDataError:
                 pieces = []
                 break
@@ -483,7 +502,26 @@ def fit_slip_model(
     theta = fit_noise(groups, terms_of(model))
     terms: dict[str, float] = {k: float(v) for k, v in zip(TERMS, theta, strict=True)}
     model = replace(model, **terms)  # type: ignore[arg-type]
-    return model, cov, windows, kind
+    return model, cov, windows, kind, spread
+
+
+def undetermined(spread: FloatArray, windows: int, centre: str) -> str | None:
+    """The sentence every face says of a slip fit its runs cannot determine (None when they
+    can): the median coefficient's standard error is beyond :data:`UNDETERMINED_SPREAD` of the
+    typical speed or turn rate (``spread``: :func:`fit_slip_model`'s fifth value)."""
+    share = float(np.median(spread))
+    if share <= UNDETERMINED_SPREAD:
+        return None
+    beyond = int(np.sum(spread > UNDETERMINED_SPREAD))
+    keeps = f"the {centre} model's" if centre != "none" else "the nominal differential drive's"
+    return (
+        f"the slip model is not determined by these runs: {beyond} of its {spread.size} "
+        f"coefficients have standard errors that move the robot by more than "
+        f"{UNDETERMINED_SPREAD:.0%} of its typical speed or turn rate (median "
+        f"{share:.0%}; {windows} windows of {WINDOW_S:g} s); what they cannot tell stays with "
+        f"{keeps} values, and its predictions are not to be trusted; expected a longer "
+        "exploration (docs/models.md)"
+    )
 
 
 @dataclass(frozen=True, eq=False)

@@ -44,14 +44,15 @@ def print_nees(
 
     from odolab.cli._output import markup_text
     from odolab.errors import ParamsError
-    from odolab.metrics.consistency import first_order_note, nees_summary, run_nees
+    from odolab.metrics.consistency import first_order_note, nees_of_runs, nees_summary
     from odolab.models import SlipModel
     from odolab.params import covariance_source
 
-    results = []
+    runs = _runs(paths, fmt, robot)
     sources = set()
     slip_models: list[SlipModel] = []
-    for run in _runs(paths, fmt, robot):
+    chosen: dict[int, RobotParams] = {}
+    for run in runs:
         p = robot or run.params
         source = covariance_source(p) if p is not None else None
         if p is None or source is None:
@@ -62,9 +63,14 @@ def print_nees(
         sources.add(source)
         if isinstance(p.model, SlipModel) and p.model not in slip_models:
             slip_models.append(p.model)
-        results.append(
-            run_nees(run, p, method, segment_s=segment, fit_gt_yaw_offset=fit_gt_yaw_offset)
-        )
+        chosen[id(run)] = p
+    results, skipped, skip_note = nees_of_runs(
+        runs,
+        lambda run: chosen[id(run)],
+        method,
+        segment_s=segment,
+        fit_gt_yaw_offset=fit_gt_yaw_offset,
+    )
     summary = nees_summary(results)
     table = Table(title=f"NEES of odometry vs ground truth, pieces of {segment:g} s (dof 3)")
     for col in ("run", "pieces", "mean NEES", "gt yaw offset (rad)"):
@@ -100,10 +106,18 @@ def print_nees(
         console.print(
             "note: covariance: " + describe_covariance(model), markup=False, highlight=False
         )
+    if skip_note:
+        console.print(f"note: {skip_note}", markup=False, highlight=False)
     beyond, note = first_order_note(results)
     if note:
         console.print(f"note: {note}", markup=False, highlight=False)
-    head = {**summary.to_dict(), "pieces_past_first_order": beyond}
+    head = {
+        **summary.to_dict(),
+        "pieces_past_first_order": beyond,
+        "runs_skipped": len(skipped),
+        "skipped": skipped,
+        "skipped_note": skip_note,
+    }
     return {"summary": head, "runs": [r.to_dict() for r in results]}
 
 

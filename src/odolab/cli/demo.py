@@ -79,15 +79,24 @@ def demo_cmd(
     elif ev is not None and ev.slip_note:
         out_console.print(ev.slip_note, markup=False, highlight=False)
     if ev is not None and ev.nees:
-        s = ev.consistency_dict()["summary"]
+        consistency = ev.consistency_dict()
+        s = consistency["summary"]
         lo, hi = s["mean_bounds95"]
+        piece = ev.nees[0].segment_s
         out_console.print(
-            f"covariance (NEES over {s['n']} pieces): mean {numfmt.plain(s['mean_nees'], 3)}, "
+            f"covariance (NEES over {s['n']} pieces of {piece:g} s): mean "
+            f"{numfmt.plain(s['mean_nees'], 3)}, "
             f"95 % bounds [{numfmt.plain(lo, 3)}, {numfmt.plain(hi, 3)}], "
             f"{100 * s['fraction_inside']:.0f} % of pieces inside their own bounds: {s['verdict']}",
             markup=False,
             highlight=False,
         )
+        if consistency.get("first_order_note"):  # why the verdict is on these pieces (issue 38)
+            out_console.print(
+                f"note: {consistency['first_order_note']}; {ev.about_nees.rsplit('. ', 1)[-1]}",
+                markup=False,
+                highlight=False,
+            )
     for name, path in result.params_files.items():
         out_console.print(f"calibrated parameters ({name}): {path}", markup=False)
     out_console.print(f"lab notebook: {result.notebook}", markup=False)

@@ -26,6 +26,7 @@ class RunFormat(StrEnum):
     csv = "csv"
     optiodom = "optiodom"
     bag = "bag"
+    drive = "drive"
 
 
 RUN_FORMAT_HELP = (
@@ -467,13 +468,44 @@ def calibrate_lsq_cmd(
     _print_run_sets(result.fitted, result.held_out, result.params_source)
 
 
+def _run_list(paths: list[Path]) -> str:
+    """The runs, each by its path; a window table's windows (``T.csv#window-N``) as one entry
+    with their numbers in ranges (``T.csv#window-0-2,6``): every run is named, in a line, not a
+    wall."""
+    out: list[str] = []
+    groups: dict[str, list[int]] = {}
+    for p in paths:
+        head, sep, tail = str(p).rpartition("#window-")
+        if sep and tail.isdigit():
+            if head not in groups:
+                groups[head] = []
+                out.append(head)
+            groups[head].append(int(tail))
+        else:
+            out.append(str(p))
+    for i, item in enumerate(out):
+        if item in groups:
+            ns = sorted(groups[item])
+            spans: list[str] = []
+            start = prev = ns[0]
+            for n in [*ns[1:], None]:
+                if n is not None and n == prev + 1:
+                    prev = n
+                    continue
+                spans.append(f"{start}" if start == prev else f"{start}-{prev}")
+                if n is not None:
+                    start = prev = n
+            out[i] = f"{item}#window-{','.join(spans)} ({len(ns)} windows)"
+    return ", ".join(out)
+
+
 def _print_run_sets(fitted: list[Path], held: list[Path], source: str) -> None:
     """Which run files were fitted and which held out (a shell glob cannot hide one)."""
     from odolab.numfmt import count
 
-    lines = [f"fitted: {count(len(fitted), 'run')}: " + ", ".join(str(p) for p in fitted)]
+    lines = [f"fitted: {count(len(fitted), 'run')}: " + _run_list(fitted)]
     if held:
-        lines.append(f"held out: {count(len(held), 'run')}: " + ", ".join(str(p) for p in held))
+        lines.append(f"held out: {count(len(held), 'run')}: " + _run_list(held))
     else:
         lines.append("held out: none (--validate)")
     lines.append(source)

@@ -26,6 +26,7 @@ class RunFormatChoice(StrEnum):
     csv = "csv"
     optiodom = "optiodom"
     bag = "bag"
+    drive = "drive"
 
 
 @export_app.command("ros2-controller")
@@ -103,6 +104,9 @@ def ros2_controller_cmd(
     )
     write_output_text(output, text, "controller parameters")
     echo(f"wrote {output} (diff_drive_controller of ROS 2 {ros_distro.value})")
+    # what the calibration could not determine is said here too, not only in a YAML comment
+    for line in (provenance or {}).get("warnings", []) or []:
+        echo(f"warning: {params}: {line}")
 
 
 @export_app.command("mcap")

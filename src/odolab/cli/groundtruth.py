@@ -37,6 +37,7 @@ class EncoderFormat(StrEnum):
     csv = "csv"
     optiodom = "optiodom"
     bag = "bag"
+    drive = "drive"
 
 
 class OptionError(OdolabError):

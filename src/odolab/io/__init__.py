@@ -15,6 +15,7 @@ from odolab.io.trajectory_csv import (
     write_trajectory_csv,
     write_tum,
 )
+from odolab.io.windows import find_window_runs, read_window_run
 
 __all__ = [
     "READERS",
@@ -25,6 +26,7 @@ __all__ = [
     "bag_topics",
     "find_optiodom_runs",
     "find_runs",
+    "find_window_runs",
     "read_bag",
     "read_bag_trajectory",
     "read_csv_run",
@@ -35,6 +37,7 @@ __all__ = [
     "read_trajectory",
     "read_trajectory_csv",
     "read_tum",
+    "read_window_run",
     "write_encoder_csv",
     "write_trajectory",
     "write_trajectory_csv",

@@ -36,6 +36,7 @@ from odolab.io.run import ReadOptions
 from odolab.io.sensorlog import ImuLog, read_sensorlog
 from odolab.io.tabular import read_columns, read_header
 from odolab.io.trajectory_csv import read_trajectory
+from odolab.io.windows import wheel_angles
 from odolab.trajectory import Trajectory
 from odolab.trials import EncoderLog
 
@@ -319,11 +320,10 @@ def read_drive_windows(path: str | Path) -> GyroRun:
         if t.size < 2:
             continue
         _check_increasing(p, t, f"window {int(window[a])}:")
-        dt = np.diff(t)
         wl = np.asarray(cols["left_wheel_vel"][a:b], dtype=np.float64)
         wr = np.asarray(cols["right_wheel_vel"][a:b], dtype=np.float64)
-        left = np.concatenate(([0.0], np.cumsum(0.5 * (wl[1:] + wl[:-1]) * dt)))
-        right = np.concatenate(([0.0], np.cumsum(0.5 * (wr[1:] + wr[:-1]) * dt)))
+        left = wheel_angles(t, wl)  # (one rule with the window-table run reader)
+        right = wheel_angles(t, wr)
         segments.append(
             GyroSegment(
                 t,

@@ -21,6 +21,7 @@ from odolab.io.optiodom import OptiOdomReader, is_optiodom_run
 from odolab.io.rosbag import RosbagReader
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.io.trajectory_csv import read_trajectory
+from odolab.io.windows import WindowTableReader, is_window_table
 
 __all__ = [
     "READERS",
@@ -49,6 +50,7 @@ READERS: dict[LogFormat, RunReader] = {
     LogFormat.CSV: CsvRunReader(),
     LogFormat.OPTIODOM: OptiOdomReader(),
     LogFormat.BAG: RosbagReader(),
+    LogFormat.DRIVE: WindowTableReader(),
 }
 
 
@@ -77,6 +79,8 @@ _BAG_SUFFIXES = (".bag", ".mcap", ".db3")
 
 def _format_of(p: Path) -> LogFormat | None:
     """The format of the runs at ``p`` (a file or a folder), None when it holds none."""
+    if is_window_table(p):
+        return LogFormat.DRIVE
     if p.is_file():
         if p.suffix.lower() in _BAG_SUFFIXES:
             return LogFormat.BAG
@@ -120,5 +124,6 @@ def detect_format(paths: Iterable[str | Path]) -> tuple[LogFormat, str]:
         LogFormat.CSV: "odolab's own encoder log CSV (no OptiOdom <id>_metadata.csv beside it)",
         LogFormat.OPTIODOM: "OptiOdom runs (<id>_run-NN.csv beside <id>_metadata.csv)",
         LogFormat.BAG: "a ROS bag",
+        LogFormat.DRIVE: "a window table (DRIVE's window, calib_step, wheel speeds, icp_x/y/yaw)",
     }[fmt]
     return fmt, f"{why}, found at {where}"

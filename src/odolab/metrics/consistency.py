@@ -29,7 +29,7 @@ bring it back inside.)
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -55,8 +55,11 @@ __all__ = [
     "NeesSummary",
     "NoiseFit",
     "RunNees",
+    "ShorterThanPiece",
+    "choose_nees_piece",
     "fit_noise",
     "fit_noise_scale",
+    "nees_of_runs",
     "nees_summary",
     "run_nees",
     "starts_in_odometry_frame",
@@ -64,6 +67,10 @@ __all__ = [
 
 #: Degrees of freedom of one NEES: x, y, heading.
 DOF = 3
+
+
+class ShorterThanPiece(InsufficientDataError):
+    """A run whose ground truth covers less time than one NEES piece."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -179,7 +186,7 @@ def _run_pieces(
     gt = interpolate_trajectory(gt_full, t)
     pieces = _pieces(t, segment_s)
     if not pieces:
-        raise InsufficientDataError(
+        raise ShorterThanPiece(
             f"{run.source}: {t[-1] - t[0]:.3g} s of ground truth is shorter than one piece of "
             f"{segment_s:g} s"
         )
@@ -315,6 +322,49 @@ def _fit_yaw_offset(
     return float(wrap_angle(np.array([phi]))[0]), (1.0 / math.sqrt(info) if info > 0 else math.inf)
 
 
+def nees_of_runs(
+    runs: Sequence[OdometryRun],
+    params_of: Callable[[OdometryRun], RobotParams],
+    method: Method | str = Method.MIDPOINT,
+    *,
+    segment_s: float = 10.0,
+    fit_gt_yaw_offset: bool | None = None,
+) -> tuple[list[RunNees], list[str], str | None]:
+    """:func:`run_nees` of every run with ``params_of(run)``, skipping the runs shorter than one
+    piece; returns the results, the skipped runs' names and the sentence that says so (None when
+    none was skipped). Every run too short is refused with one sentence."""
+    results: list[RunNees] = []
+    skipped: list[str] = []
+    longest = 0.0
+    for run in runs:
+        try:
+            results.append(
+                run_nees(
+                    run,
+                    params_of(run),
+                    method,
+                    segment_s=segment_s,
+                    fit_gt_yaw_offset=fit_gt_yaw_offset,
+                )
+            )
+        except ShorterThanPiece:
+            skipped.append(run.name)
+            if run.ground_truth is not None:
+                longest = max(longest, float(run.ground_truth.t[-1] - run.ground_truth.t[0]))
+    if not results:
+        raise InsufficientDataError(
+            f"all {len(skipped)} runs are shorter than one NEES piece of {segment_s:g} s (the "
+            f"longest ground truth covers {longest:.3g} s); expected a shorter --nees-segment"
+        )
+    note = None
+    if skipped:
+        note = (
+            f"{len(skipped)} of {len(runs)} runs skipped: shorter than one {segment_s:g} s "
+            f"piece (e.g. {skipped[0]})"
+        )
+    return results, skipped, note
+
+
 def nees_summary(runs: Sequence[RunNees]) -> NeesSummary:
     """Pool the pieces of ``runs``: mean NEES, its chi-square 95 % bounds, and a verdict."""
     from scipy.stats import chi2
@@ -355,7 +405,61 @@ def first_order_note(runs: Sequence[RunNees]) -> tuple[int, str | None]:
     return beyond, (
         f"{beyond} of {n} pieces go past the first-order covariance's range (second-order index "
         f"> {SECOND_ORDER_LIMIT:g}, docs/ros2.md): there it understates the spread, and their "
-        "NEES runs high for that reason alone; shorter pieces (--nees-segment) stay inside it"
+        "NEES runs high for that reason alone; shorter pieces (--nees-segment) go past it less often"
+    )
+
+
+#: Piece lengths (s) :func:`choose_nees_piece` tries, the longest first.
+NEES_PIECES_S = (10.0, 5.0, 2.0, 1.0)
+#: The share of pieces that may go past the first-order range at the chosen length.
+PAST_FIRST_ORDER_SHARE = 0.1
+
+
+def choose_nees_piece(
+    runs: Sequence[OdometryRun],
+    params: RobotParams,
+    lengths: Sequence[float] = NEES_PIECES_S,
+) -> tuple[float, list[RunNees], str]:
+    """The NEES of ``runs`` on pieces of the longest of ``lengths`` at which the first-order
+    covariance holds (at most :data:`PAST_FIRST_ORDER_SHARE` of the pieces past its range,
+    :func:`first_order_note`): a verdict on longer pieces would judge the first-order
+    approximation, not the noise constants. Returns (the length, the results, the sentence that
+    says what was chosen and why, or plainly why none holds)."""
+    tried: list[str] = []
+    results: list[RunNees] = []
+    length = float(lengths[0])
+    for length in (float(v) for v in lengths):
+        try:
+            results, _, _ = nees_of_runs(runs, lambda _r: params, segment_s=length)
+        except InsufficientDataError:
+            if length == float(lengths[-1]):
+                raise
+            tried.append(f"at {length:g} s, every run is shorter than a piece")
+            continue
+        beyond, _ = first_order_note(results)
+        n = sum(r.nees.size for r in results)
+        if beyond <= PAST_FIRST_ORDER_SHARE * n:
+            said = f" ({'; '.join(tried)})" if tried else ""
+            return (
+                length,
+                results,
+                (
+                    f"Pieces of {length:g} s: the longest of "
+                    f"{', '.join(f'{v:g}' for v in lengths)} s at which at most "
+                    f"{PAST_FIRST_ORDER_SHARE:.0%} of the pieces go past the first-order covariance's "
+                    f"range{said}"
+                ),
+            )
+        tried.append(f"at {length:g} s, {beyond} of {n} pieces went past it")
+    return (
+        length,
+        results,
+        (
+            f"Pieces of {length:g} s, the shortest tried, though the first-order covariance does not "
+            f"hold there either ({'; '.join(tried)}): the heading's spread after a piece's turning is "
+            "past first order's range, so this verdict judges the first-order approximation as much "
+            "as the noise constants"
+        ),
     )
 
 
