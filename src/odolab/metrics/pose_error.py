@@ -26,9 +26,9 @@ from dataclasses import asdict, dataclass
 from enum import StrEnum
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from odolab._jit import njit
 from odolab.errors import InsufficientDataError, LogFormatError
 from odolab.kinematics import wrap, wrap_angle
 from odolab.trajectory import Trajectory
