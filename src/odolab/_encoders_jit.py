@@ -4,7 +4,7 @@ unwrap_diff`` loads it on first use."""
 
 from __future__ import annotations
 
-from numba import njit
+from odolab._jit import njit
 
 __all__ = ["unwrap_diff"]
 

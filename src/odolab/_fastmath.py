@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from decimal import Decimal, localcontext
 
-from numba import njit
+from odolab._jit import njit
 
 __all__ = ["SINCOS_LIMIT", "sincos", "sincos_poly"]
 

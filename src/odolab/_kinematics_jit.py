@@ -7,8 +7,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
+from odolab._jit import njit
 from odolab.kinematics import _TWO_PI, SMALL_ANGLE
 
 __all__ = ["body_motion", "chord", "chord_derivative", "step_pose", "wrap"]

@@ -7,13 +7,13 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
-from numba import njit, prange
 from numpy.typing import NDArray
 
+from odolab import _jit as numba  # numba's functions, or plain Python without the fast extra
 from odolab._encoders_jit import unwrap_diff
 from odolab._fastmath import SINCOS_LIMIT, sincos_poly
+from odolab._jit import njit, prange
 from odolab._kinematics_jit import body_motion, chord, wrap
 
 F64 = NDArray[np.float64]

@@ -19,6 +19,7 @@ __all__ = [
     "COMMAND_EXTRAS",
     "COMMAND_PREFERS",
     "EXTRAS",
+    "NO_NUMBA_NOTE",
     "MissingExtraError",
     "command_extra",
     "extra_of_missing",
@@ -38,6 +39,7 @@ EXTRAS: dict[str, tuple[str, ...]] = {
     "parquet": ("pyarrow",),
     "fleet": ("dask", "distributed", "cryptography"),
     "pandas": ("pandas",),
+    "fast": ("numba", "llvmlite"),
 }
 
 #: Commands (their words) that cannot start without an extra: checked before they run. Others
@@ -78,6 +80,14 @@ class MissingExtraError(OdolabError):
 def install_line(extra: str) -> str:
     """The exact command that installs ``extra``."""
     return f"pip install 'odolab[{extra}]'"
+
+
+#: Said once a process, on stderr, when a kernel first runs without numba (odolab._jit): the
+#: fast extra is the one extra whose absence changes speed, not what runs.
+NO_NUMBA_NOTE = (
+    "odolab: numba is not installed, so the kernels run as plain Python (slower on long logs); "
+    f"for the compiled kernels: {install_line('fast')}"
+)
 
 
 def _importable(module: str) -> bool:

@@ -26,12 +26,12 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
-from numba import njit, prange
 from numpy.typing import ArrayLike, NDArray
 
+from odolab import _jit as numba  # numba's functions, or plain Python without the fast extra
 from odolab._fastmath import SINCOS_LIMIT, sincos, sincos_poly
+from odolab._jit import njit, prange
 from odolab.encoders import as_tick_array, default_max_dticks, unwrap_diff
 from odolab.errors import EncoderJumpError, LogFormatError, OdolabError, ParamsError
 from odolab.kinematics import Method, body_motion, chord, chord_derivative

@@ -71,8 +71,12 @@ def main() -> None:
                     stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
                 )  # fmt: skip
                 assert board.stderr is not None
-                line = board.stderr.readline()
-                found = re.search(r"udp://127\.0\.0\.1:(\d+)", line)
+                line, found = "", None
+                for _ in range(3):  # its address, after the note of a core without numba
+                    line = board.stderr.readline()
+                    found = re.search(r"udp://127\.0\.0\.1:(\d+)", line)
+                    if found:
+                        break
                 assert found, line
                 robot = ["--robot", found.group(0)]
                 results.append({"args": args, "code": 0, "out": line, "err": ""})

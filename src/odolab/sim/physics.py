@@ -46,9 +46,9 @@ from dataclasses import dataclass, fields, replace
 from typing import Any
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from odolab._jit import njit
 from odolab.errors import SimError
 from odolab.kinematics import body_motion, step_pose
 from odolab.models import DIFF_DRIVE, KinematicModel
