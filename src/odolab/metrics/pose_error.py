@@ -28,7 +28,6 @@ from enum import StrEnum
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab._jit import njit
 from odolab.errors import InsufficientDataError, LogFormatError
 from odolab.kinematics import wrap_angle
 from odolab.trajectory import Trajectory
