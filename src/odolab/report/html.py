@@ -247,8 +247,10 @@ def _fit_margins(fig: Any, ax: Axes) -> None:
 
     One measurement of the decorations' extent, then the margins: what matplotlib's constrained
     layout does for one axes, without its second pass and its extra draw at save time (the
-    report's figures took 60 % longer with it; docs/testing.md). The axes keep at least half
-    the figure in each direction, whatever a long label asks for."""
+    report's figures took 1.56x the CPU with it; benchmarks/bench_report_figures.py). Each margin
+    is capped (a quarter of the width on either side, a quarter of the height above, half of it
+    below, where the legend goes): a label longer than that is cut at the figure's edge rather
+    than the plot squeezed to nothing."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     renderer = FigureCanvasAgg(fig).get_renderer()  # type: ignore[no-untyped-call]

@@ -2,7 +2,8 @@
 calibration objects (and the results dict for what only exists there), formatted by ONE rule
 (:mod:`odolab.numfmt`: a number carries the digits its uncertainty supports).
 
-The template only lays these out; it formats nothing and marks nothing as safe (autoescape on).
+The template only lays these out; it formats nothing and marks nothing as safe (autoescape on):
+the one safe markup made here is :func:`collapsed`'s ``<details>``, whose text it escapes itself.
 """
 
 from __future__ import annotations
