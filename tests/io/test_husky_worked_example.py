@@ -1,23 +1,37 @@
 """The numbers of docs/real-logs.md's worked example (the DRIVE Husky, fitted on even command
 steps, held out on odd ones): nominal -> fitted models -> compare -> NEES.
 
-One end-to-end run over the whole table (about 30 s on two cores): the doc's numbers are the
-Husky's, not a subset's."""
+The page's own command lines run here as written (bash expands them, odolab.cli.main runs them
+in this process, as tests/docs/test_documented_commands.py does), and their outputs are checked
+against the numbers the page states; that test leaves these lines to this one (its SKIP), so the
+Husky's fits run once in the suite, not twice. One end-to-end run over the whole table (about
+45 s on two cores): the doc's numbers are the Husky's, not a subset's."""
 
 from __future__ import annotations
 
+import json
+import re
+from pathlib import Path
+
 import numpy as np
 import pytest
+from tests.docs.test_documented_commands import _env, _in_process, _words, documented_lines
 from tests.shared_data import require
 
-from odolab.calibration.compare import compare_models
 from odolab.io import find_runs, read_run
 from odolab.io.run import ReadOptions
-from odolab.metrics.consistency import nees_of_runs, nees_summary
 from odolab.metrics.runs import RUN_OPTIONS, evaluate_run
 from odolab.params import PRESETS
 
 pytestmark = pytest.mark.slow
+
+DOC = "docs/real-logs.md"
+#: the page's Husky lines, in its order (the ones test_documented_commands leaves to this test)
+HUSKY_LINES = (
+    "odolab calibrate compare $H#even",
+    "odolab calibrate lsq $H#even",
+    "odolab evaluate $H#odd",
+)
 
 HUSKY = PRESETS["jaguar-lite"].with_(
     name="husky",
@@ -28,22 +42,49 @@ HUSKY = PRESETS["jaguar-lite"].with_(
 )
 
 
-def test_husky_even_steps_fitted_odd_steps_held_out() -> None:
+def _run_the_page(folder: Path) -> str:
+    """The page's Husky block in ``folder`` (with ``data`` linked to the shared data): what
+    the lines printed."""
+    (folder / "data").symlink_to(require("drive-husky").parent)
+    lines = documented_lines(DOC)
+    start = next(i for i, line in enumerate(lines) if line.startswith("H=data/drive-husky"))
+    assignments = [lines[start]]
+    block = lines[start + 1 : start + 1 + 1 + len(HUSKY_LINES)]
+    assert block[0].startswith("python -c ") and [
+        any(line.startswith(h) for line in block[1:]) for h in HUSKY_LINES
+    ] == [True] * len(HUSKY_LINES), block
+    import subprocess
+
+    subprocess.run(
+        ["bash", "-c", block[0]], cwd=folder, env=_env(), check=True, capture_output=True
+    )
+    printed = []
+    for line in block[1:]:
+        words = _words(folder, assignments, line)
+        assert words is not None, line
+        code, out = _in_process(folder, words[1:], None)
+        assert code == 0, f"{line}\n{out[-4000:]}"
+        printed.append(out)
+    return "\n".join(printed)
+
+
+def test_husky_even_steps_fitted_odd_steps_held_out(tmp_path: Path) -> None:
     table = require("drive-husky") / "husky_windows.csv"
     ro = ReadOptions(params=HUSKY)
-    train = [read_run(p, "drive", ro) for p in find_runs([f"{table}#even"], "drive")]
     held = [read_run(p, "drive", ro) for p in find_runs([f"{table}#odd"], "drive")]
+    train = find_runs([f"{table}#even"], "drive")
     assert (len(train), len(held)) == (289, 314)
-    updates = np.array([r.meta["truth_updates"] for r in [*train, *held]], dtype=float)
+    updates = np.array([r.meta["truth_updates"] for r in held], dtype=float)
     assert np.median(updates) == 20  # of 40 rows: the lidar's ~10 Hz, the rest held values
-
     nominal = np.mean(
         [evaluate_run(r, HUSKY, RUN_OPTIONS).evaluation.drift.endpoint_error for r in held]
     )
     assert round(float(nominal), 3) == 0.462
 
-    c = compare_models(train, held, HUSKY, models=("diff", "extended", "icr", "slip"))
-    end = {s.model: s.held_out["endpoint_error"].value for s in c.scores}
+    printed = _run_the_page(tmp_path)
+    doc = json.loads((tmp_path / "husky-compare.json").read_text(encoding="utf-8"))
+    models = {m["model"]: m for m in doc["models"]}
+    end = {k: m["held_out"]["endpoint_error"]["value"] for k, m in models.items()}
     assert {k: round(v, 3) for k, v in end.items()} == {
         "diff": 0.227,
         "extended": 0.227,
@@ -51,26 +92,23 @@ def test_husky_even_steps_fitted_odd_steps_held_out() -> None:
         "slip": 0.181,
     }
     assert round(end["slip"] / min(end["diff"], end["extended"], end["icr"]), 2) == 0.87
-    assert c.segments == 154 and c.recommended == "slip"
-    ratios = {s.model: s.ratio_to_best for s in c.scores}
-    icr = ratios["icr"]
-    assert icr is not None
-    assert (round(icr.value, 3), round(icr.low, 3), round(icr.high, 3)) == (1.150, 1.090, 1.218)
+    assert doc["segments"] == 154 and doc["recommended"] == "slip"
+    icr = models["icr"]["ratio_to_best"]
+    assert (round(icr["value"], 3), *(round(b, 3) for b in icr["ci95"])) == (1.150, 1.090, 1.218)
     # the risk per run, against the best kinematic model on the decision's segments (diff)
-    assert c.score("slip").runs_worse == (55, 153)
-    assert c.score("extended").runs_worse == (0, 153)  # the same model as diff here
-    assert "slip is worse than diff (the best kinematic model) on 55 of 153" in c.reason
-    seg = c.score("slip").segment_error
-    assert seg is not None and round(seg.value, 3) == 0.218
+    assert models["slip"]["runs_worse_than_best_kinematic"] == {"runs": 55, "of": 153}
+    assert models["extended"]["runs_worse_than_best_kinematic"] == {"runs": 0, "of": 153}
+    assert "slip is worse than diff (the best kinematic model) on 55 of 153" in doc["reason"]
+    assert round(models["slip"]["segment_error"]["value"], 3) == 0.218
+    # the Husky turns less than its wheels say
+    assert round(models["diff"]["values"]["track_width"], 1) == 1.1
+    assert round(models["icr"]["values"]["y_icr_left"], 1) == 0.6
+    assert round(-models["icr"]["values"]["y_icr_right"], 1) == 0.7
 
-    diff, icr_fit = c.score("diff").fit, c.score("icr").fit
-    assert diff is not None and icr_fit is not None
-    assert round(diff.values["track_width"], 1) == 1.1  # the Husky turns less than its wheels say
-    assert round(icr_fit.values["y_icr_left"], 1) == 0.6
-    assert round(-icr_fit.values["y_icr_right"], 1) == 0.7
-    slip = c.score("slip").fit
-    assert slip is not None
-    results, skipped, _ = nees_of_runs(held, lambda _r: slip.params, segment_s=1.0)
-    s = nees_summary(results)
-    assert not skipped and s.n == 314
-    assert round(s.mean, 2) == 3.53 and tuple(round(b, 2) for b in s.mean_bounds95) == (2.74, 3.28)
+    # calibrate lsq wrote the slip model the page evaluates; evaluate --nees over 1 s pieces
+    assert (tmp_path / "husky-slip.toml").is_file()
+    m = re.search(
+        r"mean NEES ([\d.]+) over (\d+) pieces; 95 % bounds \[([\d.]+), ([\d.]+)\]", printed
+    )
+    assert m is not None, printed[-3000:]
+    assert (m[1], m[2], m[3], m[4]) == ("3.53", "314", "2.74", "3.28")
