@@ -16,21 +16,13 @@ import os
 from pathlib import Path
 
 import numpy as np
+from _husky import HUSKY
 
 from odolab.calibration import slipfit
 from odolab.calibration.lsq import LsqOptions, calibrate_lsq, prepare_run
 from odolab.io.registry import find_runs, read_run
 from odolab.io.run import ReadOptions
 from odolab.metrics.runs import RUN_OPTIONS, evaluate_run
-from odolab.params import PRESETS
-
-HUSKY = PRESETS["jaguar-lite"].with_(
-    name="husky",
-    left_wheel_radius=0.165,
-    right_wheel_radius=0.165,
-    track_width=0.55,
-    encoder_modulus=None,
-)
 
 
 def main() -> None:
