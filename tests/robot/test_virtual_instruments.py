@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import math
+import shlex
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -161,3 +162,13 @@ def test_sim_server_exits_when_idle_and_refuses_a_bad_idle_exit(
     assert main(["robot", "sim-server", "--port", "0", "--idle-exit", "0"]) == 1
     err = capsys.readouterr().err
     assert "--idle-exit is 0.0; expected 1 to 3600 s" in err and "Traceback" not in err
+
+
+def test_the_suggested_measure_command_survives_a_path_with_spaces(tmp_path: Path) -> None:
+    from odolab.cli.robot import measure_virtual_command
+
+    db = tmp_path / "my lab's notes" / "lab.db"
+    line = measure_virtual_command("R1", db)
+    # copied into a shell, the command is the same words: the path stays one argument
+    assert shlex.split(line) == ["odolab", "trials", "measure", "R1", "--virtual", "--db", str(db)]
+    assert measure_virtual_command("R1", None) == "odolab trials measure R1 --virtual"
