@@ -179,6 +179,7 @@ def _measure_live(
                 float(r.final_deg[0]),
                 int(r.turns[0]),
                 commanded_angle=trial.command.angle,
+                direction="cw" if r.clockwise[0] else "ccw",  # the way the turns were counted
             )
         else:
             xy = stick.read(np.array([true.x, true.y]), rng)

@@ -39,6 +39,7 @@ __all__ = [
     "check_compass_reading",
     "check_position",
     "check_reading",
+    "count_turns",
     "rotation_from_compass",
     "rotation_measurement_from_compass",
     "translation_measurement",
@@ -46,6 +47,9 @@ __all__ = [
 
 #: Standard uncertainty of one compass reading (rad): the lab report's 0.05 rad.
 COMPASS_SIGMA_RAD = 0.05
+#: Below this (rad, no whole turn counted) a rotation against the command is a stall read a hair
+#: the other way, not a contradiction.
+_HAIR_RAD = 0.5 * math.pi
 #: Standard uncertainty of a position read with a meterstick against floor tape (m).
 METERSTICK_SIGMA_M = 0.005
 
@@ -108,6 +112,27 @@ def rotation_from_compass(
     return -(turns * 2.0 * math.pi + math.radians(frac))
 
 
+def count_turns(
+    initial_deg: float, final_deg: float, true_change: float
+) -> tuple[int, Literal["ccw", "cw"]]:
+    """How an operator who watched the robot counts a rotation: the whole turns and the
+    direction in which the rest is read off two compass readings (deg, clockwise from north),
+    for a true signed heading change ``true_change`` (rad, ccw positive).
+
+    The direction is the way the robot truly turned; when it (almost) did not turn and the
+    readings lie a hair the other way, that way, with no whole turn. So
+    ``rotation_from_compass(initial_deg, final_deg, turns, direction)`` is ``true_change`` up to
+    the reading errors, never a whole turn off. The one counting rule of the virtual
+    instruments (:mod:`odolab.sim.instruments`, ``trials measure --virtual``, the lab's runs).
+    """
+    direction: Literal["ccw", "cw"] = "cw" if true_change < 0 else "ccw"
+    rest = abs(rotation_from_compass(initial_deg, final_deg, 0, direction))
+    turns = round((abs(true_change) - rest) / (2.0 * math.pi))
+    if turns < 0:  # the rest, read the robot's way, is more than it turned: read the other way
+        return 0, "ccw" if direction == "cw" else "cw"
+    return turns, direction
+
+
 def rotation_measurement_from_compass(
     initial_deg: float,
     final_deg: float,
@@ -122,7 +147,9 @@ def rotation_measurement_from_compass(
 ) -> Measurement:
     """A rotation :class:`Measurement` from compass readings (deg, clockwise from north).
 
-    ``direction`` defaults to the sign of ``commanded_angle`` (rad), else counter-clockwise.
+    ``direction`` defaults to the sign of ``commanded_angle`` (rad), else counter-clockwise; a
+    direction against the command is refused unless the robot hardly turned (no whole turn and
+    under a quarter turn: a stall whose readings lie a hair the other way, see :func:`count_turns`).
     With ``commanded_angle`` the result is refused when it is off from the command by more than
     ``max(pi, max_relative_error * |commanded_angle|)`` (a miscounted turn, a swapped reading):
     the message says which number of turns would fit what the odometry saw
@@ -141,7 +168,8 @@ def rotation_measurement_from_compass(
     rotation = rotation_from_compass(initial, final, n, direction)
     if commanded_angle is not None:
         cmd = check_reading(commanded_angle, "commanded angle")
-        if cmd != 0 and (cmd > 0) != (direction == "ccw"):
+        hair = n == 0 and abs(rotation) < _HAIR_RAD  # a stall, its readings a hair the other way
+        if cmd != 0 and (cmd > 0) != (direction == "ccw") and not hair:
             raise StoreError(f"direction {direction} contradicts the commanded angle {cmd:.4g} rad")
         tol = max(math.pi, max_relative_error * abs(cmd))
         if abs(rotation - cmd) > tol:

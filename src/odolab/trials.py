@@ -125,6 +125,12 @@ class Command:
     #: an exploration (a FREE command, :meth:`exploration`): what it drives
     explore: Exploration | None = None
 
+    def __post_init__(self) -> None:
+        # a translation's direction word, said once in one spelling: "Reverse " is "reverse"
+        if self.kind is MotionKind.TRANSLATION and isinstance(self.direction, str):
+            word = self.direction.strip().lower()
+            object.__setattr__(self, "direction", word or None)
+
     @classmethod
     def exploration(cls, spec: Exploration) -> Command:
         """The command of an exploration: a free motion (not one of Table I's kinds, so the
@@ -416,6 +422,13 @@ def _check_command(c: Command, where: str) -> None:
     need = _COMMAND_NEEDS.get(c.kind)
     if need is not None and getattr(c, need) is None:
         raise InvalidTrialError(f"{where}: a {c.kind.value} command needs its {need}", need)
+    words = TRANSLATION_DIRECTIONS
+    if c.kind is MotionKind.TRANSLATION and c.direction not in (None, *words):
+        raise InvalidTrialError(
+            f"{where}: direction {c.direction!r} is not a translation's direction; expected "
+            f"{' or '.join(repr(w) for w in words)} (or none: the distance's sign says which way)",
+            "direction",
+        )
 
 
 #: A translation's ``direction`` words; without one, the distance's sign says which way.
@@ -426,9 +439,11 @@ def signed_command(command: Command) -> Command:
     """The command with a translation's distance signed by its ``direction``: a row that says
     ``direction = reverse`` with a positive distance is the same run as one with a negative
     distance (the two sign conventions of a spreadsheet), so every analysis, which goes by the
-    sign, reads it as a reverse run. Every other command as it is. The notebook reads every trial
-    through this (:func:`odolab.store.records.trial_from_record`), and the imports check a row's
-    words against its numbers first (:func:`check_direction`)."""
+    sign, reads it as a reverse run. Every other command as it is. The notebook writes and reads
+    every trial through this (:meth:`odolab.store.notebook.Notebook.add_trials`,
+    :func:`odolab.store.records.trial_from_record`), after :func:`validate_trial` checked the
+    words against the numbers (:func:`check_direction`). The word is already in one spelling
+    (:class:`Command` lowercases it)."""
     if (
         command.kind is MotionKind.TRANSLATION
         and command.direction == "reverse"
@@ -514,7 +529,9 @@ def validate_trial(trial: Trial) -> None:
     """Refuse (:class:`InvalidTrialError`, naming the trial and the field) an unstorable trial.
 
     Every way into the notebook calls this: the robot and the simulator, ``odolab trials add``,
-    CSV and JSON import. Ranges are those of :data:`TRIAL_FIELDS`. A command that carries an
+    CSV and JSON import. Ranges are those of :data:`TRIAL_FIELDS`; a translation's direction word
+    is ``forward``, ``reverse`` or none, and agrees with its numbers (:func:`check_direction`).
+    A command that carries an
     exploration (:attr:`Command.explore`) is refused: the notebook has no place for its settings
     (``odolab.robot.explore.notebook_trial`` records an exploration as an excluded free run
     with its settings in the notes).
@@ -542,6 +559,7 @@ def validate_trial(trial: Trial) -> None:
     m = trial.measured
     if m is not None:
         _check_measurement(m, where)
+    check_direction(trial)
     status = TrialStatus(trial.status)
     if status is TrialStatus.MEASURED and m is None:
         raise InvalidTrialError(f"{where}: status 'measured' but no measurement", "status")

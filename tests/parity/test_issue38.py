@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from odolab.cli import main
+from odolab.errors import CalibrationError
 
 from .faces import cli, cli_json
 
@@ -84,6 +85,9 @@ def test_1_a_reverse_run_is_a_reverse_run_whatever_the_sign_convention(tmp_path:
         (4, None, "line 6, column 'predicted_x_m'"),  # reverse 1 m, x +1.0
         (None, (",1.0,reverse,-", ",-1.0,reverse,"), "line 5, column 'predicted_x_m'"),
         (None, (",1.0,forward,", ",-1.0,forward,"), "line 2, column 'direction'"),
+        # a word that is not a translation's direction is refused, naming the accepted ones
+        (None, (",1.0,reverse,", ",1.0,backward,"), "line 5, column 'direction'"),
+        (None, (",1.0,reverse,", ",1.0,rev,"), "expected 'forward' or 'reverse'"),
     ],
 )
 def test_1_a_contradiction_is_refused_with_its_line(
@@ -101,6 +105,42 @@ def test_1_a_contradiction_is_refused_with_its_line(
                  str(tmp_path / "x.db")]) == 1  # fmt: skip
     err = capsys.readouterr().err
     assert said in err and "Traceback" not in err, err
+
+
+def test_1_the_direction_word_in_any_case_and_on_the_write_path(tmp_path: Path) -> None:
+    from dataclasses import replace
+
+    from odolab.errors import InvalidTrialError
+    from odolab.store.notebook import Notebook
+    from odolab.trials import Command, MotionKind, signed_command, validate_trial
+
+    for word in ("Reverse", "REVERSE", " reverse "):
+        cmd = Command(MotionKind.TRANSLATION, distance=1.0, direction=word)
+        assert signed_command(cmd).distance == -1.0 and cmd.direction == "reverse"
+    # a spreadsheet written with capitals: the same reverse runs as lowercase ones
+    sheet = _straight_runs(tmp_path / "s.csv", "direction")
+    sheet.write_text(sheet.read_text(encoding="utf-8").replace(",reverse,", ",Reverse,"), "utf-8")
+    db = tmp_path / "x.db"
+    cli("trials", "import", sheet, "--create-campaigns", "--db", db)
+    with Notebook(db) as nb:
+        trials = nb.load_trials(with_logs=False)
+        back = [t for t in trials if t.command.direction == "reverse"]
+        assert len(back) == 6 and all(t.command.distance < 0 for t in back)  # type: ignore[operator]
+        # add_trials checks the word against the numbers and stores what a read gives back
+        one = replace(back[0], trial_id="W1")
+        one = replace(one, command=replace(one.command, distance=1.0))
+        nb.add_trials([one])
+        assert nb.get_trial("W1").command.distance == -1.0
+        raw = nb._conn.execute("SELECT distance FROM trials WHERE trial_id = 'W1'").fetchone()
+        assert raw[0] == -1.0
+        wrong = replace(one, trial_id="W2", command=replace(one.command, direction="backward"))
+        with pytest.raises(InvalidTrialError, match="expected 'forward' or 'reverse'"):
+            nb.add_trials([wrong])
+        ahead = replace(one, trial_id="W3", predicted=one.predicted._replace(x=0.95))
+        with pytest.raises(InvalidTrialError, match="ends ahead of its start"):
+            validate_trial(ahead)
+        with pytest.raises(InvalidTrialError, match="ends ahead of its start"):
+            nb.add_trials([ahead])
 
 
 _CW = """
@@ -232,6 +272,35 @@ def test_4_two_robots_in_one_selection_one_rule_on_every_face(tmp_path: Path) ->
     assert cal.status_code == 200, cal.text
     assert geometry(mine["calibration"]["ratios"]["params"]) == geometry(cal.json()["params"])
     assert "(robot rover-b)" in mine["extra"]["trials_used"]
+
+
+def test_4_an_awaiting_robot_is_not_a_selected_robot(tmp_path: Path) -> None:
+    """Robot A measured, robot B's runs only awaiting their measurement: the trials-used line
+    and the robot a calibration is for count the same robots (measured ones): one."""
+    from dataclasses import replace
+
+    from odolab.app.calibration import choose_robot
+    from odolab.app.selection import select_among, validation_campaigns
+    from odolab.store.notebook import Notebook
+    from odolab.trials import TrialStatus
+
+    from .notebooks import make_notebook
+
+    gen = make_notebook(tmp_path, 0, two_robots=True)
+    with Notebook(gen.db) as nb:
+        trials, validation = nb.load_trials(with_logs=False), validation_campaigns(nb)
+    waiting = [
+        replace(t, status=TrialStatus.AWAITING, measured=None) if t.params.name == "rover-b" else t
+        for t in trials
+    ]
+    sel = select_among(waiting, validation)
+    assert "rover-b" in {t.params.name for t in sel.trials}  # selected, not yet measured
+    assert "robots" not in sel.describe()
+    assert choose_robot(sel.trials, None, None) == "jaguar-lite"
+    both = select_among(trials, validation)  # both measured: pooled, and a robot must be named
+    assert "of 2 robots, pooled" in both.describe()
+    with pytest.raises(CalibrationError, match="of 2 robots"):
+        choose_robot(both.trials, None, None)
 
 
 def test_5_umbmark_gives_one_answer_and_its_interval(tmp_path: Path) -> None:

@@ -41,6 +41,10 @@ def test_a_wrong_variant_stops_the_run_with_the_cause(tmp_path: Path) -> None:
     doc = json.loads((tmp_path / "run" / "run.json").read_text())
     assert doc["completed"] is False and "SenseCheckError" in doc["aborted"]
     assert 0.5 < doc["predicted"]["heading"] < 1.5
+    # the stopped run keeps why it was stopped and the IMU's headings, as a finished run does
+    assert "opposite ways" in doc["sense_check"]
+    imu = (tmp_path / "run" / "imu.csv").read_text().splitlines()
+    assert imu[0].startswith("motionTimestamp") and len(imu) > 3
 
 
 def test_a_right_run_passes_and_records_no_flag() -> None:

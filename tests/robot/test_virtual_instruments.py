@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import math
+import shlex
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -63,7 +64,7 @@ def test_a_sim_server_run_is_measured_by_its_virtual_instruments(
         math.hypot(true.x - START.x, true.y - START.y), abs=1e-9
     )
     readings = doc["virtual_instruments"]["readings"]
-    assert set(readings) == {"compass_initial_deg", "compass_final_deg", "turns"}
+    assert set(readings) == {"compass_initial_deg", "compass_final_deg", "turns", "clockwise"}
     assert "the virtual instruments show: compass" in text and "--virtual" in text
     assert main(["trials", "measure", "--virtual", "--db", str(db)]) == 0
     measured = capsys.readouterr().out
@@ -161,3 +162,41 @@ def test_sim_server_exits_when_idle_and_refuses_a_bad_idle_exit(
     assert main(["robot", "sim-server", "--port", "0", "--idle-exit", "0"]) == 1
     err = capsys.readouterr().err
     assert "--idle-exit is 0.0; expected 1 to 3600 s" in err and "Traceback" not in err
+
+
+def test_the_suggested_measure_command_survives_a_path_with_spaces(tmp_path: Path) -> None:
+    from odolab.cli.robot import measure_virtual_command
+
+    db = tmp_path / "my lab's notes" / "lab.db"
+    line = measure_virtual_command("R1", db)
+    # copied into a shell, the command is the same words: the path stays one argument
+    assert shlex.split(line) == ["odolab", "trials", "measure", "R1", "--virtual", "--db", str(db)]
+    assert measure_virtual_command("R1", None) == "odolab trials measure R1 --virtual"
+
+
+def test_a_stalled_turn_is_measured_near_zero_not_a_whole_turn() -> None:
+    import dataclasses
+
+    from odolab.robot.session import run_motion_simulated
+    from odolab.store.measure import describe_readings, virtual_measurement, virtual_readings
+    from odolab.trials import Command, MotionKind
+
+    trial, _ = run_motion_simulated(
+        Command(MotionKind.ROTATION, angle=0.5, speed=1.0), nominal=NOMINAL
+    )
+    assert trial.true is not None
+    worst, back = 0.0, 0
+    for i in range(40):  # the robot stalled: truly (almost) no turn, each id its own noise
+        stalled = dataclasses.replace(
+            trial, trial_id=f"S{i}", true=Pose(trial.true.t, 0.0, 0.0, 0.0, 0.0)
+        )
+        readings = virtual_readings(stalled)
+        assert readings is not None and readings["turns"] == 0
+        back += readings["clockwise"] == 1.0
+        if readings["clockwise"]:
+            assert describe_readings(readings).endswith("counted clockwise")
+        m = virtual_measurement(stalled)  # a hair against the command: not a contradiction
+        assert m.rotation is not None
+        worst = max(worst, abs(m.rotation))
+    assert worst < 0.4  # two readings of 0.05 rad on 1-degree marks: measured worst 0.2 rad
+    assert back > 0  # some stalls read a hair clockwise (measured: about half of them)

@@ -19,6 +19,7 @@ from odolab.app.selection import (
     Selection,
     SelectionRequest,
     check_robot,
+    robots_among,
     select_among,
     validation_campaigns,
 )
@@ -155,10 +156,11 @@ def _measured(trials: list[Trial]) -> list[Trial]:
 
 
 def choose_robot(trials: list[Trial], robot: str | None, params: RobotParams | None) -> str:
-    """The robot a calibration is for: the one named; else the one robot of ``trials``; else
-    the robot ``params`` are of, when it is among them. Several robots and none named is an
-    error (a calibration of one robot from another's trials would be wrong)."""
-    robots = sorted({t.params.name for t in trials})
+    """The robot a calibration is for: the one named; else the one robot of ``trials``'
+    measured ones (:func:`~odolab.app.selection.robots_among`, the count the trials-used
+    sentence says); else the robot ``params`` are of, when it is among them. Several robots and
+    none named is an error (a calibration of one robot from another's trials would be wrong)."""
+    robots = robots_among(trials)
     if robot is not None:
         return robot
     if len(robots) == 1:
@@ -166,7 +168,7 @@ def choose_robot(trials: list[Trial], robot: str | None, params: RobotParams | N
     if params is not None and params.name in robots:
         return params.name
     if not robots:
-        raise CalibrationError("the selection has no trials to calibrate from")
+        raise CalibrationError("the selection has no measured trial to calibrate from")
     raise CalibrationError(
         f"the selected trials are of {len(robots)} robots ({', '.join(robots)}); name the one "
         "to calibrate (--robot, or the form's robot)"

@@ -8,6 +8,7 @@ phone runs): it is left out of every characterization unless named in ``campaign
 from __future__ import annotations
 
 from collections import Counter
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -25,6 +26,7 @@ __all__ = [
     "SelectionRequest",
     "check_robot",
     "open_notebook",
+    "robots_among",
     "select",
     "select_among",
     "validation_campaigns",
@@ -78,7 +80,7 @@ class Selection:
         if self.robot is not None:
             text += f" (robot {self.robot})"
         else:
-            robots = sorted({t.params.name for t in self.measured})
+            robots = robots_among(self.trials)
             if len(robots) > 1:
                 text += f" (of {len(robots)} robots, pooled: {', '.join(robots)})"
         if self.left_out:
@@ -96,6 +98,16 @@ class Selection:
             "n_measured": sum(self.used.values()),
             "describe": self.describe(),
         }
+
+
+def robots_among(trials: Iterable[Trial]) -> list[str]:
+    """The robots (names, sorted) of the measured trials among ``trials``: the one count of "how
+    many robots are selected", for the trials-used sentence (:meth:`Selection.describe`) and for
+    the robot a calibration is for (:func:`odolab.app.calibration.choose_robot`). A trial still
+    awaiting its measurement, or excluded, brings no robot into the selection."""
+    return sorted(
+        {t.params.name for t in trials if t.status is TrialStatus.MEASURED and t.measured}
+    )
 
 
 def open_notebook(db: str | Path) -> Notebook:

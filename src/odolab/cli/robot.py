@@ -12,6 +12,7 @@ from __future__ import annotations
 import contextlib
 import inspect
 import math
+import shlex
 from collections.abc import Callable
 from datetime import UTC, datetime
 from enum import StrEnum
@@ -483,6 +484,13 @@ def _record(notebook: Notebook | None, db: Path | None, run: RobotRun) -> str:
     return ""
 
 
+def measure_virtual_command(trial_id: str, db: Path | str | None) -> str:
+    """The ``odolab trials measure ID --virtual [--db DB]`` line to copy into a shell (quoted)."""
+    command = ["odolab", "trials", "measure", trial_id, "--virtual"]
+    command += ["--db", str(db)] if db is not None else []
+    return " ".join(shlex.quote(part) for part in command)
+
+
 def _virtual_instruments(run: RobotRun) -> RobotRun:
     """``run`` with what the lab's instruments would show after it (``run.json``
     ``"virtual_instruments"``), when a virtual board gave its true pose; else as it is."""
@@ -595,13 +603,8 @@ def _drive(
         echo(f"true (virtual): x={q.x:.4f} m y={q.y:.4f} m heading={q.heading:.4f} rad")
         shown = run.extra.get("virtual_instruments") if isinstance(run.extra, dict) else None
         if isinstance(shown, dict):
-            where = f" --db {db}" if db is not None else ""
-            echo(
-                term(
-                    f"the virtual instruments show: {shown['shows']} ('odolab trials measure "
-                    f"{run.trial.trial_id} --virtual{where}' takes them)"
-                )
-            )
+            suggested = measure_virtual_command(run.trial.trial_id, db)
+            echo(term(f"the virtual instruments show: {shown['shows']} ({suggested} takes them)"))
     echo(run.stats.describe())
     if run.headings:  # a link with an IMU: the gyro's word on the track, and the drift monitor
         from odolab.app.imu import gyro_after_run

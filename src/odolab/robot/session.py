@@ -274,6 +274,8 @@ def _drive_link(
                     link.description,
                     confirmed,
                     config,
+                    headings=_headings(link, loop.started_at),
+                    extra=drift.extra() if drift is not None else {},
                 )
                 partial = _finished(partial, finish)
                 if save_to is not None:

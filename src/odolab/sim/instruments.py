@@ -3,7 +3,8 @@
 - :class:`Compass`: an analog compass read to ``sigma`` (0.05 rad) and rounded to its marks
   (``resolution_deg``). A compass reads a *bearing* (clockwise from north, degrees), so it knows
   the heading only modulo 2 pi; the operator counts the whole turns (in the way the robot
-  turned, never fewer than none) and can miscount by one (``miscount_probability`` per trial).
+  turned, never fewer than none: :func:`odolab.measurement.count_turns`) and can miscount by
+  one (``miscount_probability`` per trial).
   The measured rotation (counter-clockwise positive) is
   ``2 pi * turns + ((initial_bearing - final_bearing) mod 360 deg)`` counter-clockwise and
   ``-(2 pi * turns + ((final_bearing - initial_bearing) mod 360 deg))`` clockwise.
@@ -17,11 +18,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
 from odolab.errors import SimError
+from odolab.measurement import count_turns, rotation_from_compass
 
 __all__ = ["Compass", "CompassReadings", "Instruments", "Meterstick", "flag_miscounted_turns"]
 
@@ -43,6 +46,7 @@ class CompassReadings:
     turns: NDArray[np.int64]
     rotation: NDArray[np.float64]  #: rad, counter-clockwise positive
     miscounted: NDArray[np.int64]  #: the operator's counting error (turns), 0 when right
+    clockwise: NDArray[np.bool_]  #: the way the turns were counted and the rest read
 
 
 @dataclass(frozen=True)
@@ -77,43 +81,43 @@ class Compass:
         north = rng.uniform(0.0, _TWO_PI, h0.shape)  # where north happens to be in the lab
         b0 = self._bearing(h0, north, rng)
         b1 = self._bearing(h1, north, rng)
-        true_total = h1 - h0
-        # the operator counts whole turns (never fewer than none) in the way the robot turned,
-        # and reads the rest of the turn from the compass in that direction, as
-        # odolab.measurement.rotation_from_compass takes them back (a clockwise rotation's turns
-        # are positive too: the notebook refuses negative ones)
-        cw = true_total < 0
-        frac = np.radians(np.where(cw, np.mod(b1 - b0, 360.0), np.mod(b0 - b1, 360.0)))
-        turns = np.rint((np.abs(true_total) - frac) / _TWO_PI).astype(np.int64)
-        back = turns < 0  # (almost) no motion, the readings a hair the other way: that way
-        cw = np.where(back, ~cw, cw)
-        frac = np.where(back & (frac > 0), _TWO_PI - frac, frac)
-        turns = np.maximum(turns, 0)
+        # the operator counts whole turns the way the robot turned (a stall read a hair the
+        # other way: that way), as odolab.measurement.count_turns says
+        counted = [
+            count_turns(float(a), float(b), float(c))
+            for a, b, c in zip(b0.ravel(), b1.ravel(), (h1 - h0).ravel(), strict=True)
+        ]
+        turns = np.array([n for n, _ in counted], dtype=np.int64).reshape(h0.shape)
+        cw = np.array([d == "cw" for _, d in counted], dtype=np.bool_).reshape(h0.shape)
         miss = np.zeros_like(turns)
         if self.miscount_probability > 0:
             wrong = rng.random(h0.shape) < self.miscount_probability
             miss = np.where(wrong, rng.choice(np.array([-1, 1]), h0.shape), 0).astype(np.int64)
             miss = np.maximum(turns + miss, 0) - turns
         turns = turns + miss
-        sign = np.where(cw, -1.0, 1.0)
-        rotation = np.asarray(sign * (_TWO_PI * turns + frac), dtype=np.float64)
-        return CompassReadings(b0, b1, turns, rotation, miss)
+        rotation = np.array(
+            [
+                rotation_from_compass(float(a), float(b), int(n), "cw" if c else "ccw")
+                for a, b, n, c in zip(
+                    b0.ravel(), b1.ravel(), turns.ravel(), cw.ravel(), strict=True
+                )
+            ],
+            dtype=np.float64,
+        ).reshape(h0.shape)
+        return CompassReadings(b0, b1, turns, rotation, miss, cw)
 
     def read_turn(
-        self, heading_change: float, clockwise: bool, rng: np.random.Generator
-    ) -> tuple[float, float, int]:
+        self, heading_change: float, rng: np.random.Generator
+    ) -> tuple[float, float, int, Literal["ccw", "cw"]]:
         """One run's readings as the operator takes them: (initial bearing, final bearing, whole
-        turns counted in the run's direction), for a true heading change (rad, ccw positive).
-        North lies where ``rng`` puts it; the turns are counted right (no miscount)."""
+        turns, the direction they were counted in), for a true heading change (rad, ccw
+        positive), counted by :func:`odolab.measurement.count_turns` (no miscount). North lies
+        where ``rng`` puts it."""
         north = rng.uniform(0.0, _TWO_PI, 1)
         b = self._bearing(np.array([0.0, float(heading_change)]), np.repeat(north, 2), rng)
         b0, b1 = float(b[0]), float(b[1])
-        if clockwise:  # cw: rotation = -(turns * 2 pi + radians((final - initial) mod 360))
-            frac, total = math.radians((b1 - b0) % 360.0), -heading_change
-        else:  # ccw: rotation = turns * 2 pi + radians((initial - final) mod 360)
-            frac, total = math.radians((b0 - b1) % 360.0), heading_change
-        turns = max(0, round((total - frac) / _TWO_PI))
-        return b0, b1, turns
+        turns, direction = count_turns(b0, b1, float(heading_change))
+        return b0, b1, turns, direction
 
 
 @dataclass(frozen=True)

@@ -89,7 +89,6 @@ from odolab.trials import (
     MotionKind,
     Trial,
     TrialStatus,
-    check_direction,
     signed_command,
     trial_field,
     validate_trial,
@@ -548,8 +547,7 @@ def _parse_row(
         notes=read_csv_cell(row.cells.get("notes", "")),
     )
     try:
-        validate_trial(trial)
-        check_direction(trial)
+        validate_trial(trial)  # its direction word against its numbers too
     except InvalidTrialError as err:
         column = trial_field(err.field).csv if err.field else "trial_id"
         raise row.fail(column, str(err).removeprefix(f"trial {trial.trial_id}: ")) from err

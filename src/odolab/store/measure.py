@@ -110,13 +110,16 @@ def build_measurement(
     x: object = None,
     y: object = None,
     sigma: object = None,
+    direction: str | None = None,
 ) -> Measurement:
     """The measurement of ``t`` from readings of the right kind, all given (unprefixed errors).
 
     ``sigma``: uncertainty of one compass reading (rad) or of x and y (m); None for the default.
+    ``direction`` (``"ccw"``, ``"cw"``): the way the turns were counted; None for the command's.
     """
     if is_rotation(t):
-        direction = "cw" if t.command.direction == "cw" else None
+        if direction is None:
+            direction = "cw" if t.command.direction == "cw" else None
         return rotation_measurement_from_compass(
             initial,  # type: ignore[arg-type]
             final,  # type: ignore[arg-type]
@@ -143,11 +146,12 @@ def measurement_for_trial(
     x: object = None,
     y: object = None,
     sigma: object = None,
+    direction: str | None = None,
 ) -> Measurement:
     """The measurement of ``t``; every refusal is one sentence starting ``trial ID``."""
     check_reading_names(t, initial, final, turns, x, y, complete=True)
     try:
-        return build_measurement(t, initial, final, turns, x, y, sigma)
+        return build_measurement(t, initial, final, turns, x, y, sigma, direction)
     except StoreError as err:
         raise StoreError(f"trial {t.trial_id}: {err}") from err
 
@@ -179,8 +183,9 @@ def record_measurement(
 def virtual_readings(t: Trial) -> dict[str, float] | None:
     """What the lab's instruments would show after ``t`` on a virtual board, with their noise:
     ``compass_initial_deg``, ``compass_final_deg`` (degrees clockwise from north, read to the
-    compass's 0.05 rad and its 1 degree marks) and ``turns`` (whole turns counted in the run's
-    direction) for a rotation or a pivot; ``x_m``, ``y_m`` (meterstick, 3 mm, read to the mm) in
+    compass's 0.05 rad and its 1 degree marks), ``turns`` and ``clockwise`` (1.0 or 0.0: whole
+    turns counted the way the robot truly turned, :func:`odolab.measurement.count_turns`) for a
+    rotation or a pivot; ``x_m``, ``y_m`` (meterstick, 3 mm, read to the mm) in
     the start frame otherwise. The same trial always reads the same (the noise is drawn from its
     id). None when ``t`` has no true pose (a real robot's run: its instruments are real).
     """
@@ -194,22 +199,25 @@ def virtual_readings(t: Trial) -> dict[str, float] | None:
     rng = np.random.default_rng(zlib.crc32(t.trial_id.encode("utf-8")))
     tools = Instruments()
     if is_rotation(t):
-        clockwise = t.command.direction == "cw" or (
-            t.command.angle is not None and t.command.angle < 0
-        )
-        b0, b1, turns = tools.compass.read_turn(true.heading, clockwise, rng)
-        return {"compass_initial_deg": b0, "compass_final_deg": b1, "turns": float(turns)}
+        b0, b1, turns, direction = tools.compass.read_turn(true.heading, rng)
+        return {
+            "compass_initial_deg": b0,
+            "compass_final_deg": b1,
+            "turns": float(turns),
+            "clockwise": 1.0 if direction == "cw" else 0.0,
+        }
     xy = tools.meterstick.read(np.array([true.x, true.y]), rng)
     return {"x_m": float(xy[0]), "y_m": float(xy[1])}
 
 
 def describe_readings(readings: dict[str, float]) -> str:
-    """``compass 12 -> 305 deg, 1 whole turn counted`` or ``meterstick x 1.003 m, y -0.012 m``."""
+    """``compass 12 -> 305 deg, 1 whole turn counted counter-clockwise`` or ``meterstick x 1.003 m, y -0.012 m``."""
     if "turns" in readings:
         n = int(readings["turns"])
         return (
             f"compass {readings['compass_initial_deg']:g} -> {readings['compass_final_deg']:g} deg, "
-            f"{n} whole turn{'' if n == 1 else 's'} counted"
+            f"{n} whole turn{'' if n == 1 else 's'} counted "
+            f"{'clockwise' if readings.get('clockwise') else 'counter-clockwise'}"
         )
     return f"meterstick x {readings['x_m']:.3f} m, y {readings['y_m']:.3f} m"
 
@@ -231,6 +239,7 @@ def virtual_measurement(t: Trial, sigma: object = None) -> Measurement:
             readings["compass_final_deg"],
             int(readings["turns"]),
             sigma=sigma,
+            direction="cw" if readings["clockwise"] else "ccw",
         )
     else:
         m = measurement_for_trial(t, x=readings["x_m"], y=readings["y_m"], sigma=sigma)

@@ -46,7 +46,14 @@ from odolab.store.records import (
 )
 from odolab.store.schema import SCHEMA_VERSION, connect, migrate
 from odolab.trajectory import Pose
-from odolab.trials import EncoderLog, Measurement, Trial, TrialStatus, check_no_nul
+from odolab.trials import (
+    EncoderLog,
+    Measurement,
+    Trial,
+    TrialStatus,
+    check_no_nul,
+    signed_command,
+)
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -559,6 +566,8 @@ class Notebook:
             if t.trial_id in seen:
                 raise StoreError(f"trial id {t.trial_id!r} appears twice in the batch")
             seen.add(t.trial_id)
+        # stored as every read gives them back: a reverse run's distance negative
+        trials = [dataclasses.replace(t, command=signed_command(t.command)) for t in trials]
         with self._write() as conn:
             self._insert_trials(
                 conn, trials, [None] * len(trials), create_campaigns=create_campaigns

@@ -26,7 +26,7 @@ from odolab.store.jsonio import (
 )
 from odolab.store.records import HISTORY_KEYS, NUMERIC_COLUMNS, trial_from_record
 from odolab.text import quote_input
-from odolab.trials import Trial, check_direction, validate_trial
+from odolab.trials import Trial, validate_trial
 
 if TYPE_CHECKING:
     from odolab.store.notebook import Notebook
@@ -212,8 +212,7 @@ def _trial_of(
     params = _params_for(nb, doc, key, where)
     try:
         trial = trial_from_record(rec, params, doc.logs.get(rec["trial_id"]))
-        validate_trial(trial)
-        check_direction(trial)
+        validate_trial(trial)  # its direction word against its numbers too
     except (KeyError, ValueError, TypeError) as err:
         raise StoreError(f"{where}: malformed trial record ({err})") from err
     except InvalidTrialError as err:
