@@ -24,6 +24,7 @@ __all__ = [
     "huber_line",
     "newey_west_panel_cov",
     "ols",
+    "panel_lags",
 ]
 
 F64 = NDArray[np.float64]
@@ -125,21 +126,34 @@ def cluster_cov(fit: OlsFit, x: F64, groups: NDArray[np.int64]) -> F64:
     return np.asarray(cov * (n_groups / (n_groups - 1.0) * ((n - 1.0) / float(n - k))))
 
 
+def _spans(groups: NDArray[np.int64]) -> list[tuple[int, int]]:
+    """(start, end) of each run of equal consecutive ``groups``."""
+    g = np.asarray(groups)
+    cuts = (np.nonzero(g[:-1] != g[1:])[0] + 1).tolist()
+    return list(zip([0, *cuts], [*cuts, len(g)], strict=True))
+
+
+def panel_lags(groups: NDArray[np.int64], maxlags: int) -> int:
+    """The lags :func:`newey_west_panel_cov` uses of ``maxlags``: no more than the longest run
+    of equal consecutive ``groups`` has pairs for."""
+    longest = max((up - lo for lo, up in _spans(groups)), default=0)
+    return max(0, min(maxlags, longest - 1))
+
+
 def newey_west_panel_cov(fit: OlsFit, x: F64, groups: NDArray[np.int64], maxlags: int) -> F64:
     """The parameters' covariance robust to autocorrelation (Bartlett weights, ``maxlags``)
     inside each run of equal consecutive ``groups`` (the rows of a group are consecutive), with
-    the factor ``n/(n-k)``."""
+    the factor ``n/(n-k)``. A lag longer than every group has no pair of rows that far apart
+    and adds nothing (statsmodels raises there; :func:`panel_lags` says the lags used)."""
     xu = _scores(fit, x)
-    g = np.asarray(groups)
-    cuts = (np.nonzero(g[:-1] != g[1:])[0] + 1).tolist()
-    spans = list(zip([0, *cuts], [*cuts, len(g)], strict=True))
+    spans = _spans(groups)
     weights = [1.0, 0.0] if maxlags == 0 else 1 - np.arange(maxlags + 1) / (maxlags + 1.0)
     s = weights[0] * (xu.T @ xu)
     for lag in range(1, len(weights)):
         now = [xu[lo + lag : up] for lo, up in spans if lo + lag < up]
         before = [xu[lo : up - lag] for lo, up in spans if lo + lag < up]
         if not now:
-            raise ValueError("all groups are empty taking lags")
+            break  # no group this long, nor any longer lag
         cross = np.vstack(now).T @ np.vstack(before)
         s = s + weights[lag] * (cross + cross.T)
     bread = fit.normalized_cov

@@ -113,6 +113,20 @@ def test_too_little_turning_is_one_sentence() -> None:
         calibrate_imu([run], NOMINAL)
 
 
+def test_a_run_with_fewer_samples_than_unknowns_is_one_sentence() -> None:
+    """A quarter turn on the 2014 board gave as many samples as unknowns: the scatter had no
+    degree of freedom and a ZeroDivisionError reached the user after `robot rotate`."""
+    seg = simulate_gyro_drive(seed=0).run.segments[0]
+    i0 = int(np.argmax(np.abs(np.diff(seg.right - seg.left)) > 1e-3))  # where it turns
+    t = seg.t[i0 : i0 + 6]
+    m = (seg.gyro_t >= t[0]) & (seg.gyro_t <= t[-1])
+    short = GyroSegment(t, seg.left[i0 : i0 + 6], seg.right[i0 : i0 + 6], seg.gyro_t[m], seg.wz[m])
+    run = GyroRun("short", "short.csv", "short_imu.csv", (short,))
+    opts = ImuOptions(min_turn=0.0, bias=0.0, max_offset=0.0)
+    with pytest.raises(CalibrationError, match=r"expected more samples than unknowns"):
+        calibrate_imu([run], NOMINAL, options=opts)
+
+
 def test_saturated_gyro_is_refused() -> None:
     d = simulate_gyro_drive(seed=0)
     seg = d.run.segments[0]

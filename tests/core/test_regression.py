@@ -18,6 +18,7 @@ from odolab.regression import (
     huber_line,
     newey_west_panel_cov,
     ols,
+    panel_lags,
 )
 
 RTOL = 1e-9
@@ -72,6 +73,31 @@ def test_cluster_and_panel_covariances() -> None:
         np.testing.assert_allclose(
             newey_west_panel_cov(fit, x, segs, lags), ref.cov_params(), rtol=RTOL
         )
+
+
+def test_panel_lags_longer_than_every_group_add_nothing() -> None:
+    """A short run (the 2014 board's quarter turn) has segments of 3 rows: lags 3-5 have no
+    pairs. statsmodels raises ("all groups are empty taking lags"), which reached the user as a
+    traceback after `robot rotate --turns 0.25`; here those lags add nothing, and panel_lags says
+    which were used."""
+    rng = np.random.default_rng(5)
+    n = 12
+    x = np.column_stack([rng.normal(size=n), np.ones(n)])
+    y = x @ np.array([0.7, 0.1]) + rng.normal(size=n)
+    fit = ols(y, x)
+    segs = np.repeat(np.arange(4), 3)
+    assert panel_lags(segs, 5) == 2 and panel_lags(segs, 1) == 1
+    cov = newey_west_panel_cov(fit, x, segs, 5)
+    assert np.all(np.isfinite(cov)) and np.all(np.linalg.eigvalsh(cov) > 0)
+    # the lags that have pairs, with maxlags 5's Bartlett weights (1 - lag / 6): by hand
+    xu = x * fit.resid[:, None]
+    s = xu.T @ xu
+    for lag, w in ((1, 5 / 6), (2, 4 / 6)):
+        a = np.vstack([xu[g * 3 + lag : g * 3 + 3] for g in range(4)])
+        b = np.vstack([xu[g * 3 : g * 3 + 3 - lag] for g in range(4)])
+        s = s + w * (a.T @ b + b.T @ a)
+    want = fit.normalized_cov @ s @ fit.normalized_cov.T * (n / (n - 2))
+    np.testing.assert_allclose(cov, want, rtol=RTOL)
 
 
 @pytest.mark.parametrize("seed", [4, 5])

@@ -513,7 +513,7 @@ def _fit_offsets(data: list[_RunData], x: FloatArray) -> list[float]:
 def _covariance(
     r: FloatArray, jac: FloatArray, data: list[_RunData], maxlags: int
 ) -> tuple[FloatArray, str]:
-    from odolab.regression import cluster_cov, newey_west_panel_cov, ols
+    from odolab.regression import cluster_cov, newey_west_panel_cov, ols, panel_lags
 
     groups = np.concatenate([d.group + 1_000_000 * d.index for d in data])
     segs = np.concatenate([d.seg for d in data])
@@ -524,7 +524,9 @@ def _covariance(
         how = f"clustered by {n_groups} segment groups"
     else:
         robust = newey_west_panel_cov(fit, jac, segs, maxlags)
-        how = f"Newey-West (lags {maxlags}) within each segment"
+        used = panel_lags(segs, maxlags)
+        short = f" of {maxlags}: no segment is longer" if used < maxlags else ""
+        how = f"Newey-West (lags {used}{short}) within each segment"
     plain = fit.cov
     # each variance the larger of the two (the robust one can fall short where one column
     # lives on few windows, as the clock offset on the turns' starts and stops), the
@@ -711,6 +713,11 @@ def calibrate_imu(
         col[starts[j] : starts[j] + d.dt.size] = d.dy(a_fit[0], a_fit[1])
         cols.append(col[:, None])
     jac = np.hstack(cols)
+    if jac.shape[0] <= jac.shape[1]:  # no residual left to measure the scatter with
+        raise CalibrationError(
+            f"the gyro calibration fits {jac.shape[1]} unknowns and the turning samples give "
+            f"{jac.shape[0]}; expected more samples than unknowns (a longer run, or more runs)"
+        )
     cov, how_cov = _covariance(r, jac, data, o.maxlags)
     nlin = x.shape[1]
     if not fit_bias:
