@@ -13,8 +13,11 @@ from odolab.cli import main
 
 
 def test_explore_then_compare_with_a_learning_curve(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    # piped output with no COLUMNS: the table whole, as wide as it needs (a COLUMNS narrower
+    # than the table gives plain blocks instead; it reached this test once in a full run)
+    monkeypatch.delenv("COLUMNS", raising=False)
     run = tmp_path / "run"
     assert main(["sim", "explore", "-o", str(run), "--seconds", "30", "--seed", "1"]) == 0
     assert "explored 30.0 s (jaguar-lab-tracked, seed 1)" in capsys.readouterr().out

@@ -91,9 +91,14 @@ def phone(lab_db: Path) -> Iterator[tuple[Any, str, list[str]]]:
             browser.close()
 
 
-def _rotation_row(page: Any) -> tuple[int, str]:
+def _rotation_row(page: Any) -> tuple[int, float]:
+    """The rotation row's n and ratio: its exact value (``data-value``), after checking that
+    the digits shown are that value rounded (how many: the interval rule, numfmt.with_ci)."""
     row = page.locator("#table1 tr", has_text="rotation")
-    return int(row.locator("td.n").inner_text()), row.locator("td.ratio").inner_text()
+    cell = row.locator("td.ratio")
+    exact, text = float(cell.get_attribute("data-value")), cell.inner_text()
+    assert abs(float(text) - exact) <= 0.5 * 10.0 ** -len(text.partition(".")[2]) + 1e-12
+    return int(row.locator("td.n").inner_text()), exact
 
 
 def test_a_measurement_on_the_phone(
@@ -103,7 +108,7 @@ def test_a_measurement_on_the_phone(
     pairs = measured_pairs()
 
     page.goto(base + "/table1")
-    assert _rotation_row(page) == (4, format(rotation_ratio(pairs), ".4g"))
+    assert _rotation_row(page) == (4, pytest.approx(rotation_ratio(pairs), rel=1e-12))
 
     # find an awaiting rotation
     page.goto(base + "/")
@@ -139,7 +144,7 @@ def test_a_measurement_on_the_phone(
     # Table I has the new trial
     page.get_by_role("link", name="Table I").click()
     pairs.append((62.85, rotation))
-    assert _rotation_row(page) == (5, format(rotation_ratio(pairs), ".4g"))
+    assert _rotation_row(page) == (5, pytest.approx(rotation_ratio(pairs), rel=1e-12))
     assert page.locator("img.plot").count() == 1
     page.locator("img.plot").first.scroll_into_view_if_needed()
     for _ in range(300):  # the fit is drawn on request (wait_for_function is refused by the CSP)
@@ -159,7 +164,7 @@ def test_a_measurement_on_the_phone(
     assert page.inner_text("h1 .badge") == "excluded"
     page.screenshot(path=shots / "05-excluded.png", full_page=True)
     page.goto(base + "/table1")
-    assert _rotation_row(page) == (4, format(rotation_ratio(pairs[1:]), ".4g"))
+    assert _rotation_row(page) == (4, pytest.approx(rotation_ratio(pairs[1:]), rel=1e-12))
 
     # download the report
     page.goto(base + "/report")

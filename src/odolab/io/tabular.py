@@ -797,10 +797,11 @@ def _write_errors() -> tuple[type[BaseException], ...]:
     import sys
 
     errors: list[type[BaseException]] = [OSError]
-    if "polars" in sys.modules:
-        errors.append(sys.modules["polars"].exceptions.PolarsError)
-    if "pyarrow" in sys.modules:
-        errors.append(sys.modules["pyarrow"].ArrowException)
+    # (a module that failed to import, or one blocked for a test, is in sys.modules as None)
+    if (pl := sys.modules.get("polars")) is not None:
+        errors.append(pl.exceptions.PolarsError)
+    if (pa := sys.modules.get("pyarrow")) is not None:
+        errors.append(pa.ArrowException)
     return tuple(errors)
 
 
