@@ -94,6 +94,8 @@ def pytest_assertion_pass(item: pytest.Item, lineno: int, orig: str, expl: str) 
         "orig": orig,
         "expl": expl[:2000],
         "shift": _SHIFT,
+        # hypothesis' examples depend on the modules loaded before (it draws constants from them)
+        "hypothesis": bool(getattr(getattr(item, "obj", None), "is_hypothesis_test", False)),
     }
     with Path(f"{_LOG}.{worker}").open("a", encoding="utf-8") as fh:
         fh.write(json.dumps(record) + "\n")
