@@ -5,7 +5,7 @@ from __future__ import annotations
 import csv
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +26,20 @@ class _CsvRefused(Exception):
 
 
 _BLANK_LINE = re.compile(rb"(?:^|\n)(?=\r?\n)")  # where a blank line starts (overlapping)
+
+
+def _data_lines(fh: Iterable[str], has_header: bool) -> Iterator[tuple[int, str]]:
+    """``(line number from 1, line)`` of each non-blank line after the header, the first
+    non-blank line (as :func:`odolab.io.limits.first_line_cells` reads it); the numbers are
+    the file's own, blank lines counted."""
+    header_to_skip = has_header
+    for lineno, line in enumerate(fh, start=1):
+        if not line.strip():
+            continue  # a blank line is no row (a line of empty cells is one)
+        if header_to_skip:
+            header_to_skip = False
+            continue
+        yield lineno, line
 
 
 def _parse_block(
@@ -89,11 +103,7 @@ def _locate_bad_cell(
     with path.open(newline="", encoding="utf-8-sig", errors="replace") as fh:
         whitespace = sep == r"\s+"
         idx = {name: header.index(name) for name in wanted}
-        for lineno, line in enumerate(fh, start=1):
-            if has_header and lineno == 1:
-                continue
-            if not line.strip():
-                continue  # a blank line is no row (a line of empty cells is one)
+        for lineno, line in _data_lines(fh, has_header):
             try:
                 row = line.split() if whitespace else next(csv.reader([line], delimiter=sep), [])
             except csv.Error:  # a cell over csv's 128 KiB field limit (lines may have 1 MB)
@@ -122,13 +132,9 @@ def data_line_numbers(
     """
     lines: list[int] = []
     with Path(path).open(newline="", encoding="utf-8-sig", errors="replace") as fh:
-        for lineno, line in enumerate(fh, start=1):
-            if has_header and lineno == 1:
-                continue
-            text = line.strip()
-            if not text or (sep == r"\s+" and text.startswith("#")):
-                continue
-            lines.append(lineno)
+        for lineno, line in _data_lines(fh, has_header):
+            if not (sep == r"\s+" and line.lstrip().startswith("#")):
+                lines.append(lineno)
     return np.asarray(lines, dtype=np.int64)
 
 
@@ -246,9 +252,7 @@ def _careful_whitespace(
     idx = [header.index(c) for c in columns]
     out: list[list[float]] = [[] for _ in columns]
     with p.open(newline="", encoding="utf-8-sig", errors="replace") as fh:
-        for lineno, line in enumerate(fh, start=1):
-            if has_header and lineno == 1:
-                continue
+        for lineno, line in _data_lines(fh, has_header):
             cells = line.split("#", 1)[0].split()
             if not cells:
                 continue
@@ -292,9 +296,7 @@ def _careful_csv(
     idx = [header.index(c) for c in columns]
     out: list[list[float]] = [[] for _ in columns]
     with p.open(newline="", encoding="utf-8-sig", errors="replace") as fh:
-        for lineno, line in enumerate(fh, start=1):  # a quote never spans lines here
-            if (has_header and lineno == 1) or not line.strip():
-                continue  # the header; a blank line is no row (a line of commas is one)
+        for lineno, line in _data_lines(fh, has_header):  # a quote never spans lines here
             try:
                 row = next(csv.reader([line], delimiter=sep), [])
             except csv.Error:  # a cell over csv's 128 KiB field limit (lines may have 1 MB)
