@@ -334,19 +334,59 @@ def _plain_numbers(
         return None
     if not rest.strip():
         return None
+    out = _trimmed_polars(rest, header, columns, sep)
+    if out is None:
+        out = _loadtxt(rest, header, columns, sep)
+    if out is None:
+        return None
+    if not allow_nan and not all(bool(np.isfinite(a).all()) for a in out.values()):
+        return None
+    return out
+
+
+def _trimmed_polars(
+    data: bytes, header: list[str], columns: Sequence[str], sep: str
+) -> dict[str, NDArray[np.float64]] | None:
+    """Numbers with spaces beside the separators (none beside a quote, none inside a number)
+    read by polars once those spaces are gone; None where it refuses them."""
+    if b' "' in data or b'" ' in data:
+        return None  # a quote after a space is no quote to Python's csv reader
+    one = sep.encode()
+    data = data.replace(b"\r\n", b"\n")
+    if b" " in data:
+        for spaced, bare in (
+            (b" " + one, one),
+            (one + b" ", one),
+            (b" \n", b"\n"),
+            (b"\n ", b"\n"),
+        ):
+            while len(trimmed := data.replace(spaced, bare)) < len(data):  # a space a pass
+                data = trimmed
+    data = data.strip(b" ").lstrip(b"\n")
+    if b" " in data or not data:
+        return None  # a space inside a number: the line-by-line reader names it
+    try:
+        parsed = _parse_block(data, header, header, (), sep=sep)  # all: a wider line refused
+    except _CsvRefused:
+        return None
+    return {c: np.asarray(parsed[c], dtype=np.float64) for c in columns}
+
+
+def _loadtxt(
+    data: bytes, header: list[str], columns: Sequence[str], sep: str
+) -> dict[str, NDArray[np.float64]] | None:
+    """Numbers read by numpy's loadtxt (quotes understood, each line as wide as the header);
+    None where it refuses them."""
     try:
         table = np.loadtxt(
-            io.StringIO(rest.decode("ascii")), dtype=np.float64, delimiter=sep, comments=None,
+            io.StringIO(data.decode("ascii")), dtype=np.float64, delimiter=sep, comments=None,
             quotechar='"', ndmin=2,
         )  # fmt: skip
     except ValueError:
         return None
     if table.shape[1] != len(header):
         return None
-    out = {c: np.ascontiguousarray(table[:, header.index(c)]) for c in columns}
-    if not allow_nan and not all(bool(np.isfinite(a).all()) for a in out.values()):
-        return None
-    return out
+    return {c: np.ascontiguousarray(table[:, header.index(c)]) for c in columns}
 
 
 def _csv_lines(
