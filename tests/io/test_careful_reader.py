@@ -29,7 +29,7 @@ def test_the_fast_case_reads_what_the_line_by_line_reader_reads(tmp_path: Path) 
     rng = np.random.default_rng(1)
     p = tmp_path / "log.csv"
     fast_used = 0
-    for _ in range(150):
+    for _ in range(100):
         lines = [",".join(HEADER)]
         for _ in range(int(rng.integers(1, 5))):
             width = 3 if rng.random() > 0.1 else int(rng.integers(1, 5))  # a short or long line
@@ -47,7 +47,7 @@ def test_the_fast_case_reads_what_the_line_by_line_reader_reads(tmp_path: Path) 
                 if fast is not None:
                     fast_used += 1
                     assert fast == _read(_csv_lines, p, cols, allow_nan), p.read_bytes()
-    assert fast_used > 30  # the comparison is not empty (measured: 68 of 600 read fast)
+    assert fast_used > 20  # the comparison is not empty (measured: 48 of 400 read fast)
 
 
 def test_a_quoted_log_is_read_fast_and_a_word_still_named(tmp_path: Path) -> None:

@@ -328,12 +328,10 @@ def _plain_numbers(
         if line.strip() or end < 0:
             break
     rest = data[start:]
-    if rest.translate(None, _PLAIN_BYTES + sep.encode()) or rest.count(b"\r") != rest.count(
-        b"\r\n"
-    ):
+    if rest.translate(None, _PLAIN_BYTES + sep.encode()) or rest.isspace() or not rest:
         return None
-    if not rest.strip():
-        return None
+    if b"\r" in rest and rest.count(b"\r") != rest.count(b"\r\n"):
+        return None  # a bare carriage return: a line end to Python, not to polars
     out = _trimmed_polars(rest, header, columns, sep)
     if out is None:
         out = _loadtxt(rest, header, columns, sep)
@@ -349,27 +347,35 @@ def _trimmed_polars(
 ) -> dict[str, NDArray[np.float64]] | None:
     """Numbers with spaces beside the separators (none beside a quote, none inside a number)
     read by polars once those spaces are gone; None where it refuses them."""
-    if b' "' in data or b'" ' in data:
-        return None  # a quote after a space is no quote to Python's csv reader
-    one = sep.encode()
-    data = data.replace(b"\r\n", b"\n")
-    if b" " in data:
-        for spaced, bare in (
-            (b" " + one, one),
-            (one + b" ", one),
-            (b" \n", b"\n"),
-            (b"\n ", b"\n"),
-        ):
-            while len(trimmed := data.replace(spaced, bare)) < len(data):  # a space a pass
-                data = trimmed
-    data = data.strip(b" ").lstrip(b"\n")
-    if b" " in data or not data:
-        return None  # a space inside a number: the line-by-line reader names it
+    if b"\r" in data:
+        data = data.replace(b"\r\n", b"\n")
+    first = data.find(b" ")
+    if first >= 0:  # only the lines from the first space to the last are looked at, copied
+        lo = data.rfind(b"\n", 0, first) + 1
+        hi = data.find(b"\n", data.rfind(b" ")) + 1 or len(data)
+        spaced = data[lo:hi]
+        if b' "' in spaced or b'" ' in spaced:
+            return None  # a quote after a space is no quote to Python's csv reader
+        spaced = _trimmed(spaced, sep.encode())
+        if b" " in spaced:
+            return None  # a space inside a number: the line-by-line reader names it
+        data = data[:lo] + spaced + data[hi:]
+    data = data.lstrip(b"\n")
+    if not data:
+        return None
     try:
         parsed = _parse_block(data, header, header, (), sep=sep)  # all: a wider line refused
     except _CsvRefused:
         return None
     return {c: np.asarray(parsed[c], dtype=np.float64) for c in columns}
+
+
+def _trimmed(data: bytes, sep: bytes) -> bytes:
+    """Whole lines without the spaces beside a separator or at either end of a line."""
+    for spaced, bare in ((b" " + sep, sep), (sep + b" ", sep), (b" \n", b"\n"), (b"\n ", b"\n")):
+        while len(trimmed := data.replace(spaced, bare)) < len(data):  # a space a pass
+            data = trimmed
+    return data.strip(b" ")  # (the first line's start, the last one's end)
 
 
 def _loadtxt(
