@@ -123,6 +123,18 @@ def test_a_command_names_the_extra_it_cannot_start_without() -> None:
     assert str(err) == "odolab track needs the video extra: pip install 'odolab[video]'"
 
 
+def test_the_missing_extra_check_knows_every_command_group() -> None:
+    """main() finds a command's words (group, then command) before the app is loaded, from the
+    list of groups: a group missing from it would skip the missing-extra check of its commands."""
+    from odolab.cli import _GROUPS, _words_of, load_commands
+
+    app = load_commands()  # every command module: every group registered
+    groups = {g.name for g in app.registered_groups}
+    assert groups == _GROUPS
+    for words in [*COMMAND_EXTRAS, *COMMAND_PREFERS]:  # each two-word entry is reachable
+        assert tuple(_words_of([*words, "--help"])) == words, words
+
+
 def _run_blocked(tmp_path: Path, commands: list[list[str]]) -> list[dict[str, object]]:
     path = os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")])
     env = {**os.environ, "ODOLAB_BLOCKED": ",".join(EXTRA_MODULES), "PYTHONPATH": path}

@@ -92,3 +92,26 @@ def test_a_line_of_empty_cells_is_a_row_not_a_blank_line(tmp_path: Path) -> None
     q = _write(tmp_path, "t.csv", "t,x,y,theta\n0,0,0,0\n,,,\n\n1,0,0,0\n0.5,0,0,0\n")
     with pytest.raises(LogFormatError, match=r"line 3, column 't' is empty"):
         read_trajectory_csv(q)
+
+
+def test_a_header_after_blank_lines_is_the_header(tmp_path: Path) -> None:
+    """The header is the first non-blank line (as pandas read it); lines keep their numbers."""
+    from odolab.io._table import data_line_numbers, read_numeric_columns
+    from odolab.io.tabular import read_columns
+    from odolab.tracking.camera import read_floor_csv
+
+    floor = _write(tmp_path, "floor.csv", "\n\nid,x,y,yaw,size\n1,0,0,0,0.1\n\n2,1,0,0,0.1\n")
+    assert [m.id for m in read_floor_csv(floor)] == [1, 2]
+    assert data_line_numbers(floor).tolist() == [4, 6]
+    got = read_numeric_columns(floor, ("id", "size"))
+    assert got["id"].tolist() == [1.0, 2.0]
+    # a quoted cell: polars refuses the file, the careful reader reads it
+    quoted = _write(tmp_path, "q.csv", '\n t,x\n0,"1.5"\n\n1,2\n')
+    assert read_columns(quoted, ("t", "x"))["x"].tolist() == [1.5, 2.0]
+    bad = _write(tmp_path, "bad.csv", "\nt,x\n0,1\n\n1,oops\n")
+    with pytest.raises(LogFormatError, match=r"bad.csv: line 5, column 'x' is 'oops'"):
+        read_columns(bad, ("t", "x"))
+    with pytest.raises(LogFormatError, match=r"bad.csv: line 5, column 'x' is 'oops'"):
+        read_numeric_columns(bad, ("t", "x"))
+    spaced = _write(tmp_path, "s.txt", "\n\nt x\n0 1\n1 2 # a comment\n")
+    assert read_numeric_columns(spaced, ("t", "x"), sep=r"\s+")["x"].tolist() == [1.0, 2.0]

@@ -156,3 +156,30 @@ def test_parquet_odometry_loads_neither_polars_nor_pandas(
     )  # fmt: skip
     found = json.loads(proc.stdout.splitlines()[-1])
     assert found == {name: [0, []] for name in commands}, found
+
+
+def test_a_failed_output_leaves_no_writer_thread_running(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A row group fails on the writer thread, a smaller chunk is gathered after it: the close
+    hands the gathered chunk over (raising the earlier error) and still ends the thread."""
+    monkeypatch.setattr(tabular, "ROW_GROUP_MIN_ROWS", 10)
+    real = tabular._arrow_array
+    calls: list[int] = []
+
+    def failing(*args: object) -> object:
+        calls.append(1)
+        if len(calls) == 1:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(*args)
+
+    monkeypatch.setattr(tabular, "_arrow_array", failing)
+    before = {t for t in threading.enumerate() if t.name == "odolab-write"}
+    with (
+        pytest.raises(tabular.LogFormatError, match="No space left on device"),
+        tabular.ChunkWriter(tmp_path / "out.parquet") as writer,
+    ):
+        writer.write({"x": np.arange(10.0)})  # a full row group: fails on the thread
+        writer.write({"x": np.arange(3.0)})  # gathered; handed over at the close
+    left = {t for t in threading.enumerate() if t.name == "odolab-write"} - before
+    assert not [t for t in left if t.is_alive()]

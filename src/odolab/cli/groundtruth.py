@@ -16,6 +16,7 @@ import typer
 
 from odolab.cli._apps import app, calibrate_app, sim_app
 from odolab.cli._output import echo
+from odolab.defaults import DEFAULT_CORNERS
 from odolab.errors import OdolabError
 
 if TYPE_CHECKING:
@@ -329,7 +330,7 @@ def track_cmd(
             help="Corner refinement: contour (edges fitted as lines: steady under motion "
             "blur), subpix (the grey-level saddle) or apriltag (docs/ground-truth.md).",
         ),
-    ] = "contour",
+    ] = DEFAULT_CORNERS,
 ) -> None:
     """Robot poses from a video: floor markers define the floor, the robot's marker its pose.
     Writes t,x,y,theta,heading,quality,segment (t from 0 at the first frame, or on the encoder

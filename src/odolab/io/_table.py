@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import csv
+import io
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +27,20 @@ class _CsvRefused(Exception):
 
 
 _BLANK_LINE = re.compile(rb"(?:^|\n)(?=\r?\n)")  # where a blank line starts (overlapping)
+
+
+def _data_lines(fh: Iterable[str], has_header: bool) -> Iterator[tuple[int, str]]:
+    """``(line number from 1, line)`` of each non-blank line after the header, the first
+    non-blank line (as :func:`odolab.io.limits.first_line_cells` reads it); the numbers are
+    the file's own, blank lines counted."""
+    header_to_skip = has_header
+    for lineno, line in enumerate(fh, start=1):
+        if not line.strip():
+            continue  # a blank line is no row (a line of empty cells is one)
+        if header_to_skip:
+            header_to_skip = False
+            continue
+        yield lineno, line
 
 
 def _parse_block(
@@ -89,11 +104,7 @@ def _locate_bad_cell(
     with path.open(newline="", encoding="utf-8-sig", errors="replace") as fh:
         whitespace = sep == r"\s+"
         idx = {name: header.index(name) for name in wanted}
-        for lineno, line in enumerate(fh, start=1):
-            if has_header and lineno == 1:
-                continue
-            if not line.strip():
-                continue  # a blank line is no row (a line of empty cells is one)
+        for lineno, line in _data_lines(fh, has_header):
             try:
                 row = line.split() if whitespace else next(csv.reader([line], delimiter=sep), [])
             except csv.Error:  # a cell over csv's 128 KiB field limit (lines may have 1 MB)
@@ -122,13 +133,9 @@ def data_line_numbers(
     """
     lines: list[int] = []
     with Path(path).open(newline="", encoding="utf-8-sig", errors="replace") as fh:
-        for lineno, line in enumerate(fh, start=1):
-            if has_header and lineno == 1:
-                continue
-            text = line.strip()
-            if not text or (sep == r"\s+" and text.startswith("#")):
-                continue
-            lines.append(lineno)
+        for lineno, line in _data_lines(fh, has_header):
+            if not (sep == r"\s+" and line.lstrip().startswith("#")):
+                lines.append(lineno)
     return np.asarray(lines, dtype=np.int64)
 
 
@@ -246,9 +253,7 @@ def _careful_whitespace(
     idx = [header.index(c) for c in columns]
     out: list[list[float]] = [[] for _ in columns]
     with p.open(newline="", encoding="utf-8-sig", errors="replace") as fh:
-        for lineno, line in enumerate(fh, start=1):
-            if has_header and lineno == 1:
-                continue
+        for lineno, line in _data_lines(fh, has_header):
             cells = line.split("#", 1)[0].split()
             if not cells:
                 continue
@@ -286,15 +291,126 @@ def _careful_csv(
     *,
     has_header: bool,
 ) -> dict[str, NDArray[np.float64]]:
-    """Python's csv reader, line by line (what the fast path refused: quotes, spaces around
-    numbers, a short line), and on any failure the first bad cell's line and column. A short
-    line's missing cells are empty; a line with more cells than the header is refused."""
+    """What the fast path refused (quotes, spaces around numbers, a short line): numbers alone
+    read at numpy's speed (:func:`_plain_numbers`), anything else by Python's csv reader line by
+    line (:func:`_csv_lines`), which names the first bad cell's line and column."""
+    fast = _plain_numbers(p, header, columns, sep, allow_nan, has_header=has_header)
+    if fast is not None:
+        return fast
+    return _csv_lines(p, header, columns, sep, allow_nan, has_header=has_header)
+
+
+#: The bytes of a file :func:`_plain_numbers` reads (with the separator): digits, signs,
+#: points, exponents, quotes, spaces and line ends; a word, a tab or ``nan`` go line by line.
+_PLAIN_BYTES = b'0123456789.+-eE" \r\n'
+
+
+def _plain_numbers(
+    p: Path,
+    header: list[str],
+    columns: Sequence[str],
+    sep: str,
+    allow_nan: bool,
+    *,
+    has_header: bool,
+) -> dict[str, NDArray[np.float64]] | None:
+    """The careful reader's usual case at C speed: numpy's loadtxt (quotes understood) on a
+    file of numbers only, every line as wide as the header; the values :func:`_csv_lines`
+    gives. None where that reader must look (a word, a missing or extra cell, a line of
+    spaces, a number that is not finite where one is expected), or the file has no rows."""
+    if len(sep) != 1 or not sep.isascii():
+        return None
+    data = p.read_bytes().removeprefix(b"\xef\xbb\xbf")
+    start = 0
+    while has_header:  # past the header, the first non-blank line
+        end = data.find(b"\n", start)
+        line, start = (data[start:], len(data)) if end < 0 else (data[start:end], end + 1)
+        if line.strip() or end < 0:
+            break
+    rest = data[start:]
+    if rest.translate(None, _PLAIN_BYTES + sep.encode()) or rest.isspace() or not rest:
+        return None
+    if b"\r" in rest and rest.count(b"\r") != rest.count(b"\r\n"):
+        return None  # a bare carriage return: a line end to Python, not to polars
+    out = _trimmed_polars(rest, header, columns, sep)
+    if out is None:
+        out = _loadtxt(rest, header, columns, sep)
+    if out is None:
+        return None
+    if not allow_nan and not all(bool(np.isfinite(a).all()) for a in out.values()):
+        return None
+    return out
+
+
+def _trimmed_polars(
+    data: bytes, header: list[str], columns: Sequence[str], sep: str
+) -> dict[str, NDArray[np.float64]] | None:
+    """Numbers with spaces beside the separators (none beside a quote, none inside a number)
+    read by polars once those spaces are gone; None where it refuses them."""
+    if b"\r" in data:
+        data = data.replace(b"\r\n", b"\n")
+    first = data.find(b" ")
+    if first >= 0:  # only the lines from the first space to the last are looked at, copied
+        lo = data.rfind(b"\n", 0, first) + 1
+        hi = data.find(b"\n", data.rfind(b" ")) + 1 or len(data)
+        spaced = data[lo:hi]
+        if b' "' in spaced or b'" ' in spaced:
+            return None  # a quote after a space is no quote to Python's csv reader
+        spaced = _trimmed(spaced, sep.encode())
+        if b" " in spaced:
+            return None  # a space inside a number: the line-by-line reader names it
+        data = data[:lo] + spaced + data[hi:]
+    data = data.lstrip(b"\n")
+    if not data:
+        return None
+    try:
+        parsed = _parse_block(data, header, header, (), sep=sep)  # all: a wider line refused
+    except _CsvRefused:
+        return None
+    return {c: np.asarray(parsed[c], dtype=np.float64) for c in columns}
+
+
+def _trimmed(data: bytes, sep: bytes) -> bytes:
+    """Whole lines without the spaces beside a separator or at either end of a line."""
+    for spaced, bare in ((b" " + sep, sep), (sep + b" ", sep), (b" \n", b"\n"), (b"\n ", b"\n")):
+        while len(trimmed := data.replace(spaced, bare)) < len(data):  # a space a pass
+            data = trimmed
+    return data.strip(b" ")  # (the first line's start, the last one's end)
+
+
+def _loadtxt(
+    data: bytes, header: list[str], columns: Sequence[str], sep: str
+) -> dict[str, NDArray[np.float64]] | None:
+    """Numbers read by numpy's loadtxt (quotes understood, each line as wide as the header);
+    None where it refuses them."""
+    try:
+        table = np.loadtxt(
+            io.StringIO(data.decode("ascii")), dtype=np.float64, delimiter=sep, comments=None,
+            quotechar='"', ndmin=2,
+        )  # fmt: skip
+    except ValueError:
+        return None
+    if table.shape[1] != len(header):
+        return None
+    return {c: np.ascontiguousarray(table[:, header.index(c)]) for c in columns}
+
+
+def _csv_lines(
+    p: Path,
+    header: list[str],
+    columns: Sequence[str],
+    sep: str,
+    allow_nan: bool,
+    *,
+    has_header: bool,
+) -> dict[str, NDArray[np.float64]]:
+    """Python's csv reader, line by line, and on any failure the first bad cell's line and
+    column. A short line's missing cells are empty; a line with more cells than the header is
+    refused."""
     idx = [header.index(c) for c in columns]
     out: list[list[float]] = [[] for _ in columns]
     with p.open(newline="", encoding="utf-8-sig", errors="replace") as fh:
-        for lineno, line in enumerate(fh, start=1):  # a quote never spans lines here
-            if (has_header and lineno == 1) or not line.strip():
-                continue  # the header; a blank line is no row (a line of commas is one)
+        for lineno, line in _data_lines(fh, has_header):  # a quote never spans lines here
             try:
                 row = next(csv.reader([line], delimiter=sep), [])
             except csv.Error:  # a cell over csv's 128 KiB field limit (lines may have 1 MB)

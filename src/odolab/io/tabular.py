@@ -774,11 +774,15 @@ class ChunkWriter:
         error: BaseException | None = None
         try:
             if exc is None:
-                self._flush()
-            if self._thread is not None:
-                self._thread.finish(raise_error=exc is None)
+                self._flush()  # may raise an earlier job's error
         except BaseException as err:  # raised once the files are closed
             error = err
+        finally:
+            if self._thread is not None:  # ended whatever happened: no thread left waiting
+                try:
+                    self._thread.finish(raise_error=exc is None and error is None)
+                except BaseException as err:
+                    error = err
         try:
             if self._writer is not None:
                 self._writer.close()

@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.defaults import DEFAULT_CORNERS
 from odolab.tracking.camera import CameraModel, FloorMarker, TrackingError
 from odolab.tracking.markers import get_dictionary
 from odolab.trajectory import Trajectory
@@ -68,7 +69,7 @@ class TrackOptions:
     dictionary: str = "DICT_4X4_50"
     full_every: int = 30
     max_yaw_rate: float = math.pi  # rad/s: a gap the robot may turn half a turn in is a new segment
-    corners: str = "contour"  #: corner refinement, one of :data:`CORNER_METHODS`
+    corners: str = DEFAULT_CORNERS  #: corner refinement, one of :data:`CORNER_METHODS`
 
     def __post_init__(self) -> None:
         if self.corners not in _REFINEMENT:
@@ -283,7 +284,7 @@ _REFINEMENT = {
 CORNER_METHODS = tuple(_REFINEMENT)
 
 
-def _detector(dictionary: str, corners: str = "contour") -> Any:
+def _detector(dictionary: str, corners: str = DEFAULT_CORNERS) -> Any:
     import cv2
 
     params = cv2.aruco.DetectorParameters()
