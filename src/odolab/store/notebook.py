@@ -47,6 +47,7 @@ from odolab.store.records import (
 from odolab.store.schema import SCHEMA_VERSION, connect, migrate
 from odolab.trajectory import Pose
 from odolab.trials import EncoderLog, Measurement, Trial, TrialStatus, check_no_nul
+from odolab.writing import strict_json
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -277,7 +278,7 @@ class Notebook:
                 params.ticks_per_rev,
                 params.encoder_modulus,
                 method,
-                json.dumps(list(source_trials)),
+                strict_json(list(source_trials), indent=None),
                 created or now,
                 notes,
                 *(extra[c] for c in PARAMS_EXTRA_COLUMNS),
@@ -530,7 +531,11 @@ class Notebook:
                     "INSERT INTO measurement_history (trial_id, replaced, instrument, "
                     "measured_rotation, measured_x, measured_y, sigma_rotation, sigma_xy, raw) "
                     "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                    (trial.trial_id, *(h[k] for k in HISTORY_KEYS[:-1]), json.dumps(h["raw"])),
+                    (
+                        trial.trial_id,
+                        *(h[k] for k in HISTORY_KEYS[:-1]),
+                        strict_json(h["raw"], indent=None),
+                    ),
                 )
 
     def add_trial(self, trial: Trial, *, create_campaign: bool = True) -> None:
