@@ -14,10 +14,17 @@ Two rules, each in one place:
   appears whole or not at all (a crash or a full disk leaves the old file, and no half file).
   A sub-folder odolab makes inside the folder it was given (``out/figures``) is refused when it
   is a link (:func:`sub_folder`).
+- **One way to write JSON.** Every JSON text odolab writes (``--json`` files, ``run.json``,
+  ``results.json``, ``fleet.json``, the web API's answers) comes from :func:`strict_json`: a
+  non-finite number (NaN, ±inf: a value not defined for that run) becomes ``null``, and the text
+  is made with ``allow_nan=False``, so strict parsers (JavaScript's ``JSON.parse``, jq, Go, serde)
+  read every file. A document that says why a value is missing keeps saying it beside the null.
 """
 
 from __future__ import annotations
 
+import json
+import math
 import os
 import stat
 import tempfile
@@ -27,6 +34,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import TextIO, TypeVar
 
+import numpy as np
+
 from odolab.errors import OdolabError
 
 __all__ = [
@@ -35,6 +44,8 @@ __all__ = [
     "path_first",
     "replacing_file",
     "replacing_path",
+    "strict_json",
+    "strict_value",
     "sub_folder",
     "write_bytes_file",
     "write_text_file",
@@ -73,6 +84,34 @@ def path_first(first: object, second: object, cls: type[T], writer: str) -> tupl
             f"{type(first).__name__} and {type(second).__name__}"
         )
     return Path(first), second
+
+
+def strict_value(obj: object) -> object:
+    """``obj`` as strict JSON holds it: a non-finite float (NumPy's too) as ``None``, NumPy
+    arrays and tuples as lists, NumPy scalars as Python's; recursively."""
+    if isinstance(obj, dict):
+        return {
+            k.item() if isinstance(k, np.generic) else k: strict_value(v) for k, v in obj.items()
+        }
+    if isinstance(obj, list | tuple):
+        return [strict_value(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return strict_value(obj.tolist())
+    if isinstance(obj, bool | np.bool_):
+        return bool(obj)
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, float | np.floating):
+        v = float(obj)
+        return v if math.isfinite(v) else None
+    return obj
+
+
+def strict_json(doc: object, *, indent: int | None = 2, sort_keys: bool = False) -> str:
+    """``doc`` as strict JSON text (RFC 8259): every non-finite number is ``null``
+    (:func:`strict_value`) and the text is made with ``allow_nan=False``, so no ``NaN`` or
+    ``Infinity`` token can reach a file or an answer. The one place odolab makes JSON text."""
+    return json.dumps(strict_value(doc), indent=indent, sort_keys=sort_keys, allow_nan=False)
 
 
 def _cannot(path: Path, what: str, err: OSError, error: type[OdolabError]) -> OdolabError:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from contextlib import AbstractContextManager
 from enum import StrEnum
@@ -14,6 +13,7 @@ import typer
 from odolab.cli._apps import app, calibrate_app
 from odolab.cli._output import echo, markup_text
 from odolab.cli._several import several_values_command
+from odolab.writing import strict_json
 
 if TYPE_CHECKING:
     from odolab.io.run import ReadOptions
@@ -122,7 +122,7 @@ def _write_json(doc: Any, path: Path | None) -> None:
         return
     from odolab.cli._output import write_output_text
 
-    write_output_text(path, json.dumps(doc, indent=2, allow_nan=True) + "\n", "JSON result")
+    write_output_text(path, strict_json(doc) + "\n", "JSON result")
 
 
 @app.command("evaluate")

@@ -97,12 +97,11 @@ def calibrate_imu_cmd(
 ) -> None:
     """The effective track and the radius ratio from a gyro, with 95 % intervals; the gyro's
     bias, scale (with a reference turn) and clock offset (docs/imu.md)."""
-    import json
-
     from odolab.app.imu import ImuRequest, calibrate_gyro
     from odolab.calibration.imu import ImuOptions
     from odolab.cli._output import check_not_the_input, write_output_text
     from odolab.text import safe_terminal
+    from odolab.writing import strict_json
 
     check_not_the_input(output, params)
     req = ImuRequest(
@@ -142,5 +141,5 @@ def calibrate_imu_cmd(
             )
         )
     if json_out is not None:
-        write_output_text(json_out, json.dumps(outcome.to_dict(), indent=2), "calibration JSON")
+        write_output_text(json_out, strict_json(outcome.to_dict()), "calibration JSON")
         echo(f"calibration written to {json_out}")

@@ -75,13 +75,12 @@ def analyze_cmd(
     robot: SelectRobotOpt = None,
 ) -> None:
     """Fit systematic and random error of every motion and terrain; print Table I."""
-    import json
-
     from odolab.app.analysis import analyze
     from odolab.app.selection import open_notebook
     from odolab.cli._console import print_table
     from odolab.cli._output import markup_text as mt
     from odolab.report import table1_rich
+    from odolab.writing import strict_json
 
     con = _console()
     with open_notebook(db) as nb:
@@ -110,7 +109,7 @@ def analyze_cmd(
     if json_out is not None:
         from odolab.cli._output import write_output_text
 
-        write_output_text(json_out, json.dumps(result.to_dict(), indent=2), "analysis JSON")
+        write_output_text(json_out, strict_json(result.to_dict()), "analysis JSON")
         con.print(f"analysis written to {mt(json_out)}")
 
 
@@ -229,11 +228,10 @@ def _from_notebook(
 def _write_json(path: Path | None, doc: dict[str, Any]) -> None:
     if path is None:
         return
-    import json
-
     from odolab.cli._output import write_output_text
+    from odolab.writing import strict_json
 
-    write_output_text(path, json.dumps(doc, indent=2), "calibration JSON")
+    write_output_text(path, strict_json(doc), "calibration JSON")
     echo(f"calibration written to {path}")
 
 

@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
@@ -24,6 +23,7 @@ from odolab.cli.evaluate import (
     _read_options,
     run_format,
 )
+from odolab.writing import strict_json
 
 if TYPE_CHECKING:
     from odolab.calibration.compare import ModelComparison
@@ -120,9 +120,7 @@ def calibrate_compare_cmd(
             progress=report,
         )
     if json_out is not None:
-        write_output_text(
-            json_out, json.dumps(result.to_dict(), indent=2, allow_nan=True) + "\n", "JSON result"
-        )
+        write_output_text(json_out, strict_json(result.to_dict()) + "\n", "JSON result")
     _print_comparison(result)
 
 
@@ -267,4 +265,4 @@ def sim_questions_cmd(
             console.print(f"  -> {escape(res.trend.sentence())}")
     if json_out is not None:
         doc = [r.to_dict() for r in results]
-        write_output_text(json_out, json.dumps(doc, indent=2, allow_nan=True) + "\n", "JSON result")
+        write_output_text(json_out, strict_json(doc) + "\n", "JSON result")

@@ -78,11 +78,10 @@ def validate_cmd(
     ] = None,
 ) -> None:
     """Compare the heading of the old and the new parameters with a phone IMU's."""
-    import json
-
     from odolab.io import read_encoder_csv
     from odolab.params import load_params
     from odolab.validation import read_sensorlog, validate, validation_figure
+    from odolab.writing import strict_json
 
     new_params = load_params(new)
     if db is not None:
@@ -135,7 +134,7 @@ def validate_cmd(
     if json_out is not None:
         from odolab.cli._output import write_output_text
 
-        write_output_text(json_out, json.dumps(result.to_dict(), indent=2) + "\n", "JSON result")
+        write_output_text(json_out, strict_json(result.to_dict()) + "\n", "JSON result")
     a = result.alignment
     corr = "" if a.correlation != a.correlation else f" (rate correlation {a.correlation:.3f})"
     echo(

@@ -13,7 +13,6 @@ drifts more and more (the ones a fleet report must flag for recalibration).
 from __future__ import annotations
 
 import datetime as dt
-import json
 import math
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
@@ -29,7 +28,7 @@ from odolab.params import PRESETS, RobotParams
 from odolab.sim import TrueParams, VirtualRobot
 from odolab.trajectory import Trajectory
 from odolab.trials import EncoderLog
-from odolab.writing import write_text_file
+from odolab.writing import strict_json, write_text_file
 
 __all__ = ["FleetSpec", "RobotTruth", "simulate_fleet", "truth_on_day"]
 
@@ -205,6 +204,6 @@ def simulate_fleet(
         "nominal": nominal.to_dict(),
         "robots": [asdict(t) for t in truths],
     }
-    text = json.dumps(manifest, indent=2) + "\n"
+    text = strict_json(manifest) + "\n"
     write_text_file(out / "fleet.json", text, what="fleet manifest")
     return sorted(paths)

@@ -138,7 +138,8 @@ def _sensor(path: Path, data: dict[str, Any]) -> dict[str, Any]:
             ("time offset (sensor minus encoder clock)", f"{fmt(data['time_offset_s'], 4)} s"),
         ]  # fmt: skip
         for key, value in values.items():
-            v, se = float(value), float(stderr[key])
+            # null is how a strict JSON file says not finite (odolab.writing.strict_json)
+            v, se = (math.nan if x is None else float(x) for x in (value, stderr[key]))
             if not (math.isfinite(v) and math.isfinite(se)):
                 raise ValueError(key)
             unit = "rad" if key.endswith("yaw") else "m"

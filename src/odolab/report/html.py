@@ -7,16 +7,12 @@ the text, the tables and the JSON agree by construction.
 from __future__ import annotations
 
 import base64
-import json
-import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
-
-import numpy as np
 
 from odolab import numfmt
 from odolab.analysis.core import MOTIONS, LabAnalysis, MotionAnalysis
@@ -48,7 +44,7 @@ from odolab.report.view import (
     verdict,
 )
 from odolab.text import safe_file_name
-from odolab.writing import replacing_path, sub_folder, write_text_file
+from odolab.writing import replacing_path, strict_json, strict_value, sub_folder, write_text_file
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -60,21 +56,9 @@ Progress = Callable[[str], None]
 
 
 def jsonable(obj: Any) -> Any:
-    """``obj`` as JSON holds it: NumPy values as Python's, tuples as lists, NaN/inf as None."""
-    if isinstance(obj, dict):
-        return {str(k): jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return jsonable(obj.tolist())
-    if isinstance(obj, np.floating | float):
-        v = float(obj)
-        return v if math.isfinite(v) else None
-    if isinstance(obj, np.integer):
-        return int(obj)
-    if isinstance(obj, np.bool_):
-        return bool(obj)
-    return obj
+    """``obj`` as JSON holds it: NumPy values as Python's, tuples as lists, NaN/inf as None
+    (:func:`odolab.writing.strict_value`, the one rule)."""
+    return strict_value(obj)
 
 
 # kept for callers of the old names: one formatting rule now (odolab.report.view)
@@ -638,7 +622,7 @@ def write_report(
     figs = _render(fig_dir, plans)
     results["figures"] = {f.name: f"figures/{f.name}.png" for f in figs}
     # through a temporary file in ``out``: a link planted at either name is replaced, not followed
-    write_text_file(out / "results.json", json.dumps(_numbers_only(results), indent=2),
+    write_text_file(out / "results.json", strict_json(_numbers_only(results)),
                     what="report results")  # fmt: skip
     path = out / "report.html"
     page = _page(results, analysis, calibrations, figs, reference)

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import bisect
 import contextlib
-import json
 import math
 import os
 import tempfile
@@ -47,7 +46,7 @@ from odolab.robot.plant import IdealPlant, Plant, PlantFactory
 from odolab.robot.registry import open_in_process, open_link
 from odolab.trajectory import Pose, Trajectory
 from odolab.trials import Command, MotionKind, Trial, TrialStatus
-from odolab.writing import write_text_file
+from odolab.writing import strict_json, write_text_file
 
 __all__ = [
     "OPTIONAL_RUN_FILES",
@@ -571,12 +570,6 @@ def run_simulated(
     )  # fmt: skip
 
 
-def _jsonable(obj: Any) -> Any:
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
-
-
 def _first_existing(path: Path) -> Path:
     """``path`` or the nearest of its parents that exists (something always does)."""
     for p in (path, *path.parents):
@@ -694,7 +687,7 @@ def save_run(run: RobotRun, folder: str | Path) -> Path:
         write_text_file(out / "imu.csv", "\n".join(rows) + "\n", what="robot IMU log")
     if run.truth is not None:  # the true path, where the CSV run reader looks for it
         write_trajectory_csv(out / TRUTH_FILE, run.truth)
-    cmd = {k: _jsonable(v) for k, v in asdict(trial.command).items() if v is not None}
+    cmd = {k: v for k, v in asdict(trial.command).items() if v is not None}
     cmd["kind"] = trial.command.kind.value
     doc = {
         "trial_id": trial.trial_id,
@@ -712,10 +705,10 @@ def save_run(run: RobotRun, folder: str | Path) -> Path:
         "true": trial.true._asdict() if trial.true is not None else None,
         "status": trial.status.value,
         "exclusion_reason": trial.exclusion_reason,
-        "stats": {k: _jsonable(v) for k, v in asdict(run.stats).items()},
+        "stats": asdict(run.stats),  # a non-finite stat is null (strict_json)
         "events": [list(e) for e in run.loop.events],
         "measured": None,
     }
     doc.update({k: v for k, v in run.extra.items() if k not in doc})
-    write_text_file(out / "run.json", json.dumps(doc, indent=2) + "\n", what="run record")
+    write_text_file(out / "run.json", strict_json(doc) + "\n", what="run record")
     return out

@@ -19,10 +19,10 @@ from starlette.applications import Starlette
 from starlette.exceptions import HTTPException
 from starlette.middleware import Middleware
 from starlette.requests import Request
-from starlette.responses import JSONResponse, Response
+from starlette.responses import Response
 
 from odolab.errors import OdolabError
-from odolab.serve.security import LOOPBACK_HOSTS, Guard
+from odolab.serve.security import LOOPBACK_HOSTS, Guard, StrictJSONResponse
 
 __all__ = ["MAX_UPLOAD_BYTES", "ServeSettings", "create_app"]
 
@@ -52,7 +52,9 @@ async def _http_error(request: Request, exc: Exception) -> Response:
         allowed = (exc.headers or {}).get("Allow", "")
         detail = f"{request.url.path} does not take {request.method}; it takes {allowed}"
     if request.url.path.startswith("/api/"):
-        return JSONResponse({"error": detail}, status_code=exc.status_code, headers=exc.headers)
+        return StrictJSONResponse(
+            {"error": detail}, status_code=exc.status_code, headers=exc.headers
+        )
     return Response(detail, exc.status_code, media_type="text/plain", headers=exc.headers)
 
 

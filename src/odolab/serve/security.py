@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import hashlib
 import hmac
-import json
 import re
 import secrets
 from http.cookies import SimpleCookie
@@ -32,20 +31,32 @@ from urllib.parse import parse_qsl, quote, urlencode, urlsplit
 
 from starlette.datastructures import Headers
 from starlette.exceptions import HTTPException
+from starlette.responses import JSONResponse
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from odolab.text import shorten
+from odolab.writing import strict_json
 
 __all__ = [
     "LOOPBACK_HOSTS",
     "SESSION_COOKIE",
     "TOKEN_COOKIE",
     "Guard",
+    "StrictJSONResponse",
     "cross_site",
     "csrf_ok",
     "csrf_token",
     "make_token",
 ]
+
+
+class StrictJSONResponse(JSONResponse):
+    """Starlette's JSON answer made by :func:`odolab.writing.strict_json`: a non-finite number
+    is ``null`` (Starlette's own refuses it, a 500), so every answer parses in a browser."""
+
+    def render(self, content: Any) -> bytes:
+        return strict_json(content, indent=None).encode("utf-8")
+
 
 TOKEN_COOKIE = "odolab_token"
 SESSION_COOKIE = "odolab_session"
@@ -150,7 +161,7 @@ class Guard:
         self, send: Send, status: int, text: str, *, api: bool, extra: list[tuple[bytes, bytes]]
     ) -> None:
         if api:
-            body = json.dumps({"error": text}).encode()
+            body = strict_json({"error": text}, indent=None).encode()
             ctype = b"application/json"
         else:
             body = text.encode("utf-8")

@@ -45,7 +45,7 @@ from odolab.trials import (
     TrialStatus,
     check_no_nul,
 )
-from odolab.writing import write_text_file
+from odolab.writing import strict_json, write_text_file
 
 __all__ = [
     "FORMAT",
@@ -113,7 +113,7 @@ def write_notebook_json(
         "campaigns": [{k: c[k] for k in _CAMPAIGN_KEYS} for c in campaigns],
         "trials": trials,
     }
-    text = json.dumps(doc, indent=1, allow_nan=False)
+    text = strict_json(doc, indent=1)
     return write_text_file(path, text, what="notebook JSON", error=StoreError)
 
 

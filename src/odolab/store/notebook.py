@@ -54,6 +54,7 @@ from odolab.trials import (
     check_no_nul,
     signed_command,
 )
+from odolab.writing import strict_json
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -284,7 +285,7 @@ class Notebook:
                 params.ticks_per_rev,
                 params.encoder_modulus,
                 method,
-                json.dumps(list(source_trials)),
+                strict_json(list(source_trials), indent=None),
                 created or now,
                 notes,
                 *(extra[c] for c in PARAMS_EXTRA_COLUMNS),
@@ -537,7 +538,11 @@ class Notebook:
                     "INSERT INTO measurement_history (trial_id, replaced, instrument, "
                     "measured_rotation, measured_x, measured_y, sigma_rotation, sigma_xy, raw) "
                     "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                    (trial.trial_id, *(h[k] for k in HISTORY_KEYS[:-1]), json.dumps(h["raw"])),
+                    (
+                        trial.trial_id,
+                        *(h[k] for k in HISTORY_KEYS[:-1]),
+                        strict_json(h["raw"], indent=None),
+                    ),
                 )
 
     def add_trial(self, trial: Trial, *, create_campaign: bool = True) -> None:

@@ -28,6 +28,7 @@ from odolab.trials import (
     signed_command,
     validate_trial,
 )
+from odolab.writing import strict_json
 
 __all__ = [
     "CAMPAIGN_KINDS",
@@ -94,7 +95,7 @@ def params_columns(params: RobotParams) -> dict[str, Any]:
     noise = params.noise
     return {
         "model_kind": params.model.kind,
-        "model_params": json.dumps(coefficients, allow_nan=False),
+        "model_params": strict_json(coefficients, indent=None),
         "noise_k_left": None if noise is None else noise.k_left,
         "noise_k_right": None if noise is None else noise.k_right,
         "noise_k_scrub": None if noise is None else noise.k_scrub,
@@ -167,7 +168,9 @@ def record_from_trial(trial: Trial, params_version: int | None) -> dict[str, Any
         "measured_y": m.y if m else None,
         "sigma_rotation": m.sigma_rotation if m else None,
         "sigma_xy": m.sigma_xy if m else None,
-        "raw": json.dumps({k: float(v) for k, v in m.raw.items()} if m else {}, sort_keys=True),
+        "raw": strict_json(
+            {k: float(v) for k, v in m.raw.items()} if m else {}, indent=None, sort_keys=True
+        ),
         "true_t": float(tr.t) if tr else None,
         "true_x": float(tr.x) if tr else None,
         "true_y": float(tr.y) if tr else None,

@@ -21,11 +21,11 @@ from starlette.concurrency import run_in_threadpool
 from starlette.datastructures import QueryParams
 from starlette.exceptions import HTTPException
 from starlette.requests import Request
-from starlette.responses import HTMLResponse, JSONResponse, RedirectResponse, Response
+from starlette.responses import HTMLResponse, RedirectResponse, Response
 
 from odolab.app.analysis import AnalysisCache
 from odolab.errors import StoreError
-from odolab.serve.security import csrf_ok, csrf_token
+from odolab.serve.security import StrictJSONResponse, csrf_ok, csrf_token
 from odolab.text import display_value
 from odolab.trials import MotionKind, TrialStatus
 
@@ -297,8 +297,8 @@ def text_field(form: Mapping[str, Any], name: str) -> str | None:
     return value.strip()
 
 
-def error_json(err: Exception, status: int = 400) -> JSONResponse:
-    return JSONResponse({"error": web_text(err)}, status_code=status)
+def error_json(err: Exception, status: int = 400) -> StrictJSONResponse:
+    return StrictJSONResponse({"error": web_text(err)}, status_code=status)
 
 
 def plain(text: str, status: int) -> Response:

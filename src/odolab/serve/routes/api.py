@@ -9,7 +9,7 @@ import dataclasses
 from typing import TYPE_CHECKING, Any
 
 from starlette.requests import Request
-from starlette.responses import JSONResponse, Response
+from starlette.responses import Response
 
 from odolab.errors import OdolabError, StoreError
 from odolab.serve.routes._measure import in_words, json_readings
@@ -26,6 +26,7 @@ from odolab.serve.routes._web import (
 )
 from odolab.serve.routes.table1 import analysis_now
 from odolab.serve.routes.trials import awaiting_first, trial_context
+from odolab.serve.security import StrictJSONResponse
 
 if TYPE_CHECKING:
     from odolab.store import Notebook
@@ -88,7 +89,7 @@ async def trials(request: Request) -> Response:
     found = await web(request).run(
         lambda nb: nb.load_trials(campaign, terrain, kind, status, with_logs=False)
     )
-    return JSONResponse({"trials": [trial_json(t) for t in awaiting_first(found)]})
+    return StrictJSONResponse({"trials": [trial_json(t) for t in awaiting_first(found)]})
 
 
 async def trial(request: Request) -> Response:
@@ -106,13 +107,13 @@ async def trial(request: Request) -> Response:
         return out
 
     try:
-        return JSONResponse(await web(request).run(load))
+        return StrictJSONResponse(await web(request).run(load))
     except StoreError as err:
         action = trial_id.rsplit("/", 1)[-1] if "/" in trial_id else ""
         if action in _POST_ONLY and request.method in ("GET", "HEAD"):
             # GET .../measurement: the route exists for POST (a trial called "A/measurement"
             # would have been found above)
-            return JSONResponse(
+            return StrictJSONResponse(
                 {"error": f"{request.url.path} takes POST (a JSON body), not GET"},
                 status_code=405,
                 headers={"allow": "POST"},
@@ -144,7 +145,7 @@ async def measure(request: Request) -> Response:
         return 200, trial_json(saved)
 
     status, out = await web(request).run(save)
-    return JSONResponse(out, status_code=status)
+    return StrictJSONResponse(out, status_code=status)
 
 
 async def exclude(request: Request) -> Response:
@@ -163,7 +164,7 @@ async def exclude(request: Request) -> Response:
                 nb.exclude_trial(trial_id, reason)
             return trial_json(nb.get_trial(trial_id))
 
-        return JSONResponse(await w.run(act))
+        return StrictJSONResponse(await w.run(act))
     except StoreError as err:
         return error_json(err, status_of(err))
 
@@ -177,8 +178,8 @@ async def table1(request: Request) -> Response:
         return error_json(err)
     result, error, _, status = await analysis_now(web(request), sel)
     if result is None:
-        return JSONResponse({"rows": [], "error": error}, status_code=status)
-    return JSONResponse(
+        return StrictJSONResponse({"rows": [], "error": error}, status_code=status)
+    return StrictJSONResponse(
         {
             "rows": result.table1,
             "skipped": list(result.analysis.skipped),
@@ -213,7 +214,7 @@ async def calibrate(request: Request) -> Response:
             record=record,
         )
         w = web(request)
-        return JSONResponse(await w.run(lambda nb: run(nb, req, w.cache).to_dict()))
+        return StrictJSONResponse(await w.run(lambda nb: run(nb, req, w.cache).to_dict()))
     except OdolabError as err:
         text = web_text(err).replace("(--robot, or the form's robot)", '(send "robot")')
         return error_json(StoreError(text))
@@ -226,6 +227,6 @@ async def report(request: Request) -> Response:
     try:
         req = ReportRequest(selection_of(request.query_params))
         w = web(request)
-        return JSONResponse(await w.run(lambda nb: report_results(nb, req, w.cache)))
+        return StrictJSONResponse(await w.run(lambda nb: report_results(nb, req, w.cache)))
     except OdolabError as err:
         return error_json(err)
