@@ -14,7 +14,13 @@ import pytest
 from odolab.cli import main
 from odolab.params import PRESETS
 from odolab.robot.config import RunConfig
-from odolab.robot.drift import SenseCheckError, sense_check
+from odolab.robot.drift import (
+    EXPECTED_RATIO,
+    DriftMonitor,
+    SenseCheckError,
+    robot_sense_sentence,
+    sense_check,
+)
 from odolab.robot.jaguar2014.board import (
     Board2014Config,
     VirtualJaguar2014,
@@ -55,8 +61,11 @@ def test_a_right_run_passes_and_records_no_flag() -> None:
 
 def test_one_reversed_encoder_is_named() -> None:
     # turning in place with one encoder counting backwards: the odometry sees a straight run
-    problem = sense_check(0.02, 6.2, 10.0)
-    assert problem is not None and "one encoder counting backwards" in problem
+    found = sense_check(0.02, 6.2, 10.0)
+    assert found is not None and found.kind == "ratio"
+    assert found.ratio == pytest.approx(310.0) and found.expected == EXPECTED_RATIO
+    problem = robot_sense_sentence(found)
+    assert "one encoder counting backwards" in problem and "--left-encoder-sign" in problem
     assert sense_check(6.349, -6.11, 12.0) is not None  # the issue's variant=track run
     assert sense_check(6.0, 6.1, 12.0) is None  # within the calibrated range, widened
     assert sense_check(6.51, 4.79, 4.0) is None  # the jaguar-lab truth's slip at 2 rad/s
@@ -83,3 +92,16 @@ def test_the_cli_stops_a_wrong_variant_on_sim_server(
     assert code == 1
     assert "sense check" in err and "opposite ways" in err and "variant" in err
     assert "robot stopped (its sensor data confirms it)" in err and "Traceback" not in err
+
+
+def test_the_finding_is_data_and_the_robot_words_it() -> None:
+    """Review of issue 38: the check returns a kind and numbers (each face words it); the
+    drift monitor and the check share one calibrated range."""
+    found = sense_check(6.349, -6.11, 12.0)
+    assert found is not None and found.kind == "opposite"
+    assert (found.odometry_turn, found.gyro_turn, found.elapsed) == (6.349, -6.11, 12.0)
+    sentence = robot_sense_sentence(found)
+    assert "opposite ways (odometry +6.35 rad, gyro -6.11 rad over 12.0 s)" in sentence
+    assert "variant=" in sentence
+    assert DriftMonitor().expected == EXPECTED_RATIO
+    assert EXPECTED_RATIO[0] < 1.0 < EXPECTED_RATIO[1]

@@ -53,7 +53,10 @@ def test_a_ratio_far_off_is_flagged_with_its_likely_cause(scenario) -> None:  # 
     )
     r = validate(scenario.encoder_log, phone, scenario.old, scenario.new)
     flagged = [w for w in r.warnings if w.startswith("sense check")]
-    assert len(flagged) == 1 and "one encoder counting backwards" in flagged[0]
+    assert len(flagged) == 1 and "one encoder sign reversed in the params" in flagged[0]
+    # a log's causes, not a robot's: no link variant, no robot options
+    assert "variant=" not in flagged[0] and "--left-encoder-sign" not in flagged[0]
+    assert "IMU/odometry 0.26" in flagged[0] and "phone" in flagged[0]  # 0.3 * 0.875
     fine = simulate_phone_log(scenario.true_t, scenario.true_heading, clock_offset=0.0, seed=7)
     assert not [w for w in validate(scenario.encoder_log, fine, scenario.old, scenario.new).warnings
                 if w.startswith("sense check")]  # fmt: skip

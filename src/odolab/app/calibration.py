@@ -75,6 +75,9 @@ class BaseChoice:
     robot: str
     version: int | None  #: the notebook's version number (None: parameters the user gave)
     reason: str  #: one sentence, shown by every face
+    #: the relative standard error of the scale of ``params`` when a ratios calibration fixed
+    #: it (UMBmark chained from it carries it into its intervals); None: taken as exact
+    scale_sd: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -230,6 +233,8 @@ def umbmark_start(
     logs = bool(squares) and all(t.encoder_log is not None for t in squares)
     if not logs or ratios is None:
         return base
+    from odolab.calibration import scale_sd_from
+
     result, start = ratios
     terrain = result.provenance.get("terrain")
     on = f" on {terrain}" if terrain else ""
@@ -240,6 +245,7 @@ def umbmark_start(
         f"the ratios calibration of the same trials{on} (UMBmark iterated on the squares' "
         f"encoder logs fixes the track and the wheels' ratio, not the scale), itself from "
         f"{start.reason}",
+        scale_sd_from(result),
     )
 
 
@@ -270,15 +276,20 @@ def _ratios(
 
 
 def umbmark_from_squares(
-    squares: list[Trial], start: RobotParams, side: float | None = None
+    squares: list[Trial],
+    start: RobotParams,
+    side: float | None = None,
+    scale_sd: float | None = None,
 ) -> tuple[UmbmarkResult, str]:
     """UMBmark on measured square trials: iterated on their encoder logs when every one has
-    a log, else the single linearized step; returns the result and a sentence saying which."""
+    a log, else the single linearized step; returns the result and a sentence saying which.
+    ``scale_sd``: the start's scale uncertainty (:attr:`BaseChoice.scale_sd`), carried into the
+    intervals."""
     from odolab.calibration import umbmark, umbmark_errors_from_trials, umbmark_iterated
 
     no_log = [t for t in squares if t.encoder_log is None]
     if squares and not no_log:
-        result = umbmark_iterated(squares, start)
+        result = umbmark_iterated(squares, start, scale_sd=scale_sd)
         if side is not None and abs(side - result.side) > 1e-6:
             raise CalibrationError(
                 f"--side {side:g} m disagrees with the notebook's squares ({result.side:g} m)"
@@ -293,7 +304,7 @@ def umbmark_from_squares(
         )
         return result, how
     cw, ccw, sq_side = umbmark_errors_from_trials(squares)
-    result = umbmark(cw, ccw, side or sq_side, start)
+    result = umbmark(cw, ccw, side or sq_side, start, scale_sd=scale_sd)
     how = (
         f"UMBmark single linearized step: {len(no_log)} of {len(squares)} square trials have no "
         f"encoder log to iterate on; E_max,syst {result.e_max_syst:.4g} m"
@@ -349,7 +360,7 @@ def calibrate(
             except CalibrationError:
                 ratios = None
         base = umbmark_start(nb, robot, squares, ratios, request.params, request.params_source)
-        umb, how = umbmark_from_squares(squares, base.params, request.side)
+        umb, how = umbmark_from_squares(squares, base.params, request.side, base.scale_sd)
         umb = umb.with_noise(analysis)
         result, used = umb.calibration, squares
     version = None

@@ -141,7 +141,7 @@ def report_calibrations(
                 request.params,
                 request.params_source,
             )
-            umb, _ = umbmark_from_squares(squares, start.params)
+            umb, _ = umbmark_from_squares(squares, start.params, None, start.scale_sd)
             out["umbmark"] = umb
             umb_start = start
         except CalibrationError as err:

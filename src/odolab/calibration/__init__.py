@@ -10,6 +10,7 @@ from odolab.calibration.ratios import CalibrationResult, ratios, ratios_from_ana
 from odolab.calibration.umbmark import (
     UmbmarkResult,
     e_max_syst,
+    scale_sd_from,
     umbmark,
     umbmark_errors_from_trials,
     umbmark_iterated,
@@ -21,6 +22,7 @@ __all__ = [
     "e_max_syst",
     "ratios",
     "ratios_from_analysis",
+    "scale_sd_from",
     "umbmark",
     "umbmark_errors_from_trials",
     "umbmark_iterated",

@@ -46,7 +46,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from odolab.calibration.ratios import CalibrationResult, _now, check_track_model, with_noise
+from odolab.calibration.ratios import (
+    _Z95,
+    CalibrationResult,
+    _now,
+    check_track_model,
+    with_noise,
+)
 from odolab.errors import CalibrationError, LogFormatError
 from odolab.params import RobotParams
 from odolab.text import quote_input
@@ -59,6 +65,7 @@ __all__ = [
     "UmbmarkResult",
     "e_max_syst",
     "read_umbmark_errors_csv",
+    "scale_sd_from",
     "umbmark",
     "umbmark_errors_from_trials",
     "umbmark_iterated",
@@ -189,6 +196,21 @@ class UmbmarkResult:
         cal = with_noise(self.calibration, analysis)
         return replace(self, params=cal.params, calibration=cal)
 
+    def intervals_sentence(self) -> str | None:
+        """The new parameters' 95 % intervals and what they hold (the squares' scatter, with
+        or without the ratios' scale), in one sentence; None without intervals."""
+        prov = self.calibration.provenance
+        cis = [prov.get(f"{k}_ci95") for k in ("left_wheel_radius", "right_wheel_radius")]
+        track = prov.get("track_width_ci95")
+        if not all(isinstance(c, list) and len(c) == 2 for c in (*cis, track)):
+            return None
+        (l0, l1), (r0, r1), (b0, b1) = cis[0], cis[1], track  # type: ignore[misc]
+        return (
+            f"95 % intervals ({prov.get('ci95_includes', 'the squares scatter')}): left radius "
+            f"[{l0:.5g}, {l1:.5g}] m, right radius [{r0:.5g}, {r1:.5g}] m, track width "
+            f"[{b0:.5g}, {b1:.5g}] m"
+        )
+
     def to_dict(self) -> dict[str, Any]:
         return {
             "params": self.params.to_dict(),
@@ -232,18 +254,58 @@ def _corrected(
     return e_b, e_d, params.left_wheel_radius * c_l, params.right_wheel_radius * c_r, b * e_b
 
 
+def _alpha_beta(
+    cw: NDArray[np.float64], ccw: NDArray[np.float64], side: float
+) -> tuple[float, float, float, float, float, float]:
+    """UMBmark's errors from the return errors' centres of gravity, the one place of the
+    formula: ``(alpha, beta, alpha_from_x, alpha_from_y, beta_from_x, beta_from_y)``, with
+    ``alpha = -(x_cw + y_cw + x_ccw - y_ccw) / (8 L)`` and ``beta = -(x_cw + y_cw - x_ccw +
+    y_ccw) / (8 L)`` the means of the estimates from x and from y."""
+    xcw, ycw = (float(v) for v in cw.mean(axis=0))
+    xccw, yccw = (float(v) for v in ccw.mean(axis=0))
+    L = float(side)
+    a_x = (xcw + xccw) / (-4 * L)
+    b_x = (xcw - xccw) / (-4 * L)
+    a_y = (ycw - yccw) / (-4 * L)
+    b_y = (ycw + yccw) / (-4 * L)
+    return 0.5 * (a_x + a_y), 0.5 * (b_x + b_y), a_x, a_y, b_x, b_y
+
+
+def scale_sd_from(result: CalibrationResult) -> float | None:
+    """The relative standard error of the wheel-radius scale a ratios calibration fixed (from
+    its ``wheel_radius_ci95``, a log-normal interval), or None when it carries none."""
+    ci = result.provenance.get("wheel_radius_ci95")
+    if not (isinstance(ci, list | tuple) and len(ci) == 2):
+        return None
+    lo, hi = float(ci[0]), float(ci[1])
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi):
+        return None
+    return math.log(hi / lo) / (2 * _Z95)
+
+
 def umbmark_intervals(
-    cw: NDArray[np.float64], ccw: NDArray[np.float64], side: float, params: RobotParams
+    cw: NDArray[np.float64],
+    ccw: NDArray[np.float64],
+    side: float,
+    params: RobotParams,
+    scale_sd: float | None = None,
 ) -> dict[str, Any]:
     """95 % intervals of UMBmark's new parameters from the scatter of the return errors:
-    ``alpha`` and ``beta`` are means of the errors (``alpha = -(x_cw + y_cw + x_ccw - y_ccw) /
-    (8 L)``, ``beta = -(x_cw + y_cw - x_ccw + y_ccw) / (8 L)``), so their standard errors come
-    from each direction's sample variance (x and y of one run together) over its number of
-    runs, with Student's t on the smaller direction's degrees of freedom; the track width
-    follows ``alpha`` alone and the wheel radii ``beta`` alone, monotonically, so their
-    intervals are the corrections at the ends of those of ``alpha`` and ``beta``. Empty with
-    fewer than 2 runs in a direction (no scatter to go by) or an end past the small-error model.
-    Keys: ``left_wheel_radius_ci95``, ``right_wheel_radius_ci95``, ``track_width_ci95``."""
+    ``alpha`` and ``beta`` (:func:`_alpha_beta`) are means of the errors, so their standard
+    errors come from each direction's sample variance (x and y of one run together) over its
+    number of runs, with Student's t on the smaller direction's degrees of freedom; the track
+    width follows ``alpha`` alone and the wheel radii ``beta`` alone, monotonically, so their
+    intervals are the corrections at the ends of those of ``alpha`` and ``beta``.
+
+    UMBmark cannot see the scale: a square closes whatever the wheels' common size, so the
+    radii keep the scale of ``params`` and the track width follows it (the turns are right for
+    the track over the radii). When ``params`` come from a ratios calibration, ``scale_sd`` is
+    the relative standard error of its scale (:func:`scale_sd_from`) and each interval adds it
+    in quadrature, on the log scale (``ci95_includes`` says so); without it the interval is the
+    squares' scatter only, the scale of ``params`` taken as exact, and ``ci95_includes`` says
+    that. Empty with fewer than 2 runs in a direction (no scatter to go by) or an end past the
+    small-error model. Keys: ``left_wheel_radius_ci95``, ``right_wheel_radius_ci95``,
+    ``track_width_ci95``, ``ci95_includes``."""
     from scipy import stats
 
     n1, n2 = int(cw.shape[0]), int(ccw.shape[0])
@@ -251,13 +313,13 @@ def umbmark_intervals(
         return {"ci95_note": f"no interval: {n1} + {n2} squares, none to tell their scatter by"}
     L = float(side)
     s_cw = float(np.var(cw[:, 0] + cw[:, 1], ddof=1)) / n1
-    alpha = -(cw[:, 0].mean() + cw[:, 1].mean() + ccw[:, 0].mean() - ccw[:, 1].mean()) / (8 * L)
-    beta = -(cw[:, 0].mean() + cw[:, 1].mean() - ccw[:, 0].mean() + ccw[:, 1].mean()) / (8 * L)
+    alpha, beta = _alpha_beta(cw, ccw, L)[:2]
     se_a = math.sqrt(s_cw + float(np.var(ccw[:, 0] - ccw[:, 1], ddof=1)) / n2) / (8 * L)
     se_b = math.sqrt(s_cw + float(np.var(ccw[:, 1] - ccw[:, 0], ddof=1)) / n2) / (8 * L)
     t = float(stats.t.ppf(0.975, min(n1, n2) - 1))
     ends = [(float(alpha) + k * t * se_a, float(beta) + k * t * se_b) for k in (-1.0, 1.0)]
     values = [_corrected(params, a, bb, L) for a, bb in ends]
+    centre = _corrected(params, alpha, beta, L)
     wide = {
         "ci95_note": f"no interval: the {n1} + {n2} squares' return errors scatter too much "
         f"(alpha {alpha:.3f} ± {t * se_a:.3f} rad, beta {beta:.3f} ± {t * se_b:.3f} rad at 95 %) "
@@ -265,19 +327,39 @@ def umbmark_intervals(
     }
     if any(abs(a) >= math.pi / 4 or abs(bb) >= math.pi / 4 for a, bb in ends):
         return wide
-    out: dict[str, Any] = {}
+    sd = scale_sd if scale_sd is not None and math.isfinite(scale_sd) and scale_sd > 0 else None
+    out: dict[str, Any] = {
+        "ci95_includes": (
+            "the squares' scatter only, the starting parameters' scale taken as exact"
+            if sd is None
+            else f"the squares' scatter and the ratios calibration's scale (±{100 * _Z95 * sd:.2g}"
+            " % at 95 %), in quadrature"
+        )
+    }
     for key, i in (("left_wheel_radius", 2), ("right_wheel_radius", 3), ("track_width", 4)):
         lo, hi = sorted(float(v[i]) for v in values)
-        if not (math.isfinite(lo) and math.isfinite(hi) and lo > 0):
+        mid = float(centre[i])
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo > 0 and lo <= mid <= hi):
             return wide
+        if sd is not None:  # log half-widths, each side, with the scale's added
+            lo = mid * math.exp(-math.hypot(math.log(mid / lo), _Z95 * sd))
+            hi = mid * math.exp(math.hypot(math.log(hi / mid), _Z95 * sd))
         out[f"{key}_ci95"] = [lo, hi]
     return out
 
 
 def umbmark(
-    cw_errors: ArrayLike, ccw_errors: ArrayLike, side: float, params: RobotParams
+    cw_errors: ArrayLike,
+    ccw_errors: ArrayLike,
+    side: float,
+    params: RobotParams,
+    *,
+    scale_sd: float | None = None,
 ) -> UmbmarkResult:
-    """UMBmark from return errors (measured - odometry), each shape (n, 2), square ``side`` m."""
+    """UMBmark from return errors (measured - odometry), each shape (n, 2), square ``side`` m.
+    ``scale_sd``: the relative standard error of the scale of ``params`` when a ratios
+    calibration fixed it (:func:`scale_sd_from`), carried into the intervals
+    (:func:`umbmark_intervals`)."""
     check_track_model(params, "UMBmark")
     cw = _errors("cw_errors", cw_errors)
     ccw = _errors("ccw_errors", ccw_errors)
@@ -286,11 +368,7 @@ def umbmark(
         raise CalibrationError(f"square side must be a positive length in m, got {side!r}")
     xcw, ycw = (float(v) for v in cw.mean(axis=0))
     xccw, yccw = (float(v) for v in ccw.mean(axis=0))
-    a_x = (xcw + xccw) / (-4 * L)
-    b_x = (xcw - xccw) / (-4 * L)
-    a_y = (ycw - yccw) / (-4 * L)
-    b_y = (ycw + yccw) / (-4 * L)
-    alpha, beta = 0.5 * (a_x + a_y), 0.5 * (b_x + b_y)
+    alpha, beta, a_x, a_y, b_x, b_y = _alpha_beta(cw, ccw, L)
     if abs(alpha) >= math.pi / 4 or abs(beta) >= math.pi / 4:
         raise CalibrationError(
             f"UMBmark errors are too large for its small-error model (alpha = {alpha:.3f} rad, "
@@ -328,7 +406,7 @@ def umbmark(
             "right radius *= 2/(1/E_d+1)"
         ),
         "old": params.to_dict(),
-        **umbmark_intervals(cw, ccw, L, params),
+        **umbmark_intervals(cw, ccw, L, params, scale_sd),
     }
     return UmbmarkResult(
         params=new,
@@ -368,6 +446,7 @@ def umbmark_iterated(
     *,
     max_iter: int = 50,
     tol: float = 1e-9,
+    scale_sd: float | None = None,
 ) -> UmbmarkResult:
     """UMBmark iterated to convergence on square trials that carry their encoder logs.
 
@@ -416,7 +495,7 @@ def umbmark_iterated(
     e_d = e_b = 1.0
     change = math.inf
     for k in range(max_iter):
-        step = umbmark(cw, ccw, side, current)
+        step = umbmark(cw, ccw, side, current, scale_sd=scale_sd)
         if first is None:
             first = step
         entry = _iteration_entry(k, current, step.e_max_syst)
@@ -452,11 +531,11 @@ def umbmark_iterated(
         beta = 2.0 * math.asin(max(-1.0, min(1.0, (side / 2) / radius)))
     prov = dict(first.calibration.provenance)
     for key in ("left_wheel_radius_ci95", "right_wheel_radius_ci95", "track_width_ci95",
-                "ci95_note"):  # fmt: skip
+                "ci95_note", "ci95_includes"):  # fmt: skip
         prov.pop(key, None)  # the first step's: about its own start, not the result
     # about the result: the step from the final parameters with their errors (it moves them by
     # less than tol), its scatter the runs'
-    prov.update(umbmark_intervals(cw, ccw, side, current))
+    prov.update(umbmark_intervals(cw, ccw, side, current, scale_sd))
     prov.update(
         method="umbmark-iterated",
         alpha=alpha,

@@ -372,6 +372,9 @@ def calibrate_umbmark_cmd(
         f"{result.e_max_syst:.4g} m -> left/right radius {p.left_wheel_radius:.5g}/"
         f"{p.right_wheel_radius:.5g} m, track width {p.track_width:.5g} m; written to {path}"
     )
+    intervals = result.intervals_sentence()
+    if intervals is not None:
+        echo(intervals)
     _write_json(json_out, doc)
 
 

@@ -138,6 +138,7 @@ def _calibration_rows(c: Calibration) -> tuple[str, list[ParamRow]]:
         "from the rotation and distance ratios (the lab's section VIII, done right)"
         if not isinstance(c, UmbmarkResult)
         else f"UMBmark on {c.n_cw} + {c.n_ccw} squares of {numfmt.plain(c.side, strip=True)} m"
+        + (f"; 95 % intervals: {prov['ci95_includes']}" if prov.get("ci95_includes") else "")
     )
     return how, rows
 

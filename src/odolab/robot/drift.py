@@ -14,8 +14,10 @@ memory) says nothing: a gyro's bias and scale cannot be told apart there.
 The **sense check** (:func:`sense_check`) is the coarse test beside it: odometry and gyro must
 turn the same way, at a ratio near the calibrated one. A wrong link variant, swapped left and
 right channels or a reversed encoder make them disagree by a sign or a large factor; that stops
-the run (live, :class:`SenseCheckError`) or flags it (after the run), with one sentence naming
-the likely cause.
+the run (live, :class:`SenseCheckError`) or flags it (after the run). It returns what it found
+(:class:`SenseFinding`: a kind and the numbers); each face words the likely cause for what
+applies to it (a robot's link and options here, :func:`robot_sense_sentence`; a log's columns
+and params in ``odolab validate``).
 
 Pure Python and numpy on a few numbers per window: cheap enough for the control loop.
 """
@@ -25,12 +27,22 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
 from odolab.errors import OdolabError
 
-__all__ = ["DriftFlag", "DriftMonitor", "DriftState", "SenseCheckError", "sense_check"]
+__all__ = [
+    "EXPECTED_RATIO",
+    "DriftFlag",
+    "DriftMonitor",
+    "DriftState",
+    "SenseCheckError",
+    "SenseFinding",
+    "robot_sense_sentence",
+    "sense_check",
+]
 
 #: the sense check's bounds: a turn must reach this much (rad) beyond the gyro's possible bias
 #: drift before odometry and gyro are compared; a ratio this many times outside the calibrated
@@ -49,42 +61,79 @@ class SenseCheckError(OdolabError):
     """Odometry and the robot's gyro disagree in sign or by a large factor: the run was stopped."""
 
 
+#: the calibrated range of the yaw-rate ratio gyro/odometry when the parameters carry none: a
+#: gyro's 1 % scale and a calibration's 2 %, 1 +- 3 % on the odometry's side (the drift
+#: monitor's ``expected`` and the sense check's, one constant)
+EXPECTED_RATIO = (1.0 / 1.03, 1.0 / 0.97)
+
+
+@dataclass(frozen=True)
+class SenseFinding:
+    """How odometry and a gyro disagree on a run's turn: ``kind`` is ``"opposite"`` (they turn
+    opposite ways) or ``"ratio"`` (one saw much more turning than the other: ``ratio``, gyro over
+    odometry, is far outside ``expected``). Data only: each face words it for what applies to
+    it (:func:`robot_sense_sentence` for a robot run; ``odolab validate`` for a log)."""
+
+    kind: Literal["opposite", "ratio"]
+    odometry_turn: float  #: rad, ccw positive
+    gyro_turn: float  #: rad, ccw positive
+    elapsed: float  #: s
+    ratio: float  #: gyro / odometry (inf when the odometry did not turn)
+    expected: tuple[float, float]
+
+    def numbers(self) -> str:
+        """The turns, in words: ``odometry +0.59 rad, gyro -0.38 rad over 1.2 s``."""
+        return (
+            f"odometry {self.odometry_turn:+.2f} rad, gyro {self.gyro_turn:+.2f} rad over "
+            f"{self.elapsed:.1f} s"
+        )
+
+
 def sense_check(
     odometry_turn: float,
     gyro_turn: float,
     elapsed: float,
-    expected: tuple[float, float] = (1.0 / 1.03, 1.0 / 0.97),
-) -> str | None:
+    expected: tuple[float, float] = EXPECTED_RATIO,
+) -> SenseFinding | None:
     """None when odometry and gyro agree on a run's turn (rad, ccw positive, over ``elapsed``
-    s); else one sentence saying how they disagree and the likely cause. Nothing is said before
-    either has turned ``SENSE_MIN_TURN`` plus what a gyro bias of ``SENSE_BIAS_ALLOWANCE`` could
-    add; ``expected`` is the calibrated range of gyro/odometry (the drift monitor's)."""
-    o, g = float(odometry_turn), float(gyro_turn)
-    need = SENSE_MIN_TURN + SENSE_BIAS_ALLOWANCE * max(float(elapsed), 0.0)
+    s); else how they disagree (:class:`SenseFinding`). Nothing is said before either has
+    turned ``SENSE_MIN_TURN`` plus what a gyro bias of ``SENSE_BIAS_ALLOWANCE`` could add;
+    ``expected`` is the calibrated range of gyro/odometry (the drift monitor's)."""
+    o, g, dt = float(odometry_turn), float(gyro_turn), float(elapsed)
+    need = SENSE_MIN_TURN + SENSE_BIAS_ALLOWANCE * max(dt, 0.0)
     if not (math.isfinite(o) and math.isfinite(g)) or max(abs(o), abs(g)) < need:
         return None
-    said = f"odometry {o:+.2f} rad, gyro {g:+.2f} rad over {elapsed:.1f} s"
-    if o * g < 0 and min(abs(o), abs(g)) >= SENSE_SIGN_FLOOR:
-        return (
-            f"odometry and gyro turn opposite ways ({said}): the robot turns against its "
-            "commands while the encoders follow them; likely a wrong link variant (tcp://...?"
-            "variant=wheel or track), swapped left and right channels, or both motor and "
-            "encoder signs reversed"
-        )
-    lo, hi = expected[0] / SENSE_FAR, expected[1] * SENSE_FAR
     ratio = g / o if o != 0 else math.inf
+    exp = (float(expected[0]), float(expected[1]))
+    if o * g < 0 and min(abs(o), abs(g)) >= SENSE_SIGN_FLOOR:
+        return SenseFinding("opposite", o, g, dt, ratio, exp)
+    lo, hi = exp[0] / SENSE_FAR, exp[1] * SENSE_FAR
     # a ratio needs twice the turn: early in a turn one sensor's lag moves it most
     if max(abs(o), abs(g)) < 2 * need or lo <= ratio <= hi:
         return None
-    shown = "infinite" if not math.isfinite(ratio) else f"{ratio:.2f}"
+    return SenseFinding("ratio", o, g, dt, ratio, exp)
+
+
+def robot_sense_sentence(finding: SenseFinding) -> str:
+    """The robot face's sentence for a sense check's finding: the causes that apply to a robot
+    driven through a link (its variant, its channels, the encoder-sign options, ``--params``)."""
+    if finding.kind == "opposite":
+        return (
+            f"odometry and gyro turn opposite ways ({finding.numbers()}): the robot turns "
+            "against its commands while the encoders follow them; likely a wrong link variant "
+            "(tcp://...?variant=wheel or track), swapped left and right channels, or both motor "
+            "and encoder signs reversed"
+        )
+    shown = "infinite" if not math.isfinite(finding.ratio) else f"{finding.ratio:.2f}"
     which = (
         "the gyro saw much more turning"
-        if abs(g) > abs(o)
+        if abs(finding.gyro_turn) > abs(finding.odometry_turn)
         else "the odometry saw much more turning"
     )
+    lo, hi = finding.expected
     return (
-        f"{which} than the other ({said}; gyro/odometry {shown}, calibrated "
-        f"{expected[0]:.2f} to {expected[1]:.2f}): likely one encoder counting backwards "
+        f"{which} than the other ({finding.numbers()}; gyro/odometry {shown}, calibrated "
+        f"{lo:.2f} to {hi:.2f}): likely one encoder counting backwards "
         "(--left-encoder-sign/--right-encoder-sign) or on the wrong channel, or counts per "
         "revolution or track width in --params far from this robot's"
     )
@@ -139,7 +188,7 @@ class DriftMonitor:
     """See the module. Feed it with :meth:`odometry` (each cycle's heading) and :meth:`gyro`
     (each gyro sample, on the same clock); it returns flags as they are raised."""
 
-    expected: tuple[float, float] = (1.0 / 1.03, 1.0 / 0.97)
+    expected: tuple[float, float] = EXPECTED_RATIO
     window_s: float = 0.5
     memory_s: float = 1.5
     hold_s: float = 1.0

@@ -369,8 +369,9 @@ class _DriftHook:
             )
 
     def sense(self) -> str | None:
-        """:func:`odolab.robot.drift.sense_check` on the turns so far (None: they agree)."""
-        from odolab.robot.drift import sense_check
+        """:func:`odolab.robot.drift.sense_check` on the turns so far, in the robot's words
+        (None: they agree)."""
+        from odolab.robot.drift import robot_sense_sentence, sense_check
 
         span = self.monitor.gyro_span()
         if span is None or not self._odo_t:
@@ -379,7 +380,8 @@ class _DriftHook:
         if t1 <= t0:
             return None
         turn = self._odo_at(t1) - self._odo_at(t0)
-        return sense_check(turn, self.monitor.gyro_turn(t0, t1), t1 - t0, self.monitor.expected)
+        found = sense_check(turn, self.monitor.gyro_turn(t0, t1), t1 - t0, self.monitor.expected)
+        return None if found is None else robot_sense_sentence(found)
 
     def _odo_at(self, t: float) -> float:
         """The odometry's heading at ``t``, linear between cycles (a bisection: the check runs

@@ -29,6 +29,8 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
+    from odolab.robot.drift import SenseFinding
+
 __all__ = ["HeadingError", "ValidationResult", "plot_validation", "validate", "validation_figure"]
 
 FloatArray = NDArray[np.float64]
@@ -229,10 +231,11 @@ def validate(
     else:  # the same rule as a robot's live sense check (odolab.robot.drift.sense_check)
         from odolab.robot.drift import sense_check
 
-        problem = sense_check(float(old_total), float(imu_total), float(t[-1] - t[0]))
-        if problem is not None:
+        found = sense_check(float(old_total), float(imu_total), float(t[-1] - t[0]))
+        if found is not None:
             warnings.append(
-                f"sense check of the odometry (old parameters) against the IMU: {problem}"
+                f"sense check of the odometry (old parameters) against the IMU: "
+                f"{_log_sense_sentence(found)}"
             )
     progress("done")
     return ValidationResult(
@@ -246,6 +249,31 @@ def validate(
         imu.source,
         imu.heading_column,
         tuple(warnings),
+    )
+
+
+def _log_sense_sentence(found: SenseFinding) -> str:
+    """The sense check's finding in a log's words: what can be wrong in an encoder log, its
+    parameters and a phone's IMU log (no link, no robot options: those are a robot run's)."""
+    said = (
+        f"odometry {found.odometry_turn:+.2f} rad, IMU {found.gyro_turn:+.2f} rad over "
+        f"{found.elapsed:.1f} s"
+    )
+    if found.kind == "opposite":
+        return (
+            f"odometry and IMU turn opposite ways ({said}): likely the left and right wheel "
+            "columns swapped in the encoder log, both encoder signs reversed in the params, "
+            "or the phone mounted upside down"
+        )
+    shown = "infinite" if not math.isfinite(found.ratio) else f"{found.ratio:.2f}"
+    which = "the IMU" if abs(found.gyro_turn) > abs(found.odometry_turn) else "the odometry"
+    lo, hi = found.expected
+    return (
+        f"{which} saw much more turning than the other ({said}; IMU/odometry {shown}, "
+        f"calibrated {lo:.2f} to {hi:.2f}): likely one encoder sign reversed in the params "
+        "(one encoder counting backwards), counts per revolution or track width in the params "
+        "far from this robot's, or the phone's heading taken about the wrong axis (not "
+        "mounted flat)"
     )
 
 
