@@ -27,14 +27,13 @@ import json
 import math
 import os
 import stat
+import sys
 import tempfile
 import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import TextIO, TypeVar
-
-import numpy as np
 
 from odolab.errors import OdolabError
 
@@ -88,22 +87,30 @@ def path_first(first: object, second: object, cls: type[T], writer: str) -> tupl
 
 def strict_value(obj: object) -> object:
     """``obj`` as strict JSON holds it: a non-finite float (NumPy's too) as ``None``, NumPy
-    arrays and tuples as lists, NumPy scalars as Python's; recursively."""
+    arrays and tuples as lists, NumPy scalars as Python's; recursively. (NumPy is not imported
+    here: ``odolab --help`` loads no numerics; a NumPy value exists only once NumPy is loaded.)"""
+    np = sys.modules.get("numpy")
     if isinstance(obj, dict):
         return {
-            k.item() if isinstance(k, np.generic) else k: strict_value(v) for k, v in obj.items()
+            k.item() if np is not None and isinstance(k, np.generic) else k: strict_value(v)
+            for k, v in obj.items()
         }
     if isinstance(obj, list | tuple):
         return [strict_value(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return strict_value(obj.tolist())
-    if isinstance(obj, bool | np.bool_):
-        return bool(obj)
-    if isinstance(obj, np.integer):
-        return int(obj)
-    if isinstance(obj, float | np.floating):
-        v = float(obj)
-        return v if math.isfinite(v) else None
+    if isinstance(obj, bool):
+        return obj
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if np is not None:
+        if isinstance(obj, np.ndarray):
+            return strict_value(obj.tolist())
+        if isinstance(obj, np.bool_):
+            return bool(obj)
+        if isinstance(obj, np.integer):
+            return int(obj)
+        if isinstance(obj, np.floating):
+            v = float(obj)
+            return v if math.isfinite(v) else None
     return obj
 
 
