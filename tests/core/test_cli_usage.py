@@ -53,7 +53,7 @@ def test_piped_help_never_cuts_a_name_or_a_choice(monkeypatch: pytest.MonkeyPatc
             if shown and "|" in shown:  # a list of choices, <csv|optiodom|bag>: on one line
                 assert shown in out, (where, shown)
                 checked.add(shown)
-    assert {"<csv|optiodom|bag>", "<frames|m|deg|rad>"} <= checked
+    assert {"<csv|optiodom|bag|drive>", "<frames|m|deg|rad>"} <= checked
 
 
 @pytest.mark.parametrize(

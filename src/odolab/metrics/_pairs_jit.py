@@ -7,9 +7,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from odolab._jit import njit
 from odolab._kinematics_jit import wrap
 
 FloatArray = NDArray[np.float64]
