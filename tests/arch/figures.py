@@ -129,19 +129,25 @@ def measure() -> list[Figure]:
                 sides = [node.left, *node.comparators]
                 words = {s for side in sides for s in _strings(side)}
                 names = [_name_of(side) for side in sides]
-                if words & MOTION_WORDS and any(MOTION_NAMES.search(n) for n in names if n):
-                    # a model's kind or a command's own kind is not a motion
-                    if not any(n.endswith("model") for n in names) and not (
-                        words <= {"x", "y"} and not any("motion" in n for n in names)
-                    ):
-                        motion.places.append(f"{where}:{line}")
-            if isinstance(node, ast.Call) and rel.parts[0] != "models":
-                if _name_of(node.func) == "isinstance" and len(node.args) == 2:
-                    if any(n.endswith("Model") for n in _class_names(node.args[1])):
-                        model.places.append(f"{where}:{line}")
+                # a model's kind or a command's own kind is not a motion
+                if (
+                    words & MOTION_WORDS
+                    and any(MOTION_NAMES.search(n) for n in names if n)
+                    and not any(n.endswith("model") for n in names)
+                    and not (words <= {"x", "y"} and not any("motion" in n for n in names))
+                ):
+                    motion.places.append(f"{where}:{line}")
+            if (
+                isinstance(node, ast.Call)
+                and "models" not in rel.parts[:2]
+                and _name_of(node.func) == "isinstance"
+                and len(node.args) == 2
+                and any(n.endswith("Model") for n in _class_names(node.args[1]))
+            ):
+                model.places.append(f"{where}:{line}")
             if (
                 isinstance(node, ast.Compare)
-                and rel.parts[0] != "models"
+                and "models" not in rel.parts[:2]
                 and isinstance(node.left, ast.Attribute)
                 and node.left.attr == "kind"
                 and "model" in ast.unparse(node.left.value).lower()
@@ -159,7 +165,7 @@ def measure() -> list[Figure]:
                 n = (node.end_lineno or node.lineno) - node.lineno + 1
                 if n > 80:
                     long_fns.places.append(f"{where}:{node.lineno} {node.name} ({n} lines)")
-                target = jit and "compiled " or ""
+                target = "compiled " if jit else ""
                 if WRAP_DEF.match(node.name):
                     wrap.places.append(f"{target}{where}:{line} def {node.name}")
                 if UNWRAP_DEF.match(node.name):
