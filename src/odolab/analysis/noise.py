@@ -40,6 +40,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from odolab.errors import InsufficientDataError
+from odolab.motion import MotionKind
 
 __all__ = [
     "NoiseConstant",
@@ -51,6 +52,7 @@ __all__ = [
     "record_pivot",
     "record_rotation",
     "record_translation",
+    "record_turn",
 ]
 
 _Z95 = 1.959963984540054
@@ -60,10 +62,11 @@ _Z95 = 1.959963984540054
 class NoiseRecord:
     """One trial's residual ``r`` (shape (m,)) with covariance ``k_r A_r + k_l A_l + M``.
 
+    ``kind``: the commanded kind (its weights: :meth:`odolab.motion.MotionKind.noise_weights`);
     ``turn``: the commanded turning (rad, ``|ds_r - ds_l| / b``) that scrub acts on;
     ``trial_id``: the trial it comes from (for the provenance)."""
 
-    kind: str
+    kind: MotionKind
     r: NDArray[np.float64]
     a_right: NDArray[np.float64]
     a_left: NDArray[np.float64]
@@ -71,21 +74,40 @@ class NoiseRecord:
     turn: float = 0.0
     trial_id: str = ""
 
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "kind", MotionKind.parse(self.kind, "noise record"))
+
+
+def record_turn(
+    kind: MotionKind,
+    residual: float,
+    heading: float,
+    track_width: float,
+    *,
+    held: str | None = None,
+    sigma: float = 0.0,
+    trial_id: str = "",
+) -> NoiseRecord:
+    """A turn in place (a rotation, or a pivot about the ``held`` track, default left) by
+    ``heading`` (rad); ``residual`` in rad."""
+    a_r, a_l, turn = kind.noise_weights(heading, track_width, held=held)
+    return NoiseRecord(
+        kind,
+        np.array([residual]),
+        a_r,
+        a_l,
+        np.array([[sigma**2]]),
+        turn=turn,
+        trial_id=trial_id,
+    )
+
 
 def record_rotation(
     residual: float, heading: float, track_width: float, sigma: float = 0.0, trial_id: str = ""
 ) -> NoiseRecord:
     """In-place rotation by ``heading`` (rad); ``residual`` in rad."""
-    v = abs(heading) / (2.0 * track_width)
-    a = np.array([[v]])
-    return NoiseRecord(
-        "rotation",
-        np.array([residual]),
-        a,
-        a.copy(),
-        np.array([[sigma**2]]),
-        turn=abs(heading),
-        trial_id=trial_id,
+    return record_turn(
+        MotionKind.ROTATION, residual, heading, track_width, sigma=sigma, trial_id=trial_id
     )
 
 
@@ -98,17 +120,9 @@ def record_pivot(
     trial_id: str = "",
 ) -> NoiseRecord:
     """Pivot by ``heading`` about the held track; ``moving`` is "right" or "left"."""
-    v = np.array([[abs(heading) / track_width]])
-    zero = np.zeros((1, 1))
-    a_r, a_l = (v, zero) if moving == "right" else (zero, v)
-    return NoiseRecord(
-        "pivot",
-        np.array([residual]),
-        a_r,
-        a_l,
-        np.array([[sigma**2]]),
-        turn=abs(heading),
-        trial_id=trial_id,
+    held = "left" if moving == "right" else "right"
+    return record_turn(
+        MotionKind.PIVOT, residual, heading, track_width, held=held, sigma=sigma, trial_id=trial_id
     )
 
 
@@ -122,19 +136,19 @@ def record_translation(
     trial_id: str = "",
 ) -> NoiseRecord:
     """Straight line of signed ``distance`` (m); residuals of actual x and actual y (m)."""
-    d = abs(distance)
-    sgn = 1.0 if distance >= 0 else -1.0
-    b = track_width
-    vx, vy, c = d / 4.0, d**3 / (3.0 * b**2), sgn * d**2 / (4.0 * b)
-    a_r = np.array([[vx, c], [c, vy]])
-    a_l = np.array([[vx, -c], [-c, vy]])
+    a_r, a_l, _ = MotionKind.TRANSLATION.noise_weights(distance, track_width)
     keep = [i for i, v in enumerate((residual_x, residual_y)) if v is not None]
     if not keep:
         raise InsufficientDataError("a translation noise record needs an x or a y residual")
     r = np.array([(residual_x, residual_y)[i] for i in keep], dtype=np.float64)
     idx = np.ix_(keep, keep)
     return NoiseRecord(
-        "translation", r, a_r[idx], a_l[idx], np.eye(len(keep)) * sigma**2, trial_id=trial_id
+        MotionKind.TRANSLATION,
+        r,
+        a_r[idx],
+        a_l[idx],
+        np.eye(len(keep)) * sigma**2,
+        trial_id=trial_id,
     )
 
 
@@ -317,7 +331,6 @@ def fit_wheel_noise(records: list[NoiseRecord]) -> WheelNoise:
 
 #: At least this many trials of a kind of motion identify its constant(s).
 MIN_NOISE_TRIALS = 3
-_TURN_KINDS = ("rotation", "pivot")
 
 
 @dataclass(frozen=True)
@@ -453,8 +466,8 @@ def fit_separated_noise(records: list[NoiseRecord]) -> SeparatedNoise:
     Never raises for lack of data: a constant no kind of motion identifies is returned unknown,
     with the reason (fewer than :data:`MIN_NOISE_TRIALS` straight runs leave all three unknown,
     as the turns alone cannot split their variance between the wheels and scrub)."""
-    straight = [rec for rec in records if rec.kind == "translation"]
-    turns = [rec for rec in records if rec.kind in _TURN_KINDS]
+    straight = [rec for rec in records if not rec.kind.turns_in_place]
+    turns = [rec for rec in records if rec.kind.turns_in_place]
     s_ids = tuple(rec.trial_id for rec in straight)
     t_ids = tuple(rec.trial_id for rec in turns)
     if len(straight) < MIN_NOISE_TRIALS:
