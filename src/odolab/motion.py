@@ -23,7 +23,7 @@ scales with the wheels' radius over the track width; a straight run is measured 
 from __future__ import annotations
 
 from enum import StrEnum
-from typing import TypeVar
+from typing import Self
 
 import numpy as np
 from numpy.typing import NDArray
@@ -37,21 +37,27 @@ class MotionWordError(OdolabError, ValueError):
     """A word that names no member of the motion vocabulary it was read as."""
 
 
-_E = TypeVar("_E", bound=StrEnum)
+class _Words(StrEnum):
+    """A vocabulary of stored words (no members of its own)."""
+
+    @classmethod
+    def parse(
+        cls, text: object, where: str = "", error: type[OdolabError] = MotionWordError
+    ) -> Self:
+        """The member spelled ``text`` (exactly, as stored); ``error`` (one sentence naming the
+        allowed words, after ``where``) for any other word or value."""
+        if isinstance(text, cls):
+            return text
+        for member in cls:
+            if member.value == text:
+                return member
+        place = f"{where}: " if where else ""
+        what = "motion kind" if cls.__name__ == "MotionKind" else "motion"
+        allowed = ", ".join(m.value for m in cls)
+        raise error(f"{place}{what} {text!r} is not one of {allowed}")
 
 
-def _parse(cls: type[_E], text: object, what: str, where: str, error: type[OdolabError]) -> _E:
-    if isinstance(text, cls):
-        return text
-    for member in cls:
-        if member.value == text:
-            return member
-    place = f"{where}: " if where else ""
-    allowed = ", ".join(m.value for m in cls)
-    raise error(f"{place}{what} {text!r} is not one of {allowed}")
-
-
-class MotionKind(StrEnum):
+class MotionKind(_Words):
     """What a trial commanded."""
 
     ROTATION = "rotation"  #: turn in place by ``angle`` (both tracks, opposite directions)
@@ -59,14 +65,6 @@ class MotionKind(StrEnum):
     PIVOT = "pivot"  #: turn by ``angle`` on one track, the other held
     SQUARE = "square"  #: UMBmark square of ``side``, ``direction`` "cw" or "ccw"
     FREE = "free"  #: anything else (a recorded log; an exploration: :attr:`Command.explore`)
-
-    @classmethod
-    def parse(
-        cls, text: object, where: str = "", error: type[OdolabError] = MotionWordError
-    ) -> MotionKind:
-        """The kind spelled ``text`` (exactly, as stored); ``error`` (one sentence naming the
-        allowed words, after ``where``) for any other word or value."""
-        return _parse(cls, text, "motion kind", where, error)
 
     @property
     def turns_in_place(self) -> bool:
@@ -96,6 +94,11 @@ class MotionKind(StrEnum):
         """The analysis fits a measured trial of this kind feeds (none for a square or a free
         motion: squares have their own analysis)."""
         return tuple(m for m in Motion if m.command is self)
+
+    @property
+    def residuals(self) -> tuple[str, ...]:
+        """The residuals its noise record holds, in order: ``turn``, or ``x`` and ``y``."""
+        return tuple(dict.fromkeys(m.noise_residual for m in self.fits))
 
     def noise_weights(
         self, amount: float, track_width: float, *, held: str | None = None
@@ -129,7 +132,7 @@ class MotionKind(StrEnum):
         )
 
 
-class Motion(StrEnum):
+class Motion(_Words):
     """What the analysis fits from measured trials, in report order."""
 
     ROTATION = "rotation"  #: actual against predicted heading change of rotations
@@ -137,13 +140,6 @@ class Motion(StrEnum):
     X = "x"  #: actual against predicted x of translations
     Y_FORWARD = "y_forward"  #: y error (predicted - actual) against predicted x, forward runs
     Y_REVERSE = "y_reverse"  #: the same for reverse runs
-
-    @classmethod
-    def parse(
-        cls, text: object, where: str = "", error: type[OdolabError] = MotionWordError
-    ) -> Motion:
-        """The motion spelled ``text``; ``error`` (one sentence naming the allowed words)."""
-        return _parse(cls, text, "motion", where, error)
 
     @classmethod
     def of_y(cls, distance: float) -> Motion:
@@ -233,20 +229,13 @@ class Motion(StrEnum):
         return scaled * (track[0] / track[1]) if self.angular else scaled
 
 
-class DriveShape(StrEnum):
+class DriveShape(_Words):
     """The motion of an open-question experiment's condition (:mod:`odolab.analysis.questions`)."""
 
     ROTATE = "rotate"  #: turn in place by ``angle_deg``
     CURVE = "curve"  #: turn by ``angle_deg`` along a circle of ``radius``
     PIVOT = "pivot"  #: turn by ``angle_deg`` about the ``held`` track
     STRAIGHT = "straight"  #: ``distance`` (m, negative = reverse)
-
-    @classmethod
-    def parse(
-        cls, text: object, where: str = "", error: type[OdolabError] = MotionWordError
-    ) -> DriveShape:
-        """The shape spelled ``text``; ``error`` (one sentence naming the allowed words)."""
-        return _parse(cls, text, "motion", where, error)
 
     @property
     def angular(self) -> bool:

@@ -63,7 +63,9 @@ def test_fitted_motion_labels_are_the_analysis_table() -> None:
     rot = {"x": "predicted rotation (rad)", "y": "actual rotation (rad)"}
     y_err = {"x": "predicted x (m)", "y": "y error, predicted - actual (m)"}
     metres = {"unit": "m", "ratio_unit": "m/m"}
-    assert MOTIONS == {
+    table = dict(MOTIONS)
+    assert list(table) == ["rotation", "pivot", "x", "y_forward", "y_reverse"]  # report order
+    assert table == {
         "rotation": {**rot, "unit": "rad", "ratio_unit": "rad/rad"},
         "pivot": {**rot, "unit": "rad", "ratio_unit": "rad/rad"},
         "x": {"x": "predicted x (m)", "y": "actual x (m)", **metres},

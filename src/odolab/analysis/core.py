@@ -17,8 +17,7 @@ from odolab.analysis.noise import (
     WheelNoise,
     fit_separated_noise,
     fit_wheel_noise,
-    record_translation,
-    record_turn,
+    noise_record,
 )
 from odolab.analysis.outliers import Outlier, miscounted_turns
 from odolab.analysis.random import GroupSpread, RandomError, group_spreads, random_error
@@ -252,37 +251,28 @@ def _analyse_series(
 
 
 def _noise_records(motions: list[MotionAnalysis], by_id: dict[str, Trial]) -> list[NoiseRecord]:
-    # each fit's residuals, on the actual side, by the noise record's residual they are
-    res: dict[str, dict[str, float]] = {"turn": {}, "x": {}, "y": {}}
+    # each trial's residuals, on the actual side, by the noise record's residual they are
+    residuals: dict[str, dict[str, float]] = {}
     for m in motions:
         for tid, r in zip(m.fit.trial_ids, m.fit.residuals, strict=True):
-            res[m.motion.noise_residual][tid] = m.motion.actual_side(float(r))
-    rot, xres, yres = res["turn"], res["x"], res["y"]
+            residuals.setdefault(tid, {})[m.motion.noise_residual] = m.motion.actual_side(float(r))
+    # the turns in fit order, then the straight runs by id
+    turns = [tid for tid in residuals if by_id[tid].command.kind.turns_in_place]
+    straight = sorted(set(residuals) - set(turns))
     records: list[NoiseRecord] = []
-    for tid, r in rot.items():
+    for tid in [*turns, *straight]:
         tr = by_id[tid]
-        sig = (tr.measured.sigma_rotation if tr.measured else None) or 0.0
+        kind = tr.command.kind
+        p, meas = tr.predicted, tr.measured
+        sig = (meas.sigma_rotation if kind.turns_in_place else meas.sigma_xy) if meas else None
         records.append(
-            record_turn(
-                tr.command.kind,
-                r,
-                tr.predicted.heading,
+            noise_record(
+                kind,
+                p.heading if kind.turns_in_place else p.x,
                 tr.params.track_width,
+                residuals[tid],
                 held=tr.command.direction,
-                sigma=sig,
-                trial_id=tid,
-            )
-        )
-    for tid in sorted(set(xres) | set(yres)):
-        tr = by_id[tid]
-        sig = (tr.measured.sigma_xy if tr.measured else None) or 0.0
-        records.append(
-            record_translation(
-                tr.predicted.x,
-                tr.params.track_width,
-                residual_x=xres.get(tid),
-                residual_y=yres.get(tid),
-                sigma=sig,
+                sigma=sig or 0.0,
                 trial_id=tid,
             )
         )

@@ -33,6 +33,7 @@ missing leaves its constant unknown (said, not guessed).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -49,10 +50,10 @@ __all__ = [
     "WheelNoise",
     "fit_separated_noise",
     "fit_wheel_noise",
+    "noise_record",
     "record_pivot",
     "record_rotation",
     "record_translation",
-    "record_turn",
 ]
 
 _Z95 = 1.959963984540054
@@ -78,25 +79,33 @@ class NoiseRecord:
         object.__setattr__(self, "kind", MotionKind.parse(self.kind, "noise record"))
 
 
-def record_turn(
+def noise_record(
     kind: MotionKind,
-    residual: float,
-    heading: float,
+    amount: float,
     track_width: float,
+    residuals: Mapping[str, float | None],
     *,
     held: str | None = None,
     sigma: float = 0.0,
     trial_id: str = "",
 ) -> NoiseRecord:
-    """A turn in place (a rotation, or a pivot about the ``held`` track, default left) by
-    ``heading`` (rad); ``residual`` in rad."""
-    a_r, a_l, turn = kind.noise_weights(heading, track_width, held=held)
+    """One trial's noise record: a ``kind`` of motion by ``amount`` (a turn's heading change in
+    rad, a translation's signed distance in m; a pivot about the ``held`` track, default left),
+    with its fits' residuals on the actual side by :attr:`odolab.motion.MotionKind.residuals`
+    (``turn`` in rad; ``x``, ``y`` in m: either or both) and the instrument's ``sigma``."""
+    a_r, a_l, turn = kind.noise_weights(amount, track_width, held=held)
+    values = [residuals.get(name) for name in kind.residuals]
+    keep = [i for i, v in enumerate(values) if v is not None]
+    if not keep:
+        wanted = " or ".join(f"{'an' if n == 'x' else 'a'} {n}" for n in kind.residuals)
+        raise InsufficientDataError(f"a {kind.value} noise record needs {wanted} residual")
+    idx = np.ix_(keep, keep)
     return NoiseRecord(
         kind,
-        np.array([residual]),
-        a_r,
-        a_l,
-        np.array([[sigma**2]]),
+        np.array([values[i] for i in keep], dtype=np.float64),
+        a_r[idx],
+        a_l[idx],
+        np.eye(len(keep)) * sigma**2,
         turn=turn,
         trial_id=trial_id,
     )
@@ -106,8 +115,9 @@ def record_rotation(
     residual: float, heading: float, track_width: float, sigma: float = 0.0, trial_id: str = ""
 ) -> NoiseRecord:
     """In-place rotation by ``heading`` (rad); ``residual`` in rad."""
-    return record_turn(
-        MotionKind.ROTATION, residual, heading, track_width, sigma=sigma, trial_id=trial_id
+    turn = {"turn": residual}
+    return noise_record(
+        MotionKind.ROTATION, heading, track_width, turn, sigma=sigma, trial_id=trial_id
     )
 
 
@@ -121,9 +131,10 @@ def record_pivot(
 ) -> NoiseRecord:
     """Pivot by ``heading`` about the held track; ``moving`` is "right" or "left"."""
     held = "left" if moving == "right" else "right"
-    return record_turn(
-        MotionKind.PIVOT, residual, heading, track_width, held=held, sigma=sigma, trial_id=trial_id
-    )
+    return noise_record(
+        MotionKind.PIVOT, heading, track_width, {"turn": residual}, held=held, sigma=sigma,
+        trial_id=trial_id,
+    )  # fmt: skip
 
 
 def record_translation(
@@ -136,20 +147,10 @@ def record_translation(
     trial_id: str = "",
 ) -> NoiseRecord:
     """Straight line of signed ``distance`` (m); residuals of actual x and actual y (m)."""
-    a_r, a_l, _ = MotionKind.TRANSLATION.noise_weights(distance, track_width)
-    keep = [i for i, v in enumerate((residual_x, residual_y)) if v is not None]
-    if not keep:
-        raise InsufficientDataError("a translation noise record needs an x or a y residual")
-    r = np.array([(residual_x, residual_y)[i] for i in keep], dtype=np.float64)
-    idx = np.ix_(keep, keep)
-    return NoiseRecord(
-        MotionKind.TRANSLATION,
-        r,
-        a_r[idx],
-        a_l[idx],
-        np.eye(len(keep)) * sigma**2,
-        trial_id=trial_id,
-    )
+    return noise_record(
+        MotionKind.TRANSLATION, distance, track_width, {"x": residual_x, "y": residual_y},
+        sigma=sigma, trial_id=trial_id,
+    )  # fmt: skip
 
 
 class _Stack:
