@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from odolab.errors import InvalidTrialError, StoreError
+from odolab.motion import MotionKind  # its home is odolab.motion; re-exported here
 from odolab.params import RobotParams
 from odolab.trajectory import Pose
 
@@ -45,16 +46,6 @@ __all__ = [
     "trial_field",
     "validate_trial",
 ]
-
-
-class MotionKind(StrEnum):
-    """What a trial commanded."""
-
-    ROTATION = "rotation"  #: turn in place by ``angle`` (both tracks, opposite directions)
-    TRANSLATION = "translation"  #: straight by ``distance`` (negative = reverse)
-    PIVOT = "pivot"  #: turn by ``angle`` on one track, the other held
-    SQUARE = "square"  #: UMBmark square of ``side``, ``direction`` "cw" or "ccw"
-    FREE = "free"  #: anything else (a recorded log; an exploration: :attr:`Command.explore`)
 
 
 class TrialStatus(StrEnum):
@@ -146,7 +137,7 @@ class Command:
         """Short human text, e.g. 'rotation 20.0 pi', 'translation -2.5 m' or 'explore 60 s'."""
         if self.explore is not None:
             return f"explore {self.explore.seconds:g} s"
-        if self.kind in (MotionKind.ROTATION, MotionKind.PIVOT) and self.angle is not None:
+        if self.kind.turns_in_place and self.angle is not None:
             return f"{self.kind.value} {self.angle / math.pi:g} pi"
         if self.kind is MotionKind.TRANSLATION and self.distance is not None:
             return f"translation {self.distance:g} m"
@@ -340,14 +331,6 @@ COMPASS_RAW: dict[str, tuple[float, float]] = {
     "turns": (0.0, MAX_ANGLE_RAD / (2.0 * math.pi)),
 }
 
-#: The quantity a command of each kind cannot do without.
-_COMMAND_NEEDS = {
-    MotionKind.ROTATION: "angle",
-    MotionKind.PIVOT: "angle",
-    MotionKind.TRANSLATION: "distance",
-    MotionKind.SQUARE: "side",
-}
-
 
 def trial_field(name: str) -> TrialField:
     """The field called ``name`` (its SQL column / JSON key)."""
@@ -419,7 +402,7 @@ def _check_command(c: Command, where: str) -> None:
         )
     for name in ("angle", "distance", "side", "speed"):
         check_field(name, getattr(c, name), where)
-    need = _COMMAND_NEEDS.get(c.kind)
+    need = c.kind.needs
     if need is not None and getattr(c, need) is None:
         raise InvalidTrialError(f"{where}: a {c.kind.value} command needs its {need}", need)
     words = TRANSLATION_DIRECTIONS

@@ -17,15 +17,14 @@ from odolab.analysis.noise import (
     WheelNoise,
     fit_separated_noise,
     fit_wheel_noise,
-    record_pivot,
-    record_rotation,
-    record_translation,
+    noise_record,
 )
 from odolab.analysis.outliers import Outlier, miscounted_turns
 from odolab.analysis.random import GroupSpread, RandomError, group_spreads, random_error
 from odolab.analysis.systematic import MIN_FIT_POINTS, LinearFit, fit_line
 from odolab.analysis.terrain import TerrainComparison, compare_terrains
 from odolab.errors import InsufficientDataError
+from odolab.motion import Motion
 from odolab.numfmt import count
 from odolab.params import RobotParams
 from odolab.progress import Progress, steps
@@ -34,33 +33,11 @@ from odolab.trials import MotionKind, Trial, TrialStatus
 __all__ = ["MOTIONS", "LabAnalysis", "MotionAnalysis", "Progress", "analyze_trials"]
 
 
-#: The motions the lab fits, in report order, with what is regressed on what.
+#: The motions the lab fits, in report order, with what is regressed on what (from
+#: :class:`odolab.motion.Motion`, which holds these rules).
 MOTIONS: dict[str, dict[str, str]] = {
-    "rotation": {
-        "x": "predicted rotation (rad)",
-        "y": "actual rotation (rad)",
-        "unit": "rad",
-        "ratio_unit": "rad/rad",
-    },
-    "pivot": {
-        "x": "predicted rotation (rad)",
-        "y": "actual rotation (rad)",
-        "unit": "rad",
-        "ratio_unit": "rad/rad",
-    },
-    "x": {"x": "predicted x (m)", "y": "actual x (m)", "unit": "m", "ratio_unit": "m/m"},
-    "y_forward": {
-        "x": "predicted x (m)",
-        "y": "y error, predicted - actual (m)",
-        "unit": "m",
-        "ratio_unit": "m/m",
-    },
-    "y_reverse": {
-        "x": "predicted x (m)",
-        "y": "y error, predicted - actual (m)",
-        "unit": "m",
-        "ratio_unit": "m/m",
-    },
+    m.value: {"x": m.x_label, "y": m.y_label, "unit": m.unit, "ratio_unit": m.ratio_unit}
+    for m in Motion
 }
 
 
@@ -68,7 +45,7 @@ MOTIONS: dict[str, dict[str, str]] = {
 class MotionAnalysis:
     """The analysis of one motion on one terrain: fit, random error, spreads, growth."""
 
-    motion: str
+    motion: Motion
     terrain: str
     fit: LinearFit
     random: RandomError
@@ -90,7 +67,7 @@ class MotionAnalysis:
         """actual/predicted for rotation and x (proportional fit); error per metre travelled
         for y rows (slope of the line with an intercept, as the lab fitted it)."""
         slope = self._ratio_source.slope
-        return -slope if self.motion == "y_reverse" else slope
+        return self.motion.ratio_sign * slope
 
     @property
     def ratio_se(self) -> float:
@@ -99,13 +76,13 @@ class MotionAnalysis:
     @property
     def ratio_ci95(self) -> tuple[float, float]:
         lo, hi = self._ratio_source.slope_ci95
-        return (-hi, -lo) if self.motion == "y_reverse" else (lo, hi)
+        return (-hi, -lo) if self.motion.ratio_sign < 0 else (lo, hi)
 
     def to_dict(self) -> dict[str, Any]:
         return {
-            "motion": self.motion,
+            "motion": self.motion.value,
             "terrain": self.terrain,
-            "regression": {"x": MOTIONS[self.motion]["x"], "y": MOTIONS[self.motion]["y"]},
+            "regression": {"x": self.motion.x_label, "y": self.motion.y_label},
             "fit": self.fit.to_dict(),
             "ratio_fit": None if self.ratio_fit is None else self.ratio_fit.to_dict(arrays=False),
             "ratio": self.ratio,
@@ -174,10 +151,10 @@ class _Series:
     trials: list[Trial] = field(default_factory=list)
 
 
-def _collect(trials: Sequence[Trial]) -> dict[tuple[str, str], _Series]:
-    series: dict[tuple[str, str], _Series] = {}
+def _collect(trials: Sequence[Trial]) -> dict[tuple[Motion, str], _Series]:
+    series: dict[tuple[Motion, str], _Series] = {}
 
-    def add(motion: str, tr: Trial, pred: float, act: float, cmd: float) -> None:
+    def add(motion: Motion, tr: Trial, pred: float, act: float, cmd: float) -> None:
         s = series.setdefault((motion, tr.terrain), _Series())
         s.ids.append(tr.trial_id)
         s.predicted.append(pred)
@@ -189,33 +166,30 @@ def _collect(trials: Sequence[Trial]) -> dict[tuple[str, str], _Series]:
         meas, cmd = tr.measured, tr.command
         if meas is None:
             continue
-        if cmd.kind in (MotionKind.ROTATION, MotionKind.PIVOT) and meas.rotation is not None:
+        if cmd.kind.turns_in_place and meas.rotation is not None:
             angle = cmd.angle if cmd.angle is not None else tr.predicted.heading
-            add(cmd.kind.value, tr, tr.predicted.heading, meas.rotation, angle)
+            (turn,) = cmd.kind.fits
+            add(turn, tr, tr.predicted.heading, meas.rotation, angle)
         elif cmd.kind is MotionKind.TRANSLATION:
             dist = cmd.distance if cmd.distance is not None else tr.predicted.x
             if meas.x is not None:
-                add("x", tr, tr.predicted.x, meas.x, dist)
+                add(Motion.X, tr, tr.predicted.x, meas.x, dist)
             if meas.y is not None:
-                motion = "y_forward" if dist >= 0 else "y_reverse"
                 # the lab's y fit: error (predicted - actual) against predicted x
-                add(motion, tr, tr.predicted.x, tr.predicted.y - meas.y, dist)
+                add(Motion.of_y(dist), tr, tr.predicted.x, tr.predicted.y - meas.y, dist)
     return series
 
 
 def _analyse_series(
-    motion: str, terrain: str, s: _Series, skipped: list[str]
+    motion: Motion, terrain: str, s: _Series, skipped: list[str]
 ) -> MotionAnalysis | None:
     pred = np.asarray(s.predicted, dtype=np.float64)
     act = np.asarray(s.actual, dtype=np.float64)
     cmd = np.asarray(s.commanded, dtype=np.float64)
     ids = list(s.ids)
     outliers: list[Outlier] = []
-    turns = (
-        miscounted_turns(pred, act)
-        if motion in ("rotation", "pivot")
-        else np.zeros(pred.size, dtype=bool)
-    )
+    # a turn's whole turns are counted by hand, and can be miscounted
+    turns = miscounted_turns(pred, act) if motion.angular else np.zeros(pred.size, dtype=bool)
     flags = turns
     if flags.any() and int((~flags).sum()) >= MIN_FIT_POINTS:
         keep = ~flags
@@ -230,7 +204,7 @@ def _analyse_series(
             outliers.append(
                 Outlier(
                     trial_id=ids[i],
-                    motion=motion,
+                    motion=motion.value,
                     terrain=terrain,
                     predicted=float(pred[i]),
                     actual=float(act[i]),
@@ -248,13 +222,13 @@ def _analyse_series(
             fit_line(
                 pred, act, name=f"{label}, through the origin", trial_ids=ids, through_origin=True
             )
-            if motion in ("rotation", "pivot", "x")
+            if motion.ideal_line
             else None
         )
     except InsufficientDataError as err:
         skipped.append(str(err))
         return None
-    errors = (pred - act) if motion in ("rotation", "pivot", "x") else act
+    errors = motion.errors(pred, act)
     groups = group_spreads(cmd, pred, errors)
     growth: GrowthFit | None = None
     note: str | None = None
@@ -277,38 +251,28 @@ def _analyse_series(
 
 
 def _noise_records(motions: list[MotionAnalysis], by_id: dict[str, Trial]) -> list[NoiseRecord]:
-    rot: dict[str, float] = {}
-    xres: dict[str, float] = {}
-    yres: dict[str, float] = {}
+    # each trial's residuals, on the actual side, by the noise record's residual they are
+    residuals: dict[str, dict[str, float]] = {}
     for m in motions:
         for tid, r in zip(m.fit.trial_ids, m.fit.residuals, strict=True):
-            if m.motion in ("rotation", "pivot"):
-                rot[tid] = float(r)
-            elif m.motion == "x":
-                xres[tid] = float(r)
-            else:  # y fits are on predicted - actual: flip to the actual side
-                yres[tid] = -float(r)
+            residuals.setdefault(tid, {})[m.motion.noise_residual] = m.motion.actual_side(float(r))
+    # the turns in fit order, then the straight runs by id
+    turns = [tid for tid in residuals if by_id[tid].command.kind.turns_in_place]
+    straight = sorted(set(residuals) - set(turns))
     records: list[NoiseRecord] = []
-    for tid, r in rot.items():
+    for tid in [*turns, *straight]:
         tr = by_id[tid]
-        sig = (tr.measured.sigma_rotation if tr.measured else None) or 0.0
-        b = tr.params.track_width
-        if tr.command.kind is MotionKind.PIVOT:
-            held = tr.command.direction or "left"
-            moving = "right" if held == "left" else "left"
-            records.append(record_pivot(r, tr.predicted.heading, b, moving, sig, tid))
-        else:
-            records.append(record_rotation(r, tr.predicted.heading, b, sig, tid))
-    for tid in sorted(set(xres) | set(yres)):
-        tr = by_id[tid]
-        sig = (tr.measured.sigma_xy if tr.measured else None) or 0.0
+        kind = tr.command.kind
+        p, meas = tr.predicted, tr.measured
+        sig = (meas.sigma_rotation if kind.turns_in_place else meas.sigma_xy) if meas else None
         records.append(
-            record_translation(
-                tr.predicted.x,
+            noise_record(
+                kind,
+                p.heading if kind.turns_in_place else p.x,
                 tr.params.track_width,
-                residual_x=xres.get(tid),
-                residual_y=yres.get(tid),
-                sigma=sig,
+                residuals[tid],
+                held=tr.command.direction,
+                sigma=sig or 0.0,
                 trial_id=tid,
             )
         )
@@ -333,7 +297,7 @@ def analyze_trials(trials: Sequence[Trial], *, progress: Progress | None = None)
     by_id = {t.trial_id: t for t in measured}
     say(f"{count(len(measured), 'measured trial')} of {len(trials)}")
     series = _collect(measured)
-    order = list(MOTIONS)
+    order = list(Motion)
     motions: list[MotionAnalysis] = []
     skipped: list[str] = []
     for motion, terrain in sorted(series, key=lambda k: (order.index(k[0]), k[1])):
@@ -357,7 +321,7 @@ def analyze_trials(trials: Sequence[Trial], *, progress: Progress | None = None)
             continue
         say(f"comparing terrains for {motion}")
         try:
-            tests.append(compare_terrains(motion, {t: (f.x, f.y) for t, f in fits.items()}))
+            tests.append(compare_terrains(motion.value, {t: (f.x, f.y) for t, f in fits.items()}))
         except InsufficientDataError as err:
             skipped.append(str(err))
     noise: WheelNoise | None = None

@@ -33,6 +33,7 @@ missing leaves its constant unknown (said, not guessed).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -40,6 +41,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from odolab.errors import InsufficientDataError
+from odolab.motion import MotionKind
 
 __all__ = [
     "NoiseConstant",
@@ -48,6 +50,7 @@ __all__ = [
     "WheelNoise",
     "fit_separated_noise",
     "fit_wheel_noise",
+    "noise_record",
     "record_pivot",
     "record_rotation",
     "record_translation",
@@ -60,10 +63,11 @@ _Z95 = 1.959963984540054
 class NoiseRecord:
     """One trial's residual ``r`` (shape (m,)) with covariance ``k_r A_r + k_l A_l + M``.
 
+    ``kind``: the commanded kind (its weights: :meth:`odolab.motion.MotionKind.noise_weights`);
     ``turn``: the commanded turning (rad, ``|ds_r - ds_l| / b``) that scrub acts on;
     ``trial_id``: the trial it comes from (for the provenance)."""
 
-    kind: str
+    kind: MotionKind
     r: NDArray[np.float64]
     a_right: NDArray[np.float64]
     a_left: NDArray[np.float64]
@@ -71,21 +75,49 @@ class NoiseRecord:
     turn: float = 0.0
     trial_id: str = ""
 
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "kind", MotionKind.parse(self.kind, "noise record"))
+
+
+def noise_record(
+    kind: MotionKind,
+    amount: float,
+    track_width: float,
+    residuals: Mapping[str, float | None],
+    *,
+    held: str | None = None,
+    sigma: float = 0.0,
+    trial_id: str = "",
+) -> NoiseRecord:
+    """One trial's noise record: a ``kind`` of motion by ``amount`` (a turn's heading change in
+    rad, a translation's signed distance in m; a pivot about the ``held`` track, default left),
+    with its fits' residuals on the actual side by :attr:`odolab.motion.MotionKind.residuals`
+    (``turn`` in rad; ``x``, ``y`` in m: either or both) and the instrument's ``sigma``."""
+    a_r, a_l, turn = kind.noise_weights(amount, track_width, held=held)
+    values = [residuals.get(name) for name in kind.residuals]
+    keep = [i for i, v in enumerate(values) if v is not None]
+    if not keep:
+        wanted = " or ".join(f"{'an' if n == 'x' else 'a'} {n}" for n in kind.residuals)
+        raise InsufficientDataError(f"a {kind.value} noise record needs {wanted} residual")
+    idx = np.ix_(keep, keep)
+    return NoiseRecord(
+        kind,
+        np.array([values[i] for i in keep], dtype=np.float64),
+        a_r[idx],
+        a_l[idx],
+        np.eye(len(keep)) * sigma**2,
+        turn=turn,
+        trial_id=trial_id,
+    )
+
 
 def record_rotation(
     residual: float, heading: float, track_width: float, sigma: float = 0.0, trial_id: str = ""
 ) -> NoiseRecord:
     """In-place rotation by ``heading`` (rad); ``residual`` in rad."""
-    v = abs(heading) / (2.0 * track_width)
-    a = np.array([[v]])
-    return NoiseRecord(
-        "rotation",
-        np.array([residual]),
-        a,
-        a.copy(),
-        np.array([[sigma**2]]),
-        turn=abs(heading),
-        trial_id=trial_id,
+    turn = {"turn": residual}
+    return noise_record(
+        MotionKind.ROTATION, heading, track_width, turn, sigma=sigma, trial_id=trial_id
     )
 
 
@@ -98,18 +130,11 @@ def record_pivot(
     trial_id: str = "",
 ) -> NoiseRecord:
     """Pivot by ``heading`` about the held track; ``moving`` is "right" or "left"."""
-    v = np.array([[abs(heading) / track_width]])
-    zero = np.zeros((1, 1))
-    a_r, a_l = (v, zero) if moving == "right" else (zero, v)
-    return NoiseRecord(
-        "pivot",
-        np.array([residual]),
-        a_r,
-        a_l,
-        np.array([[sigma**2]]),
-        turn=abs(heading),
+    held = "left" if moving == "right" else "right"
+    return noise_record(
+        MotionKind.PIVOT, heading, track_width, {"turn": residual}, held=held, sigma=sigma,
         trial_id=trial_id,
-    )
+    )  # fmt: skip
 
 
 def record_translation(
@@ -122,20 +147,10 @@ def record_translation(
     trial_id: str = "",
 ) -> NoiseRecord:
     """Straight line of signed ``distance`` (m); residuals of actual x and actual y (m)."""
-    d = abs(distance)
-    sgn = 1.0 if distance >= 0 else -1.0
-    b = track_width
-    vx, vy, c = d / 4.0, d**3 / (3.0 * b**2), sgn * d**2 / (4.0 * b)
-    a_r = np.array([[vx, c], [c, vy]])
-    a_l = np.array([[vx, -c], [-c, vy]])
-    keep = [i for i, v in enumerate((residual_x, residual_y)) if v is not None]
-    if not keep:
-        raise InsufficientDataError("a translation noise record needs an x or a y residual")
-    r = np.array([(residual_x, residual_y)[i] for i in keep], dtype=np.float64)
-    idx = np.ix_(keep, keep)
-    return NoiseRecord(
-        "translation", r, a_r[idx], a_l[idx], np.eye(len(keep)) * sigma**2, trial_id=trial_id
-    )
+    return noise_record(
+        MotionKind.TRANSLATION, distance, track_width, {"x": residual_x, "y": residual_y},
+        sigma=sigma, trial_id=trial_id,
+    )  # fmt: skip
 
 
 class _Stack:
@@ -317,7 +332,6 @@ def fit_wheel_noise(records: list[NoiseRecord]) -> WheelNoise:
 
 #: At least this many trials of a kind of motion identify its constant(s).
 MIN_NOISE_TRIALS = 3
-_TURN_KINDS = ("rotation", "pivot")
 
 
 @dataclass(frozen=True)
@@ -453,8 +467,8 @@ def fit_separated_noise(records: list[NoiseRecord]) -> SeparatedNoise:
     Never raises for lack of data: a constant no kind of motion identifies is returned unknown,
     with the reason (fewer than :data:`MIN_NOISE_TRIALS` straight runs leave all three unknown,
     as the turns alone cannot split their variance between the wheels and scrub)."""
-    straight = [rec for rec in records if rec.kind == "translation"]
-    turns = [rec for rec in records if rec.kind in _TURN_KINDS]
+    straight = [rec for rec in records if not rec.kind.turns_in_place]
+    turns = [rec for rec in records if rec.kind.turns_in_place]
     s_ids = tuple(rec.trial_id for rec in straight)
     t_ids = tuple(rec.trial_id for rec in turns)
     if len(straight) < MIN_NOISE_TRIALS:

@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 
 from odolab.errors import SimError
+from odolab.motion import DriveShape
 from odolab.odometry import integrate_increments
 from odolab.params import RobotParams
 from odolab.sim.drives import Leg, drive
@@ -80,7 +81,7 @@ __all__ = [
     "run_open_questions",
 ]
 
-_MOTIONS = ("rotate", "curve", "pivot", "straight")
+_MOTIONS = tuple(shape.value for shape in DriveShape)
 _EXPERIMENT_KEYS = {"name", "question", "repeats", "speed", "trend", "alternate", "compass_sigma",
                     "meterstick_sigma", "tape_sigma"}  # fmt: skip
 _CONDITION_KEYS = {"label", "motion", "angle_deg", "radius", "held", "distance", "terrain",
@@ -99,7 +100,7 @@ class Condition:
     """One condition of an experiment (see the module)."""
 
     label: str
-    motion: str
+    motion: DriveShape
     terrain: str = "tile"
     speed: float = 0.3
     angle: float = 0.0  #: rad
@@ -108,6 +109,10 @@ class Condition:
     distance: float = 0.0
     stop: str = "abrupt"
     decel: float = 0.0
+
+    def __post_init__(self) -> None:
+        where = f"condition {self.label!r}"
+        object.__setattr__(self, "motion", DriveShape.parse(self.motion, where, SimError))
 
 
 @dataclass(frozen=True)
@@ -210,7 +215,7 @@ class ExperimentResult:
             "conditions": [
                 {
                     "label": c.label,
-                    "motion": c.condition.motion,
+                    "motion": c.condition.motion.value,
                     "terrain": c.condition.terrain,
                     "n": c.n,
                     "stalled": c.stalled,
@@ -377,13 +382,13 @@ def _condition(source: str, index: int, c: Any, speed: float) -> Condition:
         "terrain": terrain,
         "speed": _speed(source, f"{where} key 'speed'", c.get("speed", speed)),
     }
-    needs = {"rotate": ("angle_deg",), "curve": ("angle_deg", "radius"),
-             "pivot": ("angle_deg",), "straight": ("distance",)}[motion]  # fmt: skip
+    shape = DriveShape(motion)
+    needs = shape.needs
     for key in needs:
         if key not in c:
             raise _err(source, f"{where} key {key!r}", f"missing; a {motion} needs it")
     for key in ("angle_deg", "radius", "held", "distance"):
-        if key in c and key not in needs and not (key == "held" and motion == "pivot"):
+        if key in c and key not in shape.takes:
             raise _err(source, f"{where} key {key!r}", f"does not apply to a {motion}")
     if "angle_deg" in c:
         most = math.degrees(MAX_ANGLE_RAD)
@@ -416,7 +421,7 @@ def _condition(source: str, index: int, c: Any, speed: float) -> Condition:
         )  # fmt: skip
     elif "decel" in c:
         raise _err(source, f"{where} key 'decel'", 'applies only to stop = "gradual"')
-    return Condition(label, str(motion), **kw)
+    return Condition(label, shape, **kw)
 
 
 def builtin_experiments() -> dict[str, str]:
@@ -460,16 +465,16 @@ def legs_for(c: Condition, nominal: RobotParams) -> list[Leg]:
     travel is counted by the encoders like any other)."""
     if not nominal.model.is_differential_drive:
         left, right, duration = _first_leg_for_model(c, nominal)
-    elif c.motion == "straight":
+    elif not c.motion.angular:
         sign = 1.0 if c.distance > 0 else -1.0
         left = right = sign * c.speed
         duration = abs(c.distance) / c.speed
     else:
         half = nominal.track_width / 2.0
         a = c.angle
-        if c.motion == "rotate":
+        if c.motion is DriveShape.ROTATE:
             dl, dr = -a * half, a * half
-        elif c.motion == "curve":
+        elif c.motion is DriveShape.CURVE:
             dl, dr = (
                 abs(a) * (c.radius - math.copysign(half, a)),
                 abs(a) * (c.radius + math.copysign(half, a)),
@@ -491,11 +496,13 @@ def _first_leg_for_model(c: Condition, nominal: RobotParams) -> tuple[float, flo
     linear model): the wheel travels whose body motion is the condition's forward distance and
     turn. For the differential drive this is the closed form of :func:`legs_for`."""
     w_l, w_r, e_l, e_r, den, _ = nominal.coefficients
-    if c.motion == "pivot":  # the held track stands, the other one turns the body alone
+    if c.motion is DriveShape.PIVOT:  # the held track stands, the other one turns the body alone
         dl, dr = (0.0, c.angle * den / e_r) if c.held == "left" else (-c.angle * den / e_l, 0.0)
     else:
-        turn = 0.0 if c.motion == "straight" else c.angle
-        forward = {"straight": c.distance, "rotate": 0.0}.get(c.motion, abs(c.angle) * c.radius)
+        turn = c.angle if c.motion.angular else 0.0
+        forward = {DriveShape.STRAIGHT: c.distance, DriveShape.ROTATE: 0.0}.get(
+            c.motion, abs(c.angle) * c.radius
+        )
         # [[w_l, w_r], [-e_l/den, e_r/den]] (ds_l, ds_r) = (forward, turn)
         det = (w_l * e_r + w_r * e_l) / den
         dl = (forward * e_r / den - w_r * turn) / det
@@ -581,7 +588,7 @@ def run_experiment(
         slips: list[float] = []
         stalled = 0
         for k in range(n):
-            cc, legs = plans[k % 2 if experiment.alternate and c.motion != "straight" else 0]
+            cc, legs = plans[k % 2 if experiment.alternate and c.motion.mirrors else 0]
             d = drive(truth, nominal, legs, terrain=terrain, seed=int(rng.integers(2**31)))
             done += 1
             if progress is not None:
@@ -590,7 +597,7 @@ def run_experiment(
                 stalled += 1
                 continue
             pred = integrate_increments(d.t, d.dticks_left, d.dticks_right, nominal, "arc")
-            if c.motion == "straight":
+            if not c.motion.angular:  # a distance, by meterstick or tape
                 sigma = experiment.tape_sigma if terrain.outdoor else experiment.meterstick_sigma
                 p = math.hypot(pred.x[-1], pred.y[-1])
                 m = math.hypot(d.x[-1], d.y[-1]) + sigma * float(rng.standard_normal())

@@ -14,7 +14,8 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from odolab.analysis.core import MOTIONS, LabAnalysis
+from odolab.analysis.core import LabAnalysis
+from odolab.motion import Motion
 
 __all__ = ["growth_text", "pooled_y_sigmas", "table1"]
 
@@ -27,7 +28,7 @@ def pooled_y_sigmas(rows: Sequence[dict[str, Any]], terrain: str = "tile") -> di
     """
     acc: dict[float, list[float]] = {}
     for r in rows:
-        if r["terrain"] != terrain or r["motion"] not in ("y_forward", "y_reverse"):
+        if r["terrain"] != terrain or not Motion.parse(r["motion"], "a Table I row").is_y:
             continue
         for g in r["sigmas"]:
             d = round(abs(float(g["commanded"])), 6)
@@ -55,21 +56,21 @@ def table1(analysis: LabAnalysis) -> list[dict[str, Any]]:
     for m in analysis.motions:
         lo, hi = m.ratio_ci95
         row: dict[str, Any] = {
-            "motion": m.motion,
+            "motion": m.motion.value,
             "terrain": m.terrain,
             "n": m.fit.n,
             "ratio": m.ratio,
             "ratio_ci95": [lo, hi],
             "ratio_se": m.ratio_se,
-            "ratio_unit": MOTIONS[m.motion]["ratio_unit"],
+            "ratio_unit": m.motion.ratio_unit,
             "intercept": m.fit.intercept,
             "intercept_ci95": list(m.fit.intercept_ci95),
             "r2": m.fit.r2,
             "residual_sd": m.random.sd,
             "residual_sd_ci95": list(m.random.sd_ci95),
-            "unit": MOTIONS[m.motion]["unit"],
+            "unit": m.motion.unit,
         }
-        if m.motion in ("rotation", "pivot", "x"):
+        if m.motion.ideal_line:
             row["error_per_predicted"] = 1.0 - m.ratio
             row["error_per_predicted_ci95"] = [1.0 - hi, 1.0 - lo]
         else:

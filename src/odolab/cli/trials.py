@@ -79,7 +79,7 @@ def _describe_measurement(t: Trial) -> str:
 
 def _describe_prediction(t: Trial) -> str:
     p = t.predicted
-    if t.command.kind.value in ("rotation", "pivot"):
+    if t.command.kind.turns_in_place:
         return f"heading {p.heading:.3f} rad ({p.heading / math.pi:.2f} pi)"
     return f"x {p.x:.3f} y {p.y:.3f} m, heading {p.heading:.3f} rad"
 
@@ -344,7 +344,7 @@ def _measurement(
 
     from odolab.store.measure import build_measurement, check_reading_names, measurement_for_trial
 
-    rotation = t.command.kind.value in ("rotation", "pivot")
+    rotation = t.command.kind.turns_in_place
     # do not drop what was typed and then ask for something else
     check_reading_names(t, initial, final, turns, x, y)
     given = (initial, final, turns) if rotation else (x, y)
@@ -481,7 +481,7 @@ def add_cmd(
         raise StoreError("give the commanded angle once: --angle (rad) or --angle-pi")
     if angle_pi is not None:
         angle = angle_pi * math.pi
-    if kind.value == "translation" and distance is None:  # import refuses the same
+    if MotionKind.parse(kind).needs == "distance" and distance is None:  # import refuses the same
         raise StoreError("a translation needs --distance (the commanded distance, m)")
     with _open(db, create=True) as nb:
         if params_version is not None:

@@ -14,8 +14,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from odolab.analysis.core import MOTIONS, LabAnalysis, MotionAnalysis
+from odolab.analysis.core import LabAnalysis, MotionAnalysis
 from odolab.analysis.random import GroupSpread
+from odolab.motion import Motion
 from odolab.params import RobotParams
 
 if TYPE_CHECKING:
@@ -126,12 +127,8 @@ def plot_fit(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
     ax = _axes(ax)
     f = m.fit
     lo_hi = np.array([min(0.0, float(f.x.min())), max(0.0, float(f.x.max()))])
-    ideal = lo_hi if m.motion in ("rotation", "pivot", "x") else np.zeros(2)
-    ideal_label = (
-        "ideal (actual = predicted)"
-        if m.motion in ("rotation", "pivot", "x")
-        else ("ideal (no error)")
-    )
+    ideal = lo_hi if m.motion.ideal_line else np.zeros(2)
+    ideal_label = "ideal (actual = predicted)" if m.motion.ideal_line else ("ideal (no error)")
     ax.plot(lo_hi, ideal, color="tab:green", lw=1.2, label=ideal_label)
     ax.scatter(f.x, f.y, s=18, color="tab:blue", label=f"trials (n = {f.n})", zorder=3)
     lo, hi = f.slope_ci95
@@ -142,7 +139,7 @@ def plot_fit(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
         lw=1.5,
         label=(
             f"fit with intercept: slope {f.slope:.4f} [{lo:.4f}, {hi:.4f}], "
-            f"intercept {f.intercept:.3g} {MOTIONS[m.motion]['unit']}, R² {f.r2:.3f}"
+            f"intercept {f.intercept:.3g} {m.motion.unit}, R² {f.r2:.3f}"
         ),
     )
     if m.ratio_fit is not None:
@@ -165,8 +162,8 @@ def plot_fit(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
             label="outlier, left out",
             zorder=4,
         )
-    ax.set_xlabel(MOTIONS[m.motion]["x"])
-    ax.set_ylabel(MOTIONS[m.motion]["y"])
+    ax.set_xlabel(m.motion.x_label)
+    ax.set_ylabel(m.motion.y_label)
     ax.set_title(_title(m))
     ax.grid(alpha=0.3)
     legend_outside(ax)
@@ -177,7 +174,7 @@ def plot_residuals(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
     """Residuals of the fit against the predicted value, with the fitted +-1.96 sigma(d) band."""
     ax = _axes(ax)
     f = m.fit
-    unit = MOTIONS[m.motion]["unit"]
+    unit = m.motion.unit
     ax.axhline(0.0, color="tab:red", lw=1)
     ax.scatter(f.x, f.residuals, s=18, color="tab:blue", label="residual", zorder=3)
     if m.growth is not None:
@@ -196,7 +193,7 @@ def plot_residuals(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
     else:
         s = m.random.sd
         ax.axhspan(-1.96 * s, 1.96 * s, color="tab:orange", alpha=0.2, label="±1.96 σ")
-    ax.set_xlabel(MOTIONS[m.motion]["x"])
+    ax.set_xlabel(m.motion.x_label)
     ax.set_ylabel(f"residual ({unit})")
     ax.set_title(f"Residuals: {_title(m)}")
     ax.grid(alpha=0.3)
@@ -239,7 +236,7 @@ def plot_histogram(
 def plot_growth(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
     """sigma vs distance/angle (log-log): repeated groups with CIs, fitted a·d^p, p = .5, 1, 1.5."""
     ax = _axes(ax)
-    unit = MOTIONS[m.motion]["unit"]
+    unit = m.motion.unit
     f = m.fit
     ax.scatter(
         np.abs(f.x), np.abs(f.residuals), s=10, color="lightgray", label="|residual| per trial"
@@ -285,10 +282,11 @@ def plot_growth(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
 def plot_terrains(analysis: LabAnalysis, motion: str = "x", ax: Axes | None = None) -> Axes:
     """One motion's data and fits on every terrain, side by side in one axes (Fig. 20)."""
     ax = _axes(ax)
-    ms = [m for m in analysis.motions if m.motion == motion]
+    kind = Motion.parse(motion, "plot_terrains")
+    ms = [m for m in analysis.motions if m.motion == kind]
     xmax = max((float(np.abs(m.fit.x).max()) for m in ms), default=1.0)
     xs = np.array([0.0, xmax]) if all(np.all(m.fit.x >= 0) for m in ms) else np.array([-xmax, xmax])
-    if motion in ("rotation", "pivot", "x"):
+    if kind.ideal_line:
         ax.plot(xs, xs, color="black", lw=1, ls=":", label="ideal")
     colors = ["tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:brown"]
     for i, m in enumerate(ms):
@@ -301,8 +299,8 @@ def plot_terrains(analysis: LabAnalysis, motion: str = "x", ax: Axes | None = No
             color=c,
             label=f"{m.terrain}: slope {m.fit.slope:.4f} [{lo:.4f}, {hi:.4f}]",
         )
-    ax.set_xlabel(MOTIONS[motion]["x"])
-    ax.set_ylabel(MOTIONS[motion]["y"])
+    ax.set_xlabel(kind.x_label)
+    ax.set_ylabel(kind.y_label)
     ax.set_title(f"{motion} on each terrain")
     ax.grid(alpha=0.3)
     legend_outside(ax)
@@ -316,7 +314,8 @@ def plot_terrain_slopes(analysis: LabAnalysis, motion: str = "x", ax: Axes | Non
     motion has a proportional fit (rotation, pivot, x) its ratio (Table I's) is drawn beside.
     """
     ax = _axes(ax)
-    ms = [m for m in analysis.motions if m.motion == motion]
+    kind = Motion.parse(motion, "plot_terrain_slopes")
+    ms = [m for m in analysis.motions if m.motion == kind]
     y = np.arange(len(ms), dtype=float)
     both = bool(ms) and all(m.ratio_fit is not None for m in ms)
     if both:
@@ -349,11 +348,9 @@ def plot_terrain_slopes(analysis: LabAnalysis, motion: str = "x", ax: Axes | Non
         ax.set_title(
             f"{motion}: F-test p = {test.pvalue:.3g}, partial η² = {test.partial_eta2:.2f}"
         )
-    unit = MOTIONS[motion]["ratio_unit"]
+    unit = kind.ratio_unit
     ax.set_xlabel(
-        f"actual/predicted ({unit})"
-        if motion in ("rotation", "pivot", "x")
-        else f"y error per metre travelled ({unit})"
+        f"actual/predicted ({unit})" if kind.ideal_line else f"y error per metre travelled ({unit})"
     )
     ax.set_ylabel("terrain")
     ax.grid(alpha=0.3)
@@ -374,7 +371,7 @@ def plot_error_ellipses(analysis: LabAnalysis, terrain: str, ax: Axes | None = N
     colors = ["tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:red", "tab:brown"]
     k = 0
     drawn = 0
-    for motion in ("y_forward", "y_reverse"):
+    for motion in (fit for fit in Motion if fit.is_y):
         ym = analysis.get(motion, terrain)
         if ym is None:
             continue
@@ -414,14 +411,12 @@ def plot_error_ellipses(analysis: LabAnalysis, terrain: str, ax: Axes | None = N
 
 
 def _scale_prediction(
-    motion: str, predicted: NDArray[np.float64], old: RobotParams, new: RobotParams
+    motion: Motion, predicted: NDArray[np.float64], old: RobotParams, new: RobotParams
 ) -> NDArray[np.float64]:
     """Re-predict without logs: exact when both wheels scale alike (the ratios method)."""
     r_old = 0.5 * (old.left_wheel_radius + old.right_wheel_radius)
     r_new = 0.5 * (new.left_wheel_radius + new.right_wheel_radius)
-    if motion in ("rotation", "pivot"):
-        return predicted * (r_new / r_old) * (old.track_width / new.track_width)
-    return predicted * (r_new / r_old)
+    return motion.rescaled(predicted, (r_old, r_new), (old.track_width, new.track_width))
 
 
 def plot_calibration_effect(
@@ -447,7 +442,7 @@ def plot_calibration_effect(
     ax.scatter(f.x, f.y, s=14, color="tab:red", label=f"old {old.name}: ratio {m.ratio:.3f}")
     markers = ["o", "s", "^", "D"]
     for i, (name, p) in enumerate(new.items()):
-        px = _scale_prediction(motion, f.x, old, p)
+        px = _scale_prediction(m.motion, f.x, old, p)
         slope = float(px @ f.y / (px @ px))  # the proportional fit, as Table I's ratio
         ax.scatter(
             px,
@@ -458,8 +453,8 @@ def plot_calibration_effect(
             edgecolors=f"C{i}",
             label=f"new ({name}): ratio {slope:.3f}",
         )
-    ax.set_xlabel(MOTIONS[motion]["x"])
-    ax.set_ylabel(MOTIONS[motion]["y"])
+    ax.set_xlabel(m.motion.x_label)
+    ax.set_ylabel(m.motion.y_label)
     ax.set_title(f"Old vs new parameters: {_title(m)}")
     ax.grid(alpha=0.3)
     legend_outside(ax)

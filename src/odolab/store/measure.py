@@ -69,7 +69,7 @@ def describe_measurement(t: Trial) -> str:
 
 def is_rotation(t: Trial) -> bool:
     """True when ``t`` is measured with a compass and counted turns (rotation, pivot)."""
-    return t.command.kind.value in ("rotation", "pivot")
+    return t.command.kind.turns_in_place
 
 
 def refuse_if_measured(t: Trial, replace: bool) -> None:
@@ -93,8 +93,10 @@ def check_reading_names(
 ) -> None:
     """Refuse readings of the wrong kind for ``t`` (and, with ``complete``, missing ones)."""
     rotation = is_rotation(t)
-    wrong = (x, y) if rotation else (initial, final, turns)
-    given = (initial, final, turns) if rotation else (x, y)
+    values = {"initial": initial, "final": final, "turns": turns, "x": x, "y": y}
+    needs = t.command.kind.readings
+    wrong = [v for k, v in values.items() if k not in needs]
+    given = [values[k] for k in needs]
     if any(v is not None for v in wrong) or (complete and any(v is None for v in given)):
         expected = "--initial, --final and --turns" if rotation else "--x and --y"
         raise StoreError(
@@ -129,7 +131,7 @@ def build_measurement(
             sigma_reading_rad=sigma or COMPASS_SIGMA_RAD,  # type: ignore[arg-type]
             predicted_angle=t.predicted.heading,  # the turn hint follows what odometry saw
         )
-    distance = t.command.distance if t.command.kind.value == "translation" else None
+    distance = t.command.distance if t.command.kind.needs == "distance" else None
     return translation_measurement(
         x,  # type: ignore[arg-type]
         y,  # type: ignore[arg-type]

@@ -85,7 +85,7 @@ def trial_context(nb: Notebook, trial_id: str) -> dict[str, Any]:
         "robot": robot,
         "version": version,
         "history": nb.measurement_history(trial_id),
-        "rotation": t.command.kind.value in ("rotation", "pivot"),
+        "rotation": t.command.kind.turns_in_place,
         "has_log": t.encoder_log is not None and len(t.encoder_log) > 1,
     }
 
