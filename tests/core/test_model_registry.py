@@ -139,3 +139,28 @@ def test_batch_and_streaming_odometry_integrate_the_whole_timed_model(method: st
     plain_travelled = np.sum(np.hypot(np.diff(plain.x), np.diff(plain.y)))
     assert travelled < plain_travelled
     assert batch.heading[-1] == pytest.approx(plain.heading[-1], abs=1e-12)
+
+
+@pytest.mark.parametrize("kind", ["diff", "extended", "icr", "slip"])
+def test_neutral_values_are_what_the_fit_starts_from(kind: str) -> None:
+    # calibration/lsq.py's FitModel.values reads every kind's keys with isinstance branches;
+    # models.neutral_values gives the same without them (what lsq.py should call)
+    from odolab.calibration.lsq import FIT_MODELS
+    from odolab.models import ExtendedDiffDrive, IcrModel, SlipModel, neutral_values
+
+    models = {
+        "diff": DIFF_DRIVE,
+        "extended": ExtendedDiffDrive(1.02, 0.97, 1.3),
+        "icr": IcrModel(0.4, -0.31, 0.05),
+        "slip": SlipModel(fwd_v=-0.05, yaw_w=-0.1, q_fwd=1e-4),
+    }
+    params = NOMINAL.with_(model=models[kind])
+    for spec in FIT_MODELS.values():
+        values = spec.values(params)
+        robot = {
+            "left_wheel_radius": params.left_wheel_radius,
+            "right_wheel_radius": params.right_wheel_radius,
+            "track_width": params.track_width,
+        }
+        expected = {**robot, **neutral_values(params.model, params.track_width)}
+        assert values == {k: expected[k] for k in spec.names}

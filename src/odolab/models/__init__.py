@@ -2,8 +2,9 @@
 
 Every model answers one question for one control cycle: given the distances ``ds_l``, ``ds_r``
 (m) that the left and right wheel surfaces rolled (eqs. 3.1, 3.2 of the lab report), how far did
-the body move forward, sideways and in heading? All models here are *linear* in ``ds_l``, ``ds_r``
-and are written with six coefficients (:class:`ModelCoefficients`)::
+the body move forward, sideways and in heading? The kinematic models are *linear* in ``ds_l``,
+``ds_r`` and are written with six coefficients (:class:`ModelCoefficients`); the slip model is
+time-dependent and gives its linear part as six coefficients too::
 
     d_forward = w_left * ds_l + w_right * ds_r
     d_theta   = (e_right * ds_r - e_left * ds_l) / denominator
@@ -44,7 +45,7 @@ from odolab.models.base import (
 from odolab.models.diff import DiffDrive
 from odolab.models.extended import ExtendedDiffDrive
 from odolab.models.icr import IcrModel
-from odolab.models.registry import MODELS, model_from_mapping, register
+from odolab.models.registry import MODELS, model_from_mapping, neutral_values, register
 from odolab.models.slip import SlipModel
 
 __all__ = [
@@ -62,6 +63,7 @@ __all__ = [
     "is_kinematic_model",
     "model_from_mapping",
     "model_words",
+    "neutral_values",
     "own_covariance",
     "register",
     "timed_model",

@@ -13,10 +13,13 @@ This module imports neither numpy nor numba (``odolab --help`` stays instant).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, ClassVar, NamedTuple, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, ClassVar, NamedTuple, Protocol, runtime_checkable
 
 if TYPE_CHECKING:
+    import numpy as np
     from numpy.typing import NDArray
+
+    FloatArray = NDArray[np.float64]
 
 __all__ = [
     "CovarianceModel",
@@ -107,11 +110,11 @@ class TimedModel(KinematicModel, Protocol):
 
     def body_motion_arrays(
         self,
-        ds_left: NDArray[Any],
-        ds_right: NDArray[Any],
-        dt: NDArray[Any],
+        ds_left: FloatArray,
+        ds_right: FloatArray,
+        dt: FloatArray,
         track_width: float,
-    ) -> tuple[NDArray[Any], NDArray[Any], NDArray[Any]]:
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
         """:meth:`body_motion` for arrays of cycles (batch odometry)."""
         ...
 
@@ -155,34 +158,34 @@ class CovarianceModel(KinematicModel, Protocol):
 
     def propagate_covariance(
         self,
-        t: NDArray[Any],
-        dticks_left: NDArray[Any],
-        dticks_right: NDArray[Any],
+        t: FloatArray,
+        dticks_left: FloatArray,
+        dticks_right: FloatArray,
         params: RobotLike,
         start: tuple[float, float, float] = (0.0, 0.0, 0.0),
-    ) -> tuple[NDArray[Any], NDArray[Any]]:
+    ) -> tuple[FloatArray, FloatArray]:
         """Poses (n, 3) and their covariance (n, 3, 3) along a run of count increments."""
         ...
 
     def pose_covariance(
         self,
-        t: NDArray[Any],
-        ds_left: NDArray[Any],
-        ds_right: NDArray[Any],
+        t: FloatArray,
+        ds_left: FloatArray,
+        ds_right: FloatArray,
         params: RobotLike,
         start: tuple[float, float, float],
-    ) -> NDArray[Any]:
+    ) -> FloatArray:
         """The pose covariance (n, 3, 3) along a stretch of track motion (m per cycle)."""
         ...
 
     def step_variance(
         self,
-        ds_left: NDArray[Any],
-        ds_right: NDArray[Any],
-        dt: NDArray[Any],
+        ds_left: FloatArray,
+        ds_right: FloatArray,
+        dt: FloatArray,
         track_width: float,
         tick_turn: float = 0.0,
-    ) -> NDArray[Any]:
+    ) -> FloatArray:
         """Each cycle's own body-motion variance, shape (n, 3) (the exports' twist)."""
         ...
 

@@ -75,6 +75,11 @@ class IcrModel:
         """The ICR model that is the differential drive of ``track_width`` (plus ``x_icr``)."""
         return cls(track_width / 2.0, -track_width / 2.0, x_icr)
 
+    @classmethod
+    def neutral(cls, track_width: float) -> IcrModel:
+        """The ICR model that is the differential drive of ``track_width``."""
+        return cls.from_track(track_width)
+
     @property
     def spread(self) -> float:
         """``y_icr_left - y_icr_right`` (m): the track width the vehicle turns as if it had."""

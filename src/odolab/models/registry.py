@@ -16,7 +16,7 @@ from typing import Any, TypeVar
 from odolab.errors import ParamsError
 from odolab.models.base import KinematicModel
 
-__all__ = ["MODELS", "model_from_mapping", "register", "unregister"]
+__all__ = ["MODELS", "model_from_mapping", "neutral_values", "register", "unregister"]
 
 #: Every model by its ``kind`` in the TOML, filled by :func:`register` (in import order).
 MODELS: dict[str, type[Any]] = {}
@@ -36,6 +36,22 @@ def register(cls: _T) -> _T:
 def unregister(kind: str) -> None:
     """Remove a kind from the registry (a test's own model, after the test)."""
     MODELS.pop(kind, None)
+
+
+def neutral_values(model: KinematicModel, track_width: float) -> dict[str, float]:
+    """The keys of every registered kind with their values: ``model``'s own for its kind, each
+    other kind's neutral ones (the model that is the differential drive of ``track_width``, a
+    kind's ``neutral(track_width)``, else its defaults). What a fit that can start from any
+    kind reads (:mod:`odolab.calibration.lsq`), without asking which kind ``model`` is."""
+    out: dict[str, float] = {}
+    for cls in MODELS.values():
+        if type(model) is cls:
+            out.update(model.to_dict())
+        elif hasattr(cls, "neutral"):
+            out.update(cls.neutral(track_width).to_dict())
+        else:
+            out.update(cls().to_dict())
+    return out
 
 
 def model_from_mapping(data: dict[str, Any], *, source: str = "parameters") -> KinematicModel:

@@ -61,6 +61,7 @@ from odolab.models.slip_terms import (
 )
 
 if TYPE_CHECKING:
+    import numpy as np
     from numpy.typing import NDArray
 
     from odolab.models.base import RobotLike
@@ -252,12 +253,12 @@ class SlipModel:
 
     def propagate_covariance(
         self,
-        t: NDArray[Any],
-        dticks_left: NDArray[Any],
-        dticks_right: NDArray[Any],
+        t: NDArray[np.float64],
+        dticks_left: NDArray[np.float64],
+        dticks_right: NDArray[np.float64],
         params: RobotLike,
         start: tuple[float, float, float] = (0.0, 0.0, 0.0),
-    ) -> tuple[NDArray[Any], NDArray[Any]]:
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Poses and covariance along a run (:func:`slip_covariance.propagate_covariance`)."""
         from odolab.models.slip_covariance import propagate_covariance
 
@@ -265,12 +266,12 @@ class SlipModel:
 
     def pose_covariance(
         self,
-        t: NDArray[Any],
-        ds_left: NDArray[Any],
-        ds_right: NDArray[Any],
+        t: NDArray[np.float64],
+        ds_left: NDArray[np.float64],
+        ds_right: NDArray[np.float64],
         params: RobotLike,
         start: tuple[float, float, float],
-    ) -> NDArray[Any]:
+    ) -> NDArray[np.float64]:
         """The pose covariance (n, 3, 3) along a stretch of track motion (m per cycle)."""
         from odolab.models.slip_covariance import propagate_terms, terms_of
 
