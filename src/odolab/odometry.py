@@ -24,12 +24,12 @@ from numpy.typing import ArrayLike, NDArray
 from odolab.encoders import EncoderUnwrapper, as_tick_array, default_max_dticks
 from odolab.errors import EncoderJumpError, LogFormatError, OdolabError
 from odolab.kinematics import SMALL_ANGLE, Method, wrap_angle
-from odolab.models.slip import SlipModel
+from odolab.models import own_covariance, timed_model
 from odolab.params import NoiseParams, RobotParams
 from odolab.trajectory import Pose, Trajectory, check_times
 
 if TYPE_CHECKING:
-    from odolab.slip_uncertainty import SlipCovarianceStepper
+    from odolab.models import CovarianceStepperLike
     from odolab.uncertainty import CovarianceStepper
 
 __all__ = [
@@ -85,8 +85,8 @@ def _slip_steps(
     """Phase A for the slip model (:mod:`odolab.models.slip`), whose body motion depends on
     each cycle's duration: the same arrays as the compiled phase A (``dl[0]``, ``dr[0]``
     ignored). Agrees with :class:`Odometry` to rounding."""
-    model = params.model
-    assert isinstance(model, SlipModel)
+    model = timed_model(params.model)
+    assert model is not None
     n = dl.size
     if n == 0:
         return 0.0
@@ -311,7 +311,7 @@ def _integrate(
         code, i, d = _check_ticks(tin, left, right, params.encoder_modulus or 0, limit)
         if code == 0:
             tt[:] = tin
-            if params.model.kind != "slip":
+            if timed_model(params.model) is None:
                 _numpy_steps(
                     _unwrapped(left, params.encoder_modulus),
                     _unwrapped(right, params.encoder_modulus), params, coef,
@@ -338,7 +338,7 @@ def _integrate(
             lat,
             y,
         )
-    if code == 0 and params.model.kind == "slip":
+    if code == 0 and timed_model(params.model) is not None:
         lat = np.empty(n)
         largest = _slip_steps(
             tt, _unwrapped(left, params.encoder_modulus), _unwrapped(right, params.encoder_modulus),
@@ -423,7 +423,7 @@ def integrate_increments(
     x, y, theta, heading = (np.empty(n) for _ in range(4))
     coef, lat = _model_arrays(params, n)
     kernels = _use_kernels(n)
-    if params.model.kind == "slip":
+    if timed_model(params.model) is not None:
         lat = np.empty(n)
         largest = _slip_steps(tt, dl, dr, params, m is Method.ARC, h0, heading, x, lat, y)
     elif not kernels:
@@ -512,13 +512,13 @@ class Odometry:
 
         self._body_motion = body_motion
         self._step_pose = step_pose
-        self._slip = params.model if isinstance(params.model, SlipModel) else None
-        self._cov: CovarianceStepper | SlipCovarianceStepper | None = None
+        self._slip = timed_model(params.model)
+        own = own_covariance(params.model)
+        self._own_cov = own is not None
+        self._cov: CovarianceStepper | CovarianceStepperLike | None = None
         if covariance:  # imported here: the plain path stays as it was
-            if self._slip is not None:  # the slip model's own predictive variance
-                from odolab.slip_uncertainty import SlipCovarianceStepper
-
-                self._cov = SlipCovarianceStepper(params)
+            if own is not None:  # the model's own predictive variance (the slip model's)
+                self._cov = own.covariance_stepper(params)
             else:  # needs params.noise
                 from odolab.uncertainty import CovarianceStepper
 
@@ -605,7 +605,7 @@ class Odometry:
             dsl = dl * self._kl
             dsr = dr * self._kr
             if self._cov is not None:
-                if self._slip is not None:
+                if self._own_cov:
                     self._cov.step(self._h, dsl, dsr, dt)  # type: ignore[call-arg]
                 else:
                     self._cov.step(self._h, dsl, dsr)  # type: ignore[call-arg]

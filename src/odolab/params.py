@@ -44,8 +44,10 @@ from odolab.models import (
     MODELS,
     KinematicModel,
     ModelCoefficients,
-    SlipModel,
+    is_kinematic_model,
     model_from_mapping,
+    model_words,
+    own_covariance,
 )
 from odolab.text import quote_input
 from odolab.writing import path_first
@@ -229,7 +231,7 @@ class RobotParams:
             check_param("encoder_modulus", self.encoder_modulus)
         if not isinstance(self.name, str) or not self.name:
             raise ParamsError(f"name must be a non-empty string, got {quote_input(self.name)}")
-        if not isinstance(self.model, KinematicModel):
+        if not is_kinematic_model(self.model):
             raise ParamsError(f"model must be a kinematic model, got {self.model!r}")
         if self.noise is not None and not isinstance(self.noise, NoiseParams):
             raise ParamsError(f"noise must be NoiseParams or None, got {self.noise!r}")
@@ -276,23 +278,8 @@ class RobotParams:
         without noise."""
         out: list[tuple[str, str]] = []
         table = self.model_table()
-        if table is not None and isinstance(self.model, SlipModel):
-            coefs = sorted(SlipModel.COEF_KEYS, key=lambda k: -abs(table[k]))
-            big = ", ".join(f"{k} {table[k]:.3g}" for k in coefs[:3] if table[k])
-            terms = [k for k in SlipModel.KEYS if k not in coefs and table[k] >= 1e-6]
-            shown = ", ".join(f"{k} {table[k]:.3g}" for k in terms) or "none"
-            out.append(
-                (
-                    "model",
-                    f"slip (24 coefficients, the largest {big or 'all 0'}; variance terms "
-                    f"{shown}, those under 1e-6 not shown; every value is in the parameters "
-                    "file)",
-                )
-            )
-        elif table is not None:
-            unit = " m" if table["kind"] == "icr" else ""
-            keys = ", ".join(f"{k} {v:g}" for k, v in table.items() if k != "kind")
-            out.append(("model", f"{table['kind']} ({keys}{unit})"))
+        if table is not None:
+            out.append(("model", model_words(self.model)))
         if self.noise is not None:
             n = self.noise
             scrub = f", k_scrub {n.k_scrub:g} rad" if n.k_scrub else ""
@@ -354,8 +341,9 @@ def covariance_source(params: RobotParams) -> str | None:
     model's own predictive variance, :mod:`odolab.slip_uncertainty`; a ``[noise]`` table does
     not apply to it), ``"noise"`` (the ``[noise]`` wheel constants, :func:`propagate_covariance`)
     or None (neither: no covariance)."""
-    if params.model.kind == "slip":
-        return "slip"
+    own = own_covariance(params.model)
+    if own is not None:
+        return own.covariance_name
     return "noise" if params.noise is not None else None
 
 

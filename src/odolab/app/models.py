@@ -324,7 +324,7 @@ def slip_comparison(
     ``base``, the folder its paths are relative to)."""
     from odolab.errors import ParamsError
     from odolab.io.run import OdometryRun
-    from odolab.models.slip import SlipModel
+    from odolab.models import timed_model
     from odolab.sim.explore import ExploreSettings, explore
     from odolab.trajectory import Trajectory
 
@@ -341,11 +341,11 @@ def slip_comparison(
     slip = next((s for s in comparison.scores if s.model == "slip"), None)
     if slip is None or slip.fit is None:
         problem = f"no slip model: {slip.problem if slip else 'not compared'}"
-    elif not isinstance(slip.fit.params.model, SlipModel):
+    elif (model := timed_model(slip.fit.params.model)) is None:
         problem = "no slip model: the fit gave another model"
     else:
         try:
-            gain = slip.fit.params.model.speed_slip_gain(*speeds)
+            gain = model.speed_slip_gain(*speeds)
         except ParamsError as err:
             problem = str(err)
     nees: dict[str, Any] = {}

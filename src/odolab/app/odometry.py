@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from odolab.defaults import DEFAULT_ROBOT, LogFormat
 from odolab.errors import OdolabError, ParamsError
+from odolab.models import own_covariance
 from odolab.params import covariance_source
 
 if TYPE_CHECKING:
@@ -319,8 +320,8 @@ def integrate_log(req: OdometryRequest, progress: Progress | None = None) -> Odo
     robot = req.params.params
     if req.log_format != LogFormat.CSV:
         return _integrate_run(req)
-    if req.covariance and robot.model.kind == "slip":
-        return _integrate_slip_covariance(req)
+    if req.covariance and own_covariance(robot.model) is not None:
+        return _integrate_own_covariance(req)
     chunk_rows = req.chunks()
     if chunk_rows > 0:
         from odolab.io.chunked import integrate_file
@@ -361,9 +362,10 @@ def integrate_log(req: OdometryRequest, progress: Progress | None = None) -> Odo
     return OdometryOutcome(len(traj), req.output, traj.final, req.params, notes)
 
 
-def _integrate_slip_covariance(req: OdometryRequest) -> OdometryOutcome:
-    """An encoder log integrated with a slip model, with the covariance its predictive variance
-    gives (:func:`odolab.slip_uncertainty.propagate_covariance`: the model's white noise and
+def _integrate_own_covariance(req: OdometryRequest) -> OdometryOutcome:
+    """An encoder log integrated with a model that carries its own covariance (the slip model),
+    with the covariance its predictive variance gives
+    (:func:`odolab.slip_uncertainty.propagate_covariance`: the model's white noise and
     drift terms, its coefficients' posterior where the model carries one, as the file
     ``calibrate lsq`` writes does, and the path's mean shortfall under heading uncertainty).
     The whole log at once: the drift's and the posterior's shares couple every cycle."""
@@ -373,12 +375,12 @@ def _integrate_slip_covariance(req: OdometryRequest) -> OdometryOutcome:
     from odolab.io import read_encoder_csv
     from odolab.io.chunked import OdometryChunk
     from odolab.io.tabular import write_columns
-    from odolab.models import SlipModel
     from odolab.odometry import integrate
-    from odolab.slip_uncertainty import describe_covariance, propagate_covariance
     from odolab.uncertainty import first_order_note
 
     robot = req.params.params
+    model = own_covariance(robot.model)
+    assert model is not None
     enc = read_encoder_csv(req.log, modulus=robot.encoder_modulus)
     traj = integrate(
         enc.t, enc.left_ticks, enc.right_ticks, robot, req.method, start=req.start,
@@ -388,16 +390,14 @@ def _integrate_slip_covariance(req: OdometryRequest) -> OdometryOutcome:
     dl = dticks_from_ticks(enc.left_ticks, robot.encoder_modulus, limit, name="left_ticks")
     dr = dticks_from_ticks(enc.right_ticks, robot.encoder_modulus, limit, name="right_ticks")
     start = req.start or (0.0, 0.0, 0.0)
-    _, cov = propagate_covariance(
+    _, cov = model.propagate_covariance(
         enc.t, np.concatenate(([0], dl)), np.concatenate(([0], dr)), robot, start
     )
     terms = cov[:, [0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]]
     write_columns(req.output, OdometryChunk(traj, terms).columns(), "trajectory table")
-    model = robot.model
-    assert isinstance(model, SlipModel)
     notes = [
         "covariance: "
-        + describe_covariance(model)
+        + model.describe_covariance()
         + (", the whole log at once (--chunk-rows does not apply)" if req.chunk_rows else "")
     ]
     note = first_order_note(traj, terms)

@@ -45,12 +45,12 @@ def print_nees(
     from odolab.cli._output import markup_text
     from odolab.errors import ParamsError
     from odolab.metrics.consistency import first_order_note, nees_of_runs, nees_summary
-    from odolab.models import SlipModel
+    from odolab.models import CovarianceModel, own_covariance
     from odolab.params import covariance_source
 
     runs = _runs(paths, fmt, robot)
     sources = set()
-    slip_models: list[SlipModel] = []
+    slip_models: list[CovarianceModel] = []
     chosen: dict[int, RobotParams] = {}
     for run in runs:
         p = robot or run.params
@@ -61,8 +61,9 @@ def print_nees(
                 "model; give --params with a [noise] table (e.g. from `odolab calibrate noise`)"
             )
         sources.add(source)
-        if isinstance(p.model, SlipModel) and p.model not in slip_models:
-            slip_models.append(p.model)
+        own = own_covariance(p.model)
+        if own is not None and own not in slip_models:
+            slip_models.append(own)
         chosen[id(run)] = p
     results, skipped, skip_note = nees_of_runs(
         runs,
@@ -101,10 +102,8 @@ def print_nees(
     )
 
     for model in slip_models:
-        from odolab.slip_uncertainty import describe_covariance
-
         console.print(
-            "note: covariance: " + describe_covariance(model), markup=False, highlight=False
+            "note: covariance: " + model.describe_covariance(), markup=False, highlight=False
         )
     if skip_note:
         console.print(f"note: {skip_note}", markup=False, highlight=False)

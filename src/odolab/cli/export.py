@@ -185,15 +185,14 @@ def mcap_cmd(
     for note in first_order_notes(stream):  # the covariance's range (docs/ros2.md)
         echo(f"note: /odom pose covariance: {note}")
     if stream.covariance_source == "slip":
-        from odolab.models import SlipModel
-        from odolab.slip_uncertainty import describe_covariance
+        from odolab.models import own_covariance
 
-        model = robot.model if robot is not None else None
+        model = own_covariance(robot.model) if robot is not None else None
         echo(
             "note: /odom covariance: "
             + (
-                describe_covariance(model)
-                if isinstance(model, SlipModel)
+                model.describe_covariance()
+                if model is not None
                 else "the slip model's predictive variance (docs/models.md)"
             )
         )

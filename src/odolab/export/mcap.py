@@ -387,7 +387,7 @@ def stream_from_encoder_log(
     dr = np.diff(ur, prepend=ur[0]).astype(np.float64)
     if source_of_cov == "noise":
         twist = _twist_from_increments(traj.t, dl, dr, params)
-    elif source_of_cov == "slip":
+    elif source_of_cov is not None:  # the model's own (the slip model's)
         cov, twist = _slip_covariances(traj.t, dl, dr, params)
     scale = 2.0 * math.pi / params.ticks_per_rev
     angles = np.stack([(ul - ul[0]) * scale, (ur - ur[0]) * scale], axis=1)
@@ -475,7 +475,7 @@ def stream_from_run(
     if source == "noise":
         cov = propagate_covariance(run.dticks_left, run.dticks_right, p, method)
         twist = _twist_from_increments(traj.t, dl, dr, p)
-    elif source == "slip":
+    elif source is not None:  # the model's own (the slip model's)
         cov, twist = _slip_covariances(traj.t, dl, dr, p)
     scale = 2.0 * math.pi / p.ticks_per_rev
     angles = np.stack([np.cumsum(dl) * scale, np.cumsum(dr) * scale], axis=1)
@@ -492,12 +492,11 @@ def _slip_covariances(
     and its twist covariance (n, 6 in TWIST_COLUMNS): each cycle's body-motion variance
     (:meth:`SlipModel.step_variance`: white noise and posterior; the drift is not a cycle's
     own) over its duration squared."""
-    from odolab.models import SlipModel
-    from odolab.slip_uncertainty import propagate_covariance as slip_covariance
+    from odolab.models import own_covariance
 
-    model = p.model
-    assert isinstance(model, SlipModel)
-    _, full = slip_covariance(t, dl, dr, p)
+    model = own_covariance(p.model)
+    assert model is not None
+    _, full = model.propagate_covariance(t, dl, dr, p)
     pose = full[:, [0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]]
     dsl, dsr = dl * p.left_metres_per_tick, dr * p.right_metres_per_tick
     dt = np.diff(t, prepend=t[:1])

@@ -49,7 +49,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from odolab.errors import ParamsError
-from odolab.models.slip import FEATURES, SlipModel
+from odolab.models import own_covariance, timed_model
 from odolab.params import RobotParams, covariance_source
 from odolab.text import safe_terminal
 
@@ -186,8 +186,8 @@ def _motion(
 ) -> tuple[float, ...]:
     """(forward, lateral, heading) the model gives for wheel displacements (m) rolled at the wheel
     speed ``speed`` (m/s): the slip model depends on the speed, the kinematic models do not."""
-    model = params.model
-    if isinstance(model, SlipModel):
+    model = timed_model(params.model)
+    if model is not None:
         dt = max(abs(ds_left), abs(ds_right)) / speed
         return model.body_motion(ds_left, ds_right, dt, params.track_width)
     return params.coefficients.body_motion(ds_left, ds_right)
@@ -219,12 +219,8 @@ def _equivalent(params: RobotParams, speed: float) -> tuple[float, float, float,
     separation = 2.0 * fwd / turn
     u_left = fwd - 0.5 * straight_turn * separation
     u_right = fwd + 0.5 * straight_turn * separation
-    model = params.model
-    linear = not isinstance(model, SlipModel) or all(
-        getattr(model, k) == 0.0
-        for k in model.COEF_KEYS
-        if k.startswith("lat_") or k.split("_", 1)[1] not in ("v", "w")
-    )
+    model = timed_model(params.model)
+    linear = model is None or model.is_linear
     exact = linear and lat == lat_left == lat_right == 0.0
     if exact:  # every wheel motion: the two unit motions above and one on one wheel
         for dl, dr in ((1.0, 0.0), (0.0, 1.0), (-1.0, 1.0)):
@@ -247,17 +243,10 @@ def _slip_note(params: RobotParams, speed: float) -> str:
     lo, hi = 0.5 * speed, 2.0 * speed
     (f_lo, g_lo), (f_hi, g_hi) = factors(lo), factors(hi)
     drift = _motion(params, 1.0, 1.0, speed)[2]
-    model = params.model
-    assert isinstance(model, SlipModel)
-    spread = ""
-    if model.posterior:  # the straight run's heading rate and its posterior sd, per metre
-        import numpy as np
-
-        k = len(FEATURES)
-        phi = np.zeros(3 * k)  # the yaw output's basis on a straight run at ``speed``
-        phi[2 * k : 3 * k] = SlipModel.features(np.array([speed]), np.array([0.0]))[:, 0]
-        post = np.asarray(model.posterior).reshape(3 * k, 3 * k)
-        spread = f" +- {math.sqrt(max(float(phi @ post @ phi), 0.0)) / speed:.2g}"
+    own = own_covariance(params.model)
+    sd = own.straight_turn_sd(speed) if own is not None else None
+    # the straight run's heading rate and its posterior sd, per metre
+    spread = "" if sd is None else f" +- {sd:.2g}"
     return (
         "the slip model's slip changes with speed and turn rate, which diff_drive_controller "
         f"cannot express: these values are its differential-drive equivalent at --speed {speed:g}"
@@ -282,17 +271,15 @@ def _slip_diagonals(
     summed)."""
     import numpy as np
 
-    from odolab.slip_uncertainty import propagate_terms, terms_of
-
-    model = params.model
-    assert isinstance(model, SlipModel)
+    model = own_covariance(params.model)
+    assert model is not None
 
     def end_variance(seconds: float, cycles: int) -> tuple[float, float, float]:
         n = max(1, min(cycles, _SLIP_STEPS))
         t = np.linspace(0.0, seconds, n + 1)
         ds = np.full(n + 1, speed * seconds / n)
         ds[0] = 0.0
-        cov = propagate_terms(t, ds, ds, params, (0.0, 0.0, 0.0)).covariance(terms_of(model))[-1]
+        cov = model.pose_covariance(t, ds, ds, params, (0.0, 0.0, 0.0))[-1]
         return float(cov[0, 0]), float(cov[1, 1]), float(cov[2, 2])
 
     px, py, ph = end_variance(horizon / speed, math.ceil(horizon / speed * rate))
@@ -323,7 +310,7 @@ def controller_numbers(
     u_left, u_right, separation, exact = _equivalent(params, v)
     r_left = params.left_wheel_radius * u_left
     r_right = params.right_wheel_radius * u_right
-    if isinstance(params.model, SlipModel) and not exact:
+    if timed_model(params.model) is not None and not exact:
         notes.append(_slip_note(params, v))
     elif not exact:
         notes.append(
@@ -341,7 +328,7 @@ def controller_numbers(
         base_b = nominal.track_width
     noise = params.noise
     source = covariance_source(params)
-    if source == "slip":
+    if own_covariance(params.model) is not None:
         pose, twist = _slip_diagonals(params, v, f, d, w)
     elif noise is None:
         notes.append(

@@ -40,9 +40,9 @@ from odolab.errors import InsufficientDataError, OdolabError, ParamsError
 from odolab.io.run import OdometryRun
 from odolab.kinematics import Method, wrap_angle
 from odolab.metrics.association import interpolate_trajectory
+from odolab.models import own_covariance
 from odolab.odometry import integrate_increments
-from odolab.params import NoiseParams, RobotParams, covariance_source
-from odolab.slip_uncertainty import propagate_covariance as slip_covariance
+from odolab.params import NoiseParams, RobotParams
 from odolab.trajectory import Trajectory
 from odolab.uncertainty import (
     covariance_matrix,
@@ -190,7 +190,8 @@ def _run_pieces(
             f"{run.source}: {t[-1] - t[0]:.3g} s of ground truth is shorter than one piece of "
             f"{segment_s:g} s"
         )
-    slip = covariance_source(params) == "slip"
+    own = own_covariance(params.model)  # the model's own covariance (the slip model's)
+    slip = own is not None
     if slip and any(n is not None for n in noises):
         raise OdolabError(
             f"the parameters {params.name!r} have a slip model, which carries its own predictive "
@@ -210,8 +211,8 @@ def _run_pieces(
         est = integrate_increments(t[sl], ddl, ddr, params, method)
         odo[k] = est.x[-1], est.y[-1], est.heading[-1]
         for j, (cov, noise) in enumerate(zip(covs, noises, strict=True)):
-            if slip:
-                _, full = slip_covariance(t[sl], ddl, ddr, params)
+            if own is not None:
+                _, full = own.propagate_covariance(t[sl], ddl, ddr, params)
                 terms = full[:, [0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]]
             else:
                 terms = propagate_covariance(ddl, ddr, params, method, noise=noise)

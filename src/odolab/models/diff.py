@@ -7,14 +7,15 @@ It has no keys of its own: the radii and the track width are in the ``[robot]`` 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, ClassVar
+from typing import ClassVar
 
-if TYPE_CHECKING:
-    from odolab.models import ModelCoefficients
+from odolab.models.base import ModelCoefficients
+from odolab.models.registry import register
 
 __all__ = ["DiffDrive"]
 
 
+@register
 @dataclass(frozen=True)
 class DiffDrive:
     """Differential drive: each wheel rolls without slip, the body turns about the axle's middle."""
@@ -23,8 +24,6 @@ class DiffDrive:
     KEYS: ClassVar[tuple[str, ...]] = ()
 
     def coefficients(self, track_width: float) -> ModelCoefficients:
-        from odolab.models import ModelCoefficients
-
         return ModelCoefficients(0.5, 0.5, 1.0, 1.0, float(track_width), 0.0)
 
     def to_dict(self) -> dict[str, float]:

@@ -17,16 +17,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, ClassVar
+from typing import ClassVar
 
 from odolab.errors import ParamsError
-
-if TYPE_CHECKING:
-    from odolab.models import ModelCoefficients
+from odolab.models.base import ModelCoefficients
+from odolab.models.registry import register
 
 __all__ = ["ExtendedDiffDrive"]
 
 
+@register
 @dataclass(frozen=True)
 class ExtendedDiffDrive:
     """Differential drive with per-side scales and an effective track (all ratios, 1 neutral)."""
@@ -56,8 +56,6 @@ class ExtendedDiffDrive:
             object.__setattr__(self, key, float(value))
 
     def coefficients(self, track_width: float) -> ModelCoefficients:
-        from odolab.models import ModelCoefficients
-
         sl, sr = self.scale_left, self.scale_right
         return ModelCoefficients(0.5 * sl, 0.5 * sr, sl, sr, self.track_scale * track_width, 0.0)
 

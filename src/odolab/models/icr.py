@@ -18,16 +18,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, ClassVar
+from typing import ClassVar
 
 from odolab.errors import ParamsError
-
-if TYPE_CHECKING:
-    from odolab.models import ModelCoefficients
+from odolab.models.base import ModelCoefficients
+from odolab.models.registry import register
 
 __all__ = ["IcrModel"]
 
 
+@register
 @dataclass(frozen=True)
 class IcrModel:
     """Skid-steer ICR model: the tracks' ICRs at ``y_icr_left``, ``y_icr_right``, the body's at
@@ -37,6 +37,8 @@ class IcrModel:
     y_icr_right: float
     x_icr: float = 0.0
     kind: ClassVar[str] = "icr"
+    #: the unit of its keys, in words (:func:`odolab.models.model_words`)
+    UNIT: ClassVar[str] = " m"
     KEYS: ClassVar[tuple[str, ...]] = ("y_icr_left", "y_icr_right", "x_icr")
     #: Plausible range of each coordinate (m): a track's ICR from 1 mm to 80 m beside the body
     #: (up to 4 times the widest track of :data:`odolab.params.RANGES`), the body's ICR at most
@@ -73,14 +75,17 @@ class IcrModel:
         """The ICR model that is the differential drive of ``track_width`` (plus ``x_icr``)."""
         return cls(track_width / 2.0, -track_width / 2.0, x_icr)
 
+    @classmethod
+    def neutral(cls, track_width: float) -> IcrModel:
+        """The ICR model that is the differential drive of ``track_width``."""
+        return cls.from_track(track_width)
+
     @property
     def spread(self) -> float:
         """``y_icr_left - y_icr_right`` (m): the track width the vehicle turns as if it had."""
         return self.y_icr_left - self.y_icr_right
 
     def coefficients(self, track_width: float) -> ModelCoefficients:
-        from odolab.models import ModelCoefficients
-
         d = self.spread
         return ModelCoefficients(
             -self.y_icr_right / d, self.y_icr_left / d, 1.0, 1.0, d, -self.x_icr

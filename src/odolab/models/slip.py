@@ -46,31 +46,29 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, ClassVar
 
 from odolab.errors import ParamsError
+from odolab.models.base import ModelCoefficients
+from odolab.models.registry import register
+from odolab.models.slip_terms import (
+    _COEF_KEYS,
+    _NOISE_KEYS,
+    DRIFT_KEYS,
+    FEATURES,
+    KIND,
+    NOISE_KEYS,
+    OUTPUTS,
+    TURN_CYCLES,
+    _features,
+)
 
 if TYPE_CHECKING:
+    import numpy as np
     from numpy.typing import NDArray
 
-    from odolab.models import ModelCoefficients
+    from odolab.models.base import RobotLike
+    from odolab.models.slip_covariance import SlipCovarianceStepper
+
 
 __all__ = ["DRIFT_KEYS", "FEATURES", "NOISE_KEYS", "OUTPUTS", "TURN_CYCLES", "SlipModel"]
-
-#: The basis, in order (v: forward speed m/s, w: turn rate rad/s, both from the measured tracks).
-FEATURES: tuple[str, ...] = ("v", "w", "absv", "absw", "v_absv", "v_absw", "w_absv", "w_absw")
-#: The slipping body velocities: forward, lateral (left), yaw rate.
-OUTPUTS: tuple[str, ...] = ("fwd", "lat", "yaw")
-_COEF_KEYS = tuple(f"{o}_{f}" for o in OUTPUTS for f in FEATURES)
-#: The noise terms, in the order of :meth:`SlipModel.noise_multipliers`.
-NOISE_KEYS: tuple[str, ...] = ("q_fwd", "q_lat", "q_yaw", "k_fwd", "k_lat", "k_yaw")
-_NOISE_KEYS = NOISE_KEYS
-#: The drift terms, in the order of :meth:`SlipModel.drift_multipliers`.
-DRIFT_KEYS: tuple[str, ...] = ("d_fwd", "d_lat", "d_yaw", "d_turn")
-#: Cycles the commanded turn of a cycle is averaged over (:meth:`SlipModel.noise_multipliers`).
-TURN_CYCLES = 5
-
-
-def _features(v: float, w: float) -> tuple[float, ...]:
-    av, aw = abs(v), abs(w)
-    return (v, w, av, aw, v * av, v * aw, w * av, w * aw)
 
 
 def _check_posterior(values: tuple[float, ...], k: int, limit: float) -> None:
@@ -104,6 +102,7 @@ def _check_posterior(values: tuple[float, ...], k: int, limit: float) -> None:
         )
 
 
+@register
 @dataclass(frozen=True)
 class SlipModel:
     """Differential drive plus body slip linear in a basis of the measured speeds (see module)."""
@@ -145,7 +144,11 @@ class SlipModel:
     #: posterior covariance of the coefficients, row-major 24 x 24 in :data:`KEYS` order (empty:
     #: unknown); not part of the ``[model]`` table
     posterior: tuple[float, ...] = field(default=(), compare=False, repr=False)
-    kind: ClassVar[str] = "slip"
+    kind: ClassVar[str] = KIND
+    #: its body motion depends on each cycle's duration (:class:`odolab.models.TimedModel`)
+    time_dependent: ClassVar[bool] = True
+    #: it carries its own pose covariance (:class:`odolab.models.CovarianceModel`), by this name
+    covariance_name: ClassVar[str] = KIND
     KEYS: ClassVar[tuple[str, ...]] = (*_COEF_KEYS, *_NOISE_KEYS, *DRIFT_KEYS)
     COEF_KEYS: ClassVar[tuple[str, ...]] = _COEF_KEYS
     #: a slip coefficient beyond this size (in SI units of its feature) is a wrong file, not slip
@@ -189,8 +192,6 @@ class SlipModel:
 
     def coefficients(self, track_width: float) -> ModelCoefficients:
         """The model's linear part (its ``v`` and ``w`` terms; no sideways motion)."""
-        from odolab.models import ModelCoefficients
-
         b = float(track_width)
         a = 1.0 + self.fwd_v
         c = 1.0 + self.yaw_w
@@ -209,6 +210,85 @@ class SlipModel:
     @property
     def is_differential_drive(self) -> bool:
         return all(getattr(self, k) == 0.0 for k in _COEF_KEYS)
+
+    def words(self) -> str:
+        """The model in words (:func:`odolab.models.model_words`): its largest coefficients and
+        its variance terms."""
+        table = self.to_dict()
+        coefs = sorted(self.COEF_KEYS, key=lambda k: -abs(table[k]))
+        big = ", ".join(f"{k} {table[k]:.3g}" for k in coefs[:3] if table[k])
+        terms = [k for k in self.KEYS if k not in coefs and table[k] >= 1e-6]
+        shown = ", ".join(f"{k} {table[k]:.3g}" for k in terms) or "none"
+        return (
+            f"slip (24 coefficients, the largest {big or 'all 0'}; variance terms "
+            f"{shown}, those under 1e-6 not shown; every value is in the parameters "
+            "file)"
+        )
+
+    # -- the TimedModel capability --------------------------------------------------------------
+
+    @property
+    def is_linear(self) -> bool:
+        """True when only the ``v`` and ``w`` terms of the forward and yaw outputs are not 0:
+        then :meth:`coefficients` is the whole model."""
+        return all(
+            getattr(self, k) == 0.0
+            for k in self.COEF_KEYS
+            if k.startswith("lat_") or k.split("_", 1)[1] not in ("v", "w")
+        )
+
+    # -- the CovarianceModel capability (odolab.models.slip_covariance) -------------------------
+
+    def describe_covariance(self) -> str:
+        """What the covariance is made of, in words (:func:`slip_covariance.describe_covariance`)."""
+        from odolab.models.slip_covariance import describe_covariance
+
+        return describe_covariance(self)
+
+    def covariance_stepper(self, params: RobotLike) -> SlipCovarianceStepper:
+        """The covariance one cycle at a time (:class:`slip_covariance.SlipCovarianceStepper`)."""
+        from odolab.models.slip_covariance import SlipCovarianceStepper
+
+        return SlipCovarianceStepper(params)
+
+    def propagate_covariance(
+        self,
+        t: NDArray[np.float64],
+        dticks_left: NDArray[np.float64],
+        dticks_right: NDArray[np.float64],
+        params: RobotLike,
+        start: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Poses and covariance along a run (:func:`slip_covariance.propagate_covariance`)."""
+        from odolab.models.slip_covariance import propagate_covariance
+
+        return propagate_covariance(t, dticks_left, dticks_right, params, start)
+
+    def pose_covariance(
+        self,
+        t: NDArray[np.float64],
+        ds_left: NDArray[np.float64],
+        ds_right: NDArray[np.float64],
+        params: RobotLike,
+        start: tuple[float, float, float],
+    ) -> NDArray[np.float64]:
+        """The pose covariance (n, 3, 3) along a stretch of track motion (m per cycle)."""
+        from odolab.models.slip_covariance import propagate_terms, terms_of
+
+        return propagate_terms(t, ds_left, ds_right, params, start).covariance(terms_of(self))
+
+    def straight_turn_sd(self, speed: float) -> float | None:
+        """The posterior standard deviation (rad per metre) of the heading change of a straight
+        run at ``speed`` m/s; None without a posterior."""
+        if not self.posterior:
+            return None
+        import numpy as np
+
+        k = len(FEATURES)
+        phi = np.zeros(3 * k)  # the yaw output's basis on a straight run at ``speed``
+        phi[2 * k : 3 * k] = self.features(np.array([speed]), np.array([0.0]))[:, 0]
+        post = np.asarray(self.posterior).reshape(3 * k, 3 * k)
+        return math.sqrt(max(float(phi @ post @ phi), 0.0)) / speed
 
     # -- the model itself -----------------------------------------------------------------------
 

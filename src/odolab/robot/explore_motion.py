@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from odolab.models import own_covariance
 from odolab.params import NoiseParams, RobotParams
 from odolab.robot.errors import MotionError
 from odolab.trajectory import Pose
@@ -158,7 +159,7 @@ class Explore:
         """The loop's odometry, with the covariance the fence reads (see the module)."""
         from odolab.odometry import Odometry
 
-        if params.model.kind == "slip":
+        if own_covariance(params.model) is not None:
             self.noise_source = "the slip model's own predictive variance"
         elif params.noise is not None:
             self.noise_source = "the parameters' [noise] table"

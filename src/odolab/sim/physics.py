@@ -51,7 +51,7 @@ from numpy.typing import NDArray
 from odolab._jit import njit
 from odolab.errors import SimError
 from odolab.kinematics import body_motion, step_pose
-from odolab.models import DIFF_DRIVE, KinematicModel
+from odolab.models import DIFF_DRIVE, KinematicModel, is_kinematic_model
 from odolab.params import RobotParams
 from odolab.sim.terrains import Terrain, get_terrain
 from odolab.trajectory import Pose
@@ -157,7 +157,7 @@ class TrueParams:
         ):
             if getattr(self, key) <= 0:
                 raise SimError(f"true parameter {key} must be > 0")
-        if not isinstance(self.model, KinematicModel):
+        if not is_kinematic_model(self.model):
             raise SimError(f"true model must be a kinematic model, got {self.model!r}")
         if self.turn_slip >= 1.0:
             raise SimError(f"true parameter turn_slip must be < 1, got {self.turn_slip!r}")
