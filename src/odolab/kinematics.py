@@ -18,6 +18,11 @@ the exact circular arc (constant body velocity over the cycle). One small-angle 
 virtual board) they run the same compiled code, so every user agrees to rounding. The compiled
 functions live in :mod:`odolab._kinematics_jit` and are loaded on first use of their names here
 (``from odolab.kinematics import step_pose``), so importing this module does not import numba.
+
+The maths has one plain statement each, here: the step :func:`odometry_step` (its chord
+:func:`chord_factors`) and the wrap :func:`wrap_angle`, in numpy; the compiled :func:`step_pose`,
+:func:`chord` and :func:`wrap` are their twins, tested equal (tests/core/test_one_maths.py). The
+counter rollover's is :func:`odolab.encoders.counter_delta`.
 """
 
 from __future__ import annotations
