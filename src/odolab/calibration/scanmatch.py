@@ -73,6 +73,10 @@ def _to_planar(m: NDArray[np.float64]) -> tuple[float, float, float]:
     return float(m[0, 3]), float(m[1, 3]), math.atan2(float(m[1, 0]), float(m[0, 0]))
 
 
+#: A scan's (cloud, tree, number of points) for small_gicp.
+_Cloud = tuple[Any, Any, int]
+
+
 def _check_options(
     max_range: float, voxel: float, max_correspondence: float, layer: float, every: int,
     max_iterations: int,
@@ -95,12 +99,12 @@ def _check_options(
 
 def _clouds(
     scans: LaserScans, every: int, max_range: float, voxel: float, height: float, threads: int
-) -> tuple[list[tuple[Any, Any, int]], list[int], list[int]]:
+) -> tuple[list[_Cloud], list[int], list[int]]:
     """(cloud, tree, number of points) of every ``every``-th scan with enough points, their
     scan indexes, and the indexes of the scans skipped."""
     import small_gicp
 
-    clouds: list[tuple[Any, Any, int]] = []
+    clouds: list[_Cloud] = []
     index: list[int] = []
     skipped: list[int] = []
     for i in range(0, len(scans), every):
@@ -128,7 +132,7 @@ def _clouds(
 
 
 def _match(
-    clouds: list[tuple[Any, Any, int]],
+    clouds: list[_Cloud],
     k: int,
     init: NDArray[np.float64],
     max_correspondence: float,

@@ -147,9 +147,13 @@ def _stamp_dict(t: float) -> dict[str, int]:
     return {"sec": ns // 1_000_000_000, "nanosec": ns % 1_000_000_000}
 
 
-def _scan_messages(scans: LaserScans, topic: str) -> list[tuple[float, str, dict[str, Any]]]:
+#: (time, topic, message) of a message to write.
+_Message = tuple[float, str, dict[str, Any]]
+
+
+def _scan_messages(scans: LaserScans, topic: str) -> list[_Message]:
     """(time, topic, LaserScan message) of every scan."""
-    msgs: list[tuple[float, str, dict[str, Any]]] = []
+    msgs: list[_Message] = []
     end = scans.angle_min + scans.angle_increment * (scans.beams - 1)
     period = float(np.median(np.diff(scans.t))) if len(scans) > 1 else 0.0
     for ti, r in zip(scans.t, scans.ranges, strict=True):
@@ -179,9 +183,9 @@ def _joint_messages(
     wheel_angles: ArrayLike | None,
     joint_names: tuple[str, str],
     joint_topic: str,
-) -> list[tuple[float, str, dict[str, Any]]]:
+) -> list[_Message]:
     """(time, topic, JointState message) of every wheel-angle sample."""
-    msgs: list[tuple[float, str, dict[str, Any]]] = []
+    msgs: list[_Message] = []
     jt = np.asarray(joint_t, dtype=np.float64)
     wa = np.asarray(wheel_angles, dtype=np.float64)
     if jt.ndim != 1 or wa.shape != (len(jt), 2):
