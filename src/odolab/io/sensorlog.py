@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from odolab.errors import ImuLogError
+from odolab.kinematics import wrap_angle
 from odolab.trajectory import MAX_TIME_S
 
 __all__ = [
@@ -148,7 +149,7 @@ def rate_aided_unwrap(
     if rate is None or wrapped.size < 2:
         return np.asarray(np.unwrap(wrapped), dtype=np.float64)
     d = np.diff(wrapped)
-    d = (d + math.pi) % (2.0 * math.pi) - math.pi
+    d = wrap_angle(d)
     predicted = 0.5 * (rate[1:] + rate[:-1]) * np.diff(t)
     d = d + 2.0 * math.pi * np.round((predicted - d) / (2.0 * math.pi))
     out = np.empty_like(wrapped)
@@ -556,7 +557,7 @@ def write_sensorlog(
     if start_wallclock.tzinfo is None:
         raise ImuLogError("start_wallclock must carry a time zone, e.g. datetime(..., tzinfo=UTC)")
     n = t.size
-    wrapped = (y + math.pi) % (2.0 * math.pi) - math.pi
+    wrapped = wrap_angle(y)
     compass = np.degrees(north - y) % 360.0
     stamps = _wall_text(start_wallclock, t - t[0] + logging_delay)
     boot_posix = start_wallclock.timestamp() - t[0]
