@@ -9,7 +9,7 @@ backward between two consecutive samples is handled. A change whose magnitude ex
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -19,6 +19,7 @@ from odolab.errors import EncoderJumpError, LogFormatError
 __all__ = [
     "EncoderUnwrapper",
     "as_tick_array",
+    "counter_delta",
     "default_max_dticks",
     "dticks_from_ticks",
     "unwrap_diff",
@@ -66,10 +67,15 @@ def as_tick_array(values: ArrayLike, name: str = "ticks") -> NDArray[np.int64]:
     return ints
 
 
-def _wrap_diff(d: NDArray[np.int64], modulus: int) -> NDArray[np.int64]:
+IntOrArray = TypeVar("IntOrArray", int, NDArray[np.int64])
+
+
+def counter_delta(d: IntOrArray, modulus: int) -> IntOrArray:
+    """A raw counter difference (an int or an int64 array) as the true change: its
+    representative of ``d mod modulus`` in ``[-modulus/2, modulus/2)``. The one statement of the
+    rollover rule; :func:`unwrap_diff` is its compiled twin (tests/core/test_encoders.py)."""
     half = modulus // 2
-    out: NDArray[np.int64] = np.mod(d + half, modulus) - half
-    return out
+    return (d + half) % modulus - half
 
 
 def dticks_from_ticks(
@@ -83,7 +89,7 @@ def dticks_from_ticks(
     raw = as_tick_array(ticks, name)
     d = np.diff(raw)
     if modulus is not None:
-        d = _wrap_diff(d, modulus)
+        d = counter_delta(d, modulus)
     if max_dticks is not None and d.size:
         too_big = np.abs(d) > max_dticks
         if too_big.any():
@@ -133,8 +139,7 @@ class EncoderUnwrapper:
             return 0
         d = value - self._last
         if self.modulus is not None:
-            half = self.modulus // 2
-            d = (d + half) % self.modulus - half
+            d = counter_delta(d, self.modulus)
         if self.max_dticks is not None and abs(d) > self.max_dticks:
             raise EncoderJumpError(
                 f"{self.name} jumps by {d} counts between samples {self._index - 1} and "

@@ -18,6 +18,11 @@ the exact circular arc (constant body velocity over the cycle). One small-angle 
 virtual board) they run the same compiled code, so every user agrees to rounding. The compiled
 functions live in :mod:`odolab._kinematics_jit` and are loaded on first use of their names here
 (``from odolab.kinematics import step_pose``), so importing this module does not import numba.
+
+The maths has one plain statement each, here: the step :func:`odometry_step` (its chord
+:func:`chord_factors`) and the wrap :func:`wrap_angle`, in numpy; the compiled :func:`step_pose`,
+:func:`chord` and :func:`wrap` are their twins, tested equal (tests/core/test_one_maths.py). The
+counter rollover's is :func:`odolab.encoders.counter_delta`.
 """
 
 from __future__ import annotations
@@ -37,6 +42,8 @@ __all__ = [
     "chord",
     "chord_derivative",
     "chord_factor",
+    "chord_factors",
+    "odometry_step",
     "pose_step",
     "step_pose",
     "wheel_displacements_from_dticks",
@@ -99,6 +106,44 @@ def chord_factor(dtheta: float, method: Method | str) -> float:
     from odolab._kinematics_jit import chord
 
     return float(chord(float(dtheta), Method(method) is Method.ARC))
+
+
+def chord_factors(dtheta: FloatOrArray, arc: bool = True) -> NDArray[np.float64]:
+    """The chord factor of every step in numpy: the plain twin of the compiled :func:`chord`
+    (same operations; ``1`` for the midpoint rule, ``sin(u)/u`` with ``u = dtheta/2`` for the arc,
+    its series below :data:`SMALL_ANGLE`)."""
+    d = np.asarray(dtheta, dtype=np.float64)
+    if not arc:
+        return np.ones(d.shape)
+    u = 0.5 * d
+    small = np.abs(u) < SMALL_ANGLE
+    safe = np.where(small, 1.0, u)
+    out: NDArray[np.float64] = np.where(small, 1.0 - u * u / 6.0, np.sin(safe) / safe)
+    return out
+
+
+def odometry_step(
+    x: FloatOrArray,
+    y: FloatOrArray,
+    heading: FloatOrArray,
+    forward: FloatOrArray,
+    lateral: FloatOrArray,
+    dtheta: FloatOrArray,
+    arc: bool,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The pose after one cycle's body motion (heading unwrapped), in numpy on floats or arrays:
+    the one plain statement of the step, eqs. (3.5), (3.6) generalised (see the module's
+    docstring). The compiled :func:`step_pose` is its twin, tested equal to it
+    (tests/core/test_kinematics.py); numpy's batch paths use its parts (:func:`chord_factors`)."""
+    c = chord_factors(dtheta, arc)
+    m = np.add(heading, 0.5 * np.asarray(dtheta, dtype=np.float64))
+    cs, sn = np.cos(m), np.sin(m)
+    fx, fy = np.multiply(forward, c), np.multiply(lateral, c)
+    return (
+        np.add(x, fx * cs - fy * sn),
+        np.add(y, fx * sn + fy * cs),
+        np.add(heading, dtheta, dtype=np.float64),
+    )
 
 
 def pose_step(

@@ -21,9 +21,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from odolab.encoders import EncoderUnwrapper, as_tick_array, default_max_dticks
+from odolab.encoders import EncoderUnwrapper, as_tick_array, counter_delta, default_max_dticks
 from odolab.errors import EncoderJumpError, LogFormatError, OdolabError
-from odolab.kinematics import SMALL_ANGLE, Method, wrap_angle
+from odolab.kinematics import Method, chord_factors, wrap_angle
 from odolab.models import own_covariance, timed_model
 from odolab.params import NoiseParams, RobotParams
 from odolab.trajectory import Pose, Trajectory, check_times
@@ -95,13 +95,7 @@ def _slip_steps(
     dt = np.diff(t, prepend=t[0])
     fwd, side, dth = model.body_motion_arrays(dsl, dsr, dt, params.track_width)
     fwd[0] = side[0] = dth[0] = 0.0
-    if arc:
-        u = 0.5 * dth
-        small = np.abs(u) < SMALL_ANGLE
-        safe = np.where(small, 1.0, u)
-        ch = np.where(small, 1.0 - u * u / 6.0, np.sin(safe) / safe)
-    else:
-        ch = np.ones(n)
+    ch = chord_factors(dth, arc)
     dth[0] = h0
     heading[:] = np.cumsum(dth)  # the streaming order: h0 + d1 + d2 + ...
     mid[0] = h0
@@ -126,9 +120,7 @@ def _check_ticks(t: F64, left: I64, right: I64, modulus: int, max_d: int) -> tup
         return 0, -1, 0
     dl, dr = np.diff(left), np.diff(right)
     if modulus > 0:
-        half = modulus // 2
-        dl = (dl + half) % modulus - half
-        dr = (dr + half) % modulus - half
+        dl, dr = counter_delta(dl, modulus), counter_delta(dr, modulus)
     first: tuple[int, int, int] | None = None
     flags = (
         (3, ~np.isfinite(t), None),
@@ -167,13 +159,7 @@ def _numpy_steps(
     dsr = dr * params.right_metres_per_tick
     dth = (e_r * dsr - e_l * dsl) / den
     fwd = w_l * dsl + w_r * dsr
-    if arc:
-        u = 0.5 * dth
-        small = np.abs(u) < SMALL_ANGLE
-        safe = np.where(small, 1.0, u)
-        ch = np.where(small, 1.0 - u * u / 6.0, np.sin(safe) / safe)
-    else:
-        ch = np.ones(n)
+    ch = chord_factors(dth, arc)
     dth[0] = h0
     heading[:] = np.cumsum(dth)
     mid[0] = h0
@@ -222,8 +208,7 @@ def _unwrapped(ticks: I64, modulus: int | None) -> F64:
     does (call after it has checked the jumps)."""
     d = np.diff(ticks, prepend=ticks[:1]).astype(np.int64)
     if modulus:
-        half = modulus // 2
-        d = (d + half) % modulus - half
+        d = counter_delta(d, modulus)
     return d.astype(np.float64)
 
 

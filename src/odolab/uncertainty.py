@@ -300,6 +300,19 @@ def _stream_step(  # pragma: no cover - compiled
     return _cycle_apply(p, a, b, q)
 
 
+@njit(cache=True, inline="always")
+def _store(w: F64_2D, j: int, a: float, b: float, q: Terms) -> None:  # pragma: no cover
+    """Column ``j`` of :func:`_segment`'s work array: a cycle's shear (a, b) and noise terms."""
+    w[2, j] = a
+    w[3, j] = b
+    w[4, j] = q[0]
+    w[5, j] = q[1]
+    w[6, j] = q[2]
+    w[7, j] = q[3]
+    w[8, j] = q[4]
+    w[9, j] = q[5]
+
+
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
 def _segment(  # pragma: no cover - compiled
     lo: int,
@@ -353,25 +366,11 @@ def _segment(  # pragma: no cover - compiled
         if not arc and largest < 0.5 * SINCOS_LIMIT:
             for j in range(n):  # the common case, with literal flags: vectorised
                 a, b, q = _cycle_noise(h[j], w[0, j], w[1, j], c, False, k, inv_track, True)
-                w[2, j] = a
-                w[3, j] = b
-                w[4, j] = q[0]
-                w[5, j] = q[1]
-                w[6, j] = q[2]
-                w[7, j] = q[3]
-                w[8, j] = q[4]
-                w[9, j] = q[5]
+                _store(w, j, a, b, q)
         else:
             for j in range(n):
                 a, b, q = _cycle_noise(h[j], w[0, j], w[1, j], c, arc, k, inv_track, False)
-                w[2, j] = a
-                w[3, j] = b
-                w[4, j] = q[0]
-                w[5, j] = q[1]
-                w[6, j] = q[2]
-                w[7, j] = q[3]
-                w[8, j] = q[4]
-                w[9, j] = q[5]
+                _store(w, j, a, b, q)
         for j in range(n):
             q = (w[4, j], w[5, j], w[6, j], w[7, j], w[8, j], w[9, j])
             p = _cycle_apply(p, w[2, j], w[3, j], q)

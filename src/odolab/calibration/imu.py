@@ -633,21 +633,10 @@ def _reference_turn(
     return pr, pl, turned, var, ", ".join(sources)
 
 
-def calibrate_imu(
-    runs: Sequence[GyroRun],
-    params: RobotParams,
-    *,
-    options: ImuOptions | None = None,
-    references: Sequence[TurnReference] = (),
-    radii_source: str | None = None,
-    sources: Sequence[str] = (),
-) -> ImuCalibration:
-    """Estimate the angular parameters, the gyro's bias (and scale with ``references``) and the
-    clock offsets from encoder runs with a gyro (see the module). ``params``: the parameters in
-    use (their mean wheel radius is kept). Raises :class:`CalibrationError` (too little turning,
-    a saturated gyro, a useless reference) and :class:`~odolab.errors.ImuLogError` (clocks that
-    do not overlap)."""
-    o = options or ImuOptions()
+def _checked_turning(
+    runs: Sequence[GyroRun], params: RobotParams, o: ImuOptions
+) -> tuple[float, float]:
+    """The options and runs checked; (turned ccw, turned cw) by the encoders."""
     if not runs:
         raise CalibrationError("no runs given; expected encoder logs with a gyro")
     if not o.window_s > 0:
@@ -655,16 +644,20 @@ def calibrate_imu(
     check_track_model(params, "the gyro calibration")
     for run in runs:
         check_saturation(run, o.gyro_range)
-    fit_bias = o.bias is None
-    if fit_bias:
-        ccw, cw = _check_turning(runs, params, o)
-    else:
-        ccw, cw = _check_turning(runs, params, replace(o, min_turn=0.0))
-        if ccw + cw < o.min_turn:
-            raise CalibrationError(
-                f"{', '.join(r.source for r in runs)}: the robot turned {ccw + cw:.2f} rad by the "
-                f"encoders; turn at least {o.min_turn:.2f} rad to determine the track"
-            )
+    if o.bias is None:
+        return _check_turning(runs, params, o)
+    ccw, cw = _check_turning(runs, params, replace(o, min_turn=0.0))
+    if ccw + cw < o.min_turn:
+        raise CalibrationError(
+            f"{', '.join(r.source for r in runs)}: the robot turned {ccw + cw:.2f} rad by the "
+            f"encoders; turn at least {o.min_turn:.2f} rad to determine the track"
+        )
+    return ccw, cw
+
+
+def _all_run_data(
+    runs: Sequence[GyroRun], o: ImuOptions, params: RobotParams, fit_bias: bool
+) -> list[_RunData]:
     data = []
     seg0 = 0
     for i, run in enumerate(runs):
@@ -673,11 +666,138 @@ def calibrate_imu(
             d.bias0 = float(o.bias or 0.0)
         data.append(d)
         seg0 += len(run.segments)
+    return data
+
+
+def _jacobian(
+    data: list[_RunData], x: FloatArray, y: FloatArray, a_fit: tuple[float, float]
+) -> tuple[FloatArray, list[int]]:
+    """The Jacobian of the fitted values: X, and d y / d offset for each estimated offset (the
+    runs whose offset is estimated, in order)."""
+    cols = [x]
+    est = [j for j, d in enumerate(data) if not d.fixed]
+    row = 0
+    starts = []
+    for d in data:
+        starts.append(row)
+        row += d.dt.size
+    for j in est:
+        col = np.zeros(y.size)
+        d = data[j]
+        col[starts[j] : starts[j] + d.dt.size] = d.dy(a_fit[0], a_fit[1])
+        cols.append(col[:, None])
+    jac = np.hstack(cols)
+    if jac.shape[0] <= jac.shape[1]:  # no residual left to measure the scatter with
+        raise CalibrationError(
+            f"the gyro calibration fits {jac.shape[1]} unknowns and the turning samples give "
+            f"{jac.shape[0]}; expected more samples than unknowns (a longer run, or more runs)"
+        )
+    return jac, est
+
+
+def _angular(
+    theta: FloatArray, cov: FloatArray, fixed_ratio: float | None
+) -> tuple[float, float, FloatArray]:
+    """a_R, a_L (= r_R/B, r_L/B) and their covariance."""
+    if fixed_ratio is None:
+        a_r, a_l = float(theta[0]), float(theta[1])
+        ca = cov[:2, :2]
+    else:
+        a_l = float(theta[0])
+        a_r = fixed_ratio * a_l
+        g = np.array([[fixed_ratio], [1.0]])
+        ca = g @ cov[:1, :1] @ g.T
+    if not (a_r > 0 and a_l > 0):
+        raise CalibrationError(
+            f"the gyro's fit gives r_R/B = {a_r:.4g} and r_L/B = {a_l:.4g}; expected both "
+            "positive: is the gyro upside down (its yaw rate against the turn)?"
+        )
+    return a_r, a_l, ca
+
+
+def _offsets(
+    data: list[_RunData], taus: list[float], cov: FloatArray, nlin: int, est: list[int]
+) -> list[OffsetEstimate]:
+    offsets = []
+    for j, d in enumerate(data):
+        if d.fixed:
+            offsets.append(OffsetEstimate(d.run.name, taus[j], math.nan, d.how))
+        else:
+            k = nlin + est.index(j)
+            offsets.append(
+                OffsetEstimate(d.run.name, taus[j], math.sqrt(max(cov[k, k], 0.0)), d.how)
+            )
+    return offsets
+
+
+@dataclass(frozen=True)
+class _Scale:
+    """The gyro's scale, the variances of log(scale) and log(track) and where the scale came from."""
+
+    scale: float
+    var_log_s: float
+    var_log_b: float
+    source: str
+
+
+def _gyro_scale(
+    data: list[_RunData],
+    references: Sequence[TurnReference],
+    a_r: float,
+    a_l: float,
+    ca: FloatArray,
+    o: ImuOptions,
+) -> _Scale:
+    """The gyro's scale from the reference turns (or 1 with the options' assumed interval), by
+    the delta method on the log scale."""
+    ssum = a_r + a_l
+    g_sum = np.array([1.0 / ssum, 1.0 / ssum])
+    var_log_sum = float(g_sum @ ca @ g_sum)
+    if not references:
+        var_log_s = (o.scale_ci95 / Z95) ** 2
+        return _Scale(
+            1.0,
+            var_log_s,
+            var_log_sum + var_log_s,
+            f"no reference for the total turn: taken as 1 with an assumed +-{100 * o.scale_ci95:g} "
+            "% (95 %), carried into the track's interval",
+        )
+    pr, pl, turned, var_ref, words = _reference_turn(data, references)
+    p = a_r * pr - a_l * pl
+    if not p > 0:
+        raise CalibrationError(
+            f"the gyro saw {p:.3g} rad over the reference turns of {turned:.3g} rad; "
+            "expected the same sense: check the reference's sign"
+        )
+    gs = np.array([pr / p, -pl / p])
+    gb = gs - g_sum
+    return _Scale(
+        p / turned,
+        float(gs @ ca @ gs) + var_ref / turned**2,
+        float(gb @ ca @ gb) + var_ref / turned**2,
+        f"from {turned:.2f} rad of reference turn ({words})",
+    )
+
+
+@dataclass(frozen=True)
+class _Fit:
+    """The joint fit: a_R, a_L and their covariance, the bias of each run, the clock offsets."""
+
+    a_r: float
+    a_l: float
+    ca: FloatArray
+    fixed_ratio: float | None
+    ratio_note: str
+    biases: tuple[float, ...]
+    bias_ses: list[float]
+    offsets: list[OffsetEstimate]
+    windows: int
+    rss: float
+    how_cov: str
+
+
+def _fit(data: list[_RunData], params: RobotParams, o: ImuOptions, fit_bias: bool) -> _Fit:
     n_runs = len(data)
-    y0 = _ys(data, [d.offset for d in data])
-    still_bias, still_se, still_s = _still(data, y0)
-    if still_bias is not None and not fit_bias:  # y0 has the given bias taken off
-        still_bias += float(o.bias or 0.0)
     ratio_note = ""
     fixed_ratio: float | None = None
     if not _ratio_observable(data):
@@ -699,25 +819,7 @@ def calibrate_imu(
             float(theta[0]),
         )
     )
-    # the Jacobian of the fitted values: X, and d y / d offset for each estimated offset
-    cols = [x]
-    est = [j for j, d in enumerate(data) if not d.fixed]
-    row = 0
-    starts = []
-    for d in data:
-        starts.append(row)
-        row += d.dt.size
-    for j in est:
-        col = np.zeros(y.size)
-        d = data[j]
-        col[starts[j] : starts[j] + d.dt.size] = d.dy(a_fit[0], a_fit[1])
-        cols.append(col[:, None])
-    jac = np.hstack(cols)
-    if jac.shape[0] <= jac.shape[1]:  # no residual left to measure the scatter with
-        raise CalibrationError(
-            f"the gyro calibration fits {jac.shape[1]} unknowns and the turning samples give "
-            f"{jac.shape[0]}; expected more samples than unknowns (a longer run, or more runs)"
-        )
+    jac, est = _jacobian(data, x, y, a_fit)
     cov, how_cov = _covariance(r, jac, data, o.maxlags)
     nlin = x.shape[1]
     if not fit_bias:
@@ -726,69 +828,84 @@ def calibrate_imu(
         g_b = np.linalg.lstsq(x, dt_all, rcond=None)[0]
         cov = cov.copy()
         cov[:nlin, :nlin] += o.bias_sd**2 * np.outer(g_b, g_b)
-    # a_R, a_L and their covariance
-    if fixed_ratio is None:
-        a_r, a_l = float(theta[0]), float(theta[1])
-        ca = cov[:2, :2]
-    else:
-        a_l = float(theta[0])
-        a_r = fixed_ratio * a_l
-        g = np.array([[fixed_ratio], [1.0]])
-        ca = g @ cov[:1, :1] @ g.T
-    if not (a_r > 0 and a_l > 0):
-        raise CalibrationError(
-            f"the gyro's fit gives r_R/B = {a_r:.4g} and r_L/B = {a_l:.4g}; expected both "
-            "positive: is the gyro upside down (its yaw rate against the turn)?"
-        )
+    a_r, a_l, ca = _angular(theta, cov, fixed_ratio)
     if fit_bias:
         biases = tuple(float(v) for v in theta[nlin - n_runs : nlin])
         bias_ses = [math.sqrt(max(cov[k, k], 0.0)) for k in range(nlin - n_runs, nlin)]
     else:
         biases = tuple(float(o.bias or 0.0) for _ in data)
         bias_ses = [o.bias_sd for _ in data]
-    offsets = []
-    for j, d in enumerate(data):
-        if d.fixed:
-            offsets.append(OffsetEstimate(d.run.name, taus[j], math.nan, d.how))
-        else:
-            k = nlin + est.index(j)
-            offsets.append(
-                OffsetEstimate(d.run.name, taus[j], math.sqrt(max(cov[k, k], 0.0)), d.how)
-            )
-    # the derived quantities, by the delta method on the log scale
-    ssum = a_r + a_l
-    g_sum = np.array([1.0 / ssum, 1.0 / ssum])
-    var_log_sum = float(g_sum @ ca @ g_sum)
+    offsets = _offsets(data, taus, cov, nlin, est)
+    return _Fit(
+        a_r, a_l, ca, fixed_ratio, ratio_note, biases, bias_ses, offsets, int(y.size), rss, how_cov
+    )
+
+
+def _provenance(
+    runs: Sequence[GyroRun],
+    params: RobotParams,
+    sources: Sequence[str],
+    track: float,
+    sd_b: float,
+    ratio: float,
+    ratio_ci: tuple[float, float],
+    sc: _Scale,
+    sd_s: float,
+    f: _Fit,
+    radii: str,
+) -> dict[str, Any]:
+    """The new parameters' provenance record."""
+    return {
+        "method": "imu",
+        "created": datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        "source": ", ".join(sources) if sources else ", ".join(r.source for r in runs),
+        "imu": ", ".join(r.imu_source for r in runs),
+        "from_params": params.name,
+        "track_width_ci95": list(_ci(track, sd_b)),
+        "radius_ratio": ratio,
+        "radius_ratio_ci95": list(ratio_ci),
+        "gyro_scale": sc.scale,
+        "gyro_scale_ci95": list(_ci(sc.scale, sd_s)),
+        "scale_source": sc.source,
+        "gyro_bias": f.biases[0],
+        "clock_offsets": [o_.offset for o_ in f.offsets],
+        "radii_source": radii,
+        "old": params.to_dict(),
+    }
+
+
+def calibrate_imu(
+    runs: Sequence[GyroRun],
+    params: RobotParams,
+    *,
+    options: ImuOptions | None = None,
+    references: Sequence[TurnReference] = (),
+    radii_source: str | None = None,
+    sources: Sequence[str] = (),
+) -> ImuCalibration:
+    """Estimate the angular parameters, the gyro's bias (and scale with ``references``) and the
+    clock offsets from encoder runs with a gyro (see the module). ``params``: the parameters in
+    use (their mean wheel radius is kept). Raises :class:`CalibrationError` (too little turning,
+    a saturated gyro, a useless reference) and :class:`~odolab.errors.ImuLogError` (clocks that
+    do not overlap)."""
+    o = options or ImuOptions()
+    ccw, cw = _checked_turning(runs, params, o)
+    fit_bias = o.bias is None
+    data = _all_run_data(runs, o, params, fit_bias)
+    y0 = _ys(data, [d.offset for d in data])
+    still_bias, still_se, still_s = _still(data, y0)
+    if still_bias is not None and not fit_bias:  # y0 has the given bias taken off
+        still_bias += float(o.bias or 0.0)
+    f = _fit(data, params, o, fit_bias)
+    a_r, a_l, ca = f.a_r, f.a_l, f.ca
     r_mean = 0.5 * (params.left_wheel_radius + params.right_wheel_radius)
-    if references:
-        pr, pl, turned, var_ref, words = _reference_turn(data, references)
-        p = a_r * pr - a_l * pl
-        if not p > 0:
-            raise CalibrationError(
-                f"the gyro saw {p:.3g} rad over the reference turns of {turned:.3g} rad; "
-                "expected the same sense: check the reference's sign"
-            )
-        gs = np.array([pr / p, -pl / p])
-        scale = p / turned
-        var_log_s = float(gs @ ca @ gs) + var_ref / turned**2
-        gb = gs - g_sum
-        var_log_b = float(gb @ ca @ gb) + var_ref / turned**2
-        scale_source = f"from {turned:.2f} rad of reference turn ({words})"
-    else:
-        scale = 1.0
-        var_log_s = (o.scale_ci95 / Z95) ** 2
-        var_log_b = var_log_sum + var_log_s
-        scale_source = (
-            f"no reference for the total turn: taken as 1 with an assumed +-{100 * o.scale_ci95:g} "
-            "% (95 %), carried into the track's interval"
-        )
-    track = 2.0 * r_mean * scale / ssum
+    sc = _gyro_scale(data, references, a_r, a_l, ca, o)
+    track = 2.0 * r_mean * sc.scale / (a_r + a_l)
     ratio = a_r / a_l
     g_ratio = np.array([1.0 / a_r, -1.0 / a_l])
-    var_log_ratio = float(g_ratio @ ca @ g_ratio)
-    sd_ratio = math.sqrt(max(var_log_ratio, 0.0))
-    ratio_ci = (ratio, ratio) if fixed_ratio is not None else _ci(ratio, sd_ratio)
-    sd_b = math.sqrt(max(var_log_b, 0.0))
+    sd_ratio = math.sqrt(max(float(g_ratio @ ca @ g_ratio), 0.0))  # of log(ratio)
+    ratio_ci = (ratio, ratio) if f.fixed_ratio is not None else _ci(ratio, sd_ratio)
+    sd_b = math.sqrt(max(sc.var_log_b, 0.0))
     new = params.with_(
         left_wheel_radius=clean(2.0 * r_mean / (1.0 + ratio)),
         right_wheel_radius=clean(2.0 * r_mean * ratio / (1.0 + ratio)),
@@ -799,26 +916,8 @@ def calibrate_imu(
         f"the mean wheel radius {r_mean:.6g} m of {params.name} (a gyro does not see distance; "
         "measure straight runs for it)"
     )
-    nw = int(y.size)
-    res_rms = math.sqrt(rss / max(nw, 1))
-    sd_s = math.sqrt(max(var_log_s, 0.0))
-    prov: dict[str, Any] = {
-        "method": "imu",
-        "created": datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
-        "source": ", ".join(sources) if sources else ", ".join(r.source for r in runs),
-        "imu": ", ".join(r.imu_source for r in runs),
-        "from_params": params.name,
-        "track_width_ci95": list(_ci(track, sd_b)),
-        "radius_ratio": ratio,
-        "radius_ratio_ci95": list(ratio_ci),
-        "gyro_scale": scale,
-        "gyro_scale_ci95": list(_ci(scale, sd_s)),
-        "scale_source": scale_source,
-        "gyro_bias": biases[0],
-        "clock_offsets": [o_.offset for o_ in offsets],
-        "radii_source": radii,
-        "old": params.to_dict(),
-    }
+    sd_s = math.sqrt(max(sc.var_log_s, 0.0))
+    prov = _provenance(runs, params, sources, track, sd_b, ratio, ratio_ci, sc, sd_s, f, radii)
     return ImuCalibration(
         params=new,
         old_params=params,
@@ -828,23 +927,23 @@ def calibrate_imu(
         radius_ratio_ci95=ratio_ci,
         yaw_scale=params.track_width / track,
         yaw_scale_ci95=_ci(params.track_width / track, sd_b),
-        gyro_scale=scale,
-        gyro_scale_ci95=_ci(scale, sd_s),
-        scale_source=scale_source,
-        bias=biases[0],
-        bias_se=bias_ses[0],
-        biases=biases,
+        gyro_scale=sc.scale,
+        gyro_scale_ci95=_ci(sc.scale, sd_s),
+        scale_source=sc.source,
+        bias=f.biases[0],
+        bias_se=f.bias_ses[0],
+        biases=f.biases,
         still_bias=still_bias,
         still_bias_se=still_se,
         still_s=still_s,
-        offsets=tuple(offsets),
+        offsets=tuple(f.offsets),
         radii_source=radii,
-        ratio_note=ratio_note,
+        ratio_note=f.ratio_note,
         turned_ccw=ccw,
         turned_cw=cw,
-        windows=nw,
-        residual_rms=res_rms,
-        covariance=how_cov,
+        windows=f.windows,
+        residual_rms=math.sqrt(f.rss / max(f.windows, 1)),
+        covariance=f.how_cov,
         runs=tuple(r.name for r in runs),
         a=(a_r, a_l),
         a_cov=((float(ca[0, 0]), float(ca[0, 1])), (float(ca[1, 0]), float(ca[1, 1]))),

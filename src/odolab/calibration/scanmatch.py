@@ -73,26 +73,14 @@ def _to_planar(m: NDArray[np.float64]) -> tuple[float, float, float]:
     return float(m[0, 3]), float(m[1, 3]), math.atan2(float(m[1, 0]), float(m[0, 0]))
 
 
-def scan_motions(
-    scans: LaserScans,
-    *,
-    max_range: float = 30.0,
-    voxel: float = 0.05,
-    every: int = 1,
-    max_correspondence: float = 0.5,
-    max_iterations: int = 50,
-    layer: float = 0.1,
-    threads: int = 1,
-    progress: Callable[[int, int], None] | None = None,
-) -> ScanMotions:
-    """Match every ``every``-th scan to the one before it and compose the sensor's trajectory.
+#: A scan's (cloud, tree, number of points) for small_gicp.
+_Cloud = tuple[Any, Any, int]
 
-    ``max_range`` (m) drops far readings; ``voxel`` (m) is the downsampling grid;
-    ``max_correspondence`` (m) the farthest two points may be to pair up; ``progress(done,
-    total)`` is called after each pair. Raises :class:`CalibrationError` for bad settings and
-    :class:`InsufficientDataError` when fewer than two scans have :data:`MIN_POINTS` points."""
-    import small_gicp
 
+def _check_options(
+    max_range: float, voxel: float, max_correspondence: float, layer: float, every: int,
+    max_iterations: int,
+) -> None:  # fmt: skip
     for name, value in (
         ("max_range", max_range),
         ("voxel", voxel),
@@ -107,13 +95,19 @@ def scan_motions(
         raise CalibrationError(f"scan matching option every is {every!r}; expected an integer >= 1")
     if not (isinstance(max_iterations, int) and max_iterations >= 1):
         raise CalibrationError(f"max_iterations is {max_iterations!r}; expected an integer >= 1")
-    height = max(layer, 2.0 * voxel)  # the two copies must not share a voxel
 
-    candidates = range(0, len(scans), every)
-    clouds: list[tuple[Any, Any, int]] = []  # (cloud, tree, number of points)
+
+def _clouds(
+    scans: LaserScans, every: int, max_range: float, voxel: float, height: float, threads: int
+) -> tuple[list[_Cloud], list[int], list[int]]:
+    """(cloud, tree, number of points) of every ``every``-th scan with enough points, their
+    scan indexes, and the indexes of the scans skipped."""
+    import small_gicp
+
+    clouds: list[_Cloud] = []
     index: list[int] = []
     skipped: list[int] = []
-    for i in candidates:
+    for i in range(0, len(scans), every):
         xy = scans.points(i, max_range)
         if len(xy) < MIN_POINTS:
             skipped.append(i)
@@ -134,6 +128,81 @@ def scan_motions(
             f"{len(index)} of {len(scans)} scans have at least {MIN_POINTS} valid ranges within "
             f"{max_range} m; scan matching needs two"
         )
+    return clouds, index, skipped
+
+
+def _match(
+    clouds: list[_Cloud],
+    k: int,
+    init: NDArray[np.float64],
+    max_correspondence: float,
+    max_iterations: int,
+    threads: int,
+) -> tuple[Any, float, float]:
+    """Scan k+1 aligned to scan k from ``init``: the result, its fitness and RMS residual."""
+    import small_gicp
+
+    target, tree, _ = clouds[k]
+    source, _, n = clouds[k + 1]
+    res = small_gicp.align(
+        target,
+        source,
+        tree,
+        init_T_target_source=init,
+        registration_type="GICP",
+        max_correspondence_distance=max_correspondence,
+        num_threads=threads,
+        max_iterations=max_iterations,
+    )
+    pts = np.asarray(source.points())[:, 0:3]
+    moved = pts @ res.T_target_source[0:3, 0:3].T + res.T_target_source[0:3, 3]
+    _, sq = tree.batch_nearest_neighbor_search(moved, num_threads=threads)
+    d2 = np.asarray(sq, dtype=np.float64)
+    near = d2 <= max_correspondence**2
+    fit = float(near.sum()) / max(n, 1)
+    rms = float(np.sqrt(d2[near].mean())) if near.any() else math.inf
+    return res, fit, rms
+
+
+def _compose(
+    motions: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The sensor's poses: pose_{k+1} = pose_k (+) motion_k from the origin."""
+    m = len(motions)
+    x = np.zeros(m + 1)
+    y = np.zeros(m + 1)
+    h = np.zeros(m + 1)
+    for k, (dx, dy, dyaw) in enumerate(motions):
+        c, s = math.cos(h[k]), math.sin(h[k])
+        x[k + 1] = x[k] + c * dx - s * dy
+        y[k + 1] = y[k] + s * dx + c * dy
+        h[k + 1] = h[k] + dyaw
+    return x, y, h
+
+
+def scan_motions(
+    scans: LaserScans,
+    *,
+    max_range: float = 30.0,
+    voxel: float = 0.05,
+    every: int = 1,
+    max_correspondence: float = 0.5,
+    max_iterations: int = 50,
+    layer: float = 0.1,
+    threads: int = 1,
+    progress: Callable[[int, int], None] | None = None,
+) -> ScanMotions:
+    """Match every ``every``-th scan to the one before it and compose the sensor's trajectory.
+
+    ``max_range`` (m) drops far readings; ``voxel`` (m) is the downsampling grid;
+    ``max_correspondence`` (m) the farthest two points may be to pair up; ``progress(done,
+    total)`` is called after each pair. Raises :class:`CalibrationError` for bad settings and
+    :class:`InsufficientDataError` when fewer than two scans have :data:`MIN_POINTS` points."""
+    import small_gicp  # noqa: F401  (a missing extra fails here, before any check)
+
+    _check_options(max_range, voxel, max_correspondence, layer, every, max_iterations)
+    height = max(layer, 2.0 * voxel)  # the two copies must not share a voxel
+    clouds, index, skipped = _clouds(scans, every, max_range, voxel, height, threads)
 
     m = len(index) - 1
     motions = np.zeros((m, 3))
@@ -142,33 +211,12 @@ def scan_motions(
     iterations = np.zeros(m, dtype=np.int64)
     converged = np.zeros(m, dtype=bool)
     guess = np.eye(4)
-
-    def match(k: int, init: NDArray[np.float64]) -> tuple[Any, float, float]:
-        target, tree, _ = clouds[k]
-        source, _, n = clouds[k + 1]
-        res = small_gicp.align(
-            target,
-            source,
-            tree,
-            init_T_target_source=init,
-            registration_type="GICP",
-            max_correspondence_distance=max_correspondence,
-            num_threads=threads,
-            max_iterations=max_iterations,
-        )
-        pts = np.asarray(source.points())[:, 0:3]
-        moved = pts @ res.T_target_source[0:3, 0:3].T + res.T_target_source[0:3, 3]
-        _, sq = tree.batch_nearest_neighbor_search(moved, num_threads=threads)
-        d2 = np.asarray(sq, dtype=np.float64)
-        near = d2 <= max_correspondence**2
-        fit = float(near.sum()) / max(n, 1)
-        rms = float(np.sqrt(d2[near].mean())) if near.any() else math.inf
-        return res, fit, rms
-
     for k in range(m):
-        res, fit, rms = match(k, guess)
+        res, fit, rms = _match(clouds, k, guess, max_correspondence, max_iterations, threads)
         if k and (fit < 0.9 or not res.converged):  # the constant-velocity guess may mislead
-            res0, fit0, rms0 = match(k, np.eye(4))
+            res0, fit0, rms0 = _match(
+                clouds, k, np.eye(4), max_correspondence, max_iterations, threads
+            )
             if (fit0, -rms0) > (fit, -rms):
                 res, fit, rms = res0, fit0, rms0
         t_ts = np.asarray(res.T_target_source, dtype=np.float64)
@@ -179,16 +227,7 @@ def scan_motions(
         guess = _pose_matrix(*motions[k])
         if progress is not None:
             progress(k + 1, m)
-
-    # compose: pose_{k+1} = pose_k (+) motion_k
-    x = np.zeros(m + 1)
-    y = np.zeros(m + 1)
-    h = np.zeros(m + 1)
-    for k, (dx, dy, dyaw) in enumerate(motions):
-        c, s = math.cos(h[k]), math.sin(h[k])
-        x[k + 1] = x[k] + c * dx - s * dy
-        y[k + 1] = y[k] + s * dx + c * dy
-        h[k + 1] = h[k] + dyaw
+    x, y, h = _compose(motions)
     idx = np.array(index, dtype=np.int64)
     return ScanMotions(
         trajectory=Trajectory.from_xyh(scans.t[idx], x, y, h),

@@ -52,6 +52,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from odolab.errors import CalibrationError, InsufficientDataError
+from odolab.kinematics import chord_factors, wrap_angle
 from odolab.params import RobotParams
 from odolab.trajectory import Trajectory
 
@@ -228,7 +229,7 @@ def _integrals(data: SensorMotions, j21: float, j22: float) -> _Rotation:
     first = np.searchsorted(data.interval, np.arange(n))
     first_val = np.where(first < dth.size, before[np.minimum(first, dth.size - 1)], 0.0)
     th_mid = before - first_val[data.interval] + 0.5 * dth
-    f = np.sinc(dth / (2.0 * np.pi))  # sin(d/2) / (d/2): the exact arc of a constant-rate step
+    f = chord_factors(dth)  # sin(d/2) / (d/2): the exact arc of a constant-rate step
     cos, sin = f * np.cos(th_mid), f * np.sin(th_mid)
     idx = data.interval
 
@@ -501,7 +502,7 @@ def calibrate_sensor(
     se = np.sqrt(np.diag(cov))
     res = current.motion - predict_motions(theta, current)
     values = {k: float(v) for k, v in zip(PARAM_NAMES, theta, strict=True)}
-    values["sensor_yaw"] = float(math.remainder(values["sensor_yaw"], 2 * math.pi))
+    values["sensor_yaw"] = float(wrap_angle(values["sensor_yaw"]))
     params = nominal.with_(
         left_wheel_radius=values["left_wheel_radius"],
         right_wheel_radius=values["right_wheel_radius"],

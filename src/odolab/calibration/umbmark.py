@@ -440,37 +440,8 @@ def _iteration_entry(k: int, p: RobotParams, emax: float) -> dict[str, Any]:
     }
 
 
-def umbmark_iterated(
-    trials: Sequence[Trial],
-    params: RobotParams,
-    *,
-    max_iter: int = 50,
-    tol: float = 1e-9,
-    scale_sd: float | None = None,
-) -> UmbmarkResult:
-    """UMBmark iterated to convergence on square trials that carry their encoder logs.
-
-    Starting from ``params``: re-integrate each measured square trial's encoder log with the
-    current parameters, take the return errors (measured - odometry), take one :func:`umbmark`
-    step relative to the current parameters; repeat until the step changes no parameter by more
-    than ``tol`` (relative), at most ``max_iter`` steps.
-
-    The result's ``params`` are the final parameters; ``e_d`` and ``e_b`` are cumulative,
-    relative to ``params`` (the products of the steps'; ``alpha`` and ``beta`` are the per-turn
-    and per-leg errors they imply with ``params``' track width); ``cg_cw``, ``cg_ccw``,
-    ``e_max_syst``, ``cw_errors``, ``ccw_errors`` and ``alpha_from_x`` ... ``beta_from_y`` are
-    those of the runs re-integrated with ``params`` (the first step's); ``after`` holds the
-    errors with the final parameters. ``calibration.provenance["iterations"]`` lists each
-    iterate (radii, track width, E_max,syst; the step taken from it).
-
-    Raises :class:`~odolab.errors.CalibrationError` when a square trial has no encoder log
-    (return errors typed in by hand allow only the single step, :func:`umbmark`), or when the
-    iteration does not converge in ``max_iter`` steps.
-    """
-    if isinstance(max_iter, bool) or not isinstance(max_iter, int) or max_iter < 1:
-        raise CalibrationError(f"max_iter must be a positive whole number, got {max_iter!r}")
-    if not math.isfinite(tol) or tol <= 0:
-        raise CalibrationError(f"tol must be a positive relative change, got {tol!r}")
+def _square_trials(trials: Sequence[Trial]) -> list[Trial]:
+    """The measured square trials, each with its encoder log (else a CalibrationError)."""
     squares = [
         tr
         for tr in trials
@@ -487,6 +458,28 @@ def umbmark_iterated(
             f"{len(missing)} of {len(squares)} measured square trials have none (first: "
             f"{missing[0]}); with return errors alone use the single step, umbmark()"
         )
+    return squares
+
+
+@dataclass(frozen=True)
+class _Iterated:
+    """Where the iteration ended: the first step, the final parameters and their errors, each
+    iterate, the cumulative E_d and E_b."""
+
+    first: UmbmarkResult
+    current: RobotParams
+    cw: NDArray[np.float64]
+    ccw: NDArray[np.float64]
+    side: float
+    iterations: list[dict[str, Any]]
+    e_d: float
+    e_b: float
+
+
+def _iterate(
+    squares: list[Trial], params: RobotParams, max_iter: int, tol: float, scale_sd: float | None
+) -> _Iterated:
+    """UMBmark steps from ``params`` until no parameter changes by more than ``tol``."""
     base = params
     current = params
     cw, ccw, side = umbmark_errors_from_trials(squares, current)
@@ -521,14 +514,57 @@ def umbmark_iterated(
             f"change {change:.3g}, tolerance {tol:.3g}; E_max,syst {iterations[0]['e_max_syst']:.4g}"
             f" m -> {iterations[-1]['e_max_syst']:.4g} m); check the runs or raise max_iter"
         )
-    final = current.with_(name=f"{base.name}-umbmark")
-    # the per-turn and per-leg errors that the cumulative E_b and E_d stand for
+    return _Iterated(first, current, cw, ccw, side, iterations, e_d, e_b)
+
+
+def _implied_errors(base: RobotParams, e_d: float, e_b: float, side: float) -> tuple[float, float]:
+    """The per-turn and per-leg errors (alpha, beta) that the cumulative E_b and E_d stand for."""
     alpha = (math.pi / 2) * (1.0 - 1.0 / e_b)
     half_b = base.track_width / 2
     beta = 0.0
     if e_d != 1.0:
         radius = half_b * (e_d + 1.0) / (e_d - 1.0)
         beta = 2.0 * math.asin(max(-1.0, min(1.0, (side / 2) / radius)))
+    return alpha, beta
+
+
+def umbmark_iterated(
+    trials: Sequence[Trial],
+    params: RobotParams,
+    *,
+    max_iter: int = 50,
+    tol: float = 1e-9,
+    scale_sd: float | None = None,
+) -> UmbmarkResult:
+    """UMBmark iterated to convergence on square trials that carry their encoder logs.
+
+    Starting from ``params``: re-integrate each measured square trial's encoder log with the
+    current parameters, take the return errors (measured - odometry), take one :func:`umbmark`
+    step relative to the current parameters; repeat until the step changes no parameter by more
+    than ``tol`` (relative), at most ``max_iter`` steps.
+
+    The result's ``params`` are the final parameters; ``e_d`` and ``e_b`` are cumulative,
+    relative to ``params`` (the products of the steps'; ``alpha`` and ``beta`` are the per-turn
+    and per-leg errors they imply with ``params``' track width); ``cg_cw``, ``cg_ccw``,
+    ``e_max_syst``, ``cw_errors``, ``ccw_errors`` and ``alpha_from_x`` ... ``beta_from_y`` are
+    those of the runs re-integrated with ``params`` (the first step's); ``after`` holds the
+    errors with the final parameters. ``calibration.provenance["iterations"]`` lists each
+    iterate (radii, track width, E_max,syst; the step taken from it).
+
+    Raises :class:`~odolab.errors.CalibrationError` when a square trial has no encoder log
+    (return errors typed in by hand allow only the single step, :func:`umbmark`), or when the
+    iteration does not converge in ``max_iter`` steps.
+    """
+    if isinstance(max_iter, bool) or not isinstance(max_iter, int) or max_iter < 1:
+        raise CalibrationError(f"max_iter must be a positive whole number, got {max_iter!r}")
+    if not math.isfinite(tol) or tol <= 0:
+        raise CalibrationError(f"tol must be a positive relative change, got {tol!r}")
+    squares = _square_trials(trials)
+    it = _iterate(squares, params, max_iter, tol, scale_sd)
+    base, first, current, cw, ccw, side = params, it.first, it.current, it.cw, it.ccw, it.side
+    iterations, e_d, e_b = it.iterations, it.e_d, it.e_b
+    final = current.with_(name=f"{base.name}-umbmark")
+    alpha, beta = _implied_errors(base, e_d, e_b, side)
     prov = dict(first.calibration.provenance)
     for key in ("left_wheel_radius_ci95", "right_wheel_radius_ci95", "track_width_ci95",
                 "ci95_note", "ci95_includes"):  # fmt: skip

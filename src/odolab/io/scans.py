@@ -147,28 +147,13 @@ def _stamp_dict(t: float) -> dict[str, int]:
     return {"sec": ns // 1_000_000_000, "nanosec": ns % 1_000_000_000}
 
 
-def write_scan_mcap(
-    path: str | Path,
-    scans: LaserScans,
-    *,
-    topic: str = "/scan",
-    joint_t: ArrayLike | None = None,
-    wheel_angles: ArrayLike | None = None,
-    joint_names: tuple[str, str] = ("left_wheel_joint", "right_wheel_joint"),
-    joint_topic: str = "/joint_states",
-) -> dict[str, int]:
-    """Write ``scans`` on ``topic`` (and, given ``joint_t`` (k,) and ``wheel_angles`` (k, 2) in
-    rad, the wheels on ``joint_topic``) as a ROS 2 MCAP file; returns the count per topic."""
-    from mcap.writer import CompressionType
-    from mcap_ros2.writer import Writer
-    from rosbags.typesys import Stores, get_typestore
+#: (time, topic, message) of a message to write.
+_Message = tuple[float, str, dict[str, Any]]
 
-    p = Path(path)
-    if p.is_dir():
-        raise OdolabError(f"{p}: is a folder; expected an .mcap file name")
-    if float(scans.t.min()) < 0:
-        raise OdolabError(f"scan stamps start at {scans.t.min()} s; expected times >= 0")
-    msgs: list[tuple[float, str, dict[str, Any]]] = []
+
+def _scan_messages(scans: LaserScans, topic: str) -> list[_Message]:
+    """(time, topic, LaserScan message) of every scan."""
+    msgs: list[_Message] = []
     end = scans.angle_min + scans.angle_increment * (scans.beams - 1)
     period = float(np.median(np.diff(scans.t))) if len(scans) > 1 else 0.0
     for ti, r in zip(scans.t, scans.ranges, strict=True):
@@ -190,27 +175,64 @@ def write_scan_mcap(
                 },
             )
         )
+    return msgs
+
+
+def _joint_messages(
+    joint_t: ArrayLike | None,
+    wheel_angles: ArrayLike | None,
+    joint_names: tuple[str, str],
+    joint_topic: str,
+) -> list[_Message]:
+    """(time, topic, JointState message) of every wheel-angle sample."""
+    msgs: list[_Message] = []
+    jt = np.asarray(joint_t, dtype=np.float64)
+    wa = np.asarray(wheel_angles, dtype=np.float64)
+    if jt.ndim != 1 or wa.shape != (len(jt), 2):
+        raise OdolabError(
+            f"wheel angles must be (k, 2) with (k,) stamps, got {wa.shape} and {jt.shape}"
+        )
+    for ti, (left, right) in zip(jt, wa, strict=True):
+        msgs.append(
+            (
+                float(ti),
+                joint_topic,
+                {
+                    "header": {"stamp": _stamp_dict(float(ti)), "frame_id": "base_link"},
+                    "name": list(joint_names),
+                    "position": [float(left), float(right)],
+                    "velocity": [],
+                    "effort": [],
+                },
+            )
+        )
+    return msgs
+
+
+def write_scan_mcap(
+    path: str | Path,
+    scans: LaserScans,
+    *,
+    topic: str = "/scan",
+    joint_t: ArrayLike | None = None,
+    wheel_angles: ArrayLike | None = None,
+    joint_names: tuple[str, str] = ("left_wheel_joint", "right_wheel_joint"),
+    joint_topic: str = "/joint_states",
+) -> dict[str, int]:
+    """Write ``scans`` on ``topic`` (and, given ``joint_t`` (k,) and ``wheel_angles`` (k, 2) in
+    rad, the wheels on ``joint_topic``) as a ROS 2 MCAP file; returns the count per topic."""
+    from mcap.writer import CompressionType
+    from mcap_ros2.writer import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    p = Path(path)
+    if p.is_dir():
+        raise OdolabError(f"{p}: is a folder; expected an .mcap file name")
+    if float(scans.t.min()) < 0:
+        raise OdolabError(f"scan stamps start at {scans.t.min()} s; expected times >= 0")
+    msgs = _scan_messages(scans, topic)
     if joint_t is not None or wheel_angles is not None:
-        jt = np.asarray(joint_t, dtype=np.float64)
-        wa = np.asarray(wheel_angles, dtype=np.float64)
-        if jt.ndim != 1 or wa.shape != (len(jt), 2):
-            raise OdolabError(
-                f"wheel angles must be (k, 2) with (k,) stamps, got {wa.shape} and {jt.shape}"
-            )
-        for ti, (left, right) in zip(jt, wa, strict=True):
-            msgs.append(
-                (
-                    float(ti),
-                    joint_topic,
-                    {
-                        "header": {"stamp": _stamp_dict(float(ti)), "frame_id": "base_link"},
-                        "name": list(joint_names),
-                        "position": [float(left), float(right)],
-                        "velocity": [],
-                        "effort": [],
-                    },
-                )
-            )
+        msgs += _joint_messages(joint_t, wheel_angles, joint_names, joint_topic)
     msgs.sort(key=lambda m: m[0])
     store = get_typestore(Stores.ROS2_HUMBLE)
     counts: dict[str, int] = {}

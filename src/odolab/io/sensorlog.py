@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from odolab.errors import ImuLogError
+from odolab.kinematics import wrap_angle
 from odolab.trajectory import MAX_TIME_S
 
 __all__ = [
@@ -148,7 +149,7 @@ def rate_aided_unwrap(
     if rate is None or wrapped.size < 2:
         return np.asarray(np.unwrap(wrapped), dtype=np.float64)
     d = np.diff(wrapped)
-    d = (d + math.pi) % (2.0 * math.pi) - math.pi
+    d = wrap_angle(d)
     predicted = 0.5 * (rate[1:] + rate[:-1]) * np.diff(t)
     d = d + 2.0 * math.pi * np.round((predicted - d) / (2.0 * math.pi))
     out = np.empty_like(wrapped)
@@ -368,6 +369,73 @@ def _interp_rate(t: FloatArray, tr: FloatArray, rate: FloatArray) -> FloatArray:
     return np.asarray(np.interp(t, tr, rate), dtype=np.float64)
 
 
+def _offset_to_wall(
+    wall: FloatArray | None, rows: NDArray[np.bool_], t: FloatArray
+) -> float | None:
+    """Median of loggingTime - sensor time: turns the sensor clock into POSIX seconds."""
+    if wall is None:
+        return None
+    w = wall[rows]
+    ok = np.isfinite(w)
+    return float(np.median(w[ok] - t[ok])) if ok.any() else None
+
+
+def _rate_series(
+    tab: _Table, wall: FloatArray | None, rate_choice: tuple[str, str] | None, wall_clock: bool
+) -> tuple[FloatArray, FloatArray, str, str, float | None] | None:
+    """(t, rate, rate column, time column, wall offset) of the gyro, or None. With
+    ``wall_clock`` its times come from loggingTime (to match a heading timed by it)."""
+    if rate_choice is None:
+        return None
+    base, tbase = rate_choice
+    if wall_clock or not tab.has(tbase):
+        if wall is None:
+            return None
+        tbase = "(wall)"  # no header's base name has a parenthesis: use loggingTime
+    rows = tab.present(base)
+    if rows.sum() < 2:
+        return None
+    values = tab.numbers(base)[rows]
+    tr, tcol = _times_for(tab, rows, tbase, wall)
+    _check_increasing(tab, tr, rows, tcol)
+    offset = _offset_to_wall(wall, rows, tr)
+    tr, values = _dedupe(tr, values)
+    return tr, values, tab.name(base), tcol, offset
+
+
+def _from_yaw(
+    tab: _Table, p: Path, wall: FloatArray | None, rate_choice: tuple[str, str] | None
+) -> ImuLog:
+    """The heading from motionYaw, unwrapped with the help of the rate."""
+    rows = tab.present(_YAW[0])
+    if rows.sum() < 2:
+        raise ImuLogError(f"{p}: column {tab.name(_YAW[0])!r} has fewer than 2 values")
+    yaw_w = tab.numbers(_YAW[0])[rows]
+    t, tcol = _times_for(tab, rows, _YAW[1], wall)
+    _check_increasing(tab, t, rows, tcol)
+    wall_offset = _offset_to_wall(wall, rows, t)
+    t, yaw_w = _dedupe(t, yaw_w)
+    rs = _rate_series(tab, wall, rate_choice, wall_clock=tcol == LOGGING_TIME)
+    rate = None if rs is None else _interp_rate(t, rs[0], rs[1])
+    yaw = rate_aided_unwrap(t, yaw_w, rate)
+    rcol = None if rs is None else rs[2]
+    return ImuLog(t, yaw, rate, str(p), tab.name(_YAW[0]), rcol, tcol, wall_offset)
+
+
+def _from_compass(tab: _Table, p: Path, wall: FloatArray | None, compass: str) -> ImuLog:
+    """The heading from the compass column (sign flipped; negative values skipped)."""
+    vals = tab.numbers(compass)
+    rows = tab.present(compass) & (vals >= 0)
+    if rows.sum() < 2:
+        raise ImuLogError(f"{p}: column {tab.name(compass)!r} has fewer than 2 valid values")
+    t, tcol = _times_for(tab, rows, _COMPASS_TIME, wall)
+    _check_increasing(tab, t, rows, tcol)
+    t, deg = _dedupe(t, vals[rows])
+    yaw = np.unwrap(-np.radians(deg))
+    # both of the compass's possible clocks are POSIX seconds
+    return ImuLog(t, yaw, None, str(p), tab.name(compass), None, tcol, 0.0)
+
+
 def read_sensorlog(path: str | Path) -> ImuLog:
     """Read a SensorLog CSV into an :class:`ImuLog` (heading and yaw rate on the phone clock).
 
@@ -395,69 +463,17 @@ def read_sensorlog(path: str | Path) -> ImuLog:
             f"a time ({LOGGING_TIME} or "
             f"..._sinceReboot(s)), but the header has: {', '.join(tab.header)}"
         )
-
-    def offset_to_wall(rows: NDArray[np.bool_], t: FloatArray) -> float | None:
-        """Median of loggingTime - sensor time: turns the sensor clock into POSIX seconds."""
-        if wall is None:
-            return None
-        w = wall[rows]
-        ok = np.isfinite(w)
-        return float(np.median(w[ok] - t[ok])) if ok.any() else None
-
-    def rate_series(
-        wall_clock: bool,
-    ) -> tuple[FloatArray, FloatArray, str, str, float | None] | None:
-        """(t, rate, rate column, time column, wall offset) of the gyro, or None. With
-        ``wall_clock`` its times come from loggingTime (to match a heading timed by it)."""
-        if rate_choice is None:
-            return None
-        base, tbase = rate_choice
-        if wall_clock or not tab.has(tbase):
-            if wall is None:
-                return None
-            tbase = "(wall)"  # no header's base name has a parenthesis: use loggingTime
-        rows = tab.present(base)
-        if rows.sum() < 2:
-            return None
-        values = tab.numbers(base)[rows]
-        tr, tcol = _times_for(tab, rows, tbase, wall)
-        _check_increasing(tab, tr, rows, tcol)
-        offset = offset_to_wall(rows, tr)
-        tr, values = _dedupe(tr, values)
-        return tr, values, tab.name(base), tcol, offset
-
     if tab.has(_YAW[0]) and (tab.has(_YAW[1]) or wall is not None):
-        rows = tab.present(_YAW[0])
-        if rows.sum() < 2:
-            raise ImuLogError(f"{p}: column {tab.name(_YAW[0])!r} has fewer than 2 values")
-        yaw_w = tab.numbers(_YAW[0])[rows]
-        t, tcol = _times_for(tab, rows, _YAW[1], wall)
-        _check_increasing(tab, t, rows, tcol)
-        wall_offset = offset_to_wall(rows, t)
-        t, yaw_w = _dedupe(t, yaw_w)
-        rs = rate_series(wall_clock=tcol == LOGGING_TIME)
-        rate = None if rs is None else _interp_rate(t, rs[0], rs[1])
-        yaw = rate_aided_unwrap(t, yaw_w, rate)
-        rcol = None if rs is None else rs[2]
-        return ImuLog(t, yaw, rate, str(p), tab.name(_YAW[0]), rcol, tcol, wall_offset)
+        return _from_yaw(tab, p, wall, rate_choice)
 
-    rs = rate_series(wall_clock=False)
+    rs = _rate_series(tab, wall, rate_choice, wall_clock=False)
     if rs is not None:
         tr, rate, rcol, tcol, wall_offset = rs
         yaw = np.concatenate(([0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * np.diff(tr))))
         return ImuLog(tr, yaw, rate, str(p), f"integral of {rcol}", rcol, tcol, wall_offset)
 
     if compass is not None:
-        vals = tab.numbers(compass)
-        rows = tab.present(compass) & (vals >= 0)
-        if rows.sum() < 2:
-            raise ImuLogError(f"{p}: column {tab.name(compass)!r} has fewer than 2 valid values")
-        t, tcol = _times_for(tab, rows, _COMPASS_TIME, wall)
-        _check_increasing(tab, t, rows, tcol)
-        t, deg = _dedupe(t, vals[rows])
-        yaw = np.unwrap(-np.radians(deg))
-        # both of the compass's possible clocks are POSIX seconds
-        return ImuLog(t, yaw, None, str(p), tab.name(compass), None, tcol, 0.0)
+        return _from_compass(tab, p, wall, compass)
 
     raise ImuLogError(  # pragma: no cover - the column check above makes this unreachable
         f"{p}: no usable heading column; the header has: {', '.join(tab.header)}"
@@ -541,7 +557,7 @@ def write_sensorlog(
     if start_wallclock.tzinfo is None:
         raise ImuLogError("start_wallclock must carry a time zone, e.g. datetime(..., tzinfo=UTC)")
     n = t.size
-    wrapped = (y + math.pi) % (2.0 * math.pi) - math.pi
+    wrapped = wrap_angle(y)
     compass = np.degrees(north - y) % 360.0
     stamps = _wall_text(start_wallclock, t - t[0] + logging_delay)
     boot_posix = start_wallclock.timestamp() - t[0]

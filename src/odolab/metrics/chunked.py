@@ -531,6 +531,84 @@ def _pairs_for(o: EvaluationOptions) -> _Pairs:
 # -- the whole evaluation ------------------------------------------------------------------------
 
 
+def _checked_pairs(o: EvaluationOptions) -> tuple[_Pairs, _Pairs, _Pairs]:
+    """The options checked; the RPE pairs, the drift's segments and the turn's pieces."""
+    if not (o.max_diff >= 0.0 and np.isfinite(o.max_diff)):
+        raise LogFormatError(f"max_diff must be a non-negative number of seconds, got {o.max_diff}")
+    pairs = _pairs_for(o)
+    if not (o.drift_delta_m > 0 and math.isfinite(o.drift_delta_m)):
+        raise LogFormatError(
+            f"drift segment must be a positive length in m (--drift-segment), got {o.drift_delta_m}"
+        )
+    drift = _Pairs(o.drift_delta_m, DeltaUnit.METRES, False, 0.1, True)
+    _check_turn_segment(o.drift_turn_rad)
+    turn = _Pairs(o.drift_turn_rad, DeltaUnit.RADIANS, False, 0.1, True)
+    return pairs, drift, turn
+
+
+def _consume(
+    pairs: _Pairs,
+    drift: _Pairs,
+    turn: _Pairs,
+    rpe: ErrorStats,
+    rpe_rot: ErrorStats,
+    sums: NDArray[np.float64],
+    r: Trajectory,
+    e: Trajectory,
+    final: bool,
+) -> None:
+    """One chunk's relative errors into ``rpe``, ``rpe_rot`` and the drift ``sums``: the sum
+    of % per segment, of deg/m per segment, segments, of % of the angle turned per piece, pieces."""
+    et, er, _ = pairs.feed(r, e, final)
+    rpe.add(et)
+    rpe_rot.add(er)
+    dt, dr, seg = drift.feed(r, e, final)
+    ok = seg > 0
+    sums[0] += float(np.sum(100.0 * dt[ok] / seg[ok]))
+    sums[1] += float(np.sum(np.degrees(dr[ok]) / seg[ok]))
+    sums[2] += int(ok.sum())
+    _, tr, turned = turn.feed(r, e, final)
+    ok = turned > 0
+    sums[3] += float(np.sum(100.0 * tr[ok] / turned[ok]))
+    sums[4] += int(ok.sum())
+
+
+def _se2_transform(plan: _Plan, labels: tuple[str, str]) -> Rigid2D:
+    """The SE(2) alignment from one pass over the associated poses (their moments)."""
+    moments = _Moments()
+    for r, e in _associated(plan, labels):
+        moments.add(r, e)
+    return moments.transform()
+
+
+def _drift(
+    o: EvaluationOptions,
+    drift: _Pairs,
+    turn: _Pairs,
+    sums: NDArray[np.float64],
+    last: tuple[Trajectory, Trajectory],
+) -> Drift:
+    """The drift figures from the sums of :func:`_consume` and the last poses."""
+    length = drift.length
+    end_err = float(ape_translation(*last)[0])
+    end_rot = float(ape_rotation(*last)[0])
+    segments = int(sums[2]) if length > o.drift_delta_m else 0
+    return Drift(
+        translation_pct=sums[0] / segments if segments else math.nan,
+        rotation_deg_per_m=sums[1] / segments if segments else math.nan,
+        segment_m=float(o.drift_delta_m),
+        segments=segments,
+        endpoint_error=end_err,
+        endpoint_heading_error=end_rot,
+        path_length=length,
+        endpoint_pct=100.0 * end_err / length if length > 0 else math.nan,
+        turn=turn.length,
+        turn_segment=float(o.drift_turn_rad),
+        turn_segments=int(sums[4]),
+        rotation_pct_of_turn=sums[3] / sums[4] if sums[4] else math.nan,
+    )
+
+
 def evaluate_files(
     reference: str | Path,
     estimate: str | Path,
@@ -555,36 +633,20 @@ def evaluate_files(
     rp, ep = Path(reference), Path(estimate)
     labels = names or (str(rp), str(ep))
     report = progress or no_progress
-    total = 0
-    done = 0
+    total = done = 0
 
     def tick(rows: int, name: str) -> None:
         nonlocal done
         done += rows
         report(done, total, name)
 
-    # every option checked before the first pass over the files
-    if not (o.max_diff >= 0.0 and np.isfinite(o.max_diff)):
-        raise LogFormatError(f"max_diff must be a non-negative number of seconds, got {o.max_diff}")
-    pairs = _pairs_for(o)
-    if not (o.drift_delta_m > 0 and math.isfinite(o.drift_delta_m)):
-        raise LogFormatError(
-            f"drift segment must be a positive length in m (--drift-segment), got {o.drift_delta_m}"
-        )
-    drift = _Pairs(o.drift_delta_m, DeltaUnit.METRES, False, 0.1, True)
-    _check_turn_segment(o.drift_turn_rad)
-    turn = _Pairs(o.drift_turn_rad, DeltaUnit.RADIANS, False, 0.1, True)
+    pairs, drift, turn = _checked_pairs(o)  # every option before the first pass over the files
     alignment = Alignment(o.alignment)
     ref, est = _Source(rp, chunk_rows, tick), _Source(ep, chunk_rows, tick)
     plan, rs, es = _plan(ref, est, o, labels)
     passes = 2 if alignment is Alignment.SE2 else 1
     total = done + passes * (rs.n + es.n)
-    tf = Rigid2D(0.0, 0.0, 0.0)
-    if alignment is Alignment.SE2:
-        moments = _Moments()
-        for r, e in _associated(plan, labels):
-            moments.add(r, e)
-        tf = moments.transform()
+    tf = _se2_transform(plan, labels) if alignment is Alignment.SE2 else Rigid2D(0.0, 0.0, 0.0)
     with (
         ErrorStats("APE", block=max(chunk_rows, 1 << 16)) as ape,
         ErrorStats("APE", block=max(chunk_rows, 1 << 16)) as ape_rot,
@@ -597,20 +659,6 @@ def evaluate_files(
         last: Pair | None = None
         pending: Pair | None = None  # one chunk behind: the last chunk is fed as final
 
-        def consume(r: Trajectory, e: Trajectory, final: bool) -> None:
-            et, er, _ = pairs.feed(r, e, final)
-            rpe.add(et)
-            rpe_rot.add(er)
-            dt, dr, seg = drift.feed(r, e, final)
-            ok = seg > 0
-            sums[0] += float(np.sum(100.0 * dt[ok] / seg[ok]))
-            sums[1] += float(np.sum(np.degrees(dr[ok]) / seg[ok]))
-            sums[2] += int(ok.sum())
-            _, tr, turned = turn.feed(r, e, final)
-            ok = turned > 0
-            sums[3] += float(np.sum(100.0 * tr[ok] / turned[ok]))
-            sums[4] += int(ok.sum())
-
         for r, e in _associated(plan, labels):
             if alignment is Alignment.ORIGIN and n == 0:
                 tf = align(r[:1], e[:1], Alignment.ORIGIN)[1]
@@ -619,39 +667,22 @@ def evaluate_files(
             ape.add(ape_translation(r, e))
             ape_rot.add(ape_rotation(r, e))
             if pending is not None:
-                consume(*pending, False)
+                _consume(pairs, drift, turn, rpe, rpe_rot, sums, *pending, False)
             pending = (r, e)
             n += len(r)
             last = (r[-1:], e[-1:])
         assert pending is not None and last is not None  # _associated raised otherwise
-        consume(*pending, True)
+        _consume(pairs, drift, turn, rpe, rpe_rot, sums, *pending, True)
         note = ""
         if pairs.count == 0:
             which = "the reference" if o.pairs_from_reference else "the estimate"
             note = rpe_undefined_note(o, n, which, pairs.length)
-        length = drift.length
-        end_err = float(ape_translation(*last)[0])
-        end_rot = float(ape_rotation(*last)[0])
-        segments = int(sums[2]) if length > o.drift_delta_m else 0
         result = Evaluation(
             ape=ape.stats(),
             ape_rot=ape_rot.stats(),
             rpe=rpe.stats() if pairs.count else Stats.undefined(),
             rpe_rot=rpe_rot.stats() if pairs.count else Stats.undefined(),
-            drift=Drift(
-                translation_pct=sums[0] / segments if segments else math.nan,
-                rotation_deg_per_m=sums[1] / segments if segments else math.nan,
-                segment_m=float(o.drift_delta_m),
-                segments=segments,
-                endpoint_error=end_err,
-                endpoint_heading_error=end_rot,
-                path_length=length,
-                endpoint_pct=100.0 * end_err / length if length > 0 else math.nan,
-                turn=turn.length,
-                turn_segment=float(o.drift_turn_rad),
-                turn_segments=int(sums[4]),
-                rotation_pct_of_turn=sums[3] / sums[4] if sums[4] else math.nan,
-            ),
+            drift=_drift(o, drift, turn, sums, last),
             pairs=n,
             transform=tf,
             options=o,

@@ -543,32 +543,18 @@ class NoiseFit:
         return out
 
 
-def fit_noise(
+def _pieces_of(
     runs: Sequence[OdometryRun],
     params: RobotParams,
-    method: Method | str = Method.MIDPOINT,
-    *,
-    segment_s: float = 10.0,
-    fit_gt_yaw_offset: bool | None = None,
-) -> NoiseFit:
-    """``k_left``, ``k_right``, ``k_scrub`` that make the pieces' errors most likely.
-
-    Each piece's covariance is linear in the three constants (``k_l A_l + k_r A_r + k_s A_s``,
-    the ``A``'s propagated with unit noise), so the Gaussian log-likelihood of all pieces'
-    errors is maximised over their logarithms (scipy), with Wald intervals on the log scale
-    (the numerical Hessian, :func:`odolab.regression.approx_hess3`). Straight pieces carry the wheels' noise, turning pieces
-    the scrub as well; without a turning piece (:data:`TURNING_RAD`) ``k_scrub`` stays unknown
-    (written 0 and said).
-    A run's yaw offset, when fitted, is fitted first with the scale fit's noise."""
-    from scipy import optimize
-
-    from odolab.regression import approx_hess3
-
-    if not runs:
-        raise InsufficientDataError("no runs to fit the noise to")
-    start = fit_noise_scale(
-        runs, params, method, segment_s=segment_s, fit_gt_yaw_offset=fit_gt_yaw_offset
-    )
+    method: Method | str,
+    segment_s: float,
+    start: NoiseParams,
+    fit_gt_yaw_offset: bool | None,
+) -> tuple[
+    list[NDArray[np.float64]], list[NDArray[np.float64]], list[str], list[NDArray[np.float64]], int
+]:
+    """Per run with a usable piece: the pieces' errors, their unit-noise covariances (k, 3, 3,
+    3), the run's name, the pieces' turns; and how many runs had a yaw offset fitted away."""
     errs, bases, names, turns = [], [], [], []
     removed = 0
     for run in runs:
@@ -588,12 +574,14 @@ def fit_noise(
         turns.append(np.abs(pcs.odo[ok, 2]))
         bases.append(np.stack([c[ok] for c in pcs.covs[1:]], axis=1))  # (k, 3, 3, 3)
         names.append(run.name)
-    e = np.concatenate(errs)
-    a = np.concatenate(bases)
-    n = e.shape[0]
-    turning = np.concatenate(turns) >= TURNING_RAD
-    scrub_known = bool(turning.any())
-    free = [0, 1, 2] if scrub_known else [0, 1]
+    return errs, bases, names, turns, removed
+
+
+def _nll(
+    e: NDArray[np.float64], a: NDArray[np.float64], free: list[int]
+) -> Callable[[NDArray[np.float64]], float]:
+    """The negative log-likelihood of the errors ``e`` over the logarithms of the free
+    constants (the others 0)."""
 
     def nll(u: NDArray[np.float64]) -> float:
         if np.any(np.abs(u) > 60):  # e**60: far outside any plausible constant
@@ -607,6 +595,18 @@ def fit_noise(
         quad = np.einsum("ka,ka->k", e, np.linalg.solve(cov, e[..., None])[..., 0])
         return float(0.5 * np.sum(logdet + quad))
 
+    return nll
+
+
+def _maximum(
+    nll: Callable[[NDArray[np.float64]], float], start: NoiseParams, free: list[int]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The logarithms that minimise ``nll`` from the scale fit's constants, and their standard
+    errors (inf where the Hessian cannot be inverted)."""
+    from scipy import optimize
+
+    from odolab.regression import approx_hess3
+
     guess = np.log(
         np.maximum(np.array([start.k_left, start.k_right, start.k_scrub or start.k_left]), 1e-12)
     )[free]
@@ -618,6 +618,41 @@ def fit_noise(
         se = np.sqrt(np.maximum(np.diag(np.linalg.inv(hess)), 0.0))
     except np.linalg.LinAlgError:
         se = np.full(u.size, math.inf)
+    return u, se
+
+
+def fit_noise(
+    runs: Sequence[OdometryRun],
+    params: RobotParams,
+    method: Method | str = Method.MIDPOINT,
+    *,
+    segment_s: float = 10.0,
+    fit_gt_yaw_offset: bool | None = None,
+) -> NoiseFit:
+    """``k_left``, ``k_right``, ``k_scrub`` that make the pieces' errors most likely.
+
+    Each piece's covariance is linear in the three constants (``k_l A_l + k_r A_r + k_s A_s``,
+    the ``A``'s propagated with unit noise), so the Gaussian log-likelihood of all pieces'
+    errors is maximised over their logarithms (scipy), with Wald intervals on the log scale
+    (the numerical Hessian, :func:`odolab.regression.approx_hess3`). Straight pieces carry the wheels' noise, turning pieces
+    the scrub as well; without a turning piece (:data:`TURNING_RAD`) ``k_scrub`` stays unknown
+    (written 0 and said).
+    A run's yaw offset, when fitted, is fitted first with the scale fit's noise."""
+    if not runs:
+        raise InsufficientDataError("no runs to fit the noise to")
+    start = fit_noise_scale(
+        runs, params, method, segment_s=segment_s, fit_gt_yaw_offset=fit_gt_yaw_offset
+    )
+    errs, bases, names, turns, removed = _pieces_of(
+        runs, params, method, segment_s, start, fit_gt_yaw_offset
+    )
+    e = np.concatenate(errs)
+    a = np.concatenate(bases)
+    n = e.shape[0]
+    turning = np.concatenate(turns) >= TURNING_RAD
+    scrub_known = bool(turning.any())
+    free = [0, 1, 2] if scrub_known else [0, 1]
+    u, se = _maximum(_nll(e, a, free), start, free)
     keys = ("k_left", "k_right", "k_scrub")
     values = dict.fromkeys(keys, 0.0)
     ci: dict[str, tuple[float, float]] = {}

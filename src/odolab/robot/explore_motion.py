@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from odolab.kinematics import wrap_angle
 from odolab.models import own_covariance
 from odolab.params import NoiseParams, RobotParams
 from odolab.robot.errors import MotionError
@@ -232,7 +233,7 @@ class Explore:
         outward = v * (dx * math.cos(pose.heading) + dy * math.sin(pose.heading)) > 0
         if self._returning:
             err = math.atan2(-dy, -dx) - pose.heading
-            err = math.atan2(math.sin(err), math.cos(err))
+            err = wrap_angle(err)
             if abs(err) < 0.2:
                 self._returning = False
                 self._draw(t, forward=True)

@@ -202,6 +202,24 @@ def _noop_event(t: float, message: str) -> None:
     return None
 
 
+@dataclass
+class _RunState:
+    """What :meth:`ControlLoop._run` keeps across cycles."""
+
+    pose: Pose
+    log: CycleLog = field(default_factory=CycleLog)
+    events: list[tuple[float, str]] = field(default_factory=list)
+    wakes: list[float] = field(default_factory=list)
+    overruns: int = 0
+    lost_events: int = 0
+    completed: bool = False
+    phase: str = "holding"
+    lost_since: float | None = None
+    settle_start: float = math.nan
+    last_counts: tuple[int, int] = (0, 0)
+    last_change: float = 0.0
+
+
 class ControlLoop:
     """Runs motions at a fixed rate over a :class:`Driver` with a streaming odometry.
 
@@ -306,13 +324,7 @@ class ControlLoop:
         driver = self.driver
         clock = self.clock
         odo = self.odometry
-        log = CycleLog()
-        events: list[tuple[float, str]] = []
-        wakes: list[float] = []
-        overruns = 0
-        lost_events = 0
-        completed = False
-        pose = odo.pose
+        st = _RunState(pose=odo.pose)
         try:
             reading = driver.latest if driver.latest is not None else driver.connect()
             self.watchdog.feed(reading.t)
@@ -320,111 +332,121 @@ class ControlLoop:
             t0 = clock.now()
             self.started_at = t0
             k = 0
-            phase = "holding" if motion is None else "moving"
-            lost_since: float | None = None
-            settle_start = math.nan
-            last_counts = (reading.left_ticks, reading.right_ticks)
-            last_change = clock.now()
+            st.phase = "holding" if motion is None else "moving"
+            st.last_counts = (reading.left_ticks, reading.right_ticks)
+            st.last_change = clock.now()
             while True:
                 deadline = t0 + k * period
                 clock.sleep_until(deadline)
                 now = clock.now()
-                wakes.append(now)
+                st.wakes.append(now)
                 fresh = driver.poll() > 0
                 assert driver.latest is not None
                 reading = driver.latest
                 if fresh:
                     self.watchdog.feed(reading.t)
                     counts = (reading.left_ticks, reading.right_ticks)
-                    if counts != last_counts or phase != "moving":
-                        last_counts = counts
-                        last_change = now
-                pose = odo.update(now - t0, reading.left_ticks, reading.right_ticks)
-                log.append(pose, reading, fresh, now - deadline)
+                    if counts != st.last_counts or st.phase != "moving":
+                        st.last_counts = counts
+                        st.last_change = now
+                pose = st.pose = odo.update(now - t0, reading.left_ticks, reading.right_ticks)
+                st.log.append(pose, reading, fresh, now - deadline)
                 self._check_on_time(now - deadline, k)  # before any command of this cycle
                 if k == 0 and motion is not None:
                     motion.start(pose, odo.params)
                 command = (0.0, 0.0)
                 if self.watchdog.expired(now):
-                    if lost_since is None:
-                        lost_since = now
-                        lost_events += 1
-                        msg = f"link lost: no sensor data for {self.watchdog.timeout:g} s; stopping"
-                        events.append((now - t0, msg))
-                        self.on_event(now - t0, msg)
-                    driver.stop()
-                    last = self.watchdog.last_feed
-                    silent = now - last if last is not None else now - t0
-                    if link_abort is not None and silent >= link_abort:
-                        raise LinkLostError(
-                            f"no sensor data from the robot for {silent:.2f} s (--link-timeout "
-                            f"{link_abort:g} s); stop commanded, gave up"
-                        )
+                    self._link_lost(st, now, t0, link_abort)
                     shown = "link-lost"
                 else:
-                    if lost_since is not None:
-                        lost_since = None
-                        last_change = now
-                        events.append((now - t0, "link back"))
-                        self.on_event(now - t0, "link back")
-                    if phase == "moving":
-                        assert motion is not None
-                        if stall_timeout is not None and now - last_change > stall_timeout:
-                            raise CommandsIgnoredError(
-                                f"the robot's encoders have not moved for {stall_timeout:g} s "
-                                "while driving (stalled, or the board ignores the commands); "
-                                "stopped"
-                            )
-                        step = motion.step(pose)
-                        if step is None:
-                            phase = "settling"
-                            settle_start = now
-                            driver.stop()
-                        else:
-                            command = step
-                            self._check_on_time(clock.now() - deadline, k)
-                            # and again by the driver, just before the bytes go out: a freeze
-                            # between this check and the send must not send a stale command
-                            send_by = deadline + self.watchdog.timeout
-                            driver.set_wheel_speeds(*step, send_by=send_by)
-                    else:
-                        driver.stop()
-                    shown = phase
+                    command = self._link_up(st, motion, now, t0, deadline, k, stall_timeout)
+                    shown = st.phase
+                last_feed = self.watchdog.last_feed
                 self.on_cycle(
                     CycleInfo(
-                        k,
-                        now - t0,
-                        pose,
-                        reading,
-                        fresh,
-                        lost_since is None,
-                        command,
-                        shown,
-                        now - deadline,
-                        now
-                        - (self.watchdog.last_feed if self.watchdog.last_feed is not None else t0),
+                        k, now - t0, pose, reading, fresh, st.lost_since is None, command, shown,
+                        now - deadline, now - (last_feed if last_feed is not None else t0),
                     )
-                )
+                )  # fmt: skip
                 k += 1
-                if phase == "settling" and now - settle_start >= settle:
-                    completed = True
+                if st.phase == "settling" and now - st.settle_start >= settle:
+                    st.completed = True
                     break
                 if max_cycles is not None and k >= max_cycles:
                     break
                 if max_duration is not None and now - t0 >= max_duration:
                     break
                 if clock.now() > t0 + k * period:
-                    overruns += 1
+                    st.overruns += 1
         except BaseException as err:
             self._safe_stop()
             self.partial = self._result(
-                log, wakes, overruns, lost_events, False, pose, events, f"aborted: {err!r}"
-            )
+                st.log, st.wakes, st.overruns, st.lost_events, False, st.pose, st.events,
+                f"aborted: {err!r}",
+            )  # fmt: skip
             raise
         self._safe_stop()
         if motion is None:
-            completed = True
-        return self._result(log, wakes, overruns, lost_events, completed, pose, events, "")
+            st.completed = True
+        return self._result(
+            st.log, st.wakes, st.overruns, st.lost_events, st.completed, st.pose, st.events, ""
+        )
+
+    def _link_lost(self, st: _RunState, now: float, t0: float, link_abort: float | None) -> None:
+        """A cycle without the link: say so once, command stop, give up after ``link_abort`` s."""
+        if st.lost_since is None:
+            st.lost_since = now
+            st.lost_events += 1
+            msg = f"link lost: no sensor data for {self.watchdog.timeout:g} s; stopping"
+            st.events.append((now - t0, msg))
+            self.on_event(now - t0, msg)
+        self.driver.stop()
+        last = self.watchdog.last_feed
+        silent = now - last if last is not None else now - t0
+        if link_abort is not None and silent >= link_abort:
+            raise LinkLostError(
+                f"no sensor data from the robot for {silent:.2f} s (--link-timeout "
+                f"{link_abort:g} s); stop commanded, gave up"
+            )
+
+    def _link_up(
+        self,
+        st: _RunState,
+        motion: Motion | None,
+        now: float,
+        t0: float,
+        deadline: float,
+        k: int,
+        stall_timeout: float | None,
+    ) -> tuple[float, float]:
+        """A cycle with the link: the motion's next command sent (or stop); the command."""
+        if st.lost_since is not None:
+            st.lost_since = None
+            st.last_change = now
+            st.events.append((now - t0, "link back"))
+            self.on_event(now - t0, "link back")
+        if st.phase != "moving":
+            self.driver.stop()
+            return (0.0, 0.0)
+        assert motion is not None
+        if stall_timeout is not None and now - st.last_change > stall_timeout:
+            raise CommandsIgnoredError(
+                f"the robot's encoders have not moved for {stall_timeout:g} s "
+                "while driving (stalled, or the board ignores the commands); "
+                "stopped"
+            )
+        step = motion.step(st.pose)
+        if step is None:
+            st.phase = "settling"
+            st.settle_start = now
+            self.driver.stop()
+            return (0.0, 0.0)
+        self._check_on_time(self.clock.now() - deadline, k)
+        # and again by the driver, just before the bytes go out: a freeze
+        # between this check and the send must not send a stale command
+        send_by = deadline + self.watchdog.timeout
+        self.driver.set_wheel_speeds(*step, send_by=send_by)
+        return step
 
     def _result(
         self,

@@ -14,7 +14,7 @@ import math
 from collections.abc import Callable
 from typing import Any, Protocol
 
-from odolab.kinematics import body_motion, step_pose
+from odolab.kinematics import body_motion, step_pose, wrap_angle
 from odolab.params import RobotParams
 from odolab.robot.errors import PlantError
 from odolab.trajectory import Pose
@@ -122,5 +122,5 @@ class IdealPlant:
 
     @property
     def true_pose(self) -> Pose:
-        theta = math.atan2(math.sin(self._h), math.cos(self._h))
+        theta = wrap_angle(self._h)
         return Pose(self._t, self._x, self._y, theta, self._h)

@@ -215,6 +215,38 @@ def confirm_timeout(config: RunConfig) -> float:
     return max(1.0, 2.0 * config.watchdog)
 
 
+def _kept(
+    link: RobotLink,
+    command: Command,
+    result: LoopResult,
+    params: RobotParams,
+    config: RunConfig,
+    confirmed: bool,
+    started_at: float | None,
+    drift: _DriftHook | None,
+    finish: Finish | None,
+    save_to: str | Path | None,
+    *,
+    terrain: str,
+    campaign: str,
+) -> RobotRun:
+    """The run of what the loop recorded (all of it, or up to an abort), finished and saved."""
+    run = RobotRun(
+        _trial(command, result, params, terrain, _true_pose(link), campaign),
+        result,
+        link.description,
+        confirmed,
+        config,
+        headings=_headings(link, started_at),
+        extra=drift.extra() if drift is not None else {},
+    )
+    run = _finished(run, finish)
+    if save_to is not None:
+        saved, note = keep_run(run, save_to)
+        run = replace(run, saved_to=saved, save_note=note)
+    return run
+
+
 def _drive_link(
     link: RobotLink,
     command: Command,
@@ -238,7 +270,7 @@ def _drive_link(
     loop: ControlLoop | None = None
     drift = _DriftHook(link, on_event) if link.headings is not None else None
     if drift is not None:
-        on_cycle = drift.wrap(on_cycle)
+        on_cycle = drift.around(on_cycle)
     signals = contextlib.ExitStack()
     state = signals.enter_context(_run_signals())
     try:
@@ -267,19 +299,10 @@ def _drive_link(
             partial: RobotRun | None = None
             if loop is not None and loop.partial is not None and len(loop.partial.log) > 0:
                 # it has driven: keep what was recorded; a failure to save must not hide `err`
-                partial = RobotRun(
-                    _trial(command, loop.partial, params, terrain, _true_pose(link), campaign),
-                    loop.partial,
-                    link.description,
-                    confirmed,
-                    config,
-                    headings=_headings(link, loop.started_at),
-                    extra=drift.extra() if drift is not None else {},
-                )
-                partial = _finished(partial, finish)
-                if save_to is not None:
-                    saved, note = keep_run(partial, save_to)
-                    partial = replace(partial, saved_to=saved, save_note=note)
+                partial = _kept(
+                    link, command, loop.partial, params, config, confirmed, loop.started_at,
+                    drift, finish, save_to, terrain=terrain, campaign=campaign,
+                )  # fmt: skip
             if on_abort is not None:
                 on_abort(
                     AbortReport(
@@ -293,20 +316,10 @@ def _drive_link(
             raise
         state.deferring = True  # the motion is done: a Ctrl-C now must not lose the run
         confirmed = driver.confirm_stopped(confirm_timeout(config))
-        run = RobotRun(
-            _trial(command, result, params, terrain, _true_pose(link), campaign),
-            result,
-            link.description,
-            confirmed,
-            config,
-            headings=_headings(link, loop.started_at),
-            extra=drift.extra() if drift is not None else {},
-        )
-        run = _finished(run, finish)
-        if save_to is not None:
-            saved, note = keep_run(run, save_to)
-            run = replace(run, saved_to=saved, save_note=note)
-        return run
+        return _kept(
+            link, command, result, params, config, confirmed, loop.started_at, drift, finish,
+            save_to, terrain=terrain, campaign=campaign,
+        )  # fmt: skip
     finally:
         try:
             link.close()
@@ -336,7 +349,7 @@ class _DriftHook:
         self._odo_t: list[float] = []  # every cycle's odometry heading, for the sense check
         self._odo_h: list[float] = []
 
-    def wrap(self, on_cycle: Callable[[CycleInfo], None] | None) -> Callable[[CycleInfo], None]:
+    def around(self, on_cycle: Callable[[CycleInfo], None] | None) -> Callable[[CycleInfo], None]:
         def cycle(info: CycleInfo) -> None:
             self.cycle(info)
             if on_cycle is not None:

@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 import struct
 
+from odolab.kinematics import wrap_angle
 from odolab.trajectory import Pose
 
 __all__ = [
@@ -96,5 +97,5 @@ class TruthTracker:
         c, s = math.cos(h0), math.sin(h0)
         dx, dy = x1 - x0, y1 - y0
         heading = h1 - h0
-        theta = math.atan2(math.sin(heading), math.cos(heading))
+        theta = wrap_angle(heading)
         return Pose(0.0, c * dx + s * dy, -s * dx + c * dy, theta, heading)

@@ -141,6 +141,35 @@ def _cookie(name: str, value: str) -> bytes:
     return f"{name}={value}; Path=/; HttpOnly; SameSite=Strict".encode("latin-1")
 
 
+#: A refused request: the status, the sentence, extra response headers.
+_Refusal = tuple[int, str, list[tuple[bytes, bytes]]]
+
+
+def _site_refusal(scope: Scope, headers: Headers) -> _Refusal | None:
+    if scope.get("method", "GET").upper() not in _SAFE_METHODS:
+        why = cross_site(headers, headers.get("host", ""))
+        if why is not None:  # a second line behind the CSRF token and SameSite cookies
+            return (
+                403,
+                f"a write from another site is refused ({why}); expected a request from "
+                "this server's own pages or a client of its own (no Origin header)",
+                [],
+            )
+    return None
+
+
+def _cookies(headers: Headers) -> dict[str, str]:
+    """The request's cookies (none when the header is malformed)."""
+    if "cookie" not in headers:
+        return {}
+    jar: SimpleCookie = SimpleCookie()
+    try:
+        jar.load(headers["cookie"])
+    except Exception:  # a malformed cookie header is treated as no cookie
+        jar = SimpleCookie()
+    return {k: v.value for k, v in jar.items()}
+
+
 class Guard:
     """ASGI middleware: see the module docstring."""
 
@@ -183,80 +212,55 @@ class Guard:
             self.token.encode("utf-8"),
         )
 
-    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] != "http":
-            await self.app(scope, receive, send)
-            return
-        headers = Headers(scope=scope)
-        path: str = scope.get("path", "")
-        api = path.startswith("/api/")
+    def _host_refusal(self, headers: Headers) -> _Refusal | None:
         if self.allowed_hosts is not None:
             host = _host_name(headers.get("host", ""))
             if host not in self.allowed_hosts:
-                await self._reply(
-                    send,
+                return (
                     400,
                     f"this odolab server answers only to {', '.join(sorted(self.allowed_hosts))}",
-                    api=api,
-                    extra=[],
+                    [],
                 )
-                return
-        if scope.get("method", "GET").upper() not in _SAFE_METHODS:
-            why = cross_site(headers, headers.get("host", ""))
-            if why is not None:  # a second line behind the CSRF token and SameSite cookies
-                await self._reply(
-                    send,
-                    403,
-                    f"a write from another site is refused ({why}); expected a request from "
-                    "this server's own pages or a client of its own (no Origin header)",
-                    api=api,
-                    extra=[],
-                )
-                return
-        cookies: dict[str, str] = {}
-        if "cookie" in headers:
-            jar: SimpleCookie = SimpleCookie()
-            try:
-                jar.load(headers["cookie"])
-            except Exception:  # a malformed cookie header is treated as no cookie
-                jar = SimpleCookie()
-            cookies = {k: v.value for k, v in jar.items()}
-        if self.token is not None:
-            query = parse_qsl(scope.get("query_string", b"").decode("latin-1"), True)
-            in_query = [v for k, v in query if k == "token"]
-            if in_query:
-                if not self._token_ok(in_query[-1]):
-                    await self._reply(send, 401, "wrong token", api=api, extra=[])
-                    return
-                rest = urlencode([(k, v) for k, v in query if k != "token"])
-                location = _same_site(path) + (f"?{rest}" if rest else "")
-                await self._reply(
-                    send,
-                    303,
-                    "token accepted",
-                    api=api,
-                    extra=[
-                        (b"location", location.encode("utf-8")),
-                        (b"set-cookie", _cookie(TOKEN_COOKIE, self.token)),
-                    ],
-                )
-                return
-            auth = headers.get("authorization", "")
-            given = (
-                auth[7:].strip()
-                if auth.lower().startswith("bearer ")
-                else headers.get("x-odolab-token") or cookies.get(TOKEN_COOKIE)
+        return None
+
+    def _token_refusal(
+        self, scope: Scope, headers: Headers, path: str, cookies: dict[str, str]
+    ) -> _Refusal | None:
+        """A wrong or missing token refused, a right one in the query answered with a redirect
+        that sets it as a cookie; None when the request may pass."""
+        if self.token is None:
+            return None
+        query = parse_qsl(scope.get("query_string", b"").decode("latin-1"), True)
+        in_query = [v for k, v in query if k == "token"]
+        if in_query:
+            if not self._token_ok(in_query[-1]):
+                return 401, "wrong token", []
+            rest = urlencode([(k, v) for k, v in query if k != "token"])
+            location = _same_site(path) + (f"?{rest}" if rest else "")
+            return (
+                303,
+                "token accepted",
+                [
+                    (b"location", location.encode("utf-8")),
+                    (b"set-cookie", _cookie(TOKEN_COOKIE, self.token)),
+                ],
             )
-            if not self._token_ok(given):
-                await self._reply(
-                    send,
-                    401,
-                    "this odolab server needs its token: open the address that `odolab serve` "
-                    "printed (it ends in ?token=...)",
-                    api=api,
-                    extra=[(b"www-authenticate", b"Bearer")],
-                )
-                return
+        auth = headers.get("authorization", "")
+        given = (
+            auth[7:].strip()
+            if auth.lower().startswith("bearer ")
+            else headers.get("x-odolab-token") or cookies.get(TOKEN_COOKIE)
+        )
+        if not self._token_ok(given):
+            return (
+                401,
+                "this odolab server needs its token: open the address that `odolab serve` "
+                "printed (it ends in ?token=...)",
+                [(b"www-authenticate", b"Bearer")],
+            )
+        return None
+
+    def _size_refusal(self, headers: Headers) -> _Refusal | None:
         length = headers.get("content-length")
         if length is not None:
             try:
@@ -264,14 +268,25 @@ class Guard:
             except ValueError:
                 too_big = True
             if too_big:
-                await self._reply(
-                    send,
-                    413,
-                    f"the request is larger than {self.max_body} bytes",
-                    api=api,
-                    extra=[],
-                )
-                return
+                return 413, f"the request is larger than {self.max_body} bytes", []
+        return None
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        headers = Headers(scope=scope)
+        path: str = scope.get("path", "")
+        refusal = self._host_refusal(headers) or _site_refusal(scope, headers)
+        cookies: dict[str, str] = {}
+        if refusal is None:
+            cookies = _cookies(headers)
+            refusal = self._token_refusal(scope, headers, path, cookies)
+            refusal = refusal or self._size_refusal(headers)
+        if refusal is not None:
+            status, text, extra = refusal
+            await self._reply(send, status, text, api=path.startswith("/api/"), extra=extra)
+            return
         session = cookies.get(SESSION_COOKIE, "")
         new_session = None
         if len(session) < 32 or not session.replace("-", "").replace("_", "").isalnum():

@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from odolab.errors import SimError
+from odolab.kinematics import wrap_angle
 from odolab.models import DIFF_DRIVE
 from odolab.odometry import Odometry
 from odolab.params import RobotParams
@@ -136,7 +137,7 @@ def explore(
         edge = r > s.return_fraction * s.fence_radius
         if returning:
             err = math.atan2(-pose.y, -pose.x) - pose.heading
-            err = math.atan2(math.sin(err), math.cos(err))
+            err = wrap_angle(err)
             if abs(err) < 0.2:
                 returning = False
                 v, w = sample_command(rng, s, nominal.track_width, forward=True)

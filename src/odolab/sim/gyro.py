@@ -66,6 +66,26 @@ def _program(rng: np.random.Generator, duration: float) -> list[tuple[float, flo
     return [(still, 0.0, 0.0), *body, (still, 0.0, 0.0)]
 
 
+def _speeds(
+    legs: list[tuple[float, float, float]], fine: float, ramp: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The legs' (duration, v, w) on a ``fine`` time grid: (t, v, w), speed changes smoothed by
+    a Hann window of ``ramp`` seconds."""
+    total = sum(d for d, _, _ in legs)
+    n = math.ceil(total / fine) + 1
+    tf = np.asarray(fine * np.arange(n), dtype=np.float64)
+    v = np.zeros(n)
+    w = np.zeros(n)
+    t0 = 0.0
+    for d, vv, ww in legs:
+        sel = (tf >= t0) & (tf < t0 + d)
+        v[sel], w[sel] = vv, ww
+        t0 += d
+    k = np.hanning(max(3, round(ramp / fine)))
+    k /= k.sum()
+    return tf, np.convolve(v, k, mode="same"), np.convolve(w, k, mode="same")
+
+
 def simulate_gyro_drive(
     *,
     seed: int = 0,
@@ -96,21 +116,7 @@ def simulate_gyro_drive(
     rng = np.random.default_rng(seed)
     legs = _program(rng, duration)
     fine = 1e-3
-    total = sum(d for d, _, _ in legs)
-    n = math.ceil(total / fine) + 1
-    tf = np.asarray(fine * np.arange(n), dtype=np.float64)
-    v = np.zeros(n)
-    w = np.zeros(n)
-    t0 = 0.0
-    for d, vv, ww in legs:
-        sel = (tf >= t0) & (tf < t0 + d)
-        v[sel], w[sel] = vv, ww
-        t0 += d
-    # smooth speed changes: a Hann window of ``ramp`` seconds
-    k = np.hanning(max(3, round(ramp / fine)))
-    k /= k.sum()
-    v = np.convolve(v, k, mode="same")
-    w = np.convolve(w, k, mode="same")
+    tf, v, w = _speeds(legs, fine, ramp)
     b = truth.track_width
     rate_r = (v + 0.5 * b * w) / truth.right_wheel_radius
     rate_l = (v - 0.5 * b * w) / truth.left_wheel_radius

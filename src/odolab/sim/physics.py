@@ -307,6 +307,26 @@ def _advance(state, p, vl, vr, dt, nsteps, z):  # type: ignore[no-untyped-def]  
     return False
 
 
+@njit(cache=True, inline="always")
+def _toward(pos: float, step: float, target: float) -> tuple[float, bool]:  # pragma: no cover
+    """A wheel's count after one step toward ``target``, and whether it stopped there."""
+    n = pos + step
+    if (step > 0.0 and n >= target) or (step < 0.0 and n <= target):
+        return target, True
+    return n, False
+
+
+@njit(cache=True, inline="always")
+def _report(  # type: ignore[no-untyped-def]  # pragma: no cover - compiled
+    out_l, out_r, i: int, k: int, pl: float, pr: float
+) -> int:
+    """Record the next report of trial ``i`` (the counts rounded); its index."""
+    k += 1
+    out_l[i, k] = math.floor(pl + 0.5)
+    out_r[i, k] = math.floor(pr + 0.5)
+    return k
+
+
 @njit(cache=True)
 def _batch(  # type: ignore[no-untyped-def]  # pragma: no cover - compiled
     P,
@@ -350,9 +370,7 @@ def _batch(  # type: ignore[no-untyped-def]  # pragma: no cover - compiled
             vr = seg_vr[i, j]
             if p[11] == 0.0 and vl * vr < 0.0:
                 for _ in range(stall_reports):
-                    k += 1
-                    out_l[i, k] = math.floor(pl + 0.5)
-                    out_r[i, k] = math.floor(pr + 0.5)
+                    k = _report(out_l, out_r, i, k, pl, pr)
                 stalled = True
                 break
             target_l = pl + seg_l[i, j]
@@ -365,17 +383,11 @@ def _batch(  # type: ignore[no-untyped-def]  # pragma: no cover - compiled
                 dl = 0.0
                 dr = 0.0
                 if not done_l:
-                    nl = pl + sl
-                    if (sl > 0.0 and nl >= target_l) or (sl < 0.0 and nl <= target_l):
-                        nl = target_l
-                        done_l = True
+                    nl, done_l = _toward(pl, sl, target_l)
                     dl = nl - pl
                     pl = nl
                 if not done_r:
-                    nr = pr + sr
-                    if (sr > 0.0 and nr >= target_r) or (sr < 0.0 and nr <= target_r):
-                        nr = target_r
-                        done_r = True
+                    nr, done_r = _toward(pr, sr, target_r)
                     dr = nr - pr
                     pr = nr
                 zl = rng.standard_normal() if p[6] != 0.0 else 0.0
@@ -385,15 +397,11 @@ def _batch(  # type: ignore[no-untyped-def]  # pragma: no cover - compiled
                 phase += 1
                 if phase == spr:
                     phase = 0
-                    k += 1
-                    out_l[i, k] = math.floor(pl + 0.5)
-                    out_r[i, k] = math.floor(pr + 0.5)
+                    k = _report(out_l, out_r, i, k, pl, pr)
             x, y, h = _slide(x, y, h, vl, vr, p)
             if phase != 0:
                 phase = 0
-                k += 1
-                out_l[i, k] = math.floor(pl + 0.5)
-                out_r[i, k] = math.floor(pr + 0.5)
+                k = _report(out_l, out_r, i, k, pl, pr)
         out_len[i] = k + 1
         out_pose[i, 0] = x
         out_pose[i, 1] = y

@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.kinematics import chord_factors
 from odolab.models import IcrModel
 from odolab.params import PRESETS, RobotParams
 from odolab.sim.physics import TrueParams
@@ -108,7 +109,8 @@ def _arc_factor(distances: NDArray[np.float64], curvature: float) -> float:
     """Through-origin x ratio loss of runs of the given lengths on arcs turning ``curvature``
     rad per metre: ``sum(s**2 * sin(phi)/phi) / sum(s**2)`` with ``phi = curvature * s``."""
     phi = curvature * distances
-    return float(np.sum(distances**2 * np.sinc(phi / np.pi)) / np.sum(distances**2))
+    # sin(phi)/phi is the chord factor of a step turning 2 phi
+    return float(np.sum(distances**2 * chord_factors(2.0 * phi)) / np.sum(distances**2))
 
 
 @dataclass(frozen=True)
@@ -128,6 +130,66 @@ class TrackedSlip:
     speed_slip: float = 0.05
     stop_slide: float = 0.03
     lab_speed: float = 0.3
+
+
+def _lab_fit(
+    targets: LabTargets, tr: TrackedSlip, b0: float, k_wheel: float, slide: float
+) -> tuple[float, float, float, float, float, float]:
+    """The indoor protocols' fixed point: (rho, d_fwd, d_rev, b, align, cos_corr) such that the
+    x ratio, the forward and reverse y drifts, the rotation ratio and the long runs' y sigma
+    come out as ``targets``."""
+    straight = 1.0 - tr.turn_slip  # ICR spread of straight driving / in place
+    s1, s2 = targets.short_distance, targets.long_distance
+    sm = targets.meterstick_sigma
+    align = 0.03
+    b = b0
+    rho = targets.x_ratio
+    d_fwd = d_rev = 0.0
+    indoor = np.array([s1, s2], dtype=np.float64)
+    slide_in = slide * float(indoor.sum() / (indoor**2).sum())  # its share of the x ratio
+    for _ in range(50):
+        cos_corr = 1.0 - 0.5 * align**2  # mean cosine of the start misalignment
+        bs = b * straight
+        arc_in = 0.5 * (_arc_factor(indoor, d_fwd / bs) + _arc_factor(indoor, d_rev / bs))
+        if slide_in:
+            rho = (targets.x_ratio / cos_corr - slide_in) / arc_in
+        else:
+            rho = targets.x_ratio / (cos_corr * arc_in)
+        d_fwd = 2.0 * bs * targets.y_drift_forward / (rho * (s1 + s2 - 2.0 * tr.x_icr))
+        d_rev = 2.0 * bs * targets.y_drift_reverse / (rho * (s1 + s2 + 2.0 * tr.x_icr))
+        rho_rf = rho - 0.5 * d_fwd
+        rho_lr = rho + 0.5 * d_rev
+        b = b0 * (rho_rf + rho_lr) / (2.0 * targets.rotation_ratio)
+        d = rho * s2
+        slip = 2 * k_wheel * d**3 / (3 * b**2)
+        align = math.sqrt(max(targets.sigma_y_long**2 - slip - sm**2, 0.0)) / d
+    return rho, d_fwd, d_rev, b, align, cos_corr
+
+
+def _terrain_scales(
+    targets: LabTargets,
+    tr: TrackedSlip,
+    rho: float,
+    cos_corr: float,
+    d_fwd: float,
+    b: float,
+    slide: float,
+) -> list[float]:
+    """The radius scale of concrete and of grass that reproduce the outdoor x ratios."""
+    straight = 1.0 - tr.turn_slip
+    out = np.arange(1, 11, dtype=np.float64) * 0.5  # outdoor runs, 0.5 m to 5 m
+    scales = []
+    slide_out = slide * float(out.sum() / (out**2).sum())
+    for x_out in (targets.x_ratio_concrete, targets.x_ratio_grass):
+        sc = x_out / (rho * cos_corr)
+        for _ in range(20):
+            arc_out = _arc_factor(out, sc * d_fwd / (b * straight))
+            if slide_out:
+                sc = (x_out / cos_corr - slide_out) / (rho * arc_out)
+            else:
+                sc = x_out / (rho * cos_corr * arc_out)
+        scales.append(sc)
+    return scales
 
 
 def derive_jaguar_lab(
@@ -156,47 +218,12 @@ def derive_jaguar_lab(
     if rotation_noise not in ("scrub", "track"):
         raise ValueError(f"rotation_noise must be 'scrub' or 'track', got {rotation_noise!r}")
     tr = tracked or TrackedSlip(0.0, 0.0, 0.0, 0.0, 0.0)
-    straight = 1.0 - tr.turn_slip  # ICR spread of straight driving / in place
     speed_loss = 1.0 - tr.speed_slip * tr.lab_speed
     slide = tr.stop_slide * tr.lab_speed**2  # m each side slides on at the end of a run
     nom = nominal or PRESETS["jaguar-lite"]
     b0 = nom.track_width
-    s1, s2 = targets.short_distance, targets.long_distance
-    sm = targets.meterstick_sigma
-    align = 0.03
-    b = b0
-    rho = targets.x_ratio
-    d_fwd = d_rev = 0.0
-    out = np.arange(1, 11, dtype=np.float64) * 0.5  # outdoor runs, 0.5 m to 5 m
-    indoor = np.array([s1, s2], dtype=np.float64)
-    slide_in = slide * float(indoor.sum() / (indoor**2).sum())  # its share of the x ratio
-    for _ in range(50):
-        cos_corr = 1.0 - 0.5 * align**2  # mean cosine of the start misalignment
-        bs = b * straight
-        arc_in = 0.5 * (_arc_factor(indoor, d_fwd / bs) + _arc_factor(indoor, d_rev / bs))
-        if slide_in:
-            rho = (targets.x_ratio / cos_corr - slide_in) / arc_in
-        else:
-            rho = targets.x_ratio / (cos_corr * arc_in)
-        d_fwd = 2.0 * bs * targets.y_drift_forward / (rho * (s1 + s2 - 2.0 * tr.x_icr))
-        d_rev = 2.0 * bs * targets.y_drift_reverse / (rho * (s1 + s2 + 2.0 * tr.x_icr))
-        rho_rf = rho - 0.5 * d_fwd
-        rho_lr = rho + 0.5 * d_rev
-        b = b0 * (rho_rf + rho_lr) / (2.0 * targets.rotation_ratio)
-        d = rho * s2
-        slip = 2 * k_wheel * d**3 / (3 * b**2)
-        align = math.sqrt(max(targets.sigma_y_long**2 - slip - sm**2, 0.0)) / d
-    scales = []
-    slide_out = slide * float(out.sum() / (out**2).sum())
-    for x_out in (targets.x_ratio_concrete, targets.x_ratio_grass):
-        sc = x_out / (rho * cos_corr)
-        for _ in range(20):
-            arc_out = _arc_factor(out, sc * d_fwd / (b * straight))
-            if slide_out:
-                sc = (x_out / cos_corr - slide_out) / (rho * arc_out)
-            else:
-                sc = x_out / (rho * cos_corr * arc_out)
-        scales.append(sc)
+    rho, d_fwd, d_rev, b, align, cos_corr = _lab_fit(targets, tr, b0, k_wheel, slide)
+    scales = _terrain_scales(targets, tr, rho, cos_corr, d_fwd, b, slide)
     rho_lf, rho_rf = rho + 0.5 * d_fwd, rho - 0.5 * d_fwd
     rho_lr, rho_rr = rho + 0.5 * d_rev, rho - 0.5 * d_rev
     a = targets.rotation_angle

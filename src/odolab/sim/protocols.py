@@ -57,8 +57,14 @@ from odolab.kinematics import wrap_angle
 from odolab.odometry import integrate
 from odolab.params import RobotParams
 from odolab.progress import Progress, no_progress
-from odolab.sim.instruments import Compass, Instruments, Meterstick
-from odolab.sim.physics import _NPARAM, TrueParams, kernel_params, simulate_batch
+from odolab.sim.instruments import Compass, CompassReadings, Instruments, Meterstick
+from odolab.sim.physics import (
+    _NPARAM,
+    BatchResult,
+    TrueParams,
+    kernel_params,
+    simulate_batch,
+)
 from odolab.sim.terrains import get_terrain
 from odolab.text import quote_input
 from odolab.trajectory import Pose
@@ -245,6 +251,57 @@ def _text(source: str, where: str, value: Any, choices: Sequence[str]) -> str:
     return value
 
 
+def _commands(
+    source: str,
+    where: str,
+    spec: dict[str, Any],
+    motion: str,
+    sign: float,
+    direction: str,
+    speed: float,
+) -> list[Command]:
+    """The commands of one [[trials]] table: one per angle, distance or side given."""
+    kind = MotionKind(motion)
+    allowed = {
+        "rotation": {"angle", "angle_pi"},
+        "pivot": {"angle", "angle_pi", "held"},
+        "translation": {"distance"},
+        "square": {"side"},
+    }[motion]
+    for key in ("angle", "angle_pi", "distance", "side", "held"):
+        if key in spec and key not in allowed:
+            raise _err(source, f"{where} key {key!r}", f"does not apply to a {motion}")
+    commands: list[Command] = []
+    if kind in (MotionKind.ROTATION, MotionKind.PIVOT):
+        if ("angle" in spec) == ("angle_pi" in spec):
+            raise _err(source, f"{where} key 'angle'", "give exactly one of angle or angle_pi")
+        key = "angle" if "angle" in spec else "angle_pi"
+        scale = 1.0 if key == "angle" else math.pi
+        held = None
+        if kind is MotionKind.PIVOT:
+            held = _text(source, f"{where} key 'held'", spec.get("held", "left"), ("left", "right"))
+        most, unit = (MAX_ANGLE_RAD, " rad") if key == "angle" else (MAX_ANGLE_RAD / math.pi, " pi")
+        for a in _values(source, f"{where} key {key!r}", spec[key], maximum=most, unit=unit):
+            commands.append(
+                Command(kind, angle=sign * a * scale, direction=held or direction, speed=speed)
+            )
+    elif kind is MotionKind.TRANSLATION:
+        if "distance" not in spec:
+            raise _err(source, f"{where} key 'distance'", "missing")
+        for d in _values(
+            source, f"{where} key 'distance'", spec["distance"], maximum=MAX_DISTANCE_M, unit=" m"
+        ):
+            commands.append(Command(kind, distance=sign * d, speed=speed))
+    else:
+        if "side" not in spec:
+            raise _err(source, f"{where} key 'side'", "missing")
+        for s in _values(
+            source, f"{where} key 'side'", spec["side"], maximum=MAX_SIDE_M, unit=" m"
+        ):
+            commands.append(Command(kind, side=s, direction=direction, speed=speed))
+    return commands
+
+
 def _parse_set(source: str, index: int, spec: Any, defaults: dict[str, Any]) -> list[TrialSpec]:
     where = f"[[trials]] #{index + 1}"
     if not isinstance(spec, dict):
@@ -288,43 +345,7 @@ def _parse_set(source: str, index: int, spec: Any, defaults: dict[str, Any]) -> 
         unit=" m/s",
     )
 
-    allowed = {
-        "rotation": {"angle", "angle_pi"},
-        "pivot": {"angle", "angle_pi", "held"},
-        "translation": {"distance"},
-        "square": {"side"},
-    }[motion]
-    for key in ("angle", "angle_pi", "distance", "side", "held"):
-        if key in spec and key not in allowed:
-            raise _err(source, f"{where} key {key!r}", f"does not apply to a {motion}")
-    commands: list[Command] = []
-    if kind in (MotionKind.ROTATION, MotionKind.PIVOT):
-        if ("angle" in spec) == ("angle_pi" in spec):
-            raise _err(source, f"{where} key 'angle'", "give exactly one of angle or angle_pi")
-        key = "angle" if "angle" in spec else "angle_pi"
-        scale = 1.0 if key == "angle" else math.pi
-        held = None
-        if kind is MotionKind.PIVOT:
-            held = _text(source, f"{where} key 'held'", spec.get("held", "left"), ("left", "right"))
-        most, unit = (MAX_ANGLE_RAD, " rad") if key == "angle" else (MAX_ANGLE_RAD / math.pi, " pi")
-        for a in _values(source, f"{where} key {key!r}", spec[key], maximum=most, unit=unit):
-            commands.append(
-                Command(kind, angle=sign * a * scale, direction=held or direction, speed=speed)
-            )
-    elif kind is MotionKind.TRANSLATION:
-        if "distance" not in spec:
-            raise _err(source, f"{where} key 'distance'", "missing")
-        for d in _values(
-            source, f"{where} key 'distance'", spec["distance"], maximum=MAX_DISTANCE_M, unit=" m"
-        ):
-            commands.append(Command(kind, distance=sign * d, speed=speed))
-    else:
-        if "side" not in spec:
-            raise _err(source, f"{where} key 'side'", "missing")
-        for s in _values(
-            source, f"{where} key 'side'", spec["side"], maximum=MAX_SIDE_M, unit=" m"
-        ):
-            commands.append(Command(kind, side=s, direction=direction, speed=speed))
+    commands = _commands(source, where, spec, motion, sign, direction, speed)
     if len(commands) * repeats > MAX_TRIALS:
         raise _err(
             source,
@@ -333,6 +354,48 @@ def _parse_set(source: str, index: int, spec: Any, defaults: dict[str, Any]) -> 
             f"expected at most {MAX_TRIALS} in a protocol",
         )
     return [TrialSpec(c, terrain, campaign) for c in commands for _ in range(repeats)]
+
+
+def _instruments(source: str, doc: dict[str, Any]) -> Instruments:
+    """The [instruments] table (defaults for what it leaves out)."""
+    inst = doc.get("instruments", {})
+    if not isinstance(inst, dict):
+        raise _err(source, "[instruments]", "expected a table")
+    _check_keys(source, "[instruments]", inst, _INSTRUMENT_KEYS)
+
+    def inum(key: str, default: float) -> float:
+        return _number(source, f"[instruments] key {key!r}", inst.get(key, default), positive=False)
+
+    try:
+        instruments = Instruments(
+            compass=Compass(
+                sigma=inum("compass_sigma", 0.05),
+                resolution_deg=inum("compass_resolution_deg", 1.0),
+                miscount_probability=inum("miscount_probability", 0.0),
+            ),
+            meterstick=Meterstick(sigma=inum("meterstick_sigma", 0.003)),
+            tape=Meterstick(sigma=inum("tape_sigma", 0.005)),
+        )
+    except SimError as err:
+        raise _err(source, "[instruments]", str(err)) from err
+    return instruments
+
+
+def _trial_specs(source: str, doc: dict[str, Any], defaults: dict[str, Any]) -> list[TrialSpec]:
+    """Every [[trials]] table's trials, in order."""
+    sets = doc.get("trials")
+    if not isinstance(sets, list) or not sets:
+        raise _err(source, "[[trials]]", "expected at least one [[trials]] table")
+    trials: list[TrialSpec] = []
+    for i, spec in enumerate(sets):
+        trials.extend(_parse_set(source, i, spec, defaults))
+        if len(trials) > MAX_TRIALS:
+            raise _err(
+                source,
+                f"[[trials]] #{i + 1}",
+                f"the protocol has {len(trials)} trials up to here; expected at most {MAX_TRIALS}",
+            )
+    return trials
 
 
 def parse_protocol(doc: dict[str, Any], source: str = "<protocol>") -> ExperimentProtocol:
@@ -385,38 +448,8 @@ def parse_protocol(doc: dict[str, Any], source: str = "<protocol>") -> Experimen
         raise _err(
             source, "[protocol] key 'dt'", f"{dt} s does not divide the report period 1/{rate} s"
         )
-    inst = doc.get("instruments", {})
-    if not isinstance(inst, dict):
-        raise _err(source, "[instruments]", "expected a table")
-    _check_keys(source, "[instruments]", inst, _INSTRUMENT_KEYS)
-
-    def inum(key: str, default: float) -> float:
-        return _number(source, f"[instruments] key {key!r}", inst.get(key, default), positive=False)
-
-    try:
-        instruments = Instruments(
-            compass=Compass(
-                sigma=inum("compass_sigma", 0.05),
-                resolution_deg=inum("compass_resolution_deg", 1.0),
-                miscount_probability=inum("miscount_probability", 0.0),
-            ),
-            meterstick=Meterstick(sigma=inum("meterstick_sigma", 0.003)),
-            tape=Meterstick(sigma=inum("tape_sigma", 0.005)),
-        )
-    except SimError as err:
-        raise _err(source, "[instruments]", str(err)) from err
-    sets = doc.get("trials")
-    if not isinstance(sets, list) or not sets:
-        raise _err(source, "[[trials]]", "expected at least one [[trials]] table")
-    trials: list[TrialSpec] = []
-    for i, spec in enumerate(sets):
-        trials.extend(_parse_set(source, i, spec, defaults))
-        if len(trials) > MAX_TRIALS:
-            raise _err(
-                source,
-                f"[[trials]] #{i + 1}",
-                f"the protocol has {len(trials)} trials up to here; expected at most {MAX_TRIALS}",
-            )
+    instruments = _instruments(source, doc)
+    trials = _trial_specs(source, doc, defaults)
     desc = head.get("description", "")
     return ExperimentProtocol(
         name=str(name),
@@ -566,6 +599,90 @@ def _campaign_on(campaign: str, protocol_terrain: str, terrain: str) -> str:
     return f"{base}-{terrain}"
 
 
+def _simulate(
+    protocol: ExperimentProtocol,
+    truth: TrueParams,
+    nominal: RobotParams,
+    terrains: list[str],
+    rng: np.random.Generator,
+) -> BatchResult:
+    """Every trial driven at once on the virtual robot (see :func:`simulate_batch`)."""
+    specs = protocol.trials
+    n = len(specs)
+    cache = {name: kernel_params(truth, nominal, get_terrain(name)) for name in set(terrains)}
+    P = np.stack([cache[name] for name in terrains]) if n else np.zeros((0, _NPARAM))
+    segs = [segments_for(s.command, nominal) for s in specs]
+    _check_run_size(protocol, segs, nominal)
+    width = max((len(s) for s in segs), default=1)
+    arr = np.zeros((4, n, width))
+    nseg = np.zeros(n, dtype=np.int64)
+    for i, ss in enumerate(segs):
+        nseg[i] = len(ss)
+        arr[:, i, : len(ss)] = np.array(ss, dtype=np.float64).T
+    batch = simulate_batch(
+        P,
+        arr[0].astype(np.int64),
+        arr[1].astype(np.int64),
+        arr[2],
+        arr[3],
+        nseg,
+        align_sigma=truth.align_sigma,
+        track_sigma=truth.track_sigma,
+        report_rate=protocol.report_rate,
+        dt=protocol.dt,
+        rng=rng,
+    )
+    return batch
+
+
+def _raw_counters(
+    batch: BatchResult, modulus: int | None, rng: np.random.Generator
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """The trials' counters as the robot reports them: from a random start, wrapped."""
+    n = batch.ticks_left.shape[0]
+    offsets = np.zeros((n, 2), dtype=np.int64)
+    if modulus:
+        offsets = rng.integers(0, modulus, size=(n, 2))
+    all_left = batch.ticks_left + offsets[:, :1]
+    all_right = batch.ticks_right + offsets[:, 1:]
+    if modulus:
+        np.mod(all_left, modulus, out=all_left)
+        np.mod(all_right, modulus, out=all_right)
+    return all_left, all_right
+
+
+def _measurement(
+    kind: MotionKind,
+    i: int,
+    readings: CompassReadings,
+    sig_rot: float,
+    xy: NDArray[np.float64],
+    outdoor: bool,
+    tape: Meterstick,
+    stick: Meterstick,
+) -> Measurement:
+    """Trial ``i``'s measurement: the compass for a turn, else the meterstick (tape outdoors)."""
+    if kind in (MotionKind.ROTATION, MotionKind.PIVOT):
+        return Measurement(
+            instrument="compass",
+            rotation=float(readings.rotation[i]),
+            sigma_rotation=sig_rot,
+            raw={
+                "compass_initial_deg": float(readings.initial_deg[i]),
+                "compass_final_deg": float(readings.final_deg[i]),
+                "turns": float(readings.turns[i]),
+            },
+        )
+    inst = "tape" if outdoor else "meterstick"
+    return Measurement(
+        instrument=inst,
+        x=float(xy[i, 0]),
+        y=float(xy[i, 1]),
+        sigma_xy=(tape if outdoor else stick).sigma,
+        raw={"x_m": float(xy[i, 0]), "y_m": float(xy[i, 1])},
+    )
+
+
 def run_protocol(
     protocol: ExperimentProtocol,
     truth: TrueParams,
@@ -590,38 +707,9 @@ def run_protocol(
     n = len(specs)
     rng = np.random.default_rng(seed)
     terrains = [terrain or s.terrain for s in specs]
-    cache = {name: kernel_params(truth, nominal, get_terrain(name)) for name in set(terrains)}
-    P = np.stack([cache[name] for name in terrains]) if n else np.zeros((0, _NPARAM))
-    segs = [segments_for(s.command, nominal) for s in specs]
-    _check_run_size(protocol, segs, nominal)
-    width = max((len(s) for s in segs), default=1)
-    arr = np.zeros((4, n, width))
-    nseg = np.zeros(n, dtype=np.int64)
-    for i, ss in enumerate(segs):
-        nseg[i] = len(ss)
-        arr[:, i, : len(ss)] = np.array(ss, dtype=np.float64).T
-    batch = simulate_batch(
-        P,
-        arr[0].astype(np.int64),
-        arr[1].astype(np.int64),
-        arr[2],
-        arr[3],
-        nseg,
-        align_sigma=truth.align_sigma,
-        track_sigma=truth.track_sigma,
-        report_rate=protocol.report_rate,
-        dt=protocol.dt,
-        rng=rng,
-    )
+    batch = _simulate(protocol, truth, nominal, terrains, rng)
     modulus = nominal.encoder_modulus
-    offsets = np.zeros((n, 2), dtype=np.int64)
-    if modulus:
-        offsets = rng.integers(0, modulus, size=(n, 2))
-    all_left = batch.ticks_left + offsets[:, :1]
-    all_right = batch.ticks_right + offsets[:, 1:]
-    if modulus:
-        np.mod(all_left, modulus, out=all_left)
-        np.mod(all_right, modulus, out=all_right)
+    all_left, all_right = _raw_counters(batch, modulus, rng)
     h0 = batch.start_heading
     fx, fy, fh = batch.final_pose.T
     # instruments, vectorized over all trials (only the relevant readings are kept per trial)
@@ -643,27 +731,9 @@ def run_protocol(
         log = EncoderLog(t, all_left[i, :m], all_right[i, :m], modulus)
         pred = integrate(t, log.left_ticks, log.right_ticks, nominal).final
         true = _pose(float(t[-1]), float(fx[i]), float(fy[i]), float(fh[i]))
-        kind = spec.command.kind
-        if kind in (MotionKind.ROTATION, MotionKind.PIVOT):
-            meas = Measurement(
-                instrument="compass",
-                rotation=float(readings.rotation[i]),
-                sigma_rotation=sig_rot,
-                raw={
-                    "compass_initial_deg": float(readings.initial_deg[i]),
-                    "compass_final_deg": float(readings.final_deg[i]),
-                    "turns": float(readings.turns[i]),
-                },
-            )
-        else:
-            inst = "tape" if outdoor[i] else "meterstick"
-            meas = Measurement(
-                instrument=inst,
-                x=float(xy[i, 0]),
-                y=float(xy[i, 1]),
-                sigma_xy=(tape if outdoor[i] else stick).sigma,
-                raw={"x_m": float(xy[i, 0]), "y_m": float(xy[i, 1])},
-            )
+        meas = _measurement(
+            spec.command.kind, i, readings, sig_rot, xy, bool(outdoor[i]), tape, stick
+        )
         campaign = _campaign_on(spec.campaign, spec.terrain, terrains[i])
         idx = counters.get(campaign, 0)
         counters[campaign] = idx + 1

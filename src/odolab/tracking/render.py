@@ -91,6 +91,83 @@ def _paste(canvas: NDArray[np.uint8], src: NDArray[np.uint8], dst: FloatArray) -
     roi[:] = (roi * (1.0 - a) + warped * a).astype(np.uint8)
 
 
+def _writer(p: Path, fps: float, model: CameraModel, quality: int) -> Any:
+    """An open MJPG writer of ``model``-sized frames at ``p``."""
+    import cv2
+
+    writer = cv2.VideoWriter(
+        str(p), cv2.VideoWriter.fourcc(*"MJPG"), fps, (model.width, model.height)
+    )
+    if not writer.isOpened():
+        raise TrackingError(f"{p}: OpenCV cannot write an MJPG video here")
+    writer.set(cv2.VIDEOWRITER_PROP_QUALITY, float(quality))
+    return writer
+
+
+def _floor_image(
+    scene: SceneCamera,
+    floor: Sequence[FloorMarker],
+    rng: np.random.Generator,
+    ss: int,
+    px: int,
+    dictionary: str,
+) -> tuple[SceneCamera, NDArray[np.uint8]]:
+    """The camera supersampled ``ss`` times, and its view of the textured floor with its markers."""
+    import cv2
+
+    model = scene.model
+    big = SceneCamera(
+        CameraModel(model.fx * ss, model.fy * ss, model.cx * ss + (ss - 1) / 2,
+                    model.cy * ss + (ss - 1) / 2, model.width * ss, model.height * ss),
+        scene.rotation, scene.position,
+    )  # fmt: skip
+    tex: Any = rng.normal(0.0, 1.0, (model.height * ss // 16 + 1, model.width * ss // 16 + 1))
+    tex = cv2.resize(tex, (model.width * ss, model.height * ss), interpolation=cv2.INTER_CUBIC)
+    floor_img = np.clip(150 + 18 * tex, 0, 255).astype(np.uint8)
+    images = {m.id: marker_image(m.id, px, dictionary) for m in floor}
+    base = floor_img.copy()
+    for m in floor:
+        img = images[m.id]
+        _paste(base, img, big.project(_placed(m.size, px, img.shape[0], m.x, m.y, m.yaw, 0.0)))
+    return big, base
+
+
+def _exposed(
+    drawn: Callable[[float, bool], NDArray[np.uint8]],
+    t: float,
+    shown: bool,
+    exposure: float,
+    steps: int,
+    shape: tuple[int, ...],
+) -> NDArray[np.uint8]:
+    """The frame at ``t``, or the mean of ``steps`` frames over the ``exposure`` around it."""
+    if steps == 1:
+        return drawn(t, shown)
+    acc = np.zeros(shape, np.float32)
+    for j in range(steps):
+        acc += drawn(t + exposure * (j / (steps - 1) - 0.5), shown)
+    return np.asarray(np.clip(acc / steps + 0.5, 0, 255).astype(np.uint8), dtype=np.uint8)
+
+
+def _as_filmed(
+    frame: NDArray[np.uint8],
+    model: CameraModel,
+    blur: float,
+    noise: float,
+    grain: NDArray[np.int16],
+) -> NDArray[np.uint8]:
+    """The supersampled frame at the camera's size, blurred, with grey-level noise."""
+    import cv2
+
+    small = cv2.resize(frame, (model.width, model.height), interpolation=cv2.INTER_AREA)
+    if blur > 0:
+        small = cv2.GaussianBlur(small, (0, 0), blur)
+    # Gaussian grey-level noise, rounded to integers (std sqrt(noise^2 + 1/12)), added
+    # with saturation; OpenCV's generator (seeded below) is 3x faster than numpy's here
+    cv2.randn(grain, np.zeros(1), np.full(1, float(noise)))
+    return np.asarray(cv2.add(small, grain, dtype=cv2.CV_8U), dtype=np.uint8)
+
+
 def render_video(
     path: str | Path,
     truth: Trajectory,
@@ -129,32 +206,15 @@ def render_video(
     model = scene.model
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
-    writer = cv2.VideoWriter(
-        str(p), cv2.VideoWriter.fourcc(*"MJPG"), fps, (model.width, model.height)
-    )
-    if not writer.isOpened():
-        raise TrackingError(f"{p}: OpenCV cannot write an MJPG video here")
-    writer.set(cv2.VIDEOWRITER_PROP_QUALITY, float(quality))
+    writer = _writer(p, fps, model, quality)
     rng = np.random.default_rng(seed)
     cv2.setRNGSeed(seed)
     grain = np.empty((model.height, model.width), np.int16)
     ss = 2  # supersampling
-    big = SceneCamera(
-        CameraModel(model.fx * ss, model.fy * ss, model.cx * ss + (ss - 1) / 2,
-                    model.cy * ss + (ss - 1) / 2, model.width * ss, model.height * ss),
-        scene.rotation, scene.position,
-    )  # fmt: skip
-    tex: Any = rng.normal(0.0, 1.0, (model.height * ss // 16 + 1, model.width * ss // 16 + 1))
-    tex = cv2.resize(tex, (model.width * ss, model.height * ss), interpolation=cv2.INTER_CUBIC)
-    floor_img = np.clip(150 + 18 * tex, 0, 255).astype(np.uint8)
     px = 96
-    images = {m.id: marker_image(m.id, px, dictionary) for m in floor}
+    big, base = _floor_image(scene, floor, rng, ss, px, dictionary)
     robot_img = marker_image(robot_marker, px, dictionary)
     plate = np.full((8, 8), 70, np.uint8)
-    base = floor_img.copy()
-    for m in floor:
-        img = images[m.id]
-        _paste(base, img, big.project(_placed(m.size, px, img.shape[0], m.x, m.y, m.yaw, 0.0)))
     end = truth.t[-1] if duration is None else min(truth.t[0] + duration, truth.t[-1])
     n = math.floor((end - truth.t[0]) * fps + 1e-9) + 1
     dx, dy = marker_offset
@@ -178,20 +238,8 @@ def render_video(
         for k in range(n):
             t = truth.t[0] + k / fps
             shown = not any(a <= t <= b for a, b in hidden)
-            if steps == 1:
-                frame = drawn(t, shown)
-            else:
-                acc = np.zeros(base.shape, np.float32)
-                for j in range(steps):
-                    acc += drawn(t + exposure * (j / (steps - 1) - 0.5), shown)
-                frame = np.clip(acc / steps + 0.5, 0, 255).astype(np.uint8)
-            small = cv2.resize(frame, (model.width, model.height), interpolation=cv2.INTER_AREA)
-            if blur > 0:
-                small = cv2.GaussianBlur(small, (0, 0), blur)
-            # Gaussian grey-level noise, rounded to integers (std sqrt(noise^2 + 1/12)), added
-            # with saturation; OpenCV's generator (seeded below) is 3x faster than numpy's here
-            cv2.randn(grain, np.zeros(1), np.full(1, float(noise)))
-            out = cv2.add(small, grain, dtype=cv2.CV_8U)
+            frame = _exposed(drawn, t, shown, exposure, steps, base.shape)
+            out = _as_filmed(frame, model, blur, noise, grain)
             writer.write(cv2.cvtColor(out, cv2.COLOR_GRAY2BGR))
             if progress is not None:
                 progress(k + 1, n)

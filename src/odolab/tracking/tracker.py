@@ -427,6 +427,41 @@ def _decoded(cap: Any, path: Path, camera: CameraModel, fps: float) -> Iterator[
         cap.release()
 
 
+def _detect(detector: Any, grey: Any, last: FloatArray | None) -> tuple[Any, Any, FloatArray]:
+    """The markers in the frame (corners, ids, and the pixel origin of the part searched): the
+    whole frame, or (``last``, the robot's corners in the previous frame) only near the robot."""
+    if last is None:
+        corners, ids, _ = detector.detectMarkers(grey)
+        return corners, ids, np.zeros(2)
+    # the camera stands still: only the robot moves; search near where it was
+    side = float(np.ptp(last, axis=0).max())
+    pad = max(2.0 * side, 40.0)
+    x0 = max(int(last[:, 0].min() - pad), 0)
+    y0 = max(int(last[:, 1].min() - pad), 0)
+    x1 = min(int(last[:, 0].max() + pad) + 1, grey.shape[1])
+    y1 = min(int(last[:, 1].max() + pad) + 1, grey.shape[0])
+    corners, ids, _ = detector.detectMarkers(grey[y0:y1, x0:x1])
+    return corners, ids, np.array([x0, y0], dtype=np.float64)
+
+
+def _robot_rows(
+    robot: list[tuple[float, FloatArray]],
+    t0: float,
+    camera: CameraModel,
+    pose: CameraPose,
+    options: TrackOptions,
+) -> FloatArray:
+    """(t - t0, x, y, yaw, rms) of the robot's reference point in every frame it was seen."""
+    dx, dy = options.marker_offset
+    rows = []
+    for t, c in robot:
+        plane = _to_plane(c, camera, pose, options.marker_height)
+        mx, my, yaw, rms = _square_fit(plane, options.marker_size)
+        cs, sn = math.cos(yaw), math.sin(yaw)
+        rows.append((t - t0, mx - (cs * dx - sn * dy), my - (sn * dx + cs * dy), yaw, rms))
+    return np.array(rows)
+
+
 def track_video(
     video: str | Path,
     floor: Sequence[FloorMarker],
@@ -459,19 +494,7 @@ def track_video(
         stamps.append(t)
         full = last is None or frames % options.full_every == 0
         frames += 1
-        if full:
-            corners, ids, _ = detector.detectMarkers(grey)
-            origin = np.zeros(2)
-        else:  # the camera stands still: only the robot moves; search near where it was
-            assert last is not None
-            side = float(np.ptp(last, axis=0).max())
-            pad = max(2.0 * side, 40.0)
-            x0 = max(int(last[:, 0].min() - pad), 0)
-            y0 = max(int(last[:, 1].min() - pad), 0)
-            x1 = min(int(last[:, 0].max() + pad) + 1, grey.shape[1])
-            y1 = min(int(last[:, 1].max() + pad) + 1, grey.shape[0])
-            corners, ids, _ = detector.detectMarkers(grey[y0:y1, x0:x1])
-            origin = np.array([x0, y0], dtype=np.float64)
+        corners, ids, origin = _detect(detector, grey, None if full else last)
         found = None
         if ids is not None:
             for c, i in zip(corners, ids.reshape(-1), strict=True):
@@ -499,15 +522,7 @@ def track_video(
             f"{path}: the robot's marker {options.robot_marker} ({options.dictionary}) was not "
             f"seen in any of {frames} frames"
         )
-    dx, dy = options.marker_offset
-    rows = []
-    t0 = stamps[0]
-    for t, c in robot:
-        plane = _to_plane(c, camera, pose, options.marker_height)
-        mx, my, yaw, rms = _square_fit(plane, options.marker_size)
-        cs, sn = math.cos(yaw), math.sin(yaw)
-        rows.append((t - t0, mx - (cs * dx - sn * dy), my - (sn * dx + cs * dy), yaw, rms))
-    arr = np.array(rows)
+    arr = _robot_rows(robot, stamps[0], camera, pose, options)
     # before: np.unwrap across every gap, 360 deg off after a hidden turn of over half a turn
     heading, segment, gaps = segment_headings(arr[:, 0], arr[:, 3], options.max_yaw_rate)
     return TrackResult(

@@ -130,6 +130,88 @@ def check_search(nominal_offset: float, max_offset: float, smooth: float) -> Non
         )
 
 
+def _rates_on_grids(
+    robot_t: FloatArray,
+    robot_heading: FloatArray,
+    imu: ImuLog,
+    h: float,
+    gaps: Sequence[tuple[float, float]],
+    smooth: float,
+) -> tuple[FloatArray, FloatArray, FloatArray, bool]:
+    """The robot's and the sensor's yaw rates on grids of step ``h`` from each log's start,
+    low-passed, and where the sensor's rate is known (1, else 0; whether any is unknown)."""
+    # robot grid starts at robot_t[0]; phone grid starts at imu.t[0]; both step h
+    na = math.floor((robot_t[-1] - robot_t[0]) / h) + 1
+    nb = math.floor((imu.t[-1] - imu.t[0]) / h) + 1
+    a = rate_on_grid(robot_t, robot_heading, robot_t[0] + h * np.arange(na))
+    grid_b = imu.t[0] + h * np.arange(nb)
+    b = _imu_rate_on_grid(imu, grid_b)
+    known = np.ones(nb)  # 0 where the sensor's rate is unknown (``gaps``)
+    for g0, g1 in gaps:
+        known[(grid_b > g0) & (grid_b < g1)] = 0.0
+    masked = bool((known == 0.0).any())
+    if smooth > 0:  # the same zero-phase (symmetric) low-pass on both: no shift, less noise
+        a = ndimage.gaussian_filter1d(a, smooth / h, mode="nearest")
+        if masked:  # from the known samples only (normalised convolution)
+            weight = ndimage.gaussian_filter1d(known, smooth / h, mode="nearest")
+            b = ndimage.gaussian_filter1d(b * known, smooth / h, mode="nearest")
+            b = b / np.maximum(weight, 1e-12)
+            # and only where the low-pass saw no unknown sample: near a gap's edge the robot's
+            # smoothed rate carries what happened inside the gap, the sensor's cannot
+            known = known * (weight > 0.999)
+        else:
+            b = ndimage.gaussian_filter1d(b, smooth / h, mode="nearest")
+    return a, b, known, masked
+
+
+def _energies(
+    a: FloatArray, b: FloatArray, known: FloatArray, masked: bool, lags: NDArray[np.int64]
+) -> FloatArray:
+    """Per lag, the product of both rates' energies inside the overlap."""
+    na, nb = a.size, b.size
+    ca = np.concatenate(([0.0], np.cumsum(a * a)))
+    cb = np.concatenate(([0.0], np.cumsum(b * b)))
+    r0 = np.maximum(0, lags)
+    r1 = np.minimum(na, lags + nb)
+    if masked:  # the robot's energy only where the sensor's rate is known, lag by lag
+        energy_a = np.asarray(signal.correlate(a * a, known, mode="full", method="auto"))
+        energy = np.maximum(energy_a, 0.0) * (cb[r1 - lags] - cb[r0 - lags])
+    else:
+        energy = (ca[r1] - ca[r0]) * (cb[r1 - lags] - cb[r0 - lags])
+    return np.asarray(energy, dtype=np.float64)
+
+
+def _grid_step(robot_t: FloatArray, imu: ImuLog, grid_step: float | None) -> float:
+    """The given step, or the finer of the two logs' median sample spacing in [1 ms, 50 ms]."""
+    if grid_step is None:
+        spacing = min(float(np.median(np.diff(robot_t))), float(np.median(np.diff(imu.t))))
+        grid_step = min(max(spacing, 1e-3), 0.05)
+    return float(grid_step)
+
+
+def _check_sign(imu: ImuLog, fine: FloatArray, k: int) -> None:
+    """Refuse a best match that the same rates with the sign reversed beat."""
+    worst = float(np.min(np.where(np.isfinite(fine), fine, np.inf)))
+    if fine[k] < 0.5 and -worst > fine[k]:
+        raise ImuLogError(
+            f"{imu.source}: the IMU's yaw rate matches the odometry's best with its sign "
+            f"reversed (correlation {worst:.2f} against {float(fine[k]):.2f}); if the phone lay "
+            "face down, flip the IMU's heading (--flip-imu)"
+        )
+
+
+def _vertex(fine: FloatArray, k: int) -> float:
+    """The parabola's vertex through the scores around the best lag ``k``, in grid steps
+    (within +-0.5; 0 at an edge or where it opens upwards)."""
+    delta = 0.0
+    if 0 < k < fine.size - 1 and np.isfinite(fine[k - 1]) and np.isfinite(fine[k + 1]):
+        y0, y1, y2 = fine[k - 1], fine[k], fine[k + 1]
+        den = y0 - 2.0 * y1 + y2
+        if den < 0:
+            delta = float(np.clip(0.5 * (y0 - y2) / den, -0.5, 0.5))
+    return delta
+
+
 def find_clock_offset(
     robot_t: FloatArray,
     robot_heading: FloatArray,
@@ -171,31 +253,9 @@ def find_clock_offset(
         o1 = min(float(robot_t[-1]), float(imu.t[-1]) - nominal_offset)
         return ClockAlignment(nominal_offset, math.nan, 0.0, o0, o1, (lo, hi))
 
-    if grid_step is None:
-        spacing = min(float(np.median(np.diff(robot_t))), float(np.median(np.diff(imu.t))))
-        grid_step = min(max(spacing, 1e-3), 0.05)
-    h = float(grid_step)
-    # robot grid starts at robot_t[0]; phone grid starts at imu.t[0]; both step h
-    na = math.floor((robot_t[-1] - robot_t[0]) / h) + 1
-    nb = math.floor((imu.t[-1] - imu.t[0]) / h) + 1
-    a = rate_on_grid(robot_t, robot_heading, robot_t[0] + h * np.arange(na))
-    grid_b = imu.t[0] + h * np.arange(nb)
-    b = _imu_rate_on_grid(imu, grid_b)
-    known = np.ones(nb)  # 0 where the sensor's rate is unknown (``gaps``)
-    for g0, g1 in gaps:
-        known[(grid_b > g0) & (grid_b < g1)] = 0.0
-    masked = bool((known == 0.0).any())
-    if smooth > 0:  # the same zero-phase (symmetric) low-pass on both: no shift, less noise
-        a = ndimage.gaussian_filter1d(a, smooth / h, mode="nearest")
-        if masked:  # from the known samples only (normalised convolution)
-            weight = ndimage.gaussian_filter1d(known, smooth / h, mode="nearest")
-            b = ndimage.gaussian_filter1d(b * known, smooth / h, mode="nearest")
-            b = b / np.maximum(weight, 1e-12)
-            # and only where the low-pass saw no unknown sample: near a gap's edge the robot's
-            # smoothed rate carries what happened inside the gap, the sensor's cannot
-            known = known * (weight > 0.999)
-        else:
-            b = ndimage.gaussian_filter1d(b, smooth / h, mode="nearest")
+    h = _grid_step(robot_t, imu, grid_step)
+    a, b, known, masked = _rates_on_grids(robot_t, robot_heading, imu, h, gaps, smooth)
+    na, nb = a.size, b.size
     b = b * known
     norm = float(np.linalg.norm(a) * np.linalg.norm(b))
     if norm == 0.0:
@@ -218,15 +278,7 @@ def find_clock_offset(
         raise ImuLogError(f"{imu.source}: no clock offset in [{lo:g}, {hi:g}] s fits the grid")
     # the correlation normalised by the energies inside the overlap: a cosine, exactly 1 where
     # one rate is a multiple of the other, for any overlap (no bias towards longer overlaps)
-    ca = np.concatenate(([0.0], np.cumsum(a * a)))
-    cb = np.concatenate(([0.0], np.cumsum(b * b)))
-    r0 = np.maximum(0, lags)
-    r1 = np.minimum(na, lags + nb)
-    if masked:  # the robot's energy only where the sensor's rate is known, lag by lag
-        energy_a = np.asarray(signal.correlate(a * a, known, mode="full", method="auto"))
-        energy = np.maximum(energy_a, 0.0) * (cb[r1 - lags] - cb[r0 - lags])
-    else:
-        energy = (ca[r1] - ca[r0]) * (cb[r1 - lags] - cb[r0 - lags])
+    energy = _energies(a, b, known, masked, lags)
     solid = energy > 1e-9 * norm * norm  # where the FFT's rounding cannot dominate
     local = np.where(solid, c * norm / np.sqrt(np.where(solid, energy, 1.0)), -np.inf)
     # short overlaps match by chance: ask for half the shorter log where the bounds allow it
@@ -234,20 +286,8 @@ def find_clock_offset(
     long_enough = allowed & (overlap >= need)
     fine = np.where(long_enough if long_enough.any() else allowed, local, -np.inf)
     k = int(np.argmax(fine))
-    worst = float(np.min(np.where(np.isfinite(fine), fine, np.inf)))
-    if fine[k] < 0.5 and -worst > fine[k]:
-        raise ImuLogError(
-            f"{imu.source}: the IMU's yaw rate matches the odometry's best with its sign "
-            f"reversed (correlation {worst:.2f} against {float(fine[k]):.2f}); if the phone lay "
-            "face down, flip the IMU's heading (--flip-imu)"
-        )
-    delta = 0.0
-    if 0 < k < c.size - 1 and np.isfinite(fine[k - 1]) and np.isfinite(fine[k + 1]):
-        y0, y1, y2 = fine[k - 1], fine[k], fine[k + 1]
-        den = y0 - 2.0 * y1 + y2
-        if den < 0:
-            delta = float(np.clip(0.5 * (y0 - y2) / den, -0.5, 0.5))
-    offset = float(offsets[k] - delta * h)
+    _check_sign(imu, fine, k)
+    offset = float(offsets[k] - _vertex(fine, k) * h)
     offset = min(max(offset, lo), hi)
     o0 = max(float(robot_t[0]), float(imu.t[0]) - offset)
     o1 = min(float(robot_t[-1]), float(imu.t[-1]) - offset)

@@ -21,6 +21,7 @@ from odolab.errors import ImuLogError
 from odolab.kinematics import Method
 from odolab.odometry import integrate
 from odolab.params import RobotParams
+from odolab.trajectory import Trajectory
 from odolab.trials import EncoderLog
 from odolab.validation.align import ClockAlignment, check_search, find_clock_offset
 from odolab.validation.sensorlog import ImuLog
@@ -151,6 +152,50 @@ def _noop(_: str) -> None:
     return None
 
 
+def _integrated(
+    encoder_log: EncoderLog, params: RobotParams, m: Method, encoder_source: str
+) -> Trajectory:
+    return integrate(
+        encoder_log.t,
+        encoder_log.left_ticks,
+        encoder_log.right_ticks,
+        _with_log_modulus(params, encoder_log),
+        m,
+        source=encoder_source,
+    )
+
+
+def _warnings(
+    align: ClockAlignment, old_error: HeadingError, imu_h: FloatArray, t: FloatArray
+) -> list[str]:
+    """What the comparison saw that may make it wrong: a weak correlation, opposite senses, a
+    sense check of the old parameters' odometry that fails."""
+    warnings = []
+    if not math.isnan(align.correlation) and align.correlation < LOW_CORRELATION:
+        warnings.append(
+            f"the yaw rates correlate only {align.correlation:.2f} at the clock offset found "
+            f"({align.clock_offset:+.2f} s): either the true yaw rate is noisy (tracks that "
+            "scrub), or the logs do not record the same motion, or the offset search range is "
+            "wrong; check the heading plot"
+        )
+    old_total, imu_total = old_error.heading[-1], imu_h[-1]
+    if abs(imu_total) > 0.5 and old_total * imu_total < 0:
+        warnings.append(
+            f"the IMU turned {imu_total:.2f} rad but the odometry {old_total:.2f} rad: opposite "
+            "senses; is the phone face down (flip the IMU)?"
+        )
+    else:  # the same rule as a robot's live sense check (odolab.robot.drift.sense_check)
+        from odolab.robot.drift import sense_check
+
+        found = sense_check(float(old_total), float(imu_total), float(t[-1] - t[0]))
+        if found is not None:
+            warnings.append(
+                f"sense check of the odometry (old parameters) against the IMU: "
+                f"{_log_sense_sentence(found)}"
+            )
+    return warnings
+
+
 def validate(
     encoder_log: EncoderLog,
     imu: ImuLog,
@@ -178,17 +223,7 @@ def validate(
     if len(encoder_log) < 2:
         raise ImuLogError(f"{encoder_source}: {len(encoder_log)} sample(s); at least 2 are needed")
     progress("integrating the encoder log with the old and the new parameters")
-    trajs = [
-        integrate(
-            encoder_log.t,
-            encoder_log.left_ticks,
-            encoder_log.right_ticks,
-            _with_log_modulus(p, encoder_log),
-            m,
-            source=encoder_source,
-        )
-        for p in (old, new)
-    ]
+    trajs = [_integrated(encoder_log, p, m, encoder_source) for p in (old, new)]
     progress("finding the clock offset between the phone and the robot")
     align = find_clock_offset(
         trajs[0].t,
@@ -214,29 +249,7 @@ def validate(
         h = np.interp(t, traj.t, traj.heading)
         h = h - h[0]
         errors.append(HeadingError(label, params, h, h - imu_h))
-    warnings = []
-    if not math.isnan(align.correlation) and align.correlation < LOW_CORRELATION:
-        warnings.append(
-            f"the yaw rates correlate only {align.correlation:.2f} at the clock offset found "
-            f"({align.clock_offset:+.2f} s): either the true yaw rate is noisy (tracks that "
-            "scrub), or the logs do not record the same motion, or the offset search range is "
-            "wrong; check the heading plot"
-        )
-    old_total, imu_total = errors[0].heading[-1], imu_h[-1]
-    if abs(imu_total) > 0.5 and old_total * imu_total < 0:
-        warnings.append(
-            f"the IMU turned {imu_total:.2f} rad but the odometry {old_total:.2f} rad: opposite "
-            "senses; is the phone face down (flip the IMU)?"
-        )
-    else:  # the same rule as a robot's live sense check (odolab.robot.drift.sense_check)
-        from odolab.robot.drift import sense_check
-
-        found = sense_check(float(old_total), float(imu_total), float(t[-1] - t[0]))
-        if found is not None:
-            warnings.append(
-                f"sense check of the odometry (old parameters) against the IMU: "
-                f"{_log_sense_sentence(found)}"
-            )
+    warnings = _warnings(align, errors[0], imu_h, t)
     progress("done")
     return ValidationResult(
         t,

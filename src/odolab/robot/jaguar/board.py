@@ -43,6 +43,7 @@ from typing import TypeVar, cast
 
 import numpy as np
 
+from odolab.encoders import counter_delta
 from odolab.errors import ProtocolError, RobotLinkError
 from odolab.params import RobotParams
 from odolab.robot.config import BOUNDS, Bound, check_bound
@@ -351,7 +352,7 @@ class VirtualJaguar:
         vel = [0, 0]
         if self._last_counts is not None:
             for i in (0, 1):
-                d = (counts[i] - self._last_counts[i] + m // 2) % m - m // 2
+                d = counter_delta(counts[i] - self._last_counts[i], m)
                 vel[i] = min(round(abs(d) / period), 0xFFFF)
                 if d > 0:
                     self._direction |= 1 << i

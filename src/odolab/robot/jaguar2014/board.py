@@ -36,7 +36,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TypeVar
 
+from odolab.encoders import counter_delta
 from odolab.errors import RobotLinkError
+from odolab.kinematics import wrap_angle
 from odolab.params import RobotParams
 from odolab.robot.errors import BoardConfigError
 from odolab.robot.jaguar2014.driver import VARIANTS
@@ -183,7 +185,7 @@ class VirtualJaguar2014:
         for i in (0, 1):
             d = now[i] - self._plant_last[i]
             if m is not None:
-                d = (d + m // 2) % m - m // 2
+                d = counter_delta(d, m)
             self._acc[i] += d
         self._plant_last = now
 
@@ -293,7 +295,7 @@ class VirtualJaguar2014:
         heading = self.plant.true_pose.heading
         rate = (heading - self._last_heading) / period  # rad/s
         self._last_heading = heading
-        yaw = math.atan2(math.sin(heading), math.cos(heading))
+        yaw = wrap_angle(heading)
         gz = round(math.degrees(rate) * GYRO_LSB_PER_DEG_S)
         self._say(t, f"#{self._seq},YAW,{yaw:.4f},GYRO,0,0,{gz},ACC,0,0,251,COMP,0,0,0")
         self._seq = (self._seq + 1) % 256

@@ -1,0 +1,72 @@
+"""Issue 41: one plain statement each of the angle wrap, the counter rollover and the odometry
+step, and their compiled twins equal to them (the twins are what the kernels inline)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from odolab._encoders_jit import unwrap_diff
+from odolab._kinematics_jit import chord, step_pose, wrap
+from odolab.encoders import counter_delta
+from odolab.kinematics import SMALL_ANGLE, chord_factors, odometry_step, wrap_angle
+
+# headings, body motions and heading changes around the series switch, large and negative
+DTHETA = np.array([0.0, 1e-9, -SMALL_ANGLE, 2 * SMALL_ANGLE, 1.9999e-4, 0.01, -0.3, 1.2, -3.0])
+HEADING = np.array([0.0, -7.0, 3.1, 100.0, -0.5])
+
+
+def _cases() -> list[tuple[float, float, float, float, float, float]]:
+    rng = np.random.default_rng(41)
+    out = []
+    for h in HEADING:
+        for d in DTHETA:
+            x, y, fwd, lat = rng.normal(size=4)
+            out.append((float(x), float(y), float(h), float(fwd), float(lat), float(d)))
+    return out
+
+
+def test_compiled_step_equals_the_plain_step() -> None:
+    for arc in (False, True):
+        for x, y, h, fwd, lat, d in _cases():
+            got = step_pose(x, y, h, fwd, lat, d, arc)
+            want = odometry_step(x, y, h, fwd, lat, d, arc)
+            # numpy's sin/cos and libm's may differ in the last bit: equal to rounding
+            np.testing.assert_allclose(got, [float(v) for v in want], rtol=1e-15, atol=1e-15)
+            assert got[2] == float(want[2])  # the heading sum is the same operation
+
+
+def test_plain_step_on_arrays_equals_it_per_element() -> None:
+    cases = np.array(_cases())
+    xs, ys, hs = odometry_step(*cases.T, True)
+    for k, row in enumerate(cases):
+        one = odometry_step(*row, True)
+        assert (xs[k], ys[k], hs[k]) == (float(one[0]), float(one[1]), float(one[2]))
+
+
+def test_compiled_chord_equals_the_plain_chord() -> None:
+    plain = chord_factors(DTHETA)
+    for d, p in zip(DTHETA, plain, strict=True):
+        assert math.isclose(chord(float(d), True), float(p), rel_tol=1e-15)
+        assert chord(float(d), False) == 1.0
+    assert (chord_factors(DTHETA, arc=False) == 1.0).all()
+
+
+def test_compiled_wrap_equals_wrap_angle() -> None:
+    angles = np.concatenate(
+        [np.linspace(-50.0, 50.0, 2001), [math.pi, -math.pi, 3 * math.pi, -3 * math.pi, 0.0]]
+    )
+    plain = wrap_angle(angles)
+    for a, p in zip(angles, plain, strict=True):
+        assert wrap(float(a)) == float(p) == wrap_angle(float(a))
+
+
+def test_compiled_rollover_equals_counter_delta() -> None:
+    for modulus in (2, 1024, 32768, 65536):
+        half = modulus // 2
+        diffs = np.arange(-modulus + 1, modulus, max(1, modulus // 257), dtype=np.int64)
+        plain = counter_delta(diffs, modulus)
+        assert ((plain >= -half) & (plain < modulus - half)).all()
+        for d, p in zip(diffs, plain, strict=True):
+            assert unwrap_diff(int(d), modulus, half) == int(p) == counter_delta(int(d), modulus)
