@@ -52,9 +52,13 @@ class _Words(StrEnum):
             if member.value == text:
                 return member
         place = f"{where}: " if where else ""
-        what = "motion kind" if cls.__name__ == "MotionKind" else "motion"
         allowed = ", ".join(m.value for m in cls)
-        raise error(f"{place}{what} {text!r} is not one of {allowed}")
+        raise error(f"{place}{cls._noun()} {text!r} is not one of {allowed}")
+
+    @classmethod
+    def _noun(cls) -> str:
+        """What a word of this vocabulary is called in a refusal."""
+        return "motion"
 
 
 class MotionKind(_Words):
@@ -65,6 +69,10 @@ class MotionKind(_Words):
     PIVOT = "pivot"  #: turn by ``angle`` on one track, the other held
     SQUARE = "square"  #: UMBmark square of ``side``, ``direction`` "cw" or "ccw"
     FREE = "free"  #: anything else (a recorded log; an exploration: :attr:`Command.explore`)
+
+    @classmethod
+    def _noun(cls) -> str:
+        return "motion kind"
 
     @property
     def turns_in_place(self) -> bool:
