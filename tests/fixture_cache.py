@@ -22,6 +22,7 @@ import os
 import pickle
 import shutil
 import sys
+import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any, TypeVar
@@ -116,3 +117,44 @@ def cached(
             shutil.rmtree(dest)
         shutil.copytree(folder / "data", dest, symlinks=True)
     return relocate(result, folder / "data", dest)  # type: ignore[no-any-return]
+
+
+#: results :func:`memo` loaded or built in this process
+_MEMO: dict[str, Any] = {}
+
+
+def memo(
+    name: str,
+    build: Callable[[], T],
+    *,
+    key: Iterable[str] = (),
+    depends_on: Iterable[Path] = (),
+) -> T:
+    """``build()``'s result (a value, no folder: a fit, a simulated run), built once for every
+    process and run with the same ``name`` and ``key``: tests that need the same expensive fit
+    share it across xdist's workers. ``build`` must be a pure function of its key and of
+    odolab's source (the key names every input the caller varies)."""
+    if os.environ.get("ODOLAB_TEST_CACHE", "1") == "0":
+        return build()
+    shift = os.environ.get("ODOLAB_TEST_SEED_SHIFT", "0")  # (tests/bounds.py's other seeds)
+    digest = _digest([name, f"seed shift {shift}", *key], [*source_files(), *depends_on])
+    if digest in _MEMO:
+        return _MEMO[digest]  # type: ignore[no-any-return]
+    folder = CACHE / "memo"
+    folder.mkdir(parents=True, exist_ok=True)
+    (CACHE / ".gitignore").write_text("*\n", encoding="utf-8")
+    done = folder / f"{name}-{digest}.pickle"
+    with (folder / f"{name}-{digest}.lock").open("w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # another worker building the same waits for it
+        if done.is_file():
+            result = pickle.loads(done.read_bytes())
+        else:
+            for stale in folder.glob(f"{name}-*"):  # other keys' and older sources' results
+                if stale.stat().st_mtime < time.time() - 86400:
+                    stale.unlink(missing_ok=True)
+            result = build()
+            tmp = done.with_suffix(".partial")
+            tmp.write_bytes(pickle.dumps(result))
+            tmp.replace(done)
+    _MEMO[digest] = result
+    return result  # type: ignore[no-any-return]
