@@ -9,7 +9,7 @@ from typing import Any
 import pytest
 from hypothesis import HealthCheck, settings
 
-from fixture_cache import cached
+from fixture_cache import cached, slip_fits_once
 from shared_data import data_dir, require
 
 #: the suite's own rules: no skips in CI, and the opt-in bound measurements (tests/bounds.py)
@@ -44,7 +44,8 @@ def _demo(truth: str) -> Any:
 
     def build(folder: Path) -> Any:
         steps: list[str] = []
-        result = run_lab(folder, truth=truth, progress=lambda s, d, t: steps.append(s))
+        with slip_fits_once():  # the tests that rerun its `calibrate compare` reuse its fits
+            result = run_lab(folder, truth=truth, progress=lambda s, d, t: steps.append(s))
         return result, steps
 
     return build

@@ -14,6 +14,7 @@ notebook changes only its own copy, as before.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import fcntl
 import hashlib
@@ -23,7 +24,8 @@ import pickle
 import shutil
 import sys
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -158,3 +160,30 @@ def memo(
             tmp.replace(done)
     _MEMO[digest] = result
     return result  # type: ignore[no-any-return]
+
+
+@contextmanager
+def slip_fits_once() -> Iterator[None]:
+    """While on, odolab's slip fit (:func:`odolab.calibration.slipfit.fit_slip_model`, a pure
+    function, 3 s of CPU) returns the result of an earlier call with the same arguments
+    (compared as pickled bytes) in any test process (:func:`memo`), instead of fitting again:
+    the tracked demo, ``calibrate compare`` on the demo's runs and ``calibrate lsq --model slip``
+    after ``compare`` fit the same models. Everything around the fit still runs, and arguments
+    that differ in any byte fit anew, so a test comparing two paths still sees each path's own
+    inputs. Not for tests that change how the fit computes (compiled kernels off, a patched
+    function inside it): the memo would give them the unchanged fit's result."""
+    from odolab.calibration import slipfit
+
+    original = slipfit.fit_slip_model
+
+    def fit_once(*args: Any, **kwargs: Any) -> Any:
+        blob = pickle.dumps((args, sorted(kwargs.items())))
+        key = hashlib.sha256(blob).hexdigest()
+        result = memo("slip-fit", lambda: original(*args, **kwargs), key=[key])
+        return copy.deepcopy(result)
+
+    slipfit.fit_slip_model = fit_once  # type: ignore[assignment]
+    try:
+        yield
+    finally:
+        slipfit.fit_slip_model = original  # type: ignore[assignment]

@@ -48,22 +48,15 @@ the pooled ratio with a margin); the NEES is printed, not asserted.
 
 from __future__ import annotations
 
-import copy
-import hashlib
 import json
-import pickle
 import sys
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pytest
 
-from fixture_cache import cached
-from odolab.calibration import slipfit
+from fixture_cache import cached, slip_fits_once
 from odolab.calibration.slipfit import nees_bounds, nees_pieces
 from odolab.cli import main
 from odolab.io.registry import read_run
@@ -212,31 +205,9 @@ def _measure(
 _DEPENDS = (Path(__file__), Path(__file__).with_name("independent_sims.py"))
 
 
-@contextmanager
-def _slip_fits_once() -> Iterator[None]:
-    """`calibrate compare` and `calibrate lsq --model slip` on the same exploration fit the same
-    slip model (3 s of CPU each, 8 times): while this is on, :func:`fit_slip_model` (a pure
-    function) returns its earlier result for the same arguments (compared as pickled bytes), so
-    each is fitted once; what the two commands do around the fit still runs for each."""
-    original = slipfit.fit_slip_model
-    done: dict[bytes, Any] = {}
-
-    def fit_once(*args: Any, **kwargs: Any) -> Any:
-        key = hashlib.sha256(pickle.dumps((args, sorted(kwargs.items())))).digest()
-        if key not in done:
-            done[key] = original(*args, **kwargs)
-        return copy.deepcopy(done[key])
-
-    slipfit.fit_slip_model = fit_once  # type: ignore[assignment]
-    try:
-        yield
-    finally:
-        slipfit.fit_slip_model = original  # type: ignore[assignment]
-
-
 def _measure_all(root: Path) -> dict[tuple[str, int], Measured]:
     out: dict[tuple[str, int], Measured] = {}
-    with _slip_fits_once():
+    with slip_fits_once():  # compare and lsq --model slip fit the same model
         for name, sim in SIMS.items():
             for seed in SEEDS:
                 out[(name, seed)] = _measure(sim, seed, root / f"{name}-{seed}", lsq=LSQ)
