@@ -9,7 +9,7 @@ from typing import Any
 import pytest
 from hypothesis import HealthCheck, settings
 
-from fixture_cache import cached, slip_fits_once
+from fixture_cache import cached, demo_builder
 from shared_data import data_dir, require
 
 #: the suite's own rules: no skips in CI, and the opt-in bound measurements (tests/bounds.py)
@@ -39,24 +39,14 @@ def optiodom_dir() -> Path:
     return require("optiodom")
 
 
-def _demo(truth: str) -> Any:
-    from odolab.lab import run_lab
-
-    def build(folder: Path) -> Any:
-        steps: list[str] = []
-        with slip_fits_once():  # the tests that rerun its `calibrate compare` reuse its fits
-            result = run_lab(folder, truth=truth, progress=lambda s, d, t: steps.append(s))
-        return result, steps
-
-    return build
-
-
 @pytest.fixture(scope="session")
 def default_demo(tmp_path_factory: pytest.TempPathFactory) -> Any:
     """The demo with its defaults (`odolab demo`, truth jaguar-lab), as ``(LabResult, the
     progress steps it reported)``: built once for every test process (tests/fixture_cache.py),
     each process reading and writing its own copy."""
-    return cached("default-demo", _demo("jaguar-lab"), tmp_path_factory.mktemp("default-demo"))
+    return cached(
+        "default-demo", demo_builder("jaguar-lab"), tmp_path_factory.mktemp("default-demo")
+    )
 
 
 @pytest.fixture(scope="session")
@@ -64,6 +54,6 @@ def tracked_demo(tmp_path_factory: pytest.TempPathFactory) -> Any:
     """The demo on the tracked truth with its defaults (odolab.lab.run_lab), built once for
     every test process (tests/fixture_cache.py), each reading its own copy."""
     result, _steps = cached(
-        "tracked-demo", _demo("jaguar-lab-tracked"), tmp_path_factory.mktemp("tracked-demo")
+        "tracked-demo", demo_builder("jaguar-lab-tracked"), tmp_path_factory.mktemp("tracked-demo")
     )
     return result

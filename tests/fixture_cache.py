@@ -187,3 +187,19 @@ def slip_fits_once() -> Iterator[None]:
         yield
     finally:
         slipfit.fit_slip_model = original  # type: ignore[assignment]
+
+
+def demo_builder(truth: str) -> Callable[[Path], Any]:
+    """The builder of the lab's demo on ``truth`` (``odolab demo --truth TRUTH --out FOLDER``:
+    ``run_lab`` with its defaults) for :func:`cached`: ``(LabResult, the progress steps it
+    reported)``."""
+
+    def build(folder: Path) -> Any:
+        from odolab.lab import run_lab
+
+        steps: list[str] = []
+        with slip_fits_once():  # the tests that rerun its `calibrate compare` reuse its fits
+            result = run_lab(folder, truth=truth, progress=lambda s, d, t: steps.append(s))
+        return result, steps
+
+    return build
