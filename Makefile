@@ -20,17 +20,17 @@ demo: $(STAMP)
 # every test, in a new random order each run (pytest-randomly prints the seed: rerun an order with
 # `-p randomly --randomly-seed=N`), then the 20 slowest; docs/testing.md has the timings
 test: $(STAMP)
-	MPLBACKEND=Agg $(BIN)/python -m pytest -n 2 -q --durations=20
+	MPLBACKEND=Agg OPENBLAS_NUM_THREADS=1 $(BIN)/python -m pytest -n 2 -q --durations=20
 
 # while developing: leaves out the tests marked slow (documented commands, real-time robot runs,
 # the demos in chromium, the independent simulators); `make test` and CI run everything
 test-fast: $(STAMP)
-	MPLBACKEND=Agg $(BIN)/python -m pytest -n 2 -q -m "not slow"
+	MPLBACKEND=Agg OPENBLAS_NUM_THREADS=1 $(BIN)/python -m pytest -n 2 -q -m "not slow"
 
 # the statistical tests twice, in two random orders, two hash seeds and two xdist distributions:
 # every asserted number must come out the same (tests/determinism.py)
 test-determinism: $(STAMP)
-	MPLBACKEND=Agg $(BIN)/python tests/determinism.py
+	MPLBACKEND=Agg OPENBLAS_NUM_THREADS=1 $(BIN)/python tests/determinism.py
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks

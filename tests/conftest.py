@@ -9,13 +9,19 @@ from typing import Any
 import pytest
 from hypothesis import HealthCheck, settings
 
-from fixture_cache import cached
+from fixture_cache import cached, demo_builder
 from shared_data import data_dir, require
 
 #: the suite's own rules: no skips in CI, and the opt-in bound measurements (tests/bounds.py)
 pytest_plugins = ["suite_plugin"]
 
 os.environ.setdefault("MPLBACKEND", "Agg")
+#: One BLAS thread per test process: xdist already runs a process per core, and OpenBLAS's own
+#: threads (one per core in each process) spin while they wait, which cost a quarter more CPU
+#: for the same work (test_slip_goals, two tests: 41.0 s -> 30.4 s of CPU). Set before xdist
+#: starts its workers, which inherit it (a process that loaded NumPy already keeps its threads:
+#: the Makefile sets it too).
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 settings.register_profile(
     "ci",
@@ -39,23 +45,14 @@ def optiodom_dir() -> Path:
     return require("optiodom")
 
 
-def _demo(truth: str) -> Any:
-    from odolab.lab import run_lab
-
-    def build(folder: Path) -> Any:
-        steps: list[str] = []
-        result = run_lab(folder, truth=truth, progress=lambda s, d, t: steps.append(s))
-        return result, steps
-
-    return build
-
-
 @pytest.fixture(scope="session")
 def default_demo(tmp_path_factory: pytest.TempPathFactory) -> Any:
     """The demo with its defaults (`odolab demo`, truth jaguar-lab), as ``(LabResult, the
     progress steps it reported)``: built once for every test process (tests/fixture_cache.py),
     each process reading and writing its own copy."""
-    return cached("default-demo", _demo("jaguar-lab"), tmp_path_factory.mktemp("default-demo"))
+    return cached(
+        "default-demo", demo_builder("jaguar-lab"), tmp_path_factory.mktemp("default-demo")
+    )
 
 
 @pytest.fixture(scope="session")
@@ -63,6 +60,6 @@ def tracked_demo(tmp_path_factory: pytest.TempPathFactory) -> Any:
     """The demo on the tracked truth with its defaults (odolab.lab.run_lab), built once for
     every test process (tests/fixture_cache.py), each reading its own copy."""
     result, _steps = cached(
-        "tracked-demo", _demo("jaguar-lab-tracked"), tmp_path_factory.mktemp("tracked-demo")
+        "tracked-demo", demo_builder("jaguar-lab-tracked"), tmp_path_factory.mktemp("tracked-demo")
     )
     return result

@@ -14,6 +14,7 @@ notebook changes only its own copy, as before.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import fcntl
 import hashlib
@@ -22,7 +23,9 @@ import os
 import pickle
 import shutil
 import sys
-from collections.abc import Callable, Iterable
+import time
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -116,3 +119,87 @@ def cached(
             shutil.rmtree(dest)
         shutil.copytree(folder / "data", dest, symlinks=True)
     return relocate(result, folder / "data", dest)  # type: ignore[no-any-return]
+
+
+#: results :func:`memo` loaded or built in this process
+_MEMO: dict[str, Any] = {}
+
+
+def memo(
+    name: str,
+    build: Callable[[], T],
+    *,
+    key: Iterable[str] = (),
+    depends_on: Iterable[Path] = (),
+) -> T:
+    """``build()``'s result (a value, no folder: a fit, a simulated run), built once for every
+    process and run with the same ``name`` and ``key``: tests that need the same expensive fit
+    share it across xdist's workers. ``build`` must be a pure function of its key and of
+    odolab's source (the key names every input the caller varies)."""
+    if os.environ.get("ODOLAB_TEST_CACHE", "1") == "0":
+        return build()
+    shift = os.environ.get("ODOLAB_TEST_SEED_SHIFT", "0")  # (tests/bounds.py's other seeds)
+    digest = _digest([name, f"seed shift {shift}", *key], [*source_files(), *depends_on])
+    if digest in _MEMO:
+        return _MEMO[digest]  # type: ignore[no-any-return]
+    folder = CACHE / "memo"
+    folder.mkdir(parents=True, exist_ok=True)
+    (CACHE / ".gitignore").write_text("*\n", encoding="utf-8")
+    done = folder / f"{name}-{digest}.pickle"
+    with (folder / f"{name}-{digest}.lock").open("w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # another worker building the same waits for it
+        if done.is_file():
+            result = pickle.loads(done.read_bytes())
+        else:
+            for stale in folder.glob(f"{name}-*"):  # other keys' and older sources' results
+                if stale.stat().st_mtime < time.time() - 86400:
+                    stale.unlink(missing_ok=True)
+            result = build()
+            tmp = done.with_suffix(".partial")
+            tmp.write_bytes(pickle.dumps(result))
+            tmp.replace(done)
+    _MEMO[digest] = result
+    return result  # type: ignore[no-any-return]
+
+
+@contextmanager
+def slip_fits_once() -> Iterator[None]:
+    """While on, odolab's slip fit (:func:`odolab.calibration.slipfit.fit_slip_model`, a pure
+    function, 3 s of CPU) returns the result of an earlier call with the same arguments
+    (compared as pickled bytes) in any test process (:func:`memo`), instead of fitting again:
+    the tracked demo, ``calibrate compare`` on the demo's runs and ``calibrate lsq --model slip``
+    after ``compare`` fit the same models. Everything around the fit still runs, and arguments
+    that differ in any byte fit anew, so a test comparing two paths still sees each path's own
+    inputs. Not for tests that change how the fit computes (compiled kernels off, a patched
+    function inside it): the memo would give them the unchanged fit's result."""
+    from odolab.calibration import slipfit
+
+    original = slipfit.fit_slip_model
+
+    def fit_once(*args: Any, **kwargs: Any) -> Any:
+        blob = pickle.dumps((args, sorted(kwargs.items())))
+        key = hashlib.sha256(blob).hexdigest()
+        result = memo("slip-fit", lambda: original(*args, **kwargs), key=[key])
+        return copy.deepcopy(result)
+
+    slipfit.fit_slip_model = fit_once  # type: ignore[assignment]
+    try:
+        yield
+    finally:
+        slipfit.fit_slip_model = original  # type: ignore[assignment]
+
+
+def demo_builder(truth: str) -> Callable[[Path], Any]:
+    """The builder of the lab's demo on ``truth`` (``odolab demo --truth TRUTH --out FOLDER``:
+    ``run_lab`` with its defaults) for :func:`cached`: ``(LabResult, the progress steps it
+    reported)``."""
+
+    def build(folder: Path) -> Any:
+        from odolab.lab import run_lab
+
+        steps: list[str] = []
+        with slip_fits_once():  # the tests that rerun its `calibrate compare` reuse its fits
+            result = run_lab(folder, truth=truth, progress=lambda s, d, t: steps.append(s))
+        return result, steps
+
+    return build

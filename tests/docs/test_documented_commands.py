@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from fixture_cache import cached, demo_builder
 from shared_data import data_dir, require
 
 #: `make test-fast` leaves these out (every documented command line, about 2 minutes); `make test` and CI run them
@@ -302,7 +303,10 @@ def _ros2(folder: Path) -> None:
 
 
 def _validation(folder: Path) -> None:
-    _odolab(folder, "demo", "--out", "odolab-out")
+    """``odolab demo --out odolab-out`` (20 s): the suite's default demo, built once for every
+    test process (tests/fixture_cache.py; the same run_lab call with the same defaults), copied
+    there with its ``latest`` link."""
+    cached("default-demo", demo_builder("jaguar-lab"), folder / "odolab-out")
 
 
 def _scale(folder: Path) -> None:
