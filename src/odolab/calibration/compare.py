@@ -542,6 +542,42 @@ def _recommend(
         for s in ok
     }
     idx = _resample_weights(sizes, rng, n_boot)
+    train_idx = rng.integers(0, len(train), size=(n_boot, len(train)))
+    out = _verdicts(scores, errors, idx, train_idx, n_segments)
+    fitted = [s for s in out if s.problem is None]
+    best = next(s for s in fitted if s.verdict == "best") if n_segments else fitted[0]
+    what = f"{n_segments} held-out segments ({SEGMENT_M:g} m or {math.degrees(SEGMENT_RAD):g} deg)"
+    if n_segments < MIN_SEGMENTS:
+        recommended = UNDECIDED
+        reason = (
+            f"undecided: {what}; expected at least {MIN_SEGMENTS} to compare the models on "
+            "(longer or more held-out runs)"
+        )
+    else:
+        recommended, reason = _choose(fitted, best, what)
+        recommended, reason = _never_worse(out, errors, idx, recommended, reason, what)
+    return ModelComparison(
+        out,
+        recommended,
+        reason,
+        [r.name for r in train],
+        [r.name for r in test_runs],
+        cv,
+        best=best.model,
+        segments=n_segments,
+    )
+
+
+def _verdicts(
+    scores: list[ModelScore],
+    errors: dict[str, NDArray[np.float64]],
+    idx: NDArray[np.float64],
+    train_idx: NDArray[np.int64],
+    n_segments: int,
+) -> list[ModelScore]:
+    """Every fitted model's mean segment error, ratio to the best, verdict, BIC against the
+    differential drive and per-run risk against the best kinematic model (see the module)."""
+    ok = [s for s in scores if s.problem is None]
     best = min(ok, key=lambda s: float(_mean(errors[s.model])) if n_segments else math.inf)
     kinematic = [s for s in ok if s.model in KINEMATIC]
     best_kin = (
@@ -550,7 +586,6 @@ def _recommend(
         else None
     )
     diff = next((s for s in ok if s.model == "diff"), None)
-    train_idx = rng.integers(0, len(train), size=(n_boot, len(train)))
     out: list[ModelScore] = []
     for s in scores:
         if s.problem is not None or s.fit is None:
@@ -587,68 +622,106 @@ def _recommend(
                 runs_worse=risk,
             )
         )
-    fitted = [s for s in out if s.problem is None]
-    what = f"{n_segments} held-out segments ({SEGMENT_M:g} m or {math.degrees(SEGMENT_RAD):g} deg)"
-    if n_segments < MIN_SEGMENTS:
-        recommended = UNDECIDED
-        reason = (
-            f"undecided: {what}; expected at least {MIN_SEGMENTS} to compare the models on "
-            "(longer or more held-out runs)"
+    return out
+
+
+def _choose(fitted: list[ModelScore], best: ModelScore, what: str) -> tuple[str, str]:
+    """The simplest model not worse than the best, or "undecided" (see the module), and why."""
+    chosen: ModelScore | None = None
+    worse: list[ModelScore] = []
+    for s in fitted:  # simplest first
+        if s.verdict in ("best", "not worse"):
+            chosen = s
+            break
+        if s.verdict == "worse":
+            worse.append(s)
+            continue
+        break  # undecided: cannot say whether this simpler model suffices
+    if chosen is None:
+        s = next(x for x in fitted if x.verdict == UNDECIDED)
+        assert s.ratio_to_best is not None
+        return UNDECIDED, (
+            f"undecided: on {what}, {s.model}'s segment error relative to {best.model}'s is "
+            f"{_ratio_text(s.ratio_to_best)}: the data allow it to be as good and to be more "
+            f"than {NOT_WORSE:.0%} worse; more held-out runs would decide"
         )
-    else:
-        chosen: ModelScore | None = None
-        worse: list[ModelScore] = []
-        for s in fitted:  # simplest first
-            if s.verdict in ("best", "not worse"):
-                chosen = s
-                break
-            if s.verdict == "worse":
-                worse.append(s)
-                continue
-            break  # undecided: cannot say whether this simpler model suffices
-        if chosen is None:
-            s = next(x for x in fitted if x.verdict == UNDECIDED)
-            assert s.ratio_to_best is not None
-            recommended = UNDECIDED
-            reason = (
-                f"undecided: on {what}, {s.model}'s segment error relative to {best.model}'s is "
-                f"{_ratio_text(s.ratio_to_best)}: the data allow it to be as good and to be more "
-                f"than {NOT_WORSE:.0%} worse; more held-out runs would decide"
+    if chosen.model == best.model:
+        reason = f"{best.model} has the lowest mean error on {what}"
+        if worse:
+            reason += "; " + ", ".join(
+                f"{w.model} is worse (error ratio {_ratio_text(w.ratio_to_best)})"
+                for w in worse
+                if w.ratio_to_best is not None
             )
-        elif chosen.model == best.model:
-            recommended = best.model
-            reason = f"{best.model} has the lowest mean error on {what}"
-            if worse:
-                reason += "; " + ", ".join(
-                    f"{w.model} is worse (error ratio {_ratio_text(w.ratio_to_best)})"
-                    for w in worse
-                    if w.ratio_to_best is not None
-                )
-        else:
-            r = chosen.ratio_to_best
-            assert r is not None
-            recommended = chosen.model
-            reason = (
-                f"{chosen.model} is not worse than {best.model} on {what} (error ratio "
-                f"{_ratio_text(r)}, within {NOT_WORSE:.0%}) and is simpler"
-            )
-    rec = next((x for x in fitted if x.model == recommended), None)
-    if rec is not None and rec.model not in KINEMATIC and rec.runs_worse and best_kin:
+        return best.model, reason
+    r = chosen.ratio_to_best
+    assert r is not None
+    return chosen.model, (
+        f"{chosen.model} is not worse than {best.model} on {what} (error ratio "
+        f"{_ratio_text(r)}, within {NOT_WORSE:.0%}) and is simpler"
+    )
+
+
+def _never_worse(
+    out: list[ModelScore],
+    errors: dict[str, NDArray[np.float64]],
+    idx: NDArray[np.float64],
+    recommended: str,
+    reason: str,
+    what: str,
+) -> tuple[str, str]:
+    """A learned (not kinematic) model is recommended only where it is not worse than the best
+    kinematic model on the held-out data by either measure that reaches beyond one segment:
+    the mean end-point error of the held-out runs, and on most of them one by one
+    (:attr:`ModelScore.runs_worse`). Where it is, the choice among the kinematic models alone
+    stands instead (its verdicts against their own best), and the reason says why."""
+    rec = next((x for x in out if x.problem is None and x.model == recommended), None)
+    kin = [x for x in out if x.problem is None and x.model in KINEMATIC]
+    if rec is None or rec.model in KINEMATIC or not kin:
+        return recommended, reason
+    best_kin = min(kin, key=lambda s: float(_mean(errors[s.model])))
+    if rec.runs_worse:
         k, n = rec.runs_worse
         reason += (
             f"; per run, {rec.model} is worse than {best_kin.model} (the best kinematic model) "
             f"on {k} of {n} held-out runs"
         )
-    return ModelComparison(
-        out,
-        recommended,
-        reason,
-        [r.name for r in train],
-        [r.name for r in test_runs],
-        cv,
-        best=best.model,
-        segments=n_segments,
+    end = {s.model: s.held_out["endpoint_error"].value for s in (rec, *kin) if s.held_out}
+    kin_end = min((v for m, v in end.items() if m in KINEMATIC), default=math.nan)
+    by_run = rec.runs_worse is not None and rec.runs_worse[0] * 2 > rec.runs_worse[1]
+    by_end = math.isfinite(end.get(rec.model, math.nan)) and end[rec.model] > kin_end
+    if not (by_run or by_end):
+        return recommended, reason
+    why = (
+        f"its held-out mean end-point error {end[rec.model]:.3g} m is above the best "
+        f"kinematic model's {kin_end:.3g} m"
+        if by_end
+        else f"it is worse than {best_kin.model} on most held-out runs"
     )
+    ranked = [_rescored(s, errors, idx, best_kin) for s in kin]
+    choice, because = _choose(ranked, ranked[kin.index(best_kin)], what)
+    return choice, (
+        f"{rec.model} has the lowest mean segment error, but {why}: a learned model is not "
+        f"recommended where it is worse than the best kinematic one; among the kinematic "
+        f"models, {because}"
+    )
+
+
+def _rescored(
+    s: ModelScore, errors: dict[str, NDArray[np.float64]], idx: NDArray[np.float64],
+    best: ModelScore,
+) -> ModelScore:  # fmt: skip
+    """``s``'s verdict against ``best`` (the best kinematic model) instead of the best of all."""
+    ratio = _paired_ratio(errors[s.model], errors[best.model], idx)
+    if s.model == best.model:
+        verdict = "best"
+    elif ratio.high <= 1.0 + NOT_WORSE:
+        verdict = "not worse"
+    elif ratio.low > 1.0:
+        verdict = "worse"
+    else:
+        verdict = UNDECIDED
+    return replace(s, ratio_to_best=ratio, verdict=verdict)
 
 
 @dataclass(frozen=True)

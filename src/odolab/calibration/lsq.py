@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.calibration.truthnoise import TruthNoise, estimate_truth_noise, truth_residuals
 from odolab.errors import CalibrationError, InsufficientDataError
 from odolab.io.registry import LogFormat, find_runs, read_run
 from odolab.io.run import OdometryRun, ReadOptions
@@ -198,6 +199,11 @@ class LsqOptions:
     loss: str = "linear"
     fit_gt_yaw_offset: bool = True
     model: str = "diff"
+    #: the ground truth's noise, as the user gives it (``--truth-sigma``); None: estimated from
+    #: the truth's own updates (:mod:`odolab.calibration.truthnoise`) where ``truth_noise``
+    truth_sigma: TruthNoise | None = None
+    #: whether the slip fit allows for the truth's noise at all
+    truth_noise: bool = True
 
     def __post_init__(self) -> None:
         fit_model(self.model)
@@ -226,6 +232,16 @@ class PreparedRun:
     #: runs with one ``frame`` share one ground-truth yaw offset (the windows of one table were
     #: measured by one mounted sensor); "" means the run's own
     frame: str = ""
+    #: the ground truth's real updates' deviations from their neighbours (position, heading)
+    #: and the spacings between them: what its noise is estimated from
+    #: (:func:`odolab.calibration.truthnoise.truth_residuals`)
+    truth_xy: FloatArray = field(default_factory=lambda: np.zeros(0))
+    truth_yaw: FloatArray = field(default_factory=lambda: np.zeros(0))
+    truth_dt: FloatArray = field(default_factory=lambda: np.zeros(0))
+
+    def truth_parts(self) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """(:attr:`truth_xy`, :attr:`truth_yaw`, :attr:`truth_dt`)."""
+        return self.truth_xy, self.truth_yaw, self.truth_dt
 
 
 def prepare_run(run: OdometryRun, segment_s: float = 2.0) -> PreparedRun:
@@ -259,6 +275,7 @@ def prepare_run(run: OdometryRun, segment_s: float = 2.0) -> PreparedRun:
         edges = np.append(edges, t.size - 1)
     if edges.size < 2:
         raise InsufficientDataError(f"{run.source}: too short for one {segment_s:g} s segment")
+    txy, tyaw, tdt = truth_residuals(gt.t, gt.x, gt.y, gt.heading)
     return PreparedRun(
         run.name,
         t,
@@ -270,6 +287,9 @@ def prepare_run(run: OdometryRun, segment_s: float = 2.0) -> PreparedRun:
         edges[:-1].copy(),
         edges[1:].copy(),
         frame=str(run.meta.get("truth_frame", "")),
+        truth_xy=txy,
+        truth_yaw=tyaw,
+        truth_dt=tdt,
     )
 
 
@@ -601,6 +621,9 @@ def _units(
                 np.concatenate(starts),
                 np.concatenate(ends),
                 frame=rs[0].frame,
+                truth_xy=np.concatenate([r.truth_xy for r in rs]),
+                truth_yaw=np.concatenate([r.truth_yaw for r in rs]),
+                truth_dt=np.concatenate([r.truth_dt for r in rs]),
             )
         )
     sizes = [[(k, int(prepared[k].starts.size)) for k in members] for members in groups.values()]
@@ -629,7 +652,8 @@ def _calibrate_slip(
     segment residuals as every other model's (so its BIC compares)."""
     from odolab.calibration.slipfit import fit_slip_model, undetermined
 
-    model, cov, windows, centre, spread = fit_slip_model(prepared, nominal)
+    truth = slip_truth_noise(prepared, o)
+    model, cov, windows, centre, spread = fit_slip_model(prepared, nominal, truth=truth)
     base = nominal.with_(model=DIFF_DRIVE)
     params = nominal.with_(model=model, name=f"{nominal.name}-lsq")
     before = [_residuals(base, r, scale, o.method, 0.0) for r in prepared]
@@ -662,8 +686,20 @@ def _calibrate_slip(
             + ", ".join(f"{k} {getattr(model, k):.3g}" for k in NOISE_KEYS)
             + "; drift "
             + ", ".join(f"{k} {getattr(model, k):.3g}" for k in DRIFT_KEYS),
+            *([truth.describe()] if truth is not None else []),
         ],
     )
+
+
+def slip_truth_noise(prepared: Sequence[PreparedRun], o: LsqOptions) -> TruthNoise | None:
+    """The ground truth's noise the slip fit allows for: the user's (``o.truth_sigma``), else
+    the estimate from the runs' own truth updates (None where ``o.truth_noise`` is off or the
+    runs have too few updates to tell)."""
+    if o.truth_sigma is not None:
+        return o.truth_sigma
+    if not o.truth_noise:
+        return None
+    return estimate_truth_noise([r.truth_parts() for r in prepared])
 
 
 def _check_identifiable(

@@ -45,12 +45,13 @@ The ground truth's yaw offset is not fitted (its frame is taken as the robot's).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from itertools import pairwise
 
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.calibration.truthnoise import TruthNoise
 from odolab.errors import InsufficientDataError
 from odolab.models.slip import FEATURES, SlipModel
 from odolab.params import RobotParams
@@ -131,6 +132,15 @@ class SlipDesign:
     phi_rms: FloatArray
     #: windows the runs were cut into, before any was left out for not being in steady state
     windows_seen: int = 0
+    #: per window: its x and y rows in ``a_xy`` (its heading row is its own index), the window
+    #: before it when that one ends where it starts (-1: none; the two share a ground-truth
+    #: pose, so its noise enters both), the truth's heading change from that window's start to
+    #: this one's (rad), and the truth's displacement over the window in its start frame (m)
+    row_x: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    row_y: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    previous: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    turn_from_previous: FloatArray = field(default_factory=lambda: np.zeros(0))
+    shift: FloatArray = field(default_factory=lambda: np.zeros((0, 2)))
 
 
 def _steady(
@@ -161,7 +171,9 @@ def slip_design(
     """The regression rows of prepared runs (:class:`odolab.calibration.lsq.PreparedRun`);
     ``steady``: only the windows in steady state (:func:`_steady`)."""
     axy, yxy, ayaw, yyaw, dur, trav, turn = [], [], [], [], [], [], []
-    v_sq, w_sq, n_steps, seen = 0.0, 0.0, 0, 0
+    links: list[tuple[NDArray[np.int64], ...]] = []
+    turns, shifts = [], []
+    v_sq, w_sq, n_steps, seen, rows, wins = 0.0, 0.0, 0, 0, 0, 0
     phi_sq = np.zeros(len(FEATURES))
     b = nominal.track_width
     tick = 0.5 * (nominal.left_metres_per_tick + nominal.right_metres_per_tick)
@@ -232,6 +244,20 @@ def slip_design(
         rx_l = c0 * wx_l + s0 * wy_l
         ry_l = -s0 * wx_l + c0 * wy_l
         axy.append(np.vstack((np.hstack((rx_f.T, rx_l.T)), np.hstack((ry_f.T, ry_l.T)))))
+        m = i.size
+        chained = np.concatenate(([False], i[1:] == j[:-1]))
+        links.append(
+            (
+                rows + np.arange(m),
+                rows + m + np.arange(m),
+                np.where(chained, wins + np.arange(m) - 1, -1),
+            )
+        )
+        turns.append(np.concatenate(([0.0], gh[i[1:]] - gh[i[:-1]])))
+        dxw, dyw = gx[j] - gx[i], gy[j] - gy[i]
+        shifts.append(np.column_stack((c0 * dxw + s0 * dyw, -s0 * dxw + c0 * dyw)))
+        rows += 2 * m
+        wins += m
         yxy.append(np.concatenate((yx, yy)))
         ayaw.append(s(cphi).T)
         yyaw.append((gh[j] - gh[i]) - s(cth))
@@ -252,6 +278,11 @@ def slip_design(
         float(np.sqrt(w_sq / n_steps)),
         np.sqrt(phi_sq / n_steps),
         seen,
+        np.concatenate([k[0] for k in links]),
+        np.concatenate([k[1] for k in links]),
+        np.concatenate([k[2] for k in links]),
+        np.concatenate(turns),
+        np.vstack(shifts),
     )
 
 
@@ -272,11 +303,16 @@ def _blr(
     tau: FloatArray,
     scales: FloatArray,
     mean: FloatArray | None = None,
+    known: object | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Posterior mean and covariance of ``y = X beta + e``, ``beta ~ N(mean, diag(tau^2))``
     (``mean`` 0 unless given), with a noise variance per row linear in ``scales`` (n, m):
     ``var_i = scales_i . c``, ``c >= 0`` found by expectation-maximisation (non-negative least
-    squares of the expected squared residuals). The coefficients' prior variances are found the
+    squares of the expected squared residuals). ``known``: a known noise covariance of the rows
+    added to that (a sparse (n, n) matrix: the ground truth's noise, which rows that share a
+    truth pose share); the rows are then weighted by the whole covariance's inverse
+    (generalised least squares) and ``c`` explains what the known part does not.
+    The coefficients' prior variances are found the
     same way, no larger than ``tau^2`` (automatic relevance determination); the covariance returned is the weak prior's posterior at the
     final noise (what the data say of each coefficient, not what the shrinkage assumed).
     Returns (mean, covariance, c)."""
@@ -286,22 +322,29 @@ def _blr(
     prior = np.diag(1.0 / tau**2)
     c = np.full(scales.shape[1], 0.0)
     r0 = y - x @ m0
-    c[0] = max(float(np.mean(r0**2)) / max(float(np.mean(scales[:, 0])), 1e-12), 1e-18)
+    k_diag = np.zeros(y.size) if known is None else np.asarray(known.diagonal())  # type: ignore[attr-defined]
+    c[0] = max(
+        float(np.mean(np.maximum(r0**2 - k_diag, 0.1 * r0**2)))
+        / max(float(np.mean(scales[:, 0])), 1e-12),
+        1e-18,
+    )
+    floor = 1e-18 * max(float(np.mean(r0**2)), 1e-30)
     mu = m0.copy()
     sigma: FloatArray = np.diag(tau**2)
     u = np.ones(y.size)  # Student-t weights of the rows (1: Gaussian)
     for _ in range(_EM_ITERATIONS):
-        var = np.maximum(scales @ c, 1e-18 * max(float(np.mean(r0**2)), 1e-30))
-        w = u / var
-        xtwx = (x * w[:, None]).T @ x
+        var = np.maximum(scales @ c, floor)
+        xtwx, xtwy = _weighted(x, y, var / u, known)
         sigma = np.asarray(np.linalg.inv(xtwx + prior), dtype=np.float64)
-        mu = sigma @ ((x * w[:, None]).T @ y + prior @ m0)
+        mu = sigma @ (xtwy + prior @ m0)
         r = y - x @ mu
         expected = r**2 + np.einsum("ij,jk,ik->i", x, sigma, x)
+        total = var + k_diag
         if ROBUST_NU is not None:  # a row far off its variance weighs less (a scan-match glitch)
-            u = (ROBUST_NU + 1.0) / (ROBUST_NU + expected / var)
-        # rows weighted by 1/var: each residual counts as one measurement of its variance
-        sol, _ = nnls(scales / var[:, None], u * expected / var)
+            u = (ROBUST_NU + 1.0) / (ROBUST_NU + expected / total)
+        # rows weighted by 1/var: each residual counts as one measurement of its variance (less
+        # the known part)
+        sol, _ = nnls(scales / total[:, None], u * (expected - k_diag) / total)
         # automatic relevance determination: each coefficient's prior variance is what the data
         # say of its distance from the prior mean (no more than the weak prior's), so what the
         # data do not support shrinks back to the prior mean
@@ -313,12 +356,86 @@ def _blr(
     # the uncertainty that is reported: the weak prior's posterior (a coefficient that the
     # relevance determination holds at the prior mean is not known better for that: with the
     # shrunk prior's, a term the runs barely saw came out certain, and wrong)
-    var = np.maximum(scales @ c, 1e-18 * max(float(np.mean(r0**2)), 1e-30))
-    w = 1.0 / var
-    sigma = np.asarray(
-        np.linalg.inv((x * w[:, None]).T @ x + np.diag(1.0 / tau**2)), dtype=np.float64
-    )
+    var = np.maximum(scales @ c, floor)
+    xtwx, _ = _weighted(x, y, var, known)
+    sigma = np.asarray(np.linalg.inv(xtwx + np.diag(1.0 / tau**2)), dtype=np.float64)
     return mu, sigma, c
+
+
+def _weighted(
+    x: FloatArray, y: FloatArray, var: FloatArray, known: object | None
+) -> tuple[FloatArray, FloatArray]:
+    """``X^T C^-1 X`` and ``X^T C^-1 y`` for the row covariance ``C = diag(var) + known``."""
+    if known is None:
+        w = 1.0 / var
+        return (x * w[:, None]).T @ x, (x * w[:, None]).T @ y
+    from scipy import sparse
+    from scipy.sparse.linalg import splu
+
+    cov = (sparse.diags(var) + known).tocsc()
+    lu = splu(cov)
+    cx = lu.solve(np.ascontiguousarray(x))
+    cy = lu.solve(np.ascontiguousarray(y))
+    return np.asarray(x.T @ cx, dtype=np.float64), np.asarray(x.T @ cy, dtype=np.float64)
+
+
+def truth_covariances(d: SlipDesign, noise: TruthNoise) -> tuple[object, object]:
+    """The ground truth's noise in the rows of ``d`` (:func:`slip_design`), as sparse
+    covariances of the x/y rows and of the heading rows. A window's rows difference the truth's
+    poses at its two ends, so each row has the noise of both (``2 sigma^2``), and a window that
+    starts where the one before it ended shares that pose: its noise enters both with opposite
+    signs (``-sigma^2``, the position's turned by the heading change between the two windows'
+    start frames). The truth's heading noise also turns each cycle's motion (the rows rotate
+    it by the truth's own heading): ``sigma_h^2 L^2 min(1, dt / T)`` across the window's
+    displacement (``L`` its length, ``T`` its duration, ``dt`` the truth's update spacing: the
+    updates within a window are independent)."""
+    from scipy import sparse
+
+    n_xy, n_yaw = d.y_xy.size, d.y_yaw.size
+    sp, sh = noise.xy**2, noise.yaw**2
+    rows: list[NDArray[np.int64]] = []
+    cols: list[NDArray[np.int64]] = []
+    vals: list[FloatArray] = []
+
+    def put(a: NDArray[np.int64], b: NDArray[np.int64], v: FloatArray) -> None:
+        rows.append(a)
+        cols.append(b)
+        vals.append(np.broadcast_to(v, a.shape).astype(np.float64))
+
+    length = np.hypot(d.shift[:, 0], d.shift[:, 1])
+    share = np.minimum(1.0, noise.spacing / np.maximum(d.durations, 1e-9)) if noise.spacing else 1.0
+    across = sh * length**2 * share
+    unit = d.shift / np.maximum(length, 1e-12)[:, None]
+    px, py = -unit[:, 1], unit[:, 0]  # across the displacement
+    put(d.row_x, d.row_x, 2 * sp + across * px * px)
+    put(d.row_y, d.row_y, 2 * sp + across * py * py)
+    put(d.row_x, d.row_y, across * px * py)
+    put(d.row_y, d.row_x, across * px * py)
+    w = np.flatnonzero(d.previous >= 0)
+    p = d.previous[w]
+    cd, sd = np.cos(d.turn_from_previous[w]), np.sin(d.turn_from_previous[w])
+    # the shared pose's noise n: -R(-h_p) n in the earlier window's rows (its end), R(-h_w) n in
+    # this one's (its start): covariance -sigma^2 R(h_w - h_p)
+    for a, b, v in (
+        (d.row_x[p], d.row_x[w], -sp * cd),
+        (d.row_x[p], d.row_y[w], sp * sd),
+        (d.row_y[p], d.row_x[w], -sp * sd),
+        (d.row_y[p], d.row_y[w], -sp * cd),
+    ):
+        put(a, b, v)
+        put(b, a, v)
+    k_xy = sparse.coo_matrix(
+        (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n_xy, n_xy)
+    ).tocsc()
+    idx = np.arange(n_yaw)
+    k_yaw = sparse.coo_matrix(
+        (
+            np.concatenate((np.full(n_yaw, 2 * sh), np.full(2 * w.size, -sh))),
+            (np.concatenate((idx, p, w)), np.concatenate((idx, w, p))),
+        ),
+        shape=(n_yaw, n_yaw),
+    ).tocsc()
+    return k_xy, k_yaw
 
 
 def base_coefficients(params: RobotParams, nominal: RobotParams) -> FloatArray:
@@ -377,6 +494,7 @@ def _fit_mean(
     window_s: float,
     prior_scale: float,
     base: FloatArray | None = None,
+    truth: TruthNoise | None = None,
 ) -> tuple[SlipModel, FloatArray, int, FloatArray]:
     """The coefficients and their posterior by Bayesian linear regression with automatic
     relevance determination about the prior mean ``base`` (0 unless given), and the windows'
@@ -403,8 +521,10 @@ def _fit_mean(
     sc_xy = np.tile(np.column_stack((d.durations, d.travel)), (2, 1))
     sc_yaw = np.column_stack((d.durations, d.turn))
     m0 = np.zeros(3 * k) if base is None else base
-    mu_xy, sig_xy, c_xy = _blr(d.a_xy, d.y_xy, np.concatenate((tau_v, tau_v)), sc_xy, m0[: 2 * k])
-    mu_yaw, sig_yaw, c_yaw = _blr(d.a_yaw, d.y_yaw, tau_w, sc_yaw, m0[2 * k :])
+    k_xy, k_yaw = (None, None) if not _noisy(truth) else truth_covariances(d, truth)  # type: ignore[arg-type]
+    tau_xy = np.concatenate((tau_v, tau_v))
+    mu_xy, sig_xy, c_xy = _blr(d.a_xy, d.y_xy, tau_xy, sc_xy, m0[: 2 * k], k_xy)
+    mu_yaw, sig_yaw, c_yaw = _blr(d.a_yaw, d.y_yaw, tau_w, sc_yaw, m0[2 * k :], k_yaw)
     cov = np.zeros((3 * k, 3 * k))
     cov[: 2 * k, : 2 * k] = sig_xy
     cov[2 * k :, 2 * k :] = sig_yaw
@@ -428,6 +548,11 @@ def _fit_mean(
     tau = np.concatenate((tau_v, tau_v, tau_w))
     spread = np.sqrt(np.maximum(np.diag(cov), 0.0)) / tau
     return model, cov, int(d.y_yaw.size), spread
+
+
+def _noisy(truth: TruthNoise | None) -> bool:
+    """Whether ``truth`` has any noise to allow for."""
+    return truth is not None and (truth.xy > 0 or truth.yaw > 0)
 
 
 def _blocks(run: object, count: int) -> list[object]:
@@ -463,6 +588,7 @@ def fit_slip_model(
     folds: int = NOISE_FOLDS,
     piece_s: Sequence[float] = NOISE_PIECE_S,
     base: bool = True,
+    truth: TruthNoise | None = None,
 ) -> tuple[SlipModel, FloatArray, int, str, FloatArray]:
     """The slip model of prepared runs: (model with its posterior, 24 x 24 posterior
     covariance in :attr:`SlipModel.COEF_KEYS` order, number of windows, the kinematic model
@@ -478,24 +604,31 @@ def fit_slip_model(
     equal duration, and each part is predicted by the model fitted on the others
     (cross-fitting), so the predictive variance covers the model's own error on new data, not
     only the noise it saw; with ``folds`` 1 (or runs too short to cut), on the data it was
-    fitted on."""
+    fitted on. ``truth``: the ground truth's noise (:mod:`odolab.calibration.truthnoise`), in
+    the regression's row covariance (:func:`truth_covariances`) and in the pieces' (the truth's
+    noise at a piece's two ends, :func:`piece_truth_covariance`), so that neither the
+    coefficients nor the predictive variance take the truth's noise for the robot's."""
     mean, kind = kinematic_base(runs, nominal) if base else (np.zeros(3 * len(FEATURES)), "none")
     parts = [_blocks(r, folds) for r in runs] if folds > 1 else []
     cross = bool(parts) and all(len(p) == folds for p in parts)
-    model, cov, windows, spread = _fit_mean(runs, nominal, window_s, prior_scale, mean)
+    model, cov, windows, spread = _fit_mean(runs, nominal, window_s, prior_scale, mean, truth)
     pieces: list[_Pieces] = []
     if cross:
         for f in range(folds):
             train = [p[i] for p in parts for i in range(folds) if i != f]
             try:
-                m, _, _, _ = _fit_mean(train, nominal, window_s, prior_scale, mean)
+                m, _, _, _ = _fit_mean(train, nominal, window_s, prior_scale, mean, truth)
             except InsufficientDataError:
                 pieces = []
                 break
             for length in piece_s:
-                pieces.append(_piece_errors([p[f] for p in parts], nominal.with_(model=m), length))
+                pieces.append(
+                    _piece_errors([p[f] for p in parts], nominal.with_(model=m), length, truth)
+                )
     if not pieces:
-        pieces = [_piece_errors(runs, nominal.with_(model=model), length) for length in piece_s]
+        pieces = [
+            _piece_errors(runs, nominal.with_(model=model), length, truth) for length in piece_s
+        ]
     groups = [
         _Pieces.join(pieces[i :: len(piece_s)]).take(NOISE_PIECES_MAX) for i in range(len(piece_s))
     ]
@@ -572,9 +705,26 @@ class _Pieces:
         return cov, grad
 
 
-def _piece_errors(runs: Sequence[object], params: RobotParams, piece_s: float) -> _Pieces:
+def piece_truth_covariance(shift: FloatArray, truth: TruthNoise) -> FloatArray:
+    """The ground truth's noise in the end pose error of a piece started at the truth's pose
+    (3, 3): the truth's position noise at both ends, its heading noise at the end, and at the
+    start, where it turns the whole piece (``shift``: the piece's displacement, m, world
+    frame): ``e_xy = n_end - n_start - d_start shift_perp``, ``e_h = m_end - d_start``."""
+    sp, sh = truth.xy**2, truth.yaw**2
+    perp = np.array([-shift[1], shift[0]])
+    out = np.zeros((3, 3))
+    out[:2, :2] = 2 * sp * np.eye(2) + sh * np.outer(perp, perp)
+    out[:2, 2] = out[2, :2] = sh * perp
+    out[2, 2] = 2 * sh
+    return out
+
+
+def _piece_errors(
+    runs: Sequence[object], params: RobotParams, piece_s: float, truth: TruthNoise | None = None
+) -> _Pieces:
     """Every ``piece_s`` piece of prepared runs with motion, started at the ground truth's
-    pose (:class:`_Pieces`)."""
+    pose (:class:`_Pieces`); the truth's noise (:func:`piece_truth_covariance`) is in each
+    piece's posterior share."""
     errs, bases, posts, pairs = [], [], [], []
     for run in runs:
         t = np.asarray(run.t, dtype=np.float64)  # type: ignore[attr-defined]
@@ -601,7 +751,11 @@ def _piece_errors(runs: Sequence[object], params: RobotParams, piece_s: float) -
             e[2] = np.angle(np.exp(1j * (gh[b] - end[2])))
             errs.append(e)
             bases.append(prop.basis[-1])
-            posts.append(prop.post[-1])
+            post = prop.post[-1]
+            if _noisy(truth):
+                shift = np.array([gx[b] - gx[a], gy[b] - gy[a]])
+                post = post + piece_truth_covariance(shift, truth)  # type: ignore[arg-type]
+            posts.append(post)
             pairs.append(prop.end_pairs())
     nt = len(TERMS)
     if not errs:
