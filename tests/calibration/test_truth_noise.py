@@ -67,14 +67,14 @@ def test_too_few_updates_give_no_estimate() -> None:
 
 @pytest.mark.parametrize("text", ["0.05", "a,b", "0.05,-1", "nan,0.1", "0.1,0.1,0.1"])
 def test_truth_sigma_bad_input_is_one_sentence(text: str) -> None:
-    with pytest.raises(CalibrationError, match=r"--truth-sigma is .*; expected"):
+    with pytest.raises(CalibrationError, match=r"the ground truth's noise is .*; expected two"):
         parse_truth_sigma(text)
 
 
 def test_given_truth_sigma() -> None:
     n = parse_truth_sigma("0.05,0.1")
     assert (n.xy, n.yaw, n.given) == (0.05, 0.1, True)
-    assert "given (--truth-sigma)" in n.describe()
+    assert "as given" in n.describe()
 
 
 def _run(start: float) -> PreparedRun:

@@ -77,6 +77,7 @@ __all__ = [
     "ModelScore",
     "compare_model_files",
     "compare_models",
+    "learning_curve",
 ]
 
 #: Models from the simplest to the most complex (the recommendation prefers the left). The
@@ -397,7 +398,7 @@ def compare_models(
     (run i in fold i mod k); each fold is held out once from a fit on the others.
     ``curve`` (seconds): also the learning curve, each model fitted on the first that many
     seconds of ``train[0]`` (an exploration run) and its mean end-point error on the held-out
-    runs (:func:`odolab.calibration.slipfit.learning_curve`)."""
+    runs (:func:`learning_curve`)."""
     o = options or LsqOptions()
     _check_seed(seed)
     if not train:
@@ -412,6 +413,7 @@ def compare_models(
     prepared = [prepare_run(r, o.segment_s) for r in train]
     rng = np.random.default_rng(seed)
     cv = not held_out
+    fold_of: list[int] | None = None
     if cv:
         k = min(folds, len(train))
         if k < 2:
@@ -428,38 +430,7 @@ def compare_models(
             raise CalibrationError(
                 f"{sorted(names)[0]} is both a training and a held-out run; expected held-out runs"
             )
-    scores: list[ModelScore] = []
-    for model in order:
-        fit, problem = _fit(prepared, base, o, model)
-        if fit is None:
-            scores.append(ModelScore(model, len(FIT_MODELS[model].names), None, problem))
-            continue
-        rows: list[tuple[dict[str, float], list[float]]] = []
-        if cv:
-            fold_params: dict[int, RobotParams] = {}
-            for f in sorted(set(fold_of)):
-                part = [p for p, g in zip(prepared, fold_of, strict=True) if g != f]
-                fold_fit, fold_problem = _fit(part, base, o, model)
-                if fold_fit is None:
-                    problem = f"fold {f + 1}: {fold_problem}"
-                    break
-                fold_params[f] = fold_fit.params
-            if problem is None:
-                rows = [_score(r, fold_params[g]) for r, g in zip(test_runs, fold_of, strict=True)]
-        else:
-            rows = [_score(r, fit.params) for r in test_runs]
-        if problem is not None:
-            scores.append(ModelScore(model, len(fit.stderr), fit, problem))
-            continue
-        per_run = {m: [row[m] for row, _ in rows] for m in _METRICS}
-        held = {m: _t_interval(np.array(v, dtype=np.float64)) for m, v in per_run.items()}
-        bic = float(_bic(np.array(fit.run_rss), np.array(fit.run_sizes, float), fit.n_params))
-        scores.append(
-            ModelScore(
-                model, len(fit.stderr), fit, None, per_run, held, bic,
-                segment_errors=[seg for _, seg in rows],
-            )
-        )  # fmt: skip
+    scores = [_score_model(model, prepared, base, o, test_runs, fold_of) for model in order]
     if all(sc.problem is not None for sc in scores):
         why: dict[str, list[str]] = {}
         for sc in scores:
@@ -470,11 +441,75 @@ def compare_models(
         )
     result = _recommend(scores, train, test_runs, cv, rng, n_boot)
     if curve:
-        from odolab.calibration.slipfit import learning_curve
-
         curve_rows = learning_curve(train[0], test_runs, base, tuple(curve), tuple(order))
         result = replace(result, learning_curve=[dict(r) for r in curve_rows])
     return result
+
+
+def learning_curve(
+    exploration: object,
+    held_out: Sequence[object],
+    nominal: RobotParams,
+    seconds: Sequence[float] = (10.0, 20.0, 30.0, 45.0, 60.0),
+    models: Sequence[str] = ("diff", "icr", "slip"),
+) -> list[dict[str, object]]:
+    """Held-out mean end-point error (m) of each model fitted on the first ``s`` seconds of an
+    exploration run, for each ``s``: rows ``{"seconds", "model", "endpoint_error", "problem"}``
+    (``endpoint_error`` None where the model could not be fitted, ``problem`` says why)."""
+    from odolab.calibration.slipfit import endpoint_error, first_seconds
+
+    rows: list[dict[str, object]] = []
+    for s in seconds:
+        part = first_seconds(exploration, s)
+        for m in models:
+            try:
+                fit = calibrate_lsq([part], nominal, LsqOptions(model=m))  # type: ignore[list-item]
+            except (CalibrationError, InsufficientDataError) as err:
+                rows.append({"seconds": s, "model": m, "endpoint_error": None, "problem": str(err)})
+                continue
+            errs = [endpoint_error(r, fit.params) for r in held_out]
+            rows.append(
+                {"seconds": s, "model": m, "endpoint_error": float(np.mean(errs)), "problem": None}
+            )
+    return rows
+
+
+def _score_model(
+    model: str,
+    prepared: list[PreparedRun],
+    base: RobotParams,
+    o: LsqOptions,
+    test_runs: Sequence[OdometryRun],
+    fold_of: list[int] | None,
+) -> ModelScore:
+    """``model`` fitted on ``prepared`` and scored on ``test_runs`` (``fold_of``: each test
+    run's fold in cross-validation, scored by the fit without its fold; None: held-out runs)."""
+    fit, problem = _fit(prepared, base, o, model)
+    if fit is None:
+        return ModelScore(model, len(FIT_MODELS[model].names), None, problem)
+    rows: list[tuple[dict[str, float], list[float]]] = []
+    if fold_of is not None:
+        fold_params: dict[int, RobotParams] = {}
+        for f in sorted(set(fold_of)):
+            part = [p for p, g in zip(prepared, fold_of, strict=True) if g != f]
+            fold_fit, fold_problem = _fit(part, base, o, model)
+            if fold_fit is None:
+                problem = f"fold {f + 1}: {fold_problem}"
+                break
+            fold_params[f] = fold_fit.params
+        if problem is None:
+            rows = [_score(r, fold_params[g]) for r, g in zip(test_runs, fold_of, strict=True)]
+    else:
+        rows = [_score(r, fit.params) for r in test_runs]
+    if problem is not None:
+        return ModelScore(model, len(fit.stderr), fit, problem)
+    per_run = {m: [row[m] for row, _ in rows] for m in _METRICS}
+    held = {m: _t_interval(np.array(v, dtype=np.float64)) for m, v in per_run.items()}
+    bic = float(_bic(np.array(fit.run_rss), np.array(fit.run_sizes, float), fit.n_params))
+    return ModelScore(
+        model, len(fit.stderr), fit, None, per_run, held, bic,
+        segment_errors=[seg for _, seg in rows],
+    )  # fmt: skip
 
 
 def _check_curve(curve: Sequence[float], run: OdometryRun) -> None:

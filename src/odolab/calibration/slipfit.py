@@ -17,7 +17,7 @@ describes (with fewer than :data:`STEADY_SHARE` of the windows steady, all are k
 forward and lateral coefficients are
 fitted together on the x and y rows, the yaw ones on the heading rows; each with a Gaussian prior
 ``beta ~ N(beta_0, tau^2)`` per coefficient. Its centre ``beta_0`` is the kinematic model fitted
-to the same runs (:func:`kinematic_base`: the ICR model, else the extended one, else the
+to the same runs (:func:`odolab.calibration.lsq.kinematic_base`: the ICR model, else the extended one, else the
 differential drive, as slip coefficients of degree one, :func:`base_coefficients`), so what the
 runs do not determine stays with that model; ``tau`` the size of a slip as large as the robot's
 typical speed (``rms(v) / rms(phi_j)``: a weak prior that keeps the fit finite on a few seconds),
@@ -38,6 +38,13 @@ the six terms, plus the coefficients' posterior) is made to explain the end erro
 likelihood (:func:`fit_noise`). The errors are those of a model fitted without the piece: each
 run is cut into :data:`NOISE_FOLDS` parts and each part is predicted by the model fitted on the
 others, so the variance covers the model's own error on new data as well as the noise.
+
+The ground truth is a measurement with noise of its own (:mod:`odolab.calibration.truthnoise`:
+estimated from its real updates, or given): the rows of a window difference the truth at its two
+ends, and neighbouring windows share one end, so the rows' noise is the model's (diagonal) plus
+the truth's (:func:`truth_covariances`, banded), and the regression weighs the rows by the
+inverse of the whole (generalised least squares; expectation-maximisation finds the model's part
+as what the truth's does not explain).
 
 The ground truth's yaw offset is not fitted (its frame is taken as the robot's).
 """
@@ -72,7 +79,6 @@ __all__ = [
     "endpoint_error",
     "first_seconds",
     "fit_slip_model",
-    "learning_curve",
     "nees_bounds",
     "nees_pieces",
     "propagate_covariance",
@@ -93,7 +99,7 @@ SETTLE_S = 0.3
 #: A fit keeps only the windows in steady state when at least this share of them is (else all)
 STEADY_SHARE = 0.25
 #: The kinematic models the slip model's prior is centred on, in order of preference: the first
-#: that can be fitted to the runs (see :func:`kinematic_base`)
+#: that can be fitted to the runs (see :func:`odolab.calibration.lsq.kinematic_base`)
 BASE_MODELS = ("icr", "extended", "diff")
 #: Lengths (s) of the pieces the variance terms are fitted on, together.
 NOISE_PIECE_S: tuple[float, ...] = (1.0, 3.0)
@@ -170,119 +176,139 @@ def slip_design(
 ) -> SlipDesign:
     """The regression rows of prepared runs (:class:`odolab.calibration.lsq.PreparedRun`);
     ``steady``: only the windows in steady state (:func:`_steady`)."""
-    axy, yxy, ayaw, yyaw, dur, trav, turn = [], [], [], [], [], [], []
-    links: list[tuple[NDArray[np.int64], ...]] = []
-    turns, shifts = [], []
-    v_sq, w_sq, n_steps, seen, rows, wins = 0.0, 0.0, 0, 0, 0, 0
-    phi_sq = np.zeros(len(FEATURES))
-    b = nominal.track_width
-    tick = 0.5 * (nominal.left_metres_per_tick + nominal.right_metres_per_tick)
-    for run in runs:
-        t = np.asarray(run.t, dtype=np.float64)  # type: ignore[attr-defined]
-        dsl = np.asarray(run.dticks_left) * nominal.left_metres_per_tick  # type: ignore[attr-defined]
-        dsr = np.asarray(run.dticks_right) * nominal.right_metres_per_tick  # type: ignore[attr-defined]
-        gx = np.asarray(run.gt_x, dtype=np.float64)  # type: ignore[attr-defined]
-        gy = np.asarray(run.gt_y, dtype=np.float64)  # type: ignore[attr-defined]
-        gh = np.unwrap(np.asarray(run.gt_heading, dtype=np.float64))  # type: ignore[attr-defined]
-        n = t.size
-        if n < 2:
-            continue
-        dt = np.diff(t, prepend=t[0])
-        ds = 0.5 * (dsl + dsr)
-        dth = (dsr - dsl) / b
-        ds[0] = dth[0] = 0.0
-        timed = dt > 0
-        tt = np.where(timed, dt, 1.0)
-        phi = SlipModel.features(ds / tt, dth / tt)
-        phi[4:, ~timed] = 0.0
-        phi[:, 0] = 0.0
-        big_phi = phi * tt[None, :]  # dt * phi, (8, n)
-        v_sq += float(np.sum((ds / tt)[timed] ** 2))
-        w_sq += float(np.sum((dth / tt)[timed] ** 2))
-        phi_sq += np.sum(phi[:, timed] ** 2, axis=1)
-        n_steps += int(timed.sum())
-        a = np.empty(n)  # absolute mid-cycle heading of the ground truth
-        a[0] = gh[0]
-        a[1:] = 0.5 * (gh[1:] + gh[:-1])
-        ca, sa = np.cos(a), np.sin(a)
-        # world-frame running sums: commanded motion, and the regressors of fwd and lat
-        cum = _cumulative
-        cx, cy = cum(ca * ds), cum(sa * ds)
-        fxx, fxy = cum(ca * big_phi), cum(sa * big_phi)  # fwd: (cos, sin) * Phi
-        cth = cum(dth)
-        mult = SlipModel.noise_multipliers(dsl, dsr, dt, b, tick / b)
-        mult[0] = 0.0
-        ctr = cum(mult[:, 3])
-        ctu = cum(mult[:, 5])
-        cphi = cum(big_phi)
-        edges = np.unique(np.searchsorted(t, np.arange(t[0], t[-1] + window_s, window_s)))
-        edges = edges[edges < n]
-        if edges[-1] != n - 1:
-            edges = np.append(edges, n - 1)
-        i, j = edges[:-1], edges[1:]
-        seen += i.size
-        if steady:
-            keep = _steady(t, ds / tt, dth / tt, i, j)
-            i, j = i[keep], j[keep]
-            if i.size == 0:
-                continue
-
-        def s(c: FloatArray, i: NDArray[np.int64] = i, j: NDArray[np.int64] = j) -> FloatArray:
-            return _window_sum(c, i, j)  # sums over cycles i+1..j
-
-        c0, s0 = np.cos(gh[i]), np.sin(gh[i])
-        px, py = s(cx), s(cy)
-        ex, ey = gx[j] - gx[i] - px, gy[j] - gy[i] - py  # world frame
-        # into the window's start frame
-        yx = c0 * ex + s0 * ey
-        yy = -s0 * ex + c0 * ey
-        wx_f, wy_f = s(fxx), s(fxy)  # world-frame regressors of beta_fwd: (8, m)
-        # beta_lat moves the body left: world (-sin, cos) * Phi
-        wx_l, wy_l = -wy_f, wx_f
-        rx_f = c0 * wx_f + s0 * wy_f
-        ry_f = -s0 * wx_f + c0 * wy_f
-        rx_l = c0 * wx_l + s0 * wy_l
-        ry_l = -s0 * wx_l + c0 * wy_l
-        axy.append(np.vstack((np.hstack((rx_f.T, rx_l.T)), np.hstack((ry_f.T, ry_l.T)))))
-        m = i.size
-        chained = np.concatenate(([False], i[1:] == j[:-1]))
-        links.append(
-            (
-                rows + np.arange(m),
-                rows + m + np.arange(m),
-                np.where(chained, wins + np.arange(m) - 1, -1),
-            )
-        )
-        turns.append(np.concatenate(([0.0], gh[i[1:]] - gh[i[:-1]])))
-        dxw, dyw = gx[j] - gx[i], gy[j] - gy[i]
-        shifts.append(np.column_stack((c0 * dxw + s0 * dyw, -s0 * dxw + c0 * dyw)))
+    parts = [p for p in (_run_rows(r, nominal, window_s, steady) for r in runs) if p is not None]
+    n_steps = sum(p.steps for p in parts)
+    full = [p for p in parts if p.durations.size]
+    if not full or n_steps == 0:
+        raise InsufficientDataError("no motion with ground truth to fit the slip model on")
+    row_x, row_y, previous = [], [], []
+    rows = wins = 0
+    for p in full:  # each run's x rows, then its y rows; windows in order
+        m = p.durations.size
+        row_x.append(rows + np.arange(m))
+        row_y.append(rows + m + np.arange(m))
+        previous.append(np.where(p.chained, wins + np.arange(m) - 1, -1))
         rows += 2 * m
         wins += m
-        yxy.append(np.concatenate((yx, yy)))
-        ayaw.append(s(cphi).T)
-        yyaw.append((gh[j] - gh[i]) - s(cth))
-        dur.append(t[j] - t[i])
-        trav.append(s(ctr))
-        turn.append(s(ctu))
-    if not axy or n_steps == 0:
-        raise InsufficientDataError("no motion with ground truth to fit the slip model on")
+
+    def cat(name: str) -> FloatArray:
+        return np.concatenate([getattr(p, name) for p in full])
+
     return SlipDesign(
-        np.vstack(axy),
-        np.concatenate(yxy),
-        np.vstack(ayaw),
-        np.concatenate(yyaw),
-        np.concatenate(dur),
-        np.concatenate(trav),
-        np.concatenate(turn),
-        float(np.sqrt(v_sq / n_steps)),
-        float(np.sqrt(w_sq / n_steps)),
-        np.sqrt(phi_sq / n_steps),
-        seen,
-        np.concatenate([k[0] for k in links]),
-        np.concatenate([k[1] for k in links]),
-        np.concatenate([k[2] for k in links]),
-        np.concatenate(turns),
-        np.vstack(shifts),
+        np.vstack([p.a_xy for p in full]),
+        cat("y_xy"),
+        np.vstack([p.a_yaw for p in full]),
+        cat("y_yaw"),
+        cat("durations"),
+        cat("travel"),
+        cat("turn"),
+        float(np.sqrt(sum(p.v_sq for p in parts) / n_steps)),
+        float(np.sqrt(sum(p.w_sq for p in parts) / n_steps)),
+        np.sqrt(sum((p.phi_sq for p in parts), np.zeros(len(FEATURES))) / n_steps),
+        sum(p.seen for p in parts),
+        np.concatenate(row_x),
+        np.concatenate(row_y),
+        np.concatenate(previous),
+        cat("turn_from_previous"),
+        np.vstack([p.shift for p in full]),
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class _RunRows:
+    """One run's windows in :func:`slip_design` (see :class:`SlipDesign`), whether each starts
+    where the one before it ended (``chained``), and the run's sums of squared speeds, turn
+    rates and features over its ``steps`` timed cycles; ``seen`` windows before the steady
+    ones were kept."""
+
+    a_xy: FloatArray
+    y_xy: FloatArray
+    a_yaw: FloatArray
+    y_yaw: FloatArray
+    durations: FloatArray
+    travel: FloatArray
+    turn: FloatArray
+    chained: NDArray[np.bool_]
+    turn_from_previous: FloatArray
+    shift: FloatArray
+    v_sq: float
+    w_sq: float
+    phi_sq: FloatArray
+    steps: int
+    seen: int
+
+
+def _run_rows(run: object, nominal: RobotParams, window_s: float, steady: bool) -> _RunRows | None:
+    """The regression rows of one prepared run (None: fewer than two samples)."""
+    t = np.asarray(run.t, dtype=np.float64)  # type: ignore[attr-defined]
+    dsl = np.asarray(run.dticks_left) * nominal.left_metres_per_tick  # type: ignore[attr-defined]
+    dsr = np.asarray(run.dticks_right) * nominal.right_metres_per_tick  # type: ignore[attr-defined]
+    gx = np.asarray(run.gt_x, dtype=np.float64)  # type: ignore[attr-defined]
+    gy = np.asarray(run.gt_y, dtype=np.float64)  # type: ignore[attr-defined]
+    gh = np.unwrap(np.asarray(run.gt_heading, dtype=np.float64))  # type: ignore[attr-defined]
+    n = t.size
+    if n < 2:
+        return None
+    b = nominal.track_width
+    tick = 0.5 * (nominal.left_metres_per_tick + nominal.right_metres_per_tick)
+    dt = np.diff(t, prepend=t[0])
+    ds = 0.5 * (dsl + dsr)
+    dth = (dsr - dsl) / b
+    ds[0] = dth[0] = 0.0
+    timed = dt > 0
+    tt = np.where(timed, dt, 1.0)
+    phi = SlipModel.features(ds / tt, dth / tt)
+    phi[4:, ~timed] = 0.0
+    phi[:, 0] = 0.0
+    big_phi = phi * tt[None, :]  # dt * phi, (8, n)
+    stats = {
+        "v_sq": float(np.sum((ds / tt)[timed] ** 2)),
+        "w_sq": float(np.sum((dth / tt)[timed] ** 2)),
+        "phi_sq": np.sum(phi[:, timed] ** 2, axis=1),
+        "steps": int(timed.sum()),
+    }
+    a = np.empty(n)  # absolute mid-cycle heading of the ground truth
+    a[0] = gh[0]
+    a[1:] = 0.5 * (gh[1:] + gh[:-1])
+    ca, sa = np.cos(a), np.sin(a)
+    # world-frame running sums: commanded motion, and the regressors of fwd and lat
+    cum = _cumulative
+    mult = SlipModel.noise_multipliers(dsl, dsr, dt, b, tick / b)
+    mult[0] = 0.0
+    edges = np.unique(np.searchsorted(t, np.arange(t[0], t[-1] + window_s, window_s)))
+    edges = edges[edges < n]
+    if edges[-1] != n - 1:
+        edges = np.append(edges, n - 1)
+    i, j = edges[:-1], edges[1:]
+    seen = int(i.size)
+    if steady:
+        keep = _steady(t, ds / tt, dth / tt, i, j)
+        i, j = i[keep], j[keep]
+
+    def s(c: FloatArray) -> FloatArray:
+        return _window_sum(c, i, j)  # sums over cycles i+1..j
+
+    c0, s0 = np.cos(gh[i]), np.sin(gh[i])
+    dxw, dyw = gx[j] - gx[i], gy[j] - gy[i]
+    ex, ey = dxw - s(cum(ca * ds)), dyw - s(cum(sa * ds))  # world frame
+    wx_f, wy_f = s(cum(ca * big_phi)), s(cum(sa * big_phi))  # regressors of beta_fwd: (8, m)
+    wx_l, wy_l = -wy_f, wx_f  # beta_lat moves the body left: world (-sin, cos) * Phi
+    # into the window's start frame
+    rx_f, ry_f = c0 * wx_f + s0 * wy_f, -s0 * wx_f + c0 * wy_f
+    rx_l, ry_l = c0 * wx_l + s0 * wy_l, -s0 * wx_l + c0 * wy_l
+    return _RunRows(
+        np.vstack((np.hstack((rx_f.T, rx_l.T)), np.hstack((ry_f.T, ry_l.T)))),
+        np.concatenate((c0 * ex + s0 * ey, -s0 * ex + c0 * ey)),
+        s(cum(big_phi)).T,
+        (gh[j] - gh[i]) - s(cum(dth)),
+        t[j] - t[i],
+        s(cum(mult[:, 3])),
+        s(cum(mult[:, 5])),
+        np.concatenate(([False], i[1:] == j[:-1]))[: i.size],
+        np.concatenate(([0.0], gh[i[1:]] - gh[i[:-1]]))[: i.size],
+        np.column_stack((c0 * dxw + s0 * dyw, -s0 * dxw + c0 * dyw)),
+        seen=seen,
+        **stats,
     )
 
 
@@ -467,27 +493,6 @@ def base_coefficients(params: RobotParams, nominal: RobotParams) -> FloatArray:
     return out
 
 
-def kinematic_base(runs: Sequence[object], nominal: RobotParams) -> tuple[FloatArray, str]:
-    """The prior mean of the slip coefficients: the first of :data:`BASE_MODELS` that can be
-    fitted to the runs by least squares (no ground-truth yaw offsets, as the slip fit), as slip
-    coefficients (:func:`base_coefficients`); and its name ("none", all zeros: the nominal
-    differential drive, when none can)."""
-    from odolab.calibration.lsq import LsqOptions, calibrate_lsq
-    from odolab.errors import CalibrationError, ParamsError
-
-    for kind in BASE_MODELS:
-        try:
-            fit = calibrate_lsq(
-                runs,  # type: ignore[arg-type]
-                nominal,
-                LsqOptions(model=kind, fit_gt_yaw_offset=False),
-            )
-        except (CalibrationError, InsufficientDataError, ParamsError):
-            continue
-        return base_coefficients(fit.params, nominal), kind
-    return np.zeros(3 * len(FEATURES)), "none"
-
-
 def _fit_mean(
     runs: Sequence[object],
     nominal: RobotParams,
@@ -587,7 +592,7 @@ def fit_slip_model(
     prior_scale: float = 1.0,
     folds: int = NOISE_FOLDS,
     piece_s: Sequence[float] = NOISE_PIECE_S,
-    base: bool = True,
+    centre: tuple[FloatArray, str] | None = None,
     truth: TruthNoise | None = None,
 ) -> tuple[SlipModel, FloatArray, int, str, FloatArray]:
     """The slip model of prepared runs: (model with its posterior, 24 x 24 posterior
@@ -595,9 +600,10 @@ def fit_slip_model(
     its prior is centred on, each coefficient's posterior standard deviation over its weak
     prior's: :func:`undetermined`).
 
-    The coefficients come from all the runs, their prior centred on the kinematic model fitted
-    to the same runs (:func:`kinematic_base`; with ``base`` False, on the nominal differential
-    drive): what the runs do not determine stays with that model. The variance terms (white
+    The coefficients come from all the runs, their prior centred on ``centre`` (slip
+    coefficients and the model's name: the kinematic model fitted to the same runs,
+    :func:`odolab.calibration.lsq.kinematic_base`; None: the nominal differential drive): what
+    the runs do not determine stays with that model. The variance terms (white
     noise and drift) are fitted to how far the model is off after each of ``piece_s`` seconds
     on data it was not fitted on (:func:`fit_noise`; pieces of several lengths, so that the
     variance grows with the horizon as the errors do): each run is cut into ``folds`` parts of
@@ -605,10 +611,11 @@ def fit_slip_model(
     (cross-fitting), so the predictive variance covers the model's own error on new data, not
     only the noise it saw; with ``folds`` 1 (or runs too short to cut), on the data it was
     fitted on. ``truth``: the ground truth's noise (:mod:`odolab.calibration.truthnoise`), in
-    the regression's row covariance (:func:`truth_covariances`) and in the pieces' (the truth's
-    noise at a piece's two ends, :func:`piece_truth_covariance`), so that neither the
-    coefficients nor the predictive variance take the truth's noise for the robot's."""
-    mean, kind = kinematic_base(runs, nominal) if base else (np.zeros(3 * len(FEATURES)), "none")
+    the regression's row covariance (:func:`truth_covariances`: the rows are weighted by it, so
+    the coefficients rest on the stretches the truth's noise weighs least on). The predictive
+    variance still covers it: it is fitted to, and judged by (``odolab evaluate --nees``),
+    errors against the same truth (measured with it taken out: docs/models.md)."""
+    mean, kind = centre if centre is not None else (np.zeros(3 * len(FEATURES)), "none")
     parts = [_blocks(r, folds) for r in runs] if folds > 1 else []
     cross = bool(parts) and all(len(p) == folds for p in parts)
     model, cov, windows, spread = _fit_mean(runs, nominal, window_s, prior_scale, mean, truth)
@@ -622,13 +629,9 @@ def fit_slip_model(
                 pieces = []
                 break
             for length in piece_s:
-                pieces.append(
-                    _piece_errors([p[f] for p in parts], nominal.with_(model=m), length, truth)
-                )
+                pieces.append(_piece_errors([p[f] for p in parts], nominal.with_(model=m), length))
     if not pieces:
-        pieces = [
-            _piece_errors(runs, nominal.with_(model=model), length, truth) for length in piece_s
-        ]
+        pieces = [_piece_errors(runs, nominal.with_(model=model), length) for length in piece_s]
     groups = [
         _Pieces.join(pieces[i :: len(piece_s)]).take(NOISE_PIECES_MAX) for i in range(len(piece_s))
     ]
@@ -705,26 +708,9 @@ class _Pieces:
         return cov, grad
 
 
-def piece_truth_covariance(shift: FloatArray, truth: TruthNoise) -> FloatArray:
-    """The ground truth's noise in the end pose error of a piece started at the truth's pose
-    (3, 3): the truth's position noise at both ends, its heading noise at the end, and at the
-    start, where it turns the whole piece (``shift``: the piece's displacement, m, world
-    frame): ``e_xy = n_end - n_start - d_start shift_perp``, ``e_h = m_end - d_start``."""
-    sp, sh = truth.xy**2, truth.yaw**2
-    perp = np.array([-shift[1], shift[0]])
-    out = np.zeros((3, 3))
-    out[:2, :2] = 2 * sp * np.eye(2) + sh * np.outer(perp, perp)
-    out[:2, 2] = out[2, :2] = sh * perp
-    out[2, 2] = 2 * sh
-    return out
-
-
-def _piece_errors(
-    runs: Sequence[object], params: RobotParams, piece_s: float, truth: TruthNoise | None = None
-) -> _Pieces:
+def _piece_errors(runs: Sequence[object], params: RobotParams, piece_s: float) -> _Pieces:
     """Every ``piece_s`` piece of prepared runs with motion, started at the ground truth's
-    pose (:class:`_Pieces`); the truth's noise (:func:`piece_truth_covariance`) is in each
-    piece's posterior share."""
+    pose (:class:`_Pieces`)."""
     errs, bases, posts, pairs = [], [], [], []
     for run in runs:
         t = np.asarray(run.t, dtype=np.float64)  # type: ignore[attr-defined]
@@ -751,11 +737,7 @@ def _piece_errors(
             e[2] = np.angle(np.exp(1j * (gh[b] - end[2])))
             errs.append(e)
             bases.append(prop.basis[-1])
-            post = prop.post[-1]
-            if _noisy(truth):
-                shift = np.array([gx[b] - gx[a], gy[b] - gy[a]])
-                post = post + piece_truth_covariance(shift, truth)  # type: ignore[arg-type]
-            posts.append(post)
+            posts.append(prop.post[-1])
             pairs.append(prop.end_pairs())
     nt = len(TERMS)
     if not errs:
@@ -850,35 +832,6 @@ def first_seconds(run: object, seconds: float) -> object:
         dticks_right=np.asarray(run.dticks_right)[keep],  # type: ignore[attr-defined]
         ground_truth=truth,
     )
-
-
-def learning_curve(
-    exploration: object,
-    held_out: Sequence[object],
-    nominal: RobotParams,
-    seconds: Sequence[float] = (10.0, 20.0, 30.0, 45.0, 60.0),
-    models: Sequence[str] = ("diff", "icr", "slip"),
-) -> list[dict[str, object]]:
-    """Held-out mean end-point error (m) of each model fitted on the first ``s`` seconds of an
-    exploration run, for each ``s``: rows ``{"seconds", "model", "endpoint_error", "problem"}``
-    (``endpoint_error`` None where the model could not be fitted, ``problem`` says why)."""
-    from odolab.calibration.lsq import LsqOptions, calibrate_lsq
-    from odolab.errors import CalibrationError
-
-    rows: list[dict[str, object]] = []
-    for s in seconds:
-        part = first_seconds(exploration, s)
-        for m in models:
-            try:
-                fit = calibrate_lsq([part], nominal, LsqOptions(model=m))  # type: ignore[list-item]
-            except (CalibrationError, InsufficientDataError) as err:
-                rows.append({"seconds": s, "model": m, "endpoint_error": None, "problem": str(err)})
-                continue
-            errs = [endpoint_error(r, fit.params) for r in held_out]
-            rows.append(
-                {"seconds": s, "model": m, "endpoint_error": float(np.mean(errs)), "problem": None}
-            )
-    return rows
 
 
 def endpoint_error(run: object, params: RobotParams) -> float:

@@ -62,7 +62,7 @@ class TruthNoise:
     def describe(self) -> str:
         """One phrase for the output: what the fit took the truth's noise to be, and whence."""
         how = (
-            "given (--truth-sigma)"
+            "as given"
             if self.given
             else f"estimated from {self.updates} of its updates' deviations from their neighbours"
         )
@@ -79,11 +79,13 @@ def parse_truth_sigma(text: str) -> TruthNoise:
         xy, yaw = (float(p) for p in parts)
     except ValueError:
         raise CalibrationError(
-            f"--truth-sigma is {text!r}; expected two numbers XY,YAW (m, rad), e.g. 0.05,0.1"
+            f"the ground truth's noise is {text!r}; expected two numbers XY,YAW (m, rad), e.g. "
+            "0.05,0.1"
         ) from None
     if not (np.isfinite(xy) and np.isfinite(yaw) and xy >= 0 and yaw >= 0):
         raise CalibrationError(
-            f"--truth-sigma is {text!r}; expected two finite numbers of at least 0 (m, rad)"
+            f"the ground truth's noise is {text!r}; expected two finite numbers XY,YAW of at "
+            "least 0 (m, rad)"
         )
     return TruthNoise(xy, yaw, given=True)
 
