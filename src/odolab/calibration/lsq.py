@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -707,7 +707,7 @@ def _calibrate_slip(
 
     truth = slip_truth_noise(prepared, o)
     model, cov, windows, centre, spread = fit_slip_model(
-        prepared, nominal, centre=kinematic_base(prepared, nominal), truth=truth
+        prepared, nominal, centre=kinematic_base(prepared, nominal, o.loss), truth=truth
     )
     base = nominal.with_(model=DIFF_DRIVE)
     params = nominal.with_(model=model, name=f"{nominal.name}-lsq")
@@ -746,12 +746,14 @@ def _calibrate_slip(
     )
 
 
-def kinematic_base(runs: Sequence[object], nominal: RobotParams) -> tuple[FloatArray, str]:
+def kinematic_base(
+    runs: Sequence[object], nominal: RobotParams, loss: str = "linear"
+) -> tuple[FloatArray, str]:
     """The prior mean of the slip coefficients: the first of
-    :data:`odolab.calibration.slipfit.BASE_MODELS` that can be
-    fitted to the runs by least squares (no ground-truth yaw offsets, as the slip fit), as slip
-    coefficients (:func:`odolab.calibration.slipfit.base_coefficients`); and its name ("none", all zeros: the nominal
-    differential drive, when none can)."""
+    :data:`odolab.calibration.slipfit.BASE_MODELS` that can be fitted to the runs by least
+    squares (with ``loss``; no ground-truth yaw offsets, as the slip fit), as slip coefficients
+    (:func:`odolab.calibration.slipfit.base_coefficients`); and its name ("none", all zeros:
+    the nominal differential drive, when none can)."""
     from odolab.calibration.slipfit import BASE_MODELS, base_coefficients
     from odolab.errors import ParamsError
     from odolab.models.slip import FEATURES
@@ -761,7 +763,7 @@ def kinematic_base(runs: Sequence[object], nominal: RobotParams) -> tuple[FloatA
             fit = calibrate_lsq(
                 runs,  # type: ignore[arg-type]
                 nominal,
-                LsqOptions(model=kind, fit_gt_yaw_offset=False),
+                LsqOptions(model=kind, fit_gt_yaw_offset=False, loss=loss),
             )
         except (CalibrationError, InsufficientDataError, ParamsError):
             continue
@@ -773,8 +775,10 @@ def slip_truth_noise(prepared: Sequence[PreparedRun], o: LsqOptions) -> TruthNoi
     """The ground truth's noise the slip fit allows for: the user's (``o.truth_sigma``), else
     the estimate from the runs' own truth updates (None where ``o.truth_noise`` is off or the
     runs have too few updates to tell)."""
-    if o.truth_sigma is not None:
-        return o.truth_sigma
+    if o.truth_sigma is not None:  # the updates' spacing still from the runs
+        dt = np.concatenate([r.truth_dt for r in prepared]) if prepared else np.zeros(0)
+        spacing = float(np.median(dt)) if dt.size else 0.0
+        return replace(o.truth_sigma, spacing=spacing)
     if not o.truth_noise:
         return None
     return estimate_truth_noise([r.truth_parts() for r in prepared])
