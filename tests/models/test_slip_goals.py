@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from fixture_cache import memo
-from odolab.calibration.compare import compare_models
+from odolab.calibration.compare import compare_models, learning_curve
 from odolab.calibration.lsq import LsqOptions, calibrate_lsq
-from odolab.calibration.slipfit import endpoint_error, learning_curve
+from odolab.calibration.slipfit import endpoint_error
 from odolab.io.run import OdometryRun
 from odolab.models import SlipModel
 from odolab.params import PRESETS, RobotParams

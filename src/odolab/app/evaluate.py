@@ -319,6 +319,10 @@ class LsqRequest:
     fit_gt_yaw_offset: bool = True
     model: str = "diff"
     ground_truth: Path | None = None
+    #: the ground truth's noise ``"XY,YAW"`` (m, rad; None: estimated from its updates)
+    truth_sigma: str | None = None
+    #: the kinematic fit's loss (:data:`odolab.calibration.lsq.LOSSES`)
+    loss: str = "linear"
 
 
 @dataclass(frozen=True)
@@ -364,10 +368,18 @@ def calibrate_lsq_runs(
     """Fit ``request.model`` to the runs' ground truth; evaluate the held-out runs with the
     nominal and the fitted parameters. A run may not be both fitted and held out."""
     from odolab.calibration.lsq import LsqOptions, calibrate_lsq_files, find_fit_and_held_out
+    from odolab.calibration.truthnoise import parse_truth_sigma
     from odolab.io.registry import LogFormat
     from odolab.params import load_params
 
     _check_lsq(request)
+    options = LsqOptions(
+        segment_s=request.segment_s,
+        fit_gt_yaw_offset=request.fit_gt_yaw_offset,
+        model=request.model,
+        loss=request.loss,
+        truth_sigma=parse_truth_sigma(request.truth_sigma) if request.truth_sigma else None,
+    )
     robot = load_params(request.params) if request.params else None
     ro = read_options
     if request.ground_truth is not None:
@@ -380,11 +392,7 @@ def calibrate_lsq_runs(
         request.fmt,
         nominal=robot,
         validate=held,
-        options=LsqOptions(
-            segment_s=request.segment_s,
-            fit_gt_yaw_offset=request.fit_gt_yaw_offset,
-            model=request.model,
-        ),
+        options=options,
         read_options=ro,
         workers=workers,
         progress=progress,

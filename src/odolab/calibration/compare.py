@@ -77,6 +77,7 @@ __all__ = [
     "ModelScore",
     "compare_model_files",
     "compare_models",
+    "learning_curve",
 ]
 
 #: Models from the simplest to the most complex (the recommendation prefers the left). The
@@ -397,7 +398,7 @@ def compare_models(
     (run i in fold i mod k); each fold is held out once from a fit on the others.
     ``curve`` (seconds): also the learning curve, each model fitted on the first that many
     seconds of ``train[0]`` (an exploration run) and its mean end-point error on the held-out
-    runs (:func:`odolab.calibration.slipfit.learning_curve`)."""
+    runs (:func:`learning_curve`)."""
     o = options or LsqOptions()
     _check_seed(seed)
     if not train:
@@ -412,6 +413,7 @@ def compare_models(
     prepared = [prepare_run(r, o.segment_s) for r in train]
     rng = np.random.default_rng(seed)
     cv = not held_out
+    fold_of: list[int] | None = None
     if cv:
         k = min(folds, len(train))
         if k < 2:
@@ -428,38 +430,7 @@ def compare_models(
             raise CalibrationError(
                 f"{sorted(names)[0]} is both a training and a held-out run; expected held-out runs"
             )
-    scores: list[ModelScore] = []
-    for model in order:
-        fit, problem = _fit(prepared, base, o, model)
-        if fit is None:
-            scores.append(ModelScore(model, len(FIT_MODELS[model].names), None, problem))
-            continue
-        rows: list[tuple[dict[str, float], list[float]]] = []
-        if cv:
-            fold_params: dict[int, RobotParams] = {}
-            for f in sorted(set(fold_of)):
-                part = [p for p, g in zip(prepared, fold_of, strict=True) if g != f]
-                fold_fit, fold_problem = _fit(part, base, o, model)
-                if fold_fit is None:
-                    problem = f"fold {f + 1}: {fold_problem}"
-                    break
-                fold_params[f] = fold_fit.params
-            if problem is None:
-                rows = [_score(r, fold_params[g]) for r, g in zip(test_runs, fold_of, strict=True)]
-        else:
-            rows = [_score(r, fit.params) for r in test_runs]
-        if problem is not None:
-            scores.append(ModelScore(model, len(fit.stderr), fit, problem))
-            continue
-        per_run = {m: [row[m] for row, _ in rows] for m in _METRICS}
-        held = {m: _t_interval(np.array(v, dtype=np.float64)) for m, v in per_run.items()}
-        bic = float(_bic(np.array(fit.run_rss), np.array(fit.run_sizes, float), fit.n_params))
-        scores.append(
-            ModelScore(
-                model, len(fit.stderr), fit, None, per_run, held, bic,
-                segment_errors=[seg for _, seg in rows],
-            )
-        )  # fmt: skip
+    scores = [_score_model(model, prepared, base, o, test_runs, fold_of) for model in order]
     if all(sc.problem is not None for sc in scores):
         why: dict[str, list[str]] = {}
         for sc in scores:
@@ -470,11 +441,75 @@ def compare_models(
         )
     result = _recommend(scores, train, test_runs, cv, rng, n_boot)
     if curve:
-        from odolab.calibration.slipfit import learning_curve
-
         curve_rows = learning_curve(train[0], test_runs, base, tuple(curve), tuple(order))
         result = replace(result, learning_curve=[dict(r) for r in curve_rows])
     return result
+
+
+def learning_curve(
+    exploration: object,
+    held_out: Sequence[object],
+    nominal: RobotParams,
+    seconds: Sequence[float] = (10.0, 20.0, 30.0, 45.0, 60.0),
+    models: Sequence[str] = ("diff", "icr", "slip"),
+) -> list[dict[str, object]]:
+    """Held-out mean end-point error (m) of each model fitted on the first ``s`` seconds of an
+    exploration run, for each ``s``: rows ``{"seconds", "model", "endpoint_error", "problem"}``
+    (``endpoint_error`` None where the model could not be fitted, ``problem`` says why)."""
+    from odolab.calibration.slipfit import endpoint_error, first_seconds
+
+    rows: list[dict[str, object]] = []
+    for s in seconds:
+        part = first_seconds(exploration, s)
+        for m in models:
+            try:
+                fit = calibrate_lsq([part], nominal, LsqOptions(model=m))  # type: ignore[list-item]
+            except (CalibrationError, InsufficientDataError) as err:
+                rows.append({"seconds": s, "model": m, "endpoint_error": None, "problem": str(err)})
+                continue
+            errs = [endpoint_error(r, fit.params) for r in held_out]
+            rows.append(
+                {"seconds": s, "model": m, "endpoint_error": float(np.mean(errs)), "problem": None}
+            )
+    return rows
+
+
+def _score_model(
+    model: str,
+    prepared: list[PreparedRun],
+    base: RobotParams,
+    o: LsqOptions,
+    test_runs: Sequence[OdometryRun],
+    fold_of: list[int] | None,
+) -> ModelScore:
+    """``model`` fitted on ``prepared`` and scored on ``test_runs`` (``fold_of``: each test
+    run's fold in cross-validation, scored by the fit without its fold; None: held-out runs)."""
+    fit, problem = _fit(prepared, base, o, model)
+    if fit is None:
+        return ModelScore(model, len(FIT_MODELS[model].names), None, problem)
+    rows: list[tuple[dict[str, float], list[float]]] = []
+    if fold_of is not None:
+        fold_params: dict[int, RobotParams] = {}
+        for f in sorted(set(fold_of)):
+            part = [p for p, g in zip(prepared, fold_of, strict=True) if g != f]
+            fold_fit, fold_problem = _fit(part, base, o, model)
+            if fold_fit is None:
+                problem = f"fold {f + 1}: {fold_problem}"
+                break
+            fold_params[f] = fold_fit.params
+        if problem is None:
+            rows = [_score(r, fold_params[g]) for r, g in zip(test_runs, fold_of, strict=True)]
+    else:
+        rows = [_score(r, fit.params) for r in test_runs]
+    if problem is not None:
+        return ModelScore(model, len(fit.stderr), fit, problem)
+    per_run = {m: [row[m] for row, _ in rows] for m in _METRICS}
+    held = {m: _t_interval(np.array(v, dtype=np.float64)) for m, v in per_run.items()}
+    bic = float(_bic(np.array(fit.run_rss), np.array(fit.run_sizes, float), fit.n_params))
+    return ModelScore(
+        model, len(fit.stderr), fit, None, per_run, held, bic,
+        segment_errors=[seg for _, seg in rows],
+    )  # fmt: skip
 
 
 def _check_curve(curve: Sequence[float], run: OdometryRun) -> None:
@@ -542,6 +577,42 @@ def _recommend(
         for s in ok
     }
     idx = _resample_weights(sizes, rng, n_boot)
+    train_idx = rng.integers(0, len(train), size=(n_boot, len(train)))
+    out = _verdicts(scores, errors, idx, train_idx, n_segments)
+    fitted = [s for s in out if s.problem is None]
+    best = next(s for s in fitted if s.verdict == "best") if n_segments else fitted[0]
+    what = f"{n_segments} held-out segments ({SEGMENT_M:g} m or {math.degrees(SEGMENT_RAD):g} deg)"
+    if n_segments < MIN_SEGMENTS:
+        recommended = UNDECIDED
+        reason = (
+            f"undecided: {what}; expected at least {MIN_SEGMENTS} to compare the models on "
+            "(longer or more held-out runs)"
+        )
+    else:
+        recommended, reason = _choose(fitted, best, what)
+        recommended, reason = _never_worse(out, errors, idx, recommended, reason, what)
+    return ModelComparison(
+        out,
+        recommended,
+        reason,
+        [r.name for r in train],
+        [r.name for r in test_runs],
+        cv,
+        best=best.model,
+        segments=n_segments,
+    )
+
+
+def _verdicts(
+    scores: list[ModelScore],
+    errors: dict[str, NDArray[np.float64]],
+    idx: NDArray[np.float64],
+    train_idx: NDArray[np.int64],
+    n_segments: int,
+) -> list[ModelScore]:
+    """Every fitted model's mean segment error, ratio to the best, verdict, BIC against the
+    differential drive and per-run risk against the best kinematic model (see the module)."""
+    ok = [s for s in scores if s.problem is None]
     best = min(ok, key=lambda s: float(_mean(errors[s.model])) if n_segments else math.inf)
     kinematic = [s for s in ok if s.model in KINEMATIC]
     best_kin = (
@@ -550,7 +621,6 @@ def _recommend(
         else None
     )
     diff = next((s for s in ok if s.model == "diff"), None)
-    train_idx = rng.integers(0, len(train), size=(n_boot, len(train)))
     out: list[ModelScore] = []
     for s in scores:
         if s.problem is not None or s.fit is None:
@@ -587,68 +657,106 @@ def _recommend(
                 runs_worse=risk,
             )
         )
-    fitted = [s for s in out if s.problem is None]
-    what = f"{n_segments} held-out segments ({SEGMENT_M:g} m or {math.degrees(SEGMENT_RAD):g} deg)"
-    if n_segments < MIN_SEGMENTS:
-        recommended = UNDECIDED
-        reason = (
-            f"undecided: {what}; expected at least {MIN_SEGMENTS} to compare the models on "
-            "(longer or more held-out runs)"
+    return out
+
+
+def _choose(fitted: list[ModelScore], best: ModelScore, what: str) -> tuple[str, str]:
+    """The simplest model not worse than the best, or "undecided" (see the module), and why."""
+    chosen: ModelScore | None = None
+    worse: list[ModelScore] = []
+    for s in fitted:  # simplest first
+        if s.verdict in ("best", "not worse"):
+            chosen = s
+            break
+        if s.verdict == "worse":
+            worse.append(s)
+            continue
+        break  # undecided: cannot say whether this simpler model suffices
+    if chosen is None:
+        s = next(x for x in fitted if x.verdict == UNDECIDED)
+        assert s.ratio_to_best is not None
+        return UNDECIDED, (
+            f"undecided: on {what}, {s.model}'s segment error relative to {best.model}'s is "
+            f"{_ratio_text(s.ratio_to_best)}: the data allow it to be as good and to be more "
+            f"than {NOT_WORSE:.0%} worse; more held-out runs would decide"
         )
-    else:
-        chosen: ModelScore | None = None
-        worse: list[ModelScore] = []
-        for s in fitted:  # simplest first
-            if s.verdict in ("best", "not worse"):
-                chosen = s
-                break
-            if s.verdict == "worse":
-                worse.append(s)
-                continue
-            break  # undecided: cannot say whether this simpler model suffices
-        if chosen is None:
-            s = next(x for x in fitted if x.verdict == UNDECIDED)
-            assert s.ratio_to_best is not None
-            recommended = UNDECIDED
-            reason = (
-                f"undecided: on {what}, {s.model}'s segment error relative to {best.model}'s is "
-                f"{_ratio_text(s.ratio_to_best)}: the data allow it to be as good and to be more "
-                f"than {NOT_WORSE:.0%} worse; more held-out runs would decide"
+    if chosen.model == best.model:
+        reason = f"{best.model} has the lowest mean error on {what}"
+        if worse:
+            reason += "; " + ", ".join(
+                f"{w.model} is worse (error ratio {_ratio_text(w.ratio_to_best)})"
+                for w in worse
+                if w.ratio_to_best is not None
             )
-        elif chosen.model == best.model:
-            recommended = best.model
-            reason = f"{best.model} has the lowest mean error on {what}"
-            if worse:
-                reason += "; " + ", ".join(
-                    f"{w.model} is worse (error ratio {_ratio_text(w.ratio_to_best)})"
-                    for w in worse
-                    if w.ratio_to_best is not None
-                )
-        else:
-            r = chosen.ratio_to_best
-            assert r is not None
-            recommended = chosen.model
-            reason = (
-                f"{chosen.model} is not worse than {best.model} on {what} (error ratio "
-                f"{_ratio_text(r)}, within {NOT_WORSE:.0%}) and is simpler"
-            )
-    rec = next((x for x in fitted if x.model == recommended), None)
-    if rec is not None and rec.model not in KINEMATIC and rec.runs_worse and best_kin:
+        return best.model, reason
+    r = chosen.ratio_to_best
+    assert r is not None
+    return chosen.model, (
+        f"{chosen.model} is not worse than {best.model} on {what} (error ratio "
+        f"{_ratio_text(r)}, within {NOT_WORSE:.0%}) and is simpler"
+    )
+
+
+def _never_worse(
+    out: list[ModelScore],
+    errors: dict[str, NDArray[np.float64]],
+    idx: NDArray[np.float64],
+    recommended: str,
+    reason: str,
+    what: str,
+) -> tuple[str, str]:
+    """A learned (not kinematic) model is recommended only where it is not worse than the best
+    kinematic model on the held-out data by either measure that reaches beyond one segment:
+    the mean end-point error of the held-out runs, and on most of them one by one
+    (:attr:`ModelScore.runs_worse`). Where it is, the choice among the kinematic models alone
+    stands instead (its verdicts against their own best), and the reason says why."""
+    rec = next((x for x in out if x.problem is None and x.model == recommended), None)
+    kin = [x for x in out if x.problem is None and x.model in KINEMATIC]
+    if rec is None or rec.model in KINEMATIC or not kin:
+        return recommended, reason
+    best_kin = min(kin, key=lambda s: float(_mean(errors[s.model])))
+    if rec.runs_worse:
         k, n = rec.runs_worse
         reason += (
             f"; per run, {rec.model} is worse than {best_kin.model} (the best kinematic model) "
             f"on {k} of {n} held-out runs"
         )
-    return ModelComparison(
-        out,
-        recommended,
-        reason,
-        [r.name for r in train],
-        [r.name for r in test_runs],
-        cv,
-        best=best.model,
-        segments=n_segments,
+    end = {s.model: s.held_out["endpoint_error"].value for s in (rec, *kin) if s.held_out}
+    kin_end = min((v for m, v in end.items() if m in KINEMATIC), default=math.nan)
+    by_run = rec.runs_worse is not None and rec.runs_worse[0] * 2 > rec.runs_worse[1]
+    by_end = math.isfinite(end.get(rec.model, math.nan)) and end[rec.model] > kin_end
+    if not (by_run or by_end):
+        return recommended, reason
+    why = (
+        f"its held-out mean end-point error {end[rec.model]:.3g} m is above the best "
+        f"kinematic model's {kin_end:.3g} m"
+        if by_end
+        else f"it is worse than {best_kin.model} on most held-out runs"
     )
+    ranked = [_rescored(s, errors, idx, best_kin) for s in kin]
+    choice, because = _choose(ranked, ranked[kin.index(best_kin)], what)
+    return choice, (
+        f"{rec.model} has the lowest mean segment error, but {why}: a learned model is not "
+        f"recommended where it is worse than the best kinematic one; among the kinematic "
+        f"models, {because}"
+    )
+
+
+def _rescored(
+    s: ModelScore, errors: dict[str, NDArray[np.float64]], idx: NDArray[np.float64],
+    best: ModelScore,
+) -> ModelScore:  # fmt: skip
+    """``s``'s verdict against ``best`` (the best kinematic model) instead of the best of all."""
+    ratio = _paired_ratio(errors[s.model], errors[best.model], idx)
+    if s.model == best.model:
+        verdict = "best"
+    elif ratio.high <= 1.0 + NOT_WORSE:
+        verdict = "not worse"
+    elif ratio.low > 1.0:
+        verdict = "worse"
+    else:
+        verdict = UNDECIDED
+    return replace(s, ratio_to_best=ratio, verdict=verdict)
 
 
 @dataclass(frozen=True)

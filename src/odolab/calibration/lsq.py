@@ -30,13 +30,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.calibration.truthnoise import TruthNoise, estimate_truth_noise, truth_residuals
 from odolab.errors import CalibrationError, InsufficientDataError
 from odolab.io.registry import LogFormat, find_runs, read_run
 from odolab.io.run import OdometryRun, ReadOptions
@@ -51,6 +52,7 @@ from odolab.params import RobotParams, plausible_range
 
 __all__ = [
     "FIT_MODELS",
+    "LOSSES",
     "PARAM_NAMES",
     "FitModel",
     "LsqCalibration",
@@ -61,8 +63,10 @@ __all__ = [
     "calibrate_lsq",
     "calibrate_lsq_files",
     "compare_runs",
+    "kinematic_base",
     "prepare_run",
     "segment_residuals",
+    "slip_truth_noise",
 ]
 
 PARAM_NAMES = ("left_wheel_radius", "right_wheel_radius", "track_width")
@@ -188,6 +192,11 @@ def fit_model(kind: str) -> FitModel:
         ) from None
 
 
+#: The losses of the kinematic fit (scipy's ``least_squares``): plain least squares and the
+#: robust ones, which weigh a large residual less than its square.
+LOSSES = ("linear", "huber", "soft_l1", "cauchy", "arctan")
+
+
 @dataclass(frozen=True)
 class LsqOptions:
     """Settings of the fit."""
@@ -198,6 +207,11 @@ class LsqOptions:
     loss: str = "linear"
     fit_gt_yaw_offset: bool = True
     model: str = "diff"
+    #: the ground truth's noise, as the user gives it; None: estimated from
+    #: the truth's own updates (:mod:`odolab.calibration.truthnoise`) where ``truth_noise``
+    truth_sigma: TruthNoise | None = None
+    #: whether the slip fit allows for the truth's noise at all
+    truth_noise: bool = True
 
     def __post_init__(self) -> None:
         fit_model(self.model)
@@ -205,6 +219,8 @@ class LsqOptions:
             raise CalibrationError(
                 f"segment length is {self.segment_s!r} s; expected a positive number of seconds"
             )
+        if self.loss not in LOSSES:
+            raise CalibrationError(f"loss is {self.loss!r}; expected one of {', '.join(LOSSES)}")
         hs = self.heading_scale
         if hs is not None and not (np.isfinite(hs) and hs > 0):
             raise CalibrationError(f"heading scale is {hs!r} m/rad; expected a positive number")
@@ -226,6 +242,16 @@ class PreparedRun:
     #: runs with one ``frame`` share one ground-truth yaw offset (the windows of one table were
     #: measured by one mounted sensor); "" means the run's own
     frame: str = ""
+    #: the ground truth's real updates' deviations from their neighbours (position, heading)
+    #: and the spacings between them: what its noise is estimated from
+    #: (:func:`odolab.calibration.truthnoise.truth_residuals`)
+    truth_xy: FloatArray = field(default_factory=lambda: np.zeros(0))
+    truth_yaw: FloatArray = field(default_factory=lambda: np.zeros(0))
+    truth_dt: FloatArray = field(default_factory=lambda: np.zeros(0))
+
+    def truth_parts(self) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """(:attr:`truth_xy`, :attr:`truth_yaw`, :attr:`truth_dt`)."""
+        return self.truth_xy, self.truth_yaw, self.truth_dt
 
 
 def prepare_run(run: OdometryRun, segment_s: float = 2.0) -> PreparedRun:
@@ -259,6 +285,7 @@ def prepare_run(run: OdometryRun, segment_s: float = 2.0) -> PreparedRun:
         edges = np.append(edges, t.size - 1)
     if edges.size < 2:
         raise InsufficientDataError(f"{run.source}: too short for one {segment_s:g} s segment")
+    txy, tyaw, tdt = truth_residuals(gt.t, gt.x, gt.y, gt.heading)
     return PreparedRun(
         run.name,
         t,
@@ -270,6 +297,9 @@ def prepare_run(run: OdometryRun, segment_s: float = 2.0) -> PreparedRun:
         edges[:-1].copy(),
         edges[1:].copy(),
         frame=str(run.meta.get("truth_frame", "")),
+        truth_xy=txy,
+        truth_yaw=tyaw,
+        truth_dt=tdt,
     )
 
 
@@ -456,108 +486,151 @@ def calibrate_lsq(
 ) -> LsqCalibration:
     """Fit the kinematic model ``options.model`` to the runs' ground truth (see the module).
 
-    For the differential drive ``theta = (r_left, r_right, track_width)``."""
-    from scipy.optimize import least_squares
-
+    For the differential drive ``theta = (r_left, r_right, track_width)``. With a robust
+    ``options.loss`` (``"huber"``, ``"soft_l1"``, ``"cauchy"``, ...: scipy's), the fit is made
+    twice: by plain least squares, then with the loss at :data:`ROBUST_TUNING` times the plain
+    fit's residuals' robust standard deviation (1.4826 times their median absolute deviation),
+    so that a scan-matcher glitch of a metre weighs as a residual of that size, not squared."""
     o = options or LsqOptions()
     spec = fit_model(o.model)
-    k_model = len(spec.names)
     prepared = [r if isinstance(r, PreparedRun) else prepare_run(r, o.segment_s) for r in runs]
     if not prepared:
         raise InsufficientDataError("no runs to calibrate on; expected at least one run")
     scale = o.heading_scale if o.heading_scale is not None else nominal.track_width / 2.0
     if spec.kind == "slip":
         return _calibrate_slip(prepared, nominal, o, scale)
-    x0 = spec.start(nominal)
-    lo, hi = spec.bounds(x0, nominal)
-    # one offset a run, or a frame's runs share one (PreparedRun.frame); a frame's runs are
-    # integrated as one (their residuals are the same, each segment in its own start frame)
-    units, unit_runs = _units(prepared)
-    n_off = len(units) if o.fit_gt_yaw_offset else 0
-    x_scale = np.concatenate((spec.scales(x0, nominal), np.full(n_off, 0.01)))
-    x0 = np.concatenate((x0, np.zeros(n_off)))
-    lower = np.concatenate((lo, np.full(n_off, -0.5)))
-    upper = np.concatenate((hi, np.full(n_off, 0.5)))
+    problem = _Problem(spec, nominal, o, scale, prepared)
+    return problem.result(problem.solve(), prepared)
 
-    def per_unit(theta: FloatArray) -> list[FloatArray]:
-        p = spec.params(nominal, theta[:k_model])  # built once for every run
+
+#: A robust loss's scale: this many robust standard deviations of the plain fit's residuals
+#: (Huber's 1.345: 95 % of least squares' efficiency on Gaussian residuals).
+ROBUST_TUNING = 1.345
+
+
+class _Problem:
+    """One kinematic least-squares fit: the model's parameters and the ground-truth yaw
+    offsets, the residuals and their Jacobian (see :func:`calibrate_lsq`)."""
+
+    def __init__(
+        self,
+        spec: FitModel,
+        nominal: RobotParams,
+        o: LsqOptions,
+        scale: float,
+        prepared: list[PreparedRun],
+    ) -> None:
+        self.spec, self.nominal, self.o, self.scale = spec, nominal, o, scale
+        self.k_model = len(spec.names)
+        x0 = spec.start(nominal)
+        lo, hi = spec.bounds(x0, nominal)
+        # one offset a run, or a frame's runs share one (PreparedRun.frame); a frame's runs are
+        # integrated as one (their residuals are the same, each segment in its own start frame)
+        self.units, self.unit_runs = _units(prepared)
+        self.n_off = n_off = len(self.units) if o.fit_gt_yaw_offset else 0
+        self.x_scale = np.concatenate((spec.scales(x0, nominal), np.full(n_off, 0.01)))
+        self.x0 = np.concatenate((x0, np.zeros(n_off)))
+        self.lower = np.concatenate((lo, np.full(n_off, -0.5)))
+        self.upper = np.concatenate((hi, np.full(n_off, 0.5)))
+        parts0 = self.per_unit(self.x0)
+        self.r0 = np.concatenate(parts0)
+        self.m = self.r0.size
+        if self.m <= self.x0.size:
+            raise InsufficientDataError(
+                f"{self.m} residuals for {self.x0.size} parameters; expected longer runs"
+            )
+        self.steps = 1e-6 * self.x_scale
+        self.edges = np.cumsum([0] + [r.size for r in parts0])
+
+    def per_unit(self, theta: FloatArray) -> list[FloatArray]:
+        p = self.spec.params(self.nominal, theta[: self.k_model])  # built once for every run
         return [
-            _residuals(p, u, scale, o.method, theta[k_model + k] if n_off else 0.0)
-            for k, u in enumerate(units)
+            _residuals(
+                p, u, self.scale, self.o.method, theta[self.k_model + k] if self.n_off else 0.0
+            )
+            for k, u in enumerate(self.units)
         ]
 
-    def per_run(theta: FloatArray) -> list[FloatArray]:
-        return _split_units(per_unit(theta), unit_runs)
+    def fun(self, theta: FloatArray) -> FloatArray:
+        return np.concatenate(self.per_unit(theta))
 
-    def fun(theta: FloatArray) -> FloatArray:
-        return np.concatenate(per_unit(theta))
-
-    parts0 = per_unit(x0)
-    r0 = np.concatenate(parts0)
-    m = r0.size
-    if m <= x0.size:
-        raise InsufficientDataError(f"{m} residuals for {x0.size} parameters; expected longer runs")
-    steps = 1e-6 * x_scale
-    edges = np.cumsum([0] + [r.size for r in parts0])
-
-    def jac(theta: FloatArray) -> FloatArray:
+    def jac(self, theta: FloatArray) -> FloatArray:
         # differences with steps fixed to each parameter's scale (see _difference)
+        k_model, lower, upper, steps = self.k_model, self.lower, self.upper, self.steps
         cols = []
         for k in range(k_model):
 
             def moved(v: float, k: int = k) -> FloatArray:
                 t = theta.copy()
                 t[k] = v
-                return fun(t)
+                return self.fun(t)
 
             cols.append(_difference(moved, theta[k], steps[k], lower[k], upper[k]))
         # a ground-truth yaw offset moves only its unit's residuals: its column is zero
         # elsewhere (exactly, as the full difference gave), so only that unit is integrated
-        p = spec.params(nominal, theta[:k_model])
-        off_cols = [np.zeros(m) for _ in range(n_off)]
-        for k, unit in enumerate(units[:n_off]):
+        p = self.spec.params(self.nominal, theta[:k_model])
+        off_cols = [np.zeros(self.m) for _ in range(self.n_off)]
+        for k, unit in enumerate(self.units[: self.n_off]):
             i = k_model + k
 
             def rotated(v: float, unit: PreparedRun = unit) -> FloatArray:
-                return _residuals(p, unit, scale, o.method, v)
+                return _residuals(p, unit, self.scale, self.o.method, v)
 
-            off_cols[k][edges[k] : edges[k + 1]] = _difference(
+            off_cols[k][self.edges[k] : self.edges[k + 1]] = _difference(
                 rotated, theta[i], steps[i], lower[i], upper[i]
             )
         cols.extend(off_cols)
         return np.column_stack(cols)
 
-    sol = least_squares(fun, x0, jac=jac, x_scale=x_scale, loss=o.loss, bounds=(lower, upper))
-    if not sol.success:
-        raise CalibrationError(f"least squares did not converge: {sol.message}")
-    jmat = jac(sol.x)
-    s2 = float(np.sum(sol.fun**2)) / (m - x0.size)
-    jtj = jmat.T @ jmat
-    norms = np.linalg.norm(jmat, axis=0)
-    # a parameter's typical size: its start's scale, or its fitted value where that is larger
-    # (a start at 1 mm does not make a 0.28 m result uncertain)
-    typical = np.maximum(x_scale[:k_model], np.abs(sol.x[:k_model]))
-    warnings = _check_identifiable(spec, jmat, norms, s2, k_model, typical)
-    cov: FloatArray = np.asarray(np.linalg.inv(jtj) * s2, dtype=np.float64)
-    theta = sol.x
-    params = spec.params(nominal, theta[:k_model]).with_(name=f"{nominal.name}-lsq")
-    residuals = per_run(sol.x)
-    return LsqCalibration(
-        params=params,
-        nominal=nominal,
-        stderr={k: float(np.sqrt(cov[i, i])) for i, k in enumerate(spec.names)},
-        covariance=cov[:k_model, :k_model],
-        rms_before=float(np.sqrt(np.mean(r0**2))),
-        rms_after=float(np.sqrt(np.mean(sol.fun**2))),
-        runs=[r.name for r in prepared],
-        segments=m // 3,
-        heading_scale=scale,
-        gt_yaw_offsets=[float(v) for v in theta[k_model:]],
-        model=spec.kind,
-        run_rss=[float(np.sum(r**2)) for r in residuals],
-        run_sizes=[int(r.size) for r in residuals],
-        warnings=warnings,
-    )
+    def solve(self) -> Any:
+        """scipy's solution: plain least squares, then (a robust loss) the robust fit."""
+        from scipy.optimize import least_squares
+
+        bounds = (self.lower, self.upper)
+        sol = least_squares(self.fun, self.x0, jac=self.jac, x_scale=self.x_scale, bounds=bounds)
+        if sol.success and self.o.loss != "linear":
+            r = sol.fun
+            sd = 1.4826 * float(np.median(np.abs(r - np.median(r))))
+            if sd > 0:
+                sol = least_squares(
+                    self.fun, sol.x, jac=self.jac, x_scale=self.x_scale, bounds=bounds,
+                    loss=self.o.loss, f_scale=ROBUST_TUNING * sd,
+                )  # fmt: skip
+        if not sol.success:
+            raise CalibrationError(f"least squares did not converge: {sol.message}")
+        return sol
+
+    def result(self, sol: Any, prepared: list[PreparedRun]) -> LsqCalibration:
+        """The fit's :class:`LsqCalibration` (standard errors from the Jacobian)."""
+        spec, k_model, m = self.spec, self.k_model, self.m
+        jmat = self.jac(sol.x)
+        s2 = float(np.sum(sol.fun**2)) / (m - self.x0.size)
+        jtj = jmat.T @ jmat
+        norms = np.linalg.norm(jmat, axis=0)
+        # a parameter's typical size: its start's scale, or its fitted value where that is
+        # larger (a start at 1 mm does not make a 0.28 m result uncertain)
+        typical = np.maximum(self.x_scale[:k_model], np.abs(sol.x[:k_model]))
+        warnings = _check_identifiable(spec, jmat, norms, s2, k_model, typical)
+        cov: FloatArray = np.asarray(np.linalg.inv(jtj) * s2, dtype=np.float64)
+        theta = sol.x
+        params = spec.params(self.nominal, theta[:k_model]).with_(name=f"{self.nominal.name}-lsq")
+        residuals = _split_units(self.per_unit(sol.x), self.unit_runs)
+        return LsqCalibration(
+            params=params,
+            nominal=self.nominal,
+            stderr={k: float(np.sqrt(cov[i, i])) for i, k in enumerate(spec.names)},
+            covariance=cov[:k_model, :k_model],
+            rms_before=float(np.sqrt(np.mean(self.r0**2))),
+            rms_after=float(np.sqrt(np.mean(sol.fun**2))),
+            runs=[r.name for r in prepared],
+            segments=m // 3,
+            heading_scale=self.scale,
+            gt_yaw_offsets=[float(v) for v in theta[k_model:]],
+            model=spec.kind,
+            run_rss=[float(np.sum(r**2)) for r in residuals],
+            run_sizes=[int(r.size) for r in residuals],
+            warnings=warnings,
+        )
 
 
 def _units(
@@ -601,6 +674,9 @@ def _units(
                 np.concatenate(starts),
                 np.concatenate(ends),
                 frame=rs[0].frame,
+                truth_xy=np.concatenate([r.truth_xy for r in rs]),
+                truth_yaw=np.concatenate([r.truth_yaw for r in rs]),
+                truth_dt=np.concatenate([r.truth_dt for r in rs]),
             )
         )
     sizes = [[(k, int(prepared[k].starts.size)) for k in members] for members in groups.values()]
@@ -629,7 +705,10 @@ def _calibrate_slip(
     segment residuals as every other model's (so its BIC compares)."""
     from odolab.calibration.slipfit import fit_slip_model, undetermined
 
-    model, cov, windows, centre, spread = fit_slip_model(prepared, nominal)
+    truth = slip_truth_noise(prepared, o)
+    model, cov, windows, centre, spread = fit_slip_model(
+        prepared, nominal, centre=kinematic_base(prepared, nominal, o.loss), truth=truth
+    )
     base = nominal.with_(model=DIFF_DRIVE)
     params = nominal.with_(model=model, name=f"{nominal.name}-lsq")
     before = [_residuals(base, r, scale, o.method, 0.0) for r in prepared]
@@ -662,8 +741,47 @@ def _calibrate_slip(
             + ", ".join(f"{k} {getattr(model, k):.3g}" for k in NOISE_KEYS)
             + "; drift "
             + ", ".join(f"{k} {getattr(model, k):.3g}" for k in DRIFT_KEYS),
+            *([truth.describe()] if truth is not None else []),
         ],
     )
+
+
+def kinematic_base(
+    runs: Sequence[object], nominal: RobotParams, loss: str = "linear"
+) -> tuple[FloatArray, str]:
+    """The prior mean of the slip coefficients: the first of
+    :data:`odolab.calibration.slipfit.BASE_MODELS` that can be fitted to the runs by least
+    squares (with ``loss``; no ground-truth yaw offsets, as the slip fit), as slip coefficients
+    (:func:`odolab.calibration.slipfit.base_coefficients`); and its name ("none", all zeros:
+    the nominal differential drive, when none can)."""
+    from odolab.calibration.slipfit import BASE_MODELS, base_coefficients
+    from odolab.errors import ParamsError
+    from odolab.models.slip import FEATURES
+
+    for kind in BASE_MODELS:
+        try:
+            fit = calibrate_lsq(
+                runs,  # type: ignore[arg-type]
+                nominal,
+                LsqOptions(model=kind, fit_gt_yaw_offset=False, loss=loss),
+            )
+        except (CalibrationError, InsufficientDataError, ParamsError):
+            continue
+        return base_coefficients(fit.params, nominal), kind
+    return np.zeros(3 * len(FEATURES)), "none"
+
+
+def slip_truth_noise(prepared: Sequence[PreparedRun], o: LsqOptions) -> TruthNoise | None:
+    """The ground truth's noise the slip fit allows for: the user's (``o.truth_sigma``), else
+    the estimate from the runs' own truth updates (None where ``o.truth_noise`` is off or the
+    runs have too few updates to tell)."""
+    if o.truth_sigma is not None:  # the updates' spacing still from the runs
+        dt = np.concatenate([r.truth_dt for r in prepared]) if prepared else np.zeros(0)
+        spacing = float(np.median(dt)) if dt.size else 0.0
+        return replace(o.truth_sigma, spacing=spacing)
+    if not o.truth_noise:
+        return None
+    return estimate_truth_noise([r.truth_parts() for r in prepared])
 
 
 def _check_identifiable(

@@ -17,7 +17,7 @@ describes (with fewer than :data:`STEADY_SHARE` of the windows steady, all are k
 forward and lateral coefficients are
 fitted together on the x and y rows, the yaw ones on the heading rows; each with a Gaussian prior
 ``beta ~ N(beta_0, tau^2)`` per coefficient. Its centre ``beta_0`` is the kinematic model fitted
-to the same runs (:func:`kinematic_base`: the ICR model, else the extended one, else the
+to the same runs (:func:`odolab.calibration.lsq.kinematic_base`: the ICR model, else the extended one, else the
 differential drive, as slip coefficients of degree one, :func:`base_coefficients`), so what the
 runs do not determine stays with that model; ``tau`` the size of a slip as large as the robot's
 typical speed (``rms(v) / rms(phi_j)``: a weak prior that keeps the fit finite on a few seconds),
@@ -39,18 +39,26 @@ likelihood (:func:`fit_noise`). The errors are those of a model fitted without t
 run is cut into :data:`NOISE_FOLDS` parts and each part is predicted by the model fitted on the
 others, so the variance covers the model's own error on new data as well as the noise.
 
+The ground truth is a measurement with noise of its own (:mod:`odolab.calibration.truthnoise`:
+estimated from its real updates, or given): the rows of a window difference the truth at its two
+ends, and neighbouring windows share one end, so the rows' noise is the model's (diagonal) plus
+the truth's (:func:`truth_covariances`, banded), and the regression weighs the rows by the
+inverse of the whole (generalised least squares; expectation-maximisation finds the model's part
+as what the truth's does not explain).
+
 The ground truth's yaw offset is not fitted (its frame is taken as the robot's).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from itertools import pairwise
 
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.calibration.truthnoise import TruthNoise
 from odolab.errors import InsufficientDataError
 from odolab.models.slip import FEATURES, SlipModel
 from odolab.params import RobotParams
@@ -71,7 +79,6 @@ __all__ = [
     "endpoint_error",
     "first_seconds",
     "fit_slip_model",
-    "learning_curve",
     "nees_bounds",
     "nees_pieces",
     "propagate_covariance",
@@ -92,7 +99,7 @@ SETTLE_S = 0.3
 #: A fit keeps only the windows in steady state when at least this share of them is (else all)
 STEADY_SHARE = 0.25
 #: The kinematic models the slip model's prior is centred on, in order of preference: the first
-#: that can be fitted to the runs (see :func:`kinematic_base`)
+#: that can be fitted to the runs (see :func:`odolab.calibration.lsq.kinematic_base`)
 BASE_MODELS = ("icr", "extended", "diff")
 #: Lengths (s) of the pieces the variance terms are fitted on, together.
 NOISE_PIECE_S: tuple[float, ...] = (1.0, 3.0)
@@ -131,6 +138,15 @@ class SlipDesign:
     phi_rms: FloatArray
     #: windows the runs were cut into, before any was left out for not being in steady state
     windows_seen: int = 0
+    #: per window: its x and y rows in ``a_xy`` (its heading row is its own index), the window
+    #: before it when that one ends where it starts (-1: none; the two share a ground-truth
+    #: pose, so its noise enters both), the truth's heading change from that window's start to
+    #: this one's (rad), and the truth's displacement over the window in its start frame (m)
+    row_x: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    row_y: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    previous: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    turn_from_previous: FloatArray = field(default_factory=lambda: np.zeros(0))
+    shift: FloatArray = field(default_factory=lambda: np.zeros((0, 2)))
 
 
 def _steady(
@@ -160,98 +176,139 @@ def slip_design(
 ) -> SlipDesign:
     """The regression rows of prepared runs (:class:`odolab.calibration.lsq.PreparedRun`);
     ``steady``: only the windows in steady state (:func:`_steady`)."""
-    axy, yxy, ayaw, yyaw, dur, trav, turn = [], [], [], [], [], [], []
-    v_sq, w_sq, n_steps, seen = 0.0, 0.0, 0, 0
-    phi_sq = np.zeros(len(FEATURES))
+    parts = [p for p in (_run_rows(r, nominal, window_s, steady) for r in runs) if p is not None]
+    n_steps = sum(p.steps for p in parts)
+    full = [p for p in parts if p.durations.size]
+    if not full or n_steps == 0:
+        raise InsufficientDataError("no motion with ground truth to fit the slip model on")
+    row_x, row_y, previous = [], [], []
+    rows = wins = 0
+    for p in full:  # each run's x rows, then its y rows; windows in order
+        m = p.durations.size
+        row_x.append(rows + np.arange(m))
+        row_y.append(rows + m + np.arange(m))
+        previous.append(np.where(p.chained, wins + np.arange(m) - 1, -1))
+        rows += 2 * m
+        wins += m
+
+    def cat(name: str) -> FloatArray:
+        return np.concatenate([getattr(p, name) for p in full])
+
+    return SlipDesign(
+        np.vstack([p.a_xy for p in full]),
+        cat("y_xy"),
+        np.vstack([p.a_yaw for p in full]),
+        cat("y_yaw"),
+        cat("durations"),
+        cat("travel"),
+        cat("turn"),
+        float(np.sqrt(sum(p.v_sq for p in parts) / n_steps)),
+        float(np.sqrt(sum(p.w_sq for p in parts) / n_steps)),
+        np.sqrt(sum((p.phi_sq for p in parts), np.zeros(len(FEATURES))) / n_steps),
+        sum(p.seen for p in parts),
+        np.concatenate(row_x),
+        np.concatenate(row_y),
+        np.concatenate(previous),
+        cat("turn_from_previous"),
+        np.vstack([p.shift for p in full]),
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class _RunRows:
+    """One run's windows in :func:`slip_design` (see :class:`SlipDesign`), whether each starts
+    where the one before it ended (``chained``), and the run's sums of squared speeds, turn
+    rates and features over its ``steps`` timed cycles; ``seen`` windows before the steady
+    ones were kept."""
+
+    a_xy: FloatArray
+    y_xy: FloatArray
+    a_yaw: FloatArray
+    y_yaw: FloatArray
+    durations: FloatArray
+    travel: FloatArray
+    turn: FloatArray
+    chained: NDArray[np.bool_]
+    turn_from_previous: FloatArray
+    shift: FloatArray
+    v_sq: float
+    w_sq: float
+    phi_sq: FloatArray
+    steps: int
+    seen: int
+
+
+def _run_rows(run: object, nominal: RobotParams, window_s: float, steady: bool) -> _RunRows | None:
+    """The regression rows of one prepared run (None: fewer than two samples)."""
+    t = np.asarray(run.t, dtype=np.float64)  # type: ignore[attr-defined]
+    dsl = np.asarray(run.dticks_left) * nominal.left_metres_per_tick  # type: ignore[attr-defined]
+    dsr = np.asarray(run.dticks_right) * nominal.right_metres_per_tick  # type: ignore[attr-defined]
+    gx = np.asarray(run.gt_x, dtype=np.float64)  # type: ignore[attr-defined]
+    gy = np.asarray(run.gt_y, dtype=np.float64)  # type: ignore[attr-defined]
+    gh = np.unwrap(np.asarray(run.gt_heading, dtype=np.float64))  # type: ignore[attr-defined]
+    n = t.size
+    if n < 2:
+        return None
     b = nominal.track_width
     tick = 0.5 * (nominal.left_metres_per_tick + nominal.right_metres_per_tick)
-    for run in runs:
-        t = np.asarray(run.t, dtype=np.float64)  # type: ignore[attr-defined]
-        dsl = np.asarray(run.dticks_left) * nominal.left_metres_per_tick  # type: ignore[attr-defined]
-        dsr = np.asarray(run.dticks_right) * nominal.right_metres_per_tick  # type: ignore[attr-defined]
-        gx = np.asarray(run.gt_x, dtype=np.float64)  # type: ignore[attr-defined]
-        gy = np.asarray(run.gt_y, dtype=np.float64)  # type: ignore[attr-defined]
-        gh = np.unwrap(np.asarray(run.gt_heading, dtype=np.float64))  # type: ignore[attr-defined]
-        n = t.size
-        if n < 2:
-            continue
-        dt = np.diff(t, prepend=t[0])
-        ds = 0.5 * (dsl + dsr)
-        dth = (dsr - dsl) / b
-        ds[0] = dth[0] = 0.0
-        timed = dt > 0
-        tt = np.where(timed, dt, 1.0)
-        phi = SlipModel.features(ds / tt, dth / tt)
-        phi[4:, ~timed] = 0.0
-        phi[:, 0] = 0.0
-        big_phi = phi * tt[None, :]  # dt * phi, (8, n)
-        v_sq += float(np.sum((ds / tt)[timed] ** 2))
-        w_sq += float(np.sum((dth / tt)[timed] ** 2))
-        phi_sq += np.sum(phi[:, timed] ** 2, axis=1)
-        n_steps += int(timed.sum())
-        a = np.empty(n)  # absolute mid-cycle heading of the ground truth
-        a[0] = gh[0]
-        a[1:] = 0.5 * (gh[1:] + gh[:-1])
-        ca, sa = np.cos(a), np.sin(a)
-        # world-frame running sums: commanded motion, and the regressors of fwd and lat
-        cum = _cumulative
-        cx, cy = cum(ca * ds), cum(sa * ds)
-        fxx, fxy = cum(ca * big_phi), cum(sa * big_phi)  # fwd: (cos, sin) * Phi
-        cth = cum(dth)
-        mult = SlipModel.noise_multipliers(dsl, dsr, dt, b, tick / b)
-        mult[0] = 0.0
-        ctr = cum(mult[:, 3])
-        ctu = cum(mult[:, 5])
-        cphi = cum(big_phi)
-        edges = np.unique(np.searchsorted(t, np.arange(t[0], t[-1] + window_s, window_s)))
-        edges = edges[edges < n]
-        if edges[-1] != n - 1:
-            edges = np.append(edges, n - 1)
-        i, j = edges[:-1], edges[1:]
-        seen += i.size
-        if steady:
-            keep = _steady(t, ds / tt, dth / tt, i, j)
-            i, j = i[keep], j[keep]
-            if i.size == 0:
-                continue
+    dt = np.diff(t, prepend=t[0])
+    ds = 0.5 * (dsl + dsr)
+    dth = (dsr - dsl) / b
+    ds[0] = dth[0] = 0.0
+    timed = dt > 0
+    tt = np.where(timed, dt, 1.0)
+    phi = SlipModel.features(ds / tt, dth / tt)
+    phi[4:, ~timed] = 0.0
+    phi[:, 0] = 0.0
+    big_phi = phi * tt[None, :]  # dt * phi, (8, n)
+    stats = {
+        "v_sq": float(np.sum((ds / tt)[timed] ** 2)),
+        "w_sq": float(np.sum((dth / tt)[timed] ** 2)),
+        "phi_sq": np.sum(phi[:, timed] ** 2, axis=1),
+        "steps": int(timed.sum()),
+    }
+    a = np.empty(n)  # absolute mid-cycle heading of the ground truth
+    a[0] = gh[0]
+    a[1:] = 0.5 * (gh[1:] + gh[:-1])
+    ca, sa = np.cos(a), np.sin(a)
+    # world-frame running sums: commanded motion, and the regressors of fwd and lat
+    cum = _cumulative
+    mult = SlipModel.noise_multipliers(dsl, dsr, dt, b, tick / b)
+    mult[0] = 0.0
+    edges = np.unique(np.searchsorted(t, np.arange(t[0], t[-1] + window_s, window_s)))
+    edges = edges[edges < n]
+    if edges[-1] != n - 1:
+        edges = np.append(edges, n - 1)
+    i, j = edges[:-1], edges[1:]
+    seen = int(i.size)
+    if steady:
+        keep = _steady(t, ds / tt, dth / tt, i, j)
+        i, j = i[keep], j[keep]
 
-        def s(c: FloatArray, i: NDArray[np.int64] = i, j: NDArray[np.int64] = j) -> FloatArray:
-            return _window_sum(c, i, j)  # sums over cycles i+1..j
+    def s(c: FloatArray) -> FloatArray:
+        return _window_sum(c, i, j)  # sums over cycles i+1..j
 
-        c0, s0 = np.cos(gh[i]), np.sin(gh[i])
-        px, py = s(cx), s(cy)
-        ex, ey = gx[j] - gx[i] - px, gy[j] - gy[i] - py  # world frame
-        # into the window's start frame
-        yx = c0 * ex + s0 * ey
-        yy = -s0 * ex + c0 * ey
-        wx_f, wy_f = s(fxx), s(fxy)  # world-frame regressors of beta_fwd: (8, m)
-        # beta_lat moves the body left: world (-sin, cos) * Phi
-        wx_l, wy_l = -wy_f, wx_f
-        rx_f = c0 * wx_f + s0 * wy_f
-        ry_f = -s0 * wx_f + c0 * wy_f
-        rx_l = c0 * wx_l + s0 * wy_l
-        ry_l = -s0 * wx_l + c0 * wy_l
-        axy.append(np.vstack((np.hstack((rx_f.T, rx_l.T)), np.hstack((ry_f.T, ry_l.T)))))
-        yxy.append(np.concatenate((yx, yy)))
-        ayaw.append(s(cphi).T)
-        yyaw.append((gh[j] - gh[i]) - s(cth))
-        dur.append(t[j] - t[i])
-        trav.append(s(ctr))
-        turn.append(s(ctu))
-    if not axy or n_steps == 0:
-        raise InsufficientDataError("no motion with ground truth to fit the slip model on")
-    return SlipDesign(
-        np.vstack(axy),
-        np.concatenate(yxy),
-        np.vstack(ayaw),
-        np.concatenate(yyaw),
-        np.concatenate(dur),
-        np.concatenate(trav),
-        np.concatenate(turn),
-        float(np.sqrt(v_sq / n_steps)),
-        float(np.sqrt(w_sq / n_steps)),
-        np.sqrt(phi_sq / n_steps),
-        seen,
+    c0, s0 = np.cos(gh[i]), np.sin(gh[i])
+    dxw, dyw = gx[j] - gx[i], gy[j] - gy[i]
+    ex, ey = dxw - s(cum(ca * ds)), dyw - s(cum(sa * ds))  # world frame
+    wx_f, wy_f = s(cum(ca * big_phi)), s(cum(sa * big_phi))  # regressors of beta_fwd: (8, m)
+    wx_l, wy_l = -wy_f, wx_f  # beta_lat moves the body left: world (-sin, cos) * Phi
+    # into the window's start frame
+    rx_f, ry_f = c0 * wx_f + s0 * wy_f, -s0 * wx_f + c0 * wy_f
+    rx_l, ry_l = c0 * wx_l + s0 * wy_l, -s0 * wx_l + c0 * wy_l
+    return _RunRows(
+        np.vstack((np.hstack((rx_f.T, rx_l.T)), np.hstack((ry_f.T, ry_l.T)))),
+        np.concatenate((c0 * ex + s0 * ey, -s0 * ex + c0 * ey)),
+        s(cum(big_phi)).T,
+        (gh[j] - gh[i]) - s(cum(dth)),
+        t[j] - t[i],
+        s(cum(mult[:, 3])),
+        s(cum(mult[:, 5])),
+        np.concatenate(([False], i[1:] == j[:-1]))[: i.size],
+        np.concatenate(([0.0], gh[i[1:]] - gh[i[:-1]]))[: i.size],
+        np.column_stack((c0 * dxw + s0 * dyw, -s0 * dxw + c0 * dyw)),
+        seen=seen,
+        **stats,
     )
 
 
@@ -272,11 +329,16 @@ def _blr(
     tau: FloatArray,
     scales: FloatArray,
     mean: FloatArray | None = None,
+    known: object | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Posterior mean and covariance of ``y = X beta + e``, ``beta ~ N(mean, diag(tau^2))``
     (``mean`` 0 unless given), with a noise variance per row linear in ``scales`` (n, m):
     ``var_i = scales_i . c``, ``c >= 0`` found by expectation-maximisation (non-negative least
-    squares of the expected squared residuals). The coefficients' prior variances are found the
+    squares of the expected squared residuals). ``known``: a known noise covariance of the rows
+    added to that (a sparse (n, n) matrix: the ground truth's noise, which rows that share a
+    truth pose share); the rows are then weighted by the whole covariance's inverse
+    (generalised least squares) and ``c`` explains what the known part does not.
+    The coefficients' prior variances are found the
     same way, no larger than ``tau^2`` (automatic relevance determination); the covariance returned is the weak prior's posterior at the
     final noise (what the data say of each coefficient, not what the shrinkage assumed).
     Returns (mean, covariance, c)."""
@@ -286,22 +348,29 @@ def _blr(
     prior = np.diag(1.0 / tau**2)
     c = np.full(scales.shape[1], 0.0)
     r0 = y - x @ m0
-    c[0] = max(float(np.mean(r0**2)) / max(float(np.mean(scales[:, 0])), 1e-12), 1e-18)
+    k_diag = np.zeros(y.size) if known is None else np.asarray(known.diagonal())  # type: ignore[attr-defined]
+    c[0] = max(
+        float(np.mean(np.maximum(r0**2 - k_diag, 0.1 * r0**2)))
+        / max(float(np.mean(scales[:, 0])), 1e-12),
+        1e-18,
+    )
+    floor = 1e-18 * max(float(np.mean(r0**2)), 1e-30)
     mu = m0.copy()
     sigma: FloatArray = np.diag(tau**2)
     u = np.ones(y.size)  # Student-t weights of the rows (1: Gaussian)
     for _ in range(_EM_ITERATIONS):
-        var = np.maximum(scales @ c, 1e-18 * max(float(np.mean(r0**2)), 1e-30))
-        w = u / var
-        xtwx = (x * w[:, None]).T @ x
+        var = np.maximum(scales @ c, floor)
+        xtwx, xtwy = _weighted(x, y, var / u, known)
         sigma = np.asarray(np.linalg.inv(xtwx + prior), dtype=np.float64)
-        mu = sigma @ ((x * w[:, None]).T @ y + prior @ m0)
+        mu = sigma @ (xtwy + prior @ m0)
         r = y - x @ mu
         expected = r**2 + np.einsum("ij,jk,ik->i", x, sigma, x)
+        total = var + k_diag
         if ROBUST_NU is not None:  # a row far off its variance weighs less (a scan-match glitch)
-            u = (ROBUST_NU + 1.0) / (ROBUST_NU + expected / var)
-        # rows weighted by 1/var: each residual counts as one measurement of its variance
-        sol, _ = nnls(scales / var[:, None], u * expected / var)
+            u = (ROBUST_NU + 1.0) / (ROBUST_NU + expected / total)
+        # rows weighted by 1/var: each residual counts as one measurement of its variance (less
+        # the known part)
+        sol, _ = nnls(scales / total[:, None], u * (expected - k_diag) / total)
         # automatic relevance determination: each coefficient's prior variance is what the data
         # say of its distance from the prior mean (no more than the weak prior's), so what the
         # data do not support shrinks back to the prior mean
@@ -313,12 +382,86 @@ def _blr(
     # the uncertainty that is reported: the weak prior's posterior (a coefficient that the
     # relevance determination holds at the prior mean is not known better for that: with the
     # shrunk prior's, a term the runs barely saw came out certain, and wrong)
-    var = np.maximum(scales @ c, 1e-18 * max(float(np.mean(r0**2)), 1e-30))
-    w = 1.0 / var
-    sigma = np.asarray(
-        np.linalg.inv((x * w[:, None]).T @ x + np.diag(1.0 / tau**2)), dtype=np.float64
-    )
+    var = np.maximum(scales @ c, floor)
+    xtwx, _ = _weighted(x, y, var, known)
+    sigma = np.asarray(np.linalg.inv(xtwx + np.diag(1.0 / tau**2)), dtype=np.float64)
     return mu, sigma, c
+
+
+def _weighted(
+    x: FloatArray, y: FloatArray, var: FloatArray, known: object | None
+) -> tuple[FloatArray, FloatArray]:
+    """``X^T C^-1 X`` and ``X^T C^-1 y`` for the row covariance ``C = diag(var) + known``."""
+    if known is None:
+        w = 1.0 / var
+        return (x * w[:, None]).T @ x, (x * w[:, None]).T @ y
+    from scipy import sparse
+    from scipy.sparse.linalg import splu
+
+    cov = (sparse.diags(var) + known).tocsc()
+    lu = splu(cov)
+    cx = lu.solve(np.ascontiguousarray(x))
+    cy = lu.solve(np.ascontiguousarray(y))
+    return np.asarray(x.T @ cx, dtype=np.float64), np.asarray(x.T @ cy, dtype=np.float64)
+
+
+def truth_covariances(d: SlipDesign, noise: TruthNoise) -> tuple[object, object]:
+    """The ground truth's noise in the rows of ``d`` (:func:`slip_design`), as sparse
+    covariances of the x/y rows and of the heading rows. A window's rows difference the truth's
+    poses at its two ends, so each row has the noise of both (``2 sigma^2``), and a window that
+    starts where the one before it ended shares that pose: its noise enters both with opposite
+    signs (``-sigma^2``, the position's turned by the heading change between the two windows'
+    start frames). The truth's heading noise also turns each cycle's motion (the rows rotate
+    it by the truth's own heading): ``sigma_h^2 L^2 min(1, dt / T)`` across the window's
+    displacement (``L`` its length, ``T`` its duration, ``dt`` the truth's update spacing: the
+    updates within a window are independent)."""
+    from scipy import sparse
+
+    n_xy, n_yaw = d.y_xy.size, d.y_yaw.size
+    sp, sh = noise.xy**2, noise.yaw**2
+    rows: list[NDArray[np.int64]] = []
+    cols: list[NDArray[np.int64]] = []
+    vals: list[FloatArray] = []
+
+    def put(a: NDArray[np.int64], b: NDArray[np.int64], v: FloatArray) -> None:
+        rows.append(a)
+        cols.append(b)
+        vals.append(np.broadcast_to(v, a.shape).astype(np.float64))
+
+    length = np.hypot(d.shift[:, 0], d.shift[:, 1])
+    share = np.minimum(1.0, noise.spacing / np.maximum(d.durations, 1e-9)) if noise.spacing else 1.0
+    across = sh * length**2 * share
+    unit = d.shift / np.maximum(length, 1e-12)[:, None]
+    px, py = -unit[:, 1], unit[:, 0]  # across the displacement
+    put(d.row_x, d.row_x, 2 * sp + across * px * px)
+    put(d.row_y, d.row_y, 2 * sp + across * py * py)
+    put(d.row_x, d.row_y, across * px * py)
+    put(d.row_y, d.row_x, across * px * py)
+    w = np.flatnonzero(d.previous >= 0)
+    p = d.previous[w]
+    cd, sd = np.cos(d.turn_from_previous[w]), np.sin(d.turn_from_previous[w])
+    # the shared pose's noise n: -R(-h_p) n in the earlier window's rows (its end), R(-h_w) n in
+    # this one's (its start): covariance -sigma^2 R(h_w - h_p)
+    for a, b, v in (
+        (d.row_x[p], d.row_x[w], -sp * cd),
+        (d.row_x[p], d.row_y[w], sp * sd),
+        (d.row_y[p], d.row_x[w], -sp * sd),
+        (d.row_y[p], d.row_y[w], -sp * cd),
+    ):
+        put(a, b, v)
+        put(b, a, v)
+    k_xy = sparse.coo_matrix(
+        (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n_xy, n_xy)
+    ).tocsc()
+    idx = np.arange(n_yaw)
+    k_yaw = sparse.coo_matrix(
+        (
+            np.concatenate((np.full(n_yaw, 2 * sh), np.full(2 * w.size, -sh))),
+            (np.concatenate((idx, p, w)), np.concatenate((idx, w, p))),
+        ),
+        shape=(n_yaw, n_yaw),
+    ).tocsc()
+    return k_xy, k_yaw
 
 
 def base_coefficients(params: RobotParams, nominal: RobotParams) -> FloatArray:
@@ -350,33 +493,13 @@ def base_coefficients(params: RobotParams, nominal: RobotParams) -> FloatArray:
     return out
 
 
-def kinematic_base(runs: Sequence[object], nominal: RobotParams) -> tuple[FloatArray, str]:
-    """The prior mean of the slip coefficients: the first of :data:`BASE_MODELS` that can be
-    fitted to the runs by least squares (no ground-truth yaw offsets, as the slip fit), as slip
-    coefficients (:func:`base_coefficients`); and its name ("none", all zeros: the nominal
-    differential drive, when none can)."""
-    from odolab.calibration.lsq import LsqOptions, calibrate_lsq
-    from odolab.errors import CalibrationError, ParamsError
-
-    for kind in BASE_MODELS:
-        try:
-            fit = calibrate_lsq(
-                runs,  # type: ignore[arg-type]
-                nominal,
-                LsqOptions(model=kind, fit_gt_yaw_offset=False),
-            )
-        except (CalibrationError, InsufficientDataError, ParamsError):
-            continue
-        return base_coefficients(fit.params, nominal), kind
-    return np.zeros(3 * len(FEATURES)), "none"
-
-
 def _fit_mean(
     runs: Sequence[object],
     nominal: RobotParams,
     window_s: float,
     prior_scale: float,
     base: FloatArray | None = None,
+    truth: TruthNoise | None = None,
 ) -> tuple[SlipModel, FloatArray, int, FloatArray]:
     """The coefficients and their posterior by Bayesian linear regression with automatic
     relevance determination about the prior mean ``base`` (0 unless given), and the windows'
@@ -403,8 +526,10 @@ def _fit_mean(
     sc_xy = np.tile(np.column_stack((d.durations, d.travel)), (2, 1))
     sc_yaw = np.column_stack((d.durations, d.turn))
     m0 = np.zeros(3 * k) if base is None else base
-    mu_xy, sig_xy, c_xy = _blr(d.a_xy, d.y_xy, np.concatenate((tau_v, tau_v)), sc_xy, m0[: 2 * k])
-    mu_yaw, sig_yaw, c_yaw = _blr(d.a_yaw, d.y_yaw, tau_w, sc_yaw, m0[2 * k :])
+    k_xy, k_yaw = (None, None) if not _noisy(truth) else truth_covariances(d, truth)  # type: ignore[arg-type]
+    tau_xy = np.concatenate((tau_v, tau_v))
+    mu_xy, sig_xy, c_xy = _blr(d.a_xy, d.y_xy, tau_xy, sc_xy, m0[: 2 * k], k_xy)
+    mu_yaw, sig_yaw, c_yaw = _blr(d.a_yaw, d.y_yaw, tau_w, sc_yaw, m0[2 * k :], k_yaw)
     cov = np.zeros((3 * k, 3 * k))
     cov[: 2 * k, : 2 * k] = sig_xy
     cov[2 * k :, 2 * k :] = sig_yaw
@@ -428,6 +553,11 @@ def _fit_mean(
     tau = np.concatenate((tau_v, tau_v, tau_w))
     spread = np.sqrt(np.maximum(np.diag(cov), 0.0)) / tau
     return model, cov, int(d.y_yaw.size), spread
+
+
+def _noisy(truth: TruthNoise | None) -> bool:
+    """Whether ``truth`` has any noise to allow for."""
+    return truth is not None and (truth.xy > 0 or truth.yaw > 0)
 
 
 def _blocks(run: object, count: int) -> list[object]:
@@ -462,33 +592,39 @@ def fit_slip_model(
     prior_scale: float = 1.0,
     folds: int = NOISE_FOLDS,
     piece_s: Sequence[float] = NOISE_PIECE_S,
-    base: bool = True,
+    centre: tuple[FloatArray, str] | None = None,
+    truth: TruthNoise | None = None,
 ) -> tuple[SlipModel, FloatArray, int, str, FloatArray]:
     """The slip model of prepared runs: (model with its posterior, 24 x 24 posterior
     covariance in :attr:`SlipModel.COEF_KEYS` order, number of windows, the kinematic model
     its prior is centred on, each coefficient's posterior standard deviation over its weak
     prior's: :func:`undetermined`).
 
-    The coefficients come from all the runs, their prior centred on the kinematic model fitted
-    to the same runs (:func:`kinematic_base`; with ``base`` False, on the nominal differential
-    drive): what the runs do not determine stays with that model. The variance terms (white
+    The coefficients come from all the runs, their prior centred on ``centre`` (slip
+    coefficients and the model's name: the kinematic model fitted to the same runs,
+    :func:`odolab.calibration.lsq.kinematic_base`; None: the nominal differential drive): what
+    the runs do not determine stays with that model. The variance terms (white
     noise and drift) are fitted to how far the model is off after each of ``piece_s`` seconds
     on data it was not fitted on (:func:`fit_noise`; pieces of several lengths, so that the
     variance grows with the horizon as the errors do): each run is cut into ``folds`` parts of
     equal duration, and each part is predicted by the model fitted on the others
     (cross-fitting), so the predictive variance covers the model's own error on new data, not
     only the noise it saw; with ``folds`` 1 (or runs too short to cut), on the data it was
-    fitted on."""
-    mean, kind = kinematic_base(runs, nominal) if base else (np.zeros(3 * len(FEATURES)), "none")
+    fitted on. ``truth``: the ground truth's noise (:mod:`odolab.calibration.truthnoise`), in
+    the regression's row covariance (:func:`truth_covariances`: the rows are weighted by it, so
+    the coefficients rest on the stretches the truth's noise weighs least on). The predictive
+    variance still covers it: it is fitted to, and judged by (``odolab evaluate --nees``),
+    errors against the same truth (measured with it taken out: docs/models.md)."""
+    mean, kind = centre if centre is not None else (np.zeros(3 * len(FEATURES)), "none")
     parts = [_blocks(r, folds) for r in runs] if folds > 1 else []
     cross = bool(parts) and all(len(p) == folds for p in parts)
-    model, cov, windows, spread = _fit_mean(runs, nominal, window_s, prior_scale, mean)
+    model, cov, windows, spread = _fit_mean(runs, nominal, window_s, prior_scale, mean, truth)
     pieces: list[_Pieces] = []
     if cross:
         for f in range(folds):
             train = [p[i] for p in parts for i in range(folds) if i != f]
             try:
-                m, _, _, _ = _fit_mean(train, nominal, window_s, prior_scale, mean)
+                m, _, _, _ = _fit_mean(train, nominal, window_s, prior_scale, mean, truth)
             except InsufficientDataError:
                 pieces = []
                 break
@@ -696,35 +832,6 @@ def first_seconds(run: object, seconds: float) -> object:
         dticks_right=np.asarray(run.dticks_right)[keep],  # type: ignore[attr-defined]
         ground_truth=truth,
     )
-
-
-def learning_curve(
-    exploration: object,
-    held_out: Sequence[object],
-    nominal: RobotParams,
-    seconds: Sequence[float] = (10.0, 20.0, 30.0, 45.0, 60.0),
-    models: Sequence[str] = ("diff", "icr", "slip"),
-) -> list[dict[str, object]]:
-    """Held-out mean end-point error (m) of each model fitted on the first ``s`` seconds of an
-    exploration run, for each ``s``: rows ``{"seconds", "model", "endpoint_error", "problem"}``
-    (``endpoint_error`` None where the model could not be fitted, ``problem`` says why)."""
-    from odolab.calibration.lsq import LsqOptions, calibrate_lsq
-    from odolab.errors import CalibrationError
-
-    rows: list[dict[str, object]] = []
-    for s in seconds:
-        part = first_seconds(exploration, s)
-        for m in models:
-            try:
-                fit = calibrate_lsq([part], nominal, LsqOptions(model=m))  # type: ignore[list-item]
-            except (CalibrationError, InsufficientDataError) as err:
-                rows.append({"seconds": s, "model": m, "endpoint_error": None, "problem": str(err)})
-                continue
-            errs = [endpoint_error(r, fit.params) for r in held_out]
-            rows.append(
-                {"seconds": s, "model": m, "endpoint_error": float(np.mean(errs)), "problem": None}
-            )
-    return rows
 
 
 def endpoint_error(run: object, params: RobotParams) -> float:

@@ -386,6 +386,23 @@ def _print_table(rows: list[tuple[str, Any]]) -> None:
     print_table(console(), table)
 
 
+TruthSigmaOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--truth-sigma",
+        help="The ground truth's noise XY,YAW (m, rad) for the slip fit, e.g. 0.05,0.1 "
+        "(default: estimated from the truth's own updates; docs/models.md).",
+    ),
+]
+LossOpt = Annotated[
+    str,
+    typer.Option(
+        help="Loss of the kinematic fits: linear (least squares), or huber, soft_l1, cauchy, "
+        "arctan (robust to ground-truth glitches; docs/models.md).",
+    ),
+]
+
+
 # ``--validate D E F`` (a shell glob) holds out D, E and F; click alone would fit E and F
 @calibrate_app.command("lsq", cls=several_values_command("--validate"))
 def calibrate_lsq_cmd(
@@ -426,6 +443,8 @@ def calibrate_lsq_cmd(
             "`odolab track` or `calibrate sensor --truth-out`), replacing the run's own.",
         ),
     ] = None,
+    truth_sigma: TruthSigmaOpt = None,
+    loss: LossOpt = "linear",
 ) -> None:
     """Least-squares kinematic model (radii and track width, or ICRs) from runs with ground truth.
 
@@ -452,6 +471,8 @@ def calibrate_lsq_cmd(
         fit_gt_yaw_offset=not no_gt_yaw_offset,
         model=model.value,
         ground_truth=ground_truth,
+        truth_sigma=truth_sigma,
+        loss=loss,
     )
     robot = load_params(params) if params else None
     with _progress_bar("calibrate") as report:

@@ -16,8 +16,10 @@ from odolab.cli.evaluate import (
     GtTopicOpt,
     JointsOpt,
     JointTopicOpt,
+    LossOpt,
     ParamsOpt,
     RunFormat,
+    TruthSigmaOpt,
     WorkersOpt,
     _progress_bar,
     _read_options,
@@ -67,10 +69,13 @@ def calibrate_compare_cmd(
     joint_topic: JointTopicOpt = "/joint_states",
     joints: JointsOpt = ("left_wheel_joint", "right_wheel_joint"),
     gt_topic: GtTopicOpt = "/ground_truth",
+    truth_sigma: TruthSigmaOpt = None,
+    loss: LossOpt = "linear",
 ) -> None:
     """Fit every kinematic model on training runs, score it on held-out runs, recommend one."""
     from odolab.app.models import CompareRequest, compare_files
     from odolab.calibration.lsq import FIT_MODELS, LsqOptions
+    from odolab.calibration.truthnoise import parse_truth_sigma
     from odolab.cli._output import write_output_text
     from odolab.errors import CalibrationError
     from odolab.params import load_params
@@ -107,7 +112,10 @@ def calibrate_compare_cmd(
     with _progress_bar("compare") as report:
         request = CompareRequest(
             models=tuple(chosen), curve=tuple(curve), seed=seed,
-            options=LsqOptions(segment_s=segment),
+            options=LsqOptions(
+                segment_s=segment, loss=loss,
+                truth_sigma=parse_truth_sigma(truth_sigma) if truth_sigma else None,
+            ),
         )  # fmt: skip
         result = compare_files(
             runs,

@@ -1,0 +1,212 @@
+"""The slip fit that knows its ground truth is noisy (issue 37), against the fit that does not.
+
+Two parts, ratios not times:
+
+* ``--husky``: the DRIVE Husky (fitted on even command steps, held out on odd ones), the
+  held-out mean end-point error of the slip fit over the ICR model's (the best kinematic model
+  on end points): plain (``LsqOptions(truth_noise=False)``), with the truth's noise estimated
+  from its own updates (the default), and with Student-t rows as well (against scan-matcher
+  glitches, ``slipfit.ROBUST_NU``).
+* ``--outliers 0.02``: icr-speed's 60 s exploration with 2 cm / 0.02 rad of truth noise and a
+  share of updates off by 0.5 m / 0.2 rad (scan-matcher glitches), held out on the true path:
+  the kinematic fits with plain least squares and with the Huber loss, the slip fit with
+  Gaussian and Student-t rows.
+* ``--sims``: the independent simulators of ``tests/models/independent_sims.py`` (icr-speed and
+  its constant-slip twin), a 60 s exploration, the truth at 10 Hz with ``--sigma-xy`` /
+  ``--sigma-h`` of white noise, per seed and pooled: slip over the best kinematic model, plain
+  and with the truth's noise, and what `calibrate compare` recommends with the default fit.
+
+    PYTHONPATH=src:tests ODOLAB_TEST_DATA=../shared/data python benchmarks/bench_truth_noise.py --husky
+    PYTHONPATH=src:tests python benchmarks/bench_truth_noise.py --sims --seeds 1 2 3 4 5
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+from odolab.calibration import slipfit  # noqa: E402
+from odolab.calibration.lsq import LsqOptions, calibrate_lsq, prepare_run  # noqa: E402
+from odolab.calibration.slipfit import endpoint_error  # noqa: E402
+from odolab.io.registry import find_runs, read_run  # noqa: E402
+from odolab.io.run import ReadOptions  # noqa: E402
+from odolab.params import PRESETS  # noqa: E402
+
+KINEMATIC = ("diff", "extended", "icr")
+
+
+def husky() -> None:
+    from _husky import HUSKY
+
+    from odolab.metrics.runs import RUN_OPTIONS, evaluate_run
+
+    data = Path(os.environ.get("ODOLAB_TEST_DATA", "../shared/data"))
+    table = data / "drive-husky" / "husky_windows.csv"
+    ro = ReadOptions(params=HUSKY)
+    train = [read_run(p, "drive", ro) for p in find_runs([f"{table}#even"], "drive")]
+    held = [read_run(p, "drive", ro) for p in find_runs([f"{table}#odd"], "drive")]
+    prep = [prepare_run(r, 2.0) for r in train]
+
+    def end(params: object) -> float:
+        return float(
+            np.mean(
+                [evaluate_run(r, params, RUN_OPTIONS).evaluation.drift.endpoint_error for r in held]  # type: ignore[arg-type]
+            )
+        )
+
+    icr = end(calibrate_lsq(prep, HUSKY, LsqOptions(model="icr")).params)
+    print(f"icr (best kinematic on end points): {icr:.4f} m")
+    for label, opts, nu in (
+        ("plain", LsqOptions(model="slip", truth_noise=False), None),
+        ("truth noise estimated", LsqOptions(model="slip"), None),
+        ("truth noise estimated, Student-t rows nu 4", LsqOptions(model="slip"), 4.0),
+    ):
+        slipfit.ROBUST_NU = nu
+        fit = calibrate_lsq(prep, HUSKY, opts)
+        e = end(fit.params)
+        print(f"slip, {label}: {e:.4f} m, {e / icr:.3f}x icr")
+        if opts.truth_noise:
+            print(f"  {fit.notes[-1]}")
+    slipfit.ROBUST_NU = None
+
+
+def noisy(run: object, sigma_xy: float, sigma_h: float, seed: int) -> object:
+    from bench_noisy_truth import noisy as add
+
+    return add(run, sigma_xy, sigma_h, seed)  # type: ignore[arg-type]
+
+
+def sims(seeds: list[int], sigma_xy: float, sigma_h: float) -> None:
+    from tests.models.independent_sims import (
+        IcrSpeedSim,
+        constant_slip,
+        exploration,
+        held_out_runs,
+        write_run,
+    )
+
+    from odolab.calibration.compare import compare_models
+
+    nominal = PRESETS["jaguar-lite"]
+    for name, sim in (("icr-speed", IcrSpeedSim()), ("constant", constant_slip(IcrSpeedSim()))):
+        ends: dict[str, list[float]] = {}
+        picks = []
+        for seed in seeds:
+            runs = [exploration(sim, seed), *held_out_runs(sim, seed)]
+            runs = [noisy(r, sigma_xy, sigma_h, 7919 * seed + k) for k, r in enumerate(runs)]
+            with tempfile.TemporaryDirectory() as tmp:
+                read = [read_run(write_run(Path(tmp), r), "csv") for r in runs]  # type: ignore[arg-type]
+                row: dict[str, float] = {}
+                for m in KINEMATIC:
+                    fit = calibrate_lsq(read[:1], nominal, LsqOptions(model=m))
+                    row[m] = float(np.mean([endpoint_error(r, fit.params) for r in read[1:]]))
+                for label, flag in (("slip plain", False), ("slip truth noise", True)):
+                    fit = calibrate_lsq(
+                        read[:1], nominal, LsqOptions(model="slip", truth_noise=flag)
+                    )
+                    row[label] = float(np.mean([endpoint_error(r, fit.params) for r in read[1:]]))
+                c = compare_models(read[:1], read[1:], nominal, models=(*KINEMATIC, "slip"))
+            best = min(row[m] for m in KINEMATIC)
+            picks.append(c.recommended)
+            print(
+                f"{name:9s} seed {seed}: best kinematic {best:.3f} m; "
+                + ", ".join(f"{k} {v / best:.2f}x" for k, v in row.items() if k not in KINEMATIC)
+                + f"; compare -> {c.recommended}"
+            )
+            for k, v in row.items():
+                ends.setdefault(k, []).append(v)
+        best = min(float(np.mean(ends[m])) for m in KINEMATIC)
+        print(
+            f"{name:9s} pooled: "
+            + ", ".join(
+                f"{k} {np.mean(v) / best:.2f}x" for k, v in ends.items() if k not in KINEMATIC
+            )
+            + f"; slip recommended on {picks.count('slip')} of {len(seeds)} seeds"
+        )
+
+
+def glitched(run: object, share: float, seed: int) -> object:
+    """``run`` with its truth at 10 Hz, 2 cm / 0.02 rad of white noise, and ``share`` of the
+    updates off by 0.5 m and 0.2 rad in a random direction (a scan matcher's misregistration)."""
+    from tests.models.independent_sims import SimRun
+
+    r: SimRun = run  # type: ignore[assignment]
+    rng = np.random.default_rng(seed)
+    keep = np.arange(0, r.t.size, 2)
+    n = keep.size
+    bad = rng.random(n) < share
+    ang = rng.uniform(0, 2 * np.pi, n)
+    x = r.x[keep] + 0.02 * rng.standard_normal(n) + bad * 0.5 * np.cos(ang)
+    y = r.y[keep] + 0.02 * rng.standard_normal(n) + bad * 0.5 * np.sin(ang)
+    h = r.heading[keep] + 0.02 * rng.standard_normal(n) + bad * 0.2 * rng.choice([-1, 1], n)
+    tk = r.t[keep]
+    return SimRun(
+        r.name, r.t, r.dticks_left, r.dticks_right,
+        np.interp(r.t, tk, x), np.interp(r.t, tk, y), np.interp(r.t, tk, h),
+    )  # fmt: skip
+
+
+def outliers(seeds: list[int], share: float) -> None:
+    """Plain against robust fits with scan-matcher glitches in the fitted run's truth (the
+    held-out runs are scored against the true path)."""
+    from tests.models.independent_sims import IcrSpeedSim, exploration, held_out_runs, write_run
+
+    nominal = PRESETS["jaguar-lite"]
+    sim = IcrSpeedSim()
+    ends: dict[str, list[float]] = {}
+    for seed in seeds:
+        explore = glitched(exploration(sim, seed), share, 7919 * seed)
+        with tempfile.TemporaryDirectory() as tmp:
+            fit_run = read_run(write_run(Path(tmp) / "fit", explore), "csv")  # type: ignore[arg-type]
+            held = [read_run(write_run(Path(tmp), r), "csv") for r in held_out_runs(sim, seed)]
+            row: dict[str, float] = {}
+            for m in ("diff", "icr"):
+                for loss in ("linear", "huber"):
+                    fit = calibrate_lsq([fit_run], nominal, LsqOptions(model=m, loss=loss))
+                    row[f"{m} {loss}"] = float(
+                        np.mean([endpoint_error(r, fit.params) for r in held])
+                    )
+            for nu in (None, 4.0):
+                slipfit.ROBUST_NU = nu
+                fit = calibrate_lsq([fit_run], nominal, LsqOptions(model="slip"))
+                label = "slip Gaussian rows" if nu is None else f"slip Student-t rows nu {nu:g}"
+                row[label] = float(np.mean([endpoint_error(r, fit.params) for r in held]))
+            slipfit.ROBUST_NU = None
+        print(f"seed {seed}: " + ", ".join(f"{k} {v:.3f} m" for k, v in row.items()))
+        for k, v in row.items():
+            ends.setdefault(k, []).append(v)
+    print(
+        f"pooled ({share:.0%} glitches): "
+        + ", ".join(f"{k} {np.mean(v):.3f} m" for k, v in ends.items())
+    )
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--husky", action="store_true")
+    ap.add_argument("--sims", action="store_true")
+    ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4, 5])
+    ap.add_argument("--sigma-xy", type=float, default=0.05)
+    ap.add_argument("--sigma-h", type=float, default=0.1)
+    ap.add_argument("--outliers", type=float, default=None, help="share of glitched updates")
+    a = ap.parse_args()
+    if a.outliers is not None:
+        outliers(a.seeds, a.outliers)
+    if a.husky:
+        husky()
+    if a.sims:
+        sims(a.seeds, a.sigma_xy, a.sigma_h)
+
+
+if __name__ == "__main__":
+    main()
