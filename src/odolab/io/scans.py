@@ -12,7 +12,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -37,7 +36,7 @@ class LaserScans:
     invalid, as ROS defines them."""
 
     t: NDArray[np.float64]
-    ranges: NDArray[np.floating[Any]]  # stored as float32
+    ranges: NDArray[np.float32 | np.float64]  # stored as float32
     angle_min: float
     angle_increment: float
     range_min: float
@@ -87,7 +86,12 @@ def read_scans(path: str | Path, topic: str = "/scan", *, min_scans: int = 2) ->
 
     One-sentence :class:`LogFormatError` when the topic is missing (the bag's topics are listed),
     carries another type, has fewer than ``min_scans`` scans, changes its beam layout, or its
-    stamps go backwards."""
+    stamps go backwards.
+
+    Raises:
+        LogFormatError: the topic is missing or of another type, has too few scans, changes its beam
+            layout, or its stamps go backwards.
+    """
     p = Path(path)
     reader = _open(p)
     try:
@@ -158,7 +162,12 @@ def write_scan_mcap(
     joint_topic: str = "/joint_states",
 ) -> dict[str, int]:
     """Write ``scans`` on ``topic`` (and, given ``joint_t`` (k,) and ``wheel_angles`` (k, 2) in
-    rad, the wheels on ``joint_topic``) as a ROS 2 MCAP file; returns the count per topic."""
+    rad, the wheels on ``joint_topic``) as a ROS 2 MCAP file; returns the count per topic.
+
+    Raises:
+        OdolabError: the path is a folder, a stamp is negative, the wheel angles do not match their
+            stamps, or the file cannot be written.
+    """
     from mcap.writer import CompressionType
     from mcap_ros2.writer import Writer
     from rosbags.typesys import Stores, get_typestore
@@ -168,7 +177,7 @@ def write_scan_mcap(
         raise OdolabError(f"{p}: is a folder; expected an .mcap file name")
     if float(scans.t.min()) < 0:
         raise OdolabError(f"scan stamps start at {scans.t.min()} s; expected times >= 0")
-    msgs: list[tuple[float, str, dict[str, Any]]] = []
+    msgs: list[tuple[float, str, dict[str, object]]] = []
     end = scans.angle_min + scans.angle_increment * (scans.beams - 1)
     period = float(np.median(np.diff(scans.t))) if len(scans) > 1 else 0.0
     for ti, r in zip(scans.t, scans.ranges, strict=True):
