@@ -20,11 +20,11 @@ import sys
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 __all__ = ["HAVE_NUMBA", "get_num_threads", "njit", "parallel_chunksize", "prange"]
 
-F = TypeVar("F", bound=Callable[..., Any])
+F = TypeVar("F", bound=Callable[..., object])
 
 #: Whether the kernels are compiled (numba installed) or run as plain Python.
 HAVE_NUMBA: bool = importlib.util.find_spec("numba") is not None
@@ -51,7 +51,7 @@ def _plain(func: F, inline: object) -> F:
         return func
 
     @functools.wraps(func)
-    def kernel(*args: Any, **kwargs: Any) -> Any:
+    def kernel(*args: object, **kwargs: object) -> object:
         if not _noted:
             _note()
         return func(*args, **kwargs)
@@ -60,7 +60,7 @@ def _plain(func: F, inline: object) -> F:
     return kernel  # type: ignore[return-value]
 
 
-def _plain_njit(*args: Any, **options: Any) -> Any:
+def _plain_njit(*args: object, **options: object) -> object:
     """``@njit`` and ``@njit(...)`` without numba: the function itself (see the module)."""
     if len(args) == 1 and callable(args[0]) and not options:
         return _plain(args[0], None)

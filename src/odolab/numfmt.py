@@ -20,7 +20,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
     "clean",
@@ -170,7 +174,7 @@ def clean(x: float, sig: int = 12) -> float:
     return float(f"{x:.{sig}g}")
 
 
-def _column_text(values: Any) -> Any:
+def _column_text(values: ArrayLike) -> NDArray[np.str_]:
     """Each float as the shortest text (up to 17 digits) that reads back as the same float."""
     import numpy as np
 
@@ -186,7 +190,7 @@ def _column_text(values: Any) -> Any:
     return out
 
 
-def csv_lines(columns: Sequence[Any], *, sep: str = ",", integer: Sequence[bool] = ()) -> str:
+def csv_lines(columns: Sequence[ArrayLike], *, sep: str = ",", integer: Sequence[bool] = ()) -> str:
     """Rows of equally long numeric columns as text lines, every float in its shortest
     round-trip form (``0.05``, not ``0.050000000000000003``); ``integer`` marks columns
     written as integers. Ends with a newline when there is a row."""

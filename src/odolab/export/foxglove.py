@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import ipaddress
 import math
-from typing import Any
 
 from odolab.errors import OdolabError
 from odolab.trajectory import Pose
@@ -30,7 +29,11 @@ __all__ = ["FoxgloveLive", "check_loopback", "check_port"]
 
 def check_port(port: object) -> int:
     """``port`` if it is a port number 0..65535 (0: any free one, said when it listens);
-    otherwise one sentence (a long number shown shortened)."""
+    otherwise one sentence (a long number shown shortened).
+
+    Raises:
+        OdolabError: the port is not a whole number from 0 to 65535.
+    """
     if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
         from odolab.text import quote_input
 
@@ -42,7 +45,11 @@ def check_port(port: object) -> int:
 
 
 def check_loopback(host: str) -> str:
-    """``host`` if it is a loopback address or ``localhost``; otherwise one sentence why not."""
+    """``host`` if it is a loopback address or ``localhost``; otherwise one sentence why not.
+
+    Raises:
+        OdolabError: the host is not a loopback address.
+    """
     if host == "localhost":
         return "127.0.0.1"
     try:
@@ -124,7 +131,7 @@ class FoxgloveLive:
             translation=pos, rotation=q,
         )  # fmt: skip
         self._tf.log(FrameTransforms(transforms=[tf]), log_time=ns)
-        doc: dict[str, Any] = {"t": pose.t, "x": pose.x, "y": pose.y, "heading": pose.heading}
+        doc: dict[str, object] = {"t": pose.t, "x": pose.x, "y": pose.y, "heading": pose.heading}
         if ticks is not None:
             doc["left_ticks"], doc["right_ticks"] = int(ticks[0]), int(ticks[1])
         if covariance is not None:

@@ -171,7 +171,11 @@ def simulate_fleet(
     *,
     progress: Callable[[int, int, str], None] | None = None,
 ) -> list[Path]:
-    """Write the fleet's runs under ``root``; returns the encoder log paths (sorted)."""
+    """Write the fleet's runs under ``root``; returns the encoder log paths (sorted).
+
+    Raises:
+        OdolabError: a robot names a nominal preset odolab does not have.
+    """
     s = spec or FleetSpec()
     if s.nominal not in PRESETS:
         raise OdolabError(

@@ -17,9 +17,14 @@ import html
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from odolab.fleet.table import Cell
 
 __all__ = ["GROWTH_SIGMAS", "HIGH_FACTOR", "FleetSection", "RobotVerdict", "fleet_section"]
 
@@ -64,7 +69,7 @@ class FleetSection:
     """Figures (name -> matplotlib Figure), verdicts, and the HTML fragment that shows them."""
 
     verdicts: list[RobotVerdict]
-    figures: dict[str, Any] = field(default_factory=dict)
+    figures: dict[str, Figure] = field(default_factory=dict)
     html: str = ""
 
     @property
@@ -95,7 +100,7 @@ def _day_numbers(dates: list[str]) -> np.ndarray:
     return np.asarray(days, dtype=np.float64)
 
 
-def _verdicts(columns: dict[str, list[Any]]) -> list[RobotVerdict]:
+def _verdicts(columns: dict[str, list[Cell]]) -> list[RobotVerdict]:
     robot = np.asarray(columns["robot"], dtype=object)
     drift = np.asarray(columns["drift_pct"], dtype=np.float64)
     days = _day_numbers([str(d or "") for d in columns["date"]])
@@ -125,7 +130,7 @@ def _verdicts(columns: dict[str, list[Any]]) -> list[RobotVerdict]:
     return out
 
 
-def _figures(columns: dict[str, list[Any]], verdicts: list[RobotVerdict]) -> dict[str, Any]:
+def _figures(columns: dict[str, list[Cell]], verdicts: list[RobotVerdict]) -> dict[str, Figure]:
     from matplotlib.figure import Figure
 
     robot = np.asarray(columns["robot"], dtype=object)
@@ -163,7 +168,7 @@ def _fmt(v: float, digits: int = 3) -> str:
     return "-" if not math.isfinite(v) else f"{v:.{digits}f}"
 
 
-def fleet_section(columns: dict[str, list[Any]], *, figures: bool = True) -> FleetSection:
+def fleet_section(columns: dict[str, list[Cell]], *, figures: bool = True) -> FleetSection:
     """The section from a fleet table (:func:`odolab.fleet.fleet_rows` or a table read back)."""
     verdicts = _verdicts(columns)
     figs = _figures(columns, verdicts) if figures and verdicts else {}

@@ -13,10 +13,13 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from odolab.metrics.cluster import Outcome
 from odolab.metrics.runs import RunEvaluation
+
+if TYPE_CHECKING:
+    import polars as pl
 
 __all__ = [
     "COLUMNS",
@@ -57,6 +60,9 @@ COLUMNS = (
 )
 _TEXT = ("run", "source", "robot", "date", "error")
 
+#: One cell of the table: text (``_TEXT``, an error may be None), the sample count, or a number.
+Cell = str | int | float | None
+
 
 def _session_date(name: str) -> str | None:
     """An OptiOdom session folder's date: its id is the date-time ``DDMMYYYYHHMM``
@@ -85,9 +91,9 @@ def robot_and_date(path: str | Path) -> tuple[str, str]:
     return (parents[0] if parents else ""), ""
 
 
-def _row(o: Outcome[RunEvaluation]) -> dict[str, Any]:
+def _row(o: Outcome[RunEvaluation]) -> dict[str, Cell]:
     robot, date = robot_and_date(o.label)
-    row: dict[str, Any] = dict.fromkeys(COLUMNS, math.nan)
+    row: dict[str, Cell] = dict.fromkeys(COLUMNS, math.nan)
     row.update(run=Path(o.label).stem, source=o.label, robot=robot, date=date, error=o.error)
     row["samples"] = 0
     r = o.result
@@ -116,13 +122,13 @@ def _row(o: Outcome[RunEvaluation]) -> dict[str, Any]:
     return row
 
 
-def fleet_rows(outcomes: Sequence[Outcome[RunEvaluation]]) -> dict[str, list[Any]]:
+def fleet_rows(outcomes: Sequence[Outcome[RunEvaluation]]) -> dict[str, list[Cell]]:
     """The fleet table as columns (``COLUMNS``), one row per outcome, in order."""
     rows = [_row(o) for o in outcomes]
     return {c: [r[c] for r in rows] for c in COLUMNS}
 
 
-def _frame(columns: dict[str, list[Any]]) -> Any:
+def _frame(columns: dict[str, list[Cell]]) -> pl.DataFrame:
     import polars as pl
 
     schema = {c: (pl.String if c in _TEXT else pl.Int64 if c == "samples" else pl.Float64)
@@ -130,7 +136,7 @@ def _frame(columns: dict[str, list[Any]]) -> Any:
     return pl.DataFrame(columns, schema=schema)
 
 
-def write_fleet_table(columns: dict[str, list[Any]], path: str | Path) -> Path:
+def write_fleet_table(columns: dict[str, list[Cell]], path: str | Path) -> Path:
     """Write the table: Parquet, Arrow IPC or CSV by the file's extension.
 
     The file is written beside ``path`` and then renamed over it (:mod:`odolab.writing`). In a
@@ -149,8 +155,12 @@ def write_fleet_table(columns: dict[str, list[Any]], path: str | Path) -> Path:
     return write_frame(p, _frame(columns), "fleet table")  # through a temporary file
 
 
-def read_fleet_table(path: str | Path) -> dict[str, list[Any]]:
-    """Read a fleet table written by :func:`write_fleet_table` (any of its formats)."""
+def read_fleet_table(path: str | Path) -> dict[str, list[Cell]]:
+    """Read a fleet table written by :func:`write_fleet_table` (any of its formats).
+
+    Raises:
+        LogFormatError: the file is missing, unreadable, or lacks a fleet table column.
+    """
     import polars as pl
 
     from odolab.errors import LogFormatError
@@ -187,13 +197,13 @@ def read_fleet_table(path: str | Path) -> dict[str, list[Any]]:
 class FleetSummary:
     """Per robot, per robot and day, and the worst runs (each a list of row dicts)."""
 
-    per_robot: list[dict[str, Any]]
-    per_day: list[dict[str, Any]]
-    worst: list[dict[str, Any]]
-    failed: list[dict[str, Any]]
+    per_robot: list[dict[str, Any]]  # polars' row dicts
+    per_day: list[dict[str, Any]]  # polars' row dicts
+    worst: list[dict[str, Any]]  # polars' row dicts
+    failed: list[dict[str, Any]]  # polars' row dicts
 
 
-def summarize(columns: dict[str, list[Any]], *, worst: int = 5) -> FleetSummary:
+def summarize(columns: dict[str, list[Cell]], *, worst: int = 5) -> FleetSummary:
     """Per robot and per (robot, day): runs, failures, metres, mean/max drift, mean end error.
 
     ``worst``: the runs with the largest drift (% of distance), worst first.

@@ -8,7 +8,6 @@ import math
 import re
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -19,7 +18,14 @@ from odolab.text import quote_input, safe_terminal, shorten
 
 __all__ = ["data_line_numbers", "read_numeric_columns"]
 
-Columns = dict[str, NDArray[Any]]  # column name -> array (float64, or int64 where asked)
+#: One column read: float64, or int64 where asked and every value is written as an integer.
+Column = NDArray[np.float64] | NDArray[np.int64]
+Columns = dict[str, Column]  # column name -> array
+
+
+def as_float64(columns: Columns) -> dict[str, NDArray[np.float64]]:
+    """Columns read without ``integer`` as what they are: float64 arrays (none is copied)."""
+    return {k: np.asarray(v, dtype=np.float64) for k, v in columns.items()}
 
 
 class _CsvRefused(Exception):
@@ -27,6 +33,17 @@ class _CsvRefused(Exception):
 
 
 _BLANK_LINE = re.compile(rb"(?:^|\n)(?=\r?\n)")  # where a blank line starts (overlapping)
+
+
+def check_columns_present(p: Path, header: Sequence[str], columns: Sequence[str]) -> None:
+    """Refuse a table whose header lacks one of ``columns``, naming the first one missing."""
+    missing = [c for c in columns if c not in header]
+    if missing:
+        raise LogFormatError(
+            f"{p}: missing column {missing[0]!r}; the header has "
+            f"{safe_terminal(shorten(', '.join(header), 200)) or 'nothing'}"
+            f" but {', '.join(columns)} are expected"
+        )
 
 
 def _data_lines(fh: Iterable[str], has_header: bool) -> Iterator[tuple[int, str]]:
@@ -175,13 +192,7 @@ def read_numeric_columns(
             raise LogFormatError(f"{p}: empty or unreadable file; expected a header line")
     else:
         header = list(names)
-    missing = [c for c in columns if c not in header]
-    if missing:
-        raise LogFormatError(
-            f"{p}: missing column {missing[0]!r}; the header has "
-            f"{safe_terminal(shorten(', '.join(header), 200)) or 'nothing'}"
-            f" but {', '.join(columns)} are expected"
-        )
+    check_columns_present(p, header, columns)
     if names is not None:
         fast = _fast_headerless(p, header, columns, sep)
         if fast is not None and (

@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from odolab.errors import EncoderJumpError, LogFormatError
-from odolab.io._table import data_line_numbers
+from odolab.io._table import as_float64, data_line_numbers
 from odolab.io.encoder_csv import (
     INCREMENTS,
     RAW,
@@ -104,6 +104,10 @@ def iter_encoder_chunks(
     The same checks as :func:`odolab.io.read_encoder_csv`, with the same messages: times finite
     and non-decreasing (across chunks too), counts whole, raw counters within the modulus.
     Increments are summed into counters that carry across chunks.
+
+    Raises:
+        LogFormatError: the log is unreadable, has no samples, or a time or counter value is wrong
+            (the line is named).
     """
     p = Path(path)
     text = table_format(p) == "csv" and p.is_file()
@@ -124,7 +128,7 @@ def iter_encoder_chunks(
     carry = np.zeros(2, dtype=np.int64)
     any_rows = False
     for row0, data in iter_columns(p, cols, chunk_rows=chunk_rows, integer=cols[1:], checked=text):
-        t = data["t"]
+        t = np.asarray(data["t"], dtype=np.float64)  # (float64 already: not in ``integer``)
         if t.size == 0:
             continue
         any_rows = True
@@ -193,6 +197,10 @@ def iter_trajectory_chunks(
     ``chunk_rows`` rows at a time; a heading derived from ``theta`` is unwrapped across the
     chunks (continuing from the previous chunk's last heading). TUM text has no chunked reader:
     it comes as one chunk. The same checks and messages as the whole-file reader.
+
+    Raises:
+        LogFormatError: the file is missing, empty, or has a bad time or position (the line is
+            named).
     """
     from odolab.io.limits import check_columns_unique, check_text_file, first_line_cells
     from odolab.io.trajectory_csv import read_trajectory_csv, read_tum, trajectory_columns
@@ -221,7 +229,8 @@ def iter_trajectory_chunks(
     last: tuple[float, float, float] | None = None  # t, theta read, heading of the last row
     first_t: float | None = None
     rows = 0
-    for row0, d in iter_columns(p, cols, chunk_rows=chunk_rows, checked=text):
+    for row0, read in iter_columns(p, cols, chunk_rows=chunk_rows, checked=text):
+        d = as_float64(read)
         t = d["t"]
         if t.size == 0:
             continue
@@ -387,6 +396,9 @@ def integrate_file(
     Formats by extension (CSV, Parquet, Arrow IPC). ``progress(rows done, total rows or 0 when
     unknown, name)`` is called after each chunk. The output is written beside under a temporary
     name and renamed when complete: after an error, an existing ``output`` is left as it was.
+
+    Raises:
+        LogFormatError: the output is the input log or a folder, or the log cannot be read.
     """
     src = Path(log)
     out = Path(output)

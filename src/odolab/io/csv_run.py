@@ -58,7 +58,11 @@ class CsvRunReader:
     """Registry entry for :class:`odolab.io.registry.LogFormat` ``csv``."""
 
     def find(self, path: Path) -> list[Path]:
-        """The file itself, or the encoder logs in a folder (not the ``*_gt.*`` files)."""
+        """The file itself, or the encoder logs in a folder (not the ``*_gt.*`` files).
+
+        Raises:
+            LogFormatError: the path is missing, or a folder without encoder CSV logs.
+        """
         if path.is_file():
             return [path]
         if not path.is_dir():

@@ -9,14 +9,14 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, overload
+from typing import overload
 
 import numpy as np
 from numpy.typing import NDArray
 
 from odolab.encoders import as_tick_array
 from odolab.errors import LogFormatError
-from odolab.io._table import data_line_numbers
+from odolab.io._table import Column, data_line_numbers
 from odolab.io.limits import check_columns_unique, check_text_file, first_line_cells
 from odolab.io.tabular import read_columns, read_header, table_format, write_columns
 from odolab.trajectory import check_times
@@ -38,7 +38,11 @@ def _is_number(cell: str) -> bool:
 
 
 def check_encoder_header(p: Path, cells: list[str]) -> None:
-    """Refuse a CSV whose first line is data, not a header (one sentence: what is expected)."""
+    """Refuse a CSV whose first line is data, not a header (one sentence: what is expected).
+
+    Raises:
+        LogFormatError: the first line is data, or lacks the encoder log's columns.
+    """
     if not cells or not all(_is_number(c) for c in cells):
         return
     from odolab.text import safe_terminal, shorten
@@ -61,7 +65,7 @@ _EXACT = float(2**53)
 
 def _ticks(
     p: Path,
-    values: NDArray[Any],
+    values: Column,
     name: str,
     line_of: Callable[[int], int],
     where: str = "line",
@@ -84,7 +88,12 @@ def _ticks(
 
 
 def read_encoder_csv(path: str | Path, *, modulus: int | None = None) -> EncoderLog:
-    """Read an encoder log; raw counters keep ``modulus`` (the robot's), increments get None."""
+    """Read an encoder log; raw counters keep ``modulus`` (the robot's), increments get None.
+
+    Raises:
+        LogFormatError: the path is a folder, the log has no samples, or a time or count is wrong
+            (the line is named).
+    """
     p = Path(path)
     if p.exists() and not p.is_file():
         raise LogFormatError(f"{p}: is not a file (a folder?); expected an encoder log CSV")
@@ -98,7 +107,7 @@ def read_encoder_csv(path: str | Path, *, modulus: int | None = None) -> Encoder
     increments = "dticks_left" in header and "left_ticks" not in header
     cols = INCREMENTS if increments else RAW
     data = read_columns(p, cols, integer=cols[1:], checked=True)
-    t = data["t"]
+    t = np.asarray(data["t"], dtype=np.float64)  # (float64 already: not in ``integer``)
     if t.size == 0:
         raise LogFormatError(f"{p}: no samples after the header")
 
@@ -130,7 +139,11 @@ def check_counter_range(
     line_of: Callable[[int], int],
     where: str,
 ) -> None:
-    """Raw counters must lie in 0..modulus-1: one sentence naming the line (or row) otherwise."""
+    """Raw counters must lie in 0..modulus-1: one sentence naming the line (or row) otherwise.
+
+    Raises:
+        LogFormatError: a raw counter value lies outside 0..modulus-1 (the line is named).
+    """
     for name, arr in ((cols[1], left), (cols[2], right)):
         if arr.size == 0 or (arr.min() >= 0 and arr.max() < modulus):
             continue  # (two reductions: a third of the time of the element-wise test)

@@ -34,7 +34,7 @@ from odolab.io.csv_run import ground_truth_beside
 from odolab.io.encoder_csv import read_encoder_csv
 from odolab.io.run import ReadOptions
 from odolab.io.sensorlog import ImuLog, read_sensorlog
-from odolab.io.tabular import read_columns, read_header
+from odolab.io.tabular import is_csv_with, read_columns, read_header
 from odolab.io.trajectory_csv import read_trajectory
 from odolab.io.windows import wheel_angles
 from odolab.trajectory import Trajectory
@@ -141,7 +141,11 @@ def _check_increasing(p: Path, t: FloatArray, what: str) -> None:
 
 
 def read_gyro_csv(path: str | Path) -> ImuLog:
-    """A plain gyro CSV ``t,wz`` (s, rad/s) as an :class:`ImuLog` (yaw: the rate's integral)."""
+    """A plain gyro CSV ``t,wz`` (s, rad/s) as an :class:`ImuLog` (yaw: the rate's integral).
+
+    Raises:
+        ImuLogError: the table has fewer than two gyro samples or a bad time.
+    """
     p = Path(path)
     cols = read_columns(p, GYRO_COLUMNS)
     t = np.asarray(cols["t"], dtype=np.float64)
@@ -155,7 +159,11 @@ def read_gyro_csv(path: str | Path) -> ImuLog:
 
 def read_gyro(path: str | Path) -> ImuLog:
     """A gyro log by its header: ``t,wz``, else a SensorLog CSV (the phone's, or a robot run's
-    ``imu.csv``). The log must have a yaw RATE column (a heading alone is not a gyro)."""
+    ``imu.csv``). The log must have a yaw RATE column (a heading alone is not a gyro).
+
+    Raises:
+        ImuLogError: the file has no yaw-rate column.
+    """
     p = Path(path)
     header = read_header(p)
     if all(c in header for c in GYRO_COLUMNS):
@@ -236,7 +244,12 @@ def read_gyro_run(
     window table is read whole (:func:`read_drive_windows`); a ROS bag or MCAP file gives both
     from its topics (:func:`read_bag_gyro_run`). Ticks become wheel angles with
     ``ticks_per_rev``. A ground truth beside the log (``NAME_gt.csv``) gives the reference
-    heading."""
+    heading.
+
+    Raises:
+        ImuLogError: no gyro log lies beside the run.
+        LogFormatError: a folder has no encoders.csv, or a log cannot be read.
+    """
     p = Path(path)
     if imu is None and _is_bag(p):
         return read_bag_gyro_run(p, ticks_per_rev=ticks_per_rev, imu_topic=imu_topic)
@@ -278,7 +291,11 @@ def gyro_run_from_log(
     truth: Trajectory | None = None,
 ) -> GyroRun:
     """An encoder log (raw counters, unwrapped here) and a gyro log with rates as a one-piece
-    :class:`GyroRun`; ``same_clock``: the gyro is stamped on the encoders' clock."""
+    :class:`GyroRun`; ``same_clock``: the gyro is stamped on the encoders' clock.
+
+    Raises:
+        ImuLogError: the IMU log has no yaw rate.
+    """
     from odolab.encoders import dticks_from_ticks
 
     if imu.yaw_rate is None:
@@ -294,21 +311,18 @@ def gyro_run_from_log(
 
 def is_drive_table(path: str | Path) -> bool:
     """Whether a CSV has the DRIVE window table's columns."""
-    p = Path(path)
-    if p.suffix.lower() != ".csv":
-        return False
-    try:
-        header = read_header(p)
-    except LogFormatError:
-        return False
-    return all(c in header for c in DRIVE_COLUMNS)
+    return is_csv_with(path, DRIVE_COLUMNS)
 
 
 def read_drive_windows(path: str | Path) -> GyroRun:
     """The DRIVE window table (``shared/data/drive-husky/husky_windows.csv``): one segment per
     window (2 s at 20 Hz), wheel angles integrated from the measured wheel speeds (trapezoid),
     the gyro ``imu_yaw`` on the same clock, ``icp_yaw`` (lidar, unwrapped per window) as the
-    reference heading, and the command step as the segment's group."""
+    reference heading, and the command step as the segment's group.
+
+    Raises:
+        LogFormatError: no window has two or more rows, or the table cannot be read.
+    """
     p = Path(path)
     cols = read_columns(p, DRIVE_COLUMNS)
     window = np.asarray(cols["window"], dtype=np.float64)

@@ -40,7 +40,11 @@ def is_optiodom_run(path: Path) -> bool:
 
 
 def read_optiodom_metadata(path: str | Path) -> dict[str, list[str]]:
-    """Rows of a ``<id>_metadata.csv`` as ``key -> [values]`` (empty cells dropped)."""
+    """Rows of a ``<id>_metadata.csv`` as ``key -> [values]`` (empty cells dropped).
+
+    Raises:
+        LogFormatError: the metadata file is missing or malformed.
+    """
     p = Path(path)
     if not p.is_file():
         raise LogFormatError(f"{p}: no such OptiOdom metadata file")
@@ -62,7 +66,11 @@ def _number(meta: dict[str, list[str]], key: str, source: Path, index: int = 0) 
 
 
 def params_from_metadata(meta: dict[str, list[str]], source: Path, name: str) -> RobotParams:
-    """Nominal :class:`RobotParams` from OptiOdom metadata (radius = diameter / 2)."""
+    """Nominal :class:`RobotParams` from OptiOdom metadata (radius = diameter / 2).
+
+    Raises:
+        LogFormatError: the metadata's robot parameters are out of range.
+    """
     d_left = _number(meta, "Di", source, 0)
     d_right = _number(meta, "Di", source, 1) if len(meta.get("Di", [])) > 1 else d_left
     try:
@@ -78,7 +86,12 @@ def params_from_metadata(meta: dict[str, list[str]], source: Path, name: str) ->
 
 
 def read_optiodom_run(path: str | Path) -> OdometryRun:
-    """One ``<id>_run-NN.csv`` with its ground truth and the nominal parameters of its metadata."""
+    """One ``<id>_run-NN.csv`` with its ground truth and the nominal parameters of its metadata.
+
+    Raises:
+        LogFormatError: the file is missing, misnamed, lacks its metadata file beside it, or has
+            fewer than two samples.
+    """
     p = Path(path)
     m = _RUN.match(p.name)
     if m is None:
@@ -129,7 +142,11 @@ def read_optiodom_run(path: str | Path) -> OdometryRun:
 
 
 def find_optiodom_runs(path: str | Path) -> list[Path]:
-    """Run files under ``path`` (a run file, an experiment folder, a kind folder or the root)."""
+    """Run files under ``path`` (a run file, an experiment folder, a kind folder or the root).
+
+    Raises:
+        LogFormatError: the path is missing, or a folder without OptiOdom runs.
+    """
     p = Path(path)
     if p.is_file():
         return [p]

@@ -105,7 +105,11 @@ def detect_format(paths: Iterable[str | Path]) -> tuple[LogFormat, str]:
     A bag (``.bag``, ``.mcap``, ``.db3``, a folder with ``metadata.yaml``); an OptiOdom run
     (``<id>_run-NN.csv`` beside its ``<id>_metadata.csv``); any other CSV is odolab's own encoder
     log, and so is a path that does not exist yet (a glob pattern). Paths of two formats are
-    refused: one sentence asks for ``--format``."""
+    refused: one sentence asks for ``--format``.
+
+    Raises:
+        LogFormatError: the runs are of several formats, or of none odolab reads.
+    """
     found: dict[LogFormat, Path] = {}
     for raw in paths:
         fmt = _format_of(Path(raw))

@@ -24,7 +24,7 @@ import math
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -38,6 +38,9 @@ from odolab.trajectory import (
     check_times,
     yaw_from_quaternions,
 )
+
+if TYPE_CHECKING:
+    from rosbags.highlevel import AnyReader
 
 __all__ = [
     "IMU_TYPE",
@@ -91,7 +94,7 @@ def reading(path: Path, where: str = "") -> Iterator[None]:
         ) from err
 
 
-def _open(path: Path) -> Any:
+def _open(path: Path) -> AnyReader:
     from odolab.io._bagcheck import check_bag_sizes
 
     if not path.exists():
@@ -106,7 +109,7 @@ def _open(path: Path) -> Any:
     return reader
 
 
-def _close(reader: Any, path: Path) -> None:
+def _close(reader: AnyReader, path: Path) -> None:
     with reading(path):
         reader.close()
 
@@ -123,8 +126,8 @@ def bag_topics(path: str | Path) -> dict[str, str]:
 
 
 def _messages(
-    reader: Any, path: Path, topic: str, types: tuple[str, ...]
-) -> Iterator[tuple[int, Any]]:
+    reader: AnyReader, path: Path, topic: str, types: tuple[str, ...]
+) -> Iterator[tuple[int, Any]]:  # a message: a class rosbags makes from the bag's types
     conns = [c for c in reader.connections if c.topic == topic]
     if not conns:
         have = ", ".join(f"{c.topic} ({c.msgtype})" for c in reader.connections) or "none"
@@ -154,7 +157,7 @@ def _stamp(msg: Any, bag_ns: int) -> float:
     return (ns if ns else bag_ns) * 1e-9
 
 
-def _poses(reader: Any, path: Path, topic: str) -> Trajectory:
+def _poses(reader: AnyReader, path: Path, topic: str) -> Trajectory:
     t, x, y, q = [], [], [], []
     for bag_ns, msg in _messages(reader, path, topic, POSE_TYPES):
         pose = msg.pose.pose if hasattr(msg.pose, "pose") else msg.pose
@@ -214,7 +217,12 @@ def read_bag_gyro(path: str | Path, topic: str = DEFAULT_IMU_TOPIC) -> ImuLog:
     """The yaw rate (``angular_velocity.z``, rad/s) of a ``sensor_msgs/Imu`` topic, on the
     header stamps' clock (the bag's receive time where a stamp is zero), as an
     :class:`~odolab.io.sensorlog.ImuLog` (yaw: the rate's integral). A message repeated with
-    the same stamp is kept once."""
+    the same stamp is kept once.
+
+    Raises:
+        LogFormatError: the topic is missing, has fewer than two IMU samples, or its time goes
+            backwards.
+    """
     p = Path(path)
     reader = _open(p)
     t: list[float] = []
@@ -277,7 +285,7 @@ def _replay_params(o: ReadOptions) -> RobotParams:
 
 
 def _read_open_bag(
-    reader: Any, p: Path, o: ReadOptions
+    reader: AnyReader, p: Path, o: ReadOptions
 ) -> tuple[
     np.ndarray,
     np.ndarray,
@@ -337,7 +345,7 @@ def _read_open_bag(
 
 
 def _joint_increments(
-    reader: Any, p: Path, o: ReadOptions
+    reader: AnyReader, p: Path, o: ReadOptions
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Stamps and wheel increments (ticks) of the JointState topic."""
     left_name, right_name = o.joint_names
@@ -379,7 +387,11 @@ class RosbagReader:
     """Registry entry for :class:`odolab.io.registry.LogFormat` ``bag``."""
 
     def find(self, path: Path) -> list[Path]:
-        """A ROS 1 ``.bag`` file, a ROS 2 bag folder, or the bags inside a folder."""
+        """A ROS 1 ``.bag`` file, a ROS 2 bag folder, or the bags inside a folder.
+
+        Raises:
+            LogFormatError: the path is missing, or a folder without ROS bags.
+        """
         if path.is_file() or (path.is_dir() and (path / "metadata.yaml").is_file()):
             return [path]
         if not path.is_dir():

@@ -112,7 +112,11 @@ class OdometryRun:
         return trajectory_from_increments(self, params, method, start=start)
 
     def require_ground_truth(self) -> Trajectory:
-        """The ground truth, or a :class:`LogFormatError` naming the run."""
+        """The ground truth, or a :class:`LogFormatError` naming the run.
+
+        Raises:
+            LogFormatError: the run has no ground truth (the reason is given).
+        """
         if self.ground_truth is None:
             why = self.meta.get("no_ground_truth", "no ground truth in this run; expected one")
             raise LogFormatError(f"{self.source}: {why}")

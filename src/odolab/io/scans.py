@@ -12,7 +12,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -37,7 +36,7 @@ class LaserScans:
     invalid, as ROS defines them."""
 
     t: NDArray[np.float64]
-    ranges: NDArray[np.floating[Any]]  # stored as float32
+    ranges: NDArray[np.float32 | np.float64]  # stored as float32
     angle_min: float
     angle_increment: float
     range_min: float
@@ -87,7 +86,12 @@ def read_scans(path: str | Path, topic: str = "/scan", *, min_scans: int = 2) ->
 
     One-sentence :class:`LogFormatError` when the topic is missing (the bag's topics are listed),
     carries another type, has fewer than ``min_scans`` scans, changes its beam layout, or its
-    stamps go backwards."""
+    stamps go backwards.
+
+    Raises:
+        LogFormatError: the topic is missing or of another type, has too few scans, changes its beam
+            layout, or its stamps go backwards.
+    """
     p = Path(path)
     reader = _open(p)
     try:
@@ -148,7 +152,7 @@ def _stamp_dict(t: float) -> dict[str, int]:
 
 
 #: (time, topic, message) of a message to write.
-_Message = tuple[float, str, dict[str, Any]]
+_Message = tuple[float, str, dict[str, object]]
 
 
 def _scan_messages(scans: LaserScans, topic: str) -> list[_Message]:

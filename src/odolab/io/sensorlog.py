@@ -21,7 +21,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import datetime, timedelta, timezone
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -29,6 +29,9 @@ from numpy.typing import ArrayLike, NDArray
 from odolab.errors import ImuLogError
 from odolab.kinematics import wrap_angle
 from odolab.trajectory import MAX_TIME_S
+
+if TYPE_CHECKING:
+    import polars as pl
 
 __all__ = [
     "DEFAULT_START",
@@ -93,7 +96,11 @@ class ImuLog:
         )
 
     def on_wallclock(self) -> ImuLog:
-        """The same log with ``t`` in POSIX seconds (needs ``loggingTime(txt)`` in the file)."""
+        """The same log with ``t`` in POSIX seconds (needs ``loggingTime(txt)`` in the file).
+
+        Raises:
+            ImuLogError: the log has no wall-clock time.
+        """
         if self.wallclock_offset is None:
             raise ImuLogError(
                 f"{self.source}: no wall-clock time in the log; expected a {LOGGING_TIME} column"
@@ -113,7 +120,12 @@ class ImuLog:
 def check_imu_log(
     t: ArrayLike, yaw: ArrayLike, yaw_rate: ArrayLike | None, source: str = "IMU log"
 ) -> None:
-    """Raise :class:`ImuLogError` unless ``t``/``yaw``(/``yaw_rate``) are a usable IMU log."""
+    """Raise :class:`ImuLogError` unless ``t``/``yaw``(/``yaw_rate``) are a usable IMU log.
+
+    Raises:
+        ImuLogError: the arrays differ in length, hold fewer than two samples, a time does not
+            increase, or a value is not finite.
+    """
     tt = np.asarray(t, dtype=np.float64)
     yy = np.asarray(yaw, dtype=np.float64)
     if tt.ndim != 1 or yy.shape != tt.shape:
@@ -199,7 +211,7 @@ class _Table:
         if self._frame is None:
             self._cells = dict(enumerate(self._read_csv()))
 
-    def _read_polars(self) -> Any:
+    def _read_polars(self) -> pl.DataFrame | None:
         """The cells as a polars frame of text; None where polars cannot be trusted with the
         layout (lines ended by a bare carriage return, quotes)."""
         import polars as pl
@@ -252,6 +264,7 @@ class _Table:
     def _column(self, base: str) -> NDArray[np.str_]:
         j = self._pos[base]
         if j not in self._cells:  # polars' column, stripped, missing cells empty
+            assert self._frame is not None  # (without a frame every column was read at once)
             series = self._frame.get_column(f"c{j}").fill_null("").str.strip_chars()
             self._cells[j] = np.asarray(series.to_numpy(), dtype=str)
         return self._cells[j]
@@ -446,6 +459,9 @@ def read_sensorlog(path: str | Path) -> ImuLog:
     ``gyroRotationZ``, interpolated onto the heading's times. Time: the sensor's
     ``..._sinceReboot(s)`` clock, else ``loggingTime(txt)`` with its time-zone offset.
     Every problem is an :class:`ImuLogError` naming the file (and line and column).
+
+    Raises:
+        ImuLogError: the file has no usable heading column, or too few values in it.
     """
     p = Path(path)
     tab = _Table(p)
@@ -549,6 +565,9 @@ def write_sensorlog(
     (degrees clockwise from north) is written on every ``compass_every``-th row and left empty
     elsewhere, the accelerometer on every ``accelerometer_every``-th row. Columns are
     :data:`WRITTEN_COLUMNS`.
+
+    Raises:
+        ImuLogError: the start time carries no time zone.
     """
     t = np.asarray(t_phone, dtype=np.float64)
     y = np.asarray(yaw, dtype=np.float64)

@@ -23,18 +23,19 @@ from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
-from typing import Any, Literal, TypeVar, cast
+from typing import IO, TYPE_CHECKING, Literal, TypeVar, cast
 
 import numpy as np
 from numpy.typing import NDArray
 
 from odolab.errors import LogFormatError
-from odolab.io._table import _CsvRefused, _parse_block
+from odolab.io._table import Column, Columns, _CsvRefused, _parse_block, check_columns_present
 
 __all__ = [
     "BINARY_SUFFIXES",
     "ChunkWriter",
     "TableFormat",
+    "is_csv_with",
     "iter_columns",
     "read_columns",
     "read_header",
@@ -45,8 +46,13 @@ __all__ = [
 
 TableFormat = Literal["csv", "parquet", "ipc"]
 F64 = NDArray[np.float64]
+
+if TYPE_CHECKING:
+    import polars as pl
+    import pyarrow as pa
+    import pyarrow.ipc as ipc
+    import pyarrow.parquet as pq
 T = TypeVar("T")
-Columns = dict[str, NDArray[Any]]  # column name -> array (float64, or int64 where asked)
 
 _PARQUET = (".parquet", ".pq")
 _IPC = (".arrow", ".feather", ".ipc")
@@ -79,7 +85,7 @@ def _arrow_errors() -> tuple[type[BaseException], ...]:
     return (pa.ArrowException, OSError, ValueError, KeyError, IndexError, TypeError, MemoryError)
 
 
-def _numpy_of(col: Any) -> NDArray[Any]:
+def _numpy_of(col: pa.Array) -> NDArray[np.generic]:
     """A pyarrow array without nulls as numpy: a view of its data buffer for the usual integer
     and float types. (pyarrow's ``to_numpy`` and ``np.asarray`` import pandas, half a second
     of a command that reads Parquet.) Other types go through ``to_numpy``."""
@@ -110,8 +116,24 @@ def _arrow_schema_names(p: Path, fmt: TableFormat) -> list[str]:
         raise LogFormatError(f"{p}: not a readable {kind} file ({err})") from err
 
 
+def is_csv_with(path: str | Path, columns: Sequence[str]) -> bool:
+    """Whether ``path`` is a readable CSV file whose header names every one of ``columns``."""
+    p = Path(path)
+    if p.suffix.lower() != ".csv" or not p.is_file():
+        return False
+    try:
+        header = read_header(p)
+    except LogFormatError:
+        return False
+    return all(c in header for c in columns)
+
+
 def read_header(path: str | Path) -> list[str]:
-    """Column names of a table file (CSV: the first line, stripped)."""
+    """Column names of a table file (CSV: the first line, stripped).
+
+    Raises:
+        LogFormatError: the file is missing, unreadable, or has no header line.
+    """
     p = Path(path)
     _check_file(p)
     fmt = table_format(p)
@@ -128,16 +150,18 @@ def read_header(path: str | Path) -> list[str]:
     return header
 
 
-def _missing(p: Path, header: Sequence[str], columns: Sequence[str]) -> None:
-    from odolab.text import safe_terminal, shorten
-
-    missing = [c for c in columns if c not in header]
-    if missing:
-        raise LogFormatError(
-            f"{p}: missing column {missing[0]!r}; the header has "
-            f"{safe_terminal(shorten(', '.join(header), 200)) or 'nothing'}"
-            f" but {', '.join(columns)} are expected"
-        )
+def _checked_header(
+    p: Path, columns: Sequence[str], checked: bool
+) -> tuple[TableFormat, list[str]]:
+    """The file's format and header, after the checks every reader makes: a CSV's lines
+    (unless ``checked``) and that the header names every one of ``columns``."""
+    fmt = table_format(p)
+    if fmt == "csv" and not checked:
+        _check_file(p)
+        _check_text(p)
+    header = read_header(p)
+    check_columns_present(p, header, columns)
+    return fmt, header
 
 
 def _check_text(p: Path) -> None:
@@ -148,7 +172,7 @@ def _check_text(p: Path) -> None:
     check_columns_unique(p, first_line_cells(p))
 
 
-def _check_finite(p: Path, out: Mapping[str, F64], where: str, offset: int = 0) -> None:
+def _check_finite(p: Path, out: Mapping[str, Column], where: str, offset: int = 0) -> None:
     for name, arr in out.items():
         bad = ~np.isfinite(arr)
         if bad.any():
@@ -198,7 +222,7 @@ def prefetched(items: Iterable[T], depth: int = 1) -> Iterator[T]:
 
 def _fast_csv(
     p: Path, header: list[str], columns: Sequence[str], integer: Sequence[str]
-) -> dict[str, NDArray[Any]] | None:
+) -> Columns | None:
     """polars on blocks of lines (:func:`_parse_block`, the next one parsed on a thread), copied
     into arrays allocated once; None where the careful reader must look.
 
@@ -209,7 +233,7 @@ def _fast_csv(
     if len(set(header)) != len(header):
         return None  # duplicated names: the careful reader's rules apply
     size = p.stat().st_size
-    out: Columns = {c: np.empty(0, np.int64 if c in integer else np.float64) for c in columns}
+    out: Columns = {c: np.empty(0, np.int64) if c in integer else np.empty(0) for c in columns}
     n = 0
     try:
         for nbytes, part in prefetched(_parsed_blocks(p, header, columns, integer, _CSV_BLOCK)):
@@ -227,7 +251,7 @@ def _fast_csv(
     return {c: a[:n] for c, a in out.items()}
 
 
-def _grown(a: NDArray[Any], n: int, size: int, dtype: Any) -> NDArray[Any]:
+def _grown(a: Column, n: int, size: int, dtype: np.dtype[np.generic]) -> Column:
     """A new array of ``size`` holding ``a[:n]`` (float64 if either is)."""
     kind = np.result_type(a.dtype, dtype)
     b = np.empty(size, kind)
@@ -237,7 +261,7 @@ def _grown(a: NDArray[Any], n: int, size: int, dtype: Any) -> NDArray[Any]:
 
 def _whole_binary(
     p: Path, fmt: TableFormat, columns: Sequence[str], integer: Sequence[str], allow_nan: bool
-) -> dict[str, NDArray[Any]]:
+) -> Columns:
     """A whole Parquet or IPC table's columns (int64 where asked and stored as integers).
 
     Read batch by batch (:func:`_arrow_batches`) into arrays allocated once from the row count
@@ -249,14 +273,14 @@ def _whole_binary(
     try:
         with contextlib.ExitStack() as stack:
             rows, schema, batches = _arrow_batches(p, fmt, columns, stack)
-            out: dict[str, NDArray[Any]] = {}
+            out: Columns = {}
             for name in columns:
                 typ = schema.field(name).type
                 if not (pa.types.is_integer(typ) or pa.types.is_floating(typ)
                         or pa.types.is_decimal(typ)):  # fmt: skip
                     raise LogFormatError(f"{p}: column {name!r} holds {typ}, expected numbers")
                 whole = name in integer and pa.types.is_integer(typ)
-                out[name] = np.empty(rows, np.int64 if whole else np.float64)
+                out[name] = np.empty(rows, np.int64) if whole else np.empty(rows)
             row = 0
             for batch in batches:
                 k = batch.num_rows
@@ -280,7 +304,7 @@ def _whole_binary(
 
 def _arrow_batches(
     p: Path, fmt: TableFormat, columns: Sequence[str], stack: contextlib.ExitStack
-) -> tuple[int, Any, Iterator[Any]]:
+) -> tuple[int, pa.Schema, Iterator[pa.RecordBatch]]:
     """Rows (from the metadata), schema and record batches of the named columns of a Parquet or
     IPC file (IPC memory-mapped; the map stays open until ``stack`` closes)."""
     import pyarrow as pa
@@ -304,7 +328,7 @@ def read_columns(
     allow_nan: bool = False,
     integer: Sequence[str] = (),
     checked: bool = False,
-) -> dict[str, NDArray[Any]]:
+) -> Columns:
     """Read the named columns of a table file as float64 arrays.
 
     Columns named in ``integer`` come back as int64 where every value is written as an integer
@@ -314,12 +338,7 @@ def read_columns(
     ``checked``: the caller already did).
     """
     p = Path(path)
-    fmt = table_format(p)
-    if fmt == "csv" and not checked:
-        _check_file(p)
-        _check_text(p)
-    header = read_header(p)
-    _missing(p, header, columns)
+    fmt, header = _checked_header(p, columns, checked)
     if fmt != "csv":
         return _whole_binary(p, fmt, columns, integer, allow_nan)
     from odolab.io._table import read_numeric_columns
@@ -333,10 +352,10 @@ def read_columns(
     return fast
 
 
-def _arrow_to_f64(p: Path, batch: Any, columns: Sequence[str], row0: int) -> dict[str, F64]:
+def _arrow_to_f64(p: Path, batch: pa.RecordBatch, columns: Sequence[str], row0: int) -> Columns:
     import pyarrow as pa
 
-    out: dict[str, F64] = {}
+    out: Columns = {}
     for name in columns:
         col = batch.column(batch.schema.get_field_index(name))
         if col.null_count:
@@ -452,16 +471,15 @@ def iter_columns(
     once. Memory is bounded by the chunk (plus one block of the underlying reader: a Parquet
     batch, an IPC batch, or CSV text of 64 bytes a row of the chunk, 64 KiB to 4 MiB). A CSV's
     lines are checked first (:mod:`odolab.io.limits`; ``checked``: the caller already did).
+
+    Raises:
+        LogFormatError: the chunk size is not a whole number >= 1, or the table cannot be read (the
+            line or row is named).
     """
     p = Path(path)
     if chunk_rows is not None and (chunk_rows < 1 or int(chunk_rows) != chunk_rows):
         raise LogFormatError(f"chunk size is {chunk_rows!r}; expected a whole number of rows >= 1")
-    fmt = table_format(p)
-    if fmt == "csv" and not checked:
-        _check_file(p)
-        _check_text(p)
-    header = read_header(p)
-    _missing(p, header, columns)
+    fmt, header = _checked_header(p, columns, checked)
     blocks: Iterator[Columns]
     if fmt == "csv":
         block = _CSV_BLOCK
@@ -526,7 +544,7 @@ def _arrow_chunks(p: Path, fmt: TableFormat, columns: Sequence[str]) -> Iterator
         raise LogFormatError(f"{p}: not a readable {kind} file ({err})") from err
 
 
-def _frame(columns: Mapping[str, NDArray[Any]]) -> Any:
+def _frame(columns: Mapping[str, NDArray[np.generic]]) -> pl.DataFrame:
     """A polars frame over the arrays (numeric numpy arrays are not copied)."""
     import polars as pl
 
@@ -540,7 +558,7 @@ def _cannot_write(p: Path, what: str, err: BaseException) -> LogFormatError:
     )
 
 
-def write_columns(path: str | Path, columns: Mapping[str, NDArray[Any]], what: str) -> Path:
+def write_columns(path: str | Path, columns: Mapping[str, NDArray[np.generic]], what: str) -> Path:
     """Write equal-length 1-D arrays as a table, in the format of the file's extension.
 
     Float columns stay float64 (CSV: shortest round-trip text), integer columns stay int64.
@@ -572,7 +590,7 @@ def write_columns(path: str | Path, columns: Mapping[str, NDArray[Any]], what: s
     return write_frame(path, frame, what)
 
 
-def write_frame(path: str | Path, frame: Any, what: str) -> Path:
+def write_frame(path: str | Path, frame: pl.DataFrame, what: str) -> Path:
     """Write a polars frame as CSV, Parquet or Arrow IPC by the file's extension; a failure is
     one sentence naming the file and ``what`` it holds."""
     import polars as pl
@@ -608,14 +626,14 @@ ROW_GROUP_MAX_ROWS = 1 << 20
 #: them): no dictionary (every float of a trajectory is distinct, and pyarrow's default tries a
 #: dictionary for each column of each row group before giving up on it: half the writing time);
 #: min/max statistics of every column (what a reader filters row groups on; cheap); snappy.
-PARQUET_WRITER_OPTIONS: dict[str, Any] = {
+PARQUET_WRITER_OPTIONS: dict[str, bool | str] = {
     "use_dictionary": False,
     "write_statistics": True,
     "compression": "snappy",
 }
 
 
-def _arrow_array(values: NDArray[Any]) -> Any:
+def _arrow_array(values: NDArray[np.generic]) -> pa.Array:
     """A pyarrow array over a numeric numpy array without a copy. (``pa.array`` of a numpy array
     imports pandas to check for its types: 0.3-1 s of a command that writes Parquet.)"""
     import pyarrow as pa
@@ -693,10 +711,12 @@ class ChunkWriter:
         self.format = table_format(self.path)
         self.rows = 0
         self.background = background
-        self._sink: Any = None
-        self._writer: Any = None
+        self._sink: IO[bytes] | pa.NativeFile | None = None
+        self._writer: pq.ParquetWriter | ipc.RecordBatchFileWriter | None = None
         self._thread: _WriterThread | None = None
-        self._gathered: list[dict[str, NDArray[Any]]] = []  # Parquet, IPC: the next row group
+        self._gathered: list[
+            dict[str, NDArray[np.generic]]
+        ] = []  # Parquet, IPC: the next row group
         self._gathered_rows = 0
         self._header = True
 
@@ -711,14 +731,18 @@ class ChunkWriter:
             self._thread = _WriterThread("odolab-write")
         return self
 
-    def write(self, columns: Mapping[str, NDArray[Any]]) -> None:
+    def write(self, columns: Mapping[str, NDArray[np.generic]]) -> None:
         """Append one chunk (a mapping of column name to 1-D array; not changed afterwards)."""
         cols = dict(columns)
         rows = len(next(iter(cols.values())))
         self.rows += rows
         if self.format == "csv":
             header, self._header = self._header, False
-            self._run(lambda: _frame(cols).write_csv(self._sink, include_header=header))
+
+            def write_csv() -> None:
+                _frame(cols).write_csv(self._sink, include_header=header)
+
+            self._run(write_csv)
             return
         self._gathered.append(cols)
         self._gathered_rows += rows
@@ -743,7 +767,7 @@ class ChunkWriter:
         else:
             self._thread.submit(guarded)
 
-    def _write_arrow(self, parts: list[dict[str, NDArray[Any]]]) -> None:
+    def _write_arrow(self, parts: list[dict[str, NDArray[np.generic]]]) -> None:
         import pyarrow as pa
         import pyarrow.ipc as ipc
         import pyarrow.parquet as pq

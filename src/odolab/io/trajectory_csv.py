@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from odolab.errors import LogFormatError
-from odolab.io._table import data_line_numbers, read_numeric_columns
+from odolab.io._table import as_float64, data_line_numbers, read_numeric_columns
 from odolab.io.limits import check_columns_unique, check_text_file, first_line_cells
 from odolab.io.tabular import (
     BINARY_SUFFIXES,
@@ -85,13 +85,18 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
     """Read a trajectory CSV; ``heading`` is optional (derived by unwrapping theta), and so is
     ``theta`` where ``heading`` is there (``t,x,y,heading``; theta is derived by wrapping); with
     neither (``t,x,y``, position-only ground truth) the heading is the path's tangent
-    (:func:`heading_from_path`)."""
+    (:func:`heading_from_path`).
+
+    Raises:
+        LogFormatError: the file is missing, a folder, empty, or has a bad time or position (the
+            line is named).
+    """
     p = Path(path)
     if p.exists() and not p.is_file():
         raise LogFormatError(f"{p}: is not a file (a folder?); expected a trajectory CSV")
     if table_format(p) != "csv":
         header = read_header(p)
-        d = read_columns(p, trajectory_columns(header))
+        d = as_float64(read_columns(p, trajectory_columns(header)))
         _check_some(p, d["t"].size)
         check_times(d["t"], str(p), row_offset=1, what="row")
         check_positions(d["x"], d["y"], str(p), line_of=lambda i: i + 1, what="row")
@@ -104,7 +109,7 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
     if not header:
         raise LogFormatError(f"{p}: empty file; expected header {','.join(COLUMNS)}")
     check_columns_unique(p, header)
-    d = read_columns(p, trajectory_columns(header), checked=True)
+    d = as_float64(read_columns(p, trajectory_columns(header), checked=True))
     _check_some(p, d["t"].size)
 
     def line_of(i: int) -> int:
@@ -153,7 +158,11 @@ def _write_tum(traj: Trajectory, path: str | Path) -> Path:
 
 
 def read_tum(path: str | Path) -> Trajectory:
-    """Read TUM text; yaw from the quaternion (roll and pitch are ignored)."""
+    """Read TUM text; yaw from the quaternion (roll and pitch are ignored).
+
+    Raises:
+        LogFormatError: the file has no poses or a malformed line.
+    """
     p = Path(path)
     d = read_numeric_columns(p, TUM_COLUMNS, sep=r"\s+", names=TUM_COLUMNS)
     if d["t"].size == 0:
@@ -190,7 +199,11 @@ def write_trajectory(
 
 def read_trajectory(path: str | Path) -> Trajectory:
     """A trajectory file by its extension: ``.csv`` (``t,x,y,theta[,heading]``), Parquet or Arrow
-    IPC (``.parquet``, ``.arrow``, ``.feather``: the same columns), else TUM text."""
+    IPC (``.parquet``, ``.arrow``, ``.feather``: the same columns), else TUM text.
+
+    Raises:
+        LogFormatError: the file is missing or not a readable trajectory.
+    """
     p = Path(path)
     if not p.is_file():
         raise LogFormatError(f"{p}: no such trajectory file")

@@ -93,16 +93,10 @@ def split_selector(path: Path) -> tuple[Path, str]:
 
 def is_window_table(path: Path) -> bool:
     """Whether ``path`` (with or without a ``#`` selector) is a CSV with the window columns."""
-    from odolab.io.tabular import read_header
+    from odolab.io.tabular import is_csv_with
 
     table, _ = split_selector(path)
-    if table.suffix.lower() != ".csv" or not table.is_file():
-        return False
-    try:
-        header = read_header(table)
-    except LogFormatError:
-        return False
-    return all(c in header for c in WINDOW_COLUMNS)
+    return is_csv_with(table, WINDOW_COLUMNS)
 
 
 @dataclass(frozen=True)
@@ -192,7 +186,11 @@ def _selected(table: _Table, given: Path, selector: str) -> list[int]:
 
 
 def find_window_runs(path: str | Path) -> list[Path]:
-    """One path ``TABLE.csv#window-N`` per window that ``path`` selects (see the module)."""
+    """One path ``TABLE.csv#window-N`` per window that ``path`` selects (see the module).
+
+    Raises:
+        LogFormatError: the selector picks no window of the table.
+    """
     table_path, selector = split_selector(Path(path))
     table = _table(table_path)
     windows = _selected(table, Path(path), selector) if selector else list(table.rows)
@@ -207,7 +205,12 @@ def find_window_runs(path: str | Path) -> list[Path]:
 
 def read_window_run(path: str | Path, ticks_per_rev: float = 2.0 * math.pi) -> OdometryRun:
     """The window ``TABLE.csv#window-N`` as a run (see the module): ticks are the wheel angle
-    times ``ticks_per_rev / (2 pi)`` (the default makes one tick one radian)."""
+    times ``ticks_per_rev / (2 pi)`` (the default makes one tick one radian).
+
+    Raises:
+        LogFormatError: the path names no single window, or the window has too few rows, a time that
+            does not advance, or a value out of range (the line is named).
+    """
     table_path, selector = split_selector(Path(path))
     m = _SELECTOR.match(selector)
     if not selector or m is None or m["window"] is None:

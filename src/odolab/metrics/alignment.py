@@ -57,6 +57,9 @@ def rigid_from_points(est_xy: np.ndarray, ref_xy: np.ndarray) -> Rigid2D:
 
     Closed form (Umeyama/Kabsch in 2-D, no scale): the angle is ``atan2`` of the cross and dot
     sums of the centred point sets.
+
+    Raises:
+        InsufficientDataError: fewer than two associated poses are given.
     """
     n = int(est_xy.shape[0])
     if n < 2:

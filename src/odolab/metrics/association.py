@@ -58,6 +58,9 @@ def interpolate_trajectory(traj: Trajectory, t: NDArray[np.float64]) -> Trajecto
 
     Positions are interpolated linearly and the unwrapped heading linearly (for steps under pi,
     the same as slerp of the rotation about z).
+
+    Raises:
+        InsufficientDataError: the trajectory has fewer than two poses.
     """
     if len(traj) < 2:
         raise InsufficientDataError("cannot interpolate a trajectory with fewer than two poses")

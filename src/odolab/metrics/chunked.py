@@ -133,7 +133,11 @@ def _select(fh: IO[bytes], n: int, rank: int, block: int) -> float:
 
 def exact_median_from_file(fh: IO[bytes], n: int, *, block: int = DEFAULT_CHUNK_ROWS) -> float:
     """``numpy.median`` of the ``n`` doubles written (``tofile``) to ``fh``, with ``block`` of
-    them in memory at a time: the middle value, or the mean of the two middle values."""
+    them in memory at a time: the middle value, or the mean of the two middle values.
+
+    Raises:
+        InsufficientDataError: there are no values.
+    """
     if n < 1:
         raise InsufficientDataError("no values to take the median of")
     hi = _select(fh, n, n // 2, block)
@@ -626,6 +630,10 @@ def evaluate_files(
     poses' count and time range, one for the alignment's moments, one for the errors.
     ``progress(rows read, rows to read, file name)`` is called after each chunk (the total is 0
     during the first pass, before the rows are counted).
+
+    Raises:
+        LogFormatError: the chunk size, the association's max_diff or the drift segment is out of
+            range, or a file cannot be read.
     """
     if chunk_rows < 1 or int(chunk_rows) != chunk_rows:
         raise LogFormatError(f"chunk size is {chunk_rows!r}; expected a whole number of rows >= 1")

@@ -17,9 +17,13 @@ import traceback
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any, Generic, TypeVar
+from typing import TYPE_CHECKING, Generic, TypeVar
 
 from odolab.errors import OdolabError
+
+if TYPE_CHECKING:
+    from distributed import Client, LocalCluster
+    from distributed.security import Security
 
 __all__ = ["Cluster", "MapReport", "Outcome", "local_cluster", "map_outcomes"]
 
@@ -139,7 +143,7 @@ def _run_batch(func: Callable[[T], R], items: list[T], labels: list[str]) -> lis
 
 
 @contextmanager
-def _client(cluster: Cluster) -> Iterator[Any]:
+def _client(cluster: Cluster) -> Iterator[Client]:
     from distributed import Client
 
     if cluster.scheduler is not None:
@@ -157,12 +161,13 @@ def _client(cluster: Cluster) -> Iterator[Any]:
         yield client
 
 
-def _security() -> Any:
+def _security() -> Security:
     """TLS with a certificate made for this cluster alone (kept in memory, never on disk)."""
     from distributed.security import Security
 
     try:
-        return Security.temporary()
+        security: Security = Security.temporary()  # (distributed is untyped)
+        return security
     except ImportError as err:  # pragma: no cover - cryptography is a dependency
         raise OdolabError(
             "the local Dask cluster needs the package `cryptography` for its TLS certificate; "
@@ -171,7 +176,7 @@ def _security() -> Any:
 
 
 @contextmanager
-def local_cluster(workers: int) -> Iterator[Any]:
+def local_cluster(workers: int) -> Iterator[LocalCluster]:
     """A Dask cluster on this machine that no other process can use.
 
     ``workers`` processes with one thread each. Every listening port (scheduler, nannies,

@@ -31,7 +31,6 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -91,7 +90,7 @@ class RunNees:
     #: above SECOND_ORDER_LIMIT the first-order covariance understates the spread
     second_order: NDArray[np.float64] | None = None
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """JSON-ready dict."""
         return {
             "name": self.name,
@@ -119,7 +118,7 @@ class NeesSummary:
     fraction_above: float
     verdict: str
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """JSON-ready dict."""
         return {
             "n": self.n,
@@ -333,7 +332,11 @@ def nees_of_runs(
 ) -> tuple[list[RunNees], list[str], str | None]:
     """:func:`run_nees` of every run with ``params_of(run)``, skipping the runs shorter than one
     piece; returns the results, the skipped runs' names and the sentence that says so (None when
-    none was skipped). Every run too short is refused with one sentence."""
+    none was skipped). Every run too short is refused with one sentence.
+
+    Raises:
+        InsufficientDataError: every run is shorter than one NEES piece.
+    """
     results: list[RunNees] = []
     skipped: list[str] = []
     longest = 0.0
@@ -367,7 +370,11 @@ def nees_of_runs(
 
 
 def nees_summary(runs: Sequence[RunNees]) -> NeesSummary:
-    """Pool the pieces of ``runs``: mean NEES, its chi-square 95 % bounds, and a verdict."""
+    """Pool the pieces of ``runs``: mean NEES, its chi-square 95 % bounds, and a verdict.
+
+    Raises:
+        InsufficientDataError: no piece of any run moved the robot.
+    """
     from scipy.stats import chi2
 
     values = np.concatenate([r.nees for r in runs]) if runs else np.empty(0)
@@ -477,7 +484,12 @@ def fit_noise_scale(
 
     Scales ``params.noise`` (or ``k_left = k_right = 1e-4 m`` when it has none) by one factor:
     the covariance is linear in the k's, so the NEES scales by its inverse. Fit it on training
-    runs, then judge it with :func:`run_nees` on held-out ones."""
+    runs, then judge it with :func:`run_nees` on held-out ones.
+
+    Raises:
+        InsufficientDataError: no piece moved, or the fitted noise is implausible for pieces of this
+            length.
+    """
     base = params.noise or NoiseParams(1e-4, 1e-4)
     trial = replace(params, noise=base)
     res = [
@@ -525,9 +537,9 @@ class NoiseFit:
     mean_nees: float  #: of the training pieces with the fitted noise
     expected_mean: float
 
-    def provenance(self) -> dict[str, Any]:
+    def provenance(self) -> dict[str, object]:
         """A TOML-able table: each constant's value, interval and the runs it came from."""
-        out: dict[str, Any] = {}
+        out: dict[str, object] = {}
         for key in ("k_left", "k_right", "k_scrub"):
             if key in self.unknown:
                 out[key] = {"unknown": self.unknown[key]}

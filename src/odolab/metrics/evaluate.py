@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
@@ -64,7 +64,7 @@ class EvaluationOptions:
     drift_delta_m: float = 1.0
     drift_turn_rad: float = math.pi / 2
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """Plain dict for JSON."""
         return {k: (str(v) if isinstance(v, str) else v) for k, v in self.__dict__.items()}
 
@@ -158,7 +158,11 @@ def drift_per_distance(
     turn_segment_rad: float = math.pi / 2,
 ) -> Drift:
     """Drift of associated, aligned trajectories (equal length) per metre of reference path,
-    and per angle turned."""
+    and per angle turned.
+
+    Raises:
+        LogFormatError: the drift segment is not a positive length.
+    """
     if not (segment_m > 0 and math.isfinite(segment_m)):
         raise LogFormatError(
             f"drift segment must be a positive length in m (--drift-segment), got {segment_m}"
@@ -237,7 +241,7 @@ class Evaluation:
         """Why a number is undefined (NaN), one sentence each."""
         return ((self.rpe_note,) if self.rpe_note else ()) + self.drift.notes
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """JSON-ready dict: ``ape``, ``ape_rot``, ``rpe``, ``rpe_rot``, ``drift``, ``options``,
         ``planar`` (true) with its ``planar_note``, and ``notes`` (why a value is ``null``)."""
         return {

@@ -98,7 +98,11 @@ class Stats:
 
 
 def stats_from_errors(errors: FloatArray, what: str = "errors") -> Stats:
-    """Statistics of ``errors`` (shape (n,), n >= 1) as evo computes them."""
+    """Statistics of ``errors`` (shape (n,), n >= 1) as evo computes them.
+
+    Raises:
+        InsufficientDataError: there are no errors to summarise.
+    """
     e = np.asarray(errors, dtype=np.float64)
     if e.size == 0:
         raise InsufficientDataError(f"no {what} to summarise")
@@ -247,7 +251,12 @@ def pair_indices(
 ) -> tuple[IntArray, IntArray]:
     """Index pairs ``(i, j)`` (two arrays of shape (k,)) for RPE, chosen on ``traj`` as evo does.
 
-    No pairs raise :class:`InsufficientDataError`, unless ``allow_empty``."""
+    No pairs raise :class:`InsufficientDataError`, unless ``allow_empty``.
+
+    Raises:
+        LogFormatError: delta is not positive (or, in frames, not whole).
+        InsufficientDataError: delta gives no pose pairs.
+    """
     u = DeltaUnit(unit)
     n = len(traj)
     if not (delta > 0 and math.isfinite(delta)):

@@ -12,7 +12,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TypeVar
 
 from odolab.errors import OdolabError
 from odolab.io.registry import LogFormat, find_runs, read_run
@@ -93,7 +93,7 @@ class RunEvaluation:
     #: wheel increments made from the robot's own odometry, AMCL's pose as the reference)
     data_notes: tuple[str, ...] = ()
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """JSON-ready dict."""
         out = {
             "name": self.name,

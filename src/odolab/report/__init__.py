@@ -7,7 +7,7 @@ report's model section needs (about a second of imports)."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from odolab.report.html import build_results, summary_sentences, write_report
@@ -23,7 +23,7 @@ _WHERE = {
 }
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> object:
     import importlib
 
     if name not in _WHERE:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -52,6 +52,16 @@ def _axes(ax: Axes | None) -> Axes:
 #: Legend text size (pt): the report draws figures 6 in wide and shows them down to a phone's
 #: 368 px, the web notebook draws its own phone-size rendering (:mod:`odolab.serve.plots`).
 LEGEND_FONTSIZE = 9
+
+
+def _finish(ax: Axes, motion: Motion, title: str) -> Axes:
+    """A ratio plot's last touches: the motion's axis labels, the title, a grid, the legend."""
+    ax.set_xlabel(motion.x_label)
+    ax.set_ylabel(motion.y_label)
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    legend_outside(ax)
+    return ax
 
 
 def legend_outside(
@@ -162,12 +172,7 @@ def plot_fit(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
             label="outlier, left out",
             zorder=4,
         )
-    ax.set_xlabel(m.motion.x_label)
-    ax.set_ylabel(m.motion.y_label)
-    ax.set_title(_title(m))
-    ax.grid(alpha=0.3)
-    legend_outside(ax)
-    return ax
+    return _finish(ax, m.motion, _title(m))
 
 
 def plot_residuals(m: MotionAnalysis, ax: Axes | None = None) -> Axes:
@@ -299,12 +304,7 @@ def plot_terrains(analysis: LabAnalysis, motion: str = "x", ax: Axes | None = No
             color=c,
             label=f"{m.terrain}: slope {m.fit.slope:.4f} [{lo:.4f}, {hi:.4f}]",
         )
-    ax.set_xlabel(kind.x_label)
-    ax.set_ylabel(kind.y_label)
-    ax.set_title(f"{motion} on each terrain")
-    ax.grid(alpha=0.3)
-    legend_outside(ax)
-    return ax
+    return _finish(ax, kind, f"{motion} on each terrain")
 
 
 def plot_terrain_slopes(analysis: LabAnalysis, motion: str = "x", ax: Axes | None = None) -> Axes:
@@ -453,12 +453,7 @@ def plot_calibration_effect(
             edgecolors=f"C{i}",
             label=f"new ({name}): ratio {slope:.3f}",
         )
-    ax.set_xlabel(m.motion.x_label)
-    ax.set_ylabel(m.motion.y_label)
-    ax.set_title(f"Old vs new parameters: {_title(m)}")
-    ax.grid(alpha=0.3)
-    legend_outside(ax)
-    return ax
+    return _finish(ax, m.motion, f"Old vs new parameters: {_title(m)}")
 
 
 def plot_umbmark(
@@ -478,16 +473,31 @@ def plot_umbmark(
     """
     ax = _axes(ax)
     sign = -1.0 if predicted_minus_actual else 1.0
-    sets: list[tuple[str, Any, Any, bool, str]] = [
-        ("before", sign * np.asarray(cw_errors), sign * np.asarray(ccw_errors), True, "+")
+    sets: list[tuple[str, NDArray[np.float64], NDArray[np.float64], bool, str]] = [
+        (
+            "before",
+            sign * np.asarray(cw_errors, dtype=np.float64),
+            sign * np.asarray(ccw_errors, dtype=np.float64),
+            True,
+            "+",
+        )
     ]
     if after is not None:
-        sets.append(("after", sign * np.asarray(after[0]), sign * np.asarray(after[1]), False, "x"))
+        sets.append(
+            (
+                "after",
+                sign * np.asarray(after[0], dtype=np.float64),
+                sign * np.asarray(after[1], dtype=np.float64),
+                False,
+                "x",
+            )
+        )
     for name, cw, ccw, filled, centre in sets:
         for arr, color, d in ((cw, "tab:blue", "cw"), (ccw, "tab:red", "ccw")):
-            kw: dict[str, Any] = {"edgecolors": color}
-            kw["facecolors"] = color if filled else "none"
-            ax.scatter(arr[:, 0], arr[:, 1], s=26, label=f"{d} {name}", **kw)
+            ax.scatter(
+                arr[:, 0], arr[:, 1], s=26, label=f"{d} {name}",
+                edgecolors=color, facecolors=color if filled else "none",
+            )  # fmt: skip
             cg = arr.mean(axis=0)
             ax.scatter(
                 [cg[0]],

@@ -58,7 +58,7 @@ def _numbers(
     return a
 
 
-def _photo_track(path: Path, head: list[str], rows: list[list[str]]) -> dict[str, Any]:
+def _photo_track(path: Path, head: list[str], rows: list[list[str]]) -> dict[str, object]:
     a = _numbers(path, head, rows, _PHOTO_COLUMNS, "a path read from a photo")
     t, x, y, q = a.T
     path_m = float(np.sum(np.hypot(np.diff(x), np.diff(y))))
@@ -76,7 +76,7 @@ def _photo_track(path: Path, head: list[str], rows: list[list[str]]) -> dict[str
     }  # fmt: skip
 
 
-def _image(path: Path, data: bytes) -> dict[str, Any]:
+def _image(path: Path, data: bytes) -> dict[str, object]:
     if len(data) > _MAX_IMAGE_BYTES:
         raise LogFormatError(
             f"{path}: {len(data)} bytes; expected a PNG of at most {_MAX_IMAGE_BYTES} bytes "
@@ -92,7 +92,7 @@ def _image(path: Path, data: bytes) -> dict[str, Any]:
     }  # fmt: skip
 
 
-def _track(path: Path, text: str) -> dict[str, Any]:
+def _track(path: Path, text: str) -> dict[str, object]:
     rows = list(csv.reader(text.splitlines()))
     if not rows:
         raise LogFormatError(f"{path}: empty; expected a tracked path or a calibrate sensor JSON")
@@ -127,7 +127,9 @@ def _track(path: Path, text: str) -> dict[str, Any]:
     }
 
 
-def _sensor(path: Path, data: dict[str, Any]) -> dict[str, Any]:
+def _sensor(
+    path: Path, data: dict[str, Any]
+) -> dict[str, object]:  # parsed JSON: the try checks its shape
     try:
         values, stderr = data["values"], data["stderr"]
         rows: list[tuple[str, str]] = [
@@ -153,10 +155,15 @@ def _sensor(path: Path, data: dict[str, Any]) -> dict[str, Any]:
     return {"title": f"Odometry and a sensor calibrated together: {path.name}", "rows": rows}
 
 
-def ground_truth_summary(path: str | Path) -> dict[str, Any]:
+def ground_truth_summary(path: str | Path) -> dict[str, object]:
     """``{"title": str, "rows": [(label, text), ...]}`` (and ``"image"``, base64 PNG) for a
     tracked path CSV, a photo's path or overlay PNG, or a ``calibrate sensor --json`` file;
-    one-sentence :class:`LogFormatError` otherwise."""
+    one-sentence :class:`LogFormatError` otherwise.
+
+    Raises:
+        LogFormatError: the file is too large, unreadable, or not one of the ground-truth files
+            odolab writes.
+    """
     p = Path(path)
     try:
         if p.stat().st_size > _MAX_BYTES:

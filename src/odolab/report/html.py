@@ -48,6 +48,7 @@ from odolab.writing import replacing_path, strict_json, strict_value, sub_folder
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 __all__ = ["build_results", "jsonable", "summary_sentences", "write_report"]
 
@@ -55,7 +56,7 @@ Calibration = CalibrationResult | UmbmarkResult
 Progress = Callable[[str], None]
 
 
-def jsonable(obj: Any) -> Any:
+def jsonable(obj: object) -> object:
     """``obj`` as JSON holds it: NumPy values as Python's, tuples as lists, NaN/inf as None
     (:func:`odolab.writing.strict_value`, the one rule)."""
     return strict_value(obj)
@@ -68,7 +69,7 @@ _validation_view = validation_view
 _extra_view = extra_view
 
 
-def _calib_dict(c: Calibration) -> dict[str, Any]:
+def _calib_dict(c: Calibration) -> dict[str, object]:
     if isinstance(c, UmbmarkResult):
         d = c.to_dict()
         d["old_params"] = c.calibration.old_params.to_dict()
@@ -155,10 +156,10 @@ def build_results(
     validation: Mapping[str, Any] | None = None,
     extra: Mapping[str, Any] | None = None,
     evidence: ModelEvidence | None = None,
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """The dict written to results.json: every number in the report."""
     ev = evidence or ModelEvidence()
-    res: dict[str, Any] = {
+    res = {
         "generated": datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
         "table1": table1(analysis),
         "analysis": analysis.to_dict(),
@@ -172,9 +173,10 @@ def build_results(
         "slip_note": ev.slip_note or None,
         "evidence_missing": list(ev.missing),
     }
-    res = jsonable(res)
-    res["summary"] = summary_sentences(res)
-    return res
+    doc = jsonable(res)
+    assert isinstance(doc, dict)  # (jsonable keeps a dict a dict)
+    doc["summary"] = summary_sentences(doc)
+    return doc
 
 
 @dataclass
@@ -193,7 +195,7 @@ class _Plan:
     name: str
     title: str
     caption: str
-    draw: Callable[[Axes], Any]
+    draw: Callable[[Axes], object]
     group: str = "evidence"
     size: tuple[float, float] = (6.0, 4.0)
 
@@ -201,7 +203,7 @@ class _Plan:
 #: figure text legible when the figure is shown at 100 % of a phone's width: the plans' sizes
 #: are drawn _SCALE times smaller (6 in -> 4.5 in) at a dpi as much higher (the same pixels),
 #: so 10 pt is 11.4 px where a phone shows the figure 368 px wide (9 pt on 6 in was 7.7 px)
-_RC: dict[str, Any] = {
+_RC: dict[str, float] = {
     "font.size": 10,
     "axes.titlesize": 11,
     "axes.labelsize": 10,
@@ -212,7 +214,7 @@ _DPI = 160
 _LEGEND_WRAP = 44  #: characters of a legend line (a 4.5 in figure holds about 50 at 10 pt)
 
 
-def _legend_below(fig: Any, ax: Axes, size: tuple[float, float]) -> None:
+def _legend_below(fig: Figure, ax: Axes, size: tuple[float, float]) -> None:
     """Move the legend under the plot (it never hides data) and grow the figure to hold it."""
     leg = ax.get_legend()
     if leg is None:
@@ -226,7 +228,7 @@ def _legend_below(fig: Any, ax: Axes, size: tuple[float, float]) -> None:
 _PAD_IN = 0.06  #: inches between the figure's edge and the outermost text
 
 
-def _fit_margins(fig: Any, ax: Axes) -> None:
+def _fit_margins(fig: Figure, ax: Axes) -> None:
     """Place ``ax`` so that its labels, title and the legend under it just fit the figure.
 
     One measurement of the decorations' extent, then the margins: what matplotlib's constrained
@@ -433,7 +435,7 @@ def _figure_plan(
     analysis: LabAnalysis,
     calibrations: Mapping[str, Calibration],
     validation_figure: Callable[[Axes], Axes] | None,
-    extra_figures: Mapping[str, tuple[str, str, Callable[[Axes], Any]]] | None = None,
+    extra_figures: Mapping[str, tuple[str, str, Callable[[Axes], object]]] | None = None,
     evidence: ModelEvidence | None = None,
 ) -> list[_Plan]:
     plans = [p for m in analysis.motions for p in _motion_plans(m)]
@@ -574,7 +576,7 @@ def _page(
     )
 
 
-def _numbers_only(results: dict[str, Any]) -> dict[str, Any]:
+def _numbers_only(results: dict[str, Any]) -> dict[str, object]:
     """``results`` for results.json: a ground truth's embedded photo (base64 PNG, megabytes) is
     the page's, not a number; results.json says its size instead."""
     extra = results.get("extra")
@@ -597,7 +599,7 @@ def write_report(
     validation: Mapping[str, Any] | None = None,
     *,
     validation_figure: Callable[[Axes], Axes] | None = None,
-    extra_figures: Mapping[str, tuple[str, str, Callable[[Axes], Any]]] | None = None,
+    extra_figures: Mapping[str, tuple[str, str, Callable[[Axes], object]]] | None = None,
     extra: Mapping[str, Any] | None = None,
     reference: Mapping[tuple[str, str], Any] | None = None,
     evidence: ModelEvidence | None = None,

@@ -267,7 +267,7 @@ class ModelEvidence:
     #: why no exploration was run (or why the slip comparison failed); empty when it ran
     slip_note: str = ""
 
-    def questions_dict(self) -> dict[str, Any] | None:
+    def questions_dict(self) -> dict[str, object] | None:
         """The ``questions`` entry of ``results.json`` (None without experiments)."""
         if not self.questions:
             return None
@@ -276,17 +276,17 @@ class ModelEvidence:
             "experiments": [r.to_dict() for r in self.questions],
         }
 
-    def models_dict(self) -> dict[str, Any] | None:
+    def models_dict(self) -> dict[str, object] | None:
         """The ``models`` entry of ``results.json`` (None without a comparison)."""
         if self.comparison is None:
             return None
         return {**self.comparison.to_dict(), "about": self.about_models}
 
-    def slip_dict(self) -> dict[str, Any] | None:
+    def slip_dict(self) -> dict[str, object] | None:
         """The ``slip`` entry of ``results.json`` (None when no exploration was run)."""
         return dict(self.slip) if self.slip is not None else None
 
-    def consistency_dict(self) -> dict[str, Any] | None:
+    def consistency_dict(self) -> dict[str, object] | None:
         """The ``consistency`` entry of ``results.json`` (None without NEES)."""
         if not self.nees:
             return None
@@ -299,7 +299,7 @@ class ModelEvidence:
         }
 
 
-def _est(e: Any, unit: str = "") -> str:
+def _est(e: object, unit: str = "") -> str:
     """An :class:`Estimate` as JSON (value, ci95 with None for NaN) with its unit."""
     if not isinstance(e, Mapping) or e.get("value") is None:
         return "-"
@@ -320,7 +320,7 @@ _MAX_VALUES = 8
 _SPEED_KEYS = ("fwd_v", "fwd_absv", "fwd_v_absv")
 
 
-def models_view(m: Mapping[str, Any], *, problems_in_table: bool = False) -> dict[str, Any]:
+def models_view(m: Mapping[str, Any], *, problems_in_table: bool = False) -> dict[str, object]:
     """The "Which kinematic model?" section from ``results["models"]``: one row per model that
     could be fitted, the fitted values, the recommendation, and why the others could not (a
     list beside the table, or with ``problems_in_table`` a row that says it in one sentence)."""
@@ -406,7 +406,7 @@ _SCORE_LABELS = (
 )
 
 
-def learning_curve_view(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+def learning_curve_view(rows: Sequence[Mapping[str, Any]]) -> dict[str, object]:
     """The learning curve as a table (one row per model, one column per number of seconds:
     held-out mean end-point error, m) and one sentence per model that could not be fitted at
     some length (at which seconds, and why at the longest)."""
@@ -464,7 +464,7 @@ def plot_learning_curve(rows: Sequence[Mapping[str, Any]], ax: Axes | None = Non
     return ax
 
 
-def _pp(value: Any, ci: Any) -> str:
+def _pp(value: float | None, ci: Sequence[float | None] | None) -> str:
     """A difference in percentage points with its 95 % interval."""
     if value is None:
         return "-"
@@ -474,7 +474,7 @@ def _pp(value: Any, ci: Any) -> str:
     return f"{float(value):+.1f} [{float(lo):+.1f}, {float(hi):+.1f}]"
 
 
-def slip_view(sl: Mapping[str, Any]) -> dict[str, Any]:
+def slip_view(sl: Mapping[str, Any]) -> dict[str, object]:
     """The "slip model from an exploration" section from ``results["slip"]``: the comparison
     (slip beside the kinematic models, failures as rows), the learning curve, the speed
     question from the slip model's coefficients beside the simulator's measured answer."""
@@ -537,7 +537,7 @@ def slip_nees_sentence(n: Mapping[str, Any]) -> str:
     )
 
 
-def consistency_view(c: Mapping[str, Any]) -> dict[str, Any]:
+def consistency_view(c: Mapping[str, Any]) -> dict[str, object]:
     """The "Is the covariance honest?" section from ``results["consistency"]``."""
     s = c["summary"]
     lo, hi = s["mean_bounds95"]
@@ -602,7 +602,7 @@ def plot_nees(runs: Sequence[RunNees], ax: Axes | None = None) -> Axes:
 
 def questions_view(
     q: Mapping[str, Any], slip_model: Mapping[str, Any] | None = None
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """The "open questions" section from ``results["questions"]``: per question, a row per
     condition (slip with its 95 % CI, or how many runs stalled) and the answers in words; with
     ``slip_model`` (``results["slip"]``) the speed question also has the slip model's answer."""

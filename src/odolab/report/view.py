@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeGuard
 
 from odolab import numfmt
 from odolab.analysis.core import MOTIONS, LabAnalysis
@@ -59,7 +59,7 @@ _PARAM_LABELS = {
 }
 
 
-def fmt(v: Any, sig: int = 4) -> str:
+def fmt(v: object, sig: int = 4) -> str:
     """Any value without an uncertainty: numbers to ``sig`` significant digits, lists and
     pairs readable, None as -."""
     if v is None:
@@ -373,7 +373,7 @@ def provenance_rows(prov: Mapping[str, Any]) -> tuple[list[tuple[str, str]], lis
     return rows, iterations
 
 
-def _iteration_columns(its: list[Any]) -> list[str]:
+def _iteration_columns(its: list[object]) -> list[str]:
     """The columns of the iterations table: every key of any iterate but its number, sorted."""
     keys = {c for it in its if isinstance(it, Mapping) for c in it}
     return sorted(keys - {"iteration"})
@@ -418,11 +418,12 @@ _VALIDATION_SHOWN = {
 }
 
 
-def _num(v: Any) -> bool:
+def _num(v: object) -> TypeGuard[float]:
+    """Whether ``v`` is a number (an int or a float, not a bool)."""
     return isinstance(v, int | float) and not isinstance(v, bool)
 
 
-def validation_view(v: Mapping[str, Any]) -> dict[str, Any]:
+def validation_view(v: Mapping[str, Any]) -> dict[str, object]:
     """The Validation section: a summary, an old/new table, warnings, and any other key as a
     readable row (nothing is dropped)."""
     summary: list[tuple[str, str]] = []
@@ -500,7 +501,7 @@ def validation_view(v: Mapping[str, Any]) -> dict[str, Any]:
     }
 
 
-def _runs_view(r: Any) -> dict[str, Any] | None:
+def _runs_view(r: object) -> dict[str, object] | None:
     """Several phone runs (:class:`odolab.validation.runs.RunsSummary` as a dict)."""
     if not isinstance(r, Mapping) or not isinstance(r.get("final_error_new_rad"), list):
         return None
@@ -555,7 +556,7 @@ def _split_key(key: str) -> tuple[str, str]:
     return key, "-"
 
 
-def _flat(prefix: str, v: Any, out: list[tuple[str, str]]) -> None:
+def _flat(prefix: str, v: object, out: list[tuple[str, str]]) -> None:
     if isinstance(v, Mapping):
         for k, x in v.items():
             _flat(f"{prefix} › {k}" if prefix else str(k), x, out)
@@ -563,7 +564,7 @@ def _flat(prefix: str, v: Any, out: list[tuple[str, str]]) -> None:
         out.append((prefix, fmt(v, 6)))
 
 
-def extra_view(extra: Mapping[str, Any]) -> dict[str, Any]:
+def extra_view(extra: Mapping[str, Any]) -> dict[str, object]:
     """Additional results: known keys as labelled tables, any other key as readable rows."""
     view: dict[str, Any] = {
         "after": None,

@@ -29,10 +29,15 @@ from __future__ import annotations
 import asyncio
 import logging
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
 import h11
 from uvicorn.protocols.http.h11_impl import H11Protocol
+
+if TYPE_CHECKING:
+    import uvicorn
+    from starlette.applications import Starlette
+    from uvicorn.server import ServerState
 
 __all__ = ["GuardedH11Protocol", "Limits", "uvicorn_config"]
 
@@ -58,8 +63,14 @@ class GuardedH11Protocol(H11Protocol):
 
     limits: Limits = DEFAULT_LIMITS
 
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
-        super().__init__(*args, **kwargs)
+    def __init__(
+        self,
+        config: uvicorn.Config,
+        server_state: ServerState,
+        app_state: dict[str, object],
+        _loop: asyncio.AbstractEventLoop | None = None,
+    ) -> None:
+        super().__init__(config, server_state, app_state, _loop)
         self._guard: asyncio.TimerHandle | None = None
         self._phase: object = None  # the client's h11 state when the clock started
         self._since = 0.0  # when the client started to owe bytes (less paused time)
@@ -146,7 +157,7 @@ class _QuietStop(logging.Filter):
         return "timeout graceful shutdown exceeded" not in record.getMessage()
 
 
-def uvicorn_config(app: Any, limits: Limits = DEFAULT_LIMITS) -> Any:
+def uvicorn_config(app: Starlette, limits: Limits = DEFAULT_LIMITS) -> uvicorn.Config:
     """A ``uvicorn.Config`` for ``app`` with :class:`GuardedH11Protocol` and ``limits``."""
     import uvicorn
 

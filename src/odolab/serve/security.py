@@ -26,7 +26,6 @@ import hmac
 import re
 import secrets
 from http.cookies import SimpleCookie
-from typing import Any
 from urllib.parse import parse_qsl, quote, urlencode, urlsplit
 
 from starlette.datastructures import Headers
@@ -54,7 +53,7 @@ class StrictJSONResponse(JSONResponse):
     """Starlette's JSON answer made by :func:`odolab.writing.strict_json`: a non-finite number
     is ``null`` (Starlette's own refuses it, a 500), so every answer parses in a browser."""
 
-    def render(self, content: Any) -> bytes:
+    def render(self, content: object) -> bytes:
         return strict_json(content, indent=None).encode("utf-8")
 
 
@@ -291,7 +290,7 @@ class Guard:
         new_session = None
         if len(session) < 32 or not session.replace("-", "").replace("_", "").isalnum():
             session = new_session = secrets.token_urlsafe(32)
-        state: dict[str, Any] = scope.setdefault("state", {})
+        state: dict[str, object] = scope.setdefault("state", {})
         state["session"] = session
         received = 0
         limit = self.max_body

@@ -37,7 +37,11 @@ def settings_for(db: str | Path, host: str) -> ServeSettings:
 
 
 def bind(host: str, port: int) -> socket.socket:
-    """A listening TCP socket on ``host:port`` (port 0: any free one)."""
+    """A listening TCP socket on ``host:port`` (port 0: any free one).
+
+    Raises:
+        OdolabError: the port is out of range, or the address cannot be listened on.
+    """
     if not 0 <= port <= 65535:
         raise OdolabError(f"--port is {port}; expected 0..65535")
     family = socket.AF_INET6 if ":" in host.strip("[]") else socket.AF_INET

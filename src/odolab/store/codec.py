@@ -64,7 +64,11 @@ def _deltas(a: NDArray[np.int64]) -> NDArray[np.int64]:
 
 
 def encode_log(log: EncoderLog) -> EncodedLog:
-    """Encode ``log`` (arrays of shape (n,)) for storage."""
+    """Encode ``log`` (arrays of shape (n,)) for storage.
+
+    Raises:
+        StoreError: the arrays are not 1-D of one length.
+    """
     t = np.asarray(log.t, dtype="<f8")
     left = np.asarray(log.left_ticks, dtype="<i8")
     right = np.asarray(log.right_ticks, dtype="<i8")
@@ -84,7 +88,11 @@ def encode_log(log: EncoderLog) -> EncodedLog:
 
 
 def decode_log(enc: EncodedLog) -> EncoderLog:
-    """Decode what :func:`encode_log` produced."""
+    """Decode what :func:`encode_log` produced.
+
+    Raises:
+        StoreError: the stored codec is unknown.
+    """
     if enc.codec != CODEC:
         raise StoreError(f"encoder log: unknown codec {enc.codec!r}; expected {CODEC!r}")
     n = int(enc.n)

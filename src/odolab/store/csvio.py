@@ -72,7 +72,7 @@ import re
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TypeVar
 
 from odolab.errors import InvalidTrialError, ParamsError, StoreError
 from odolab.kinematics import wrap_angle
@@ -364,7 +364,7 @@ def _table_cell(row: _Row, column: str) -> dict[str, float | str] | None:
     return table
 
 
-def _table_text(table: Mapping[str, Any] | None) -> str:
+def _table_text(table: Mapping[str, object] | None) -> str:
     """The cell of a ``model`` or ``noise`` table (``kind`` first; floats round-trip exactly)."""
     if not table:
         return ""
@@ -566,6 +566,10 @@ def read_trials_csv(
     ``known_campaigns``: when given, a campaign not in it is an error. ``known_trial_ids``: ids
     already stored (a row repeating one is an error). ``lookup_params(robot, version)`` gives a
     stored parameter version or None.
+
+    Raises:
+        StoreError: the file is unreadable, not UTF-8, empty, not CSV, or a line has the wrong
+            number of cells (the line is named).
     """
     from odolab.io.limits import check_text_file  # here: odolab.io brings pandas
 

@@ -72,6 +72,11 @@ def check_notebook_file(path: Path) -> bool:
     connection open lets two writers in at once and loses commits (SQLite's "How To Corrupt",
     2.2). A larger file that is not a database is refused by :func:`not_a_database` when SQLite
     first reads it.
+
+    Raises:
+        NotebookFileError: the path is a folder, an empty file, not a SQLite database, or
+            unreadable.
+        NotebookDamagedError: the file is cut off.
     """
     if path.is_dir():
         raise NotebookFileError(f"{path}: is a folder; expected a notebook file")
@@ -128,6 +133,9 @@ def create_notebook_file(path: Path, build: Callable[[Path], None]) -> bool:
     """Make a new notebook at ``path`` whole: ``build(tmp)`` fills a temporary file beside it,
     which is then linked into place. Returns False when another process made ``path`` meanwhile
     (theirs is kept).
+
+    Raises:
+        StoreError: the file cannot be created.
     """
     try:
         fd, name = tempfile.mkstemp(prefix=f".{path.name[:100]}.", suffix=".new", dir=path.parent)

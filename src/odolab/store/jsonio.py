@@ -129,7 +129,7 @@ def params_of_version(pv: Mapping[str, Any], source: str) -> RobotParams:
     )
 
 
-def _need(obj: Any, keys: Sequence[str], where: str) -> dict[str, Any]:
+def _need(obj: object, keys: Sequence[str], where: str) -> dict[str, object]:
     if not isinstance(obj, dict):
         raise StoreError(f"{where}: expected an object")
     missing = [k for k in keys if k not in obj]
@@ -146,14 +146,14 @@ def _bad(where: str, key: str, value: object, expected: str) -> StoreError:
     return StoreError(f"{where}, key {key!r}: {quote_input(value)}; expected {expected}")
 
 
-def _text(item: dict[str, Any], key: str, where: str, *, null: bool = False) -> None:
+def _text(item: dict[str, object], key: str, where: str, *, null: bool = False) -> None:
     v = item[key]
     if not (isinstance(v, str) or (null and v is None)):
         raise _bad(where, key, v, "text" + (" or null" if null else ""))
     check_no_nul(v, f"key {key!r}", where, StoreError)  # (as the CSV import refuses it)
 
 
-def _integer(item: dict[str, Any], key: str, where: str, low: int, high: int = _MAX_INT) -> None:
+def _integer(item: dict[str, object], key: str, where: str, low: int, high: int = _MAX_INT) -> None:
     """An integer from ``low`` to ``high`` (an integral float such as 3.0 is taken as 3)."""
     v = item[key]
     if isinstance(v, float) and v.is_integer() and low <= v <= high:
@@ -162,7 +162,7 @@ def _integer(item: dict[str, Any], key: str, where: str, low: int, high: int = _
         raise _bad(where, key, v, f"a whole number from {low} to {high}")
 
 
-def _number(item: dict[str, Any], key: str, where: str, *, null: bool = True) -> None:
+def _number(item: dict[str, object], key: str, where: str, *, null: bool = True) -> None:
     v = item[key]
     if v is None and null:
         return
@@ -177,15 +177,17 @@ def _finite(v: float) -> bool:
         return False
 
 
-def _stamp(item: dict[str, Any], key: str, where: str) -> None:
+def _stamp(item: dict[str, object], key: str, where: str) -> None:
     v = item[key]
     try:
+        if not isinstance(v, str):
+            raise TypeError(key)
         _dt.datetime.fromisoformat(v)
     except (TypeError, ValueError):
         raise _bad(where, key, v, "a date and time (ISO 8601, as exported)") from None
 
 
-def _readings(item: dict[str, Any], key: str, where: str) -> None:
+def _readings(item: dict[str, object], key: str, where: str) -> None:
     v = item[key]
     if v is None:
         item[key] = {}
@@ -200,7 +202,7 @@ def _readings(item: dict[str, Any], key: str, where: str) -> None:
             )
 
 
-def _check_trial_keys(rec: dict[str, Any], where: str) -> None:
+def _check_trial_keys(rec: dict[str, object], where: str) -> None:
     """Every key of one ``trials[i]`` entry has its type (values are range-checked on import by
     :func:`odolab.trials.validate_trial`). ``created`` and ``updated`` may be left out (the
     import's time), or one given for both."""
@@ -230,12 +232,12 @@ def _check_trial_keys(rec: dict[str, Any], where: str) -> None:
         rec["created"] = rec["updated"] = rec[stamps[0]]
     history = rec.get("measurement_history")
     if history is None:
-        rec["measurement_history"] = []
+        history = rec["measurement_history"] = []
     elif not isinstance(history, list):
         raise _bad(where, "measurement_history", history, "a list (or null)")
-    for j, h in enumerate(rec["measurement_history"]):
+    for j, entry in enumerate(history):
         at = f"{where}.measurement_history[{j}]"
-        _need(h, HISTORY_KEYS, at)
+        h = _need(entry, HISTORY_KEYS, at)
         _stamp(h, "replaced", at)
         _text(h, "instrument", at)
         for k in HISTORY_KEYS:
@@ -244,7 +246,7 @@ def _check_trial_keys(rec: dict[str, Any], where: str) -> None:
         _readings(h, "raw", at)
 
 
-def _check_version_keys(pv: dict[str, Any], where: str) -> None:
+def _check_version_keys(pv: dict[str, object], where: str) -> None:
     _text(pv, "robot", where)
     _integer(pv, "version", where, 1)
     _text(pv, "method", where)
@@ -260,7 +262,7 @@ def _check_version_keys(pv: dict[str, Any], where: str) -> None:
             raise _bad(where, key, pv[key], "an object or null")
 
 
-def _check_campaign_keys(c: dict[str, Any], where: str) -> None:
+def _check_campaign_keys(c: dict[str, object], where: str) -> None:
     for key in ("name", "kind", "terrain"):
         _text(c, key, where)
     for key in ("operator", "notes"):
@@ -269,6 +271,8 @@ def _check_campaign_keys(c: dict[str, Any], where: str) -> None:
         _text(c, key, where)
     if c["date"] is not None:
         try:
+            if not isinstance(c["date"], str):
+                raise TypeError("date")
             _dt.date.fromisoformat(c["date"])
         except (TypeError, ValueError):
             raise _bad(where, "date", c["date"], "a date YYYY-MM-DD or null") from None
@@ -305,7 +309,7 @@ def _check_ranges(doc: NotebookDocument, source: str) -> None:
                     raise StoreError(f"{source}: trials[{i}]: {err}") from err
 
 
-_CHECKS: dict[str, Callable[[dict[str, Any], str], None]] = {
+_CHECKS: dict[str, Callable[[dict[str, object], str], None]] = {
     "params_versions": _check_version_keys,
     "campaigns": _check_campaign_keys,
     "trials": _check_trial_keys,
@@ -313,7 +317,12 @@ _CHECKS: dict[str, Callable[[dict[str, Any], str], None]] = {
 
 
 def read_notebook_json(path: str | Path) -> NotebookDocument:
-    """Read and shape-check a notebook JSON file (values are checked on import)."""
+    """Read and shape-check a notebook JSON file (values are checked on import).
+
+    Raises:
+        StoreError: the file is unreadable, not JSON, of another format or schema, or an entry has
+            the wrong shape (the entry and key are named).
+    """
     p = Path(path)
     try:
         doc = json.loads(p.read_text(encoding="utf-8"))

@@ -73,7 +73,11 @@ def is_rotation(t: Trial) -> bool:
 
 
 def refuse_if_measured(t: Trial, replace: bool) -> None:
-    """Refuse to overwrite ``t``'s measurement unless ``replace`` (before asking for readings)."""
+    """Refuse to overwrite ``t``'s measurement unless ``replace`` (before asking for readings).
+
+    Raises:
+        StoreError: the trial is already measured and ``replace`` is false.
+    """
     if t.measured is not None and not replace:
         raise StoreError(
             f"trial {t.trial_id} is already measured ({describe_measurement(t)}); "
@@ -91,7 +95,11 @@ def check_reading_names(
     *,
     complete: bool = False,
 ) -> None:
-    """Refuse readings of the wrong kind for ``t`` (and, with ``complete``, missing ones)."""
+    """Refuse readings of the wrong kind for ``t`` (and, with ``complete``, missing ones).
+
+    Raises:
+        StoreError: readings of the other motion kind are given, or (``complete``) one is missing.
+    """
     rotation = is_rotation(t)
     values = {"initial": initial, "final": final, "turns": turns, "x": x, "y": y}
     needs = t.command.kind.readings
@@ -150,7 +158,12 @@ def measurement_for_trial(
     sigma: object = None,
     direction: str | None = None,
 ) -> Measurement:
-    """The measurement of ``t``; every refusal is one sentence starting ``trial ID``."""
+    """The measurement of ``t``; every refusal is one sentence starting ``trial ID``.
+
+    Raises:
+        StoreError: a reading is missing, of the wrong kind, or out of range (the sentence starts
+            ``trial ID``).
+    """
     check_reading_names(t, initial, final, turns, x, y, complete=True)
     try:
         return build_measurement(t, initial, final, turns, x, y, sigma, direction)
@@ -226,7 +239,11 @@ def describe_readings(readings: dict[str, float]) -> str:
 
 def virtual_measurement(t: Trial, sigma: object = None) -> Measurement:
     """The measurement of ``t`` from :func:`virtual_readings` (the same checks and arithmetic as
-    readings typed by hand); refused, in one sentence, for a run without a virtual board."""
+    readings typed by hand); refused, in one sentence, for a run without a virtual board.
+
+    Raises:
+        StoreError: the trial was not driven on a virtual board.
+    """
     readings = virtual_readings(t)
     if readings is None:
         raise StoreError(

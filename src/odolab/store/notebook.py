@@ -18,7 +18,7 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager, suppress
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from odolab.errors import StoreError
 from odolab.params import RobotParams
@@ -44,7 +44,7 @@ from odolab.store.records import (
     trial_from_record,
     validate_trial,
 )
-from odolab.store.schema import SCHEMA_VERSION, connect, migrate
+from odolab.store.schema import SCHEMA_VERSION, SQLValue, connect, migrate
 from odolab.trajectory import Pose
 from odolab.trials import (
     EncoderLog,
@@ -211,7 +211,7 @@ class Notebook:
                         conn.execute("ROLLBACK")
                 raise self._error(err, "committing a write; nothing changed") from err
 
-    def _one(self, sql: str, args: Sequence[Any] = ()) -> sqlite3.Row | None:
+    def _one(self, sql: str, args: Sequence[SQLValue] = ()) -> sqlite3.Row | None:
         row: sqlite3.Row | None = self._conn.execute(sql, args).fetchone()
         return row
 
@@ -305,6 +305,9 @@ class Notebook:
 
         ``method`` says how they were obtained (e.g. "preset", "ratios", "umbmark") and
         ``source_trials`` which trials they were computed from; both are kept with the version.
+
+        Raises:
+            StoreError: the method is empty, or a source trial is not in the notebook.
         """
         if not isinstance(method, str) or not method.strip():
             raise StoreError("a parameter version needs a method (how it was obtained)")
@@ -358,7 +361,11 @@ class Notebook:
         ]
 
     def get_params(self, robot: str, version: int) -> RobotParams:
-        """Version ``version`` of ``robot``'s parameters."""
+        """Version ``version`` of ``robot``'s parameters.
+
+        Raises:
+            StoreError: the notebook has no such version of the robot's parameters.
+        """
         row = self._one(
             "SELECT * FROM params_versions WHERE robot = ? AND version = ?", (robot, int(version))
         )
@@ -367,7 +374,11 @@ class Notebook:
         return self._params_from_row(row)
 
     def latest_params(self, robot: str) -> RobotParams:
-        """The newest version of ``robot``'s parameters."""
+        """The newest version of ``robot``'s parameters.
+
+        Raises:
+            StoreError: the notebook has no parameters of the robot.
+        """
         row = self._one(
             "SELECT * FROM params_versions WHERE robot = ? ORDER BY version DESC LIMIT 1", (robot,)
         )
@@ -423,7 +434,11 @@ class Notebook:
         operator: str = "",
         notes: str = "",
     ) -> None:
-        """Add a campaign; a name already used is refused (nothing changes)."""
+        """Add a campaign; a name already used is refused (nothing changes).
+
+        Raises:
+            StoreError: the date is not YYYY-MM-DD, or the campaign is already in the notebook.
+        """
         kind = str(kind)
         for what, text in (("name", name), ("terrain", terrain), ("operator", operator),
                            ("notes", notes)):  # fmt: skip
@@ -455,7 +470,11 @@ class Notebook:
         ]
 
     def get_campaign(self, name: str) -> Campaign:
-        """The campaign called ``name``."""
+        """The campaign called ``name``.
+
+        Raises:
+            StoreError: the notebook has no such campaign.
+        """
         r = self._one("SELECT * FROM campaigns WHERE name = ?", (name,))
         if r is None:
             raise StoreError(f"no campaign {name!r} in {self.path}")
@@ -479,7 +498,7 @@ class Notebook:
         *,
         create_campaigns: bool,
         stamps: Sequence[tuple[str, str] | None] | None = None,
-        histories: Sequence[Sequence[dict[str, Any]]] | None = None,
+        histories: Sequence[Sequence[dict[str, object]]] | None = None,
         new_params_method: str = "recorded with a trial",
     ) -> None:
         """Insert validated trials inside the caller's transaction."""
@@ -563,6 +582,9 @@ class Notebook:
         unless ``create_campaigns`` is False, in which case it is an error. The parameter set of
         each trial is matched by value to the newest identical version of its robot; when there
         is none, a new version is added with method "recorded with a trial".
+
+        Raises:
+            StoreError: a trial id appears twice, is already stored, or a trial is invalid.
         """
         trials = list(trials)
         seen: set[str] = set()
@@ -579,7 +601,7 @@ class Notebook:
             )
         (progress or no_progress)(len(trials), len(trials), "trials")
 
-    def _trial_rows(self, where: str, args: Sequence[Any]) -> list[sqlite3.Row]:
+    def _trial_rows(self, where: str, args: Sequence[SQLValue]) -> list[sqlite3.Row]:
         return self._conn.execute(
             "SELECT t.*, p.left_wheel_radius, p.right_wheel_radius, p.track_width, "
             "p.ticks_per_rev, p.encoder_modulus, "
@@ -614,14 +636,22 @@ class Notebook:
         return trial_from_record(dict(row), params, log)
 
     def get_trial(self, trial_id: str) -> Trial:
-        """The trial ``trial_id`` with its measurement and encoder log."""
+        """The trial ``trial_id`` with its measurement and encoder log.
+
+        Raises:
+            StoreError: the notebook has no such trial.
+        """
         rows = self._trial_rows("WHERE t.trial_id = ?", (trial_id,))
         if not rows:
             raise StoreError(f"no trial {trial_id!r} in {self.path}")
         return self._trial_from_row(rows[0])
 
     def trial_params_version(self, trial_id: str) -> tuple[str, int]:
-        """``(robot, params_version)`` that produced ``trial_id``'s prediction."""
+        """``(robot, params_version)`` that produced ``trial_id``'s prediction.
+
+        Raises:
+            StoreError: the notebook has no such trial.
+        """
         row = self._one("SELECT robot, params_version FROM trials WHERE trial_id = ?", (trial_id,))
         if row is None:
             raise StoreError(f"no trial {trial_id!r} in {self.path}")
@@ -643,9 +673,9 @@ class Notebook:
         terrain: str | None,
         kind: str | None,
         status: str | Sequence[str] | None,
-    ) -> tuple[str, list[Any]]:
+    ) -> tuple[str, list[SQLValue]]:
         clauses: list[str] = []
-        args: list[Any] = []
+        args: list[SQLValue] = []
         for col, value in (("campaign", campaign), ("terrain", terrain), ("kind", kind)):
             if value is not None:
                 clauses.append(f"t.{col} = ?")
@@ -674,6 +704,10 @@ class Notebook:
 
         A trial already measured keeps its measurement unless ``replace`` is True; the replaced
         one is kept in the trial's :meth:`measurement_history`. An excluded trial stays excluded.
+
+        Raises:
+            StoreError: the notebook has no such trial, or it is already measured and ``replace`` is
+                false.
         """
         with self._write() as conn:
             row = conn.execute("SELECT * FROM trials WHERE trial_id = ?", (trial_id,)).fetchone()
@@ -718,7 +752,11 @@ class Notebook:
             )
 
     def exclude_trial(self, trial_id: str, reason: str) -> None:
-        """Leave ``trial_id`` out of the analysis, keeping it and saying why."""
+        """Leave ``trial_id`` out of the analysis, keeping it and saying why.
+
+        Raises:
+            StoreError: the reason is empty, or the notebook has no such trial.
+        """
         if not isinstance(reason, str) or not reason.strip():
             raise StoreError(f"excluding trial {trial_id} needs a reason")
         check_no_nul(reason, "the reason", f"excluding trial {trial_id}", StoreError)
@@ -737,7 +775,11 @@ class Notebook:
     def include_trial(self, trial_id: str) -> None:
         """Undo :meth:`exclude_trial`: the status goes back to measured or awaiting; the
         reason it was excluded for is kept in the trial's notes (``excluded until <time>:
-        <reason>``), not dropped."""
+        <reason>``), not dropped.
+
+        Raises:
+            StoreError: the notebook has no such trial.
+        """
         now = _now()
         with self._write() as conn:
             cur = conn.execute(
@@ -765,6 +807,9 @@ class Notebook:
 
         The integration is :func:`odolab.prediction.final_pose_from_log`; the notebook only
         supplies the stored log.
+
+        Raises:
+            StoreError: the trial has no encoder log, or an empty one.
         """
         from odolab.prediction import final_pose_from_log
 
@@ -911,7 +956,7 @@ class Notebook:
         batch_size: int,
         progress: Progress | None,
         create_campaigns: bool,
-        histories: Sequence[Sequence[dict[str, Any]]] | None = None,
+        histories: Sequence[Sequence[dict[str, object]]] | None = None,
         *,
         new_params_method: str = "recorded with a trial",
     ) -> None:
@@ -962,11 +1007,11 @@ def _unreadable(nb: Notebook, err: Exception, name: str) -> StoreError:
     )
 
 
-def _guard(name: str, method: Callable[..., Any]) -> Callable[..., Any]:
+def _guard(name: str, method: Callable[..., object]) -> Callable[..., object]:
     decode = name not in _FROM_FILES
 
     @functools.wraps(method)
-    def guarded(self: Notebook, *args: Any, **kwargs: Any) -> Any:
+    def guarded(self: Notebook, *args: object, **kwargs: object) -> object:
         try:
             return method(self, *args, **kwargs)
         except sqlite3.Error as err:

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from odolab.errors import StoreError
 from odolab.params import RobotParams, params_from_mapping
@@ -29,6 +29,9 @@ from odolab.trials import (
     validate_trial,
 )
 from odolab.writing import strict_json
+
+if TYPE_CHECKING:
+    from odolab.store.schema import SQLValue
 
 __all__ = [
     "CAMPAIGN_KINDS",
@@ -86,7 +89,7 @@ PARAMS_EXTRA_COLUMNS: tuple[str, ...] = (
 )
 
 
-def params_columns(params: RobotParams) -> dict[str, Any]:
+def params_columns(params: RobotParams) -> dict[str, SQLValue]:
     """The :data:`PARAMS_EXTRA_COLUMNS` of ``params``.
 
     ``model_params`` is canonical (the model's keys in file order, shortest round-trip floats,
@@ -106,7 +109,11 @@ def params_tables(
     row: Mapping[str, Any], source: str
 ) -> tuple[dict[str, Any], dict[str, Any] | None]:
     """The ``[model]`` and ``[noise]`` tables (noise None when absent) stored in ``row``'s
-    :data:`PARAMS_EXTRA_COLUMNS`; a row without them (schema v2) is the plain differential drive."""
+    :data:`PARAMS_EXTRA_COLUMNS`; a row without them (schema v2) is the plain differential drive.
+
+    Raises:
+        StoreError: the stored model or noise table is not a JSON object.
+    """
     kind = row.get("model_kind") or "diff"
     text = row.get("model_params") or "{}"
     try:
@@ -182,8 +189,13 @@ def record_from_trial(trial: Trial, params_version: int | None) -> dict[str, Any
     }
 
 
-def _opt(v: Any) -> float | None:
+def _opt(v: float | str | None) -> float | None:
     return None if v is None else float(v)
+
+
+def _pose(rec: Mapping[str, float], prefix: str) -> Pose:
+    """The pose stored in the ``{prefix}_t``, ``_x``, ``_y``, ``_theta``, ``_heading`` columns."""
+    return Pose(*(float(rec[f"{prefix}_{k}"]) for k in ("t", "x", "y", "theta", "heading")))
 
 
 def trial_from_record(
@@ -204,15 +216,7 @@ def trial_from_record(
             sigma_xy=_opt(rec.get("sigma_xy")),
             raw={str(k): float(v) for k, v in raw.items()},
         )
-    true = None
-    if rec.get("true_x") is not None:
-        true = Pose(
-            float(rec["true_t"]),
-            float(rec["true_x"]),
-            float(rec["true_y"]),
-            float(rec["true_theta"]),
-            float(rec["true_heading"]),
-        )
+    true = _pose(rec, "true") if rec.get("true_x") is not None else None
     return Trial(
         trial_id=rec["trial_id"],
         campaign=rec["campaign"],
@@ -227,13 +231,7 @@ def trial_from_record(
                 speed=_opt(rec.get("speed")),
             )
         ),
-        predicted=Pose(
-            float(rec["predicted_t"]),
-            float(rec["predicted_x"]),
-            float(rec["predicted_y"]),
-            float(rec["predicted_theta"]),
-            float(rec["predicted_heading"]),
-        ),
+        predicted=_pose(rec, "predicted"),
         params=params,
         measured=measured,
         true=true,

@@ -16,7 +16,6 @@ import sqlite3
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 from odolab.errors import OdolabError, StoreError
 from odolab.store.health import NotebookFileError, check_notebook_file
@@ -84,7 +83,7 @@ def _skip(conn: sqlite3.Connection, table: str, bad: int) -> int | None:
 
 def _readable_rows(
     conn: sqlite3.Connection, table: str, columns: list[str], report: RescueReport
-) -> Iterator[tuple[Any, ...]]:
+) -> Iterator[tuple[object, ...]]:
     """``(rowid, *columns)`` of every row of ``table`` SQLite can read, in rowid order."""
     cols = ", ".join(["rowid", *columns])
     start: int | None = -_MAX_ROWID - 1
@@ -113,7 +112,13 @@ def _columns(conn: sqlite3.Connection, table: str) -> list[str]:
 
 def rescue_notebook(damaged: str | Path, new: str | Path) -> RescueReport:
     """Copy every readable, valid record of the notebook ``damaged`` into the new notebook
-    ``new`` (which must not exist); ``damaged`` is only read."""
+    ``new`` (which must not exist); ``damaged`` is only read.
+
+    Raises:
+        NotebookFileError: the source is missing or cannot be opened.
+        StoreError: the destination exists, the schema is not the current one, or the table list is
+            damaged.
+    """
     src, dst = Path(damaged), Path(new)
     if not check_notebook_file(src):
         raise NotebookFileError(f"{src}: no such notebook to rescue")
@@ -183,7 +188,7 @@ def _copy(src: sqlite3.Connection, nb: Notebook, report: RescueReport) -> None:
             report.broken_rows[table] = report.broken_rows.get(table, 0) + 1
 
 
-def _valid_params(values: dict[str, Any]) -> bool:
+def _valid_params(values: dict[str, object]) -> bool:
     try:
         params_from_columns(values, "rescued parameter version")
     except (OdolabError, ValueError, TypeError, KeyError):

@@ -27,7 +27,10 @@ from pathlib import Path
 from odolab.errors import StoreError
 from odolab.store.health import NotebookFileError, not_a_database, store_error
 
-__all__ = ["APPLICATION_ID", "SCHEMA_V1", "SCHEMA_VERSION", "connect", "migrate"]
+__all__ = ["APPLICATION_ID", "SCHEMA_V1", "SCHEMA_VERSION", "SQLValue", "connect", "migrate"]
+
+#: A value SQLite stores in a cell, and a query's parameter.
+SQLValue = str | int | float | bytes | None
 
 #: The schema version this code writes.
 SCHEMA_VERSION = 3
@@ -257,6 +260,9 @@ def connect(path: str | Path, *, timeout: float = 30.0, new: bool = False) -> sq
     Writes are then wrapped in explicit ``BEGIN IMMEDIATE ... COMMIT`` by the caller, so that a
     writer waits for the lock up front (and the busy timeout applies) instead of failing on a
     lock upgrade half way.
+
+    Raises:
+        StoreError: the notebook cannot be opened or switched to WAL mode.
     """
     conn: sqlite3.Connection | None = None
     try:
@@ -339,6 +345,9 @@ def migrate(conn: sqlite3.Connection, source: str = "notebook") -> int:
     """Bring the database to :data:`SCHEMA_VERSION`; return the version it had before.
 
     A new (empty) database gets the current schema. Each step runs in its own transaction.
+
+    Raises:
+        StoreError: the migration fails or leaves a broken reference.
     """
     try:
         before = int(conn.execute("PRAGMA user_version").fetchone()[0])

@@ -25,6 +25,7 @@ from odolab.store.jsonio import (
     write_notebook_json,
 )
 from odolab.store.records import HISTORY_KEYS, NUMERIC_COLUMNS, trial_from_record
+from odolab.store.schema import SQLValue
 from odolab.text import quote_input
 from odolab.trials import Trial, validate_trial
 
@@ -35,7 +36,7 @@ __all__ = ["export_csv", "export_json", "import_csv", "import_json"]
 
 
 #: A ``WHERE`` clause on the trials (``t``) and its arguments, as built by the notebook.
-Selection = tuple[str, Sequence[Any]]
+Selection = tuple[str, Sequence[SQLValue]]
 
 
 def export_csv(nb: Notebook, path: str | Path, selection: Selection = ("", ())) -> int:
@@ -55,7 +56,11 @@ def import_csv(
     batch_size: int = 1000,
     progress: Progress | None = None,
 ) -> int:
-    """Import trials from a CSV into ``nb``; see :meth:`odolab.store.Notebook.import_csv`."""
+    """Import trials from a CSV into ``nb``; see :meth:`odolab.store.Notebook.import_csv`.
+
+    Raises:
+        StoreError: the batch size is below 1, or a row is refused (its line is named).
+    """
     if batch_size < 1:
         raise StoreError(f"batch_size must be >= 1, got {batch_size}")
     parsed = read_trials_csv(
@@ -196,7 +201,7 @@ def _params_for(
     return params
 
 
-def _check_types(rec: Mapping[str, Any], where: str) -> None:
+def _check_types(rec: Mapping[str, object], where: str) -> None:
     for k in NUMERIC_COLUMNS:
         v = rec[k]
         if v is not None and (isinstance(v, bool) or not isinstance(v, int | float)):

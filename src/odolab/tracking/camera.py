@@ -26,7 +26,6 @@ import math
 import tomllib
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import tomli_w
@@ -92,13 +91,18 @@ class CameraModel:
         """OpenCV's (k1, k2, p1, p2, k3)."""
         return np.array([self.k1, self.k2, self.p1, self.p2, self.k3])
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """Plain dict in file order."""
         return asdict(self)
 
 
 def load_camera(path: str | Path) -> CameraModel:
-    """Read CAMERA.toml (see the module); every problem is one sentence naming the file."""
+    """Read CAMERA.toml (see the module); every problem is one sentence naming the file.
+
+    Raises:
+        TrackingError: the file is missing, unreadable, not TOML, or its [camera] table lacks a key
+            or has an unknown one.
+    """
     p = Path(path)
     try:
         doc = tomllib.loads(p.read_text(encoding="utf-8"))
@@ -127,11 +131,11 @@ def load_camera(path: str | Path) -> CameraModel:
 
 
 def save_camera(
-    path: str | Path, camera: CameraModel, *, provenance: dict[str, Any] | None = None
+    path: str | Path, camera: CameraModel, *, provenance: dict[str, object] | None = None
 ) -> Path:
     """Write CAMERA.toml (and an optional ``[provenance]`` table)."""
     p = Path(path)
-    doc: dict[str, Any] = {"camera": camera.to_dict()}
+    doc: dict[str, object] = {"camera": camera.to_dict()}
     if provenance:
         doc["provenance"] = provenance
     from odolab.writing import write_text_file
@@ -160,7 +164,12 @@ class FloorMarker:
 
 
 def read_floor_csv(path: str | Path) -> list[FloorMarker]:
-    """FLOOR.csv (``id,x,y,yaw,size``); errors name the file and line."""
+    """FLOOR.csv (``id,x,y,yaw,size``); errors name the file and line.
+
+    Raises:
+        TrackingError: the table has no markers, or a bad or repeated id, or a size not above 0 (the
+            line is named).
+    """
     from odolab.io._table import data_line_numbers, read_numeric_columns
 
     p = Path(path)

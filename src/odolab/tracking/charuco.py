@@ -44,7 +44,8 @@ class BoardSpec:
             )
 
     def board(self) -> Any:
-        """The OpenCV CharucoBoard."""
+        """The OpenCV CharucoBoard (typed loosely: OpenCV's stubs give ``matchImagePoints``
+        a list of corner arrays where the detector returns one array)."""
         import cv2
 
         return cv2.aruco.CharucoBoard(
@@ -72,7 +73,7 @@ class CameraCalibration:
     views: int
     frames: int
 
-    def provenance(self) -> dict[str, Any]:
+    def provenance(self) -> dict[str, object]:
         """A ``[provenance]`` table for CAMERA.toml."""
         return {
             "method": "ChArUco board video (odolab camera calibrate)",
@@ -90,7 +91,12 @@ def calibrate_camera_video(
     min_corners: int = 8,
     max_views: int = 60,
 ) -> CameraCalibration:
-    """Calibrate from a board video (see the module)."""
+    """Calibrate from a board video (see the module).
+
+    Raises:
+        TrackingError: the video is missing or unreadable, the step is below 1, the board is seen in
+            fewer than 4 frames, or the calibration fails.
+    """
     import cv2
 
     p = Path(video)
@@ -103,8 +109,8 @@ def calibrate_camera_video(
         raise TrackingError(f"{p}: not a video OpenCV can read")
     board = spec.board()
     detector = cv2.aruco.CharucoDetector(board)
-    obj_pts: list[Any] = []
-    img_pts: list[Any] = []
+    obj_pts: list[NDArray[np.float32]] = []
+    img_pts: list[NDArray[np.float32]] = []
     size: tuple[int, int] | None = None
     frames = 0
     try:

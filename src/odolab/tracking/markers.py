@@ -7,12 +7,15 @@ give) inside a white quiet zone one marker-bit wide all round, which detection n
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from odolab.tracking.camera import TrackingError
+
+if TYPE_CHECKING:
+    import cv2
 
 __all__ = ["DICTIONARIES", "get_dictionary", "marker_image", "write_marker_files"]
 
@@ -25,8 +28,12 @@ DICTIONARIES = (
 )  # fmt: skip
 
 
-def get_dictionary(name: str) -> Any:
-    """The OpenCV ArUco dictionary by name (``DICT_4X4_50`` ...)."""
+def get_dictionary(name: str) -> cv2.aruco.Dictionary:
+    """The OpenCV ArUco dictionary by name (``DICT_4X4_50`` ...).
+
+    Raises:
+        TrackingError: the dictionary is not one odolab knows.
+    """
     import cv2
 
     if name not in DICTIONARIES or not hasattr(cv2.aruco, name):
@@ -36,7 +43,7 @@ def get_dictionary(name: str) -> Any:
     return cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, name))
 
 
-def _check_id(dictionary: Any, name: str, marker_id: int) -> None:
+def _check_id(dictionary: cv2.aruco.Dictionary, name: str, marker_id: int) -> None:
     count = int(dictionary.bytesList.shape[0])
     if not (0 <= marker_id < count):
         raise TrackingError(f"marker id {marker_id} is not in {name}; expected 0 to {count - 1}")
@@ -69,7 +76,11 @@ def write_marker_files(
     pdf: bool = True,
 ) -> list[Path]:
     """One PNG per marker (``marker_<id>.png`` at ``dpi``: print at that resolution, no
-    scaling) and, with ``pdf``, one PDF per marker at its true size. Returns the files."""
+    scaling) and, with ``pdf``, one PDF per marker at its true size. Returns the files.
+
+    Raises:
+        TrackingError: the size or dpi is out of range, or the files cannot be written.
+    """
     import cv2
 
     if not (size > 0):

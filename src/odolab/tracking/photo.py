@@ -110,7 +110,12 @@ class FloorHomography:
 
 
 def read_floor_points(path: str | Path) -> FloorPoints:
-    """Read ``u,v,x,y`` (pixels, metres), one clicked point a row."""
+    """Read ``u,v,x,y`` (pixels, metres), one clicked point a row.
+
+    Raises:
+        PhotoError: the file is missing, lacks the u,v,x,y header, or a line is not four finite
+            numbers.
+    """
     from odolab.io.limits import check_text_file
 
     p = Path(path)
@@ -157,7 +162,12 @@ def _collinear(pts: FloatArray) -> bool:
 
 
 def floor_homography(points: FloorPoints) -> FloorHomography:
-    """The image-to-floor homography of the clicked points (least squares over all of them)."""
+    """The image-to-floor homography of the clicked points (least squares over all of them).
+
+    Raises:
+        PhotoError: fewer than four points are given, or they lie on one line, or no homography fits
+            them.
+    """
     import cv2
 
     k = len(points.uv)
@@ -220,7 +230,11 @@ class DashSearch:
 
 def read_photo(path: str | Path) -> FloatArray:
     """The photo as brightness (h, w) float: the brightest of its colour channels (an LED of any
-    colour), 0..255."""
+    colour), 0..255.
+
+    Raises:
+        PhotoError: the file is missing or not an image OpenCV reads.
+    """
     import cv2
 
     p = Path(path)
@@ -281,7 +295,11 @@ def find_dashes(
     above half the brightest light within ``window`` px (so a shallow gap between two dashes
     still splits them) and well above the noise. Connected pieces of ``min_area`` px or more
     are kept as dashes unless they touch the frame's edge, are round spots, or are much wider
-    than the dashes' median (set aside with the reason)."""
+    than the dashes' median (set aside with the reason).
+
+    Raises:
+        PhotoError: the photo has more bright pieces than dashes can be.
+    """
     import cv2
 
     img = np.asarray(image, dtype=np.float32)
@@ -398,7 +416,11 @@ def _greedy(dashes: list[Dash], first: int, flip: bool, duty: float) -> tuple[fl
 def order_dashes(dashes: list[Dash], duty: float) -> DashChain:
     """The dashes chained along the path (one direction; :func:`time_dashes` picks the
     robot's). A gap longer than the local speed allows for one OFF interval counts the ON
-    intervals it skipped (a dash missing, set aside or too faint)."""
+    intervals it skipped (a dash missing, set aside or too faint).
+
+    Raises:
+        PhotoError: there are no dashes.
+    """
     if not dashes:
         raise PhotoError("no dashes to order")
     best: tuple[float, list[Dash]] | None = None
@@ -543,7 +565,12 @@ def _fit(
 def time_dashes(
     chain: DashChain, travel: WheelTravel, led_hz: float, duty: float, source: str = "photo"
 ) -> PhotoTiming:
-    """Place the chain on the encoder log's clock (see the module), trying both directions."""
+    """Place the chain on the encoder log's clock (see the module), trying both directions.
+
+    Raises:
+        PhotoError: the encoder log shows no motion, or the dashes cannot be matched to its time
+            span.
+    """
     s_odo = travel.distance
     moving = np.nonzero(s_odo > s_odo[0] + 1e-4)[0]
     if len(moving) == 0:
@@ -613,7 +640,12 @@ def track_photo(
     duty: float = 0.5,
     source: str = "photo",
 ) -> PhotoTrack:
-    """Read a long-exposure photo of a flashing LED as a timed path on ``odometry``'s clock."""
+    """Read a long-exposure photo of a flashing LED as a timed path on ``odometry``'s clock.
+
+    Raises:
+        PhotoError: the LED frequency or duty is out of range, or no dash is found within the log's
+            time span.
+    """
     if not (math.isfinite(led_hz) and led_hz > 0):
         raise PhotoError(f"LED frequency {led_hz!r} Hz; expected a positive number")
     if not (math.isfinite(duty) and 0.05 <= duty <= 0.95):
@@ -692,7 +724,11 @@ def draw_overlay(
 ) -> Path:
     """The photo, dimmed, with the dashes read (green centre lines, red start ends, their order
     every fifth), what was set aside (orange circles) and the odometry's path (white; put on the
-    first dashes by a rigid motion) drawn over it (the lab report's Fig. 2): PNG."""
+    first dashes by a rigid motion) drawn over it (the lab report's Fig. 2): PNG.
+
+    Raises:
+        PhotoError: the overlay cannot be encoded.
+    """
     import cv2
 
     from odolab.writing import write_bytes_file

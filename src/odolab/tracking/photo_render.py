@@ -33,7 +33,11 @@ def tilted_camera(
     model: object, height: float, tilt_deg: float, target: Sequence[float] = (0.0, 0.0)
 ) -> SceneCamera:
     """A camera ``height`` m above the floor whose axis is ``tilt_deg`` from straight down,
-    looking at ``target`` on the floor (from the -y side)."""
+    looking at ``target`` on the floor (from the -y side).
+
+    Raises:
+        TrackingError: no camera model is given.
+    """
     from odolab.tracking.camera import CameraModel
     from odolab.tracking.render import look_at
 
@@ -69,7 +73,11 @@ def render_photo(
     dt: float = 0.0005,
 ) -> Path:
     """Write the photo of the LED following ``truth`` (see the module); returns the path.
-    ``power``: grey levels per second of light on one pixel (before the blur spreads it)."""
+    ``power``: grey levels per second of light on one pixel (before the blur spreads it).
+
+    Raises:
+        TrackingError: the exposure is not positive, or the photo cannot be encoded.
+    """
     import cv2
 
     from odolab.writing import write_bytes_file

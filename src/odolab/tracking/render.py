@@ -17,7 +17,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,6 +25,9 @@ from numpy.typing import NDArray
 from odolab.tracking.camera import CameraModel, FloorMarker, TrackingError
 from odolab.tracking.markers import marker_image
 from odolab.trajectory import Trajectory
+
+if TYPE_CHECKING:
+    import cv2
 
 __all__ = ["SceneCamera", "look_at", "render_video"]
 
@@ -60,7 +63,9 @@ def look_at(model: CameraModel, position: Sequence[float], target: Sequence[floa
     return SceneCamera(model, np.vstack((x, y, z)), c)
 
 
-def _placed(size: float, px: int, total: int, x: float, y: float, yaw: float, z: float) -> Any:
+def _placed(
+    size: float, px: int, total: int, x: float, y: float, yaw: float, z: float
+) -> FloatArray:
     """Marker-image pixel corners -> floor points of a marker image ``total`` px wide whose
     black square (``px`` wide) has side ``size`` m, centred at (x, y, z) with yaw."""
     half = size / 2.0 * total / px
@@ -91,7 +96,7 @@ def _paste(canvas: NDArray[np.uint8], src: NDArray[np.uint8], dst: FloatArray) -
     roi[:] = (roi * (1.0 - a) + warped * a).astype(np.uint8)
 
 
-def _writer(p: Path, fps: float, model: CameraModel, quality: int) -> Any:
+def _writer(p: Path, fps: float, model: CameraModel, quality: int) -> cv2.VideoWriter:
     """An open MJPG writer of ``model``-sized frames at ``p``."""
     import cv2
 
@@ -121,8 +126,8 @@ def _floor_image(
                     model.cy * ss + (ss - 1) / 2, model.width * ss, model.height * ss),
         scene.rotation, scene.position,
     )  # fmt: skip
-    tex: Any = rng.normal(0.0, 1.0, (model.height * ss // 16 + 1, model.width * ss // 16 + 1))
-    tex = cv2.resize(tex, (model.width * ss, model.height * ss), interpolation=cv2.INTER_CUBIC)
+    coarse = rng.normal(0.0, 1.0, (model.height * ss // 16 + 1, model.width * ss // 16 + 1))
+    tex = cv2.resize(coarse, (model.width * ss, model.height * ss), interpolation=cv2.INTER_CUBIC)
     floor_img = np.clip(150 + 18 * tex, 0, 255).astype(np.uint8)
     images = {m.id: marker_image(m.id, px, dictionary) for m in floor}
     base = floor_img.copy()
@@ -194,7 +199,11 @@ def render_video(
 
     ``hidden``: time spans ``(start, end)`` (s, the truth's clock) in which the robot's marker is
     not drawn (covered: a person walking past, the robot under a table); its plate still is.
-    ``exposure``: motion blur (see the module)."""
+    ``exposure``: motion blur (see the module).
+
+    Raises:
+        TrackingError: the exposure is negative or has no step, or the video cannot be written.
+    """
     import cv2
 
     if not (exposure >= 0.0 and math.isfinite(exposure)) or exposure_steps < 1:

@@ -31,7 +31,7 @@ import math
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -40,6 +40,10 @@ from odolab.defaults import DEFAULT_CORNERS
 from odolab.tracking.camera import CameraModel, FloorMarker, TrackingError
 from odolab.tracking.markers import get_dictionary
 from odolab.trajectory import Trajectory
+
+if TYPE_CHECKING:
+    import cv2
+    from cv2.typing import MatLike
 
 __all__ = [
     "CORNER_METHODS",
@@ -284,7 +288,7 @@ _REFINEMENT = {
 CORNER_METHODS = tuple(_REFINEMENT)
 
 
-def _detector(dictionary: str, corners: str = DEFAULT_CORNERS) -> Any:
+def _detector(dictionary: str, corners: str = DEFAULT_CORNERS) -> cv2.aruco.ArucoDetector:
     import cv2
 
     params = cv2.aruco.DetectorParameters()
@@ -298,7 +302,12 @@ def _detector(dictionary: str, corners: str = DEFAULT_CORNERS) -> Any:
 def camera_pose_from_floor(
     observed: Sequence[tuple[FloatArray, FloatArray]], camera: CameraModel
 ) -> CameraPose:
-    """solvePnP on all (floor corners (k, 3), image corners (k, 2)) pairs pooled."""
+    """solvePnP on all (floor corners (k, 3), image corners (k, 2)) pairs pooled.
+
+    Raises:
+        TrackingError: no floor marker is seen, fewer than 4 floor corners are, or no camera pose
+            fits them.
+    """
     import cv2
 
     if not observed:
@@ -358,7 +367,7 @@ def _to_plane(
     return np.asarray(hom[:, :2] / hom[:, 2:3], dtype=np.float64)
 
 
-def _frames(path: Path) -> Any:
+def _frames(path: Path) -> cv2.VideoCapture:
     import cv2
 
     if not path.is_file():
@@ -369,7 +378,9 @@ def _frames(path: Path) -> Any:
     return cap
 
 
-def _decoded(cap: Any, path: Path, camera: CameraModel, fps: float) -> Iterator[tuple[float, Any]]:
+def _decoded(
+    cap: cv2.VideoCapture, path: Path, camera: CameraModel, fps: float
+) -> Iterator[tuple[float, MatLike]]:
     """(time s, grey frame) pairs; decoding runs in a thread beside the caller's detection
     (OpenCV releases the GIL in both), a few frames ahead."""
     import queue
@@ -377,7 +388,7 @@ def _decoded(cap: Any, path: Path, camera: CameraModel, fps: float) -> Iterator[
 
     import cv2
 
-    q: queue.Queue[tuple[float, Any] | BaseException | None] = queue.Queue(maxsize=8)
+    q: queue.Queue[tuple[float, MatLike] | BaseException | None] = queue.Queue(maxsize=8)
     stop = threading.Event()
 
     def read() -> None:
@@ -427,7 +438,9 @@ def _decoded(cap: Any, path: Path, camera: CameraModel, fps: float) -> Iterator[
         cap.release()
 
 
-def _detect(detector: Any, grey: Any, last: FloatArray | None) -> tuple[Any, Any, FloatArray]:
+def _detect(
+    detector: cv2.aruco.ArucoDetector, grey: MatLike, last: FloatArray | None
+) -> tuple[Sequence[MatLike], MatLike, FloatArray]:
     """The markers in the frame (corners, ids, and the pixel origin of the part searched): the
     whole frame, or (``last``, the robot's corners in the previous frame) only near the robot."""
     if last is None:
@@ -470,7 +483,12 @@ def track_video(
     *,
     progress: Progress | None = None,
 ) -> TrackResult:
-    """Track the robot's marker through ``video`` (see the module)."""
+    """Track the robot's marker through ``video`` (see the module).
+
+    Raises:
+        TrackingError: the robot's marker is also a floor marker, the video cannot be read, or the
+            floor markers or the robot's marker are never seen.
+    """
     import cv2
 
     path = Path(video)
@@ -502,7 +520,7 @@ def track_video(
                 if mid == options.robot_marker:
                     found = c.reshape(4, 2).astype(np.float64) + origin
                 elif mid in by_id and full:
-                    floor_obs.append((by_id[mid].corners(), c.reshape(4, 2)))
+                    floor_obs.append((by_id[mid].corners(), c.reshape(4, 2).astype(np.float64)))
                     floor_seen[mid] = floor_seen.get(mid, 0) + 1
         if found is not None:
             robot.append((t, found))
@@ -544,7 +562,11 @@ def track_video(
 def write_track_csv(path: str | Path, result: TrackResult, time_offset: float = 0.0) -> Path:
     """Write ``t,x,y,theta,heading,quality,segment`` (readable wherever odolab reads a
     trajectory). ``heading`` is continuous within a ``segment``; across segments its whole turns
-    are a guess (see the module)."""
+    are a guess (see the module).
+
+    Raises:
+        TrackingError: the track cannot be written.
+    """
     from odolab.kinematics import wrap_angle
 
     p = Path(path)

@@ -78,7 +78,11 @@ def require_overlap(
     robot_source: str = "encoder log",
 ) -> None:
     """Raise :class:`ImuLogError` unless some clock offset in [lo, hi] (s) overlaps the logs by
-    at least ``min_overlap`` seconds."""
+    at least ``min_overlap`` seconds.
+
+    Raises:
+        ImuLogError: the IMU log does not overlap the robot's log, or the overlap is too short.
+    """
     r0, r1 = float(robot_t[0]), float(robot_t[-1])
     p0, p1 = float(imu.t[0]), float(imu.t[-1])
     # a log shorter than the overlap: no offset can help, so say which one
@@ -112,7 +116,11 @@ MAX_SMOOTH_S = 10.0
 
 
 def check_search(nominal_offset: float, max_offset: float, smooth: float) -> None:
-    """Refuse clock-offset search settings :func:`find_clock_offset` cannot use, in one sentence."""
+    """Refuse clock-offset search settings :func:`find_clock_offset` cannot use, in one sentence.
+
+    Raises:
+        ImuLogError: the offset, the search range or the smoothing is out of range.
+    """
     if not math.isfinite(nominal_offset):
         raise ImuLogError(
             f"offset (phone minus robot) is {nominal_offset:g} s; expected a finite number of "

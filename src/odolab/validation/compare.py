@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -69,7 +69,7 @@ class HeadingError:
         """Largest absolute error over the overlap (rad)."""
         return float(np.max(np.abs(self.error)))
 
-    def summary(self) -> dict[str, Any]:
+    def summary(self) -> dict[str, object]:
         total = float(self.heading[-1])
         actual = total - self.final
         return {
@@ -110,10 +110,10 @@ class ValidationResult:
         """RMS error of the new parameters over that of the old (below 1 = better)."""
         return self.new.rms / self.old.rms if self.old.rms > 0 else math.inf
 
-    def to_dict(self, *, series: bool = True) -> dict[str, Any]:
+    def to_dict(self, *, series: bool = True) -> dict[str, object]:
         """Plain JSON-able dict: summary numbers, and (with ``series``) the time series."""
         a = self.alignment
-        out: dict[str, Any] = {
+        out: dict[str, object] = {
             "encoder_log": self.encoder_source,
             "imu_log": self.imu_source,
             "imu_heading_column": self.imu_heading_column,

@@ -17,9 +17,10 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from odolab import numfmt
 from odolab.errors import OdolabError
@@ -39,8 +40,10 @@ class RandomBand:
     at_ref: float
     p: float = 0.5
 
-    def sigma(self, angle: Any) -> Any:
-        return self.sigma_ref * (np.abs(np.asarray(angle, dtype=float)) / self.at_ref) ** self.p
+    def sigma(self, angle: ArrayLike) -> NDArray[np.float64]:
+        """σ of the heading error after turning ``angle`` rad (a 0-d array for one angle)."""
+        a = np.abs(np.asarray(angle, dtype=np.float64))
+        return np.asarray(self.sigma_ref * (a / self.at_ref) ** self.p, dtype=np.float64)
 
 
 @dataclass(frozen=True)
@@ -111,7 +114,7 @@ class RunsSummary:
             out.append(text + ".")
         return out
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {
             "runs": self.runs,
             "rotation_rad": self.angles,
@@ -132,7 +135,11 @@ class RunsSummary:
 def summarize_runs(
     checks: Sequence[ValidationResult], band: RandomBand, *, offset_true: float | None = None
 ) -> RunsSummary:
-    """Each run's final heading error against the band predicted at its angle."""
+    """Each run's final heading error against the band predicted at its angle.
+
+    Raises:
+        OdolabError: there are no validation runs.
+    """
     if not checks:
         raise OdolabError("no validation runs to summarize; expected at least one phone run")
     fo, fn, sig, offs, angles = [], [], [], [], []

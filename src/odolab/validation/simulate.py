@@ -53,6 +53,9 @@ def simulate_phone_log(
     zero): the true heading change plus the drift of the bias and of the integrated noise. The
     truth is interpolated between its samples by a cubic spline. All randomness comes from
     ``np.random.default_rng(seed)``.
+
+    Raises:
+        ImuLogError: the inputs are out of range.
     """
     t = np.asarray(true_t, dtype=np.float64)
     h = np.asarray(true_heading, dtype=np.float64)

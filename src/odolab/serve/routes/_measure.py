@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Mapping
-from typing import Any
 
 from odolab.errors import StoreError
 
@@ -82,7 +81,7 @@ def _sigma_checked(value: float | None, api: bool) -> float | None:
     return value
 
 
-def form_readings(form: Mapping[str, Any]) -> dict[str, float | None]:
+def form_readings(form: Mapping[str, object]) -> dict[str, float | None]:
     """The form's readings as numbers (None for an empty field), or a :class:`ReadingError`."""
     out: dict[str, float | None] = {}
     for name in FIELDS:
@@ -93,7 +92,7 @@ def form_readings(form: Mapping[str, Any]) -> dict[str, float | None]:
     return out
 
 
-def json_readings(body: Mapping[str, Any]) -> dict[str, float | None]:
+def json_readings(body: Mapping[str, object]) -> dict[str, float | None]:
     """The API body's readings: each a JSON number (text such as ``"0.5"`` is refused), finite,
     σ more than 0; None for a key not given (or null)."""
     out: dict[str, float | None] = {}
@@ -194,7 +193,7 @@ _RAW = {
 }
 
 
-def reading_words(raw: Mapping[str, Any]) -> str:
+def reading_words(raw: Mapping[str, object]) -> str:
     """``compass before 100°, compass after 136°, turns 9`` for the stored readings."""
     order = list(_RAW)
     parts = []

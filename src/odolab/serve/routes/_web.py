@@ -13,7 +13,7 @@ import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, TypedDict, TypeVar
 from urllib.parse import quote, urlencode
 
 import jinja2
@@ -87,7 +87,17 @@ def ci_parts(value: object, ci: object) -> tuple[str, str]:
     return head, f"[{tail}" if sep else "–"
 
 
-def sigma_words(group: dict[str, Any], unit: str) -> str:
+class SigmaGroup(TypedDict):
+    """One repeated group of a Table I row (``odolab.analysis.table1``'s ``sigmas``)."""
+
+    at: float
+    commanded: float
+    n: int
+    sigma: float | None
+    sigma_ci95: list[float | None]
+
+
+def sigma_words(group: SigmaGroup, unit: str) -> str:
     """One repeated group's sigma on a page: ``0.0033 m @ -1 (n 3)``: its digits by the interval
     rule and the commanded distance or angle with its sign, as the CLI and the report write
     them (a reverse run's group is ``@ -1``)."""
@@ -163,21 +173,23 @@ def status_of(err: StoreError) -> int:
     return 409 if " is already measured " in text else 400
 
 
-def selection_of(q: QueryParams | Mapping[str, Any]) -> SelectionRequest:
+def selection_of(q: QueryParams | Mapping[str, object]) -> SelectionRequest:
     """``?campaign=A&campaign=B&exclude_campaign=C&robot=R`` (the CLI's ``--campaign``,
     ``--exclude-campaign``, ``--robot``) as a selection request."""
     from odolab.app.selection import SelectionRequest
 
     def many(key: str) -> tuple[str, ...]:
         if isinstance(q, QueryParams):
-            values: list[Any] = q.getlist(key)
+            values: list[object] = list(q.getlist(key))
         else:
             raw = q.get(key) or []
-            values = [raw] if isinstance(raw, str) else list(raw)
+            values = raw if isinstance(raw, list) else [raw]
+        names: list[str] = []
         for v in values:
             if not isinstance(v, str):
                 raise StoreError(f"{key} is {v!r}; expected names (text)")
-        return tuple(v for v in values if v)
+            names.append(v)
+        return tuple(v for v in names if v)
 
     robot = many("robot")
     if len(robot) > 1:
@@ -193,7 +205,7 @@ class Web:
     env: jinja2.Environment = field(default_factory=templates)
     cache: AnalysisCache = field(default_factory=AnalysisCache)
     #: results of recent form posts, for the page their redirect shows (post/redirect/get)
-    recent: dict[str, Any] = field(default_factory=dict)
+    recent: dict[str, object] = field(default_factory=dict)
 
     @property
     def db(self) -> Path:
@@ -216,7 +228,7 @@ class Web:
         return await run_in_threadpool(job)
 
     def page(
-        self, request: Request, template: str, status_code: int = 200, **context: Any
+        self, request: Request, template: str, status_code: int = 200, /, **context: object
     ) -> HTMLResponse:
         html = self.env.get_template(template).render(
             csrf=csrf_token(self.settings.secret, request.state.session),
@@ -228,7 +240,7 @@ class Web:
     def error_page(self, request: Request, err: Exception, status_code: int = 400) -> Response:
         return self.page(request, "error.html.j2", status_code, error=web_text(err))
 
-    async def form(self, request: Request) -> Mapping[str, Any]:
+    async def form(self, request: Request) -> Mapping[str, object]:
         try:
             form = await request.form(max_files=2, max_fields=50)
         except HTTPException as err:  # python-multipart's bare "Invalid multipart data."
@@ -250,12 +262,19 @@ class Web:
             )
         return form
 
+    async def form_or_page(self, request: Request) -> Mapping[str, object] | Response:
+        """The posted form (:meth:`form`), or the error page that refuses it."""
+        try:
+            return await self.form(request)
+        except FormError as err:
+            return self.error_page(request, err, err.status)
+
     def saved_signature(self, trial_id: str, text: str) -> str:
         """HMAC of the confirmation shown after a post, under the server's secret."""
         msg = f"saved\0{trial_id}\0{text}".encode()
         return hmac.new(self.settings.secret, msg, hashlib.sha256).hexdigest()
 
-    def remember(self, key: str, value: Any) -> None:
+    def remember(self, key: str, value: object) -> None:
         """Keep ``value`` for the page a redirect shows (the 16 latest)."""
         self.recent.pop(key, None)
         self.recent[key] = value
@@ -290,7 +309,7 @@ def web(request: Request) -> Web:
     return state
 
 
-def text_field(form: Mapping[str, Any], name: str) -> str | None:
+def text_field(form: Mapping[str, object], name: str) -> str | None:
     value = form.get(name)
     if not isinstance(value, str) or not value.strip():
         return None
@@ -305,7 +324,7 @@ def plain(text: str, status: int) -> Response:
     return Response(text, status, media_type="text/plain")
 
 
-async def json_body(request: Request) -> dict[str, Any]:
+async def json_body(request: Request) -> dict[str, object]:
     ctype = request.headers.get("content-type", "").split(";")[0].strip().lower()
     if ctype != "application/json":
         raise HTTPException(415, "send the body as JSON (Content-Type: application/json)")

@@ -6,7 +6,7 @@ An error is ``{"error": "<sentence>"}`` with a 4xx status, and nothing is stored
 from __future__ import annotations
 
 import dataclasses
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from starlette.requests import Request
 from starlette.responses import Response
@@ -39,7 +39,7 @@ _POST_ONLY = ("measurement", "exclude", "include")
 _CALIBRATE_KEYS = ("method", "robot", "terrain", "campaign", "exclude_campaign", "record")
 
 
-def trial_json(t: Trial) -> dict[str, Any]:
+def trial_json(t: Trial) -> dict[str, object]:
     from odolab.store.measure import describe_measurement
 
     c, p, m = t.command, t.predicted, t.measured
@@ -95,7 +95,7 @@ async def trials(request: Request) -> Response:
 async def trial(request: Request) -> Response:
     trial_id = request.path_params["trial_id"]
 
-    def load(nb: Notebook) -> dict[str, Any]:
+    def load(nb: Notebook) -> dict[str, object]:
         ctx = trial_context(nb, trial_id)
         out = trial_json(ctx["t"])
         out["params_version"] = ctx["version"]
@@ -137,7 +137,7 @@ async def measure(request: Request) -> Response:
     except StoreError as err:
         return error_json(err)
 
-    def save(nb: Notebook) -> tuple[int, dict[str, Any]]:
+    def save(nb: Notebook) -> tuple[int, dict[str, object]]:
         try:
             saved = record_measurement(nb, trial_id, **readings, replace=replace)
         except StoreError as err:
@@ -157,11 +157,11 @@ async def exclude(request: Request) -> Response:
         if not include and not isinstance(reason, str):
             raise StoreError(f"reason is {reason!r}; expected text")
 
-        def act(nb: Notebook) -> dict[str, Any]:
+        def act(nb: Notebook) -> dict[str, object]:
             if include:
                 nb.include_trial(trial_id)
             else:
-                nb.exclude_trial(trial_id, reason)
+                nb.exclude_trial(trial_id, str(reason))  # text: checked above
             return trial_json(nb.get_trial(trial_id))
 
         return StrictJSONResponse(await w.run(act))
@@ -209,8 +209,8 @@ async def calibrate(request: Request) -> Response:
         req = CalibrationRequest(
             str(body.get("method", "")),
             selection_of(body),
-            robot=body.get("robot") or None,
-            terrain=body.get("terrain") or None,
+            robot=str(body.get("robot") or "") or None,  # text or null: checked above
+            terrain=str(body.get("terrain") or "") or None,
             record=record,
         )
         w = web(request)

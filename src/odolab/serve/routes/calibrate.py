@@ -2,23 +2,37 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, TypedDict
 from urllib.parse import urlencode
 
 from starlette.requests import Request
 from starlette.responses import RedirectResponse, Response
 
 from odolab.errors import OdolabError
-from odolab.serve.routes._web import FormError, text_field, web, web_text
+from odolab.serve.routes._web import text_field, web, web_text
 
 if TYPE_CHECKING:
-    from odolab.app.calibration import CalibrationRequest
-    from odolab.store import Notebook
+    from odolab.app.calibration import CalibrationOutcome, CalibrationRequest
+    from odolab.store import Notebook, ParamsVersion
 
 __all__ = ["page", "post"]
 
 
-def _choices(nb: Notebook) -> dict[str, Any]:
+class _Choices(TypedDict):
+    robots: list[str]
+    terrains: list[str]
+
+
+class _Form(_Choices):
+    stored: ParamsVersion | None  #: the version a calibration recorded (?robot=R&version=V)
+
+
+class _Done(_Choices):
+    result: CalibrationOutcome | None
+    error: str | None
+
+
+def _choices(nb: Notebook) -> _Choices:
     trials = nb.load_trials(with_logs=False)
     return {"robots": nb.robots(), "terrains": sorted({t.terrain for t in trials})}
 
@@ -30,39 +44,36 @@ async def page(request: Request) -> Response:
     w, q = web(request), request.query_params
     robot, version = q.get("robot"), q.get("version", "")
 
-    def load(nb: Notebook) -> dict[str, Any]:
-        ctx = _choices(nb)
-        ctx["stored"] = None
+    def load(nb: Notebook) -> _Form:
+        stored = None
         if robot and version.isascii() and version.isdigit():  # "²" is a digit to isdigit
             found = [v for v in nb.params_versions(robot) if v.version == int(version)]
-            ctx["stored"] = found[0] if found else None
-        return ctx
+            stored = found[0] if found else None
+        return {**_choices(nb), "stored": stored}
 
     ctx = await w.run(load)
     result = w.recent.get(f"calibrate\0{robot}\0{version}") if ctx["stored"] else None
     return w.page(request, "calibrate.html.j2", result=result, error=None, **ctx)
 
 
-def _run(nb: Notebook, req: CalibrationRequest) -> dict[str, Any]:
+def _run(nb: Notebook, req: CalibrationRequest) -> _Done:
     from odolab.app.calibration import calibrate
 
     ctx = _choices(nb)
     try:
-        ctx["result"], ctx["error"] = calibrate(nb, req), None
+        return {**ctx, "result": calibrate(nb, req), "error": None}
     except OdolabError as err:
         text = web_text(err).replace("(--robot, or the form's robot)", "(choose it under robot)")
-        ctx["result"], ctx["error"] = None, text
-    return ctx
+        return {**ctx, "result": None, "error": text}
 
 
 async def post(request: Request) -> Response:
     from odolab.app.calibration import CalibrationRequest
 
     w = web(request)
-    try:
-        form = await w.form(request)
-    except FormError as err:
-        return w.error_page(request, err, err.status)
+    form = await w.form_or_page(request)
+    if isinstance(form, Response):
+        return form
     req = CalibrationRequest(
         str(form.get("method", "")),
         robot=text_field(form, "robot"),

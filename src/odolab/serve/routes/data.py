@@ -11,7 +11,7 @@ from starlette.requests import Request
 from starlette.responses import Response
 
 from odolab.errors import OdolabError, StoreError
-from odolab.serve.routes._web import FormError, plain, safe_upload_name, web
+from odolab.serve.routes._web import plain, safe_upload_name, web
 
 if TYPE_CHECKING:
     from odolab.store import Notebook
@@ -32,10 +32,9 @@ async def page(request: Request) -> Response:
 
 async def upload(request: Request) -> Response:
     w = web(request)
-    try:
-        form = await w.form(request)
-    except FormError as err:
-        return w.error_page(request, err, err.status)
+    form = await w.form_or_page(request)
+    if isinstance(form, Response):
+        return form
     file = form.get("file")
     create_campaigns = form.get("create_campaigns") == "on"
     names = await w.run(_names)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import tempfile
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from starlette.requests import Request
 from starlette.responses import Response
@@ -19,7 +19,7 @@ __all__ = ["page", "toml"]
 
 
 async def page(request: Request) -> Response:
-    def load(nb: Notebook) -> dict[str, Any]:
+    def load(nb: Notebook) -> dict[str, object]:
         return {"robots": {r: nb.params_versions(r) for r in nb.robots()}}
 
     w = web(request)

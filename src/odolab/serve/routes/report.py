@@ -99,13 +99,20 @@ def _job(w: Web, sel: SelectionRequest) -> ReportJob:
     return job
 
 
-async def page(request: Request) -> Response:
+async def _requested(request: Request) -> tuple[Web, ReportJob | Response]:
+    """The report job the query asks for, or the error page of its refusal."""
     w = web(request)
     try:
         sel = selection_of(request.query_params)
-        job = await run_in_threadpool(_job, w, sel)
+        return w, await run_in_threadpool(_job, w, sel)
     except OdolabError as err:
-        return w.error_page(request, err)
+        return w, w.error_page(request, err)
+
+
+async def page(request: Request) -> Response:
+    w, job = await _requested(request)
+    if isinstance(job, Response):
+        return job
     last = _last_seconds(w)
     return w.page(
         request, "report.html.j2", job=job, seconds=job.seconds, last=last,
@@ -122,12 +129,9 @@ def _last_seconds(w: Web) -> float | None:
 
 
 async def download(request: Request) -> Response:
-    w = web(request)
-    try:
-        sel = selection_of(request.query_params)
-        job = await run_in_threadpool(_job, w, sel)
-    except OdolabError as err:
-        return w.error_page(request, err)
+    w, job = await _requested(request)
+    if isinstance(job, Response):
+        return job
     await run_in_threadpool(job.done.wait)
     if job.body is None:
         return w.error_page(request, OdolabError(job.error or "the report could not be drawn"))

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, TypedDict
 
 from starlette.requests import Request
 from starlette.responses import Response
@@ -11,7 +11,6 @@ from odolab.errors import OdolabError, StoreError
 from odolab.serve.routes._web import (
     KINDS,
     STATUSES,
-    FormError,
     check_filter,
     plain,
     text_field,
@@ -21,7 +20,7 @@ from odolab.trials import TrialStatus
 
 if TYPE_CHECKING:
     from odolab.store import Notebook
-    from odolab.trials import Trial
+    from odolab.trials import Measurement, Trial
 
 __all__ = ["awaiting_first", "index", "trial_context", "trial_page"]
 
@@ -31,7 +30,7 @@ def awaiting_first(trials: list[Trial]) -> list[Trial]:
     return sorted(trials, key=lambda t: order[t.status])
 
 
-def _listing(nb: Notebook, filters: dict[str, str | None]) -> dict[str, Any]:
+def _listing(nb: Notebook, filters: dict[str, str | None]) -> dict[str, object]:
     everything = nb.load_trials(with_logs=False)
     counts: dict[str, dict[str, int]] = {}
     for t in everything:
@@ -73,7 +72,19 @@ async def index(request: Request) -> Response:
     )  # fmt: skip
 
 
-def trial_context(nb: Notebook, trial_id: str) -> dict[str, Any]:
+class TrialContext(TypedDict):
+    """What the trial page shows of one trial (and the API's trial answer starts from)."""
+
+    virtual: str | None  #: what a virtual board's instruments show, in words
+    t: Trial
+    robot: str
+    version: int
+    history: list[tuple[str, Measurement]]  #: replaced measurements, with when
+    rotation: bool
+    has_log: bool
+
+
+def trial_context(nb: Notebook, trial_id: str) -> TrialContext:
     from odolab.store.measure import describe_readings, virtual_readings
 
     t = nb.get_trial(trial_id)
@@ -131,10 +142,9 @@ async def measure(request: Request) -> Response:
     from odolab.store.measure import describe_measurement, record_measurement
 
     w = web(request)
-    try:
-        form = await w.form(request)
-    except FormError as err:
-        return w.error_page(request, err, err.status)
+    form = await w.form_or_page(request)
+    if isinstance(form, Response):
+        return form
     trial_id = str(form.get("id", ""))
     values = {k: text_field(form, k) for k in FIELDS}
     replace = form.get("replace") == "on"
@@ -154,10 +164,9 @@ async def measure(request: Request) -> Response:
 
 async def exclude(request: Request) -> Response:
     w = web(request)
-    try:
-        form = await w.form(request)
-    except FormError as err:
-        return w.error_page(request, err, err.status)
+    form = await w.form_or_page(request)
+    if isinstance(form, Response):
+        return form
     trial_id = str(form.get("id", ""))
     include = request.url.path.endswith("/include")
     reason = str(form.get("reason", ""))
