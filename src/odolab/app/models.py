@@ -34,6 +34,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from odolab.calibration.compare import DEFAULT_MODELS
+from odolab.errors import opt
 
 if TYPE_CHECKING:
     from odolab.calibration.compare import ModelComparison
@@ -130,6 +131,12 @@ def compare_files(
     )  # fmt: skip
 
 
+def _command_line(words: Sequence[str]) -> str:
+    """``words`` as a shell line: each quoted for a shell, except a setting's mark (its face
+    words it as a flag, :func:`odolab.errors.opt`)."""
+    return " ".join(w if w.startswith("{{") and w.endswith("}}") else shlex.quote(w) for w in words)
+
+
 def exploration_reason(truth: TrueParams, truth_name: str) -> str | None:
     """None when the lab explores on this truth (it has speed-dependent slip); else one
     sentence saying why it does not."""
@@ -138,7 +145,7 @@ def exploration_reason(truth: TrueParams, truth_name: str) -> str | None:
     return (
         f"No exploration run: the truth preset {truth_name} has no speed-dependent slip "
         f"(speed_slip {truth.speed_slip:g} s/m), so the slip model has nothing to learn that the "
-        "kinematic models miss; odolab demo --truth jaguar-lab-tracked drives a one-minute "
+        "kinematic models miss; odolab demo {{truth}} jaguar-lab-tracked drives a one-minute "
         "exploration and compares the slip model with them."
     )
 
@@ -179,14 +186,14 @@ class SlipComparison:
             return ""
         req = slip_request(self.seed)
         words = [
-            "odolab", "calibrate", "compare", *map(self._shown, self.files), "--validate",
-            *map(self._shown, self.held_files), "--format", "csv", "--params", self._shown(Path(self.params_arg))
+            "odolab", "calibrate", "compare", *map(self._shown, self.files), opt("validate"),
+            *map(self._shown, self.held_files), opt("format"), "csv", opt("params"), self._shown(Path(self.params_arg))
             if self.params_arg.endswith(".toml") else self.params_arg,
-            "--models", ",".join(req.models),
-            "--learning-curve", ",".join(f"{s:g}" for s in req.curve),
-            "--seed", str(self.seed), "--json", "compare.json",
+            opt("models"), ",".join(req.models),
+            opt("learning_curve"), ",".join(f"{s:g}" for s in req.curve),
+            opt("seed"), str(self.seed), opt("json"), "compare.json",
         ]  # fmt: skip
-        return shlex.join(words)
+        return _command_line(words)
 
     def nees_command(self) -> str:
         """The ``odolab evaluate --nees`` line that gives :attr:`nees` from the written files
@@ -194,11 +201,11 @@ class SlipComparison:
         if not self.held_files or self.slip_params is None:
             return ""
         words = [
-            "odolab", "evaluate", *map(self._shown, self.held_files), "--format", "csv",
-            "--params", self._shown(self.slip_params), "--nees", "--nees-segment",
+            "odolab", "evaluate", *map(self._shown, self.held_files), opt("format"), "csv",
+            opt("params"), self._shown(self.slip_params), opt("nees"), opt("nees_segment"),
             f"{NEES_PIECE_S:g}",
         ]  # fmt: skip
-        return shlex.join(words)
+        return _command_line(words)
 
     def _shown(self, path: Path) -> str:
         if self.base is not None and path.is_relative_to(self.base):

@@ -60,7 +60,7 @@ from odolab.calibration.lsq import (
     fit_model,
     prepare_run,
 )
-from odolab.errors import CalibrationError, InsufficientDataError
+from odolab.errors import CalibrationError, InsufficientDataError, opt
 from odolab.io.registry import LogFormat, read_run
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.metrics.runs import RUN_OPTIONS, Progress, evaluate_run, parallel_map
@@ -417,7 +417,7 @@ def compare_models(
         if k < 2:
             raise InsufficientDataError(
                 "one run cannot be both fitted and held out; expected at least two runs or "
-                "held-out runs (--validate)"
+                "held-out runs ({{validate}})"
             )
         test_runs = list(train)
         fold_of = [i % k for i in range(len(train))]
@@ -487,15 +487,17 @@ def _check_curve(curve: Sequence[float], run: OdometryRun) -> None:
     for s in curve:
         if not (math.isfinite(s) and s > 0):
             raise CalibrationError(
-                f"--learning-curve: {s!r} is not a positive number of seconds; expected e.g. "
+                f"{opt('learning_curve')}: {s!r} is not a positive number of seconds; expected e.g. "
                 "10,20,30,60"
             )
         if s in seen:
-            raise CalibrationError(f"--learning-curve: {s:g} s is given twice; expected each once")
+            raise CalibrationError(
+                f"{opt('learning_curve')}: {s:g} s is given twice; expected each once"
+            )
         seen.add(s)
         if s > span + step:
             raise CalibrationError(
-                f"--learning-curve: {s:g} s is longer than the first training run "
+                f"{opt('learning_curve')}: {s:g} s is longer than the first training run "
                 f"{run.source} ({span:.4g} s); expected at most its length"
             )
 

@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import CalibrationError, InsufficientDataError
+from odolab.errors import CalibrationError, InsufficientDataError, opt
 from odolab.io.registry import LogFormat, find_runs, read_run
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.kinematics import Method
@@ -423,7 +423,7 @@ class LsqCalibration:
         return {
             "method": (
                 "Bayesian linear regression of the body slip on 0.5 s windows "
-                "(odolab calibrate lsq --model slip)"
+                "(odolab calibrate lsq {{model}} slip)"
                 if self.model == "slip"
                 else "least squares on segment relative motion (odolab calibrate lsq)"
             ),
@@ -835,7 +835,9 @@ def calibrate_lsq_files(
     )
     base = nominal or loaded[0][0].params
     if base is None:
-        raise CalibrationError(f"{train[0]}: the log has no nominal parameters; expected --params")
+        raise CalibrationError(
+            f"{train[0]}: the log has no nominal parameters; expected {opt('params')}"
+        )
     result = calibrate_lsq([prep for _, prep in loaded], base, o)
     if not held:
         return result

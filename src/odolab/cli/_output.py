@@ -21,7 +21,9 @@ def echo(message: object, *, err: bool = False) -> None:
     goes through :func:`term`, so an escape sequence in a file name is shown, never obeyed."""
     import typer
 
-    typer.echo("\n".join(term(line) for line in str(message).split("\n")), err=err)
+    from odolab.cli.wording import said
+
+    typer.echo("\n".join(term(line) for line in said(message).split("\n")), err=err)
 
 
 def markup_text(text: object) -> str:

@@ -74,6 +74,7 @@ def ros2_controller_cmd(
     import tomllib
 
     from odolab.cli._output import write_output_text
+    from odolab.cli.wording import CLI
     from odolab.errors import ParamsError
     from odolab.export.ros2_controller import diff_drive_controller_yaml
     from odolab.params import PRESETS, load_params
@@ -101,6 +102,7 @@ def ros2_controller_cmd(
         left_wheel_names=left,
         right_wheel_names=right,
         provenance=provenance,
+        words=CLI,
     )
     write_output_text(output, text, "controller parameters")
     echo(f"wrote {output} (diff_drive_controller of ROS 2 {ros_distro.value})")

@@ -19,7 +19,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any, Generic, TypeVar
 
-from odolab.errors import OdolabError
+from odolab.errors import OdolabError, opt
 
 __all__ = ["Cluster", "MapReport", "Outcome", "local_cluster", "map_outcomes"]
 
@@ -47,10 +47,18 @@ class Cluster:
     def __post_init__(self) -> None:
         if self.scheduler is not None and not self.scheduler.startswith(("tcp://", "tls://")):
             raise OdolabError(
-                f"--scheduler is {self.scheduler!r}; expected an address like tcp://HOST:PORT"
+                f"{opt('scheduler')} is {self.scheduler!r}; expected an address like tcp://HOST:PORT",
+                option="scheduler",
+                value=self.scheduler,
+                allowed="an address like tcp://HOST:PORT",
             )
         if isinstance(self.workers, bool) or int(self.workers) != self.workers or self.workers < 1:
-            raise OdolabError(f"--workers is {self.workers!r}; expected a whole number >= 1")
+            raise OdolabError(
+                f"{opt('workers')} is {self.workers!r}; expected a whole number >= 1",
+                option="workers",
+                value=self.workers,
+                allowed="a whole number >= 1",
+            )
 
     @property
     def local(self) -> bool:
@@ -166,7 +174,7 @@ def _security() -> Any:
     except ImportError as err:  # pragma: no cover - cryptography is a dependency
         raise OdolabError(
             "the local Dask cluster needs the package `cryptography` for its TLS certificate; "
-            "expected it installed with odolab (pip install cryptography), or use --workers 1"
+            "expected it installed with odolab (pip install cryptography), or use {{workers}} 1"
         ) from err
 
 

@@ -36,7 +36,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TypeVar
 
-from odolab.errors import RobotLinkError
+from odolab.errors import RobotLinkError, opt
 from odolab.params import RobotParams
 from odolab.robot.errors import BoardConfigError
 from odolab.robot.jaguar2014.driver import VARIANTS
@@ -89,7 +89,10 @@ class Board2014Config:
             math.isfinite(self.silent_after) and 0 <= self.silent_after <= 3600
         ):
             raise BoardConfigError(
-                f"--silent-after is {self.silent_after}; expected a number in [0, 3600] s"
+                f"{opt('silent_after')} is {self.silent_after}; expected a number in [0, 3600] s",
+                option="silent_after",
+                value=self.silent_after,
+                allowed="a number in [0, 3600] s",
             )
         if self.variant not in VARIANTS:
             raise BoardConfigError(

@@ -15,7 +15,7 @@ import re
 from collections.abc import Mapping
 from typing import Any
 
-from odolab.errors import StoreError
+from odolab.errors import NEUTRAL, StoreError
 
 __all__ = [
     "FIELDS",
@@ -129,13 +129,14 @@ def json_readings(body: Mapping[str, Any]) -> dict[str, float | None]:
     return out
 
 
-_REPLACE = "give --replace to overwrite its measurement"
-_ROTATION = "it is measured with --initial, --final and --turns"
-_TRANSLATION = "it is measured with --x and --y"
+# the store's sentences as str() reads them (the library's words for its settings)
+_REPLACE = NEUTRAL.say("give {{replace}} to overwrite its measurement")
+_ROTATION = NEUTRAL.say("it is measured with {{initial}}, {{final}} and {{turns}}")
+_TRANSLATION = NEUTRAL.say("it is measured with {{x}} and {{y}}")
 
 
 def in_words(message: str, *, api: bool = False) -> str:
-    """The store's sentence with the CLI's flags in the page's (or the API's) words."""
+    """The store's sentence (``str()``: the library's words) in the page's (or the API's)."""
     if api:
         words = {
             _REPLACE: 'send "replace": true to overwrite its measurement',

@@ -138,11 +138,13 @@ def safe_upload_name(filename: str | None) -> str:
 
 
 def web_text(err: BaseException) -> str:
-    """An error's sentence in the web's words: a selection's options named as the pages' and
-    the API's keys (``campaign``, ``exclude_campaign``), not the CLI's flags."""
+    """An error's sentence in the web's words: its settings named as the pages' fields and the
+    API's keys (:data:`odolab.serve.wording.FIELDS`: ``campaign``, ``robot``), not the CLI's
+    flags."""
     from odolab.analysis.selection import WEB_WORDS, SelectionError
+    from odolab.serve.wording import WEB
 
-    return err.worded(WEB_WORDS) if isinstance(err, SelectionError) else str(err)
+    return err.worded(WEB_WORDS) if isinstance(err, SelectionError) else WEB.error(err)
 
 
 def web_status(err: BaseException) -> int:

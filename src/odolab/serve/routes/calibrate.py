@@ -50,7 +50,7 @@ def _run(nb: Notebook, req: CalibrationRequest) -> dict[str, Any]:
     try:
         ctx["result"], ctx["error"] = calibrate(nb, req), None
     except OdolabError as err:
-        text = web_text(err).replace("(--robot, or the form's robot)", "(choose it under robot)")
+        text = web_text(err).replace("(robot, or the form's robot)", "(choose it under robot)")
         ctx["result"], ctx["error"] = None, text
     return ctx
 
