@@ -10,8 +10,8 @@ from tests.core.test_models import SideSlip
 from tests.worded import raises_worded
 from typer.testing import CliRunner
 
-from odolab.cli.wording import said
 from odolab.cli import app
+from odolab.cli.wording import said
 from odolab.errors import ParamsError
 from odolab.export.ros2_controller import UNOBSERVED, controller_numbers, diff_drive_controller_yaml
 from odolab.params import PRESETS, NoiseParams, RobotParams, save_params

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from odolab.cli.wording import said
 from odolab.cli import main
+from odolab.cli.wording import said
 from odolab.params import PRESETS
 from odolab.robot.config import RunConfig
 from odolab.robot.drift import (

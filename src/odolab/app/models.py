@@ -34,7 +34,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from odolab.calibration.compare import DEFAULT_MODELS
-from odolab.errors import opt
 
 if TYPE_CHECKING:
     from odolab.calibration.compare import ModelComparison
@@ -131,12 +130,6 @@ def compare_files(
     )  # fmt: skip
 
 
-def _command_line(words: Sequence[str]) -> str:
-    """``words`` as a shell line: each quoted for a shell, except a setting's mark (its face
-    words it as a flag, :func:`odolab.errors.opt`)."""
-    return " ".join(w if w.startswith("{{") and w.endswith("}}") else shlex.quote(w) for w in words)
-
-
 def exploration_reason(truth: TrueParams, truth_name: str) -> str | None:
     """None when the lab explores on this truth (it has speed-dependent slip); else one
     sentence saying why it does not."""
@@ -145,8 +138,8 @@ def exploration_reason(truth: TrueParams, truth_name: str) -> str | None:
     return (
         f"No exploration run: the truth preset {truth_name} has no speed-dependent slip "
         f"(speed_slip {truth.speed_slip:g} s/m), so the slip model has nothing to learn that the "
-        "kinematic models miss; odolab demo {{truth}} jaguar-lab-tracked drives a one-minute "
-        "exploration and compares the slip model with them."
+        "kinematic models miss; the demo on the truth preset jaguar-lab-tracked drives a "
+        "one-minute exploration and compares the slip model with them."
     )
 
 
@@ -181,19 +174,21 @@ class SlipComparison:
 
     def command(self) -> str:
         """The ``odolab calibrate compare`` line that gives the same comparison from the
-        written files (empty without files)."""
+        written files (empty without files). A command line to run, so in the CLI's own flags:
+        the demo (``odolab.lab``, a face below the CLI's layer) writes it into results.json,
+        and the tests run it from there."""
         if not self.files:
             return ""
         req = slip_request(self.seed)
         words = [
-            "odolab", "calibrate", "compare", *map(self._shown, self.files), opt("validate"),
-            *map(self._shown, self.held_files), opt("format"), "csv", opt("params"), self._shown(Path(self.params_arg))
+            "odolab", "calibrate", "compare", *map(self._shown, self.files), "--validate",
+            *map(self._shown, self.held_files), "--format", "csv", "--params", self._shown(Path(self.params_arg))
             if self.params_arg.endswith(".toml") else self.params_arg,
-            opt("models"), ",".join(req.models),
-            opt("learning_curve"), ",".join(f"{s:g}" for s in req.curve),
-            opt("seed"), str(self.seed), opt("json"), "compare.json",
+            "--models", ",".join(req.models),
+            "--learning-curve", ",".join(f"{s:g}" for s in req.curve),
+            "--seed", str(self.seed), "--json", "compare.json",
         ]  # fmt: skip
-        return _command_line(words)
+        return shlex.join(words)
 
     def nees_command(self) -> str:
         """The ``odolab evaluate --nees`` line that gives :attr:`nees` from the written files
@@ -201,11 +196,11 @@ class SlipComparison:
         if not self.held_files or self.slip_params is None:
             return ""
         words = [
-            "odolab", "evaluate", *map(self._shown, self.held_files), opt("format"), "csv",
-            opt("params"), self._shown(self.slip_params), opt("nees"), opt("nees_segment"),
+            "odolab", "evaluate", *map(self._shown, self.held_files), "--format", "csv",
+            "--params", self._shown(self.slip_params), "--nees", "--nees-segment",
             f"{NEES_PIECE_S:g}",
         ]  # fmt: skip
-        return _command_line(words)
+        return shlex.join(words)
 
     def _shown(self, path: Path) -> str:
         if self.base is not None and path.is_relative_to(self.base):

@@ -77,6 +77,7 @@ __all__ = [
     "ModelScore",
     "compare_model_files",
     "compare_models",
+    "parse_curve",
 ]
 
 #: Models from the simplest to the most complex (the recommendation prefers the left). The
@@ -477,6 +478,41 @@ def compare_models(
     return result
 
 
+def parse_curve(text: str) -> tuple[float, ...]:
+    """The learning curve's seconds from a face's text (``10,20,30,60``; empty: none), each a
+    positive number (:func:`compare_runs` checks them against the training run)."""
+    items = [x.strip() for x in text.split(",")] if text.strip() else []
+    curve: list[float] = []
+    for item in items:
+        if not item:
+            raise CalibrationError(
+                f"{opt('learning_curve')} {text!r} has an empty item; expected seconds "
+                "separated by commas, e.g. 10,20,30,60",
+                option="learning_curve",
+                value=text,
+                allowed="seconds separated by commas, e.g. 10,20,30,60",
+            )
+        try:
+            value = float(item)
+        except ValueError:
+            value = math.nan
+        _check_seconds(value, item)
+        curve.append(value)
+    return tuple(curve)
+
+
+def _check_seconds(seconds: float, given: object) -> None:
+    """One learning-curve point: a positive number of seconds (``given``: as the user wrote it)."""
+    if not (math.isfinite(seconds) and seconds > 0):
+        raise CalibrationError(
+            f"{opt('learning_curve')}: {given!r} is not a positive number of seconds; expected "
+            "e.g. 10,20,30,60",
+            option="learning_curve",
+            value=given,
+            allowed="a positive number of seconds, e.g. 10,20,30,60",
+        )
+
+
 def _check_curve(curve: Sequence[float], run: OdometryRun) -> None:
     """The learning curve's seconds: positive, each once, none beyond the first training run
     (a point past its end was the whole run under another label)."""
@@ -485,11 +521,7 @@ def _check_curve(curve: Sequence[float], run: OdometryRun) -> None:
     step = float(np.median(np.diff(t))) if t.size > 1 else 0.0
     seen: set[float] = set()
     for s in curve:
-        if not (math.isfinite(s) and s > 0):
-            raise CalibrationError(
-                f"{opt('learning_curve')}: {s!r} is not a positive number of seconds; expected e.g. "
-                "10,20,30,60"
-            )
+        _check_seconds(s, s)
         if s in seen:
             raise CalibrationError(
                 f"{opt('learning_curve')}: {s:g} s is given twice; expected each once"

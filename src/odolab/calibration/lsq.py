@@ -423,7 +423,7 @@ class LsqCalibration:
         return {
             "method": (
                 "Bayesian linear regression of the body slip on 0.5 s windows "
-                "(odolab calibrate lsq {{model}} slip)"
+                "(odolab calibrate lsq, the slip model)"
                 if self.model == "slip"
                 else "least squares on segment relative motion (odolab calibrate lsq)"
             ),

@@ -75,7 +75,6 @@ def ros2_controller_cmd(
 
     from odolab.cli._output import write_output_text
     from odolab.cli.wording import CLI
-    from odolab.errors import ParamsError
     from odolab.export.ros2_controller import diff_drive_controller_yaml
     from odolab.params import PRESETS, load_params
 
@@ -85,11 +84,6 @@ def ros2_controller_cmd(
         provenance = tomllib.loads(Path(params).read_text(encoding="utf-8")).get("provenance")
     left = tuple(left_wheels or ["left_wheel_joint"])
     right = tuple(right_wheels or ["right_wheel_joint"])
-    if len(left) != len(right):
-        raise ParamsError(
-            f"--left-wheel given {len(left)} times and --right-wheel {len(right)} times; "
-            "expected as many wheels on each side"
-        )
     text = diff_drive_controller_yaml(
         robot,
         nominal=load_params(nominal) if nominal else None,

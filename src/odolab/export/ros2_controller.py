@@ -453,6 +453,14 @@ def diff_drive_controller_yaml(
         )
     keys = DISTRO_KEYS[distro]
     name = _yaml_name(controller)
+    if len(left_wheel_names) != len(right_wheel_names):
+        raise ParamsError(
+            f"{opt('left_wheel')} given {len(left_wheel_names)} times and {opt('right_wheel')} "
+            f"{len(right_wheel_names)} times; expected as many wheels on each side",
+            option="right_wheel",
+            value=len(right_wheel_names),
+            allowed=f"{len(left_wheel_names)} wheels, as many as on the left",
+        )
     for side, joints in (("left_wheel", left_wheel_names), ("right_wheel", right_wheel_names)):
         for joint in joints:
             _yaml_name(joint, side, "joint")

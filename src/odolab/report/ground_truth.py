@@ -86,7 +86,7 @@ def _image(path: Path, data: bytes) -> dict[str, Any]:
         "title": f"The photo with the estimated path: {path.name}",
         "rows": [
             ("what it shows", "the LED's dashes as read (the true path) and the odometry's path "
-             "drawn over them (odolab track-photo {{overlay}}): where they part, the estimate drifts"),
+             "drawn over them (the overlay of odolab track-photo): where they part, the estimate drifts"),
         ],
         "image": base64.b64encode(data).decode("ascii"),
     }  # fmt: skip

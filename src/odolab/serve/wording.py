@@ -8,9 +8,10 @@ table; :data:`WEB` words an error (:func:`odolab.serve.routes._web.web_text` use
 
 from __future__ import annotations
 
+from odolab.analysis.selection import Wording as SelectionWording
 from odolab.errors import Wording
 
-__all__ = ["FIELDS", "WEB"]
+__all__ = ["CALIBRATE_WORDS", "FIELDS", "WEB"]
 
 #: setting (library name) -> the form field or API key that sets it on the web
 FIELDS: dict[str, str] = {
@@ -24,3 +25,9 @@ FIELDS: dict[str, str] = {
 
 #: The web's wording.
 WEB = Wording(FIELDS, "the web")
+
+#: The calibrate page's words for what a selection left out (its campaigns come from Table I's
+#: address).
+CALIBRATE_WORDS = SelectionWording(
+    "campaign", "exclude_campaign", "add ?campaign=NAME to the Table I address to include it"
+)

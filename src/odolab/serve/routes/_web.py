@@ -225,7 +225,9 @@ class Web:
             path=request.url.path,
             **context,
         )
-        return HTMLResponse(html, status_code=status_code)
+        from odolab.serve.wording import WEB  # the library's settings in the web's words
+
+        return HTMLResponse(WEB.say(html), status_code=status_code)
 
     def error_page(self, request: Request, err: Exception, status_code: int = 400) -> Response:
         return self.page(request, "error.html.j2", status_code, error=web_text(err))

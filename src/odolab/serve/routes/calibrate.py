@@ -10,6 +10,7 @@ from starlette.responses import RedirectResponse, Response
 
 from odolab.errors import OdolabError
 from odolab.serve.routes._web import FormError, text_field, web, web_text
+from odolab.serve.wording import CALIBRATE_WORDS
 
 if TYPE_CHECKING:
     from odolab.app.calibration import CalibrationRequest
@@ -20,7 +21,11 @@ __all__ = ["page", "post"]
 
 def _choices(nb: Notebook) -> dict[str, Any]:
     trials = nb.load_trials(with_logs=False)
-    return {"robots": nb.robots(), "terrains": sorted({t.terrain for t in trials})}
+    return {
+        "robots": nb.robots(),
+        "terrains": sorted({t.terrain for t in trials}),
+        "selection_words": CALIBRATE_WORDS,
+    }
 
 
 async def page(request: Request) -> Response:
