@@ -12,7 +12,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import LogFormatError
+from odolab.errors import LogFormatError, opt
 from odolab.kinematics import Method
 from odolab.odometry import integrate, integrate_increments
 from odolab.params import RobotParams
@@ -61,7 +61,7 @@ def trajectory_from_increments(
     p = params or run.params
     if p is None:
         raise LogFormatError(
-            f"{run.source}: no robot parameters in the log; expected parameters (--params)"
+            f"{run.source}: no robot parameters in the log; expected parameters ({opt('params')})"
         )
     return integrate_increments(
         run.t, run.dticks_left, run.dticks_right, p, method, start=start, source=run.source

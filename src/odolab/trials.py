@@ -397,7 +397,7 @@ def _check_command(c: Command, where: str) -> None:
         raise InvalidTrialError(
             f"{where}: an exploration's settings have no place in the notebook (it is not a "
             "Table I trial; its log and ground truth stay in its run folder); expected the "
-            "excluded free run that odolab robot explore --db records, its settings in the notes",
+            "excluded free run that odolab robot explore {{db}} records, its settings in the notes",
             "kind",
         )
     for name in ("angle", "distance", "side", "speed"):

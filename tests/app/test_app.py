@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pytest
 from tests.parity.notebooks import ROBOT_A, VALIDATION, make_notebook
+from tests.worded import raises_worded
 
 from odolab.app.calibration import CalibrationRequest, calibrate, choose_base, choose_robot
 from odolab.app.exports import ExportRequest
@@ -65,7 +66,7 @@ def test_a_selection_leaves_validation_out_and_filters_a_robot(two) -> None:  # 
 
 
 def test_a_missing_notebook_is_one_sentence(tmp_path: Path) -> None:
-    with pytest.raises(StoreError, match=r"no-such\.db: no such lab notebook; give --db FILE"):
+    with raises_worded(StoreError, match=r"no-such\.db: no such lab notebook; give --db FILE"):
         open_notebook(tmp_path / "no-such.db")
 
 

@@ -7,6 +7,7 @@ import math
 from pathlib import Path
 
 import pytest
+from tests.worded import raises_worded
 
 from odolab.app.evaluate import (
     EvaluationRequest,
@@ -62,7 +63,7 @@ def test_the_parameters_used_are_said() -> None:
 )
 def test_checked_before_any_file_is_read(request_: EvaluationRequest, sentence: str) -> None:
     """The files do not exist: the option's sentence comes first."""
-    with pytest.raises(OdolabError, match=sentence.replace("(", r"\(").replace(")", r"\)")):
+    with raises_worded(OdolabError, match=sentence.replace("(", r"\(").replace(")", r"\)")):
         evaluate_trajectories(request_)
 
 
@@ -70,5 +71,5 @@ def test_ground_truth_is_one_runs(tmp_path: Path) -> None:
     request = LsqRequest(
         runs=(Path("a.csv"), Path("b.csv")), fmt="optiodom", ground_truth=tmp_path / "gt.csv"
     )
-    with pytest.raises(OdolabError, match="expected exactly one run and no --validate, got 2 runs"):
+    with raises_worded(OdolabError, match="expected exactly one run and no --validate, got 2 runs"):
         calibrate_lsq_runs(request, read_options=ReadOptions(), cluster=Cluster(workers=1))

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from tests.worded import raises_worded
 
 import shared_data
 from odolab.app.odometry import choose_params, resolve_formats
@@ -69,7 +70,7 @@ def test_refusals_are_one_sentence(tmp_path: Path, capsys: pytest.CaptureFixture
     assert main(["odometry", str(tmp_path), "-f", "optiodom", "-o", str(out)]) == 1
     assert "integrates one run file at a time" in capsys.readouterr().err
     assert not out.exists()
-    with pytest.raises(OdolabError, match="--format tum with --to csv"):
+    with raises_worded(OdolabError, match="--format tum with --to csv"):
         resolve_formats("tum", "csv")
     assert resolve_formats("tum", None) == (LogFormat.CSV, "tum")
 

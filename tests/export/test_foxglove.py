@@ -6,6 +6,7 @@ import json
 import struct
 
 import pytest
+from tests.worded import raises_worded
 from websockets.sync.client import connect
 
 from odolab.errors import OdolabError
@@ -117,7 +118,7 @@ def test_a_port_in_use_is_one_sentence() -> None:
         busy.bind(("127.0.0.1", 0))
         busy.listen()
         port = busy.getsockname()[1]
-        with pytest.raises(OdolabError, match=rf"--foxglove-port {port}: cannot serve Foxglove"):
+        with raises_worded(OdolabError, match=rf"--foxglove-port {port}: cannot serve Foxglove"):
             FoxgloveLive(port=port)
 
 

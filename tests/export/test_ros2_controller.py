@@ -7,9 +7,11 @@ from pathlib import Path
 import pytest
 import yaml
 from tests.core.test_models import SideSlip
+from tests.worded import raises_worded
 from typer.testing import CliRunner
 
 from odolab.cli import app
+from odolab.cli.wording import said
 from odolab.errors import ParamsError
 from odolab.export.ros2_controller import UNOBSERVED, controller_numbers, diff_drive_controller_yaml
 from odolab.params import PRESETS, NoiseParams, RobotParams, save_params
@@ -129,7 +131,7 @@ def test_bad_options_are_one_sentence(
 
 
 def test_library_refuses_a_bad_horizon() -> None:
-    with pytest.raises(ParamsError, match="--horizon is 0; expected a positive number"):
+    with raises_worded(ParamsError, match="--horizon is 0; expected a positive number"):
         controller_numbers(CALIBRATED, horizon=0)
 
 
@@ -227,7 +229,7 @@ def test_yaml_floats_keep_a_dot_in_the_mantissa() -> None:
 
 
 def test_an_unknown_distro_is_one_sentence() -> None:
-    with pytest.raises(ParamsError, match="--ros-distro is 'iron'; expected one of humble"):
+    with raises_worded(ParamsError, match="--ros-distro is 'iron'; expected one of humble"):
         diff_drive_controller_yaml(CALIBRATED, distro="iron")
 
 
@@ -277,7 +279,7 @@ def test_a_speed_dependent_slip_model_is_its_equivalent_at_the_stated_speed() ->
     p = _slip(fwd_v_absv=-0.2, yaw_w_absw=-0.1, yaw_v=0.02)
     n = controller_numbers(p, nominal=NOMINAL, speed=v)
     assert not n.exact
-    (note,) = n.notes
+    (note,) = map(said, n.notes)  # as the CLI writes it
     assert "equivalent at --speed 0.8 m/s" in note and "0.92 at 0.4 m/s" in note
     assert "0.68 at 1.6 m/s" in note
     r = NOMINAL.left_wheel_radius

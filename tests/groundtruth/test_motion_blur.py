@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from tests.worded import raises_worded
 
 from odolab.errors import OdolabError
 from odolab.tracking import CameraModel, FloorMarker
@@ -58,7 +59,7 @@ def test_edge_refinement_keeps_the_heading_under_blur(blurred: Path) -> None:
 
 
 def test_refinement_and_exposure_are_checked() -> None:
-    with pytest.raises(OdolabError, match="--corners is 'edges'; expected one of subpix"):
+    with raises_worded(OdolabError, match="--corners is 'edges'; expected one of subpix"):
         TrackOptions(10, 0.25, 0.3, corners="edges")
     scene = look_at(CAMERA, (0.0, -3.0, 3.2), (0.0, 0.3, 0.0))
     with pytest.raises(OdolabError, match="expected exposure >= 0 s"):

@@ -9,6 +9,7 @@ import re
 from pathlib import Path
 
 import pytest
+from tests.worded import raises_worded
 
 from odolab.cli import main
 from odolab.errors import LogFormatError
@@ -106,7 +107,7 @@ def test_sensor_calibration_summary_by_hand(tmp_path: Path) -> None:
 def test_bad_files_are_one_sentence(tmp_path: Path, text: str, needle: str) -> None:
     p = tmp_path / "gt.txt"
     p.write_text(text)
-    with pytest.raises(LogFormatError, match=re.escape(needle)):
+    with raises_worded(LogFormatError, match=re.escape(needle)):
         ground_truth_summary(p)
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from tests.worded import raises_worded
 
 from odolab.errors import LogFormatError
 from odolab.io import read_encoder_csv
@@ -29,7 +30,7 @@ def test_headerless_increments_name_the_header(tmp_path: Path) -> None:
 def test_optiodom_run_points_to_its_format(tmp_path: Path) -> None:
     log = tmp_path / "231220200121_run-01.csv"
     log.write_text("0,0,0,0,0,0\n0.05,0.002,0.0004,0.017,0,0\n")
-    with pytest.raises(LogFormatError, match=r"\(an OptiOdom run: give --format optiodom\)$"):
+    with raises_worded(LogFormatError, match=r"\(an OptiOdom run: give --format optiodom\)$"):
         read_encoder_csv(log)
 
 

@@ -4,6 +4,7 @@ in simulated time, where every time is exact."""
 from __future__ import annotations
 
 import pytest
+from tests.worded import raises_worded
 
 from odolab.odometry import Odometry
 from odolab.params import PRESETS
@@ -112,7 +113,7 @@ def test_watchdog_stop_reaches_the_board_within_watchdog_plus_one_cycle(
     driver = JaguarDriver(InProcessLink(board, clock.now), clock, driver_config_for(NOMINAL))
     watchdog = 0.5
     loop = ControlLoop(driver, Odometry(NOMINAL), clock, rate=rate, watchdog_timeout=watchdog)
-    with pytest.raises(LinkLostError, match="--link-timeout 1 s"):
+    with raises_worded(LinkLostError, match="--link-timeout 1 s"):
         loop.run(Straight(50.0, speed=0.5), link_abort=1.0)
     assert driver.latest is not None
     last_arrival = driver.latest.t

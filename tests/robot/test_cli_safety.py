@@ -14,6 +14,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from tests.worded import raises_worded
 
 from odolab.cli import main
 from odolab.params import PRESETS
@@ -122,9 +123,9 @@ def test_sim_server_refuses_bad_options(
 def test_run_config_names_the_option_and_keeps_good_values() -> None:
     c = RunConfig(rate=50, watchdog=0.2, link_timeout=1.0)
     assert (c.rate, c.period, c.watchdog) == (50.0, 0.02, 0.2)
-    with pytest.raises(RobotConfigError, match=r"^--watchdog is 0.05 s, shorter than two loop"):
+    with raises_worded(RobotConfigError, match=r"^--watchdog is 0.05 s, shorter than two loop"):
         RunConfig(rate=20, watchdog=0.05)
-    with pytest.raises(RobotConfigError, match=r"^--mode is 'fast'"):
+    with raises_worded(RobotConfigError, match=r"^--mode is 'fast'"):
         RunConfig(mode="fast")  # type: ignore[arg-type]
     assert RunConfig().to_dict()["mode"] == "pwm"
 

@@ -10,6 +10,7 @@ import socket
 from pathlib import Path
 
 import pytest
+from tests.worded import raises_worded
 
 from odolab.cli import main
 from odolab.robot.errors import RobotConfigError, RobotUrlError
@@ -99,7 +100,7 @@ def test_the_url_rules_hold_below_the_face() -> None:
     assert check_robot_url("udp://jaguar.local:10001") == "udp://jaguar.local:10001"
     with pytest.raises(RobotUrlError, match="written another way"):
         check_robot_url("udp://127.000.000.001:9")
-    check_virtual_only("sim://", {"--command-timeout": 1.0, "--truth": "ideal"})
-    check_virtual_only("udp://127.0.0.1:9", {"--command-timeout": 0.5, "--seed": 0})
-    with pytest.raises(RobotConfigError, match=r"^--command-timeout, --seed are for the virtual"):
-        check_virtual_only("tcp://127.0.0.1:9", {"--command-timeout": 2.0, "--seed": 1})
+    check_virtual_only("sim://", {"command_timeout": 1.0, "truth": "ideal"})
+    check_virtual_only("udp://127.0.0.1:9", {"command_timeout": 0.5, "seed": 0})
+    with raises_worded(RobotConfigError, match=r"^--command-timeout, --seed are for the virtual"):
+        check_virtual_only("tcp://127.0.0.1:9", {"command_timeout": 2.0, "seed": 1})

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from tests.worded import raises_worded
 
 from odolab.cli import main
 from odolab.params import PRESETS
@@ -41,7 +42,7 @@ def test_schemes() -> None:
         open_link("sim://somewhere", RunConfig(), NOMINAL, RealClock())
     # a query or a fragment was ignored: sim://?truth=jaguar-lab-trackd drove the default truth
     for bad in ("sim://?truth=jaguar-lab-tracked", "sim://#x", "sim:///path", "sim://;p"):
-        with pytest.raises(RobotUrlError, match=r"expected plain sim:// .*--truth"):
+        with raises_worded(RobotUrlError, match=r"expected plain sim:// .*--truth"):
             check_robot_url(bad)
         with pytest.raises(RobotUrlError, match="plain sim://"):
             open_link(bad, RunConfig(), NOMINAL, RealClock())

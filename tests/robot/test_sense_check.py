@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from odolab.cli import main
+from odolab.cli.wording import said
 from odolab.params import PRESETS
 from odolab.robot.config import RunConfig
 from odolab.robot.drift import (
@@ -64,7 +65,7 @@ def test_one_reversed_encoder_is_named() -> None:
     found = sense_check(0.02, 6.2, 10.0)
     assert found is not None and found.kind == "ratio"
     assert found.ratio == pytest.approx(310.0) and found.expected == EXPECTED_RATIO
-    problem = robot_sense_sentence(found)
+    problem = said(robot_sense_sentence(found))  # as the CLI shows it
     assert "one encoder counting backwards" in problem and "--left-encoder-sign" in problem
     assert sense_check(6.349, -6.11, 12.0) is not None  # the variant=track run
     assert sense_check(6.0, 6.1, 12.0) is None  # within the calibrated range, widened

@@ -9,6 +9,7 @@ import pytest
 from typer.testing import CliRunner
 
 from odolab.cli import app, main
+from odolab.cli.wording import worded
 from odolab.store import Notebook
 
 from .conftest import make_trials
@@ -140,5 +141,5 @@ def test_compass_readings_for_a_translation_are_refused(tmp_path: Path) -> None:
         app, ["trials", "measure", "D", "--initial", "10", "--final", "20", "--turns", "1",
               "--db", db], input="0.9\n0.01\n")  # fmt: skip
     assert result.exit_code != 0
-    assert "measured with --x and --y" in str(result.exception)
+    assert "measured with --x and --y" in worded(result.exception)  # as the CLI prints it
     assert "x by meterstick" not in result.output  # nothing asked

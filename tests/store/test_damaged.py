@@ -18,6 +18,7 @@ from pathlib import Path
 import pytest
 
 from odolab.cli import main
+from odolab.cli.wording import worded
 from odolab.errors import StoreError
 from odolab.store import Notebook
 from odolab.store.health import NotebookDamagedError, NotebookFileError
@@ -126,7 +127,7 @@ def test_a_damaged_notebook_names_sqlites_words_and_the_way_back(
     db.write_bytes(bytes(data))
     with pytest.raises(NotebookDamagedError) as caught, Notebook(db) as nb:
         nb.load_trials()
-    text = str(caught.value)
+    text = worded(caught.value)  # as the CLI prints it
     assert text.startswith(f"{db}: the notebook is damaged (SQLite: ")
     assert "integrity check: " in text and "integrity check: ok" not in text
     assert f"`odolab notebook rescue NEW.db --db {db}`" in text

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from tests.worded import raises_worded
 
 from odolab.errors import ImuLogError
 from odolab.params import PRESETS
@@ -146,7 +147,7 @@ def test_plots_have_labels_units_and_legends(scenario, tmp_path: Path) -> None: 
 def test_face_down_phone_is_detected_and_flip_fixes_it(scenario) -> None:  # type: ignore[no-untyped-def]
     phone = simulate_phone_log(scenario.true_t, scenario.true_heading, clock_offset=1.5, seed=3)
     down = phone.flipped()
-    with pytest.raises(ImuLogError, match=r"sign reversed.*--flip-imu"):
+    with raises_worded(ImuLogError, match=r"sign reversed.*--flip-imu"):
         validate(scenario.encoder_log, down, scenario.old, scenario.new)
     r = validate(scenario.encoder_log, down.flipped(), scenario.old, scenario.new)
     assert r.clock_offset == pytest.approx(1.5, abs=0.01)

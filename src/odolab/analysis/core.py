@@ -312,7 +312,7 @@ def analyze_trials(trials: Sequence[Trial], *, progress: Progress | None = None)
             f"no fit possible from {count(len(measured), 'measured trial')}: each motion and "
             f"terrain needs at least {MIN_FIT_POINTS} measured trials at two or more distances "
             f"or angles{detail}; a protocol on the virtual Jaguar (`odolab sim run rotation "
-            "--db NOTEBOOK`) records enough in seconds"
+            "{{db}} NOTEBOOK`) records enough in seconds"
         )
     tests: list[TerrainComparison] = []
     for motion in order:

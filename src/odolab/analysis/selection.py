@@ -12,7 +12,7 @@ from collections import Counter
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
-from odolab.errors import OdolabError
+from odolab.errors import OdolabError, opt
 from odolab.numfmt import count
 from odolab.trials import Trial, TrialStatus
 
@@ -41,8 +41,12 @@ class Wording:
     include: str  #: how to include a validation campaign
 
 
-#: The CLI's words (what a sentence says unless a face asks for its own).
-CLI_WORDS = Wording("--campaign", "--exclude-campaign", "name it with --campaign to include it")
+#: The library's words, the settings as marks (:func:`odolab.errors.opt`) that each face words
+#: (the CLI as its flags: ``odolab.cli.wording``); what a sentence says unless a face asks for
+#: its own.
+CLI_WORDS = Wording(
+    opt("campaign"), opt("exclude_campaign"), f"name it with {opt('campaign')} to include it"
+)
 #: The web's (the query and JSON keys of its pages and API).
 WEB_WORDS = Wording(
     "campaign", "exclude_campaign", "select it by name (campaign=NAME) to include it"
@@ -51,7 +55,7 @@ WEB_WORDS = Wording(
 
 class SelectionError(OdolabError):
     """A campaign filter names no campaign of the notebook, or leaves no trial. ``words``:
-    the sentence in a face's words (:meth:`worded`); ``str()`` is the CLI's."""
+    the sentence in a face's words (:meth:`worded`); ``str()`` is the library's."""
 
     def __init__(self, message: str | Callable[[Wording], str]) -> None:
         self._words = message if callable(message) else None

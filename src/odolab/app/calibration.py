@@ -23,7 +23,7 @@ from odolab.app.selection import (
     select_among,
     validation_campaigns,
 )
-from odolab.errors import CalibrationError
+from odolab.errors import CalibrationError, opt
 from odolab.trials import MotionKind, Trial, TrialStatus
 
 if TYPE_CHECKING:
@@ -174,7 +174,7 @@ def choose_robot(trials: list[Trial], robot: str | None, params: RobotParams | N
         raise CalibrationError("the selection has no measured trial to calibrate from")
     raise CalibrationError(
         f"the selected trials are of {len(robots)} robots ({', '.join(robots)}); name the one "
-        "to calibrate (--robot, or the form's robot)"
+        "to calibrate ({{robot}}, or the form's robot)"
     )
 
 
@@ -292,7 +292,7 @@ def umbmark_from_squares(
         result = umbmark_iterated(squares, start, scale_sd=scale_sd)
         if side is not None and abs(side - result.side) > 1e-6:
             raise CalibrationError(
-                f"--side {side:g} m disagrees with the notebook's squares ({result.side:g} m)"
+                f"{opt('side')} {side:g} m disagrees with the notebook's squares ({result.side:g} m)"
             )
         after = result.e_max_syst_after
         how = (

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from odolab.errors import OdolabError
+from odolab.errors import OdolabError, opt
 from odolab.metrics import (
     PLANAR_NOTE,
     RUN_OPTIONS,
@@ -125,36 +125,45 @@ def _check(request: EvaluationRequest, robot: RobotParams | None) -> None:
     """Every option checked before any file is read: a typo costs nothing."""
     if not (math.isfinite(request.drift_turn_deg) and request.drift_turn_deg > 0):
         raise OdolabError(
-            f"--drift-turn is {request.drift_turn_deg:g}; expected a positive angle in degrees"
+            f"{opt('drift_turn')} is {request.drift_turn_deg:g}; expected a positive angle in degrees",
+            option="drift_turn",
+            value=request.drift_turn_deg,
+            allowed="a positive angle in degrees",
         )
     if request.nees:
         if not (math.isfinite(request.nees_segment_s) and request.nees_segment_s > 0):
             raise OdolabError(
-                f"--nees-segment is {request.nees_segment_s}; expected a positive number of seconds"
+                f"{opt('nees_segment')} is {request.nees_segment_s}; expected a positive number of seconds",
+                option="nees_segment",
+                value=request.nees_segment_s,
+                allowed="a positive number of seconds",
             )
         if robot is not None and covariance_source(robot) is None:
             raise OdolabError(
-                f"--nees: the parameters {request.params} have no [noise] table (k_left, "
-                "k_right) and no slip model; give --params with one (e.g. from `odolab "
-                "calibrate noise`, or `odolab calibrate lsq --model slip`)"
+                f"{opt('nees')}: the parameters {request.params} have no [noise] table (k_left, "
+                "k_right) and no slip model; give {{params}} with one (e.g. from `odolab "
+                "calibrate noise`, or `odolab calibrate lsq {{model}} slip`)"
             )
     if request.fmt is None:
         if request.nees:
             raise OdolabError(
-                "--nees needs runs with encoder increments (--format), not two trajectories"
+                "{{nees}} needs runs with encoder increments ({{format}}), not two trajectories"
             )
         if len(request.paths) != 2:
             raise OdolabError(
                 f"evaluate takes GT EST (two trajectory files), got "
-                f"{count(len(request.paths), 'path')}; use --format for runs"
+                f"{count(len(request.paths), 'path')}; use {opt('format')} for runs"
             )
         if request.chunk_rows is not None and request.chunk_rows < 0:
             raise OdolabError(
-                f"--chunk-rows is {request.chunk_rows}; expected a number of rows >= 1 (or 0)"
+                f"{opt('chunk_rows')} is {request.chunk_rows}; expected a number of rows >= 1 (or 0)",
+                option="chunk_rows",
+                value=request.chunk_rows,
+                allowed="a number of rows >= 1 (or 0)",
             )
     elif request.chunk_rows is not None:
         raise OdolabError(
-            "--chunk-rows reads two trajectory files (GT EST) in chunks; runs (--format) are "
+            "{{chunk_rows}} reads two trajectory files (GT EST) in chunks; runs ({{format}}) are "
             "read whole, one per task"
         )
 
@@ -348,13 +357,13 @@ class LsqResult:
 def _check_lsq(request: LsqRequest) -> None:
     if request.ground_truth is not None:  # checked before any run is read
         if len(request.runs) != 1 or request.held_out:
-            extra = " and --validate" if request.held_out else ""
+            extra = " and {{validate}}" if request.held_out else ""
             raise OdolabError(
-                f"--ground-truth is one run's ground truth; expected exactly one run and no "
-                f"--validate, got {count(len(request.runs), 'run')}{extra}"
+                f"{opt('ground_truth')} is one run's ground truth; expected exactly one run and no "
+                f"{opt('validate')}, got {count(len(request.runs), 'run')}{extra}"
             )
         if not request.ground_truth.is_file():
-            raise OdolabError(f"--ground-truth {request.ground_truth}: no such file")
+            raise OdolabError(f"{opt('ground_truth')} {request.ground_truth}: no such file")
 
 
 def calibrate_lsq_runs(

@@ -138,8 +138,8 @@ def exploration_reason(truth: TrueParams, truth_name: str) -> str | None:
     return (
         f"No exploration run: the truth preset {truth_name} has no speed-dependent slip "
         f"(speed_slip {truth.speed_slip:g} s/m), so the slip model has nothing to learn that the "
-        "kinematic models miss; odolab demo --truth jaguar-lab-tracked drives a one-minute "
-        "exploration and compares the slip model with them."
+        "kinematic models miss; the demo on the truth preset jaguar-lab-tracked drives a "
+        "one-minute exploration and compares the slip model with them."
     )
 
 
@@ -174,7 +174,9 @@ class SlipComparison:
 
     def command(self) -> str:
         """The ``odolab calibrate compare`` line that gives the same comparison from the
-        written files (empty without files)."""
+        written files (empty without files). A command line to run, so in the CLI's own flags:
+        the demo (``odolab.lab``, a face below the CLI's layer) writes it into results.json,
+        and the tests run it from there."""
         if not self.files:
             return ""
         req = slip_request(self.seed)

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 from odolab.defaults import DEFAULT_ROBOT, LogFormat
-from odolab.errors import OdolabError, ParamsError
+from odolab.errors import OdolabError, ParamsError, opt
 from odolab.models import own_covariance
 from odolab.params import covariance_source
 
@@ -71,7 +71,7 @@ class ParamsChoice:
             return what + f" (the log's: {self.found})"
         if self.by == "default":
             return (
-                what + " (the default: neither --params nor the log named any; give --params "
+                what + " (the default: neither {{params}} nor the log named any; give {{params}} "
                 "with your robot's parameters)"
             )
         return what
@@ -127,7 +127,7 @@ def _from_run_json(log: Path) -> ParamsChoice | None:
     except (OSError, UnicodeDecodeError, ValueError) as err:
         raise ParamsError(
             f"{doc_path}: cannot read the run's parameters ({err}); expected the run.json that "
-            "`odolab robot` writes, or give --params"
+            "`odolab robot` writes, or give {{params}}"
         ) from err
     if not isinstance(doc, dict) or not isinstance(doc.get("params"), dict):
         return None
@@ -170,8 +170,8 @@ def resolve_formats(fmt: str, to: str | None) -> tuple[LogFormat, Literal["csv",
     if fmt == "tum":
         if to == "csv":
             raise OdolabError(
-                "--format tum with --to csv: --format tum (the older spelling) means a TUM "
-                "output; expected --format csv --to csv, or --to tum alone"
+                "{{format}} tum with {{to}} csv: {{format}} tum (the older spelling) means a TUM "
+                "output; expected {{format}} csv {{to}} csv, or {{to}} tum alone"
             )
         return LogFormat.CSV, "tum"
     try:
@@ -179,10 +179,10 @@ def resolve_formats(fmt: str, to: str | None) -> tuple[LogFormat, Literal["csv",
     except ValueError:
         names = ", ".join(f.value for f in LogFormat)
         raise OdolabError(
-            f"--format {fmt!r} is not a log format; expected one of {names}"
+            f"{opt('format')} {fmt!r} is not a log format; expected one of {names}"
         ) from None
     if to not in (None, "csv", "tum"):
-        raise OdolabError(f"--to {to!r} is not an output format; expected csv or tum")
+        raise OdolabError(f"{opt('to')} {to!r} is not an output format; expected csv or tum")
     return log_format, "tum" if to == "tum" else "csv"
 
 
@@ -288,24 +288,29 @@ def check_request(
     lf = LogFormat(log_format)
     if lf != LogFormat.CSV and covariance:
         raise OdolabError(
-            f"--covariance with --format {lf.value}: the covariance is propagated for encoder "
-            "logs only; expected --format csv (or leave out --covariance)"
+            f"{opt('covariance')} with {opt('format')} {lf.value}: the covariance is propagated for encoder "
+            "logs only; expected {{format}} csv (or leave out {{covariance}})"
         )
     if lf != LogFormat.CSV and max_dticks is not None:
         raise OdolabError(
-            f"--max-dticks with --format {lf.value}: a {lf.value} run holds increments, not "
-            "counters that wrap; expected it without --max-dticks"
+            f"{opt('max_dticks')} with {opt('format')} {lf.value}: a {lf.value} run holds increments, not "
+            "counters that wrap; expected it without {{max_dticks}}"
         )
     if chunk_rows is not None and chunk_rows < 0:
-        raise OdolabError(f"--chunk-rows is {chunk_rows}; expected a number of rows >= 1 (or 0)")
+        raise OdolabError(
+            f"{opt('chunk_rows')} is {chunk_rows}; expected a number of rows >= 1 (or 0)",
+            option="chunk_rows",
+            value=chunk_rows,
+            allowed="a number of rows >= 1 (or 0)",
+        )
     if covariance and fmt != "csv":
         raise OdolabError(
-            f"--covariance with --format {fmt}: TUM has no covariance columns; expected "
-            "--format csv (a .csv, .parquet or .arrow output)"
+            f"{opt('covariance')} with {opt('format')} {fmt}: TUM has no covariance columns; expected "
+            "{{format}} csv (a .csv, .parquet or .arrow output)"
         )
     if covariance and covariance_source(params.params) is None:
         raise ParamsError(
-            f"--covariance: the parameters {params.source} have no [noise] table; expected one "
+            f"{opt('covariance')}: the parameters {params.source} have no [noise] table; expected one "
             "with k_left and k_right (m), as `odolab calibrate noise RUNS -o P.toml` writes it"
         )
 
@@ -398,7 +403,7 @@ def _integrate_own_covariance(req: OdometryRequest) -> OdometryOutcome:
     notes = [
         "covariance: "
         + model.describe_covariance()
-        + (", the whole log at once (--chunk-rows does not apply)" if req.chunk_rows else "")
+        + (", the whole log at once ({{chunk_rows}} does not apply)" if req.chunk_rows else "")
     ]
     note = first_order_note(traj, terms)
     if note:

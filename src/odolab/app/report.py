@@ -32,7 +32,7 @@ from odolab.app.selection import (
     select_among,
     validation_campaigns,
 )
-from odolab.errors import CalibrationError, OdolabError
+from odolab.errors import NEUTRAL, CalibrationError, OdolabError
 from odolab.trials import MotionKind, TrialStatus
 
 if TYPE_CHECKING:
@@ -164,7 +164,8 @@ def report_content(
     calibrations, notes, base, umb_start = report_calibrations(
         nb, selection, trials, validation, request, analysis.analysis
     )
-    extra: dict[str, Any] = {"trials_used": selection.describe()}
+    # (a file: the library's words for the options)
+    extra: dict[str, Any] = {"trials_used": NEUTRAL.say(selection.describe())}
     if base is not None:
         extra["calibrated_from"] = base.reason
     if umb_start is not None:

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from odolab.errors import StoreError
+from odolab.errors import StoreError, opt
 from odolab.trials import Trial, TrialStatus
 
 if TYPE_CHECKING:
@@ -118,8 +118,8 @@ def open_notebook(db: str | Path) -> Notebook:
     path = Path(db)
     if not path.is_file():
         raise StoreError(
-            f"{path}: no such lab notebook; give --db FILE (or set ODOLAB_DB), or create one "
-            f"with `odolab notebook init --db {path}`"
+            f"{path}: no such lab notebook; give {opt('db')} FILE (or set ODOLAB_DB), or create one "
+            f"with `odolab notebook init {opt('db')} {path}`"
         )
     return Notebook(path)
 

@@ -60,7 +60,7 @@ from odolab.calibration.lsq import (
     fit_model,
     prepare_run,
 )
-from odolab.errors import CalibrationError, InsufficientDataError
+from odolab.errors import CalibrationError, InsufficientDataError, opt
 from odolab.io.registry import LogFormat, read_run
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.metrics.runs import RUN_OPTIONS, Progress, evaluate_run, parallel_map
@@ -78,6 +78,7 @@ __all__ = [
     "compare_model_files",
     "compare_models",
     "learning_curve",
+    "parse_curve",
 ]
 
 #: Models from the simplest to the most complex (the recommendation prefers the left). The
@@ -419,7 +420,7 @@ def compare_models(
         if k < 2:
             raise InsufficientDataError(
                 "one run cannot be both fitted and held out; expected at least two runs or "
-                "held-out runs (--validate)"
+                "held-out runs ({{validate}})"
             )
         test_runs = list(train)
         fold_of = [i % k for i in range(len(train))]
@@ -444,6 +445,41 @@ def compare_models(
         curve_rows = learning_curve(train[0], test_runs, base, tuple(curve), tuple(order))
         result = replace(result, learning_curve=[dict(r) for r in curve_rows])
     return result
+
+
+def parse_curve(text: str) -> tuple[float, ...]:
+    """The learning curve's seconds from a face's text (``10,20,30,60``; empty: none), each a
+    positive number (:func:`compare_runs` checks them against the training run)."""
+    items = [x.strip() for x in text.split(",")] if text.strip() else []
+    curve: list[float] = []
+    for item in items:
+        if not item:
+            raise CalibrationError(
+                f"{opt('learning_curve')} {text!r} has an empty item; expected seconds "
+                "separated by commas, e.g. 10,20,30,60",
+                option="learning_curve",
+                value=text,
+                allowed="seconds separated by commas, e.g. 10,20,30,60",
+            )
+        try:
+            value = float(item)
+        except ValueError:
+            value = math.nan
+        _check_seconds(value, item)
+        curve.append(value)
+    return tuple(curve)
+
+
+def _check_seconds(seconds: float, given: object) -> None:
+    """One learning-curve point: a positive number of seconds (``given``: as the user wrote it)."""
+    if not (math.isfinite(seconds) and seconds > 0):
+        raise CalibrationError(
+            f"{opt('learning_curve')}: {given!r} is not a positive number of seconds; expected "
+            "e.g. 10,20,30,60",
+            option="learning_curve",
+            value=given,
+            allowed="a positive number of seconds, e.g. 10,20,30,60",
+        )
 
 
 def learning_curve(
@@ -520,17 +556,15 @@ def _check_curve(curve: Sequence[float], run: OdometryRun) -> None:
     step = float(np.median(np.diff(t))) if t.size > 1 else 0.0
     seen: set[float] = set()
     for s in curve:
-        if not (math.isfinite(s) and s > 0):
-            raise CalibrationError(
-                f"--learning-curve: {s!r} is not a positive number of seconds; expected e.g. "
-                "10,20,30,60"
-            )
+        _check_seconds(s, s)
         if s in seen:
-            raise CalibrationError(f"--learning-curve: {s:g} s is given twice; expected each once")
+            raise CalibrationError(
+                f"{opt('learning_curve')}: {s:g} s is given twice; expected each once"
+            )
         seen.add(s)
         if s > span + step:
             raise CalibrationError(
-                f"--learning-curve: {s:g} s is longer than the first training run "
+                f"{opt('learning_curve')}: {s:g} s is longer than the first training run "
                 f"{run.source} ({span:.4g} s); expected at most its length"
             )
 

@@ -38,7 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from odolab.calibration.truthnoise import TruthNoise, estimate_truth_noise, truth_residuals
-from odolab.errors import CalibrationError, InsufficientDataError
+from odolab.errors import CalibrationError, InsufficientDataError, opt
 from odolab.io.registry import LogFormat, find_runs, read_run
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.kinematics import Method
@@ -453,7 +453,7 @@ class LsqCalibration:
         return {
             "method": (
                 "Bayesian linear regression of the body slip on 0.5 s windows "
-                "(odolab calibrate lsq --model slip)"
+                "(odolab calibrate lsq, the slip model)"
                 if self.model == "slip"
                 else "least squares on segment relative motion (odolab calibrate lsq)"
             ),
@@ -953,7 +953,9 @@ def calibrate_lsq_files(
     )
     base = nominal or loaded[0][0].params
     if base is None:
-        raise CalibrationError(f"{train[0]}: the log has no nominal parameters; expected --params")
+        raise CalibrationError(
+            f"{train[0]}: the log has no nominal parameters; expected {opt('params')}"
+        )
     result = calibrate_lsq([prep for _, prep in loaded], base, o)
     if not held:
         return result

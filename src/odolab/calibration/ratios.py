@@ -25,7 +25,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from odolab.errors import CalibrationError
+from odolab.errors import CalibrationError, opt
 from odolab.numfmt import clean
 from odolab.params import NoiseParams, RobotParams, save_params
 
@@ -98,7 +98,7 @@ def check_track_model(params: RobotParams, method: str) -> None:
             f"{params.name}: {method} corrects the [robot] radii and track width, but the "
             f"parameters' [model] is {model.kind}, which turns by its own geometry, not the "
             "track width; expected parameters of a differential drive (no [model]) or an "
-            f"extended one, or `odolab calibrate lsq --model {model.kind}`"
+            f"extended one, or `odolab calibrate lsq {opt('model')} {model.kind}`"
         )
 
 

@@ -51,7 +51,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from odolab.errors import CalibrationError, InsufficientDataError
+from odolab.errors import CalibrationError, InsufficientDataError, opt
 from odolab.kinematics import chord_factors, wrap_angle
 from odolab.params import RobotParams
 from odolab.trajectory import Trajectory
@@ -190,7 +190,7 @@ def motions_from_trajectory(
         raise InsufficientDataError(
             f"{source}: the sensor (encoder time {ts[0]:.3f} to {ts[-1]:.3f} s after the "
             f"{time_offset:g} s offset) and the encoder log ({te[0]:.3f} to {te[-1]:.3f} s) do "
-            "not overlap; expected logs of the same drive (check --time-offset)"
+            "not overlap; expected logs of the same drive (check {{time_offset}})"
         )
     # interval end points: sensor samples at least interval_s apart
     picks = [int(inside[0])]
@@ -496,7 +496,7 @@ def calibrate_sensor(
         raise CalibrationError(
             f"{data.source}: the fit gives a wheel radius or track of {min(theta[:3]):.4g} m "
             "(not positive); expected the sensor's motion in its own frame (x forward) on the "
-            "encoder log's clock (check --time-offset and the wheel sides)"
+            "encoder log's clock (check {{time_offset}} and the wheel sides)"
         )
     cov = cramer_rao_bound(theta, current, (float(sigma[0]), float(sigma[1]), float(sigma[2])))
     se = np.sqrt(np.diag(cov))
@@ -547,7 +547,7 @@ def read_sensor_trajectory(path: str | Path, topic: str | None = None) -> Trajec
     if topic is not None or is_bag:
         if topic is None:
             raise CalibrationError(
-                f"{p}: is a bag; expected the sensor's pose topic (--sensor-topic)"
+                f"{p}: is a bag; expected the sensor's pose topic ({opt('sensor_topic')})"
             )
         return read_bag_trajectory(p, topic)
     return read_trajectory(p)

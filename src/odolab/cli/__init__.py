@@ -289,8 +289,10 @@ def main(argv: list[str] | None = None) -> int:
     except _abort():
         sys.stderr.write("odolab: aborted\n")
         return 1
-    except OdolabError as err:
-        sys.stderr.write(f"odolab: error: {safe_terminal(err, limit=_MAX_ERROR_CHARS)}\n")
+    except OdolabError as err:  # the library's sentence, its settings named by their flags
+        from odolab.cli.wording import worded
+
+        sys.stderr.write(f"odolab: error: {safe_terminal(worded(err), limit=_MAX_ERROR_CHARS)}\n")
         return 1
     except ImportError as err:  # an extra's package, first asked for by this input
         extra = extra_of_missing(err, needed or command_extra(_words_of(args), COMMAND_PREFERS))

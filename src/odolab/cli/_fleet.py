@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from odolab.cli._output import markup_text, term
+from odolab.cli.wording import said
 from odolab.errors import OdolabError
 
 __all__ = ["expand_logs", "expand_runs", "odometry_many", "print_fleet", "report_failures"]
@@ -136,7 +137,7 @@ def report_failures(outcomes: Sequence[Any], report: Any, results: Path | None) 
         return
     shown = failed[:20]
     for o in shown:
-        console.print(f"failed: {term(str(o.error))}", markup=False, soft_wrap=True)
+        console.print(f"failed: {term(said(o.error))}", markup=False, soft_wrap=True)
     if len(failed) > len(shown):
         console.print(f"... and {len(failed) - len(shown)} more failed runs", markup=False)
     kept = f"; the other results are in {results}" if results is not None else ""

@@ -21,7 +21,9 @@ def echo(message: object, *, err: bool = False) -> None:
     goes through :func:`term`, so an escape sequence in a file name is shown, never obeyed."""
     import typer
 
-    typer.echo("\n".join(term(line) for line in str(message).split("\n")), err=err)
+    from odolab.cli.wording import said
+
+    typer.echo("\n".join(term(line) for line in said(message).split("\n")), err=err)
 
 
 def markup_text(text: object) -> str:
@@ -63,8 +65,10 @@ def check_not_the_input(output: Path, params: str | None) -> None:
 
 
 def write_output_text(path: Path, text: str, what: str) -> None:
-    """Write ``text`` to ``path`` (UTF-8), creating its folder."""
+    """Write ``text`` to ``path`` (UTF-8), creating its folder; the settings the library's
+    text names (its marks) written as the flags (:mod:`odolab.cli.wording`)."""
+    from odolab.cli.wording import said
     from odolab.writing import write_text_file
 
     check_output_path(path, what)
-    write_text_file(path, text, what=what, error=OutputError)
+    write_text_file(path, said(text), what=what, error=OutputError)

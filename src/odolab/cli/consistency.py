@@ -11,6 +11,7 @@ from odolab.cli._apps import calibrate_app
 from odolab.cli._output import echo
 from odolab.cli.core import MethodChoice
 from odolab.cli.evaluate import RunFormat
+from odolab.cli.wording import said
 
 if TYPE_CHECKING:
     from odolab.io.run import OdometryRun
@@ -106,10 +107,10 @@ def print_nees(
             "note: covariance: " + model.describe_covariance(), markup=False, highlight=False
         )
     if skip_note:
-        console.print(f"note: {skip_note}", markup=False, highlight=False)
+        console.print(f"note: {said(skip_note)}", markup=False, highlight=False)
     beyond, note = first_order_note(results)
     if note:
-        console.print(f"note: {note}", markup=False, highlight=False)
+        console.print(f"note: {said(note)}", markup=False, highlight=False)
     head = {
         **summary.to_dict(),
         "pieces_past_first_order": beyond,

@@ -13,6 +13,7 @@ import typer
 from odolab.cli._apps import app, calibrate_app
 from odolab.cli._output import echo, markup_text
 from odolab.cli._several import several_values_command
+from odolab.cli.wording import said
 from odolab.writing import strict_json
 
 if TYPE_CHECKING:
@@ -278,7 +279,7 @@ def _print_notes(notes: list[str]) -> None:
 
     con = console()
     for note in notes:
-        con.print(f"note: {note}", markup=False, soft_wrap=True)
+        con.print(f"note: {said(note)}", markup=False, soft_wrap=True)
 
 
 def run_labels(runs: list[Any]) -> list[str]:
@@ -556,10 +557,11 @@ def _print_calibration(result: Any, output: Path) -> None:
     for key, err in result.stderr.items():
         table.add_row(key, f"{nominal[key]:.6f}", f"{fitted[key]:.6f}", f"{err:.2e}")
     print_table(console, table)
+
     for line in result.warnings:
-        console.print(f"warning: {line}", markup=False, soft_wrap=True)
+        console.print(f"warning: {said(line)}", markup=False, soft_wrap=True)
     for line in result.notes:
-        console.print(f"note: {line}", markup=False, soft_wrap=True)
+        console.print(f"note: {said(line)}", markup=False, soft_wrap=True)
     if not result.validation:
         return
     val = Table(title="held-out runs: nominal -> calibrated")
@@ -595,4 +597,4 @@ def _print_calibration(result: Any, output: Path) -> None:
     if math.isfinite(result.rms_after):
         console.print(f"residual rms {result.rms_before:.5f} -> {result.rms_after:.5f} m")
     for line in [*getattr(result, "notes", []), *getattr(result, "warnings", [])]:
-        console.print(f"note: {line}", markup=False, soft_wrap=True)
+        console.print(f"note: {said(line)}", markup=False, soft_wrap=True)

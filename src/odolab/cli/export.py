@@ -74,7 +74,7 @@ def ros2_controller_cmd(
     import tomllib
 
     from odolab.cli._output import write_output_text
-    from odolab.errors import ParamsError
+    from odolab.cli.wording import CLI
     from odolab.export.ros2_controller import diff_drive_controller_yaml
     from odolab.params import PRESETS, load_params
 
@@ -84,11 +84,6 @@ def ros2_controller_cmd(
         provenance = tomllib.loads(Path(params).read_text(encoding="utf-8")).get("provenance")
     left = tuple(left_wheels or ["left_wheel_joint"])
     right = tuple(right_wheels or ["right_wheel_joint"])
-    if len(left) != len(right):
-        raise ParamsError(
-            f"--left-wheel given {len(left)} times and --right-wheel {len(right)} times; "
-            "expected as many wheels on each side"
-        )
     text = diff_drive_controller_yaml(
         robot,
         nominal=load_params(nominal) if nominal else None,
@@ -101,6 +96,7 @@ def ros2_controller_cmd(
         left_wheel_names=left,
         right_wheel_names=right,
         provenance=provenance,
+        words=CLI,
     )
     write_output_text(output, text, "controller parameters")
     echo(f"wrote {output} (diff_drive_controller of ROS 2 {ros_distro.value})")

@@ -16,6 +16,7 @@ import typer
 
 from odolab.cli._apps import app, calibrate_app, sim_app
 from odolab.cli._output import echo
+from odolab.cli.wording import said
 from odolab.defaults import DEFAULT_CORNERS
 from odolab.errors import OdolabError
 
@@ -429,7 +430,7 @@ def track_cmd(
         highlight=False,
     )
     for note in notes:
-        console.print(f"note: {note}", markup=False, highlight=False)
+        console.print(f"note: {said(note)}", markup=False, highlight=False)
 
 
 @app.command("markers")

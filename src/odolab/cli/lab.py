@@ -52,10 +52,12 @@ SelectRobotOpt = Annotated[
 
 
 def _say(con: Any, text: str) -> None:
-    """A sentence of the application layer (names in it are user text: no markup)."""
+    """A sentence of the application layer (names in it are user text: no markup; its settings
+    named by their flags)."""
+    from odolab.cli.wording import said
     from odolab.text import safe_terminal
 
-    con.print(safe_terminal(text), markup=False)
+    con.print(safe_terminal(said(text)), markup=False)
 
 
 def _console() -> Any:

@@ -74,6 +74,7 @@ def calibrate_compare_cmd(
 ) -> None:
     """Fit every kinematic model on training runs, score it on held-out runs, recommend one."""
     from odolab.app.models import CompareRequest, compare_files
+    from odolab.calibration.compare import parse_curve
     from odolab.calibration.lsq import FIT_MODELS, LsqOptions
     from odolab.calibration.truthnoise import parse_truth_sigma
     from odolab.cli._output import write_output_text
@@ -89,24 +90,7 @@ def calibrate_compare_cmd(
             )
     if not chosen:
         raise CalibrationError("--models: empty; expected e.g. diff,icr")
-    curve: list[float] = []
-    items = [x.strip() for x in learning_curve.split(",")] if learning_curve.strip() else []
-    for item in items:
-        if not item:
-            raise CalibrationError(
-                f"--learning-curve {learning_curve!r} has an empty item; expected seconds "
-                "separated by commas, e.g. 10,20,30,60"
-            )
-        try:
-            value = float(item)
-        except ValueError:
-            value = math.nan
-        if not (math.isfinite(value) and value > 0):
-            raise CalibrationError(
-                f"--learning-curve: {item!r} is not a positive number of seconds; expected e.g. "
-                "10,20,30,60"
-            )
-        curve.append(value)
+    curve = parse_curve(learning_curve)  # (one check, in the library)
     robot = load_params(params) if params else None
     ro = _read_options(robot, joint_topic, joints, gt_topic)
     with _progress_bar("compare") as report:

@@ -323,8 +323,8 @@ def _check_virtual_options(
         raise RobotConfigError(f"--truth is {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}")
     if terrain not in TERRAINS:
         raise RobotConfigError(f"--terrain is {terrain!r}; expected one of {', '.join(TERRAINS)}")
-    given = {"--truth": truth, "--terrain": terrain, "--seed": seed}
-    check_virtual_only(url, {**given, "--command-timeout": config.command_timeout})
+    given = {"truth": truth, "terrain": terrain, "seed": seed}
+    check_virtual_only(url, {**given, "command_timeout": config.command_timeout})
 
 
 def _run(
@@ -443,7 +443,9 @@ def _explore_plan(
     from odolab.robot.explore import plan_exploration
 
     source = ground_truth.value if ground_truth is not None else None
-    plan = plan_exploration(command, config, nominal, url, source, params_name=params)
+    from odolab.cli.wording import CLI
+
+    plan = plan_exploration(command, config, nominal, url, source, params_name=params, words=CLI)
     echo(plan.describe(), err=True)
     return plan
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 import ipaddress
 import math
 
-from odolab.errors import OdolabError
+from odolab.errors import OdolabError, opt
 from odolab.trajectory import Pose
 
 __all__ = ["FoxgloveLive", "check_loopback", "check_port"]
@@ -38,7 +38,7 @@ def check_port(port: object) -> int:
         from odolab.text import quote_input
 
         raise OdolabError(
-            f"--foxglove-port is {quote_input(port, 40)}; expected a port number 0..65535 "
+            f"{opt('foxglove_port')} is {quote_input(port, 40)}; expected a port number 0..65535 "
             "(0: any free one)"
         )
     return port
@@ -58,7 +58,7 @@ def check_loopback(host: str) -> str:
         ok = False
     if not ok:
         raise OdolabError(
-            f"--foxglove-host {host!r} is not a loopback address: Foxglove's WebSocket protocol "
+            f"{opt('foxglove_host')} {host!r} is not a loopback address: Foxglove's WebSocket protocol "
             "has no authentication, so odolab serves it on 127.0.0.1 only; forward the port "
             "(ssh -L 8765:127.0.0.1:8765 ...) to watch from elsewhere"
         )
@@ -81,7 +81,7 @@ class FoxgloveLive:
             )
         except Exception as err:  # the SDK raises its own error types (port in use, ...)
             raise OdolabError(
-                f"--foxglove-port {port}: cannot serve Foxglove on {host}:{port} ({err}); choose "
+                f"{opt('foxglove_port')} {port}: cannot serve Foxglove on {host}:{port} ({err}); choose "
                 "another port"
             ) from err
         self._pose = PoseInFrameChannel("/odom_pose", context=self._ctx)

@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from odolab.errors import LogFormatError, OdolabError
+from odolab.errors import LogFormatError, OdolabError, opt
 from odolab.export.ros2_controller import UNOBSERVED
 from odolab.kinematics import Method
 from odolab.params import RobotParams, covariance_source
@@ -338,7 +338,7 @@ def check_start_time(start_time: float) -> float:
     sentence naming ``--start-time``."""
     if not math.isfinite(start_time) or not 0 <= start_time <= MAX_STAMP_S:
         raise OdolabError(
-            f"--start-time is {start_time!r}; expected a number of seconds from 0 to "
+            f"{opt('start_time')} is {start_time!r}; expected a number of seconds from 0 to "
             f"{MAX_STAMP_S:.0f} (a ROS 2 stamp holds its seconds in an int32)"
         )
     return float(start_time)
@@ -353,7 +353,7 @@ def _check_stamps(stream: OdometryStream, start_time: float) -> None:
         if not (math.isfinite(first) and math.isfinite(last)) or first < 0 or last > MAX_STAMP_S:
             raise OdolabError(
                 f"the {what}'s times with the start time run from {first!r} to {last!r} s; a ROS 2 "
-                f"MCAP needs stamps from 0 to {MAX_STAMP_S:.0f} s (give --start-time to shift them)"
+                f"MCAP needs stamps from 0 to {MAX_STAMP_S:.0f} s (give {opt('start_time')} to shift them)"
             )
 
 
@@ -424,7 +424,7 @@ def stream_from_run_folder(
     if params is None:
         if not isinstance(doc, dict) or not isinstance(doc.get("params"), dict):
             raise LogFormatError(
-                f"{meta}: no 'params' object (the robot's parameters); give --params"
+                f"{meta}: no 'params' object (the robot's parameters); give {opt('params')}"
             )
         params = params_from_mapping(doc["params"], source=str(meta))
     enc = read_encoder_csv(f / "encoders.csv", modulus=params.encoder_modulus)
@@ -465,7 +465,7 @@ def stream_from_run(
 
     p = params or run.params
     if p is None:
-        raise OdolabError(f"{run.source}: the run carries no parameters; give --params")
+        raise OdolabError(f"{run.source}: the run carries no parameters; give {opt('params')}")
     traj = integrate_increments(run.t, run.dticks_left, run.dticks_right, p, method)
     cov = twist = None
     dl = np.asarray(run.dticks_left, dtype=np.float64).copy()

@@ -48,7 +48,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from odolab.errors import ParamsError
+from odolab.errors import NEUTRAL, ParamsError, Wording, opt
 from odolab.models import own_covariance, timed_model
 from odolab.params import RobotParams, covariance_source
 from odolab.text import safe_terminal
@@ -110,9 +110,9 @@ ROS_DISTROS = tuple(DISTRO_KEYS)
 DEFAULT_DISTRO = "jazzy"
 #: The controller's ``velocity_rolling_window_size`` default (every distribution).
 DEFAULT_WINDOW = 10
-#: Largest ``--speed`` (m/s), ``--rate`` (Hz) and ``--horizon`` (m) accepted: far beyond any
+#: Largest ``speed`` (m/s), ``rate`` (Hz) and ``horizon`` (m) accepted: far beyond any
 #: wheeled robot, small enough that every covariance term stays a finite number.
-LIMITS = {"--speed": 100.0, "--rate": 100_000.0, "--horizon": 100_000.0}
+LIMITS = {"speed": 100.0, "rate": 100_000.0, "horizon": 100_000.0}
 
 
 @dataclass(frozen=True)
@@ -156,15 +156,17 @@ def _check_positive(name: str, value: float) -> float:
         or not math.isfinite(value)
         or not 0 < value <= limit
     ):
-        raise ParamsError(f"{name} is {value!r}; expected a positive number up to {limit:g}")
+        raise ParamsError(option=name, value=value, allowed=f"a positive number up to {limit:g}")
     return float(value)
 
 
 def _check_window(window: int) -> int:
     if isinstance(window, bool) or not isinstance(window, int) or not 1 <= window <= 100_000:
         raise ParamsError(
-            f"--window is {window!r}; expected a whole number of cycles from 1 to 100000 "
-            "(the controller's velocity_rolling_window_size)"
+            option="window",
+            value=window,
+            allowed="a whole number of cycles from 1 to 100000 (the controller's "
+            "velocity_rolling_window_size)",
         )
     return window
 
@@ -249,13 +251,13 @@ def _slip_note(params: RobotParams, speed: float) -> str:
     spread = "" if sd is None else f" +- {sd:.2g}"
     return (
         "the slip model's slip changes with speed and turn rate, which diff_drive_controller "
-        f"cannot express: these values are its differential-drive equivalent at --speed {speed:g}"
+        f"cannot express: these values are its differential-drive equivalent at {opt('speed')} {speed:g}"
         " m/s (straight runs and turns in place at that wheel speed match, turns averaged over "
         f"both directions). Its distance per metre of track is {f_lo:.4g} at {lo:g} m/s and "
         f"{f_hi:.4g} at {hi:g} m/s, its turn per commanded radian in place {g_lo:.4g} and "
         f"{g_hi:.4g}; a straight run turns {drift:.3g}{spread} rad per metre (the "
         "coefficients' posterior standard deviation), which the radius multipliers carry; "
-        "sideways slip is lost. Give --speed the speed the robot mostly drives at, "
+        "sideways slip is lost. Give {{speed}} the speed the robot mostly drives at, "
         "or use odolab's own odometry where that matters."
     )
 
@@ -301,9 +303,9 @@ def controller_numbers(
 ) -> ControllerExport:
     """What :func:`diff_drive_controller_yaml` writes, as numbers. ``rate``: the controller's
     update rate (Hz); ``window``: its ``velocity_rolling_window_size`` (cycles)."""
-    v = _check_positive("--speed", speed)
-    f = _check_positive("--rate", rate)
-    d = _check_positive("--horizon", horizon)
+    v = _check_positive("speed", speed)
+    f = _check_positive("rate", rate)
+    d = _check_positive("horizon", horizon)
     w = _check_window(window)
     notes: list[str] = []
     # the best differential-drive equivalent, as multipliers of the [robot] radii
@@ -353,7 +355,7 @@ def controller_numbers(
         rho = (d * (k * d / b**2) / 4.0) / math.sqrt(k * d / 4.0) if k > 0 else 0.0
         if rho > SECOND_ORDER_LIMIT:
             notes.append(
-                f"after --horizon {d:g} m the first-order pose covariance understates the spread "
+                f"after {opt('horizon')} {d:g} m the first-order pose covariance understates the spread "
                 f"(heading variance {k * d / b**2:.3g} rad^2, second-order index {rho:.3g} > "
                 f"{SECOND_ORDER_LIMIT:g}): state it over a shorter horizon, or treat it as a "
                 "lower bound"
@@ -393,9 +395,10 @@ def _scalar(value: Any) -> str:
     return safe_terminal(value, limit=200)
 
 
-def _yaml_name(name: str, what: str = "--controller-name", kind: str = "node") -> str:
+def _yaml_name(name: str, what: str = "controller_name", kind: str = "node") -> str:
     """``name`` if it is a ROS 2 node name (or, ``kind="joint"``, a URDF joint name that also
-    allows ``-`` and ``.``); otherwise one sentence naming the option ``what``."""
+    allows ``-`` and ``.``); otherwise one sentence naming the setting ``what`` (its
+    ``option``)."""
     extra = "_/" if kind == "node" else "_/-."
     if (
         not name
@@ -404,8 +407,11 @@ def _yaml_name(name: str, what: str = "--controller-name", kind: str = "node") -
     ):
         allowed = ", ".join(repr(ch) for ch in extra)
         raise ParamsError(
-            f"{what} {safe_terminal(repr(name), limit=80)} is not a ROS 2 {kind} name; expected "
-            f"ASCII letters, digits and {allowed}, not starting with a digit"
+            f"{opt(what)} {safe_terminal(repr(name), limit=80)} is not a ROS 2 {kind} name; "
+            f"expected ASCII letters, digits and {allowed}, not starting with a digit",
+            option=what,
+            value=name,
+            allowed=f"a ROS 2 {kind} name",
         )
     return name
 
@@ -423,14 +429,26 @@ def diff_drive_controller_yaml(
     left_wheel_names: tuple[str, ...] = ("left_wheel_joint",),
     right_wheel_names: tuple[str, ...] = ("right_wheel_joint",),
     provenance: dict[str, Any] | None = None,
+    words: Wording = NEUTRAL,
 ) -> str:
     """The YAML text: ``<controller>: ros__parameters: ...`` with provenance as comments, with
-    exactly the keys ``distro``'s ``diff_drive_controller`` declares (:data:`DISTRO_KEYS`)."""
+    exactly the keys ``distro``'s ``diff_drive_controller`` declares (:data:`DISTRO_KEYS`).
+    ``words``: how its comments name the settings (the face's: the CLI's flags)."""
     if distro not in DISTRO_KEYS:
-        raise ParamsError(f"--ros-distro is {distro!r}; expected one of {', '.join(ROS_DISTROS)}")
+        raise ParamsError(
+            option="ros_distro", value=distro, allowed=f"one of {', '.join(ROS_DISTROS)}"
+        )
     keys = DISTRO_KEYS[distro]
     name = _yaml_name(controller)
-    for side, joints in (("--left-wheel", left_wheel_names), ("--right-wheel", right_wheel_names)):
+    if len(left_wheel_names) != len(right_wheel_names):
+        raise ParamsError(
+            f"{opt('left_wheel')} given {len(left_wheel_names)} times and {opt('right_wheel')} "
+            f"{len(right_wheel_names)} times; expected as many wheels on each side",
+            option="right_wheel",
+            value=len(right_wheel_names),
+            allowed=f"{len(left_wheel_names)} wheels, as many as on the left",
+        )
+    for side, joints in (("left_wheel", left_wheel_names), ("right_wheel", right_wheel_names)):
         for joint in joints:
             _yaml_name(joint, side, "joint")
     n = controller_numbers(
@@ -445,7 +463,7 @@ def diff_drive_controller_yaml(
         f"#   wheel separation   {n.effective_separation!r} m",
         f"# Twist covariance: the controller's own velocity estimate, the rolling mean over "
         f"velocity_rolling_window_size = {window} cycles at its update rate {rate!r} Hz (the "
-        "controller_manager's update_rate; give it as --rate), straight driving at "
+        "controller_manager's update_rate; give it as {{rate}}), straight driving at "
         f"{speed!r} m/s.",
         f"# Pose covariance: after {horizon!r} m of straight driving. Both from "
         + {
@@ -488,4 +506,4 @@ def diff_drive_controller_yaml(
     ]
     body = [f"{name}:", "  ros__parameters:"]
     body += [f"    {key}: {value}" for key, value in lines if key in keys]
-    return "\n".join(head + body) + "\n"
+    return words.say("\n".join(head + body) + "\n")

@@ -52,7 +52,7 @@ def check_encoder_header(p: Path, cells: list[str]) -> None:
         "expected the header line t,left_ticks,right_ticks (raw counters) or "
         "t,dticks_left,dticks_right (per-cycle increments) first"
         + (
-            " (an OptiOdom run: give --format optiodom)"
+            " (an OptiOdom run: give {{format}} optiodom)"
             if len(cells) == 6 and "_run-" in p.name
             else ""
         )

@@ -266,7 +266,7 @@ def read_gyro_run(
     if gyro_path is None:
         raise ImuLogError(
             f"{p}: no gyro log beside it (expected {p.stem}_imu.csv with columns t,wz, or a "
-            "robot run folder's imu.csv); name one with --imu"
+            "robot run folder's imu.csv); name one with {{imu}}"
         )
     log = read_encoder_csv(p, modulus=modulus)
     gyro = read_gyro(gyro_path)

@@ -119,7 +119,7 @@ def detect_format(paths: Iterable[str | Path]) -> tuple[LogFormat, str]:
         (a, pa), (b, pb) = list(found.items())[:2]
         raise LogFormatError(
             f"{pa} holds {a.value} runs but {pb} holds {b.value} runs; expected runs of one "
-            "format (give --format)"
+            "format (give {{format}})"
         )
     if not found:
         return LogFormat.CSV, "odolab's own encoder log CSV (nothing else found)"

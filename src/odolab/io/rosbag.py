@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from odolab.errors import LogFormatError, OdolabError
+from odolab.errors import LogFormatError, OdolabError, opt
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.io.sensorlog import ImuLog
 from odolab.params import RobotParams
@@ -310,7 +310,7 @@ def _read_open_bag(
             raise LogFormatError(
                 f"{p}: no wheel data: no {JOINT_TYPE} on {o.joint_topic!r} (wheel angles, the "
                 f"encoder path) and no {ODOMETRY_TYPE} on {odom_topic!r} (the robot's own "
-                f"odometry); the bag has {have}; expected one of them (--joint-topic)"
+                f"odometry); the bag has {have}; expected one of them ({opt('joint_topic')})"
             )
         est = _poses(reader, p, odom_topic)
         params = _replay_params(o)

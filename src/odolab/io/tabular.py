@@ -527,7 +527,7 @@ def _csv_chunks(
         read_numeric_columns(p, columns, allow_nan=allow_nan, checked=True)  # names the line
         raise LogFormatError(  # the careful reader found nothing wrong: an unusual layout
             f"{p}: could not be read in chunks ({err}); expected a plain numeric CSV, or read "
-            "it whole (--chunk-rows 0)"
+            "it whole ({{chunk_rows}} 0)"
         ) from err
 
 

@@ -36,7 +36,7 @@ from typing import IO
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import InsufficientDataError, LogFormatError
+from odolab.errors import InsufficientDataError, LogFormatError, opt
 from odolab.io.chunked import DEFAULT_CHUNK_ROWS, iter_trajectory_chunks
 from odolab.kinematics import wrap_angle
 from odolab.metrics.alignment import (
@@ -409,7 +409,7 @@ class _Pairs:
             raise InsufficientDataError(
                 f"RPE over all pairs by angle (delta {delta:g} {unit.value}) compares every pose "
                 "with every later one; it needs both trajectories whole, not in chunks "
-                "(--chunk-rows 0)"
+                "({{chunk_rows}} 0)"
             )
         self.delta = delta_in_si(delta, unit)
         self.unit = unit
@@ -542,7 +542,7 @@ def _checked_pairs(o: EvaluationOptions) -> tuple[_Pairs, _Pairs, _Pairs]:
     pairs = _pairs_for(o)
     if not (o.drift_delta_m > 0 and math.isfinite(o.drift_delta_m)):
         raise LogFormatError(
-            f"drift segment must be a positive length in m (--drift-segment), got {o.drift_delta_m}"
+            f"drift segment must be a positive length in m ({opt('drift_segment')}), got {o.drift_delta_m}"
         )
     drift = _Pairs(o.drift_delta_m, DeltaUnit.METRES, False, 0.1, True)
     _check_turn_segment(o.drift_turn_rad)

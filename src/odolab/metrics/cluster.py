@@ -19,7 +19,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Generic, TypeVar
 
-from odolab.errors import OdolabError
+from odolab.errors import OdolabError, opt
 
 if TYPE_CHECKING:
     from distributed import Client, LocalCluster
@@ -51,10 +51,18 @@ class Cluster:
     def __post_init__(self) -> None:
         if self.scheduler is not None and not self.scheduler.startswith(("tcp://", "tls://")):
             raise OdolabError(
-                f"--scheduler is {self.scheduler!r}; expected an address like tcp://HOST:PORT"
+                f"{opt('scheduler')} is {self.scheduler!r}; expected an address like tcp://HOST:PORT",
+                option="scheduler",
+                value=self.scheduler,
+                allowed="an address like tcp://HOST:PORT",
             )
         if isinstance(self.workers, bool) or int(self.workers) != self.workers or self.workers < 1:
-            raise OdolabError(f"--workers is {self.workers!r}; expected a whole number >= 1")
+            raise OdolabError(
+                f"{opt('workers')} is {self.workers!r}; expected a whole number >= 1",
+                option="workers",
+                value=self.workers,
+                allowed="a whole number >= 1",
+            )
 
     @property
     def local(self) -> bool:
@@ -171,7 +179,7 @@ def _security() -> Security:
     except ImportError as err:  # pragma: no cover - cryptography is a dependency
         raise OdolabError(
             "the local Dask cluster needs the package `cryptography` for its TLS certificate; "
-            "expected it installed with odolab (pip install cryptography), or use --workers 1"
+            "expected it installed with odolab (pip install cryptography), or use {{workers}} 1"
         ) from err
 
 

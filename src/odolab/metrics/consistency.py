@@ -35,7 +35,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import InsufficientDataError, OdolabError, ParamsError
+from odolab.errors import InsufficientDataError, OdolabError, ParamsError, opt
 from odolab.io.run import OdometryRun
 from odolab.kinematics import Method, wrap_angle
 from odolab.metrics.association import interpolate_trajectory
@@ -358,7 +358,7 @@ def nees_of_runs(
     if not results:
         raise InsufficientDataError(
             f"all {len(skipped)} runs are shorter than one NEES piece of {segment_s:g} s (the "
-            f"longest ground truth covers {longest:.3g} s); expected a shorter --nees-segment"
+            f"longest ground truth covers {longest:.3g} s); expected a shorter {opt('nees_segment')}"
         )
     note = None
     if skipped:
@@ -413,7 +413,7 @@ def first_order_note(runs: Sequence[RunNees]) -> tuple[int, str | None]:
     return beyond, (
         f"{beyond} of {n} pieces go past the first-order covariance's range (second-order index "
         f"> {SECOND_ORDER_LIMIT:g}, docs/ros2.md): there it understates the spread, and their "
-        "NEES runs high for that reason alone; shorter pieces (--nees-segment) go past it less often"
+        "NEES runs high for that reason alone; shorter pieces ({{nees_segment}}) go past it less often"
     )
 
 

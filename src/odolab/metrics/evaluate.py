@@ -14,7 +14,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from odolab.errors import LogFormatError
+from odolab.errors import LogFormatError, opt
 from odolab.metrics.alignment import Alignment, Rigid2D, align
 from odolab.metrics.association import SyncMethod, associate
 from odolab.metrics.pose_error import (
@@ -146,7 +146,7 @@ def _turn_drift(
 def _check_turn_segment(segment_rad: float) -> None:
     if not (segment_rad > 0 and math.isfinite(segment_rad)):
         raise LogFormatError(
-            f"drift turn segment must be a positive angle (--drift-turn, degrees), got "
+            f"drift turn segment must be a positive angle ({opt('drift_turn')}, degrees), got "
             f"{math.degrees(segment_rad):g} deg"
         )
 
@@ -165,7 +165,7 @@ def drift_per_distance(
     """
     if not (segment_m > 0 and math.isfinite(segment_m)):
         raise LogFormatError(
-            f"drift segment must be a positive length in m (--drift-segment), got {segment_m}"
+            f"drift segment must be a positive length in m ({opt('drift_segment')}), got {segment_m}"
         )
     _check_turn_segment(turn_segment_rad)
     dist = path_distances(reference)
@@ -207,12 +207,12 @@ def rpe_undefined_note(options: EvaluationOptions, poses: int, chooser: str, mea
     how, hint = "", ""
     if unit is DeltaUnit.METRES:
         how = f" ({chooser} travels {measure:.3g} m)"
-        hint = " (or, for a run that turns in place, --delta-unit deg)"
+        hint = " (or, for a run that turns in place, {{delta_unit}} deg)"
     elif unit in ANGLE_UNITS:
         how = f" ({chooser} turns {math.degrees(measure):.3g} deg)"
     return (
         f"RPE is undefined: delta = {options.delta:g} {unit.value} gives no pose pairs on "
-        f"{poses} poses{how}; a smaller --delta gives some{hint}"
+        f"{poses} poses{how}; a smaller {opt('delta')} gives some{hint}"
     )
 
 

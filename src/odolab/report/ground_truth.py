@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from odolab import numfmt
-from odolab.errors import LogFormatError
+from odolab.errors import LogFormatError, opt
 
 __all__ = ["ground_truth_summary"]
 
@@ -86,7 +86,7 @@ def _image(path: Path, data: bytes) -> dict[str, object]:
         "title": f"The photo with the estimated path: {path.name}",
         "rows": [
             ("what it shows", "the LED's dashes as read (the true path) and the odometry's path "
-             "drawn over them (odolab track-photo --overlay): where they part, the estimate drifts"),
+             "drawn over them (the overlay of odolab track-photo): where they part, the estimate drifts"),
         ],
         "image": base64.b64encode(data).decode("ascii"),
     }  # fmt: skip
@@ -149,7 +149,7 @@ def _sensor(
             rows.append((f"{key.replace('_', ' ')} ({unit})", text))
     except (KeyError, TypeError, ValueError, AttributeError) as err:
         raise LogFormatError(
-            f"{path}: not an 'odolab calibrate sensor --json' result ({err!s}); expected its "
+            f"{path}: not an 'odolab calibrate sensor {opt('json')}' result ({err!s}); expected its "
             "values, stderr, intervals and time_offset_s"
         ) from None
     return {"title": f"Odometry and a sensor calibrated together: {path.name}", "rows": rows}

@@ -29,6 +29,7 @@ import numpy as np
 from odolab import numfmt
 from odolab.analysis.questions import ExperimentResult
 from odolab.calibration.compare import UNDECIDED, Estimate, ModelComparison
+from odolab.errors import NEUTRAL
 from odolab.metrics.consistency import DOF, RunNees, first_order_note, nees_summary
 from odolab.report.view import Cell
 
@@ -295,7 +296,7 @@ class ModelEvidence:
             "summary": {**nees_summary(self.nees).to_dict(), "pieces_past_first_order": beyond},
             "runs": [r.to_dict() for r in self.nees],
             "about": self.about_nees,
-            "first_order_note": note,
+            "first_order_note": NEUTRAL.say(note) if note else note,  # (a file's words)
         }
 
 

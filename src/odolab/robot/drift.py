@@ -134,8 +134,8 @@ def robot_sense_sentence(finding: SenseFinding) -> str:
     return (
         f"{which} than the other ({finding.numbers()}; gyro/odometry {shown}, calibrated "
         f"{lo:.2f} to {hi:.2f}): likely one encoder counting backwards "
-        "(--left-encoder-sign/--right-encoder-sign) or on the wrong channel, or counts per "
-        "revolution or track width in --params far from this robot's"
+        "({{left_encoder_sign}}/{{right_encoder_sign}}) or on the wrong channel, or counts per "
+        "revolution or track width in {{params}} far from this robot's"
     )
 
 

@@ -38,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from odolab.errors import NEUTRAL, Wording, opt
 from odolab.params import RobotParams
 from odolab.robot.config import RunConfig, check_motion
 from odolab.robot.errors import RobotConfigError
@@ -78,7 +79,7 @@ GROUND_TRUTH_SOURCES: dict[str, str] = {
     "virtual": "the virtual robot's true path",
     "mocap": "a motion-capture log",
     "track": "a filmed marker on the robot (odolab track)",
-    "laser": "the laser calibration's path (odolab calibrate sensor --truth-out)",
+    "laser": "the laser calibration's path (odolab calibrate sensor {{truth_out}})",
 }
 
 
@@ -91,7 +92,7 @@ def attach_sentence(source: str, folder: Path | str) -> str:
     """How to attach the ground truth ``source`` names to the run in ``folder`` afterwards."""
     run = Path(folder)
     log, gt = run / "encoders.csv", run / TRUTH_FILE
-    lsq = f"`odolab calibrate lsq {log} -f csv --ground-truth FILE`"
+    lsq = f"`odolab calibrate lsq {log} -f csv {opt('ground_truth')} FILE`"
     if source == "mocap":
         return (
             f"attach the motion-capture log afterwards: the robot centre's path on the encoder "
@@ -99,14 +100,14 @@ def attach_sentence(source: str, folder: Path | str) -> str:
         )
     if source == "track":
         return (
-            f"attach the filmed marker afterwards: `odolab track VIDEO --floor FLOOR.csv "
-            f"--robot-marker ID ... --encoders {log} -o {gt}` finds the video's clock offset and "
+            f"attach the filmed marker afterwards: `odolab track VIDEO {opt('floor')} FLOOR.csv "
+            f"{opt('robot_marker')} ID ... {opt('encoders')} {log} -o {gt}` finds the video's clock offset and "
             "writes the path on the encoder log's clock (docs/ground-truth.md)"
         )
     if source == "laser":
         return (
             "attach the laser calibration's path afterwards: `odolab calibrate sensor ... "
-            f"--truth-out FILE` (docs/ground-truth.md), on the encoder log's clock, as {gt} or "
+            f"{opt('truth_out')} FILE` (docs/ground-truth.md), on the encoder log's clock, as {gt} or "
             f"with {lsq}"
         )
     return f"the virtual robot's true path is {gt}"
@@ -119,18 +120,18 @@ def _check_ground_truth(url: str, source: str | None) -> str:
     if is_virtual(url):
         if source not in (None, "virtual"):
             raise RobotConfigError(
-                f"--ground-truth is {source!r} but --robot {url} is the virtual robot, whose "
-                "true path is recorded; expected no --ground-truth (or virtual)"
+                f"{opt('ground_truth')} is {source!r} but {opt('robot')} {url} is the virtual robot, whose "
+                "true path is recorded; expected no {{ground_truth}} (or virtual)"
             )
         return "virtual"
     if source is None:
         raise RobotConfigError(
-            f"--ground-truth is missing: an exploration of the robot at {url} needs the source "
+            f"{opt('ground_truth')} is missing: an exploration of the robot at {url} needs the source "
             f"of its ground truth; expected one of {', '.join(real)}"
         )
     if source not in real:
         raise RobotConfigError(
-            f"--ground-truth is {source!r} for the robot at {url}; expected one of "
+            f"{opt('ground_truth')} is {source!r} for the robot at {url}; expected one of "
             f"{', '.join(real)} (virtual is the virtual robot's, sim://)"
         )
     return source
@@ -148,11 +149,11 @@ def _choose_limits(
     v = e.max_speed
     if v is None:
         v = min(DEFAULT_MAX_SPEED, config.max_wheel_speed)
-        chosen.append(f"--max-speed {v:g} m/s")
+        chosen.append(f"{opt('max_speed')} {v:g} m/s")
     w = e.max_turn_rate
     if w is None and isinstance(v, int | float) and math.isfinite(v) and v > 0:
         w = min(DEFAULT_MAX_TURN_RATE, v / (0.5 * params.track_width))
-        chosen.append(f"--max-turn-rate {w:g} rad/s")
+        chosen.append(f"{opt('max_turn_rate')} {w:g} rad/s")
     return replace(command, explore=replace(e, max_speed=v, max_turn_rate=w)), tuple(chosen)
 
 
@@ -250,8 +251,10 @@ class ExplorePlan:
     command: Command
     ground_truth: str
     params_name: str = "jaguar-lite"
-    #: the limits not given and chosen here, as options (e.g. "--max-speed 0.5 m/s")
+    #: the limits not given and chosen here, the settings as marks (e.g. "{{max_speed}} 0.5 m/s")
     chosen: tuple[str, ...] = ()
+    #: how what the run writes (run.json's attach line) names the settings: the face's words
+    words: Wording = NEUTRAL
 
     def describe(self) -> str:
         """What it will drive, every choice said."""
@@ -313,7 +316,7 @@ class ExplorePlan:
                 if truth is None:
                     gt["attach"] = "the true path could not be aligned with the encoder log"
             else:  # said from inside the run folder
-                gt["attach"] = attach_sentence(source, ".")
+                gt["attach"] = self.words.say(attach_sentence(source, "."))
             trial, loop = run.trial, run.loop
             if motion.fence_crossed and motion.crossed_at is not None:
                 t, r = motion.crossed_at
@@ -423,7 +426,7 @@ class ExplorePlan:
                 )
                 lines.append(
                     f"fit a slip model: odolab calibrate lsq {log} -f csv -p {self.params_name} "
-                    f"--model slip -o {folder / 'slip.toml'}"
+                    f"{opt('model')} slip -o {folder / 'slip.toml'}"
                 )
             elif self.ground_truth == "virtual":
                 lines.append(f"run: {log}; no ground truth: {gt.get('attach')}")
@@ -494,15 +497,17 @@ def plan_exploration(
     ground_truth: str | None = None,
     *,
     params_name: str | None = None,
+    words: Wording = NEUTRAL,
 ) -> ExplorePlan:
     """The checked plan of an exploration on the robot at ``url`` (checked): its unset speed
     limits chosen, every setting checked (:func:`check_motion`), the ground-truth source
     (``virtual`` on ``sim://``; required, and one of mocap/track/laser, on a real robot).
-    Raises :class:`RobotConfigError` (one sentence naming the option); nothing is sent."""
+    Raises :class:`RobotConfigError` (one sentence naming the option); nothing is sent.
+    ``words``: how the run's written record names the settings (the face's)."""
     filled, chosen = _choose_limits(command, config, params)
     check_motion(filled, config, params)
     source = _check_ground_truth(url, ground_truth)
-    return ExplorePlan(filled, source, params_name or params.name, chosen)
+    return ExplorePlan(filled, source, params_name or params.name, chosen, words)
 
 
 def notebook_trial(trial: Trial) -> Trial:

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.errors import opt
 from odolab.odometry import Odometry
 from odolab.robot.clock import Clock
 from odolab.robot.errors import (
@@ -58,7 +59,12 @@ class Watchdog:
 
     def __init__(self, timeout: float = 0.5) -> None:
         if not (math.isfinite(timeout) and timeout > 0):
-            raise RobotConfigError(f"--watchdog is {timeout!r}; expected a positive number of s")
+            raise RobotConfigError(
+                f"{opt('watchdog')} is {timeout!r}; expected a positive number of s",
+                option="watchdog",
+                value=timeout,
+                allowed="a positive number of s",
+            )
         self.timeout = float(timeout)
         self.last_feed: float | None = None
 
@@ -238,7 +244,12 @@ class ControlLoop:
         on_event: Callable[[float, str], None] | None = None,
     ) -> None:
         if not (math.isfinite(rate) and rate > 0):
-            raise RobotConfigError(f"--rate is {rate!r}; expected a positive number of Hz")
+            raise RobotConfigError(
+                f"{opt('rate')} is {rate!r}; expected a positive number of Hz",
+                option="rate",
+                value=rate,
+                allowed="a positive number of Hz",
+            )
         self.driver = driver
         self.odometry = odometry
         self.clock = clock
@@ -405,7 +416,7 @@ class ControlLoop:
         silent = now - last if last is not None else now - t0
         if link_abort is not None and silent >= link_abort:
             raise LinkLostError(
-                f"no sensor data from the robot for {silent:.2f} s (--link-timeout "
+                f"no sensor data from the robot for {silent:.2f} s ({opt('link_timeout')} "
                 f"{link_abort:g} s); stop commanded, gave up"
             )
 

@@ -20,6 +20,7 @@ from dataclasses import dataclass, fields
 from urllib.parse import urlparse
 
 from odolab.defaults import DEFAULT_TRUTH
+from odolab.errors import opt
 from odolab.params import RobotParams
 from odolab.robot.clock import Clock, SimClock
 from odolab.robot.config import RunConfig
@@ -99,8 +100,8 @@ def _check_tcp(url: str) -> object:
 def _check_sim(url: str) -> object:
     if url != DEFAULT_ROBOT_URL:  # a host, a query: nothing reads them
         raise RobotUrlError(
-            f"--robot {url!r}: expected plain sim:// (a virtual Jaguar on 127.0.0.1; its true "
-            "behaviour is --truth)"
+            f"{opt('robot')} {url!r}: expected plain sim:// (a virtual Jaguar on 127.0.0.1; its "
+            "true behaviour is {{truth}})"
         )
     return url
 
@@ -150,7 +151,7 @@ def check_robot_url(url: str | None) -> str:
     scheme = urlparse(url).scheme
     if scheme not in LINKS:
         forms = ", ".join(entry.form for entry in LINKS.values())
-        raise RobotUrlError(f"--robot {url!r} has no known scheme; expected one of {forms}")
+        raise RobotUrlError(f"{opt('robot')} {url!r} has no known scheme; expected one of {forms}")
     LINKS[scheme].check(url)
     _check_host(url)
     return url
@@ -160,7 +161,7 @@ def _check_characters(url: str) -> None:
     bad = next((i for i, c in enumerate(url) if c.isspace() or not c.isprintable()), None)
     if bad is not None:
         raise RobotUrlError(
-            f"--robot {url!r} has a space or control character at position {bad + 1}; "
+            f"{opt('robot')} {url!r} has a space or control character at position {bad + 1}; "
             "expected the URL alone (SCHEME://HOST:PORT, nothing around it)"
         )
 
@@ -179,35 +180,35 @@ def _check_host(url: str) -> None:
     dotted = socket.inet_ntoa(packed)
     if dotted != host:
         raise RobotUrlError(
-            f"--robot {url!r}: the host {host!r} is the IPv4 address {dotted} written another "
+            f"{opt('robot')} {url!r}: the host {host!r} is the IPv4 address {dotted} written another "
             f"way; expected it as four decimal numbers ({dotted}) or a host name"
         )
 
 
-#: The options that only the virtual board started for a ``sim://`` run reads, with their
-#: defaults: on a real link, one that is not its default is refused before anything is sent
+#: The settings (library names) that only the virtual board started for a ``sim://`` run
+#: reads, with their defaults: on a real link, one that is not its default is refused before anything is sent
 #: (a user who means the simulator must not drive the robot instead).
 VIRTUAL_ONLY: dict[str, object] = {
-    "--truth": DEFAULT_TRUTH,
-    "--terrain": "tile",
-    "--seed": 0,
-    "--command-timeout": next(f.default for f in fields(RunConfig) if f.name == "command_timeout"),
+    "truth": DEFAULT_TRUTH,
+    "terrain": "tile",
+    "seed": 0,
+    "command_timeout": next(f.default for f in fields(RunConfig) if f.name == "command_timeout"),
 }
 
 
 def check_virtual_only(url: str, given: Mapping[str, object]) -> None:
     """Refuse options of :data:`VIRTUAL_ONLY` that differ from their defaults (``given``:
-    option -> value) when ``url`` is a real link (one sentence, naming them)."""
+    setting -> value) when ``url`` is a real link (one sentence, naming them)."""
     if urlparse(url).scheme == "sim":
         return
     changed = [k for k, v in given.items() if k in VIRTUAL_ONLY and v != VIRTUAL_ONLY[k]]
     if changed:
         one = len(changed) == 1
         raise RobotConfigError(
-            f"{', '.join(changed)} {'is' if one else 'are'} for the virtual Jaguar (sim://) "
+            f"{', '.join(map(opt, changed))} {'is' if one else 'are'} for the virtual Jaguar (sim://) "
             f"only, and the robot is {url}: nothing was sent; leave {'it' if one else 'them'} "
             "out to drive this robot (a real board has its own command timeout), or use "
-            "--robot sim:// to drive the simulator"
+            "{{robot}} sim:// to drive the simulator"
         )
 
 

@@ -34,7 +34,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from odolab.errors import OdolabError
+from odolab.errors import OdolabError, opt
 from odolab.params import PRESETS, RobotParams
 from odolab.robot.clock import Clock, RealClock, SimClock, set_realtime
 from odolab.robot.config import RunConfig, check_motion
@@ -422,7 +422,7 @@ class _DriftHook:
                 "last_ratio_ci95": None if state is None else [num(v) for v in state.ci95],
             },
             # odometry against the gyro over the whole run (None: they agree, or too little turn)
-            "sense_check": self.sense(),
+            "sense_check": _neutral(self.sense()),  # (a file: the library's words)
         }
 
 
@@ -605,19 +605,19 @@ def check_run_folder(folder: str | Path) -> Path:
     base = _first_existing(out)
     if not base.is_dir():
         where = "is a file" if base == out else f"is below {base}, a file"
-        raise RunFolderError(f"{out}: {where}; expected a folder for the run (--out)")
+        raise RunFolderError(f"{out}: {where}; expected a folder for the run ({opt('out')})")
     in_the_way = [n for n in (*RUN_FILES, *OPTIONAL_RUN_FILES) if os.path.lexists(out / n)]
     if (out / "run.json").is_file():
         raise RunFolderError(
             f"{out}: holds an earlier run (run.json); a run folder is never overwritten, "
-            "expected a new or empty folder (--out)"
+            "expected a new or empty folder ({{out}})"
         )
     if in_the_way:
         name = in_the_way[0]
         kind = "a folder" if (out / name).is_dir() else "a file"
         raise RunFolderError(
             f"{out}: has {kind} named {name} where the run writes its {name}; expected a new "
-            "or empty folder (--out)"
+            "or empty folder ({{out}})"
         )
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -627,7 +627,7 @@ def check_run_folder(folder: str | Path) -> Path:
     except OSError as err:
         raise RunFolderError(
             f"{out}: cannot create or write in the run folder ({err.strerror or err}); "
-            "expected a folder odolab can write (--out)"
+            "expected a folder odolab can write ({{out}})"
         ) from err
     return out
 
@@ -727,3 +727,10 @@ def save_run(run: RobotRun, folder: str | Path) -> Path:
     doc.update({k: v for k, v in run.extra.items() if k not in doc})
     write_text_file(out / "run.json", strict_json(doc) + "\n", what="run record")
     return out
+
+
+def _neutral(text: str | None) -> str | None:
+    """``text`` with its settings' marks in the library's words (for a file the run writes)."""
+    from odolab.errors import NEUTRAL
+
+    return None if text is None else NEUTRAL.say(text)

@@ -51,10 +51,13 @@ __all__ = [
 
 class StrictJSONResponse(JSONResponse):
     """Starlette's JSON answer made by :func:`odolab.writing.strict_json`: a non-finite number
-    is ``null`` (Starlette's own refuses it, a 500), so every answer parses in a browser."""
+    is ``null`` (Starlette's own refuses it, a 500), so every answer parses in a browser; the
+    settings the library's text names, in the web's words (:mod:`odolab.serve.wording`)."""
 
     def render(self, content: object) -> bytes:
-        return strict_json(content, indent=None).encode("utf-8")
+        from odolab.serve.wording import WEB
+
+        return WEB.say(strict_json(content, indent=None)).encode("utf-8")
 
 
 TOKEN_COOKIE = "odolab_token"

@@ -624,7 +624,7 @@ def read_trials_csv(
                     raise row.fail(
                         "campaign",
                         f"unknown campaign {quote_input(camp)}; add it first (odolab trials campaign-add) "
-                        "or import with --create-campaigns",
+                        "or import with {{create_campaigns}}",
                     )
                 out.append(parsed)
         except (csv.Error, UnicodeDecodeError) as err:

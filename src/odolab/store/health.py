@@ -20,7 +20,7 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
-from odolab.errors import StoreError
+from odolab.errors import StoreError, opt
 from odolab.text import shorten
 from odolab.writing import NEW_FILE_MODE
 
@@ -168,7 +168,7 @@ def recovery_hint(path: str | Path) -> str:
     """How to get a damaged notebook's trials back, in odolab's own commands."""
     return (
         "copy every record it still holds into a new notebook with `odolab notebook rescue "
-        f"NEW.db --db {path}` (the damaged file is only read), or go back to your last copy "
+        f"NEW.db {opt('db')} {path}` (the damaged file is only read), or go back to your last copy "
         "of it (docs/notebook.md, 'Not a notebook, or a damaged one')"
     )
 

@@ -81,7 +81,7 @@ def refuse_if_measured(t: Trial, replace: bool) -> None:
     if t.measured is not None and not replace:
         raise StoreError(
             f"trial {t.trial_id} is already measured ({describe_measurement(t)}); "
-            "give --replace to overwrite its measurement"
+            "give {{replace}} to overwrite its measurement"
         )
 
 
@@ -106,7 +106,7 @@ def check_reading_names(
     wrong = [v for k, v in values.items() if k not in needs]
     given = [values[k] for k in needs]
     if any(v is not None for v in wrong) or (complete and any(v is None for v in given)):
-        expected = "--initial, --final and --turns" if rotation else "--x and --y"
+        expected = "{{initial}}, {{final}} and {{turns}}" if rotation else "{{x}} and {{y}}"
         raise StoreError(
             f"trial {t.trial_id} is a {t.command.kind.value}: it is measured with {expected}"
         )
@@ -249,7 +249,7 @@ def virtual_measurement(t: Trial, sigma: object = None) -> Measurement:
         raise StoreError(
             f"trial {t.trial_id} was not driven on a virtual board (it has no true pose), so "
             "there are no virtual instruments to read; measure it with the real ones "
-            "(--initial, --final and --turns, or --x and --y)"
+            "({{initial}}, {{final}} and {{turns}}, or {{x}} and {{y}})"
         )
     if "turns" in readings:
         m = measurement_for_trial(

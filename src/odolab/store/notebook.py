@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from odolab.errors import StoreError
+from odolab.errors import StoreError, opt
 from odolab.params import RobotParams
 from odolab.progress import Progress, no_progress
 from odolab.store.codec import EncodedLog, decode_log, encode_log
@@ -715,7 +715,7 @@ class Notebook:
                 raise StoreError(f"no trial {trial_id!r} in {self.path}")
             if row["instrument"] is not None and not replace:
                 raise StoreError(
-                    f"trial {trial_id} is already measured; pass replace=True (--replace) "
+                    f"trial {trial_id} is already measured; pass replace=True ({opt('replace')}) "
                     "to overwrite its measurement"
                 )
             rec = dict(row)

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.errors import opt
 from odolab.tracking.camera import CameraModel, TrackingError
 from odolab.tracking.markers import get_dictionary
 
@@ -103,7 +104,12 @@ def calibrate_camera_video(
     if not p.is_file():
         raise TrackingError(f"{p}: no such video file")
     if step < 1:
-        raise TrackingError(f"--step is {step}; expected a whole number >= 1")
+        raise TrackingError(
+            f"{opt('step')} is {step}; expected a whole number >= 1",
+            option="step",
+            value=step,
+            allowed="a whole number >= 1",
+        )
     cap = cv2.VideoCapture(str(p))
     if not cap.isOpened():
         raise TrackingError(f"{p}: not a video OpenCV can read")
@@ -138,7 +144,7 @@ def calibrate_camera_video(
     if len(obj_pts) < 4:
         raise TrackingError(
             f"{p}: the board ({spec.squares_x}x{spec.squares_y}, {spec.dictionary}) was found in "
-            f"{len(obj_pts)} of {frames} frames; expected at least 4 views (check --board)"
+            f"{len(obj_pts)} of {frames} frames; expected at least 4 views (check {opt('board')})"
         )
     if len(obj_pts) > max_views:
         pick = np.linspace(0, len(obj_pts) - 1, max_views).round().astype(int)

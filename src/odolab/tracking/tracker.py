@@ -37,6 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from odolab.defaults import DEFAULT_CORNERS
+from odolab.errors import opt
 from odolab.tracking.camera import CameraModel, FloorMarker, TrackingError
 from odolab.tracking.markers import get_dictionary
 from odolab.trajectory import Trajectory
@@ -78,28 +79,44 @@ class TrackOptions:
     def __post_init__(self) -> None:
         if self.corners not in _REFINEMENT:
             raise TrackingError(
-                f"--corners is {self.corners!r}; expected one of {', '.join(_REFINEMENT)}"
+                f"{opt('corners')} is {self.corners!r}; expected one of {', '.join(_REFINEMENT)}",
+                option="corners",
+                value=self.corners,
+                allowed=f"one of {', '.join(_REFINEMENT)}",
             )
         if not (math.isfinite(self.max_yaw_rate) and self.max_yaw_rate > 0):
             raise TrackingError(
-                f"--max-yaw-rate is {math.degrees(self.max_yaw_rate)!r} deg/s; expected the "
+                f"{opt('max_yaw_rate')} is {math.degrees(self.max_yaw_rate)!r} deg/s; expected the "
                 "robot's fastest turn, a positive number"
             )
         if self.full_every < 1:
             raise TrackingError(f"full_every is {self.full_every}; expected a whole number >= 1")
         if not (math.isfinite(self.marker_size) and self.marker_size > 0):
             raise TrackingError(
-                f"--marker-size is {self.marker_size!r}; expected the black square's side in m"
+                f"{opt('marker_size')} is {self.marker_size!r}; expected the black square's side in m",
+                option="marker_size",
+                value=self.marker_size,
+                allowed="the black square's side in m",
             )
         if not (math.isfinite(self.marker_height) and 0 <= self.marker_height < 10):
             raise TrackingError(
-                f"--marker-height is {self.marker_height!r}; expected metres above the floor "
+                f"{opt('marker_height')} is {self.marker_height!r}; expected metres above the floor "
                 "(0 to 10)"
             )
         if not all(math.isfinite(v) for v in self.marker_offset):
-            raise TrackingError(f"--marker-offset is {self.marker_offset!r}; expected metres")
+            raise TrackingError(
+                f"{opt('marker_offset')} is {self.marker_offset!r}; expected metres",
+                option="marker_offset",
+                value=self.marker_offset,
+                allowed="metres",
+            )
         if self.robot_marker < 0:
-            raise TrackingError(f"--robot-marker is {self.robot_marker}; expected an id >= 0")
+            raise TrackingError(
+                f"{opt('robot_marker')} is {self.robot_marker}; expected an id >= 0",
+                option="robot_marker",
+                value=self.robot_marker,
+                allowed="an id >= 0",
+            )
 
 
 @dataclass(frozen=True)
@@ -495,7 +512,7 @@ def track_video(
     by_id = {m.id: m for m in floor}
     if options.robot_marker in by_id:
         raise TrackingError(
-            f"--robot-marker {options.robot_marker} is also a floor marker in the floor table; "
+            f"{opt('robot_marker')} {options.robot_marker} is also a floor marker in the floor table; "
             "expected a different id"
         )
     detector = _detector(options.dictionary, options.corners)

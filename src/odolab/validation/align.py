@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage, signal
 
-from odolab.errors import ImuLogError
+from odolab.errors import ImuLogError, opt
 from odolab.io.sensorlog import ImuLog
 
 __all__ = [
@@ -105,8 +105,8 @@ def require_overlap(
         raise ImuLogError(
             f"{imu.source}: the IMU log (phone time {p0:.3f} to {p1:.3f} s) does not overlap the "
             f"{robot_source} (robot time {r0:.3f} to {r1:.3f} s) by at least {min_overlap:g} s "
-            f"for {allowed}; give the offset between the clocks (--offset) or widen the search "
-            "(--max-offset)"
+            f"for {allowed}; give the offset between the clocks ({opt('offset')}) or widen the search "
+            "({{max_offset}})"
         )
 
 
@@ -204,7 +204,7 @@ def _check_sign(imu: ImuLog, fine: FloatArray, k: int) -> None:
         raise ImuLogError(
             f"{imu.source}: the IMU's yaw rate matches the odometry's best with its sign "
             f"reversed (correlation {worst:.2f} against {float(fine[k]):.2f}); if the phone lay "
-            "face down, flip the IMU's heading (--flip-imu)"
+            "face down, flip the IMU's heading ({{flip_imu}})"
         )
 
 
@@ -269,7 +269,7 @@ def find_clock_offset(
     if norm == 0.0:
         raise ImuLogError(
             f"{imu.source}: neither log shows any rotation to align the clocks with; give the "
-            "clock offset (--offset with --max-offset 0)"
+            "clock offset ({{offset}} with {{max_offset}} 0)"
         )
     # c[k] = sum_j a[j + k - (nb - 1)] * b[j]; lag L = k - (nb - 1) grid steps means phone
     # sample j sits at robot grid index j + L, i.e. offset = (imu.t0 - robot.t0) - L*h

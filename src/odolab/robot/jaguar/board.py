@@ -44,7 +44,7 @@ from typing import TypeVar, cast
 import numpy as np
 
 from odolab.encoders import counter_delta
-from odolab.errors import ProtocolError, RobotLinkError
+from odolab.errors import ProtocolError, RobotLinkError, opt
 from odolab.params import RobotParams
 from odolab.robot.config import BOUNDS, Bound, check_bound
 from odolab.robot.errors import BoardConfigError, RobotConfigError
@@ -82,7 +82,7 @@ LEFT_CHANNEL = 0
 RIGHT_CHANNEL = 1
 
 
-_REPORT_RATE = Bound("--report-rate", 0.5, 1000.0, "Hz")
+_REPORT_RATE = Bound("report_rate", 0.5, 1000.0, "Hz")
 _PING_INTERVAL = Bound("ping interval", 0.0, 60.0, "s")
 
 
@@ -105,7 +105,7 @@ class BoardConfig:
             check_bound(BOUNDS["command_timeout"], self.command_timeout)
             check_bound(_PING_INTERVAL, self.ping_interval)
         except RobotConfigError as err:
-            raise BoardConfigError(str(err)) from err
+            raise BoardConfigError(err) from err
         for name in ("left_metres_per_tick", "right_metres_per_tick"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
@@ -145,18 +145,29 @@ class Faults:
             p = getattr(self, name)
             if not (math.isfinite(p) and 0.0 <= p <= 1.0):
                 raise BoardConfigError(
-                    f"--{name.replace('_', '-')} is {p}; expected a probability in [0, 1]"
+                    f"{opt(name)} is {p}; expected a probability in [0, 1]",
+                    option=name,
+                    value=p,
+                    allowed="a probability in [0, 1]",
                 )
         if self.silent_after is not None and not (
             math.isfinite(self.silent_after) and 0.0 <= self.silent_after <= 3600.0
         ):
             raise BoardConfigError(
-                f"--silent-after is {self.silent_after}; expected a number in [0, 3600] s"
+                f"{opt('silent_after')} is {self.silent_after}; expected a number in [0, 3600] s",
+                option="silent_after",
+                value=self.silent_after,
+                allowed="a number in [0, 3600] s",
             )
         for name in ("delay", "jitter"):
             v = getattr(self, name)
             if not (math.isfinite(v) and 0.0 <= v <= 10.0):
-                raise BoardConfigError(f"--{name} is {v}; expected a number in [0, 10] s")
+                raise BoardConfigError(
+                    f"{opt(name)} is {v}; expected a number in [0, 10] s",
+                    option=name,
+                    value=v,
+                    allowed="a number in [0, 10] s",
+                )
 
 
 @dataclass

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from typing import Protocol
 from urllib.parse import urlparse
 
-from odolab.errors import ProtocolError, RobotLinkError
+from odolab.errors import ProtocolError, RobotLinkError, opt
 from odolab.params import RobotParams
 from odolab.robot.clock import Clock
 from odolab.robot.config import CommandMode, RunConfig, check_signs
@@ -108,7 +108,7 @@ def parse_robot_url(url: str) -> tuple[str, int]:
         port = parsed.port  # raises ValueError for a non-number or out of 0..65535
     except ValueError as err:
         raise RobotUrlError(
-            f"--robot {url!r} has a bad port ({err}); expected udp://HOST:PORT with a port "
+            f"{opt('robot')} {url!r} has a bad port ({err}); expected udp://HOST:PORT with a port "
             "in 0..65535"
         ) from err
     if (
@@ -119,10 +119,10 @@ def parse_robot_url(url: str) -> tuple[str, int]:
         or parsed.fragment
         or parsed.username is not None
     ):
-        raise RobotUrlError(f"--robot {url!r} is not of the form udp://HOST:PORT")
+        raise RobotUrlError(f"{opt('robot')} {url!r} is not of the form udp://HOST:PORT")
     if parsed.query:  # was ignored: udp://...?variant=track, meant for tcp://, drove the board
         raise RobotUrlError(
-            f"--robot {url!r}: udp://HOST:PORT takes no query (variant= is for the 2014 "
+            f"{opt('robot')} {url!r}: udp://HOST:PORT takes no query (variant= is for the 2014 "
             "Jaguar's tcp://HOST:PORT?variant=wheel|track)"
         )
     return parsed.hostname, port

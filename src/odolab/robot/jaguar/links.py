@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 from urllib.parse import urlparse
 
+from odolab.errors import opt
 from odolab.params import RobotParams
 from odolab.robot.clock import Clock, SimClock
 from odolab.robot.config import RunConfig
@@ -41,7 +42,7 @@ def open_virtual(
     """
     parsed = urlparse(url)
     if parsed.netloc or parsed.path or parsed.params or parsed.query or parsed.fragment:
-        raise RobotUrlError(f"--robot {url!r}: expected plain sim:// (a virtual Jaguar)")
+        raise RobotUrlError(f"{opt('robot')} {url!r}: expected plain sim:// (a virtual Jaguar)")
     faults = virtual.faults
     if faults is not None and not isinstance(faults, Faults):
         raise RobotUrlError(f"faults of a virtual Jaguar must be Faults, got {type(faults)}")

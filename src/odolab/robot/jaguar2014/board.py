@@ -37,7 +37,7 @@ from dataclasses import dataclass
 from typing import TypeVar
 
 from odolab.encoders import counter_delta
-from odolab.errors import RobotLinkError
+from odolab.errors import RobotLinkError, opt
 from odolab.kinematics import wrap_angle
 from odolab.params import RobotParams
 from odolab.robot.errors import BoardConfigError
@@ -91,7 +91,10 @@ class Board2014Config:
             math.isfinite(self.silent_after) and 0 <= self.silent_after <= 3600
         ):
             raise BoardConfigError(
-                f"--silent-after is {self.silent_after}; expected a number in [0, 3600] s"
+                f"{opt('silent_after')} is {self.silent_after}; expected a number in [0, 3600] s",
+                option="silent_after",
+                value=self.silent_after,
+                allowed="a number in [0, 3600] s",
             )
         if self.variant not in VARIANTS:
             raise BoardConfigError(

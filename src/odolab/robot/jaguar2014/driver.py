@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 from typing import Protocol
 from urllib.parse import parse_qs, urlparse
 
+from odolab.errors import opt
 from odolab.params import RobotParams
 from odolab.robot.clock import Clock
 from odolab.robot.config import RunConfig, check_signs
@@ -76,7 +77,7 @@ def parse_tcp_url(url: str) -> tuple[str, int, str]:
         port = parsed.port
     except ValueError as err:
         raise RobotUrlError(
-            f"--robot {url!r} has a bad port ({err}); expected tcp://HOST:PORT with a port "
+            f"{opt('robot')} {url!r} has a bad port ({err}); expected tcp://HOST:PORT with a port "
             "in 0..65535"
         ) from err
     if (
@@ -86,17 +87,17 @@ def parse_tcp_url(url: str) -> tuple[str, int, str]:
         or parsed.path not in ("", "/")
         or parsed.username is not None
     ):
-        raise RobotUrlError(f"--robot {url!r} is not of the form tcp://HOST:PORT")
+        raise RobotUrlError(f"{opt('robot')} {url!r} is not of the form tcp://HOST:PORT")
     query = parse_qs(parsed.query, keep_blank_values=True)
     variant = "wheel"
     for key, values in query.items():
         if key != "variant" or len(values) != 1 or values[0] not in VARIANTS:
             raise RobotUrlError(
-                f"--robot {url!r}: the only query is variant=wheel or variant=track"
+                f"{opt('robot')} {url!r}: the only query is variant=wheel or variant=track"
             )
         variant = values[0]
     if parsed.fragment:
-        raise RobotUrlError(f"--robot {url!r} is not of the form tcp://HOST:PORT")
+        raise RobotUrlError(f"{opt('robot')} {url!r} is not of the form tcp://HOST:PORT")
     return parsed.hostname, port, variant
 
 

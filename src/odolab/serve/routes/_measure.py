@@ -14,7 +14,7 @@ import math
 import re
 from collections.abc import Mapping
 
-from odolab.errors import StoreError
+from odolab.errors import NEUTRAL, StoreError, Wording
 
 __all__ = [
     "FIELDS",
@@ -128,27 +128,37 @@ def json_readings(body: Mapping[str, object]) -> dict[str, float | None]:
     return out
 
 
-_REPLACE = "give --replace to overwrite its measurement"
-_ROTATION = "it is measured with --initial, --final and --turns"
-_TRANSLATION = "it is measured with --x and --y"
+# the store's three sentences that name the CLI's options, as templates (the settings as marks)
+_REPLACE_T = "give {{replace}} to overwrite its measurement"
+_ROTATION_T = "it is measured with {{initial}}, {{final}} and {{turns}}"
+_TRANSLATION_T = "it is measured with {{x}} and {{y}}"
+# as str() reads them (the library's words), how fields_of finds them
+_REPLACE = NEUTRAL.say(_REPLACE_T)
+#: the flags of ``odolab trials measure`` (the CLI's sentence, e.g. in the parity tests)
+_MEASURE_FLAGS = Wording(
+    {"replace": "--replace", "initial": "--initial", "final": "--final", "turns": "--turns",
+     "x": "--x", "y": "--y"}
+)  # fmt: skip
 
 
 def in_words(message: str, *, api: bool = False) -> str:
-    """The store's sentence with the CLI's flags in the page's (or the API's) words."""
+    """The store's sentence (``str()``: the library's words, or the CLI's with its flags) in
+    the page's (or the API's)."""
     if api:
         words = {
-            _REPLACE: 'send "replace": true to overwrite its measurement',
-            _ROTATION: 'it is measured with "initial", "final" and "turns"',
-            _TRANSLATION: 'it is measured with "x" and "y"',
+            _REPLACE_T: 'send "replace": true to overwrite its measurement',
+            _ROTATION_T: 'it is measured with "initial", "final" and "turns"',
+            _TRANSLATION_T: 'it is measured with "x" and "y"',
         }
     else:
         words = {
-            _REPLACE: 'tick "replace the measurement above" to overwrite it',
-            _ROTATION: "it is measured with the compass before and after and the whole turns",
-            _TRANSLATION: "it is measured with the end point's x and y",
+            _REPLACE_T: 'tick "replace the measurement above" to overwrite it',
+            _ROTATION_T: "it is measured with the compass before and after and the whole turns",
+            _TRANSLATION_T: "it is measured with the end point's x and y",
         }
-    for cli, page in words.items():
-        message = message.replace(cli, page)
+    for template, page in words.items():
+        for said in (NEUTRAL.say(template), _MEASURE_FLAGS.say(template)):
+            message = message.replace(said, page)
     if api:
         return message.replace("sigma_reading_rad", '"sigma"')
     message = message.replace("sigma_reading_rad", "σ").replace("sigma must", "σ must")

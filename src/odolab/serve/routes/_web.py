@@ -148,11 +148,13 @@ def safe_upload_name(filename: str | None) -> str:
 
 
 def web_text(err: BaseException) -> str:
-    """An error's sentence in the web's words: a selection's options named as the pages' and
-    the API's keys (``campaign``, ``exclude_campaign``), not the CLI's flags."""
+    """An error's sentence in the web's words: its settings named as the pages' fields and the
+    API's keys (:data:`odolab.serve.wording.FIELDS`: ``campaign``, ``robot``), not the CLI's
+    flags."""
     from odolab.analysis.selection import WEB_WORDS, SelectionError
+    from odolab.serve.wording import WEB
 
-    return err.worded(WEB_WORDS) if isinstance(err, SelectionError) else str(err)
+    return err.worded(WEB_WORDS) if isinstance(err, SelectionError) else WEB.error(err)
 
 
 def web_status(err: BaseException) -> int:
@@ -235,7 +237,9 @@ class Web:
             path=request.url.path,
             **context,
         )
-        return HTMLResponse(html, status_code=status_code)
+        from odolab.serve.wording import WEB  # the library's settings in the web's words
+
+        return HTMLResponse(WEB.say(html), status_code=status_code)
 
     def error_page(self, request: Request, err: Exception, status_code: int = 400) -> Response:
         return self.page(request, "error.html.j2", status_code, error=web_text(err))

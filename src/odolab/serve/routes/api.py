@@ -216,7 +216,7 @@ async def calibrate(request: Request) -> Response:
         w = web(request)
         return StrictJSONResponse(await w.run(lambda nb: run(nb, req, w.cache).to_dict()))
     except OdolabError as err:
-        text = web_text(err).replace("(--robot, or the form's robot)", '(send "robot")')
+        text = web_text(err).replace("(robot, or the form's robot)", '(send "robot")')
         return error_json(StoreError(text))
 
 

@@ -8,8 +8,10 @@ from urllib.parse import urlencode
 from starlette.requests import Request
 from starlette.responses import RedirectResponse, Response
 
+from odolab.analysis.selection import Wording as SelectionWording
 from odolab.errors import OdolabError
 from odolab.serve.routes._web import text_field, web, web_text
+from odolab.serve.wording import CALIBRATE_WORDS
 
 if TYPE_CHECKING:
     from odolab.app.calibration import CalibrationOutcome, CalibrationRequest
@@ -21,6 +23,7 @@ __all__ = ["page", "post"]
 class _Choices(TypedDict):
     robots: list[str]
     terrains: list[str]
+    selection_words: SelectionWording
 
 
 class _Form(_Choices):
@@ -34,7 +37,11 @@ class _Done(_Choices):
 
 def _choices(nb: Notebook) -> _Choices:
     trials = nb.load_trials(with_logs=False)
-    return {"robots": nb.robots(), "terrains": sorted({t.terrain for t in trials})}
+    return {
+        "robots": nb.robots(),
+        "terrains": sorted({t.terrain for t in trials}),
+        "selection_words": CALIBRATE_WORDS,
+    }
 
 
 async def page(request: Request) -> Response:
@@ -63,7 +70,7 @@ def _run(nb: Notebook, req: CalibrationRequest) -> _Done:
     try:
         return {**ctx, "result": calibrate(nb, req), "error": None}
     except OdolabError as err:
-        text = web_text(err).replace("(--robot, or the form's robot)", "(choose it under robot)")
+        text = web_text(err).replace("(robot, or the form's robot)", "(choose it under robot)")
         return {**ctx, "result": None, "error": text}
 
 
