@@ -263,7 +263,7 @@ def evaluate_cmd(
         _print_table(list(zip(run_labels(done.done), evs, strict=True)))
     _print_notes(done.notes)
     if nees:
-        from odolab.cli.consistency import print_nees
+        from odolab.cli._nees import print_nees
 
         doc["nees"] = print_nees(
             paths, fmt.value, robot, "midpoint", nees_segment, fit_gt_yaw_offset=gt_yaw_offset
