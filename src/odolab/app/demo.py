@@ -44,7 +44,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -55,9 +55,24 @@ from odolab.errors import OdolabError
 from odolab.params import PRESETS, RobotParams, save_params
 from odolab.trials import Command, Measurement, MotionKind, Trial, TrialStatus
 
+if TYPE_CHECKING:
+    from odolab.analysis import LabAnalysis
+    from odolab.analysis.questions import ExperimentResult
+    from odolab.calibration import CalibrationResult, UmbmarkResult
+    from odolab.io.run import OdometryRun
+    from odolab.io.sensorlog import ImuLog
+    from odolab.metrics.consistency import RunNees
+    from odolab.report.models_section import ModelEvidence
+    from odolab.robot.loop import CycleInfo, LoopStats
+    from odolab.sim.physics import TrueParams, VirtualRobot
+    from odolab.store import Notebook
+    from odolab.validation import ValidationResult
+    from odolab.validation.runs import RandomBand, RunsSummary
+
 __all__ = [
     "LAB_REPORT_TABLE1",
     "LAB_REPORT_Y_SIGMA",
+    "STEPS",
     "LabResult",
     "Progress",
     "pooled_y_sigmas",
@@ -111,11 +126,13 @@ class LabResult:
     validation_rms: tuple[float, float]
     phone_log: Path | None = None  #: the phone's SensorLog CSV (for ``odolab validate``)
     loop: dict[str, Any] = field(default_factory=dict)
-    phone_runs: Any = None  #: the phone runs against the predicted random error (RunsSummary)
+    phone_runs: RunsSummary | None = (
+        None  #: the phone runs against the predicted random error (RunsSummary)
+    )
     #: the model comparison and NEES of step 8 (odolab.report.models_section.ModelEvidence)
-    evidence: Any = None
-    #: the phone runs' gyro calibration beside the ratios one (lab._gyro; docs/imu.md)
-    gyro: Any = None
+    evidence: ModelEvidence | None = None
+    #: the phone runs' gyro calibration beside the ratios one (_gyro; docs/imu.md)
+    gyro: dict[str, Any] | None = None
 
 
 def _new_run_folder(out: Path) -> Path:
@@ -150,7 +167,7 @@ def _awaiting(trial: Trial) -> tuple[Trial, Measurement | None]:
     return replace(trial, measured=None, status=TrialStatus.AWAITING), m
 
 
-def _record(nb: Any, trials: list[Trial]) -> None:
+def _record(nb: Notebook, trials: list[Trial]) -> None:
     """Record trials as driven, then enter what the instruments read (the lab's order)."""
     pending = [_awaiting(t) for t in trials]
     nb.add_trials([t for t, _ in pending])
@@ -188,10 +205,12 @@ def _measure_live(
     return out
 
 
-def _truth_recorder(plant: Any, times: list[float], headings: list[float]) -> Callable[[Any], None]:
+def _truth_recorder(
+    plant: VirtualRobot, times: list[float], headings: list[float]
+) -> Callable[[CycleInfo], None]:
     """A loop callback that samples the plant's true heading every cycle (what a phone sees)."""
 
-    def on_cycle(info: Any) -> None:
+    def on_cycle(info: CycleInfo) -> None:
         times.append(float(info.t))
         headings.append(float(plant.true_pose.heading))
 
@@ -209,7 +228,7 @@ class LabConfig:
     seed: int
     truth: str
     nominal: RobotParams
-    true_params: Any
+    true_params: TrueParams
     square_side: float
     square_runs: int
     phone_runs: int
@@ -230,8 +249,8 @@ class LiveRuns:
 class Calibrated:
     """The two calibrations and the files they were written to."""
 
-    ratios: Any
-    umbmark: Any
+    ratios: CalibrationResult
+    umbmark: UmbmarkResult
     files: dict[str, Path]
     #: where each started (odolab.app.calibration.BaseChoice.reason)
     starts: dict[str, str] = field(default_factory=dict)
@@ -241,12 +260,12 @@ class Calibrated:
 class Validated:
     """The phone runs against the old and the new parameters."""
 
-    first: Any  #: the first run's ValidationResult (the report's Fig. 21)
-    runs: Any  #: RunsSummary over every phone run
-    checks: list[Any]
-    band: Any
+    first: ValidationResult  #: the first run's ValidationResult (the report's Fig. 21)
+    runs: RunsSummary  #: over every phone run
+    checks: list[ValidationResult]
+    band: RandomBand
     phone_log: Path
-    imus: list[Any] = field(default_factory=list)  #: each phone run's ImuLog
+    imus: list[ImuLog] = field(default_factory=list)  #: each phone run's ImuLog
 
 
 def _config(
@@ -283,7 +302,7 @@ def _config(
     )
 
 
-def _campaign(cfg: LabConfig, nb: Any, progress: Progress) -> list[Trial]:
+def _campaign(cfg: LabConfig, nb: Notebook, progress: Progress) -> list[Trial]:
     """Step 2: the lab report's campaign on the vectorized simulator, recorded and measured."""
     from odolab.sim.protocols import load_protocol, run_protocol
 
@@ -312,7 +331,7 @@ def _live_commands(cfg: LabConfig) -> list[tuple[str, Command]]:
     return cmds
 
 
-def _live_runs(cfg: LabConfig, nb: Any, progress: Progress) -> LiveRuns:
+def _live_runs(cfg: LabConfig, nb: Notebook, progress: Progress) -> LiveRuns:
     """Step 3: squares and phone rotations through loop, driver, codec and virtual board."""
     from odolab.robot.session import run_motion_simulated
     from odolab.sim.plants import make_plant
@@ -320,7 +339,7 @@ def _live_runs(cfg: LabConfig, nb: Any, progress: Progress) -> LiveRuns:
     cmds = _live_commands(cfg)
     live: list[Trial] = []
     starts: list[float] = []
-    stats: list[Any] = []
+    stats: list[LoopStats] = []
     truth: list[tuple[np.ndarray, np.ndarray]] = []
     for i, (trial_id, cmd) in enumerate(cmds):
         progress("live runs", i, len(cmds))
@@ -363,7 +382,9 @@ def _live_runs(cfg: LabConfig, nb: Any, progress: Progress) -> LiveRuns:
     return LiveRuns(squares, phone_trials, truth, loop)
 
 
-def _analysis(nb: Any, progress: Progress) -> tuple[Any, list[Trial], list[dict[str, Any]]]:
+def _analysis(
+    nb: Notebook, progress: Progress
+) -> tuple[LabAnalysis, list[Trial], list[dict[str, Any]]]:
     """Step 4: every characterization trial in the notebook (validation runs left out), as
     ``odolab analyze`` and the web's Table I select them (:func:`odolab.app.analysis.analyze`)."""
     from odolab.app.analysis import analyze
@@ -374,7 +395,7 @@ def _analysis(nb: Any, progress: Progress) -> tuple[Any, list[Trial], list[dict[
     return result.analysis, result.selection.trials, result.table1
 
 
-def _calibrate(cfg: LabConfig, nb: Any, folder: Path, progress: Progress) -> Calibrated:
+def _calibrate(cfg: LabConfig, nb: Notebook, folder: Path, progress: Progress) -> Calibrated:
     """Step 5: ratios on tile, then UMBmark iterated from the ratios result; each a parameter
     version (:func:`odolab.app.calibration.calibrate`, as ``odolab calibrate`` and the web)."""
     from odolab.app.calibration import CalibrationRequest, calibrate
@@ -397,7 +418,7 @@ def _calibrate(cfg: LabConfig, nb: Any, folder: Path, progress: Progress) -> Cal
     return Calibrated(by_ratio.result, by_umbmark.umbmark, files, starts)
 
 
-def _phone_log(t_run: np.ndarray, h_run: np.ndarray, seed: int) -> Any:
+def _phone_log(t_run: np.ndarray, h_run: np.ndarray, seed: int) -> ImuLog:
     """The phone's log: from 10 s before the run to 10 s after it (the robot stands still)."""
     from odolab.validation import simulate_phone_log
 
@@ -448,7 +469,7 @@ def _validate(
     return Validated(checks[0], runs, checks, band, phone_csv, imus)
 
 
-def _gyro(live: LiveRuns, val: Validated, ratios: Any) -> dict[str, Any]:
+def _gyro(live: LiveRuns, val: Validated, ratios: CalibrationResult) -> dict[str, Any]:
     """Step 6b: the phone runs' gyro calibrates the rotation part (docs/imu.md), beside the
     ratios calibration: the same radii (the distance scale the gyro cannot see), the phone's
     bias from its still seconds before each run, its scale taken as 1 +- 1 %."""
@@ -522,7 +543,7 @@ def _gyro(live: LiveRuns, val: Validated, ratios: Any) -> dict[str, Any]:
     return out
 
 
-def _random_band(rows: list[dict[str, Any]]) -> Any:
+def _random_band(rows: list[dict[str, Any]]) -> RandomBand:
     """σ(θ) of a rotation from Table I: the spread at the largest repeated angle, growing
     with the fitted power p (0.5, a random walk, when no growth fit)."""
     from odolab.validation.runs import RandomBand
@@ -555,7 +576,9 @@ def _rerun(cfg: LabConfig, new: RobotParams, progress: Progress) -> dict[str, fl
     return ratios
 
 
-def _mocap_runs(cfg: LabConfig, progress: Progress, total: int = MOCAP_RUNS + 1) -> list[Any]:
+def _mocap_runs(
+    cfg: LabConfig, progress: Progress, total: int = MOCAP_RUNS + 1
+) -> list[OdometryRun]:
     """Free runs of the true robot on tile, each with its ground truth (motion capture)."""
     from odolab.io.run import OdometryRun
     from odolab.sim.drives import drive, random_legs
@@ -575,7 +598,7 @@ def _mocap_runs(cfg: LabConfig, progress: Progress, total: int = MOCAP_RUNS + 1)
     return runs
 
 
-def _models(cfg: LabConfig, new: RobotParams, folder: Path, progress: Progress) -> Any:
+def _models(cfg: LabConfig, new: RobotParams, folder: Path, progress: Progress) -> ModelEvidence:
     """Step 8: which kinematic model the robot needs, and whether the propagated covariance of
     the calibrated ``[noise]`` is honest, both on free runs with ground truth; on a truth with
     speed-dependent slip also the slip model learned from a one-minute exploration
@@ -598,7 +621,7 @@ def _models(cfg: LabConfig, new: RobotParams, folder: Path, progress: Progress) 
         f"Each model is fitted from the nominal parameters on {len(train)} runs by least "
         f"squares (odolab calibrate lsq) and scored on {len(held)} it did not see."
     )
-    nees: list[Any] = []
+    nees: list[RunNees] = []
     about_nees = ""
     if new.noise is None:
         missing.append(
@@ -632,7 +655,7 @@ def _models(cfg: LabConfig, new: RobotParams, folder: Path, progress: Progress) 
 
 
 def _slip(
-    cfg: LabConfig, held: list[Any], questions: tuple[Any, ...], folder: Path
+    cfg: LabConfig, held: list[OdometryRun], questions: tuple[ExperimentResult, ...], folder: Path
 ) -> tuple[dict[str, Any] | None, str]:
     """The slip model against the kinematic ones, from a one-minute exploration (the runs
     written to ``runs/`` so that ``calibrate compare`` can repeat it); a failure is a note."""
@@ -648,7 +671,7 @@ def _slip(
     return result.to_dict(), ""
 
 
-def _open_questions(cfg: LabConfig) -> tuple[tuple[Any, ...], str]:
+def _open_questions(cfg: LabConfig) -> tuple[tuple[ExperimentResult, ...], str]:
     """The lab's open questions (section IX) answered on the true robot, when its truth has the
     slips they ask about (turn, speed, stop: ``jaguar-lab-tracked``); none otherwise."""
     from odolab.analysis.questions import builtin_experiments, run_open_questions
@@ -670,12 +693,12 @@ def _report(
     cfg: LabConfig,
     folder: Path,
     db: Path,
-    analysis: Any,
+    analysis: LabAnalysis,
     cal: Calibrated,
     val: Validated,
     live: LiveRuns,
     after: dict[str, float],
-    evidence: Any,
+    evidence: ModelEvidence,
     progress: Progress,
     gyro: dict[str, Any] | None = None,
 ) -> Path:

@@ -4,12 +4,15 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
 from odolab.cli._apps import app
 from odolab.defaults import DEFAULT_TRUTH
+
+if TYPE_CHECKING:
+    from odolab.app.demo import LabResult
 
 __all__: list[str] = []
 
@@ -29,7 +32,7 @@ def demo_cmd(
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from odolab.lab import STEPS, run_lab
+    from odolab.app.demo import STEPS, run_lab
 
     console = Console(stderr=True)
     with Progress(
@@ -49,6 +52,11 @@ def demo_cmd(
 
         result = run_lab(out, seed=seed, truth=truth, progress=progress)
 
+    _print_result(result)
+
+
+def _print_result(result: LabResult) -> None:
+    """Table I against the lab report, the headline numbers and where the files went."""
     from odolab import numfmt
     from odolab.cli._console import console as make_console
     from odolab.cli._console import print_table
@@ -78,8 +86,8 @@ def demo_cmd(
         _print_slip(out_console, ev.slip)
     elif ev is not None and ev.slip_note:
         out_console.print(ev.slip_note, markup=False, highlight=False)
-    if ev is not None and ev.nees:
-        consistency = ev.consistency_dict()
+    consistency = ev.consistency_dict() if ev is not None else None  # (None without NEES)
+    if ev is not None and ev.nees and consistency is not None:
         s = consistency["summary"]
         lo, hi = s["mean_bounds95"]
         piece = ev.nees[0].segment_s
