@@ -23,11 +23,13 @@ if TYPE_CHECKING:
     import numpy as np
 
     from odolab.calibration.sensor import SensorCalibration
+    from odolab.tracking.photo import PhotoTrack
     from odolab.tracking.tracker import GapBridge, TrackResult
     from odolab.trajectory import Trajectory
 
 __all__ = [
     "OptionError",
+    "PhotoRequest",
     "SensorOutcome",
     "SensorRequest",
     "TrackOutcome",
@@ -35,6 +37,7 @@ __all__ = [
     "calibrate_sensor_log",
     "estimate_time_offset",
     "track_log",
+    "track_photo_log",
 ]
 
 
@@ -359,3 +362,71 @@ def track_log(req: TrackRequest, check_output: Callable[[], None] = _nothing) ->
         )
     write_track_csv(req.output, out.result, out.offset)
     return out
+
+
+# -- track-photo ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class PhotoRequest:
+    """What ``odolab track-photo`` was asked: the photo, its floor points, the run's encoder
+    log and parameters, the LED's timing, where the path (and an overlay) go."""
+
+    photo: Path
+    floor_points: Path
+    encoders: Path
+    params: str
+    output: Path
+    led_hz: float = 2.0
+    duty: float = 0.5
+    overlay: Path | None = None
+    fmt: str = "csv"
+
+
+def track_photo_log(req: PhotoRequest, check_outputs: Callable[[], None] = _nothing) -> PhotoTrack:
+    """A timed path from one long-exposure photo of an LED flashing on the robot: the dashes
+    found, ordered from the robot's start and placed on the encoder log's clock by matching
+    the distance driven; written to ``req.output`` (and the overlay where asked).
+    ``check_outputs``: the face's check of its output paths, once the options are good.
+
+    Raises:
+        OptionError: an LED frequency or ON fraction out of range.
+    """
+    from odolab.io.registry import read_run
+    from odolab.io.run import ReadOptions
+    from odolab.params import load_params
+    from odolab.tracking.photo import (
+        WheelTravel,
+        draw_overlay,
+        read_floor_points,
+        read_photo,
+        track_photo,
+        write_photo_csv,
+    )
+
+    if not (math.isfinite(req.led_hz) and req.led_hz > 0):
+        raise OptionError(f"--led-hz is {req.led_hz!r}; expected the LED's frequency, > 0 Hz")
+    if not (math.isfinite(req.duty) and 0.05 <= req.duty <= 0.95):
+        raise OptionError(f"--duty is {req.duty!r}; expected the LED's ON fraction, 0.05 to 0.95")
+    check_outputs()
+    points = read_floor_points(req.floor_points)
+    nominal = load_params(req.params)
+    run = read_run(
+        req.encoders,
+        req.fmt,
+        ReadOptions(modulus=nominal.encoder_modulus, ticks_per_rev=nominal.ticks_per_rev),
+    )
+    odo = run.odometry(nominal)
+    per_tick = 2.0 * math.pi / nominal.ticks_per_rev
+    travel = WheelTravel.from_increments(
+        run.t, run.dticks_left, run.dticks_right,
+        nominal.left_wheel_radius * per_tick, nominal.right_wheel_radius * per_tick,
+    )  # fmt: skip
+    image = read_photo(req.photo)
+    track = track_photo(
+        image, points, travel, led_hz=req.led_hz, duty=req.duty, source=str(req.photo)
+    )
+    write_photo_csv(req.output, track)
+    if req.overlay is not None:
+        draw_overlay(req.overlay, image, track, odo)
+    return track
