@@ -16,26 +16,35 @@ from odolab.cli.evaluate import RunFormat
 __all__ = ["print_nees"]
 
 
+NoiseRunsOpt = Annotated[
+    list[Path], typer.Argument(help="Runs (files or folders) with ground truth.")
+]
+NoiseOutputOpt = Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")]
+NoiseFmtOpt = Annotated[RunFormat, typer.Option("--format", "-f", help="Run format.")]
+NoiseParamsOpt = Annotated[
+    str | None, typer.Option("--params", "-p", help="Parameters (default: the runs' own).")
+]
+NoiseMethodOpt = Annotated[MethodChoice, typer.Option(help="Pose step rule.")]
+NoiseSegmentOpt = Annotated[float, typer.Option(help="Piece length (s) of the NEES.")]
+NoiseGtYawOffsetOpt = Annotated[
+    bool | None,
+    typer.Option(
+        "--gt-yaw-offset/--no-gt-yaw-offset",
+        help="Fit the ground truth's yaw mounting offset per run (default: unless the "
+        "ground truth starts in the odometry's frame).",
+    ),
+]
+
+
 @calibrate_app.command("noise")
 def calibrate_noise_cmd(
-    runs: Annotated[list[Path], typer.Argument(help="Runs (files or folders) with ground truth.")],
-    output: Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")],
-    fmt: Annotated[RunFormat, typer.Option("--format", "-f", help="Run format.")] = (
-        RunFormat.optiodom
-    ),
-    params: Annotated[
-        str | None, typer.Option("--params", "-p", help="Parameters (default: the runs' own).")
-    ] = None,
-    method: Annotated[MethodChoice, typer.Option(help="Pose step rule.")] = MethodChoice.midpoint,
-    segment: Annotated[float, typer.Option(help="Piece length (s) of the NEES.")] = 10.0,
-    gt_yaw_offset: Annotated[
-        bool | None,
-        typer.Option(
-            "--gt-yaw-offset/--no-gt-yaw-offset",
-            help="Fit the ground truth's yaw mounting offset per run (default: unless the "
-            "ground truth starts in the odometry's frame).",
-        ),
-    ] = None,
+    runs: NoiseRunsOpt,
+    output: NoiseOutputOpt,
+    fmt: NoiseFmtOpt = (RunFormat.optiodom),
+    params: NoiseParamsOpt = None,
+    method: NoiseMethodOpt = MethodChoice.midpoint,
+    segment: NoiseSegmentOpt = 10.0,
+    gt_yaw_offset: NoiseGtYawOffsetOpt = None,
 ) -> None:
     """Fit the \\[noise] table to runs with ground truth: k_left, k_right, k_scrub by maximum
     likelihood over the runs' pieces; judge it on held-out runs."""
