@@ -484,13 +484,5 @@ def nees_of_paths(
         fit_gt_yaw_offset=fit_gt_yaw_offset,
     )
     beyond, note = first_order_note(results)
-    return NeesOutcome(
-        segment_s=segment,
-        results=results,
-        summary=nees_summary(results),
-        slip_models=slip_models,
-        skipped=skipped,
-        skip_note=skip_note,
-        pieces_past_first_order=beyond,
-        first_order_note=note,
-    )
+    summary = nees_summary(results)
+    return NeesOutcome(segment, results, summary, slip_models, skipped, skip_note, beyond, note)

@@ -93,14 +93,7 @@ def validate_log(req: ValidateRequest) -> ValidateOutcome:
     if req.flip_imu:
         imu = imu.flipped()
     result = validate(
-        enc,
-        imu,
-        old.params,
-        new_params,
-        offset=req.offset,
-        max_offset=req.max_offset,
-        smooth=req.smooth,
-        method=req.method,
-        encoder_source=source,
-    )
+        enc, imu, old.params, new_params, offset=req.offset, max_offset=req.max_offset,
+        smooth=req.smooth, method=req.method, encoder_source=source,
+    )  # fmt: skip
     return ValidateOutcome(result, old)

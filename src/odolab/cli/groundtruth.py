@@ -135,22 +135,10 @@ def calibrate_sensor_cmd(
     from odolab.cli.evaluate import _write_json
 
     request = SensorRequest(
-        encoders=encoders,
-        params=params,
-        output=output,
-        sensor=sensor,
-        fmt=fmt.value if fmt is not None else None,
-        time_offset=_time_offset(time_offset),
-        max_offset=max_offset,
-        interval=interval,
-        max_outliers=max_outliers,
-        sensor_topic=sensor_topic,
-        scan_topic=scan_topic,
-        truth_out=truth_out,
-        scan_every=scan_every,
-        joint_topic=joint_topic,
-        joints=joints,
-    )
+        encoders, params, output, sensor, fmt.value if fmt is not None else None,
+        _time_offset(time_offset), max_offset, interval, max_outliers, sensor_topic, scan_topic,
+        truth_out, scan_every, joint_topic, joints,
+    )  # fmt: skip
     outcome = calibrate_sensor_log(
         request, lambda: _check_sensor_outputs(output, params, json_out, truth_out)
     )

@@ -96,18 +96,9 @@ def validate_cmd(
     from odolab.app.validate import ValidateRequest, validate_log
 
     request = ValidateRequest(
-        encoder_log=encoder_log,
-        imu_log=imu_log,
-        new=new,
-        old=old,
-        db=db,
-        offset=offset,
-        max_offset=max_offset,
-        smooth=smooth,
-        wallclock=wallclock,
-        flip_imu=flip_imu,
-        method=method.value,
-    )
+        encoder_log, imu_log, new, old, db, offset, max_offset, smooth, wallclock, flip_imu,
+        method.value,
+    )  # fmt: skip
     result = validate_log(request).result
     _write_outputs(result, plot, json_out)
     _print_result(result)
