@@ -28,6 +28,7 @@ a virtual board (``robot sim-server``)  :func:`odolab.app.robot.virtual_board`  
 a protocol on the virtual Jaguar        :func:`odolab.app.sim.simulate_protocol`       SimRunOutcome
 an exploration on the virtual Jaguar    :func:`odolab.app.sim.simulate_exploration`    ExploreOutcome
 a photo of the virtual robot's LED      :func:`odolab.app.sim.simulate_photo`          (path, s)
+a trial typed by hand                   :func:`odolab.app.trials.add_trial`            AddedTrial
 the demo, end to end                    :func:`odolab.app.demo.run_lab`                LabResult
 ======================================  =============================================  ==========
 
