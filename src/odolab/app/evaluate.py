@@ -38,9 +38,11 @@ from odolab.params import covariance_source
 
 if TYPE_CHECKING:
     from odolab.calibration.lsq import LsqCalibration
-    from odolab.io.run import ReadOptions
+    from odolab.io.run import OdometryRun, ReadOptions
     from odolab.metrics import Evaluation, RunEvaluation
     from odolab.metrics.cluster import Cluster, MapReport, Outcome
+    from odolab.metrics.consistency import NeesSummary, RunNees
+    from odolab.models import CovarianceModel
     from odolab.params import RobotParams
     from odolab.progress import Progress
 
@@ -50,13 +52,16 @@ __all__ = [
     "EvaluationRequest",
     "LsqRequest",
     "LsqResult",
+    "NeesOutcome",
     "RunSetEvaluation",
     "TrajectoryEvaluation",
     "calibrate_lsq_runs",
     "evaluate_run_set",
     "evaluate_trajectories",
     "evaluation_options",
+    "nees_of_paths",
     "params_source",
+    "read_runs",
 ]
 
 #: The step of each unit when the user gives a unit and no step.
@@ -413,3 +418,89 @@ def calibrate_lsq_runs(
         else "nominal parameters: the first run's own (from its log or metadata)"
     )
     return LsqResult(result, fitted, held, source)
+
+
+@dataclass
+class NeesOutcome:
+    """The NEES of runs against their ground truth (:func:`nees_of_paths`): the per-run results,
+    their summary, the slip models whose covariance was used, and the notes a reader needs."""
+
+    segment_s: float
+    results: list[RunNees]
+    summary: NeesSummary
+    slip_models: list[CovarianceModel]
+    skipped: list[str]
+    skip_note: str | None
+    pieces_past_first_order: int
+    first_order_note: str | None
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON-ready numbers (``evaluate --nees --json``'s ``nees``)."""
+        head = {
+            **self.summary.to_dict(),
+            "pieces_past_first_order": self.pieces_past_first_order,
+            "runs_skipped": len(self.skipped),
+            "skipped": self.skipped,
+            "skipped_note": self.skip_note,
+        }
+        return {"summary": head, "runs": [r.to_dict() for r in self.results]}
+
+
+def read_runs(paths: Sequence[Path], fmt: str, robot: RobotParams | None) -> list[OdometryRun]:
+    """The runs found at ``paths`` in format ``fmt``, read with ``robot``'s ticks per turn (else
+    the format's own)."""
+    from odolab.io.registry import find_runs, read_run
+    from odolab.io.run import ReadOptions
+
+    ro = ReadOptions(ticks_per_rev=robot.ticks_per_rev) if robot else ReadOptions()
+    return [read_run(p, fmt, ro) for p in find_runs(list(paths), fmt)]
+
+
+def nees_of_paths(
+    paths: Sequence[Path],
+    fmt: str,
+    robot: RobotParams | None,
+    method: str,
+    segment: float,
+    *,
+    fit_gt_yaw_offset: bool | None = None,
+) -> NeesOutcome:
+    """NEES of every run at ``paths`` (pieces of ``segment`` s) against its ground truth, with
+    ``robot`` (else each run's own parameters). ``fit_gt_yaw_offset``: as
+    :func:`odolab.metrics.consistency.run_nees` (None: fit unless the ground truth starts in the
+    odometry's frame).
+
+    Raises:
+        ParamsError: a run's parameters have neither a [noise] table nor a slip model.
+    """
+    from odolab.errors import ParamsError
+    from odolab.metrics.consistency import first_order_note, nees_of_runs, nees_summary
+    from odolab.models import own_covariance
+
+    runs = read_runs(paths, fmt, robot)
+    sources = set()
+    slip_models: list[CovarianceModel] = []
+    chosen: dict[int, RobotParams] = {}
+    for run in runs:
+        p = robot or run.params
+        source = covariance_source(p) if p is not None else None
+        if p is None or source is None:
+            raise ParamsError(
+                f"{run.source}: NEES needs the parameters' [noise] (k_left, k_right) or a slip "
+                "model; give {{params}} with a [noise] table (e.g. from `odolab calibrate noise`)"
+            )
+        sources.add(source)
+        own = own_covariance(p.model)
+        if own is not None and own not in slip_models:
+            slip_models.append(own)
+        chosen[id(run)] = p
+    results, skipped, skip_note = nees_of_runs(
+        runs,
+        lambda run: chosen[id(run)],
+        method,
+        segment_s=segment,
+        fit_gt_yaw_offset=fit_gt_yaw_offset,
+    )
+    beyond, note = first_order_note(results)
+    summary = nees_summary(results)
+    return NeesOutcome(segment, results, summary, slip_models, skipped, skip_note, beyond, note)

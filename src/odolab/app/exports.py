@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import tempfile
+from collections.abc import Callable, Sequence
+from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -11,9 +13,18 @@ from odolab.errors import StoreError
 from odolab.trials import MotionKind, TrialStatus
 
 if TYPE_CHECKING:
+    from odolab.export.mcap import OdometryStream
+    from odolab.params import RobotParams
     from odolab.store import Notebook
 
-__all__ = ["FORMATS", "ExportRequest", "export_bytes", "export_trials", "format_of"]
+__all__ = [
+    "FORMATS",
+    "ExportRequest",
+    "export_bytes",
+    "export_trials",
+    "format_of",
+    "mcap_stream",
+]
 
 #: The export formats: CSV (a spreadsheet, no encoder logs) and JSON (everything).
 FORMATS = ("csv", "json")
@@ -72,3 +83,56 @@ def export_bytes(nb: Notebook, request: ExportRequest) -> bytes:
         path = Path(tmp) / f"trials.{r.format}"
         export_trials(nb, path, r)
         return path.read_bytes()
+
+
+def mcap_stream(
+    paths: Sequence[Path],
+    robot: RobotParams | None,
+    method: str,
+    *,
+    fmt: str | None = None,
+    db: Path | None = None,
+    campaign: str | None = None,
+    open_notebook: Callable[[Path], AbstractContextManager[Notebook]] | None = None,
+) -> OdometryStream:
+    """What ``odolab export mcap`` writes, from what it was given: a notebook campaign (``db``
+    and ``campaign``, opened with ``open_notebook``), one run of format ``fmt``, a robot run
+    folder (with run.json), or GT EST trajectory files.
+
+    Raises:
+        OdolabError: sources that are none of these.
+    """
+    from odolab.errors import OdolabError
+    from odolab.export.mcap import (
+        stream_from_campaign,
+        stream_from_run,
+        stream_from_run_folder,
+        stream_from_trajectories,
+    )
+
+    paths = list(paths)
+    if campaign is not None or db is not None:
+        if campaign is None or db is None or paths:
+            raise OdolabError("a notebook campaign needs --db and --campaign, and no SOURCE")
+        from odolab.store import Notebook
+
+        with (open_notebook or Notebook)(db) as nb:  # the face's rule for a missing notebook
+            return stream_from_campaign(nb, campaign, robot, method)
+    if fmt is not None:
+        from odolab.io.registry import read_run
+        from odolab.io.run import ReadOptions
+
+        if len(paths) != 1:
+            raise OdolabError(f"--format takes one run, got {len(paths)} paths")
+        ro = ReadOptions(ticks_per_rev=robot.ticks_per_rev) if robot else ReadOptions()
+        return stream_from_run(read_run(paths[0], fmt, ro), robot, method)
+    if len(paths) == 1 and (paths[0] / "run.json").is_file():
+        return stream_from_run_folder(paths[0], robot, method)
+    if len(paths) == 2:
+        from odolab.io import read_trajectory
+
+        return stream_from_trajectories(read_trajectory(paths[1]), read_trajectory(paths[0]))
+    raise OdolabError(
+        "export mcap takes a robot run folder (with run.json), one run with --format, "
+        "GT EST trajectory files, or --db with --campaign"
+    )

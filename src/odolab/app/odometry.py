@@ -36,6 +36,7 @@ __all__ = [
     "auto_chunk_rows",
     "choose_params",
     "integrate_log",
+    "many_logs",
     "resolve_formats",
 ]
 
@@ -184,6 +185,26 @@ def resolve_formats(fmt: str, to: str | None) -> tuple[LogFormat, Literal["csv",
     if to not in (None, "csv", "tum"):
         raise OdolabError(f"{opt('to')} {to!r} is not an output format; expected csv or tum")
     return log_format, "tum" if to == "tum" else "csv"
+
+
+def many_logs(logs: Sequence[Path], log_format: LogFormat) -> bool:
+    """Whether ``logs`` are many (more than one, a folder, or a glob that names no file): each
+    is then integrated on its own; only encoder log CSVs can be.
+
+    Raises:
+        OdolabError: many recorded runs of another format.
+    """
+    many = bool(
+        len(logs) != 1
+        or logs[0].is_dir()
+        or (not logs[0].exists() and set("*?[") & set(str(logs[0])))
+    )
+    if many and log_format != LogFormat.CSV:
+        raise OdolabError(
+            f"--format {log_format.value} integrates one run file at a time; expected one run "
+            f"(for many runs against their ground truth: odolab evaluate --format {log_format.value})"
+        )
+    return many
 
 
 def choose_params(

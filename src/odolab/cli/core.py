@@ -40,75 +40,87 @@ LogFormatChoice = StrEnum(  # type: ignore[misc]
 )
 
 
+OdoLogsOpt = Annotated[
+    list[Path],
+    typer.Argument(
+        help="Encoder log: t,left_ticks,right_ticks (CSV, .parquet or .arrow/.feather); or "
+        "many logs, folders, quoted globs (then --output is a folder); or one recorded run "
+        "in another --format.",
+        metavar="LOG...",
+    ),
+]
+OdoParamsOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--params",
+        "-p",
+        help="Parameters TOML file or preset name (default: the log's run.json or a run's "
+        f"metadata, else {DEFAULT_ROBOT}, and the output says which).",
+    ),
+]
+OdoOutputOpt = Annotated[
+    Path,
+    typer.Option(
+        "--output", "-o", help="Trajectory file to write (.csv, .parquet, .arrow/.feather)."
+    ),
+]
+OdoMethodOpt = Annotated[MethodChoice, typer.Option(help="Pose step rule.")]
+OdoFmtOpt = Annotated[
+    LogFormatChoice,
+    typer.Option(
+        "--format",
+        "-f",
+        help="Log format (csv: an encoder log; optiodom, bag: one recorded run, with its "
+        "nominal parameters when it has any). tum: the older spelling of --to tum.",
+    ),
+]
+OdoToOpt = Annotated[FormatChoice | None, typer.Option("--to", help="Output format (default csv).")]
+OdoStartOpt = Annotated[
+    tuple[float, float, float] | None,
+    typer.Option(help="Start pose X Y HEADING (m, m, rad); default the origin."),
+]
+OdoMaxDticksOpt = Annotated[
+    int | None,
+    typer.Option(help="Largest plausible counter change per cycle (default modulus/4)."),
+]
+OdoChunkRowsOpt = Annotated[
+    int | None,
+    typer.Option(
+        help="Rows per chunk: memory is bounded by it (0: the whole log in memory at once; "
+        "default: chunks of 1,000,000 rows for logs over 64 MiB)."
+    ),
+]
+OdoWorkersOpt = Annotated[
+    int, typer.Option(help="Many logs: local Dask worker processes (1: in this process).")
+]
+OdoSchedulerOpt = Annotated[
+    str | None,
+    typer.Option(help="Many logs: Dask scheduler tcp://HOST:PORT (default: a local cluster)."),
+]
+OdoCovarianceOpt = Annotated[
+    bool,
+    typer.Option(
+        "--covariance",
+        help="Add each pose's covariance cov_xx,cov_xy,cov_xh,cov_yy,cov_yh,cov_hh "
+        "(m^2, m rad, rad^2), propagated from the parameters' \\[noise] table.",
+    ),
+]
+
+
 @app.command("odometry")
 def odometry_cmd(
-    logs: Annotated[
-        list[Path],
-        typer.Argument(
-            help="Encoder log: t,left_ticks,right_ticks (CSV, .parquet or .arrow/.feather); or "
-            "many logs, folders, quoted globs (then --output is a folder); or one recorded run "
-            "in another --format.",
-            metavar="LOG...",
-        ),
-    ],
-    params: Annotated[
-        str | None,
-        typer.Option(
-            "--params",
-            "-p",
-            help="Parameters TOML file or preset name (default: the log's run.json or a run's "
-            f"metadata, else {DEFAULT_ROBOT}, and the output says which).",
-        ),
-    ] = None,
-    output: Annotated[
-        Path,
-        typer.Option(
-            "--output", "-o", help="Trajectory file to write (.csv, .parquet, .arrow/.feather)."
-        ),
-    ] = Path("trajectory.csv"),
-    method: Annotated[MethodChoice, typer.Option(help="Pose step rule.")] = MethodChoice.midpoint,
-    fmt: Annotated[
-        LogFormatChoice,
-        typer.Option(
-            "--format",
-            "-f",
-            help="Log format (csv: an encoder log; optiodom, bag: one recorded run, with its "
-            "nominal parameters when it has any). tum: the older spelling of --to tum.",
-        ),
-    ] = LogFormatChoice.csv,  # type: ignore[attr-defined]
-    to: Annotated[
-        FormatChoice | None, typer.Option("--to", help="Output format (default csv).")
-    ] = None,
-    start: Annotated[
-        tuple[float, float, float] | None,
-        typer.Option(help="Start pose X Y HEADING (m, m, rad); default the origin."),
-    ] = None,
-    max_dticks: Annotated[
-        int | None,
-        typer.Option(help="Largest plausible counter change per cycle (default modulus/4)."),
-    ] = None,
-    chunk_rows: Annotated[
-        int | None,
-        typer.Option(
-            help="Rows per chunk: memory is bounded by it (0: the whole log in memory at once; "
-            "default: chunks of 1,000,000 rows for logs over 64 MiB)."
-        ),
-    ] = None,
-    workers: Annotated[
-        int, typer.Option(help="Many logs: local Dask worker processes (1: in this process).")
-    ] = 2,
-    scheduler: Annotated[
-        str | None,
-        typer.Option(help="Many logs: Dask scheduler tcp://HOST:PORT (default: a local cluster)."),
-    ] = None,
-    covariance: Annotated[
-        bool,
-        typer.Option(
-            "--covariance",
-            help="Add each pose's covariance cov_xx,cov_xy,cov_xh,cov_yy,cov_yh,cov_hh "
-            "(m^2, m rad, rad^2), propagated from the parameters' \\[noise] table.",
-        ),
-    ] = False,
+    logs: OdoLogsOpt,
+    params: OdoParamsOpt = None,
+    output: OdoOutputOpt = Path("trajectory.csv"),
+    method: OdoMethodOpt = MethodChoice.midpoint,
+    fmt: OdoFmtOpt = LogFormatChoice.csv,  # type: ignore[attr-defined]
+    to: OdoToOpt = None,
+    start: OdoStartOpt = None,
+    max_dticks: OdoMaxDticksOpt = None,
+    chunk_rows: OdoChunkRowsOpt = None,
+    workers: OdoWorkersOpt = 2,
+    scheduler: OdoSchedulerOpt = None,
+    covariance: OdoCovarianceOpt = False,
 ) -> None:
     """Integrate an encoder log into a trajectory (one pose per input row), chunk by chunk.
 
@@ -119,21 +131,12 @@ def odometry_cmd(
         check_request,
         choose_params,
         integrate_log,
+        many_logs,
         resolve_formats,
     )
-    from odolab.errors import OdolabError
 
     log_format, out_fmt = resolve_formats(fmt.value, to.value if to else None)
-    many = (
-        len(logs) != 1
-        or logs[0].is_dir()
-        or (not logs[0].exists() and set("*?[") & set(str(logs[0])))
-    )
-    if many and log_format != LogFormat.CSV:
-        raise OdolabError(
-            f"--format {log_format.value} integrates one run file at a time; expected one run "
-            f"(for many runs against their ground truth: odolab evaluate --format {log_format.value})"
-        )
+    many = many_logs(logs, log_format)
     choice = choose_params(logs, params, log_format)
     check_request(
         choice, fmt=out_fmt, covariance=covariance, chunk_rows=chunk_rows,

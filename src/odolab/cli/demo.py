@@ -4,12 +4,15 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
 from odolab.cli._apps import app
 from odolab.defaults import DEFAULT_TRUTH
+
+if TYPE_CHECKING:
+    from odolab.app.demo import LabResult
 
 __all__: list[str] = []
 
@@ -29,7 +32,7 @@ def demo_cmd(
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from odolab.lab import STEPS, run_lab
+    from odolab.app.demo import STEPS, run_lab
 
     console = Console(stderr=True)
     with Progress(
@@ -49,6 +52,11 @@ def demo_cmd(
 
         result = run_lab(out, seed=seed, truth=truth, progress=progress)
 
+    _print_result(result)
+
+
+def _print_result(result: LabResult) -> None:
+    """Table I against the lab report, the headline numbers and where the files went."""
     from odolab import numfmt
     from odolab.cli._console import console as make_console
     from odolab.cli._console import print_table
@@ -78,16 +86,18 @@ def demo_cmd(
         _print_slip(out_console, ev.slip)
     elif ev is not None and ev.slip_note:
         out_console.print(ev.slip_note, markup=False, highlight=False)
-    if ev is not None and ev.nees:
-        consistency = ev.consistency_dict()
-        s = consistency["summary"]
-        lo, hi = s["mean_bounds95"]
+    consistency = ev.consistency_dict() if ev is not None else None  # (None without NEES)
+    if ev is not None and ev.nees and consistency is not None:
+        from odolab.metrics.consistency import nees_summary
+
+        s = nees_summary(ev.nees)
+        lo, hi = s.mean_bounds95
         piece = ev.nees[0].segment_s
         out_console.print(
-            f"covariance (NEES over {s['n']} pieces of {piece:g} s): mean "
-            f"{numfmt.plain(s['mean_nees'], 3)}, "
+            f"covariance (NEES over {s.n} pieces of {piece:g} s): mean "
+            f"{numfmt.plain(s.mean, 3)}, "
             f"95 % bounds [{numfmt.plain(lo, 3)}, {numfmt.plain(hi, 3)}], "
-            f"{100 * s['fraction_inside']:.0f} % of pieces inside their own bounds: {s['verdict']}",
+            f"{100 * s.fraction_inside:.0f} % of pieces inside their own bounds: {s.verdict}",
             markup=False,
             highlight=False,
         )

@@ -17,6 +17,7 @@ from odolab.cli.wording import said
 from odolab.writing import strict_json
 
 if TYPE_CHECKING:
+    from odolab.app.evaluate import EvaluationRequest, RunSetEvaluation
     from odolab.io.run import ReadOptions
     from odolab.params import RobotParams
 
@@ -126,72 +127,88 @@ def _write_json(doc: Any, path: Path | None) -> None:
     write_output_text(path, strict_json(doc) + "\n", "JSON result")
 
 
+EvalPathsOpt = Annotated[
+    list[Path],
+    typer.Argument(help="GT EST trajectory files (CSV/TUM), or runs with --format."),
+]
+EvalDeltaOpt = Annotated[float | None, typer.Option(help="RPE step (default 1 frame; runs 1 m).")]
+EvalDeltaUnitOpt = Annotated[
+    DeltaUnitChoice | None,
+    typer.Option(
+        "--delta-unit",
+        help="Unit of --delta: frames, m, or the angle turned in deg or rad (evo's d, r: "
+        "for runs that turn in place). A unit alone: 1 frame, 1 m, 90 deg, pi/2 rad.",
+    ),
+]
+EvalAllPairsOpt = Annotated[bool, typer.Option(help="RPE over all pairs, not consecutive.")]
+EvalPairsFromReferenceOpt = Annotated[
+    bool | None, typer.Option(help="Choose RPE pairs on the reference (evo: on the estimate).")
+]
+EvalAlignOpt = Annotated[
+    AlignChoice | None, typer.Option(help="Alignment (default none; runs origin).")
+]
+EvalSyncOpt = Annotated[
+    SyncChoice | None, typer.Option(help="Association (default nearest; runs interpolate).")
+]
+EvalMaxDiffOpt = Annotated[
+    float | None, typer.Option(help="Largest stamp difference to associate (s).")
+]
+EvalDriftSegmentOpt = Annotated[float, typer.Option(help="Path length per drift segment (m).")]
+EvalDriftTurnOpt = Annotated[
+    float, typer.Option(help="Angle turned per piece of the drift per angle turned (deg).")
+]
+EvalJsonOutOpt = Annotated[Path | None, typer.Option("--json", help="Write the numbers here.")]
+EvalResultsOpt = Annotated[
+    Path | None,
+    typer.Option(help="Runs: the fleet table, one row per run (.parquet, .arrow or .csv)."),
+]
+EvalNeesOpt = Annotated[
+    bool, typer.Option("--nees", help="Runs: NEES of the propagated covariance (\\[noise]).")
+]
+EvalNeesSegmentOpt = Annotated[float, typer.Option(help="Piece length (s) of the NEES.")]
+EvalGtYawOffsetOpt = Annotated[
+    bool | None,
+    typer.Option(
+        "--gt-yaw-offset/--no-gt-yaw-offset",
+        help="--nees: fit the ground truth's yaw mounting offset per run (default: unless "
+        "the ground truth starts in the odometry's frame).",
+    ),
+]
+EvalChunkRowsOpt = Annotated[
+    int | None,
+    typer.Option(
+        help="GT EST: rows per chunk, memory bounded by it (0: both files in memory at "
+        "once; default: chunks of 1,000,000 rows when a file is over 64 MiB of CSV or "
+        "3 M rows)."
+    ),
+]
+
+
 @app.command("evaluate")
 def evaluate_cmd(
-    paths: Annotated[
-        list[Path],
-        typer.Argument(help="GT EST trajectory files (CSV/TUM), or runs with --format."),
-    ],
+    paths: EvalPathsOpt,
     fmt: FormatOpt = None,
     params: ParamsOpt = None,
-    delta: Annotated[
-        float | None, typer.Option(help="RPE step (default 1 frame; runs 1 m).")
-    ] = None,
-    delta_unit: Annotated[
-        DeltaUnitChoice | None,
-        typer.Option(
-            "--delta-unit",
-            help="Unit of --delta: frames, m, or the angle turned in deg or rad (evo's d, r: "
-            "for runs that turn in place). A unit alone: 1 frame, 1 m, 90 deg, pi/2 rad.",
-        ),
-    ] = None,
-    all_pairs: Annotated[bool, typer.Option(help="RPE over all pairs, not consecutive.")] = False,
-    pairs_from_reference: Annotated[
-        bool | None, typer.Option(help="Choose RPE pairs on the reference (evo: on the estimate).")
-    ] = None,
-    align: Annotated[
-        AlignChoice | None, typer.Option(help="Alignment (default none; runs origin).")
-    ] = None,
-    sync: Annotated[
-        SyncChoice | None, typer.Option(help="Association (default nearest; runs interpolate).")
-    ] = None,
-    max_diff: Annotated[
-        float | None, typer.Option(help="Largest stamp difference to associate (s).")
-    ] = None,
-    drift_segment: Annotated[float, typer.Option(help="Path length per drift segment (m).")] = 1.0,
-    drift_turn: Annotated[
-        float, typer.Option(help="Angle turned per piece of the drift per angle turned (deg).")
-    ] = 90.0,
-    json_out: Annotated[Path | None, typer.Option("--json", help="Write the numbers here.")] = None,
+    delta: EvalDeltaOpt = None,
+    delta_unit: EvalDeltaUnitOpt = None,
+    all_pairs: EvalAllPairsOpt = False,
+    pairs_from_reference: EvalPairsFromReferenceOpt = None,
+    align: EvalAlignOpt = None,
+    sync: EvalSyncOpt = None,
+    max_diff: EvalMaxDiffOpt = None,
+    drift_segment: EvalDriftSegmentOpt = 1.0,
+    drift_turn: EvalDriftTurnOpt = 90.0,
+    json_out: EvalJsonOutOpt = None,
     workers: WorkersOpt = 2,
     scheduler: SchedulerOpt = None,
-    results: Annotated[
-        Path | None,
-        typer.Option(help="Runs: the fleet table, one row per run (.parquet, .arrow or .csv)."),
-    ] = None,
+    results: EvalResultsOpt = None,
     joint_topic: JointTopicOpt = "/joint_states",
     joints: JointsOpt = ("left_wheel_joint", "right_wheel_joint"),
     gt_topic: GtTopicOpt = "/ground_truth",
-    nees: Annotated[
-        bool, typer.Option("--nees", help="Runs: NEES of the propagated covariance (\\[noise]).")
-    ] = False,
-    nees_segment: Annotated[float, typer.Option(help="Piece length (s) of the NEES.")] = 10.0,
-    gt_yaw_offset: Annotated[
-        bool | None,
-        typer.Option(
-            "--gt-yaw-offset/--no-gt-yaw-offset",
-            help="--nees: fit the ground truth's yaw mounting offset per run (default: unless "
-            "the ground truth starts in the odometry's frame).",
-        ),
-    ] = None,
-    chunk_rows: Annotated[
-        int | None,
-        typer.Option(
-            help="GT EST: rows per chunk, memory bounded by it (0: both files in memory at "
-            "once; default: chunks of 1,000,000 rows when a file is over 64 MiB of CSV or "
-            "3 M rows)."
-        ),
-    ] = None,
+    nees: EvalNeesOpt = False,
+    nees_segment: EvalNeesSegmentOpt = 10.0,
+    gt_yaw_offset: EvalGtYawOffsetOpt = None,
+    chunk_rows: EvalChunkRowsOpt = None,
 ) -> None:
     """APE, RPE (evo's definitions) and drift per distance: of EST against GT, or of runs.
 
@@ -199,47 +216,21 @@ def evaluate_cmd(
     Runs (--format) may be files, folders (searched recursively for CSV runs), quoted glob
     patterns, thousands of them: they are evaluated on Dask (a local cluster, or --scheduler).
     A run that fails is reported with its error; the others still get their results."""
-    from odolab.app.evaluate import (
-        PLANAR_NOTE,
-        EvaluationRequest,
-        evaluate_run_set,
-        evaluate_trajectories,
-        load_request_params,
-    )
+    from odolab.app.evaluate import EvaluationRequest, evaluate_run_set, load_request_params
+
+    def value(choice: StrEnum | None) -> str | None:
+        return choice.value if choice is not None else None
 
     request = EvaluationRequest(
-        paths=tuple(paths),
-        fmt=fmt.value if fmt is not None else None,
-        params=params,
-        delta=delta,
-        delta_unit=delta_unit.value if delta_unit is not None else None,
-        all_pairs=all_pairs,
-        pairs_from_reference=pairs_from_reference,
-        alignment=align.value if align is not None else None,
-        sync=sync.value if sync is not None else None,
-        max_diff=max_diff,
-        drift_segment_m=drift_segment,
-        drift_turn_deg=drift_turn,
-        chunk_rows=chunk_rows,
-        nees=nees,
-        nees_segment_s=nees_segment,
-    )
+        tuple(paths), value(fmt), params, delta, value(delta_unit), all_pairs,
+        pairs_from_reference, value(align), value(sync), max_diff, drift_segment, drift_turn,
+        chunk_rows, nees, nees_segment,
+    )  # fmt: skip
     robot = load_request_params(request)  # every option checked before any file is read
     if fmt is None:
-        from odolab.app.evaluate import chunk_rows_for
-
-        if chunk_rows_for(request) > 0:
-            from odolab.cli._progress import progress_bar
-
-            with progress_bar("evaluate", unit="rows") as report:
-                one = evaluate_trajectories(request, progress=report)
-        else:
-            one = evaluate_trajectories(request)
-        _write_json(one.to_dict(), json_out)
-        _print_table([(paths[1].name, one.evaluation)])
-        _print_notes([PLANAR_NOTE, *one.evaluation.notes])
+        _evaluate_pair(request, paths, json_out)
         return
-    from odolab.cli._fleet import expand_runs, print_fleet, report_failures
+    from odolab.cli._fleet import expand_runs
     from odolab.metrics.cluster import Cluster
 
     cluster = Cluster(scheduler=scheduler, workers=workers)  # (its address checked first)
@@ -252,6 +243,38 @@ def evaluate_cmd(
             cluster=cluster,
             progress=report,
         )
+    nees_of = (fmt.value, robot, gt_yaw_offset) if nees else None
+    _print_run_set(done, paths, results, json_out, nees_of, nees_segment)
+
+
+def _evaluate_pair(request: EvaluationRequest, paths: list[Path], json_out: Path | None) -> None:
+    """GT EST: evaluated (chunk by chunk with a progress bar when large), written and shown."""
+    from odolab.app.evaluate import PLANAR_NOTE, chunk_rows_for, evaluate_trajectories
+
+    if chunk_rows_for(request) > 0:
+        from odolab.cli._progress import progress_bar
+
+        with progress_bar("evaluate", unit="rows") as report:
+            one = evaluate_trajectories(request, progress=report)
+    else:
+        one = evaluate_trajectories(request)
+    _write_json(one.to_dict(), json_out)
+    _print_table([(paths[1].name, one.evaluation)])
+    _print_notes([PLANAR_NOTE, *one.evaluation.notes])
+
+
+def _print_run_set(
+    done: RunSetEvaluation,
+    paths: list[Path],
+    results: Path | None,
+    json_out: Path | None,
+    nees_of: tuple[str, RobotParams | None, bool | None] | None,
+    nees_segment: float,
+) -> None:
+    """Runs: the fleet table (``results``), the table or the fleet summary, the notes, the
+    NEES (``nees_of``: format, parameters, fit the yaw offset), the JSON and the failures."""
+    from odolab.cli._fleet import print_fleet, report_failures
+
     doc = done.to_dict()
     if results is not None:
         from odolab.fleet.table import fleet_rows, write_fleet_table
@@ -263,11 +286,12 @@ def evaluate_cmd(
         evs = [r.evaluation for r in done.done]
         _print_table(list(zip(run_labels(done.done), evs, strict=True)))
     _print_notes(done.notes)
-    if nees:
-        from odolab.cli.consistency import print_nees
+    if nees_of is not None:
+        from odolab.cli._nees import print_nees
 
+        fmt, robot, gt_yaw_offset = nees_of
         doc["nees"] = print_nees(
-            paths, fmt.value, robot, "midpoint", nees_segment, fit_gt_yaw_offset=gt_yaw_offset
+            paths, fmt, robot, "midpoint", nees_segment, fit_gt_yaw_offset=gt_yaw_offset
         )
     _write_json(doc, json_out)
     report_failures(done.outcomes, done.report, results)
@@ -387,6 +411,40 @@ def _print_table(rows: list[tuple[str, Any]]) -> None:
     print_table(console(), table)
 
 
+# ``--validate D E F`` (a shell glob) holds out D, E and F; click alone would fit E and F
+LsqRunsOpt = Annotated[
+    list[Path], typer.Argument(help="Runs (files or folders) with ground truth.")
+]
+LsqOutputOpt = Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")]
+LsqFmtOpt = Annotated[RunFormat | None, typer.Option("--format", "-f", help=RUN_FORMAT_HELP)]
+LsqValidateOpt = Annotated[
+    list[Path] | None,
+    typer.Option(
+        "--validate",
+        help="Held-out runs (files, folders, quoted globs) to compare nominal vs calibrated: "
+        "every path after --validate up to the next option (a shell glob works).",
+    ),
+]
+LsqSegmentOpt = Annotated[float, typer.Option(help="Segment length (s) of the residuals.")]
+LsqNoGtYawOffsetOpt = Annotated[
+    bool,
+    typer.Option(
+        "--no-gt-yaw-offset", help="Do not estimate the ground truth's yaw mounting offset."
+    ),
+]
+LsqJsonOutOpt = Annotated[Path | None, typer.Option("--json", help="Write the report here.")]
+LsqModelOpt = Annotated[
+    ModelChoice,
+    typer.Option(help="Model to fit (docs/models.md): diff, extended, icr or slip."),
+]
+LsqGroundTruthOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--ground-truth",
+        help="The ground truth of the one run given (trajectory CSV or TUM, e.g. from "
+        "`odolab track` or `calibrate sensor --truth-out`), replacing the run's own.",
+    ),
+]
 TruthSigmaOpt = Annotated[
     str | None,
     typer.Option(
@@ -404,46 +462,23 @@ LossOpt = Annotated[
 ]
 
 
-# ``--validate D E F`` (a shell glob) holds out D, E and F; click alone would fit E and F
 @calibrate_app.command("lsq", cls=several_values_command("--validate"))
 def calibrate_lsq_cmd(
-    runs: Annotated[list[Path], typer.Argument(help="Runs (files or folders) with ground truth.")],
-    output: Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")],
-    fmt: Annotated[RunFormat | None, typer.Option("--format", "-f", help=RUN_FORMAT_HELP)] = None,
+    runs: LsqRunsOpt,
+    output: LsqOutputOpt,
+    fmt: LsqFmtOpt = None,
     params: ParamsOpt = None,
-    validate: Annotated[
-        list[Path] | None,
-        typer.Option(
-            "--validate",
-            help="Held-out runs (files, folders, quoted globs) to compare nominal vs calibrated: "
-            "every path after --validate up to the next option (a shell glob works).",
-        ),
-    ] = None,
-    segment: Annotated[float, typer.Option(help="Segment length (s) of the residuals.")] = 2.0,
-    no_gt_yaw_offset: Annotated[
-        bool,
-        typer.Option(
-            "--no-gt-yaw-offset", help="Do not estimate the ground truth's yaw mounting offset."
-        ),
-    ] = False,
-    json_out: Annotated[Path | None, typer.Option("--json", help="Write the report here.")] = None,
+    validate: LsqValidateOpt = None,
+    segment: LsqSegmentOpt = 2.0,
+    no_gt_yaw_offset: LsqNoGtYawOffsetOpt = False,
+    json_out: LsqJsonOutOpt = None,
     workers: WorkersOpt = 2,
     scheduler: SchedulerOpt = None,
     joint_topic: JointTopicOpt = "/joint_states",
     joints: JointsOpt = ("left_wheel_joint", "right_wheel_joint"),
     gt_topic: GtTopicOpt = "/ground_truth",
-    model: Annotated[
-        ModelChoice,
-        typer.Option(help="Model to fit (docs/models.md): diff, extended, icr or slip."),
-    ] = ModelChoice.diff,
-    ground_truth: Annotated[
-        Path | None,
-        typer.Option(
-            "--ground-truth",
-            help="The ground truth of the one run given (trajectory CSV or TUM, e.g. from "
-            "`odolab track` or `calibrate sensor --truth-out`), replacing the run's own.",
-        ),
-    ] = None,
+    model: LsqModelOpt = ModelChoice.diff,
+    ground_truth: LsqGroundTruthOpt = None,
     truth_sigma: TruthSigmaOpt = None,
     loss: LossOpt = "linear",
 ) -> None:
@@ -557,7 +592,6 @@ def _print_calibration(result: Any, output: Path) -> None:
     for key, err in result.stderr.items():
         table.add_row(key, f"{nominal[key]:.6f}", f"{fitted[key]:.6f}", f"{err:.2e}")
     print_table(console, table)
-
     for line in result.warnings:
         console.print(f"warning: {said(line)}", markup=False, soft_wrap=True)
     for line in result.notes:

@@ -29,46 +29,57 @@ class RunFormatChoice(StrEnum):
     drive = "drive"
 
 
+Ros2ParamsOpt = Annotated[str, typer.Argument(help="Calibrated parameters TOML (or a preset).")]
+Ros2OutputOpt = Annotated[Path, typer.Option("--output", "-o", help="YAML file to write.")]
+Ros2NominalOpt = Annotated[
+    str | None,
+    typer.Option(help="Nominal parameters: base values, the calibration as multipliers."),
+]
+Ros2ControllerNameOpt = Annotated[str, typer.Option(help="Controller name (the YAML's top key).")]
+Ros2SpeedOpt = Annotated[float, typer.Option(help="Speed (m/s) the covariance is stated at.")]
+Ros2RateOpt = Annotated[
+    float,
+    typer.Option(
+        help="The controller's update rate (Hz: the controller_manager's update_rate; also "
+        "publish_rate where the distribution has it)."
+    ),
+]
+Ros2WindowOpt = Annotated[
+    int,
+    typer.Option(help="The controller's velocity_rolling_window_size (cycles)."),
+]
+Ros2RosDistroOpt = Annotated[
+    RosDistro,
+    typer.Option(
+        "--ros-distro",
+        help="ROS 2 distribution: exactly the keys its diff_drive_controller declares "
+        "(default: jazzy, the newest LTS).",
+    ),
+]
+Ros2HorizonOpt = Annotated[
+    float, typer.Option(help="Straight path (m) the pose covariance is stated after.")
+]
+Ros2LeftWheelsOpt = Annotated[
+    list[str] | None, typer.Option("--left-wheel", help="Left wheel joint name(s).")
+]
+Ros2RightWheelsOpt = Annotated[
+    list[str] | None, typer.Option("--right-wheel", help="Right wheel joint name(s).")
+]
+
+
 @export_app.command("ros2-controller")
 def ros2_controller_cmd(
-    params: Annotated[str, typer.Argument(help="Calibrated parameters TOML (or a preset).")],
-    output: Annotated[Path, typer.Option("--output", "-o", help="YAML file to write.")],
-    nominal: Annotated[
-        str | None,
-        typer.Option(help="Nominal parameters: base values, the calibration as multipliers."),
-    ] = None,
-    controller_name: Annotated[
-        str, typer.Option(help="Controller name (the YAML's top key).")
-    ] = "diff_drive_controller",
-    speed: Annotated[float, typer.Option(help="Speed (m/s) the covariance is stated at.")] = 0.5,
-    rate: Annotated[
-        float,
-        typer.Option(
-            help="The controller's update rate (Hz: the controller_manager's update_rate; also "
-            "publish_rate where the distribution has it)."
-        ),
-    ] = 50.0,
-    window: Annotated[
-        int,
-        typer.Option(help="The controller's velocity_rolling_window_size (cycles)."),
-    ] = 10,
-    ros_distro: Annotated[
-        RosDistro,
-        typer.Option(
-            "--ros-distro",
-            help="ROS 2 distribution: exactly the keys its diff_drive_controller declares "
-            "(default: jazzy, the newest LTS).",
-        ),
-    ] = RosDistro.jazzy,
-    horizon: Annotated[
-        float, typer.Option(help="Straight path (m) the pose covariance is stated after.")
-    ] = 1.0,
-    left_wheels: Annotated[
-        list[str] | None, typer.Option("--left-wheel", help="Left wheel joint name(s).")
-    ] = None,
-    right_wheels: Annotated[
-        list[str] | None, typer.Option("--right-wheel", help="Right wheel joint name(s).")
-    ] = None,
+    params: Ros2ParamsOpt,
+    output: Ros2OutputOpt,
+    nominal: Ros2NominalOpt = None,
+    controller_name: Ros2ControllerNameOpt = "diff_drive_controller",
+    speed: Ros2SpeedOpt = 0.5,
+    rate: Ros2RateOpt = 50.0,
+    window: Ros2WindowOpt = 10,
+    ros_distro: Ros2RosDistroOpt = RosDistro.jazzy,
+    horizon: Ros2HorizonOpt = 1.0,
+    left_wheels: Ros2LeftWheelsOpt = None,
+    right_wheels: Ros2RightWheelsOpt = None,
 ) -> None:
     """Write a ready-to-load ROS 2 diff_drive_controller parameter file."""
     import tomllib
@@ -105,75 +116,55 @@ def ros2_controller_cmd(
         echo(f"warning: {params}: {line}")
 
 
+McapSourcesOpt = Annotated[
+    list[Path] | None,
+    typer.Argument(help="A robot run folder; a run with --format; or GT EST trajectory files."),
+]
+McapOutputOpt = Annotated[Path, typer.Option("--output", "-o", help="MCAP file to write.")]
+McapParamsOpt = Annotated[
+    str | None,
+    typer.Option("--params", "-p", help="Parameters (with \\[noise] for the covariance)."),
+]
+McapFmtOpt = Annotated[
+    RunFormatChoice | None,
+    typer.Option("--format", "-f", help="SOURCE is a run of this format."),
+]
+McapDbOpt = Annotated[
+    Path | None, typer.Option(help="Lab notebook (with --campaign).", envvar="ODOLAB_DB")
+]
+McapCampaignOpt = Annotated[str | None, typer.Option(help="Notebook campaign to export.")]
+McapMethodOpt = Annotated[MethodChoice, typer.Option(help="Pose step rule.")]
+McapStartTimeOpt = Annotated[
+    float, typer.Option(help="Seconds added to every stamp (e.g. the run's Unix time).")
+]
+
+
 @export_app.command("mcap")
 def mcap_cmd(
-    sources: Annotated[
-        list[Path] | None,
-        typer.Argument(help="A robot run folder; a run with --format; or GT EST trajectory files."),
-    ] = None,
-    output: Annotated[Path, typer.Option("--output", "-o", help="MCAP file to write.")] = Path(
-        "odolab.mcap"
-    ),
-    params: Annotated[
-        str | None,
-        typer.Option("--params", "-p", help="Parameters (with \\[noise] for the covariance)."),
-    ] = None,
-    fmt: Annotated[
-        RunFormatChoice | None,
-        typer.Option("--format", "-f", help="SOURCE is a run of this format."),
-    ] = None,
-    db: Annotated[
-        Path | None, typer.Option(help="Lab notebook (with --campaign).", envvar="ODOLAB_DB")
-    ] = None,
-    campaign: Annotated[str | None, typer.Option(help="Notebook campaign to export.")] = None,
-    method: Annotated[MethodChoice, typer.Option(help="Pose step rule.")] = MethodChoice.midpoint,
-    start_time: Annotated[
-        float, typer.Option(help="Seconds added to every stamp (e.g. the run's Unix time).")
-    ] = 0.0,
+    sources: McapSourcesOpt = None,
+    output: McapOutputOpt = Path("odolab.mcap"),
+    params: McapParamsOpt = None,
+    fmt: McapFmtOpt = None,
+    db: McapDbOpt = None,
+    campaign: McapCampaignOpt = None,
+    method: McapMethodOpt = MethodChoice.midpoint,
+    start_time: McapStartTimeOpt = 0.0,
 ) -> None:
     """Write a ROS 2 MCAP (/odom with covariance, /joint_states, /ground_truth, /tf)."""
+    from odolab.app.exports import mcap_stream
     from odolab.cli._output import check_output_path
-    from odolab.errors import OdolabError
-    from odolab.export.mcap import (
-        check_start_time,
-        stream_from_campaign,
-        stream_from_run,
-        stream_from_run_folder,
-        stream_from_trajectories,
-        write_mcap,
-    )
+    from odolab.cli.trials import _open
+    from odolab.export.mcap import check_start_time, write_mcap
     from odolab.params import load_params
 
     check_start_time(start_time)  # every option checked before any input is read
     check_output_path(output, "MCAP file")
     robot = load_params(params) if params else None
     paths = list(sources or [])
-    if campaign is not None or db is not None:
-        if campaign is None or db is None or paths:
-            raise OdolabError("a notebook campaign needs --db and --campaign, and no SOURCE")
-        from odolab.cli.trials import _open
-
-        with _open(db) as nb:  # a missing notebook is refused, not created
-            stream = stream_from_campaign(nb, campaign, robot, method.value)
-    elif fmt is not None:
-        from odolab.io.registry import read_run
-        from odolab.io.run import ReadOptions
-
-        if len(paths) != 1:
-            raise OdolabError(f"--format takes one run, got {len(paths)} paths")
-        ro = ReadOptions(ticks_per_rev=robot.ticks_per_rev) if robot else ReadOptions()
-        stream = stream_from_run(read_run(paths[0], fmt.value, ro), robot, method.value)
-    elif len(paths) == 1 and (paths[0] / "run.json").is_file():
-        stream = stream_from_run_folder(paths[0], robot, method.value)
-    elif len(paths) == 2:
-        from odolab.io import read_trajectory
-
-        stream = stream_from_trajectories(read_trajectory(paths[1]), read_trajectory(paths[0]))
-    else:
-        raise OdolabError(
-            "export mcap takes a robot run folder (with run.json), one run with --format, "
-            "GT EST trajectory files, or --db with --campaign"
-        )
+    stream = mcap_stream(
+        paths, robot, method.value, fmt=fmt.value if fmt is not None else None, db=db,
+        campaign=campaign, open_notebook=_open,  # a missing notebook is refused, not created
+    )  # fmt: skip
     counts = write_mcap(output, stream, start_time=start_time)
     echo(f"wrote {output}: " + ", ".join(f"{topic} {n}" for topic, n in counts.items()))
     from odolab.export.mcap import first_order_notes

@@ -7,25 +7,22 @@ from __future__ import annotations
 
 import math
 import statistics
-from collections.abc import Sequence
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
+from odolab.app.groundtruth import OptionError, estimate_time_offset
 from odolab.cli._apps import app, calibrate_app, sim_app
 from odolab.cli._output import echo
 from odolab.cli.wording import said
 from odolab.defaults import DEFAULT_CORNERS
-from odolab.errors import OdolabError
 
 if TYPE_CHECKING:
     from odolab.calibration.sensor import SensorCalibration
-    from odolab.tracking.tracker import GapBridge
-    from odolab.trajectory import Trajectory
 
-__all__: list[str] = []
+__all__ = ["OptionError", "estimate_time_offset"]
 
 camera_app = typer.Typer(
     help="Camera intrinsics for marker tracking.",
@@ -40,10 +37,6 @@ class EncoderFormat(StrEnum):
     optiodom = "optiodom"
     bag = "bag"
     drive = "drive"
-
-
-class OptionError(OdolabError):
-    """A command-line option that does not make sense."""
 
 
 def _time_offset(text: str) -> float | None:
@@ -62,189 +55,111 @@ def _time_offset(text: str) -> float | None:
     return value
 
 
-def estimate_time_offset(
-    enc_t: Any,
-    enc_heading: Any,
-    sensor: Trajectory,
-    source: str,
-    max_offset: float,
-    gaps: Sequence[tuple[float, float]] = (),
-) -> float:
-    """Sensor-minus-encoder clock offset by cross-correlating yaw rates, as ``validate`` does
-    for a phone's IMU (:func:`odolab.validation.align.find_clock_offset`); ``gaps``: intervals
-    of the sensor's clock where its rate is unknown, left out."""
-    from odolab.errors import ImuLogError
-    from odolab.validation.align import find_clock_offset
-    from odolab.validation.sensorlog import ImuLog
-
-    keep = sensor.t > sensor.t[0]
-    keep[0] = True
-    keep[1:] &= sensor.t[1:] > sensor.t[:-1]
-    imu = ImuLog(sensor.t[keep], sensor.heading[keep], None, source=source)
-    try:
-        return find_clock_offset(
-            enc_t, enc_heading, imu, max_offset=max_offset, gaps=gaps
-        ).clock_offset
-    except ImuLogError as err:  # worded for a phone's IMU and `validate`'s options: reword
-        raise OptionError(_offset_sentence(str(err), source, max_offset)) from err
-
-
-def _offset_sentence(text: str, source: str, max_offset: float) -> str:
-    """``find_clock_offset``'s refusal in the words of ``track`` and ``calibrate sensor`` (no IMU,
-    no --flip-imu or --offset there)."""
-    import re
-
-    if "sign reversed" in text:
-        numbers = re.search(r"\(correlation [^)]*\)", text)
-        return (
-            f"{source}: its yaw rate matches the encoders' best with the sign reversed "
-            f"{numbers.group(0) if numbers else ''}; expected both to turn the same way (check "
-            "that the video is not mirrored and that the encoder log's left and right wheels "
-            "are not swapped), or give the clock offset with --time-offset"
-        ).replace("  ", " ")
-    if "any rotation" in text:
-        return (
-            f"{source}: neither it nor the encoder log shows any rotation to line the clocks up "
-            "with; expected a drive with turns, or give the clock offset with --time-offset"
-        )
-    if "does not overlap" in text:
-        return (
-            f"{source}: it does not overlap the encoder log in time for any clock offset within "
-            f"+-{max_offset:g} s; expected the log of the same drive, a larger --max-offset, "
-            "or the clock offset with --time-offset"
-        )
-    return text
+SensorEncodersOpt = Annotated[Path, typer.Argument(help="Encoder log (any format odolab reads).")]
+SensorParamsOpt = Annotated[
+    str, typer.Option("--params", "-p", help="Nominal parameters TOML or preset.")
+]
+SensorOutputOpt = Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")]
+SensorSensorOpt = Annotated[
+    Path | None,
+    typer.Argument(
+        help="Sensor trajectory: TUM, CSV t,x,y,theta|heading, or a bag (default with "
+        "--scan-topic: the ENCODERS bag)."
+    ),
+]
+SensorFmtOpt = Annotated[
+    EncoderFormat | None,
+    typer.Option(
+        "--format",
+        "-f",
+        help="Format of the encoder log [default: bag with --scan-topic/--sensor-topic or "
+        "a .bag/.mcap/bag folder, else csv].",
+    ),
+]
+SensorJsonOutOpt = Annotated[Path | None, typer.Option("--json", help="Write the result here.")]
+SensorTimeOffsetOpt = Annotated[
+    str,
+    typer.Option(help="Sensor clock minus encoder clock (s), or 'auto' (yaw-rate match)."),
+]
+SensorMaxOffsetOpt = Annotated[float, typer.Option(help="With auto: search +- this (s).")]
+SensorIntervalOpt = Annotated[float, typer.Option(help="Interval between sensor poses (s).")]
+SensorMaxOutliersOpt = Annotated[
+    float, typer.Option(help="Largest fraction of intervals trimmed as outliers.")
+]
+SensorSensorTopicOpt = Annotated[
+    str | None, typer.Option(help="Bag: the sensor's PoseStamped/Odometry topic.")
+]
+SensorScanTopicOpt = Annotated[
+    str | None,
+    typer.Option(help="Bag: a LaserScan topic, matched scan to scan (small_gicp GICP)."),
+]
+SensorTruthOutOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--truth-out",
+        help="Write the robot centre's path (the sensor's, moved by the calibrated mount, "
+        "on the encoder clock): ground truth for calibrate lsq / evaluate.",
+    ),
+]
+SensorScanEveryOpt = Annotated[
+    int, typer.Option(min=1, help="With --scan-topic: match every N-th scan (fast scanners).")
+]
+SensorJointTopicOpt = Annotated[str, typer.Option(help="Bag: JointState topic.")]
+SensorJointsOpt = Annotated[tuple[str, str], typer.Option(help="Bag: LEFT RIGHT joint names.")]
 
 
 @calibrate_app.command("sensor")
 def calibrate_sensor_cmd(
-    encoders: Annotated[Path, typer.Argument(help="Encoder log (any format odolab reads).")],
-    params: Annotated[
-        str, typer.Option("--params", "-p", help="Nominal parameters TOML or preset.")
-    ],
-    output: Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")],
-    sensor: Annotated[
-        Path | None,
-        typer.Argument(
-            help="Sensor trajectory: TUM, CSV t,x,y,theta|heading, or a bag (default with "
-            "--scan-topic: the ENCODERS bag)."
-        ),
-    ] = None,
-    fmt: Annotated[
-        EncoderFormat | None,
-        typer.Option(
-            "--format",
-            "-f",
-            help="Format of the encoder log [default: bag with --scan-topic/--sensor-topic or "
-            "a .bag/.mcap/bag folder, else csv].",
-        ),
-    ] = None,
-    json_out: Annotated[Path | None, typer.Option("--json", help="Write the result here.")] = None,
-    time_offset: Annotated[
-        str,
-        typer.Option(help="Sensor clock minus encoder clock (s), or 'auto' (yaw-rate match)."),
-    ] = "0",
-    max_offset: Annotated[float, typer.Option(help="With auto: search +- this (s).")] = 30.0,
-    interval: Annotated[float, typer.Option(help="Interval between sensor poses (s).")] = 0.5,
-    max_outliers: Annotated[
-        float, typer.Option(help="Largest fraction of intervals trimmed as outliers.")
-    ] = 0.2,
-    sensor_topic: Annotated[
-        str | None, typer.Option(help="Bag: the sensor's PoseStamped/Odometry topic.")
-    ] = None,
-    scan_topic: Annotated[
-        str | None,
-        typer.Option(help="Bag: a LaserScan topic, matched scan to scan (small_gicp GICP)."),
-    ] = None,
-    truth_out: Annotated[
-        Path | None,
-        typer.Option(
-            "--truth-out",
-            help="Write the robot centre's path (the sensor's, moved by the calibrated mount, "
-            "on the encoder clock): ground truth for calibrate lsq / evaluate.",
-        ),
-    ] = None,
-    scan_every: Annotated[
-        int, typer.Option(min=1, help="With --scan-topic: match every N-th scan (fast scanners).")
-    ] = 1,
-    joint_topic: Annotated[str, typer.Option(help="Bag: JointState topic.")] = "/joint_states",
-    joints: Annotated[tuple[str, str], typer.Option(help="Bag: LEFT RIGHT joint names.")] = (
+    encoders: SensorEncodersOpt,
+    params: SensorParamsOpt,
+    output: SensorOutputOpt,
+    sensor: SensorSensorOpt = None,
+    fmt: SensorFmtOpt = None,
+    json_out: SensorJsonOutOpt = None,
+    time_offset: SensorTimeOffsetOpt = "0",
+    max_offset: SensorMaxOffsetOpt = 30.0,
+    interval: SensorIntervalOpt = 0.5,
+    max_outliers: SensorMaxOutliersOpt = 0.2,
+    sensor_topic: SensorSensorTopicOpt = None,
+    scan_topic: SensorScanTopicOpt = None,
+    truth_out: SensorTruthOutOpt = None,
+    scan_every: SensorScanEveryOpt = 1,
+    joint_topic: SensorJointTopicOpt = "/joint_states",
+    joints: SensorJointsOpt = (
         "left_wheel_joint",
         "right_wheel_joint",
     ),
 ) -> None:
     """Wheel radii, track and the sensor's pose on the robot (Censi et al. 2013), with standard
     errors (the Cramér-Rao bound at the estimate)."""
-    from odolab.calibration.sensor import (
-        SensorOptions,
-        calibrate_sensor,
-        motions_from_trajectory,
-        read_sensor_trajectory,
-        wheel_angles,
-    )
-    from odolab.cli._output import check_not_the_input, check_output_path
+    from odolab.app.groundtruth import SensorRequest, calibrate_sensor_log
     from odolab.cli.evaluate import _write_json
-    from odolab.io.registry import read_run
-    from odolab.io.run import ReadOptions
-    from odolab.params import load_params, save_params
 
-    offset = _time_offset(time_offset)
-    if not (math.isfinite(interval) and interval >= 0):
-        raise OptionError(f"--interval is {interval!r}; expected a number of seconds >= 0")
-    if not (math.isfinite(max_offset) and max_offset > 0):
-        raise OptionError(f"--max-offset is {max_offset!r}; expected a positive number of seconds")
-    options = SensorOptions(max_outliers=max_outliers)
-    nominal = load_params(params)
+    request = SensorRequest(
+        encoders, params, output, sensor, fmt.value if fmt is not None else None,
+        _time_offset(time_offset), max_offset, interval, max_outliers, sensor_topic, scan_topic,
+        truth_out, scan_every, joint_topic, joints,
+    )  # fmt: skip
+    outcome = calibrate_sensor_log(
+        request, lambda: _check_sensor_outputs(output, params, json_out, truth_out)
+    )
+    _write_json(outcome.result.to_dict(), json_out)
+    _print_sensor(outcome.result, output)
+    if truth_out is not None:
+        echo(f"robot path from the sensor -> {truth_out}")
+
+
+def _check_sensor_outputs(
+    output: Path, params: str, json_out: Path | None, truth_out: Path | None
+) -> None:
+    from odolab.cli._output import check_not_the_input, check_output_path
+
     check_output_path(output, "parameters file")
     check_not_the_input(output, params)
     if json_out is not None:
         check_output_path(json_out, "JSON result")
     if truth_out is not None:
         check_output_path(truth_out, "robot trajectory")
-    ro = ReadOptions(
-        modulus=nominal.encoder_modulus,
-        joint_topic=joint_topic,
-        joint_names=joints,
-        ticks_per_rev=nominal.ticks_per_rev,
-    )
-    if fmt is None:
-        # the scans come from the ENCODERS bag when no SENSOR is given
-        is_bag = (scan_topic is not None and sensor is None) or encoders.is_dir()
-        is_bag = is_bag or encoders.suffix.lower() in (".bag", ".mcap", ".db3")
-        fmt = EncoderFormat.bag if is_bag else EncoderFormat.csv
-    if scan_topic is not None and sensor_topic is not None:
-        raise OptionError("give --scan-topic or --sensor-topic, not both")
-    run = read_run(encoders, fmt.value, ro)
-    if scan_topic is not None:
-        from odolab.calibration.scanmatch import scan_motions
-        from odolab.io.scans import read_scans
-
-        source = sensor or encoders
-        traj = scan_motions(read_scans(source, scan_topic), every=scan_every).trajectory
-    elif sensor is None:
-        raise OptionError("no SENSOR file and no --scan-topic; expected the sensor's motion")
-    else:
-        traj = read_sensor_trajectory(sensor, sensor_topic)
-    pl, pr = wheel_angles(run.dticks_left, run.dticks_right, nominal.ticks_per_rev)
-    where = f"{sensor or encoders}" + (f" {scan_topic}" if scan_topic else "")
-    if offset is None:
-        odo = run.odometry(nominal)
-        offset = estimate_time_offset(run.t, odo.heading, traj, where, max_offset)
-    data = motions_from_trajectory(
-        run.t, pl, pr, traj, interval_s=interval, time_offset=offset, source=where
-    )
-    result = calibrate_sensor(data, nominal, options, time_offset=offset)
-    save_params(output, result.params, provenance=result.provenance())
-    _write_json(result.to_dict(), json_out)
-    _print_sensor(result, output)
-    if truth_out is not None:
-        from odolab.calibration.sensor import robot_trajectory
-        from odolab.io import write_trajectory_csv
-
-        v = result.values
-        mount = (v["sensor_x"], v["sensor_y"], v["sensor_yaw"])
-        write_trajectory_csv(truth_out, robot_trajectory(traj, mount, offset))
-        echo(f"robot path from the sensor -> {truth_out}")
 
 
 def _print_sensor(result: SensorCalibration, output: Path) -> None:
@@ -284,54 +199,70 @@ def _board(text: str, square: float, marker: float, dictionary: str) -> Any:
     return BoardSpec(sx, sy, square, marker, dictionary)
 
 
+TrackVideoOpt = Annotated[Path, typer.Argument(help="Video of the floor and the robot.")]
+TrackFloorOpt = Annotated[Path, typer.Option(help="FLOOR.csv: id,x,y,yaw,size of floor markers.")]
+TrackRobotMarkerOpt = Annotated[int, typer.Option(help="Id of the marker on the robot.")]
+TrackMarkerSizeOpt = Annotated[float, typer.Option(help="Robot marker's black square side (m).")]
+TrackMarkerHeightOpt = Annotated[float, typer.Option(help="Robot marker's height above floor (m).")]
+TrackCameraOpt = Annotated[Path, typer.Option(help="CAMERA.toml (odolab camera calibrate).")]
+TrackOutputOpt = Annotated[Path, typer.Option("--output", "-o", help="Track CSV to write.")]
+TrackMarkerOffsetOpt = Annotated[
+    tuple[float, float], typer.Option(help="DX DY: marker centre in the robot frame (m).")
+]
+TrackDictionaryOpt = Annotated[str, typer.Option(help="ArUco dictionary.")]
+TrackEncodersOpt = Annotated[
+    Path | None,
+    typer.Option(
+        help="Encoder log: put t on its clock (offset found from yaw rates) and decide the "
+        "whole turns across gaps in the track."
+    ),
+]
+TrackParamsOpt = Annotated[
+    str | None, typer.Option("--params", "-p", help="With --encoders: parameters.")
+]
+TrackFmtOpt = Annotated[EncoderFormat, typer.Option("--format", "-f", help="Format of --encoders.")]
+TrackMaxOffsetOpt = Annotated[float, typer.Option(help="With --encoders: search +- (s).")]
+TrackTimeOffsetOpt = Annotated[
+    str,
+    typer.Option(
+        help="With --encoders: the video's clock minus the encoders' (s), or 'auto' "
+        "(yaw-rate match)."
+    ),
+]
+TrackMaxYawRateOpt = Annotated[
+    float,
+    typer.Option(
+        help="The robot's fastest turn (deg/s): frames without the marker for 180 deg / this "
+        "or longer start a new heading segment (its whole turns unknown)."
+    ),
+]
+TrackCornersOpt = Annotated[
+    str,
+    typer.Option(
+        help="Corner refinement: contour (edges fitted as lines: steady under motion "
+        "blur), subpix (the grey-level saddle) or apriltag (docs/ground-truth.md).",
+    ),
+]
+
+
 @app.command("track")
 def track_cmd(
-    video: Annotated[Path, typer.Argument(help="Video of the floor and the robot.")],
-    floor: Annotated[Path, typer.Option(help="FLOOR.csv: id,x,y,yaw,size of floor markers.")],
-    robot_marker: Annotated[int, typer.Option(help="Id of the marker on the robot.")],
-    marker_size: Annotated[float, typer.Option(help="Robot marker's black square side (m).")],
-    marker_height: Annotated[float, typer.Option(help="Robot marker's height above floor (m).")],
-    camera: Annotated[Path, typer.Option(help="CAMERA.toml (odolab camera calibrate).")],
-    output: Annotated[Path, typer.Option("--output", "-o", help="Track CSV to write.")],
-    marker_offset: Annotated[
-        tuple[float, float], typer.Option(help="DX DY: marker centre in the robot frame (m).")
-    ] = (0.0, 0.0),
-    dictionary: Annotated[str, typer.Option(help="ArUco dictionary.")] = "DICT_4X4_50",
-    encoders: Annotated[
-        Path | None,
-        typer.Option(
-            help="Encoder log: put t on its clock (offset found from yaw rates) and decide the "
-            "whole turns across gaps in the track."
-        ),
-    ] = None,
-    params: Annotated[
-        str | None, typer.Option("--params", "-p", help="With --encoders: parameters.")
-    ] = None,
-    fmt: Annotated[
-        EncoderFormat, typer.Option("--format", "-f", help="Format of --encoders.")
-    ] = EncoderFormat.csv,
-    max_offset: Annotated[float, typer.Option(help="With --encoders: search +- (s).")] = 30.0,
-    time_offset: Annotated[
-        str,
-        typer.Option(
-            help="With --encoders: the video's clock minus the encoders' (s), or 'auto' "
-            "(yaw-rate match)."
-        ),
-    ] = "auto",
-    max_yaw_rate: Annotated[
-        float,
-        typer.Option(
-            help="The robot's fastest turn (deg/s): frames without the marker for 180 deg / this "
-            "or longer start a new heading segment (its whole turns unknown)."
-        ),
-    ] = 180.0,
-    corners: Annotated[
-        str,
-        typer.Option(
-            help="Corner refinement: contour (edges fitted as lines: steady under motion "
-            "blur), subpix (the grey-level saddle) or apriltag (docs/ground-truth.md).",
-        ),
-    ] = DEFAULT_CORNERS,
+    video: TrackVideoOpt,
+    floor: TrackFloorOpt,
+    robot_marker: TrackRobotMarkerOpt,
+    marker_size: TrackMarkerSizeOpt,
+    marker_height: TrackMarkerHeightOpt,
+    camera: TrackCameraOpt,
+    output: TrackOutputOpt,
+    marker_offset: TrackMarkerOffsetOpt = (0.0, 0.0),
+    dictionary: TrackDictionaryOpt = "DICT_4X4_50",
+    encoders: TrackEncodersOpt = None,
+    params: TrackParamsOpt = None,
+    fmt: TrackFmtOpt = EncoderFormat.csv,
+    max_offset: TrackMaxOffsetOpt = 30.0,
+    time_offset: TrackTimeOffsetOpt = "auto",
+    max_yaw_rate: TrackMaxYawRateOpt = 180.0,
+    corners: TrackCornersOpt = DEFAULT_CORNERS,
 ) -> None:
     """Robot poses from a video: floor markers define the floor, the robot's marker its pose.
     Writes t,x,y,theta,heading,quality,segment (t from 0 at the first frame, or on the encoder
@@ -339,84 +270,17 @@ def track_cmd(
     long enough for a half turn, unless --encoders bridges it)."""
     from rich.console import Console
 
+    from odolab.app.groundtruth import TrackRequest, track_log
     from odolab.cli._output import check_output_path
-    from odolab.tracking import load_camera, read_floor_csv
-    from odolab.tracking.tracker import TrackOptions, bridge_gaps, track_video, write_track_csv
 
-    if not (math.isfinite(max_yaw_rate) and max_yaw_rate > 0):
-        raise OptionError(
-            f"--max-yaw-rate is {max_yaw_rate!r}; expected the robot's fastest turn in deg/s, "
-            "a positive number"
-        )
-    options = TrackOptions(
-        robot_marker, marker_size, marker_height, marker_offset, dictionary,
-        max_yaw_rate=math.radians(max_yaw_rate), corners=corners,
+    request = TrackRequest(
+        video, floor, robot_marker, marker_size, marker_height, camera, output, marker_offset,
+        dictionary, encoders, params, fmt.value, max_offset, _time_offset(time_offset),
+        max_yaw_rate, corners,
     )  # fmt: skip
-    if encoders is not None and params is None:
-        raise OptionError("--encoders needs --params (the robot's nominal parameters)")
-    if not (math.isfinite(max_offset) and max_offset > 0):
-        raise OptionError(f"--max-offset is {max_offset!r}; expected a positive number of seconds")
-    given_offset = _time_offset(time_offset)
-    if given_offset is not None and encoders is None:
-        raise OptionError("--time-offset needs --encoders (the log whose clock it is)")
-    cam = load_camera(camera)
-    markers = read_floor_csv(floor)
-    from odolab.tracking.markers import get_dictionary
-
-    get_dictionary(dictionary)
-    check_output_path(output, "track CSV")
-    result = track_video(video, markers, cam, options)
-    offset = 0.0
+    out = track_log(request, lambda: check_output_path(output, "track CSV"))
+    result, offset = out.result, out.offset
     console = Console(stderr=True)
-    notes: list[str] = []
-    bridges: list[GapBridge] = []
-    if encoders is not None and params is not None:
-        from odolab.io.registry import read_run
-        from odolab.io.run import ReadOptions
-        from odolab.params import load_params
-        from odolab.trajectory import Trajectory
-
-        nominal = load_params(params)
-        run = read_run(
-            encoders,
-            fmt.value,
-            ReadOptions(modulus=nominal.encoder_modulus, ticks_per_rev=nominal.ticks_per_rev),
-        )
-        odo = run.odometry(nominal)
-        if given_offset is None:
-            # the yaw rate across a gap is unknown: left out of the search (taken as zero
-            # there, it moved the offset by up to a frame, more with the better corners)
-            seen = Trajectory.from_xyh(result.t, result.x, result.y, result.heading_without_gaps())
-            unknown = [(g.t_before, g.t_after) for g in result.gaps]
-            offset = estimate_time_offset(run.t, odo.heading, seen, str(video), max_offset, unknown)
-        else:
-            offset = given_offset
-        result, bridges = bridge_gaps(result, run.t, odo.heading, offset)
-        for br in bridges:
-            g = br.gap
-            where = f"{g.seconds:.2f} s without the marker at {g.t_before - offset:.2f} s"
-            if br.bridged:
-                notes.append(
-                    f"{where}: bridged with the encoders, turned {math.degrees(br.change):+.1f} "
-                    f"deg (encoders {math.degrees(br.reference):+.1f} deg)"
-                )
-    for g in result.gaps:  # the gaps left: no encoders, outside their log, or no candidate near
-        bridge = next((br for br in bridges if br.gap == g), None)
-        why = (
-            "give --encoders to bridge it"
-            if encoders is None
-            else "the encoder log does not cover it"
-            if bridge is None
-            else f"the encoders' turn {math.degrees(bridge.reference):+.1f} deg is far from every "
-            "whole-turn candidate"
-        )
-        notes.append(
-            f"{g.seconds:.2f} s without the marker at {g.t_before - offset:.2f} s: the robot may "
-            f"have turned half a turn or more (--max-yaw-rate {max_yaw_rate:g} deg/s); segment "
-            f"{int(result.segments[g.index])} starts there, its heading's whole turns unknown "
-            f"({why})"
-        )
-    write_track_csv(output, result, offset)
     pos = result.camera_pose.position
     console.print(
         f"{video}: {result.frames - result.skipped} of {result.frames} frames tracked "
@@ -429,7 +293,7 @@ def track_cmd(
         markup=False,
         highlight=False,
     )
-    for note in notes:
+    for note in out.notes:
         console.print(f"note: {said(note)}", markup=False, highlight=False)
 
 
@@ -515,14 +379,20 @@ def _sim_video_legs(long: bool) -> list[tuple[float, float, float]]:
     ]  # fmt: skip
 
 
+VideoFolderOpt = Annotated[Path, typer.Argument(help="Folder to write the video and its files in.")]
+VideoClockOffsetOpt = Annotated[
+    float, typer.Option(help="The encoder log's clock minus the video's (s).")
+]
+VideoLongOpt = Annotated[bool, typer.Option("--long", help="A 31 s drive instead of 12 s.")]
+VideoSeedOpt = Annotated[int, typer.Option(min=0, help="Random seed (image noise).")]
+
+
 @sim_app.command("video")
 def sim_video_cmd(
-    folder: Annotated[Path, typer.Argument(help="Folder to write the video and its files in.")],
-    clock_offset: Annotated[
-        float, typer.Option(help="The encoder log's clock minus the video's (s).")
-    ] = 2.0,
-    long: Annotated[bool, typer.Option("--long", help="A 31 s drive instead of 12 s.")] = False,
-    seed: Annotated[int, typer.Option(min=0, help="Random seed (image noise).")] = 0,
+    folder: VideoFolderOpt,
+    clock_offset: VideoClockOffsetOpt = 2.0,
+    long: VideoLongOpt = False,
+    seed: VideoSeedOpt = 0,
 ) -> None:
     """Film the virtual robot: a 1280x720, 30 fps MJPG video (blur, noise, JPEG) of it driving
     among five floor markers, with its marker 10 (25 cm, 0.30 m up); writes run.avi, floor.csv,

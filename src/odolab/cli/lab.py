@@ -237,29 +237,36 @@ def _write_json(path: Path | None, doc: dict[str, Any]) -> None:
     echo(f"calibration written to {path}")
 
 
+RatiosOutputOpt = Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")]
+RatiosDistanceRatioOpt = Annotated[
+    float | None,
+    typer.Option(
+        help="actual/predicted distance: the x fit's ratio through the origin (Table I's "
+        "ratio, not the slope of the line with an intercept)."
+    ),
+]
+RatiosRotationRatioOpt = Annotated[
+    float | None,
+    typer.Option(
+        help="actual/predicted rotation: the rotation fit's ratio through the origin "
+        "(Table I's ratio, not the slope of the line with an intercept)."
+    ),
+]
+RatiosDbOpt = Annotated[
+    Path | None,
+    typer.Option("--db", help="Take the ratios from this notebook's fits.", envvar="ODOLAB_DB"),
+]
+RatiosTerrainOpt = Annotated[str | None, typer.Option(help="Terrain whose fits to use.")]
+
+
 @calibrate_app.command("ratios")
 def calibrate_ratios_cmd(
-    output: Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")],
+    output: RatiosOutputOpt,
     params: ParamsOpt = None,
-    distance_ratio: Annotated[
-        float | None,
-        typer.Option(
-            help="actual/predicted distance: the x fit's ratio through the origin (Table I's "
-            "ratio, not the slope of the line with an intercept)."
-        ),
-    ] = None,
-    rotation_ratio: Annotated[
-        float | None,
-        typer.Option(
-            help="actual/predicted rotation: the rotation fit's ratio through the origin "
-            "(Table I's ratio, not the slope of the line with an intercept)."
-        ),
-    ] = None,
-    db: Annotated[
-        Path | None,
-        typer.Option("--db", help="Take the ratios from this notebook's fits.", envvar="ODOLAB_DB"),
-    ] = None,
-    terrain: Annotated[str | None, typer.Option(help="Terrain whose fits to use.")] = None,
+    distance_ratio: RatiosDistanceRatioOpt = None,
+    rotation_ratio: RatiosRotationRatioOpt = None,
+    db: RatiosDbOpt = None,
+    terrain: RatiosTerrainOpt = None,
     campaign: CampaignOpt = None,
     exclude_campaign: ExcludeOpt = None,
     robot: RobotOpt = None,
@@ -315,19 +322,25 @@ def calibrate_ratios_cmd(
     _write_json(json_out, doc)
 
 
+UmbmarkOutputOpt = Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")]
+UmbmarkErrorsOpt = Annotated[
+    Path | None,
+    typer.Option(help="CSV with header direction,x,y: return errors (measured - odometry)."),
+]
+UmbmarkSideOpt = Annotated[float | None, typer.Option(help="Square side (m), with --errors.")]
+UmbmarkDbOpt = Annotated[
+    Path | None,
+    typer.Option("--db", help="Use this notebook's squares.", envvar="ODOLAB_DB"),
+]
+
+
 @calibrate_app.command("umbmark")
 def calibrate_umbmark_cmd(
-    output: Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")],
+    output: UmbmarkOutputOpt,
     params: ParamsOpt = None,
-    errors: Annotated[
-        Path | None,
-        typer.Option(help="CSV with header direction,x,y: return errors (measured - odometry)."),
-    ] = None,
-    side: Annotated[float | None, typer.Option(help="Square side (m), with --errors.")] = None,
-    db: Annotated[
-        Path | None,
-        typer.Option("--db", help="Use this notebook's squares.", envvar="ODOLAB_DB"),
-    ] = None,
+    errors: UmbmarkErrorsOpt = None,
+    side: UmbmarkSideOpt = None,
+    db: UmbmarkDbOpt = None,
     campaign: CampaignOpt = None,
     exclude_campaign: ExcludeOpt = None,
     robot: RobotOpt = None,

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
@@ -28,43 +28,55 @@ from odolab.cli.evaluate import (
 from odolab.writing import strict_json
 
 if TYPE_CHECKING:
+    from rich.console import Console
+
     from odolab.calibration.compare import ModelComparison
 
 __all__: list[str] = []
 
 
+CompareRunsOpt = Annotated[
+    list[Path], typer.Argument(help="Training runs (files or folders) with ground truth.")
+]
+CompareFmtOpt = Annotated[RunFormat | None, typer.Option("--format", "-f", help=RUN_FORMAT_HELP)]
+CompareValidateOpt = Annotated[
+    list[Path] | None,
+    typer.Option(
+        "--validate",
+        help="Held-out runs (default: cross-validation over the training runs); every "
+        "value up to the next option (a shell glob's files).",
+    ),
+]
+CompareModelsOpt = Annotated[
+    str,
+    typer.Option(
+        help="Comma-separated models to compare: diff, extended, icr, slip (the slip model, "
+        "learned from data, is scored only when named)."
+    ),
+]
+CompareLearningCurveOpt = Annotated[
+    str,
+    typer.Option(
+        help="Also a learning curve: comma-separated seconds of the first training run "
+        "(an exploration run) to fit each model on, e.g. 10,20,30,60."
+    ),
+]
+CompareSegmentOpt = Annotated[float, typer.Option(help="Segment length (s) of the residuals.")]
+CompareSeedOpt = Annotated[int, typer.Option(help="Seed of the bootstrap confidence intervals.")]
+CompareJsonOutOpt = Annotated[Path | None, typer.Option("--json", help="Write the report here.")]
+
+
 @calibrate_app.command("compare", cls=several_values_command("--validate"))
 def calibrate_compare_cmd(
-    runs: Annotated[
-        list[Path], typer.Argument(help="Training runs (files or folders) with ground truth.")
-    ],
-    fmt: Annotated[RunFormat | None, typer.Option("--format", "-f", help=RUN_FORMAT_HELP)] = None,
+    runs: CompareRunsOpt,
+    fmt: CompareFmtOpt = None,
     params: ParamsOpt = None,
-    validate: Annotated[
-        list[Path] | None,
-        typer.Option(
-            "--validate",
-            help="Held-out runs (default: cross-validation over the training runs); every "
-            "value up to the next option (a shell glob's files).",
-        ),
-    ] = None,
-    models: Annotated[
-        str,
-        typer.Option(
-            help="Comma-separated models to compare: diff, extended, icr, slip (the slip model, "
-            "learned from data, is scored only when named)."
-        ),
-    ] = "diff,extended,icr",
-    learning_curve: Annotated[
-        str,
-        typer.Option(
-            help="Also a learning curve: comma-separated seconds of the first training run "
-            "(an exploration run) to fit each model on, e.g. 10,20,30,60."
-        ),
-    ] = "",
-    segment: Annotated[float, typer.Option(help="Segment length (s) of the residuals.")] = 2.0,
-    seed: Annotated[int, typer.Option(help="Seed of the bootstrap confidence intervals.")] = 0,
-    json_out: Annotated[Path | None, typer.Option("--json", help="Write the report here.")] = None,
+    validate: CompareValidateOpt = None,
+    models: CompareModelsOpt = "diff,extended,icr",
+    learning_curve: CompareLearningCurveOpt = "",
+    segment: CompareSegmentOpt = 2.0,
+    seed: CompareSeedOpt = 0,
+    json_out: CompareJsonOutOpt = None,
     workers: WorkersOpt = 2,
     joint_topic: JointTopicOpt = "/joint_states",
     joints: JointsOpt = ("left_wheel_joint", "right_wheel_joint"),
@@ -75,21 +87,12 @@ def calibrate_compare_cmd(
     """Fit every kinematic model on training runs, score it on held-out runs, recommend one."""
     from odolab.app.models import CompareRequest, compare_files
     from odolab.calibration.compare import parse_curve
-    from odolab.calibration.lsq import FIT_MODELS, LsqOptions
+    from odolab.calibration.lsq import LsqOptions
     from odolab.calibration.truthnoise import parse_truth_sigma
     from odolab.cli._output import write_output_text
-    from odolab.errors import CalibrationError
     from odolab.params import load_params
 
-    chosen = [m.strip() for m in models.split(",") if m.strip()]
-    for m in chosen:
-        if m not in FIT_MODELS:
-            raise CalibrationError(
-                f"--models: unknown model {m!r}; expected a comma-separated list of "
-                f"{', '.join(FIT_MODELS)}"
-            )
-    if not chosen:
-        raise CalibrationError("--models: empty; expected e.g. diff,icr")
+    chosen = _models(models)
     curve = parse_curve(learning_curve)  # (one check, in the library)
     robot = load_params(params) if params else None
     ro = _read_options(robot, joint_topic, joints, gt_topic)
@@ -114,6 +117,23 @@ def calibrate_compare_cmd(
     if json_out is not None:
         write_output_text(json_out, strict_json(result.to_dict()) + "\n", "JSON result")
     _print_comparison(result)
+
+
+def _models(models: str) -> list[str]:
+    """``--models``: a comma-separated list of the models ``calibrate lsq`` fits."""
+    from odolab.calibration.lsq import FIT_MODELS
+    from odolab.errors import CalibrationError
+
+    chosen = [m.strip() for m in models.split(",") if m.strip()]
+    for m in chosen:
+        if m not in FIT_MODELS:
+            raise CalibrationError(
+                f"--models: unknown model {m!r}; expected a comma-separated list of "
+                f"{', '.join(FIT_MODELS)}"
+            )
+    if not chosen:
+        raise CalibrationError("--models: empty; expected e.g. diff,icr")
+    return chosen
 
 
 def _ci(value: float, low: float, high: float, fmt: str) -> str:
@@ -171,19 +191,7 @@ def _print_comparison(result: ModelComparison) -> None:
         highlight=False,
     )
     if result.learning_curve:
-        seconds = sorted({float(r["seconds"]) for r in result.learning_curve})
-        curve_table = Table(title="learning curve: held-out mean end-point error (m)")
-        curve_table.add_column("model")
-        for sec in seconds:
-            curve_table.add_column(f"{sec:g} s", justify="right")
-        for name in dict.fromkeys(str(r["model"]) for r in result.learning_curve):
-            cells = {float(r["seconds"]): r["endpoint_error"] for r in result.learning_curve
-                     if r["model"] == name}  # fmt: skip
-            curve_table.add_row(
-                name,
-                *["not fitted" if cells.get(x) is None else f"{cells[x]:.4f}" for x in seconds],
-            )
-        print_table(console, curve_table)
+        _print_curve(console, result.learning_curve)
     if result.decided:
         console.print(f"recommended: [bold]{result.recommended}[/bold] ({escape(result.reason)})")
     else:
@@ -191,21 +199,47 @@ def _print_comparison(result: ModelComparison) -> None:
         console.print(f"recommended: [bold]undecided[/bold], no model ({why})")
 
 
+def _print_curve(console: Console, curve: list[dict[str, Any]]) -> None:
+    """The learning curve: each model's held-out mean end-point error per training length."""
+    from rich.table import Table
+
+    from odolab.cli._console import print_table
+
+    seconds = sorted({float(r["seconds"]) for r in curve})
+    curve_table = Table(title="learning curve: held-out mean end-point error (m)")
+    curve_table.add_column("model")
+    for sec in seconds:
+        curve_table.add_column(f"{sec:g} s", justify="right")
+    for name in dict.fromkeys(str(r["model"]) for r in curve):
+        cells = {float(r["seconds"]): r["endpoint_error"] for r in curve
+                 if r["model"] == name}  # fmt: skip
+        curve_table.add_row(
+            name,
+            *["not fitted" if cells.get(x) is None else f"{cells[x]:.4f}" for x in seconds],
+        )
+    print_table(console, curve_table)
+
+
+QuestionsExperimentsOpt = Annotated[
+    list[str] | None,
+    typer.Argument(help="Experiment files or built-in names (default: every built-in)."),
+]
+QuestionsTruthOpt = Annotated[str, typer.Option(help="True-behaviour preset of the virtual robot.")]
+QuestionsSeedOpt = Annotated[int, typer.Option(min=0, help="Random seed.")]
+QuestionsRepeatsOpt = Annotated[
+    int | None, typer.Option(min=2, help="Repeats per condition (default: the file's).")
+]
+QuestionsJsonOutOpt = Annotated[Path | None, typer.Option("--json", help="Write the answers here.")]
+
+
 @sim_app.command("questions")
 def sim_questions_cmd(
-    experiments: Annotated[
-        list[str] | None,
-        typer.Argument(help="Experiment files or built-in names (default: every built-in)."),
-    ] = None,
-    truth: Annotated[
-        str, typer.Option(help="True-behaviour preset of the virtual robot.")
-    ] = "jaguar-lab-tracked",
+    experiments: QuestionsExperimentsOpt = None,
+    truth: QuestionsTruthOpt = "jaguar-lab-tracked",
     params: ParamsOpt = None,
-    seed: Annotated[int, typer.Option(min=0, help="Random seed.")] = 0,
-    repeats: Annotated[
-        int | None, typer.Option(min=2, help="Repeats per condition (default: the file's).")
-    ] = None,
-    json_out: Annotated[Path | None, typer.Option("--json", help="Write the answers here.")] = None,
+    seed: QuestionsSeedOpt = 0,
+    repeats: QuestionsRepeatsOpt = None,
+    json_out: QuestionsJsonOutOpt = None,
 ) -> None:
     """Answer the lab's open questions on the virtual robot: effect sizes with 95 % CIs."""
     from rich.console import Console

@@ -9,12 +9,9 @@ robot's input space inside a geofence and keeps the run's ground truth
 
 from __future__ import annotations
 
-import contextlib
 import inspect
 import math
-import shlex
 from collections.abc import Callable
-from datetime import UTC, datetime
 from enum import StrEnum
 from pathlib import Path
 from types import SimpleNamespace
@@ -22,51 +19,28 @@ from typing import TYPE_CHECKING, Annotated, Any, get_type_hints
 
 import typer
 
+from odolab.app.robot import FOXGLOVE_PORT, measure_virtual_command
 from odolab.cli._apps import robot_app
 from odolab.cli._output import echo, term
 from odolab.defaults import DEFAULT_TRUTH
 
 if TYPE_CHECKING:
+    from odolab.app.robot import RobotPlan
     from odolab.robot.config import RunConfig
-    from odolab.robot.explore import ExplorePlan
     from odolab.robot.loop import CycleInfo
     from odolab.robot.session import AbortReport, RobotRun
     from odolab.store import Notebook
     from odolab.trials import Command
 
-__all__: list[str] = []
+__all__ = ["measure_virtual_command"]
 
 
-class ModeChoice(StrEnum):
-    pwm = "pwm"
-    velocity = "velocity"
-
-
-class LinkChoice(StrEnum):
-    jaguar = "jaguar"
-    jaguar2014 = "jaguar2014"
-
-
-class DirectionChoice(StrEnum):
-    cw = "cw"
-    ccw = "ccw"
-
-
-class TrackChoice(StrEnum):
-    left = "left"
-    right = "right"
-
-
-class DistributionChoice(StrEnum):
-    uniform = "uniform"
-    edges = "edges"
-
-
-class GroundTruthChoice(StrEnum):
-    virtual = "virtual"
-    mocap = "mocap"
-    track = "track"
-    laser = "laser"
+ModeChoice = StrEnum("ModeChoice", ["pwm", "velocity"])
+LinkChoice = StrEnum("LinkChoice", ["jaguar", "jaguar2014"])
+DirectionChoice = StrEnum("DirectionChoice", ["cw", "ccw"])
+TrackChoice = StrEnum("TrackChoice", ["left", "right"])
+DistributionChoice = StrEnum("DistributionChoice", ["uniform", "edges"])
+GroundTruthChoice = StrEnum("GroundTruthChoice", ["virtual", "mocap", "track", "laser"])
 
 
 RobotOpt = Annotated[
@@ -288,43 +262,7 @@ def _confirm_line(confirmed: bool) -> str:
     )
 
 
-#: The Foxglove server's port when --foxglove-port is not given.
-_FOXGLOVE_PORT = 8765
-
-
-def _check_foxglove(foxglove: bool, port: int) -> None:
-    """The port is checked whether or not --foxglove is given, and one given without it (it
-    would do nothing) is refused."""
-    from odolab.export.foxglove import check_port
-    from odolab.extras import require
-    from odolab.robot.errors import RobotConfigError
-
-    if foxglove:  # before the run's folder is made
-        require("ros", "--foxglove")
-    check_port(port)
-    if not foxglove and port != _FOXGLOVE_PORT:
-        raise RobotConfigError(
-            f"--foxglove-port {port} without --foxglove does nothing; expected --foxglove with "
-            "it (to serve the run to Foxglove), or neither"
-        )
-
-
-def _check_virtual_options(
-    url: str, truth: str, terrain: str, seed: int, config: RunConfig
-) -> None:
-    """``--truth`` and ``--terrain`` name presets (typos are refused on any link); the virtual
-    Jaguar's own options on a real link are refused (:func:`odolab.robot.registry.check_virtual_only`)."""
-    from odolab.robot.errors import RobotConfigError
-    from odolab.robot.registry import check_virtual_only
-    from odolab.sim.presets import TRUTH_PRESETS
-    from odolab.sim.terrains import TERRAINS
-
-    if truth not in TRUTH_PRESETS:
-        raise RobotConfigError(f"--truth is {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}")
-    if terrain not in TERRAINS:
-        raise RobotConfigError(f"--terrain is {terrain!r}; expected one of {', '.join(TERRAINS)}")
-    given = {"truth": truth, "terrain": terrain, "seed": seed}
-    check_virtual_only(url, {**given, "command_timeout": config.command_timeout})
+_FOXGLOVE_PORT = FOXGLOVE_PORT
 
 
 def _run(
@@ -344,207 +282,104 @@ def _run(
     foxglove_port: int = _FOXGLOVE_PORT,
     ground_truth: GroundTruthChoice | None = None,
 ) -> None:
-    """Validate everything, then drive ``command`` with ``config``; nothing is sent before."""
-    from rich.console import Console
-    from rich.live import Live
+    """Validate everything (:func:`odolab.app.robot.plan_run`), then drive ``command`` with
+    ``config``; nothing is sent before."""
+    from odolab.app.robot import RobotRequest, default_folder, open_outputs, plan_run
 
-    from odolab.params import load_params
-    from odolab.robot.config import check_motion
-    from odolab.robot.registry import check_robot_url
-    from odolab.robot.session import check_run_folder
+    source = ground_truth.value if ground_truth is not None else None
+    from odolab.cli.wording import CLI, said
 
-    url = check_robot_url(robot)
-    _check_virtual_options(url, truth, terrain, seed, config)
-    _check_foxglove(foxglove, foxglove_port)
-    nominal = load_params(params)
-    plan = _explore_plan(command, config, nominal, url, ground_truth, params)
-    if plan is not None:
-        command = plan.command
-    check_motion(command, config, nominal)
-    plant = None
-    if url.startswith("sim:"):
-        from odolab.sim.plants import make_plant
-
-        def plant() -> Any:
-            return make_plant(truth, nominal, terrain, seed=seed)
-
-    console = Console(stderr=True)
-    target = command.describe()
-    events: list[str] = []
-    # nothing the control loop calls writes to the terminal: a terminal that stops reading
-    # (Ctrl-S, a stalled ssh session) blocked the loop with the motion in force; the live view
-    # is drawn by rich's own thread from the latest cycle, and events by a printer thread
-    printer = _EventPrinter() if quiet else None
-
-    def on_event(t: float, message: str) -> None:
-        events.append(f"t={t:.2f} s: {message}")
-        if printer is not None:  # no live view: say it at once, a lost link must not be silent
-            printer.put(events[-1])
-
-    live_table = _LiveTable(config.rate, target)
-    live = (
-        Live(
-            console=console,
-            refresh_per_second=8,
-            transient=False,
-            get_renderable=live_table.render,
-        )
-        if not quiet
-        else None
+    request = RobotRequest(
+        command, config, robot, params, truth, terrain, seed, foxglove, foxglove_port, source, CLI
     )
-
-    view: _FoxgloveView | None = None  # started once every check has passed
-
-    def on_cycle(info: CycleInfo) -> None:
-        live_table.latest = info  # one assignment: the drawing thread reads it
-        if view is not None:
-            view.publish(info)
-
+    plan = plan_run(request, lambda line: echo(said(line), err=True))
+    views = _Views(plan, quiet)
     # every output precondition before the robot moves: the notebook opens and is one (create,
     # migrate), the run folder can be created and written and holds no earlier run
-    folder = out if out is not None else _default_folder(command)
-    new_folder = not folder.exists()
-    check_run_folder(folder)
-    notebook = None
-    if db is not None:
-        from odolab.store import Notebook
-
-        try:
-            notebook = Notebook(db)
-        except BaseException:
-            if new_folder:  # refused before driving: leave no empty run folder behind
-                with contextlib.suppress(OSError):
-                    folder.rmdir()
-            raise
+    folder = out if out is not None else default_folder(plan.command)
+    notebook = open_outputs(folder, db)
     try:
-        view = _FoxgloveView(nominal, foxglove_port) if foxglove else None
-        _drive(
-            command, config, url=url, nominal=nominal, plant=plant, seed=seed, terrain=terrain,
-            on_cycle=on_cycle, on_event=on_event, realtime=realtime, folder=folder,
-            notebook=notebook, db=db, quiet=quiet, live=live, view=view, events=events,
-            target=target, plan=plan, printer=printer,
-        )  # fmt: skip
+        views.foxglove = _FoxgloveView(plan.nominal, foxglove_port) if foxglove else None
+        _drive(plan, views, folder=folder, notebook=notebook, db=db, realtime=realtime)
     finally:
         if notebook is not None:
             notebook.close()
 
 
-def _explore_plan(
-    command: Command,
-    config: RunConfig,
-    nominal: Any,
-    url: str,
-    ground_truth: GroundTruthChoice | None,
-    params: str,
-) -> ExplorePlan | None:
-    """The checked plan of an exploration (its choices said), None for another motion."""
-    if command.explore is None:
-        return None
-    from odolab.robot.explore import plan_exploration
+class _Views:
+    """What the user sees while the robot moves: the live table (drawn by rich's own thread
+    from the latest cycle), the events (said at once by a printer thread with ``--quiet``, a
+    lost link must not be silent; else after the run) and the Foxglove view. Nothing the
+    control loop calls writes to the terminal: a terminal that stops reading (Ctrl-S, a
+    stalled ssh session) blocked the loop with the motion in force."""
 
-    source = ground_truth.value if ground_truth is not None else None
-    from odolab.cli.wording import CLI
+    def __init__(self, plan: RobotPlan, quiet: bool) -> None:
+        from rich.console import Console
+        from rich.live import Live
 
-    plan = plan_exploration(command, config, nominal, url, source, params_name=params, words=CLI)
-    echo(plan.describe(), err=True)
-    return plan
+        self.quiet = quiet
+        self.target = plan.command.describe()
+        self.events: list[str] = []
+        self.printer = _EventPrinter() if quiet else None
+        self.table = _LiveTable(plan.config.rate, self.target)
+        self.live: Any = (
+            None
+            if quiet
+            else Live(
+                console=Console(stderr=True),
+                refresh_per_second=8,
+                transient=False,
+                get_renderable=self.table.render,
+            )
+        )
+        self.foxglove: _FoxgloveView | None = None  # started once every check has passed
 
+    def on_event(self, t: float, message: str) -> None:
+        self.events.append(f"t={t:.2f} s: {message}")
+        if self.printer is not None:
+            self.printer.put(self.events[-1])
 
-def _default_folder(command: Command) -> Path:
-    """``runs/robot/<UTC time>-<motion>``, with ``-2``, ``-3``... when that is taken."""
-    base = (
-        Path("runs") / "robot" / (datetime.now(UTC).strftime("%Y%m%dT%H%M%S") + f"-{command.label}")
-    )
-    folder, n = base, 1
-    while folder.exists() or folder.is_symlink():
-        n += 1
-        folder = base.with_name(f"{base.name}-{n}")
-    return folder
+    def on_cycle(self, info: CycleInfo) -> None:
+        self.table.latest = info  # one assignment: the drawing thread reads it
+        if self.foxglove is not None:
+            self.foxglove.publish(info)
+
+    def stop(self) -> None:
+        """The live view stopped and every event said (once)."""
+        if self.printer is not None:
+            self.printer.flush()
+        if self.live is not None:
+            self.live.stop()
+            self.live = None
+            for line in self.events:
+                echo(line, err=True)
 
 
 def _record(notebook: Notebook | None, db: Path | None, run: RobotRun) -> str:
-    """Record ``run`` in the notebook; "" when done (or no notebook), else why not."""
-    if notebook is None or db is None:
-        return ""
-    from odolab.errors import OdolabError
-    from odolab.robot.explore import notebook_trial
+    """Record ``run`` in the notebook (:func:`odolab.app.robot.keep_in_notebook`) and say so;
+    "" when done (or no notebook), else why not."""
+    from odolab.app.robot import keep_in_notebook
 
-    trial = notebook_trial(run.trial)  # an exploration: an excluded free run
-    try:
-        notebook.add_trial(trial)
-    except OdolabError as err:
-        return f"the run could not be recorded in the notebook {db}: {err}"
-    if trial is not run.trial:
-        echo(f"recorded in {db} as {trial.trial_id} (excluded: {trial.exclusion_reason})")
-    elif run.trial.status.value == "excluded":
-        echo(f"recorded in {db} as {run.trial.trial_id} (excluded: the run failed)", err=True)
-    else:
-        echo(
-            f"recorded in {db} as {run.trial.trial_id}; enter the measurement with "
-            f"'odolab trials measure {run.trial.trial_id} --db {db}'"
-        )
-    return ""
-
-
-def measure_virtual_command(trial_id: str, db: Path | str | None) -> str:
-    """The ``odolab trials measure ID --virtual [--db DB]`` line to copy into a shell (quoted)."""
-    command = ["odolab", "trials", "measure", trial_id, "--virtual"]
-    command += ["--db", str(db)] if db is not None else []
-    return " ".join(shlex.quote(part) for part in command)
-
-
-def _virtual_instruments(run: RobotRun) -> RobotRun:
-    """``run`` with what the lab's instruments would show after it (``run.json``
-    ``"virtual_instruments"``), when a virtual board gave its true pose; else as it is."""
-    import dataclasses
-
-    from odolab.store.measure import describe_readings, virtual_readings
-
-    readings = virtual_readings(run.trial)
-    if readings is None:
-        return run
-    shown = {"readings": readings, "shows": describe_readings(readings)}
-    return dataclasses.replace(run, extra={**run.extra, "virtual_instruments": shown})
+    kept = keep_in_notebook(notebook, db, run)
+    if kept.line:
+        echo(kept.line, err=kept.err)
+    return kept.problem
 
 
 def _drive(
-    command: Command,
-    config: RunConfig,
+    plan: RobotPlan,
+    views: _Views,
     *,
-    url: str,
-    nominal: Any,
-    plant: Any,
-    seed: int,
-    terrain: str,
-    on_cycle: Callable[[CycleInfo], None],
-    on_event: Callable[[float, str], None],
-    realtime: bool,
     folder: Path,
     notebook: Notebook | None,
     db: Path | None,
-    quiet: bool,
-    live: Any,
-    view: _FoxgloveView | None,
-    events: list[str],
-    target: str,
-    plan: ExplorePlan | None = None,
-    printer: _EventPrinter | None = None,
+    realtime: bool,
 ) -> None:
     """Drive the checked run; keep it (folder, notebook) whatever fails after the robot moved."""
-    from odolab.errors import RobotLinkError
-    from odolab.robot.errors import RunNotSavedError
-    from odolab.robot.session import run_motion
+    from odolab.app.robot import check_kept, drive_run
 
     def on_abort(report: AbortReport) -> None:
-        nonlocal live
-        if printer is not None:
-            printer.flush()
-        if live is not None:
-            live.stop()
-            live = None
-        if not quiet:
-            for line in events:
-                echo(line, err=True)
+        views.stop()
         if report.run is None and not report.stop_confirmed:
             # no cycle ran: no sensor data ever came, and no motion was commanded
             echo("nothing was driven (no sensor data came from the robot); the stop was sent "
@@ -560,41 +395,32 @@ def _drive(
             if problem:
                 echo(problem, err=True)
 
-    if live is not None:
-        live.start()
+    if views.live is not None:
+        views.live.start()
     try:
-        if plan is not None:
-            run = plan.run(
-                config=config, robot=url, params=nominal, plant=plant, seed=seed,
-                terrain=terrain, on_cycle=on_cycle, on_event=on_event, realtime=realtime,
-                save_to=folder, on_abort=on_abort,
-            )  # fmt: skip
-        else:
-            run = run_motion(
-                command,
-                config=config,
-                robot=url,
-                params=nominal,
-                plant=plant,
-                seed=seed,
-                terrain=terrain,
-                on_cycle=on_cycle,
-                on_event=on_event,
-                realtime=realtime,
-                save_to=folder,
-                on_abort=on_abort,
-                finish=_virtual_instruments,
-            )
+        run = drive_run(
+            plan, folder=folder, on_cycle=views.on_cycle, on_event=views.on_event,
+            on_abort=on_abort, realtime=realtime,
+        )  # fmt: skip
     finally:
-        if printer is not None:
-            printer.flush()
-        if live is not None:
-            live.stop()
-        if view is not None:
-            view.close()
-    if not quiet:
-        for line in events:
-            echo(line, err=True)
+        views.stop()
+        if views.foxglove is not None:
+            views.foxglove.close()
+    outcome, crossed = plan.explore.outcome(run) if plan.explore is not None else ([], None)
+    _print_run(run, views.target, db, plan.explore is None, outcome)
+    problem = _record(notebook, db, run)
+    if problem:
+        echo(problem, err=True)
+    if run.stop_confirmed:
+        echo(_confirm_line(True), err=True)
+    check_kept(run, problem, crossed)
+
+
+def _print_run(
+    run: RobotRun, target: str, db: Path | None, say_saved: bool, outcome: list[str]
+) -> None:
+    """The predicted (and on the virtual robot the true) pose, the loop's health, the gyro's
+    word where the link has one, where the run went and an exploration's outcome."""
     p = run.trial.predicted
     echo(
         f"{target} on {run.robot}: predicted x={p.x:.4f} m y={p.y:.4f} m "
@@ -615,28 +441,10 @@ def _drive(
             echo(line)
     if run.save_note:
         echo(run.save_note, err=True)
-    outcome, crossed = plan.outcome(run) if plan is not None else ([], None)
-    if run.saved_to is not None and plan is None:
+    if run.saved_to is not None and say_saved:
         echo(f"saved to {run.saved_to} (status: awaiting measurement)")
     for line in outcome:
         echo(line)
-    problem = _record(notebook, db, run)
-    if problem:
-        echo(problem, err=True)
-    if not run.stop_confirmed:
-        raise RobotLinkError(
-            "the run finished and stop was commanded, but the robot's sensor data does not "
-            "confirm that it stopped; check the robot"
-        )
-    echo(_confirm_line(True), err=True)
-    if run.saved_to is None:
-        raise RunNotSavedError(run.save_note)
-    if problem:
-        raise RunNotSavedError(f"{problem}; the run is saved to {run.saved_to}")
-    if crossed is not None:
-        from odolab.robot.errors import FenceCrossedError
-
-        raise FenceCrossedError(crossed)
 
 
 def _config(
@@ -890,100 +698,90 @@ def explore(
     return Command.exploration(spec)
 
 
+BoardHostOpt = Annotated[str, typer.Option("--host", help="Address to listen on.")]
+BoardPortOpt = Annotated[
+    int,
+    typer.Option(
+        "--port", min=0, max=65535, help="UDP (TCP for jaguar2014) port (0 = any free one)."
+    ),
+]
+BoardReportRateOpt = Annotated[
+    float, typer.Option("--report-rate", help="Sensor packets per second (0.5..1000).")
+]
+BoardCommandTimeoutOpt = Annotated[
+    float,
+    typer.Option(
+        "--command-timeout",
+        help="Motors stop when no valid motor command came for this many s (0.05..5).",
+    ),
+]
+BoardDropOpt = Annotated[float, typer.Option("--drop", help="Probability of dropping a packet.")]
+BoardJitterOpt = Annotated[
+    float, typer.Option("--jitter", help="Random extra delay up to this many s.")
+]
+BoardSilentAfterOpt = Annotated[
+    float | None,
+    typer.Option(
+        "--silent-after", help="Fault: send nothing from this many s after the first ACK."
+    ),
+]
+BoardTraceOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--trace",
+        help="Append a line per wheel-speed change: host monotonic time (s), left and "
+        "right speed (m/s), why.",
+    ),
+]
+BoardLinkOpt = Annotated[
+    LinkChoice,
+    typer.Option(
+        "--link",
+        help="jaguar: the binary board over UDP; jaguar2014: the Jaguar 4x4 of 2014, text "
+        "lines over TCP (--command-timeout is then its host-silence timeout, 0 = never).",
+    ),
+]
+BoardVariantOpt = Annotated[
+    str, typer.Option("--variant", help="jaguar2014 only: wheel (4x4) or track.")
+]
+BoardIdleExitOpt = Annotated[
+    float | None,
+    typer.Option(
+        "--idle-exit",
+        help="Exit after this many s in which nothing came from a host (default: run until "
+        "Ctrl-C); for a board started in the background.",
+    ),
+]
+
+
 @robot_app.command("sim-server")
 def sim_server_cmd(
-    host: Annotated[str, typer.Option("--host", help="Address to listen on.")] = "127.0.0.1",
-    port: Annotated[
-        int,
-        typer.Option(
-            "--port", min=0, max=65535, help="UDP (TCP for jaguar2014) port (0 = any free one)."
-        ),
-    ] = 10001,
+    host: BoardHostOpt = "127.0.0.1",
+    port: BoardPortOpt = 10001,
     params: ParamsOpt = "jaguar-lite",
     truth: TruthOpt = "jaguar-lab",
     terrain: TerrainOpt = "tile",
     seed: SeedOpt = 0,
-    report_rate: Annotated[
-        float, typer.Option("--report-rate", help="Sensor packets per second (0.5..1000).")
-    ] = 10.0,
+    report_rate: BoardReportRateOpt = 10.0,
     max_wheel_speed: MaxSpeedOpt = 1.0,
-    command_timeout: Annotated[
-        float,
-        typer.Option(
-            "--command-timeout",
-            help="Motors stop when no valid motor command came for this many s (0.05..5).",
-        ),
-    ] = 0.5,
-    drop: Annotated[float, typer.Option("--drop", help="Probability of dropping a packet.")] = 0.0,
-    jitter: Annotated[
-        float, typer.Option("--jitter", help="Random extra delay up to this many s.")
-    ] = 0.0,
-    silent_after: Annotated[
-        float | None,
-        typer.Option(
-            "--silent-after", help="Fault: send nothing from this many s after the first ACK."
-        ),
-    ] = None,
-    trace: Annotated[
-        Path | None,
-        typer.Option(
-            "--trace",
-            help="Append a line per wheel-speed change: host monotonic time (s), left and "
-            "right speed (m/s), why.",
-        ),
-    ] = None,
-    link: Annotated[
-        LinkChoice,
-        typer.Option(
-            "--link",
-            help="jaguar: the binary board over UDP; jaguar2014: the Jaguar 4x4 of 2014, text "
-            "lines over TCP (--command-timeout is then its host-silence timeout, 0 = never).",
-        ),
-    ] = LinkChoice.jaguar,
-    variant: Annotated[
-        str, typer.Option("--variant", help="jaguar2014 only: wheel (4x4) or track.")
-    ] = "wheel",
-    idle_exit: Annotated[
-        float | None,
-        typer.Option(
-            "--idle-exit",
-            help="Exit after this many s in which nothing came from a host (default: run until "
-            "Ctrl-C); for a board started in the background.",
-        ),
-    ] = None,
+    command_timeout: BoardCommandTimeoutOpt = 0.5,
+    drop: BoardDropOpt = 0.0,
+    jitter: BoardJitterOpt = 0.0,
+    silent_after: BoardSilentAfterOpt = None,
+    trace: BoardTraceOpt = None,
+    link: BoardLinkOpt = LinkChoice.jaguar,
+    variant: BoardVariantOpt = "wheel",
+    idle_exit: BoardIdleExitOpt = None,
 ) -> None:
     """Run a virtual Jaguar board (UDP, or TCP for --link jaguar2014) until Ctrl-C (or SIGTERM)."""
     import signal
 
-    if idle_exit is not None and not (math.isfinite(idle_exit) and 1 <= idle_exit <= 3600):
-        from odolab.robot.errors import RobotConfigError
+    from odolab.app.robot import BoardRequest, virtual_board
 
-        raise RobotConfigError(f"--idle-exit is {idle_exit!r}; expected 1 to 3600 s")
-    if link is LinkChoice.jaguar2014:
-        _serve_2014(
-            host, port, params, truth, terrain, seed, report_rate, max_wheel_speed,
-            command_timeout, trace, variant, silent_after, idle_exit,
-        )  # fmt: skip
-        return
-
-    from odolab.params import load_params
-    from odolab.robot.jaguar.board import (
-        BoardConfig,
-        Faults,
-        VirtualJaguar,
-        VirtualJaguarServer,
-    )
-    from odolab.sim.plants import make_plant
-
-    nominal = load_params(params)
-    board = BoardConfig.from_params(
-        nominal,
-        report_rate=report_rate,
-        max_wheel_speed=max_wheel_speed,
-        command_timeout=command_timeout,
-    )
-    faults = Faults(drop=drop, jitter=jitter, silent_after=silent_after)
-    plant = make_plant(truth, nominal, terrain, seed=seed)
+    request = BoardRequest(
+        host, port, params, truth, terrain, seed, report_rate, max_wheel_speed, command_timeout,
+        drop, jitter, silent_after, link.value, variant, idle_exit,
+    )  # fmt: skip
     trace_file = trace.open("a", encoding="utf-8") if trace is not None else None
 
     def on_speeds(t: float, left: float, right: float, why: str) -> None:
@@ -991,30 +789,23 @@ def sim_server_cmd(
             trace_file.write(f"{t:.6f} {left:.6f} {right:.6f} {why.replace(' ', '-')}\n")
             trace_file.flush()
 
-    jaguar = VirtualJaguar(plant, board, faults=faults, seed=seed, on_speeds=on_speeds)
-    server = VirtualJaguarServer(jaguar, host, port)
-    h, p = server.address
-    echo(f"virtual Jaguar ({truth}) listening on udp://{h}:{p}; Ctrl-C to stop", err=True)
+    board = virtual_board(request, on_speeds)
+    echo(board.listening, err=True)
 
     def on_term(signum: int, frame: object) -> None:
         raise KeyboardInterrupt
 
     signal.signal(signal.SIGTERM, on_term)
     try:
-        _serve(server, lambda: server.call(lambda b: b.stats.received), idle_exit)
+        _serve(board.server, board.activity, idle_exit)
     except KeyboardInterrupt:
         pass
     finally:
-        server.close()
+        board.server.close()
         if trace_file is not None:
-            st = jaguar.stats
-            trace_file.write(
-                f"# received {st.received} commands {st.commands} ignored {st.ignored_commands} "
-                f"rejected_acks {st.rejected_acks} takeovers {st.takeovers} "
-                f"command_timeouts {st.command_timeouts}\n"
-            )
+            trace_file.write(board.counts())
             trace_file.close()
-        pose = plant.true_pose
+        pose = board.plant.true_pose
         echo(
             f"true pose: x={pose.x:.4f} m y={pose.y:.4f} m heading={pose.heading:.4f} rad", err=True
         )
@@ -1041,78 +832,3 @@ def _serve(server: Any, activity: Callable[[], int], idle_exit: float | None) ->
     from odolab.errors import RobotLinkError
 
     raise RobotLinkError(f"the virtual board stopped: {server.error!r}") from server.error
-
-
-def _serve_2014(
-    host: str,
-    port: int,
-    params: str,
-    truth: str,
-    terrain: str,
-    seed: int,
-    report_rate: float,
-    max_wheel_speed: float,
-    silence_timeout: float,
-    trace: Path | None,
-    variant: str,
-    silent_after: float | None = None,
-    idle_exit: float | None = None,
-) -> None:
-    """The virtual Jaguar 4x4 of 2014 over TCP until Ctrl-C or SIGTERM."""
-    import signal
-
-    from odolab.params import load_params
-    from odolab.robot.jaguar2014.board import (
-        Board2014Config,
-        VirtualJaguar2014,
-        VirtualJaguar2014Server,
-    )
-    from odolab.sim.plants import make_plant
-
-    nominal = load_params(params)
-    config = Board2014Config.from_params(
-        nominal,
-        report_rate=report_rate,
-        max_wheel_speed=max_wheel_speed,
-        silence_timeout=silence_timeout,
-        variant=variant,
-        silent_after=silent_after,
-    )
-    plant = make_plant(truth, nominal, terrain, seed=seed)
-    trace_file = trace.open("a", encoding="utf-8") if trace is not None else None
-
-    def on_speeds(t: float, left: float, right: float, why: str) -> None:
-        if trace_file is not None:
-            trace_file.write(f"{t:.6f} {left:.6f} {right:.6f} {why.replace(' ', '-')}\n")
-            trace_file.flush()
-
-    board = VirtualJaguar2014(plant, config, on_speeds=on_speeds)
-    server = VirtualJaguar2014Server(board, host, port)
-    h, p = server.address
-    echo(
-        f"virtual Jaguar 4x4 2014 ({truth}, {variant}) listening on tcp://{h}:{p}; Ctrl-C to stop",
-        err=True,
-    )
-
-    def on_term(signum: int, frame: object) -> None:
-        raise KeyboardInterrupt
-
-    signal.signal(signal.SIGTERM, on_term)
-    try:
-        _serve(server, lambda: server.call(lambda b: b.stats.lines), idle_exit)
-    except KeyboardInterrupt:
-        pass
-    finally:
-        server.close()
-        st = board.stats
-        if trace_file is not None:
-            trace_file.write(
-                f"# lines {st.lines} pings {st.pings} commands {st.commands} rejected "
-                f"{st.rejected} silence_stops {st.silence_stops} disconnect_stops "
-                f"{st.disconnect_stops} refused_peers {st.refused_peers}\n"
-            )
-            trace_file.close()
-        pose = plant.true_pose
-        echo(
-            f"true pose: x={pose.x:.4f} m y={pose.y:.4f} m heading={pose.heading:.4f} rad", err=True
-        )

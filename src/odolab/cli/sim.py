@@ -29,89 +29,76 @@ _LAB_REPORT_SEED = 4314  # = odolab.sim.presets.LAB_REPORT_SEED (tests guard it)
 _PROTOCOL_HELP = "Protocol TOML file or built-in protocol: " + ", ".join(_builtin_names()) + "."
 
 
+RunProtocolOpt = Annotated[str, typer.Argument(help=_PROTOCOL_HELP)]
+RunTerrainOpt = Annotated[
+    str | None,
+    typer.Option(help="Override the protocol's terrain: tile, concrete or grass."),
+]
+RunSeedOpt = Annotated[
+    int,
+    typer.Option(
+        min=0,
+        help="Random seed (the same seed gives the same trials); the default is the "
+        "documented seed whose lab-report campaign reproduces the lab's Table I.",
+    ),
+]
+RunOutputOpt = Annotated[
+    Path, typer.Option("--output", "-o", help="Trials CSV to write (one row per trial).")
+]
+RunTruthOpt = Annotated[
+    str,
+    typer.Option(
+        help="True-behaviour preset of the virtual robot: "
+        "jaguar-lab, jaguar-lab-track, jaguar-lab-tracked (an ICR vehicle) or ideal."
+    ),
+]
+RunParamsOpt = Annotated[
+    str, typer.Option("--params", "-p", help="Nominal parameters (TOML file or preset).")
+]
+RunEncoderDirOpt = Annotated[
+    Path | None,
+    typer.Option(help="Also write each trial's encoder log as DIR/<trial_id>.csv."),
+]
+RunDbOpt = Annotated[
+    Path | None,
+    typer.Option("--db", help="Also record the trials in this lab notebook.", envvar="ODOLAB_DB"),
+]
+
+
 @sim_app.command("run")
 def sim_run(
-    protocol: Annotated[str, typer.Argument(help=_PROTOCOL_HELP)],
-    terrain: Annotated[
-        str | None,
-        typer.Option(help="Override the protocol's terrain: tile, concrete or grass."),
-    ] = None,
-    seed: Annotated[
-        int,
-        typer.Option(
-            min=0,
-            help="Random seed (the same seed gives the same trials); the default is the "
-            "documented seed whose lab-report campaign reproduces the lab's Table I.",
-        ),
-    ] = _LAB_REPORT_SEED,
-    output: Annotated[
-        Path, typer.Option("--output", "-o", help="Trials CSV to write (one row per trial).")
-    ] = Path("trials.csv"),
-    truth: Annotated[
-        str,
-        typer.Option(
-            help="True-behaviour preset of the virtual robot: "
-            "jaguar-lab, jaguar-lab-track, jaguar-lab-tracked (an ICR vehicle) or ideal."
-        ),
-    ] = DEFAULT_TRUTH,
-    params: Annotated[
-        str, typer.Option("--params", "-p", help="Nominal parameters (TOML file or preset).")
-    ] = DEFAULT_ROBOT,
-    encoder_dir: Annotated[
-        Path | None,
-        typer.Option(help="Also write each trial's encoder log as DIR/<trial_id>.csv."),
-    ] = None,
-    db: Annotated[
-        Path | None,
-        typer.Option(
-            "--db", help="Also record the trials in this lab notebook.", envvar="ODOLAB_DB"
-        ),
-    ] = None,
+    protocol: RunProtocolOpt,
+    terrain: RunTerrainOpt = None,
+    seed: RunSeedOpt = _LAB_REPORT_SEED,
+    output: RunOutputOpt = Path("trials.csv"),
+    truth: RunTruthOpt = DEFAULT_TRUTH,
+    params: RunParamsOpt = DEFAULT_ROBOT,
+    encoder_dir: RunEncoderDirOpt = None,
+    db: RunDbOpt = None,
 ) -> None:
     """Run an experiment protocol on the virtual Jaguar and write the trials."""
     from rich.console import Console
-    from rich.progress import Progress
+    from rich.progress import Progress, TaskID
 
+    from odolab.app.sim import SimRunRequest, simulate_protocol
     from odolab.cli._output import markup_text, term
-    from odolab.errors import SimError
     from odolab.numfmt import count
-    from odolab.params import load_params
-    from odolab.sim.export import write_encoder_logs
-    from odolab.sim.presets import TRUTH_PRESETS
-    from odolab.sim.protocols import load_protocol, run_protocol
 
-    if truth not in TRUTH_PRESETS:
-        raise SimError(
-            f"--truth: unknown preset {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}"
-        )
-    proto = load_protocol(protocol)
-    nominal = load_params(params)
-    if encoder_dir is not None and encoder_dir.exists() and not encoder_dir.is_dir():
-        raise SimError(f"{encoder_dir}: is a file; expected a folder for --encoder-dir")
+    request = SimRunRequest(protocol, output, seed, terrain, truth, params, encoder_dir, db)
     console = Console(stderr=True)
     with Progress(transient=True, console=console, disable=not console.is_terminal) as bar:
-        task = bar.add_task(markup_text(proto.name), total=len(proto))
-        trials = run_protocol(
-            proto,
-            TRUTH_PRESETS[truth],
-            nominal,
-            terrain=terrain,
-            seed=seed,
-            progress=lambda done, total, what: bar.update(task, completed=done),
-        )
-    from odolab.store.csvio import write_trials_csv
+        tasks: dict[str, TaskID] = {}
 
-    write_trials_csv(output, [(t, None) for t in trials])
-    if encoder_dir is not None:
-        write_encoder_logs(encoder_dir, trials)
-    if db is not None:
-        from odolab.store import Notebook
+        def progress(name: str, done: int, total: int) -> None:
+            if name not in tasks:
+                tasks[name] = bar.add_task(markup_text(name), total=total)
+            bar.update(tasks[name], completed=done)
 
-        with Notebook(db) as nb:
-            nb.add_trials(trials)
-    stalled = sum(t.exclusion_reason is not None for t in trials)
+        done = simulate_protocol(request, progress)
+    stalled = done.stalled
     echo(
-        f"{count(len(trials), 'trial')} of {term(proto.name)} ({truth}, seed {seed}) -> {output}"
+        f"{count(len(done.trials), 'trial')} of {term(done.protocol)} ({truth}, seed {seed}) -> "
+        f"{output}"
         + (f"; {stalled} stalled (excluded)" if stalled else "")
         + (f"; recorded in {db}" if db is not None else "")
     )
@@ -163,56 +150,21 @@ def sim_explore(
     name: Annotated[str, typer.Option(help="File name stem of the run.")] = "explore",
 ) -> None:
     """Drive commands sampled over speed and turn rate inside a geofence; record with truth."""
-    import math
+    from odolab.app.sim import ExploreRequest, simulate_exploration
 
-    import numpy as np
-
-    from odolab.errors import SimError
-    from odolab.params import load_params
-    from odolab.robot.config import BOUNDS, check_exploration
-    from odolab.sim.explore import ExploreSettings, explore, write_exploration
-    from odolab.sim.presets import TRUTH_PRESETS
-    from odolab.text import safe_file_name
-    from odolab.trials import Exploration
-
-    if truth not in TRUTH_PRESETS:
-        raise SimError(
-            f"--truth: unknown preset {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}"
-        )
-    stem = safe_file_name(name, what="run name", suffix=".csv")[: -len(".csv")]
-    nominal = load_params(params)
-    chosen = ""
-    if max_turn_rate is None:
-        in_place = max_speed / (0.5 * nominal.track_width) if max_speed > 0 else 0.0
-        max_turn_rate = min(2.0, in_place) if math.isfinite(in_place) and in_place > 0 else 2.0
-        if max_turn_rate < 2.0:
-            chosen = (
-                f"--max-turn-rate not given: {max_turn_rate:.3g} rad/s, a turn in place at "
-                f"--max-speed {max_speed:g} m/s (the default 2 rad/s is beyond it)"
-            )
-    # the bounds robot explore has (odolab.robot.config), up to the fastest wheel odolab drives
-    check_exploration(
-        Exploration(seconds, max_speed, max_turn_rate, fence=fence, distribution=distribution),
-        nominal,
-        BOUNDS["max_wheel_speed"].hi,
-        "the largest wheel speed odolab drives,",
-    )
-    settings = ExploreSettings(
-        seconds=seconds,
-        max_speed=max_speed,
-        max_turn_rate=max_turn_rate,
-        fence_radius=fence,
-        distribution=distribution,
-    )
-    if chosen:
-        echo(chosen)
-    run = explore(TRUTH_PRESETS[truth], nominal, settings, terrain=terrain, seed=seed)
-    log, gt = write_exploration(output, run, stem)
+    request = ExploreRequest(
+        output, seconds, max_speed, max_turn_rate, fence, distribution, terrain, truth, params,
+        seed, name,
+    )  # fmt: skip
+    done = simulate_exploration(request)
+    if done.chosen:
+        echo(done.chosen)
     echo(
-        f"explored {settings.seconds:.1f} s ({truth}, seed {seed}) -> {log}, {gt}"
-        + ("; the robot stalled (turns in place on this terrain)" if run.stalled else "")
+        f"explored {done.settings.seconds:.1f} s ({truth}, seed {seed}) -> {done.log}, "
+        f"{done.ground_truth}"
+        + ("; the robot stalled (turns in place on this terrain)" if done.run.stalled else "")
     )
-    reach = float(np.max(np.hypot(run.x - run.x[0], run.y - run.y[0])))
+    reach = done.reach
     if reach > fence:  # the simulator's fence turns the robot back; it does not stop it
         echo(
             f"note: the robot went {reach:.3g} m from its start, beyond the {fence:g} m fence "

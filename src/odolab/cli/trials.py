@@ -469,76 +469,19 @@ def add_cmd(
     db: DbOption = _DB,
 ) -> None:
     """Record a trial typed by hand (and its measurement, when given), for scripts."""
-    import dataclasses
+    from odolab.app.trials import AddRequest, add_trial
 
-    from odolab.errors import StoreError
-    from odolab.kinematics import wrap_angle
-    from odolab.params import PRESETS
-    from odolab.trajectory import Pose
-    from odolab.trials import Command, MotionKind, Trial, TrialStatus
-
-    if angle is not None and angle_pi is not None:
-        raise StoreError("give the commanded angle once: --angle (rad) or --angle-pi")
-    if angle_pi is not None:
-        angle = angle_pi * math.pi
-    if MotionKind.parse(kind).needs == "distance" and distance is None:  # import refuses the same
-        raise StoreError("a translation needs --distance (the commanded distance, m)")
-    with _open(db, create=True) as nb:
-        if params_version is not None:
-            params = nb.get_params(robot, params_version)
-        elif nb.latest_params_version(robot) is not None:
-            params = nb.latest_params(robot)
-        elif robot in PRESETS:
-            params = PRESETS[robot]
-        else:
-            raise StoreError(f"no parameters of robot {robot!r} in {db} and no such preset")
-        if campaign not in nb.campaign_names() and not (create_campaign and terrain):
-            # one sentence whatever was given (it said "give --terrain to create it", and with
-            # --terrain "add it first")
-            raise StoreError(
-                f"unknown campaign {campaign!r} in {db}; expected one of its campaigns, or "
-                "--create-campaign with --terrain to create it (or odolab trials campaign-add)"
-            )
-        if terrain is None:
-            terrain = nb.get_campaign(campaign).terrain
-        if not math.isfinite(predicted_heading):
-            raise StoreError(
-                f"trial {trial_id}: --predicted-heading is {predicted_heading}; expected a "
-                "finite number (rad)"
-            )
-        trial = Trial(
-            trial_id=trial_id,
-            campaign=campaign,
-            terrain=terrain,
-            command=Command(MotionKind(kind.value), angle=angle, distance=distance),
-            predicted=Pose(
-                0.0,
-                predicted_x,
-                predicted_y,
-                float(wrap_angle(predicted_heading)),
-                predicted_heading,
-            ),
-            params=params,
-            notes=notes,
-        )
-        readings = (initial, final, turns, x, y)
-        if any(v is not None for v in readings):
-            m = _measurement(trial, initial, final, turns, x, y, None)
-            trial = dataclasses.replace(trial, measured=m, status=TrialStatus.MEASURED)
-        nb.add_trial(trial, create_campaign=create_campaign)
-        _, version = nb.trial_params_version(trial_id)
-    if params_version is not None:
-        chosen = ""
-    elif version == 1 and robot in PRESETS:
-        chosen = f"; parameters {term(robot)} v1 (the preset; give --params-version to choose)"
-    else:
-        chosen = (
-            f"; parameters {term(robot)} v{version} (the robot's latest; give --params-version "
-            "to choose the version it was driven with)"
-        )
+    request = AddRequest(
+        trial_id, campaign, kind.value, predicted_heading, predicted_x, predicted_y, terrain,
+        angle, angle_pi, distance, robot, params_version, (initial, final, turns, x, y), notes,
+        create_campaign,
+    )  # fmt: skip
+    added = add_trial(
+        db, request, lambda trial: _measurement(trial, initial, final, turns, x, y, None)
+    )
     echo(
-        f"trial {term(trial_id)} ({trial.command.describe()}) recorded in {db}: "
-        f"{trial.status.value}{chosen}"
+        f"trial {term(trial_id)} ({added.trial.command.describe()}) recorded in {db}: "
+        f"{added.trial.status.value}{added.chosen}"
     )
 
 

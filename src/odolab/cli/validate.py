@@ -3,118 +3,113 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from odolab.cli._apps import app
 from odolab.cli._output import echo
 from odolab.cli.core import MethodChoice
-from odolab.defaults import DEFAULT_ROBOT
+
+if TYPE_CHECKING:
+    from odolab.validation import ValidationResult
 
 __all__: list[str] = []
 
 
+EncoderLogOpt = Annotated[
+    Path,
+    typer.Argument(
+        help="Encoder log CSV (t,left_ticks,right_ticks), or with --db the id of a trial "
+        "in that notebook (its stored encoder log)."
+    ),
+]
+ImuLogOpt = Annotated[Path, typer.Argument(help="Phone IMU log in the SensorLog app's CSV format.")]
+NewOpt = Annotated[
+    str, typer.Option("--new", help="New (calibrated) parameters: TOML file or preset name.")
+]
+OldOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--old",
+        help="Old parameters: TOML file or preset name (default: the trial's with --db, "
+        "else the ones the log's run.json names, else jaguar-lite).",
+    ),
+]
+DbOpt = Annotated[
+    Path | None,
+    typer.Option("--db", help="Lab notebook: ENCODER_LOG is then a trial id in it."),
+]
+OffsetOpt = Annotated[
+    float,
+    typer.Option(help="Nominal clock offset, phone clock minus robot clock (s)."),
+]
+MaxOffsetOpt = Annotated[
+    float,
+    typer.Option(
+        help="Search the clock offset within --offset +- this (s); 0 fixes it, inf = any."
+    ),
+]
+SmoothOpt = Annotated[
+    float,
+    typer.Option(
+        help="Low-pass both yaw rates (Gaussian sigma, s) before cross-correlating them. "
+        "More smoothing raises the correlation of noisy rates but blurs the timing."
+    ),
+]
+WallclockOpt = Annotated[
+    bool,
+    typer.Option(
+        "--wallclock",
+        help="Use the phone's loggingTime (POSIX s) instead of its since-reboot clock.",
+    ),
+]
+FlipImuOpt = Annotated[
+    bool, typer.Option("--flip-imu", help="Negate the IMU's heading (phone face down).")
+]
+MethodOpt = Annotated[MethodChoice, typer.Option(help="Pose step rule.")]
+PlotOpt = Annotated[
+    Path | None, typer.Option(help="Write the figure (headings and errors) to this PNG.")
+]
+JsonOutOpt = Annotated[
+    Path | None, typer.Option("--json", help="Write the result (with time series) as JSON.")
+]
+
+
 @app.command("validate")
 def validate_cmd(
-    encoder_log: Annotated[
-        Path,
-        typer.Argument(
-            help="Encoder log CSV (t,left_ticks,right_ticks), or with --db the id of a trial "
-            "in that notebook (its stored encoder log)."
-        ),
-    ],
-    imu_log: Annotated[
-        Path, typer.Argument(help="Phone IMU log in the SensorLog app's CSV format.")
-    ],
-    new: Annotated[
-        str, typer.Option("--new", help="New (calibrated) parameters: TOML file or preset name.")
-    ],
-    old: Annotated[
-        str | None,
-        typer.Option(
-            "--old",
-            help="Old parameters: TOML file or preset name (default: the trial's with --db, "
-            "else jaguar-lite).",
-        ),
-    ] = None,
-    db: Annotated[
-        Path | None,
-        typer.Option("--db", help="Lab notebook: ENCODER_LOG is then a trial id in it."),
-    ] = None,
-    offset: Annotated[
-        float,
-        typer.Option(help="Nominal clock offset, phone clock minus robot clock (s)."),
-    ] = 0.0,
-    max_offset: Annotated[
-        float,
-        typer.Option(
-            help="Search the clock offset within --offset +- this (s); 0 fixes it, inf = any."
-        ),
-    ] = 30.0,
-    smooth: Annotated[
-        float,
-        typer.Option(
-            help="Low-pass both yaw rates (Gaussian sigma, s) before cross-correlating them. "
-            "More smoothing raises the correlation of noisy rates but blurs the timing."
-        ),
-    ] = 0.1,
-    wallclock: Annotated[
-        bool,
-        typer.Option(
-            "--wallclock",
-            help="Use the phone's loggingTime (POSIX s) instead of its since-reboot clock.",
-        ),
-    ] = False,
-    flip_imu: Annotated[
-        bool, typer.Option("--flip-imu", help="Negate the IMU's heading (phone face down).")
-    ] = False,
-    method: Annotated[MethodChoice, typer.Option(help="Pose step rule.")] = MethodChoice.midpoint,
-    plot: Annotated[
-        Path | None, typer.Option(help="Write the figure (headings and errors) to this PNG.")
-    ] = None,
-    json_out: Annotated[
-        Path | None, typer.Option("--json", help="Write the result (with time series) as JSON.")
-    ] = None,
+    encoder_log: EncoderLogOpt,
+    imu_log: ImuLogOpt,
+    new: NewOpt,
+    old: OldOpt = None,
+    db: DbOpt = None,
+    offset: OffsetOpt = 0.0,
+    max_offset: MaxOffsetOpt = 30.0,
+    smooth: SmoothOpt = 0.1,
+    wallclock: WallclockOpt = False,
+    flip_imu: FlipImuOpt = False,
+    method: MethodOpt = MethodChoice.midpoint,
+    plot: PlotOpt = None,
+    json_out: JsonOutOpt = None,
 ) -> None:
     """Compare the heading of the old and the new parameters with a phone IMU's."""
-    from odolab.io import read_encoder_csv
-    from odolab.params import load_params
-    from odolab.validation import read_sensorlog, validate, validation_figure
-    from odolab.writing import strict_json
+    from odolab.app.validate import ValidateRequest, validate_log
 
-    new_params = load_params(new)
-    if db is not None:
-        from odolab.errors import ImuLogError
-        from odolab.store import Notebook
+    request = ValidateRequest(
+        encoder_log, imu_log, new, old, db, offset, max_offset, smooth, wallclock, flip_imu,
+        method.value,
+    )  # fmt: skip
+    result = validate_log(request).result
+    _write_outputs(result, plot, json_out)
+    _print_result(result)
+    if plot is not None:
+        echo(f"figure -> {plot}")
+    if json_out is not None:
+        echo(f"result -> {json_out}")
 
-        with Notebook(db) as nb:
-            trial = nb.get_trial(str(encoder_log))
-        if trial.encoder_log is None:
-            raise ImuLogError(f"{db}: trial {trial.trial_id} has no encoder log to validate")
-        enc = trial.encoder_log
-        old_params = load_params(old) if old is not None else trial.params
-        source = f"{db}: trial {trial.trial_id}"
-    else:
-        old_params = load_params(old or DEFAULT_ROBOT)
-        enc = read_encoder_csv(encoder_log, modulus=old_params.encoder_modulus)
-        source = str(encoder_log)
-    imu = read_sensorlog(imu_log)
-    if wallclock:
-        imu = imu.on_wallclock()
-    if flip_imu:
-        imu = imu.flipped()
-    result = validate(
-        enc,
-        imu,
-        old_params,
-        new_params,
-        offset=offset,
-        max_offset=max_offset,
-        smooth=smooth,
-        method=method.value,
-        encoder_source=source,
-    )
+
+def _write_outputs(result: ValidationResult, plot: Path | None, json_out: Path | None) -> None:
+    """The figure (PNG) and the JSON result, where asked."""
     if plot is not None:
         import matplotlib
 
@@ -125,6 +120,7 @@ def validate_cmd(
 
         check_output_path(plot, "figure")
         from odolab.cli._output import OutputError
+        from odolab.validation import validation_figure
         from odolab.writing import replacing_path
 
         fig = validation_figure(result)
@@ -133,8 +129,13 @@ def validate_cmd(
         plt.close(fig)
     if json_out is not None:
         from odolab.cli._output import write_output_text
+        from odolab.writing import strict_json
 
         write_output_text(json_out, strict_json(result.to_dict()) + "\n", "JSON result")
+
+
+def _print_result(result: ValidationResult) -> None:
+    """The clock offset, each parameter set's heading error, their ratio and the warnings."""
     a = result.alignment
     corr = "" if a.correlation != a.correlation else f" (rate correlation {a.correlation:.3f})"
     echo(
@@ -150,7 +151,3 @@ def validate_cmd(
     echo(f"RMS new/old: {result.improvement:.3f}")
     for w in result.warnings:
         echo(f"warning: {w}", err=True)
-    if plot is not None:
-        echo(f"figure -> {plot}")
-    if json_out is not None:
-        echo(f"result -> {json_out}")
