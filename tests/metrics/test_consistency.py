@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from odolab.cli.wording import worded
 from odolab.errors import InsufficientDataError, OdolabError
 from odolab.io.registry import find_runs, read_run
 from odolab.io.run import OdometryRun
@@ -207,7 +208,7 @@ def test_cli_nees_options_are_checked_before_any_file_is_read(
     args = ["evaluate", str(missing), "--format", "optiodom", "--nees", "--params", str(params)]
     with pytest.raises(OdolabError) as err:
         CliRunner().invoke(app, [*args, *extra], catch_exceptions=False)
-    assert message in str(err.value)
+    assert message in worded(err.value)  # as the CLI prints it
 
 
 # --- NEES on data made exactly by the documented model, with and without a fitted offset ------
