@@ -3,7 +3,7 @@ as docs/real-logs.md's worked example writes them to husky.toml, for the Husky b
 
 from __future__ import annotations
 
-from odolab.params import PRESETS
+from odolab.core.params import PRESETS
 
 HUSKY = PRESETS["jaguar-lite"].with_(
     name="husky",

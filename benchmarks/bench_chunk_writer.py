@@ -25,7 +25,7 @@ import numpy as np
 
 import odolab.io.chunked as chunked
 import odolab.io.tabular as tabular
-from odolab.params import PRESETS
+from odolab.core.params import PRESETS
 
 
 def make_log(path: Path, rows: int) -> None:

@@ -19,9 +19,9 @@ import numpy as np
 from _timing import best  # benchmarks/_timing.py (run as python benchmarks/...)
 
 from odolab import PRESETS, Odometry, integrate
-from odolab.odometry import integrate_with_covariance
-from odolab.params import NoiseParams
-from odolab.uncertainty import covariance_from_ticks
+from odolab.core.odometry import integrate_with_covariance
+from odolab.core.params import NoiseParams
+from odolab.core.uncertainty import covariance_from_ticks
 
 
 def main() -> None:

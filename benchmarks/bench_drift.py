@@ -14,11 +14,11 @@ from __future__ import annotations
 import math
 import sys
 
-from odolab.params import PRESETS, RobotParams
+from odolab.core.params import PRESETS, RobotParams
+from odolab.core.trials import Command, MotionKind
 from odolab.robot.plant import IdealPlant
 from odolab.robot.session import run_simulated
 from odolab.sim.plants import make_plant
-from odolab.trials import Command, MotionKind
 
 NOMINAL = PRESETS["jaguar-lite"]
 

@@ -25,14 +25,14 @@ from pathlib import Path
 
 import numpy as np
 
+from odolab.core.kinematics import Method
+from odolab.core.params import PRESETS
 from odolab.fleet import FleetSpec, fleet_rows, simulate_fleet
 from odolab.fleet.table import COLUMNS
 from odolab.io.registry import LogFormat
 from odolab.io.run import ReadOptions
-from odolab.kinematics import Method
 from odolab.metrics.cluster import Cluster, MapReport
 from odolab.metrics.runs import RUN_OPTIONS, _evaluate_job, _Job, evaluate_runs
-from odolab.params import PRESETS
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from tests.scale.dask_cli import dask_cluster

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from odolab.errors import LogFormatError
+from odolab.core.errors import LogFormatError
 from odolab.io._table import read_numeric_columns
 from odolab.io.limits import check_text_file
 

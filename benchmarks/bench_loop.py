@@ -27,8 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
-from odolab.odometry import Odometry
-from odolab.params import PRESETS
+from odolab.core.odometry import Odometry
+from odolab.core.params import PRESETS
 from odolab.robot.clock import RealClock, set_realtime
 from odolab.robot.jaguar.driver import JaguarDriver, UdpTransport, driver_config_for
 from odolab.robot.loop import ControlLoop, LoopStats, timing_stats

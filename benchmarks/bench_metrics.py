@@ -17,8 +17,8 @@ from collections.abc import Callable
 
 import numpy as np
 
+from odolab.core.trajectory import Trajectory
 from odolab.metrics import DeltaUnit, EvaluationOptions, evaluate
-from odolab.trajectory import Trajectory
 
 
 def drive(n: int, seed: int) -> tuple[Trajectory, Trajectory]:

@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from odolab.params import PRESETS
+from odolab.core.params import PRESETS
 from odolab.sim.physics import VirtualRobot, kernel_params, simulate_batch
 from odolab.sim.presets import TRUTH_PRESETS
 from odolab.sim.protocols import parse_protocol, run_protocol, segments_for

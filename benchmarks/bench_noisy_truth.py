@@ -35,8 +35,8 @@ from tests.models.independent_sims import (  # noqa: E402
 )
 
 from odolab.calibration.compare import compare_models  # noqa: E402
+from odolab.core.params import PRESETS  # noqa: E402
 from odolab.io.registry import read_run  # noqa: E402
-from odolab.params import PRESETS  # noqa: E402
 
 KINEMATIC = ("diff", "extended", "icr")
 

@@ -23,7 +23,7 @@ import numpy as np
 from _timing import best  # benchmarks/_timing.py (run as python benchmarks/...)
 
 from odolab import PRESETS, integrate
-from odolab.params import RobotParams
+from odolab.core.params import RobotParams
 
 
 def lab_pseudocode_loop(t, left, right, params):  # type: ignore[no-untyped-def]
@@ -104,8 +104,8 @@ def main() -> None:
 
 def breakdown(t, left, right, params: RobotParams, repeats: int, total: float, floor: float):  # type: ignore[no-untyped-def]
     """The passes of ``integrate`` one at a time (best of ``repeats``), as it calls them."""
-    import odolab._odometry_kernels as k
-    from odolab.odometry import _model_arrays
+    import odolab.core._odometry_kernels as k
+    from odolab.core.odometry import _model_arrays
 
     n = len(t)
     coef, lat = _model_arrays(params, n)

@@ -42,7 +42,7 @@ def main() -> None:
         db = Path(args[i + 1])
         del args[i : i + 2]
     else:
-        from odolab.lab import run_lab
+        from odolab.app.demo import run_lab
 
         db = run_lab(tmp / "demo").notebook
     repeats = int(args[0]) if args else 3

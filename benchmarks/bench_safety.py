@@ -26,8 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from odolab.odometry import Odometry
-from odolab.params import PRESETS
+from odolab.core.odometry import Odometry
+from odolab.core.params import PRESETS
 from odolab.robot.clock import RealClock
 from odolab.robot.errors import LinkLostError
 from odolab.robot.jaguar.driver import JaguarDriver, UdpTransport

@@ -25,10 +25,10 @@ from odolab.calibration.sensor import (
     cramer_rao_bound,
     motions_from_trajectory,
 )
-from odolab.params import PRESETS
+from odolab.core.params import PRESETS
+from odolab.core.trajectory import Trajectory
 from odolab.sim.drives import calibration_drive, record_drive
 from odolab.sim.physics import TrueParams
-from odolab.trajectory import Trajectory
 
 TRUE_ROBOT = (0.0850, 0.0820, 0.60)
 MOUNT = (0.20, -0.05, 0.3)

@@ -58,7 +58,7 @@ def _load(base: str, n: int) -> tuple[float, float]:
 def _flask_app(db: Path) -> Any:
     from flask import Flask, jsonify, request
 
-    from odolab.errors import StoreError
+    from odolab.core.errors import StoreError
     from odolab.serve.app import _trial_json
     from odolab.store import Notebook
     from odolab.store.measure import record_measurement

@@ -1,4 +1,4 @@
-"""Cost of the slip model's covariance (odolab.slip_uncertainty), against the slip model's
+"""Cost of the slip model's covariance (odolab.core.slip_uncertainty), against the slip model's
 odometry without it and the kinematic covariance, measured in the same run.
 
 The whole-log covariance costs time as the square of the log's cycles (its second-order share
@@ -18,11 +18,11 @@ import numpy as np
 from _timing import best  # benchmarks/_timing.py (run as python benchmarks/...)
 
 from odolab import PRESETS
-from odolab.models import SlipModel
-from odolab.odometry import integrate_increments
-from odolab.params import NoiseParams
-from odolab.slip_uncertainty import SlipCovarianceStepper, propagate_covariance
-from odolab.uncertainty import covariance_from_ticks
+from odolab.core.models import SlipModel
+from odolab.core.odometry import integrate_increments
+from odolab.core.params import NoiseParams
+from odolab.core.slip_uncertainty import SlipCovarianceStepper, propagate_covariance
+from odolab.core.uncertainty import covariance_from_ticks
 
 
 def main() -> None:

@@ -29,8 +29,8 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from odolab.calibration.lsq import LsqOptions, calibrate_lsq, prepare_run  # noqa: E402
 from odolab.calibration.slipfit import nees_bounds, nees_pieces  # noqa: E402
+from odolab.core.params import PRESETS  # noqa: E402
 from odolab.io.registry import read_run  # noqa: E402
-from odolab.params import PRESETS  # noqa: E402
 
 PIECES = (1.0, 3.0)
 
@@ -40,7 +40,7 @@ def blocks(run: object, count: int) -> list[object]:
     duration, each prepared on its own."""
     from dataclasses import replace
 
-    from odolab.trajectory import Trajectory
+    from odolab.core.trajectory import Trajectory
 
     t = np.asarray(run.t)  # type: ignore[attr-defined]
     gt = run.require_ground_truth()  # type: ignore[attr-defined]

@@ -37,9 +37,9 @@ BIN = Path(sys.executable).parent
 
 
 def _write_inputs(d: Path, n: int) -> tuple[Path, Path, Path]:
+    from odolab.core.trajectory import Trajectory
+    from odolab.core.trials import EncoderLog
     from odolab.io import write_encoder_csv, write_tum
-    from odolab.trajectory import Trajectory
-    from odolab.trials import EncoderLog
 
     rng = np.random.default_rng(0)
     t = 0.01 * np.arange(n)

@@ -335,7 +335,7 @@ def odometry(d: Path, a: argparse.Namespace, csv: Path, parquet: Path, tiny: Pat
         return
     whole_csv = {"wall": med("whole_csv"), "rss": med("whole_csv", "rss")}
     whole_pq = {"wall": med("whole_pq"), "rss": med("whole_pq", "rss")}
-    from odolab.params import PRESETS, NoiseParams, save_params
+    from odolab.core.params import PRESETS, NoiseParams, save_params
 
     noisy = save_params(
         d / "noisy.toml", PRESETS["jaguar-lite"].with_(noise=NoiseParams(1e-4, 2e-4))

@@ -22,17 +22,17 @@ from pathlib import Path
 import numpy as np
 
 from odolab.calibration.lsq import calibrate_lsq
+from odolab.core.params import PRESETS
+from odolab.core.trajectory import Trajectory
+from odolab.core.trials import EncoderLog
 from odolab.io.csv_run import read_csv_run
 from odolab.io.encoder_csv import write_encoder_csv
 from odolab.io.run import ReadOptions
-from odolab.params import PRESETS
 from odolab.sim.drives import record_drive
 from odolab.sim.physics import TrueParams
 from odolab.tracking import CameraModel, FloorMarker
 from odolab.tracking.render import look_at, render_video
 from odolab.tracking.tracker import TrackOptions, track_video, write_track_csv
-from odolab.trajectory import Trajectory
-from odolab.trials import EncoderLog
 
 TRUE = (0.0850, 0.0820, 0.60)
 CAMERA = CameraModel(900.0, 900.0, 640.0, 360.0, 1280, 720)

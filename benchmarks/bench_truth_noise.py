@@ -38,9 +38,9 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 from odolab.calibration import slipfit  # noqa: E402
 from odolab.calibration.lsq import LsqOptions, calibrate_lsq, prepare_run  # noqa: E402
 from odolab.calibration.slipfit import endpoint_error  # noqa: E402
+from odolab.core.params import PRESETS  # noqa: E402
 from odolab.io.registry import find_runs, read_run  # noqa: E402
 from odolab.io.run import ReadOptions  # noqa: E402
-from odolab.params import PRESETS  # noqa: E402
 
 KINEMATIC = ("diff", "extended", "icr")
 

@@ -57,7 +57,7 @@ def default_demo(tmp_path_factory: pytest.TempPathFactory) -> Any:
 
 @pytest.fixture(scope="session")
 def tracked_demo(tmp_path_factory: pytest.TempPathFactory) -> Any:
-    """The demo on the tracked truth with its defaults (odolab.lab.run_lab), built once for
+    """The demo on the tracked truth with its defaults (odolab.app.demo.run_lab), built once for
     every test process (tests/fixture_cache.py), each reading its own copy."""
     result, _steps = cached(
         "tracked-demo", demo_builder("jaguar-lab-tracked"), tmp_path_factory.mktemp("tracked-demo")

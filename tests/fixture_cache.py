@@ -195,7 +195,7 @@ def demo_builder(truth: str) -> Callable[[Path], Any]:
     reported)``."""
 
     def build(folder: Path) -> Any:
-        from odolab.lab import run_lab
+        from odolab.app.demo import run_lab
 
         steps: list[str] = []
         with slip_fits_once():  # the tests that rerun its `calibrate compare` reuse its fits

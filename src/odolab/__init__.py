@@ -18,34 +18,67 @@ from typing import TYPE_CHECKING, Any
 #: loads; a value you set wins.
 os.environ.setdefault("NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING", "1")
 
-from odolab.errors import (
+from odolab.core import _aliases
+from odolab.core.errors import (
     EncoderJumpError,
     LogFormatError,
     OdolabError,
     ParamsError,
 )
-from odolab.params import PRESETS, RobotParams, load_params, save_params
+from odolab.core.params import PRESETS, RobotParams, load_params, save_params
+
+#: the old names (odolab.kinematics, odolab.models, odolab.lab, ...) keep working for a release
+_aliases.install(
+    {
+        "_encoders_jit": "odolab.core._encoders_jit",
+        "_fastmath": "odolab.core._fastmath",
+        "_jit": "odolab.core._jit",
+        "_kinematics_jit": "odolab.core._kinematics_jit",
+        "_odometry_kernels": "odolab.core._odometry_kernels",
+        "defaults": "odolab.core.defaults",
+        "encoders": "odolab.core.encoders",
+        "errors": "odolab.core.errors",
+        "extras": "odolab.core.extras",
+        "kinematics": "odolab.core.kinematics",
+        "measurement": "odolab.core.measurement",
+        "models": "odolab.core.models",
+        "motion": "odolab.core.motion",
+        "numfmt": "odolab.core.numfmt",
+        "odometry": "odolab.core.odometry",
+        "params": "odolab.core.params",
+        "prediction": "odolab.core.prediction",
+        "progress": "odolab.core.progress",
+        "regression": "odolab.core.regression",
+        "slip_uncertainty": "odolab.core.slip_uncertainty",
+        "text": "odolab.core.text",
+        "trajectory": "odolab.core.trajectory",
+        "trials": "odolab.core.trials",
+        "uncertainty": "odolab.core.uncertainty",
+        "writing": "odolab.core.writing",
+        "lab": "odolab.app.demo",
+    }
+)
 
 if TYPE_CHECKING:  # imported on first use (numpy, numba): `odolab --help` stays instant
-    from odolab.kinematics import Method, wrap_angle
-    from odolab.odometry import Odometry, integrate, integrate_increments
-    from odolab.trajectory import Pose, Trajectory
-    from odolab.trials import Command, EncoderLog, Measurement, MotionKind, Trial, TrialStatus
+    from odolab.core.kinematics import Method, wrap_angle
+    from odolab.core.odometry import Odometry, integrate, integrate_increments
+    from odolab.core.trajectory import Pose, Trajectory
+    from odolab.core.trials import Command, EncoderLog, Measurement, MotionKind, Trial, TrialStatus
 
 _LAZY = {
-    "Method": "odolab.kinematics",
-    "wrap_angle": "odolab.kinematics",
-    "Odometry": "odolab.odometry",
-    "integrate": "odolab.odometry",
-    "integrate_increments": "odolab.odometry",
-    "Pose": "odolab.trajectory",
-    "Trajectory": "odolab.trajectory",
-    "Command": "odolab.trials",
-    "EncoderLog": "odolab.trials",
-    "Measurement": "odolab.trials",
-    "MotionKind": "odolab.trials",
-    "Trial": "odolab.trials",
-    "TrialStatus": "odolab.trials",
+    "Method": "odolab.core.kinematics",
+    "wrap_angle": "odolab.core.kinematics",
+    "Odometry": "odolab.core.odometry",
+    "integrate": "odolab.core.odometry",
+    "integrate_increments": "odolab.core.odometry",
+    "Pose": "odolab.core.trajectory",
+    "Trajectory": "odolab.core.trajectory",
+    "Command": "odolab.core.trials",
+    "EncoderLog": "odolab.core.trials",
+    "Measurement": "odolab.core.trials",
+    "MotionKind": "odolab.core.trials",
+    "Trial": "odolab.core.trials",
+    "TrialStatus": "odolab.core.trials",
 }
 
 

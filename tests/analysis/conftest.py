@@ -11,7 +11,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 
 from synth_trials import lab_trials
 
-from odolab.trials import Trial
+from odolab.core.trials import Trial
 
 
 @pytest.fixture(scope="session")

@@ -10,9 +10,9 @@ import math
 
 import numpy as np
 
-from odolab.params import PRESETS, RobotParams
-from odolab.trajectory import Pose
-from odolab.trials import Command, Measurement, MotionKind, Trial, TrialStatus
+from odolab.core.params import PRESETS, RobotParams
+from odolab.core.trajectory import Pose
+from odolab.core.trials import Command, Measurement, MotionKind, Trial, TrialStatus
 
 PARAMS: RobotParams = PRESETS["jaguar-lite"]
 

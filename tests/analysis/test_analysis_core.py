@@ -10,8 +10,8 @@ import pytest
 from synth_trials import TRUTH, rotation_trials, translation_trials
 
 from odolab.analysis import analyze_trials, table1
-from odolab.errors import InsufficientDataError
-from odolab.trials import TrialStatus
+from odolab.core.errors import InsufficientDataError
+from odolab.core.trials import TrialStatus
 
 
 def test_table1_rows_carry_the_truth_in_their_intervals(lab) -> None:

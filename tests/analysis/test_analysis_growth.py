@@ -8,7 +8,7 @@ from scipy import stats
 
 from odolab.analysis import fit_growth
 from odolab.analysis.growth import profile_loglik
-from odolab.errors import InsufficientDataError
+from odolab.core.errors import InsufficientDataError
 
 
 def _sample(seed: int, p: float, n_per: int = 15) -> tuple[np.ndarray, np.ndarray]:

@@ -9,7 +9,7 @@ import pytest
 from scipy import stats
 
 from odolab.analysis import group_spreads, random_error, sd_confidence_interval
-from odolab.errors import InsufficientDataError
+from odolab.core.errors import InsufficientDataError
 
 
 def test_sd_interval_matches_chi_square_by_hand() -> None:

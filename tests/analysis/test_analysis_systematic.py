@@ -7,7 +7,7 @@ import pytest
 from scipy import stats
 
 from odolab.analysis import MIN_FIT_POINTS, fit_line
-from odolab.errors import InsufficientDataError
+from odolab.core.errors import InsufficientDataError
 
 
 def test_fit_matches_scipy_linregress() -> None:

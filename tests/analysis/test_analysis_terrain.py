@@ -7,7 +7,7 @@ import pytest
 from scipy import stats
 
 from odolab.analysis import compare_terrains
-from odolab.errors import InsufficientDataError
+from odolab.core.errors import InsufficientDataError
 
 X = np.arange(0.5, 5.01, 0.5)
 

@@ -13,8 +13,8 @@ from odolab.app.calibration import CalibrationRequest, calibrate, choose_base, c
 from odolab.app.exports import ExportRequest
 from odolab.app.odometry import choose_params
 from odolab.app.selection import SelectionRequest, open_notebook, select
-from odolab.errors import CalibrationError, ParamsError, StoreError
-from odolab.params import PRESETS, save_params
+from odolab.core.errors import CalibrationError, ParamsError, StoreError
+from odolab.core.params import PRESETS, save_params
 from odolab.store import Notebook
 
 

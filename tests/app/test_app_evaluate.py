@@ -17,7 +17,7 @@ from odolab.app.evaluate import (
     evaluation_options,
     params_source,
 )
-from odolab.errors import OdolabError
+from odolab.core.errors import OdolabError
 from odolab.io.run import ReadOptions
 from odolab.metrics import RUN_OPTIONS, Alignment, DeltaUnit, EvaluationOptions
 from odolab.metrics.cluster import Cluster

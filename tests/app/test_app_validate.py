@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 
 from odolab.app.validate import ValidateRequest, validate_log
-from odolab.defaults import DEFAULT_ROBOT
-from odolab.params import PRESETS
+from odolab.core.defaults import DEFAULT_ROBOT
+from odolab.core.params import PRESETS
 from odolab.validation import write_demo
 
 

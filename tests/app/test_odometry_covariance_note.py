@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from odolab.cli import main
-from odolab.params import PRESETS, NoiseParams, save_params
+from odolab.core.params import PRESETS, NoiseParams, save_params
 
 
 def _straight_log(path: Path, metres: float) -> None:

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from odolab.cli import main
-from odolab.params import PRESETS
+from odolab.core.params import PRESETS
 from odolab.store import Notebook
 
 

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from odolab.params import PRESETS
-from odolab.trajectory import Pose
-from odolab.trials import Command, Measurement, MotionKind, Trial, TrialStatus
+from odolab.core.params import PRESETS
+from odolab.core.trajectory import Pose
+from odolab.core.trials import Command, Measurement, MotionKind, Trial, TrialStatus
 
 
 def one_trial() -> Trial:

@@ -1,9 +1,9 @@
-"""No code outside odolab.models asks which kind a model is (issue 41).
+"""No code outside odolab.core.models asks which kind a model is (issue 41).
 
 A model kind is named where a file imports a kind's class or module (``SlipModel``,
-``odolab.models.slip``, ...), tests ``isinstance`` against a model class or protocol, or compares
+``odolab.core.models.slip``, ...), tests ``isinstance`` against a model class or protocol, or compares
 a model's ``kind`` (``params.model.kind == "slip"``). Everything else asks a capability
-(:func:`odolab.models.timed_model`, :func:`odolab.models.own_covariance`) or the model itself, so
+(:func:`odolab.core.models.timed_model`, :func:`odolab.core.models.own_covariance`) or the model itself, so
 that a new model is one module in ``models/`` plus its registration (docs/architecture.md).
 
 :data:`ALLOWED` lists the files outside ``models/`` that may name a kind, each with why; the test
@@ -16,7 +16,7 @@ import ast
 from collections.abc import Iterator
 from pathlib import Path
 
-from odolab.models import MODELS
+from odolab.core.models import MODELS
 
 SRC = Path(__file__).resolve().parents[2] / "src" / "odolab"
 
@@ -27,17 +27,17 @@ ALLOWED: dict[str, str] = {
     "calibration/lsq.py": "fits each kind's own parameters (issue 37's)",
     "calibration/slipfit.py": "fits the slip model (issue 37's)",
     "sim/presets.py": "a preset's true robot is a particular model (data, not a branch)",
-    "slip_uncertainty.py": "the old place of odolab.models.slip_covariance: a re-export",
+    "core/slip_uncertainty.py": "the old place of odolab.core.models.slip_covariance: a re-export",
 }
 
 #: the classes and modules that are a kind's own
 KIND_CLASSES = {cls.__name__ for cls in MODELS.values()}
 KIND_MODULES = {cls.__module__ for cls in MODELS.values()} | {
-    "odolab.models.slip_covariance",
-    "odolab.models.slip_terms",
+    "odolab.core.models.slip_covariance",
+    "odolab.core.models.slip_terms",
 }
 #: what ``isinstance`` may not test outside models/: a kind, or the protocols (asked through
-#: odolab.models.is_kinematic_model, timed_model and own_covariance)
+#: odolab.core.models.is_kinematic_model, timed_model and own_covariance)
 MODEL_TYPES = KIND_CLASSES | {"KinematicModel", "TimedModel", "CovarianceModel"}
 
 
@@ -56,7 +56,7 @@ def kind_namings(tree: ast.AST) -> Iterator[tuple[int, str]]:
             names = {a.name for a in node.names}
             if node.module in KIND_MODULES:
                 yield node.lineno, f"imports {node.module}"
-            elif node.module.startswith("odolab.models") and names & KIND_CLASSES:
+            elif node.module.startswith("odolab.core.models") and names & KIND_CLASSES:
                 yield node.lineno, f"imports {', '.join(sorted(names & KIND_CLASSES))}"
         elif isinstance(node, ast.Import):
             for alias in node.names:
@@ -86,10 +86,10 @@ def namings() -> dict[str, list[str]]:
     out: dict[str, list[str]] = {}
     for path in sorted(SRC.rglob("*.py")):
         rel = path.relative_to(SRC).as_posix()
-        if rel.startswith("models/"):
+        if rel.startswith("core/models/"):
             continue
         text = path.read_text()
-        if not any(word in text for word in ("odolab.models", "Model", "DiffDrive", ".kind")):
+        if not any(word in text for word in ("odolab.core.models", "Model", "DiffDrive", ".kind")):
             continue  # names nothing the detector looks for: no need to parse it
         found = [f"{line}: {what}" for line, what in kind_namings(ast.parse(text))]
         if found:
@@ -101,8 +101,8 @@ def test_only_models_and_the_listed_files_name_a_model_kind() -> None:
     found = namings()
     new = {f: places for f, places in found.items() if f not in ALLOWED}
     assert not new, (
-        f"model kinds named outside odolab.models: {new}; ask a capability "
-        "(odolab.models.timed_model, own_covariance, model_words) or add it to the model"
+        f"model kinds named outside odolab.core.models: {new}; ask a capability "
+        "(odolab.core.models.timed_model, own_covariance, model_words) or add it to the model"
     )
     stale = sorted(set(ALLOWED) - set(found))
     assert not stale, f"no longer name a model kind, drop them from ALLOWED: {stale}"
@@ -110,14 +110,14 @@ def test_only_models_and_the_listed_files_name_a_model_kind() -> None:
 
 def test_the_detector_finds_each_form_of_kind_naming() -> None:
     source = (
-        "from odolab.models import SlipModel, DIFF_DRIVE\n"
-        "import odolab.models.icr\n"
-        "from odolab.models.slip import FEATURES\n"
+        "from odolab.core.models import SlipModel, DIFF_DRIVE\n"
+        "import odolab.core.models.icr\n"
+        "from odolab.core.models.slip import FEATURES\n"
         "isinstance(m, (int, IcrModel))\n"
         "isinstance(m, KinematicModel)\n"
         "if params.model.kind == 'slip': pass\n"
         # not kind namings: a capability, a kind-free import, a camera model
-        "from odolab.models import own_covariance, DIFF_DRIVE\n"
+        "from odolab.core.models import own_covariance, DIFF_DRIVE\n"
         "isinstance(c, CameraModel)\n"
         "if source == 'noise': pass\n"
     )
@@ -127,5 +127,5 @@ def test_the_detector_finds_each_form_of_kind_naming() -> None:
 
 def test_every_registered_kind_lives_in_models() -> None:
     for kind, cls in MODELS.items():
-        assert cls.__module__.startswith("odolab.models."), (kind, cls.__module__)
+        assert cls.__module__.startswith("odolab.core.models."), (kind, cls.__module__)
         assert cls.kind == kind

@@ -1,6 +1,6 @@
 """Every JSON text odolab writes is strict JSON (RFC 8259): no ``NaN``, no ``Infinity``.
 
-One function makes it (:func:`odolab.writing.strict_json`); a scan of src/odolab fails on any
+One function makes it (:func:`odolab.core.writing.strict_json`); a scan of src/odolab fails on any
 other ``json.dump``/``json.dumps`` (unless it says ``allow_nan=False``) and on Starlette's
 JSONResponse used anywhere but the web API's one strict subclass.
 """
@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from odolab.writing import strict_json, strict_value
+from odolab.core.writing import strict_json, strict_value
 
 SRC = Path(__file__).resolve().parents[2] / "src" / "odolab"
 
@@ -121,7 +121,7 @@ def test_odolab_makes_json_text_only_through_strict_json() -> None:
     offenders = []
     for path in sorted(SRC.rglob("*.py")):
         rel = path.relative_to(SRC).as_posix()
-        if rel == "writing.py":
+        if rel == "core/writing.py":
             continue
         text = path.read_text(encoding="utf-8")
         if "dump" not in text and "JSONResponse" not in text:  # nothing to find: skip the parse
@@ -130,6 +130,6 @@ def test_odolab_makes_json_text_only_through_strict_json() -> None:
             if what == "JSONResponse" and rel == _RESPONSE_HOME:
                 continue
             offenders.append(f"src/odolab/{rel}:{line}: {what}")
-    assert offenders == [], "make JSON text with odolab.writing.strict_json:\n" + "\n".join(
+    assert offenders == [], "make JSON text with odolab.core.writing.strict_json:\n" + "\n".join(
         offenders
     )

@@ -1,4 +1,4 @@
-"""The one trial-record definition (odolab.trials.TRIAL_FIELDS) agrees with every place it feeds."""
+"""The one trial-record definition (odolab.core.trials.TRIAL_FIELDS) agrees with every place it feeds."""
 
 from __future__ import annotations
 
@@ -8,10 +8,10 @@ from pathlib import Path
 
 import pytest
 
+from odolab.core.trials import TRIAL_FIELDS, FieldType, trial_field
 from odolab.store import Notebook
 from odolab.store.csvio import COLUMNS, REQUIRED
 from odolab.store.records import NUMERIC_COLUMNS, TRIAL_COLUMNS
-from odolab.trials import TRIAL_FIELDS, FieldType, trial_field
 
 from .conftest_trials import one_trial
 
@@ -64,8 +64,8 @@ def test_record_columns_and_json_keys_are_the_field_names(tmp_path: Path) -> Non
 def test_ranges_are_inclusive_at_the_documented_bounds(
     name: str, inside: float, outside: float
 ) -> None:
-    from odolab.errors import InvalidTrialError
-    from odolab.trials import check_field
+    from odolab.core.errors import InvalidTrialError
+    from odolab.core.trials import check_field
 
     check_field(name, inside, "here")
     with pytest.raises(InvalidTrialError) as info:

@@ -8,12 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from odolab.core.params import PRESETS, save_params
+from odolab.core.trajectory import Trajectory
+from odolab.core.trials import EncoderLog
 from odolab.io import write_encoder_csv, write_trajectory, write_trajectory_csv, write_tum
-from odolab.params import PRESETS, save_params
 from odolab.sim.export import write_encoder_logs
 from odolab.store.csvio import write_trials_csv
-from odolab.trajectory import Trajectory
-from odolab.trials import EncoderLog
 
 LOG = EncoderLog(np.array([0.0, 0.05]), np.array([0, 7]), np.array([0, 9]), 32768)
 TRAJ = Trajectory.from_xytheta(np.array([0.0, 1.0]), np.array([0.0, 0.5]), np.zeros(2), np.zeros(2))
@@ -58,14 +58,14 @@ def test_the_trial_writers_take_the_path_first(tmp_path: Path) -> None:
 
 
 def test_the_named_defaults_are_presets() -> None:
-    from odolab.defaults import DEFAULT_ROBOT, DEFAULT_TRUTH
+    from odolab.core.defaults import DEFAULT_ROBOT, DEFAULT_TRUTH
     from odolab.sim.presets import TRUTH_PRESETS
 
     assert PRESETS[DEFAULT_ROBOT].name == DEFAULT_ROBOT
     assert TRUTH_PRESETS[DEFAULT_TRUTH].name == DEFAULT_TRUTH
 
 
-# -- one way to put bytes in a file: odolab.writing ------------------------------------------------
+# -- one way to put bytes in a file: odolab.core.writing ------------------------------------------------
 
 SRC = Path(__file__).resolve().parents[2] / "src" / "odolab"
 #: Calls that write a file at their receiver (``path.write_text``) or first argument.
@@ -73,9 +73,9 @@ _ON_RECEIVER = frozenset({"write_text", "write_bytes"})
 _ON_ARGUMENT = frozenset(
     {"savefig", "write_csv", "write_parquet", "write_ipc", "to_csv", "to_parquet", "OSFile"}
 )
-#: Names a writer may write to: the temporary file odolab.writing hands out, a memory buffer.
+#: Names a writer may write to: the temporary file odolab.core.writing hands out, a memory buffer.
 _SAFE_TARGETS = frozenset({"tmp", "buf"})
-#: Writers not yet moved to odolab.writing (file -> calls), each owned by another piece of work;
+#: Writers not yet moved to odolab.core.writing (file -> calls), each owned by another piece of work;
 #: a new raw write anywhere else fails the test below.
 _NOT_YET = {
     "cli/robot.py": {"open"},  # --trace appends a log as it runs
@@ -107,7 +107,7 @@ def _writes(node: object) -> tuple[str, object] | None:
 
 
 def raw_writes(source: str) -> list[tuple[int, str]]:
-    """``(line, call)`` of every call in ``source`` that writes a file other than odolab.writing's
+    """``(line, call)`` of every call in ``source`` that writes a file other than odolab.core.writing's
     temporary path (or a memory buffer)."""
     import ast
 
@@ -137,14 +137,14 @@ def test_the_scan_finds_a_raw_write_and_passes_the_helper() -> None:
 
 def test_every_writer_goes_through_odolab_writing() -> None:
     """A writer that opens its output path itself follows a link planted there; it must write
-    through odolab.writing (replacing_path, replacing_file, write_text_file, write_bytes_file)."""
+    through odolab.core.writing (replacing_path, replacing_file, write_text_file, write_bytes_file)."""
     offenders = []
     for path in sorted(SRC.rglob("*.py")):
         rel = path.relative_to(SRC).as_posix()
-        if rel == "writing.py":
+        if rel == "core/writing.py":
             continue
         allowed = _NOT_YET.get(rel, set())
         for line, call in raw_writes(path.read_text(encoding="utf-8")):
             if call not in allowed:
                 offenders.append(f"src/odolab/{rel}:{line}: {call}")
-    assert offenders == [], "write through odolab.writing instead:\n" + "\n".join(offenders)
+    assert offenders == [], "write through odolab.core.writing instead:\n" + "\n".join(offenders)

@@ -8,7 +8,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from odolab.calibration import ratios, umbmark
-from odolab.params import PRESETS
+from odolab.core.params import PRESETS
 
 P = PRESETS["jaguar-lite"]
 ratio = st.floats(min_value=0.5, max_value=1.5)

@@ -17,10 +17,10 @@ from odolab.calibration.imu import (
     yaw_scale_from_heading,
 )
 from odolab.cli import main
-from odolab.errors import CalibrationError, ImuLogError
+from odolab.core.errors import CalibrationError, ImuLogError
+from odolab.core.params import PRESETS, load_params
 from odolab.io.gyro import GyroRun, GyroSegment, read_drive_windows, read_gyro_run
 from odolab.io.sensorlog import write_sensorlog
-from odolab.params import PRESETS, load_params
 from odolab.sim.gyro import simulate_gyro_drive, write_gyro_drive
 
 NOMINAL = PRESETS["jaguar-lite"]
@@ -205,9 +205,9 @@ def test_husky_gyro_agrees_with_lidar() -> None:
 def test_robot_run_folder_with_its_gyro(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """A 2014 Jaguar's run folder (encoders.csv, imu.csv in SensorLog columns on the encoders'
     clock): one turn in place one way, so the bias is given (--bias 0) and the ratio kept."""
+    from odolab.core.trials import Command, MotionKind
     from odolab.robot.plant import IdealPlant
     from odolab.robot.session import run_simulated
-    from odolab.trials import Command, MotionKind
 
     truth = NOMINAL.with_(track_width=0.6)
     run_simulated(
@@ -293,10 +293,10 @@ def test_notebook_turns_are_the_scale_reference(
 ) -> None:
     """With --db, a run folder whose trial is measured in the notebook (compass and counted
     turns) gives the gyro's scale its reference."""
+    from odolab.core.trials import Command, Measurement, MotionKind
     from odolab.robot.plant import IdealPlant
     from odolab.robot.session import run_simulated
     from odolab.store import Notebook
-    from odolab.trials import Command, Measurement, MotionKind
 
     truth = NOMINAL.with_(track_width=0.6)
     run = run_simulated(

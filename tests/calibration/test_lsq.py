@@ -11,12 +11,12 @@ import pytest
 
 from odolab.calibration.lsq import LsqOptions, calibrate_lsq, calibrate_lsq_files, prepare_run
 from odolab.cli import main
-from odolab.errors import CalibrationError, InsufficientDataError
+from odolab.core.errors import CalibrationError, InsufficientDataError
+from odolab.core.odometry import integrate_increments
+from odolab.core.params import RobotParams, load_params
+from odolab.core.trajectory import Trajectory
 from odolab.io.registry import LogFormat, find_runs
 from odolab.io.run import OdometryRun
-from odolab.odometry import integrate_increments
-from odolab.params import RobotParams, load_params
-from odolab.trajectory import Trajectory
 
 TRUE = RobotParams(
     left_wheel_radius=0.0418, right_wheel_radius=0.0421, track_width=0.203, ticks_per_rev=2796.8
@@ -241,7 +241,7 @@ def test_cli_segment_zero_is_one_line(
 
 def test_provenance_is_a_field_like_every_calibration_and_still_callable() -> None:
     from odolab.calibration.lsq import LsqCalibration, Provenance
-    from odolab.params import PRESETS
+    from odolab.core.params import PRESETS
 
     p = PRESETS["jaguar-lite"]
     cal = LsqCalibration(p, p, {"track_width": 1e-3}, np.eye(3), 0.2, 0.1, ["a"], 7, 0.3)

@@ -12,7 +12,7 @@ from odolab.analysis import analyze_trials
 from odolab.calibration import ratios_from_analysis
 from odolab.calibration.ratios import describe_noise
 from odolab.cli import main
-from odolab.params import load_params
+from odolab.core.params import load_params
 from odolab.store import Notebook
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "analysis"))

@@ -11,9 +11,9 @@ import pytest
 
 from odolab.calibration import ratios, ratios_from_analysis
 from odolab.cli import main
-from odolab.errors import CalibrationError
-from odolab.odometry import integrate_increments
-from odolab.params import PRESETS, load_params
+from odolab.core.errors import CalibrationError
+from odolab.core.odometry import integrate_increments
+from odolab.core.params import PRESETS, load_params
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "analysis"))
 from synth_trials import lab_trials
@@ -107,7 +107,7 @@ def test_cli_writes_loadable_toml(tmp_path: Path, capsys: pytest.CaptureFixture[
 
 def test_ratios_refuse_a_model_that_ignores_the_track_width() -> None:
     # the ICR model turns by its own y_icr: the new track width was written and changed nothing
-    from odolab.models import ExtendedDiffDrive, IcrModel
+    from odolab.core.models import ExtendedDiffDrive, IcrModel
 
     nominal = PRESETS["jaguar-lite"]
     icr = nominal.with_(model=IcrModel(0.3, -0.3))

@@ -14,8 +14,8 @@ from odolab.calibration.truthnoise import (
     parse_truth_sigma,
     truth_residuals,
 )
-from odolab.errors import CalibrationError
-from odolab.params import PRESETS
+from odolab.core.errors import CalibrationError
+from odolab.core.params import PRESETS
 
 
 def _path(n: int) -> tuple[np.ndarray, ...]:

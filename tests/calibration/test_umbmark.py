@@ -11,9 +11,9 @@ import pytest
 
 from odolab.calibration import e_max_syst, umbmark
 from odolab.cli import main
-from odolab.errors import CalibrationError
-from odolab.odometry import integrate_increments
-from odolab.params import RobotParams
+from odolab.core.errors import CalibrationError
+from odolab.core.odometry import integrate_increments
+from odolab.core.params import RobotParams
 
 NOM = RobotParams(
     left_wheel_radius=0.0835, right_wheel_radius=0.0835, track_width=0.56, ticks_per_rev=380
@@ -201,8 +201,8 @@ def test_cli_umbmark_from_csv(tmp_path: Path, capsys: pytest.CaptureFixture[str]
 
 
 def _square_trials(true: RobotParams, rng: np.random.Generator) -> list:
-    from odolab.trajectory import Pose
-    from odolab.trials import Command, EncoderLog, Measurement, MotionKind, Trial, TrialStatus
+    from odolab.core.trajectory import Pose
+    from odolab.core.trials import Command, EncoderLog, Measurement, MotionKind, Trial, TrialStatus
 
     trials = []
     for direction in ("cw", "ccw"):
@@ -251,7 +251,7 @@ def test_umbmark_from_square_trials_and_rerun_of_their_logs() -> None:
 
 
 def test_umbmark_refuses_a_model_that_ignores_the_track_width() -> None:
-    from odolab.models import IcrModel
+    from odolab.core.models import IcrModel
 
     icr = NOM.with_(model=IcrModel(0.3, -0.3))
     with pytest.raises(CalibrationError, match=r"\[model\] is icr, which turns by its own"):

@@ -14,10 +14,10 @@ import pytest
 from odolab.calibration import ratios, scale_sd_from, umbmark, umbmark_iterated
 from odolab.calibration.umbmark import umbmark_intervals
 from odolab.cli import main
-from odolab.odometry import integrate_increments
-from odolab.params import RobotParams
-from odolab.trajectory import Pose
-from odolab.trials import Command, EncoderLog, Measurement, MotionKind, Trial, TrialStatus
+from odolab.core.odometry import integrate_increments
+from odolab.core.params import RobotParams
+from odolab.core.trajectory import Pose
+from odolab.core.trials import Command, EncoderLog, Measurement, MotionKind, Trial, TrialStatus
 
 TRUE = RobotParams(
     left_wheel_radius=0.0835 * 0.996,

@@ -17,11 +17,11 @@ from odolab.calibration import (
     umbmark_errors_from_trials,
     umbmark_iterated,
 )
-from odolab.errors import CalibrationError
-from odolab.odometry import integrate_increments
-from odolab.params import PRESETS, RobotParams, load_params
-from odolab.trajectory import Pose
-from odolab.trials import Command, EncoderLog, Measurement, MotionKind, Trial, TrialStatus
+from odolab.core.errors import CalibrationError
+from odolab.core.odometry import integrate_increments
+from odolab.core.params import PRESETS, RobotParams, load_params
+from odolab.core.trajectory import Pose
+from odolab.core.trials import Command, EncoderLog, Measurement, MotionKind, Trial, TrialStatus
 
 NOM = RobotParams(
     left_wheel_radius=0.0835, right_wheel_radius=0.0835, track_width=0.56, ticks_per_rev=380
@@ -328,7 +328,7 @@ def test_cli_iterates_when_the_notebook_has_logs(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], with_logs: bool
 ) -> None:
     from odolab.cli import main
-    from odolab.params import save_params
+    from odolab.core.params import save_params
     from odolab.store import Notebook
 
     true = _truth(1.12, 1.01)

@@ -46,7 +46,7 @@ def _import_all() -> str:
 
 
 def _pandas() -> str:
-    from odolab.errors import OdolabError
+    from odolab.core.errors import OdolabError
     from odolab.store import Notebook
 
     with Notebook("empty.db") as nb:

@@ -9,7 +9,7 @@ import sys
 import numpy as np
 from numpy.typing import NDArray
 
-#: Long enough for the compiled passes (odolab.odometry.NUMPY_MAX_SAMPLES is 2048).
+#: Long enough for the compiled passes (odolab.core.odometry.NUMPY_MAX_SAMPLES is 2048).
 N = 2500
 
 
@@ -25,12 +25,12 @@ def _log(seed: int) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.
 def compute() -> dict[str, NDArray[np.generic]]:
     """Odometry (both methods, a sideways model, two threads), its covariance and the RPE
     pair kernels, on one seeded log."""
-    import odolab.odometry as odo
-    import odolab.uncertainty as unc
+    import odolab.core.odometry as odo
+    import odolab.core.uncertainty as unc
+    from odolab.core.models import IcrModel
+    from odolab.core.odometry import integrate, integrate_with_covariance
+    from odolab.core.params import PRESETS, NoiseParams
     from odolab.metrics import pose_error as pe
-    from odolab.models import IcrModel
-    from odolab.odometry import integrate, integrate_with_covariance
-    from odolab.params import PRESETS, NoiseParams
 
     params = PRESETS["jaguar-lite"].with_(noise=NoiseParams(1e-4, 3e-4, k_scrub=0.02))
     t, left, right = _log(7)
@@ -57,7 +57,7 @@ def compute() -> dict[str, NDArray[np.generic]]:
 
 if __name__ == "__main__":
     sys.modules["numba"] = None  # type: ignore[assignment]  # as if not installed
-    from odolab import _jit
+    from odolab.core import _jit
 
     assert not _jit.HAVE_NUMBA
     np.savez(sys.argv[1], **compute())

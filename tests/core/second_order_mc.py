@@ -6,9 +6,9 @@ import math
 
 import numpy as np
 
-from odolab.odometry import integrate_increments
-from odolab.params import PRESETS, NoiseParams
-from odolab.uncertainty import covariance_matrix, propagate_covariance, second_order_index
+from odolab.core.odometry import integrate_increments
+from odolab.core.params import PRESETS, NoiseParams
+from odolab.core.uncertainty import covariance_matrix, propagate_covariance, second_order_index
 
 P = PRESETS["jaguar-lite"]
 B = P.track_width

@@ -50,9 +50,9 @@ _CHILD = textwrap.dedent(
 
 @pytest.fixture(scope="module")
 def imported(tmp_path_factory: pytest.TempPathFactory) -> dict[str, set[str]]:
+    from odolab.core.trajectory import Trajectory
+    from odolab.core.trials import EncoderLog
     from odolab.io import write_encoder_csv, write_tum
-    from odolab.trajectory import Trajectory
-    from odolab.trials import EncoderLog
 
     d = tmp_path_factory.mktemp("imports")
     t = np.arange(50) * 0.1
@@ -106,4 +106,4 @@ def test_odometry_loads_only_its_libraries(imported: dict[str, set[str]], comman
 def test_evaluate_loads_no_numba(imported: dict[str, set[str]]) -> None:
     """The pair choosers' kernels are loaded on first use (odolab.metrics._pairs_jit): the
     default evaluation chooses its pairs in numpy, so numba (0.15-0.35 s) is not imported."""
-    assert _loaded(imported["evaluate TUM"], ("numba", "odolab._kinematics_jit")) == []
+    assert _loaded(imported["evaluate TUM"], ("numba", "odolab.core._kinematics_jit")) == []

@@ -47,7 +47,7 @@ def test_terrain_override_names_the_campaign(tmp_path: Path) -> None:
 
 
 def test_turn_hint_follows_what_odometry_saw() -> None:
-    from odolab.errors import StoreError
+    from odolab.core.errors import StoreError
     from odolab.store import rotation_measurement_from_compass
 
     # commanded 20 pi, but odometry stopped at 12 pi (6 turns): 1 turn + 90 deg was counted,

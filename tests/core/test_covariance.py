@@ -9,10 +9,15 @@ import numpy as np
 import pytest
 from tests.core.test_models import SideSlip
 
-from odolab.errors import LogFormatError, OdolabError, ParamsError
-from odolab.odometry import Odometry, integrate, integrate_increments, integrate_with_covariance
-from odolab.params import PRESETS, NoiseParams, load_params, save_params
-from odolab.uncertainty import (
+from odolab.core.errors import LogFormatError, OdolabError, ParamsError
+from odolab.core.odometry import (
+    Odometry,
+    integrate,
+    integrate_increments,
+    integrate_with_covariance,
+)
+from odolab.core.params import PRESETS, NoiseParams, load_params, save_params
+from odolab.core.uncertainty import (
     covariance_along,
     covariance_from_ticks,
     covariance_matrix,
@@ -121,7 +126,7 @@ def test_noise_table_round_trip_and_errors(tmp_path: Path) -> None:
 def _pose_after(pose: np.ndarray, params, dsl: float, dsr: float, scrub: float, arc: bool):  # type: ignore[no-untyped-def]
     """The pose after one cycle through the library's own body_motion and step_pose; ``scrub``
     is added to the heading change (and, through the model, to the sideways motion)."""
-    from odolab.kinematics import body_motion, step_pose
+    from odolab.core.kinematics import body_motion, step_pose
 
     c = params.coefficients
     fwd, _, dth = body_motion(*c, dsl, dsr)
@@ -201,7 +206,7 @@ def test_integrate_with_covariance_equals_the_separate_calls(
 def test_segments_on_threads_equal_one_pass(threads: int, monkeypatch: pytest.MonkeyPatch) -> None:
     # each segment starts from zero; the true start is carried in afterwards through the
     # position change (the F's compose to one shear): equal to the one-pass recursion
-    import odolab.uncertainty as unc
+    import odolab.core.uncertainty as unc
 
     monkeypatch.setattr(unc, "PARALLEL_MIN_SAMPLES", 100)
     params = NOMINAL.with_(noise=NoiseParams(1e-4, 3e-4, k_scrub=0.02))
@@ -281,7 +286,7 @@ def test_the_second_order_limit_is_where_first_order_stops_holding(
     sys.path.insert(0, str(Path(__file__).parent))
     from second_order_mc import along_ratio, arc, straight, turn_then_straight
 
-    from odolab.uncertainty import SECOND_ORDER_LIMIT
+    from odolab.core.uncertainty import SECOND_ORDER_LIMIT
 
     path = {"straight": straight, "turn": turn_then_straight}.get(kind)
     wheels = path(d) if path is not None else arc()
@@ -298,8 +303,8 @@ def test_the_second_order_limit_is_where_first_order_stops_holding(
 
 
 def test_the_note_says_from_when_first_order_stops_holding() -> None:
-    from odolab.params import NoiseParams
-    from odolab.uncertainty import first_order_note
+    from odolab.core.params import NoiseParams
+    from odolab.core.uncertainty import first_order_note
 
     p = NOMINAL.with_(noise=NoiseParams(1.87e-4, 1.87e-4))
     per_m = p.ticks_per_rev / (2 * math.pi * p.left_wheel_radius)
@@ -311,7 +316,7 @@ def test_the_note_says_from_when_first_order_stops_holding() -> None:
     assert note is not None and "understates the spread from t = " in note
     when = float(note.split("from t = ")[1].split(" s")[0])
     assert 3.0 < when < 10.0  # a straight 5 m of 10 s: past about 3.5 m
-    from odolab.trajectory import Trajectory
+    from odolab.core.trajectory import Trajectory
 
     first = Trajectory.from_xyh(traj.t[:40], traj.x[:40], traj.y[:40], traj.heading[:40])
     assert first_order_note(first, cov[:40]) is None  # the first metre holds

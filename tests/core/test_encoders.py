@@ -6,8 +6,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from odolab.encoders import EncoderUnwrapper, dticks_from_ticks, unwrap_ticks
-from odolab.errors import EncoderJumpError, LogFormatError
+from odolab.core.encoders import EncoderUnwrapper, dticks_from_ticks, unwrap_ticks
+from odolab.core.errors import EncoderJumpError, LogFormatError
 
 
 @given(

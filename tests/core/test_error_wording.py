@@ -10,9 +10,9 @@ from pathlib import Path
 import pytest
 
 from odolab.cli.wording import FLAGS, said, worded
-from odolab.errors import NEUTRAL, OPTION_NAMES, OdolabError, ParamsError, opt
+from odolab.core.errors import NEUTRAL, OPTION_NAMES, OdolabError, ParamsError, opt
+from odolab.core.params import PRESETS
 from odolab.export.ros2_controller import controller_numbers
-from odolab.params import PRESETS
 from odolab.robot.config import RunConfig
 from odolab.robot.errors import RobotConfigError
 from odolab.serve.wording import FIELDS, WEB

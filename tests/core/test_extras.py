@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 from packaging.requirements import Requirement
 
-from odolab.extras import (
+from odolab.core.extras import (
     COMMAND_EXTRAS,
     COMMAND_PREFERS,
     EXTRAS,
@@ -34,7 +34,7 @@ ROOT = Path(__file__).resolve().parents[2]
 PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
 BLOCKED_RUN = Path(__file__).with_name("extras_blocked.py")
 #: The modules the extras bring, and what only they pull in (pandas and statsmodels: the
-#: core's line fits are odolab.regression's).
+#: core's line fits are odolab.core.regression's).
 EXTRA_MODULES = sorted({m for ms in EXTRAS.values() for m in ms} | {"statsmodels", "PIL"})
 GOAL_BYTES = 650e6
 

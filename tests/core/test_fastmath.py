@@ -3,7 +3,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from odolab._fastmath import SINCOS_LIMIT, sincos
+from odolab.core._fastmath import SINCOS_LIMIT, sincos
 
 
 @njit

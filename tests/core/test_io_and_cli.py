@@ -8,6 +8,7 @@ import pytest
 
 from odolab import integrate, load_params
 from odolab.cli import main
+from odolab.core.trials import EncoderLog
 from odolab.io import (
     read_encoder_csv,
     read_trajectory_csv,
@@ -16,7 +17,6 @@ from odolab.io import (
     write_trajectory_csv,
     write_tum,
 )
-from odolab.trials import EncoderLog
 
 
 def _log(tmp_path: Path, text: str, name: str = "log.csv") -> Path:

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from odolab.kinematics import (
+from odolab.core.kinematics import (
     body_motion_from_wheel_displacements,
     chord_factor,
     pose_step,

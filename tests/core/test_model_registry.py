@@ -1,8 +1,8 @@
 """A new time-dependent model is one module plus its registration (issue 41).
 
 The model below is such a module in miniature: a frozen dataclass with the
-:class:`~odolab.models.KinematicModel` methods and those of :class:`~odolab.models.TimedModel`,
-registered with :func:`~odolab.models.registry.register`. Nothing else in odolab changes, yet the
+:class:`~odolab.core.models.KinematicModel` methods and those of :class:`~odolab.core.models.TimedModel`,
+registered with :func:`~odolab.core.models.registry.register`. Nothing else in odolab changes, yet the
 ``[model]`` table, batch and streaming odometry and the faces' words take it.
 """
 
@@ -17,8 +17,8 @@ from typing import Any, ClassVar
 import numpy as np
 import pytest
 
-from odolab.errors import ParamsError
-from odolab.models import (
+from odolab.core.errors import ParamsError
+from odolab.core.models import (
     DIFF_DRIVE,
     MODELS,
     ModelCoefficients,
@@ -27,9 +27,9 @@ from odolab.models import (
     own_covariance,
     timed_model,
 )
-from odolab.models.registry import register, unregister
-from odolab.odometry import Odometry, integrate_increments
-from odolab.params import PRESETS, covariance_source, load_params, save_params
+from odolab.core.models.registry import register, unregister
+from odolab.core.odometry import Odometry, integrate_increments
+from odolab.core.params import PRESETS, covariance_source, load_params, save_params
 
 NOMINAL = PRESETS["jaguar-lite"]
 
@@ -146,7 +146,7 @@ def test_neutral_values_are_what_the_fit_starts_from(kind: str) -> None:
     # calibration/lsq.py's FitModel.values reads every kind's keys with isinstance branches;
     # models.neutral_values gives the same without them (what lsq.py should call)
     from odolab.calibration.lsq import FIT_MODELS
-    from odolab.models import ExtendedDiffDrive, IcrModel, SlipModel, neutral_values
+    from odolab.core.models import ExtendedDiffDrive, IcrModel, SlipModel, neutral_values
 
     models = {
         "diff": DIFF_DRIVE,

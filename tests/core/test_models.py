@@ -12,11 +12,11 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from odolab.errors import ParamsError
-from odolab.kinematics import body_motion, pose_step
-from odolab.models import DIFF_DRIVE, KinematicModel, ModelCoefficients, model_from_mapping
-from odolab.odometry import Odometry, integrate_increments
-from odolab.params import PRESETS, RobotParams, load_params, save_params
+from odolab.core.errors import ParamsError
+from odolab.core.kinematics import body_motion, pose_step
+from odolab.core.models import DIFF_DRIVE, KinematicModel, ModelCoefficients, model_from_mapping
+from odolab.core.odometry import Odometry, integrate_increments
+from odolab.core.params import PRESETS, RobotParams, load_params, save_params
 from odolab.robot.plant import IdealPlant
 from odolab.sim.physics import TrueParams, VirtualRobot
 

@@ -1,4 +1,4 @@
-"""odolab.motion: each kind of motion carries its rules; words parse strictly, with one sentence."""
+"""odolab.core.motion: each kind of motion carries its rules; words parse strictly, with one sentence."""
 
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from odolab import trials
-from odolab.errors import InsufficientDataError, OdolabError, SimError
-from odolab.motion import DriveShape, Motion, MotionKind, MotionWordError
+from odolab.core import trials
+from odolab.core.errors import InsufficientDataError, OdolabError, SimError
+from odolab.core.motion import DriveShape, Motion, MotionKind, MotionWordError
 
 
 def test_motion_kind_rules() -> None:

@@ -1,4 +1,4 @@
-"""One number-formatting rule (odolab.numfmt), and numbers written to files without float noise."""
+"""One number-formatting rule (odolab.core.numfmt), and numbers written to files without float noise."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from odolab import numfmt
 from odolab.cli import main
+from odolab.core import numfmt
 
 
 @pytest.mark.parametrize(

@@ -16,7 +16,7 @@ from odolab import (
     integrate,
     integrate_increments,
 )
-from odolab.odometry import PARALLEL_MIN_SAMPLES
+from odolab.core.odometry import PARALLEL_MIN_SAMPLES
 
 P = RobotParams(0.1, 0.1, 0.5, 800, None, name="test")
 
@@ -246,7 +246,7 @@ def test_start_pose_and_empty() -> None:
 @pytest.mark.parametrize("bad", [0, -5, 2.5])
 def test_max_dticks_must_be_a_positive_count(bad: float) -> None:
     # a negative limit used to mean "no limit" inside the compiled loop, silently
-    from odolab.errors import OdolabError
+    from odolab.core.errors import OdolabError
 
     with pytest.raises(OdolabError, match="max_dticks"):
         integrate([0.0, 1.0], [0, 100], [0, 100], P, max_dticks=bad)  # type: ignore[arg-type]
@@ -255,8 +255,8 @@ def test_max_dticks_must_be_a_positive_count(bad: float) -> None:
 
 
 def test_warm_up_loads_the_kernels_on_a_thread_and_leaves_errors_to_the_real_call() -> None:
-    from odolab.odometry import warm_up
-    from odolab.params import PRESETS
+    from odolab.core.odometry import warm_up
+    from odolab.core.params import PRESETS
 
     jaguar = PRESETS["jaguar-lite"]
     warm_up(jaguar, "midpoint").join(timeout=120)

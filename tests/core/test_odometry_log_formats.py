@@ -14,8 +14,8 @@ import shared_data
 from odolab.app.odometry import choose_params, resolve_formats
 from odolab.cli import main
 from odolab.cli.core import LogFormatChoice
-from odolab.defaults import LogFormat
-from odolab.errors import OdolabError
+from odolab.core.defaults import LogFormat
+from odolab.core.errors import OdolabError
 from odolab.io import read_trajectory
 from odolab.io.registry import READERS
 

@@ -9,13 +9,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import odolab.odometry as odo
-from odolab.errors import EncoderJumpError, LogFormatError
-from odolab.models import DIFF_DRIVE, ExtendedDiffDrive, IcrModel, KinematicModel
-from odolab.models.slip import SlipModel
-from odolab.odometry import integrate, integrate_increments
-from odolab.params import PRESETS
-from odolab.trajectory import Trajectory
+import odolab.core.odometry as odo
+from odolab.core.errors import EncoderJumpError, LogFormatError
+from odolab.core.models import DIFF_DRIVE, ExtendedDiffDrive, IcrModel, KinematicModel
+from odolab.core.models.slip import SlipModel
+from odolab.core.odometry import integrate, integrate_increments
+from odolab.core.params import PRESETS
+from odolab.core.trajectory import Trajectory
 
 NOMINAL = PRESETS["jaguar-lite"]
 MODELS: list[KinematicModel] = [

@@ -7,10 +7,10 @@ import math
 
 import numpy as np
 
-from odolab._encoders_jit import unwrap_diff
-from odolab._kinematics_jit import chord, step_pose, wrap
-from odolab.encoders import counter_delta
-from odolab.kinematics import SMALL_ANGLE, chord_factors, odometry_step, wrap_angle
+from odolab.core._encoders_jit import unwrap_diff
+from odolab.core._kinematics_jit import chord, step_pose, wrap
+from odolab.core.encoders import counter_delta
+from odolab.core.kinematics import SMALL_ANGLE, chord_factors, odometry_step, wrap_angle
 
 # headings, body motions and heading changes around the series switch, large and negative
 DTHETA = np.array([0.0, 1e-9, -SMALL_ANGLE, 2 * SMALL_ANGLE, 1.9999e-4, 0.01, -0.3, 1.2, -3.0])

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from tests.core.kernel_cases import compute
 
-from odolab import _jit
-from odolab.extras import NO_NUMBA_NOTE
+from odolab.core import _jit
+from odolab.core.extras import NO_NUMBA_NOTE
 
 CASES = Path(__file__).with_name("kernel_cases.py")
 ROOT = Path(__file__).resolve().parents[2]

@@ -1,4 +1,4 @@
-"""odolab.regression gives statsmodels' numbers (statsmodels stays a dev dependency for this
+"""odolab.core.regression gives statsmodels' numbers (statsmodels stays a dev dependency for this
 comparison only): OLS with intervals and R², the F test, cluster and panel Newey-West
 covariances, the Huber line and the numerical Hessian, to 1e-9 relative."""
 
@@ -11,7 +11,7 @@ import pytest
 import statsmodels.api as sm
 from numpy.typing import NDArray
 
-from odolab.regression import (
+from odolab.core.regression import (
     approx_hess3,
     cluster_cov,
     f_test,

@@ -1,4 +1,4 @@
-"""The slip model's pose covariance (odolab.slip_uncertainty) against a Monte Carlo of the very
+"""The slip model's pose covariance (odolab.core.slip_uncertainty) against a Monte Carlo of the very
 noise it describes: white noise per cycle, a drift that keeps one value over the run, and a
 heading uncertain enough that first order alone understates the spread along the path."""
 
@@ -9,10 +9,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from odolab.errors import ParamsError
-from odolab.models import SlipModel
-from odolab.params import PRESETS, RobotParams, load_params, save_params
-from odolab.slip_uncertainty import (
+from odolab.core.errors import ParamsError
+from odolab.core.models import SlipModel
+from odolab.core.params import PRESETS, RobotParams, load_params, save_params
+from odolab.core.slip_uncertainty import (
     TERMS,
     EndPairs,
     end_second_order,
@@ -175,7 +175,7 @@ def test_streaming_odometry_gives_the_batch_covariance_at_every_cycle() -> None:
     """Odometry(covariance=True) with a slip model: the slip model's own predictive variance,
     cycle by cycle, the whole-log propagate_covariance's to rounding (a cycle of zero duration
     and reversing tracks included)."""
-    from odolab.odometry import Odometry
+    from odolab.core.odometry import Odometry
 
     rng = np.random.default_rng(2)
     n = 300

@@ -1,4 +1,4 @@
-"""odolab.text: user text made safe for file names, terminals, HTML and messages."""
+"""odolab.core.text: user text made safe for file names, terminals, HTML and messages."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from odolab.text import (
+from odolab.core.text import (
     MAX_NAME_CHARS,
     UnsafeNameError,
     quote_input,

@@ -312,9 +312,9 @@ def _validation(folder: Path) -> None:
 def _scale(folder: Path) -> None:
     """Encoder logs (CSV, Parquet), a ground truth (Parquet) and an estimate (CSV) over the
     same 30 s."""
+    from odolab.core.trajectory import Trajectory
     from odolab.io import write_encoder_csv, write_trajectory_csv
     from odolab.io.encoder_csv import read_encoder_csv
-    from odolab.trajectory import Trajectory
 
     _encoder_log(folder / "log.csv")
     write_encoder_csv(folder / "log.parquet", read_encoder_csv(folder / "log.csv"))

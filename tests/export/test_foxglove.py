@@ -9,9 +9,9 @@ import pytest
 from tests.worded import raises_worded
 from websockets.sync.client import connect
 
-from odolab.errors import OdolabError
+from odolab.core.errors import OdolabError
+from odolab.core.trajectory import Pose
 from odolab.export.foxglove import FoxgloveLive, check_loopback
-from odolab.trajectory import Pose
 
 PROTOCOL = "foxglove.sdk.v1"  # foxglove-sdk 0.30 (the earlier foxglove.websocket.v1 is gone)
 
@@ -128,7 +128,7 @@ def test_robot_drive_serves_the_live_run(tmp_path) -> None:  # type: ignore[no-u
     import threading
 
     from odolab.cli import main
-    from odolab.params import PRESETS, NoiseParams, save_params
+    from odolab.core.params import PRESETS, NoiseParams, save_params
 
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

@@ -15,11 +15,11 @@ from rosbags.typesys import Stores, get_typestore
 from typer.testing import CliRunner
 
 from odolab.cli import app
+from odolab.core.odometry import integrate
+from odolab.core.params import PRESETS, NoiseParams, save_params
+from odolab.core.trials import EncoderLog
+from odolab.core.uncertainty import covariance_from_ticks
 from odolab.io import read_trajectory, write_encoder_csv, write_trajectory_csv
-from odolab.odometry import integrate
-from odolab.params import PRESETS, NoiseParams, save_params
-from odolab.trials import EncoderLog
-from odolab.uncertainty import covariance_from_ticks
 
 PARAMS = PRESETS["jaguar-lite"].with_(noise=NoiseParams(1e-4, 2e-4, k_scrub=0.01))
 
@@ -135,7 +135,7 @@ def test_notebook_campaign(tmp_path: Path) -> None:
     last = msgs["/odom"][len(trials[0].encoder_log) - 1]  # type: ignore[arg-type]
     assert last.pose.pose.position.x == pytest.approx(trials[0].predicted.x, abs=1e-9)  # type: ignore[attr-defined]
     # a campaign name that is not there is named with the ones that are
-    from odolab.errors import OdolabError
+    from odolab.core.errors import OdolabError
 
     with pytest.raises(OdolabError, match="its campaigns: translation-indoor") as err:
         runner.invoke(
@@ -199,7 +199,7 @@ def test_a_failure_while_writing_leaves_no_file(
 ) -> None:
     from mcap_ros2.writer import Writer
 
-    from odolab.errors import OdolabError
+    from odolab.core.errors import OdolabError
     from odolab.export.mcap import stream_from_run_folder, write_mcap
 
     stream = stream_from_run_folder(_run_folder(tmp_path), PARAMS)
@@ -413,11 +413,11 @@ def test_the_export_says_where_first_order_stops_holding(tmp_path: Path) -> None
 
 def test_a_slip_file_gives_odom_the_slip_models_covariance(tmp_path: Path) -> None:
     """With a slip model's parameters the /odom pose covariance is the model's predictive one
-    (odolab.slip_uncertainty, as `odometry --covariance` and `evaluate --nees` use it) and the
+    (odolab.core.slip_uncertainty, as `odometry --covariance` and `evaluate --nees` use it) and the
     twist's is each cycle's body-motion variance over dt**2; the output says which; without
     a [noise] table or a slip model it says there is none."""
-    from odolab.models import SlipModel
-    from odolab.slip_uncertainty import propagate_covariance
+    from odolab.core.models import SlipModel
+    from odolab.core.slip_uncertainty import propagate_covariance
 
     rng = np.random.default_rng(8)
     n = 160

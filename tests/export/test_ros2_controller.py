@@ -12,9 +12,9 @@ from typer.testing import CliRunner
 
 from odolab.cli import app
 from odolab.cli.wording import said
-from odolab.errors import ParamsError
+from odolab.core.errors import ParamsError
+from odolab.core.params import PRESETS, NoiseParams, RobotParams, save_params
 from odolab.export.ros2_controller import UNOBSERVED, controller_numbers, diff_drive_controller_yaml
-from odolab.params import PRESETS, NoiseParams, RobotParams, save_params
 
 NOMINAL = PRESETS["jaguar-lite"]
 CALIBRATED = NOMINAL.with_(
@@ -256,7 +256,7 @@ def test_a_horizon_past_first_order_is_said_so() -> None:
 
 
 def _slip(**coefficients: float) -> RobotParams:
-    from odolab.models import SlipModel
+    from odolab.core.models import SlipModel
 
     return NOMINAL.with_(name="slip", model=SlipModel(**coefficients))
 
@@ -298,7 +298,7 @@ def test_a_speed_dependent_slip_model_is_its_equivalent_at_the_stated_speed() ->
 def test_the_slip_models_covariance_is_its_predictive_variance_of_a_straight_run() -> None:
     import numpy as np
 
-    from odolab.slip_uncertainty import propagate_covariance
+    from odolab.core.slip_uncertainty import propagate_covariance
 
     v, f, d, w = 0.5, 50.0, 1.0, 10
     p = _slip(fwd_v=-0.1, q_fwd=2e-4, q_lat=1e-4, q_yaw=3e-4, k_fwd=1e-4, d_yaw=1e-3)

@@ -14,12 +14,12 @@ import pytest
 
 from odolab.calibration.sensor import relative_motions, robot_trajectory
 from odolab.cli import main
+from odolab.core.trajectory import Trajectory
 from odolab.io.registry import read_trajectory
 from odolab.io.scans import LaserScans, write_scan_mcap
 from odolab.sim.drives import calibration_drive
 from odolab.sim.laser import LaserDrive, room_world, simulate_laser_drive
 from odolab.sim.physics import TrueParams
-from odolab.trajectory import Trajectory
 
 MOUNT = (0.20, -0.05, 0.3)
 TRUE = (0.085, 0.082, 0.60)  # left radius, right radius, track (nominal: 0.0835, 0.0835, 0.56)

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 from tests.worded import raises_worded
 
-from odolab.errors import OdolabError
+from odolab.core.errors import OdolabError
+from odolab.core.trajectory import Trajectory
 from odolab.tracking import CameraModel, FloorMarker
 from odolab.tracking.render import look_at, render_video
 from odolab.tracking.tracker import TrackOptions, track_video
-from odolab.trajectory import Trajectory
 
 CAMERA = CameraModel(900.0, 900.0, 640.0, 360.0, 1280, 720)
 FLOOR = [

@@ -12,7 +12,7 @@ import pytest
 from tests.worded import raises_worded
 
 from odolab.cli import main
-from odolab.errors import LogFormatError
+from odolab.core.errors import LogFormatError
 from odolab.report.ground_truth import ground_truth_summary
 
 TRACK = (

@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 from odolab.calibration.scanmatch import MIN_POINTS, ScanMotions, scan_motions
 from odolab.cli import main
-from odolab.errors import CalibrationError, InsufficientDataError, LogFormatError
+from odolab.core.errors import CalibrationError, InsufficientDataError, LogFormatError
 from odolab.io import read_trajectory_csv
 from odolab.io.rosbag import read_bag
 from odolab.io.run import ReadOptions

@@ -27,14 +27,14 @@ from odolab.calibration.sensor import (
     relative_motions,
 )
 from odolab.cli import main
-from odolab.errors import CalibrationError
+from odolab.core.errors import CalibrationError
+from odolab.core.params import PRESETS
+from odolab.core.trajectory import Trajectory
+from odolab.core.trials import EncoderLog
 from odolab.io.encoder_csv import write_encoder_csv
 from odolab.io.trajectory_csv import write_trajectory
-from odolab.params import PRESETS
 from odolab.sim.drives import record_drive
 from odolab.sim.physics import TrueParams
-from odolab.trajectory import Trajectory
-from odolab.trials import EncoderLog
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 from bench_sensor_calibration import MOUNT, SIGMA, TRUE_ROBOT, clean_motions, noisy

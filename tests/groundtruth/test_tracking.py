@@ -10,17 +10,17 @@ import numpy as np
 import pytest
 
 from odolab.cli import main
+from odolab.core.params import PRESETS
+from odolab.core.trajectory import Trajectory
+from odolab.core.trials import EncoderLog
 from odolab.io.encoder_csv import write_encoder_csv
 from odolab.io.registry import read_trajectory
-from odolab.params import PRESETS
 from odolab.sim.drives import RecordedDrive, record_drive
 from odolab.sim.physics import TrueParams
 from odolab.tracking import CameraModel, FloorMarker, load_camera, save_camera, write_floor_csv
 from odolab.tracking.camera import TrackingError
 from odolab.tracking.render import look_at, render_video
 from odolab.tracking.tracker import TrackOptions, _square_fit, track_video
-from odolab.trajectory import Trajectory
-from odolab.trials import EncoderLog
 
 CAMERA = CameraModel(900.0, 900.0, 640.0, 360.0, 1280, 720)
 FLOOR = [

@@ -16,9 +16,11 @@ import pytest
 
 from odolab.cli import main
 from odolab.cli.groundtruth import OptionError, estimate_time_offset
+from odolab.core.params import PRESETS
+from odolab.core.trajectory import Trajectory
+from odolab.core.trials import EncoderLog
 from odolab.io.encoder_csv import write_encoder_csv
 from odolab.io.registry import read_trajectory
-from odolab.params import PRESETS
 from odolab.sim.drives import RecordedDrive, record_drive
 from odolab.sim.physics import TrueParams
 from odolab.tracking import CameraModel, FloorMarker, save_camera, write_floor_csv
@@ -29,8 +31,6 @@ from odolab.tracking.tracker import (
     segment_headings,
     track_video,
 )
-from odolab.trajectory import Trajectory
-from odolab.trials import EncoderLog
 
 #: a small camera and 15 fps keep the video quick to render and track
 CAMERA = CameraModel(450.0, 450.0, 320.0, 180.0, 640, 360)

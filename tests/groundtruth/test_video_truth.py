@@ -14,8 +14,8 @@ import pytest
 
 from odolab.cli import main
 from odolab.cli.groundtruth import SIM_VIDEO_TRUTH
+from odolab.core.params import PRESETS
 from odolab.io.registry import read_trajectory
-from odolab.params import PRESETS
 
 OFFSET = 2.0  # the encoder log's clock minus the video's
 

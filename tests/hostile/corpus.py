@@ -4,7 +4,7 @@ damaged pages, empty databases, a truth file with only its header, positions of 
 
 Each case writes its file(s) with odolab's own writers where it can (then damages them), so the
 corpus follows the formats; ``read`` reads them as the reader's users do. Every case must be
-refused with one :class:`odolab.errors.OdolabError` whose sentence holds ``expect`` (what, where,
+refused with one :class:`odolab.core.errors.OdolabError` whose sentence holds ``expect`` (what, where,
 what was expected). ``tests/hostile/test_corpus.py`` runs them all; a case is named
 ``reader/what``.
 """
@@ -42,8 +42,8 @@ N = 30
 
 def _encoder(suffix: str, t: np.ndarray) -> Callable[[Path], Path]:
     def make(d: Path) -> Path:
+        from odolab.core.trials import EncoderLog
         from odolab.io import write_encoder_csv
-        from odolab.trials import EncoderLog
 
         k = np.arange(t.size)
         return write_encoder_csv(d / f"enc{suffix}", EncoderLog(t, 7 * k, 9 * k, None))
@@ -133,7 +133,7 @@ def _bag(
         sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "io"))
         from bag_fixtures import write_bag  # tests/io: rosbags' own writers
 
-        from odolab.trajectory import Trajectory
+        from odolab.core.trajectory import Trajectory
 
         tt = 100.0 + 0.05 * np.arange(N) if t is None else t
         k = np.arange(N)

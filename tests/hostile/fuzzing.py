@@ -1,5 +1,5 @@
 """Seeded byte-mutation fuzzing of every reader: valid files, mutated, read; only an
-:class:`odolab.errors.OdolabError` or success is allowed.
+:class:`odolab.core.errors.OdolabError` or success is allowed.
 
 Used by ``tests/hostile/test_fuzz_readers.py`` (a fixed, small budget in CI) and by
 ``benchmarks/bench_fuzz.py`` (minutes). Each target writes valid seed files with odolab's (or
@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from odolab.errors import OdolabError
+from odolab.core.errors import OdolabError
 
 __all__ = ["TARGETS", "Target", "foreign", "mutate", "prepare", "run_case", "try_case"]
 
@@ -168,7 +168,7 @@ def _drive(n: int = 40) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def _trajectory(n: int = 40):  # type: ignore[no-untyped-def]
-    from odolab.trajectory import Trajectory
+    from odolab.core.trajectory import Trajectory
 
     t = 0.1 * np.arange(n)
     return Trajectory.from_xytheta(t, np.cos(t), np.sin(t), 0.3 * t)
@@ -176,8 +176,8 @@ def _trajectory(n: int = 40):  # type: ignore[no-untyped-def]
 
 def _encoder(suffix: str) -> Callable[[Path], tuple[Path, Path]]:
     def make(d: Path) -> tuple[Path, Path]:
+        from odolab.core.trials import EncoderLog
         from odolab.io import write_encoder_csv
-        from odolab.trials import EncoderLog
 
         t, left, right = _drive()
         p = write_encoder_csv(d / f"enc{suffix}", EncoderLog(t, left, right, None))
@@ -202,8 +202,8 @@ def _traj(suffix: str) -> Callable[[Path], tuple[Path, Path]]:
 
 
 def _csv_run(d: Path) -> tuple[Path, Path]:
+    from odolab.core.trials import EncoderLog
     from odolab.io import write_encoder_csv, write_tum
-    from odolab.trials import EncoderLog
 
     t, left, right = _drive()
     p = write_encoder_csv(d / "run.csv", EncoderLog(t, left, right, None))
@@ -249,7 +249,7 @@ def _optiodom(which: str) -> Callable[[Path], tuple[Path, Path]]:
 
 
 def _params(d: Path) -> tuple[Path, Path]:
-    from odolab.params import PRESETS, NoiseParams, save_params
+    from odolab.core.params import PRESETS, NoiseParams, save_params
 
     p = save_params(
         d / "robot.toml",
@@ -420,7 +420,7 @@ def _read_sensorlog(p: Path) -> object:
 
 
 def _read_params(p: Path) -> object:
-    from odolab.params import load_params
+    from odolab.core.params import load_params
 
     return load_params(p)
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from hostile.corpus import CASES, prepare
-from odolab.errors import OdolabError
+from odolab.core.errors import OdolabError
 
 
 @pytest.mark.parametrize("name", sorted(CASES))

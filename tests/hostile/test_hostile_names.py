@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from odolab.cli import main
-from odolab.params import PRESETS
+from odolab.core.params import PRESETS
+from odolab.core.trials import TrialStatus
 from odolab.store import Notebook
-from odolab.trials import TrialStatus
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "analysis"))
 from synth_trials import rotation_trials, translation_trials
@@ -261,7 +261,7 @@ def test_params_show_stays_toml_and_obeys_nothing(
 
     name = f"jag{ANSI}\u0085uar\tlite"
     source = tmp_path / "p.toml"
-    from odolab.params import save_params
+    from odolab.core.params import save_params
 
     save_params(source, PRESETS["jaguar-lite"].with_(name=name))
     assert tomllib.loads(source.read_text())["robot"]["name"] == name

@@ -8,10 +8,8 @@ from pathlib import Path
 
 import pytest
 
-import odolab.io
-import odolab.odometry  # noqa: F401  (imported now: the memory measured is the command's)
 from odolab.cli import main
-from odolab.errors import LogFormatError
+from odolab.core.errors import LogFormatError
 from odolab.io.limits import MAX_LINE_BYTES, check_text_file
 
 GIB = 1 << 30

@@ -1,8 +1,8 @@
-"""A symbolic link planted at an output path is replaced, never followed (odolab.writing).
+"""A symbolic link planted at an output path is replaced, never followed (odolab.core.writing).
 
 Each test plants a link at the name a writer is about to write, pointing at a file outside the
 output folder, and checks that the file outside is byte for byte unchanged afterwards while the
-output folder holds the new file. On the code before odolab.writing, every writer opened its path
+output folder holds the new file. On the code before odolab.core.writing, every writer opened its path
 with ``write_text``/``open("w")``/``savefig(path)``, which follow the link and overwrite the file
 outside.
 """
@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 
 from odolab.cli import main
-from odolab.errors import OdolabError, StoreError
-from odolab.writing import (
+from odolab.core.errors import OdolabError, StoreError
+from odolab.core.writing import (
     OutputFileError,
     replacing_file,
     replacing_path,

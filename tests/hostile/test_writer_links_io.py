@@ -11,13 +11,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from odolab.core.params import PRESETS, save_params
+from odolab.core.trajectory import Trajectory
+from odolab.core.trials import EncoderLog
 from odolab.io.chunked import integrate_file
 from odolab.io.encoder_csv import write_encoder_csv
 from odolab.io.sensorlog import write_sensorlog
 from odolab.io.trajectory_csv import write_trajectory_csv, write_tum
-from odolab.params import PRESETS, save_params
-from odolab.trajectory import Trajectory
-from odolab.trials import EncoderLog
 
 SECRET = b"not odolab's to change\n"
 

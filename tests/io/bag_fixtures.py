@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from odolab.trajectory import Trajectory
+from odolab.core.trajectory import Trajectory
 
 
 def _stamp(types: dict, t: float):  # type: ignore[no-untyped-def]

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from odolab.errors import LogFormatError
+from odolab.core.errors import LogFormatError
 from odolab.io._table import _csv_lines, _plain_numbers, read_numeric_columns
 
 HEADER = ["a", "b", "c"]

@@ -8,7 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from odolab.errors import LogFormatError
+from odolab.core.errors import LogFormatError
+from odolab.core.params import RobotParams
+from odolab.core.trajectory import Trajectory
 from odolab.io import (
     READERS,
     LogFormat,
@@ -19,8 +21,6 @@ from odolab.io import (
     read_trajectory,
     write_trajectory,
 )
-from odolab.params import RobotParams
-from odolab.trajectory import Trajectory
 
 PARAMS = RobotParams(
     left_wheel_radius=0.05,

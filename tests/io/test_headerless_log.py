@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 from tests.worded import raises_worded
 
-from odolab.errors import LogFormatError
+from odolab.core.errors import LogFormatError
 from odolab.io import read_encoder_csv
 from odolab.io.chunked import iter_encoder_chunks
 

@@ -18,10 +18,10 @@ import pytest
 from tests.docs.test_documented_commands import _env, _in_process, _words, documented_lines
 from tests.shared_data import require
 
+from odolab.core.params import PRESETS
 from odolab.io import find_runs, read_run
 from odolab.io.run import ReadOptions
 from odolab.metrics.runs import RUN_OPTIONS, evaluate_run
-from odolab.params import PRESETS
 
 pytestmark = pytest.mark.slow
 

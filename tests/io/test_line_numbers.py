@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from odolab.errors import LogFormatError
+from odolab.core.errors import LogFormatError
 from odolab.io.encoder_csv import read_encoder_csv
 from odolab.io.trajectory_csv import read_trajectory_csv, read_tum
 
@@ -69,10 +69,10 @@ def test_a_folder_is_refused_in_one_sentence(tmp_path: Path, reader: object) -> 
 def test_writing_to_a_folder_is_one_sentence(tmp_path: Path) -> None:
     import numpy as np
 
-    from odolab.errors import ParamsError
+    from odolab.core.errors import ParamsError
+    from odolab.core.params import PRESETS, save_params
+    from odolab.core.trajectory import Trajectory
     from odolab.io.trajectory_csv import write_trajectory_csv, write_tum
-    from odolab.params import PRESETS, save_params
-    from odolab.trajectory import Trajectory
 
     traj = Trajectory.from_xyh(np.array([0.0, 1.0]), np.zeros(2), np.zeros(2), np.zeros(2))
     with pytest.raises(

@@ -11,13 +11,13 @@ import pytest
 
 import shared_data
 from odolab.cli import main
-from odolab.errors import LogFormatError
+from odolab.core.errors import LogFormatError
+from odolab.core.params import PRESETS
 from odolab.io import read_bag, read_bag_trajectory
 from odolab.io.rosbag import increments_from_odometry
 from odolab.io.run import ReadOptions
 from odolab.metrics import evaluate
 from odolab.metrics.runs import RUN_OPTIONS
-from odolab.params import PRESETS
 
 
 @pytest.fixture(scope="module")
@@ -27,7 +27,7 @@ def nav2() -> Path:
 
 def test_increments_give_the_odometry_back() -> None:
     """Wheel turns -> odometry (midpoint) -> wheel turns: the same turns, to rounding."""
-    from odolab.odometry import integrate_increments
+    from odolab.core.odometry import integrate_increments
 
     rng = np.random.default_rng(30)
     t = np.arange(200) * 0.05

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from odolab.errors import LogFormatError
+from odolab.core.errors import LogFormatError
 from odolab.io import LogFormat, find_optiodom_runs, find_runs, read_optiodom_run, read_run
 
 

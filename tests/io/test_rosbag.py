@@ -10,11 +10,11 @@ import pytest
 from bag_fixtures import write_bag
 
 from odolab.calibration.lsq import LsqOptions, calibrate_lsq
-from odolab.errors import LogFormatError
+from odolab.core.errors import LogFormatError
+from odolab.core.odometry import integrate_increments
+from odolab.core.params import RobotParams
 from odolab.io import LogFormat, ReadOptions, bag_topics, find_runs, read_bag, read_run
 from odolab.metrics import evaluate_run
-from odolab.odometry import integrate_increments
-from odolab.params import RobotParams
 
 TRUE = RobotParams(
     left_wheel_radius=0.101,
@@ -114,7 +114,7 @@ def test_cli_on_a_bag(bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[s
     import json
 
     from odolab.cli import main
-    from odolab.params import load_params, save_params
+    from odolab.core.params import load_params, save_params
 
     nominal = save_params(tmp_path / "nominal.toml", NOMINAL)
     out = tmp_path / "eval.json"
@@ -150,8 +150,8 @@ def test_calibrate_a_bag_without_ground_truth_from_a_csv_one(
 ) -> None:
     # a bag of wheel angles only, and the path from a tracker as a CSV trajectory
     from odolab.cli import main
+    from odolab.core.params import load_params, save_params
     from odolab.io.trajectory_csv import write_trajectory
-    from odolab.params import load_params, save_params
 
     t, left, right = drive()
     gt = integrate_increments(t, np.diff(left, prepend=0.0), np.diff(right, prepend=0.0), TRUE)

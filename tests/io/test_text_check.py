@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from odolab.errors import LogFormatError
+from odolab.core.errors import LogFormatError
 from odolab.io import limits
 
 

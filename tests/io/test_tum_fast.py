@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from odolab.errors import LogFormatError
+from odolab.core.errors import LogFormatError
 from odolab.io._table import _careful_whitespace, _fast_headerless
 from odolab.io.trajectory_csv import TUM_COLUMNS, read_tum
 

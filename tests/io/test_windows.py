@@ -13,13 +13,13 @@ from tests.shared_data import require
 
 from odolab.calibration.lsq import LsqOptions, calibrate_lsq, prepare_run
 from odolab.cli import main
-from odolab.errors import InsufficientDataError, LogFormatError
+from odolab.core.errors import InsufficientDataError, LogFormatError
+from odolab.core.params import NoiseParams, RobotParams, save_params
 from odolab.io import find_runs, read_run
 from odolab.io.registry import detect_format
 from odolab.io.run import ReadOptions
 from odolab.io.windows import read_window_run, truth_updates, wheel_angles
 from odolab.metrics.consistency import choose_nees_piece, nees_of_runs
-from odolab.params import NoiseParams, RobotParams, save_params
 
 HEADER = "window,calib_step,t,left_wheel_vel,right_wheel_vel,icp_x,icp_y,icp_yaw,imu_yaw\n"
 

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
+from odolab.app.demo import LAB_REPORT_TABLE1, LAB_REPORT_Y_SIGMA, pooled_y_sigmas, run_lab
 from odolab.cli import main
-from odolab.lab import LAB_REPORT_TABLE1, LAB_REPORT_Y_SIGMA, pooled_y_sigmas, run_lab
 
 
 @pytest.fixture(scope="module")
@@ -105,7 +105,7 @@ def test_demo_rejects_unknown_truth(tmp_path: Path, capsys: pytest.CaptureFixtur
 def test_demo_bad_out_and_seed_are_one_line(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from odolab.errors import OdolabError
+    from odolab.core.errors import OdolabError
 
     a_file = tmp_path / "not-a-folder"
     a_file.write_text("x")
@@ -164,7 +164,7 @@ def test_analyze_on_the_demo_notebook_reproduces_the_demos_table1(
     calib = ["calibrate", "ratios", "-p", "jaguar-lite", "--db", str(result.notebook)]
     assert main([*calib, "-o", str(new)]) == 0
     assert "left out: imu-validation" in capsys.readouterr().out
-    from odolab.params import load_params
+    from odolab.core.params import load_params
 
     assert (
         load_params(str(new)).track_width
@@ -265,7 +265,7 @@ def test_demo_compares_the_models_and_checks_the_covariance(lab) -> None:  # typ
     # (pooled, both were 0.0247 m and k_scrub 0). The runs with ground truth still leave the
     # covariance too small: the ratios calibration cannot express the virtual Jaguar's
     # direction-dependent radii, a systematic error no noise constant describes.
-    from odolab.params import load_params
+    from odolab.core.params import load_params
 
     noise = load_params(result.params_files["ratios"]).noise
     assert noise is not None and 0 < noise.k_left < 1e-3 and 0 < noise.k_right < 1e-3
@@ -300,7 +300,7 @@ def test_every_face_gives_the_demos_table1_and_ratios_calibration(lab, tmp_path:
         table_of,
     )
 
-    from odolab.params import load_params
+    from odolab.core.params import load_params
 
     result, _ = lab
     db = tmp_path / "copy.db"  # the faces record calibrations: not in the module's notebook

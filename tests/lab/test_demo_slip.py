@@ -15,10 +15,10 @@ from typing import Any
 import pytest
 
 from fixture_cache import slip_fits_once
-from odolab import numfmt
+from odolab.app.demo import LabResult
 from odolab.app.models import CURVE_SECONDS, SLIP_MODELS
 from odolab.cli import main
-from odolab.lab import LabResult
+from odolab.core import numfmt
 
 #: `make test-fast` leaves these out (the tracked demo); `make test` and CI run them
 pytestmark = pytest.mark.slow

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 from metrics_drives import noisy_copy, random_drive
 
-from odolab.trajectory import Trajectory
+from odolab.core.trajectory import Trajectory
 
 
 @pytest.fixture

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from odolab.trajectory import Trajectory
+from odolab.core.trajectory import Trajectory
 
 
 def random_drive(n: int, seed: int, *, t0: float = 0.0, dt: float = 0.05) -> Trajectory:

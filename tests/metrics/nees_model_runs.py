@@ -11,9 +11,9 @@ import math
 
 import numpy as np
 
+from odolab.core.params import PRESETS, NoiseParams
+from odolab.core.trajectory import Trajectory
 from odolab.io.run import OdometryRun
-from odolab.params import PRESETS, NoiseParams
-from odolab.trajectory import Trajectory
 
 NOMINAL = PRESETS["jaguar-lite"]
 MODEL_NOISE = NoiseParams(k_left=2e-4, k_right=1e-4, k_scrub=0.004)

@@ -10,7 +10,7 @@ import pytest
 
 import odolab.calibration.compare as compare
 from odolab.cli import main
-from odolab.errors import OdolabError
+from odolab.core.errors import OdolabError
 
 
 class _Seen(OdolabError):

@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 
 from odolab.cli.wording import worded
-from odolab.errors import InsufficientDataError, OdolabError
+from odolab.core.errors import InsufficientDataError, OdolabError
+from odolab.core.params import PRESETS, NoiseParams, save_params
+from odolab.core.trajectory import Trajectory
 from odolab.io.registry import find_runs, read_run
 from odolab.io.run import OdometryRun
 from odolab.metrics.consistency import fit_noise_scale, nees_summary, run_nees
-from odolab.params import PRESETS, NoiseParams, save_params
 from odolab.sim.physics import TrueParams, VirtualRobot
-from odolab.trajectory import Trajectory
 
 NOMINAL = PRESETS["jaguar-lite"]
 NOISE = NoiseParams(k_left=1e-4, k_right=5e-5, k_scrub=0.0025)
@@ -118,7 +118,7 @@ def test_cli_fits_noise_and_judges_held_out_runs(optiodom_dir, tmp_path) -> None
     from typer.testing import CliRunner
 
     from odolab.cli import app
-    from odolab.params import load_params
+    from odolab.core.params import load_params
 
     sessions = sorted((optiodom_dir / "square").iterdir())
     train, held = sessions[0], sessions[1]
@@ -279,7 +279,7 @@ def test_pieces_past_first_order_are_counted() -> None:
     from nees_model_runs import NOMINAL as NOM
     from nees_model_runs import model_run
 
-    from odolab.uncertainty import SECOND_ORDER_LIMIT
+    from odolab.core.uncertainty import SECOND_ORDER_LIMIT
 
     runs = [model_run(seed, turning=False) for seed in range(2)]
     noisy = NOM.with_(noise=NoiseParams(1e-2, 1e-2))

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from metrics_drives import random_drive
 
+from odolab.core.trajectory import Trajectory
 from odolab.metrics import (
     Alignment,
     DeltaUnit,
@@ -16,7 +17,6 @@ from odolab.metrics import (
     associate,
     evaluate,
 )
-from odolab.trajectory import Trajectory
 
 evo_metrics = pytest.importorskip("evo.core.metrics")
 from evo.core import sync as evo_sync  # noqa: E402

@@ -19,9 +19,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from odolab.core.trajectory import Trajectory
 from odolab.io import read_tum
 from odolab.metrics import Alignment, DeltaUnit, EvaluationOptions, evaluate
-from odolab.trajectory import Trajectory
 from shared_data import data_dir, require
 
 evo_metrics = pytest.importorskip("evo.core.metrics")

@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 
 from odolab.cli import main
-from odolab.defaults import LogFormat
-from odolab.errors import LogFormatError
+from odolab.core.defaults import LogFormat
+from odolab.core.errors import LogFormatError
+from odolab.core.odometry import integrate_increments
+from odolab.core.params import PRESETS, load_params
 from odolab.io import write_trajectory
 from odolab.io.registry import detect_format
-from odolab.odometry import integrate_increments
-from odolab.params import PRESETS, load_params
 
 
 def _csv_runs(folder: Path) -> Path:

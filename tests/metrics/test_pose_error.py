@@ -10,7 +10,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 from metrics_drives import noisy_copy, random_drive
 
-from odolab.errors import InsufficientDataError
+from odolab.core.errors import InsufficientDataError
+from odolab.core.trajectory import Trajectory
 from odolab.metrics import (
     Alignment,
     DeltaUnit,
@@ -25,7 +26,6 @@ from odolab.metrics import (
     stats_from_errors,
     transform_trajectory,
 )
-from odolab.trajectory import Trajectory
 
 
 def test_stats_by_hand() -> None:

@@ -12,6 +12,7 @@ import pytest
 from metrics_drives import random_drive
 
 from odolab.cli.wording import said
+from odolab.core.trajectory import Trajectory
 from odolab.io.registry import LogFormat, read_run
 from odolab.metrics import (
     RUN_OPTIONS,
@@ -21,7 +22,6 @@ from odolab.metrics import (
     evaluate_run,
     pair_indices,
 )
-from odolab.trajectory import Trajectory
 
 evo_metrics = pytest.importorskip("evo.core.metrics")
 from evo.core import filters, lie_algebra  # noqa: E402

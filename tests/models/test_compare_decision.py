@@ -21,12 +21,12 @@ from odolab.calibration.compare import (
     compare_models,
     segment_errors,
 )
+from odolab.core.params import PRESETS
+from odolab.core.trajectory import Trajectory
 from odolab.io.run import OdometryRun
-from odolab.params import PRESETS
 from odolab.sim.drives import Leg, drive, random_legs
 from odolab.sim.physics import TrueParams
 from odolab.sim.presets import TRUTH_PRESETS
-from odolab.trajectory import Trajectory
 
 NOMINAL = PRESETS["jaguar-lite"]
 _LAB = TRUTH_PRESETS["jaguar-lab-tracked"]

@@ -12,7 +12,7 @@ from tests.arch.test_strict_json import strict_loads
 from tests.io.test_windows import _write_table
 
 from odolab.cli import main
-from odolab.params import RobotParams, save_params
+from odolab.core.params import RobotParams, save_params
 
 
 @pytest.fixture

@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from odolab.errors import SimError
-from odolab.odometry import integrate_increments
-from odolab.params import PRESETS
+from odolab.core.errors import SimError
+from odolab.core.odometry import integrate_increments
+from odolab.core.params import PRESETS
 from odolab.sim.explore import ExploreSettings, explore, sample_command
 from odolab.sim.presets import TRUTH_PRESETS
 
@@ -57,7 +57,7 @@ def test_bad_settings_are_one_sentence() -> None:
 
 
 def _drive_motion(motion, truth, seconds: float, rate: float = 20.0):  # type: ignore[no-untyped-def]
-    from odolab.odometry import Odometry
+    from odolab.core.odometry import Odometry
     from odolab.sim.physics import VirtualRobot
 
     robot = VirtualRobot(truth, NOMINAL, "tile", seed=1, dt=0.005)
@@ -88,7 +88,7 @@ def test_live_exploration_motion_stays_inside_and_stops_at_the_fence() -> None:
     assert poses[-1].t == pytest.approx(30.0, abs=0.06)  # ran its time, then stopped
     assert not motion.fence_crossed and r.max() < 2.0 and r.max() > 0.8
     # the fence is a hard limit: the cycle that finds the robot outside it stops it
-    from odolab.trajectory import Pose
+    from odolab.core.trajectory import Pose
 
     fenced = Explore(seconds=30.0, fence_radius=1.0, seed=4)
     fenced.start(Pose(0.0, 1.0, 2.0, 0.0, 0.0), NOMINAL)

@@ -11,14 +11,14 @@ import pytest
 from odolab.calibration.compare import compare_models
 from odolab.calibration.lsq import LsqOptions, calibrate_lsq
 from odolab.cli import main
-from odolab.errors import CalibrationError
+from odolab.core.errors import CalibrationError
+from odolab.core.models import IcrModel
+from odolab.core.params import PRESETS, load_params
+from odolab.core.trajectory import Trajectory
 from odolab.io.run import OdometryRun
-from odolab.models import IcrModel
-from odolab.params import PRESETS, load_params
 from odolab.sim.drives import Leg, drive, random_legs
 from odolab.sim.physics import TrueParams
 from odolab.sim.presets import TRUTH_PRESETS
-from odolab.trajectory import Trajectory
 
 NOMINAL = PRESETS["jaguar-lite"]
 _LAB = TRUTH_PRESETS["jaguar-lab-tracked"]

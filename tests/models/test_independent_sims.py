@@ -59,10 +59,10 @@ import pytest
 from fixture_cache import cached, slip_fits_once
 from odolab.calibration.slipfit import nees_bounds, nees_pieces
 from odolab.cli import main
+from odolab.core.models import SlipModel
+from odolab.core.odometry import integrate_increments
+from odolab.core.params import PRESETS, load_params
 from odolab.io.registry import read_run
-from odolab.models import SlipModel
-from odolab.odometry import integrate_increments
-from odolab.params import PRESETS, load_params
 
 from .independent_sims import (
     METRES_PER_TICK,

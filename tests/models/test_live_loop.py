@@ -7,12 +7,12 @@ from pathlib import Path
 
 import pytest
 
-from odolab.models import ExtendedDiffDrive, IcrModel
-from odolab.params import PRESETS, load_params
+from odolab.core.models import ExtendedDiffDrive, IcrModel
+from odolab.core.params import PRESETS, load_params
+from odolab.core.trials import Command, MotionKind
 from odolab.robot.session import run_motion_simulated
 from odolab.sim.physics import TrueParams
 from odolab.sim.plants import make_plant
-from odolab.trials import Command, MotionKind
 
 NOMINAL = PRESETS["jaguar-lite"]
 ICR = IcrModel(0.31, -0.27, 0.04)

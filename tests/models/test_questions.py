@@ -14,9 +14,9 @@ from odolab.analysis.questions import (
     parse_experiment,
     run_experiment,
 )
-from odolab.errors import SimError
-from odolab.models import ExtendedDiffDrive, IcrModel, KinematicModel
-from odolab.params import PRESETS
+from odolab.core.errors import SimError
+from odolab.core.models import ExtendedDiffDrive, IcrModel, KinematicModel
+from odolab.core.params import PRESETS
 from odolab.sim.physics import TrueParams
 from odolab.sim.presets import TRUTH_PRESETS
 

@@ -8,7 +8,7 @@ import numpy as np
 
 from odolab.analysis.questions import load_experiment, run_experiment
 from odolab.calibration.compare import compare_models
-from odolab.params import PRESETS
+from odolab.core.params import PRESETS
 from odolab.report.models_section import (
     models_section_html,
     plot_model_comparison,

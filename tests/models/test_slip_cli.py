@@ -69,8 +69,8 @@ def _explore_and_fit(tmp_path: Path, seed: int, seconds: int = 30) -> tuple[Path
 def test_calibrate_lsq_model_slip_writes_a_loadable_file(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from odolab.models import SlipModel
-    from odolab.params import load_params
+    from odolab.core.models import SlipModel
+    from odolab.core.params import load_params
 
     _, out = _explore_and_fit(tmp_path, 3)
     params = load_params(out)
@@ -85,8 +85,8 @@ def test_odometry_covariance_with_a_slip_model_is_its_predictive_variance(
     import numpy as np
 
     from odolab.calibration.slipfit import propagate_covariance
+    from odolab.core.params import load_params
     from odolab.io.tabular import read_columns
-    from odolab.params import load_params
 
     run, params = _explore_and_fit(tmp_path, 4)
     inc = read_columns(run / "explore.csv", ("t", "dticks_left", "dticks_right"))
@@ -135,8 +135,8 @@ def test_evaluate_nees_uses_the_slip_models_predictive_variance(
     import numpy as np
 
     from odolab.calibration.slipfit import nees_pieces
+    from odolab.core.params import load_params
     from odolab.io.registry import read_run
-    from odolab.params import load_params
 
     run, params = _explore_and_fit(tmp_path, 5, seconds=40)
     assert main(["sim", "explore", "-o", str(run), "--seconds", "30", "--seed", "6",
@@ -221,7 +221,7 @@ def test_new_parameters_never_replace_the_params_file(
 ) -> None:
     """`robot explore` printed `... -p slip.toml --model slip -o slip.toml`: run as printed, it
     replaced the user's calibrated file (found by a hostile-input review)."""
-    from odolab.params import PRESETS, save_params
+    from odolab.core.params import PRESETS, save_params
 
     run = tmp_path / "run"
     assert main(["sim", "explore", "-o", str(run), "--seconds", "5", "--seed", "1"]) == 0

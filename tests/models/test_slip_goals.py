@@ -13,14 +13,14 @@ from fixture_cache import memo
 from odolab.calibration.compare import compare_models, learning_curve
 from odolab.calibration.lsq import LsqOptions, calibrate_lsq
 from odolab.calibration.slipfit import endpoint_error
+from odolab.core.models import SlipModel
+from odolab.core.params import PRESETS, RobotParams
+from odolab.core.trajectory import Trajectory
 from odolab.io.run import OdometryRun
-from odolab.models import SlipModel
-from odolab.params import PRESETS, RobotParams
 from odolab.sim.drives import Drive, drive, random_legs
 from odolab.sim.explore import ExploreSettings, explore
 from odolab.sim.physics import TrueParams
 from odolab.sim.presets import TRUTH_PRESETS
-from odolab.trajectory import Trajectory
 
 NOMINAL = PRESETS["jaguar-lite"]
 TRACKED = TRUTH_PRESETS["jaguar-lab-tracked"]

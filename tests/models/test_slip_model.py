@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 
 from odolab.calibration.lsq import LsqOptions, calibrate_lsq
-from odolab.errors import ParamsError
+from odolab.core.errors import ParamsError
+from odolab.core.models import SlipModel, model_from_mapping
+from odolab.core.odometry import Odometry, integrate, integrate_increments
+from odolab.core.params import PRESETS
+from odolab.core.trajectory import Trajectory
 from odolab.io.run import OdometryRun
-from odolab.models import SlipModel, model_from_mapping
-from odolab.odometry import Odometry, integrate, integrate_increments
-from odolab.params import PRESETS
 from odolab.sim.drives import drive, random_legs
 from odolab.sim.physics import TrueParams
-from odolab.trajectory import Trajectory
 
 NOMINAL = PRESETS["jaguar-lite"]
 #: a robot that loses 20 % of its wheel speed per m/s and turns as if 25 % wider; little noise
@@ -148,7 +148,7 @@ def test_the_posterior_goes_through_the_parameters_file(tmp_path) -> None:  # ty
     # the predictive variance of a model read back is the fit's: on a straight the heading's
     # variance comes from the coefficients' posterior (the noise terms hold turning only)
     from odolab.calibration.slipfit import propagate_covariance
-    from odolab.params import load_params, save_params
+    from odolab.core.params import load_params, save_params
 
     fit = calibrate_lsq([_run(SPEEDY, 1, 30, 1.0)], NOMINAL, LsqOptions(model="slip"))
     path = save_params(tmp_path / "slip.toml", fit.params)
@@ -171,7 +171,7 @@ def test_a_run_never_in_steady_state_is_fitted_on_all_its_windows() -> None:
     # (it said "no motion with ground truth" before)
     from odolab.calibration.lsq import prepare_run
     from odolab.calibration.slipfit import first_seconds, slip_design
-    from odolab.errors import InsufficientDataError
+    from odolab.core.errors import InsufficientDataError
     from odolab.sim.drives import Leg
 
     plan = [Leg(0.6, 0.2, 0.5) if k % 2 else Leg(0.2, 0.6, 0.5) for k in range(60)]
@@ -218,7 +218,7 @@ def test_a_covariance_that_is_none_is_refused(changes: dict[str, object], messag
 
 
 def test_the_covariance_says_whether_the_file_has_its_posterior() -> None:
-    from odolab.slip_uncertainty import describe_covariance
+    from odolab.core.slip_uncertainty import describe_covariance
 
     assert "and its coefficients' posterior" in describe_covariance(
         SlipModel(posterior=_posterior())

@@ -11,9 +11,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from odolab.calibration.lsq import FIT_MODELS
-from odolab.errors import ParamsError, SimError
-from odolab.kinematics import body_motion
-from odolab.models import (
+from odolab.core.errors import ParamsError, SimError
+from odolab.core.kinematics import body_motion
+from odolab.core.models import (
     DIFF_DRIVE,
     MODELS,
     ExtendedDiffDrive,
@@ -21,8 +21,8 @@ from odolab.models import (
     KinematicModel,
     model_from_mapping,
 )
-from odolab.odometry import Odometry, integrate_increments
-from odolab.params import PRESETS, load_params, plausible_range, save_params
+from odolab.core.odometry import Odometry, integrate_increments
+from odolab.core.params import PRESETS, load_params, plausible_range, save_params
 from odolab.sim.physics import TrueParams, VirtualRobot
 
 NOMINAL = PRESETS["jaguar-lite"]

@@ -10,8 +10,8 @@ from typing import Any
 import pytest
 
 from odolab.cli import main
-from odolab.models import IcrModel
-from odolab.params import PRESETS
+from odolab.core.models import IcrModel
+from odolab.core.params import PRESETS
 from odolab.sim.presets import LAB_REPORT_SEED, TRUTH_PRESETS, TrackedSlip
 from odolab.sim.protocols import load_protocol, run_protocol
 from sim.table1 import TABLE_I, misses, table1
@@ -68,7 +68,7 @@ def test_cli_sim_questions(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
 
 
 def test_the_demo_on_the_tracked_jaguar_still_gives_table_1(tracked_demo: Any) -> None:
-    from odolab.lab import LAB_REPORT_TABLE1, LAB_REPORT_Y_SIGMA, pooled_y_sigmas
+    from odolab.app.demo import LAB_REPORT_TABLE1, LAB_REPORT_Y_SIGMA, pooled_y_sigmas
 
     result = tracked_demo
     rows = {(r["motion"], r["terrain"]): r for r in result.table1}

@@ -22,10 +22,10 @@ from typing import Any
 
 import numpy as np
 
-from odolab.params import RobotParams
+from odolab.core.params import RobotParams
+from odolab.core.trials import MotionKind, Trial, TrialStatus
 from odolab.sim.protocols import parse_protocol, run_protocol
 from odolab.store import Notebook, write_trials_csv
-from odolab.trials import MotionKind, Trial, TrialStatus
 
 from .notebooks import ROBOT_A, ROBOT_B, _truth
 
@@ -73,8 +73,8 @@ def _sim(campaign: str, sets: list[dict[str, Any]], robot: RobotParams, seed: in
 def _open_growth_trials(robot: RobotParams, tag: str) -> list[Trial]:
     """Six straight runs at 1 m and 1.25 m, forward (rng seed 1, as tests/parity's item 3):
     y_forward's growth exponent stops at -3, its interval open below."""
-    from odolab.trajectory import Pose
-    from odolab.trials import Command, Measurement
+    from odolab.core.trajectory import Pose
+    from odolab.core.trials import Command, Measurement
 
     rng = np.random.default_rng(1)
     out = []

@@ -16,12 +16,12 @@ from typing import Any
 
 import numpy as np
 
-from odolab.params import PRESETS, RobotParams
+from odolab.core.params import PRESETS, RobotParams
+from odolab.core.trials import Trial
 from odolab.sim.physics import TrueParams
 from odolab.sim.presets import TRUTH_PRESETS
 from odolab.sim.protocols import parse_protocol, run_protocol
 from odolab.store import Notebook
-from odolab.trials import Trial
 
 ROBOT_A = PRESETS["jaguar-lite"]
 ROBOT_B = ROBOT_A.with_(

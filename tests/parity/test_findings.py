@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from odolab.cli import main
-from odolab.params import PRESETS, load_params
+from odolab.core.params import PRESETS, load_params
 from odolab.store import Notebook
 
 from .faces import cli, client, csrf_of, geometry, page_calibration, table_of
@@ -68,8 +68,8 @@ def test_2_the_web_leaves_the_validation_campaign_out_as_the_cli(tmp_path: Path)
 
 def _log(path: Path, params: object) -> Path:
     """A short curved run's encoder log (raw counters)."""
+    from odolab.core.trials import EncoderLog
     from odolab.io import write_encoder_csv
-    from odolab.trials import EncoderLog
 
     t = np.linspace(0.0, 5.0, 101)
     left = np.round(400.0 * t).astype(np.int64)
@@ -80,7 +80,7 @@ def _log(path: Path, params: object) -> Path:
 def test_3_odometry_says_which_parameters_and_takes_the_logs_own(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from odolab.odometry import integrate
+    from odolab.core.odometry import integrate
 
     log = _log(tmp_path / "log.csv", None)
     assert main(["odometry", str(log), "-o", str(tmp_path / "a.csv")]) == 0
@@ -105,7 +105,7 @@ def test_3_odometry_says_which_parameters_and_takes_the_logs_own(
     assert math.isclose(got.x, want.x, abs_tol=1e-9) and math.isclose(got.y, want.y, abs_tol=1e-9)
     # the user's --params win over the log's, and the file is named
     toml = tmp_path / "p.toml"
-    from odolab.params import save_params
+    from odolab.core.params import save_params
 
     save_params(toml, PRESETS["jaguar-lite"], provenance={"notebook_version": 3, "method": "x"})
     assert main(["odometry", str(enc), "-p", str(toml), "-o", str(tmp_path / "c.csv")]) == 0

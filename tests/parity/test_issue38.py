@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from odolab.cli import main
-from odolab.errors import CalibrationError
+from odolab.core.errors import CalibrationError
 
 from .faces import cli, cli_json
 
@@ -110,9 +110,9 @@ def test_1_a_contradiction_is_refused_with_its_line(
 def test_1_the_direction_word_in_any_case_and_on_the_write_path(tmp_path: Path) -> None:
     from dataclasses import replace
 
-    from odolab.errors import InvalidTrialError
+    from odolab.core.errors import InvalidTrialError
+    from odolab.core.trials import Command, MotionKind, signed_command, validate_trial
     from odolab.store.notebook import Notebook
-    from odolab.trials import Command, MotionKind, signed_command, validate_trial
 
     for word in ("Reverse", "REVERSE", " reverse "):
         cmd = Command(MotionKind.TRANSLATION, distance=1.0, direction=word)
@@ -281,8 +281,8 @@ def test_4_an_awaiting_robot_is_not_a_selected_robot(tmp_path: Path) -> None:
 
     from odolab.app.calibration import choose_robot
     from odolab.app.selection import select_among, validation_campaigns
+    from odolab.core.trials import TrialStatus
     from odolab.store.notebook import Notebook
-    from odolab.trials import TrialStatus
 
     from .notebooks import make_notebook
 
@@ -335,7 +335,7 @@ def test_5_umbmark_gives_one_answer_and_its_interval(tmp_path: Path) -> None:
 
 def test_5_umbmarks_interval_holds_its_value() -> None:
     from odolab.calibration import umbmark
-    from odolab.params import PRESETS
+    from odolab.core.params import PRESETS
     from odolab.report.view import _calibration_rows
 
     rng = np.random.default_rng(5)
@@ -357,7 +357,7 @@ def test_6_an_export_of_the_same_preset_imports(
     """Two notebooks that each recorded preset jaguar-lite as version 1 (one by `sim run --db`,
     "recorded with a trial"; one by the demo's way, "nominal preset"): the one's JSON export was
     refused by the other ("parameter version 1 of 'jaguar-lite' differs")."""
-    from odolab.params import PRESETS
+    from odolab.core.params import PRESETS
     from odolab.store import Notebook
 
     proto = tmp_path / "p.toml"
@@ -390,7 +390,7 @@ def test_7_the_table1_page_writes_the_clis_digits_and_signs(tmp_path: Path) -> N
     import html
     import re
 
-    from odolab import numfmt
+    from odolab.core import numfmt
     from odolab.report.table import sigma_text
 
     from .faces import client

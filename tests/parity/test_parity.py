@@ -10,8 +10,8 @@ import pytest
 
 from odolab.analysis import analyze_trials
 from odolab.calibration import ratios_from_analysis, umbmark_iterated
+from odolab.core.trials import MotionKind, TrialStatus
 from odolab.store import Notebook
-from odolab.trials import MotionKind, TrialStatus
 
 from .faces import (
     cli,

@@ -13,7 +13,7 @@ import numpy as np
 from synth_trials import rotation_trials, translation_trials
 
 from odolab.analysis import LabAnalysis, analyze_trials
-from odolab.trials import Trial
+from odolab.core.trials import Trial
 
 
 @pytest.fixture(scope="session")

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
-from odolab import numfmt
 from odolab.analysis import LabAnalysis, table1
 from odolab.calibration import ratios_from_analysis, umbmark
 from odolab.cli import main
+from odolab.core import numfmt
 from odolab.report import figures as F
 from odolab.report import table1_rich, write_report
 

@@ -11,18 +11,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from odolab import numfmt
 from odolab.analysis import LabAnalysis
 from odolab.calibration import ratios_from_analysis
 from odolab.calibration.compare import Estimate, ModelComparison, ModelScore, compare_models
+from odolab.core import numfmt
+from odolab.core.params import PRESETS
+from odolab.core.trajectory import Trajectory
 from odolab.io.run import OdometryRun
 from odolab.metrics.consistency import RunNees
-from odolab.params import PRESETS
 from odolab.report import write_report
 from odolab.report.models_section import ModelEvidence, consistency_view, models_view
 from odolab.sim.drives import drive, random_legs
 from odolab.sim.presets import TRUTH_PRESETS
-from odolab.trajectory import Trajectory
 
 NOMINAL = PRESETS["jaguar-lite"]
 
@@ -134,8 +134,8 @@ def _runs(n: int) -> list[OdometryRun]:
 
 @pytest.fixture(scope="module")
 def evidence() -> ModelEvidence:
+    from odolab.core.params import NoiseParams
     from odolab.metrics.consistency import run_nees
-    from odolab.params import NoiseParams
 
     runs = _runs(4)
     cmp = compare_models(runs[:3], runs[3:], NOMINAL, models=("diff", "icr"), n_boot=200)

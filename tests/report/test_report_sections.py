@@ -14,9 +14,9 @@ import pytest
 from matplotlib.container import ErrorbarContainer
 from matplotlib.figure import Figure
 
-from odolab import numfmt
 from odolab.analysis import LabAnalysis
 from odolab.calibration import ratios_from_analysis
+from odolab.core import numfmt
 from odolab.report import figures as F
 from odolab.report import write_report
 from odolab.report.html import _extra_view, _fmt, _validation_view

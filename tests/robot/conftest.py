@@ -9,7 +9,7 @@ from typing import Any
 
 import pytest
 
-from odolab.trajectory import Pose
+from odolab.core.trajectory import Pose
 
 
 class FakePlant:

@@ -6,8 +6,8 @@ from __future__ import annotations
 import pytest
 from tests.worded import raises_worded
 
-from odolab.odometry import Odometry
-from odolab.params import PRESETS
+from odolab.core.odometry import Odometry
+from odolab.core.params import PRESETS
 from odolab.robot.clock import SimClock
 from odolab.robot.errors import LinkLostError
 from odolab.robot.jaguar.board import BoardConfig, Faults, InProcessLink, VirtualJaguar

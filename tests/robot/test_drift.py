@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 from odolab.app.imu import gyro_after_run
-from odolab.params import PRESETS, RobotParams
+from odolab.core.params import PRESETS, RobotParams
+from odolab.core.trials import Command, MotionKind
 from odolab.robot.drift import DriftMonitor
 from odolab.robot.plant import IdealPlant
 from odolab.robot.session import run_simulated
-from odolab.trials import Command, MotionKind
 
 NOMINAL = PRESETS["jaguar-lite"]
 

@@ -6,7 +6,7 @@ import struct
 
 import pytest
 
-from odolab.errors import RobotLinkError
+from odolab.core.errors import RobotLinkError
 from odolab.robot.clock import SimClock
 from odolab.robot.config import CommandMode
 from odolab.robot.errors import RobotConfigError

@@ -17,16 +17,16 @@ import pytest
 
 from odolab.app.selection import select
 from odolab.cli import main
-from odolab.errors import InvalidTrialError
+from odolab.core.errors import InvalidTrialError
+from odolab.core.params import PRESETS, load_params
+from odolab.core.trials import Command, Exploration, MotionKind, TrialStatus
 from odolab.io import read_trajectory
 from odolab.io.encoder_csv import read_encoder_csv
-from odolab.params import PRESETS, load_params
 from odolab.robot.config import RunConfig
 from odolab.robot.explore import notebook_trial, plan_exploration
 from odolab.robot.jaguar.board import BoardConfig, VirtualJaguar, VirtualJaguarServer
 from odolab.robot.plant import IdealPlant
 from odolab.store import Notebook
-from odolab.trials import Command, Exploration, MotionKind, TrialStatus
 
 NOMINAL = PRESETS["jaguar-lite"]
 

@@ -13,16 +13,16 @@ import numpy as np
 import pytest
 
 from odolab.cli import main
+from odolab.core.params import PRESETS
+from odolab.core.trajectory import Pose
+from odolab.core.trials import Command, Exploration, TrialStatus
 from odolab.io import read_trajectory
-from odolab.params import PRESETS
 from odolab.robot.config import RunConfig
 from odolab.robot.explore import ExplorePlan, plan_exploration
 from odolab.robot.explore_motion import Explore
 from odolab.robot.loop import CycleInfo
 from odolab.robot.plant import IdealPlant
 from odolab.sim.plants import make_plant
-from odolab.trajectory import Pose
-from odolab.trials import Command, Exploration, TrialStatus
 
 NOMINAL = PRESETS["jaguar-lite"]
 

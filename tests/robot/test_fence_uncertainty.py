@@ -15,13 +15,13 @@ import math
 import numpy as np
 import pytest
 
-from odolab.params import PRESETS, NoiseParams
+from odolab.core.params import PRESETS, NoiseParams
+from odolab.core.trials import Command, Exploration
 from odolab.robot.config import RunConfig
 from odolab.robot.explore import plan_exploration
 from odolab.robot.explore_motion import FENCE_NOISE, Explore, fence_margin
 from odolab.robot.loop import CycleInfo
 from odolab.sim.plants import make_plant
-from odolab.trials import Command, Exploration
 
 NOMINAL = PRESETS["jaguar-lite"]
 FENCE = 0.5

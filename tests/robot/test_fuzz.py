@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from odolab.params import PRESETS
+from odolab.core.params import PRESETS
 from odolab.robot.clock import SimClock
 from odolab.robot.jaguar.board import BoardConfig, VirtualJaguar
 from odolab.robot.jaguar.driver import JaguarDriver

@@ -14,8 +14,8 @@ import time
 
 import pytest
 
-from odolab.odometry import Odometry
-from odolab.params import PRESETS
+from odolab.core.odometry import Odometry
+from odolab.core.params import PRESETS
 from odolab.robot.clock import RealClock
 from odolab.robot.jaguar.board import BoardConfig, VirtualJaguar, VirtualJaguarServer
 from odolab.robot.jaguar.driver import JaguarDriver, UdpTransport, driver_config_for

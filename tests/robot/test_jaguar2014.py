@@ -10,8 +10,9 @@ from pathlib import Path
 
 import pytest
 
-from odolab.errors import ProtocolError
-from odolab.params import PRESETS
+from odolab.core.errors import ProtocolError
+from odolab.core.params import PRESETS
+from odolab.core.trials import Command, MotionKind
 from odolab.robot.clock import RealClock, SimClock
 from odolab.robot.config import RunConfig
 from odolab.robot.errors import RobotUrlError
@@ -43,7 +44,6 @@ from odolab.robot.jaguar2014.protocol import (
 from odolab.robot.plant import IdealPlant
 from odolab.robot.registry import check_robot_url
 from odolab.robot.session import run_motion_simulated
-from odolab.trials import Command, MotionKind
 
 NOMINAL = PRESETS["jaguar-lite"]
 

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from odolab.errors import RobotLinkError
-from odolab.odometry import Odometry, integrate
-from odolab.params import PRESETS, RobotParams
+from odolab.core.errors import RobotLinkError
+from odolab.core.odometry import Odometry, integrate
+from odolab.core.params import PRESETS, RobotParams
 from odolab.robot.clock import SimClock
 from odolab.robot.jaguar.board import BoardConfig, Faults, InProcessLink, VirtualJaguar
 from odolab.robot.jaguar.driver import JaguarDriver, driver_config_for

@@ -6,12 +6,12 @@ import math
 
 import pytest
 
-from odolab.errors import SimError
-from odolab.params import PRESETS
+from odolab.core.errors import SimError
+from odolab.core.params import PRESETS
+from odolab.core.trajectory import Pose
+from odolab.core.trials import Command, MotionKind
 from odolab.robot.motions import Pivot, Rotate, Straight, motion_from_command, square
 from odolab.robot.session import run_motion_simulated
-from odolab.trajectory import Pose
-from odolab.trials import Command, MotionKind
 
 NOMINAL = PRESETS["jaguar-lite"]
 

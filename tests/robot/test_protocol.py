@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from odolab.errors import ProtocolError
+from odolab.core.errors import ProtocolError
 from odolab.robot.jaguar.protocol import (
     PWM_STOP,
     Decoder,

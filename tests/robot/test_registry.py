@@ -10,7 +10,7 @@ import pytest
 from tests.worded import raises_worded
 
 from odolab.cli import main
-from odolab.params import PRESETS
+from odolab.core.params import PRESETS
 from odolab.robot.clock import RealClock
 from odolab.robot.config import RunConfig
 from odolab.robot.errors import RobotUrlError

@@ -18,9 +18,11 @@ import pytest
 
 import odolab.io
 from odolab.cli import main
-from odolab.errors import OdolabError
-from odolab.odometry import Odometry
-from odolab.params import PRESETS
+from odolab.core.errors import OdolabError
+from odolab.core.odometry import Odometry
+from odolab.core.params import PRESETS
+from odolab.core.trials import Command, MotionKind, TrialStatus
+from odolab.core.writing import OutputFileError
 from odolab.robot.clock import SimClock
 from odolab.robot.errors import LateCycleError, RunFolderError
 from odolab.robot.jaguar.board import BoardConfig, InProcessLink, VirtualJaguar
@@ -37,8 +39,6 @@ from odolab.robot.session import (
 )
 from odolab.sim.plants import make_plant
 from odolab.store import Notebook
-from odolab.trials import Command, MotionKind, TrialStatus
-from odolab.writing import OutputFileError
 
 NOMINAL = PRESETS["jaguar-lite"]
 SHORT = Command(MotionKind.TRANSLATION, distance=0.1, speed=0.5)
@@ -47,9 +47,9 @@ SHORT = Command(MotionKind.TRANSLATION, distance=0.1, speed=0.5)
 # -- 1. nothing compiles or loads inside a control cycle -----------------------------------------
 
 WARM_UP_CHECK = """
-from odolab.kinematics import body_motion, step_pose
-from odolab.odometry import Odometry
-from odolab.params import PRESETS
+from odolab.core.kinematics import body_motion, step_pose
+from odolab.core.odometry import Odometry
+from odolab.core.params import PRESETS
 
 odo = Odometry(PRESETS["jaguar-lite"])
 before = (len(body_motion.signatures), len(step_pose.signatures))

@@ -222,7 +222,7 @@ DRIVER_WITH_A_BUG = """
 import sys, time
 from odolab.robot.config import RunConfig
 from odolab.robot.session import run_motion
-from odolab.trials import Command, MotionKind
+from odolab.core.trials import Command, MotionKind
 
 def bug(info):
     if info.index == 30:

@@ -10,8 +10,8 @@ from typing import Any
 
 import pytest
 
-from odolab.odometry import Odometry
-from odolab.params import PRESETS
+from odolab.core.odometry import Odometry
+from odolab.core.params import PRESETS
 from odolab.robot.clock import SimClock
 from odolab.robot.config import RunConfig
 from odolab.robot.errors import LateCycleError

@@ -13,7 +13,8 @@ import pytest
 
 from odolab.cli import main
 from odolab.cli.wording import said
-from odolab.params import PRESETS
+from odolab.core.params import PRESETS
+from odolab.core.trials import Command, MotionKind
 from odolab.robot.config import RunConfig
 from odolab.robot.drift import (
     EXPECTED_RATIO,
@@ -29,7 +30,6 @@ from odolab.robot.jaguar2014.board import (
 )
 from odolab.robot.plant import IdealPlant
 from odolab.robot.session import run_simulated
-from odolab.trials import Command, MotionKind
 
 NOMINAL = PRESETS["jaguar-lite"]
 TURN = Command(MotionKind.ROTATION, angle=2 * math.pi, speed=1.0)

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from odolab.params import PRESETS
+from odolab.core.params import PRESETS
 from odolab.robot.errors import BoardConfigError
 from odolab.robot.jaguar.board import BoardConfig, Faults, VirtualJaguar
 from odolab.robot.jaguar.protocol import (

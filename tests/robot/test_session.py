@@ -11,14 +11,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from odolab.cli import main
+from odolab.core.odometry import integrate
+from odolab.core.params import PRESETS
+from odolab.core.trials import Command, MotionKind, TrialStatus
 from odolab.io import read_encoder_csv, read_trajectory_csv
-from odolab.odometry import integrate
-from odolab.params import PRESETS
 from odolab.robot.config import RunConfig
 from odolab.robot.plant import IdealPlant
 from odolab.robot.session import run_motion, run_motion_simulated, save_run
 from odolab.sim.plants import make_plant
-from odolab.trials import Command, MotionKind, TrialStatus
 
 NOMINAL = PRESETS["jaguar-lite"]
 

@@ -11,8 +11,8 @@ from contextlib import contextmanager
 
 import pytest
 
-from odolab.odometry import Odometry, integrate
-from odolab.params import PRESETS
+from odolab.core.odometry import Odometry, integrate
+from odolab.core.params import PRESETS
 from odolab.robot.clock import RealClock
 from odolab.robot.jaguar.board import BoardConfig, Faults, VirtualJaguar, VirtualJaguarServer
 from odolab.robot.jaguar.driver import JaguarDriver, UdpTransport, driver_config_for

@@ -14,7 +14,8 @@ from pathlib import Path
 import pytest
 
 from odolab.cli import main
-from odolab.params import PRESETS
+from odolab.core.params import PRESETS
+from odolab.core.trajectory import Pose
 from odolab.robot.clock import SimClock
 from odolab.robot.jaguar.board import BoardConfig, VirtualJaguar, VirtualJaguarServer
 from odolab.robot.jaguar.protocol import MotorSensorData, encode_motor_sensor
@@ -22,7 +23,6 @@ from odolab.robot.jaguar2014.board import Board2014Config, InProcessLines, Virtu
 from odolab.robot.jaguar2014.driver import Driver2014Config, Jaguar2014Driver
 from odolab.robot.plant import IdealPlant
 from odolab.robot.virtual_truth import TruthTracker, decode_line, decode_trailer, encode_trailer
-from odolab.trajectory import Pose
 
 NOMINAL = PRESETS["jaguar-lite"]
 #: where the board's robot already is when the run starts (an earlier run moved it)
@@ -135,9 +135,9 @@ def test_the_2014_virtual_board_says_its_true_pose_in_a_line() -> None:
 
 
 def test_a_straight_run_reads_the_meterstick_in_the_start_frame() -> None:
+    from odolab.core.trials import Command, MotionKind
     from odolab.robot.session import run_motion_simulated
     from odolab.store.measure import describe_readings, virtual_measurement, virtual_readings
-    from odolab.trials import Command, MotionKind
 
     trial, _ = run_motion_simulated(
         Command(MotionKind.TRANSLATION, distance=-0.5, speed=0.5), nominal=NOMINAL
@@ -177,9 +177,9 @@ def test_the_suggested_measure_command_survives_a_path_with_spaces(tmp_path: Pat
 def test_a_stalled_turn_is_measured_near_zero_not_a_whole_turn() -> None:
     import dataclasses
 
+    from odolab.core.trials import Command, MotionKind
     from odolab.robot.session import run_motion_simulated
     from odolab.store.measure import describe_readings, virtual_measurement, virtual_readings
-    from odolab.trials import Command, MotionKind
 
     trial, _ = run_motion_simulated(
         Command(MotionKind.ROTATION, angle=0.5, speed=1.0), nominal=NOMINAL

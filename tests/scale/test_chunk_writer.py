@@ -19,8 +19,8 @@ import pytest
 
 import odolab.io.tabular as tabular
 from odolab.cli import main
+from odolab.core.trials import EncoderLog
 from odolab.io import read_trajectory, write_encoder_csv
-from odolab.trials import EncoderLog
 
 ROWS = 600
 

@@ -11,12 +11,12 @@ from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from odolab.cli import app
-from odolab.errors import EncoderJumpError, LogFormatError
+from odolab.core.errors import EncoderJumpError, LogFormatError
+from odolab.core.odometry import integrate
+from odolab.core.params import PRESETS
+from odolab.core.trials import EncoderLog
 from odolab.io import read_trajectory, write_encoder_csv
 from odolab.io.chunked import ChunkedOdometry, integrate_file, iter_encoder_chunks
-from odolab.odometry import integrate
-from odolab.params import PRESETS
-from odolab.trials import EncoderLog
 
 MOD = 1024
 
@@ -148,7 +148,7 @@ def test_cli_odometry_chunked_equals_whole_and_keeps_output_on_error(tmp_path: P
     t = np.arange(n) * 0.05
     log = write_encoder_csv(tmp_path / "log.csv", EncoderLog(t, left, right, MOD))
     toml = tmp_path / "p.toml"
-    from odolab.params import save_params
+    from odolab.core.params import save_params
 
     save_params(toml, params)
     runner = CliRunner()

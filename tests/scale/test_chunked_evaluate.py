@@ -15,7 +15,8 @@ from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from odolab.cli import app, main
-from odolab.errors import InsufficientDataError, LogFormatError
+from odolab.core.errors import InsufficientDataError, LogFormatError
+from odolab.core.trajectory import Trajectory
 from odolab.io import read_trajectory, write_trajectory_csv, write_tum
 from odolab.io.chunked import iter_trajectory_chunks
 from odolab.metrics import (
@@ -30,7 +31,6 @@ from odolab.metrics import (
     exact_median_from_file,
     stats_from_errors,
 )
-from odolab.trajectory import Trajectory
 
 
 def _traj(rng: np.random.Generator, n: int, dt: float, t0: float, noise: float) -> Trajectory:

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from odolab.cli import main
+from odolab.core.odometry import integrate
+from odolab.core.params import PRESETS
 from odolab.io import read_encoder_csv, read_trajectory
-from odolab.odometry import integrate
-from odolab.params import PRESETS
 
 
 def test_simulate_odometry_many_evaluate_report(

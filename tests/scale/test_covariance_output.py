@@ -1,6 +1,6 @@
 """`odolab odometry --covariance`: the six covariance columns, batch and chunked, every format.
 
-References: the numpy midpoint propagation :func:`odolab.uncertainty.pose_covariance` (written
+References: the numpy midpoint propagation :func:`odolab.core.uncertainty.pose_covariance` (written
 independently of the compiled kernel), the closed form of a straight run, and the covariance in an
 MCAP written by `odolab export mcap`, read back with mcap-ros2-support's decoder.
 """
@@ -18,12 +18,12 @@ from mcap_ros2.decoder import DecoderFactory
 from typer.testing import CliRunner
 
 from odolab.cli import app, main
+from odolab.core.params import PRESETS, NoiseParams, save_params
+from odolab.core.trials import EncoderLog
+from odolab.core.uncertainty import COV_COLUMNS, pose_covariance, straight_line_covariance
 from odolab.io import write_encoder_csv
 from odolab.io.chunked import ChunkedOdometry
 from odolab.io.tabular import read_columns
-from odolab.params import PRESETS, NoiseParams, save_params
-from odolab.trials import EncoderLog
-from odolab.uncertainty import COV_COLUMNS, pose_covariance, straight_line_covariance
 
 MOD = 32768
 NOISE = NoiseParams(1e-4, 3e-4)

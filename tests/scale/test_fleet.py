@@ -12,13 +12,13 @@ import numpy as np
 import pytest
 
 from odolab.cli import main
+from odolab.core.params import PRESETS
 from odolab.fleet import FleetSpec, fleet_rows, robot_and_date, simulate_fleet, summarize
 from odolab.fleet.table import COLUMNS, read_fleet_table
 from odolab.io.run import ReadOptions
 from odolab.metrics import evaluate
 from odolab.metrics.cluster import Cluster, MapReport
 from odolab.metrics.runs import RUN_OPTIONS, evaluate_runs
-from odolab.params import PRESETS
 
 from .dask_cli import dask_cluster
 
@@ -167,7 +167,7 @@ def test_dask_cli_cluster_equals_local_and_survives_a_killed_worker(
 
 
 def test_bad_scheduler_address_is_one_sentence() -> None:
-    from odolab.errors import OdolabError
+    from odolab.core.errors import OdolabError
 
     with pytest.raises(OdolabError, match="expected an address like tcp://HOST:PORT"):
         Cluster(scheduler="127.0.0.1:8786")
@@ -177,7 +177,7 @@ def test_bad_scheduler_address_is_one_sentence() -> None:
 
 
 def test_fleet_spec_refuses_nonsense() -> None:
-    from odolab.errors import OdolabError
+    from odolab.core.errors import OdolabError
 
     with pytest.raises(OdolabError, match="fleet robots is 0"):
         FleetSpec(robots=0)

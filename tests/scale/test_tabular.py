@@ -9,11 +9,11 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from odolab.errors import LogFormatError
+from odolab.core.errors import LogFormatError
+from odolab.core.trajectory import Trajectory
+from odolab.core.trials import EncoderLog
 from odolab.io import read_encoder_csv, read_trajectory, write_encoder_csv, write_trajectory_csv
 from odolab.io.tabular import iter_columns, read_columns, table_format, write_columns
-from odolab.trajectory import Trajectory
-from odolab.trials import EncoderLog
 
 
 def test_format_by_extension() -> None:

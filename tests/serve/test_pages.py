@@ -73,8 +73,8 @@ def test_calibrate_ratios_and_download_the_toml(lab_db: Path) -> None:
 def test_run_plot_of_a_trial_with_an_encoder_log(lab_db: Path) -> None:
     import dataclasses
 
-    from odolab.odometry import integrate
-    from odolab.trials import EncoderLog
+    from odolab.core.odometry import integrate
+    from odolab.core.trials import EncoderLog
 
     t = np.linspace(0.0, 4.0, 81)
     per_metre = 380 / (2 * np.pi * 0.0835)
@@ -113,8 +113,8 @@ def test_parameter_versions_show_the_model_and_noise_as_the_cli_does(
     import html
 
     from odolab.cli import main
-    from odolab.models import IcrModel
-    from odolab.params import PRESETS, NoiseParams
+    from odolab.core.models import IcrModel
+    from odolab.core.params import PRESETS, NoiseParams
 
     db = tmp_path / "lab.db"
     icr = PRESETS["jaguar-lite"].with_(
@@ -135,8 +135,8 @@ def test_parameter_versions_show_the_model_and_noise_as_the_cli_does(
 
 def test_a_slip_version_is_summed_up_not_listed(tmp_path: Path) -> None:
     """34 numbers in a row filled a phone's screen; the file keeps them all."""
-    from odolab.models import SlipModel
-    from odolab.params import PRESETS
+    from odolab.core.models import SlipModel
+    from odolab.core.params import PRESETS
 
     slip = PRESETS["jaguar-lite"].with_(
         model=SlipModel(

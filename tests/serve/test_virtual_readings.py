@@ -10,12 +10,12 @@ from pathlib import Path
 
 from starlette.testclient import TestClient
 
-from odolab.params import PRESETS
+from odolab.core.params import PRESETS
+from odolab.core.trials import Command, MotionKind
 from odolab.robot.session import run_motion_simulated
 from odolab.serve import ServeSettings, create_app
 from odolab.store import Notebook
 from odolab.store.measure import virtual_readings
-from odolab.trials import Command, MotionKind
 
 LOCAL = "http://127.0.0.1:8000"
 

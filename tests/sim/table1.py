@@ -16,7 +16,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from odolab.trials import Trial
+from odolab.core.trials import Trial
 
 
 def _through_origin(pred: np.ndarray, meas: np.ndarray) -> float:

@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from odolab.odometry import integrate_increments
-from odolab.params import PRESETS, NoiseParams
+from odolab.core.odometry import integrate_increments
+from odolab.core.params import PRESETS, NoiseParams
+from odolab.core.uncertainty import covariance_matrix, propagate_covariance
 from odolab.sim.physics import TrueParams, kernel_params, simulate_batch
 from odolab.sim.terrains import get_terrain
-from odolab.uncertainty import covariance_matrix, propagate_covariance
 
 NOMINAL = PRESETS["jaguar-lite"]
 NOISE = NoiseParams(2e-4, 1e-4, k_scrub=0.004)

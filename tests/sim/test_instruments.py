@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from odolab.errors import SimError
-from odolab.params import PRESETS
+from odolab.core.errors import SimError
+from odolab.core.params import PRESETS
 from odolab.sim.instruments import Compass, Meterstick, flag_miscounted_turns
 from odolab.sim.presets import TRUTH_PRESETS
 from odolab.sim.protocols import parse_protocol, run_protocol
@@ -25,7 +25,7 @@ def test_compass_reads_bearing_and_counts_turns() -> None:
     # bearings are clockwise: a counter-clockwise rotation lowers them; a clockwise one's
     # turns are counted clockwise (never negative: the notebook refuses those), and the
     # readings give the rotation back as the notebook's entry computes it
-    from odolab.measurement import rotation_from_compass
+    from odolab.core.measurement import rotation_from_compass
 
     ways = ("ccw", "ccw", "cw")
     back = [rotation_from_compass(a, b, int(n), w)
@@ -96,7 +96,7 @@ def test_meterstick() -> None:
 def test_a_stall_is_never_read_a_whole_turn_off() -> None:
     # the robot (almost) did not turn: its readings can lie a hair either way, and the turns are
     # counted the way it truly turned, so the readings give about 0 back, never about 2 pi
-    from odolab.measurement import rotation_from_compass
+    from odolab.core.measurement import rotation_from_compass
 
     compass = Compass()
     worst = 0.0

@@ -1,4 +1,4 @@
-"""Random error: Monte Carlo spread against the analytic covariance (odolab.uncertainty)."""
+"""Random error: Monte Carlo spread against the analytic covariance (odolab.core.uncertainty)."""
 
 from __future__ import annotations
 
@@ -7,15 +7,15 @@ import math
 import numpy as np
 import pytest
 
-from odolab.errors import OdolabError
-from odolab.params import PRESETS
-from odolab.sim.physics import TrueParams
-from odolab.sim.protocols import parse_protocol, run_protocol
-from odolab.uncertainty import (
+from odolab.core.errors import OdolabError
+from odolab.core.params import PRESETS
+from odolab.core.uncertainty import (
     pose_covariance,
     rotation_heading_variance,
     straight_line_covariance,
 )
+from odolab.sim.physics import TrueParams
+from odolab.sim.protocols import parse_protocol, run_protocol
 
 NOM = PRESETS["jaguar-lite"]
 N = 2500

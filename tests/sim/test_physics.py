@@ -10,12 +10,12 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from odolab.errors import SimError
-from odolab.params import PRESETS
+from odolab.core.errors import SimError
+from odolab.core.params import PRESETS
+from odolab.core.trials import TrialStatus
 from odolab.sim.physics import TrueParams, VirtualRobot
 from odolab.sim.presets import TRUTH_PRESETS
 from odolab.sim.protocols import builtin_protocols, load_protocol, parse_protocol, run_protocol
-from odolab.trials import TrialStatus
 
 NOM = PRESETS["jaguar-lite"]
 

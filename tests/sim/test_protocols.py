@@ -9,12 +9,12 @@ from pathlib import Path
 import pytest
 
 from odolab.cli import main
-from odolab.errors import SimError
-from odolab.params import PRESETS
+from odolab.core.errors import SimError
+from odolab.core.params import PRESETS
+from odolab.core.trials import MotionKind
 from odolab.sim.presets import TRUTH_PRESETS
 from odolab.sim.protocols import builtin_protocols, load_protocol, run_protocol
 from odolab.store.csvio import COLUMNS, write_trials_csv
-from odolab.trials import MotionKind
 
 NOM = PRESETS["jaguar-lite"]
 

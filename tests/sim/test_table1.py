@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from odolab.params import PRESETS
+from odolab.core.params import PRESETS
 from odolab.sim.presets import LAB_REPORT_SEED, TABLE_I, TRUTH_PRESETS, predicted_sigma_y
 from odolab.sim.protocols import load_protocol, run_protocol
 

@@ -9,9 +9,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from odolab.params import PRESETS, RobotParams
-from odolab.trajectory import Pose
-from odolab.trials import Command, EncoderLog, Measurement, MotionKind, Trial, TrialStatus
+from odolab.core.params import PRESETS, RobotParams
+from odolab.core.trajectory import Pose
+from odolab.core.trials import Command, EncoderLog, Measurement, MotionKind, Trial, TrialStatus
 
 JAGUAR = PRESETS["jaguar-lite"]
 

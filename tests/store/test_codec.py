@@ -8,9 +8,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from odolab.errors import StoreError
+from odolab.core.errors import StoreError
+from odolab.core.trials import EncoderLog
 from odolab.store.codec import EncodedLog, decode_log, encode_log
-from odolab.trials import EncoderLog
 
 int64s = hnp.arrays(np.int64, st.integers(0, 60), elements=st.integers(-(2**63), 2**63 - 1))
 

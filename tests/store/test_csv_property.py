@@ -1,7 +1,7 @@
 """Property: any storable trial survives write_trials_csv -> read_trials_csv exactly.
 
 Storable means inside the plausible ranges of the one trial-record definition
-(:data:`odolab.trials.TRIAL_FIELDS`): the strategies are drawn from those ranges.
+(:data:`odolab.core.trials.TRIAL_FIELDS`): the strategies are drawn from those ranges.
 """
 
 from __future__ import annotations
@@ -13,10 +13,10 @@ from pathlib import Path
 from hypothesis import given
 from hypothesis import strategies as st
 
-from odolab.params import RobotParams
+from odolab.core.params import RobotParams
+from odolab.core.trajectory import Pose
+from odolab.core.trials import Command, Measurement, MotionKind, Trial, TrialStatus, trial_field
 from odolab.store.csvio import read_trials_csv, write_trials_csv
-from odolab.trajectory import Pose
-from odolab.trials import Command, Measurement, MotionKind, Trial, TrialStatus, trial_field
 
 from .conftest import fingerprint
 
@@ -48,7 +48,7 @@ def maybe(name: str) -> st.SearchStrategy[float | None]:
 def trials(draw: st.DrawFn) -> Trial:
     kind = draw(st.sampled_from(list(MotionKind)))
     params = RobotParams(
-        # within odolab.params.RANGES: every entry path refuses implausible parameters
+        # within odolab.core.params.RANGES: every entry path refuses implausible parameters
         left_wheel_radius=draw(st.floats(0.002, 2.0)),
         right_wheel_radius=draw(st.floats(0.002, 2.0)),
         track_width=draw(st.floats(0.01, 20.0)),

@@ -19,11 +19,11 @@ import pytest
 
 from odolab.cli import main
 from odolab.cli.wording import worded
-from odolab.errors import StoreError
+from odolab.core.errors import StoreError
+from odolab.core.trials import MotionKind
 from odolab.store import Notebook
 from odolab.store.health import NotebookDamagedError, NotebookFileError
 from odolab.store.schema import APPLICATION_ID
-from odolab.trials import MotionKind
 
 from .conftest import make_trials
 

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
+from odolab.core.trials import MotionKind
 from odolab.store import Notebook, write_trials_csv
-from odolab.trials import MotionKind
 
 from .conftest import fingerprint, make_trials
 

@@ -8,8 +8,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from odolab.errors import StoreError
-from odolab.measurement import (
+from odolab.core.errors import StoreError
+from odolab.core.measurement import (
     rotation_from_compass,
     rotation_measurement_from_compass,
     translation_measurement,

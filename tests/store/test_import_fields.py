@@ -18,7 +18,7 @@ from typing import Any
 import pytest
 
 from odolab.cli import main
-from odolab.errors import OdolabError
+from odolab.core.errors import OdolabError
 from odolab.store import Notebook, write_trials_csv
 from odolab.store.measure import translation_measurement
 
@@ -33,7 +33,7 @@ _DROP = object()
 def exported(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict[str, Any], Path]:
     """A notebook export with a measured, a re-measured (history) and an excluded trial with an
     encoder log, and an empty notebook to import into."""
-    from odolab.trials import MotionKind
+    from odolab.core.trials import MotionKind
 
     folder = tmp_path_factory.mktemp("src")
     with Notebook(folder / "a.db") as nb:

@@ -9,10 +9,10 @@ from pathlib import Path
 
 import pytest
 
-from odolab.errors import StoreError
+from odolab.core.errors import StoreError
+from odolab.core.trials import MotionKind
 from odolab.store import Notebook, rotation_measurement_from_compass
 from odolab.store.csvio import COLUMNS
-from odolab.trials import MotionKind
 
 from .conftest import fingerprint, make_trials
 
@@ -171,7 +171,7 @@ def test_spreadsheet_rows_in_lab_terms(tmp_path: Path) -> None:
         ((2, "status", "measured"), "line 3, column 'status': 'measured' but no measurement"),
         ((2, "status", "excluded"), "line 3, column 'exclusion_reason': missing value"),
         (("header", "colour", None), "line 1, unknown column 'colour'"),
-        # the ranges of the trial record (odolab.trials.TRIAL_FIELDS), as for `trials add`
+        # the ranges of the trial record (odolab.core.trials.TRIAL_FIELDS), as for `trials add`
         ((2, "predicted_theta_rad", "7"),
          "line 3, column 'predicted_theta_rad': predicted_theta is 7 rad; expected -3.14159"),
         ((2, "kind", "translation"),

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from odolab.errors import StoreError
+from odolab.core.errors import StoreError
 from odolab.store.jsonio import read_notebook_json
 
 

@@ -18,10 +18,10 @@ from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from odolab.cli import app
-from odolab.errors import StoreError
-from odolab.models import DIFF_DRIVE, ExtendedDiffDrive, IcrModel
-from odolab.params import NoiseParams, save_params
-from odolab.prediction import final_pose_from_log
+from odolab.core.errors import StoreError
+from odolab.core.models import DIFF_DRIVE, ExtendedDiffDrive, IcrModel
+from odolab.core.params import NoiseParams, save_params
+from odolab.core.prediction import final_pose_from_log
 from odolab.store import Notebook
 
 from .conftest import JAGUAR, fingerprint, make_trials
@@ -283,8 +283,8 @@ def test_params_add_cli_keeps_model_and_noise(tmp_path: Path) -> None:
 def test_mcap_of_a_notebook_campaign_uses_the_stored_model_and_noise(tmp_path: Path) -> None:
     """`odolab export mcap --campaign` integrates each trial with the parameters the notebook
     gives back: the ICR model and a covariance from [noise], as recorded."""
+    from odolab.core.odometry import integrate
     from odolab.export.mcap import stream_from_campaign
-    from odolab.odometry import integrate
 
     params = SETS["icr+noise"]
     trials = make_trials(3, params=params, with_logs=True, campaign="tracked")

@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from odolab.errors import StoreError
+from odolab.core.errors import StoreError
+from odolab.core.trials import EncoderLog, MotionKind, TrialStatus
 from odolab.store import Notebook, rotation_measurement_from_compass
-from odolab.trials import EncoderLog, MotionKind, TrialStatus
 
 from .conftest import JAGUAR, fingerprint, make_trials
 

@@ -15,10 +15,10 @@ from pathlib import Path
 import pytest
 
 from odolab.cli import main
-from odolab.errors import StoreError
+from odolab.core.errors import StoreError
+from odolab.core.trials import MotionKind
 from odolab.store import Notebook
 from odolab.store.rescue import rescue_notebook
-from odolab.trials import MotionKind
 
 from .conftest import fingerprint, make_trials
 

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from odolab.errors import StoreError
+from odolab.core.errors import StoreError
+from odolab.core.trials import TrialStatus
 from odolab.store import SCHEMA_VERSION, Notebook
-from odolab.trials import TrialStatus
 
 FIXTURES = Path(__file__).parent / "fixtures"
 

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from odolab.errors import ImuLogError
+from odolab.core.errors import ImuLogError
 from odolab.io.sensorlog import ImuLog
 from odolab.validation.align import find_clock_offset, rate_on_grid, require_overlap
 from odolab.validation.simulate import rotation_scenario, simulate_phone_log
@@ -50,7 +50,7 @@ def test_offset_recovered_on_a_simulated_phone(true_offset: float) -> None:
         sc.true_t, sc.true_heading, clock_offset=true_offset, gyro_noise=0.01, bias=0.002, seed=3
     )
     traj_t = sc.encoder_log.t
-    from odolab.odometry import integrate
+    from odolab.core.odometry import integrate
 
     h = integrate(traj_t, sc.encoder_log.left_ticks, sc.encoder_log.right_ticks, sc.old).heading
     a = find_clock_offset(traj_t, h, phone)

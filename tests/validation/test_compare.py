@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from tests.worded import raises_worded
 
-from odolab.errors import ImuLogError
-from odolab.params import PRESETS
-from odolab.trials import EncoderLog
+from odolab.core.errors import ImuLogError
+from odolab.core.params import PRESETS
+from odolab.core.trials import EncoderLog
 from odolab.validation import (
     plot_validation,
     rotation_scenario,
@@ -172,9 +172,9 @@ def test_smoothing_trades_timing_for_correlation_and_bad_values_are_refused() ->
     import numpy as np
     import pytest
 
-    from odolab.errors import ImuLogError
-    from odolab.params import PRESETS
-    from odolab.trials import EncoderLog
+    from odolab.core.errors import ImuLogError
+    from odolab.core.params import PRESETS
+    from odolab.core.trials import EncoderLog
     from odolab.validation import simulate_phone_log, validate
 
     nominal = PRESETS["jaguar-lite"]
@@ -201,7 +201,7 @@ def test_smoothing_trades_timing_for_correlation_and_bad_values_are_refused() ->
 
 
 def test_summarizing_no_runs_is_one_sentence() -> None:
-    from odolab.errors import OdolabError
+    from odolab.core.errors import OdolabError
     from odolab.validation.runs import summarize_runs
 
     with pytest.raises(OdolabError, match="no validation runs to summarize"):

@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from odolab.odometry import integrate
-from odolab.params import RobotParams
-from odolab.trials import EncoderLog
+from odolab.core.odometry import integrate
+from odolab.core.params import RobotParams
+from odolab.core.trials import EncoderLog
 from odolab.validation import ImuLog, read_sensorlog, validate, write_sensorlog
 
 NOMINAL = RobotParams(

@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from odolab.errors import ImuLogError, LogFormatError
+from odolab.core.errors import ImuLogError, LogFormatError
 from odolab.io.sensorlog import (
     WRITTEN_COLUMNS,
     ImuLog,

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from odolab.errors import ImuLogError
-from odolab.odometry import integrate
+from odolab.core.errors import ImuLogError
+from odolab.core.odometry import integrate
 from odolab.validation import ImuLog, rotation_scenario, simulate_phone_log, validate
 
 

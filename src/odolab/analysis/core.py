@@ -23,18 +23,18 @@ from odolab.analysis.outliers import Outlier, miscounted_turns
 from odolab.analysis.random import GroupSpread, RandomError, group_spreads, random_error
 from odolab.analysis.systematic import MIN_FIT_POINTS, LinearFit, fit_line
 from odolab.analysis.terrain import TerrainComparison, compare_terrains
-from odolab.errors import InsufficientDataError
-from odolab.motion import Motion
-from odolab.numfmt import count
-from odolab.params import RobotParams
-from odolab.progress import Progress, steps
-from odolab.trials import MotionKind, Trial, TrialStatus
+from odolab.core.errors import InsufficientDataError
+from odolab.core.motion import Motion
+from odolab.core.numfmt import count
+from odolab.core.params import RobotParams
+from odolab.core.progress import Progress, steps
+from odolab.core.trials import MotionKind, Trial, TrialStatus
 
 __all__ = ["MOTIONS", "LabAnalysis", "MotionAnalysis", "Progress", "analyze_trials"]
 
 
 #: The motions the lab fits, in report order, with what is regressed on what (from
-#: :class:`odolab.motion.Motion`, which holds these rules).
+#: :class:`odolab.core.motion.Motion`, which holds these rules).
 MOTIONS: dict[str, dict[str, str]] = {
     m.value: {"x": m.x_label, "y": m.y_label, "unit": m.unit, "ratio_unit": m.ratio_unit}
     for m in Motion

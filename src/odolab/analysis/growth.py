@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from odolab.errors import InsufficientDataError
+from odolab.core.errors import InsufficientDataError
 
 __all__ = ["CANDIDATE_EXPONENTS", "GrowthFit", "fit_growth", "profile_loglik"]
 
@@ -97,8 +97,8 @@ class GrowthFit:
         )
 
     def text(self) -> str:
-        """``p [lo, hi]`` as every face writes it (:func:`odolab.numfmt.with_open_ci`)."""
-        from odolab import numfmt
+        """``p [lo, hi]`` as every face writes it (:func:`odolab.core.numfmt.with_open_ci`)."""
+        from odolab.core import numfmt
 
         return numfmt.with_open_ci(self.p, *self.p_ci95, at_bound=self.at_bound)
 

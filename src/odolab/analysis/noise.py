@@ -16,14 +16,14 @@ covariance linear in ``(k_r, k_l)``:
 
 The instrument's variance (``sigma_rotation**2``, ``sigma_xy**2``) is added. The log-likelihood of
 all trials is maximised over ``log k_r, log k_l`` (scipy); 95% intervals are Wald intervals on the
-log scale from the numerical Hessian (odolab.regression). Straight-line trials with both x and y
+log scale from the numerical Hessian (odolab.core.regression). Straight-line trials with both x and y
 measured, or pivots, separate the wheels; in-place rotations alone give only ``k_r + k_l`` (then
 ``identifiable`` is False and ``k_r = k_l = (k_r + k_l) / 2``).
 
 Turn scrub (:func:`fit_separated_noise`): a tracked robot's in-place turns skid far more than
 its straight runs roll (on the demo's notebook the rotations' ``k_r + k_l`` is some 300 times
 the straight runs'), so pooling both kinds into one pair describes neither. The documented
-model (``[noise]``, :mod:`odolab.uncertainty`) adds ``k_scrub`` (rad): heading variance per
+model (``[noise]``, :mod:`odolab.core.uncertainty`) adds ``k_scrub`` (rad): heading variance per
 radian of commanded turning. The separated fit takes ``k_r``, ``k_l`` from the straight runs
 alone, then ``k_scrub`` from the turns (rotations, pivots) with the wheels' share fixed at those
 values: ``var(rotation) = (k_r + k_l) |h| / (2 b) + k_scrub |h|``. A kind of motion that is
@@ -40,8 +40,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import InsufficientDataError
-from odolab.motion import MotionKind
+from odolab.core.errors import InsufficientDataError
+from odolab.core.motion import MotionKind
 
 __all__ = [
     "NoiseConstant",
@@ -63,7 +63,7 @@ _Z95 = 1.959963984540054
 class NoiseRecord:
     """One trial's residual ``r`` (shape (m,)) with covariance ``k_r A_r + k_l A_l + M``.
 
-    ``kind``: the commanded kind (its weights: :meth:`odolab.motion.MotionKind.noise_weights`);
+    ``kind``: the commanded kind (its weights: :meth:`odolab.core.motion.MotionKind.noise_weights`);
     ``turn``: the commanded turning (rad, ``|ds_r - ds_l| / b``) that scrub acts on;
     ``trial_id``: the trial it comes from (for the provenance)."""
 
@@ -91,7 +91,7 @@ def noise_record(
 ) -> NoiseRecord:
     """One trial's noise record: a ``kind`` of motion by ``amount`` (a turn's heading change in
     rad, a translation's signed distance in m; a pivot about the ``held`` track, default left),
-    with its fits' residuals on the actual side by :attr:`odolab.motion.MotionKind.residuals`
+    with its fits' residuals on the actual side by :attr:`odolab.core.motion.MotionKind.residuals`
     (``turn`` in rad; ``x``, ``y`` in m: either or both) and the instrument's ``sigma``."""
     a_r, a_l, turn = kind.noise_weights(amount, track_width, held=held)
     values = [residuals.get(name) for name in kind.residuals]
@@ -237,7 +237,7 @@ def _fit_sum(records: list[NoiseRecord]) -> tuple[float, float, tuple[float, flo
     """Fit one ``k = k_r + k_l`` (k_r = k_l = k/2); returns (k, loglik, ci95)."""
     from scipy import optimize
 
-    from odolab.regression import approx_hess3
+    from odolab.core.regression import approx_hess3
 
     stack = _Stack(records)
 
@@ -262,7 +262,7 @@ def fit_wheel_noise(records: list[NoiseRecord]) -> WheelNoise:
     """Maximum-likelihood ``k_r``, ``k_l`` from residual records (see the module docstring)."""
     from scipy import optimize, stats
 
-    from odolab.regression import approx_hess3
+    from odolab.core.regression import approx_hess3
 
     if len(records) < 3:
         raise InsufficientDataError(

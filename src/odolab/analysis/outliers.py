@@ -2,7 +2,7 @@
 
 A miscounted turn: the compass gives the heading modulo a whole turn and a person counts the
 turns; one miscount shifts the actual rotation by about 2*pi. Such a trial's residual (from a
-robust Huber line, odolab.regression.huber_line) lies near a non-zero multiple of 2*pi *and* far outside the
+robust Huber line, odolab.core.regression.huber_line) lies near a non-zero multiple of 2*pi *and* far outside the
 scatter of the other trials (more than ``k`` robust standard deviations, scaled with the angle:
 random error grows with the rotation). A 2*pi residual that the scatter explains is kept.
 """
@@ -50,11 +50,11 @@ def _robust_residuals(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
     """Robust line through the trials, with random error growing like sqrt|predicted|.
 
-    Huber M-estimation (:func:`odolab.regression.huber_line`) of ``actual / w = c / w + s * predicted / w`` with
+    Huber M-estimation (:func:`odolab.core.regression.huber_line`) of ``actual / w = c / w + s * predicted / w`` with
     ``w = sqrt|predicted|`` (a homoscedastic form). Returns the residuals ``r`` of actual, their
     scale-free form ``z = r / w`` and the robust scale of ``z``.
     """
-    from odolab.regression import huber_line
+    from odolab.core.regression import huber_line
 
     w = np.sqrt(np.maximum(np.abs(predicted), 1e-9))
     design = np.column_stack([1.0 / w, predicted / w])

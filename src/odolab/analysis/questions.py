@@ -50,10 +50,11 @@ from typing import Any
 
 import numpy as np
 
-from odolab.errors import SimError
-from odolab.motion import DriveShape
-from odolab.odometry import integrate_increments
-from odolab.params import RobotParams
+from odolab.core.errors import SimError
+from odolab.core.motion import DriveShape
+from odolab.core.odometry import integrate_increments
+from odolab.core.params import RobotParams
+from odolab.core.text import quote_input, safe_terminal
 from odolab.sim.drives import Leg, drive
 from odolab.sim.physics import TrueParams
 from odolab.sim.protocols import (
@@ -64,7 +65,6 @@ from odolab.sim.protocols import (
     SPEED_RANGE_M_S,
 )
 from odolab.sim.terrains import get_terrain
-from odolab.text import quote_input, safe_terminal
 
 __all__ = [
     "Condition",

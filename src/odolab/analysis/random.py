@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from odolab.errors import InsufficientDataError
+from odolab.core.errors import InsufficientDataError
 
 __all__ = [
     "GroupSpread",

@@ -12,9 +12,9 @@ from collections import Counter
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
-from odolab.errors import OdolabError, opt
-from odolab.numfmt import count
-from odolab.trials import Trial, TrialStatus
+from odolab.core.errors import OdolabError, opt
+from odolab.core.numfmt import count
+from odolab.core.trials import Trial, TrialStatus
 
 __all__ = [
     "CLI_WORDS",
@@ -41,7 +41,7 @@ class Wording:
     include: str  #: how to include a validation campaign
 
 
-#: The library's words, the settings as marks (:func:`odolab.errors.opt`) that each face words
+#: The library's words, the settings as marks (:func:`odolab.core.errors.opt`) that each face words
 #: (the CLI as its flags: ``odolab.cli.wording``); what a sentence says unless a face asks for
 #: its own.
 CLI_WORDS = Wording(

@@ -1,9 +1,9 @@
-"""Systematic error: ordinary least-squares lines with honest uncertainty (odolab.regression).
+"""Systematic error: ordinary least-squares lines with honest uncertainty (odolab.core.regression).
 
 The lab's fits (section VI): actual rotation vs predicted heading (slope = actual/predicted),
 actual x vs predicted x, and the y error (predicted - actual) vs predicted x. A fit needs at least
 :data:`MIN_FIT_POINTS` trials at two or more different predicted values; fewer raise
-:class:`~odolab.errors.InsufficientDataError` saying how many are needed.
+:class:`~odolab.core.errors.InsufficientDataError` saying how many are needed.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from odolab.errors import InsufficientDataError
+from odolab.core.errors import InsufficientDataError
 
 __all__ = ["MIN_FIT_POINTS", "LinearFit", "fit_line"]
 
@@ -89,7 +89,7 @@ def fit_line(
 
     Raises :class:`InsufficientDataError` when there are too few points or ``x`` is constant.
     """
-    from odolab.regression import ols
+    from odolab.core.regression import ols
 
     xa = np.asarray(x, dtype=np.float64).ravel()
     ya = np.asarray(y, dtype=np.float64).ravel()

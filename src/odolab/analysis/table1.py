@@ -15,7 +15,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from odolab.analysis.core import LabAnalysis
-from odolab.motion import Motion
+from odolab.core.motion import Motion
 
 __all__ = ["growth_text", "pooled_y_sigmas", "table1"]
 
@@ -41,8 +41,8 @@ def pooled_y_sigmas(rows: Sequence[dict[str, Any]], terrain: str = "tile") -> di
 def growth_text(row: Mapping[str, Any]) -> str:
     """A Table I row's growth exponent as every text face writes it: ``p [lo, hi]``, an open
     end ``unbounded``, a value at the search's edge ``<= p (search's edge)``; ``-`` without one
-    (:func:`odolab.numfmt.with_open_ci`)."""
-    from odolab import numfmt
+    (:func:`odolab.core.numfmt.with_open_ci`)."""
+    from odolab.core import numfmt
 
     if "growth_p" not in row:
         return "-"

@@ -1,6 +1,6 @@
 """Do terrains differ in systematic error? An F-test on the slopes, with an effect size.
 
-For one motion (e.g. x translation) measured on several terrains, two OLS models (odolab.regression):
+For one motion (e.g. x translation) measured on several terrains, two OLS models (odolab.core.regression):
 
 * full: a separate line per terrain (``actual = a_t + b_t * predicted``);
 * reduced: one common slope, separate intercepts (``actual = a_t + b * predicted``).
@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import InsufficientDataError
+from odolab.core.errors import InsufficientDataError
 
 __all__ = ["TerrainComparison", "compare_terrains"]
 
@@ -85,7 +85,7 @@ def compare_terrains(
     """
     from scipy import stats
 
-    from odolab.regression import f_test, ols
+    from odolab.core.regression import f_test, ols
 
     names = tuple(sorted(t for t, (x, _) in data.items() if np.asarray(x).size >= 3))
     if len(names) < 2:

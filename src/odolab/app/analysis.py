@@ -11,8 +11,8 @@ from odolab.app.selection import EVERY_CAMPAIGN, Selection, SelectionRequest, se
 
 if TYPE_CHECKING:
     from odolab.analysis import LabAnalysis
+    from odolab.core.trials import Trial
     from odolab.store import Notebook
-    from odolab.trials import Trial
 
 __all__ = ["AnalysisCache", "AnalysisResult", "analyze", "analyze_selection"]
 
@@ -53,7 +53,7 @@ class AnalysisCache:
 
     def get(self, trials: list[Trial]) -> LabAnalysis:
         from odolab.analysis import analyze_trials
-        from odolab.errors import OdolabError
+        from odolab.core.errors import OdolabError
 
         key = self.key(trials)
         with self._lock:
@@ -87,6 +87,6 @@ def analyze(
     cache: AnalysisCache | None = None,
 ) -> AnalysisResult:
     """Table I and the analysis of the trials ``request`` selects (validation campaigns left
-    out unless named). Raises :class:`~odolab.errors.InsufficientDataError` when no fit is
+    out unless named). Raises :class:`~odolab.core.errors.InsufficientDataError` when no fit is
     possible and ``SelectionError`` for a campaign the notebook does not have."""
     return analyze_selection(select(nb, request), cache)

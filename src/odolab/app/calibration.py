@@ -23,14 +23,14 @@ from odolab.app.selection import (
     select_among,
     validation_campaigns,
 )
-from odolab.errors import CalibrationError, opt
-from odolab.trials import MotionKind, Trial, TrialStatus
+from odolab.core.errors import CalibrationError, opt
+from odolab.core.trials import MotionKind, Trial, TrialStatus
 
 if TYPE_CHECKING:
     from odolab.analysis import LabAnalysis
     from odolab.app.analysis import AnalysisCache
     from odolab.calibration import CalibrationResult, UmbmarkResult
-    from odolab.params import RobotParams
+    from odolab.core.params import RobotParams
     from odolab.store import Notebook
 
 __all__ = [

@@ -48,12 +48,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from odolab import numfmt
 from odolab.analysis.reference import LAB_REPORT_TABLE1, LAB_REPORT_Y_SIGMA
 from odolab.analysis.table1 import pooled_y_sigmas
-from odolab.errors import OdolabError
-from odolab.params import PRESETS, RobotParams, save_params
-from odolab.trials import Command, Measurement, MotionKind, Trial, TrialStatus
+from odolab.core import numfmt
+from odolab.core.errors import OdolabError
+from odolab.core.params import PRESETS, RobotParams, save_params
+from odolab.core.trials import Command, Measurement, MotionKind, Trial, TrialStatus
 
 if TYPE_CHECKING:
     from odolab.analysis import LabAnalysis
@@ -580,9 +580,9 @@ def _mocap_runs(
     cfg: LabConfig, progress: Progress, total: int = MOCAP_RUNS + 1
 ) -> list[OdometryRun]:
     """Free runs of the true robot on tile, each with its ground truth (motion capture)."""
+    from odolab.core.trajectory import Trajectory
     from odolab.io.run import OdometryRun
     from odolab.sim.drives import drive, random_legs
-    from odolab.trajectory import Trajectory
 
     runs = []
     for k in range(MOCAP_RUNS):
@@ -604,7 +604,7 @@ def _models(cfg: LabConfig, new: RobotParams, folder: Path, progress: Progress) 
     speed-dependent slip also the slip model learned from a one-minute exploration
     (:func:`odolab.app.models.slip_comparison`, the rule ``calibrate compare`` shares)."""
     from odolab.app.models import CompareRequest, compare_runs, exploration_reason
-    from odolab.errors import InsufficientDataError
+    from odolab.core.errors import InsufficientDataError
     from odolab.metrics.consistency import choose_nees_piece
     from odolab.report.models_section import ModelEvidence
 

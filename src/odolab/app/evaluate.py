@@ -24,7 +24,9 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from odolab.errors import OdolabError, opt
+from odolab.core.errors import OdolabError, opt
+from odolab.core.numfmt import count
+from odolab.core.params import covariance_source
 from odolab.metrics import (
     PLANAR_NOTE,
     RUN_OPTIONS,
@@ -33,18 +35,16 @@ from odolab.metrics import (
     EvaluationOptions,
     SyncMethod,
 )
-from odolab.numfmt import count
-from odolab.params import covariance_source
 
 if TYPE_CHECKING:
     from odolab.calibration.lsq import LsqCalibration
+    from odolab.core.models import CovarianceModel
+    from odolab.core.params import RobotParams
+    from odolab.core.progress import Progress
     from odolab.io.run import OdometryRun, ReadOptions
     from odolab.metrics import Evaluation, RunEvaluation
     from odolab.metrics.cluster import Cluster, MapReport, Outcome
     from odolab.metrics.consistency import NeesSummary, RunNees
-    from odolab.models import CovarianceModel
-    from odolab.params import RobotParams
-    from odolab.progress import Progress
 
 __all__ = [
     "DEFAULT_DELTA",
@@ -175,7 +175,7 @@ def _check(request: EvaluationRequest, robot: RobotParams | None) -> None:
 
 def load_request_params(request: EvaluationRequest) -> RobotParams | None:
     """The parameters the request names (None: each run's own), checked with the request."""
-    from odolab.params import load_params
+    from odolab.core.params import load_params
 
     robot = load_params(request.params) if request.params else None
     _check(request, robot)
@@ -383,8 +383,8 @@ def calibrate_lsq_runs(
     nominal and the fitted parameters. A run may not be both fitted and held out."""
     from odolab.calibration.lsq import LsqOptions, calibrate_lsq_files, find_fit_and_held_out
     from odolab.calibration.truthnoise import parse_truth_sigma
+    from odolab.core.params import load_params
     from odolab.io.registry import LogFormat
-    from odolab.params import load_params
 
     _check_lsq(request)
     options = LsqOptions(
@@ -473,9 +473,9 @@ def nees_of_paths(
     Raises:
         ParamsError: a run's parameters have neither a [noise] table nor a slip model.
     """
-    from odolab.errors import ParamsError
+    from odolab.core.errors import ParamsError
+    from odolab.core.models import own_covariance
     from odolab.metrics.consistency import first_order_note, nees_of_runs, nees_summary
-    from odolab.models import own_covariance
 
     runs = read_runs(paths, fmt, robot)
     sources = set()

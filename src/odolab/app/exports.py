@@ -9,12 +9,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from odolab.errors import StoreError
-from odolab.trials import MotionKind, TrialStatus
+from odolab.core.errors import StoreError
+from odolab.core.trials import MotionKind, TrialStatus
 
 if TYPE_CHECKING:
+    from odolab.core.params import RobotParams
     from odolab.export.mcap import OdometryStream
-    from odolab.params import RobotParams
     from odolab.store import Notebook
 
 __all__ = [
@@ -102,7 +102,7 @@ def mcap_stream(
     Raises:
         OdolabError: sources that are none of these.
     """
-    from odolab.errors import OdolabError
+    from odolab.core.errors import OdolabError
     from odolab.export.mcap import (
         stream_from_campaign,
         stream_from_run,

@@ -16,16 +16,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from odolab.defaults import DEFAULT_CORNERS
-from odolab.errors import OdolabError
+from odolab.core.defaults import DEFAULT_CORNERS
+from odolab.core.errors import OdolabError
 
 if TYPE_CHECKING:
     import numpy as np
 
     from odolab.calibration.sensor import SensorCalibration
+    from odolab.core.trajectory import Trajectory
     from odolab.tracking.photo import PhotoTrack
     from odolab.tracking.tracker import GapBridge, TrackResult
-    from odolab.trajectory import Trajectory
 
 __all__ = [
     "OptionError",
@@ -64,7 +64,7 @@ def estimate_time_offset(
     Raises:
         OptionError: the rates cannot be lined up (no rotation, no overlap, sign reversed).
     """
-    from odolab.errors import ImuLogError
+    from odolab.core.errors import ImuLogError
     from odolab.validation.align import find_clock_offset
     from odolab.validation.sensorlog import ImuLog
 
@@ -182,9 +182,9 @@ def calibrate_sensor_log(
         motions_from_trajectory,
         wheel_angles,
     )
+    from odolab.core.params import load_params, save_params
     from odolab.io.registry import read_run
     from odolab.io.run import ReadOptions
-    from odolab.params import load_params, save_params
 
     if not (math.isfinite(req.interval) and req.interval >= 0):
         raise OptionError(f"--interval is {req.interval!r}; expected a number of seconds >= 0")
@@ -282,11 +282,11 @@ def _bridge(
     req: TrackRequest, result: TrackResult, encoders: Path, params: str, notes: list[str]
 ) -> tuple[TrackResult, float, list[GapBridge]]:
     """The track on the encoder clock, its gaps bridged with the encoders where they can be."""
+    from odolab.core.params import load_params
+    from odolab.core.trajectory import Trajectory
     from odolab.io.registry import read_run
     from odolab.io.run import ReadOptions
-    from odolab.params import load_params
     from odolab.tracking.tracker import bridge_gaps
-    from odolab.trajectory import Trajectory
 
     nominal = load_params(params)
     run = read_run(
@@ -392,9 +392,9 @@ def track_photo_log(req: PhotoRequest, check_outputs: Callable[[], None] = _noth
     Raises:
         OptionError: an LED frequency or ON fraction out of range.
     """
+    from odolab.core.params import load_params
     from odolab.io.registry import read_run
     from odolab.io.run import ReadOptions
-    from odolab.params import load_params
     from odolab.tracking.photo import (
         WheelTravel,
         draw_overlay,

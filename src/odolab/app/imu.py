@@ -22,7 +22,7 @@ from odolab.calibration.imu import (
     calibrate_imu,
     reference_from_heading,
 )
-from odolab.errors import CalibrationError
+from odolab.core.errors import CalibrationError
 from odolab.io.gyro import GyroRun, read_gyro_run
 from odolab.robot.session import RobotRun
 
@@ -146,9 +146,9 @@ def _notebook_references(db: Path, paths: Sequence[Path]) -> list[TurnReference]
     """The notebook's measured turns of the runs' trials (a compass and counted turns), when
     every run is a robot run folder whose trial is measured there; else none."""
     from odolab.app.selection import open_notebook
-    from odolab.errors import StoreError
-    from odolab.measurement import COMPASS_SIGMA_RAD
-    from odolab.trials import TrialStatus
+    from odolab.core.errors import StoreError
+    from odolab.core.measurement import COMPASS_SIGMA_RAD
+    from odolab.core.trials import TrialStatus
 
     ids = [_trial_id(p) for p in paths]
     if any(i is None for i in ids):
@@ -236,7 +236,7 @@ def gyro_after_run(run: RobotRun) -> list[str]:
     gyro's effective track with its interval beside the parameters in use (the bias fitted when
     the run turned both ways or stood still, else taken as 0 +- 0.005 rad/s, said), and the drift
     monitor's flags. Empty for a run without a gyro."""
-    from odolab.errors import OdolabError
+    from odolab.core.errors import OdolabError
 
     gyro = gyro_run_of(run)
     if gyro is None:

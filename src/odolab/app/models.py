@@ -17,7 +17,7 @@ models, which seconds of a learning curve, which seed.
 - the learning curve (:data:`CURVE_SECONDS`): each model fitted on the first seconds of the
   exploration run alone, mean held-out end-point error (``compare_models(curve=...)``);
 - the lab's speed question from the slip model's coefficients:
-  :meth:`odolab.models.slip.SlipModel.speed_slip_gain` between two speeds with its 95 % interval.
+  :meth:`odolab.core.models.slip.SlipModel.speed_slip_gain` between two speeds with its 95 % interval.
 
 :func:`slip_comparison` does all of it and returns a :class:`SlipComparison`, whose
 :meth:`~SlipComparison.to_dict` is the report's ``slip`` entry (with the equivalent
@@ -38,8 +38,8 @@ from odolab.calibration.compare import DEFAULT_MODELS
 if TYPE_CHECKING:
     from odolab.calibration.compare import ModelComparison
     from odolab.calibration.lsq import LsqOptions
+    from odolab.core.params import RobotParams
     from odolab.io.run import OdometryRun, ReadOptions
-    from odolab.params import RobotParams
     from odolab.sim.explore import ExploreSettings
     from odolab.sim.physics import TrueParams
 
@@ -116,7 +116,7 @@ def compare_files(
 ) -> ModelComparison:
     """:func:`compare_runs` of the runs found under ``paths`` (and held out: ``validate``)."""
     if request.n_boot != 2000:  # the files' comparison has the default resampling only
-        from odolab.errors import CalibrationError
+        from odolab.core.errors import CalibrationError
 
         raise CalibrationError(
             f"n_boot is {request.n_boot}; comparing files uses 2000 bootstrap resamples"
@@ -175,7 +175,7 @@ class SlipComparison:
     def command(self) -> str:
         """The ``odolab calibrate compare`` line that gives the same comparison from the
         written files (empty without files). A command line to run, so in the CLI's own flags:
-        the demo (``odolab.lab``, a face below the CLI's layer) writes it into results.json,
+        the demo (``odolab.app.demo``, a face below the CLI's layer) writes it into results.json,
         and the tests run it from there."""
         if not self.files:
             return ""
@@ -324,11 +324,11 @@ def slip_comparison(
     measured answer); ``folder``: write every run there as CSV (``<name>.csv`` and
     ``<name>_gt.csv``) so that :meth:`SlipComparison.command` reproduces the comparison (run from
     ``base``, the folder its paths are relative to)."""
-    from odolab.errors import ParamsError
+    from odolab.core.errors import ParamsError
+    from odolab.core.models import timed_model
+    from odolab.core.trajectory import Trajectory
     from odolab.io.run import OdometryRun
-    from odolab.models import timed_model
     from odolab.sim.explore import ExploreSettings, explore
-    from odolab.trajectory import Trajectory
 
     settings = ExploreSettings(seconds=EXPLORE_SECONDS)
     d = explore(truth, nominal, settings, terrain=terrain, seed=seed)
@@ -362,7 +362,7 @@ def slip_comparison(
         held_files = tuple(_write_run(folder, r) for r in held_out)
         params_arg = _params_arg(folder, nominal)
         if slip is not None and slip.fit is not None:
-            from odolab.params import save_params
+            from odolab.core.params import save_params
 
             slip_params = save_params(folder / "slip.toml", slip.fit.params)
     return SlipComparison(
@@ -375,7 +375,7 @@ def slip_comparison(
 def _held_out_nees(params: RobotParams, held_out: Sequence[OdometryRun]) -> dict[str, Any]:
     """NEES of a slip fit's predictive covariance on the held-out runs, as `odolab evaluate
     --nees --nees-segment` gives it (pieces of :data:`NEES_PIECE_S`)."""
-    from odolab.errors import OdolabError
+    from odolab.core.errors import OdolabError
     from odolab.metrics.consistency import nees_summary, run_nees
 
     try:
@@ -387,7 +387,7 @@ def _held_out_nees(params: RobotParams, held_out: Sequence[OdometryRun]) -> dict
 
 def _params_arg(folder: Path, nominal: RobotParams) -> str:
     """The preset's name when ``nominal`` is a preset, else the file it is written to."""
-    from odolab.params import PRESETS, save_params
+    from odolab.core.params import PRESETS, save_params
 
     if PRESETS.get(nominal.name) == nominal:
         return nominal.name

@@ -2,8 +2,8 @@
 
 The rule for which parameters a log is integrated with: the ones the user names (``--params``),
 else the ones the log names (a robot run folder's ``run.json`` beside its ``encoders.csv``; the
-nominal parameters of a recorded run in another :class:`~odolab.defaults.LogFormat`, such as an
-OptiOdom run's ``<id>_metadata.csv``), else the default preset (:data:`odolab.defaults.DEFAULT_ROBOT`), and then the result says so.
+nominal parameters of a recorded run in another :class:`~odolab.core.defaults.LogFormat`, such as an
+OptiOdom run's ``<id>_metadata.csv``), else the default preset (:data:`odolab.core.defaults.DEFAULT_ROBOT`), and then the result says so.
 :class:`ParamsChoice` carries the choice (which file, which version, and why), and every face
 prints :meth:`ParamsChoice.describe`.
 """
@@ -16,15 +16,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
-from odolab.defaults import DEFAULT_ROBOT, LogFormat
-from odolab.errors import OdolabError, ParamsError, opt
-from odolab.models import own_covariance
-from odolab.params import covariance_source
+from odolab.core.defaults import DEFAULT_ROBOT, LogFormat
+from odolab.core.errors import OdolabError, ParamsError, opt
+from odolab.core.models import own_covariance
+from odolab.core.params import covariance_source
 
 if TYPE_CHECKING:
-    from odolab.params import RobotParams
-    from odolab.progress import Progress
-    from odolab.trajectory import Pose
+    from odolab.core.params import RobotParams
+    from odolab.core.progress import Progress
+    from odolab.core.trajectory import Pose
 
 __all__ = [
     "AUTO_CHUNK_BYTES",
@@ -108,7 +108,7 @@ def _file_version(path: Path) -> str | None:
 
 def _named(spec: str) -> ParamsChoice:
     from odolab import __version__
-    from odolab.params import PRESETS, load_params
+    from odolab.core.params import PRESETS, load_params
 
     params = load_params(spec)
     if spec in PRESETS and not Path(spec).exists():
@@ -118,7 +118,7 @@ def _named(spec: str) -> ParamsChoice:
 
 def _from_run_json(log: Path) -> ParamsChoice | None:
     """The parameters a robot run folder's ``run.json`` names for the log beside it."""
-    from odolab.params import params_from_mapping
+    from odolab.core.params import params_from_mapping
 
     doc_path = log.parent / RUN_JSON
     if not log.is_file() or not doc_path.is_file():
@@ -166,7 +166,7 @@ def _from_run(log: Path, log_format: LogFormat) -> ParamsChoice | None:
 def resolve_formats(fmt: str, to: str | None) -> tuple[LogFormat, Literal["csv", "tum"]]:
     """The log's format and the output's from ``--format`` and ``--to``.
 
-    ``--format`` names a :class:`~odolab.defaults.LogFormat`; ``tum`` there (odolab's older
+    ``--format`` names a :class:`~odolab.core.defaults.LogFormat`; ``tum`` there (odolab's older
     spelling) means a CSV encoder log written as TUM, the same as ``--to tum``."""
     if fmt == "tum":
         if to == "csv":
@@ -211,7 +211,7 @@ def choose_params(
     logs: Sequence[Path], params: str | None, log_format: LogFormat | str = LogFormat.CSV
 ) -> ParamsChoice:
     """Which parameters ``logs`` (in ``log_format``) are integrated with (the module's rule)."""
-    from odolab.params import PRESETS
+    from odolab.core.params import PRESETS
 
     if params is not None:
         return _named(params)
@@ -357,8 +357,13 @@ def integrate_log(req: OdometryRequest, progress: Progress | None = None) -> Odo
             chunk_rows=chunk_rows, progress=progress, covariance=req.covariance,
         )  # fmt: skip
         return OdometryOutcome(res.rows, req.output, res.final, req.params)
+    from odolab.core.odometry import (
+        NUMPY_MAX_SAMPLES,
+        integrate,
+        integrate_with_covariance,
+        warm_up,
+    )
     from odolab.io import read_encoder_csv, write_trajectory
-    from odolab.odometry import NUMPY_MAX_SAMPLES, integrate, integrate_with_covariance, warm_up
 
     if req.covariance or _may_have_rows(req.log, NUMPY_MAX_SAMPLES):
         warm_up(robot, req.method, covariance=req.covariance)  # they load while the log is read
@@ -381,7 +386,7 @@ def integrate_log(req: OdometryRequest, progress: Progress | None = None) -> Odo
         write_columns(req.output, OdometryChunk(traj, cov).columns(), "trajectory table")
     notes: tuple[str, ...] = ()
     if cov is not None:
-        from odolab.uncertainty import first_order_note
+        from odolab.core.uncertainty import first_order_note
 
         note = first_order_note(traj, cov)
         notes = (note,) if note else ()
@@ -391,18 +396,18 @@ def integrate_log(req: OdometryRequest, progress: Progress | None = None) -> Odo
 def _integrate_own_covariance(req: OdometryRequest) -> OdometryOutcome:
     """An encoder log integrated with a model that carries its own covariance (the slip model),
     with the covariance its predictive variance gives
-    (:func:`odolab.slip_uncertainty.propagate_covariance`: the model's white noise and
+    (:func:`odolab.core.slip_uncertainty.propagate_covariance`: the model's white noise and
     drift terms, its coefficients' posterior where the model carries one, as the file
     ``calibrate lsq`` writes does, and the path's mean shortfall under heading uncertainty).
     The whole log at once: the drift's and the posterior's shares couple every cycle."""
     import numpy as np
 
-    from odolab.encoders import default_max_dticks, dticks_from_ticks
+    from odolab.core.encoders import default_max_dticks, dticks_from_ticks
+    from odolab.core.odometry import integrate
+    from odolab.core.uncertainty import first_order_note
     from odolab.io import read_encoder_csv
     from odolab.io.chunked import OdometryChunk
     from odolab.io.tabular import write_columns
-    from odolab.odometry import integrate
-    from odolab.uncertainty import first_order_note
 
     robot = req.params.params
     model = own_covariance(robot.model)
@@ -443,10 +448,10 @@ def _may_have_rows(path: Path, rows: int) -> bool:
 
 def _integrate_run(req: OdometryRequest) -> OdometryOutcome:
     """A recorded run of another format: its increments integrated with ``req.params``."""
+    from odolab.core.odometry import integrate_increments
     from odolab.io import write_trajectory
     from odolab.io.registry import read_run
     from odolab.io.run import ReadOptions
-    from odolab.odometry import integrate_increments
 
     robot = req.params.params
     options = ReadOptions(ticks_per_rev=robot.ticks_per_rev, params=robot)

@@ -32,16 +32,16 @@ from odolab.app.selection import (
     select_among,
     validation_campaigns,
 )
-from odolab.errors import NEUTRAL, CalibrationError, OdolabError
-from odolab.trials import MotionKind, TrialStatus
+from odolab.core.errors import NEUTRAL, CalibrationError, OdolabError
+from odolab.core.trials import MotionKind, TrialStatus
 
 if TYPE_CHECKING:
     from odolab.analysis import LabAnalysis
     from odolab.app.analysis import AnalysisCache
     from odolab.calibration import CalibrationResult, UmbmarkResult
-    from odolab.params import RobotParams
+    from odolab.core.params import RobotParams
+    from odolab.core.trials import Trial
     from odolab.store import Notebook
-    from odolab.trials import Trial
 
 __all__ = [
     "ReportContent",

@@ -20,17 +20,17 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from odolab.errors import NEUTRAL, Wording
+from odolab.core.errors import NEUTRAL, Wording
 
 if TYPE_CHECKING:
-    from odolab.params import RobotParams
+    from odolab.core.params import RobotParams
+    from odolab.core.trials import Command
     from odolab.robot.config import RunConfig
     from odolab.robot.explore import ExplorePlan
     from odolab.robot.loop import CycleInfo
     from odolab.robot.session import AbortReport, RobotRun
     from odolab.sim.physics import VirtualRobot
     from odolab.store import Notebook
-    from odolab.trials import Command
 
 __all__ = [
     "FOXGLOVE_PORT",
@@ -87,8 +87,8 @@ class RobotPlan:
 def _check_foxglove(foxglove: bool, port: int) -> None:
     """The port is checked whether or not --foxglove is given, and one given without it (it
     would do nothing) is refused."""
+    from odolab.core.extras import require
     from odolab.export.foxglove import check_port
-    from odolab.extras import require
     from odolab.robot.errors import RobotConfigError
 
     if foxglove:  # before the run's folder is made
@@ -128,7 +128,7 @@ def plan_run(req: RobotRequest, say: Callable[[str], None]) -> RobotPlan:
         RobotConfigError: an option the link or the motion does not accept.
         ParamsError: parameters that cannot be read.
     """
-    from odolab.params import load_params
+    from odolab.core.params import load_params
     from odolab.robot.config import check_motion
     from odolab.robot.registry import check_robot_url
 
@@ -253,7 +253,7 @@ def keep_in_notebook(notebook: Notebook | None, db: Path | None, run: RobotRun) 
     excluded, else awaiting its measurement."""
     if notebook is None or db is None:
         return KeptRun()
-    from odolab.errors import OdolabError
+    from odolab.core.errors import OdolabError
     from odolab.robot.explore import notebook_trial
 
     trial = notebook_trial(run.trial)  # an exploration: an excluded free run
@@ -280,7 +280,7 @@ def check_kept(run: RobotRun, problem: str, crossed: str | None) -> None:
         RunNotSavedError: the run could not be saved, or not recorded in the notebook.
         FenceCrossedError: an exploration went beyond its fence.
     """
-    from odolab.errors import RobotLinkError
+    from odolab.core.errors import RobotLinkError
     from odolab.robot.errors import FenceCrossedError, RunNotSavedError
 
     if not run.stop_confirmed:
@@ -365,7 +365,7 @@ def virtual_board(
     Raises:
         RobotConfigError: an option out of its range (--idle-exit, the board's own).
     """
-    from odolab.params import load_params
+    from odolab.core.params import load_params
     from odolab.sim.plants import make_plant
 
     if req.idle_exit is not None and not (

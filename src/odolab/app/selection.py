@@ -13,8 +13,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from odolab.errors import StoreError, opt
-from odolab.trials import Trial, TrialStatus
+from odolab.core.errors import StoreError, opt
+from odolab.core.trials import Trial, TrialStatus
 
 if TYPE_CHECKING:
     from odolab.analysis.selection import TrialSelection, Wording

@@ -15,13 +15,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from odolab.defaults import DEFAULT_ROBOT, DEFAULT_TRUTH
+from odolab.core.defaults import DEFAULT_ROBOT, DEFAULT_TRUTH
 
 if TYPE_CHECKING:
+    from odolab.core.trials import Trial
     from odolab.sim.drives import Drive
     from odolab.sim.explore import ExploreSettings
     from odolab.sim.physics import TrueParams
-    from odolab.trials import Trial
 
 __all__ = [
     "SIM_PHOTO_TRUTH",
@@ -50,7 +50,7 @@ def _truth(truth: str) -> TrueParams:
     Raises:
         SimError: no such preset.
     """
-    from odolab.errors import SimError
+    from odolab.core.errors import SimError
     from odolab.sim.presets import TRUTH_PRESETS
 
     if truth not in TRUTH_PRESETS:
@@ -98,8 +98,8 @@ def simulate_protocol(
         SimError: an unknown truth preset, or an encoder folder that is a file.
         ProtocolError: a protocol that cannot be read.
     """
-    from odolab.errors import SimError
-    from odolab.params import load_params
+    from odolab.core.errors import SimError
+    from odolab.core.params import load_params
     from odolab.sim.export import write_encoder_logs
     from odolab.sim.protocols import load_protocol, run_protocol
     from odolab.store.csvio import write_trials_csv
@@ -187,11 +187,11 @@ def simulate_exploration(req: ExploreRequest) -> ExploreOutcome:
         SimError: an unknown truth preset.
         RobotConfigError: an exploration outside the bounds ``robot explore`` has.
     """
-    from odolab.params import load_params
+    from odolab.core.params import load_params
+    from odolab.core.text import safe_file_name
+    from odolab.core.trials import Exploration as Plan
     from odolab.robot.config import BOUNDS, check_exploration
     from odolab.sim.explore import ExploreSettings, explore, write_exploration
-    from odolab.text import safe_file_name
-    from odolab.trials import Exploration as Plan
 
     true = _truth(req.truth)
     stem = safe_file_name(req.name, what="run name", suffix=".csv")[: -len(".csv")]
@@ -267,16 +267,16 @@ def simulate_photo(req: PhotoRequest) -> tuple[Path, float]:
     import numpy as np
 
     from odolab.app.groundtruth import OptionError
+    from odolab.core.params import PRESETS
+    from odolab.core.trajectory import Trajectory
+    from odolab.core.trials import EncoderLog
+    from odolab.core.writing import write_text_file
     from odolab.io import write_trajectory_csv
     from odolab.io.encoder_csv import write_encoder_csv
-    from odolab.params import PRESETS
     from odolab.sim.drives import record_drive
     from odolab.sim.physics import TrueParams
     from odolab.tracking import CameraModel
     from odolab.tracking.photo_render import render_photo, tilted_camera
-    from odolab.trajectory import Trajectory
-    from odolab.trials import EncoderLog
-    from odolab.writing import write_text_file
 
     seconds, led_hz, duty, jpeg, folder = req.seconds, req.led_hz, req.duty, req.jpeg, req.folder
     if not (math.isfinite(seconds) and 1.0 <= seconds <= 20.0):

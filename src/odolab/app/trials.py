@@ -15,12 +15,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from odolab.defaults import DEFAULT_ROBOT
+from odolab.core.defaults import DEFAULT_ROBOT
 
 if TYPE_CHECKING:
-    from odolab.params import RobotParams
+    from odolab.core.params import RobotParams
+    from odolab.core.trials import Measurement, Trial
     from odolab.store import Notebook
-    from odolab.trials import Measurement, Trial
 
 __all__ = ["AddRequest", "AddedTrial", "add_trial"]
 
@@ -59,8 +59,8 @@ class AddedTrial:
 
 def _params(nb: Notebook, db: Path, robot: str, version: int | None) -> RobotParams:
     """The version named, else the robot's latest in the notebook, else its preset."""
-    from odolab.errors import StoreError
-    from odolab.params import PRESETS
+    from odolab.core.errors import StoreError
+    from odolab.core.params import PRESETS
 
     if version is not None:
         return nb.get_params(robot, version)
@@ -77,10 +77,10 @@ def _trial(nb: Notebook, db: Path, req: AddRequest, angle: float | None) -> Tria
     Raises:
         StoreError: an unknown campaign (not to be created), or a heading that is not finite.
     """
-    from odolab.errors import StoreError
-    from odolab.kinematics import wrap_angle
-    from odolab.trajectory import Pose
-    from odolab.trials import Command, MotionKind, Trial
+    from odolab.core.errors import StoreError
+    from odolab.core.kinematics import wrap_angle
+    from odolab.core.trajectory import Pose
+    from odolab.core.trials import Command, MotionKind, Trial
 
     params = _params(nb, db, req.robot, req.params_version)
     campaign, terrain, trial_id = req.campaign, req.terrain, req.trial_id
@@ -117,10 +117,10 @@ def add_trial(db: Path, req: AddRequest, measure: Callable[[Trial], Measurement]
         StoreError: the angle given twice, a translation without its distance, no parameters
             for the robot, an unknown campaign, a heading that is not finite.
     """
-    from odolab.errors import StoreError
-    from odolab.params import PRESETS
+    from odolab.core.errors import StoreError
+    from odolab.core.params import PRESETS
+    from odolab.core.trials import MotionKind, TrialStatus
     from odolab.store import Notebook
-    from odolab.trials import MotionKind, TrialStatus
 
     angle = req.angle
     if angle is not None and req.angle_pi is not None:

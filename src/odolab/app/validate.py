@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from odolab.app.odometry import ParamsChoice
-    from odolab.trials import EncoderLog
+    from odolab.core.trials import EncoderLog
     from odolab.validation import ValidationResult
 
 __all__ = ["ValidateOutcome", "ValidateRequest", "validate_log"]
@@ -59,7 +59,7 @@ def _encoder_log(req: ValidateRequest) -> tuple[EncoderLog, ParamsChoice, str]:
         choice = choose_params([req.encoder_log], req.old)
         enc = read_encoder_csv(req.encoder_log, modulus=choice.params.encoder_modulus)
         return enc, choice, str(req.encoder_log)
-    from odolab.errors import ImuLogError
+    from odolab.core.errors import ImuLogError
     from odolab.store import Notebook
 
     with Notebook(req.db) as nb:
@@ -82,7 +82,7 @@ def validate_log(req: ValidateRequest) -> ValidateOutcome:
         ParamsError: a parameters file or preset that cannot be read.
         ImuLogError: an IMU log that cannot be read, or a trial without an encoder log.
     """
-    from odolab.params import load_params
+    from odolab.core.params import load_params
     from odolab.validation import read_sensorlog, validate
 
     new_params = load_params(req.new)

@@ -1,6 +1,6 @@
 """Correct the kinematic model: ratios (the lab's section VIII, done right) and UMBmark.
 
-Each method returns a :class:`CalibrationResult` (new :class:`~odolab.params.RobotParams` plus a
+Each method returns a :class:`CalibrationResult` (new :class:`~odolab.core.params.RobotParams` plus a
 provenance dict) that ``save()`` writes as TOML with a ``[provenance]`` table.
 """
 

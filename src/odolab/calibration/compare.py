@@ -60,11 +60,11 @@ from odolab.calibration.lsq import (
     fit_model,
     prepare_run,
 )
-from odolab.errors import CalibrationError, InsufficientDataError, opt
+from odolab.core.errors import CalibrationError, InsufficientDataError, opt
+from odolab.core.params import RobotParams
 from odolab.io.registry import LogFormat, read_run
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.metrics.runs import RUN_OPTIONS, Progress, evaluate_run, parallel_map
-from odolab.params import RobotParams
 
 __all__ = [
     "DEFAULT_MODELS",

@@ -14,7 +14,7 @@ cumulative integral (trapezoid) is interpolated at the window's ends shifted by 
   of each run minimises the residual sum of squares (a bounded scalar search, started from the
   rates' cross-correlation of :func:`odolab.validation.find_clock_offset` when the clocks differ).
 - The covariance of all of them, the offsets included, is the sandwich of the linearised model
-  with Newey-West weights inside each segment (statsmodels' ``hac-panel``, :mod:`odolab.regression`), or clustered by
+  with Newey-West weights inside each segment (statsmodels' ``hac-panel``, :mod:`odolab.core.regression`), or clustered by
   segment group where there are many (the DRIVE windows' command steps).
 - The radius ratio ``r_R / r_L = a_R / a_L`` does not depend on ``s``. The effective track is
   ``B = 2 r_mean s / (a_R + a_L)``: ``r_mean`` (the distance scale) comes from the given
@@ -37,10 +37,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from odolab.calibration.ratios import CalibrationResult, check_track_model
-from odolab.errors import CalibrationError, ImuLogError
+from odolab.core.errors import CalibrationError, ImuLogError
+from odolab.core.numfmt import clean
+from odolab.core.params import RobotParams
 from odolab.io.gyro import GyroRun, GyroSegment
-from odolab.numfmt import clean
-from odolab.params import RobotParams
 
 __all__ = [
     "Z95",
@@ -513,7 +513,7 @@ def _fit_offsets(data: list[_RunData], x: FloatArray) -> list[float]:
 def _covariance(
     r: FloatArray, jac: FloatArray, data: list[_RunData], maxlags: int
 ) -> tuple[FloatArray, str]:
-    from odolab.regression import cluster_cov, newey_west_panel_cov, ols, panel_lags
+    from odolab.core.regression import cluster_cov, newey_west_panel_cov, ols, panel_lags
 
     groups = np.concatenate([d.group + 1_000_000 * d.index for d in data])
     segs = np.concatenate([d.seg for d in data])
@@ -886,7 +886,7 @@ def calibrate_imu(
     """Estimate the angular parameters, the gyro's bias (and scale with ``references``) and the
     clock offsets from encoder runs with a gyro (see the module). ``params``: the parameters in
     use (their mean wheel radius is kept). Raises :class:`CalibrationError` (too little turning,
-    a saturated gyro, a useless reference) and :class:`~odolab.errors.ImuLogError` (clocks that
+    a saturated gyro, a useless reference) and :class:`~odolab.core.errors.ImuLogError` (clocks that
     do not overlap)."""
     o = options or ImuOptions()
     ccw, cw = _checked_turning(runs, params, o)
@@ -971,7 +971,7 @@ def yaw_scale_from_heading(run: GyroRun, params: RobotParams) -> YawScaleFit:
     """Fit ``actual = k * predicted`` over each segment's span: the reference heading's change
     (up to its last update: a lidar's heading is held between scans) against the odometry's
     heading change with ``params``. The independent check of the gyro's ``yaw_scale``."""
-    from odolab.regression import cluster_cov, ols
+    from odolab.core.regression import cluster_cov, ols
 
     xs, ys, groups = [], [], []
     for seg in run.segments:

@@ -1,7 +1,7 @@
 """Least-squares calibration of wheel radii and track width from runs with ground truth.
 
 Parameters ``theta = (left_wheel_radius, right_wheel_radius, track_width)`` for the differential
-drive (``model="diff"``); the other kinematic models of :mod:`odolab.models` fit their own
+drive (``model="diff"``); the other kinematic models of :mod:`odolab.core.models` fit their own
 (:data:`FIT_MODELS`): ``extended`` its scales and track factor with the radii held (they multiply
 the radii, so both cannot be fitted), ``icr`` both radii and the three ICR coordinates
 (``y_icr_left``, ``y_icr_right``, ``x_icr``). Each run is cut into
@@ -38,17 +38,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from odolab.calibration.truthnoise import TruthNoise, estimate_truth_noise, truth_residuals
-from odolab.errors import CalibrationError, InsufficientDataError, opt
+from odolab.core.errors import CalibrationError, InsufficientDataError, opt
+from odolab.core.kinematics import Method
+from odolab.core.models import DIFF_DRIVE, ExtendedDiffDrive, IcrModel, SlipModel
+from odolab.core.models.slip import DRIFT_KEYS, NOISE_KEYS
+from odolab.core.odometry import integrate_increments
+from odolab.core.params import RobotParams, plausible_range
 from odolab.io.registry import LogFormat, find_runs, read_run
 from odolab.io.run import OdometryRun, ReadOptions
-from odolab.kinematics import Method
 from odolab.metrics.association import interpolate_trajectory
 from odolab.metrics.cluster import Cluster
 from odolab.metrics.runs import RUN_OPTIONS, Progress, RunEvaluation, evaluate_run, parallel_map
-from odolab.models import DIFF_DRIVE, ExtendedDiffDrive, IcrModel, SlipModel
-from odolab.models.slip import DRIFT_KEYS, NOISE_KEYS
-from odolab.odometry import integrate_increments
-from odolab.params import RobotParams, plausible_range
 
 __all__ = [
     "FIT_MODELS",
@@ -755,8 +755,8 @@ def kinematic_base(
     (:func:`odolab.calibration.slipfit.base_coefficients`); and its name ("none", all zeros:
     the nominal differential drive, when none can)."""
     from odolab.calibration.slipfit import BASE_MODELS, base_coefficients
-    from odolab.errors import ParamsError
-    from odolab.models.slip import FEATURES
+    from odolab.core.errors import ParamsError
+    from odolab.core.models.slip import FEATURES
 
     for kind in BASE_MODELS:
         try:

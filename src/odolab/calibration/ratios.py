@@ -25,9 +25,9 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from odolab.errors import CalibrationError, opt
-from odolab.numfmt import clean
-from odolab.params import NoiseParams, RobotParams, save_params
+from odolab.core.errors import CalibrationError, opt
+from odolab.core.numfmt import clean
+from odolab.core.params import NoiseParams, RobotParams, save_params
 
 if TYPE_CHECKING:
     from odolab.analysis import LabAnalysis

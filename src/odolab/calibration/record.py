@@ -8,11 +8,11 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Literal
 
-from odolab.trials import MotionKind, Trial, TrialStatus
+from odolab.core.trials import MotionKind, Trial, TrialStatus
 
 if TYPE_CHECKING:
     from odolab.calibration.ratios import CalibrationResult
-    from odolab.params import RobotParams
+    from odolab.core.params import RobotParams
     from odolab.store import Notebook
 
 __all__ = ["record_calibration"]

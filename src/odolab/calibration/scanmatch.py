@@ -23,9 +23,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import CalibrationError, InsufficientDataError
+from odolab.core.errors import CalibrationError, InsufficientDataError
+from odolab.core.trajectory import Trajectory
 from odolab.io.scans import LaserScans
-from odolab.trajectory import Trajectory
 
 __all__ = ["ScanMotions", "scan_motions"]
 

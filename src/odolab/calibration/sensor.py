@@ -51,10 +51,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from odolab.errors import CalibrationError, InsufficientDataError, opt
-from odolab.kinematics import chord_factors, wrap_angle
-from odolab.params import RobotParams
-from odolab.trajectory import Trajectory
+from odolab.core.errors import CalibrationError, InsufficientDataError, opt
+from odolab.core.kinematics import chord_factors, wrap_angle
+from odolab.core.params import RobotParams
+from odolab.core.trajectory import Trajectory
 
 __all__ = [
     "PARAM_NAMES",

@@ -1,4 +1,4 @@
-"""Fit the slip model (:mod:`odolab.models.slip`) by Bayesian linear regression.
+"""Fit the slip model (:mod:`odolab.core.models.slip`) by Bayesian linear regression.
 
 Each run with ground truth is cut into windows of :data:`WINDOW_S` seconds. Over a window from
 sample i to j the ground truth's displacement in its start frame, minus what the differential
@@ -59,10 +59,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from odolab.calibration.truthnoise import TruthNoise
-from odolab.errors import InsufficientDataError
-from odolab.models.slip import FEATURES, SlipModel
-from odolab.params import RobotParams
-from odolab.slip_uncertainty import (
+from odolab.core.errors import InsufficientDataError
+from odolab.core.models.slip import FEATURES, SlipModel
+from odolab.core.params import RobotParams
+from odolab.core.slip_uncertainty import (
     HEADING_TERMS,
     TERMS,
     EndPairs,
@@ -468,7 +468,7 @@ def base_coefficients(params: RobotParams, nominal: RobotParams) -> FloatArray:
     """The slip model's 24 coefficients (:attr:`SlipModel.COEF_KEYS` order) that move the body
     as the linear kinematic model of ``params`` does, for encoder counts turned into distances
     with ``nominal``'s wheels: its radii's ratios to the nominal ones ``g`` and its model's
-    coefficients (:class:`odolab.models.ModelCoefficients`) give the terms of degree one in
+    coefficients (:class:`odolab.core.models.ModelCoefficients`) give the terms of degree one in
     ``v`` and ``w`` (the others are 0)::
 
         fwd_v = w_l g_l + w_r g_r - 1        fwd_w = (w_r g_r - w_l g_l) b / 2
@@ -665,7 +665,7 @@ class _Pieces:
     """Pieces of runs with ground truth, each started at the truth's pose: the end pose error
     ``e`` (m, 3); at the end, the first-order covariance per unit variance term ``basis``
     (m, T, 3, 3) and from the posterior ``post`` (m, 3, 3); and what the second-order share
-    depends on (:class:`odolab.slip_uncertainty.EndPairs`)."""
+    depends on (:class:`odolab.core.slip_uncertainty.EndPairs`)."""
 
     e: FloatArray
     basis: FloatArray
@@ -751,7 +751,7 @@ def _piece_errors(runs: Sequence[object], params: RobotParams, piece_s: float) -
 
 def fit_noise(groups: Sequence[_Pieces], start: FloatArray) -> FloatArray:
     """The variance terms (:data:`TERMS`: white noise and drift) that make the slip model's
-    predictive covariance (:mod:`odolab.slip_uncertainty`, second-order share included) fit how
+    predictive covariance (:mod:`odolab.core.slip_uncertainty`, second-order share included) fit how
     far its pose is off at the end of the pieces of ``groups`` (one group a piece length):
     maximum likelihood. Starts from (and with fewer pieces than terms, returns) ``start``."""
     from scipy.optimize import minimize
@@ -816,7 +816,7 @@ def first_seconds(run: object, seconds: float) -> object:
     """The first ``seconds`` of a run with ground truth (:class:`odolab.io.run.OdometryRun`)."""
     from dataclasses import replace
 
-    from odolab.trajectory import Trajectory
+    from odolab.core.trajectory import Trajectory
 
     t = np.asarray(run.t)  # type: ignore[attr-defined]
     keep = t <= t[0] + seconds
@@ -843,7 +843,7 @@ def endpoint_error(run: object, params: RobotParams) -> float:
     t = np.asarray(run.t, dtype=np.float64)  # type: ignore[attr-defined]
     inside = (t >= gt.t[0]) & (t <= gt.t[-1])
     g = interpolate_trajectory(gt, t[inside])
-    from odolab.odometry import integrate_increments
+    from odolab.core.odometry import integrate_increments
 
     dl = np.asarray(run.dticks_left, dtype=np.float64)[inside]  # type: ignore[attr-defined]
     dr = np.asarray(run.dticks_right, dtype=np.float64)[inside]  # type: ignore[attr-defined]

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import CalibrationError
+from odolab.core.errors import CalibrationError
 
 __all__ = [
     "CHI2_1_MEDIAN",

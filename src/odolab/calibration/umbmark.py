@@ -53,10 +53,10 @@ from odolab.calibration.ratios import (
     check_track_model,
     with_noise,
 )
-from odolab.errors import CalibrationError, LogFormatError
-from odolab.params import RobotParams
-from odolab.text import quote_input
-from odolab.trials import MotionKind, Trial, TrialStatus
+from odolab.core.errors import CalibrationError, LogFormatError
+from odolab.core.params import RobotParams
+from odolab.core.text import quote_input
+from odolab.core.trials import MotionKind, Trial, TrialStatus
 
 if TYPE_CHECKING:
     from odolab.analysis import LabAnalysis
@@ -77,7 +77,7 @@ def read_umbmark_errors_csv(
 ) -> tuple[list[tuple[float, float]], list[tuple[float, float]]]:
     """(cw, ccw) return errors (x, y in m) from a CSV with the header ``direction,x,y``.
 
-    Every refusal is one :class:`~odolab.errors.LogFormatError` sentence naming the file and
+    Every refusal is one :class:`~odolab.core.errors.LogFormatError` sentence naming the file and
     the line: not UTF-8, a line over 1 MB, a column twice, a missing column, a non-number, a
     direction other than cw or ccw, no run at all.
     """
@@ -551,7 +551,7 @@ def umbmark_iterated(
     errors with the final parameters. ``calibration.provenance["iterations"]`` lists each
     iterate (radii, track width, E_max,syst; the step taken from it).
 
-    Raises :class:`~odolab.errors.CalibrationError` when a square trial has no encoder log
+    Raises :class:`~odolab.core.errors.CalibrationError` when a square trial has no encoder log
     (return errors typed in by hand allow only the single step, :func:`umbmark`), or when the
     iteration does not converge in ``max_iter`` steps.
     """
@@ -615,7 +615,7 @@ def _predicted_xy(tr: Trial, params: RobotParams | None) -> tuple[float, float]:
         raise CalibrationError(
             f"trial {tr.trial_id}: re-predicting with new parameters needs its encoder log"
         )
-    from odolab.odometry import integrate
+    from odolab.core.odometry import integrate
 
     modulus = log.modulus if log.modulus is not None else params.encoder_modulus
     end = integrate(

@@ -28,15 +28,15 @@ NATIVE_SETTINGS = {"OMP_WAIT_POLICY": "passive", "OPENBLAS_THREAD_TIMEOUT": "4"}
 for _name, _value in NATIVE_SETTINGS.items():
     os.environ.setdefault(_name, _value)
 
-from odolab.errors import OdolabError  # noqa: E402
-from odolab.extras import (  # noqa: E402
+from odolab.core.errors import OdolabError  # noqa: E402
+from odolab.core.extras import (  # noqa: E402
     COMMAND_PREFERS,
     MissingExtraError,
     command_extra,
     extra_of_missing,
     require,
 )
-from odolab.text import safe_terminal  # noqa: E402
+from odolab.core.text import safe_terminal  # noqa: E402
 
 #: The modules that add commands, in the order a full load imports them (their commands are
 #: listed in this order, as before lazy loading).
@@ -175,7 +175,7 @@ def _command_path(app: Any, args: Sequence[str]) -> str:
 
 #: Modules a data command imports anyway, loaded before it runs, in :func:`_start_up`.
 PRELOAD: dict[str, tuple[str, ...]] = {
-    "odometry": ("polars", "odolab.io", "odolab.io.chunked", "odolab.odometry"),
+    "odometry": ("polars", "odolab.io", "odolab.io.chunked", "odolab.core.odometry"),
     "evaluate": ("polars", "odolab.io", "odolab.io.chunked", "odolab.metrics"),
 }
 

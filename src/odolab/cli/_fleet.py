@@ -10,7 +10,7 @@ from typing import Any
 
 from odolab.cli._output import markup_text, term
 from odolab.cli.wording import said
-from odolab.errors import OdolabError
+from odolab.core.errors import OdolabError
 
 __all__ = ["expand_logs", "expand_runs", "odometry_many", "print_fleet", "report_failures"]
 

@@ -9,7 +9,7 @@ from odolab.cli.wording import said
 
 if TYPE_CHECKING:
     from odolab.app.evaluate import NeesOutcome
-    from odolab.params import RobotParams
+    from odolab.core.params import RobotParams
 
 __all__ = ["print_nees", "render_nees"]
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from odolab.errors import OdolabError
-from odolab.text import safe_terminal
+from odolab.core.errors import OdolabError
+from odolab.core.text import safe_terminal
 
 __all__ = ["OutputError", "check_output_path", "echo", "markup_text", "term", "write_output_text"]
 
@@ -68,7 +68,7 @@ def write_output_text(path: Path, text: str, what: str) -> None:
     """Write ``text`` to ``path`` (UTF-8), creating its folder; the settings the library's
     text names (its marks) written as the flags (:mod:`odolab.cli.wording`)."""
     from odolab.cli.wording import said
-    from odolab.writing import write_text_file
+    from odolab.core.writing import write_text_file
 
     check_output_path(path, what)
     write_text_file(path, said(text), what=what, error=OutputError)

@@ -50,9 +50,9 @@ def calibrate_noise_cmd(
     likelihood over the runs' pieces; judge it on held-out runs."""
     from odolab.app.evaluate import read_runs
     from odolab.cli._output import check_not_the_input
-    from odolab.errors import OdolabError
+    from odolab.core.errors import OdolabError
+    from odolab.core.params import load_params, save_params
     from odolab.metrics.consistency import fit_noise
-    from odolab.params import load_params, save_params
 
     check_not_the_input(output, params)
     robot = load_params(params) if params else None

@@ -11,7 +11,7 @@ import typer
 from odolab.app.odometry import DEFAULT_CHUNK_ROWS
 from odolab.cli._apps import app, params_app
 from odolab.cli._output import echo
-from odolab.defaults import DEFAULT_ROBOT, LogFormat
+from odolab.core.defaults import DEFAULT_ROBOT, LogFormat
 
 __all__: list[str] = []
 
@@ -175,8 +175,8 @@ def params_show(
     """Print a parameter set as TOML."""
     import tomli_w
 
-    from odolab.params import load_params
-    from odolab.text import safe_terminal
+    from odolab.core.params import load_params
+    from odolab.core.text import safe_terminal
 
     text = tomli_w.dumps({"robot": load_params(source).to_dict()}).rstrip()
     # still TOML: a control character in a name is written as its \u escape, not obeyed
@@ -186,7 +186,7 @@ def params_show(
 @params_app.command("list")
 def params_list() -> None:
     """List the built-in presets."""
-    from odolab.params import PRESETS
+    from odolab.core.params import PRESETS
 
     for name, p in sorted(PRESETS.items()):
         echo(

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 from odolab.cli._apps import app
-from odolab.defaults import DEFAULT_TRUTH
+from odolab.core.defaults import DEFAULT_TRUTH
 
 if TYPE_CHECKING:
     from odolab.app.demo import LabResult
@@ -57,9 +57,9 @@ def demo_cmd(
 
 def _print_result(result: LabResult) -> None:
     """Table I against the lab report, the headline numbers and where the files went."""
-    from odolab import numfmt
     from odolab.cli._console import console as make_console
     from odolab.cli._console import print_table
+    from odolab.core import numfmt
     from odolab.report.table import table1_compare_rich
 
     out_console = make_console()
@@ -116,7 +116,7 @@ def _print_result(result: LabResult) -> None:
 def _print_slip(console: Any, slip: Mapping[str, Any]) -> None:
     """The slip comparison in three lines: what was explored, what compare recommends, the
     learning curve, and the speed question from the slip model's coefficients."""
-    from odolab import numfmt
+    from odolab.core import numfmt
 
     ex = slip["exploration"]
     cmp = slip["comparison"]

@@ -14,12 +14,12 @@ from odolab.cli._apps import app, calibrate_app
 from odolab.cli._output import echo, markup_text
 from odolab.cli._several import several_values_command
 from odolab.cli.wording import said
-from odolab.writing import strict_json
+from odolab.core.writing import strict_json
 
 if TYPE_CHECKING:
     from odolab.app.evaluate import EvaluationRequest, RunSetEvaluation
+    from odolab.core.params import RobotParams
     from odolab.io.run import ReadOptions
-    from odolab.params import RobotParams
 
 __all__: list[str] = []
 
@@ -488,8 +488,8 @@ def calibrate_lsq_cmd(
     from odolab.app.evaluate import LsqRequest, calibrate_lsq_runs
     from odolab.cli._fleet import expand_runs
     from odolab.cli._output import check_not_the_input
+    from odolab.core.params import load_params, save_params
     from odolab.metrics.cluster import Cluster
-    from odolab.params import load_params, save_params
 
     check_not_the_input(output, params)
     cluster = Cluster(scheduler=scheduler, workers=workers)  # (its address checked first)
@@ -558,7 +558,7 @@ def _run_list(paths: list[Path]) -> str:
 
 def _print_run_sets(fitted: list[Path], held: list[Path], source: str) -> None:
     """Which run files were fitted and which held out (a shell glob cannot hide one)."""
-    from odolab.numfmt import count
+    from odolab.core.numfmt import count
 
     lines = [f"fitted: {count(len(fitted), 'run')}: " + _run_list(fitted)]
     if held:

@@ -86,8 +86,8 @@ def ros2_controller_cmd(
 
     from odolab.cli._output import write_output_text
     from odolab.cli.wording import CLI
+    from odolab.core.params import PRESETS, load_params
     from odolab.export.ros2_controller import diff_drive_controller_yaml
-    from odolab.params import PRESETS, load_params
 
     robot = load_params(params)
     provenance = None
@@ -154,8 +154,8 @@ def mcap_cmd(
     from odolab.app.exports import mcap_stream
     from odolab.cli._output import check_output_path
     from odolab.cli.trials import _open
+    from odolab.core.params import load_params
     from odolab.export.mcap import check_start_time, write_mcap
-    from odolab.params import load_params
 
     check_start_time(start_time)  # every option checked before any input is read
     check_output_path(output, "MCAP file")
@@ -172,7 +172,7 @@ def mcap_cmd(
     for note in first_order_notes(stream):  # the covariance's range (docs/ros2.md)
         echo(f"note: /odom pose covariance: {note}")
     if stream.covariance_source == "slip":
-        from odolab.models import own_covariance
+        from odolab.core.models import own_covariance
 
         model = own_covariance(robot.model) if robot is not None else None
         echo(

@@ -17,7 +17,7 @@ from odolab.app.groundtruth import OptionError, estimate_time_offset
 from odolab.cli._apps import app, calibrate_app, sim_app
 from odolab.cli._output import echo
 from odolab.cli.wording import said
-from odolab.defaults import DEFAULT_CORNERS
+from odolab.core.defaults import DEFAULT_CORNERS
 
 if TYPE_CHECKING:
     from odolab.calibration.sensor import SensorCalibration
@@ -398,15 +398,15 @@ def sim_video_cmd(
     among five floor markers, with its marker 10 (25 cm, 0.30 m up); writes run.avi, floor.csv,
     camera.toml, the encoder log run.csv and the true path truth.csv (encoder clock)."""
     from odolab.cli._output import term
+    from odolab.core.params import PRESETS
+    from odolab.core.trajectory import Trajectory
+    from odolab.core.trials import EncoderLog
     from odolab.io import write_trajectory_csv
     from odolab.io.encoder_csv import write_encoder_csv
-    from odolab.params import PRESETS
     from odolab.sim.drives import record_drive
     from odolab.sim.physics import TrueParams
     from odolab.tracking import CameraModel, FloorMarker, save_camera, write_floor_csv
     from odolab.tracking.render import look_at, render_video
-    from odolab.trajectory import Trajectory
-    from odolab.trials import EncoderLog
 
     if not math.isfinite(clock_offset) or abs(clock_offset) > 30.0:
         raise OptionError(f"--clock-offset is {clock_offset!r}; expected seconds within +-30")

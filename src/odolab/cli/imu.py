@@ -151,8 +151,8 @@ def _print_outcome(
     """Where the parameters came from, the calibration's lines, and where it was written and
     recorded."""
     from odolab.cli._output import write_output_text
-    from odolab.text import safe_terminal
-    from odolab.writing import strict_json
+    from odolab.core.text import safe_terminal
+    from odolab.core.writing import strict_json
 
     cal = outcome.calibration
     echo(outcome.params_from)

@@ -55,7 +55,7 @@ def _say(con: Any, text: str) -> None:
     """A sentence of the application layer (names in it are user text: no markup; its settings
     named by their flags)."""
     from odolab.cli.wording import said
-    from odolab.text import safe_terminal
+    from odolab.core.text import safe_terminal
 
     con.print(safe_terminal(said(text)), markup=False)
 
@@ -81,8 +81,8 @@ def analyze_cmd(
     from odolab.app.selection import open_notebook
     from odolab.cli._console import print_table
     from odolab.cli._output import markup_text as mt
+    from odolab.core.writing import strict_json
     from odolab.report import table1_rich
-    from odolab.writing import strict_json
 
     con = _console()
     with open_notebook(db) as nb:
@@ -142,7 +142,7 @@ def report_cmd(
     from odolab.app.selection import open_notebook
     from odolab.cli._console import print_table
     from odolab.cli._output import markup_text
-    from odolab.params import load_params
+    from odolab.core.params import load_params
     from odolab.report import table1_rich
 
     con = _console()
@@ -203,7 +203,7 @@ def _from_notebook(
     recorded as a new parameter version; says what it used and where it started."""
     from odolab.app.calibration import CalibrationRequest, calibrate
     from odolab.app.selection import open_notebook
-    from odolab.params import load_params
+    from odolab.core.params import load_params
 
     request = CalibrationRequest(
         method,
@@ -231,7 +231,7 @@ def _write_json(path: Path | None, doc: dict[str, Any]) -> None:
     if path is None:
         return
     from odolab.cli._output import write_output_text
-    from odolab.writing import strict_json
+    from odolab.core.writing import strict_json
 
     write_output_text(path, strict_json(doc), "calibration JSON")
     echo(f"calibration written to {path}")
@@ -275,8 +275,8 @@ def calibrate_ratios_cmd(
     """New wheel radius = old x distance ratio; new track = old x distance/rotation ratio."""
     from odolab.calibration import ratios
     from odolab.cli._output import check_not_the_input
-    from odolab.errors import OdolabError
-    from odolab.params import load_params
+    from odolab.core.errors import OdolabError
+    from odolab.core.params import load_params
 
     check_not_the_input(output, params)
 
@@ -354,8 +354,8 @@ def calibrate_umbmark_cmd(
     """
     from odolab.calibration import umbmark
     from odolab.cli._output import check_not_the_input
-    from odolab.errors import OdolabError
-    from odolab.params import load_params
+    from odolab.core.errors import OdolabError
+    from odolab.core.params import load_params
 
     check_not_the_input(output, params)
 
@@ -394,7 +394,7 @@ def calibrate_umbmark_cmd(
 
 
 def _recorded(db: Path, outcome: Any) -> None:
-    from odolab.text import safe_terminal
+    from odolab.core.text import safe_terminal
 
     echo(f"recorded in {db} as {safe_terminal(outcome.robot)} parameters version {outcome.version}")
 
@@ -403,7 +403,7 @@ def _record_version(db: Path, result: Any, base: Any, *, trials: list[Any]) -> N
     """Add ratios typed by hand as a new parameter version of the robot in the notebook."""
     from odolab.app.selection import open_notebook
     from odolab.calibration.record import record_calibration
-    from odolab.text import safe_terminal
+    from odolab.core.text import safe_terminal
 
     with open_notebook(db) as nb:
         version = record_calibration(nb, result, base, trials=trials)

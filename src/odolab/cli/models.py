@@ -25,7 +25,7 @@ from odolab.cli.evaluate import (
     _read_options,
     run_format,
 )
-from odolab.writing import strict_json
+from odolab.core.writing import strict_json
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -90,7 +90,7 @@ def calibrate_compare_cmd(
     from odolab.calibration.lsq import LsqOptions
     from odolab.calibration.truthnoise import parse_truth_sigma
     from odolab.cli._output import write_output_text
-    from odolab.params import load_params
+    from odolab.core.params import load_params
 
     chosen = _models(models)
     curve = parse_curve(learning_curve)  # (one check, in the library)
@@ -122,7 +122,7 @@ def calibrate_compare_cmd(
 def _models(models: str) -> list[str]:
     """``--models``: a comma-separated list of the models ``calibrate lsq`` fits."""
     from odolab.calibration.lsq import FIT_MODELS
-    from odolab.errors import CalibrationError
+    from odolab.core.errors import CalibrationError
 
     chosen = [m.strip() for m in models.split(",") if m.strip()]
     for m in chosen:
@@ -247,8 +247,8 @@ def sim_questions_cmd(
 
     from odolab.analysis.questions import builtin_experiments, load_experiment, run_experiment
     from odolab.cli._output import write_output_text
-    from odolab.errors import SimError
-    from odolab.params import load_params
+    from odolab.core.errors import SimError
+    from odolab.core.params import load_params
     from odolab.sim.presets import TRUTH_PRESETS
 
     if truth not in TRUTH_PRESETS:

@@ -22,15 +22,15 @@ import typer
 from odolab.app.robot import FOXGLOVE_PORT, measure_virtual_command
 from odolab.cli._apps import robot_app
 from odolab.cli._output import echo, term
-from odolab.defaults import DEFAULT_TRUTH
+from odolab.core.defaults import DEFAULT_TRUTH
 
 if TYPE_CHECKING:
     from odolab.app.robot import RobotPlan
+    from odolab.core.trials import Command
     from odolab.robot.config import RunConfig
     from odolab.robot.loop import CycleInfo
     from odolab.robot.session import AbortReport, RobotRun
     from odolab.store import Notebook
-    from odolab.trials import Command
 
 __all__ = ["measure_virtual_command"]
 
@@ -232,8 +232,8 @@ class _FoxgloveView:
     odometry gets (same compiled step, so the same poses)."""
 
     def __init__(self, params: Any, port: int) -> None:
+        from odolab.core.odometry import Odometry
         from odolab.export.foxglove import FoxgloveLive
-        from odolab.odometry import Odometry
 
         self.live = FoxgloveLive(port=port)
         self.odo = Odometry(params, covariance=True) if params.noise is not None else None
@@ -563,7 +563,7 @@ def rotate(
     speed: Annotated[float, typer.Option("--speed", help="Turn rate, rad/s.")] = 0.5,
 ) -> Command:
     """Rotate in place by TURNS full turns (2*pi each), stopping when odometry says so."""
-    from odolab.trials import Command, MotionKind
+    from odolab.core.trials import Command, MotionKind
 
     return Command(MotionKind.ROTATION, angle=2.0 * math.pi * turns, speed=speed)
 
@@ -576,7 +576,7 @@ def drive(
     speed: Annotated[float, typer.Option("--speed", help="Speed, m/s.")] = 0.3,
 ) -> Command:
     """Drive straight DISTANCE m (negative = reverse), stopping when odometry says so."""
-    from odolab.trials import Command, MotionKind
+    from odolab.core.trials import Command, MotionKind
 
     return Command(MotionKind.TRANSLATION, distance=distance, speed=speed)
 
@@ -592,7 +592,7 @@ def pivot(
     speed: Annotated[float, typer.Option("--speed", help="Turn rate, rad/s.")] = 0.5,
 ) -> Command:
     """Pivot on one track by DEGREES, stopping when odometry says so."""
-    from odolab.trials import Command, MotionKind
+    from odolab.core.trials import Command, MotionKind
 
     return Command(MotionKind.PIVOT, angle=math.radians(degrees), direction=held.value, speed=speed)
 
@@ -606,7 +606,7 @@ def square(
     speed: Annotated[float, typer.Option("--speed", help="Straight speed, m/s.")] = 0.3,
 ) -> Command:
     """Drive the UMBmark square (four sides, four 90-degree turns in place) by odometry."""
-    from odolab.trials import Command, MotionKind
+    from odolab.core.trials import Command, MotionKind
 
     return Command(MotionKind.SQUARE, side=side, direction=direction.value, speed=speed)
 
@@ -684,7 +684,7 @@ def explore(
 ) -> Command:
     """Explore: commands sampled over speed and turn rate, held a few seconds each, inside a
     geofence by odometry; one run kept with its ground truth (a slip model's data)."""
-    from odolab.trials import Command, Exploration
+    from odolab.core.trials import Command, Exploration
 
     spec = Exploration(
         seconds=seconds,
@@ -829,6 +829,6 @@ def _serve(server: Any, activity: Callable[[], int], idle_exit: float | None) ->
         elif now - since >= idle_exit:
             echo(f"nothing came from a host for {idle_exit:g} s (--idle-exit): exiting", err=True)
             return
-    from odolab.errors import RobotLinkError
+    from odolab.core.errors import RobotLinkError
 
     raise RobotLinkError(f"the virtual board stopped: {server.error!r}") from server.error

@@ -106,12 +106,12 @@ def sim_scans_cmd(
 ) -> None:
     """Drive the virtual Jaguar through a room with a 270 degree laser; write the bag."""
     from odolab.cli._output import check_output_path, term
+    from odolab.core.trajectory import Trajectory
     from odolab.io import write_trajectory_csv
     from odolab.io.scans import LaserScans, write_scan_mcap
     from odolab.sim.drives import calibration_drive as legs
     from odolab.sim.laser import room_world, simulate_laser_drive
     from odolab.sim.physics import TrueParams
-    from odolab.trajectory import Trajectory
 
     check_output_path(output, "MCAP file")
     if calibration_drive:

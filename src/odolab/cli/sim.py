@@ -10,7 +10,7 @@ import typer
 
 from odolab.cli._apps import sim_app
 from odolab.cli._output import echo
-from odolab.defaults import DEFAULT_ROBOT, DEFAULT_TRUTH
+from odolab.core.defaults import DEFAULT_ROBOT, DEFAULT_TRUTH
 
 __all__: list[str] = []
 
@@ -82,7 +82,7 @@ def sim_run(
 
     from odolab.app.sim import SimRunRequest, simulate_protocol
     from odolab.cli._output import markup_text, term
-    from odolab.numfmt import count
+    from odolab.core.numfmt import count
 
     request = SimRunRequest(protocol, output, seed, terrain, truth, params, encoder_dir, db)
     console = Console(stderr=True)

@@ -11,12 +11,12 @@ import typer
 
 from odolab.cli._apps import app, trials_app
 from odolab.cli._output import echo, term
-from odolab.defaults import DEFAULT_ROBOT
+from odolab.core.defaults import DEFAULT_ROBOT
 
 if TYPE_CHECKING:
-    from odolab.params import RobotParams
+    from odolab.core.params import RobotParams
+    from odolab.core.trials import Measurement, Trial
     from odolab.store import Notebook
-    from odolab.trials import Measurement, Trial
 
 __all__: list[str] = []
 
@@ -55,7 +55,7 @@ class StatusChoice(StrEnum):
 def _open(db: Path, *, create: bool = False, check: bool = True) -> Notebook:
     """Open the notebook; only commands that add things may create a new file. ``check``:
     refuse a damaged one (``notebook info`` reports the integrity check instead)."""
-    from odolab.errors import StoreError
+    from odolab.core.errors import StoreError
     from odolab.store import Notebook
 
     if not create and not db.exists():
@@ -192,7 +192,7 @@ def params_add(
     db: DbOption = _DB,
 ) -> None:
     """Add a new version of a robot's parameters (nothing is ever overwritten)."""
-    from odolab.params import load_params
+    from odolab.core.params import load_params
 
     params = load_params(source)
     if robot is not None:
@@ -213,7 +213,7 @@ def params_versions_cmd(
     with _open(db) as nb:
         versions = nb.params_versions(robot)
     if not versions:
-        from odolab.errors import StoreError
+        from odolab.core.errors import StoreError
 
         raise StoreError(f"no parameters of robot {robot!r} in {db}")
     for v in versions:
@@ -257,7 +257,7 @@ def list_cmd(
             with_logs=False,
         )
     from odolab.cli._output import markup_text
-    from odolab.numfmt import count
+    from odolab.core.numfmt import count
 
     table = Table(title=f"{count(len(trials), 'trial')} in {markup_text(db)}")
     for col in ("trial", "campaign", "terrain", "command", "predicted", "measured", "status"):
@@ -324,8 +324,8 @@ def _measurement(
     sigma: float | None,
 ) -> Measurement:
     """Build the measurement of ``t``; ask for what is missing when there is a terminal."""
-    from odolab.errors import StoreError
-    from odolab.measurement import check_compass_reading
+    from odolab.core.errors import StoreError
+    from odolab.core.measurement import check_compass_reading
 
     def ask_compass(text: str) -> float:
         while True:
@@ -398,7 +398,7 @@ def measure_cmd(
     db: DbOption = _DB,
 ) -> None:
     """Enter what was measured: compass readings and turns, or x and y (asks what is missing)."""
-    from odolab.errors import StoreError
+    from odolab.core.errors import StoreError
 
     with _open(db) as nb:
         if trial_id is None:

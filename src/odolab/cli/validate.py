@@ -120,8 +120,8 @@ def _write_outputs(result: ValidationResult, plot: Path | None, json_out: Path |
 
         check_output_path(plot, "figure")
         from odolab.cli._output import OutputError
+        from odolab.core.writing import replacing_path
         from odolab.validation import validation_figure
-        from odolab.writing import replacing_path
 
         fig = validation_figure(result)
         with replacing_path(plot, what="figure", error=OutputError) as tmp:
@@ -129,7 +129,7 @@ def _write_outputs(result: ValidationResult, plot: Path | None, json_out: Path |
         plt.close(fig)
     if json_out is not None:
         from odolab.cli._output import write_output_text
-        from odolab.writing import strict_json
+        from odolab.core.writing import strict_json
 
         write_output_text(json_out, strict_json(result.to_dict()) + "\n", "JSON result")
 

@@ -1,16 +1,16 @@
 """The CLI's words for the library's settings: its flags.
 
-The library's errors and hints name a setting by its library name (:data:`odolab.errors.OPTION_NAMES`,
-as an error's ``option`` field or an :func:`odolab.errors.opt` mark in a sentence); the terminal
+The library's errors and hints name a setting by its library name (:data:`odolab.core.errors.OPTION_NAMES`,
+as an error's ``option`` field or an :func:`odolab.core.errors.opt` mark in a sentence); the terminal
 shows the flag the user typed. :data:`FLAGS` is the one table; :data:`CLI` words an error
-(:meth:`~odolab.errors.Wording.error`) or a hint (:meth:`~odolab.errors.Wording.say`). The CLI's
+(:meth:`~odolab.core.errors.Wording.error`) or a hint (:meth:`~odolab.core.errors.Wording.say`). The CLI's
 error handler and :func:`odolab.cli._output.echo` use it, so command functions print library text
 as it comes.
 """
 
 from __future__ import annotations
 
-from odolab.errors import Wording
+from odolab.core.errors import Wording
 
 __all__ = ["CLI", "FLAGS", "flag", "said", "worded"]
 

@@ -21,8 +21,8 @@ from __future__ import annotations
 import ipaddress
 import math
 
-from odolab.errors import OdolabError, opt
-from odolab.trajectory import Pose
+from odolab.core.errors import OdolabError, opt
+from odolab.core.trajectory import Pose
 
 __all__ = ["FoxgloveLive", "check_loopback", "check_port"]
 
@@ -35,7 +35,7 @@ def check_port(port: object) -> int:
         OdolabError: the port is not a whole number from 0 to 65535.
     """
     if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
-        from odolab.text import quote_input
+        from odolab.core.text import quote_input
 
         raise OdolabError(
             f"{opt('foxglove_port')} is {quote_input(port, 40)}; expected a port number 0..65535 "
@@ -135,7 +135,7 @@ class FoxgloveLive:
         if ticks is not None:
             doc["left_ticks"], doc["right_ticks"] = int(ticks[0]), int(ticks[1])
         if covariance is not None:
-            from odolab.uncertainty import COV_COLUMNS
+            from odolab.core.uncertainty import COV_COLUMNS
 
             doc.update({k: float(v) for k, v in zip(COV_COLUMNS, covariance, strict=True)})
         self._cycle.log(doc, log_time=ns)

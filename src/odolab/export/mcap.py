@@ -7,7 +7,7 @@ packages; message definitions from rosbags' ROS 2 Humble type store):
   propagated covariance (x, y, yaw rows/columns of the 6x6; z, roll, pitch get
   :data:`UNOBSERVED`), the body twist from consecutive poses and its full covariance from
   ``[noise]`` (forward, sideways and yaw rate, with their cross terms:
-  :func:`odolab.uncertainty.twist_covariance`; the variances no smaller than
+  :func:`odolab.core.uncertainty.twist_covariance`; the variances no smaller than
   :data:`TWIST_VARIANCE_FLOOR`, so an idle cycle is not taken as a perfect measurement by a
   filter that fuses it);
 * ``/joint_states`` - ``sensor_msgs/msg/JointState``: the wheel angles (rad, unwrapped counters x
@@ -34,12 +34,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from odolab.errors import LogFormatError, OdolabError, opt
+from odolab.core.errors import LogFormatError, OdolabError, opt
+from odolab.core.kinematics import Method
+from odolab.core.params import RobotParams, covariance_source
+from odolab.core.trajectory import Trajectory
+from odolab.core.writing import replacing_path
 from odolab.export.ros2_controller import UNOBSERVED
-from odolab.kinematics import Method
-from odolab.params import RobotParams, covariance_source
-from odolab.trajectory import Trajectory
-from odolab.writing import replacing_path
 
 if TYPE_CHECKING:
     from odolab.io.run import OdometryRun
@@ -75,8 +75,8 @@ TOPICS = {
 class OdometryStream:
     """Everything one MCAP holds for one run (arrays of n samples, SI units).
 
-    ``covariance``: (n, 6) in :data:`odolab.uncertainty.COV_COLUMNS` or None (written as zeros);
-    ``twist_covariance``: (n, 6) in :data:`odolab.uncertainty.TWIST_COLUMNS` (forward,
+    ``covariance``: (n, 6) in :data:`odolab.core.uncertainty.COV_COLUMNS` or None (written as zeros);
+    ``twist_covariance``: (n, 6) in :data:`odolab.core.uncertainty.TWIST_COLUMNS` (forward,
     sideways speed, yaw rate) or None; ``wheel_angles``: (n, 2) left, right (rad) or None;
     ``ground_truth``: any stamps, or None; ``segment_starts``: the samples where a new segment
     (a campaign's trial) begins, which carry no motion from the previous one."""
@@ -89,7 +89,7 @@ class OdometryStream:
     joint_names: tuple[str, str] = ("left_wheel_joint", "right_wheel_joint")
     segments: list[tuple[float, str]] = field(default_factory=list)
     segment_starts: tuple[int, ...] = ()
-    #: where the covariance came from (:func:`odolab.params.covariance_source`: "noise",
+    #: where the covariance came from (:func:`odolab.core.params.covariance_source`: "noise",
     #: "slip"; None: no covariance)
     covariance_source: str | None = None
 
@@ -272,9 +272,9 @@ def _messages(
 
 def first_order_notes(stream: OdometryStream) -> list[str]:
     """Where the stream's propagated covariance stops holding to first order
-    (:func:`odolab.uncertainty.first_order_note`), per segment (a campaign's trial starts its
+    (:func:`odolab.core.uncertainty.first_order_note`), per segment (a campaign's trial starts its
     covariance again), each sentence prefixed by the segment's name when there are several."""
-    from odolab.uncertainty import first_order_note
+    from odolab.core.uncertainty import first_order_note
 
     if stream.covariance is None or stream.covariance_source == "slip":
         return []  # the slip model's covariance has its second-order share (slip_uncertainty)
@@ -367,10 +367,10 @@ def stream_from_encoder_log(
     ground_truth: Trajectory | None = None,
     source: str = "encoder log",
 ) -> OdometryStream:
-    """Odometry, its covariance (:func:`odolab.params.covariance_source`: the ``[noise]``
+    """Odometry, its covariance (:func:`odolab.core.params.covariance_source`: the ``[noise]``
     table's, or a slip model's own) and wheel angles from counters."""
-    from odolab.encoders import unwrap_ticks
-    from odolab.odometry import integrate, integrate_with_covariance
+    from odolab.core.encoders import unwrap_ticks
+    from odolab.core.odometry import integrate, integrate_with_covariance
 
     cov = twist = None
     source_of_cov = covariance_source(params)
@@ -402,8 +402,8 @@ def stream_from_run_folder(
 ) -> OdometryStream:
     """A robot run folder (``run.json`` + ``encoders.csv``, as ``odolab robot`` saves it) with
     ``params`` (default: the parameters recorded in ``run.json``)."""
+    from odolab.core.params import params_from_mapping
     from odolab.io import read_encoder_csv
-    from odolab.params import params_from_mapping
 
     f = Path(folder)
     meta = f / "run.json"
@@ -436,9 +436,9 @@ def stream_from_run_folder(
 def _twist_from_increments(
     t: NDArray[np.float64], dl: ArrayLike, dr: ArrayLike, params: RobotParams
 ) -> NDArray[np.float64]:
-    """Per-sample twist covariance (:data:`odolab.uncertainty.TWIST_COLUMNS`) from counter
+    """Per-sample twist covariance (:data:`odolab.core.uncertainty.TWIST_COLUMNS`) from counter
     increments (``[0]`` ignored: the first sample has no cycle behind it) and ``[noise]``."""
-    from odolab.uncertainty import twist_covariance
+    from odolab.core.uncertainty import twist_covariance
 
     dsl = np.asarray(dl, dtype=np.float64) * params.left_metres_per_tick
     dsr = np.asarray(dr, dtype=np.float64) * params.right_metres_per_tick
@@ -460,8 +460,8 @@ def stream_from_run(
     run: OdometryRun, params: RobotParams | None = None, method: Method | str = Method.MIDPOINT
 ) -> OdometryStream:
     """A recorded run (increments, optional ground truth) with ``params`` (default its own)."""
-    from odolab.odometry import integrate_increments
-    from odolab.uncertainty import propagate_covariance
+    from odolab.core.odometry import integrate_increments
+    from odolab.core.uncertainty import propagate_covariance
 
     p = params or run.params
     if p is None:
@@ -488,11 +488,11 @@ def stream_from_run(
 def _slip_covariances(
     t: NDArray[np.float64], dl: NDArray[np.float64], dr: NDArray[np.float64], p: RobotParams
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The slip model's pose covariance (n, 6 in COV_COLUMNS; :mod:`odolab.slip_uncertainty`)
+    """The slip model's pose covariance (n, 6 in COV_COLUMNS; :mod:`odolab.core.slip_uncertainty`)
     and its twist covariance (n, 6 in TWIST_COLUMNS): each cycle's body-motion variance
     (:meth:`SlipModel.step_variance`: white noise and posterior; the drift is not a cycle's
     own) over its duration squared."""
-    from odolab.models import own_covariance
+    from odolab.core.models import own_covariance
 
     model = own_covariance(p.model)
     assert model is not None

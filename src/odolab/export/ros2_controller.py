@@ -19,12 +19,12 @@ for the controller's own estimate:
   (``k_scrub`` does not enter a straight run); ``vy`` gets ``var(vx)`` (tracks and skid-steer
   bases do slip sideways; a wheeled base may lower it);
 * pose: the covariance of a straight run of ``horizon`` metres (default 1 m;
-  :func:`odolab.uncertainty.straight_line_covariance`): ``var x = k d / 4``,
+  :func:`odolab.core.uncertainty.straight_line_covariance`): ``var x = k d / 4``,
   ``var y = k d^3 / (3 b^2)``, ``var yaw = k d / b^2`` with ``k = k_l + k_r``;
 * ``z``, ``roll``, ``pitch`` (not observed by planar odometry): :data:`UNOBSERVED` (1e6).
 
 The fixed values can only describe one motion; the propagated covariance
-(:func:`odolab.uncertainty.propagate_covariance`, the ``/odom`` messages of ``odolab export
+(:func:`odolab.core.uncertainty.propagate_covariance`, the ``/odom`` messages of ``odolab export
 mcap``) grows with the path as it should.
 
 Keys: exactly those of the chosen ROS 2 distribution's ``diff_drive_controller`` parameter
@@ -38,8 +38,8 @@ file says so and gives the best differential-drive equivalent (:func:`_equivalen
 runs (distance and heading drift) and turns in place match; the forward motion during a turn in
 place and the sideways motion (``x_icr``) are lost. The slip model's equivalent is taken at
 ``speed`` (its slip changes with the speed; the note says by how much), and its covariance
-diagonals are its own predictive variance of that straight run (:mod:`odolab.slip_uncertainty`;
-:func:`odolab.params.covariance_source`, the rule every face uses).
+diagonals are its own predictive variance of that straight run (:mod:`odolab.core.slip_uncertainty`;
+:func:`odolab.core.params.covariance_source`, the rule every face uses).
 """
 
 from __future__ import annotations
@@ -48,10 +48,10 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from odolab.errors import NEUTRAL, ParamsError, Wording, opt
-from odolab.models import own_covariance, timed_model
-from odolab.params import RobotParams, covariance_source
-from odolab.text import safe_terminal
+from odolab.core.errors import NEUTRAL, ParamsError, Wording, opt
+from odolab.core.models import own_covariance, timed_model
+from odolab.core.params import RobotParams, covariance_source
+from odolab.core.text import safe_terminal
 
 __all__ = [
     "DEFAULT_DISTRO",
@@ -265,7 +265,7 @@ def _slip_note(params: RobotParams, speed: float) -> str:
 def _slip_diagonals(
     params: RobotParams, speed: float, rate: float, horizon: float, window: int
 ) -> tuple[tuple[float, ...], tuple[float, ...]]:
-    """The slip model's predictive variance (:mod:`odolab.slip_uncertainty`, with its
+    """The slip model's predictive variance (:mod:`odolab.core.slip_uncertainty`, with its
     coefficients' posterior) for straight driving at ``speed``: the pose after ``horizon`` m,
     and the controller's velocity, its displacement over ``window`` cycles at ``rate`` Hz over
     that time. Propagated over at most :data:`_SLIP_STEPS` steps (on a straight run at one
@@ -348,9 +348,9 @@ def controller_numbers(
         pose = (
             k * d / 4.0, k * d**3 / (3.0 * b**2), UNOBSERVED, UNOBSERVED, UNOBSERVED, k * d / b**2
         )  # fmt: skip
-        from odolab.uncertainty import SECOND_ORDER_LIMIT
+        from odolab.core.uncertainty import SECOND_ORDER_LIMIT
 
-        # second-order index of the straight horizon (odolab.uncertainty.second_order_index):
+        # second-order index of the straight horizon (odolab.core.uncertainty.second_order_index):
         # shortening 1/2 integral of var(h) = d var(h_end) / 4 over the along-track deviation
         rho = (d * (k * d / b**2) / 4.0) / math.sqrt(k * d / 4.0) if k > 0 else 0.0
         if rho > SECOND_ORDER_LIMIT:

@@ -21,14 +21,14 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import OdolabError
+from odolab.core.errors import OdolabError
+from odolab.core.params import PRESETS, RobotParams
+from odolab.core.trajectory import Trajectory
+from odolab.core.trials import EncoderLog
+from odolab.core.writing import strict_json, write_text_file
 from odolab.io.encoder_csv import write_encoder_csv
 from odolab.io.trajectory_csv import write_trajectory_csv
-from odolab.params import PRESETS, RobotParams
 from odolab.sim import TrueParams, VirtualRobot
-from odolab.trajectory import Trajectory
-from odolab.trials import EncoderLog
-from odolab.writing import strict_json, write_text_file
 
 __all__ = ["FleetSpec", "RobotTruth", "simulate_fleet", "truth_on_day"]
 

@@ -79,7 +79,7 @@ class FleetSection:
 
     def save(self, folder: str | Path) -> Path:
         """Write ``fleet.html`` and the figures as PNG into ``folder``; returns the HTML path."""
-        from odolab.writing import replacing_path, write_text_file
+        from odolab.core.writing import replacing_path, write_text_file
 
         out = Path(folder)
         for name, fig in self.figures.items():

@@ -139,13 +139,13 @@ def _frame(columns: dict[str, list[Cell]]) -> pl.DataFrame:
 def write_fleet_table(columns: dict[str, list[Cell]], path: str | Path) -> Path:
     """Write the table: Parquet, Arrow IPC or CSV by the file's extension.
 
-    The file is written beside ``path`` and then renamed over it (:mod:`odolab.writing`). In a
+    The file is written beside ``path`` and then renamed over it (:mod:`odolab.core.writing`). In a
     CSV, a text cell a spreadsheet would run as a formula (a run or robot named ``=cmd()``, an
-    error message starting with ``-``) gets a leading ``'`` (:func:`odolab.text.inert_csv_cell`);
+    error message starting with ``-``) gets a leading ``'`` (:func:`odolab.core.text.inert_csv_cell`);
     :func:`read_fleet_table` takes it off again.
     """
+    from odolab.core.text import inert_csv_cell
     from odolab.io.tabular import table_format, write_frame
-    from odolab.text import inert_csv_cell
 
     p = Path(path)
     if table_format(p) == "csv":
@@ -163,7 +163,7 @@ def read_fleet_table(path: str | Path) -> dict[str, list[Cell]]:
     """
     import polars as pl
 
-    from odolab.errors import LogFormatError
+    from odolab.core.errors import LogFormatError
     from odolab.io.tabular import table_format
 
     p = Path(path)
@@ -186,7 +186,7 @@ def read_fleet_table(path: str | Path) -> dict[str, list[Cell]]:
         )
     table = {c: frame[c].to_list() for c in COLUMNS}
     if fmt == "csv":  # text cells were written inert ("'=x" for "=x")
-        from odolab.text import read_csv_cell
+        from odolab.core.text import read_csv_cell
 
         for c in _TEXT:
             table[c] = [v if not isinstance(v, str) else read_csv_cell(v) for v in table[c]]

@@ -15,7 +15,7 @@ import struct
 from pathlib import Path
 from typing import BinaryIO
 
-from odolab.errors import LogFormatError
+from odolab.core.errors import LogFormatError
 
 __all__ = ["MAX_CHUNK_BYTES", "check_bag_sizes", "check_mcap", "check_ros1"]
 

@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import LogFormatError
+from odolab.core.errors import LogFormatError
+from odolab.core.text import quote_input, safe_terminal, shorten
 from odolab.io.limits import check_columns_unique, check_text_file, first_line_cells
-from odolab.text import quote_input, safe_terminal, shorten
 
 __all__ = ["data_line_numbers", "read_numeric_columns"]
 

@@ -1,12 +1,12 @@
 """Odometry of logs larger than memory: read, integrate and write chunk by chunk.
 
-Built on the public :func:`odolab.odometry.integrate`: each chunk is integrated with the previous
+Built on the public :func:`odolab.core.odometry.integrate`: each chunk is integrated with the previous
 chunk's last counter sample prepended (so a rollover across the boundary is unwrapped as in one
 pass) and starting from the previous chunk's last pose (x, y and the unwrapped heading), then
 that repeated first pose is dropped. The poses equal the whole-file run's to rounding (the same
 operations in the same order). Memory is bounded by the chunk size.
 
-With ``covariance=True`` the pose covariance (:data:`odolab.uncertainty.COV_COLUMNS`, from the
+With ``covariance=True`` the pose covariance (:data:`odolab.core.uncertainty.COV_COLUMNS`, from the
 parameters' ``[noise]`` table) is propagated the same way: each chunk starts from the previous
 chunk's last covariance and heading, so the chunked covariance equals the whole-file one.
 
@@ -24,7 +24,11 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import EncoderJumpError, LogFormatError
+from odolab.core.errors import EncoderJumpError, LogFormatError
+from odolab.core.kinematics import Method
+from odolab.core.params import RobotParams
+from odolab.core.trajectory import Pose, Trajectory, check_advanced, check_times
+from odolab.core.writing import replacing_path
 from odolab.io._table import as_float64, data_line_numbers
 from odolab.io.encoder_csv import (
     INCREMENTS,
@@ -42,10 +46,6 @@ from odolab.io.tabular import (
     row_count,
     table_format,
 )
-from odolab.kinematics import Method
-from odolab.params import RobotParams
-from odolab.trajectory import Pose, Trajectory, check_advanced, check_times
-from odolab.writing import replacing_path
 
 __all__ = [
     "DEFAULT_CHUNK_ROWS",
@@ -202,9 +202,9 @@ def iter_trajectory_chunks(
         LogFormatError: the file is missing, empty, or has a bad time or position (the line is
             named).
     """
+    from odolab.core.kinematics import wrap_angle
     from odolab.io.limits import check_columns_unique, check_text_file, first_line_cells
     from odolab.io.trajectory_csv import read_trajectory_csv, read_tum, trajectory_columns
-    from odolab.kinematics import wrap_angle
 
     p = Path(path)
     if not p.is_file():
@@ -267,7 +267,7 @@ class OdometryChunk:
         tr = self.trajectory
         out = dict(zip(TRAJECTORY_COLUMNS, (tr.t, tr.x, tr.y, tr.theta, tr.heading), strict=True))
         if self.covariance is not None:
-            from odolab.uncertainty import COV_COLUMNS
+            from odolab.core.uncertainty import COV_COLUMNS
 
             out.update(zip(COV_COLUMNS, self.covariance.T, strict=True))
         return out
@@ -276,10 +276,10 @@ class OdometryChunk:
 class ChunkedOdometry:
     """Batch odometry fed chunk by chunk; ``feed`` returns each chunk's poses.
 
-    Equal to one :func:`odolab.odometry.integrate` call over the concatenated chunks (to
+    Equal to one :func:`odolab.core.odometry.integrate` call over the concatenated chunks (to
     rounding), rollover across a boundary included. With ``covariance=True``, :meth:`step` also
-    returns the covariance, equal to one :func:`odolab.uncertainty.covariance_from_ticks` call
-    (a :class:`odolab.errors.ParamsError` up front when ``params`` have no ``[noise]`` table).
+    returns the covariance, equal to one :func:`odolab.core.uncertainty.covariance_from_ticks` call
+    (a :class:`odolab.core.errors.ParamsError` up front when ``params`` have no ``[noise]`` table).
     """
 
     def __init__(
@@ -293,7 +293,7 @@ class ChunkedOdometry:
         covariance: bool = False,
     ) -> None:
         if covariance and params.noise is None:
-            from odolab.errors import ParamsError
+            from odolab.core.errors import ParamsError
 
             raise ParamsError(
                 f"the parameters {params.name} have no [noise] table, which a covariance needs "
@@ -322,7 +322,7 @@ class ChunkedOdometry:
 
     def step(self, t: F64, left: I64, right: I64) -> OdometryChunk:
         """Integrate the next rows; their poses and (``covariance=True``) covariance."""
-        from odolab.odometry import integrate, integrate_with_covariance
+        from odolab.core.odometry import integrate, integrate_with_covariance
 
         n = len(t)
         if self._prev is None or self._pose is None:
@@ -391,7 +391,7 @@ def integrate_file(
     covariance: bool = False,
 ) -> OdometryFileResult:
     """Encoder log file -> trajectory file (``t,x,y,theta,heading``, then with ``covariance``
-    the six ``cov_xx .. cov_hh`` of :data:`odolab.uncertainty.COV_COLUMNS`), chunk by chunk.
+    the six ``cov_xx .. cov_hh`` of :data:`odolab.core.uncertainty.COV_COLUMNS`), chunk by chunk.
 
     Formats by extension (CSV, Parquet, Arrow IPC). ``progress(rows done, total rows or 0 when
     unknown, name)`` is called after each chunk. The output is written beside under a temporary
@@ -410,7 +410,7 @@ def integrate_file(
             "writable folder"
         )
     total = row_count(src) or 0
-    from odolab.odometry import NUMPY_MAX_SAMPLES, warm_up
+    from odolab.core.odometry import NUMPY_MAX_SAMPLES, warm_up
 
     # the kernels load while the first chunk is read, where a chunk (with the previous chunk's
     # last sample) may be long enough for them: a shorter one is integrated in numpy
@@ -426,7 +426,7 @@ def integrate_file(
         covariance=covariance,
     )
     chunks = 0
-    # a temporary file beside ``out``, renamed over it when whole (odolab.writing)
+    # a temporary file beside ``out``, renamed over it when whole (odolab.core.writing)
     with (
         replacing_path(out, what="trajectory", error=LogFormatError) as partial,
         ChunkWriter(partial, "trajectory", shown=out) as writer,

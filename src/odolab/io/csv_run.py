@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from odolab.encoders import dticks_from_ticks
-from odolab.errors import LogFormatError
+from odolab.core.encoders import dticks_from_ticks
+from odolab.core.errors import LogFormatError
 from odolab.io.encoder_csv import read_encoder_csv
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.io.trajectory_csv import read_trajectory

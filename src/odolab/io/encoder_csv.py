@@ -14,14 +14,14 @@ from typing import overload
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.encoders import as_tick_array
-from odolab.errors import LogFormatError
+from odolab.core.encoders import as_tick_array
+from odolab.core.errors import LogFormatError
+from odolab.core.trajectory import check_times
+from odolab.core.trials import EncoderLog
+from odolab.core.writing import path_first
 from odolab.io._table import Column, data_line_numbers
 from odolab.io.limits import check_columns_unique, check_text_file, first_line_cells
 from odolab.io.tabular import read_columns, read_header, table_format, write_columns
-from odolab.trajectory import check_times
-from odolab.trials import EncoderLog
-from odolab.writing import path_first
 
 __all__ = ["check_encoder_header", "read_encoder_csv", "write_encoder_csv"]
 
@@ -45,7 +45,7 @@ def check_encoder_header(p: Path, cells: list[str]) -> None:
     """
     if not cells or not all(_is_number(c) for c in cells):
         return
-    from odolab.text import safe_terminal, shorten
+    from odolab.core.text import safe_terminal, shorten
 
     raise LogFormatError(
         f"{p}: line 1 ({safe_terminal(shorten(','.join(cells), 80))}) is data, not a header; "

@@ -29,7 +29,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import ImuLogError, LogFormatError
+from odolab.core.errors import ImuLogError, LogFormatError
+from odolab.core.trajectory import Trajectory
+from odolab.core.trials import EncoderLog
 from odolab.io.csv_run import ground_truth_beside
 from odolab.io.encoder_csv import read_encoder_csv
 from odolab.io.run import ReadOptions
@@ -37,8 +39,6 @@ from odolab.io.sensorlog import ImuLog, read_sensorlog
 from odolab.io.tabular import is_csv_with, read_columns, read_header
 from odolab.io.trajectory_csv import read_trajectory
 from odolab.io.windows import wheel_angles
-from odolab.trajectory import Trajectory
-from odolab.trials import EncoderLog
 
 __all__ = [
     "DRIVE_COLUMNS",
@@ -296,7 +296,7 @@ def gyro_run_from_log(
     Raises:
         ImuLogError: the IMU log has no yaw rate.
     """
-    from odolab.encoders import dticks_from_ticks
+    from odolab.core.encoders import dticks_from_ticks
 
     if imu.yaw_rate is None:
         raise ImuLogError(f"{imu.source}: no yaw rate; the gyro calibration needs the gyro's rate")

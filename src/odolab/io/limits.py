@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from odolab.errors import LogFormatError, OdolabError
-from odolab.text import quote_input
+from odolab.core.errors import LogFormatError, OdolabError
+from odolab.core.text import quote_input
 
 __all__ = ["MAX_LINE_BYTES", "check_columns_unique", "check_text_file", "first_line_cells"]
 

@@ -13,13 +13,13 @@ import csv
 import re
 from pathlib import Path
 
-from odolab.errors import LogFormatError, ParamsError
+from odolab.core.errors import LogFormatError, ParamsError
+from odolab.core.params import RobotParams
+from odolab.core.text import quote_input
+from odolab.core.trajectory import Trajectory, check_positions, check_times
 from odolab.io._table import data_line_numbers, read_numeric_columns
 from odolab.io.limits import check_text_file
 from odolab.io.run import OdometryRun, ReadOptions
-from odolab.params import RobotParams
-from odolab.text import quote_input
-from odolab.trajectory import Trajectory, check_positions, check_times
 
 __all__ = [
     "OptiOdomReader",

@@ -14,8 +14,8 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Protocol
 
-from odolab.defaults import LogFormat
-from odolab.errors import LogFormatError  # (defined there: the CLI names them at no cost)
+from odolab.core.defaults import LogFormat
+from odolab.core.errors import LogFormatError  # (defined there: the CLI names them at no cost)
 from odolab.io.csv_run import CsvRunReader
 from odolab.io.optiodom import OptiOdomReader, is_optiodom_run
 from odolab.io.rosbag import RosbagReader

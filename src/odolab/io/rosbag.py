@@ -28,16 +28,16 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from odolab.errors import LogFormatError, OdolabError, opt
-from odolab.io.run import OdometryRun, ReadOptions
-from odolab.io.sensorlog import ImuLog
-from odolab.params import RobotParams
-from odolab.trajectory import (
+from odolab.core.errors import LogFormatError, OdolabError, opt
+from odolab.core.params import RobotParams
+from odolab.core.trajectory import (
     Trajectory,
     check_positions,
     check_times,
     yaw_from_quaternions,
 )
+from odolab.io.run import OdometryRun, ReadOptions
+from odolab.io.sensorlog import ImuLog
 
 if TYPE_CHECKING:
     from rosbags.highlevel import AnyReader
@@ -69,7 +69,7 @@ AMCL_TOPIC = "/amcl_pose"  #: the reference of a Nav2 bag without a ground-truth
 def _why(err: BaseException) -> str:
     """A third-party error in a few words: its message (one line, at most 200 characters), else
     its type."""
-    from odolab.text import safe_terminal, shorten
+    from odolab.core.text import safe_terminal, shorten
 
     text = " ".join(str(err).split())
     return safe_terminal(shorten(text, 200)) if text else type(err).__name__

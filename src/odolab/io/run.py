@@ -8,10 +8,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import LogFormatError
-from odolab.kinematics import Method
-from odolab.params import RobotParams
-from odolab.trajectory import Trajectory, check_times
+from odolab.core.errors import LogFormatError
+from odolab.core.kinematics import Method
+from odolab.core.params import RobotParams
+from odolab.core.trajectory import Trajectory, check_times
 
 __all__ = ["MAX_WHEEL_SPEED_M_S", "OdometryRun", "ReadOptions"]
 
@@ -106,8 +106,8 @@ class OdometryRun:
         *,
         start: tuple[float, float, float] | None = None,
     ) -> Trajectory:
-        """Compatibility alias of :func:`odolab.prediction.trajectory_from_increments`."""
-        from odolab.prediction import trajectory_from_increments
+        """Compatibility alias of :func:`odolab.core.prediction.trajectory_from_increments`."""
+        from odolab.core.prediction import trajectory_from_increments
 
         return trajectory_from_increments(self, params, method, start=start)
 

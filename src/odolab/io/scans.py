@@ -16,9 +16,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from odolab.errors import LogFormatError, OdolabError
+from odolab.core.errors import LogFormatError, OdolabError
+from odolab.core.writing import replacing_path
 from odolab.io.rosbag import _close, _messages, _open, _stamp, reading
-from odolab.writing import replacing_path
 
 __all__ = ["SCAN_TYPE", "LaserScans", "read_scans", "write_scan_mcap"]
 

@@ -26,9 +26,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from odolab.errors import ImuLogError
-from odolab.kinematics import wrap_angle
-from odolab.trajectory import MAX_TIME_S
+from odolab.core.errors import ImuLogError
+from odolab.core.kinematics import wrap_angle
+from odolab.core.trajectory import MAX_TIME_S
 
 if TYPE_CHECKING:
     import polars as pl
@@ -584,7 +584,7 @@ def write_sensorlog(
     def f(v: float, digits: int = 6) -> str:
         return f"{v:.{digits}f}"
 
-    from odolab.writing import replacing_file
+    from odolab.core.writing import replacing_file
 
     p = Path(path)
     with replacing_file(p, what="SensorLog", error=ImuLogError, newline="") as fh:

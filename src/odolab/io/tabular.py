@@ -28,7 +28,7 @@ from typing import IO, TYPE_CHECKING, Literal, TypeVar, cast
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import LogFormatError
+from odolab.core.errors import LogFormatError
 from odolab.io._table import Column, Columns, _CsvRefused, _parse_block, check_columns_present
 
 __all__ = [
@@ -573,7 +573,7 @@ def write_columns(path: str | Path, columns: Mapping[str, NDArray[np.generic]], 
         and arrays
         and all(a.ndim == 1 and a.dtype in (np.float64, np.int64) for a in arrays)
     ):
-        from odolab.writing import replacing_path
+        from odolab.core.writing import replacing_path
 
         with (
             replacing_path(p, what=what, error=LogFormatError) as tmp,
@@ -595,12 +595,12 @@ def write_frame(path: str | Path, frame: pl.DataFrame, what: str) -> Path:
     one sentence naming the file and ``what`` it holds."""
     import polars as pl
 
-    from odolab.writing import replacing_path
+    from odolab.core.writing import replacing_path
 
     p = Path(path)
     fmt = table_format(p)
     try:
-        # through a temporary file renamed over the path (odolab.writing): never through a
+        # through a temporary file renamed over the path (odolab.core.writing): never through a
         # link planted at the path, and no half file when the disk fills
         with replacing_path(p, what=what, error=LogFormatError) as tmp:
             if fmt == "csv":

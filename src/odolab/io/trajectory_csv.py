@@ -15,7 +15,9 @@ from typing import Literal, overload
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import LogFormatError
+from odolab.core.errors import LogFormatError
+from odolab.core.trajectory import Trajectory, check_positions, check_times, yaw_from_quaternions
+from odolab.core.writing import path_first
 from odolab.io._table import as_float64, data_line_numbers, read_numeric_columns
 from odolab.io.limits import check_columns_unique, check_text_file, first_line_cells
 from odolab.io.tabular import (
@@ -25,8 +27,6 @@ from odolab.io.tabular import (
     table_format,
     write_columns,
 )
-from odolab.trajectory import Trajectory, check_positions, check_times, yaw_from_quaternions
-from odolab.writing import path_first
 
 __all__ = [
     "heading_from_path",
@@ -147,12 +147,12 @@ def _write_tum(traj: Trajectory, path: str | Path) -> Path:
     p = Path(path)
     half = 0.5 * traj.theta
     zeros = np.zeros_like(traj.t)
-    from odolab.numfmt import csv_lines
+    from odolab.core.numfmt import csv_lines
 
     body = csv_lines(
         (traj.t, traj.x, traj.y, zeros, zeros, zeros, np.sin(half), np.cos(half)), sep=" "
     )
-    from odolab.writing import write_text_file
+    from odolab.core.writing import write_text_file
 
     return write_text_file(p, body, what="TUM trajectory", error=LogFormatError)
 

@@ -31,10 +31,10 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import LogFormatError
+from odolab.core.errors import LogFormatError
+from odolab.core.text import quote_input
+from odolab.core.trajectory import Trajectory, check_positions, check_times
 from odolab.io.run import OdometryRun, ReadOptions
-from odolab.text import quote_input
-from odolab.trajectory import Trajectory, check_positions, check_times
 
 __all__ = [
     "WINDOW_COLUMNS",

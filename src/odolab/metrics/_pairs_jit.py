@@ -9,8 +9,8 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab._jit import njit
-from odolab._kinematics_jit import wrap
+from odolab.core._jit import njit
+from odolab.core._kinematics_jit import wrap
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]

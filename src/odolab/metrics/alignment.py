@@ -8,8 +8,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from odolab.errors import InsufficientDataError
-from odolab.trajectory import Trajectory
+from odolab.core.errors import InsufficientDataError
+from odolab.core.trajectory import Trajectory
 
 __all__ = [
     "SPREAD_ROUNDING_UNITS",

@@ -14,8 +14,8 @@ from enum import StrEnum
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import InsufficientDataError, LogFormatError
-from odolab.trajectory import Trajectory
+from odolab.core.errors import InsufficientDataError, LogFormatError
+from odolab.core.trajectory import Trajectory
 
 __all__ = ["SyncMethod", "associate", "interpolate_trajectory", "matching_time_indices"]
 

@@ -36,9 +36,11 @@ from typing import IO
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import InsufficientDataError, LogFormatError, opt
+from odolab.core.errors import InsufficientDataError, LogFormatError, opt
+from odolab.core.kinematics import wrap_angle
+from odolab.core.progress import Progress, no_progress
+from odolab.core.trajectory import Trajectory
 from odolab.io.chunked import DEFAULT_CHUNK_ROWS, iter_trajectory_chunks
-from odolab.kinematics import wrap_angle
 from odolab.metrics.alignment import (
     Alignment,
     Rigid2D,
@@ -67,8 +69,6 @@ from odolab.metrics.pose_error import (
     rpe_errors,
     turn_distances,
 )
-from odolab.progress import Progress, no_progress
-from odolab.trajectory import Trajectory
 
 __all__ = ["ErrorStats", "evaluate_files", "exact_median_from_file"]
 

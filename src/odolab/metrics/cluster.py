@@ -19,7 +19,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Generic, TypeVar
 
-from odolab.errors import OdolabError, opt
+from odolab.core.errors import OdolabError, opt
 
 if TYPE_CHECKING:
     from distributed import Client, LocalCluster

@@ -2,8 +2,8 @@
 
 For each run, the ground truth is cut into pieces of ``segment_s`` seconds. Over each piece the
 odometry is integrated from a zero pose and its covariance propagated from zero
-(:func:`odolab.uncertainty.propagate_covariance`, with the parameters' ``[noise]``; a slip
-model's own predictive variance, :mod:`odolab.slip_uncertainty`); the ground
+(:func:`odolab.core.uncertainty.propagate_covariance`, with the parameters' ``[noise]``; a slip
+model's own predictive variance, :mod:`odolab.core.slip_uncertainty`); the ground
 truth's motion over the same piece is expressed in the robot's frame at the piece's start. With
 ``e`` = odometry - ground truth (x, y, heading; error = predicted - actual) and ``P`` the
 propagated covariance, the normalized estimation error squared is ``NEES = e^T P^-1 e``. If the
@@ -35,19 +35,19 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import InsufficientDataError, OdolabError, ParamsError, opt
-from odolab.io.run import OdometryRun
-from odolab.kinematics import Method, wrap_angle
-from odolab.metrics.association import interpolate_trajectory
-from odolab.models import own_covariance
-from odolab.odometry import integrate_increments
-from odolab.params import NoiseParams, RobotParams
-from odolab.trajectory import Trajectory
-from odolab.uncertainty import (
+from odolab.core.errors import InsufficientDataError, OdolabError, ParamsError, opt
+from odolab.core.kinematics import Method, wrap_angle
+from odolab.core.models import own_covariance
+from odolab.core.odometry import integrate_increments
+from odolab.core.params import NoiseParams, RobotParams
+from odolab.core.trajectory import Trajectory
+from odolab.core.uncertainty import (
     covariance_matrix,
     propagate_covariance,
     second_order_index,
 )
+from odolab.io.run import OdometryRun
+from odolab.metrics.association import interpolate_trajectory
 
 __all__ = [
     "DOF",
@@ -86,7 +86,7 @@ class RunNees:
     dof_removed: int = 0
     #: standard error of a fitted offset (rad); None when it was given, not fitted
     gt_yaw_offset_se: float | None = None
-    #: (k,) second-order index at each piece's end (odolab.uncertainty.second_order_index):
+    #: (k,) second-order index at each piece's end (odolab.core.uncertainty.second_order_index):
     #: above SECOND_ORDER_LIMIT the first-order covariance understates the spread
     second_order: NDArray[np.float64] | None = None
 
@@ -217,7 +217,7 @@ def _run_pieces(
                 terms = propagate_covariance(ddl, ddr, params, method, noise=noise)
             cov[k] = covariance_matrix(terms[-1])
             if j == 0 and not slip:  # how far the piece is past first order's range
-                # (odolab.uncertainty); the slip model's covariance has its second-order share
+                # (odolab.core.uncertainty); the slip model's covariance has its second-order share
                 rho[k] = second_order_index(est, terms)[-1]
         c, s = math.cos(gt.heading[a]), math.sin(gt.heading[a])
         dx, dy = gt.x[b] - gt.x[a], gt.y[b] - gt.y[a]
@@ -399,10 +399,10 @@ def nees_summary(runs: Sequence[RunNees]) -> NeesSummary:
 
 def first_order_note(runs: Sequence[RunNees]) -> tuple[int, str | None]:
     """How many pieces go past the first-order covariance's range (second-order index above
-    :data:`odolab.uncertainty.SECOND_ORDER_LIMIT`; the ``[noise]`` covariance only: the slip
+    :data:`odolab.core.uncertainty.SECOND_ORDER_LIMIT`; the ``[noise]`` covariance only: the slip
     model's has the exact second moments), and the sentence every face says about them (None
     when there are none)."""
-    from odolab.uncertainty import SECOND_ORDER_LIMIT
+    from odolab.core.uncertainty import SECOND_ORDER_LIMIT
 
     n = sum(r.nees.size for r in runs)
     beyond = sum(
@@ -617,7 +617,7 @@ def _maximum(
     errors (inf where the Hessian cannot be inverted)."""
     from scipy import optimize
 
-    from odolab.regression import approx_hess3
+    from odolab.core.regression import approx_hess3
 
     guess = np.log(
         np.maximum(np.array([start.k_left, start.k_right, start.k_scrub or start.k_left]), 1e-12)
@@ -646,7 +646,7 @@ def fit_noise(
     Each piece's covariance is linear in the three constants (``k_l A_l + k_r A_r + k_s A_s``,
     the ``A``'s propagated with unit noise), so the Gaussian log-likelihood of all pieces'
     errors is maximised over their logarithms (scipy), with Wald intervals on the log scale
-    (the numerical Hessian, :func:`odolab.regression.approx_hess3`). Straight pieces carry the wheels' noise, turning pieces
+    (the numerical Hessian, :func:`odolab.core.regression.approx_hess3`). Straight pieces carry the wheels' noise, turning pieces
     the scrub as well; without a turning piece (:data:`TURNING_RAD`) ``k_scrub`` stays unknown
     (written 0 and said).
     A run's yaw offset, when fitted, is fitted first with the scale fit's noise."""

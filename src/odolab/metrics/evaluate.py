@@ -14,7 +14,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from odolab.errors import LogFormatError, opt
+from odolab.core.errors import LogFormatError, opt
+from odolab.core.trajectory import Trajectory
 from odolab.metrics.alignment import Alignment, Rigid2D, align
 from odolab.metrics.association import SyncMethod, associate
 from odolab.metrics.pose_error import (
@@ -29,7 +30,6 @@ from odolab.metrics.pose_error import (
     stats_from_errors,
     turn_distances,
 )
-from odolab.trajectory import Trajectory
 
 __all__ = [
     "PLANAR_NOTE",

@@ -28,9 +28,9 @@ from enum import StrEnum
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import InsufficientDataError, LogFormatError
-from odolab.kinematics import wrap_angle
-from odolab.trajectory import Trajectory
+from odolab.core.errors import InsufficientDataError, LogFormatError
+from odolab.core.kinematics import wrap_angle
+from odolab.core.trajectory import Trajectory
 
 __all__ = [
     "ANGLE_UNITS",

@@ -14,16 +14,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TypeVar
 
-from odolab.errors import OdolabError
+from odolab.core.errors import OdolabError
+from odolab.core.kinematics import Method
+from odolab.core.params import RobotParams
 from odolab.io.registry import LogFormat, find_runs, read_run
 from odolab.io.run import OdometryRun, ReadOptions
-from odolab.kinematics import Method
 from odolab.metrics.alignment import Alignment
 from odolab.metrics.association import SyncMethod
 from odolab.metrics.cluster import Cluster, MapReport, Outcome, map_outcomes
 from odolab.metrics.evaluate import Evaluation, EvaluationOptions, evaluate
 from odolab.metrics.pose_error import DeltaUnit
-from odolab.params import RobotParams
 
 __all__ = [
     "RUN_OPTIONS",

@@ -16,8 +16,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from odolab.analysis.core import LabAnalysis, MotionAnalysis
 from odolab.analysis.random import GroupSpread
-from odolab.motion import Motion
-from odolab.params import RobotParams
+from odolab.core.motion import Motion
+from odolab.core.params import RobotParams
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes

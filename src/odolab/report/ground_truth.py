@@ -22,8 +22,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab import numfmt
-from odolab.errors import LogFormatError, opt
+from odolab.core import numfmt
+from odolab.core.errors import LogFormatError, opt
 
 __all__ = ["ground_truth_summary"]
 
@@ -140,7 +140,7 @@ def _sensor(
             ("time offset (sensor minus encoder clock)", f"{fmt(data['time_offset_s'], 4)} s"),
         ]  # fmt: skip
         for key, value in values.items():
-            # null is how a strict JSON file says not finite (odolab.writing.strict_json)
+            # null is how a strict JSON file says not finite (odolab.core.writing.strict_json)
             v, se = (math.nan if x is None else float(x) for x in (value, stderr[key]))
             if not (math.isfinite(v) and math.isfinite(se)):
                 raise ValueError(key)

@@ -14,12 +14,20 @@ from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from odolab import numfmt
 from odolab.analysis.core import MOTIONS, LabAnalysis, MotionAnalysis
 from odolab.analysis.table1 import table1
 from odolab.calibration.ratios import CalibrationResult
 from odolab.calibration.umbmark import UmbmarkResult
-from odolab.errors import OdolabError
+from odolab.core import numfmt
+from odolab.core.errors import OdolabError
+from odolab.core.text import safe_file_name
+from odolab.core.writing import (
+    replacing_path,
+    strict_json,
+    strict_value,
+    sub_folder,
+    write_text_file,
+)
 from odolab.report import figures as F
 from odolab.report.models_section import (
     ModelEvidence,
@@ -43,8 +51,6 @@ from odolab.report.view import (
     validation_view,
     verdict,
 )
-from odolab.text import safe_file_name
-from odolab.writing import replacing_path, strict_json, strict_value, sub_folder, write_text_file
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -58,7 +64,7 @@ Progress = Callable[[str], None]
 
 def jsonable(obj: object) -> object:
     """``obj`` as JSON holds it: NumPy values as Python's, tuples as lists, NaN/inf as None
-    (:func:`odolab.writing.strict_value`, the one rule)."""
+    (:func:`odolab.core.writing.strict_value`, the one rule)."""
     return strict_value(obj)
 
 
@@ -80,7 +86,7 @@ def _calib_dict(c: Calibration) -> dict[str, object]:
 
 def summary_sentences(results: Mapping[str, Any]) -> list[str]:
     """Plain-language findings built from ``results`` (the numbers are the JSON's, formatted
-    by :mod:`odolab.numfmt`: the digits each interval supports)."""
+    by :mod:`odolab.core.numfmt`: the digits each interval supports)."""
     out: list[str] = []
     what = {
         "rotation": "actual/predicted rotation",
@@ -527,7 +533,7 @@ def _page(
 ) -> str:
     import jinja2
 
-    from odolab.text import display_value
+    from odolab.core.text import display_value
 
     env = jinja2.Environment(
         loader=jinja2.PackageLoader("odolab.report", "templates"),

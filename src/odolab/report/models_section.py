@@ -26,10 +26,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from odolab import numfmt
 from odolab.analysis.questions import ExperimentResult
 from odolab.calibration.compare import UNDECIDED, Estimate, ModelComparison
-from odolab.errors import NEUTRAL
+from odolab.core import numfmt
+from odolab.core.errors import NEUTRAL
 from odolab.metrics.consistency import DOF, RunNees, first_order_note, nees_summary
 from odolab.report.view import Cell
 

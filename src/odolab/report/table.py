@@ -1,6 +1,6 @@
 """Table I as rich tables for the terminal (the library returns them; the CLI prints them).
 
-Numbers follow :mod:`odolab.numfmt`: a value carries the decimals its 95 % interval supports.
+Numbers follow :mod:`odolab.core.numfmt`: a value carries the decimals its 95 % interval supports.
 """
 
 from __future__ import annotations
@@ -9,9 +9,9 @@ import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
-from odolab import numfmt
 from odolab.analysis.table1 import growth_text
-from odolab.text import safe_terminal
+from odolab.core import numfmt
+from odolab.core.text import safe_terminal
 
 if TYPE_CHECKING:
     from rich.table import Table

@@ -1,6 +1,6 @@
 """What the report page shows, as text ready for the template: built from the analysis and
 calibration objects (and the results dict for what only exists there), formatted by ONE rule
-(:mod:`odolab.numfmt`: a number carries the digits its uncertainty supports).
+(:mod:`odolab.core.numfmt`: a number carries the digits its uncertainty supports).
 
 The template only lays these out; it formats nothing and marks nothing as safe (autoescape on):
 the one safe markup made here is :func:`collapsed`'s ``<details>``, whose text it escapes itself.
@@ -13,11 +13,11 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, TypeGuard
 
-from odolab import numfmt
 from odolab.analysis.core import MOTIONS, LabAnalysis
 from odolab.analysis.table1 import growth_text
 from odolab.calibration.ratios import CalibrationResult
 from odolab.calibration.umbmark import UmbmarkResult
+from odolab.core import numfmt
 
 __all__ = [
     "MOTION_NAMES",

@@ -15,10 +15,10 @@ from collections.abc import Callable
 from dataclasses import dataclass, fields
 from enum import StrEnum
 
-from odolab.errors import OPTION_NAMES, opt
-from odolab.params import RobotParams
+from odolab.core.errors import OPTION_NAMES, opt
+from odolab.core.params import RobotParams
+from odolab.core.trials import EXPLORE_DISTRIBUTIONS, Command, Exploration, MotionKind
 from odolab.robot.errors import RobotConfigError
-from odolab.trials import EXPLORE_DISTRIBUTIONS, Command, Exploration, MotionKind
 
 __all__ = [
     "BOUNDS",
@@ -42,7 +42,7 @@ class CommandMode(StrEnum):
 @dataclass(frozen=True)
 class Bound:
     """An accepted closed range [lo, hi] (open at lo when ``lo_open``) of one setting: ``option``
-    is its library name (an :data:`odolab.errors.OPTION_NAMES` key) or, for a setting no face
+    is its library name (an :data:`odolab.core.errors.OPTION_NAMES` key) or, for a setting no face
     sets, words."""
 
     option: str

@@ -31,7 +31,7 @@ from typing import Literal
 
 import numpy as np
 
-from odolab.errors import OdolabError
+from odolab.core.errors import OdolabError
 
 __all__ = [
     "EXPECTED_RATIO",

@@ -6,7 +6,7 @@ could have left the robot moving without a stop having been sent first.
 
 from __future__ import annotations
 
-from odolab.errors import OdolabError, RobotLinkError, SimError
+from odolab.core.errors import OdolabError, RobotLinkError, SimError
 
 __all__ = [
     "BoardConfigError",

@@ -21,10 +21,10 @@ Ground truth:
   (:func:`attach_sentence`); no truth file is written.
 
 An exploration is not a Table I trial: its command is a free motion carrying its settings
-(:meth:`odolab.trials.Command.exploration`; the trial kinds are the notebook schema's, which
+(:meth:`odolab.core.trials.Command.exploration`; the trial kinds are the notebook schema's, which
 every analysis shares, and no analysis counts a free run), and :func:`notebook_trial` records it
 in a notebook as a free run, excluded from the analysis with the exploration named in the reason
-and its settings in the notes (:func:`odolab.trials.validate_trial` refuses a command that
+and its settings in the notes (:func:`odolab.core.trials.validate_trial` refuses a command that
 carries the settings themselves: the notebook has no place for them).
 """
 
@@ -38,8 +38,10 @@ from typing import Any
 
 import numpy as np
 
-from odolab.errors import NEUTRAL, Wording, opt
-from odolab.params import RobotParams
+from odolab.core.errors import NEUTRAL, Wording, opt
+from odolab.core.params import RobotParams
+from odolab.core.trajectory import Pose, Trajectory
+from odolab.core.trials import Command, MotionKind, Trial, TrialStatus
 from odolab.robot.config import RunConfig, check_motion
 from odolab.robot.errors import RobotConfigError
 from odolab.robot.explore_motion import Explore
@@ -53,8 +55,6 @@ from odolab.robot.session import (
     run_motion,
     run_simulated,
 )
-from odolab.trajectory import Pose, Trajectory
-from odolab.trials import Command, MotionKind, Trial, TrialStatus
 
 __all__ = [
     "DEFAULT_MAX_SPEED",

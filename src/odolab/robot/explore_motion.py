@@ -3,7 +3,7 @@
 The control loop's :class:`~odolab.robot.motions.Motion` for issue 29's exploration (the live
 twin of :func:`odolab.sim.explore.explore`, which the robot layer may not import), driven by
 ``odolab robot explore`` (:mod:`odolab.robot.explore`; built from the
-:class:`odolab.trials.Command` of an exploration by :meth:`Explore.from_exploration`): every
+:class:`odolab.core.trials.Command` of an exploration by :meth:`Explore.from_exploration`): every
 ``hold`` seconds (uniform between its two values) it draws a forward speed and turn rate within
 ``|v| <= max_speed``, ``|w| <= max_turn_rate`` and both wheel speeds ``v -+ w b/2`` within
 ``max_speed`` - uniformly, or with ``distribution = "edges"`` three in four of each from the
@@ -37,15 +37,15 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from odolab.kinematics import wrap_angle
-from odolab.models import own_covariance
-from odolab.params import NoiseParams, RobotParams
+from odolab.core.kinematics import wrap_angle
+from odolab.core.models import own_covariance
+from odolab.core.params import NoiseParams, RobotParams
+from odolab.core.trajectory import Pose
+from odolab.core.trials import EXPLORE_DISTRIBUTIONS, Command, draw_exploration_value
 from odolab.robot.errors import MotionError
-from odolab.trajectory import Pose
-from odolab.trials import EXPLORE_DISTRIBUTIONS, Command, draw_exploration_value
 
 if TYPE_CHECKING:
-    from odolab.odometry import Odometry
+    from odolab.core.odometry import Odometry
 
 __all__ = ["FENCE_CONFIDENCE", "FENCE_NOISE", "Explore", "fence_margin"]
 
@@ -63,7 +63,7 @@ FENCE_NOISE = NoiseParams(k_left=2e-3, k_right=2e-3, k_scrub=0.05)
 def fence_margin(terms: tuple[float, ...], confidence: float = FENCE_CONFIDENCE) -> float:
     """The radius (m) of the circle about the odometry's position that holds the true position
     with probability ``confidence`` or more: ``k * sqrt(largest eigenvalue)`` of the position
-    covariance (``terms`` in :data:`odolab.uncertainty.COV_COLUMNS`), ``k = sqrt(-2 ln(1 -
+    covariance (``terms`` in :data:`odolab.core.uncertainty.COV_COLUMNS`), ``k = sqrt(-2 ln(1 -
     confidence))`` the radius of a 2-D standard normal's region (2.45 at 95 %)."""
     a, b, c = float(terms[0]), float(terms[1]), float(terms[3])
     largest = 0.5 * (a + c) + math.hypot(0.5 * (a - c), b)
@@ -158,7 +158,7 @@ class Explore:
 
     def odometry(self, params: RobotParams) -> Odometry:
         """The loop's odometry, with the covariance the fence reads (see the module)."""
-        from odolab.odometry import Odometry
+        from odolab.core.odometry import Odometry
 
         if own_covariance(params.model) is not None:
             self.noise_source = "the slip model's own predictive variance"

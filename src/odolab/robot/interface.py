@@ -15,9 +15,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Generic, Protocol, TypeVar
 
+from odolab.core.trajectory import Pose
 from odolab.robot.clock import Clock
 from odolab.robot.plant import PlantFactory
-from odolab.trajectory import Pose
 
 __all__ = [
     "Driver",

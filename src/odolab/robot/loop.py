@@ -25,8 +25,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import opt
-from odolab.odometry import Odometry
+from odolab.core.errors import opt
+from odolab.core.odometry import Odometry
+from odolab.core.trajectory import Pose, Trajectory
+from odolab.core.trials import EncoderLog
 from odolab.robot.clock import Clock
 from odolab.robot.errors import (
     CommandsIgnoredError,
@@ -36,8 +38,6 @@ from odolab.robot.errors import (
 )
 from odolab.robot.interface import Driver, EncoderReading
 from odolab.robot.motions import Motion
-from odolab.trajectory import Pose, Trajectory
-from odolab.trials import EncoderLog
 
 __all__ = [
     "ControlLoop",

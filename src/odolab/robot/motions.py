@@ -13,12 +13,12 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
-from odolab.odometry import Odometry
-from odolab.params import RobotParams
+from odolab.core.odometry import Odometry
+from odolab.core.params import RobotParams
+from odolab.core.trajectory import Pose
+from odolab.core.trials import Command, MotionKind
 from odolab.robot.errors import MotionError
 from odolab.robot.explore_motion import Explore
-from odolab.trajectory import Pose
-from odolab.trials import Command, MotionKind
 
 __all__ = [
     "Motion",
@@ -48,7 +48,7 @@ class Motion(Protocol):
 @runtime_checkable
 class OwnsOdometry(Protocol):
     """A motion that needs more of the loop's odometry than its pose (the exploration's fence
-    reads the propagated covariance): it makes the loop's :class:`~odolab.odometry.Odometry`."""
+    reads the propagated covariance): it makes the loop's :class:`~odolab.core.odometry.Odometry`."""
 
     def odometry(self, params: RobotParams) -> Odometry:
         """The odometry the loop runs with ``params`` (it keeps it to read each cycle)."""

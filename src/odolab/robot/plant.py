@@ -14,10 +14,10 @@ import math
 from collections.abc import Callable
 from typing import Any, Protocol
 
-from odolab.kinematics import body_motion, step_pose, wrap_angle
-from odolab.params import RobotParams
+from odolab.core.kinematics import body_motion, step_pose, wrap_angle
+from odolab.core.params import RobotParams
+from odolab.core.trajectory import Pose
 from odolab.robot.errors import PlantError
-from odolab.trajectory import Pose
 
 __all__ = ["IdealPlant", "Plant", "PlantFactory"]
 

@@ -19,9 +19,9 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields
 from urllib.parse import urlparse
 
-from odolab.defaults import DEFAULT_TRUTH
-from odolab.errors import opt
-from odolab.params import RobotParams
+from odolab.core.defaults import DEFAULT_TRUTH
+from odolab.core.errors import opt
+from odolab.core.params import RobotParams
 from odolab.robot.clock import Clock, SimClock
 from odolab.robot.config import RunConfig
 from odolab.robot.errors import RobotConfigError, RobotUrlError

@@ -34,8 +34,11 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from odolab.errors import OdolabError, opt
-from odolab.params import PRESETS, RobotParams
+from odolab.core.errors import OdolabError, opt
+from odolab.core.params import PRESETS, RobotParams
+from odolab.core.trajectory import Pose, Trajectory
+from odolab.core.trials import Command, MotionKind, Trial, TrialStatus
+from odolab.core.writing import strict_json, write_text_file
 from odolab.robot.clock import Clock, RealClock, SimClock, set_realtime
 from odolab.robot.config import RunConfig, check_motion
 from odolab.robot.errors import RobotConfigError, RunFolderError
@@ -44,9 +47,6 @@ from odolab.robot.loop import ControlLoop, CycleInfo, LoopResult, LoopStats
 from odolab.robot.motions import Motion, motion_from_command, odometry_for
 from odolab.robot.plant import IdealPlant, Plant, PlantFactory
 from odolab.robot.registry import open_in_process, open_link
-from odolab.trajectory import Pose, Trajectory
-from odolab.trials import Command, MotionKind, Trial, TrialStatus
-from odolab.writing import strict_json, write_text_file
 
 __all__ = [
     "OPTIONAL_RUN_FILES",
@@ -731,6 +731,6 @@ def save_run(run: RobotRun, folder: str | Path) -> Path:
 
 def _neutral(text: str | None) -> str | None:
     """``text`` with its settings' marks in the library's words (for a file the run writes)."""
-    from odolab.errors import NEUTRAL
+    from odolab.core.errors import NEUTRAL
 
     return None if text is None else NEUTRAL.say(text)

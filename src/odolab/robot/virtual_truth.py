@@ -21,8 +21,8 @@ from __future__ import annotations
 import math
 import struct
 
-from odolab.kinematics import wrap_angle
-from odolab.trajectory import Pose
+from odolab.core.kinematics import wrap_angle
+from odolab.core.trajectory import Pose
 
 __all__ = [
     "LINE_PREFIX",

@@ -21,7 +21,7 @@ from starlette.middleware import Middleware
 from starlette.requests import Request
 from starlette.responses import Response
 
-from odolab.errors import OdolabError
+from odolab.core.errors import OdolabError
 from odolab.serve.security import LOOPBACK_HOSTS, Guard, StrictJSONResponse
 
 __all__ = ["MAX_UPLOAD_BYTES", "ServeSettings", "create_app"]

@@ -21,7 +21,7 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
     from odolab.analysis import MotionAnalysis
-    from odolab.trials import Trial
+    from odolab.core.trials import Trial
 
 __all__ = ["LAYOUTS", "Layout", "fit_png", "layout", "run_png"]
 
@@ -74,7 +74,7 @@ def run_png(trial: Trial, size: str | None = None) -> bytes | None:
 
     None when the trial has no encoder log (typed in by hand).
     """
-    from odolab.odometry import integrate
+    from odolab.core.odometry import integrate
     from odolab.report.figures import legend_outside
 
     log = trial.encoder_log

@@ -33,8 +33,8 @@ from starlette.exceptions import HTTPException
 from starlette.responses import JSONResponse
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from odolab.text import shorten
-from odolab.writing import strict_json
+from odolab.core.text import shorten
+from odolab.core.writing import strict_json
 
 __all__ = [
     "LOOPBACK_HOSTS",
@@ -50,7 +50,7 @@ __all__ = [
 
 
 class StrictJSONResponse(JSONResponse):
-    """Starlette's JSON answer made by :func:`odolab.writing.strict_json`: a non-finite number
+    """Starlette's JSON answer made by :func:`odolab.core.writing.strict_json`: a non-finite number
     is ``null`` (Starlette's own refuses it, a 500), so every answer parses in a browser; the
     settings the library's text names, in the web's words (:mod:`odolab.serve.wording`)."""
 

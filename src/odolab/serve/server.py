@@ -10,7 +10,7 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from odolab.errors import OdolabError
+from odolab.core.errors import OdolabError
 from odolab.serve.app import ServeSettings, create_app
 from odolab.serve.connections import DEFAULT_LIMITS, Limits, uvicorn_config
 from odolab.serve.security import LOOPBACK_HOSTS, make_token

@@ -1,6 +1,6 @@
 """The web's words for the library's settings: its form fields and API keys.
 
-The library's errors name a setting by its library name (:data:`odolab.errors.OPTION_NAMES`);
+The library's errors name a setting by its library name (:data:`odolab.core.errors.OPTION_NAMES`);
 a page or a JSON error names the field the user filled in (``robot``, ``replace``), and a
 setting the web has no field for keeps the library's neutral words. :data:`FIELDS` is the one
 table; :data:`WEB` words an error (:func:`odolab.serve.routes._web.web_text` uses it).
@@ -9,7 +9,7 @@ table; :data:`WEB` words an error (:func:`odolab.serve.routes._web.web_text` use
 from __future__ import annotations
 
 from odolab.analysis.selection import Wording as SelectionWording
-from odolab.errors import Wording
+from odolab.core.errors import Wording
 
 __all__ = ["CALIBRATE_WORDS", "FIELDS", "WEB"]
 

@@ -14,7 +14,7 @@ leg to speeds 0 with a ramp).
 
 :func:`record_drive` is the same walk sampled for the ground-truth simulations (camera, laser,
 odometry + sensor calibration): continuous (unrounded) wheel counts from 0 and the true poses as a
-:class:`~odolab.trajectory.Trajectory`, without the final stop; :func:`calibration_drive` is the
+:class:`~odolab.core.trajectory.Trajectory`, without the final stop; :func:`calibration_drive` is the
 kind of drive the Censi et al. calibration needs.
 """
 
@@ -27,11 +27,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import SimError
-from odolab.params import RobotParams
+from odolab.core.errors import SimError
+from odolab.core.params import RobotParams
+from odolab.core.trajectory import Trajectory
 from odolab.sim.physics import TrueParams, VirtualRobot
 from odolab.sim.terrains import Terrain
-from odolab.trajectory import Trajectory
 
 __all__ = [
     "CALIBRATION_DRIVE",

@@ -29,14 +29,14 @@ from pathlib import Path
 
 import numpy as np
 
-from odolab.errors import SimError
-from odolab.kinematics import wrap_angle
-from odolab.models import DIFF_DRIVE
-from odolab.odometry import Odometry
-from odolab.params import RobotParams
+from odolab.core.errors import SimError
+from odolab.core.kinematics import wrap_angle
+from odolab.core.models import DIFF_DRIVE
+from odolab.core.odometry import Odometry
+from odolab.core.params import RobotParams
+from odolab.core.trials import EXPLORE_DISTRIBUTIONS, draw_exploration_value
 from odolab.sim.drives import Drive
 from odolab.sim.physics import TrueParams, VirtualRobot
-from odolab.trials import EXPLORE_DISTRIBUTIONS, draw_exploration_value
 
 __all__ = [
     "DISTRIBUTIONS",
@@ -174,10 +174,10 @@ def explore(
 def write_exploration(folder: str | Path, run: Drive, name: str = "explore") -> tuple[Path, Path]:
     """Write a recorded run as ``<folder>/<name>.csv`` (``t,dticks_left,dticks_right``) and
     its ground truth as ``<folder>/<name>_gt.csv`` (read back by ``--format csv``)."""
+    from odolab.core.trajectory import Trajectory
+    from odolab.core.writing import replacing_path
     from odolab.io.tabular import write_columns
     from odolab.io.trajectory_csv import write_trajectory_csv
-    from odolab.trajectory import Trajectory
-    from odolab.writing import replacing_path
 
     out = Path(folder)
     if out.exists() and not out.is_dir():

@@ -12,9 +12,9 @@ import warnings
 from collections.abc import Sequence
 from pathlib import Path
 
-from odolab.errors import SimError
-from odolab.text import quote_input, safe_file_name
-from odolab.trials import Trial
+from odolab.core.errors import SimError
+from odolab.core.text import quote_input, safe_file_name
+from odolab.core.trials import Trial
 
 __all__ = ["write_encoder_logs"]
 
@@ -24,7 +24,7 @@ def write_encoder_logs(
 ) -> list[Path]:
     """Write each trial's encoder log as ``<directory>/<trial_id>.csv`` (raw counters).
 
-    The file name is :func:`odolab.text.safe_file_name` of the trial id: whatever the id (``/``,
+    The file name is :func:`odolab.core.text.safe_file_name` of the trial id: whatever the id (``/``,
     ``..``, an absolute path), every file lands inside ``directory``. Two ids that would share a
     file (``A`` and ``a`` on a case-insensitive disk) are refused before anything is written.
     (The old order ``(trials, directory)`` is still accepted, with a DeprecationWarning.)

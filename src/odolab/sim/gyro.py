@@ -19,11 +19,11 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.core.params import PRESETS, RobotParams
+from odolab.core.trials import EncoderLog
+from odolab.core.writing import write_text_file
 from odolab.io.encoder_csv import write_encoder_csv
 from odolab.io.gyro import GyroRun, GyroSegment
-from odolab.params import PRESETS, RobotParams
-from odolab.trials import EncoderLog
-from odolab.writing import write_text_file
 
 __all__ = ["GyroDrive", "simulate_gyro_drive", "write_gyro_drive"]
 

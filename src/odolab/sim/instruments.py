@@ -3,7 +3,7 @@
 - :class:`Compass`: an analog compass read to ``sigma`` (0.05 rad) and rounded to its marks
   (``resolution_deg``). A compass reads a *bearing* (clockwise from north, degrees), so it knows
   the heading only modulo 2 pi; the operator counts the whole turns (in the way the robot
-  turned, never fewer than none: :func:`odolab.measurement.count_turns`) and can miscount by
+  turned, never fewer than none: :func:`odolab.core.measurement.count_turns`) and can miscount by
   one (``miscount_probability`` per trial).
   The measured rotation (counter-clockwise positive) is
   ``2 pi * turns + ((initial_bearing - final_bearing) mod 360 deg)`` counter-clockwise and
@@ -23,8 +23,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import SimError
-from odolab.measurement import count_turns, rotation_from_compass
+from odolab.core.errors import SimError
+from odolab.core.measurement import count_turns, rotation_from_compass
 
 __all__ = ["Compass", "CompassReadings", "Instruments", "Meterstick", "flag_miscounted_turns"]
 
@@ -82,7 +82,7 @@ class Compass:
         b0 = self._bearing(h0, north, rng)
         b1 = self._bearing(h1, north, rng)
         # the operator counts whole turns the way the robot turned (a stall read a hair the
-        # other way: that way), as odolab.measurement.count_turns says
+        # other way: that way), as odolab.core.measurement.count_turns says
         counted = [
             count_turns(float(a), float(b), float(c))
             for a, b, c in zip(b0.ravel(), b1.ravel(), (h1 - h0).ravel(), strict=True)
@@ -111,7 +111,7 @@ class Compass:
     ) -> tuple[float, float, int, Literal["ccw", "cw"]]:
         """One run's readings as the operator takes them: (initial bearing, final bearing, whole
         turns, the direction they were counted in), for a true heading change (rad, ccw
-        positive), counted by :func:`odolab.measurement.count_turns` (no miscount). North lies
+        positive), counted by :func:`odolab.core.measurement.count_turns` (no miscount). North lies
         where ``rng`` puts it."""
         north = rng.uniform(0.0, _TWO_PI, 1)
         b = self._bearing(np.array([0.0, float(heading_change)]), np.repeat(north, 2), rng)

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from odolab.errors import SimError
+from odolab.core.errors import SimError
 from odolab.sim.drives import Leg
 from odolab.sim.physics import TrueParams
 
@@ -213,7 +213,7 @@ def simulate_laser_drive(
     seconds)`` or :class:`~odolab.sim.drives.Leg`, whose ramp is ignored here) and scan ``world``
     at ``scan_rate`` Hz from a laser mounted at ``mount = (dx, dy, dyaw)``; wheel angles are
     sampled at ``joint_rate`` Hz."""
-    from odolab.params import PRESETS
+    from odolab.core.params import PRESETS
     from odolab.sim.physics import VirtualRobot
     from odolab.sim.presets import TRUTH_PRESETS
 

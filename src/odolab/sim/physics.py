@@ -11,7 +11,7 @@ where ``rho = true effective radius / nominal radius`` for that side and directi
 (times the terrain's ``radius_scale``), ``v`` the wheel surface speed and ``k_side`` the per-wheel
 slip constant (Chong & Kleeman; Siegwart et al.: variance ``k * |ds|``). The body then moves by
 the exact circular arc with the true kinematic model (``TrueParams.model``, the differential drive
-of ``track_width_true`` unless told; :mod:`odolab.models`)::
+of ``track_width_true`` unless told; :mod:`odolab.core.models`)::
 
     ds_body = w_l ds_l + w_r ds_r                      (= (ds_r + ds_l) / 2 for a diff drive)
     dtheta  = (e_r ds_r - e_l ds_l) / (denominator * (1 - turn_slip * (1 - s)))
@@ -48,13 +48,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab._jit import njit
-from odolab.errors import SimError
-from odolab.kinematics import body_motion, step_pose
-from odolab.models import DIFF_DRIVE, KinematicModel, is_kinematic_model
-from odolab.params import RobotParams
+from odolab.core._jit import njit
+from odolab.core.errors import SimError
+from odolab.core.kinematics import body_motion, step_pose
+from odolab.core.models import DIFF_DRIVE, KinematicModel, is_kinematic_model
+from odolab.core.params import RobotParams
+from odolab.core.trajectory import Pose
 from odolab.sim.terrains import Terrain, get_terrain
-from odolab.trajectory import Pose
 
 __all__ = [
     "BatchResult",
@@ -68,7 +68,7 @@ __all__ = [
 _RHO_LF, _RHO_LR, _RHO_RF, _RHO_RR = 0, 1, 2, 3
 _TRACK, _TRACK_NOM, _K_L, _K_R, _K_SCRUB = 4, 5, 6, 7, 8
 _SPEED_SLIP, _STOP_SLIDE, _CAN_TURN, _MPT_L, _MPT_R = 9, 10, 11, 12, 13
-# the true kinematic model's coefficients (odolab.models.ModelCoefficients); its denominator
+# the true kinematic model's coefficients (odolab.core.models.ModelCoefficients); its denominator
 # is _TRACK, so that a per-run track factor scales it
 _W_L, _W_R, _E_L, _E_R, _LATERAL = 14, 15, 16, 17, 18
 #: no noise draws (a noiseless or a stalled step)
@@ -94,8 +94,8 @@ class TrueParams:
     ``stop_slide`` (s^2/m): extra slide of each side at an abrupt stop per (m/s)^2.
     ``terrain_radius_scale``: pairs (terrain name, factor) multiplying every effective radius on
     that terrain (how this robot's tracks bite into it); terrains not named use 1.
-    ``model``: the true kinematic model (:mod:`odolab.models`; a tracked vehicle is an
-    :class:`~odolab.models.IcrModel`); the differential drive of ``track_width`` by default.
+    ``model``: the true kinematic model (:mod:`odolab.core.models`; a tracked vehicle is an
+    :class:`~odolab.core.models.IcrModel`); the differential drive of ``track_width`` by default.
     ``turn_slip`` (``gamma``): how the true model's turning denominator (the ICR spread, the
     effective track) depends on how sharply the robot turns. With the turn ratio
     ``s = |dn_r - dn_l| / (|dn_r| + |dn_l|)`` of the commanded wheel motion (1 in place or on a

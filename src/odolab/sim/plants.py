@@ -7,8 +7,8 @@ structurally, so the robot stack never imports the simulator (the CLI and the la
 
 from __future__ import annotations
 
-from odolab.errors import SimError
-from odolab.params import RobotParams
+from odolab.core.errors import SimError
+from odolab.core.params import RobotParams
 from odolab.sim.physics import TrueParams, VirtualRobot
 from odolab.sim.presets import TRUTH_PRESETS
 

@@ -38,9 +38,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.kinematics import chord_factors
-from odolab.models import IcrModel
-from odolab.params import PRESETS, RobotParams
+from odolab.core.kinematics import chord_factors
+from odolab.core.models import IcrModel
+from odolab.core.params import PRESETS, RobotParams
 from odolab.sim.physics import TrueParams
 
 __all__ = [
@@ -262,7 +262,7 @@ def derive_jaguar_lab(
     )
 
 
-#: Truth presets; the nominal model they pair with is ``odolab.params.PRESETS["jaguar-lite"]``.
+#: Truth presets; the nominal model they pair with is ``odolab.core.params.PRESETS["jaguar-lite"]``.
 TRUTH_PRESETS: dict[str, TrueParams] = {
     "ideal": TrueParams.from_nominal(PRESETS["jaguar-lite"]),
     "jaguar-lab": derive_jaguar_lab(),

@@ -52,11 +52,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import SimError
-from odolab.kinematics import wrap_angle
-from odolab.odometry import integrate
-from odolab.params import RobotParams
-from odolab.progress import Progress, no_progress
+from odolab.core.errors import SimError
+from odolab.core.kinematics import wrap_angle
+from odolab.core.odometry import integrate
+from odolab.core.params import RobotParams
+from odolab.core.progress import Progress, no_progress
+from odolab.core.text import quote_input
+from odolab.core.trajectory import Pose
+from odolab.core.trials import Command, EncoderLog, Measurement, MotionKind, Trial, TrialStatus
 from odolab.sim.instruments import Compass, CompassReadings, Instruments, Meterstick
 from odolab.sim.physics import (
     _NPARAM,
@@ -66,9 +69,6 @@ from odolab.sim.physics import (
     simulate_batch,
 )
 from odolab.sim.terrains import get_terrain
-from odolab.text import quote_input
-from odolab.trajectory import Pose
-from odolab.trials import Command, EncoderLog, Measurement, MotionKind, Trial, TrialStatus
 
 __all__ = [
     "ExperimentProtocol",
@@ -694,8 +694,8 @@ def run_protocol(
 ) -> list[Trial]:
     """Run every trial of ``protocol`` on the virtual robot (all at once) and measure it.
 
-    ``terrain`` overrides the protocol's terrains. Returns one :class:`~odolab.trials.Trial` per
-    trial, in protocol order: ``predicted`` = final pose of :func:`odolab.odometry.integrate`
+    ``terrain`` overrides the protocol's terrains. Returns one :class:`~odolab.core.trials.Trial` per
+    trial, in protocol order: ``predicted`` = final pose of :func:`odolab.core.odometry.integrate`
     over the trial's own encoder log with ``nominal``; ``measured`` = the instruments' reading;
     ``true`` = the true final pose (tape frame); ``encoder_log`` = raw counters at the report rate.
     A trial that stalled (turn in place where the ground does not allow it) is EXCLUDED.

@@ -19,8 +19,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from odolab.errors import SimError
-from odolab.text import quote_input
+from odolab.core.errors import SimError
+from odolab.core.text import quote_input
 
 __all__ = ["TERRAINS", "Terrain", "get_terrain"]
 

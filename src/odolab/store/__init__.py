@@ -8,7 +8,7 @@
 See docs/notebook.md for the CLI (``odolab trials ...``, ``odolab notebook ...``) and the CSV.
 """
 
-from odolab.measurement import (
+from odolab.core.measurement import (
     COMPASS_SIGMA_RAD,
     METERSTICK_SIGMA_M,
     rotation_from_compass,

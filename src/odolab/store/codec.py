@@ -19,8 +19,8 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import StoreError
-from odolab.trials import EncoderLog
+from odolab.core.errors import StoreError
+from odolab.core.trials import EncoderLog
 
 __all__ = ["CODEC", "EncodedLog", "decode_log", "encode_log"]
 

@@ -55,12 +55,12 @@ Columns (header: meaning; *required* ones are marked; the rest may be left out o
 A numeric cell may carry its column's unit ("2.5 m", "12 deg"); any other unit is refused.
 A text cell that starts with ``=``, ``+``, ``-``, ``@``, a tab, a carriage return or ``'`` is
 written after a ``'`` so that a spreadsheet shows it and runs nothing; the reader takes one
-leading ``'`` off any text cell (:func:`odolab.text.inert_csv_cell`).
+leading ``'`` off any text cell (:func:`odolab.core.text.inert_csv_cell`).
 Cells are separated by commas (or by semicolons or tabs, recognised from the header line);
 numbers use a decimal point.
 Every error names the file, the line and the column, and is raised before anything is written.
 Units, headers and plausible ranges come from the one trial-record definition,
-:data:`odolab.trials.TRIAL_FIELDS`; every row passes :func:`odolab.trials.validate_trial`, the
+:data:`odolab.core.trials.TRIAL_FIELDS`; every row passes :func:`odolab.core.trials.validate_trial`, the
 same check as ``odolab trials add``.
 """
 
@@ -74,15 +74,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TypeVar
 
-from odolab.errors import InvalidTrialError, ParamsError, StoreError
-from odolab.kinematics import wrap_angle
-from odolab.measurement import check_position, rotation_measurement_from_compass
-from odolab.models import DIFF_DRIVE, model_from_mapping
-from odolab.params import RobotParams, check_param, noise_from_mapping
-from odolab.store.records import record_from_trial
-from odolab.text import inert_csv_cell, quote_input, read_csv_cell
-from odolab.trajectory import Pose
-from odolab.trials import (
+from odolab.core.errors import InvalidTrialError, ParamsError, StoreError
+from odolab.core.kinematics import wrap_angle
+from odolab.core.measurement import check_position, rotation_measurement_from_compass
+from odolab.core.models import DIFF_DRIVE, model_from_mapping
+from odolab.core.params import RobotParams, check_param, noise_from_mapping
+from odolab.core.text import inert_csv_cell, quote_input, read_csv_cell
+from odolab.core.trajectory import Pose
+from odolab.core.trials import (
     TRIAL_FIELDS,
     Command,
     Measurement,
@@ -93,7 +92,8 @@ from odolab.trials import (
     trial_field,
     validate_trial,
 )
-from odolab.writing import replacing_file
+from odolab.core.writing import replacing_file
+from odolab.store.records import record_from_trial
 
 __all__ = ["COLUMNS", "REQUIRED", "ParsedRow", "read_trials_csv", "write_trials_csv"]
 
@@ -111,7 +111,7 @@ _TABLE_COLUMNS: dict[str, str | None] = {"model": None, "noise": None}
 _RAW_UNITS: dict[str, str] = {"compass_initial_deg": "deg", "compass_final_deg": "deg", "turns": ""}
 _RAW_COLUMNS = tuple(_RAW_UNITS)
 _PARAM_COLUMNS = tuple(c for c in _PARAM_UNITS if c != "encoder_modulus")
-#: The column of each parameter -> its key in odolab.params (checked by ``check_param``).
+#: The column of each parameter -> its key in odolab.core.params (checked by ``check_param``).
 _PARAM_KEYS = {c: c.removesuffix("_m") for c in _PARAM_UNITS}
 _POSE = ("t", "x", "y", "theta", "heading")
 _E = TypeVar("_E", MotionKind, TrialStatus)
@@ -123,7 +123,7 @@ def _fields(*names: str) -> dict[str, str | None]:
 
 
 #: Column name -> unit ("" for a number without unit, None for text), in file order; the trial
-#: columns' names and units are those of :data:`odolab.trials.TRIAL_FIELDS`.
+#: columns' names and units are those of :data:`odolab.core.trials.TRIAL_FIELDS`.
 COLUMNS: dict[str, str | None] = {
     **_fields("trial_id", "campaign", "terrain", "kind", "angle", "distance", "side"),
     **_fields("direction", "speed", *(f"predicted_{k}" for k in _POSE), "robot"),
@@ -327,7 +327,7 @@ def _pose(row: _Row, prefix: str) -> Pose | None:
 
 
 def _plausible(row: _Row, column: str, value: _N) -> _N:
-    """``value`` if it is in the plausible range of its parameter (:data:`odolab.params.RANGES`)."""
+    """``value`` if it is in the plausible range of its parameter (:data:`odolab.core.params.RANGES`)."""
     if value is not None:
         try:
             check_param(_PARAM_KEYS[column], value)

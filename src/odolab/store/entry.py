@@ -1,8 +1,8 @@
-"""Compatibility: the compass and meterstick measurement model moved to :mod:`odolab.measurement`.
+"""Compatibility: the compass and meterstick measurement model moved to :mod:`odolab.core.measurement`.
 
 It is core (the CLI, the CSV import and the notebook all build measurements from readings); import
 it from there. This module only re-exports it.
 """
 
-from odolab.measurement import *  # noqa: F403
-from odolab.measurement import __all__ as __all__
+from odolab.core.measurement import *  # noqa: F403
+from odolab.core.measurement import __all__ as __all__

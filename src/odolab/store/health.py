@@ -5,7 +5,7 @@
   sentence and left as it was. (SQLite would silently turn an empty file into a database.)
 - :func:`create_notebook_file`: a new notebook is built in a temporary file beside ``path`` and
   linked into place whole, so that no process ever sees a half-made (or empty) notebook.
-- :func:`store_error`: any ``sqlite3`` error as a :class:`~odolab.errors.StoreError`. A damaged
+- :func:`store_error`: any ``sqlite3`` error as a :class:`~odolab.core.errors.StoreError`. A damaged
   file (SQLite's "database disk image is malformed", "file is not a database") becomes a
   :class:`NotebookDamagedError` quoting SQLite's integrity check and saying how to recover;
   a busy, read-only or full disk says so.
@@ -20,9 +20,9 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
-from odolab.errors import StoreError, opt
-from odolab.text import shorten
-from odolab.writing import NEW_FILE_MODE
+from odolab.core.errors import StoreError, opt
+from odolab.core.text import shorten
+from odolab.core.writing import NEW_FILE_MODE
 
 __all__ = [
     "SMALLEST_DATABASE",

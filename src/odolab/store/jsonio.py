@@ -32,12 +32,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from odolab.errors import ParamsError, StoreError
-from odolab.params import RobotParams, params_from_mapping
-from odolab.store.codec import EncodedLog, decode_log
-from odolab.store.records import HISTORY_KEYS, PARAMS_FIELDS, TRIAL_COLUMNS, params_tables
-from odolab.text import quote_input
-from odolab.trials import (
+from odolab.core.errors import ParamsError, StoreError
+from odolab.core.params import RobotParams, params_from_mapping
+from odolab.core.text import quote_input
+from odolab.core.trials import (
     TRIAL_FIELDS,
     EncoderLog,
     FieldType,
@@ -45,7 +43,9 @@ from odolab.trials import (
     TrialStatus,
     check_no_nul,
 )
-from odolab.writing import strict_json, write_text_file
+from odolab.core.writing import strict_json, write_text_file
+from odolab.store.codec import EncodedLog, decode_log
+from odolab.store.records import HISTORY_KEYS, PARAMS_FIELDS, TRIAL_COLUMNS, params_tables
 
 __all__ = [
     "FORMAT",
@@ -204,7 +204,7 @@ def _readings(item: dict[str, object], key: str, where: str) -> None:
 
 def _check_trial_keys(rec: dict[str, object], where: str) -> None:
     """Every key of one ``trials[i]`` entry has its type (values are range-checked on import by
-    :func:`odolab.trials.validate_trial`). ``created`` and ``updated`` may be left out (the
+    :func:`odolab.core.trials.validate_trial`). ``created`` and ``updated`` may be left out (the
     import's time), or one given for both."""
     _number(rec, "true_x", where)  # first: it decides whether the true pose is there
     for f in TRIAL_FIELDS:
@@ -281,8 +281,8 @@ def _check_campaign_keys(c: dict[str, object], where: str) -> None:
 def _check_ranges(doc: NotebookDocument, source: str) -> None:
     """The range checks every other entry path applies: parameters, measured positions, and a
     translation's commanded distance (``odolab trials add`` and CSV import refuse the same)."""
-    from odolab.measurement import check_position
-    from odolab.params import check_param
+    from odolab.core.measurement import check_position
+    from odolab.core.params import check_param
 
     for i, pv in enumerate(doc.params_versions):
         for key in PARAMS_FIELDS:

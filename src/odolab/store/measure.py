@@ -5,8 +5,8 @@ call these functions, so a refusal reads the same everywhere:
 
 - :func:`refuse_if_measured`: a measured trial is only overwritten with ``replace``;
 - :func:`check_reading_names`: a rotation takes compass readings and turns, a translation x and y;
-- :func:`measurement_for_trial`: the :class:`~odolab.trials.Measurement` from the readings (the
-  checks of :mod:`odolab.measurement`: "typed in cm?", "about 9 turns would fit");
+- :func:`measurement_for_trial`: the :class:`~odolab.core.trials.Measurement` from the readings (the
+  checks of :mod:`odolab.core.measurement`: "typed in cm?", "about 9 turns would fit");
 - :func:`record_measurement`: all of the above, then :meth:`Notebook.set_measurement`;
 - :func:`virtual_readings`: what the instruments would show after a run on a virtual board
   (its true pose, through :mod:`odolab.robot.virtual_truth`), as a student reads them: compass
@@ -20,8 +20,8 @@ import math
 import zlib
 from typing import TYPE_CHECKING
 
-from odolab.errors import StoreError
-from odolab.measurement import (
+from odolab.core.errors import StoreError
+from odolab.core.measurement import (
     COMPASS_SIGMA_RAD,
     METERSTICK_SIGMA_M,
     rotation_measurement_from_compass,
@@ -29,8 +29,8 @@ from odolab.measurement import (
 )
 
 if TYPE_CHECKING:
+    from odolab.core.trials import Measurement, Trial
     from odolab.store.notebook import Notebook
-    from odolab.trials import Measurement, Trial
 
 __all__ = [
     "build_measurement",
@@ -199,7 +199,7 @@ def virtual_readings(t: Trial) -> dict[str, float] | None:
     """What the lab's instruments would show after ``t`` on a virtual board, with their noise:
     ``compass_initial_deg``, ``compass_final_deg`` (degrees clockwise from north, read to the
     compass's 0.05 rad and its 1 degree marks), ``turns`` and ``clockwise`` (1.0 or 0.0: whole
-    turns counted the way the robot truly turned, :func:`odolab.measurement.count_turns`) for a
+    turns counted the way the robot truly turned, :func:`odolab.core.measurement.count_turns`) for a
     rotation or a pivot; ``x_m``, ``y_m`` (meterstick, 3 mm, read to the mm) in
     the start frame otherwise. The same trial always reads the same (the noise is drawn from its
     id). None when ``t`` has no true pose (a real robot's run: its instruments are real).

@@ -20,9 +20,19 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from odolab.errors import StoreError, opt
-from odolab.params import RobotParams
-from odolab.progress import Progress, no_progress
+from odolab.core.errors import StoreError, opt
+from odolab.core.params import RobotParams
+from odolab.core.progress import Progress, no_progress
+from odolab.core.trajectory import Pose
+from odolab.core.trials import (
+    EncoderLog,
+    Measurement,
+    Trial,
+    TrialStatus,
+    check_no_nul,
+    signed_command,
+)
+from odolab.core.writing import strict_json
 from odolab.store.codec import EncodedLog, decode_log, encode_log
 from odolab.store.health import (
     check_notebook_file,
@@ -45,16 +55,6 @@ from odolab.store.records import (
     validate_trial,
 )
 from odolab.store.schema import SCHEMA_VERSION, SQLValue, connect, migrate
-from odolab.trajectory import Pose
-from odolab.trials import (
-    EncoderLog,
-    Measurement,
-    Trial,
-    TrialStatus,
-    check_no_nul,
-    signed_command,
-)
-from odolab.writing import strict_json
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -805,13 +805,13 @@ class Notebook:
     def repredict(self, trial_id: str, params: RobotParams, method: str = "midpoint") -> Pose:
         """Final pose of ``trial_id``'s stored encoder log integrated with ``params``.
 
-        The integration is :func:`odolab.prediction.final_pose_from_log`; the notebook only
+        The integration is :func:`odolab.core.prediction.final_pose_from_log`; the notebook only
         supplies the stored log.
 
         Raises:
             StoreError: the trial has no encoder log, or an empty one.
         """
-        from odolab.prediction import final_pose_from_log
+        from odolab.core.prediction import final_pose_from_log
 
         log = self.encoder_log(trial_id)
         if log is None:
@@ -839,7 +839,7 @@ class Notebook:
         has_encoder_log campaign_date operator``. Missing values are NaN / None. Needs the
         pandas extra (``pip install 'odolab[pandas]'``); the commands never call it.
         """
-        from odolab.extras import require
+        from odolab.core.extras import require
 
         require("pandas", "Notebook.trials_frame")
         import pandas as pd

@@ -1,6 +1,6 @@
 """Trials as flat records (one key per ``trials`` column) and back.
 
-The fields, their units and plausible ranges are defined once, in :data:`odolab.trials.TRIAL_FIELDS`;
+The fields, their units and plausible ranges are defined once, in :data:`odolab.core.trials.TRIAL_FIELDS`;
 :func:`validate_trial` (re-exported here) lives beside the type.
 
 A *record* is a ``dict`` whose keys are :data:`TRIAL_COLUMNS` (the ``trials`` table without its
@@ -14,10 +14,10 @@ import json
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
-from odolab.errors import StoreError
-from odolab.params import RobotParams, params_from_mapping
-from odolab.trajectory import Pose
-from odolab.trials import (
+from odolab.core.errors import StoreError
+from odolab.core.params import RobotParams, params_from_mapping
+from odolab.core.trajectory import Pose
+from odolab.core.trials import (
     TRIAL_FIELDS,
     Command,
     EncoderLog,
@@ -28,7 +28,7 @@ from odolab.trials import (
     signed_command,
     validate_trial,
 )
-from odolab.writing import strict_json
+from odolab.core.writing import strict_json
 
 if TYPE_CHECKING:
     from odolab.store.schema import SQLValue
@@ -51,7 +51,7 @@ __all__ = [
 ]
 
 #: The columns of ``trials`` that describe a trial (time stamps left out), in table order:
-#: the names of :data:`odolab.trials.TRIAL_FIELDS`.
+#: the names of :data:`odolab.core.trials.TRIAL_FIELDS`.
 TRIAL_COLUMNS: tuple[str, ...] = tuple(f.name for f in TRIAL_FIELDS)
 #: The columns that hold a measurement (kept in ``measurement_history`` when one is replaced).
 MEASUREMENT_COLUMNS: tuple[str, ...] = (

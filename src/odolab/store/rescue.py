@@ -5,7 +5,7 @@ the first bad page. The rescue reads each table by rowid instead: when a stretch
 read, it looks for the first rowid after it that can (doubling steps, then a binary search) and
 goes on from there. Every row read is inserted into a new notebook with the schema's constraints
 on (a row that breaks one is dropped); every parameter version must build a valid parameter set
-and every trial must load and pass :func:`odolab.trials.validate_trial` (or it is dropped, with
+and every trial must load and pass :func:`odolab.core.trials.validate_trial` (or it is dropped, with
 its encoder log and history). What is rescued is what SQLite could read: a value changed inside a
 readable page (a flipped bit in a number) cannot be told from the truth.
 """
@@ -17,12 +17,12 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from odolab.errors import OdolabError, StoreError
+from odolab.core.errors import OdolabError, StoreError
+from odolab.core.trials import validate_trial
 from odolab.store.health import NotebookFileError, check_notebook_file
 from odolab.store.notebook import Notebook
 from odolab.store.records import params_from_columns
 from odolab.store.schema import SCHEMA_VERSION
-from odolab.trials import validate_trial
 
 __all__ = ["RescueReport", "rescue_notebook"]
 

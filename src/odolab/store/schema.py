@@ -24,7 +24,7 @@ from collections.abc import Callable
 from contextlib import suppress
 from pathlib import Path
 
-from odolab.errors import StoreError
+from odolab.core.errors import StoreError
 from odolab.store.health import NotebookFileError, not_a_database, store_error
 
 __all__ = ["APPLICATION_ID", "SCHEMA_V1", "SCHEMA_VERSION", "SQLValue", "connect", "migrate"]

@@ -1,7 +1,7 @@
 """Import and export of a notebook: trials as CSV (a spreadsheet) and everything as JSON.
 
 The notebook (:class:`odolab.store.Notebook`) only stores; this module turns files into checked
-trials and back. Every trial that comes in passes :func:`odolab.trials.validate_trial`, the same
+trials and back. Every trial that comes in passes :func:`odolab.core.trials.validate_trial`, the same
 check as a robot run or ``odolab trials add``; an error names the file, the line (CSV) or the
 ``trials[i]`` entry (JSON) and the column or key, and nothing is written.
 """
@@ -14,9 +14,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from odolab.errors import InvalidTrialError, StoreError
-from odolab.params import RobotParams
-from odolab.progress import Progress
+from odolab.core.errors import InvalidTrialError, StoreError
+from odolab.core.params import RobotParams
+from odolab.core.progress import Progress
+from odolab.core.text import quote_input
+from odolab.core.trials import Trial, validate_trial
 from odolab.store.csvio import read_trials_csv, write_trials_csv
 from odolab.store.jsonio import (
     NotebookDocument,
@@ -26,8 +28,6 @@ from odolab.store.jsonio import (
 )
 from odolab.store.records import HISTORY_KEYS, NUMERIC_COLUMNS, trial_from_record
 from odolab.store.schema import SQLValue
-from odolab.text import quote_input
-from odolab.trials import Trial, validate_trial
 
 if TYPE_CHECKING:
     from odolab.store.notebook import Notebook

@@ -31,7 +31,7 @@ import numpy as np
 import tomli_w
 from numpy.typing import NDArray
 
-from odolab.errors import LogFormatError
+from odolab.core.errors import LogFormatError
 
 __all__ = [
     "CameraModel",
@@ -138,7 +138,7 @@ def save_camera(
     doc: dict[str, object] = {"camera": camera.to_dict()}
     if provenance:
         doc["provenance"] = provenance
-    from odolab.writing import write_text_file
+    from odolab.core.writing import write_text_file
 
     return write_text_file(p, tomli_w.dumps(doc), what="camera file", error=TrackingError)
 
@@ -203,6 +203,6 @@ def write_floor_csv(path: str | Path, markers: list[FloorMarker]) -> Path:
     """Write FLOOR.csv."""
     p = Path(path)
     rows = ["id,x,y,yaw,size"] + [f"{m.id},{m.x!r},{m.y!r},{m.yaw!r},{m.size!r}" for m in markers]
-    from odolab.writing import write_text_file
+    from odolab.core.writing import write_text_file
 
     return write_text_file(p, "\n".join(rows) + "\n", what="floor table", error=TrackingError)

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import opt
+from odolab.core.errors import opt
 from odolab.tracking.camera import CameraModel, TrackingError
 from odolab.tracking.markers import get_dictionary
 

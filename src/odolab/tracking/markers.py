@@ -121,7 +121,7 @@ def _write_pdf(
         0.5, 0.3 / h, f"{name} id {marker_id}: black square {size * 1000:.1f} mm - print at 100 %",
         ha="center", fontsize=9,
     )  # fmt: skip
-    from odolab.writing import replacing_path
+    from odolab.core.writing import replacing_path
 
     path = out / f"marker_{marker_id}.pdf"
     with replacing_path(path, what="marker sheet", error=TrackingError) as tmp:

@@ -38,8 +38,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.core.trajectory import Trajectory
 from odolab.tracking.camera import TrackingError
-from odolab.trajectory import Trajectory
 
 __all__ = [
     "Dash",
@@ -731,7 +731,7 @@ def draw_overlay(
     """
     import cv2
 
-    from odolab.writing import write_bytes_file
+    from odolab.core.writing import write_bytes_file
 
     base = np.clip(image * 0.6, 0, 255).astype(np.uint8)
     out = cv2.cvtColor(base, cv2.COLOR_GRAY2BGR)

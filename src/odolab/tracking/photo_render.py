@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.core.trajectory import Trajectory
 from odolab.tracking.camera import TrackingError
 from odolab.tracking.render import SceneCamera
-from odolab.trajectory import Trajectory
 
 __all__ = ["led_on", "render_photo", "tilted_camera"]
 
@@ -80,7 +80,7 @@ def render_photo(
     """
     import cv2
 
-    from odolab.writing import write_bytes_file
+    from odolab.core.writing import write_bytes_file
 
     model = scene.model
     h, w = model.height, model.width

@@ -22,9 +22,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.core.trajectory import Trajectory
 from odolab.tracking.camera import CameraModel, FloorMarker, TrackingError
 from odolab.tracking.markers import marker_image
-from odolab.trajectory import Trajectory
 
 if TYPE_CHECKING:
     import cv2

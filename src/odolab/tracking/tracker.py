@@ -36,11 +36,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.defaults import DEFAULT_CORNERS
-from odolab.errors import opt
+from odolab.core.defaults import DEFAULT_CORNERS
+from odolab.core.errors import opt
+from odolab.core.trajectory import Trajectory
 from odolab.tracking.camera import CameraModel, FloorMarker, TrackingError
 from odolab.tracking.markers import get_dictionary
-from odolab.trajectory import Trajectory
 
 if TYPE_CHECKING:
     import cv2
@@ -220,7 +220,7 @@ def segment_headings(
     possible when ``max_yaw_rate * dt < pi``. Where it is not, a new segment starts (the least
     change is still taken, as the best guess) and the gap is listed.
     """
-    from odolab.kinematics import wrap_angle
+    from odolab.core.kinematics import wrap_angle
 
     yaw = np.asarray(yaw, dtype=np.float64)
     if len(yaw) == 0:
@@ -584,7 +584,7 @@ def write_track_csv(path: str | Path, result: TrackResult, time_offset: float = 
     Raises:
         TrackingError: the track cannot be written.
     """
-    from odolab.kinematics import wrap_angle
+    from odolab.core.kinematics import wrap_angle
 
     p = Path(path)
     table = np.column_stack(

@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage, signal
 
-from odolab.errors import ImuLogError, opt
+from odolab.core.errors import ImuLogError, opt
 from odolab.io.sensorlog import ImuLog
 
 __all__ = [

@@ -17,12 +17,12 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.errors import ImuLogError
-from odolab.kinematics import Method
-from odolab.odometry import integrate
-from odolab.params import RobotParams
-from odolab.trajectory import Trajectory
-from odolab.trials import EncoderLog
+from odolab.core.errors import ImuLogError
+from odolab.core.kinematics import Method
+from odolab.core.odometry import integrate
+from odolab.core.params import RobotParams
+from odolab.core.trajectory import Trajectory
+from odolab.core.trials import EncoderLog
 from odolab.validation.align import ClockAlignment, check_search, find_clock_offset
 from odolab.validation.sensorlog import ImuLog
 

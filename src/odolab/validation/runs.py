@@ -22,8 +22,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from odolab import numfmt
-from odolab.errors import OdolabError
+from odolab.core import numfmt
+from odolab.core.errors import OdolabError
 from odolab.validation.compare import ValidationResult
 
 if TYPE_CHECKING:

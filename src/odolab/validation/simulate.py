@@ -21,10 +21,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import interpolate
 
-from odolab.defaults import DEFAULT_ROBOT
-from odolab.errors import ImuLogError
-from odolab.params import PRESETS, RobotParams, save_params
-from odolab.trials import EncoderLog
+from odolab.core.defaults import DEFAULT_ROBOT
+from odolab.core.errors import ImuLogError
+from odolab.core.params import PRESETS, RobotParams, save_params
+from odolab.core.trials import EncoderLog
 from odolab.validation.sensorlog import ImuLog, write_sensorlog
 
 __all__ = ["RotationScenario", "rotation_scenario", "simulate_phone_log", "write_demo"]

@@ -43,9 +43,9 @@ from typing import TypeVar, cast
 
 import numpy as np
 
-from odolab.encoders import counter_delta
-from odolab.errors import ProtocolError, RobotLinkError, opt
-from odolab.params import RobotParams
+from odolab.core.encoders import counter_delta
+from odolab.core.errors import ProtocolError, RobotLinkError, opt
+from odolab.core.params import RobotParams
 from odolab.robot.config import BOUNDS, Bound, check_bound
 from odolab.robot.errors import BoardConfigError, RobotConfigError
 from odolab.robot.jaguar.driver import Datagram

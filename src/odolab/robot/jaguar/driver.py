@@ -20,8 +20,8 @@ from dataclasses import dataclass, field
 from typing import Protocol
 from urllib.parse import urlparse
 
-from odolab.errors import ProtocolError, RobotLinkError, opt
-from odolab.params import RobotParams
+from odolab.core.errors import ProtocolError, RobotLinkError, opt
+from odolab.core.params import RobotParams
 from odolab.robot.clock import Clock
 from odolab.robot.config import CommandMode, RunConfig, check_signs
 from odolab.robot.errors import (

@@ -5,8 +5,8 @@ from __future__ import annotations
 import contextlib
 from urllib.parse import urlparse
 
-from odolab.errors import opt
-from odolab.params import RobotParams
+from odolab.core.errors import opt
+from odolab.core.params import RobotParams
 from odolab.robot.clock import Clock, SimClock
 from odolab.robot.config import RunConfig
 from odolab.robot.errors import RobotUrlError

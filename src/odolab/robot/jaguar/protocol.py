@@ -21,7 +21,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from enum import IntEnum
 
-from odolab.errors import ProtocolError
+from odolab.core.errors import ProtocolError
 
 __all__ = [
     "DES_BOARD",

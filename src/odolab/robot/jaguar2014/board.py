@@ -36,10 +36,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TypeVar
 
-from odolab.encoders import counter_delta
-from odolab.errors import RobotLinkError, opt
-from odolab.kinematics import wrap_angle
-from odolab.params import RobotParams
+from odolab.core.encoders import counter_delta
+from odolab.core.errors import RobotLinkError, opt
+from odolab.core.kinematics import wrap_angle
+from odolab.core.params import RobotParams
 from odolab.robot.errors import BoardConfigError
 from odolab.robot.jaguar2014.driver import VARIANTS
 from odolab.robot.jaguar2014.protocol import (

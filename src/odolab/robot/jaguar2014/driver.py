@@ -22,8 +22,8 @@ from dataclasses import dataclass, field
 from typing import Protocol
 from urllib.parse import parse_qs, urlparse
 
-from odolab.errors import opt
-from odolab.params import RobotParams
+from odolab.core.errors import opt
+from odolab.core.params import RobotParams
 from odolab.robot.clock import Clock
 from odolab.robot.config import RunConfig, check_signs
 from odolab.robot.errors import (
@@ -124,7 +124,7 @@ class TcpTransport:
     def __init__(
         self, host: str, port: int, now: Callable[[], float], timeout: float = 2.0
     ) -> None:
-        from odolab.errors import RobotLinkError
+        from odolab.core.errors import RobotLinkError
 
         self._now = now
         try:

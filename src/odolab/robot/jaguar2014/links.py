@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from odolab.params import RobotParams
+from odolab.core.params import RobotParams
 from odolab.robot.clock import Clock, SimClock
 from odolab.robot.config import RunConfig
 from odolab.robot.errors import RobotUrlError

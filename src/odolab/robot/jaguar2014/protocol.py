@@ -14,7 +14,7 @@ import math
 import re
 from dataclasses import dataclass, field
 
-from odolab.errors import ProtocolError
+from odolab.core.errors import ProtocolError
 
 __all__ = [
     "IMU_LABELS",

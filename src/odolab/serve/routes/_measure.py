@@ -14,7 +14,7 @@ import math
 import re
 from collections.abc import Mapping
 
-from odolab.errors import NEUTRAL, StoreError, Wording
+from odolab.core.errors import NEUTRAL, StoreError, Wording
 
 __all__ = [
     "FIELDS",

@@ -24,10 +24,10 @@ from starlette.requests import Request
 from starlette.responses import HTMLResponse, RedirectResponse, Response
 
 from odolab.app.analysis import AnalysisCache
-from odolab.errors import StoreError
+from odolab.core.errors import StoreError
+from odolab.core.text import display_value
+from odolab.core.trials import MotionKind, TrialStatus
 from odolab.serve.security import StrictJSONResponse, csrf_ok, csrf_token
-from odolab.text import display_value
-from odolab.trials import MotionKind, TrialStatus
 
 if TYPE_CHECKING:
     from odolab.app.selection import SelectionRequest
@@ -75,9 +75,9 @@ def exact(value: object) -> str:
 
 def ci_parts(value: object, ci: object) -> tuple[str, str]:
     """A value and its 95 % interval as the CLI and the report write them (the interval rule,
-    :func:`odolab.numfmt.with_ci`), apart for a page's two columns: ``("0.933", "[0.888,
+    :func:`odolab.core.numfmt.with_ci`), apart for a page's two columns: ``("0.933", "[0.888,
     0.978]")``; ``–`` for what is missing."""
-    from odolab import numfmt
+    from odolab.core import numfmt
 
     if not isinstance(value, int | float) or isinstance(value, bool):
         return "–", "–"
@@ -101,7 +101,7 @@ def sigma_words(group: SigmaGroup, unit: str) -> str:
     """One repeated group's sigma on a page: ``0.0033 m @ -1 (n 3)``: its digits by the interval
     rule and the commanded distance or angle with its sign, as the CLI and the report write
     them (a reverse run's group is ``@ -1``)."""
-    from odolab import numfmt
+    from odolab.core import numfmt
 
     value, _ = ci_parts(group.get("sigma"), group.get("sigma_ci95"))
     at = numfmt.plain(float(group["commanded"]), strip=True)

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 from starlette.requests import Request
 from starlette.responses import Response
 
-from odolab.errors import OdolabError, StoreError
+from odolab.core.errors import OdolabError, StoreError
 from odolab.serve.routes._measure import in_words, json_readings
 from odolab.serve.routes._web import (
     KINDS,
@@ -29,8 +29,8 @@ from odolab.serve.routes.trials import awaiting_first, trial_context
 from odolab.serve.security import StrictJSONResponse
 
 if TYPE_CHECKING:
+    from odolab.core.trials import Trial
     from odolab.store import Notebook
-    from odolab.trials import Trial
 
 __all__ = ["calibrate", "report", "table1", "trial", "trials"]
 

@@ -9,7 +9,7 @@ from starlette.requests import Request
 from starlette.responses import RedirectResponse, Response
 
 from odolab.analysis.selection import Wording as SelectionWording
-from odolab.errors import OdolabError
+from odolab.core.errors import OdolabError
 from odolab.serve.routes._web import text_field, web, web_text
 from odolab.serve.wording import CALIBRATE_WORDS
 

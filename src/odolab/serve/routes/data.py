@@ -10,7 +10,7 @@ from starlette.datastructures import UploadFile
 from starlette.requests import Request
 from starlette.responses import Response
 
-from odolab.errors import OdolabError, StoreError
+from odolab.core.errors import OdolabError, StoreError
 from odolab.serve.routes._web import plain, safe_upload_name, web
 
 if TYPE_CHECKING:

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 from starlette.requests import Request
 from starlette.responses import Response
 
-from odolab.errors import StoreError
+from odolab.core.errors import StoreError
 from odolab.serve.routes._web import plain, safe_upload_name, web
 
 if TYPE_CHECKING:
@@ -27,7 +27,7 @@ async def page(request: Request) -> Response:
 
 
 def _toml(nb: Notebook, robot: str, version: int) -> bytes:
-    from odolab.params import save_params
+    from odolab.core.params import save_params
 
     pv = next((v for v in nb.params_versions(robot) if v.version == version), None)
     if pv is None:

@@ -22,7 +22,7 @@ from starlette.concurrency import run_in_threadpool
 from starlette.requests import Request
 from starlette.responses import Response
 
-from odolab.errors import OdolabError
+from odolab.core.errors import OdolabError
 from odolab.serve.routes._web import Web, selection_of, web, web_text
 
 if TYPE_CHECKING:

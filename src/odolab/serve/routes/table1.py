@@ -9,7 +9,7 @@ from starlette.requests import Request
 from starlette.responses import Response
 
 from odolab.analysis.selection import WEB_WORDS
-from odolab.errors import OdolabError
+from odolab.core.errors import OdolabError
 from odolab.serve.routes._web import Web, plain, selection_of, web, web_text
 
 if TYPE_CHECKING:

@@ -7,7 +7,8 @@ from typing import TYPE_CHECKING, TypedDict
 from starlette.requests import Request
 from starlette.responses import Response
 
-from odolab.errors import OdolabError, StoreError
+from odolab.core.errors import OdolabError, StoreError
+from odolab.core.trials import TrialStatus
 from odolab.serve.routes._web import (
     KINDS,
     STATUSES,
@@ -16,11 +17,10 @@ from odolab.serve.routes._web import (
     text_field,
     web,
 )
-from odolab.trials import TrialStatus
 
 if TYPE_CHECKING:
+    from odolab.core.trials import Measurement, Trial
     from odolab.store import Notebook
-    from odolab.trials import Measurement, Trial
 
 __all__ = ["awaiting_first", "index", "trial_context", "trial_page"]
 

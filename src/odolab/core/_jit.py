@@ -1,0 +1,86 @@
+"""numba's names for the kernel modules, or plain Python where numba is not installed.
+
+numba comes with the ``fast`` extra (numba and llvmlite are 211 MB of the core's site-packages
+otherwise: docs/architecture.md, "What the core installs"). The kernels are numba-compatible
+Python, so without numba they run unchanged in CPython, the way ``NUMBA_DISABLE_JIT=1`` runs
+them, with the same results, slower on long logs. With numba, every name here is numba's own.
+
+Without numba, :func:`njit` leaves a function as it is, except that a kernel called from Python
+(one not marked ``inline="always"``: the batch passes, the simulator's loop, the metrics) says
+once a process, on stderr, :data:`odolab.core.extras.NO_NUMBA_NOTE`. The inlined helpers stay bare
+functions (no wrapper in the plain kernels' inner loops); called one by one from Python (the
+streaming odometry's steps), they cost what a numba dispatcher call costs, and no note is due.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib.util
+import sys
+import threading
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import TYPE_CHECKING, TypeVar
+
+__all__ = ["HAVE_NUMBA", "get_num_threads", "njit", "parallel_chunksize", "prange"]
+
+F = TypeVar("F", bound=Callable[..., object])
+
+#: Whether the kernels are compiled (numba installed) or run as plain Python.
+HAVE_NUMBA: bool = importlib.util.find_spec("numba") is not None
+
+_noted = False
+_note_lock = threading.Lock()
+
+
+def _note() -> None:
+    """Say :data:`odolab.core.extras.NO_NUMBA_NOTE` on stderr, the first time only."""
+    global _noted
+    with _note_lock:
+        if _noted:
+            return
+        _noted = True
+    from odolab.core.extras import NO_NUMBA_NOTE
+
+    sys.stderr.write(NO_NUMBA_NOTE + "\n")
+    sys.stderr.flush()
+
+
+def _plain(func: F, inline: object) -> F:
+    if inline == "always":
+        return func
+
+    @functools.wraps(func)
+    def kernel(*args: object, **kwargs: object) -> object:
+        if not _noted:
+            _note()
+        return func(*args, **kwargs)
+
+    kernel.py_func = func  # type: ignore[attr-defined]  # as a numba dispatcher has it
+    return kernel  # type: ignore[return-value]
+
+
+def _plain_njit(*args: object, **options: object) -> object:
+    """``@njit`` and ``@njit(...)`` without numba: the function itself (see the module)."""
+    if len(args) == 1 and callable(args[0]) and not options:
+        return _plain(args[0], None)
+    inline = options.get("inline")
+    return lambda func: _plain(func, inline)
+
+
+@contextmanager
+def _plain_chunksize(size: int) -> Iterator[None]:
+    yield
+
+
+def _one_thread() -> int:
+    return 1
+
+
+if TYPE_CHECKING or HAVE_NUMBA:  # numba's own names (untyped, as the kernels always saw them)
+    from numba import get_num_threads, njit, parallel_chunksize, prange
+else:
+    njit = _plain_njit
+    prange = range
+    get_num_threads = _one_thread
+    parallel_chunksize = _plain_chunksize

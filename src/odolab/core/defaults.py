@@ -1,0 +1,32 @@
+"""Named defaults used across odolab (imports nothing, so the CLI can use them at no cost).
+
+- :data:`DEFAULT_ROBOT`: the nominal parameter preset (:data:`odolab.core.params.PRESETS`).
+- :data:`DEFAULT_TRUTH`: the virtual robot's true behaviour (:data:`odolab.sim.presets.TRUTH_PRESETS`).
+- :data:`DEFAULT_CORNERS`: how ``odolab track`` refines marker corners
+  (:data:`odolab.tracking.tracker.CORNER_METHODS`).
+- :class:`LogFormat`: the formats of recorded runs, the keys of :data:`odolab.io.registry.READERS`
+  (here so that the command line names them without importing the readers).
+"""
+
+from __future__ import annotations
+
+from enum import StrEnum
+
+__all__ = ["DEFAULT_CORNERS", "DEFAULT_ROBOT", "DEFAULT_TRUTH", "LogFormat"]
+
+#: The nominal preset every command uses unless told otherwise (the lab's Jaguar Lite).
+DEFAULT_ROBOT = "jaguar-lite"
+#: The true robot every simulation uses unless told otherwise: derived from the lab report.
+DEFAULT_TRUTH = "jaguar-lab"
+#: The marker-corner refinement the tracker uses unless told otherwise: lines fitted to the
+#: edges, steady under motion blur (docs/ground-truth.md).
+DEFAULT_CORNERS = "contour"
+
+
+class LogFormat(StrEnum):
+    """Formats of recorded runs (each has one reader in :data:`odolab.io.registry.READERS`)."""
+
+    CSV = "csv"
+    OPTIODOM = "optiodom"
+    BAG = "bag"
+    DRIVE = "drive"
