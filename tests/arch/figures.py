@@ -108,7 +108,7 @@ def _is_wrap_inline(node: ast.Call) -> bool:
     return False
 
 
-def measure() -> list[Figure]:
+def measure(*, with_duplicates: bool = True) -> list[Figure]:
     motion = Figure("motion-kind string tests", "0")
     model = Figure("model-kind branches outside models/", "0")
     flags = Figure("flag strings outside cli/ and serve/", "0")
@@ -199,7 +199,7 @@ def measure() -> list[Figure]:
         _circles(),
         long_fns,
         anys,
-        _duplicates(),
+        *([_duplicates()] if with_duplicates else []),
         raises,
     ]
 

@@ -7,8 +7,9 @@ from __future__ import annotations
 
 import math
 
+from odolab.core._angles import SMALL_ANGLE
+from odolab.core._angles import TWO_PI as _TWO_PI
 from odolab.core._jit import njit
-from odolab.core.kinematics import _TWO_PI, SMALL_ANGLE
 
 __all__ = ["body_motion", "chord", "chord_derivative", "step_pose", "wrap"]
 

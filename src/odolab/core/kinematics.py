@@ -34,6 +34,8 @@ from typing import TYPE_CHECKING, TypeVar
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.core import _angles
+
 __all__ = [
     "SMALL_ANGLE",
     "Method",
@@ -68,8 +70,8 @@ def __getattr__(name: str) -> object:
 
 
 #: Below this |dtheta/2| the arc's chord factor uses its series ``1 - u^2/6`` (error < 1e-17).
-SMALL_ANGLE = 1e-4
-_TWO_PI = 2.0 * math.pi
+SMALL_ANGLE = _angles.SMALL_ANGLE
+_TWO_PI = _angles.TWO_PI
 
 FloatOrArray = TypeVar("FloatOrArray", float, NDArray[np.float64])
 

@@ -1,0 +1,44 @@
+"""Issue 41's figures may only go down (tests/arch/figures.py prints them).
+
+Each ceiling is the figure measured when the one-home work landed; a change that adds a motion-kind
+string test, a model-kind branch outside models/, a `--flag` in library code, a second copy of the
+wrap, unwrap or step, an import circle, a function over 80 lines or an `Any` fails here with the
+places that broke it. Lower a ceiling when a figure goes down.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import figures
+
+# the figures when issue 41's work landed (2026-11-28); goals in figures.py's docstring
+CEILINGS = {
+    "motion-kind string tests": 0,
+    "model-kind branches outside models/": 3,
+    "flag strings outside cli/ and serve/": 54,
+    "angle wrap copies": 1,
+    "counter unwrap copies": 1,
+    "odometry step copies": 1,
+    "import circles": 0,
+    "functions over 80 lines": 9,
+    "Any in code": 304,
+}
+
+
+@pytest.fixture(scope="module")
+def measured() -> dict[str, figures.Figure]:
+    return {f.name: f for f in figures.measure(with_duplicates=False) if f.count >= 0}
+
+
+@pytest.mark.parametrize("name", sorted(CEILINGS))
+def test_figure_does_not_grow(measured: dict[str, figures.Figure], name: str) -> None:
+    fig = measured[name]
+    assert fig.count <= CEILINGS[name], (
+        f"{name}: {fig.count} (ceiling {CEILINGS[name]}); the places:\n" + "\n".join(fig.places)
+    )
