@@ -40,7 +40,7 @@ from numpy.typing import NDArray
 from odolab.calibration.truthnoise import TruthNoise, estimate_truth_noise, truth_residuals
 from odolab.core.errors import CalibrationError, InsufficientDataError, opt
 from odolab.core.kinematics import Method
-from odolab.core.models import DIFF_DRIVE, ExtendedDiffDrive, IcrModel, SlipModel
+from odolab.core.models import DIFF_DRIVE, ExtendedDiffDrive, IcrModel, SlipModel, neutral_values
 from odolab.core.models.slip import DRIFT_KEYS, NOISE_KEYS
 from odolab.core.odometry import integrate_increments
 from odolab.core.params import RobotParams, plausible_range
@@ -104,11 +104,7 @@ class FitModel:
             "right_wheel_radius": params.right_wheel_radius,
             "track_width": b,
         }
-        ext = model if isinstance(model, ExtendedDiffDrive) else ExtendedDiffDrive()
-        icr = model if isinstance(model, IcrModel) else IcrModel.from_track(b)
-        out.update(ext.to_dict())
-        out.update(icr.to_dict())
-        out.update((model if isinstance(model, SlipModel) else SlipModel()).to_dict())
+        out.update(neutral_values(model, b))  # its own kind's values, the others' neutral ones
         return {k: out[k] for k in self.names}
 
     def bounds(self, x0: FloatArray, nominal: RobotParams) -> tuple[FloatArray, FloatArray]:
