@@ -9,7 +9,7 @@ import pytest
 from typer.testing import CliRunner
 
 from odolab.cli import app, main
-from odolab.cli.wording import worded
+from odolab.cli.wording import CLI, worded
 from odolab.store import Notebook
 
 from .conftest import make_trials
@@ -129,7 +129,7 @@ def test_add_with_a_nan_heading_is_one_line(tmp_path: Path) -> None:
          "--predicted-heading", "nan", "--db", db],
     )  # fmt: skip
     assert result.exit_code != 0
-    assert "--predicted-heading" in str(result.exception)
+    assert "--predicted-heading" in CLI.error(result.exception)  # the sentence the CLI prints
 
 
 def test_compass_readings_for_a_translation_are_refused(tmp_path: Path) -> None:

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from odolab.core.errors import StoreError
+from odolab.core.errors import StoreError, opt
 from odolab.core.trials import MotionKind, TrialStatus
 
 if TYPE_CHECKING:
@@ -113,7 +113,7 @@ def mcap_stream(
     paths = list(paths)
     if campaign is not None or db is not None:
         if campaign is None or db is None or paths:
-            raise OdolabError("a notebook campaign needs --db and --campaign, and no SOURCE")
+            raise OdolabError("a notebook campaign needs {{db}} and {{campaign}}, and no SOURCE")
         from odolab.store import Notebook
 
         with (open_notebook or Notebook)(db) as nb:  # the face's rule for a missing notebook
@@ -123,7 +123,7 @@ def mcap_stream(
         from odolab.io.run import ReadOptions
 
         if len(paths) != 1:
-            raise OdolabError(f"--format takes one run, got {len(paths)} paths")
+            raise OdolabError(f"{opt('format')} takes one run, got {len(paths)} paths")
         ro = ReadOptions(ticks_per_rev=robot.ticks_per_rev) if robot else ReadOptions()
         return stream_from_run(read_run(paths[0], fmt, ro), robot, method)
     if len(paths) == 1 and (paths[0] / "run.json").is_file():
@@ -133,6 +133,6 @@ def mcap_stream(
 
         return stream_from_trajectories(read_trajectory(paths[1]), read_trajectory(paths[0]))
     raise OdolabError(
-        "export mcap takes a robot run folder (with run.json), one run with --format, "
-        "GT EST trajectory files, or --db with --campaign"
+        "export mcap takes a robot run folder (with run.json), one run with {{format}}, "
+        "GT EST trajectory files, or {{db}} with {{campaign}}"
     )

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from odolab.core.defaults import DEFAULT_CORNERS
-from odolab.core.errors import OdolabError
+from odolab.core.errors import OdolabError, opt
 
 if TYPE_CHECKING:
     import numpy as np
@@ -160,7 +160,7 @@ def _sensor_trajectory(req: SensorRequest) -> Trajectory:
         source = req.sensor or req.encoders
         return scan_motions(read_scans(source, req.scan_topic), every=req.scan_every).trajectory
     if req.sensor is None:
-        raise OptionError("no SENSOR file and no --scan-topic; expected the sensor's motion")
+        raise OptionError("no SENSOR file and no {{scan_topic}}; expected the sensor's motion")
     return read_sensor_trajectory(req.sensor, req.sensor_topic)
 
 
@@ -187,10 +187,12 @@ def calibrate_sensor_log(
     from odolab.io.run import ReadOptions
 
     if not (math.isfinite(req.interval) and req.interval >= 0):
-        raise OptionError(f"--interval is {req.interval!r}; expected a number of seconds >= 0")
+        raise OptionError(
+            f"{opt('interval')} is {req.interval!r}; expected a number of seconds >= 0"
+        )
     if not (math.isfinite(req.max_offset) and req.max_offset > 0):
         raise OptionError(
-            f"--max-offset is {req.max_offset!r}; expected a positive number of seconds"
+            f"{opt('max_offset')} is {req.max_offset!r}; expected a positive number of seconds"
         )
     options = SensorOptions(max_outliers=req.max_outliers)
     nominal = load_params(req.params)
@@ -203,7 +205,7 @@ def calibrate_sensor_log(
     )
     fmt = _encoder_format(req)
     if req.scan_topic is not None and req.sensor_topic is not None:
-        raise OptionError("give --scan-topic or --sensor-topic, not both")
+        raise OptionError("give {{scan_topic}} or {{sensor_topic}}, not both")
     run = read_run(req.encoders, fmt, ro)
     traj = _sensor_trajectory(req)
     pl, pr = wheel_angles(run.dticks_left, run.dticks_right, nominal.ticks_per_rev)
@@ -265,17 +267,17 @@ class TrackOutcome:
 def _check_track(req: TrackRequest) -> None:
     if not (math.isfinite(req.max_yaw_rate) and req.max_yaw_rate > 0):
         raise OptionError(
-            f"--max-yaw-rate is {req.max_yaw_rate!r}; expected the robot's fastest turn in "
+            f"{opt('max_yaw_rate')} is {req.max_yaw_rate!r}; expected the robot's fastest turn in "
             "deg/s, a positive number"
         )
     if req.encoders is not None and req.params is None:
-        raise OptionError("--encoders needs --params (the robot's nominal parameters)")
+        raise OptionError("{{encoders}} needs {{params}} (the robot's nominal parameters)")
     if not (math.isfinite(req.max_offset) and req.max_offset > 0):
         raise OptionError(
-            f"--max-offset is {req.max_offset!r}; expected a positive number of seconds"
+            f"{opt('max_offset')} is {req.max_offset!r}; expected a positive number of seconds"
         )
     if req.time_offset is not None and req.encoders is None:
-        raise OptionError("--time-offset needs --encoders (the log whose clock it is)")
+        raise OptionError("{{time_offset}} needs {{encoders}} (the log whose clock it is)")
 
 
 def _bridge(
@@ -405,9 +407,13 @@ def track_photo_log(req: PhotoRequest, check_outputs: Callable[[], None] = _noth
     )
 
     if not (math.isfinite(req.led_hz) and req.led_hz > 0):
-        raise OptionError(f"--led-hz is {req.led_hz!r}; expected the LED's frequency, > 0 Hz")
+        raise OptionError(
+            f"{opt('led_hz')} is {req.led_hz!r}; expected the LED's frequency, > 0 Hz"
+        )
     if not (math.isfinite(req.duty) and 0.05 <= req.duty <= 0.95):
-        raise OptionError(f"--duty is {req.duty!r}; expected the LED's ON fraction, 0.05 to 0.95")
+        raise OptionError(
+            f"{opt('duty')} is {req.duty!r}; expected the LED's ON fraction, 0.05 to 0.95"
+        )
     check_outputs()
     points = read_floor_points(req.floor_points)
     nominal = load_params(req.params)

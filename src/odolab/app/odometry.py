@@ -201,8 +201,8 @@ def many_logs(logs: Sequence[Path], log_format: LogFormat) -> bool:
     )
     if many and log_format != LogFormat.CSV:
         raise OdolabError(
-            f"--format {log_format.value} integrates one run file at a time; expected one run "
-            f"(for many runs against their ground truth: odolab evaluate --format {log_format.value})"
+            f"{opt('format')} {log_format.value} integrates one run file at a time; expected one run "
+            f"(for many runs against their ground truth: odolab evaluate {opt('format')} {log_format.value})"
         )
     return many
 

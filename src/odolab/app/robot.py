@@ -20,7 +20,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from odolab.core.errors import NEUTRAL, Wording
+from odolab.core.errors import NEUTRAL, Wording, opt
 
 if TYPE_CHECKING:
     from odolab.core.params import RobotParams
@@ -96,7 +96,7 @@ def _check_foxglove(foxglove: bool, port: int) -> None:
     check_port(port)
     if not foxglove and port != FOXGLOVE_PORT:
         raise RobotConfigError(
-            f"--foxglove-port {port} without --foxglove does nothing; expected --foxglove with "
+            f"{opt('foxglove_port')} {port} without {opt('foxglove')} does nothing; expected {opt('foxglove')} with "
             "it (to serve the run to Foxglove), or neither"
         )
 
@@ -112,9 +112,13 @@ def _check_virtual_options(
     from odolab.sim.terrains import TERRAINS
 
     if truth not in TRUTH_PRESETS:
-        raise RobotConfigError(f"--truth is {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}")
+        raise RobotConfigError(
+            f"{opt('truth')} is {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}"
+        )
     if terrain not in TERRAINS:
-        raise RobotConfigError(f"--terrain is {terrain!r}; expected one of {', '.join(TERRAINS)}")
+        raise RobotConfigError(
+            f"{opt('terrain')} is {terrain!r}; expected one of {', '.join(TERRAINS)}"
+        )
     given = {"truth": truth, "terrain": terrain, "seed": seed}
     check_virtual_only(url, {**given, "command_timeout": config.command_timeout})
 
@@ -373,7 +377,7 @@ def virtual_board(
     ):
         from odolab.robot.errors import RobotConfigError
 
-        raise RobotConfigError(f"--idle-exit is {req.idle_exit!r}; expected 1 to 3600 s")
+        raise RobotConfigError(f"{opt('idle_exit')} is {req.idle_exit!r}; expected 1 to 3600 s")
     nominal = load_params(req.params)
     if req.link == "jaguar2014":
         return _board_2014(req, nominal, on_speeds)

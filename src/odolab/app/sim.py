@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from odolab.core.defaults import DEFAULT_ROBOT, DEFAULT_TRUTH
+from odolab.core.errors import opt
 
 if TYPE_CHECKING:
     from odolab.core.trials import Trial
@@ -55,7 +56,7 @@ def _truth(truth: str) -> TrueParams:
 
     if truth not in TRUTH_PRESETS:
         raise SimError(
-            f"--truth: unknown preset {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}"
+            f"{opt('truth')}: unknown preset {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}"
         )
     return TRUTH_PRESETS[truth]
 
@@ -109,7 +110,7 @@ def simulate_protocol(
     nominal = load_params(req.params)
     enc_dir = req.encoder_dir
     if enc_dir is not None and enc_dir.exists() and not enc_dir.is_dir():
-        raise SimError(f"{enc_dir}: is a file; expected a folder for --encoder-dir")
+        raise SimError(f"{enc_dir}: is a file; expected a folder for {opt('encoder_dir')}")
     trials = run_protocol(
         proto,
         true,
@@ -280,13 +281,13 @@ def simulate_photo(req: PhotoRequest) -> tuple[Path, float]:
 
     seconds, led_hz, duty, jpeg, folder = req.seconds, req.led_hz, req.duty, req.jpeg, req.folder
     if not (math.isfinite(seconds) and 1.0 <= seconds <= 20.0):
-        raise OptionError(f"--seconds is {seconds!r}; expected 1 to 20 s")
+        raise OptionError(f"{opt('seconds')} is {seconds!r}; expected 1 to 20 s")
     if not (math.isfinite(led_hz) and 0.2 <= led_hz <= 20.0):
-        raise OptionError(f"--led-hz is {led_hz!r}; expected 0.2 to 20 Hz")
+        raise OptionError(f"{opt('led_hz')} is {led_hz!r}; expected 0.2 to 20 Hz")
     if not (math.isfinite(duty) and 0.05 <= duty <= 0.95):
-        raise OptionError(f"--duty is {duty!r}; expected the ON fraction, 0.05 to 0.95")
+        raise OptionError(f"{opt('duty')} is {duty!r}; expected the ON fraction, 0.05 to 0.95")
     if jpeg is not None and not 1 <= jpeg <= 100:
-        raise OptionError(f"--jpeg is {jpeg!r}; expected a JPEG quality 1 to 100")
+        raise OptionError(f"{opt('jpeg')} is {jpeg!r}; expected a JPEG quality 1 to 100")
     if folder.exists() and not folder.is_dir():
         raise OptionError(f"{folder} is a file; expected a folder to write the photo in")
     rl, rr, b = SIM_PHOTO_TRUTH

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from odolab.core.defaults import DEFAULT_ROBOT
+from odolab.core.errors import opt
 
 if TYPE_CHECKING:
     from odolab.core.params import RobotParams
@@ -89,14 +90,14 @@ def _trial(nb: Notebook, db: Path, req: AddRequest, angle: float | None) -> Tria
         # --terrain "add it first")
         raise StoreError(
             f"unknown campaign {campaign!r} in {db}; expected one of its campaigns, or "
-            "--create-campaign with --terrain to create it (or odolab trials campaign-add)"
+            "{{create_campaign}} with {{terrain}} to create it (or odolab trials campaign-add)"
         )
     if terrain is None:
         terrain = nb.get_campaign(campaign).terrain
     heading = req.predicted_heading
     if not math.isfinite(heading):
         raise StoreError(
-            f"trial {trial_id}: --predicted-heading is {heading}; expected a finite number (rad)"
+            f"trial {trial_id}: {opt('predicted_heading')} is {heading}; expected a finite number (rad)"
         )
     return Trial(
         trial_id=trial_id,
@@ -124,12 +125,12 @@ def add_trial(db: Path, req: AddRequest, measure: Callable[[Trial], Measurement]
 
     angle = req.angle
     if angle is not None and req.angle_pi is not None:
-        raise StoreError("give the commanded angle once: --angle (rad) or --angle-pi")
+        raise StoreError("give the commanded angle once: {{angle}} (rad) or {{angle_pi}}")
     if req.angle_pi is not None:
         angle = req.angle_pi * math.pi
     # import refuses the same
     if MotionKind.parse(req.kind).needs == "distance" and req.distance is None:
-        raise StoreError("a translation needs --distance (the commanded distance, m)")
+        raise StoreError("a translation needs {{distance}} (the commanded distance, m)")
     with Notebook(db) as nb:
         trial = _trial(nb, db, req, angle)
         if any(v is not None for v in req.readings):

@@ -114,6 +114,18 @@ FLAGS: dict[str, str] = {
     "workers": "--workers",
     "x": "--x",
     "y": "--y",
+    "angle": "--angle",
+    "angle_pi": "--angle-pi",
+    "create_campaign": "--create-campaign",
+    "duty": "--duty",
+    "encoder_dir": "--encoder-dir",
+    "foxglove": "--foxglove",
+    "idle_exit": "--idle-exit",
+    "interval": "--interval",
+    "jpeg": "--jpeg",
+    "led_hz": "--led-hz",
+    "predicted_heading": "--predicted-heading",
+    "scan_topic": "--scan-topic",
 }
 
 #: The CLI's wording.

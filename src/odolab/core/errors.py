@@ -139,6 +139,18 @@ OPTION_NAMES: dict[str, str] = {
     "workers": "the number of workers",
     "x": "x",
     "y": "y",
+    "angle": "the angle setting",
+    "angle_pi": "the angle pi setting",
+    "create_campaign": "the create campaign setting",
+    "duty": "the duty setting",
+    "encoder_dir": "the encoder dir setting",
+    "foxglove": "the foxglove setting",
+    "idle_exit": "the idle exit setting",
+    "interval": "the interval setting",
+    "jpeg": "the jpeg setting",
+    "led_hz": "the led hz setting",
+    "predicted_heading": "the predicted heading setting",
+    "scan_topic": "the scan topic setting",
 }
 
 _MARK = re.compile(r"\{\{([a-z][a-z0-9_]*)\}\}")
