@@ -346,3 +346,19 @@ def test_phone_runs_get_a_gyro_calibration_beside_the_ratios(lab) -> None:  # ty
     html = result.report.read_text()
     assert "The phone&#39;s gyro" in html or "The phone's gyro" in html
     assert "effective track, ratios calibration" in html
+
+
+def test_the_demos_terminal_summary_names_settings_by_their_flags(lab, capsys) -> None:  # type: ignore[no-untyped-def]
+    """What `odolab demo` prints after the run: a setting the library names by a mark
+    (``{{nees_segment}}``) reads as the flag the user types, never as a mark or the library's
+    own words (the first-order note of the NEES said "the NEES segment length" once)."""
+    from odolab.cli.demo import _print_result
+
+    result, _ = lab
+    _print_result(result)
+    out = capsys.readouterr().out
+    assert "NEES over" in out and "report:" in out
+    assert "{{" not in out
+    if "go past it less often" in out:  # the first-order note (present on the default seed)
+        assert "(--nees-segment)" in out
+        assert "the NEES segment length" not in out

@@ -86,9 +86,9 @@ def _print_result(result: LabResult) -> None:
         _print_slip(out_console, ev.slip)
     elif ev is not None and ev.slip_note:
         out_console.print(ev.slip_note, markup=False, highlight=False)
-    consistency = ev.consistency_dict() if ev is not None else None  # (None without NEES)
-    if ev is not None and ev.nees and consistency is not None:
-        from odolab.metrics.consistency import nees_summary
+    if ev is not None and ev.nees:
+        from odolab.cli.wording import said
+        from odolab.metrics.consistency import first_order_note, nees_summary
 
         s = nees_summary(ev.nees)
         lo, hi = s.mean_bounds95
@@ -101,9 +101,10 @@ def _print_result(result: LabResult) -> None:
             markup=False,
             highlight=False,
         )
-        if consistency.get("first_order_note"):  # why the verdict is on these pieces (issue 38)
+        _, note = first_order_note(ev.nees)
+        if note:  # why the verdict is on these pieces (issue 38), in the CLI's words
             out_console.print(
-                f"note: {consistency['first_order_note']}; {ev.about_nees.rsplit('. ', 1)[-1]}",
+                said(f"note: {note}; {ev.about_nees.rsplit('. ', 1)[-1]}"),
                 markup=False,
                 highlight=False,
             )
