@@ -12,33 +12,18 @@ against scan-matcher glitches).
 from __future__ import annotations
 
 import functools
-import os
-from pathlib import Path
 
-import numpy as np
-from _husky import HUSKY
+from _husky import HUSKY, held_out_error, husky_split
 
 from odolab.calibration import slipfit
-from odolab.calibration.lsq import LsqOptions, calibrate_lsq, prepare_run
-from odolab.io.registry import find_runs, read_run
-from odolab.io.run import ReadOptions
-from odolab.metrics.runs import RUN_OPTIONS, evaluate_run
+from odolab.calibration.lsq import LsqOptions, calibrate_lsq
 
 
 def main() -> None:
-    data = Path(os.environ.get("ODOLAB_TEST_DATA", "../shared/data"))
-    table = data / "drive-husky" / "husky_windows.csv"
-    ro = ReadOptions(params=HUSKY)
-    train = [read_run(p, "drive", ro) for p in find_runs([f"{table}#even"], "drive")]
-    held = [read_run(p, "drive", ro) for p in find_runs([f"{table}#odd"], "drive")]
-    prep = [prepare_run(r, 2.0) for r in train]
+    _train, held, prep = husky_split()
 
     def end(params: object) -> float:
-        return float(
-            np.mean(
-                [evaluate_run(r, params, RUN_OPTIONS).evaluation.drift.endpoint_error for r in held]  # type: ignore[arg-type]
-            )
-        )
+        return held_out_error(held, params)
 
     icr = end(calibrate_lsq(prep, HUSKY, LsqOptions(model="icr")).params)
     print(f"icr (best kinematic on end points): {icr:.4f} m")

@@ -23,7 +23,6 @@ Two parts, ratios not times:
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import tempfile
 from pathlib import Path
@@ -36,33 +35,21 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from odolab.calibration import slipfit  # noqa: E402
-from odolab.calibration.lsq import LsqOptions, calibrate_lsq, prepare_run  # noqa: E402
+from odolab.calibration.lsq import LsqOptions, calibrate_lsq  # noqa: E402
 from odolab.calibration.slipfit import endpoint_error  # noqa: E402
 from odolab.core.params import PRESETS  # noqa: E402
-from odolab.io.registry import find_runs, read_run  # noqa: E402
-from odolab.io.run import ReadOptions  # noqa: E402
+from odolab.io.registry import read_run  # noqa: E402
 
 KINEMATIC = ("diff", "extended", "icr")
 
 
 def husky() -> None:
-    from _husky import HUSKY
+    from _husky import HUSKY, held_out_error, husky_split
 
-    from odolab.metrics.runs import RUN_OPTIONS, evaluate_run
-
-    data = Path(os.environ.get("ODOLAB_TEST_DATA", "../shared/data"))
-    table = data / "drive-husky" / "husky_windows.csv"
-    ro = ReadOptions(params=HUSKY)
-    train = [read_run(p, "drive", ro) for p in find_runs([f"{table}#even"], "drive")]
-    held = [read_run(p, "drive", ro) for p in find_runs([f"{table}#odd"], "drive")]
-    prep = [prepare_run(r, 2.0) for r in train]
+    _train, held, prep = husky_split()
 
     def end(params: object) -> float:
-        return float(
-            np.mean(
-                [evaluate_run(r, params, RUN_OPTIONS).evaluation.drift.endpoint_error for r in held]  # type: ignore[arg-type]
-            )
-        )
+        return held_out_error(held, params)
 
     icr = end(calibrate_lsq(prep, HUSKY, LsqOptions(model="icr")).params)
     print(f"icr (best kinematic on end points): {icr:.4f} m")
