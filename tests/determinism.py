@@ -4,7 +4,9 @@
 
 runs the statistical tests (tests/models, tests/metrics, tests/calibration, tests/analysis) twice:
 
-- A: ``PYTHONHASHSEED=1``, pytest-randomly's order 1, ``--dist load``, the fixture cache on;
+- A: ``PYTHONHASHSEED=1``, pytest-randomly's order 1, ``--dist load``, the fixture cache on, in a
+  fresh folder (a cache left by an earlier ``make test`` would skip the fixtures' own assertions:
+  CI's first run with this check failed on exactly that, "ran in one run only");
 - B: ``PYTHONHASHSEED=2``, order 2, ``--dist worksteal``, the fixture cache off (every process
   builds its own fixtures: a build that depends on what ran before shows),
 
@@ -98,7 +100,10 @@ def main() -> int:
     folder = Path(tempfile.mkdtemp(prefix="odolab-determinism-"))
     fixed = {"HYPOTHESIS_PROFILE": "ci"}  # hypothesis' derandomized examples, as in CI
     runs = {
-        "A": ({**fixed, "PYTHONHASHSEED": "1"}, ("--randomly-seed=1", "--dist", "load")),
+        "A": (
+            {**fixed, "PYTHONHASHSEED": "1", "ODOLAB_TEST_CACHE_DIR": str(folder / "cache")},
+            ("--randomly-seed=1", "--dist", "load"),
+        ),
         "B": (
             {**fixed, "PYTHONHASHSEED": "2", "ODOLAB_TEST_CACHE": "0"},
             ("--randomly-seed=2", "--dist", "worksteal"),

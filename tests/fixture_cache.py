@@ -9,7 +9,8 @@ to any of them builds anew. Every caller gets its own copy of the folder the bui
 own temporary folder), with the paths in the result moved there, so a test that writes into a demo's
 notebook changes only its own copy, as before.
 
-``ODOLAB_TEST_CACHE=0`` turns the cache off (every process builds, as pytest alone would).
+``ODOLAB_TEST_CACHE=0`` turns the cache off (every process builds, as pytest alone would);
+``ODOLAB_TEST_CACHE_DIR`` puts it elsewhere (tests/determinism.py gives its run a fresh one).
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ from typing import Any, TypeVar
 T = TypeVar("T")
 
 ROOT = Path(__file__).resolve().parents[1]
-CACHE = ROOT / ".test-cache"
+CACHE = Path(os.environ.get("ODOLAB_TEST_CACHE_DIR") or ROOT / ".test-cache")
 _LIBS = ("numpy", "scipy", "numba", "statsmodels", "polars", "matplotlib")
 
 
