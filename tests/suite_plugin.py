@@ -11,12 +11,18 @@
   ``numpy.random.default_rng`` (in the tests and in odolab), so the same suite can be run on
   other seeds it could reasonably have used. Both are off in ``make test``; ``tests/bounds.py``
   drives them.
+- **Ctrl-C is Ctrl-C.** A shell that starts the suite in the background (``make test &`` in a
+  script, some CI runners) hands every process an *ignored* SIGINT, and Python then installs no
+  KeyboardInterrupt handler: the tests of odolab's Ctrl-C handling (and the odolab processes they
+  start) would see nothing. The suite puts Python's own handler back, in itself and so in what
+  it starts (an exec resets a handled signal to its default; an ignored one stays ignored).
 """
 
 from __future__ import annotations
 
 import json
 import os
+import signal
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -48,6 +54,9 @@ def _shift_seeds() -> None:
 
 if _SHIFT:
     _shift_seeds()
+
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 #: the phase of the running test ("setup": an assert in a fixture, logged against whichever test
