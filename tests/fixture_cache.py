@@ -192,15 +192,18 @@ def slip_fits_once() -> Iterator[None]:
 
 def demo_builder(truth: str) -> Callable[[Path], Any]:
     """The builder of the lab's demo on ``truth`` (``odolab demo --truth TRUTH --out FOLDER``:
-    ``run_lab`` with its defaults) for :func:`cached`: ``(LabResult, the progress steps it
+    ``run_lab`` with its defaults and the CLI's flags) for :func:`cached`: ``(LabResult, the progress steps it
     reported)``."""
 
     def build(folder: Path) -> Any:
         from odolab.app.demo import run_lab
+        from odolab.cli.wording import flag
 
         steps: list[str] = []
         with slip_fits_once():  # the tests that rerun its `calibrate compare` reuse its fits
-            result = run_lab(folder, truth=truth, progress=lambda s, d, t: steps.append(s))
+            result = run_lab(
+                folder, truth=truth, progress=lambda s, d, t: steps.append(s), flag=flag
+            )
         return result, steps
 
     return build

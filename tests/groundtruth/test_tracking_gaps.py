@@ -16,6 +16,7 @@ import pytest
 
 from odolab.cli import main
 from odolab.cli.groundtruth import OptionError, estimate_time_offset
+from odolab.cli.wording import worded
 from odolab.core.params import PRESETS
 from odolab.core.trajectory import Trajectory
 from odolab.core.trials import EncoderLog
@@ -179,7 +180,7 @@ def test_a_reversed_yaw_rate_is_reported_without_an_imu(drive: RecordedDrive) ->
     mirrored = Trajectory.from_xyh(truth.t, truth.x, -truth.y, -truth.heading)
     with pytest.raises(OptionError) as info:
         estimate_time_offset(truth.t, truth.heading, mirrored, "run.avi", 3.0)
-    text = str(info.value)
+    text = worded(info.value)  # (the library names the setting; the CLI words it as its flag)
     assert text.startswith("run.avi: its yaw rate matches the encoders' best with the sign")
     assert "--time-offset" in text
     assert "IMU" not in text and "flip" not in text

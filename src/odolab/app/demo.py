@@ -233,6 +233,8 @@ class LabConfig:
     square_runs: int
     phone_runs: int
     rate: float
+    #: the face's flag for a setting, for the command lines in results.json (None: left out)
+    flag: Callable[[str], str] | None = None
 
 
 @dataclass
@@ -668,7 +670,7 @@ def _slip(
         )  # fmt: skip
     except OdolabError as err:
         return None, f"No slip comparison: {err}"
-    return result.to_dict(), ""
+    return result.to_dict(cfg.flag), ""
 
 
 def _open_questions(cfg: LabConfig) -> tuple[tuple[ExperimentResult, ...], str]:
@@ -763,11 +765,15 @@ def run_lab(
     phone_runs: int = 5,
     rate: float = 20.0,
     progress: Progress = _noop,
+    flag: Callable[[str], str] | None = None,
 ) -> LabResult:
-    """Run the whole lab on the virtual Jaguar; return where the results are."""
+    """Run the whole lab on the virtual Jaguar; return where the results are. ``flag`` gives a
+    face's flag for a setting (``odolab.cli.wording.flag``): results.json then carries the command
+    lines that repeat the slip comparison and its NEES; without it they are left out."""
     from odolab.store import Notebook
 
     cfg = _config(out, seed, truth, nominal, square_side, square_runs, phone_runs, rate)
+    cfg = replace(cfg, flag=flag)
     progress("notebook", 0, 1)
     folder = _new_run_folder(cfg.out)
     db = folder / "odolab.db"

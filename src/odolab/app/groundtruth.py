@@ -91,18 +91,18 @@ def _offset_sentence(text: str, source: str, max_offset: float) -> str:
             f"{source}: its yaw rate matches the encoders' best with the sign reversed "
             f"{numbers.group(0) if numbers else ''}; expected both to turn the same way (check "
             "that the video is not mirrored and that the encoder log's left and right wheels "
-            "are not swapped), or give the clock offset with --time-offset"
+            f"are not swapped), or give the clock offset with {opt('time_offset')}"
         ).replace("  ", " ")
     if "any rotation" in text:
         return (
             f"{source}: neither it nor the encoder log shows any rotation to line the clocks up "
-            "with; expected a drive with turns, or give the clock offset with --time-offset"
+            f"with; expected a drive with turns, or give the clock offset with {opt('time_offset')}"
         )
     if "does not overlap" in text:
         return (
             f"{source}: it does not overlap the encoder log in time for any clock offset within "
-            f"+-{max_offset:g} s; expected the log of the same drive, a larger --max-offset, "
-            "or the clock offset with --time-offset"
+            f"+-{max_offset:g} s; expected the log of the same drive, a larger {opt('max_offset')}, "
+            f"or the clock offset with {opt('time_offset')}"
         )
     return text
 
@@ -349,7 +349,7 @@ def track_log(req: TrackRequest, check_output: Callable[[], None] = _nothing) ->
     for g in out.result.gaps:  # the gaps left: no encoders, outside their log, or none near
         bridge = next((br for br in bridges if br.gap == g), None)
         why = (
-            "give --encoders to bridge it"
+            f"give {opt('encoders')} to bridge it"
             if req.encoders is None
             else "the encoder log does not cover it"
             if bridge is None
@@ -358,7 +358,7 @@ def track_log(req: TrackRequest, check_output: Callable[[], None] = _nothing) ->
         )
         out.notes.append(
             f"{g.seconds:.2f} s without the marker at {g.t_before - out.offset:.2f} s: the robot "
-            f"may have turned half a turn or more (--max-yaw-rate {req.max_yaw_rate:g} deg/s); "
+            f"may have turned half a turn or more ({opt('max_yaw_rate')} {req.max_yaw_rate:g} deg/s); "
             f"segment {int(out.result.segments[g.index])} starts there, its heading's whole "
             f"turns unknown ({why})"
         )

@@ -34,6 +34,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from odolab.calibration.compare import DEFAULT_MODELS
+from odolab.core.errors import opt
 
 if TYPE_CHECKING:
     from odolab.calibration.compare import ModelComparison
@@ -144,6 +145,27 @@ def exploration_reason(truth: TrueParams, truth_name: str) -> str | None:
 
 
 @dataclass(frozen=True)
+class Invocation:
+    """An ``odolab`` command line with its settings by their library names
+    (:data:`odolab.core.errors.OPTION_NAMES`): each face writes them in its own flags."""
+
+    #: the command's words and its positional arguments (``calibrate``, ``compare``, files...)
+    words: tuple[str, ...]
+    #: (setting, its values) in order; a switch has no values
+    options: tuple[tuple[str, tuple[str, ...]], ...] = ()
+
+    def __post_init__(self) -> None:
+        for name, _ in self.options:
+            opt(name)  # (a KeyError for a setting without words: one table of names)
+
+    def line(self, flag: Callable[[str], str]) -> str:
+        """The command line to type, quoted for a POSIX shell, with ``flag(setting)`` for each
+        setting (``odolab.cli.wording.flag`` gives the CLI's)."""
+        options = [w for name, values in self.options for w in (flag(name), *values)]
+        return shlex.join(["odolab", *self.words, *options])
+
+
+@dataclass(frozen=True)
 class SlipComparison:
     """The slip rule's result (see the module)."""
 
@@ -172,35 +194,45 @@ class SlipComparison:
     #: where the slip fit's parameters were written (for :meth:`nees_command`), else None
     slip_params: Path | None = None
 
-    def command(self) -> str:
-        """The ``odolab calibrate compare`` line that gives the same comparison from the
-        written files (empty without files). A command line to run, so in the CLI's own flags:
-        the demo (``odolab.app.demo``, a face below the CLI's layer) writes it into results.json,
-        and the tests run it from there."""
+    def command(self) -> Invocation | None:
+        """The ``odolab calibrate compare`` invocation that gives the same comparison from the
+        written files (None without files); a face writes it with its flags
+        (:meth:`Invocation.line`), and the tests run it from the demo's results.json."""
         if not self.files:
-            return ""
+            return None
         req = slip_request(self.seed)
-        words = [
-            "odolab", "calibrate", "compare", *map(self._shown, self.files), "--validate",
-            *map(self._shown, self.held_files), "--format", "csv", "--params", self._shown(Path(self.params_arg))
-            if self.params_arg.endswith(".toml") else self.params_arg,
-            "--models", ",".join(req.models),
-            "--learning-curve", ",".join(f"{s:g}" for s in req.curve),
-            "--seed", str(self.seed), "--json", "compare.json",
-        ]  # fmt: skip
-        return shlex.join(words)
+        params = (
+            self._shown(Path(self.params_arg))
+            if self.params_arg.endswith(".toml")
+            else self.params_arg
+        )
+        return Invocation(
+            ("calibrate", "compare", *map(self._shown, self.files)),
+            (
+                ("validate", tuple(map(self._shown, self.held_files))),
+                ("format", ("csv",)),
+                ("params", (params,)),
+                ("models", (",".join(req.models),)),
+                ("learning_curve", (",".join(f"{s:g}" for s in req.curve),)),
+                ("seed", (str(self.seed),)),
+                ("json", ("compare.json",)),
+            ),
+        )
 
-    def nees_command(self) -> str:
-        """The ``odolab evaluate --nees`` line that gives :attr:`nees` from the written files
-        (empty without them)."""
+    def nees_command(self) -> Invocation | None:
+        """The ``odolab evaluate --nees`` invocation that gives :attr:`nees` from the written
+        files (None without them)."""
         if not self.held_files or self.slip_params is None:
-            return ""
-        words = [
-            "odolab", "evaluate", *map(self._shown, self.held_files), "--format", "csv",
-            "--params", self._shown(self.slip_params), "--nees", "--nees-segment",
-            f"{NEES_PIECE_S:g}",
-        ]  # fmt: skip
-        return shlex.join(words)
+            return None
+        return Invocation(
+            ("evaluate", *map(self._shown, self.held_files)),
+            (
+                ("format", ("csv",)),
+                ("params", (self._shown(self.slip_params),)),
+                ("nees", ()),
+                ("nees_segment", (f"{NEES_PIECE_S:g}",)),
+            ),
+        )
 
     def _shown(self, path: Path) -> str:
         if self.base is not None and path.is_relative_to(self.base):
@@ -247,18 +279,20 @@ class SlipComparison:
             out["measured"] = dict(self.measured)
         return out
 
-    def to_dict(self) -> dict[str, Any]:
-        """The report's ``slip`` entry."""
+    def to_dict(self, flag: Callable[[str], str] | None = None) -> dict[str, Any]:
+        """The report's ``slip`` entry; its command lines in the flags ``flag`` gives a setting
+        (a face's words), or empty without it."""
         s = asdict(self.settings)
+        command, nees_command = self.command(), self.nees_command()
         return {
             "exploration": {**s, "seed": self.seed, "terrain": self.terrain},
             "about": self.about(),
             "comparison": self.comparison.to_dict(),
             "speed_question": self.speed_dict(),
             "files": [self._shown(p) for p in (*self.files, *self.held_files)],
-            "command": self.command(),
+            "command": command.line(flag) if command and flag else "",
             "nees": dict(self.nees),
-            "nees_command": self.nees_command(),
+            "nees_command": nees_command.line(flag) if nees_command and flag else "",
         }
 
 

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import contextlib
 import math
-import shlex
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from datetime import UTC, datetime
@@ -42,7 +41,6 @@ __all__ = [
     "default_folder",
     "drive_run",
     "keep_in_notebook",
-    "measure_virtual_command",
     "open_outputs",
     "plan_run",
     "virtual_board",
@@ -92,7 +90,7 @@ def _check_foxglove(foxglove: bool, port: int) -> None:
     from odolab.robot.errors import RobotConfigError
 
     if foxglove:  # before the run's folder is made
-        require("ros", "--foxglove")
+        require("ros", opt("foxglove"))
     check_port(port)
     if not foxglove and port != FOXGLOVE_PORT:
         raise RobotConfigError(
@@ -200,13 +198,6 @@ def open_outputs(folder: Path, db: Path | None) -> Notebook | None:
         raise
 
 
-def measure_virtual_command(trial_id: str, db: Path | str | None) -> str:
-    """The ``odolab trials measure ID --virtual [--db DB]`` line to copy into a shell (quoted)."""
-    command = ["odolab", "trials", "measure", trial_id, "--virtual"]
-    command += ["--db", str(db)] if db is not None else []
-    return " ".join(shlex.quote(part) for part in command)
-
-
 def _virtual_instruments(run: RobotRun) -> RobotRun:
     """``run`` with what the lab's instruments would show after it (``run.json``
     ``"virtual_instruments"``), when a virtual board gave its true pose; else as it is."""
@@ -271,7 +262,7 @@ def keep_in_notebook(notebook: Notebook | None, db: Path | None, run: RobotRun) 
         return KeptRun(f"recorded in {db} as {run.trial.trial_id} (excluded: the run failed)", True)
     return KeptRun(
         f"recorded in {db} as {run.trial.trial_id}; enter the measurement with "
-        f"'odolab trials measure {run.trial.trial_id} --db {db}'"
+        f"'odolab trials measure {run.trial.trial_id} {opt('db')} {db}'"
     )
 
 

@@ -174,8 +174,8 @@ def _turn_rate(req: ExploreRequest, track_width: float) -> tuple[float, str]:
     rate = min(2.0, in_place) if math.isfinite(in_place) and in_place > 0 else 2.0
     if rate < 2.0:
         return rate, (
-            f"--max-turn-rate not given: {rate:.3g} rad/s, a turn in place at "
-            f"--max-speed {req.max_speed:g} m/s (the default 2 rad/s is beyond it)"
+            f"{opt('max_turn_rate')} not given: {rate:.3g} rad/s, a turn in place at "
+            f"{opt('max_speed')} {req.max_speed:g} m/s (the default 2 rad/s is beyond it)"
         )
     return rate, ""
 

@@ -142,10 +142,10 @@ def add_trial(db: Path, req: AddRequest, measure: Callable[[Trial], Measurement]
     if req.params_version is not None:
         chosen = ""
     elif version == 1 and robot in PRESETS:
-        chosen = f"; parameters {robot} v1 (the preset; give --params-version to choose)"
+        chosen = f"; parameters {robot} v1 (the preset; give {opt('params_version')} to choose)"
     else:
         chosen = (
-            f"; parameters {robot} v{version} (the robot's latest; give --params-version "
+            f"; parameters {robot} v{version} (the robot's latest; give {opt('params_version')} "
             "to choose the version it was driven with)"
         )
     return AddedTrial(trial, version, chosen)

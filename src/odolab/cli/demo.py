@@ -33,6 +33,7 @@ def demo_cmd(
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from odolab.app.demo import STEPS, run_lab
+    from odolab.cli.wording import flag
 
     console = Console(stderr=True)
     with Progress(
@@ -50,7 +51,7 @@ def demo_cmd(
             bar.start_task(task)
             bar.update(task, completed=done, total=total)
 
-        result = run_lab(out, seed=seed, truth=truth, progress=progress)
+        result = run_lab(out, seed=seed, truth=truth, progress=progress, flag=flag)
 
     _print_result(result)
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import inspect
 import math
+import shlex
 from collections.abc import Callable
 from enum import StrEnum
 from pathlib import Path
@@ -19,9 +20,10 @@ from typing import TYPE_CHECKING, Annotated, Any, get_type_hints
 
 import typer
 
-from odolab.app.robot import FOXGLOVE_PORT, measure_virtual_command
+from odolab.app.robot import FOXGLOVE_PORT
 from odolab.cli._apps import robot_app
 from odolab.cli._output import echo, term
+from odolab.cli.wording import flag
 from odolab.core.defaults import DEFAULT_TRUTH
 
 if TYPE_CHECKING:
@@ -208,6 +210,13 @@ class _EventPrinter:
 
     def flush(self) -> None:
         self._lines.join()
+
+
+def measure_virtual_command(trial_id: str, db: Path | str | None) -> str:
+    """The ``odolab trials measure ID --virtual [--db DB]`` line to copy into a shell (quoted)."""
+    command = ["odolab", "trials", "measure", trial_id, flag("virtual")]
+    command += [flag("db"), str(db)] if db is not None else []
+    return shlex.join(command)
 
 
 def _live_table(table: Any, info: CycleInfo, rate: float) -> Any:
