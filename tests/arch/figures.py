@@ -16,7 +16,8 @@ text and syntax trees; it imports nothing of odolab except for the import graph,
   Goal 1 each (compiled twins are counted apart).
 - ``import circles``: strongly connected groups of modules in the import graph (type-checking
   imports left out). Goal 0.
-- ``functions over 80 lines``: goal at most 10.
+- ``functions over 80 lines``: goal at most 10, each with its reason in a ``# long: ...``
+  comment just above its ``def`` (tests/arch/test_figures.py requires one).
 - ``Any``: the name ``Any`` in code and quoted annotations (read from the syntax tree: imports
   and prose left out). Goal at most 150.
 - ``duplicate pairs``: from the ``duplicates`` tool when it is on PATH (a developer's tool; CI
@@ -93,6 +94,20 @@ def _docstring_nodes(tree: ast.Module) -> set[int]:
     return out
 
 
+def _long_reason(text: str, node: ast.FunctionDef | ast.AsyncFunctionDef) -> str:
+    """The reason a function over 80 lines gives: a ``# long: ...`` comment on the lines just
+    above its ``def`` (or its decorators)."""
+    lines = text.splitlines()
+    first = min([node.lineno, *(d.lineno for d in node.decorator_list)]) - 1
+    said: list[str] = []
+    i = first - 1
+    while i >= 0 and lines[i].strip().startswith("#"):
+        said.insert(0, lines[i].strip().lstrip("#").strip())
+        i -= 1
+    joined = " ".join(said)
+    return joined.split("long:", 1)[1].strip() if "long:" in joined else ""
+
+
 def _is_wrap_inline(node: ast.Call) -> bool:
     f = _name_of(node.func)
     if f in ("atan2", "arctan2") and len(node.args) == 2:
@@ -120,7 +135,7 @@ def measure(*, with_duplicates: bool = True) -> list[Figure]:
     anys = Figure("Any in code", "<= 150")
     raises = Figure("public functions saying what they raise", "(watch)")
     model_classes = _model_classes()
-    for rel, tree, _text in _files():
+    for rel, tree, text in _files():
         where = str(rel)
         in_face = rel.parts[0] in ("cli", "serve")
         jit = rel.name.endswith("_jit.py") or "kernels" in rel.name
@@ -166,7 +181,11 @@ def measure(*, with_duplicates: bool = True) -> list[Figure]:
             if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
                 n = (node.end_lineno or node.lineno) - node.lineno + 1
                 if n > 80:
-                    long_fns.places.append(f"{where}:{node.lineno} {node.name} ({n} lines)")
+                    why = _long_reason(text, node)
+                    long_fns.places.append(
+                        f"{where}:{node.lineno} {node.name} ({n} lines; "
+                        + (f"long: {why})" if why else "no reason given)")
+                    )
                 target = "compiled " if jit else ""
                 if WRAP_DEF.match(node.name):
                     wrap.places.append(f"{target}{where}:{line} def {node.name}")

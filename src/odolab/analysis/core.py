@@ -279,6 +279,33 @@ def _noise_records(motions: list[MotionAnalysis], by_id: dict[str, Trial]) -> li
     return records
 
 
+def _noise_fits(
+    records: list[NoiseRecord],
+) -> tuple[WheelNoise | None, str | None, dict[str, WheelNoise]]:
+    """The wheel-noise constants pooled over every motion, a note when they cannot be fitted or
+    one pair does not explain every kind of motion, and the constants of each kind alone."""
+    noise: WheelNoise | None = None
+    noise_note: str | None = None
+    try:
+        noise = fit_wheel_noise(records)
+    except InsufficientDataError as err:
+        noise_note = str(err)
+    by_kind: dict[str, WheelNoise] = {}
+    for kind in sorted({rec.kind for rec in records}):
+        try:
+            by_kind[kind] = fit_wheel_noise([rec for rec in records if rec.kind == kind])
+        except InsufficientDataError:
+            continue
+    if noise is not None and noise.same_k_pvalue is not None and noise.same_k_pvalue < 0.05:
+        sums = ", ".join(f"{k}: {v:.3g} m" for k, v in noise.k_sum_by_kind.items())
+        noise_note = (
+            "one pair (k_r, k_l) does not explain every kind of motion (likelihood-ratio "
+            f"p = {noise.same_k_pvalue:.2g}; k_r + k_l by motion: {sums}); use the constants "
+            "of the motion you need (e.g. in-place turns of a tracked robot skid far more)"
+        )
+    return noise, noise_note, by_kind
+
+
 def analyze_trials(trials: Sequence[Trial], *, progress: Progress | None = None) -> LabAnalysis:
     """Fit every motion on every terrain and characterise its systematic and random error.
 
@@ -324,27 +351,9 @@ def analyze_trials(trials: Sequence[Trial], *, progress: Progress | None = None)
             tests.append(compare_terrains(motion.value, {t: (f.x, f.y) for t, f in fits.items()}))
         except InsufficientDataError as err:
             skipped.append(str(err))
-    noise: WheelNoise | None = None
-    noise_note: str | None = None
     records = _noise_records(motions, by_id)
     say("fitting wheel noise constants")
-    try:
-        noise = fit_wheel_noise(records)
-    except InsufficientDataError as err:
-        noise_note = str(err)
-    by_kind: dict[str, WheelNoise] = {}
-    for kind in sorted({rec.kind for rec in records}):
-        try:
-            by_kind[kind] = fit_wheel_noise([rec for rec in records if rec.kind == kind])
-        except InsufficientDataError:
-            continue
-    if noise is not None and noise.same_k_pvalue is not None and noise.same_k_pvalue < 0.05:
-        sums = ", ".join(f"{k}: {v:.3g} m" for k, v in noise.k_sum_by_kind.items())
-        noise_note = (
-            "one pair (k_r, k_l) does not explain every kind of motion (likelihood-ratio "
-            f"p = {noise.same_k_pvalue:.2g}; k_r + k_l by motion: {sums}); use the constants "
-            "of the motion you need (e.g. in-place turns of a tracked robot skid far more)"
-        )
+    noise, noise_note, by_kind = _noise_fits(records)
     params = Counter(t.params for t in measured).most_common(1)
     return LabAnalysis(
         motions=motions,

@@ -260,6 +260,8 @@ def integrate(
     )  # fmt: skip
 
 
+# long: the one odometry step's checks (ticks, times, jumps, the start) and its plain and compiled
+# paths side by side, so that both read the same checks in one place
 def _integrate(
     t: ArrayLike,
     left_ticks: ArrayLike,

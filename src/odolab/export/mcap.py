@@ -184,6 +184,8 @@ def _body_twist(
     return vx, vy, wz
 
 
+# long: one generator of the four message streams (odometry, TF, joint states, ground truth) at
+# each sample, kept together so their stamps and frames cannot drift apart
 def _messages(
     stream: OdometryStream, start_time: float, odom_frame: str, base_frame: str
 ) -> Iterator[tuple[str, float, dict[str, Any]]]:

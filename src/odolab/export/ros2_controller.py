@@ -416,6 +416,8 @@ def _yaml_name(name: str, what: str = "controller_name", kind: str = "node") -> 
     return name
 
 
+# long: most of it is the YAML's table of keys and its comment header, one line each; the checks
+# of the distro and the wheel names come first
 def diff_drive_controller_yaml(
     params: RobotParams,
     *,

@@ -542,6 +542,8 @@ WRITTEN_COLUMNS: tuple[str, ...] = (
 )
 
 
+# long: 27 of its lines are the signature and the documented keywords of the phone log; the body
+# writes one row kind after another
 def write_sensorlog(
     path: str | Path,
     t_phone: ArrayLike,

@@ -316,6 +316,7 @@ _CHECKS: dict[str, Callable[[dict[str, object], str], None]] = {
 }
 
 
+# long: a shape check of each entry of the file, one sentence each, in the file's own order
 def read_notebook_json(path: str | Path) -> NotebookDocument:
     """Read and shape-check a notebook JSON file (values are checked on import).
 

@@ -173,6 +173,8 @@ def _as_filmed(
     return np.asarray(cv2.add(small, grain, dtype=cv2.CV_8U), dtype=np.uint8)
 
 
+# long: 31 lines of signature and docstring (a renderer with many scene settings); the body is one
+# frame loop
 def render_video(
     path: str | Path,
     truth: Trajectory,

@@ -492,6 +492,8 @@ def _robot_rows(
     return np.array(rows)
 
 
+# long: the frame loop and its refusals (no floor marker seen, no robot marker) in one place, in
+# the order the video is read
 def track_video(
     video: str | Path,
     floor: Sequence[FloorMarker],
