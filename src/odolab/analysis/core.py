@@ -78,7 +78,7 @@ class MotionAnalysis:
         lo, hi = self._ratio_source.slope_ci95
         return (-hi, -lo) if self.motion.ratio_sign < 0 else (lo, hi)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {
             "motion": self.motion.value,
             "terrain": self.terrain,
@@ -123,7 +123,7 @@ class LabAnalysis:
                 return m
         return None
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {
             "n_trials": self.n_trials,
             "n_measured": self.n_measured,

@@ -113,7 +113,7 @@ class GrowthFit:
         names = ", ".join(f"{e:g}" for e in ok)
         return f"{span}: compatible with p = {names}{tail}"
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {
             "n": self.n,
             "a": self.a,

@@ -205,7 +205,7 @@ class WheelNoise:
     #: p-value of the likelihood-ratio test "one k_r + k_l explains every kind of motion"
     same_k_pvalue: float | None = None
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {
             "n_trials": self.n_trials,
             "k_right": self.k_right,
@@ -351,7 +351,7 @@ class NoiseConstant:
     def known(self) -> bool:
         return self.value is not None
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """JSON-ready; an unknown constant has ``value`` None and ``unknown`` its reason."""
         out: dict[str, Any] = {"value": self.value, "source": self.source}
         if self.value is None:
@@ -362,7 +362,7 @@ class NoiseConstant:
         out["trials"] = list(self.trials)
         return out
 
-    def provenance(self, scale: float = 1.0) -> dict[str, Any]:
+    def provenance(self, scale: float = 1.0) -> dict[str, object]:
         """A TOML-able table: value, interval and trials, scaled by ``scale`` (no None)."""
         if self.value is None:
             return {"unknown": self.source, "trials": list(self.trials)}
@@ -401,7 +401,7 @@ class SeparatedNoise:
             )
         return out
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {
             "k_left": self.k_left.to_dict(),
             "k_right": self.k_right.to_dict(),

@@ -33,7 +33,7 @@ class Outlier:
     residual: float
     reason: str
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {
             "trial_id": self.trial_id,
             "motion": self.motion,

@@ -206,7 +206,7 @@ class ExperimentResult:
                 return c
         raise KeyError(label)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {
             "experiment": self.experiment.name,
             "question": self.experiment.question,

@@ -58,7 +58,7 @@ class NormalityTest:
         """True when normality is not rejected at the 5% level."""
         return self.pvalue >= 0.05
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {
             "test": self.test,
             "statistic": self.statistic,
@@ -89,7 +89,7 @@ class RandomError:
     interval95: tuple[float, float]
     normality: NormalityTest | None
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {
             "n": self.n,
             "df": self.df,
@@ -143,7 +143,7 @@ class GroupSpread:
     normality: NormalityTest | None
     errors: NDArray[np.float64]
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {
             "at": self.at,
             "commanded": self.commanded,

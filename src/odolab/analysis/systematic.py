@@ -51,7 +51,7 @@ class LinearFit:
         """The fitted line at ``x`` (any shape)."""
         return self.intercept + self.slope * np.asarray(x, dtype=np.float64)
 
-    def to_dict(self, *, arrays: bool = True) -> dict[str, Any]:
+    def to_dict(self, *, arrays: bool = True) -> dict[str, object]:
         """JSON-able dict (with the data and residuals when ``arrays``)."""
         d: dict[str, Any] = {
             "name": self.name,

@@ -57,7 +57,7 @@ class TerrainComparison:
             f"{self.largest_difference_ci95[1]:+.4f})"
         )
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {
             "motion": self.motion,
             "terrains": list(self.terrains),

@@ -25,7 +25,7 @@ class AnalysisResult:
     analysis: LabAnalysis
     table1: list[dict[str, Any]] = field(default_factory=list)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """What ``analyze --json`` writes and ``/api/table1`` answers (the same keys): the
         analysis (:meth:`~odolab.analysis.LabAnalysis.to_dict`), Table I's rows and the
         selection."""

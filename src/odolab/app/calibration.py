@@ -79,7 +79,7 @@ class BaseChoice:
     #: it (UMBmark chained from it carries it into its intervals); None: taken as exact
     scale_sd: float | None = None
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {
             "robot": self.robot,
             "version": self.version,
@@ -106,7 +106,7 @@ class CalibrationOutcome:
     def params(self) -> RobotParams:
         return self.result.params
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """The JSON of ``calibrate ... --json`` and ``POST /api/calibrate`` (the same keys)."""
         from odolab.report.html import jsonable
 

@@ -471,7 +471,7 @@ def _validate(
     return Validated(checks[0], runs, checks, band, phone_csv, imus)
 
 
-def _gyro(live: LiveRuns, val: Validated, ratios: CalibrationResult) -> dict[str, Any]:
+def _gyro(live: LiveRuns, val: Validated, ratios: CalibrationResult) -> dict[str, object]:
     """Step 6b: the phone runs' gyro calibrates the rotation part (docs/imu.md), beside the
     ratios calibration: the same radii (the distance scale the gyro cannot see), the phone's
     bias from its still seconds before each run, its scale taken as 1 +- 1 %."""

@@ -199,7 +199,7 @@ class TrajectoryEvaluation:
     evaluation: Evaluation
     chunk_rows: int
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """JSON-ready dict (the evaluation's, which says it is planar)."""
         return self.evaluation.to_dict()
 
@@ -273,7 +273,7 @@ class RunSetEvaluation:
         )
         return out
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """JSON-ready dict: ``planar``, ``planar_note``, ``params_source``, ``runs``."""
         return {
             "planar": True,
@@ -349,7 +349,7 @@ class LsqResult:
     held_out: list[Path] = field(default_factory=list)
     params_source: str = ""
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """JSON-ready dict: the calibration's, with ``fitted`` and ``held_out`` run files."""
         return {
             **self.calibration.to_dict(),
@@ -434,7 +434,7 @@ class NeesOutcome:
     pieces_past_first_order: int
     first_order_note: str | None
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """The JSON-ready numbers (``evaluate --nees --json``'s ``nees``)."""
         head = {
             **self.summary.to_dict(),

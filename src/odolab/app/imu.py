@@ -57,7 +57,7 @@ class ImuOutcome:
     version: int | None = None
     source_trials: tuple[str, ...] = ()
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {
             **self.calibration.to_dict(),
             "params_from": self.params_from,

@@ -252,7 +252,7 @@ class SlipComparison:
             "first seconds of the exploration."
         )
 
-    def speed_dict(self) -> dict[str, Any]:
+    def speed_dict(self) -> dict[str, object]:
         v_low, v_high = self.speeds
         out: dict[str, Any] = {"v_low": v_low, "v_high": v_high}
         if self.speed_gain is None:
@@ -279,7 +279,7 @@ class SlipComparison:
             out["measured"] = dict(self.measured)
         return out
 
-    def to_dict(self, flag: Callable[[str], str] | None = None) -> dict[str, Any]:
+    def to_dict(self, flag: Callable[[str], str] | None = None) -> dict[str, object]:
         """The report's ``slip`` entry; its command lines in the flags ``flag`` gives a setting
         (a face's words), or empty without it."""
         s = asdict(self.settings)
@@ -296,7 +296,7 @@ class SlipComparison:
         }
 
 
-def _measured_answer(questions: Sequence[Any], speeds: tuple[float, float]) -> dict[str, Any]:
+def _measured_answer(questions: Sequence[Any], speeds: tuple[float, float]) -> dict[str, object]:
     """The speed experiment's measured answer between the two speeds, when the questions have
     one (``speed-sweep``)."""
     for res in questions:
@@ -406,7 +406,7 @@ def slip_comparison(
     )  # fmt: skip
 
 
-def _held_out_nees(params: RobotParams, held_out: Sequence[OdometryRun]) -> dict[str, Any]:
+def _held_out_nees(params: RobotParams, held_out: Sequence[OdometryRun]) -> dict[str, object]:
     """NEES of a slip fit's predictive covariance on the held-out runs, as `odolab evaluate
     --nees --nees-segment` gives it (pieces of :data:`NEES_PIECE_S`)."""
     from odolab.core.errors import OdolabError

@@ -77,7 +77,7 @@ class ParamsChoice:
             )
         return what
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {
             "name": self.params.name,
             "by": self.by,

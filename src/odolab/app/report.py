@@ -179,7 +179,7 @@ def report_content(
 
 def report_results(
     nb: Notebook, request: ReportRequest = ReportRequest(), cache: AnalysisCache | None = None
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """The numbers ``results.json`` holds (without the figures' file names): ``/api/report``."""
     from odolab.report import build_results
 

@@ -42,7 +42,7 @@ class SelectionRequest:
     exclude: tuple[str, ...] = ()
     robot: str | None = None
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {
             "campaigns": list(self.campaigns),
             "exclude": list(self.exclude),
@@ -89,7 +89,7 @@ class Selection:
             )
         return text
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {
             "used": dict(self.used),
             "left_out": dict(self.left_out),

@@ -141,7 +141,7 @@ class ModelScore:
     #: that model itself, or without a kinematic model
     runs_worse: tuple[int, int] | None = None
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {
             "model": self.model,
             "n_params": self.n_params,
@@ -193,7 +193,7 @@ class ModelComparison:
                 return s
         raise KeyError(model)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {
             "recommended": self.recommended,
             "decided": self.decided,

@@ -204,7 +204,7 @@ class ImuCalibration:
         ]
         return out
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {
             "method": "imu",
             "params": self.params.to_dict(),
@@ -853,7 +853,7 @@ def _provenance(
     sd_s: float,
     f: _Fit,
     radii: str,
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """The new parameters' provenance record."""
     return {
         "method": "imu",

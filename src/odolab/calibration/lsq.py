@@ -362,12 +362,12 @@ class RunComparison:
     nominal: RunEvaluation
     calibrated: RunEvaluation
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """JSON-ready summary (end-point error, drift, APE rmse for both). A value that is
         undefined for the run (drift per metre of a run that turns in place) is ``None``, and
         ``notes`` says why."""
 
-        def row(e: RunEvaluation) -> dict[str, Any]:
+        def row(e: RunEvaluation) -> dict[str, object]:
             d = e.evaluation.drift
             values = {
                 "endpoint_error": d.endpoint_error,
@@ -444,7 +444,7 @@ class LsqCalibration:
         as when it was a method, still works)."""
         return Provenance(self.provenance_table())
 
-    def provenance_table(self) -> dict[str, Any]:
+    def provenance_table(self) -> dict[str, object]:
         """A ``[provenance]`` table for the saved parameters file."""
         return {
             "method": (
@@ -466,7 +466,7 @@ class LsqCalibration:
             "nominal": self.nominal.to_dict(),
         }
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """JSON-ready dict."""
         return {
             "params": self.params.to_dict(),

@@ -59,7 +59,7 @@ class CalibrationResult:
         """Write the new parameters as TOML with a ``[provenance]`` table."""
         return save_params(path, self.params, provenance=self.provenance)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {
             "method": self.method,
             "params": self.params.to_dict(),

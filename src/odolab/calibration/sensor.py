@@ -363,7 +363,7 @@ class SensorCalibration:
     time_offset: float = 0.0
     extra: dict[str, Any] = field(default_factory=dict)
 
-    def provenance(self) -> dict[str, Any]:
+    def provenance(self) -> dict[str, object]:
         """A ``[provenance]`` table for the saved parameters file."""
         return {
             "method": "Censi et al. 2013 simultaneous odometry and sensor calibration "
@@ -390,7 +390,7 @@ class SensorCalibration:
             **self.extra,
         }
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """JSON-ready dict: parameters, values, standard errors and the provenance."""
         return {
             "params": self.params.to_dict(),

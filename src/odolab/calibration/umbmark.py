@@ -211,7 +211,7 @@ class UmbmarkResult:
             f"[{b0:.5g}, {b1:.5g}] m"
         )
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {
             "params": self.params.to_dict(),
             "e_d": self.e_d,
@@ -289,7 +289,7 @@ def umbmark_intervals(
     side: float,
     params: RobotParams,
     scale_sd: float | None = None,
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """95 % intervals of UMBmark's new parameters from the scatter of the return errors:
     ``alpha`` and ``beta`` (:func:`_alpha_beta`) are means of the errors, so their standard
     errors come from each direction's sample variance (x and y of one run together) over its
@@ -320,7 +320,7 @@ def umbmark_intervals(
     ends = [(float(alpha) + k * t * se_a, float(beta) + k * t * se_b) for k in (-1.0, 1.0)]
     values = [_corrected(params, a, bb, L) for a, bb in ends]
     centre = _corrected(params, alpha, beta, L)
-    wide = {
+    wide: dict[str, object] = {
         "ci95_note": f"no interval: the {n1} + {n2} squares' return errors scatter too much "
         f"(alpha {alpha:.3f} ± {t * se_a:.3f} rad, beta {beta:.3f} ± {t * se_b:.3f} rad at 95 %) "
         "for UMBmark's small-error model"
@@ -430,7 +430,7 @@ def umbmark(
     )
 
 
-def _iteration_entry(k: int, p: RobotParams, emax: float) -> dict[str, Any]:
+def _iteration_entry(k: int, p: RobotParams, emax: float) -> dict[str, object]:
     return {
         "iteration": k,
         "left_wheel_radius": p.left_wheel_radius,

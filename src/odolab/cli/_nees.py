@@ -22,7 +22,7 @@ def print_nees(
     segment: float,
     *,
     fit_gt_yaw_offset: bool | None = None,
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """NEES of every run (pieces of ``segment`` s) against its ground truth
     (:func:`odolab.app.evaluate.nees_of_paths`); prints a table and the verdict, returns the
     JSON-ready numbers."""

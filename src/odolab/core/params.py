@@ -255,7 +255,7 @@ class RobotParams:
         """A copy with some fields changed (validated again)."""
         return replace(self, **changes)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """The ``[robot]`` table in file order, without ``encoder_modulus`` when it is None.
 
         The kinematic model is not part of it: see :meth:`model_table`."""
@@ -265,7 +265,7 @@ class RobotParams:
             out["ticks_per_rev"] = int(out["ticks_per_rev"])
         return out
 
-    def model_table(self) -> dict[str, Any] | None:
+    def model_table(self) -> dict[str, object] | None:
         """The ``[model]`` table (``kind`` first), or None for the default differential drive."""
         if self.model == DIFF_DRIVE:
             return None

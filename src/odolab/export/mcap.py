@@ -121,7 +121,7 @@ def _stamp(t: float) -> dict[str, int]:
     return {"sec": sec, "nanosec": nanosec}
 
 
-def _header(t: float, frame: str) -> dict[str, Any]:
+def _header(t: float, frame: str) -> dict[str, object]:
     return {"stamp": _stamp(t), "frame_id": frame}
 
 

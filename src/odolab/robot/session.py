@@ -408,7 +408,7 @@ class _DriftHook:
         w = (t - ts[i - 1]) / (ts[i] - ts[i - 1]) if ts[i] > ts[i - 1] else 1.0
         return hs[i - 1] + w * (hs[i] - hs[i - 1])
 
-    def extra(self) -> dict[str, Any]:
+    def extra(self) -> dict[str, object]:
         state = self.monitor.state
 
         def num(v: float) -> float | None:

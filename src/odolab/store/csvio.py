@@ -634,7 +634,7 @@ def read_trials_csv(
     return out
 
 
-def _fmt(value: float | int | str | None) -> str:
+def _fmt(value: object) -> str:
     if value is None:
         return ""
     if isinstance(value, float):

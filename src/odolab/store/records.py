@@ -149,7 +149,7 @@ def campaign_kind_for(kind: MotionKind) -> str:
     return kind.value if kind.value in CAMPAIGN_KINDS else "free"
 
 
-def record_from_trial(trial: Trial, params_version: int | None) -> dict[str, Any]:
+def record_from_trial(trial: Trial, params_version: int | None) -> dict[str, object]:
     """The ``trials`` row of ``trial`` (validate it first with :func:`validate_trial`)."""
     c, p, m, tr = trial.command, trial.predicted, trial.measured, trial.true
     return {
