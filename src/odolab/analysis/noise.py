@@ -35,7 +35,6 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -353,7 +352,7 @@ class NoiseConstant:
 
     def to_dict(self) -> dict[str, object]:
         """JSON-ready; an unknown constant has ``value`` None and ``unknown`` its reason."""
-        out: dict[str, Any] = {"value": self.value, "source": self.source}
+        out: dict[str, object] = {"value": self.value, "source": self.source}
         if self.value is None:
             out["unknown"] = self.source
         if self.ci95 is not None:
@@ -366,7 +365,7 @@ class NoiseConstant:
         """A TOML-able table: value, interval and trials, scaled by ``scale`` (no None)."""
         if self.value is None:
             return {"unknown": self.source, "trials": list(self.trials)}
-        out: dict[str, Any] = {"value": self.value * scale, "from": self.source}
+        out: dict[str, object] = {"value": self.value * scale, "from": self.source}
         if self.ci95 is not None:
             out["ci95"] = [self.ci95[0] * scale, self.ci95[1] * scale]
         out["trials"] = list(self.trials)

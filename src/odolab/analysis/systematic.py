@@ -9,7 +9,6 @@ actual x vs predicted x, and the y error (predicted - actual) vs predicted x. A 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -53,7 +52,7 @@ class LinearFit:
 
     def to_dict(self, *, arrays: bool = True) -> dict[str, object]:
         """JSON-able dict (with the data and residuals when ``arrays``)."""
-        d: dict[str, Any] = {
+        d: dict[str, object] = {
             "name": self.name,
             "n": self.n,
             "slope": self.slope,

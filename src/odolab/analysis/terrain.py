@@ -14,7 +14,6 @@ The effect size is the partial eta squared of the slope-by-terrain interaction,
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray

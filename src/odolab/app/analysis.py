@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import threading
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from odolab.app.selection import EVERY_CAMPAIGN, Selection, SelectionRequest, select
 
@@ -23,7 +23,7 @@ class AnalysisResult:
 
     selection: Selection
     analysis: LabAnalysis
-    table1: list[dict[str, Any]] = field(default_factory=list)
+    table1: list[dict[str, object]] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, object]:
         """What ``analyze --json`` writes and ``/api/table1`` answers (the same keys): the

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from odolab.app.selection import (
     EVERY_CAMPAIGN,
@@ -111,7 +111,7 @@ class CalibrationOutcome:
         from odolab.report.html import jsonable
 
         p = self.result.params
-        out: dict[str, Any] = {
+        out: dict[str, object] = {
             "method": self.method,
             "robot": self.robot,
             "base": self.base.to_dict(),

@@ -184,13 +184,13 @@ class SlipComparison:
     held_files: tuple[Path, ...] = ()
     #: the ``--params`` of :meth:`command`: a preset's name, or the file the nominal was written to
     params_arg: str = ""
-    measured: dict[str, Any] = field(default_factory=dict)
+    measured: dict[str, object] = field(default_factory=dict)
     #: :meth:`command`'s paths are relative to this folder (None: as they are)
     base: Path | None = None
     #: NEES of the slip fit's predictive covariance on the held-out runs (pieces of
     #: :data:`NEES_PIECE_S`): :meth:`odolab.metrics.consistency.NeesSummary.to_dict` and
     #: ``piece_s``, or ``{"problem": why}``; empty without a slip fit
-    nees: dict[str, Any] = field(default_factory=dict)
+    nees: dict[str, object] = field(default_factory=dict)
     #: where the slip fit's parameters were written (for :meth:`nees_command`), else None
     slip_params: Path | None = None
 
@@ -254,7 +254,7 @@ class SlipComparison:
 
     def speed_dict(self) -> dict[str, object]:
         v_low, v_high = self.speeds
-        out: dict[str, Any] = {"v_low": v_low, "v_high": v_high}
+        out: dict[str, object] = {"v_low": v_low, "v_high": v_high}
         if self.speed_gain is None:
             out.update(gain_pct=None, ci95=[None, None], problem=self.speed_problem, answer="")
         else:
@@ -384,7 +384,7 @@ def slip_comparison(
             gain = model.speed_slip_gain(*speeds)
         except ParamsError as err:
             problem = str(err)
-    nees: dict[str, Any] = {}
+    nees: dict[str, object] = {}
     if slip is not None and slip.fit is not None:
         nees = _held_out_nees(slip.fit.params, held_out)
     files: tuple[Path, ...] = ()

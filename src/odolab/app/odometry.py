@@ -14,7 +14,7 @@ import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Literal
 
 from odolab.core.defaults import DEFAULT_ROBOT, LogFormat
 from odolab.core.errors import OdolabError, ParamsError, opt

@@ -73,7 +73,7 @@ class ReportContent:
     calibrations: dict[str, CalibrationResult | UmbmarkResult]
     notes: list[str]  #: why a calibration is missing (one sentence each)
     base: BaseChoice | None
-    extra: dict[str, Any] = field(default_factory=dict)
+    extra: dict[str, object] = field(default_factory=dict)
 
     @property
     def reference(self) -> Any:
@@ -165,7 +165,7 @@ def report_content(
         nb, selection, trials, validation, request, analysis.analysis
     )
     # (a file: the library's words for the options)
-    extra: dict[str, Any] = {"trials_used": NEUTRAL.say(selection.describe())}
+    extra: dict[str, object] = {"trials_used": NEUTRAL.say(selection.describe())}
     if base is not None:
         extra["calibrated_from"] = base.reason
     if umb_start is not None:

@@ -179,7 +179,7 @@ class ModelComparison:
     segments: int = 0
     #: held-out end-point error against seconds of the first training run (an exploration run):
     #: rows ``{"seconds", "model", "endpoint_error", "problem"}``; empty unless asked for
-    learning_curve: list[dict[str, Any]] = field(default_factory=list)
+    learning_curve: list[dict[str, object]] = field(default_factory=list)
 
     @property
     def decided(self) -> bool:

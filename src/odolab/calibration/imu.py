@@ -165,7 +165,7 @@ class ImuCalibration:
     runs: tuple[str, ...]
     a: tuple[float, float]  #: s * r_R / B, s * r_L / B
     a_cov: tuple[tuple[float, float], tuple[float, float]]
-    provenance: dict[str, Any] = field(default_factory=dict)
+    provenance: dict[str, object] = field(default_factory=dict)
     bias_how: str = "fitted jointly"
 
     @property

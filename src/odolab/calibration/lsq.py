@@ -378,7 +378,7 @@ class RunComparison:
                 "rpe_rmse": e.evaluation.rpe.rmse,
                 "ape_rmse": e.evaluation.ape.rmse,
             }
-            out: dict[str, Any] = {k: None if math.isnan(v) else v for k, v in values.items()}
+            out: dict[str, object] = {k: None if math.isnan(v) else v for k, v in values.items()}
             out["notes"] = list(e.evaluation.notes)
             return out
 
@@ -390,7 +390,7 @@ class RunComparison:
         }
 
 
-class Provenance(dict[str, Any]):
+class Provenance(dict[str, object]):
     """A ``[provenance]`` table. Calling it returns itself: compatibility with the time when
     :attr:`LsqCalibration.provenance` was a method (``result.provenance()``)."""
 

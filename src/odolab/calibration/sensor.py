@@ -46,7 +46,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -361,7 +360,7 @@ class SensorCalibration:
     residual_rms: tuple[float, float, float]
     source: str = ""
     time_offset: float = 0.0
-    extra: dict[str, Any] = field(default_factory=dict)
+    extra: dict[str, object] = field(default_factory=dict)
 
     def provenance(self) -> dict[str, object]:
         """A ``[provenance]`` table for the saved parameters file."""

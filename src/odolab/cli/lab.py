@@ -227,7 +227,7 @@ def _from_notebook(
     return outcome
 
 
-def _write_json(path: Path | None, doc: dict[str, Any]) -> None:
+def _write_json(path: Path | None, doc: dict[str, object]) -> None:
     if path is None:
         return
     from odolab.cli._output import write_output_text

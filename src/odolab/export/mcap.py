@@ -29,7 +29,7 @@ import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -188,7 +188,7 @@ def _body_twist(
 # each sample, kept together so their stamps and frames cannot drift apart
 def _messages(
     stream: OdometryStream, start_time: float, odom_frame: str, base_frame: str
-) -> Iterator[tuple[str, float, dict[str, Any]]]:
+) -> Iterator[tuple[str, float, dict[str, object]]]:
     traj = stream.odometry
     vx, vy, wz = _body_twist(traj)
     speeds = None

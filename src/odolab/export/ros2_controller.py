@@ -430,7 +430,7 @@ def diff_drive_controller_yaml(
     distro: str = DEFAULT_DISTRO,
     left_wheel_names: tuple[str, ...] = ("left_wheel_joint",),
     right_wheel_names: tuple[str, ...] = ("right_wheel_joint",),
-    provenance: dict[str, Any] | None = None,
+    provenance: dict[str, object] | None = None,
     words: Wording = NEUTRAL,
 ) -> str:
     """The YAML text: ``<controller>: ros__parameters: ...`` with provenance as comments, with

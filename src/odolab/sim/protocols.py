@@ -175,7 +175,7 @@ def _err(source: str, where: str, message: str) -> SimError:
     return SimError(f"{source}: {where}: {message}")
 
 
-def _check_keys(source: str, where: str, table: dict[str, Any], allowed: set[str]) -> None:
+def _check_keys(source: str, where: str, table: dict[str, object], allowed: set[str]) -> None:
     """Refuse the first key of ``table`` that is not in ``allowed``, naming it."""
     unknown = sorted(set(table) - allowed)
     if unknown:
@@ -254,7 +254,7 @@ def _text(source: str, where: str, value: Any, choices: Sequence[str]) -> str:
 def _commands(
     source: str,
     where: str,
-    spec: dict[str, Any],
+    spec: dict[str, object],
     motion: str,
     sign: float,
     direction: str,
@@ -302,7 +302,7 @@ def _commands(
     return commands
 
 
-def _parse_set(source: str, index: int, spec: Any, defaults: dict[str, Any]) -> list[TrialSpec]:
+def _parse_set(source: str, index: int, spec: Any, defaults: dict[str, object]) -> list[TrialSpec]:
     where = f"[[trials]] #{index + 1}"
     if not isinstance(spec, dict):
         raise _err(source, where, "expected a table")
@@ -356,7 +356,7 @@ def _parse_set(source: str, index: int, spec: Any, defaults: dict[str, Any]) -> 
     return [TrialSpec(c, terrain, campaign) for c in commands for _ in range(repeats)]
 
 
-def _instruments(source: str, doc: dict[str, Any]) -> Instruments:
+def _instruments(source: str, doc: dict[str, object]) -> Instruments:
     """The [instruments] table (defaults for what it leaves out)."""
     inst = doc.get("instruments", {})
     if not isinstance(inst, dict):
@@ -381,7 +381,9 @@ def _instruments(source: str, doc: dict[str, Any]) -> Instruments:
     return instruments
 
 
-def _trial_specs(source: str, doc: dict[str, Any], defaults: dict[str, Any]) -> list[TrialSpec]:
+def _trial_specs(
+    source: str, doc: dict[str, object], defaults: dict[str, object]
+) -> list[TrialSpec]:
     """Every [[trials]] table's trials, in order."""
     sets = doc.get("trials")
     if not isinstance(sets, list) or not sets:
@@ -398,7 +400,7 @@ def _trial_specs(source: str, doc: dict[str, Any], defaults: dict[str, Any]) -> 
     return trials
 
 
-def parse_protocol(doc: dict[str, Any], source: str = "<protocol>") -> ExperimentProtocol:
+def parse_protocol(doc: dict[str, object], source: str = "<protocol>") -> ExperimentProtocol:
     """Build an :class:`ExperimentProtocol` from a parsed TOML document; errors name ``source`` and the key."""
     extra = sorted(set(doc) - {"protocol", "instruments", "trials"})
     if extra:
