@@ -255,7 +255,7 @@ def _err(source: str, where: str, message: str) -> SimError:
 def _num(
     source: str,
     where: str,
-    value: Any,
+    value: object,
     *,
     positive: bool = False,
     most: float = math.inf,
@@ -272,7 +272,7 @@ def _num(
     return float(value)
 
 
-def _speed(source: str, where: str, value: Any) -> float:
+def _speed(source: str, where: str, value: object) -> float:
     lo, hi = SPEED_RANGE_M_S
     v = _num(source, where, value)
     if not lo <= v <= hi:
@@ -280,12 +280,12 @@ def _speed(source: str, where: str, value: Any) -> float:
     return v
 
 
-def _kind(value: Any) -> str:
+def _kind(value: object) -> str:
     """What a TOML value is, in the file's words."""
     return "a table" if isinstance(value, dict) else f"{value!r}"
 
 
-def _text(source: str, where: str, value: Any) -> str:
+def _text(source: str, where: str, value: object) -> str:
     """``value`` as text that a terminal, a JSON file and a report all show as it is."""
     text = str(value)
     if safe_terminal(text) != text:
@@ -295,14 +295,14 @@ def _text(source: str, where: str, value: Any) -> str:
     return text
 
 
-def _keys(source: str, where: str, table: dict[str, Any], allowed: set[str]) -> None:
+def _keys(source: str, where: str, table: dict[str, object], allowed: set[str]) -> None:
     extra = sorted(set(table) - allowed)
     if extra:
         raise _err(source, f"{where} key {extra[0]!r}",
                    f"unknown; expected one of {', '.join(sorted(allowed))}")  # fmt: skip
 
 
-def parse_experiment(doc: dict[str, Any], source: str = "<experiment>") -> Experiment:
+def parse_experiment(doc: dict[str, object], source: str = "<experiment>") -> Experiment:
     """An :class:`Experiment` from a parsed TOML document; errors name ``source`` and the key."""
     _keys(source, "top level", doc, {"experiment", "conditions", "effects"})
     head = doc.get("experiment")
@@ -363,7 +363,7 @@ def parse_experiment(doc: dict[str, Any], source: str = "<experiment>") -> Exper
     )  # fmt: skip
 
 
-def _condition(source: str, index: int, c: Any, speed: float) -> Condition:
+def _condition(source: str, index: int, c: object, speed: float) -> Condition:
     where = f"[[conditions]] #{index + 1}"
     if not isinstance(c, dict):
         raise _err(source, where, "expected a table")

@@ -50,12 +50,12 @@ def growth_text(row: Mapping[str, Any]) -> str:
     return numfmt.with_open_ci(row["growth_p"], lo, hi, at_bound=bool(row.get("growth_p_at_bound")))
 
 
-def table1(analysis: LabAnalysis) -> list[dict[str, Any]]:
+def table1(analysis: LabAnalysis) -> list[dict[str, object]]:
     """Table I rows (JSON-able dicts), in report order."""
-    rows: list[dict[str, Any]] = []
+    rows: list[dict[str, object]] = []
     for m in analysis.motions:
         lo, hi = m.ratio_ci95
-        row: dict[str, Any] = {
+        row: dict[str, object] = {
             "motion": m.motion.value,
             "terrain": m.terrain,
             "n": m.fit.n,

@@ -121,18 +121,18 @@ class LabResult:
     report: Path
     results: Path
     params_files: dict[str, Path]
-    table1: list[dict[str, Any]]
+    table1: list[dict[str, object]]
     after_calibration: dict[str, float]
     validation_rms: tuple[float, float]
     phone_log: Path | None = None  #: the phone's SensorLog CSV (for ``odolab validate``)
-    loop: dict[str, Any] = field(default_factory=dict)
+    loop: dict[str, object] = field(default_factory=dict)
     phone_runs: RunsSummary | None = (
         None  #: the phone runs against the predicted random error (RunsSummary)
     )
     #: the model comparison and NEES of step 8 (odolab.report.models_section.ModelEvidence)
     evidence: ModelEvidence | None = None
     #: the phone runs' gyro calibration beside the ratios one (_gyro; docs/imu.md)
-    gyro: dict[str, Any] | None = None
+    gyro: dict[str, object] | None = None
 
 
 def _new_run_folder(out: Path) -> Path:
@@ -386,7 +386,7 @@ def _live_runs(cfg: LabConfig, nb: Notebook, progress: Progress) -> LiveRuns:
 
 def _analysis(
     nb: Notebook, progress: Progress
-) -> tuple[LabAnalysis, list[Trial], list[dict[str, Any]]]:
+) -> tuple[LabAnalysis, list[Trial], list[dict[str, object]]]:
     """Step 4: every characterization trial in the notebook (validation runs left out), as
     ``odolab analyze`` and the web's Table I select them (:func:`odolab.app.analysis.analyze`)."""
     from odolab.app.analysis import analyze
@@ -435,7 +435,7 @@ def _validate(
     cfg: LabConfig,
     live: LiveRuns,
     new: RobotParams,
-    rows: list[dict[str, Any]],
+    rows: list[dict[str, object]],
     folder: Path,
     progress: Progress,
 ) -> Validated:
@@ -512,7 +512,7 @@ def _gyro(live: LiveRuns, val: Validated, ratios: CalibrationResult) -> dict[str
         ("runs", f"{len(runs)} phone runs (20 pi in place), the phone's gyro at 100 Hz"),
         ("effective track, gyro", f"{b:.4f} m, 95 % [{b0:.4f}, {b1:.4f}]"),
     ]
-    out: dict[str, Any] = {"track_width": b, "track_width_ci95": [b0, b1], "ratios": rb}
+    out: dict[str, object] = {"track_width": b, "track_width_ci95": [b0, b1], "ratios": rb}
     if isinstance(rci, list | tuple) and len(rci) == 2:
         r0, r1 = float(rci[0]), float(rci[1])
         se = math.hypot(math.log(b1 / b0) / (2 * Z95), math.log(r1 / r0) / (2 * Z95))
@@ -644,7 +644,7 @@ def _models(cfg: LabConfig, new: RobotParams, folder: Path, progress: Progress) 
             f"them was used to measure the noise).{f' {chosen}.' if chosen else ''}"
         )
     questions, about_questions = _open_questions(cfg)
-    slip: dict[str, Any] | None = None
+    slip: dict[str, object] | None = None
     slip_note = why_not or ""
     if why_not is None:
         progress("models", MOCAP_RUNS + 1, total)
@@ -658,7 +658,7 @@ def _models(cfg: LabConfig, new: RobotParams, folder: Path, progress: Progress) 
 
 def _slip(
     cfg: LabConfig, held: list[OdometryRun], questions: tuple[ExperimentResult, ...], folder: Path
-) -> tuple[dict[str, Any] | None, str]:
+) -> tuple[dict[str, object] | None, str]:
     """The slip model against the kinematic ones, from a one-minute exploration (the runs
     written to ``runs/`` so that ``calibrate compare`` can repeat it); a failure is a note."""
     from odolab.app.models import slip_comparison
@@ -702,7 +702,7 @@ def _report(
     after: dict[str, float],
     evidence: ModelEvidence,
     progress: Progress,
-    gyro: dict[str, Any] | None = None,
+    gyro: dict[str, object] | None = None,
 ) -> Path:
     """Step 9: report.html, figures and results.json."""
     from odolab.report import write_report

@@ -26,6 +26,8 @@ if TYPE_CHECKING:
     from odolab.core.trials import Command
     from odolab.robot.config import RunConfig
     from odolab.robot.explore import ExplorePlan
+    from odolab.robot.jaguar.board import VirtualJaguarServer
+    from odolab.robot.jaguar2014.board import VirtualJaguar2014Server
     from odolab.robot.loop import CycleInfo
     from odolab.robot.session import AbortReport, RobotRun
     from odolab.sim.physics import VirtualRobot
@@ -320,7 +322,7 @@ class VirtualBoard:
     """A virtual board serving on its address: the server, the board, its plant, what it says
     when it starts, and its counts (the trace's last line when it stops)."""
 
-    server: Any
+    server: VirtualJaguarServer | VirtualJaguar2014Server
     board: Any
     plant: VirtualRobot
     listening: str

@@ -45,7 +45,6 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -62,6 +61,7 @@ from odolab.calibration.lsq import (
 )
 from odolab.core.errors import CalibrationError, InsufficientDataError, opt
 from odolab.core.params import RobotParams
+from odolab.core.trajectory import Trajectory
 from odolab.io.registry import LogFormat, read_run
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.metrics.runs import RUN_OPTIONS, Progress, evaluate_run, parallel_map
@@ -327,7 +327,7 @@ def _metrics(run: OdometryRun, params: RobotParams) -> dict[str, float]:
     }
 
 
-def _segment_bounds(ref: Any) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+def _segment_bounds(ref: Trajectory) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Consecutive, non-overlapping segments ``(i, j)`` of a trajectory: each ends where it has
     driven :data:`SEGMENT_M` of path or turned :data:`SEGMENT_RAD`, whichever comes first."""
     from odolab.metrics.pose_error import path_distances, turn_distances

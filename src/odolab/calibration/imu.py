@@ -31,7 +31,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -427,7 +426,7 @@ def _run_data(run: GyroRun, index: int, seg0: int, o: ImuOptions, nominal: Robot
             f"{lo:g} to {hi:g} s (gyro minus encoders); give the offset between the clocks"
         )
 
-    def cat(parts: list[Any]) -> Any:
+    def cat(parts: list[NDArray[np.float64]]) -> NDArray[np.float64]:
         return np.concatenate(parts)
 
     return _RunData(

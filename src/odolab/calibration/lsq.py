@@ -32,7 +32,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -49,6 +49,9 @@ from odolab.io.run import OdometryRun, ReadOptions
 from odolab.metrics.association import interpolate_trajectory
 from odolab.metrics.cluster import Cluster
 from odolab.metrics.runs import RUN_OPTIONS, Progress, RunEvaluation, evaluate_run, parallel_map
+
+if TYPE_CHECKING:
+    from scipy.optimize import OptimizeResult
 
 __all__ = [
     "FIT_MODELS",
@@ -578,7 +581,7 @@ class _Problem:
         cols.extend(off_cols)
         return np.column_stack(cols)
 
-    def solve(self) -> Any:
+    def solve(self) -> OptimizeResult:
         """scipy's solution: plain least squares, then (a robust loss) the robust fit."""
         from scipy.optimize import least_squares
 
@@ -596,7 +599,7 @@ class _Problem:
             raise CalibrationError(f"least squares did not converge: {sol.message}")
         return sol
 
-    def result(self, sol: Any, prepared: list[PreparedRun]) -> LsqCalibration:
+    def result(self, sol: OptimizeResult, prepared: list[PreparedRun]) -> LsqCalibration:
         """The fit's :class:`LsqCalibration` (standard errors from the Jacobian)."""
         spec, k_model, m = self.spec, self.k_model, self.m
         jmat = self.jac(sol.x)

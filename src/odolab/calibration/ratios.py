@@ -123,7 +123,7 @@ def ratios(
         track_width=clean(params.track_width * qd / qr),
         name=f"{params.name}-ratios",
     )
-    prov: dict[str, Any] = {
+    prov: dict[str, object] = {
         "method": "ratios",
         "created": _now(),
         "source": source,
@@ -155,14 +155,14 @@ def ratios(
 
 def noise_provenance(
     split: SeparatedNoise, wheel_scale: float = 1.0, scrub_scale: float = 1.0
-) -> tuple[NoiseParams | None, dict[str, Any]]:
+) -> tuple[NoiseParams | None, dict[str, object]]:
     """The ``[noise]`` of a separated noise fit and its provenance table.
 
     ``wheel_scale`` multiplies ``k_left``, ``k_right`` (new radii: the distance ratio);
     ``scrub_scale`` multiplies ``k_scrub`` (new radii and track width: 1 / the rotation ratio,
     as each radian of commanded turning becomes ``q_r`` of a radian). Without the wheel
     constants there is no ``[noise]``; without ``k_scrub`` it is written 0 and said unknown."""
-    prov: dict[str, Any] = {
+    prov: dict[str, object] = {
         "rule": (
             "k_left, k_right (m) by maximum likelihood from straight runs alone; k_scrub (rad) "
             "from turns with the wheels' share fixed; never pooled across kinds of motion"

@@ -41,7 +41,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -328,7 +328,7 @@ def umbmark_intervals(
     if any(abs(a) >= math.pi / 4 or abs(bb) >= math.pi / 4 for a, bb in ends):
         return wide
     sd = scale_sd if scale_sd is not None and math.isfinite(scale_sd) and scale_sd > 0 else None
-    out: dict[str, Any] = {
+    out: dict[str, object] = {
         "ci95_includes": (
             "the squares' scatter only, the starting parameters' scale taken as exact"
             if sd is None
@@ -385,7 +385,7 @@ def umbmark(
         name=f"{params.name}-umbmark",
     )
     emax = e_max_syst(cw, ccw)
-    prov: dict[str, Any] = {
+    prov: dict[str, object] = {
         "method": "umbmark",
         "created": _now(),
         "reference": "Borenstein & Feng 1996, UMBmark",
@@ -471,7 +471,7 @@ class _Iterated:
     cw: NDArray[np.float64]
     ccw: NDArray[np.float64]
     side: float
-    iterations: list[dict[str, Any]]
+    iterations: list[dict[str, object]]
     e_d: float
     e_b: float
 
@@ -484,7 +484,7 @@ def _iterate(
     current = params
     cw, ccw, side = umbmark_errors_from_trials(squares, current)
     first: UmbmarkResult | None = None
-    iterations: list[dict[str, Any]] = []
+    iterations: list[dict[str, object]] = []
     e_d = e_b = 1.0
     change = math.inf
     for k in range(max_iter):

@@ -16,7 +16,7 @@ import os
 import sys
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 #: Settings of the native libraries, for a command that runs seconds, not hours. Each is set
 #: before the library loads; a value the user set wins (docs/scale.md measures each):
@@ -37,6 +37,9 @@ from odolab.core.extras import (  # noqa: E402
     require,
 )
 from odolab.core.text import safe_terminal  # noqa: E402
+
+if TYPE_CHECKING:
+    import typer
 
 #: The modules that add commands, in the order a full load imports them (their commands are
 #: listed in this order, as before lazy loading).
@@ -72,7 +75,7 @@ COMMAND_WORDS: dict[str, tuple[str, ...]] = {
 }
 
 
-def load_commands(args: Sequence[str] = ()) -> Any:
+def load_commands(args: Sequence[str] = ()) -> typer.Typer:
     """Import the command modules that ``odolab ARGS`` needs (all of them for top-level help, an
     option first, or an unknown word, whose error lists every command) and return the app."""
     wanted = COMMAND_MODULES
@@ -156,7 +159,7 @@ def usage_sentence(err: Any, app: Any = None, args: Sequence[str] = ()) -> str:
     return f"{path}: {message}; see '{path} --help'"
 
 
-def _command_path(app: Any, args: Sequence[str]) -> str:
+def _command_path(app: typer.Typer, args: Sequence[str]) -> str:
     """``odolab`` and the command and group names that start ``args``."""
     words = ["odolab"]
     if app is None:

@@ -104,7 +104,7 @@ def print_table(con: Console, table: Table) -> None:
     con.print(_as_blocks(table), soft_wrap=True, markup=False, highlight=False)
 
 
-def _plain(cell: Any) -> str:
+def _plain(cell: object) -> str:
     from rich.text import Text
 
     if isinstance(cell, Text):

@@ -6,11 +6,19 @@ import glob
 import math
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from odolab.cli._output import markup_text, term
 from odolab.cli.wording import said
 from odolab.core.errors import OdolabError
+
+if TYPE_CHECKING:
+    from rich.console import JustifyMethod
+    from rich.table import Table
+
+    from odolab.core.params import RobotParams
+    from odolab.metrics.cluster import MapReport, Outcome, R
+    from odolab.metrics.runs import RunEvaluation
 
 __all__ = ["expand_logs", "expand_runs", "odometry_many", "print_fleet", "report_failures"]
 
@@ -55,19 +63,21 @@ def _csv_files(paths: Sequence[Path]) -> list[Path]:
     return [q for q in paths if q.is_file() and not q.stem.endswith("_gt")]
 
 
-def _f(value: Any, digits: int = 3) -> str:
+def _f(value: object, digits: int = 3) -> str:
     if value is None or (isinstance(value, float) and math.isnan(value)):
         return "-"
     return f"{value:.{digits}f}"
 
 
-def _name_column(table: Any, header: str, names: Sequence[Any], justify: str = "right") -> None:
+def _name_column(
+    table: Table, header: str, names: Sequence[object], justify: JustifyMethod = "right"
+) -> None:
     """A column of names (run, robot, date) never cut: as wide as its longest name."""
     width = max([len(header), *(len(markup_text(n)) for n in names)])
     table.add_column(header, justify=justify, no_wrap=True, min_width=width)
 
 
-def print_fleet(outcomes: Sequence[Any], *, worst: int = 5) -> None:
+def print_fleet(outcomes: Sequence[Outcome[RunEvaluation]], *, worst: int = 5) -> None:
     """The fleet summary: per robot, per robot and day, and the worst runs."""
     from rich.console import Console
     from rich.table import Table
@@ -124,7 +134,9 @@ def print_fleet(outcomes: Sequence[Any], *, worst: int = 5) -> None:
     console.print(w)
 
 
-def report_failures(outcomes: Sequence[Any], report: Any, results: Path | None) -> None:
+def report_failures(
+    outcomes: Sequence[Outcome[R]], report: MapReport, results: Path | None
+) -> None:
     """Print each failed run with its error, the lost workers; raise when any run failed."""
     from rich.console import Console
 
@@ -176,7 +188,7 @@ def expand_logs(paths: Sequence[Path]) -> list[Path]:
 
 def odometry_many(
     logs: Sequence[Path],
-    params: Any,
+    params: RobotParams,
     output: Path,
     *,
     method: str,

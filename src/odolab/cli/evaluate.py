@@ -17,9 +17,13 @@ from odolab.cli.wording import said
 from odolab.core.writing import strict_json
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from odolab.app.evaluate import EvaluationRequest, RunSetEvaluation
+    from odolab.calibration.lsq import LsqCalibration
     from odolab.core.params import RobotParams
     from odolab.io.run import ReadOptions
+    from odolab.metrics.runs import RunEvaluation
 
 __all__: list[str] = []
 
@@ -119,7 +123,7 @@ def _read_options(
     )
 
 
-def _write_json(doc: Any, path: Path | None) -> None:
+def _write_json(doc: object, path: Path | None) -> None:
     if path is None:
         return
     from odolab.cli._output import write_output_text
@@ -306,7 +310,7 @@ def _print_notes(notes: list[str]) -> None:
         con.print(f"note: {said(note)}", markup=False, soft_wrap=True)
 
 
-def run_labels(runs: list[Any]) -> list[str]:
+def run_labels(runs: Sequence[RunEvaluation]) -> list[str]:
     """Names for a table of runs (objects with ``name`` and ``source``): the runs' names, or,
     where two share one (``run-001`` of every robot and day), their paths below the folder
     all of them are in, without the extension (``robot-01/2026-03-02/run-001``)."""
@@ -573,7 +577,7 @@ def _print_run_sets(fitted: list[Path], held: list[Path], source: str) -> None:
         con.print(line, markup=False, soft_wrap=True)
 
 
-def _print_calibration(result: Any, output: Path) -> None:
+def _print_calibration(result: LsqCalibration, output: Path) -> None:
     import math
 
     from rich.table import Table

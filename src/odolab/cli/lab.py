@@ -4,12 +4,17 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
 from odolab.cli._apps import app, calibrate_app
 from odolab.cli._output import echo
+
+if TYPE_CHECKING:
+    from rich.console import Console
+
+    from odolab.app.selection import SelectionRequest
 
 __all__: list[str] = []
 
@@ -35,7 +40,7 @@ ExcludeOpt = Annotated[
 
 def _selection(
     campaign: list[str] | None, exclude: list[str] | None, robot: str | None = None
-) -> Any:
+) -> SelectionRequest:
     from odolab.app.selection import SelectionRequest
 
     return SelectionRequest(tuple(campaign or ()), tuple(exclude or ()), robot)
@@ -51,7 +56,7 @@ SelectRobotOpt = Annotated[
 ]
 
 
-def _say(con: Any, text: str) -> None:
+def _say(con: Console, text: str) -> None:
     """A sentence of the application layer (names in it are user text: no markup; its settings
     named by their flags)."""
     from odolab.cli.wording import said
@@ -60,7 +65,7 @@ def _say(con: Any, text: str) -> None:
     con.print(safe_terminal(said(text)), markup=False)
 
 
-def _console() -> Any:
+def _console() -> Console:
     from odolab.cli._console import console
 
     return console()

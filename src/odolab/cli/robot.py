@@ -30,6 +30,8 @@ if TYPE_CHECKING:
     from odolab.app.robot import RobotPlan
     from odolab.core.trials import Command
     from odolab.robot.config import RunConfig
+    from odolab.robot.jaguar.board import VirtualJaguarServer
+    from odolab.robot.jaguar2014.board import VirtualJaguar2014Server
     from odolab.robot.loop import CycleInfo
     from odolab.robot.session import AbortReport, RobotRun
     from odolab.store import Notebook
@@ -820,7 +822,11 @@ def sim_server_cmd(
         )
 
 
-def _serve(server: Any, activity: Callable[[], int], idle_exit: float | None) -> None:
+def _serve(
+    server: VirtualJaguarServer | VirtualJaguar2014Server,
+    activity: Callable[[], int],
+    idle_exit: float | None,
+) -> None:
     """``server.serve_forever()``; with ``idle_exit``, served from its thread until nothing has
     come from a host (``activity()``, a count, unchanged) for that many seconds."""
     if idle_exit is None:

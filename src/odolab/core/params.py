@@ -112,7 +112,7 @@ class NoiseParams:
         return out
 
 
-def noise_from_mapping(data: Any, *, source: str = "parameters") -> NoiseParams:
+def noise_from_mapping(data: object, *, source: str = "parameters") -> NoiseParams:
     """Build :class:`NoiseParams` from a ``[noise]`` table, naming ``source`` in any error."""
     if not isinstance(data, dict):
         raise ParamsError(f"{source}: [noise] must be a table, got {type(data).__name__}")
@@ -291,8 +291,8 @@ def params_from_mapping(
     data: dict[str, Any],
     *,
     source: str = "parameters",
-    model: dict[str, Any] | None = None,
-    noise: dict[str, Any] | None = None,
+    model: dict[str, object] | None = None,
+    noise: dict[str, object] | None = None,
 ) -> RobotParams:
     """Build :class:`RobotParams` from a ``[robot]`` mapping (and optional ``[model]`` and
     ``[noise]`` ones), naming ``source`` in any error."""
@@ -319,7 +319,7 @@ def params_from_mapping(
 _MAX_TOML_INT = 2**1000
 
 
-def _check_integer_sizes(doc: Any, path: Path, where: str = "") -> None:
+def _check_integer_sizes(doc: object, path: Path, where: str = "") -> None:
     """Refuse an integer past :data:`_MAX_TOML_INT` anywhere in the file (Python reads any
     length; a float of it overflows), naming its table and key."""
     items = (
@@ -393,17 +393,17 @@ def load_params(path_or_preset: str | Path) -> RobotParams:
 
 @overload
 def save_params(
-    path: str | Path, params: RobotParams, *, provenance: dict[str, Any] | None = None
+    path: str | Path, params: RobotParams, *, provenance: dict[str, object] | None = None
 ) -> Path: ...
 @overload
 def save_params(  # the old order
-    path: RobotParams, params: str | Path, *, provenance: dict[str, Any] | None = None
+    path: RobotParams, params: str | Path, *, provenance: dict[str, object] | None = None
 ) -> Path: ...
 def save_params(
     path: str | Path | RobotParams,
     params: RobotParams | str | Path,
     *,
-    provenance: dict[str, Any] | None = None,
+    provenance: dict[str, object] | None = None,
 ) -> Path:
     """Write ``params`` to ``path`` as TOML (and an optional ``[provenance]`` table)."""
     p, entry = path_first(path, params, RobotParams, "save_params")
@@ -411,9 +411,9 @@ def save_params(
 
 
 def _save_params(
-    params: RobotParams, path: str | Path, *, provenance: dict[str, Any] | None = None
+    params: RobotParams, path: str | Path, *, provenance: dict[str, object] | None = None
 ) -> Path:
-    doc: dict[str, Any] = {"robot": params.to_dict()}
+    doc: dict[str, object] = {"robot": params.to_dict()}
     model = params.model_table()
     if model is not None:
         doc["model"] = model

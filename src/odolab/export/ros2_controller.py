@@ -46,7 +46,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
 
 from odolab.core.errors import NEUTRAL, ParamsError, Wording, opt
 from odolab.core.models import own_covariance, timed_model
@@ -387,7 +386,7 @@ def _comment(text: str) -> list[str]:
     return lines
 
 
-def _scalar(value: Any) -> str:
+def _scalar(value: object) -> str:
     """Text for one comment line: numbers by repr; line breaks and every other control or
     invisible character shown as an escape (``\\x0a``), so that nothing ends the comment."""
     if isinstance(value, float):

@@ -198,9 +198,9 @@ class FleetSummary:
     """Per robot, per robot and day, and the worst runs (each a list of row dicts)."""
 
     per_robot: list[dict[str, Any]]  # polars' row dicts
-    per_day: list[dict[str, Any]]  # polars' row dicts
-    worst: list[dict[str, Any]]  # polars' row dicts
-    failed: list[dict[str, Any]]  # polars' row dicts
+    per_day: list[dict[str, object]]  # polars' row dicts
+    worst: list[dict[str, object]]  # polars' row dicts
+    failed: list[dict[str, object]]  # polars' row dicts
 
 
 def summarize(columns: dict[str, list[Cell]], *, worst: int = 5) -> FleetSummary:

@@ -159,8 +159,8 @@ def summary_sentences(results: Mapping[str, Any]) -> list[str]:
 def build_results(
     analysis: LabAnalysis,
     calibrations: Mapping[str, Calibration],
-    validation: Mapping[str, Any] | None = None,
-    extra: Mapping[str, Any] | None = None,
+    validation: Mapping[str, object] | None = None,
+    extra: Mapping[str, object] | None = None,
     evidence: ModelEvidence | None = None,
 ) -> dict[str, object]:
     """The dict written to results.json: every number in the report."""
@@ -582,7 +582,7 @@ def _page(
     )
 
 
-def _numbers_only(results: dict[str, Any]) -> dict[str, object]:
+def _numbers_only(results: dict[str, object]) -> dict[str, object]:
     """``results`` for results.json: a ground truth's embedded photo (base64 PNG, megabytes) is
     the page's, not a number; results.json says its size instead."""
     extra = results.get("extra")
@@ -602,11 +602,11 @@ def write_report(
     out_dir: str | Path,
     analysis: LabAnalysis,
     calibrations: Mapping[str, Calibration] | None = None,
-    validation: Mapping[str, Any] | None = None,
+    validation: Mapping[str, object] | None = None,
     *,
     validation_figure: Callable[[Axes], Axes] | None = None,
     extra_figures: Mapping[str, tuple[str, str, Callable[[Axes], object]]] | None = None,
-    extra: Mapping[str, Any] | None = None,
+    extra: Mapping[str, object] | None = None,
     reference: Mapping[tuple[str, str], Any] | None = None,
     evidence: ModelEvidence | None = None,
     progress: Progress | None = None,

@@ -384,7 +384,7 @@ def models_view(m: Mapping[str, Any], *, problems_in_table: bool = False) -> dic
     }
 
 
-def _not_fitted_row(name: str, s: Mapping[str, Any]) -> list[Cell]:
+def _not_fitted_row(name: str, s: Mapping[str, object]) -> list[Cell]:
     """A model that could not be fitted, as a row of the models table: why, in one sentence."""
     why = str(s.get("problem") or "").rstrip(".")
     return [

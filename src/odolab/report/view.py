@@ -148,7 +148,7 @@ def verdict(
     calibrations: Mapping[str, Calibration],
     rows: Sequence[Mapping[str, Any]],
     validation: Mapping[str, Any] | None,
-    extra: Mapping[str, Any] | None,
+    extra: Mapping[str, object] | None,
 ) -> Verdict:
     """The result a student needs first: old -> new parameters and what improved by how much."""
     v = Verdict()
@@ -342,7 +342,7 @@ def collapsed(text: str) -> str:
     )
 
 
-def provenance_rows(prov: Mapping[str, Any]) -> tuple[list[tuple[str, str]], list[list[str]]]:
+def provenance_rows(prov: Mapping[str, object]) -> tuple[list[tuple[str, str]], list[list[str]]]:
     """A calibration's provenance as readable rows, and its iterations (if any) as a table."""
     rows: list[tuple[str, str]] = []
     iterations: list[list[str]] = []
@@ -379,7 +379,7 @@ def _iteration_columns(its: list[object]) -> list[str]:
     return sorted(keys - {"iteration"})
 
 
-def iteration_header(prov: Mapping[str, Any]) -> list[str]:
+def iteration_header(prov: Mapping[str, object]) -> list[str]:
     """Column names of the iterations table: the iterate's number (0: the start, as the
     parameters file counts them) and the keys of the iterates, sorted."""
     its = prov.get("iterations")
@@ -463,7 +463,7 @@ def validation_view(v: Mapping[str, Any]) -> dict[str, object]:
     if isinstance(old, Mapping) and isinstance(new, Mapping):
         pair = (old, new)
 
-        def param(d: Mapping[str, Any], k: str) -> Any:
+        def param(d: Mapping[str, object], k: str) -> Any:
             p = d.get("params")
             return p.get(k) if isinstance(p, Mapping) else None
 
@@ -564,7 +564,7 @@ def _flat(prefix: str, v: object, out: list[tuple[str, str]]) -> None:
         out.append((prefix, fmt(v, 6)))
 
 
-def extra_view(extra: Mapping[str, Any]) -> dict[str, object]:
+def extra_view(extra: Mapping[str, object]) -> dict[str, object]:
     """Additional results: known keys as labelled tables, any other key as readable rows."""
     view: dict[str, Any] = {
         "after": None,

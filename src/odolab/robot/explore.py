@@ -190,7 +190,7 @@ class TruthRecorder:
     def stalled(self) -> bool:
         return self.plant.stalled
 
-    def reset(self, start: Any = None) -> None:
+    def reset(self, start: object = None) -> None:
         self.plant.reset(start)
 
     def __getattr__(self, name: str) -> Any:
@@ -285,7 +285,7 @@ class ExplorePlan:
             if len(log) > 0:
                 x, y = np.asarray(log.x), np.asarray(log.y)
                 radius = float(np.max(np.hypot(x - x[0], y - y[0])))
-            record: dict[str, Any] = {
+            record: dict[str, object] = {
                 "seconds": e.seconds,
                 "max_speed": e.max_speed,
                 "max_turn_rate": e.max_turn_rate,
@@ -310,7 +310,7 @@ class ExplorePlan:
                 record["true_largest_radius"] = float(true_r.max())
                 record["true_time_outside"] = _time_outside(truth.t, true_r, e.fence)
             source = self.ground_truth
-            gt: dict[str, Any] = {"source": source, "file": None, "attach": None}
+            gt: dict[str, object] = {"source": source, "file": None, "attach": None}
             if source == "virtual":
                 gt["file"] = TRUTH_FILE if truth is not None else None
                 if truth is None:

@@ -11,7 +11,7 @@ tests can compute by hand.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any, Protocol
 
 from odolab.core.kinematics import body_motion, step_pose, wrap_angle
@@ -74,7 +74,7 @@ class IdealPlant:
         self._modulus = truth.encoder_modulus
         self.reset()
 
-    def reset(self, start: Any = None) -> None:
+    def reset(self, start: Pose | Sequence[float] | None = None) -> None:
         x, y, h = (0.0, 0.0, 0.0) if start is None else (float(v) for v in tuple(start)[-3:])
         if start is not None and isinstance(start, Pose):
             x, y, h = start.x, start.y, start.heading

@@ -47,7 +47,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -189,7 +188,7 @@ def _check_keys(source: str, where: str, table: dict[str, object], allowed: set[
 def _number(
     source: str,
     where: str,
-    value: Any,
+    value: object,
     *,
     positive: bool = True,
     within: tuple[float, float] | None = None,
@@ -208,7 +207,7 @@ def _number(
     return float(value)
 
 
-def _values(source: str, where: str, value: Any, *, maximum: float, unit: str) -> list[float]:
+def _values(source: str, where: str, value: object, *, maximum: float, unit: str) -> list[float]:
     """A number, a list of numbers, or an inclusive range table {from, to, step}; all > 0.
 
     At most :data:`MAX_VALUES` values, each at most ``maximum``: a range's size is known from
@@ -245,7 +244,7 @@ def _values(source: str, where: str, value: Any, *, maximum: float, unit: str) -
     return [_number(source, where, value, within=limit, unit=unit)]
 
 
-def _text(source: str, where: str, value: Any, choices: Sequence[str]) -> str:
+def _text(source: str, where: str, value: object, choices: Sequence[str]) -> str:
     if not isinstance(value, str) or value not in choices:
         raise _err(source, where, f"got {value!r}; expected one of {', '.join(choices)}")
     return value
@@ -302,7 +301,9 @@ def _commands(
     return commands
 
 
-def _parse_set(source: str, index: int, spec: Any, defaults: dict[str, object]) -> list[TrialSpec]:
+def _parse_set(
+    source: str, index: int, spec: object, defaults: dict[str, object]
+) -> list[TrialSpec]:
     where = f"[[trials]] #{index + 1}"
     if not isinstance(spec, dict):
         raise _err(source, where, "expected a table")

@@ -73,15 +73,15 @@ class NotebookDocument:
 
 def write_notebook_json(
     path: str | Path,
-    params_versions: Sequence[dict[str, Any]],
-    campaigns: Sequence[dict[str, Any]],
+    params_versions: Sequence[dict[str, object]],
+    campaigns: Sequence[dict[str, object]],
     trial_rows: Sequence[dict[str, Any]],
-    history: Mapping[str, Sequence[dict[str, Any]]] | None = None,
+    history: Mapping[str, Sequence[dict[str, object]]] | None = None,
 ) -> Path:
     """Write rows as read from the database (trial rows joined with ``log_*`` columns)."""
     trials = []
     for r in trial_rows:
-        rec: dict[str, Any] = {k: r[k] for k in TRIAL_COLUMNS}
+        rec: dict[str, object] = {k: r[k] for k in TRIAL_COLUMNS}
         rec["raw"] = json.loads(r["raw"]) if isinstance(r["raw"], str) else r["raw"]
         rec["created"], rec["updated"] = r["created"], r["updated"]
         log = None

@@ -107,7 +107,7 @@ def params_columns(params: RobotParams) -> dict[str, SQLValue]:
 
 def params_tables(
     row: Mapping[str, Any], source: str
-) -> tuple[dict[str, Any], dict[str, Any] | None]:
+) -> tuple[dict[str, object], dict[str, object] | None]:
     """The ``[model]`` and ``[noise]`` tables (noise None when absent) stored in ``row``'s
     :data:`PARAMS_EXTRA_COLUMNS`; a row without them (schema v2) is the plain differential drive.
 
@@ -130,7 +130,7 @@ def params_tables(
     return {"kind": kind, **keys}, noise
 
 
-def params_from_columns(row: Mapping[str, Any], source: str) -> RobotParams:
+def params_from_columns(row: Mapping[str, object], source: str) -> RobotParams:
     """The parameter set stored in ``row``: ``robot``, :data:`PARAMS_FIELDS` and (schema v3)
     :data:`PARAMS_EXTRA_COLUMNS`; ``source`` names it in any error."""
     model, noise = params_tables(row, source)

@@ -106,7 +106,7 @@ def export_json(nb: Notebook, path: str | Path, selection: Selection = ("", ()))
         for r in conn.execute("SELECT * FROM campaigns ORDER BY rowid")
         if r["name"] in used_campaigns or not where
     ]
-    history: dict[str, list[dict[str, Any]]] = {}
+    history: dict[str, list[dict[str, object]]] = {}
     for h in conn.execute("SELECT * FROM measurement_history ORDER BY id"):
         entry = {k: h[k] for k in HISTORY_KEYS}
         entry["raw"] = json.loads(h["raw"])
@@ -122,7 +122,7 @@ class _Incoming:
     trials: list[Trial] = field(default_factory=list)
     versions: list[int | None] = field(default_factory=list)
     stamps: list[tuple[str, str] | None] = field(default_factory=list)
-    histories: list[list[dict[str, Any]]] = field(default_factory=list)
+    histories: list[list[dict[str, object]]] = field(default_factory=list)
 
 
 def _new_params_versions(
@@ -137,7 +137,7 @@ def _new_params_versions(
     version. The file's version goes to the notebook's version with the same numbers when there
     is one; else it is added under its own number; a number the notebook already uses for other
     numbers is refused, naming what differs."""
-    new: list[dict[str, Any]] = []
+    new: list[dict[str, object]] = []
     remap: dict[tuple[str, int], int] = {}
     for pv in doc.params_versions:
         theirs = params_of_version(pv, f"{source}: parameter version {pv['version']}")
@@ -169,7 +169,7 @@ def _new_params_versions(
 
 def _new_campaigns(nb: Notebook, doc: NotebookDocument, source: str) -> list[dict[str, Any]]:
     """The file's campaigns the notebook lacks; refuse ones that differ."""
-    new: list[dict[str, Any]] = []
+    new: list[dict[str, object]] = []
     for i, c in enumerate(doc.campaigns):
         row = nb._one("SELECT * FROM campaigns WHERE name = ?", (c["name"],))
         if row is None:

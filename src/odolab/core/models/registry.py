@@ -66,7 +66,7 @@ def model_from_mapping(data: dict[str, Any], *, source: str = "parameters") -> K
         )
     cls = MODELS[kind]
     keys = {k: v for k, v in data.items() if k not in ("kind", "posterior")}
-    extra: dict[str, Any] = {}
+    extra: dict[str, object] = {}
     if "posterior" in data:
         extra["posterior"] = _posterior(data["posterior"], cls, kind, source)
     allowed = tuple(getattr(cls, "KEYS", ()))
@@ -95,7 +95,7 @@ def model_from_mapping(data: dict[str, Any], *, source: str = "parameters") -> K
     return model
 
 
-def _posterior(value: Any, cls: type[Any], kind: str, source: str) -> tuple[float, ...]:
+def _posterior(value: object, cls: type[Any], kind: str, source: str) -> tuple[float, ...]:
     """A ``[model]`` ``posterior`` (the slip model's coefficient covariance, row-major):
     checked to be a list of finite numbers of the model's size."""
     size = len(getattr(cls, "COEF_KEYS", ())) ** 2

@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 from odolab.core.errors import ParamsError
 from odolab.core.models.base import ModelCoefficients
@@ -61,6 +61,8 @@ from odolab.core.models.slip_terms import (
 )
 
 if TYPE_CHECKING:
+    from collections.abc import Iterable
+
     import numpy as np
     from numpy.typing import NDArray
 
@@ -315,11 +317,11 @@ class SlipModel:
 
     def body_motion_arrays(
         self,
-        ds_left: NDArray[Any],
-        ds_right: NDArray[Any],
-        dt: NDArray[Any],
+        ds_left: NDArray[np.float64],
+        ds_right: NDArray[np.float64],
+        dt: NDArray[np.float64],
         track_width: float,
-    ) -> tuple[NDArray[Any], NDArray[Any], NDArray[Any]]:
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """:meth:`body_motion` for arrays of cycles (batch odometry)."""
         import numpy as np
 
@@ -333,7 +335,7 @@ class SlipModel:
         return ds + out[0], out[1], dth + out[2]
 
     @staticmethod
-    def features(v: NDArray[Any], w: NDArray[Any]) -> NDArray[Any]:
+    def features(v: NDArray[np.float64], w: NDArray[np.float64]) -> NDArray[np.float64]:
         """The basis at speeds ``v`` (m/s) and turn rates ``w`` (rad/s): shape (8, n)."""
         import numpy as np
 
@@ -342,12 +344,12 @@ class SlipModel:
 
     @staticmethod
     def noise_multipliers(
-        ds_left: NDArray[Any],
-        ds_right: NDArray[Any],
-        dt: NDArray[Any],
+        ds_left: NDArray[np.float64],
+        ds_right: NDArray[np.float64],
+        dt: NDArray[np.float64],
         track_width: float,
         tick_turn: float = 0.0,
-    ) -> NDArray[Any]:
+    ) -> NDArray[np.float64]:
         """What each noise term (``q_fwd, q_lat, q_yaw, k_fwd, k_lat, k_yaw``) is multiplied by
         in each cycle's variance, shape (n, 6): the duration ``dt`` (three times), the track
         travel ``(|ds_l| + |ds_r|) / 2`` (twice) and the commanded turn. The turn is the
@@ -371,15 +373,15 @@ class SlipModel:
         return np.column_stack((tt, tt, tt, travel, travel, turn))
 
     @staticmethod
-    def turn_multiplier(recent_turns: Any, tick_turn: float = 0.0) -> float:
+    def turn_multiplier(recent_turns: Iterable[float], tick_turn: float = 0.0) -> float:
         """:meth:`noise_multipliers`' turn for one cycle from the turns (rad) of the last
         :data:`TURN_CYCLES` cycles, this one last (fewer at the start): streaming odometry's."""
         return float(max(abs(sum(recent_turns)) / TURN_CYCLES - tick_turn / TURN_CYCLES, 0.0))
 
     @staticmethod
     def drift_multipliers(
-        ds_left: NDArray[Any], ds_right: NDArray[Any], track_width: float
-    ) -> NDArray[Any]:
+        ds_left: NDArray[np.float64], ds_right: NDArray[np.float64], track_width: float
+    ) -> NDArray[np.float64]:
         """What each drift rate (``d_fwd, d_lat, d_yaw, d_turn``; their variances are the
         model's drift terms) is multiplied by in each cycle's motion, shape (n, 4): the track
         travel ``(|ds_l| + |ds_r|) / 2`` (three times) and the turn ``|ds_r - ds_l| / b``."""
@@ -391,12 +393,12 @@ class SlipModel:
 
     def step_variance(
         self,
-        ds_left: NDArray[Any],
-        ds_right: NDArray[Any],
-        dt: NDArray[Any],
+        ds_left: NDArray[np.float64],
+        ds_right: NDArray[np.float64],
+        dt: NDArray[np.float64],
         track_width: float,
         tick_turn: float = 0.0,
-    ) -> NDArray[Any]:
+    ) -> NDArray[np.float64]:
         """Predictive variance of each cycle's body motion (d_forward, d_lateral, d_theta):
         shape (n, 3), ``q dt + k L`` (:meth:`noise_multipliers`; ``L`` the track travel, m, or
         for the heading the commanded turn, rad) plus ``dt^2 phi^T Sigma phi`` where the

@@ -38,7 +38,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -47,6 +47,8 @@ from odolab.core.errors import InsufficientDataError
 from odolab.core.models.slip_terms import DRIFT_KEYS, FEATURES, KIND, NOISE_KEYS, TURN_CYCLES
 
 if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
     from odolab.core.models.base import RobotLike
     from odolab.core.models.slip import SlipModel
 
@@ -158,7 +160,11 @@ class SlipPropagation:
 
 
 def heading_moments(
-    s_k: FloatArray, s_j: Any, c: FloatArray, half_k: FloatArray, half_j: Any
+    s_k: FloatArray,
+    s_j: FloatArray | float,
+    c: FloatArray,
+    half_k: FloatArray,
+    half_j: FloatArray | float,
 ) -> tuple[FloatArray, FloatArray]:
     """For pairs of steps with heading variances ``s_k``, ``s_j``, covariance ``c`` and
     ``half = exp(-s / 2)``: ``E[(cos d_k - 1)(cos d_j - 1)]``, and ``E[sin d_k sin d_j] - c``
@@ -377,9 +383,9 @@ def propagate_terms(
 
 
 def propagate_covariance(
-    t: Any,
-    dticks_left: Any,
-    dticks_right: Any,
+    t: ArrayLike,
+    dticks_left: ArrayLike,
+    dticks_right: ArrayLike,
     params: RobotLike,
     start: tuple[float, float, float] = (0.0, 0.0, 0.0),
 ) -> tuple[FloatArray, FloatArray]:
