@@ -14,7 +14,9 @@ Two parts, ratios not times:
 * ``--sims``: the independent simulators of ``tests/models/independent_sims.py`` (icr-speed and
   its constant-slip twin), a 60 s exploration, the truth at 10 Hz with ``--sigma-xy`` /
   ``--sigma-h`` of white noise, per seed and pooled: slip over the best kinematic model, plain
-  and with the truth's noise, and what `calibrate compare` recommends with the default fit.
+  and with the truth's noise, and what `calibrate compare` recommends with the default fit;
+  ``--shrink`` adds the fit shrunk toward the kinematic model by grouped cross-validation
+  (``slipfit.SHRINK_GRID_MEASURED``, off by default).
 
     PYTHONPATH=src:tests ODOLAB_TEST_DATA=../shared/data python benchmarks/bench_truth_noise.py --husky
     PYTHONPATH=src:tests python benchmarks/bench_truth_noise.py --sims --seeds 1 2 3 4 5
@@ -65,6 +67,8 @@ def husky() -> None:
         if opts.truth_noise:
             print(f"  {fit.notes[-1]}")
     slipfit.ROBUST_NU = None
+    e = end(_fit_slip(prep, HUSKY, True, True))
+    print(f"slip, truth noise estimated + CV shrinkage: {e:.4f} m, {e / icr:.3f}x icr")
 
 
 def noisy(run: object, sigma_xy: float, sigma_h: float, seed: int) -> object:
@@ -73,7 +77,17 @@ def noisy(run: object, sigma_xy: float, sigma_h: float, seed: int) -> object:
     return add(run, sigma_xy, sigma_h, seed)  # type: ignore[arg-type]
 
 
-def sims(seeds: list[int], sigma_xy: float, sigma_h: float) -> None:
+def _fit_slip(read: list[object], nominal: object, flag: bool, shrink: bool) -> object:
+    """The slip fit of ``read``, with the truth's noise (``flag``) and the cross-validated
+    shrinkage toward the kinematic model (``shrink``: ``slipfit.SHRINK_GRID_MEASURED``)."""
+    slipfit.SHRINK_GRID = slipfit.SHRINK_GRID_MEASURED if shrink else None
+    try:
+        return calibrate_lsq(read, nominal, LsqOptions(model="slip", truth_noise=flag)).params  # type: ignore[arg-type]
+    finally:
+        slipfit.SHRINK_GRID = None
+
+
+def sims(seeds: list[int], sigma_xy: float, sigma_h: float, shrink: bool = False) -> None:
     from tests.models.independent_sims import (
         IcrSpeedSim,
         constant_slip,
@@ -97,11 +111,12 @@ def sims(seeds: list[int], sigma_xy: float, sigma_h: float) -> None:
                 for m in KINEMATIC:
                     fit = calibrate_lsq(read[:1], nominal, LsqOptions(model=m))
                     row[m] = float(np.mean([endpoint_error(r, fit.params) for r in read[1:]]))
-                for label, flag in (("slip plain", False), ("slip truth noise", True)):
-                    fit = calibrate_lsq(
-                        read[:1], nominal, LsqOptions(model="slip", truth_noise=flag)
-                    )
-                    row[label] = float(np.mean([endpoint_error(r, fit.params) for r in read[1:]]))
+                alts = [("slip plain", False, False), ("slip truth noise", True, False)]
+                if shrink:
+                    alts.append(("slip truth noise + CV shrinkage", True, True))
+                for label, flag, sh in alts:
+                    params = _fit_slip(read[:1], nominal, flag, sh)
+                    row[label] = float(np.mean([endpoint_error(r, params) for r in read[1:]]))
                 c = compare_models(read[:1], read[1:], nominal, models=(*KINEMATIC, "slip"))
             best = min(row[m] for m in KINEMATIC)
             picks.append(c.recommended)
@@ -186,13 +201,14 @@ def main() -> None:
     ap.add_argument("--sigma-xy", type=float, default=0.05)
     ap.add_argument("--sigma-h", type=float, default=0.1)
     ap.add_argument("--outliers", type=float, default=None, help="share of glitched updates")
+    ap.add_argument("--shrink", action="store_true", help="also the CV shrinkage alternative")
     a = ap.parse_args()
     if a.outliers is not None:
         outliers(a.seeds, a.outliers)
     if a.husky:
         husky()
     if a.sims:
-        sims(a.seeds, a.sigma_xy, a.sigma_h)
+        sims(a.seeds, a.sigma_xy, a.sigma_h, a.shrink)
 
 
 if __name__ == "__main__":

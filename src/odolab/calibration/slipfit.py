@@ -118,6 +118,18 @@ UNDETERMINED_SPREAD = 0.1
 #: Degrees of freedom of the rows' Student-t noise in the regression (None: Gaussian); see
 #: docs/models.md for what each measured.
 ROBUST_NU: float | None = None
+#: Shrinkage toward the kinematic centre (:func:`_shrinkage`): each coefficient group's (x/y,
+#: heading) weak-prior scale is one of these multiples of ``tau`` (0: the kinematic model
+#: itself), chosen by grouped K-fold cross-validation over contiguous blocks of the fitting
+#: windows (:data:`SHRINK_FOLDS`); None (the default): no choice, the weak prior. Off because
+#: measured worse (docs/models.md, benchmarks/bench_truth_noise.py --shrink): the windows'
+#: held-out squared residuals are dominated by the truth's noise and do not rank the fits as
+#: their end points do.
+SHRINK_GRID_MEASURED: tuple[float, ...] = (0.0, 0.03, 0.1, 0.3, 1.0)
+SHRINK_GRID: tuple[float, ...] | None = None
+SHRINK_FOLDS = 5
+#: Length (s) of the held-out pieces the shrinkage's cross-validation scores (:func:`_shrinkage`)
+SHRINK_PIECE_S = 4.0
 
 
 @dataclass(frozen=True)
@@ -330,6 +342,8 @@ def _blr(
     scales: FloatArray,
     mean: FloatArray | None = None,
     known: object | None = None,
+    iterations: int = _EM_ITERATIONS,
+    weak: FloatArray | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Posterior mean and covariance of ``y = X beta + e``, ``beta ~ N(mean, diag(tau^2))``
     (``mean`` 0 unless given), with a noise variance per row linear in ``scales`` (n, m):
@@ -358,7 +372,7 @@ def _blr(
     mu = m0.copy()
     sigma: FloatArray = np.diag(tau**2)
     u = np.ones(y.size)  # Student-t weights of the rows (1: Gaussian)
-    for _ in range(_EM_ITERATIONS):
+    for _ in range(iterations):
         var = np.maximum(scales @ c, floor)
         xtwx, xtwy = _weighted(x, y, var / u, known)
         sigma = np.asarray(np.linalg.inv(xtwx + prior), dtype=np.float64)
@@ -384,8 +398,81 @@ def _blr(
     # shrunk prior's, a term the runs barely saw came out certain, and wrong)
     var = np.maximum(scales @ c, floor)
     xtwx, _ = _weighted(x, y, var, known)
-    sigma = np.asarray(np.linalg.inv(xtwx + np.diag(1.0 / tau**2)), dtype=np.float64)
+    w2 = (tau if weak is None else weak) ** 2
+    sigma = np.asarray(np.linalg.inv(xtwx + np.diag(1.0 / w2)), dtype=np.float64)
     return mu, sigma, c
+
+
+def _shrinkage(
+    x: FloatArray,
+    y: FloatArray,
+    tau: FloatArray,
+    scales: FloatArray,
+    mean: FloatArray,
+    known: object | None,
+    d: SlipDesign,
+    fold: NDArray[np.int64],
+) -> float:
+    """The multiple of ``tau`` (one of :data:`SHRINK_GRID`) whose fit predicts held-out
+    windows best: the windows are split into folds of contiguous windows (``fold``, per window;
+    neighbouring command steps are held out together), each fold is predicted by the fit on the
+    others (:func:`_blr`, its known row covariance restricted to them), and the residuals of
+    chained held-out windows are summed over pieces of :data:`SHRINK_PIECE_S` seconds (turned
+    into the piece's start frame for the x/y rows) before they are squared: a piece's truth
+    noise is that of its two ends while the model's error grows with its length, so the longer
+    pieces rank the fits as end points do. ``x`` the x/y rows when it has :attr:`SlipDesign`'s
+    ``row_x`` and ``row_y``, else the heading rows. A tie keeps the larger multiple."""
+    if SHRINK_GRID is None or len(SHRINK_GRID) < 2:
+        return 1.0
+    folds = int(fold.max()) + 1 if fold.size else 0
+    if folds < 2:
+        return 1.0
+    xy = y.size == 2 * fold.size
+    win_of_row = np.zeros(y.size, dtype=np.int64)
+    if xy:
+        win_of_row[d.row_x] = np.arange(fold.size)
+        win_of_row[d.row_y] = np.arange(fold.size)
+    else:
+        win_of_row[:] = np.arange(fold.size)
+    per_piece = max(1, round(SHRINK_PIECE_S / max(float(np.median(d.durations)), 1e-9)))
+    scores = np.zeros(len(SHRINK_GRID))
+    for f in range(folds):
+        test_w = np.flatnonzero(fold == f)
+        train = fold[win_of_row] != f
+        sub = None if known is None else known[train][:, train]  # type: ignore[index]
+        for i, mult in enumerate(SHRINK_GRID):
+            if mult <= 0.0:
+                mu = mean
+            else:
+                mu, _, _ = _blr(x[train], y[train], tau * mult, scales[train], mean, sub)
+            r = y - x @ mu
+            res = np.column_stack((r[d.row_x], r[d.row_y])) if xy else r[:, None]
+            scores[i] += _piece_score(res, test_w, d, per_piece)
+    best = min(range(len(scores)), key=lambda i: (scores[i], -SHRINK_GRID[i]))
+    return float(SHRINK_GRID[best])
+
+
+def _piece_score(res: FloatArray, wins: NDArray[np.int64], d: SlipDesign, per_piece: int) -> float:
+    """Sum of squared residuals of pieces of up to ``per_piece`` chained windows among ``wins``
+    (``res`` per window: (x, y) in its start frame, turned into the piece's, or heading)."""
+    total = 0.0
+    acc = np.zeros(res.shape[1])
+    count, heading, last = 0, 0.0, -2
+    for w in wins.tolist():
+        if count == per_piece or d.previous[w] != last or last < 0:
+            total += float(acc @ acc)
+            acc[:] = 0.0
+            count, heading = 0, 0.0
+        else:
+            heading += float(d.turn_from_previous[w])
+        v = res[w]
+        if v.size == 2:
+            c, s = np.cos(heading), np.sin(heading)
+            v = np.array([c * v[0] - s * v[1], s * v[0] + c * v[1]])
+        acc += v
+        count += 1
+        last = w
+    return total + float(acc @ acc)
 
 
 def _weighted(
@@ -500,7 +587,8 @@ def _fit_mean(
     prior_scale: float,
     base: FloatArray | None = None,
     truth: TruthNoise | None = None,
-) -> tuple[SlipModel, FloatArray, int, FloatArray]:
+    shrink: tuple[float, float] | None = None,
+) -> tuple[SlipModel, FloatArray, int, FloatArray, tuple[float, float]]:
     """The coefficients and their posterior by Bayesian linear regression with automatic
     relevance determination about the prior mean ``base`` (0 unless given), and the windows'
     noise by expectation-maximisation (see the module): (model, 24 x 24 posterior covariance,
@@ -528,8 +616,19 @@ def _fit_mean(
     m0 = np.zeros(3 * k) if base is None else base
     k_xy, k_yaw = (None, None) if not _noisy(truth) else truth_covariances(d, truth)  # type: ignore[arg-type]
     tau_xy = np.concatenate((tau_v, tau_v))
-    mu_xy, sig_xy, c_xy = _blr(d.a_xy, d.y_xy, tau_xy, sc_xy, m0[: 2 * k], k_xy)
-    mu_yaw, sig_yaw, c_yaw = _blr(d.a_yaw, d.y_yaw, tau_w, sc_yaw, m0[2 * k :], k_yaw)
+    if shrink is None:
+        n = d.y_yaw.size
+        fold = np.minimum(np.arange(n) * SHRINK_FOLDS // max(n, 1), SHRINK_FOLDS - 1)
+        shrink = (
+            _shrinkage(d.a_xy, d.y_xy, tau_xy, sc_xy, m0[: 2 * k], k_xy, d, fold),
+            _shrinkage(d.a_yaw, d.y_yaw, tau_w, sc_yaw, m0[2 * k :], k_yaw, d, fold),
+        )
+    s_xy, s_yaw = (max(v, 1e-6) for v in shrink)
+    # the covariance reported is still the weak prior's (what the data say of each coefficient)
+    mu_xy, sig_xy, c_xy = _blr(d.a_xy, d.y_xy, tau_xy * s_xy, sc_xy, m0[: 2 * k], k_xy, weak=tau_xy)
+    mu_yaw, sig_yaw, c_yaw = _blr(
+        d.a_yaw, d.y_yaw, tau_w * s_yaw, sc_yaw, m0[2 * k :], k_yaw, weak=tau_w
+    )
     cov = np.zeros((3 * k, 3 * k))
     cov[: 2 * k, : 2 * k] = sig_xy
     cov[2 * k :, 2 * k :] = sig_yaw
@@ -552,7 +651,7 @@ def _fit_mean(
     )
     tau = np.concatenate((tau_v, tau_v, tau_w))
     spread = np.sqrt(np.maximum(np.diag(cov), 0.0)) / tau
-    return model, cov, int(d.y_yaw.size), spread
+    return model, cov, int(d.y_yaw.size), spread, shrink
 
 
 def _noisy(truth: TruthNoise | None) -> bool:
@@ -618,13 +717,15 @@ def fit_slip_model(
     mean, kind = centre if centre is not None else (np.zeros(3 * len(FEATURES)), "none")
     parts = [_blocks(r, folds) for r in runs] if folds > 1 else []
     cross = bool(parts) and all(len(p) == folds for p in parts)
-    model, cov, windows, spread = _fit_mean(runs, nominal, window_s, prior_scale, mean, truth)
+    model, cov, windows, spread, shrink = _fit_mean(
+        runs, nominal, window_s, prior_scale, mean, truth
+    )
     pieces: list[_Pieces] = []
     if cross:
         for f in range(folds):
             train = [p[i] for p in parts for i in range(folds) if i != f]
             try:
-                m, _, _, _ = _fit_mean(train, nominal, window_s, prior_scale, mean, truth)
+                m = _fit_mean(train, nominal, window_s, prior_scale, mean, truth, shrink)[0]
             except InsufficientDataError:
                 pieces = []
                 break
