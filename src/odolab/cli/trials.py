@@ -236,13 +236,19 @@ def _model_words(p: RobotParams) -> str:
 
 # -- trials --------------------------------------------------------------------------------------
 
+#: the filters ``trials list`` and ``trials export`` share
+CampaignFilter = Annotated[str | None, typer.Option(help="Only this campaign.")]
+TerrainFilter = Annotated[str | None, typer.Option(help="Only this terrain.")]
+KindFilter = Annotated[KindChoice | None, typer.Option(help="Only this kind.")]
+StatusFilter = Annotated[StatusChoice | None, typer.Option(help="Only this status.")]
+
 
 @trials_app.command("list")
 def list_cmd(
-    campaign: Annotated[str | None, typer.Option(help="Only this campaign.")] = None,
-    terrain: Annotated[str | None, typer.Option(help="Only this terrain.")] = None,
-    kind: Annotated[KindChoice | None, typer.Option(help="Only this kind.")] = None,
-    status: Annotated[StatusChoice | None, typer.Option(help="Only this status.")] = None,
+    campaign: CampaignFilter = None,
+    terrain: TerrainFilter = None,
+    kind: KindFilter = None,
+    status: StatusFilter = None,
     db: DbOption = _DB,
 ) -> None:
     """The trials as a table."""
@@ -371,6 +377,16 @@ def _measurement(
             x = y = None
 
 
+def _newest_awaiting(nb: Notebook, db: Path) -> str:
+    """The id of the newest trial awaiting measurement (refused when there is none)."""
+    from odolab.core.errors import StoreError
+
+    waiting = nb.load_trials(status="awaiting", with_logs=False)
+    if not waiting:
+        raise StoreError(f"{db}: no trial is awaiting measurement; give the trial id")
+    return waiting[-1].trial_id
+
+
 @trials_app.command("measure")
 def measure_cmd(
     trial_id: Annotated[
@@ -401,11 +417,7 @@ def measure_cmd(
     from odolab.core.errors import StoreError
 
     with _open(db) as nb:
-        if trial_id is None:
-            waiting = nb.load_trials(status="awaiting", with_logs=False)
-            if not waiting:
-                raise StoreError(f"{db}: no trial is awaiting measurement; give the trial id")
-            trial_id = waiting[-1].trial_id
+        trial_id = trial_id if trial_id is not None else _newest_awaiting(nb, db)
         t = nb.get_trial(trial_id)
         from odolab.store.measure import (
             describe_readings,
@@ -528,10 +540,10 @@ def import_cmd(
 @trials_app.command("export")
 def export_cmd(
     file: Annotated[Path, typer.Argument(help="A .csv or .json file to write.")],
-    campaign: Annotated[str | None, typer.Option(help="Only this campaign.")] = None,
-    terrain: Annotated[str | None, typer.Option(help="Only this terrain.")] = None,
-    kind: Annotated[KindChoice | None, typer.Option(help="Only this kind.")] = None,
-    status: Annotated[StatusChoice | None, typer.Option(help="Only this status.")] = None,
+    campaign: CampaignFilter = None,
+    terrain: TerrainFilter = None,
+    kind: KindFilter = None,
+    status: StatusFilter = None,
     db: DbOption = _DB,
 ) -> None:
     """Export trials as CSV (a spreadsheet, no encoder logs) or JSON (everything)."""
