@@ -76,20 +76,12 @@ def consecutive_by_path_from(
     as one call over the whole path. Returns the indexes and the new ``current``.
     """
     n = x.shape[0]
-    ids = np.empty(n, dtype=np.int64)
-    k = 0
-    if first and n > 0:
-        ids[0] = 0
-        k = 1
+    steps = np.zeros(n)
     for i in range(1, n):
         dx = x[i] - x[i - 1]
         dy = y[i] - y[i - 1]
-        current += math.sqrt(dx * dx + dy * dy)
-        if current >= delta:
-            ids[k] = i
-            k += 1
-            current = 0.0
-    return ids[:k], current
+        steps[i] = math.sqrt(dx * dx + dy * dy)
+    return consecutive_by_steps_from(steps, delta, current, first)
 
 
 @njit(cache=True)

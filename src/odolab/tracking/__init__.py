@@ -16,22 +16,6 @@ docs/ground-truth.md.
 
 from __future__ import annotations
 
-from odolab.tracking.camera import (
-    CameraModel,
-    FloorMarker,
-    TrackingError,
-    load_camera,
-    read_floor_csv,
-    save_camera,
-    write_floor_csv,
-)
-
-__all__ = [
-    "CameraModel",
-    "FloorMarker",
-    "TrackingError",
-    "load_camera",
-    "read_floor_csv",
-    "save_camera",
-    "write_floor_csv",
-]
+# The package's names are camera.py's (listed there once).
+from odolab.tracking.camera import *  # noqa: F403
+from odolab.tracking.camera import __all__ as __all__
