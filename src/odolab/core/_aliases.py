@@ -10,17 +10,24 @@ same module object as the new one (one class identity, one set of globals), and 
 from __future__ import annotations
 
 import importlib
-import importlib.abc
 import importlib.machinery
 import sys
 import warnings
 from types import ModuleType
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from importlib.abc import Loader as _Loader
+    from importlib.abc import MetaPathFinder as _Finder
+else:  # (importlib.abc imports importlib.resources and tempfile: 20 ms of every odolab start;
+    # the import system asks only for the methods)
+    _Loader = _Finder = object
 
 #: old top-level name -> its new dotted name (filled in by :func:`install`)
 MOVED: dict[str, str] = {}
 
 
-class _Alias(importlib.abc.Loader):
+class _Alias(_Loader):
     def __init__(self, new: str) -> None:
         self.new = new
 
@@ -31,7 +38,7 @@ class _Alias(importlib.abc.Loader):
         """The module is already run under its new name: nothing to do."""
 
 
-class _OldNames(importlib.abc.MetaPathFinder):
+class _OldNames(_Finder):
     def find_spec(
         self, fullname: str, path: object = None, target: object = None
     ) -> importlib.machinery.ModuleSpec | None:
