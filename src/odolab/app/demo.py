@@ -279,6 +279,7 @@ def _config(
     square_runs: int,
     phone_runs: int,
     rate: float,
+    flag: Callable[[str], str] | None = None,
 ) -> LabConfig:
     from odolab.sim.presets import LAB_REPORT_SEED, TRUTH_PRESETS
 
@@ -301,6 +302,7 @@ def _config(
         square_runs,
         phone_runs,
         rate,
+        flag,
     )
 
 
@@ -772,8 +774,7 @@ def run_lab(
     lines that repeat the slip comparison and its NEES; without it they are left out."""
     from odolab.store import Notebook
 
-    cfg = _config(out, seed, truth, nominal, square_side, square_runs, phone_runs, rate)
-    cfg = replace(cfg, flag=flag)
+    cfg = _config(out, seed, truth, nominal, square_side, square_runs, phone_runs, rate, flag)
     progress("notebook", 0, 1)
     folder = _new_run_folder(cfg.out)
     db = folder / "odolab.db"
