@@ -19,6 +19,7 @@ from odolab.core._kinematics_jit import body_motion, chord, wrap
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
 Coef = tuple[float, float, float, float, float, float]
+_INT_MAX = 2**62  # beyond any counter difference; a bound that a comparison never passes
 
 
 @njit(cache=True, inline="always")
@@ -44,7 +45,7 @@ def _first_step(h0: float, heading: F64, step: F64, lat: F64, mid: F64) -> None:
         lat[0] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _steps_from_ticks(  # pragma: no cover - compiled
     t: F64,
     left: I64,
@@ -56,63 +57,144 @@ def _steps_from_ticks(  # pragma: no cover - compiled
     c: F64,
     arc: bool,
     h0: float,
+    lo: int,
+    hi: int,
     tout: F64,
     heading: F64,
     step: F64,
     lat: F64,
     mid: F64,
-) -> tuple[int, int, int, float]:
-    """Phase A (sequential, no trigonometry): time check, unwrap, the model, the heading.
+) -> tuple[int, int, int, float, float]:
+    """Phase A (sequential, no trigonometry) on samples ``lo`` to ``hi``: time check, unwrap, the
+    model, the heading, from the heading ``h0`` after sample ``lo - 1`` (the start heading when
+    ``lo`` is 0).
 
-    Returns (code, index, value, largest |mid|); code 0 = ok, 1/2 = left/right jump,
-    3 = time not finite, 4 = time goes backwards."""
-    n = left.shape[0]
+    Returns (code, index, value, largest |mid|, heading after sample ``hi - 1``); code 0 = ok,
+    1/2 = left/right jump, 3 = time not finite, 4 = time goes backwards."""
     half = modulus // 2
-    hh = h0
     big = 0.0
     cc = (c[0], c[1], c[2], c[3], c[4], c[5])
     has_lat = lat.shape[0] > 0
-    if n > 0:
+    if lo == 0 and hi > 0:
         if not math.isfinite(t[0]):
-            return 3, 0, 0, big
+            return 3, 0, 0, big, h0
         tout[0] = t[0]
         _first_step(h0, heading, step, lat, mid)
-    for i in range(1, n):
-        ti = t[i]
+    # the block as views from sample lo - 1, so that the loop reads as the whole log's
+    base = max(lo - 1, 0)
+    tb, lb, rb = t[base:hi], left[base:hi], right[base:hi]
+    ob, hb, sb, mb = tout[base:hi], heading[base:hi], step[base:hi], mid[base:hi]
+    ab = lat[base:hi] if has_lat else lat
+    fast = not arc and not has_lat  # the midpoint rule (chord 1) and no sideways motion
+    if fast and _model_steps(tb, lb, rb, modulus, max_d, kl, kr, c, ob, sb, mb):
+        big, hh = _headings(h0, hb, mb)
+        return 0, -1, 0, big, hh
+    hh = h0
+    for i in range(1, tb.shape[0]):
+        ti = tb[i]
         if not math.isfinite(ti):
-            return 3, i, 0, big
-        if ti < t[i - 1]:
-            return 4, i, 0, big
-        tout[i] = ti
-        dl = unwrap_diff(left[i] - left[i - 1], modulus, half)
-        dr = unwrap_diff(right[i] - right[i - 1], modulus, half)
+            return 3, base + i, 0, big, hh
+        if ti < tb[i - 1]:
+            return 4, base + i, 0, big, hh
+        ob[i] = ti
+        dl = unwrap_diff(lb[i] - lb[i - 1], modulus, half)
+        dr = unwrap_diff(rb[i] - rb[i - 1], modulus, half)
         if max_d >= 0:
             if abs(dl) > max_d:
-                return 1, i, dl, big
+                return 1, base + i, dl, big, hh
             if abs(dr) > max_d:
-                return 2, i, dr, big
+                return 2, base + i, dr, big, hh
         fwd, side, m, hh = _one_step(float(dl), float(dr), kl, kr, cc, arc, hh)
-        step[i] = fwd  # stored here: passed the arrays, a helper made this loop 7x slower
+        sb[i] = fwd  # stored here: passed the arrays, a helper made this loop 7x slower
         if has_lat:
-            lat[i] = side
+            ab[i] = side
+        mb[i] = m
+        hb[i] = hh
+        big = max(big, abs(m))
+    return 0, -1, 0, big, hh
+
+
+@njit(cache=True, nogil=True)
+def _model_steps(  # pragma: no cover - compiled
+    t: F64,
+    left: I64,
+    right: I64,
+    modulus: int,
+    max_d: int,
+    kl: float,
+    kr: float,
+    c: F64,
+    tout: F64,
+    step: F64,
+    dth: F64,
+) -> bool:
+    """Phase A's work that is independent per sample, on views that start one sample early:
+    times copied, counters unwrapped, the midpoint model's forward step into ``step`` and turn
+    into ``dth`` from index 1 on. No branch leaves the loop, so that it vectorizes; returns
+    False where any sample needs :func:`_steps_from_ticks`'s careful loop (a time not
+    finite or going backwards, a jump, a counter outside its range), which then finds the first
+    problem and says it."""
+    half = modulus // 2
+    w_l, w_r, e_l, e_r, den = c[0], c[1], c[2], c[3], c[4]
+    # unwrap_diff's first correction, without its rare modulo fallback; no branch in the loop
+    top, low = (modulus - half, -half) if modulus > 0 else (_INT_MAX, -_INT_MAX)
+    wrap_by = modulus if modulus > 0 else 0
+    limit = max_d if max_d >= 0 else _INT_MAX
+    bad = False  # or-ed with | (not "or"/"and", which branch and stop the vectorizing)
+    for i in range(1, t.shape[0]):
+        ti = t[i]
+        bad |= (not math.isfinite(ti)) | (ti < t[i - 1])
+        tout[i] = ti
+        dl = left[i] - left[i - 1]
+        dr = right[i] - right[i - 1]
+        dl = dl - wrap_by * (dl >= top) + wrap_by * (dl < low)
+        dr = dr - wrap_by * (dr >= top) + wrap_by * (dr < low)
+        bad |= (dl >= top) | (dl < low) | (dr >= top) | (dr < low)
+        bad |= (abs(dl) > limit) | (abs(dr) > limit)
+        dsl = float(dl) * kl
+        dsr = float(dr) * kr
+        dth[i] = (e_r * dsr - e_l * dsl) / den  # body_motion's operations, in its order
+        step[i] = w_l * dsl + w_r * dsr
+    return not bad
+
+
+@njit(cache=True, nogil=True)
+def _headings(
+    h0: float, heading: F64, mid: F64
+) -> tuple[float, float]:  # pragma: no cover - compiled
+    """Phase A's sequential part from index 1 of views that start one sample early: the turn in
+    ``mid`` becomes the mid-cycle heading, and ``heading`` the running sum from ``h0`` (the
+    operations of :func:`_one_step`). Returns (largest |mid|, last heading)."""
+    hh = h0
+    big = 0.0
+    for i in range(1, mid.shape[0]):
+        d = mid[i]
+        m = hh + 0.5 * d
+        hh = hh + d
         mid[i] = m
         heading[i] = hh
         big = max(big, abs(m))
-    return 0, -1, 0, big
+    return big, hh
+
+
+@njit(cache=True, inline="always")
+def _turn_one(i: int, step: F64, mid: F64) -> None:  # pragma: no cover - compiled
+    """Chord ``step[i]`` at the mid heading ``mid[i]`` -> (dx, dy) in place."""
+    sn, cs = sincos_poly(mid[i])
+    c = step[i]
+    step[i] = c * cs
+    mid[i] = c * sn
 
 
 @njit(cache=True, inline="always")
 def _rotate_one(
     i: int, step: F64, mid: F64, heading: F64, theta: F64
 ) -> None:  # pragma: no cover - compiled
-    sn, cs = sincos_poly(mid[i])
-    c = step[i]
-    step[i] = c * cs
-    mid[i] = c * sn
+    _turn_one(i, step, mid)
     theta[i] = wrap(heading[i])
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _rotate_steps(
     step: F64, mid: F64, heading: F64, theta: F64
 ) -> None:  # pragma: no cover - compiled
@@ -130,17 +212,39 @@ def _rotate_steps_parallel(
         _rotate_one(i, step, mid, heading, theta)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
+def _turn_one_libm(i: int, step: F64, mid: F64) -> None:  # pragma: no cover - compiled
+    c = step[i]
+    m = mid[i]
+    step[i] = c * math.cos(m)
+    mid[i] = c * math.sin(m)
+
+
+@njit(cache=True, nogil=True)
+def _turn_steps(step: F64, mid: F64, poly: bool) -> None:  # pragma: no cover - compiled
+    """Phase B's turn alone (no theta), polynomial or libm sin/cos."""
+    if poly:
+        for i in range(step.shape[0]):
+            _turn_one(i, step, mid)
+    else:
+        for i in range(step.shape[0]):
+            _turn_one_libm(i, step, mid)
+
+
+@njit(cache=True, nogil=True)
+def _wrap_headings(heading: F64, theta: F64) -> None:  # pragma: no cover - compiled
+    """Phase B's theta alone: each heading wrapped."""
+    for i in range(heading.shape[0]):
+        theta[i] = wrap(heading[i])
+
+
+@njit(cache=True, nogil=True)
 def _rotate_steps_libm(
     step: F64, mid: F64, heading: F64, theta: F64
 ) -> None:  # pragma: no cover - compiled
     """Phase B with libm's sin/cos, for headings beyond SINCOS_LIMIT."""
-    for i in range(step.shape[0]):
-        c = step[i]
-        m = mid[i]
-        step[i] = c * math.cos(m)
-        mid[i] = c * math.sin(m)
-        theta[i] = wrap(heading[i])
+    _turn_steps(step, mid, False)
+    _wrap_headings(heading, theta)
 
 
 @njit(cache=True)
@@ -162,18 +266,46 @@ def _rotate_steps_lateral(
         theta[i] = wrap(heading[i])
 
 
-@njit(cache=True)
-def _accumulate(dx: F64, dy: F64, x0: float, y0: float) -> None:  # pragma: no cover - compiled
-    """Phase C: positions as running sums of the steps, in place (the streaming order)."""
-    n = dx.shape[0]
+@njit(cache=True, nogil=True)
+def _accumulate_range(
+    dx: F64, dy: F64, lo: int, hi: int, x0: float, y0: float
+) -> tuple[float, float]:  # pragma: no cover - compiled
+    """Phase C on samples ``lo`` to ``hi``, from the position (x0, y0) at sample ``lo - 1`` (the
+    start position when ``lo`` is 0); returns the position at sample ``hi - 1``."""
     xx = x0
     yy = y0
-    for i in range(n):
+    for i in range(lo, hi):
         if i > 0:
             xx = xx + dx[i]
             yy = yy + dy[i]
         dx[i] = xx
         dy[i] = yy
+    return xx, yy
+
+
+@njit(cache=True, nogil=True)
+def _accumulate(dx: F64, dy: F64, x0: float, y0: float) -> None:  # pragma: no cover - compiled
+    """Phase C: positions as running sums of the steps, in place (the streaming order)."""
+    _accumulate_range(dx, dy, 0, dx.shape[0], x0, y0)
+
+
+@njit(cache=True, nogil=True)
+def _finish_range(
+    step: F64,
+    mid: F64,
+    heading: F64,
+    theta: F64,
+    lo: int,
+    hi: int,
+    x0: float,
+    y0: float,
+    poly: bool,
+) -> tuple[float, float]:  # pragma: no cover - compiled
+    """Phases B and C on samples ``lo`` to ``hi`` (no sideways motion), one after the other while
+    the block is in cache; returns the position at sample ``hi - 1``."""
+    _turn_steps(step[lo:hi], mid[lo:hi], poly)
+    _wrap_headings(heading[lo:hi], theta[lo:hi])
+    return _accumulate_range(step, mid, lo, hi, x0, y0)
 
 
 @njit(cache=True)
@@ -233,3 +365,68 @@ def _finish(
     else:
         _rotate_steps(x, y, heading, theta)
     _accumulate(x, y, x0, y0)
+
+
+def pipelined_ticks(
+    t: F64,
+    left: I64,
+    right: I64,
+    modulus: int,
+    max_d: int,
+    kl: float,
+    kr: float,
+    c: F64,
+    arc: bool,
+    start: tuple[float, float, float],
+    out: tuple[F64, F64, F64, F64, F64],
+    block: int,
+) -> tuple[int, int, int]:
+    """Phases A, B and C of a log without sideways motion as a two-stage pipeline on two threads.
+
+    The calling thread runs phase A block by block (``block`` samples), carrying the heading;
+    a second thread runs phases B and C on each block phase A has finished, carrying the
+    position, while the block is still in cache. Every sample takes the same operations in the
+    same order as the passes one after the other, so the poses are bit-identical to theirs,
+    except that the choice between the polynomial sin/cos and libm's (``SINCOS_LIMIT``) is made
+    per block instead of once for the log. ``out`` is (t, x, y, theta, heading); ``start`` is
+    (x0, y0, h0). Returns phase A's (code, index, value) (see :func:`_steps_from_ticks`);
+    after a problem, the arrays past it are not filled."""
+    import queue
+    import threading
+
+    tt, x, y, theta, heading = out
+    x0, y0, hh = start
+    no_lat = np.empty(0)
+    blocks: queue.SimpleQueue[tuple[int, int, float] | None] = queue.SimpleQueue()
+    failure: list[BaseException] = []
+
+    def positions() -> None:
+        xx, yy = x0, y0
+        while (item := blocks.get()) is not None:
+            if failure:
+                continue
+            lo, hi, big = item
+            try:
+                xx, yy = _finish_range(x, y, heading, theta, lo, hi, xx, yy, big < SINCOS_LIMIT)
+            except BaseException as exc:  # handed to the calling thread
+                failure.append(exc)
+
+    worker = threading.Thread(target=positions, name="odolab-positions", daemon=True)
+    worker.start()
+    code, i, d = 0, -1, 0
+    try:
+        for lo in range(0, left.shape[0], block):
+            hi = min(left.shape[0], lo + block)
+            code, i, d, big, hh = _steps_from_ticks(
+                t, left, right, modulus, max_d, kl, kr, c, arc, hh, lo, hi,
+                tt, heading, x, no_lat, y,
+            )  # fmt: skip
+            if code != 0:
+                break
+            blocks.put((lo, hi, big))
+    finally:
+        blocks.put(None)
+        worker.join()
+    if failure:
+        raise failure[0]
+    return code, i, d

@@ -62,6 +62,11 @@ PARALLEL_MIN_SAMPLES = 200_000
 #: cached kernels cost about 0.5 s per process), longer ones by the compiled passes. Chosen by
 #: size alone, so that one log always takes the same path.
 NUMPY_MAX_SAMPLES = 2048
+#: Logs of at least this many samples (compiled, no sideways motion, two threads allowed) are
+#: integrated by a two-stage pipeline: phase A on one thread, phases B and C on another, in
+#: blocks of ``PIPELINE_BLOCK`` samples (a block's arrays stay in cache between the stages).
+PIPELINE_MIN_SAMPLES = 200_000
+PIPELINE_BLOCK = 65_536
 
 
 def _model_arrays(params: RobotParams, n: int) -> tuple[F64, F64]:
@@ -104,6 +109,18 @@ def _slip_steps(
     lat[:] = side * ch
     step[0] = lat[0] = 0.0
     return float(np.max(np.abs(mid)))
+
+
+def _pipelines(n: int, lat: F64, params: RobotParams, parallel: int | None) -> bool:
+    """Whether a log of ``n`` samples is integrated by the two-thread pipeline
+    (:func:`odolab.core._odometry_kernels.pipelined_ticks`): a long log, no sideways motion, a
+    model that does not depend on time, and two threads or more allowed."""
+    if n < PIPELINE_MIN_SAMPLES or lat.size or timed_model(params.model) is not None:
+        return False
+    from odolab.core import _jit
+
+    threads = _jit.get_num_threads() if parallel is None else int(parallel)
+    return _jit.HAVE_NUMBA and threads > 1
 
 
 def _use_kernels(n: int) -> bool:
@@ -250,9 +267,12 @@ def integrate(
     Three compiled passes: (A) sequentially, time check, rollover, eqs. (3.1)-(3.4) and the
     heading; (B) independently per sample, the position step (3.5)/(3.6), on ``parallel``
     threads for long logs (default numba's thread count; ``PARALLEL_MIN_SAMPLES`` or more);
-    (C) the running sums of the steps, in the streaming order. A log shorter than
-    ``NUMPY_MAX_SAMPLES`` takes the same passes in numpy (no compiled code to load). Results
-    equal :class:`Odometry`'s to rounding.
+    (C) the running sums of the steps, in the streaming order. A log of
+    ``PIPELINE_MIN_SAMPLES`` or more without sideways motion, with two threads or more allowed,
+    runs A on the calling thread and B and C on a second one, block by block
+    (:func:`odolab.core._odometry_kernels.pipelined_ticks`; bit-identical to the passes in turn,
+    ``parallel=1``). A log shorter than ``NUMPY_MAX_SAMPLES`` takes the same passes in numpy (no
+    compiled code to load). Results equal :class:`Odometry`'s to rounding.
     """
     return _integrate(
         t, left_ticks, right_ticks, params, method, start=start, max_dticks=max_dticks,
@@ -305,26 +325,25 @@ def _integrate(
                     m is Method.ARC, h0, heading, x, lat, y,
                 )  # fmt: skip
         largest = 0.0
+    elif _pipelines(n, lat, params, parallel):
+        from odolab.core._odometry_kernels import pipelined_ticks
+
+        code, i, d = pipelined_ticks(
+            tin, left, right, params.encoder_modulus or 0, limit,
+            params.left_metres_per_tick, params.right_metres_per_tick, coef,
+            m is Method.ARC, (x0, y0, h0), (tt, x, y, theta, heading), PIPELINE_BLOCK,
+        )  # fmt: skip
+        if code == 0:
+            return Trajectory(tt, x, y, theta, heading)
+        largest = 0.0
     else:
         from odolab.core._odometry_kernels import _steps_from_ticks
 
-        code, i, d, largest = _steps_from_ticks(
-            tin,
-            left,
-            right,
-            params.encoder_modulus or 0,
-            limit,
-            params.left_metres_per_tick,
-            params.right_metres_per_tick,
-            coef,
-            m is Method.ARC,
-            h0,
-            tt,
-            heading,
-            x,
-            lat,
-            y,
-        )
+        code, i, d, largest, _ = _steps_from_ticks(
+            tin, left, right, params.encoder_modulus or 0, limit,
+            params.left_metres_per_tick, params.right_metres_per_tick, coef,
+            m is Method.ARC, h0, 0, n, tt, heading, x, lat, y,
+        )  # fmt: skip
     if code == 0 and timed_model(params.model) is not None:
         lat = np.empty(n)
         largest = _slip_steps(
