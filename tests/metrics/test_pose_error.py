@@ -148,3 +148,31 @@ def test_se2_alignment_onto_one_point_is_refused_not_fitted_to_rounding() -> Non
     # a spread of a micrometre at a kilometre from the origin is still a spread
     far = est * 1e-3 + 1000.0
     assert math.isfinite(rigid_from_points(far, far[::-1].copy()).angle)
+
+
+@given(
+    st.lists(
+        st.floats(
+            allow_nan=False, allow_infinity=False, width=64, min_value=-1e300, max_value=1e300
+        ),
+        min_size=1,
+        max_size=60,
+    )
+)
+def test_median_is_numpys_to_the_bit(values: list[float]) -> None:
+    from odolab.metrics.pose_error import median
+
+    a = np.array(values)
+    assert median(a) == float(np.median(a))
+
+
+def test_median_of_nan_is_nan_and_of_nothing_a_sentence() -> None:
+    from odolab.core.errors import InsufficientDataError
+    from odolab.metrics.pose_error import median
+
+    assert np.isnan(median(np.array([1.0, np.nan, 2.0])))
+    assert median(np.array([3.0, -np.inf, np.inf, 1.0])) == float(
+        np.median([3.0, -np.inf, np.inf, 1.0])
+    )
+    with pytest.raises(InsufficientDataError, match="no values"):
+        median(np.array([]))

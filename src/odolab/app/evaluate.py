@@ -29,7 +29,6 @@ from odolab.core.numfmt import count
 from odolab.core.params import covariance_source
 from odolab.metrics import (
     PLANAR_NOTE,
-    RUN_OPTIONS,
     Alignment,
     DeltaUnit,
     EvaluationOptions,
@@ -103,7 +102,10 @@ class EvaluationRequest:
 def evaluation_options(request: EvaluationRequest) -> EvaluationOptions:
     """The settings of ``request``: evo's defaults for GT EST, a run's (:data:`RUN_OPTIONS`)
     for runs, changed where the request says."""
-    base = RUN_OPTIONS if request.fmt is not None else EvaluationOptions()
+    if request.fmt is not None:
+        from odolab.metrics.runs import RUN_OPTIONS as base  # (not loaded for GT EST)
+    else:
+        base = EvaluationOptions()
     changes: dict[str, Any] = {
         "all_pairs": request.all_pairs,
         "drift_delta_m": request.drift_segment_m,
@@ -223,7 +225,7 @@ def evaluate_trajectories(
     """GT EST: the estimate ``paths[1]`` against the reference ``paths[0]`` (evo's definitions,
     planar); ``progress(rows done, rows, file)`` when read in chunks."""
     from odolab.io import read_trajectory
-    from odolab.metrics import evaluate, evaluate_files
+    from odolab.metrics import evaluate
 
     load_request_params(request)
     if request.fmt is not None:
@@ -233,6 +235,8 @@ def evaluate_trajectories(
     rows = chunk_rows_for(request)
     names = (str(gt), str(est))
     if rows > 0:
+        from odolab.metrics.chunked import evaluate_files
+
         ev = evaluate_files(gt, est, options, chunk_rows=rows, names=names, progress=progress)
     else:
         ev = evaluate(read_trajectory(gt), read_trajectory(est), options, names=names)

@@ -35,8 +35,6 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, overload
 
-import tomli_w
-
 from odolab.core.defaults import DEFAULT_ROBOT
 from odolab.core.errors import ParamsError
 from odolab.core.models import (
@@ -424,6 +422,8 @@ def _save_params(
         doc["noise"] = params.noise.to_dict()
     if provenance:
         doc["provenance"] = provenance
+    import tomli_w  # here: 3 ms of every command's start-up otherwise
+
     from odolab.core.writing import write_text_file
 
     # a temporary file beside it, renamed over it: a link at the path is replaced, not followed

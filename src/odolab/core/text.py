@@ -22,7 +22,6 @@ could do harm, it goes through one of these functions:
 
 from __future__ import annotations
 
-import hashlib
 import unicodedata
 from typing import TYPE_CHECKING
 
@@ -164,6 +163,8 @@ def safe_file_name(text: str, *, what: str = "name", suffix: str = "") -> str:
     name = "".join(chars)
     reserved = name.split(".")[0].upper() in _RESERVED
     if name != text or len(name) > MAX_NAME_CHARS or reserved:
+        import hashlib  # here: 5 ms of every command's start-up otherwise
+
         digest = hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()[:8]
         name = f"{name[: MAX_NAME_CHARS - 9]}-{digest}"
     return name + suffix

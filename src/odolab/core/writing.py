@@ -28,7 +28,6 @@ import math
 import os
 import stat
 import sys
-import tempfile
 import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -166,6 +165,8 @@ def replacing_path(
     tmp: Path | None = None
     try:
         p.parent.mkdir(parents=True, exist_ok=True)
+        import tempfile  # here: 6 ms of every command's start-up otherwise
+
         fd, name = tempfile.mkstemp(
             prefix=f".{p.name[:100]}.", suffix=f".part{p.suffix}", dir=p.parent
         )

@@ -6,6 +6,8 @@ planar trajectories, and differs from evo's 3-D numbers where a trajectory leave
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from odolab.metrics.alignment import (
     Alignment,
     Rigid2D,
@@ -19,7 +21,6 @@ from odolab.metrics.association import (
     interpolate_trajectory,
     matching_time_indices,
 )
-from odolab.metrics.chunked import ErrorStats, evaluate_files, exact_median_from_file
 from odolab.metrics.evaluate import (
     PLANAR_NOTE,
     Drift,
@@ -40,14 +41,17 @@ from odolab.metrics.pose_error import (
     stats_from_errors,
     turn_distances,
 )
-from odolab.metrics.runs import (
-    RUN_OPTIONS,
-    Progress,
-    RunEvaluation,
-    evaluate_run,
-    evaluate_run_files,
-    parallel_map,
-)
+
+if TYPE_CHECKING:
+    from odolab.metrics.chunked import ErrorStats, evaluate_files, exact_median_from_file
+    from odolab.metrics.runs import (
+        RUN_OPTIONS,
+        Progress,
+        RunEvaluation,
+        evaluate_run,
+        evaluate_run_files,
+        parallel_map,
+    )
 
 __all__ = [
     "ANGLE_UNITS",
@@ -85,3 +89,30 @@ __all__ = [
     "transform_trajectory",
     "turn_distances",
 ]
+
+# loaded when first used (PEP 562): a whole-file evaluation needs neither the chunked reader nor
+# the many-runs machinery (their imports: 11 ms of every ``odolab evaluate GT EST``)
+_WHERE = {
+    **dict.fromkeys(
+        ("ErrorStats", "evaluate_files", "exact_median_from_file"), "odolab.metrics.chunked"
+    ),
+    **dict.fromkeys(
+        (
+            "RUN_OPTIONS",
+            "Progress",
+            "RunEvaluation",
+            "evaluate_run",
+            "evaluate_run_files",
+            "parallel_map",
+        ),
+        "odolab.metrics.runs",
+    ),
+}
+
+
+def __getattr__(name: str) -> object:
+    import importlib
+
+    if name not in _WHERE:
+        raise AttributeError(f"module 'odolab.metrics' has no attribute {name!r}")
+    return getattr(importlib.import_module(_WHERE[name]), name)

@@ -39,6 +39,7 @@ __all__ = [
     "ape_rotation",
     "ape_translation",
     "delta_in_si",
+    "median",
     "pair_indices",
     "path_distances",
     "rpe_errors",
@@ -97,6 +98,26 @@ class Stats:
         return asdict(self)
 
 
+def median(values: FloatArray) -> float:
+    """``np.median`` of a 1-D float array (``nan`` when it holds a NaN), without ``np.median``'s
+    import of ``numpy.ma`` (16 ms of every ``odolab evaluate``): the middle value, or the mean
+    of the two middle values, as ``np.median`` computes it.
+
+    Raises:
+        InsufficientDataError: the array is empty."""
+    e = np.asarray(values, dtype=np.float64).ravel()
+    n = e.size
+    if n == 0:
+        raise InsufficientDataError("no values to take the median of")
+    if np.isnan(e).any():
+        return math.nan
+    k = n // 2
+    if n % 2:
+        return float(np.partition(e, k)[k])
+    part = np.partition(e, (k - 1, k))
+    return float(np.mean(part[k - 1 : k + 1]))
+
+
 def stats_from_errors(errors: FloatArray, what: str = "errors") -> Stats:
     """Statistics of ``errors`` (shape (n,), n >= 1) as evo computes them.
 
@@ -109,7 +130,7 @@ def stats_from_errors(errors: FloatArray, what: str = "errors") -> Stats:
     return Stats(
         rmse=math.sqrt(float(np.mean(e * e))),
         mean=float(np.mean(e)),
-        median=float(np.median(e)),
+        median=median(e),
         std=float(np.std(e)),
         min=float(np.min(e)),
         max=float(np.max(e)),
