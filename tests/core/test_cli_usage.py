@@ -48,8 +48,12 @@ def test_piped_help_never_cuts_a_name_or_a_choice(monkeypatch: pytest.MonkeyPatc
             for name in [*param.opts, *getattr(param, "secondary_opts", [])]:
                 if name.startswith("--"):
                     assert name in out, (where, name)
-            display = getattr(param, "display_type_rich", None)
-            shown = display(None) if display is not None else None
+            choices = getattr(getattr(param, "type", None), "choices", None)  # typer 0.28
+            display = getattr(param, "display_type_rich", None)  # typer 0.29
+            if choices:
+                shown: str | None = "<" + "|".join(map(str, choices)) + ">"
+            else:
+                shown = display(None) if display is not None else None
             if shown and "|" in shown:  # a list of choices, <csv|optiodom|bag>: on one line
                 assert shown in out, (where, shown)
                 checked.add(shown)

@@ -185,10 +185,23 @@ def slip_design(
     window_s: float = WINDOW_S,
     *,
     steady: bool = False,
+    memo: RowsMemo | None = None,
 ) -> SlipDesign:
     """The regression rows of prepared runs (:class:`odolab.calibration.lsq.PreparedRun`);
-    ``steady``: only the windows in steady state (:func:`_steady`)."""
-    parts = [p for p in (_run_rows(r, nominal, window_s, steady) for r in runs) if p is not None]
+    ``steady``: only the windows in steady state (:func:`_steady`). ``memo``: each run's rows
+    kept for the next design of the same runs with the same nominal parameters (a fit's
+    cross-fitting folds share their parts: :func:`fit_slip_model`)."""
+
+    def rows_of(run: object) -> _RunRows | None:
+        if memo is None:
+            return _run_rows(run, nominal, window_s, steady)
+        key = (id(run), window_s, steady)
+        kept = memo.get(key)
+        if kept is None or kept[0] is not run:  # (an id is reused only once its run is gone)
+            kept = memo[key] = (run, _run_rows(run, nominal, window_s, steady))
+        return kept[1]
+
+    parts = [p for p in map(rows_of, runs) if p is not None]
     n_steps = sum(p.steps for p in parts)
     full = [p for p in parts if p.durations.size]
     if not full or n_steps == 0:
@@ -224,6 +237,10 @@ def slip_design(
         cat("turn_from_previous"),
         np.vstack([p.shift for p in full]),
     )
+
+
+#: :func:`slip_design`'s rows of each run, by the run's id, window and steadiness
+RowsMemo = dict[tuple[int, float, bool], tuple[object, "_RunRows | None"]]
 
 
 @dataclass(frozen=True, eq=False)
@@ -588,6 +605,7 @@ def _fit_mean(
     base: FloatArray | None = None,
     truth: TruthNoise | None = None,
     shrink: tuple[float, float] | None = None,
+    memo: RowsMemo | None = None,
 ) -> tuple[SlipModel, FloatArray, int, FloatArray, tuple[float, float]]:
     """The coefficients and their posterior by Bayesian linear regression with automatic
     relevance determination about the prior mean ``base`` (0 unless given), and the windows'
@@ -595,11 +613,11 @@ def _fit_mean(
     number of windows, each coefficient's posterior standard deviation over its weak prior's
     (1: the runs told nothing of it))."""
     try:
-        d: SlipDesign | None = slip_design(runs, nominal, window_s, steady=True)
+        d: SlipDesign | None = slip_design(runs, nominal, window_s, steady=True, memo=memo)
     except InsufficientDataError:  # no window in steady state at all
         d = None
     if d is None or d.y_yaw.size < max(2, STEADY_SHARE * d.windows_seen):
-        d = slip_design(runs, nominal, window_s)  # too few steady windows: all of them
+        d = slip_design(runs, nominal, window_s, memo=memo)  # too few steady: all of them
     k = len(FEATURES)
     if d.y_yaw.size < 2:
         raise InsufficientDataError(
@@ -722,10 +740,11 @@ def fit_slip_model(
     )
     pieces: list[_Pieces] = []
     if cross:
+        memo: RowsMemo = {}  # each part is in folds - 1 trainings
         for f in range(folds):
             train = [p[i] for p in parts for i in range(folds) if i != f]
             try:
-                m = _fit_mean(train, nominal, window_s, prior_scale, mean, truth, shrink)[0]
+                m = _fit_mean(train, nominal, window_s, prior_scale, mean, truth, shrink, memo)[0]
             except InsufficientDataError:
                 pieces = []
                 break

@@ -217,35 +217,44 @@ def end_second_order(
     th = theta[HEADING_TERMS]
     a = pairs.steps
     ap = np.stack((-a[..., 1], a[..., 0]), axis=-1)
-    c = np.einsum("h,mkjh->mkj", th, pairs.cc) + pairs.c0
+    cct = pairs.cc.transpose(0, 3, 1, 2)  # (m, 4, K, K), a view
+    c = np.einsum("h,mhkj->mkj", th, cct) + pairs.c0
     s = np.einsum("mkk->mk", c)
     ds = np.einsum("mkkh->mkh", pairs.cc)
     half = np.exp(-0.5 * s)
-    f, g = heading_moments(s[:, :, None], s[:, None, :], c, half[:, :, None], half[:, None, :])
+    # heading_moments, with its two exponentials kept for the derivatives
+    mm = -0.5 * (s[:, :, None] + s[:, None, :])
+    up, down = np.exp(mm + c), np.exp(mm - c)
+    p, q = 0.5 * (up + down), 0.5 * (up - down)
+    f = p - half[:, :, None] - half[:, None, :] + 1.0
+    g = q - c
     at, apt = a.transpose(0, 2, 1), ap.transpose(0, 2, 1)  # (m, 2, K)
     xy = at @ f @ a + apt @ g @ ap
     ce = np.einsum("h,mkh->mk", th, pairs.ce) + pairs.ce0
     xyh = np.einsum("mk,mki->mi", (half - 1.0) * ce, ap)
-    # derivatives: m = -(s_k + s_j) / 2, up = exp(m + c), down = exp(m - c)
-    mm = -0.5 * (s[:, :, None] + s[:, None, :])
-    up, down = np.exp(mm + c), np.exp(mm - c)
-    dm = -0.5 * (ds[:, :, None, :] + ds[:, None, :, :])  # (m, K, K, 4)
-    dc = pairs.cc
-    d_up = up[..., None] * (dm + dc)
-    d_down = down[..., None] * (dm - dc)
-    df = 0.5 * (d_up + d_down)
-    df += (
-        0.5 * (half[:, :, None] * ds)[:, :, None, :] + 0.5 * (half[:, :, None] * ds)[:, None, :, :]
-    )
-    dg = 0.5 * (d_up - d_down) - dc
+    # derivatives by each heading term: with dc = cc[..., h], dm = -(ds_k + ds_j) / 2,
+    # df = p dm + q dc + (half_k ds_k + half_j ds_j) / 2 and dg = q dm + (p - 1) dc, each part
+    # contracted with the steps as it comes, so that no (m, K, K, 4) array but the two dc
+    # products is made (4.5x faster at 60 steps than forming df and dg)
+    pa, qap = p @ a, q @ ap  # (m, K, 2); p and q are symmetric
+    t_m = np.einsum("mkh,mki,mkl->mhil", ds, a, pa) + np.einsum("mkh,mki,mkl->mhil", ds, ap, qap)
+    t_c = at[:, None] @ ((q[:, None] * cct) @ a[:, None])
+    t_c += apt[:, None] @ (((p - 1.0)[:, None] * cct) @ ap[:, None])
+    u = np.einsum("mk,mkh,mki->mhi", half, ds, a)
+    t_h = 0.5 * u[..., :, None] * a.sum(axis=1)[:, None, None, :]
+    d_heading = t_c + _plus_transpose(t_h - 0.5 * t_m)
     nt = len(TERMS)
     d_xy = np.zeros((a.shape[0], nt, 2, 2))
-    df, dg = df.transpose(0, 3, 1, 2), dg.transpose(0, 3, 1, 2)  # (m, 4, K, K)
-    d_xy[:, HEADING_TERMS] = (at[:, None] @ df @ a[:, None]) + (apt[:, None] @ dg @ ap[:, None])
+    d_xy[:, HEADING_TERMS] = d_heading
     d_xyh = np.zeros((a.shape[0], nt, 2))
     dxh = -0.5 * (half * ce)[:, :, None] * ds + (half - 1.0)[:, :, None] * pairs.ce
     d_xyh[:, HEADING_TERMS] = np.einsum("mkh,mki->mhi", dxh, ap)
     return xy, xyh, d_xy, d_xyh
+
+
+def _plus_transpose(x: FloatArray) -> FloatArray:
+    """``x`` plus its transpose in the last two axes."""
+    return x + x.swapaxes(-1, -2)
 
 
 def _cycle(
