@@ -194,12 +194,14 @@ def slip_design(
 
     def rows_of(run: object) -> _RunRows | None:
         if memo is None:
-            return _run_rows(run, nominal, window_s, steady)
-        key = (id(run), window_s, steady)
-        kept = memo.get(key)
-        if kept is None or kept[0] is not run:  # (an id is reused only once its run is gone)
-            kept = memo[key] = (run, _run_rows(run, nominal, window_s, steady))
-        return kept[1]
+            rows = _run_rows(run, nominal, window_s)
+        else:
+            key = (id(run), window_s)
+            kept = memo.get(key)
+            if kept is None or kept[0] is not run:  # (an id is reused only once its run is gone)
+                kept = memo[key] = (run, _run_rows(run, nominal, window_s))
+            rows = kept[1]
+        return rows.only(rows.steady) if steady and rows is not None else rows
 
     parts = [p for p in map(rows_of, runs) if p is not None]
     n_steps = sum(p.steps for p in parts)
@@ -239,8 +241,8 @@ def slip_design(
     )
 
 
-#: :func:`slip_design`'s rows of each run, by the run's id, window and steadiness
-RowsMemo = dict[tuple[int, float, bool], tuple[object, "_RunRows | None"]]
+#: :func:`slip_design`'s rows of each run, by the run's id and window
+RowsMemo = dict[tuple[int, float], tuple[object, "_RunRows | None"]]
 
 
 @dataclass(frozen=True, eq=False)
@@ -265,9 +267,37 @@ class _RunRows:
     phi_sq: FloatArray
     steps: int
     seen: int
+    #: per window: its first and last cycle, the truth's heading at its start, and whether it
+    #: is in steady state (:func:`_steady`)
+    start: NDArray[np.int64]
+    stop: NDArray[np.int64]
+    heading: FloatArray
+    steady: NDArray[np.bool_]
+
+    def only(self, keep: NDArray[np.bool_]) -> _RunRows:
+        """The windows ``keep`` says, as if the run had been cut into those alone."""
+        i, j, h = self.start[keep], self.stop[keep], self.heading[keep]
+        both = np.concatenate((keep, keep))  # the x rows, then the y rows
+        return replace(
+            self,
+            a_xy=self.a_xy[both],
+            y_xy=self.y_xy[both],
+            a_yaw=self.a_yaw[keep],
+            y_yaw=self.y_yaw[keep],
+            durations=self.durations[keep],
+            travel=self.travel[keep],
+            turn=self.turn[keep],
+            chained=np.concatenate(([False], i[1:] == j[:-1]))[: i.size],
+            turn_from_previous=np.concatenate(([0.0], h[1:] - h[:-1]))[: i.size],
+            shift=self.shift[keep],
+            start=i,
+            stop=j,
+            heading=h,
+            steady=self.steady[keep],
+        )
 
 
-def _run_rows(run: object, nominal: RobotParams, window_s: float, steady: bool) -> _RunRows | None:
+def _run_rows(run: object, nominal: RobotParams, window_s: float) -> _RunRows | None:
     """The regression rows of one prepared run (None: fewer than two samples)."""
     t = np.asarray(run.t, dtype=np.float64)  # type: ignore[attr-defined]
     dsl = np.asarray(run.dticks_left) * nominal.left_metres_per_tick  # type: ignore[attr-defined]
@@ -310,9 +340,6 @@ def _run_rows(run: object, nominal: RobotParams, window_s: float, steady: bool) 
         edges = np.append(edges, n - 1)
     i, j = edges[:-1], edges[1:]
     seen = int(i.size)
-    if steady:
-        keep = _steady(t, ds / tt, dth / tt, i, j)
-        i, j = i[keep], j[keep]
 
     def s(c: FloatArray) -> FloatArray:
         return _window_sum(c, i, j)  # sums over cycles i+1..j
@@ -337,6 +364,10 @@ def _run_rows(run: object, nominal: RobotParams, window_s: float, steady: bool) 
         np.concatenate(([0.0], gh[i[1:]] - gh[i[:-1]]))[: i.size],
         np.column_stack((c0 * dxw + s0 * dyw, -s0 * dxw + c0 * dyw)),
         seen=seen,
+        start=i,
+        stop=j,
+        heading=gh[i],
+        steady=_steady(t, ds / tt, dth / tt, i, j),
         **stats,
     )
 
