@@ -111,3 +111,22 @@ def test_an_asymmetric_model_is_pipelined_and_one_with_sideways_motion_is_not() 
         integrate(t, left, right, sideways, parallel=2),
         integrate(t, left, right, sideways, parallel=1),
     )
+
+
+def test_counter_steps_past_int32_take_the_careful_loop(monkeypatch: pytest.MonkeyPatch) -> None:
+    # the vectorized phase A converts a counter step through int32: a step of 2**31 or more
+    # (no modulus, no limit) must take the careful loop, and give numpy's poses
+    base = PRESETS["jaguar-lite"]
+    params = replace(base, encoder_modulus=None)
+    n = 5000
+    rng = np.random.default_rng(6)
+    left = np.cumsum(rng.integers(-40, 41, n)).astype(np.int64)
+    right = np.cumsum(rng.integers(-40, 41, n)).astype(np.int64)
+    left[n // 2 :] += 3 * 2**31  # one step of 6.4e9 counts
+    t = np.arange(n) * 0.05
+    compiled = integrate(t, left, right, params, max_dticks=2**40, parallel=1)
+    monkeypatch.setattr(od, "NUMPY_MAX_SAMPLES", 10**12)
+    plain = integrate(t, left, right, params, max_dticks=2**40)
+    for name in ("x", "y", "heading"):
+        np.testing.assert_allclose(getattr(compiled, name), getattr(plain, name), rtol=1e-13)
+    assert abs(compiled.heading[n // 2] - compiled.heading[n // 2 - 1]) > 1e3  # the step is in

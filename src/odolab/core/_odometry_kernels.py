@@ -20,6 +20,7 @@ F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
 Coef = tuple[float, float, float, float, float, float]
 _INT_MAX = 2**62  # beyond any counter difference; a bound that a comparison never passes
+_INT32_MAX = 2**31 - 1
 
 
 @njit(cache=True, inline="always")
@@ -139,7 +140,9 @@ def _model_steps(  # pragma: no cover - compiled
     # unwrap_diff's first correction, without its rare modulo fallback; no branch in the loop
     top, low = (modulus - half, -half) if modulus > 0 else (_INT_MAX, -_INT_MAX)
     wrap_by = modulus if modulus > 0 else 0
-    limit = max_d if max_d >= 0 else _INT_MAX
+    # and |d| below 2**31, so that it converts to a float through int32 (a vector instruction;
+    # int64 has none before AVX-512), exactly
+    limit = min(max_d if max_d >= 0 else _INT_MAX, _INT32_MAX)
     bad = False  # or-ed with | (not "or"/"and", which branch and stop the vectorizing)
     for i in range(1, t.shape[0]):
         ti = t[i]
@@ -151,8 +154,8 @@ def _model_steps(  # pragma: no cover - compiled
         dr = dr - wrap_by * (dr >= top) + wrap_by * (dr < low)
         bad |= (dl >= top) | (dl < low) | (dr >= top) | (dr < low)
         bad |= (abs(dl) > limit) | (abs(dr) > limit)
-        dsl = float(dl) * kl
-        dsr = float(dr) * kr
+        dsl = float(np.int32(dl)) * kl
+        dsr = float(np.int32(dr)) * kr
         dth[i] = (e_r * dsr - e_l * dsl) / den  # body_motion's operations, in its order
         step[i] = w_l * dsl + w_r * dsr
     return not bad
