@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -131,6 +132,9 @@ def test_markers_print_and_read_back(tmp_path: Path) -> None:
     img = cv2.imread(str(tmp_path / "marker_17.png"), cv2.IMREAD_GRAYSCALE)
     # the black square is 0.1 m at 150 dpi, the quiet zone one bit (1/6 of it) each side
     assert img.shape[0] == round(0.1 / 0.0254 * 150) + 2 * round(0.1 / 0.0254 * 150 / 6)
+    # the PDF carries the PNG's own pixels, not a copy resampled to the figure's resolution
+    pdf = (tmp_path / "marker_17.pdf").read_bytes()
+    assert re.findall(rb"/Width (\d+)", pdf) == [str(img.shape[1]).encode()]
     det = cv2.aruco.ArucoDetector(cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_4X4_50))
     _, ids, _ = det.detectMarkers(img)
     assert ids is not None and ids.reshape(-1).tolist() == [17]

@@ -115,7 +115,9 @@ def _write_pdf(
     fig = Figure(figsize=(total_in + 2 * margin, total_in + 2 * margin + 0.4))
     w, h = fig.get_size_inches()
     ax = fig.add_axes((margin / w, (margin + 0.4) / h, total_in / w, total_in / h))
-    ax.imshow(img, cmap="gray", vmin=0, vmax=255, interpolation="nearest")
+    # "none": the PDF carries the marker's own pixels (the PNG's, at its dpi), not a copy
+    # resampled to the figure's 100 dpi (a third of the pixels, and 3.4x the time)
+    ax.imshow(img, cmap="gray", vmin=0, vmax=255, interpolation="none")
     ax.set_axis_off()
     fig.text(
         0.5, 0.3 / h, f"{name} id {marker_id}: black square {size * 1000:.1f} mm - print at 100 %",
