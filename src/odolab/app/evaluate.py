@@ -264,6 +264,8 @@ class RunSetEvaluation:
         """What the numbers are: planar, the parameters, and each kind of undefined number with
         how many runs have it (a run that turns in place has no drift per metre)."""
         out = [PLANAR_NOTE, self.params_source]
+        if self.report.chosen:
+            out.append(f"computed in {self.report.where}")
         for r in self.done:  # what a reader says its data are (a bag's odometry, AMCL)
             out.extend(f"{n} ({r.name})" for n in r.data_notes if f"{n} ({r.name})" not in out)
         seen: dict[str, tuple[int, str]] = {}  # what is undefined: runs, the first run's reason
@@ -380,7 +382,7 @@ def calibrate_lsq_runs(
     *,
     read_options: ReadOptions,
     cluster: Cluster,
-    workers: int = 2,
+    workers: int | None = None,
     progress: Progress | None = None,
 ) -> LsqResult:
     """Fit ``request.model`` to the runs' ground truth; evaluate the held-out runs with the

@@ -112,7 +112,7 @@ def compare_files(
     validate: Sequence[str | Path] = (),
     nominal: RobotParams | None = None,
     read_options: ReadOptions | None = None,
-    workers: int = 2,
+    workers: int | None = None,
     progress: Callable[[int, int, str], None] | None = None,
 ) -> ModelComparison:
     """:func:`compare_runs` of the runs found under ``paths`` (and held out: ``validate``)."""

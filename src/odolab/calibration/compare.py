@@ -813,7 +813,7 @@ def compare_model_files(
     models: Sequence[str] = DEFAULT_MODELS,
     options: LsqOptions | None = None,
     read_options: ReadOptions | None = None,
-    workers: int = 2,
+    workers: int | None = None,
     progress: Progress | None = None,
     seed: int = 0,
     curve: Sequence[float] = (),

@@ -920,7 +920,7 @@ def calibrate_lsq_files(
     validate: Sequence[str | Path] = (),
     options: LsqOptions | None = None,
     read_options: ReadOptions | None = None,
-    workers: int = 2,
+    workers: int | None = None,
     progress: Progress | None = None,
     cluster: Cluster | None = None,
 ) -> LsqCalibration:

@@ -195,7 +195,7 @@ def odometry_many(
     start: tuple[float, float, float] | None,
     max_dticks: int | None,
     chunk_rows: int,
-    workers: int,
+    workers: int | None,
     scheduler: str | None,
     covariance: bool = False,
 ) -> None:
@@ -242,7 +242,7 @@ def odometry_many(
     ok = sum(1 for o in outcomes if o.ok)
     Console().print(
         f"{ok} of {len(outcomes)} logs -> {term(str(output))} ({rows:,} poses; "
-        f"{rep.where}, {rep.seconds:.1f} s)",
+        f"{said(rep.where)}, {rep.seconds:.1f} s)",
         markup=False,
     )
     report_failures(outcomes, rep, None)

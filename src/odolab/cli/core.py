@@ -91,7 +91,12 @@ OdoChunkRowsOpt = Annotated[
     ),
 ]
 OdoWorkersOpt = Annotated[
-    int, typer.Option(help="Many logs: local Dask worker processes (1: in this process).")
+    int | None,
+    typer.Option(
+        help="Many logs: local Dask worker processes (1: in this process; default: in this "
+        "process for fewer than 64 logs, else 2).",
+        show_default=False,
+    ),
 ]
 OdoSchedulerOpt = Annotated[
     str | None,
@@ -118,7 +123,7 @@ def odometry_cmd(
     start: OdoStartOpt = None,
     max_dticks: OdoMaxDticksOpt = None,
     chunk_rows: OdoChunkRowsOpt = None,
-    workers: OdoWorkersOpt = 2,
+    workers: OdoWorkersOpt = None,
     scheduler: OdoSchedulerOpt = None,
     covariance: OdoCovarianceOpt = False,
 ) -> None:

@@ -86,7 +86,12 @@ ParamsOpt = Annotated[
     typer.Option("--params", "-p", help="Parameters TOML or preset (default: the log's)."),
 ]
 WorkersOpt = Annotated[
-    int, typer.Option(help="Local Dask worker processes for many runs (1: in this process).")
+    int | None,
+    typer.Option(
+        help="Local Dask worker processes for many runs (1: in this process; default: in this "
+        "process for fewer than 64 runs, else 2).",
+        show_default=False,
+    ),
 ]
 SchedulerOpt = Annotated[
     str | None,
@@ -203,7 +208,7 @@ def evaluate_cmd(
     drift_segment: EvalDriftSegmentOpt = 1.0,
     drift_turn: EvalDriftTurnOpt = 90.0,
     json_out: EvalJsonOutOpt = None,
-    workers: WorkersOpt = 2,
+    workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
     results: EvalResultsOpt = None,
     joint_topic: JointTopicOpt = "/joint_states",
@@ -476,7 +481,7 @@ def calibrate_lsq_cmd(
     segment: LsqSegmentOpt = 2.0,
     no_gt_yaw_offset: LsqNoGtYawOffsetOpt = False,
     json_out: LsqJsonOutOpt = None,
-    workers: WorkersOpt = 2,
+    workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
     joint_topic: JointTopicOpt = "/joint_states",
     joints: JointsOpt = ("left_wheel_joint", "right_wheel_joint"),

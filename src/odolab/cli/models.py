@@ -77,7 +77,7 @@ def calibrate_compare_cmd(
     segment: CompareSegmentOpt = 2.0,
     seed: CompareSeedOpt = 0,
     json_out: CompareJsonOutOpt = None,
-    workers: WorkersOpt = 2,
+    workers: WorkersOpt = None,
     joint_topic: JointTopicOpt = "/joint_states",
     joints: JointsOpt = ("left_wheel_joint", "right_wheel_joint"),
     gt_topic: GtTopicOpt = "/ground_truth",

@@ -5,7 +5,9 @@ order: the result, or the error of that item alone (one sentence), never losing 
 worker that dies mid-run loses only time: the scheduler runs its tasks again elsewhere (Dask's
 ``allowed-failures``), and the loss is reported in :attr:`MapReport.lost_workers`.
 
-``Cluster(workers=1)`` (or a single item) runs everything here, in this process, with no Dask.
+``Cluster(workers=1)`` (or a single item) runs everything here, in this process, with no Dask;
+so does ``Cluster()`` (no scheduler, no number of workers) for fewer than
+:data:`IN_PROCESS_BELOW` items, and the report says so (:meth:`Cluster.where`).
 """
 
 from __future__ import annotations
@@ -25,11 +27,28 @@ if TYPE_CHECKING:
     from distributed import Client, LocalCluster
     from distributed.security import Security
 
-__all__ = ["Cluster", "MapReport", "Outcome", "local_cluster", "map_outcomes"]
+__all__ = [
+    "DEFAULT_WORKERS",
+    "IN_PROCESS_BELOW",
+    "Cluster",
+    "MapReport",
+    "Outcome",
+    "local_cluster",
+    "map_outcomes",
+]
 
 T = TypeVar("T")
 R = TypeVar("R")
 Progress = Callable[[int, int, str], None]
+
+
+#: With no scheduler and no number of workers given, fewer items than this run in this process:
+#: a local cluster's start (2-3 s: its processes, their imports, its certificate) takes longer
+#: than they do (docs/scale.md: 118-141 runs/s in the command's process against 61-85 on a local
+#: cluster of 2, its start included, for 2,000 runs on 2 cores).
+IN_PROCESS_BELOW = 64
+#: Worker processes of a local cluster when none are given.
+DEFAULT_WORKERS = 2
 
 
 @dataclass(frozen=True)
@@ -38,14 +57,15 @@ class Cluster:
 
     ``scheduler``: a Dask scheduler address (``tcp://HOST:PORT``, ``tls://``), used with Dask's
     own configuration (its TLS and authentication settings); None starts a local cluster of
-    ``workers`` processes with one thread each (2 by default: this machine's cores), bound to
-    127.0.0.1, reached only with TLS and a certificate made for it (:func:`local_cluster`), and
-    stops it afterwards. ``workers <= 1`` with no scheduler: in this process.
+    ``workers`` processes with one thread each, bound to 127.0.0.1, reached only with TLS and a
+    certificate made for it (:func:`local_cluster`), and stops it afterwards. ``workers <= 1``
+    with no scheduler: in this process. ``workers`` None (the default): in this process for
+    fewer than :data:`IN_PROCESS_BELOW` items, else a local cluster of :data:`DEFAULT_WORKERS`.
     ``timeout``: seconds to wait for the scheduler to answer.
     """
 
     scheduler: str | None = None
-    workers: int = 2
+    workers: int | None = None
     timeout: float = 30.0
 
     def __post_init__(self) -> None:
@@ -56,7 +76,8 @@ class Cluster:
                 value=self.scheduler,
                 allowed="an address like tcp://HOST:PORT",
             )
-        if isinstance(self.workers, bool) or int(self.workers) != self.workers or self.workers < 1:
+        w = self.workers
+        if w is not None and (isinstance(w, bool) or int(w) != w or w < 1):
             raise OdolabError(
                 f"{opt('workers')} is {self.workers!r}; expected a whole number >= 1",
                 option="workers",
@@ -66,16 +87,42 @@ class Cluster:
 
     @property
     def local(self) -> bool:
-        """True when nothing leaves this process."""
-        return self.scheduler is None and self.workers <= 1
+        """True when nothing leaves this process, whatever the number of items."""
+        return self.scheduler is None and self.workers is not None and self.workers <= 1
+
+    def here_for(self, count: int) -> bool:
+        """Whether ``count`` items run in this process (the rule of the class's doc)."""
+        if self.scheduler is not None:
+            return False
+        if self.workers is None:
+            return count < IN_PROCESS_BELOW
+        return self.workers <= 1 or count <= 1
 
     def describe(self) -> str:
-        """Short text for a terminal: where the work ran."""
+        """Short text for a terminal: where many items run."""
         if self.scheduler is not None:
             return f"Dask cluster at {self.scheduler}"
-        if self.workers <= 1:
+        if self.local:
             return "this process"
-        return f"local Dask cluster, {self.workers} worker processes"
+        return f"local Dask cluster, {self.workers or DEFAULT_WORKERS} worker processes"
+
+    def chooses(self, count: int) -> bool:
+        """Whether odolab chooses where ``count`` items run (no scheduler, no workers given)."""
+        return self.scheduler is None and self.workers is None and count > 1
+
+    def where(self, count: int) -> str:
+        """Where ``count`` items run, in words, with the reason when odolab chose it."""
+        if not self.chooses(count):
+            return "this process" if self.here_for(count) else self.describe()
+        if self.here_for(count):
+            return (
+                f"this process ({count} runs, fewer than {IN_PROCESS_BELOW}: a local Dask "
+                f"cluster would take longer to start than they take; {opt('workers')} 2 starts one)"
+            )
+        return (
+            f"{self.describe()} ({count} runs, {IN_PROCESS_BELOW} or more; {opt('workers')} 1 "
+            "keeps them in this process)"
+        )
 
 
 @dataclass(frozen=True)
@@ -100,6 +147,9 @@ class MapReport:
     """What happened on the cluster: where, how long, which workers were lost."""
 
     where: str
+    #: whether odolab chose where (:meth:`Cluster.chooses`): then ``where`` says why, and the
+    #: faces say it
+    chosen: bool = False
     seconds: float = 0.0
     workers_seen: set[str] = field(default_factory=set)
     lost_workers: list[str] = field(default_factory=list)
@@ -165,7 +215,7 @@ def _client(cluster: Cluster) -> Iterator[Client]:
         with client:
             yield client
         return
-    with local_cluster(int(cluster.workers)) as local, Client(local) as client:
+    with local_cluster(cluster.workers or DEFAULT_WORKERS) as local, Client(local) as client:
         yield client
 
 
@@ -238,12 +288,13 @@ def map_outcomes(
     (default: up to 32, at least 4 tasks per worker).
     """
     c = cluster or Cluster()
-    rep = report if report is not None else MapReport(c.describe())
-    rep.where = c.describe()
-    labels = [label(x) for x in items]
     total = len(items)
+    rep = report if report is not None else MapReport(c.where(total))
+    rep.where = c.where(total)
+    rep.chosen = c.chooses(total)
+    labels = [label(x) for x in items]
     t0 = time.perf_counter()
-    if c.local or (c.scheduler is None and total <= 1):
+    if c.here_for(total):
         out: list[Outcome[R]] = []
         for k, (item, name) in enumerate(zip(items, labels, strict=True), start=1):
             out.append(_run_one(func, item, name))

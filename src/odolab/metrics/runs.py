@@ -57,7 +57,7 @@ def parallel_map(
     func: Callable[[T], R],
     items: Sequence[T],
     *,
-    workers: int = 2,
+    workers: int | None = None,
     progress: Progress | None = None,
     label: Callable[[T], str] = str,
     cluster: Cluster | None = None,
@@ -161,7 +161,7 @@ def evaluate_run_files(
     options: EvaluationOptions = RUN_OPTIONS,
     read_options: ReadOptions | None = None,
     method: Method | str = Method.MIDPOINT,
-    workers: int = 2,
+    workers: int | None = None,
     progress: Progress | None = None,
     cluster: Cluster | None = None,
 ) -> list[RunEvaluation]:
