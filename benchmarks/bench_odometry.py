@@ -119,8 +119,9 @@ def breakdown(t, left, right, params: RobotParams, repeats: int, total: float, f
                             False, 0.0, 0, n, tt, heading, x, lat, y)  # fmt: skip
 
     def model_steps() -> None:
-        k._model_steps(t, left, right, params.encoder_modulus, max_d,
-                       params.left_metres_per_tick, params.right_metres_per_tick, coef, tt, x, y)  # fmt: skip
+        counts = (params.encoder_modulus, max_d, params.left_metres_per_tick,
+                  params.right_metres_per_tick)  # fmt: skip
+        k._model_steps(t, left, right, counts, coef, tt, x, y)
 
     def first_touch() -> None:
         for a in (np.empty(n) for _ in range(5)):

@@ -19,6 +19,7 @@ from odolab.core._kinematics_jit import body_motion, chord, wrap
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
 Coef = tuple[float, float, float, float, float, float]
+Counts = tuple[int, int, float, float]  # modulus, largest step, metres per count left, right
 _INT_MAX = 2**62  # beyond any counter difference; a bound that a comparison never passes
 _INT32_MAX = 2**31 - 1
 
@@ -87,7 +88,7 @@ def _steps_from_ticks(  # pragma: no cover - compiled
     ob, hb, sb, mb = tout[base:hi], heading[base:hi], step[base:hi], mid[base:hi]
     ab = lat[base:hi] if has_lat else lat
     fast = not arc and not has_lat  # the midpoint rule (chord 1) and no sideways motion
-    if fast and _model_steps(tb, lb, rb, modulus, max_d, kl, kr, c, ob, sb, mb):
+    if fast and _model_steps(tb, lb, rb, (modulus, max_d, kl, kr), c, ob, sb, mb):
         big, hh = _headings(h0, hb, mb)
         return 0, -1, 0, big, hh
     hh = h0
@@ -117,24 +118,16 @@ def _steps_from_ticks(  # pragma: no cover - compiled
 
 @njit(cache=True, nogil=True)
 def _model_steps(  # pragma: no cover - compiled
-    t: F64,
-    left: I64,
-    right: I64,
-    modulus: int,
-    max_d: int,
-    kl: float,
-    kr: float,
-    c: F64,
-    tout: F64,
-    step: F64,
-    dth: F64,
+    t: F64, left: I64, right: I64, counts: Counts, c: F64, tout: F64, step: F64, dth: F64
 ) -> bool:
     """Phase A's work that is independent per sample, on views that start one sample early:
-    times copied, counters unwrapped, the midpoint model's forward step into ``step`` and turn
-    into ``dth`` from index 1 on. No branch leaves the loop, so that it vectorizes; returns
+    times copied, counters unwrapped (``counts``: the counters' modulus, the largest step
+    allowed, the metres per count left and right), the midpoint model's forward step into
+    ``step`` and turn into ``dth`` from index 1 on. No branch leaves the loop, so that it vectorizes; returns
     False where any sample needs :func:`_steps_from_ticks`'s careful loop (a time not
     finite or going backwards, a jump, a counter outside its range), which then finds the first
     problem and says it."""
+    modulus, max_d, kl, kr = counts
     half = modulus // 2
     w_l, w_r, e_l, e_r, den = c[0], c[1], c[2], c[3], c[4]
     # unwrap_diff's first correction, without its rare modulo fallback; no branch in the loop
@@ -374,10 +367,7 @@ def pipelined_ticks(
     t: F64,
     left: I64,
     right: I64,
-    modulus: int,
-    max_d: int,
-    kl: float,
-    kr: float,
+    counts: Counts,
     c: F64,
     arc: bool,
     start: tuple[float, float, float],
@@ -391,14 +381,16 @@ def pipelined_ticks(
     position, while the block is still in cache. Every sample takes the same operations in the
     same order as the passes one after the other, so the poses are bit-identical to theirs,
     except that the choice between the polynomial sin/cos and libm's (``SINCOS_LIMIT``) is made
-    per block instead of once for the log. ``out`` is (t, x, y, theta, heading); ``start`` is
-    (x0, y0, h0). Returns phase A's (code, index, value) (see :func:`_steps_from_ticks`);
-    after a problem, the arrays past it are not filled."""
+    per block instead of once for the log. ``counts``: as :func:`_model_steps` takes them;
+    ``out`` is (t, x, y, theta, heading); ``start`` is (x0, y0, h0). Returns phase A's (code,
+    index, value) (see :func:`_steps_from_ticks`); after a problem, the arrays past it are not
+    filled."""
     import queue
     import threading
 
     tt, x, y, theta, heading = out
     x0, y0, hh = start
+    modulus, max_d, kl, kr = counts
     no_lat = np.empty(0)
     blocks: queue.SimpleQueue[tuple[int, int, float] | None] = queue.SimpleQueue()
     failure: list[BaseException] = []

@@ -328,10 +328,11 @@ def _integrate(
     elif _pipelines(n, lat, params, parallel):
         from odolab.core._odometry_kernels import pipelined_ticks
 
+        counts = (params.encoder_modulus or 0, limit, params.left_metres_per_tick,
+                  params.right_metres_per_tick)  # fmt: skip
         code, i, d = pipelined_ticks(
-            tin, left, right, params.encoder_modulus or 0, limit,
-            params.left_metres_per_tick, params.right_metres_per_tick, coef,
-            m is Method.ARC, (x0, y0, h0), (tt, x, y, theta, heading), PIPELINE_BLOCK,
+            tin, left, right, counts, coef, m is Method.ARC, (x0, y0, h0),
+            (tt, x, y, theta, heading), PIPELINE_BLOCK,
         )  # fmt: skip
         if code == 0:
             return Trajectory(tt, x, y, theta, heading)
