@@ -92,11 +92,7 @@ OdoChunkRowsOpt = Annotated[
 ]
 OdoWorkersOpt = Annotated[
     int | None,
-    typer.Option(
-        help="Many logs: local Dask worker processes (1: in this process; default: in this "
-        "process for fewer than 64 logs, else 2).",
-        show_default=False,
-    ),
+    typer.Option(help="Many logs: Dask workers (default: none below 64 logs, else 2)."),
 ]
 OdoSchedulerOpt = Annotated[
     str | None,

@@ -87,11 +87,7 @@ ParamsOpt = Annotated[
 ]
 WorkersOpt = Annotated[
     int | None,
-    typer.Option(
-        help="Local Dask worker processes for many runs (1: in this process; default: in this "
-        "process for fewer than 64 runs, else 2).",
-        show_default=False,
-    ),
+    typer.Option(help="Dask workers for many runs (default: none below 64 runs, else 2)."),
 ]
 SchedulerOpt = Annotated[
     str | None,
