@@ -247,8 +247,9 @@ RowsMemo = dict[tuple[int, float], tuple[object, "_RunRows | None"]]
 
 @dataclass(frozen=True, eq=False)
 class _RunRows:
-    """One run's windows in :func:`slip_design` (see :class:`SlipDesign`), whether each starts
-    where the one before it ended (``chained``), and the run's sums of squared speeds, turn
+    """One run's windows in :func:`slip_design` (see :class:`SlipDesign`; ``chained`` and
+    ``turn_from_previous`` follow from each window's ``start``, ``stop`` and ``heading``), and the
+    run's sums of squared speeds, turn
     rates and features over its ``steps`` timed cycles; ``seen`` windows before the steady
     ones were kept."""
 
@@ -259,8 +260,6 @@ class _RunRows:
     durations: FloatArray
     travel: FloatArray
     turn: FloatArray
-    chained: NDArray[np.bool_]
-    turn_from_previous: FloatArray
     shift: FloatArray
     v_sq: float
     w_sq: float
@@ -274,9 +273,19 @@ class _RunRows:
     heading: FloatArray
     steady: NDArray[np.bool_]
 
+    @property
+    def chained(self) -> NDArray[np.bool_]:
+        """Per window: whether it starts where the one before it ended."""
+        return np.concatenate(([False], self.start[1:] == self.stop[:-1]))[: self.start.size]
+
+    @property
+    def turn_from_previous(self) -> FloatArray:
+        """Per window: the truth's heading change from the previous window's start (rad)."""
+        h = self.heading
+        return np.concatenate(([0.0], h[1:] - h[:-1]))[: h.size]
+
     def only(self, keep: NDArray[np.bool_]) -> _RunRows:
         """The windows ``keep`` says, as if the run had been cut into those alone."""
-        i, j, h = self.start[keep], self.stop[keep], self.heading[keep]
         both = np.concatenate((keep, keep))  # the x rows, then the y rows
         return replace(
             self,
@@ -287,12 +296,10 @@ class _RunRows:
             durations=self.durations[keep],
             travel=self.travel[keep],
             turn=self.turn[keep],
-            chained=np.concatenate(([False], i[1:] == j[:-1]))[: i.size],
-            turn_from_previous=np.concatenate(([0.0], h[1:] - h[:-1]))[: i.size],
             shift=self.shift[keep],
-            start=i,
-            stop=j,
-            heading=h,
+            start=self.start[keep],
+            stop=self.stop[keep],
+            heading=self.heading[keep],
             steady=self.steady[keep],
         )
 
@@ -360,8 +367,6 @@ def _run_rows(run: object, nominal: RobotParams, window_s: float) -> _RunRows | 
         t[j] - t[i],
         s(cum(mult[:, 3])),
         s(cum(mult[:, 5])),
-        np.concatenate(([False], i[1:] == j[:-1]))[: i.size],
-        np.concatenate(([0.0], gh[i[1:]] - gh[i[:-1]]))[: i.size],
         np.column_stack((c0 * dxw + s0 * dyw, -s0 * dxw + c0 * dyw)),
         seen=seen,
         start=i,
