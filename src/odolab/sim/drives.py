@@ -81,6 +81,30 @@ class Drive:
     stalled: bool
 
 
+def _schedule(
+    legs: Sequence[Leg], reports: Sequence[int], period: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The wheel speeds (left, right) commanded at each report: ``reports[i]`` reports of
+    ``period`` seconds for leg ``i``, whose ``ramp`` eases in from the previous leg's speeds
+    (from rest before the first), at each report's middle."""
+    left: list[NDArray[np.float64]] = [np.empty(0)]
+    right: list[NDArray[np.float64]] = [np.empty(0)]
+    vl0, vr0 = 0.0, 0.0
+    for leg, n in zip(legs, reports, strict=True):
+        vl = np.full(n, float(leg.left))
+        vr = np.full(n, float(leg.right))
+        if leg.ramp > 0:
+            mid = (np.arange(n) + 0.5) * period  # each report's middle, as a float per report
+            easing = mid < leg.ramp
+            f = mid[easing] / leg.ramp
+            vl[easing] = vl0 + f * (leg.left - vl0)
+            vr[easing] = vr0 + f * (leg.right - vr0)
+        left.append(vl)
+        right.append(vr)
+        vl0, vr0 = leg.left, leg.right
+    return np.concatenate(left), np.concatenate(right)
+
+
 def drive(
     truth: TrueParams,
     nominal: RobotParams,
@@ -101,31 +125,13 @@ def drive(
     robot = VirtualRobot(truth, nominal, terrain, seed=seed, dt=dt)
     robot.reset(misalign=False)
     period = 1.0 / report_rate
-    rows: list[tuple[float, float, float, float, float, float]] = []
-    stalled = False
-
-    def record() -> None:
-        p = robot.true_pose
-        wl, wr = robot.wheel_ticks()
-        rows.append((robot.time, wl, wr, p.x, p.y, p.heading))
-
-    record()
-    vl0, vr0 = 0.0, 0.0
     plan = [*legs, Leg(0.0, 0.0, max(settle, period))]
-    for leg in plan:
-        n = max(1, round(leg.duration / period))
-        for k in range(n):
-            if leg.ramp > 0 and (k + 0.5) * period < leg.ramp:
-                f = (k + 0.5) * period / leg.ramp
-                vl, vr = vl0 + f * (leg.left - vl0), vr0 + f * (leg.right - vr0)
-            else:
-                vl, vr = leg.left, leg.right
-            robot.set_wheel_speeds(vl, vr)
-            robot.advance(period)
-            stalled = stalled or robot.stalled
-            record()
-        vl0, vr0 = leg.left, leg.right
-    a = np.array(rows)
+    left, right = _schedule(plan, [max(1, round(leg.duration / period)) for leg in plan], period)
+    p = robot.true_pose
+    a = np.vstack([[(p.t, *robot.wheel_ticks(), p.x, p.y, p.heading)],
+                   robot.run_schedule(left, right, period)])  # fmt: skip
+    # stalled at some report: robot.stalled's rule (a turn in place where none can be made)
+    stalled = not robot.terrain.can_turn_in_place and bool(np.any(left * right < 0.0))
     ticks_l = np.floor(a[:, 1] + 0.5)
     ticks_r = np.floor(a[:, 2] + 0.5)
     dl = np.diff(ticks_l, prepend=ticks_l[0])
@@ -232,31 +238,16 @@ def record_drive(
     robot = VirtualRobot(truth, nominal, terrain, seed=seed, dt=dt)
     robot.reset(misalign=False)
     period = 1.0 / rate
-    t, tl, tr = [0.0], [0.0], [0.0]
-    pose = robot.true_pose
-    x, y, h = [pose.x], [pose.y], [pose.heading]
+    plan = [item if isinstance(item, Leg) else Leg(*item) for item in legs]
+    left, right = _schedule(plan, [round(leg.duration * rate) for leg in plan], period)
+    p = robot.true_pose
     l0, r0 = robot.wheel_ticks()
-    clock = 0.0
-    vl0, vr0 = 0.0, 0.0
-    for item in legs:
-        leg = item if isinstance(item, Leg) else Leg(*item)
-        for k in range(round(leg.duration * rate)):
-            if leg.ramp > 0 and (k + 0.5) * period < leg.ramp:
-                f = (k + 0.5) * period / leg.ramp
-                robot.set_wheel_speeds(vl0 + f * (leg.left - vl0), vr0 + f * (leg.right - vr0))
-            elif k == 0 or leg.ramp > 0:
-                robot.set_wheel_speeds(leg.left, leg.right)
-            robot.advance(period)
-            clock += period
-            wl, wr = robot.wheel_ticks()
-            pose = robot.true_pose
-            t.append(clock)
-            tl.append(wl - l0)
-            tr.append(wr - r0)
-            x.append(pose.x)
-            y.append(pose.y)
-            h.append(pose.heading)
-        vl0, vr0 = leg.left, leg.right
-    robot.set_wheel_speeds(0.0, 0.0)
-    tt = np.array(t)
-    return RecordedDrive(tt, np.array(tl), np.array(tr), Trajectory.from_xyh(tt, x, y, h))
+    rows = robot.run_schedule(left, right, period)
+    # the robot's clock: from 0 at its construction, a period added at each report
+    tt = np.concatenate([[0.0], rows[:, 0]])
+    tl = np.concatenate([[0.0], rows[:, 1] - l0])
+    tr = np.concatenate([[0.0], rows[:, 2] - r0])
+    x = np.concatenate([[p.x], rows[:, 3]])
+    y = np.concatenate([[p.y], rows[:, 4]])
+    h = np.concatenate([[p.heading], rows[:, 5]])
+    return RecordedDrive(tt, tl, tr, Trajectory.from_xyh(tt, x, y, h))

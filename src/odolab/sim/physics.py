@@ -307,6 +307,54 @@ def _advance(state, p, vl, vr, dt, nsteps, z):  # type: ignore[no-untyped-def]  
     return False
 
 
+@njit(cache=True)
+def _run_schedule(state, p, left, right, vl0, vr0, stalled0, period, dt, nsteps, rest, z, t0, out):  # type: ignore[no-untyped-def]  # pragma: no cover
+    """:meth:`VirtualRobot.run_schedule`'s loop: for each report k, the wheel speeds
+    ``left[k]``, ``right[k]`` set as :meth:`~VirtualRobot.set_wheel_speeds` sets them (an abrupt
+    stop slides), ``period`` advanced as :meth:`~VirtualRobot.advance` advances it (``nsteps``
+    steps of ``dt``, then one of ``rest`` when it is not 0) with the draws ``z`` in order, and
+    (time, wheel ticks left and right, x, y, unwrapped heading) written to ``out[k]``. The
+    same operations in the same order as those methods, so the same numbers."""
+    vl_prev = vl0
+    vr_prev = vr0
+    stalled = stalled0
+    t = t0
+    j = 0
+    for k in range(left.shape[0]):
+        vl = left[k]
+        vr = right[k]
+        if vl == 0.0 and vr == 0.0 and (vl_prev != 0.0 or vr_prev != 0.0) and not stalled:
+            x, y, h = _slide(state[0], state[1], state[2], vl_prev, vr_prev, p)
+            state[0] = x
+            state[1] = y
+            state[2] = h
+        vl_prev = vl
+        vr_prev = vr
+        stalled = p[11] == 0.0 and vl * vr < 0.0
+        if nsteps > 0:
+            stalled = _advance(state, p, vl, vr, dt, nsteps, z[j:])
+            if not stalled:
+                j += nsteps * _draws_per_step(p)
+        if rest > 0.0:
+            stalled = _advance(state, p, vl, vr, rest, 1, z[j:])
+            if not stalled:
+                j += _draws_per_step(p)
+        t += period
+        out[k, 0] = t
+        out[k, 1] = state[3]
+        out[k, 2] = state[4]
+        out[k, 3] = state[0]
+        out[k, 4] = state[1]
+        out[k, 5] = state[2]
+    return stalled
+
+
+@njit(cache=True, inline="always")
+def _draws_per_step(p):  # type: ignore[no-untyped-def]  # pragma: no cover - compiled
+    """The standard normal draws one step uses (left, right, scrub: those whose sigma is set)."""
+    return int(p[6] != 0.0) + int(p[7] != 0.0) + int(p[8] != 0.0)
+
+
 @njit(cache=True, inline="always")
 def _toward(pos: float, step: float, target: float) -> tuple[float, bool]:  # pragma: no cover
     """A wheel's count after one step toward ``target``, and whether it stopped there."""
@@ -648,6 +696,46 @@ class VirtualRobot:
                 _advance(self._state, self._p, self._vl, self._vr, rest, 1, self._normals(1))
             )
         self._time += d
+
+    def run_schedule(
+        self, left: NDArray[np.float64], right: NDArray[np.float64], period: float
+    ) -> NDArray[np.float64]:
+        """For each report k: :meth:`set_wheel_speeds` (``left[k]``, ``right[k]``), then
+        :meth:`advance` (``period``); returns the rows (time, wheel ticks left and right as
+        :meth:`wheel_ticks`, x, y, unwrapped heading) after each, shape (reports, 6). The same
+        numbers as those calls one by one (the draws taken from the same generator in the same
+        order), in one compiled loop instead of a few microseconds of Python per report."""
+        vl = np.ascontiguousarray(left, dtype=np.float64)
+        vr = np.ascontiguousarray(right, dtype=np.float64)
+        if vl.shape != vr.shape or vl.ndim != 1:
+            raise SimError(
+                f"a schedule needs as many left as right speeds, got {vl.shape}, {vr.shape}"
+            )
+        if not (np.isfinite(vl).all() and np.isfinite(vr).all()):
+            raise SimError("wheel speeds must be finite")
+        d = float(period)
+        if not math.isfinite(d) or d < 0:
+            raise SimError(f"advance duration must be a finite number >= 0, got {period!r}")
+        n = math.floor(d / self.dt + 1e-9)
+        rest = d - n * self.dt
+        rest = rest if rest > 1e-12 * self.dt else 0.0
+        p = self._p
+        per_step = int(p[_K_L] != 0.0) + int(p[_K_R] != 0.0) + int(p[_K_SCRUB] != 0.0)
+        moving = int(np.count_nonzero(~((p[_CAN_TURN] == 0.0) & (vl * vr < 0.0))))
+        total = moving * (n + (1 if rest > 0.0 else 0)) * per_step
+        z = self._rng.standard_normal(total) if total else _NO_DRAWS
+        out = np.empty((vl.size, 6))
+        if vl.size == 0:
+            return out
+        self._stalled = bool(
+            _run_schedule(
+                self._state, p, vl, vr, self._vl, self._vr, self._stalled, d, self.dt, n, rest,
+                z, self._time, out,
+            )
+        )  # fmt: skip
+        self._vl, self._vr = float(vl[-1]), float(vr[-1])
+        self._time = float(out[-1, 0])
+        return out
 
     def _normals(self, steps: int) -> NDArray[np.float64]:
         """The standard normal draws of ``steps`` steps, in the order the kernel uses them.
