@@ -197,7 +197,7 @@ def test_stamps_a_ros_2_time_cannot_hold_are_one_sentence(
 def test_a_failure_while_writing_leaves_no_file(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from mcap_ros2.writer import Writer
+    from mcap.writer import Writer
 
     from odolab.core.errors import OdolabError
     from odolab.export.mcap import stream_from_run_folder, write_mcap
@@ -206,7 +206,7 @@ def test_a_failure_while_writing_leaves_no_file(
     out = tmp_path / "run.mcap"
     out.write_bytes(b"an older file")
     calls = 0
-    original = Writer.write_message
+    original = Writer.add_message
 
     def failing(self: Writer, *args: object, **kwargs: object) -> None:
         nonlocal calls
@@ -215,7 +215,7 @@ def test_a_failure_while_writing_leaves_no_file(
             raise OSError(28, "No space left on device")
         original(self, *args, **kwargs)  # type: ignore[arg-type]
 
-    monkeypatch.setattr(Writer, "write_message", failing)
+    monkeypatch.setattr(Writer, "add_message", failing)
     with pytest.raises(OdolabError, match=r"cannot write the MCAP file \(No space left on device"):
         write_mcap(out, stream)
     assert out.read_bytes() == b"an older file"  # untouched: the new file was never half there

@@ -1,7 +1,8 @@
 """Runs as ROS 2 MCAP files that Foxglove, PlotJuggler, Rerun, ``ros2 bag`` and rosbags open.
 
-Topics (ROS 2 message types, CDR-encoded, written with the ``mcap`` and ``mcap-ros2-support``
-packages; message definitions from rosbags' ROS 2 Humble type store):
+Topics (ROS 2 message types, CDR-encoded by :mod:`odolab.export.cdr` (the bytes
+``mcap-ros2-support`` gives) and written with the ``mcap`` package; message definitions from
+rosbags' ROS 2 Humble type store):
 
 * ``/odom`` - ``nav_msgs/msg/Odometry``: the odometry pose (yaw as a quaternion about z), its
   propagated covariance (x, y, yaw rows/columns of the 6x6; z, roll, pitch get
@@ -26,7 +27,6 @@ from __future__ import annotations
 import itertools
 import json
 import math
-from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -39,6 +39,7 @@ from odolab.core.kinematics import Method
 from odolab.core.params import RobotParams, covariance_source
 from odolab.core.trajectory import Trajectory
 from odolab.core.writing import replacing_path
+from odolab.export.cdr import Layout
 from odolab.export.ros2_controller import UNOBSERVED
 
 if TYPE_CHECKING:
@@ -116,13 +117,14 @@ def stamp_parts(t: float) -> tuple[int, int]:
     return int(sec), int(nanosec)
 
 
-def _stamp(t: float) -> dict[str, int]:
-    sec, nanosec = stamp_parts(t)
-    return {"sec": sec, "nanosec": nanosec}
-
-
-def _header(t: float, frame: str) -> dict[str, object]:
-    return {"stamp": _stamp(t), "frame_id": frame}
+def _stamps(t: NDArray[np.float64]) -> tuple[NDArray[np.int32], NDArray[np.uint32]]:
+    """:func:`stamp_parts` of every time in ``t``: the same numbers (round half to even)."""
+    sec = np.floor(t)
+    nanosec = np.round((t - sec) * 1e9)
+    carry = nanosec >= 1e9
+    sec[carry] += 1.0
+    nanosec[carry] -= 1e9
+    return sec.astype(np.int32), nanosec.astype(np.uint32)
 
 
 def yaw_quaternion(yaw: float) -> tuple[float, float, float, float]:
@@ -130,34 +132,35 @@ def yaw_quaternion(yaw: float) -> tuple[float, float, float, float]:
     return 0.0, 0.0, math.sin(0.5 * yaw), math.cos(0.5 * yaw)
 
 
-def _quat(yaw: float) -> dict[str, float]:
-    return dict(zip("xyzw", yaw_quaternion(yaw), strict=True))
+def _quats(yaw: NDArray[np.float64]) -> NDArray[np.float64]:
+    """:func:`yaw_quaternion` of every yaw, shape (n, 4) (libm's sin and cos, as it)."""
+    q = np.zeros((yaw.size, 4))
+    q[:, 2] = [math.sin(0.5 * h) for h in yaw.tolist()]
+    q[:, 3] = [math.cos(0.5 * h) for h in yaw.tolist()]
+    return q
 
 
-def _cov36(terms: NDArray[np.float64] | None) -> list[float]:
-    c = [0.0] * 36
-    for i in (2, 3, 4):
-        c[i * 6 + i] = UNOBSERVED
+#: where the x, y and yaw terms go in a row-major 6x6 (x, y, z, roll, pitch, yaw): the pose
+#: covariance's (xx, xy, xh, yy, yh, hh) and the twist's (vx, vy, wz) alike
+_SIX = {0: (0,), 1: (1, 6), 2: (5, 30), 3: (7,), 4: (11, 31), 5: (35,)}
+_UNOBSERVED_DIAGONAL = (14, 21, 28)  # z, roll, pitch
+
+
+def _cov36(
+    terms: NDArray[np.float64] | None, n: int, floor: float | None = None
+) -> NDArray[np.float64]:
+    """The (n, 36) row-major 6x6 covariances from (n, 6) terms (None: zeros), z, roll and pitch
+    :data:`UNOBSERVED`; ``floor``: the smallest variance written (the twist's)."""
+    c = np.zeros((n, 36))
+    c[:, _UNOBSERVED_DIAGONAL] = UNOBSERVED
     if terms is None:
         return c
-    xx, xy, xh, yy, yh, hh = (float(v) for v in terms)
-    c[0], c[1], c[5] = xx, xy, xh
-    c[6], c[7], c[11] = xy, yy, yh
-    c[30], c[31], c[35] = xh, yh, hh
-    return c
-
-
-def _twist_cov(terms: NDArray[np.float64] | None) -> list[float]:
-    """The 6x6 twist covariance (vx, vy, vz, wx, wy, wz) from the six (vx, vy, wz) terms."""
-    c = [0.0] * 36
-    for i in (2, 3, 4):
-        c[i * 6 + i] = UNOBSERVED
-    if terms is not None:
-        xx, xy, xw, yy, yw, ww = (float(v) for v in terms)
-        floor = TWIST_VARIANCE_FLOOR
-        c[0], c[1], c[5] = max(xx, floor), xy, xw
-        c[6], c[7], c[11] = xy, max(yy, floor), yw
-        c[30], c[31], c[35] = xw, yw, max(ww, floor)
+    for k, cells in _SIX.items():
+        col = np.asarray(terms[:, k], dtype=np.float64)
+        if floor is not None and k in (0, 3, 5):
+            col = np.where(col < floor, floor, col)  # max(v, floor), NaN kept as max() keeps it
+        for cell in cells:
+            c[:, cell] = col
     return c
 
 
@@ -184,92 +187,97 @@ def _body_twist(
     return vx, vy, wz
 
 
-# long: one generator of the four message streams (odometry, TF, joint states, ground truth) at
-# each sample, kept together so their stamps and frames cannot drift apart
-def _messages(
+def _layouts(stream: OdometryStream, odom_frame: str, base_frame: str) -> dict[str, Layout]:
+    """Each topic's CDR layout (:mod:`odolab.export.cdr`), in the order of its message
+    definition (rosbags' ROS 2 Humble type store)."""
+
+    def header(frame: str) -> Layout:  # std_msgs/Header
+        return Layout().i32("sec").u32("nanosec").string(frame)
+
+    left, right = stream.joint_names
+    return {
+        "/odom": header(odom_frame).string(base_frame)  # child_frame_id
+        .f64("position", 3).f64("orientation", 4).f64("pose_covariance", 36)
+        .f64("linear", 3).f64("angular", 3).f64("twist_covariance", 36),
+        "/tf": Layout().count(1)  # one TransformStamped
+        .i32("sec").u32("nanosec").string(odom_frame).string(base_frame)
+        .f64("translation", 3).f64("rotation", 4),
+        "/joint_states": header(base_frame).count(2).string(left).string(right)
+        .count(2).f64("position", 2).count(2).f64("velocity", 2).count(0),  # no effort
+        "/ground_truth": header(odom_frame).f64("position", 3).f64("orientation", 4),
+    }  # fmt: skip
+
+
+def _xyz(traj: Trajectory) -> NDArray[np.float64]:
+    return np.stack([traj.x, traj.y, np.zeros(len(traj))], axis=1)
+
+
+# long: the four message streams (odometry, TF, joint states, ground truth) encoded together, so
+# that their stamps and frames cannot drift apart
+def _encoded(
     stream: OdometryStream, start_time: float, odom_frame: str, base_frame: str
-) -> Iterator[tuple[str, float, dict[str, object]]]:
+) -> tuple[dict[str, list[bytes]], list[tuple[str, int, int]]]:
+    """Every message's CDR bytes per topic, and the order to write them: (topic, index, stamp
+    in ns) by time, stable: at each odometry sample /odom, /tf, /joint_states, and the ground
+    truth after the odometry at the same stamp."""
     traj = stream.odometry
+    n = len(traj)
+    layouts = _layouts(stream, odom_frame, base_frame)
     vx, vy, wz = _body_twist(traj)
     speeds = None
     if stream.wheel_angles is not None:
         speeds = np.zeros_like(stream.wheel_angles)
-        if len(traj) > 1:
+        if n > 1:
             dt = np.diff(traj.t)[:, None]
             speeds[1:] = np.where(
                 dt > 0, np.diff(stream.wheel_angles, axis=0) / np.where(dt > 0, dt, 1), 0
             )
-    starts = [i for i in stream.segment_starts if 0 <= i < len(traj)]
+    starts = [i for i in stream.segment_starts if 0 <= i < n]
     for arr in (vx, vy, wz, speeds):  # a segment's first sample: no motion across its start
         if arr is not None:
             arr[starts] = 0.0
-    for i in range(len(traj)):
-        t = float(traj.t[i]) + start_time
-        pose = {
-            "position": {"x": float(traj.x[i]), "y": float(traj.y[i]), "z": 0.0},
-            "orientation": _quat(float(traj.heading[i])),
-        }
-        cov = None if stream.covariance is None else stream.covariance[i]
-        tvar = None if stream.twist_covariance is None else stream.twist_covariance[i]
-        yield (
-            "/odom",
-            t,
-            {
-                "header": _header(t, odom_frame),
-                "child_frame_id": base_frame,
-                "pose": {"pose": pose, "covariance": _cov36(cov)},
-                "twist": {
-                    "twist": {
-                        "linear": {"x": float(vx[i]), "y": float(vy[i]), "z": 0.0},
-                        "angular": {"x": 0.0, "y": 0.0, "z": float(wz[i])},
-                    },
-                    "covariance": _twist_cov(tvar),
-                },
-            },
-        )
-        yield (
-            "/tf",
-            t,
-            {
-                "transforms": [
-                    {
-                        "header": _header(t, odom_frame),
-                        "child_frame_id": base_frame,
-                        "transform": {
-                            "translation": {"x": float(traj.x[i]), "y": float(traj.y[i]), "z": 0.0},
-                            "rotation": _quat(float(traj.heading[i])),
-                        },
-                    }
-                ]
-            },
-        )
-        if stream.wheel_angles is not None and speeds is not None:
-            yield (
-                "/joint_states",
-                t,
-                {
-                    "header": _header(t, base_frame),
-                    "name": list(stream.joint_names),
-                    "position": [float(v) for v in stream.wheel_angles[i]],
-                    "velocity": [float(v) for v in speeds[i]],
-                    "effort": [],
-                },
-            )
+    t = traj.t + start_time
+    sec, nanosec = _stamps(t)
+    xyz, quat = _xyz(traj), _quats(traj.heading)
+    zeros = np.zeros(n)
+    packed = {
+        "/odom": layouts["/odom"].pack(n, {
+            "sec": sec, "nanosec": nanosec, "position": xyz, "orientation": quat,
+            "pose_covariance": _cov36(stream.covariance, n),
+            "linear": np.stack([vx, vy, zeros], axis=1),
+            "angular": np.stack([zeros, zeros, wz], axis=1),
+            "twist_covariance": _cov36(stream.twist_covariance, n, TWIST_VARIANCE_FLOOR),
+        }),
+        "/tf": layouts["/tf"].pack(n, {
+            "sec": sec, "nanosec": nanosec, "translation": xyz, "rotation": quat,
+        }),
+    }  # fmt: skip
+    topics = ["/odom", "/tf"]
+    if stream.wheel_angles is not None and speeds is not None:
+        packed["/joint_states"] = layouts["/joint_states"].pack(n, {
+            "sec": sec, "nanosec": nanosec, "position": stream.wheel_angles, "velocity": speeds,
+        })  # fmt: skip
+        topics.append("/joint_states")
+    k = len(topics)
+    times = [np.repeat(t, k)]
+    which = [np.tile(np.arange(k), n)]
+    index = [np.repeat(np.arange(n), k)]
     gt = stream.ground_truth
-    if gt is not None:
-        for i in range(len(gt)):
-            t = float(gt.t[i]) + start_time
-            yield (
-                "/ground_truth",
-                t,
-                {
-                    "header": _header(t, odom_frame),
-                    "pose": {
-                        "position": {"x": float(gt.x[i]), "y": float(gt.y[i]), "z": 0.0},
-                        "orientation": _quat(float(gt.heading[i])),
-                    },
-                },
-            )
+    if gt is not None and len(gt):
+        tg = gt.t + start_time
+        gsec, gnano = _stamps(tg)
+        packed["/ground_truth"] = layouts["/ground_truth"].pack(len(gt), {
+            "sec": gsec, "nanosec": gnano, "position": _xyz(gt), "orientation": _quats(gt.heading),
+        })  # fmt: skip
+        topics.append("/ground_truth")
+        times.append(tg)
+        which.append(np.full(len(gt), k))
+        index.append(np.arange(len(gt)))
+    all_t = np.concatenate(times)
+    order = np.argsort(all_t, kind="stable")
+    ns = np.round(all_t[order] * 1e9).astype(np.int64).tolist()
+    names = [topics[w] for w in np.concatenate(which)[order].tolist()]
+    return packed, list(zip(names, np.concatenate(index)[order].tolist(), ns, strict=True))
 
 
 def first_order_notes(stream: OdometryStream) -> list[str]:
@@ -304,9 +312,10 @@ def write_mcap(
     base_frame: str = "base_link",
 ) -> dict[str, int]:
     """Write ``stream`` as a ROS 2 MCAP file; returns the message count per topic."""
-    from mcap.writer import CompressionType
-    from mcap_ros2.writer import Writer
+    from mcap.writer import LIBRARY_IDENTIFIER, CompressionType, Writer
     from rosbags.typesys import Stores, get_typestore
+
+    from odolab import __version__
 
     check_start_time(start_time)
     p = Path(path)
@@ -315,21 +324,25 @@ def write_mcap(
     _check_stamps(stream, start_time)
     store = get_typestore(Stores.ROS2_HUMBLE)
     counts = dict.fromkeys(TOPICS, 0)
-    # sort by time (ground truth interleaved with odometry), stable within a stamp
-    msgs = sorted(_messages(stream, start_time, odom_frame, base_frame), key=lambda m: m[1])
+    packed, order = _encoded(stream, start_time, odom_frame, base_frame)
     # the file appears whole, or not at all; a link at p is replaced, not followed
     with (
         replacing_path(p, what="MCAP file", error=OdolabError) as tmp,
         tmp.open("wb") as fh,
     ):
         writer = Writer(fh, compression=CompressionType.LZ4)
+        writer.start(profile="ros2", library=f"{LIBRARY_IDENTIFIER} odolab/{__version__}")
         schemas = {}
         for topic, msgtype in TOPICS.items():
             text, _ = store.generate_msgdef(msgtype, ros_version=2)
-            schemas[topic] = writer.register_msgdef(msgtype, text)
-        for topic, t, msg in msgs:
-            ns = round(t * 1e9)
-            writer.write_message(topic, schemas[topic], msg, log_time=ns, publish_time=ns)
+            schemas[topic] = writer.register_schema(msgtype, "ros2msg", text.encode())
+        channels: dict[str, int] = {}
+        for topic, i, ns in order:
+            if topic not in channels:  # in the order topics first appear
+                channels[topic] = writer.register_channel(topic, "cdr", schemas[topic])
+            writer.add_message(
+                channel_id=channels[topic], log_time=ns, data=packed[topic][i], publish_time=ns
+            )
             counts[topic] += 1
         writer.finish()  # type: ignore[no-untyped-call]
     return {k: v for k, v in counts.items() if v}
