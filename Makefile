@@ -17,15 +17,20 @@ $(STAMP): $(BIN)/python pyproject.toml
 demo: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/odolab demo
 
+# one test process more than the cores: the real-time robot runs and the browsers wait more than
+# they compute, and a third process on 2 cores fills that wait (8 min 56 s against 10 min 13 s,
+# docs/testing.md)
+WORKERS ?= $(shell $(PYTHON) -c "import os; print(len(os.sched_getaffinity(0)) + 1)" 2>/dev/null || echo 3)
+
 # every test, in a new random order each run (pytest-randomly prints the seed: rerun an order with
 # `-p randomly --randomly-seed=N`), then the 20 slowest; docs/testing.md has the timings
 test: $(STAMP)
-	MPLBACKEND=Agg OPENBLAS_NUM_THREADS=1 $(BIN)/python -m pytest -n 2 -q --durations=20
+	MPLBACKEND=Agg OPENBLAS_NUM_THREADS=1 $(BIN)/python -m pytest -n $(WORKERS) -q --durations=20
 
 # while developing: leaves out the tests marked slow (documented commands, real-time robot runs,
 # the demos in chromium, the independent simulators); `make test` and CI run everything
 test-fast: $(STAMP)
-	MPLBACKEND=Agg OPENBLAS_NUM_THREADS=1 $(BIN)/python -m pytest -n 2 -q -m "not slow"
+	MPLBACKEND=Agg OPENBLAS_NUM_THREADS=1 $(BIN)/python -m pytest -n $(WORKERS) -q -m "not slow"
 
 # the statistical tests twice, in two random orders, two hash seeds and two xdist distributions:
 # every asserted number must come out the same (tests/determinism.py)
