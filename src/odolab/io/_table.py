@@ -105,6 +105,12 @@ def _parse_block(
     return out
 
 
+def _not_a_number(path: Path, lineno: int, name: str, cell: str) -> str:
+    """The sentence for a cell that is not the number expected: file, line, column, the cell."""
+    shown = quote_input(cell) if cell else "empty"
+    return f"{path}: line {lineno}, column {name!r} is {shown}, expected a number"
+
+
 def _locate_bad_cell(
     path: Path,
     header: list[str],
@@ -135,8 +141,7 @@ def _locate_bad_cell(
                 except ValueError:
                     ok = False
                 if not ok:
-                    shown = quote_input(cell) if cell else "empty"
-                    return f"{path}: line {lineno}, column {name!r} is {shown}, expected a number"
+                    return _not_a_number(path, lineno, name, cell)
     return f"{path}: could not parse as numbers"
 
 
@@ -278,10 +283,7 @@ def _careful_whitespace(
                 else:
                     ok = math.isfinite(value) or (allow_nan and math.isnan(value))
                 if not ok:
-                    shown = quote_input(cell) if cell else "empty"
-                    raise LogFormatError(
-                        f"{p}: line {lineno}, column {name!r} is {shown}, expected a number"
-                    )
+                    raise LogFormatError(_not_a_number(p, lineno, name, cell))
                 out[k].append(value)
     return {c: np.asarray(v, dtype=np.float64) for c, v in zip(columns, out, strict=True)}
 
@@ -435,10 +437,7 @@ def _csv_lines(
                 cell = row[j].strip() if j < len(row) else ""
                 value = _cell_value(cell)
                 if value is None or (not allow_nan and not math.isfinite(value)):
-                    shown = quote_input(cell) if cell else "empty"
-                    raise LogFormatError(
-                        f"{p}: line {lineno}, column {name!r} is {shown}, expected a number"
-                    )
+                    raise LogFormatError(_not_a_number(p, lineno, name, cell))
                 out[k].append(value)
     return {c: np.asarray(v, dtype=np.float64) for c, v in zip(columns, out, strict=True)}
 
