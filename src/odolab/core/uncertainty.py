@@ -385,25 +385,17 @@ def _segment(  # pragma: no cover - compiled
     return p
 
 
+#: :func:`_segment`'s arguments after ``lo``, ``hi`` and ``p``, in its order (``out`` last).
+_SegmentInputs = tuple[F64, I64, I64, int, F64, F64, float, float, F64, bool, F64, float, F64_2D]
+
+
 @njit(cache=True, parallel=True, error_model="numpy", fastmath={"contract"})
 def _segments_parallel(  # pragma: no cover - compiled
-    bounds: I64,
-    heading: F64,
-    left: I64,
-    right: I64,
-    modulus: int,
-    dleft: F64,
-    dright: F64,
-    kl: float,
-    kr: float,
-    coef: F64,
-    arc: bool,
-    k3: F64,
-    inv_track: float,
-    out: F64_2D,
+    bounds: I64, inputs: _SegmentInputs
 ) -> F64_2D:
     """:func:`_segment` over the segments ``bounds[s]..bounds[s+1]-1`` on all threads, the
     first from row 0, the others from a zero covariance; returns each one's last covariance."""
+    out = inputs[-1]
     nseg = bounds.shape[0] - 1
     ends = np.zeros((nseg, 6))
     for s in prange(nseg):
@@ -411,10 +403,7 @@ def _segments_parallel(  # pragma: no cover - compiled
             p = (out[0, 0], out[0, 1], out[0, 2], out[0, 3], out[0, 4], out[0, 5])
         else:
             p = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-        e = _segment(
-            bounds[s], bounds[s + 1], p, heading, left, right, modulus, dleft, dright, kl, kr,
-            coef, arc, k3, inv_track, out,
-        )  # fmt: skip
+        e = _segment(bounds[s], bounds[s + 1], p, *inputs)
         for r in range(6):
             ends[s, r] = e[r]
     return ends
@@ -524,7 +513,7 @@ def _run_kernel(
     the log is long."""
     left, right = ticks if ticks is not None else (_NO_TICKS, _NO_TICKS)
     dleft, dright = increments if increments is not None else (_NO_INCREMENTS, _NO_INCREMENTS)
-    args = (
+    args: _SegmentInputs = (
         heading, left, right, params.encoder_modulus or 0, dleft, dright,
         params.left_metres_per_tick, params.right_metres_per_tick,
         np.array(params.coefficients, dtype=np.float64), arc,
@@ -535,7 +524,7 @@ def _run_kernel(
     if positions is not None and threads > 1 and n >= PARALLEL_MIN_SAMPLES:
         bounds = np.linspace(1, n, SEGMENTS_PER_THREAD * threads + 1).astype(np.int64)
         with numba.parallel_chunksize(1):  # segments one at a time: a busy core takes fewer
-            ends = _segments_parallel(bounds, *args)
+            ends = _segments_parallel(bounds, args)
         x, y = positions
         _carry_starts(bounds, x, y, _segment_starts(bounds, x, y, ends), out)
     elif n > 1:
