@@ -132,10 +132,11 @@ SHRINK_FOLDS = 5
 SHRINK_PIECE_S = 4.0
 
 
-@dataclass(frozen=True)
-class SlipDesign:
-    """The regression of one or more runs: x/y rows (16 columns: fwd then lat coefficients),
-    heading rows (8 columns), and the windows' durations."""
+@dataclass(frozen=True, eq=False)
+class _Windows:
+    """The regression rows of windows, of one run (:class:`_RunRows`) or of all of a design's
+    (:class:`SlipDesign`): x/y rows (16 columns: fwd then lat coefficients), heading rows (8
+    columns), and the windows' durations."""
 
     a_xy: FloatArray
     y_xy: FloatArray
@@ -145,6 +146,13 @@ class SlipDesign:
     #: per window: track travel (m, mean of |ds_l| and |ds_r|) and commanded turn (rad, |dtheta|)
     travel: FloatArray
     turn: FloatArray
+
+
+@dataclass(frozen=True)
+class SlipDesign(_Windows):
+    """The regression of one or more runs (:class:`_Windows`: the rows and the windows'
+    durations), with the speeds' and features' root mean squares over the timed cycles."""
+
     v_rms: float
     w_rms: float
     phi_rms: FloatArray
@@ -246,20 +254,13 @@ RowsMemo = dict[tuple[int, float], tuple[object, "_RunRows | None"]]
 
 
 @dataclass(frozen=True, eq=False)
-class _RunRows:
+class _RunRows(_Windows):
     """One run's windows in :func:`slip_design` (see :class:`SlipDesign`; ``chained`` and
     ``turn_from_previous`` follow from each window's ``start``, ``stop`` and ``heading``), and the
     run's sums of squared speeds, turn
     rates and features over its ``steps`` timed cycles; ``seen`` windows before the steady
     ones were kept."""
 
-    a_xy: FloatArray
-    y_xy: FloatArray
-    a_yaw: FloatArray
-    y_yaw: FloatArray
-    durations: FloatArray
-    travel: FloatArray
-    turn: FloatArray
     shift: FloatArray
     v_sq: float
     w_sq: float
