@@ -53,8 +53,11 @@ if TYPE_CHECKING:
     from odolab.core.models.slip import SlipModel
 
 __all__ = [
+    "HEADING_DRIFT",
+    "HEADING_TERMS",
     "TERMS",
     "EndPairs",
+    "SlipCovarianceStepper",
     "SlipPropagation",
     "describe_covariance",
     "end_second_order",
