@@ -22,20 +22,26 @@ demo: $(STAMP)
 # docs/testing.md)
 WORKERS ?= $(shell $(PYTHON) -c "import os; print(len(os.sched_getaffinity(0)) + 1)" 2>/dev/null || echo 3)
 
+# PYTHONDONTWRITEBYTECODE is emptied for the tests: where the environment sets it (this project's
+# machines do), every test process and every `odolab` a test starts compiled odolab's source
+# again, and pytest rewrote every test module's asserts again in each worker (a worker's collection
+# 16 s of CPU against 8 s with the cache; .gitignore leaves __pycache__ out)
+TESTENV := MPLBACKEND=Agg OPENBLAS_NUM_THREADS=1 PYTHONDONTWRITEBYTECODE=
+
 # every test, in a new random order each run (pytest-randomly prints the seed: rerun an order with
 # `-p randomly --randomly-seed=N`), then the 20 slowest; docs/testing.md has the timings
 test: $(STAMP)
-	MPLBACKEND=Agg OPENBLAS_NUM_THREADS=1 $(BIN)/python -m pytest -n $(WORKERS) -q --durations=20
+	$(TESTENV) $(BIN)/python -m pytest -n $(WORKERS) -q --durations=20
 
 # while developing: leaves out the tests marked slow (documented commands, real-time robot runs,
 # the demos in chromium, the independent simulators); `make test` and CI run everything
 test-fast: $(STAMP)
-	MPLBACKEND=Agg OPENBLAS_NUM_THREADS=1 $(BIN)/python -m pytest -n $(WORKERS) -q -m "not slow"
+	$(TESTENV) $(BIN)/python -m pytest -n $(WORKERS) -q -m "not slow"
 
 # the statistical tests twice, in two random orders, two hash seeds and two xdist distributions:
 # every asserted number must come out the same (tests/determinism.py)
 test-determinism: $(STAMP)
-	MPLBACKEND=Agg OPENBLAS_NUM_THREADS=1 $(BIN)/python tests/determinism.py
+	$(TESTENV) $(BIN)/python tests/determinism.py
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks
