@@ -75,8 +75,36 @@ def _check_positive(name: str, value: float) -> float:
     return v
 
 
+def _check_finite(what: str, value: float) -> None:
+    if not math.isfinite(value):
+        raise MotionError(f"{what} is {value!r}, expected a finite number")
+
+
+class _Turn:
+    """A turn by ``angle`` rad measured on the odometry heading (:class:`Rotate`,
+    :class:`Pivot`): the moving track(s) run at ``speed`` (rad/s of heading) times a lever, m
+    per rad, slowing down over the last ``decel`` radians."""
+
+    angle: float
+    speed: float
+    decel: float
+    min_fraction: float
+
+    def _begin(self, pose: Pose, lever: float) -> None:
+        self._target = pose.heading + self.angle
+        self._lever = lever
+        self._sign = 1.0 if self.angle >= 0 else -1.0
+
+    def _track_speed(self, pose: Pose) -> float | None:
+        """The moving track's speed (m/s, unsigned) at ``pose``; None once the turn is done."""
+        remaining = self._sign * (self._target - pose.heading)
+        if remaining <= 0:
+            return None
+        return self.speed * self._lever * _scale(remaining, self.decel, self.min_fraction)
+
+
 @dataclass
-class Rotate:
+class Rotate(_Turn):
     """Turn in place by ``angle`` rad (ccw positive; e.g. 20*pi), tracks in opposite directions.
 
     ``speed``: heading rate, rad/s. ``decel``: the last radians over which to slow down.
@@ -88,23 +116,19 @@ class Rotate:
     min_fraction: float = 0.2
 
     def __post_init__(self) -> None:
-        if not math.isfinite(self.angle):
-            raise MotionError(f"rotation angle is {self.angle!r}, expected a finite number")
+        _check_finite("rotation angle", self.angle)
         _check_positive("speed", self.speed)
         self._target = 0.0
-        self._half_track = 0.0
+        self._lever = 0.0
         self._sign = 1.0
 
     def start(self, pose: Pose, params: RobotParams) -> None:
-        self._target = pose.heading + self.angle
-        self._half_track = 0.5 * params.track_width
-        self._sign = 1.0 if self.angle >= 0 else -1.0
+        self._begin(pose, 0.5 * params.track_width)
 
     def step(self, pose: Pose) -> tuple[float, float] | None:
-        remaining = self._sign * (self._target - pose.heading)
-        if remaining <= 0:
+        v = self._track_speed(pose)
+        if v is None:
             return None
-        v = self.speed * self._half_track * _scale(remaining, self.decel, self.min_fraction)
         return (-self._sign * v, self._sign * v)
 
 
@@ -121,8 +145,7 @@ class Straight:
     min_fraction: float = 0.2
 
     def __post_init__(self) -> None:
-        if not math.isfinite(self.distance):
-            raise MotionError(f"distance is {self.distance!r}, expected a finite number")
+        _check_finite("distance", self.distance)
         _check_positive("speed", self.speed)
         self._origin = (0.0, 0.0)
         self._dir = (1.0, 0.0)
@@ -144,7 +167,7 @@ class Straight:
 
 
 @dataclass
-class Pivot:
+class Pivot(_Turn):
     """Turn by ``angle`` rad on one track: ``held`` ("left" or "right") stays still.
 
     ``speed``: heading rate, rad/s; the moving track runs at ``speed * track_width``.
@@ -159,23 +182,19 @@ class Pivot:
     def __post_init__(self) -> None:
         if self.held not in ("left", "right"):
             raise MotionError(f"pivot held track is {self.held!r}, expected 'left' or 'right'")
-        if not math.isfinite(self.angle):
-            raise MotionError(f"pivot angle is {self.angle!r}, expected a finite number")
+        _check_finite("pivot angle", self.angle)
         _check_positive("speed", self.speed)
         self._target = 0.0
-        self._track = 0.0
+        self._lever = 0.0
         self._sign = 1.0
 
     def start(self, pose: Pose, params: RobotParams) -> None:
-        self._target = pose.heading + self.angle
-        self._track = params.track_width
-        self._sign = 1.0 if self.angle >= 0 else -1.0
+        self._begin(pose, params.track_width)
 
     def step(self, pose: Pose) -> tuple[float, float] | None:
-        remaining = self._sign * (self._target - pose.heading)
-        if remaining <= 0:
+        v = self._track_speed(pose)
+        if v is None:
             return None
-        v = self.speed * self._track * _scale(remaining, self.decel, self.min_fraction)
         # ccw (sign +): right forward with left held, or left backward with right held
         if self.held == "left":
             return (0.0, self._sign * v)
