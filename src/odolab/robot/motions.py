@@ -9,6 +9,7 @@ motion, to ``min_fraction`` of the cruise speed, so the robot does not stop abru
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
@@ -75,32 +76,40 @@ def _check_positive(name: str, value: float) -> float:
     return v
 
 
-def _check_finite(what: str, value: float) -> None:
-    if not math.isfinite(value):
-        raise MotionError(f"{what} is {value!r}, expected a finite number")
-
-
-class _Turn:
+class _Turn(ABC):
     """A turn by ``angle`` rad measured on the odometry heading (:class:`Rotate`,
-    :class:`Pivot`): the moving track(s) run at ``speed`` (rad/s of heading) times a lever, m
-    per rad, slowing down over the last ``decel`` radians."""
+    :class:`Pivot`): the moving track(s) run at ``speed`` (rad/s of heading) times a lever (m
+    per rad: :meth:`_lever_arm`), slowing down over the last ``decel`` radians; :meth:`_wheels`
+    says which track runs which way."""
 
     angle: float
     speed: float
     decel: float
     min_fraction: float
+    _target = 0.0  #: heading at which the turn ends (odometry frame)
+    _lever = 0.0  #: m of the moving track's travel per rad of heading
+    _sign = 1.0  #: +1 ccw, -1 cw
 
-    def _begin(self, pose: Pose, lever: float) -> None:
+    @abstractmethod
+    def _lever_arm(self, params: RobotParams) -> float:
+        """m of the moving track's travel per rad of heading."""
+
+    @abstractmethod
+    def _wheels(self, v: float) -> tuple[float, float]:
+        """The (left, right) speeds when the moving track(s) run at ``v`` m/s (unsigned)."""
+
+    def start(self, pose: Pose, params: RobotParams) -> None:
         self._target = pose.heading + self.angle
-        self._lever = lever
+        self._lever = self._lever_arm(params)
         self._sign = 1.0 if self.angle >= 0 else -1.0
 
-    def _track_speed(self, pose: Pose) -> float | None:
-        """The moving track's speed (m/s, unsigned) at ``pose``; None once the turn is done."""
+    def step(self, pose: Pose) -> tuple[float, float] | None:
         remaining = self._sign * (self._target - pose.heading)
         if remaining <= 0:
             return None
-        return self.speed * self._lever * _scale(remaining, self.decel, self.min_fraction)
+        return self._wheels(
+            self.speed * self._lever * _scale(remaining, self.decel, self.min_fraction)
+        )
 
 
 @dataclass
@@ -116,19 +125,14 @@ class Rotate(_Turn):
     min_fraction: float = 0.2
 
     def __post_init__(self) -> None:
-        _check_finite("rotation angle", self.angle)
+        if not math.isfinite(self.angle):
+            raise MotionError(f"rotation angle is {self.angle!r}, expected a finite number")
         _check_positive("speed", self.speed)
-        self._target = 0.0
-        self._lever = 0.0
-        self._sign = 1.0
 
-    def start(self, pose: Pose, params: RobotParams) -> None:
-        self._begin(pose, 0.5 * params.track_width)
+    def _lever_arm(self, params: RobotParams) -> float:
+        return 0.5 * params.track_width  # both tracks, opposite ways
 
-    def step(self, pose: Pose) -> tuple[float, float] | None:
-        v = self._track_speed(pose)
-        if v is None:
-            return None
+    def _wheels(self, v: float) -> tuple[float, float]:
         return (-self._sign * v, self._sign * v)
 
 
@@ -145,7 +149,8 @@ class Straight:
     min_fraction: float = 0.2
 
     def __post_init__(self) -> None:
-        _check_finite("distance", self.distance)
+        if not math.isfinite(self.distance):
+            raise MotionError(f"distance is {self.distance!r}, expected a finite number")
         _check_positive("speed", self.speed)
         self._origin = (0.0, 0.0)
         self._dir = (1.0, 0.0)
@@ -182,19 +187,14 @@ class Pivot(_Turn):
     def __post_init__(self) -> None:
         if self.held not in ("left", "right"):
             raise MotionError(f"pivot held track is {self.held!r}, expected 'left' or 'right'")
-        _check_finite("pivot angle", self.angle)
+        if not math.isfinite(self.angle):
+            raise MotionError(f"pivot angle is {self.angle!r}, expected a finite number")
         _check_positive("speed", self.speed)
-        self._target = 0.0
-        self._lever = 0.0
-        self._sign = 1.0
 
-    def start(self, pose: Pose, params: RobotParams) -> None:
-        self._begin(pose, params.track_width)
+    def _lever_arm(self, params: RobotParams) -> float:
+        return params.track_width  # one track, about the other
 
-    def step(self, pose: Pose) -> tuple[float, float] | None:
-        v = self._track_speed(pose)
-        if v is None:
-            return None
+    def _wheels(self, v: float) -> tuple[float, float]:
         # ccw (sign +): right forward with left held, or left backward with right held
         if self.held == "left":
             return (0.0, self._sign * v)
