@@ -61,8 +61,8 @@ class BoardServer(ABC, Generic[_B]):
     """A virtual board behind a socket, run by a background thread in real time.
 
     Use as a context manager, or call :meth:`start` and :meth:`close`. Port 0 lets the OS pick;
-    :attr:`address` is the bound (host, port). A link's server opens the socket
-    (:meth:`_open`), names the sockets to wait on (:meth:`_watched`) and exchanges the bytes
+    :attr:`address` is the bound (host, port). A link's server names its socket's type
+    and binds it (:meth:`_bind`), names the sockets to wait on (:meth:`_watched`) and exchanges the bytes
     that came and are due (:meth:`_exchange`, holding the lock while it touches the board).
     """
 
@@ -70,6 +70,10 @@ class BoardServer(ABC, Generic[_B]):
     thread_name: ClassVar[str]
     #: the board in a failure's words ("the virtual Jaguar")
     name: ClassVar[str]
+    #: the socket's type (``socket.SOCK_DGRAM``, ``socket.SOCK_STREAM``)
+    socket_type: ClassVar[int]
+    #: what failed when :meth:`_bind` fails, before "HOST:PORT (why)" ("cannot bind ... to")
+    bind_failure: ClassVar[str]
 
     def __init__(self, board: _B, host: str = "127.0.0.1", port: int = 0) -> None:
         self.board = board
@@ -87,9 +91,19 @@ class BoardServer(ABC, Generic[_B]):
         otherwise stall the first reports): one millisecond with the wheels still."""
         self.board.plant.advance(1e-3)
 
-    @abstractmethod
     def _open(self, host: str, port: int) -> socket.socket:
         """The socket bound to (host, port); :class:`RobotLinkError` when that fails."""
+        sock = socket.socket(socket.AF_INET, self.socket_type)
+        try:
+            self._bind(sock, host, port)
+        except OSError as err:
+            sock.close()
+            raise RobotLinkError(f"{self.bind_failure} {host}:{port} ({err})") from err
+        return sock
+
+    @abstractmethod
+    def _bind(self, sock: socket.socket, host: str, port: int) -> None:
+        """Bind ``sock`` to (host, port) (and listen on it)."""
 
     def _watched(self) -> list[socket.socket]:
         """The sockets to wait on."""

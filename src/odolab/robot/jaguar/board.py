@@ -41,7 +41,7 @@ from typing import cast
 import numpy as np
 
 from odolab.core.encoders import counter_delta
-from odolab.core.errors import ProtocolError, RobotLinkError
+from odolab.core.errors import ProtocolError
 from odolab.core.params import RobotParams
 from odolab.robot.config import BOUNDS, Bound, check_bound
 from odolab.robot.errors import BoardConfigError, RobotConfigError
@@ -472,17 +472,11 @@ class VirtualJaguarServer(BoardServer[VirtualJaguar]):
 
     thread_name = "virtual-jaguar"
     name = "the virtual Jaguar"
+    socket_type = socket.SOCK_DGRAM
+    bind_failure = "cannot bind the virtual Jaguar to"
 
-    def _open(self, host: str, port: int) -> socket.socket:
-        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        try:
-            sock.bind((host, port))
-        except OSError as err:
-            sock.close()
-            raise RobotLinkError(
-                f"cannot bind the virtual Jaguar to {host}:{port} ({err})"
-            ) from err
-        return sock
+    def _bind(self, sock: socket.socket, host: str, port: int) -> None:
+        sock.bind((host, port))
 
     def set_silent(self, silent: bool) -> None:
         """Stop (True) or resume (False) sending anything."""

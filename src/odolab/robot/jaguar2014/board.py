@@ -34,7 +34,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from odolab.core.encoders import counter_delta
-from odolab.core.errors import RobotLinkError
 from odolab.core.kinematics import wrap_angle
 from odolab.core.params import RobotParams
 from odolab.robot.errors import BoardConfigError
@@ -355,6 +354,8 @@ class VirtualJaguar2014Server(BoardServer[VirtualJaguar2014]):
 
     thread_name = "virtual-jaguar-2014"
     name = "the virtual Jaguar 2014"
+    socket_type = socket.SOCK_STREAM
+    bind_failure = "cannot listen for the virtual Jaguar 2014 on"
 
     def __init__(self, board: VirtualJaguar2014, host: str = "127.0.0.1", port: int = 0) -> None:
         self._peer: socket.socket | None = None
@@ -364,18 +365,10 @@ class VirtualJaguar2014Server(BoardServer[VirtualJaguar2014]):
         super()._warm_up()
         self.board._plant_last = self.board.plant.encoder_counts()
 
-    def _open(self, host: str, port: int) -> socket.socket:
-        sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    def _bind(self, sock: socket.socket, host: str, port: int) -> None:
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        try:
-            sock.bind((host, port))
-            sock.listen(4)
-        except OSError as err:
-            sock.close()
-            raise RobotLinkError(
-                f"cannot listen for the virtual Jaguar 2014 on {host}:{port} ({err})"
-            ) from err
-        return sock
+        sock.bind((host, port))
+        sock.listen(4)
 
     def _drop_peer(self, now: float) -> None:
         if self._peer is not None:
