@@ -7,6 +7,7 @@ instead when late), and counted; stop sends the link's fixed stop message; ``con
 is the common stop rule; ``close`` stops and releases the transport once. A link's driver says
 how to encode a command (:meth:`LinkDriver._encode_speeds`) and what its stop message is
 (:attr:`LinkDriver._stop_packet`), and reads its own messages (``connect``, :meth:`LinkDriver.poll`).
+:func:`split_link_url` is the part of reading a ``--robot`` URL that every link shares.
 """
 
 from __future__ import annotations
@@ -14,13 +15,38 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from typing import Generic, Protocol, TypeVar
+from urllib.parse import ParseResult, urlparse
 
+from odolab.core.errors import opt
 from odolab.robot.clock import Clock
-from odolab.robot.errors import LateCycleError, RobotConfigError
+from odolab.robot.errors import LateCycleError, RobotConfigError, RobotUrlError
 from odolab.robot.interface import DriverStats, EncoderReading, check_send_by, confirm_stopped
 from odolab.robot.virtual_truth import TruthTracker
 
-__all__ = ["LinkDriver"]
+__all__ = ["LinkDriver", "split_link_url"]
+
+
+def split_link_url(url: str, scheme: str) -> tuple[ParseResult, str, int]:
+    """``scheme://HOST:PORT`` -> (the parsed URL, host, port); :class:`RobotUrlError` for a bad
+    port, another scheme, no host or port, a path or a user. Its query and fragment are the
+    caller's to read or refuse."""
+    parsed = urlparse(url)
+    try:
+        port = parsed.port  # raises ValueError for a non-number or out of 0..65535
+    except ValueError as err:
+        raise RobotUrlError(
+            f"{opt('robot')} {url!r} has a bad port ({err}); expected {scheme}://HOST:PORT with a "
+            "port in 0..65535"
+        ) from err
+    if (
+        parsed.scheme != scheme
+        or not parsed.hostname
+        or port is None
+        or parsed.path not in ("", "/")
+        or parsed.username is not None
+    ):
+        raise RobotUrlError(f"{opt('robot')} {url!r} is not of the form {scheme}://HOST:PORT")
+    return parsed, parsed.hostname, port
 
 
 class _Transport(Protocol):

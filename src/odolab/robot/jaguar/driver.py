@@ -18,13 +18,12 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol
-from urllib.parse import urlparse
 
 from odolab.core.errors import ProtocolError, RobotLinkError, opt
 from odolab.core.params import RobotParams
 from odolab.robot.clock import Clock
 from odolab.robot.config import CommandMode, RunConfig, check_signs
-from odolab.robot.driver_base import LinkDriver
+from odolab.robot.driver_base import LinkDriver, split_link_url
 from odolab.robot.errors import (
     NoSensorDataError,
     RobotConfigError,
@@ -103,29 +102,15 @@ class JaguarLinkStats:
 
 def parse_robot_url(url: str) -> tuple[str, int]:
     """``udp://HOST:PORT`` -> (host, port)."""
-    parsed = urlparse(url)
-    try:
-        port = parsed.port  # raises ValueError for a non-number or out of 0..65535
-    except ValueError as err:
-        raise RobotUrlError(
-            f"{opt('robot')} {url!r} has a bad port ({err}); expected udp://HOST:PORT with a port "
-            "in 0..65535"
-        ) from err
-    if (
-        parsed.scheme != "udp"
-        or not parsed.hostname
-        or port is None
-        or parsed.path not in ("", "/")
-        or parsed.fragment
-        or parsed.username is not None
-    ):
+    parsed, host, port = split_link_url(url, "udp")
+    if parsed.fragment:
         raise RobotUrlError(f"{opt('robot')} {url!r} is not of the form udp://HOST:PORT")
     if parsed.query:  # was ignored: udp://...?variant=track, meant for tcp://, drove the board
         raise RobotUrlError(
             f"{opt('robot')} {url!r}: udp://HOST:PORT takes no query (variant= is for the 2014 "
             "Jaguar's tcp://HOST:PORT?variant=wheel|track)"
         )
-    return parsed.hostname, port
+    return host, port
 
 
 # Linux socket options for kernel receive timestamps (not named in Python's socket module)

@@ -20,13 +20,13 @@ import socket
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol
-from urllib.parse import parse_qs, urlparse
+from urllib.parse import parse_qs
 
 from odolab.core.errors import opt
 from odolab.core.params import RobotParams
 from odolab.robot.clock import Clock
 from odolab.robot.config import RunConfig, check_signs
-from odolab.robot.driver_base import LinkDriver
+from odolab.robot.driver_base import LinkDriver, split_link_url
 from odolab.robot.errors import (
     NoSensorDataError,
     RobotConfigError,
@@ -72,22 +72,7 @@ VARIANTS: dict[str, tuple[tuple[int, int], tuple[int, int]]] = {
 
 def parse_tcp_url(url: str) -> tuple[str, int, str]:
     """``tcp://HOST:PORT[?variant=wheel|track]`` -> (host, port, variant)."""
-    parsed = urlparse(url)
-    try:
-        port = parsed.port
-    except ValueError as err:
-        raise RobotUrlError(
-            f"{opt('robot')} {url!r} has a bad port ({err}); expected tcp://HOST:PORT with a port "
-            "in 0..65535"
-        ) from err
-    if (
-        parsed.scheme != "tcp"
-        or not parsed.hostname
-        or port is None
-        or parsed.path not in ("", "/")
-        or parsed.username is not None
-    ):
-        raise RobotUrlError(f"{opt('robot')} {url!r} is not of the form tcp://HOST:PORT")
+    parsed, host, port = split_link_url(url, "tcp")
     query = parse_qs(parsed.query, keep_blank_values=True)
     variant = "wheel"
     for key, values in query.items():
@@ -98,7 +83,7 @@ def parse_tcp_url(url: str) -> tuple[str, int, str]:
         variant = values[0]
     if parsed.fragment:
         raise RobotUrlError(f"{opt('robot')} {url!r} is not of the form tcp://HOST:PORT")
-    return parsed.hostname, port, variant
+    return host, port, variant
 
 
 class LineTransport(Protocol):
