@@ -50,6 +50,19 @@ __all__ = [
 ]
 
 
+def _check_positive(option: str, value: float, unit: str) -> None:
+    """Refuse a setting that is not a positive number (of ``unit``) with
+    :class:`RobotConfigError`."""
+    if not (math.isfinite(value) and value > 0):
+        allowed = f"a positive number of {unit}"
+        raise RobotConfigError(
+            f"{opt(option)} is {value!r}; expected {allowed}",
+            option=option,
+            value=value,
+            allowed=allowed,
+        )
+
+
 class Watchdog:
     """Declares the link lost when nothing arrived for ``timeout`` seconds.
 
@@ -58,13 +71,7 @@ class Watchdog:
     """
 
     def __init__(self, timeout: float = 0.5) -> None:
-        if not (math.isfinite(timeout) and timeout > 0):
-            raise RobotConfigError(
-                f"{opt('watchdog')} is {timeout!r}; expected a positive number of s",
-                option="watchdog",
-                value=timeout,
-                allowed="a positive number of s",
-            )
+        _check_positive("watchdog", timeout, "s")
         self.timeout = float(timeout)
         self.last_feed: float | None = None
 
@@ -243,13 +250,7 @@ class ControlLoop:
         on_cycle: Callable[[CycleInfo], None] | None = None,
         on_event: Callable[[float, str], None] | None = None,
     ) -> None:
-        if not (math.isfinite(rate) and rate > 0):
-            raise RobotConfigError(
-                f"{opt('rate')} is {rate!r}; expected a positive number of Hz",
-                option="rate",
-                value=rate,
-                allowed="a positive number of Hz",
-            )
+        _check_positive("rate", rate, "Hz")
         self.driver = driver
         self.odometry = odometry
         self.clock = clock

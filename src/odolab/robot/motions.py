@@ -9,6 +9,7 @@ motion, to ``min_fraction`` of the cruise speed, so the robot does not stop abru
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
@@ -75,8 +76,44 @@ def _check_positive(name: str, value: float) -> float:
     return v
 
 
+class _Turn(ABC):
+    """A turn by ``angle`` rad measured on the odometry heading (:class:`Rotate`,
+    :class:`Pivot`): the moving track(s) run at ``speed`` (rad/s of heading) times a lever (m
+    per rad: :meth:`_lever_arm`), slowing down over the last ``decel`` radians; :meth:`_wheels`
+    says which track runs which way."""
+
+    angle: float
+    speed: float
+    decel: float
+    min_fraction: float
+    _target = 0.0  #: heading at which the turn ends (odometry frame)
+    _lever = 0.0  #: m of the moving track's travel per rad of heading
+    _sign = 1.0  #: +1 ccw, -1 cw
+
+    @abstractmethod
+    def _lever_arm(self, params: RobotParams) -> float:
+        """m of the moving track's travel per rad of heading."""
+
+    @abstractmethod
+    def _wheels(self, v: float) -> tuple[float, float]:
+        """The (left, right) speeds when the moving track(s) run at ``v`` m/s (unsigned)."""
+
+    def start(self, pose: Pose, params: RobotParams) -> None:
+        self._target = pose.heading + self.angle
+        self._lever = self._lever_arm(params)
+        self._sign = 1.0 if self.angle >= 0 else -1.0
+
+    def step(self, pose: Pose) -> tuple[float, float] | None:
+        remaining = self._sign * (self._target - pose.heading)
+        if remaining <= 0:
+            return None
+        return self._wheels(
+            self.speed * self._lever * _scale(remaining, self.decel, self.min_fraction)
+        )
+
+
 @dataclass
-class Rotate:
+class Rotate(_Turn):
     """Turn in place by ``angle`` rad (ccw positive; e.g. 20*pi), tracks in opposite directions.
 
     ``speed``: heading rate, rad/s. ``decel``: the last radians over which to slow down.
@@ -91,20 +128,11 @@ class Rotate:
         if not math.isfinite(self.angle):
             raise MotionError(f"rotation angle is {self.angle!r}, expected a finite number")
         _check_positive("speed", self.speed)
-        self._target = 0.0
-        self._half_track = 0.0
-        self._sign = 1.0
 
-    def start(self, pose: Pose, params: RobotParams) -> None:
-        self._target = pose.heading + self.angle
-        self._half_track = 0.5 * params.track_width
-        self._sign = 1.0 if self.angle >= 0 else -1.0
+    def _lever_arm(self, params: RobotParams) -> float:
+        return 0.5 * params.track_width  # both tracks, opposite ways
 
-    def step(self, pose: Pose) -> tuple[float, float] | None:
-        remaining = self._sign * (self._target - pose.heading)
-        if remaining <= 0:
-            return None
-        v = self.speed * self._half_track * _scale(remaining, self.decel, self.min_fraction)
+    def _wheels(self, v: float) -> tuple[float, float]:
         return (-self._sign * v, self._sign * v)
 
 
@@ -144,7 +172,7 @@ class Straight:
 
 
 @dataclass
-class Pivot:
+class Pivot(_Turn):
     """Turn by ``angle`` rad on one track: ``held`` ("left" or "right") stays still.
 
     ``speed``: heading rate, rad/s; the moving track runs at ``speed * track_width``.
@@ -162,20 +190,11 @@ class Pivot:
         if not math.isfinite(self.angle):
             raise MotionError(f"pivot angle is {self.angle!r}, expected a finite number")
         _check_positive("speed", self.speed)
-        self._target = 0.0
-        self._track = 0.0
-        self._sign = 1.0
 
-    def start(self, pose: Pose, params: RobotParams) -> None:
-        self._target = pose.heading + self.angle
-        self._track = params.track_width
-        self._sign = 1.0 if self.angle >= 0 else -1.0
+    def _lever_arm(self, params: RobotParams) -> float:
+        return params.track_width  # one track, about the other
 
-    def step(self, pose: Pose) -> tuple[float, float] | None:
-        remaining = self._sign * (self._target - pose.heading)
-        if remaining <= 0:
-            return None
-        v = self.speed * self._track * _scale(remaining, self.decel, self.min_fraction)
+    def _wheels(self, v: float) -> tuple[float, float]:
         # ccw (sign +): right forward with left held, or left backward with right held
         if self.held == "left":
             return (0.0, self._sign * v)

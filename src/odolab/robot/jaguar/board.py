@@ -33,18 +33,15 @@ from __future__ import annotations
 import contextlib
 import heapq
 import math
-import select
 import socket
-import threading
-import time
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass, field
-from typing import TypeVar, cast
+from typing import cast
 
 import numpy as np
 
 from odolab.core.encoders import counter_delta
-from odolab.core.errors import ProtocolError, RobotLinkError, opt
+from odolab.core.errors import ProtocolError
 from odolab.core.params import RobotParams
 from odolab.robot.config import BOUNDS, Bound, check_bound
 from odolab.robot.errors import BoardConfigError, RobotConfigError
@@ -65,6 +62,7 @@ from odolab.robot.jaguar.protocol import (
     encode_system,
 )
 from odolab.robot.plant import Plant
+from odolab.robot.virtual_board import BoardServer, check_fault, check_silent_after
 from odolab.robot.virtual_truth import encode_trailer
 
 __all__ = [
@@ -76,7 +74,6 @@ __all__ = [
     "VirtualJaguarServer",
 ]
 
-_T = TypeVar("_T")
 
 LEFT_CHANNEL = 0
 RIGHT_CHANNEL = 1
@@ -142,32 +139,10 @@ class Faults:
 
     def __post_init__(self) -> None:
         for name in ("drop", "duplicate", "corrupt", "drop_incoming"):
-            p = getattr(self, name)
-            if not (math.isfinite(p) and 0.0 <= p <= 1.0):
-                raise BoardConfigError(
-                    f"{opt(name)} is {p}; expected a probability in [0, 1]",
-                    option=name,
-                    value=p,
-                    allowed="a probability in [0, 1]",
-                )
-        if self.silent_after is not None and not (
-            math.isfinite(self.silent_after) and 0.0 <= self.silent_after <= 3600.0
-        ):
-            raise BoardConfigError(
-                f"{opt('silent_after')} is {self.silent_after}; expected a number in [0, 3600] s",
-                option="silent_after",
-                value=self.silent_after,
-                allowed="a number in [0, 3600] s",
-            )
+            check_fault(name, getattr(self, name), 1.0, "a probability in [0, 1]")
+        check_silent_after(self.silent_after)
         for name in ("delay", "jitter"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and 0.0 <= v <= 10.0):
-                raise BoardConfigError(
-                    f"{opt(name)} is {v}; expected a number in [0, 10] s",
-                    option=name,
-                    value=v,
-                    allowed="a number in [0, 10] s",
-                )
+            check_fault(name, getattr(self, name), 10.0, "a number in [0, 10] s")
 
 
 @dataclass
@@ -488,50 +463,20 @@ class InProcessLink:
         self.closed = True
 
 
-class VirtualJaguarServer:
+class VirtualJaguarServer(BoardServer[VirtualJaguar]):
     """The virtual Jaguar behind a UDP socket, run by a background thread in real time.
 
     Use as a context manager, or call :meth:`start` and :meth:`close`. Port 0 lets the OS pick;
     :attr:`address` is the bound (host, port).
     """
 
-    def __init__(
-        self,
-        board: VirtualJaguar,
-        host: str = "127.0.0.1",
-        port: int = 0,
-    ) -> None:
-        self.board = board
-        # warm up the plant (the simulator compiles its physics on the first step, which would
-        # otherwise stall the first reports): one millisecond with the wheels still
-        board.plant.advance(1e-3)
-        self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        try:
-            self._sock.bind((host, port))
-        except OSError as err:
-            self._sock.close()
-            raise RobotLinkError(
-                f"cannot bind the virtual Jaguar to {host}:{port} ({err})"
-            ) from err
-        self._sock.setblocking(False)
-        self.address: tuple[str, int] = self._sock.getsockname()
-        self._lock = threading.Lock()
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
-        self.error: BaseException | None = None
+    thread_name = "virtual-jaguar"
+    name = "the virtual Jaguar"
+    socket_type = socket.SOCK_DGRAM
+    bind_failure = "cannot bind the virtual Jaguar to"
 
-    def __enter__(self) -> VirtualJaguarServer:
-        self.start()
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
-    def start(self) -> None:
-        """Start serving in a daemon thread."""
-        if self._thread is None:
-            self._thread = threading.Thread(target=self._serve, name="virtual-jaguar", daemon=True)
-            self._thread.start()
+    def _bind(self, sock: socket.socket, host: str, port: int) -> None:
+        sock.bind((host, port))
 
     def set_silent(self, silent: bool) -> None:
         """Stop (True) or resume (False) sending anything."""
@@ -543,46 +488,19 @@ class VirtualJaguarServer:
         with self._lock:
             self.board.faults = faults
 
-    def call(self, fn: Callable[[VirtualJaguar], _T]) -> _T:
-        """Run ``fn(board)`` under the server's lock (to read the plant safely)."""
-        with self._lock:
-            return fn(self.board)
-
-    def serve_forever(self) -> None:
-        """Serve in the calling thread until :meth:`close` (or Ctrl-C); re-raise a failure."""
-        self._serve()
-        if self.error is not None:
-            raise RobotLinkError(f"the virtual Jaguar stopped: {self.error!r}") from self.error
-
-    def _serve(self) -> None:
+    def _exchange(self, readable: list[socket.socket], now: float) -> None:
         sock = self._sock
-        try:
-            while not self._stop.is_set():
-                now = time.perf_counter()
-                with self._lock:
-                    wait = min(self.board.next_event() - now, 0.01)
-                readable, _, _ = select.select([sock], [], [], max(wait, 0.0))
-                now = time.perf_counter()
-                with self._lock:
-                    if readable:
-                        while True:
-                            try:
-                                data, peer = sock.recvfrom(2048)
-                            except (BlockingIOError, InterruptedError):
-                                break
-                            except OSError:  # e.g. ICMP port unreachable from an old peer
-                                break
-                            self.board.handle(data, peer, now)
-                    out = self.board.step(now)
-                for data, peer in out:
-                    with contextlib.suppress(OSError):
-                        sock.sendto(data, cast(tuple[str, int], peer))
-        except Exception as err:  # keep the thread's failure for whoever checks
-            self.error = err
-
-    def close(self) -> None:
-        """Stop the thread and close the socket."""
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout=2.0)
-        self._sock.close()
+        with self._lock:
+            if readable:
+                while True:
+                    try:
+                        data, peer = sock.recvfrom(2048)
+                    except (BlockingIOError, InterruptedError):
+                        break
+                    except OSError:  # e.g. ICMP port unreachable from an old peer
+                        break
+                    self.board.handle(data, peer, now)
+            out = self.board.step(now)
+        for data, peer in out:
+            with contextlib.suppress(OSError):
+                sock.sendto(data, cast(tuple[str, int], peer))

@@ -18,19 +18,18 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol
-from urllib.parse import urlparse
 
 from odolab.core.errors import ProtocolError, RobotLinkError, opt
 from odolab.core.params import RobotParams
 from odolab.robot.clock import Clock
 from odolab.robot.config import CommandMode, RunConfig, check_signs
+from odolab.robot.driver_base import LinkDriver, split_link_url
 from odolab.robot.errors import (
-    LateCycleError,
     NoSensorDataError,
     RobotConfigError,
     RobotUrlError,
 )
-from odolab.robot.interface import DriverStats, EncoderReading, check_send_by, confirm_stopped
+from odolab.robot.interface import DriverStats, EncoderReading
 from odolab.robot.jaguar.protocol import (
     DES_PC,
     N_CHANNELS,
@@ -45,7 +44,7 @@ from odolab.robot.jaguar.protocol import (
     encode_motor_command,
     encode_system,
 )
-from odolab.robot.virtual_truth import TruthTracker, decode_trailer
+from odolab.robot.virtual_truth import decode_trailer
 
 __all__ = [
     "ChannelMap",
@@ -103,29 +102,15 @@ class JaguarLinkStats:
 
 def parse_robot_url(url: str) -> tuple[str, int]:
     """``udp://HOST:PORT`` -> (host, port)."""
-    parsed = urlparse(url)
-    try:
-        port = parsed.port  # raises ValueError for a non-number or out of 0..65535
-    except ValueError as err:
-        raise RobotUrlError(
-            f"{opt('robot')} {url!r} has a bad port ({err}); expected udp://HOST:PORT with a port "
-            "in 0..65535"
-        ) from err
-    if (
-        parsed.scheme != "udp"
-        or not parsed.hostname
-        or port is None
-        or parsed.path not in ("", "/")
-        or parsed.fragment
-        or parsed.username is not None
-    ):
+    parsed, host, port = split_link_url(url, "udp")
+    if parsed.fragment:
         raise RobotUrlError(f"{opt('robot')} {url!r} is not of the form udp://HOST:PORT")
     if parsed.query:  # was ignored: udp://...?variant=track, meant for tcp://, drove the board
         raise RobotUrlError(
             f"{opt('robot')} {url!r}: udp://HOST:PORT takes no query (variant= is for the 2014 "
             "Jaguar's tcp://HOST:PORT?variant=wheel|track)"
         )
-    return parsed.hostname, port
+    return host, port
 
 
 # Linux socket options for kernel receive timestamps (not named in Python's socket module)
@@ -280,31 +265,19 @@ def driver_config_for(params: RobotParams, **changes: object) -> DriverConfig:
     return DriverConfig(**base)  # type: ignore[arg-type]
 
 
-class JaguarDriver:
+class JaguarDriver(LinkDriver[Transport, JaguarLinkStats]):
     """Client of one Jaguar board over ``transport``; times come from ``clock``.
 
-    Implements :class:`odolab.robot.interface.Driver`.
+    Implements :class:`odolab.robot.interface.Driver`. Drive commands are all-channel PWM or
+    velocity packets; the stop is the fixed packet (PWM 16384 or velocity 0 on channels 0 and
+    1); closing stops the robot and closes the transport.
     """
 
     def __init__(self, transport: Transport, clock: Clock, config: DriverConfig | None = None):
-        self.transport = transport
-        self.clock = clock
+        super().__init__(transport, clock, JaguarLinkStats())
         self.config = config or DriverConfig()
         self.decoder = Decoder({DES_PC})
-        self._link = JaguarLinkStats()
-        self.stats: DriverStats[JaguarLinkStats] = DriverStats(link=self._link)
-        self._latest: EncoderReading | None = None
-        self.last_command: tuple[float, float] = (0.0, 0.0)
         self._stop_packet = STOP_PWM if self.config.mode is CommandMode.PWM else STOP_VELOCITY
-        self._closed = False
-        #: the true pose a virtual board sends (:mod:`odolab.robot.virtual_truth`); a real
-        #: board's run leaves it empty
-        self.virtual_truth = TruthTracker()
-
-    @property
-    def latest(self) -> EncoderReading | None:
-        """The newest reading (None before the first)."""
-        return self._latest
 
     @property
     def decode_errors(self) -> int:
@@ -389,49 +362,11 @@ class JaguarDriver:
             return int(min(max(round(PWM_STOP + s / vmax * PWM_STOP), 0), 32767))
         return int(min(max(round(s / metres_per_tick), -32767), 32767))
 
-    def set_wheel_speeds(
-        self, left_mps: float, right_mps: float, *, send_by: float | None = None
-    ) -> None:
-        """Command the left and right track speeds (m/s, forward positive; clipped); not after
-        ``send_by`` (see :func:`odolab.robot.interface.check_send_by`)."""
-        if not (math.isfinite(left_mps) and math.isfinite(right_mps)):
-            self.stop()
-            raise RobotConfigError(
-                f"wheel speeds must be finite, got {left_mps!r}, {right_mps!r}; stopped"
-            )
+    def _encode_speeds(self, left_mps: float, right_mps: float) -> bytes:
         cfg = self.config
         ch = cfg.channels
         values: list[int | None] = [None] * N_CHANNELS
         values[ch.left] = self._value(ch.left_motor_sign * left_mps, cfg.left_metres_per_tick)
         values[ch.right] = self._value(ch.right_motor_sign * right_mps, cfg.right_metres_per_tick)
         kind = MessageType.PWM_ALL if cfg.mode is CommandMode.PWM else MessageType.VELOCITY_ALL
-        frame = encode_motor_command(kind, values)
-        try:
-            check_send_by(self.clock.now(), send_by)  # the last thing before the bytes go out
-        except LateCycleError:
-            self.stop()
-            raise
-        self.transport.send(frame)
-        self.last_command = (left_mps, right_mps)
-        self.stats.commands_sent += 1
-
-    def stop(self) -> None:
-        """Send the fixed stop packet (PWM 16384 or velocity 0 on channels 0 and 1)."""
-        self.transport.send(self._stop_packet)
-        self.last_command = (0.0, 0.0)
-        self.stats.commands_sent += 1
-        self.stats.stops_sent += 1
-
-    def confirm_stopped(self, timeout: float) -> bool:
-        """Stop until two readings after the stop agree (:func:`~odolab.robot.interface.confirm_stopped`)."""
-        return confirm_stopped(self, timeout)
-
-    def close(self) -> None:
-        """Stop the robot and close the transport (safe to call twice)."""
-        if self._closed:
-            return
-        self._closed = True
-        try:
-            self.stop()
-        finally:
-            self.transport.close()
+        return encode_motor_command(kind, values)

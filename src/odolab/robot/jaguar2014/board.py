@@ -28,16 +28,12 @@ from __future__ import annotations
 
 import contextlib
 import math
-import select
 import socket
-import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TypeVar
 
 from odolab.core.encoders import counter_delta
-from odolab.core.errors import RobotLinkError, opt
 from odolab.core.kinematics import wrap_angle
 from odolab.core.params import RobotParams
 from odolab.robot.errors import BoardConfigError
@@ -49,6 +45,7 @@ from odolab.robot.jaguar2014.protocol import (
     parse_host_line,
 )
 from odolab.robot.plant import Plant
+from odolab.robot.virtual_board import BoardServer, check_silent_after
 from odolab.robot.virtual_truth import encode_line
 
 __all__ = [
@@ -60,7 +57,6 @@ __all__ = [
 ]
 
 GYRO_LSB_PER_DEG_S = 14.375
-_T = TypeVar("_T")
 
 
 @dataclass(frozen=True)
@@ -87,15 +83,7 @@ class Board2014Config:
             raise BoardConfigError(
                 f"silence timeout is {self.silence_timeout!r} s; expected 0 (never) to 60 s"
             )
-        if self.silent_after is not None and not (
-            math.isfinite(self.silent_after) and 0 <= self.silent_after <= 3600
-        ):
-            raise BoardConfigError(
-                f"{opt('silent_after')} is {self.silent_after}; expected a number in [0, 3600] s",
-                option="silent_after",
-                value=self.silent_after,
-                allowed="a number in [0, 3600] s",
-            )
+        check_silent_after(self.silent_after)
         if self.variant not in VARIANTS:
             raise BoardConfigError(
                 f"variant is {self.variant!r}; expected one of {', '.join(VARIANTS)}"
@@ -357,59 +345,30 @@ class InProcessLines:
             self.board.disconnect(self._clock())
 
 
-class VirtualJaguar2014Server:
+class VirtualJaguar2014Server(BoardServer[VirtualJaguar2014]):
     """The virtual board behind a TCP listening socket, served by a thread in real time.
 
     One host at a time: while a connection is live, a second one is accepted and closed at
     once (counted in ``stats.refused_peers``). :attr:`address` is the bound (host, port).
     """
 
+    thread_name = "virtual-jaguar-2014"
+    name = "the virtual Jaguar 2014"
+    socket_type = socket.SOCK_STREAM
+    bind_failure = "cannot listen for the virtual Jaguar 2014 on"
+
     def __init__(self, board: VirtualJaguar2014, host: str = "127.0.0.1", port: int = 0) -> None:
-        self.board = board
-        board.plant.advance(1e-3)  # warm the plant up (a simulator compiles on its first step)
-        board._plant_last = board.plant.encoder_counts()
-        self._sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        self._sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        try:
-            self._sock.bind((host, port))
-            self._sock.listen(4)
-        except OSError as err:
-            self._sock.close()
-            raise RobotLinkError(
-                f"cannot listen for the virtual Jaguar 2014 on {host}:{port} ({err})"
-            ) from err
-        self._sock.setblocking(False)
-        self.address: tuple[str, int] = self._sock.getsockname()
         self._peer: socket.socket | None = None
-        self._lock = threading.Lock()
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
-        self.error: BaseException | None = None
+        super().__init__(board, host, port)
 
-    def __enter__(self) -> VirtualJaguar2014Server:
-        self.start()
-        return self
+    def _warm_up(self) -> None:
+        super()._warm_up()
+        self.board._plant_last = self.board.plant.encoder_counts()
 
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
-    def start(self) -> None:
-        if self._thread is None:
-            self._thread = threading.Thread(
-                target=self._serve, name="virtual-jaguar-2014", daemon=True
-            )
-            self._thread.start()
-
-    def call(self, fn: Callable[[VirtualJaguar2014], _T]) -> _T:
-        """Run ``fn(board)`` under the server's lock."""
-        with self._lock:
-            return fn(self.board)
-
-    def serve_forever(self) -> None:
-        """Serve in the calling thread until :meth:`close` (or Ctrl-C); re-raise a failure."""
-        self._serve()
-        if self.error is not None:
-            raise RobotLinkError(f"the virtual Jaguar 2014 stopped: {self.error!r}") from self.error
+    def _bind(self, sock: socket.socket, host: str, port: int) -> None:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        sock.bind((host, port))
+        sock.listen(4)
 
     def _drop_peer(self, now: float) -> None:
         if self._peer is not None:
@@ -418,50 +377,38 @@ class VirtualJaguar2014Server:
             self._peer = None
             self.board.disconnect(now)
 
-    def _serve(self) -> None:
-        try:
-            while not self._stop.is_set():
-                now = time.perf_counter()
-                with self._lock:
-                    wait = min(self.board.next_event() - now, 0.01)
-                socks = [self._sock] + ([self._peer] if self._peer is not None else [])
-                readable, _, _ = select.select(socks, [], [], max(wait, 0.0))
-                now = time.perf_counter()
-                with self._lock:
-                    if self._sock in readable:
-                        with contextlib.suppress(BlockingIOError, InterruptedError):
-                            conn, _ = self._sock.accept()
-                            if self._peer is not None:
-                                self.board.stats.refused_peers += 1
-                                conn.close()
-                            else:
-                                conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-                                conn.settimeout(0.5)
-                                self._peer = conn
-                                self.board.connect(now)
-                    if self._peer is not None and self._peer in readable:
-                        try:
-                            data = self._peer.recv(65536)
-                        except OSError:
-                            data = b""
-                        if data:
-                            self.board.feed(data, now)
-                        else:
-                            self._drop_peer(now)
-                    out = self.board.step_timed(now)
-                    if self._peer is not None and out:
-                        try:
-                            self._peer.sendall(b"".join(d for d, _ in out))
-                        except OSError:
-                            self._drop_peer(now)
-        except Exception as err:  # keep the thread's failure for whoever checks
-            self.error = err
+    def _watched(self) -> list[socket.socket]:
+        return [self._sock] + ([self._peer] if self._peer is not None else [])
 
-    def close(self) -> None:
-        """Stop the thread, close the sockets."""
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout=2.0)
+    def _exchange(self, readable: list[socket.socket], now: float) -> None:
+        with self._lock:
+            if self._sock in readable:
+                with contextlib.suppress(BlockingIOError, InterruptedError):
+                    conn, _ = self._sock.accept()
+                    if self._peer is not None:
+                        self.board.stats.refused_peers += 1
+                        conn.close()
+                    else:
+                        conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+                        conn.settimeout(0.5)
+                        self._peer = conn
+                        self.board.connect(now)
+            if self._peer is not None and self._peer in readable:
+                try:
+                    data = self._peer.recv(65536)
+                except OSError:
+                    data = b""
+                if data:
+                    self.board.feed(data, now)
+                else:
+                    self._drop_peer(now)
+            out = self.board.step_timed(now)
+            if self._peer is not None and out:
+                try:
+                    self._peer.sendall(b"".join(d for d, _ in out))
+                except OSError:
+                    self._drop_peer(now)
+
+    def _release(self) -> None:
         with self._lock:
             self._drop_peer(time.perf_counter())
-        self._sock.close()

@@ -20,19 +20,19 @@ import socket
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol
-from urllib.parse import parse_qs, urlparse
+from urllib.parse import parse_qs
 
 from odolab.core.errors import opt
 from odolab.core.params import RobotParams
 from odolab.robot.clock import Clock
 from odolab.robot.config import RunConfig, check_signs
+from odolab.robot.driver_base import LinkDriver, split_link_url
 from odolab.robot.errors import (
-    LateCycleError,
     NoSensorDataError,
     RobotConfigError,
     RobotUrlError,
 )
-from odolab.robot.interface import DriverStats, EncoderReading, check_send_by, confirm_stopped
+from odolab.robot.interface import EncoderReading
 from odolab.robot.jaguar2014.protocol import (
     PING,
     POWER_LIMIT,
@@ -49,7 +49,7 @@ from odolab.robot.jaguar2014.protocol import (
     int32,
     parse_robot_line,
 )
-from odolab.robot.virtual_truth import LINE_PREFIX, TruthTracker, decode_line
+from odolab.robot.virtual_truth import LINE_PREFIX, decode_line
 
 __all__ = [
     "VARIANTS",
@@ -72,22 +72,7 @@ VARIANTS: dict[str, tuple[tuple[int, int], tuple[int, int]]] = {
 
 def parse_tcp_url(url: str) -> tuple[str, int, str]:
     """``tcp://HOST:PORT[?variant=wheel|track]`` -> (host, port, variant)."""
-    parsed = urlparse(url)
-    try:
-        port = parsed.port
-    except ValueError as err:
-        raise RobotUrlError(
-            f"{opt('robot')} {url!r} has a bad port ({err}); expected tcp://HOST:PORT with a port "
-            "in 0..65535"
-        ) from err
-    if (
-        parsed.scheme != "tcp"
-        or not parsed.hostname
-        or port is None
-        or parsed.path not in ("", "/")
-        or parsed.username is not None
-    ):
-        raise RobotUrlError(f"{opt('robot')} {url!r} is not of the form tcp://HOST:PORT")
+    parsed, host, port = split_link_url(url, "tcp")
     query = parse_qs(parsed.query, keep_blank_values=True)
     variant = "wheel"
     for key, values in query.items():
@@ -98,7 +83,7 @@ def parse_tcp_url(url: str) -> tuple[str, int, str]:
         variant = values[0]
     if parsed.fragment:
         raise RobotUrlError(f"{opt('robot')} {url!r} is not of the form tcp://HOST:PORT")
-    return parsed.hostname, port, variant
+    return host, port, variant
 
 
 class LineTransport(Protocol):
@@ -269,20 +254,19 @@ class Jaguar2014Stats:
     lines: LineStats = field(default_factory=LineStats)
 
 
-class Jaguar2014Driver:
+class Jaguar2014Driver(LinkDriver[LineTransport, Jaguar2014Stats]):
     """Client of one Jaguar 4x4 (2014) over ``transport``; implements
-    :class:`odolab.robot.interface.Driver`."""
+    :class:`odolab.robot.interface.Driver`. Drive commands are ``!M`` lines; the stop is the
+    fixed line ``MMW !M 0 0``; closing stops, sets the E-stop and closes the connection."""
+
+    _stop_packet = STOP
 
     def __init__(
         self, transport: LineTransport, clock: Clock, config: Driver2014Config | None = None
     ) -> None:
-        self.transport = transport
-        self.clock = clock
+        super().__init__(transport, clock, Jaguar2014Stats())
         self.config = config or Driver2014Config()
-        self._link = Jaguar2014Stats()
-        self.stats: DriverStats[Jaguar2014Stats] = DriverStats(link=self._link)
         self._splitter = LineSplitter(self._link.lines)
-        self._latest: EncoderReading | None = None
         self._raw: dict[int, tuple[int, int]] = {}  #: last absolute C= per board
         self._acc: dict[int, tuple[int, int]] = {}  #: counts since the first C=, forward +
         self._rpm: tuple[int, ...] | None = None
@@ -291,23 +275,11 @@ class Jaguar2014Driver:
         self._faults: int | None = None
         self._next_ping = -math.inf
         self.imu: list[ImuSample] = []
-        self.last_command: tuple[float, float] = (0.0, 0.0)
-        self._closed = False
-        #: the true pose a virtual board sends (:mod:`odolab.robot.virtual_truth`); a real
-        #: board's run leaves it empty
-        self.virtual_truth = TruthTracker()
-
-    @property
-    def latest(self) -> EncoderReading | None:
-        return self._latest
 
     @property
     def decode_errors(self) -> int:
         """Lines ignored (no known form) or dropped (overlong)."""
         return self._link.lines.unknown + self._link.lines.overlong
-
-    def _send(self, line: bytes) -> None:
-        self.transport.send(line)
 
     def _ping_if_due(self) -> None:
         now = self.clock.now()
@@ -428,40 +400,12 @@ class Jaguar2014Driver:
         s = min(max(speed, -vmax), vmax)
         return int(min(max(round(sign * s / vmax * POWER_LIMIT), -POWER_LIMIT), POWER_LIMIT))
 
-    def set_wheel_speeds(
-        self, left_mps: float, right_mps: float, *, send_by: float | None = None
-    ) -> None:
-        """Command the left and right speeds (m/s, forward positive; clipped) as ``!M``; not
-        after ``send_by`` (see :func:`odolab.robot.interface.check_send_by`)."""
-        if not (math.isfinite(left_mps) and math.isfinite(right_mps)):
-            self.stop()
-            raise RobotConfigError(
-                f"wheel speeds must be finite, got {left_mps!r}, {right_mps!r}; stopped"
-            )
+    def _encode_speeds(self, left_mps: float, right_mps: float) -> bytes:
         cfg = self.config
-        line = encode_drive(
+        return encode_drive(
             self._value(left_mps, cfg.left_command_sign),
             self._value(right_mps, cfg.right_command_sign),
         )
-        try:
-            check_send_by(self.clock.now(), send_by)  # the last thing before the bytes go out
-        except LateCycleError:
-            self.stop()
-            raise
-        self._send(line)
-        self.last_command = (left_mps, right_mps)
-        self.stats.commands_sent += 1
-
-    def stop(self) -> None:
-        """Send the fixed stop line ``MMW !M 0 0``."""
-        self._send(STOP)
-        self.last_command = (0.0, 0.0)
-        self.stats.commands_sent += 1
-        self.stats.stops_sent += 1
-
-    def confirm_stopped(self, timeout: float) -> bool:
-        """Stop until two readings after the stop agree (:func:`~odolab.robot.interface.confirm_stopped`)."""
-        return confirm_stopped(self, timeout)
 
     def headings(self) -> list[tuple[float, float | None, float | None]]:
         """The IMU lines so far as (arrival time, YAW rad, GYRO z in rad/s), the gyro from
@@ -475,13 +419,7 @@ class Jaguar2014Driver:
             out.append((s.t, yaw[0] if yaw else None, rate))
         return out
 
-    def close(self) -> None:
-        """Stop, set the E-stop, close the connection (safe to call twice)."""
-        if self._closed:
-            return
-        self._closed = True
-        try:
-            self.stop()
-            self._send(SET_ESTOP)
-        finally:
-            self.transport.close()
+    def _shut_down(self) -> None:
+        """Stop, then set the E-stop."""
+        super()._shut_down()
+        self._send(SET_ESTOP)
