@@ -13,6 +13,7 @@ import typer
 from odolab.cli._apps import app, calibrate_app
 from odolab.cli._output import echo, markup_text
 from odolab.cli._several import several_values_command
+from odolab.cli.options import NewParamsOutputOpt, RunFormat
 from odolab.cli.wording import said
 from odolab.core.writing import strict_json
 
@@ -28,17 +29,12 @@ if TYPE_CHECKING:
 __all__: list[str] = []
 
 
-class RunFormat(StrEnum):
-    csv = "csv"
-    optiodom = "optiodom"
-    bag = "bag"
-    drive = "drive"
-
-
 RUN_FORMAT_HELP = (
     "Run format (default: detected from the files found: a bag, OptiOdom runs beside their "
     "<id>_metadata.csv, else odolab's encoder log CSV; the output says which)."
 )
+#: ``calibrate lsq``, ``calibrate compare``: --format, detected when not given
+RunFormatOpt = Annotated[RunFormat | None, typer.Option("--format", "-f", help=RUN_FORMAT_HELP)]
 
 
 def run_format(fmt: RunFormat | None, paths: list[Path]) -> RunFormat:
@@ -170,7 +166,7 @@ EvalResultsOpt = Annotated[
 EvalNeesOpt = Annotated[
     bool, typer.Option("--nees", help="Runs: NEES of the propagated covariance (\\[noise]).")
 ]
-EvalNeesSegmentOpt = Annotated[float, typer.Option(help="Piece length (s) of the NEES.")]
+NeesSegmentOpt = Annotated[float, typer.Option(help="Piece length (s) of the NEES.")]
 EvalGtYawOffsetOpt = Annotated[
     bool | None,
     typer.Option(
@@ -211,7 +207,7 @@ def evaluate_cmd(
     joints: JointsOpt = ("left_wheel_joint", "right_wheel_joint"),
     gt_topic: GtTopicOpt = "/ground_truth",
     nees: EvalNeesOpt = False,
-    nees_segment: EvalNeesSegmentOpt = 10.0,
+    nees_segment: NeesSegmentOpt = 10.0,
     gt_yaw_offset: EvalGtYawOffsetOpt = None,
     chunk_rows: EvalChunkRowsOpt = None,
 ) -> None:
@@ -417,11 +413,9 @@ def _print_table(rows: list[tuple[str, Any]]) -> None:
 
 
 # ``--validate D E F`` (a shell glob) holds out D, E and F; click alone would fit E and F
-LsqRunsOpt = Annotated[
+RunsWithTruthArg = Annotated[
     list[Path], typer.Argument(help="Runs (files or folders) with ground truth.")
 ]
-LsqOutputOpt = Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")]
-LsqFmtOpt = Annotated[RunFormat | None, typer.Option("--format", "-f", help=RUN_FORMAT_HELP)]
 LsqValidateOpt = Annotated[
     list[Path] | None,
     typer.Option(
@@ -430,14 +424,14 @@ LsqValidateOpt = Annotated[
         "every path after --validate up to the next option (a shell glob works).",
     ),
 ]
-LsqSegmentOpt = Annotated[float, typer.Option(help="Segment length (s) of the residuals.")]
+SegmentOpt = Annotated[float, typer.Option(help="Segment length (s) of the residuals.")]
 LsqNoGtYawOffsetOpt = Annotated[
     bool,
     typer.Option(
         "--no-gt-yaw-offset", help="Do not estimate the ground truth's yaw mounting offset."
     ),
 ]
-LsqJsonOutOpt = Annotated[Path | None, typer.Option("--json", help="Write the report here.")]
+ReportJsonOpt = Annotated[Path | None, typer.Option("--json", help="Write the report here.")]
 LsqModelOpt = Annotated[
     ModelChoice,
     typer.Option(help="Model to fit (docs/models.md): diff, extended, icr or slip."),
@@ -469,14 +463,14 @@ LossOpt = Annotated[
 
 @calibrate_app.command("lsq", cls=several_values_command("--validate"))
 def calibrate_lsq_cmd(
-    runs: LsqRunsOpt,
-    output: LsqOutputOpt,
-    fmt: LsqFmtOpt = None,
+    runs: RunsWithTruthArg,
+    output: NewParamsOutputOpt,
+    fmt: RunFormatOpt = None,
     params: ParamsOpt = None,
     validate: LsqValidateOpt = None,
-    segment: LsqSegmentOpt = 2.0,
+    segment: SegmentOpt = 2.0,
     no_gt_yaw_offset: LsqNoGtYawOffsetOpt = False,
-    json_out: LsqJsonOutOpt = None,
+    json_out: ReportJsonOpt = None,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
     joint_topic: JointTopicOpt = "/joint_states",
