@@ -18,7 +18,9 @@ from odolab.cli.wording import said
 from odolab.core.writing import strict_json
 
 if TYPE_CHECKING:
-    from collections.abc import Sequence
+    from collections.abc import Iterable, Sequence
+
+    from rich.console import Console
 
     from odolab.app.evaluate import EvaluationRequest, RunSetEvaluation
     from odolab.calibration.lsq import LsqCalibration
@@ -302,9 +304,13 @@ def _print_notes(notes: list[str]) -> None:
     """``note: ...`` lines under a table (the planar note, why a value is n/a)."""
     from odolab.cli._console import console
 
-    con = console()
-    for note in notes:
-        con.print(f"note: {said(note)}", markup=False, soft_wrap=True)
+    _print_said(console(), "note", notes)
+
+
+def _print_said(con: Console, kind: str, lines: Iterable[str]) -> None:
+    """``KIND: ...`` lines, each in the CLI's words, as they are: no markup, never wrapped."""
+    for line in lines:
+        con.print(f"{kind}: {said(line)}", markup=False, soft_wrap=True)
 
 
 def run_labels(runs: Sequence[RunEvaluation]) -> list[str]:
@@ -591,10 +597,8 @@ def _print_calibration(result: LsqCalibration, output: Path) -> None:
     for key, err in result.stderr.items():
         table.add_row(key, f"{nominal[key]:.6f}", f"{fitted[key]:.6f}", f"{err:.2e}")
     print_table(console, table)
-    for line in result.warnings:
-        console.print(f"warning: {said(line)}", markup=False, soft_wrap=True)
-    for line in result.notes:
-        console.print(f"note: {said(line)}", markup=False, soft_wrap=True)
+    _print_said(console, "warning", result.warnings)
+    _print_said(console, "note", result.notes)
     if not result.validation:
         return
     val = Table(title="held-out runs: nominal -> calibrated")
@@ -629,5 +633,4 @@ def _print_calibration(result: LsqCalibration, output: Path) -> None:
     print_table(console, val)
     if math.isfinite(result.rms_after):
         console.print(f"residual rms {result.rms_before:.5f} -> {result.rms_after:.5f} m")
-    for line in [*getattr(result, "notes", []), *getattr(result, "warnings", [])]:
-        console.print(f"note: {said(line)}", markup=False, soft_wrap=True)
+    _print_said(console, "note", [*getattr(result, "notes", []), *getattr(result, "warnings", [])])
