@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Annotated
 
 import typer
@@ -10,22 +9,17 @@ import typer
 from odolab.cli._apps import calibrate_app
 from odolab.cli._nees import print_nees
 from odolab.cli._output import echo
-from odolab.cli.core import MethodChoice
-from odolab.cli.evaluate import RunFormat
+from odolab.cli.core import MethodChoice, MethodOpt
+from odolab.cli.evaluate import NeesSegmentOpt, RunsWithTruthArg
+from odolab.cli.options import NewParamsOutputOpt, RunFormat
 
 __all__ = ["print_nees"]
 
 
-NoiseRunsOpt = Annotated[
-    list[Path], typer.Argument(help="Runs (files or folders) with ground truth.")
-]
-NoiseOutputOpt = Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")]
 NoiseFmtOpt = Annotated[RunFormat, typer.Option("--format", "-f", help="Run format.")]
 NoiseParamsOpt = Annotated[
     str | None, typer.Option("--params", "-p", help="Parameters (default: the runs' own).")
 ]
-NoiseMethodOpt = Annotated[MethodChoice, typer.Option(help="Pose step rule.")]
-NoiseSegmentOpt = Annotated[float, typer.Option(help="Piece length (s) of the NEES.")]
 NoiseGtYawOffsetOpt = Annotated[
     bool | None,
     typer.Option(
@@ -38,12 +32,12 @@ NoiseGtYawOffsetOpt = Annotated[
 
 @calibrate_app.command("noise")
 def calibrate_noise_cmd(
-    runs: NoiseRunsOpt,
-    output: NoiseOutputOpt,
+    runs: RunsWithTruthArg,
+    output: NewParamsOutputOpt,
     fmt: NoiseFmtOpt = (RunFormat.optiodom),
     params: NoiseParamsOpt = None,
-    method: NoiseMethodOpt = MethodChoice.midpoint,
-    segment: NoiseSegmentOpt = 10.0,
+    method: MethodOpt = MethodChoice.midpoint,
+    segment: NeesSegmentOpt = 10.0,
     gt_yaw_offset: NoiseGtYawOffsetOpt = None,
 ) -> None:
     """Fit the \\[noise] table to runs with ground truth: k_left, k_right, k_scrub by maximum

@@ -28,6 +28,10 @@ class MethodChoice(StrEnum):
     arc = "arc"
 
 
+#: --method of every command that integrates encoder logs
+MethodOpt = Annotated[MethodChoice, typer.Option(help="Pose step rule.")]
+
+
 class FormatChoice(StrEnum):
     csv = "csv"
     tum = "tum"
@@ -64,7 +68,6 @@ OdoOutputOpt = Annotated[
         "--output", "-o", help="Trajectory file to write (.csv, .parquet, .arrow/.feather)."
     ),
 ]
-OdoMethodOpt = Annotated[MethodChoice, typer.Option(help="Pose step rule.")]
 OdoFmtOpt = Annotated[
     LogFormatChoice,
     typer.Option(
@@ -113,7 +116,7 @@ def odometry_cmd(
     logs: OdoLogsOpt,
     params: OdoParamsOpt = None,
     output: OdoOutputOpt = Path("trajectory.csv"),
-    method: OdoMethodOpt = MethodChoice.midpoint,
+    method: MethodOpt = MethodChoice.midpoint,
     fmt: OdoFmtOpt = LogFormatChoice.csv,  # type: ignore[attr-defined]
     to: OdoToOpt = None,
     start: OdoStartOpt = None,

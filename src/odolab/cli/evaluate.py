@@ -13,11 +13,14 @@ import typer
 from odolab.cli._apps import app, calibrate_app
 from odolab.cli._output import echo, markup_text
 from odolab.cli._several import several_values_command
+from odolab.cli.options import NewParamsOutputOpt, RunFormat
 from odolab.cli.wording import said
 from odolab.core.writing import strict_json
 
 if TYPE_CHECKING:
-    from collections.abc import Sequence
+    from collections.abc import Iterable, Sequence
+
+    from rich.console import Console
 
     from odolab.app.evaluate import EvaluationRequest, RunSetEvaluation
     from odolab.calibration.lsq import LsqCalibration
@@ -28,17 +31,12 @@ if TYPE_CHECKING:
 __all__: list[str] = []
 
 
-class RunFormat(StrEnum):
-    csv = "csv"
-    optiodom = "optiodom"
-    bag = "bag"
-    drive = "drive"
-
-
 RUN_FORMAT_HELP = (
     "Run format (default: detected from the files found: a bag, OptiOdom runs beside their "
     "<id>_metadata.csv, else odolab's encoder log CSV; the output says which)."
 )
+#: ``calibrate lsq``, ``calibrate compare``: --format, detected when not given
+RunFormatOpt = Annotated[RunFormat | None, typer.Option("--format", "-f", help=RUN_FORMAT_HELP)]
 
 
 def run_format(fmt: RunFormat | None, paths: list[Path]) -> RunFormat:
@@ -170,7 +168,7 @@ EvalResultsOpt = Annotated[
 EvalNeesOpt = Annotated[
     bool, typer.Option("--nees", help="Runs: NEES of the propagated covariance (\\[noise]).")
 ]
-EvalNeesSegmentOpt = Annotated[float, typer.Option(help="Piece length (s) of the NEES.")]
+NeesSegmentOpt = Annotated[float, typer.Option(help="Piece length (s) of the NEES.")]
 EvalGtYawOffsetOpt = Annotated[
     bool | None,
     typer.Option(
@@ -211,7 +209,7 @@ def evaluate_cmd(
     joints: JointsOpt = ("left_wheel_joint", "right_wheel_joint"),
     gt_topic: GtTopicOpt = "/ground_truth",
     nees: EvalNeesOpt = False,
-    nees_segment: EvalNeesSegmentOpt = 10.0,
+    nees_segment: NeesSegmentOpt = 10.0,
     gt_yaw_offset: EvalGtYawOffsetOpt = None,
     chunk_rows: EvalChunkRowsOpt = None,
 ) -> None:
@@ -306,9 +304,13 @@ def _print_notes(notes: list[str]) -> None:
     """``note: ...`` lines under a table (the planar note, why a value is n/a)."""
     from odolab.cli._console import console
 
-    con = console()
-    for note in notes:
-        con.print(f"note: {said(note)}", markup=False, soft_wrap=True)
+    _print_said(console(), "note", notes)
+
+
+def _print_said(con: Console, kind: str, lines: Iterable[str]) -> None:
+    """``KIND: ...`` lines, each in the CLI's words, as they are: no markup, never wrapped."""
+    for line in lines:
+        con.print(f"{kind}: {said(line)}", markup=False, soft_wrap=True)
 
 
 def run_labels(runs: Sequence[RunEvaluation]) -> list[str]:
@@ -417,11 +419,9 @@ def _print_table(rows: list[tuple[str, Any]]) -> None:
 
 
 # ``--validate D E F`` (a shell glob) holds out D, E and F; click alone would fit E and F
-LsqRunsOpt = Annotated[
+RunsWithTruthArg = Annotated[
     list[Path], typer.Argument(help="Runs (files or folders) with ground truth.")
 ]
-LsqOutputOpt = Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")]
-LsqFmtOpt = Annotated[RunFormat | None, typer.Option("--format", "-f", help=RUN_FORMAT_HELP)]
 LsqValidateOpt = Annotated[
     list[Path] | None,
     typer.Option(
@@ -430,14 +430,14 @@ LsqValidateOpt = Annotated[
         "every path after --validate up to the next option (a shell glob works).",
     ),
 ]
-LsqSegmentOpt = Annotated[float, typer.Option(help="Segment length (s) of the residuals.")]
+SegmentOpt = Annotated[float, typer.Option(help="Segment length (s) of the residuals.")]
 LsqNoGtYawOffsetOpt = Annotated[
     bool,
     typer.Option(
         "--no-gt-yaw-offset", help="Do not estimate the ground truth's yaw mounting offset."
     ),
 ]
-LsqJsonOutOpt = Annotated[Path | None, typer.Option("--json", help="Write the report here.")]
+ReportJsonOpt = Annotated[Path | None, typer.Option("--json", help="Write the report here.")]
 LsqModelOpt = Annotated[
     ModelChoice,
     typer.Option(help="Model to fit (docs/models.md): diff, extended, icr or slip."),
@@ -469,14 +469,14 @@ LossOpt = Annotated[
 
 @calibrate_app.command("lsq", cls=several_values_command("--validate"))
 def calibrate_lsq_cmd(
-    runs: LsqRunsOpt,
-    output: LsqOutputOpt,
-    fmt: LsqFmtOpt = None,
+    runs: RunsWithTruthArg,
+    output: NewParamsOutputOpt,
+    fmt: RunFormatOpt = None,
     params: ParamsOpt = None,
     validate: LsqValidateOpt = None,
-    segment: LsqSegmentOpt = 2.0,
+    segment: SegmentOpt = 2.0,
     no_gt_yaw_offset: LsqNoGtYawOffsetOpt = False,
-    json_out: LsqJsonOutOpt = None,
+    json_out: ReportJsonOpt = None,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
     joint_topic: JointTopicOpt = "/joint_states",
@@ -597,10 +597,8 @@ def _print_calibration(result: LsqCalibration, output: Path) -> None:
     for key, err in result.stderr.items():
         table.add_row(key, f"{nominal[key]:.6f}", f"{fitted[key]:.6f}", f"{err:.2e}")
     print_table(console, table)
-    for line in result.warnings:
-        console.print(f"warning: {said(line)}", markup=False, soft_wrap=True)
-    for line in result.notes:
-        console.print(f"note: {said(line)}", markup=False, soft_wrap=True)
+    _print_said(console, "warning", result.warnings)
+    _print_said(console, "note", result.notes)
     if not result.validation:
         return
     val = Table(title="held-out runs: nominal -> calibrated")
@@ -635,5 +633,4 @@ def _print_calibration(result: LsqCalibration, output: Path) -> None:
     print_table(console, val)
     if math.isfinite(result.rms_after):
         console.print(f"residual rms {result.rms_before:.5f} -> {result.rms_after:.5f} m")
-    for line in [*getattr(result, "notes", []), *getattr(result, "warnings", [])]:
-        console.print(f"note: {said(line)}", markup=False, soft_wrap=True)
+    _print_said(console, "note", [*getattr(result, "notes", []), *getattr(result, "warnings", [])])

@@ -10,7 +10,8 @@ import typer
 
 from odolab.cli._apps import export_app
 from odolab.cli._output import echo
-from odolab.cli.core import MethodChoice
+from odolab.cli.core import MethodChoice, MethodOpt
+from odolab.cli.options import RunFormat
 
 __all__: list[str] = []
 
@@ -20,13 +21,6 @@ class RosDistro(StrEnum):
     jazzy = "jazzy"
     kilted = "kilted"
     rolling = "rolling"
-
-
-class RunFormatChoice(StrEnum):
-    csv = "csv"
-    optiodom = "optiodom"
-    bag = "bag"
-    drive = "drive"
 
 
 Ros2ParamsOpt = Annotated[str, typer.Argument(help="Calibrated parameters TOML (or a preset).")]
@@ -126,14 +120,13 @@ McapParamsOpt = Annotated[
     typer.Option("--params", "-p", help="Parameters (with \\[noise] for the covariance)."),
 ]
 McapFmtOpt = Annotated[
-    RunFormatChoice | None,
+    RunFormat | None,
     typer.Option("--format", "-f", help="SOURCE is a run of this format."),
 ]
 McapDbOpt = Annotated[
     Path | None, typer.Option(help="Lab notebook (with --campaign).", envvar="ODOLAB_DB")
 ]
 McapCampaignOpt = Annotated[str | None, typer.Option(help="Notebook campaign to export.")]
-McapMethodOpt = Annotated[MethodChoice, typer.Option(help="Pose step rule.")]
 McapStartTimeOpt = Annotated[
     float, typer.Option(help="Seconds added to every stamp (e.g. the run's Unix time).")
 ]
@@ -147,7 +140,7 @@ def mcap_cmd(
     fmt: McapFmtOpt = None,
     db: McapDbOpt = None,
     campaign: McapCampaignOpt = None,
-    method: McapMethodOpt = MethodChoice.midpoint,
+    method: MethodOpt = MethodChoice.midpoint,
     start_time: McapStartTimeOpt = 0.0,
 ) -> None:
     """Write a ROS 2 MCAP (/odom with covariance, /joint_states, /ground_truth, /tf)."""

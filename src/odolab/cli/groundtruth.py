@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import math
 import statistics
-from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -16,6 +15,7 @@ import typer
 from odolab.app.groundtruth import OptionError, estimate_time_offset
 from odolab.cli._apps import app, calibrate_app, sim_app
 from odolab.cli._output import echo
+from odolab.cli.options import EncodersFormatOpt, NewParamsOutputOpt, RunFormat
 from odolab.cli.wording import said
 from odolab.core.defaults import DEFAULT_CORNERS
 
@@ -30,13 +30,6 @@ camera_app = typer.Typer(
     pretty_exceptions_enable=False,
 )
 app.add_typer(camera_app, name="camera")
-
-
-class EncoderFormat(StrEnum):
-    csv = "csv"
-    optiodom = "optiodom"
-    bag = "bag"
-    drive = "drive"
 
 
 def _time_offset(text: str) -> float | None:
@@ -59,7 +52,6 @@ SensorEncodersOpt = Annotated[Path, typer.Argument(help="Encoder log (any format
 SensorParamsOpt = Annotated[
     str, typer.Option("--params", "-p", help="Nominal parameters TOML or preset.")
 ]
-SensorOutputOpt = Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")]
 SensorSensorOpt = Annotated[
     Path | None,
     typer.Argument(
@@ -68,7 +60,7 @@ SensorSensorOpt = Annotated[
     ),
 ]
 SensorFmtOpt = Annotated[
-    EncoderFormat | None,
+    RunFormat | None,
     typer.Option(
         "--format",
         "-f",
@@ -112,7 +104,7 @@ SensorJointsOpt = Annotated[tuple[str, str], typer.Option(help="Bag: LEFT RIGHT 
 def calibrate_sensor_cmd(
     encoders: SensorEncodersOpt,
     params: SensorParamsOpt,
-    output: SensorOutputOpt,
+    output: NewParamsOutputOpt,
     sensor: SensorSensorOpt = None,
     fmt: SensorFmtOpt = None,
     json_out: SensorJsonOutOpt = None,
@@ -209,7 +201,10 @@ TrackOutputOpt = Annotated[Path, typer.Option("--output", "-o", help="Track CSV 
 TrackMarkerOffsetOpt = Annotated[
     tuple[float, float], typer.Option(help="DX DY: marker centre in the robot frame (m).")
 ]
-TrackDictionaryOpt = Annotated[str, typer.Option(help="ArUco dictionary.")]
+#: the ArUco markers and ChArUco board of ``track``, ``markers`` and ``camera calibrate``
+DictionaryOpt = Annotated[str, typer.Option(help="ArUco dictionary.")]
+BoardSquareOpt = Annotated[float, typer.Option(help="Board square side (m).")]
+BoardMarkerOpt = Annotated[float, typer.Option(help="Board marker side (m).")]
 TrackEncodersOpt = Annotated[
     Path | None,
     typer.Option(
@@ -220,7 +215,6 @@ TrackEncodersOpt = Annotated[
 TrackParamsOpt = Annotated[
     str | None, typer.Option("--params", "-p", help="With --encoders: parameters.")
 ]
-TrackFmtOpt = Annotated[EncoderFormat, typer.Option("--format", "-f", help="Format of --encoders.")]
 TrackMaxOffsetOpt = Annotated[float, typer.Option(help="With --encoders: search +- (s).")]
 TrackTimeOffsetOpt = Annotated[
     str,
@@ -255,10 +249,10 @@ def track_cmd(
     camera: TrackCameraOpt,
     output: TrackOutputOpt,
     marker_offset: TrackMarkerOffsetOpt = (0.0, 0.0),
-    dictionary: TrackDictionaryOpt = "DICT_4X4_50",
+    dictionary: DictionaryOpt = "DICT_4X4_50",
     encoders: TrackEncodersOpt = None,
     params: TrackParamsOpt = None,
-    fmt: TrackFmtOpt = EncoderFormat.csv,
+    fmt: EncodersFormatOpt = RunFormat.csv,
     max_offset: TrackMaxOffsetOpt = 30.0,
     time_offset: TrackTimeOffsetOpt = "auto",
     max_yaw_rate: TrackMaxYawRateOpt = 180.0,
@@ -302,13 +296,13 @@ def markers_cmd(
     ids: Annotated[list[int] | None, typer.Argument(help="Marker ids to print.")] = None,
     size: Annotated[float, typer.Option(help="Black square side (m).")] = 0.2,
     output: Annotated[Path, typer.Option("--output", "-o", help="Folder.")] = Path("markers"),
-    dictionary: Annotated[str, typer.Option(help="ArUco dictionary.")] = "DICT_4X4_50",
+    dictionary: DictionaryOpt = "DICT_4X4_50",
     dpi: Annotated[int, typer.Option(help="PNG resolution (print at this, unscaled).")] = 300,
     board: Annotated[
         str | None, typer.Option(help="Also a ChArUco board COLSxROWS (e.g. 5x7).")
     ] = None,
-    square: Annotated[float, typer.Option(help="Board square side (m).")] = 0.04,
-    board_marker: Annotated[float, typer.Option(help="Board marker side (m).")] = 0.03,
+    square: BoardSquareOpt = 0.04,
+    board_marker: BoardMarkerOpt = 0.03,
 ) -> None:
     """Write the markers to print (PNG at --dpi and PDF at true size), and a ChArUco board."""
     from odolab.tracking.markers import write_marker_files
@@ -336,9 +330,9 @@ def camera_calibrate_cmd(
     video: Annotated[Path, typer.Argument(help="Video of a ChArUco board.")],
     output: Annotated[Path, typer.Option("--output", "-o", help="CAMERA.toml to write.")],
     board: Annotated[str, typer.Option(help="Board squares COLSxROWS.")] = "5x7",
-    square: Annotated[float, typer.Option(help="Board square side (m).")] = 0.04,
-    board_marker: Annotated[float, typer.Option(help="Board marker side (m).")] = 0.03,
-    dictionary: Annotated[str, typer.Option(help="ArUco dictionary.")] = "DICT_4X4_50",
+    square: BoardSquareOpt = 0.04,
+    board_marker: BoardMarkerOpt = 0.03,
+    dictionary: DictionaryOpt = "DICT_4X4_50",
     step: Annotated[int, typer.Option(help="Use every STEP-th frame.")] = 5,
 ) -> None:
     """Camera intrinsics and distortion from a ChArUco board video -> CAMERA.toml."""

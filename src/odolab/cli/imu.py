@@ -9,6 +9,7 @@ import typer
 
 from odolab.cli._apps import calibrate_app
 from odolab.cli._output import echo
+from odolab.cli.options import NewParamsOutputOpt
 
 if TYPE_CHECKING:
     from odolab.app.imu import ImuOutcome
@@ -23,7 +24,6 @@ ImuRunsOpt = Annotated[
         "folders (encoders.csv with imu.csv), or a DRIVE window table."
     ),
 ]
-ImuOutputOpt = Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")]
 ImuParamsOpt = Annotated[
     str | None,
     typer.Option(
@@ -98,7 +98,7 @@ ImuJsonOutOpt = Annotated[
 @calibrate_app.command("imu")
 def calibrate_imu_cmd(
     runs: ImuRunsOpt,
-    output: ImuOutputOpt,
+    output: NewParamsOutputOpt,
     params: ImuParamsOpt = None,
     imu: ImuImuOpt = None,
     imu_topic: ImuImuTopicOpt = "/imu/data",

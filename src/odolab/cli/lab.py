@@ -10,6 +10,7 @@ import typer
 
 from odolab.cli._apps import app, calibrate_app
 from odolab.cli._output import echo
+from odolab.cli.options import NewParamsOutputOpt
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -242,7 +243,6 @@ def _write_json(path: Path | None, doc: dict[str, object]) -> None:
     echo(f"calibration written to {path}")
 
 
-RatiosOutputOpt = Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")]
 RatiosDistanceRatioOpt = Annotated[
     float | None,
     typer.Option(
@@ -266,7 +266,7 @@ RatiosTerrainOpt = Annotated[str | None, typer.Option(help="Terrain whose fits t
 
 @calibrate_app.command("ratios")
 def calibrate_ratios_cmd(
-    output: RatiosOutputOpt,
+    output: NewParamsOutputOpt,
     params: ParamsOpt = None,
     distance_ratio: RatiosDistanceRatioOpt = None,
     rotation_ratio: RatiosRotationRatioOpt = None,
@@ -327,7 +327,6 @@ def calibrate_ratios_cmd(
     _write_json(json_out, doc)
 
 
-UmbmarkOutputOpt = Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")]
 UmbmarkErrorsOpt = Annotated[
     Path | None,
     typer.Option(help="CSV with header direction,x,y: return errors (measured - odometry)."),
@@ -341,7 +340,7 @@ UmbmarkDbOpt = Annotated[
 
 @calibrate_app.command("umbmark")
 def calibrate_umbmark_cmd(
-    output: UmbmarkOutputOpt,
+    output: NewParamsOutputOpt,
     params: ParamsOpt = None,
     errors: UmbmarkErrorsOpt = None,
     side: UmbmarkSideOpt = None,

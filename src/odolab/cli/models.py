@@ -12,19 +12,21 @@ import typer
 from odolab.cli._apps import calibrate_app, sim_app
 from odolab.cli._several import several_values_command
 from odolab.cli.evaluate import (
-    RUN_FORMAT_HELP,
     GtTopicOpt,
     JointsOpt,
     JointTopicOpt,
     LossOpt,
     ParamsOpt,
-    RunFormat,
+    ReportJsonOpt,
+    RunFormatOpt,
+    SegmentOpt,
     TruthSigmaOpt,
     WorkersOpt,
     _progress_bar,
     _read_options,
     run_format,
 )
+from odolab.cli.options import RandomSeedOpt, VirtualTruthOpt
 from odolab.core.writing import strict_json
 
 if TYPE_CHECKING:
@@ -38,7 +40,6 @@ __all__: list[str] = []
 CompareRunsOpt = Annotated[
     list[Path], typer.Argument(help="Training runs (files or folders) with ground truth.")
 ]
-CompareFmtOpt = Annotated[RunFormat | None, typer.Option("--format", "-f", help=RUN_FORMAT_HELP)]
 CompareValidateOpt = Annotated[
     list[Path] | None,
     typer.Option(
@@ -61,22 +62,20 @@ CompareLearningCurveOpt = Annotated[
         "(an exploration run) to fit each model on, e.g. 10,20,30,60."
     ),
 ]
-CompareSegmentOpt = Annotated[float, typer.Option(help="Segment length (s) of the residuals.")]
 CompareSeedOpt = Annotated[int, typer.Option(help="Seed of the bootstrap confidence intervals.")]
-CompareJsonOutOpt = Annotated[Path | None, typer.Option("--json", help="Write the report here.")]
 
 
 @calibrate_app.command("compare", cls=several_values_command("--validate"))
 def calibrate_compare_cmd(
     runs: CompareRunsOpt,
-    fmt: CompareFmtOpt = None,
+    fmt: RunFormatOpt = None,
     params: ParamsOpt = None,
     validate: CompareValidateOpt = None,
     models: CompareModelsOpt = "diff,extended,icr",
     learning_curve: CompareLearningCurveOpt = "",
-    segment: CompareSegmentOpt = 2.0,
+    segment: SegmentOpt = 2.0,
     seed: CompareSeedOpt = 0,
-    json_out: CompareJsonOutOpt = None,
+    json_out: ReportJsonOpt = None,
     workers: WorkersOpt = None,
     joint_topic: JointTopicOpt = "/joint_states",
     joints: JointsOpt = ("left_wheel_joint", "right_wheel_joint"),
@@ -224,8 +223,6 @@ QuestionsExperimentsOpt = Annotated[
     list[str] | None,
     typer.Argument(help="Experiment files or built-in names (default: every built-in)."),
 ]
-QuestionsTruthOpt = Annotated[str, typer.Option(help="True-behaviour preset of the virtual robot.")]
-QuestionsSeedOpt = Annotated[int, typer.Option(min=0, help="Random seed.")]
 QuestionsRepeatsOpt = Annotated[
     int | None, typer.Option(min=2, help="Repeats per condition (default: the file's).")
 ]
@@ -235,9 +232,9 @@ QuestionsJsonOutOpt = Annotated[Path | None, typer.Option("--json", help="Write 
 @sim_app.command("questions")
 def sim_questions_cmd(
     experiments: QuestionsExperimentsOpt = None,
-    truth: QuestionsTruthOpt = "jaguar-lab-tracked",
+    truth: VirtualTruthOpt = "jaguar-lab-tracked",
     params: ParamsOpt = None,
-    seed: QuestionsSeedOpt = 0,
+    seed: RandomSeedOpt = 0,
     repeats: QuestionsRepeatsOpt = None,
     json_out: QuestionsJsonOutOpt = None,
 ) -> None:

@@ -12,7 +12,7 @@ import typer
 from odolab.app.sim import SIM_PHOTO_TRUTH, sim_photo_legs
 from odolab.cli._apps import app, sim_app
 from odolab.cli._output import echo
-from odolab.cli.groundtruth import EncoderFormat
+from odolab.cli.options import EncodersFormatOpt, RunFormat
 
 __all__ = ["SIM_PHOTO_TRUTH", "sim_photo_legs"]
 
@@ -20,8 +20,9 @@ PhotoFolderOpt = Annotated[Path, typer.Argument(help="Folder to write the photo 
 PhotoSecondsOpt = Annotated[
     float, typer.Option(help="Length of the drive and the exposure (s), 1 to 20.")
 ]
-PhotoLedHzOpt = Annotated[float, typer.Option(help="The LED's flashing frequency (Hz).")]
-PhotoDutyOpt = Annotated[float, typer.Option(help="The LED's ON fraction.")]
+#: the flashing LED of ``sim photo`` and ``track-photo``
+LedHzOpt = Annotated[float, typer.Option(help="The LED's flashing frequency (Hz).")]
+DutyOpt = Annotated[float, typer.Option(help="The LED's ON fraction.")]
 PhotoPhaseOpt = Annotated[
     float, typer.Option(help="When the LED's first ON interval starts (s, run clock).")
 ]
@@ -36,8 +37,8 @@ PhotoSeedOpt = Annotated[int, typer.Option(min=0, help="Random seed (sensor nois
 def sim_photo_cmd(
     folder: PhotoFolderOpt,
     seconds: PhotoSecondsOpt = 20.0,
-    led_hz: PhotoLedHzOpt = 2.0,
-    duty: PhotoDutyOpt = 0.5,
+    led_hz: LedHzOpt = 2.0,
+    duty: DutyOpt = 0.5,
     phase: PhotoPhaseOpt = 0.13,
     jpeg: PhotoJpegOpt = None,
     noise: PhotoNoiseOpt = 2.0,
@@ -73,13 +74,8 @@ TrackPhotoParamsOpt = Annotated[str, typer.Option("--params", "-p", help="Nomina
 TrackPhotoOutputOpt = Annotated[
     Path, typer.Option("--output", "-o", help="Path CSV t,x,y,quality.")
 ]
-TrackPhotoLedHzOpt = Annotated[float, typer.Option(help="The LED's flashing frequency (Hz).")]
-TrackPhotoDutyOpt = Annotated[float, typer.Option(help="The LED's ON fraction.")]
 TrackPhotoOverlayOpt = Annotated[
     Path | None, typer.Option(help="PNG: the photo with the dashes and the odometry drawn.")
-]
-TrackPhotoFmtOpt = Annotated[
-    EncoderFormat, typer.Option("--format", "-f", help="Format of --encoders.")
 ]
 
 
@@ -90,10 +86,10 @@ def track_photo_cmd(
     encoders: TrackPhotoEncodersOpt,
     params: TrackPhotoParamsOpt,
     output: TrackPhotoOutputOpt,
-    led_hz: TrackPhotoLedHzOpt = 2.0,
-    duty: TrackPhotoDutyOpt = 0.5,
+    led_hz: LedHzOpt = 2.0,
+    duty: DutyOpt = 0.5,
     overlay: TrackPhotoOverlayOpt = None,
-    fmt: TrackPhotoFmtOpt = EncoderFormat.csv,
+    fmt: EncodersFormatOpt = RunFormat.csv,
 ) -> None:
     """A timed path from one long-exposure photo of an LED flashing at --led-hz on the robot:
     the dashes found, ordered from the robot's start and placed on the encoder log's clock by

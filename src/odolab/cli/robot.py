@@ -566,12 +566,16 @@ def _motion_command(
     return register
 
 
+#: the turn rate of ``robot rotate`` and ``robot pivot``
+TurnRateOpt = Annotated[float, typer.Option("--speed", help="Turn rate, rad/s.")]
+
+
 @_motion_command("rotate")
 def rotate(
     turns: Annotated[
         float, typer.Option("--turns", help="Full turns (negative = clockwise).")
     ] = 10.0,
-    speed: Annotated[float, typer.Option("--speed", help="Turn rate, rad/s.")] = 0.5,
+    speed: TurnRateOpt = 0.5,
 ) -> Command:
     """Rotate in place by TURNS full turns (2*pi each), stopping when odometry says so."""
     from odolab.core.trials import Command, MotionKind
@@ -600,7 +604,7 @@ def pivot(
     held: Annotated[
         TrackChoice, typer.Option("--held", help="The track that stays still.")
     ] = TrackChoice.left,
-    speed: Annotated[float, typer.Option("--speed", help="Turn rate, rad/s.")] = 0.5,
+    speed: TurnRateOpt = 0.5,
 ) -> Command:
     """Pivot on one track by DEGREES, stopping when odometry says so."""
     from odolab.core.trials import Command, MotionKind

@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from odolab.cli._apps import app
 from odolab.cli._output import echo
+from odolab.cli.options import DEFAULT_DB, NotebookDbOpt
 
 if TYPE_CHECKING:
     from odolab.serve import ServerInfo
@@ -18,9 +18,7 @@ __all__: list[str] = []
 
 @app.command("serve")
 def serve_cmd(
-    db: Annotated[
-        Path, typer.Option("--db", help="Notebook file (SQLite).", envvar="ODOLAB_DB")
-    ] = Path("odolab.db"),
+    db: NotebookDbOpt = DEFAULT_DB,
     host: Annotated[
         str,
         typer.Option(help="Address to listen on; any but 127.0.0.1/localhost needs the token."),

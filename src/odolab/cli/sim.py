@@ -10,6 +10,7 @@ import typer
 
 from odolab.cli._apps import sim_app
 from odolab.cli._output import echo
+from odolab.cli.options import RandomSeedOpt, VirtualTruthOpt
 from odolab.core.defaults import DEFAULT_ROBOT, DEFAULT_TRUTH
 
 __all__: list[str] = []
@@ -52,7 +53,7 @@ RunTruthOpt = Annotated[
         "jaguar-lab, jaguar-lab-track, jaguar-lab-tracked (an ICR vehicle) or ideal."
     ),
 ]
-RunParamsOpt = Annotated[
+NominalParamsOpt = Annotated[
     str, typer.Option("--params", "-p", help="Nominal parameters (TOML file or preset).")
 ]
 RunEncoderDirOpt = Annotated[
@@ -72,7 +73,7 @@ def sim_run(
     seed: RunSeedOpt = _LAB_REPORT_SEED,
     output: RunOutputOpt = Path("trials.csv"),
     truth: RunTruthOpt = DEFAULT_TRUTH,
-    params: RunParamsOpt = DEFAULT_ROBOT,
+    params: NominalParamsOpt = DEFAULT_ROBOT,
     encoder_dir: RunEncoderDirOpt = None,
     db: RunDbOpt = None,
 ) -> None:
@@ -140,13 +141,9 @@ def sim_explore(
         str, typer.Option(help="How commands are drawn: uniform, or edges (mostly fast).")
     ] = "uniform",
     terrain: Annotated[str, typer.Option(help="tile, concrete or grass.")] = "tile",
-    truth: Annotated[
-        str, typer.Option(help="True-behaviour preset of the virtual robot.")
-    ] = "jaguar-lab-tracked",
-    params: Annotated[
-        str, typer.Option("--params", "-p", help="Nominal parameters (TOML file or preset).")
-    ] = DEFAULT_ROBOT,
-    seed: Annotated[int, typer.Option(min=0, help="Random seed.")] = 0,
+    truth: VirtualTruthOpt = "jaguar-lab-tracked",
+    params: NominalParamsOpt = DEFAULT_ROBOT,
+    seed: RandomSeedOpt = 0,
     name: Annotated[str, typer.Option(help="File name stem of the run.")] = "explore",
 ) -> None:
     """Drive commands sampled over speed and turn rate inside a geofence; record with truth."""

@@ -11,6 +11,7 @@ import typer
 
 from odolab.cli._apps import app, trials_app
 from odolab.cli._output import echo, term
+from odolab.cli.options import DEFAULT_DB, NotebookDbOpt
 from odolab.core.defaults import DEFAULT_ROBOT
 
 if TYPE_CHECKING:
@@ -27,8 +28,9 @@ notebook_app = typer.Typer(
 )
 app.add_typer(notebook_app, name="notebook")
 
-DbOption = Annotated[Path, typer.Option("--db", help="Notebook file (SQLite).", envvar="ODOLAB_DB")]
-_DB = Path("odolab.db")
+#: options several notebook commands share
+NotesOpt = Annotated[str, typer.Option(help="Free text.")]
+TrialIdArg = Annotated[str, typer.Argument(help="Trial id.")]
 
 
 class KindChoice(StrEnum):
@@ -88,7 +90,7 @@ def _describe_prediction(t: Trial) -> str:
 
 
 @notebook_app.command("init")
-def notebook_init(db: DbOption = _DB) -> None:
+def notebook_init(db: NotebookDbOpt = DEFAULT_DB) -> None:
     """Create a notebook (or migrate an older one) and say what it holds."""
     with _open(db, create=True) as nb:
         info = nb.info()
@@ -105,7 +107,7 @@ def notebook_init(db: DbOption = _DB) -> None:
 
 
 @notebook_app.command("info")
-def notebook_info(db: DbOption = _DB) -> None:
+def notebook_info(db: NotebookDbOpt = DEFAULT_DB) -> None:
     """Counts of robots, parameter versions, campaigns and trials."""
     with _open(db, check=False) as nb:  # it says what the integrity check says
         info = nb.info()
@@ -122,7 +124,7 @@ def notebook_info(db: DbOption = _DB) -> None:
 @notebook_app.command("rescue")
 def notebook_rescue(
     new: Annotated[Path, typer.Argument(help="The new notebook file to write (must not exist).")],
-    db: DbOption = _DB,
+    db: NotebookDbOpt = DEFAULT_DB,
 ) -> None:
     """Copy every record a damaged notebook still holds into a new notebook (the damaged file
     is only read)."""
@@ -156,8 +158,8 @@ def campaign_add(
     terrain: Annotated[str, typer.Option(help="Where: lab, concrete, grass ...")],
     date: Annotated[str | None, typer.Option(help="YYYY-MM-DD (default today).")] = None,
     operator: Annotated[str, typer.Option(help="Who ran it.")] = "",
-    notes: Annotated[str, typer.Option(help="Free text.")] = "",
-    db: DbOption = _DB,
+    notes: NotesOpt = "",
+    db: NotebookDbOpt = DEFAULT_DB,
 ) -> None:
     """Add a campaign: a series of trials of one kind on one terrain."""
     with _open(db, create=True) as nb:
@@ -166,7 +168,7 @@ def campaign_add(
 
 
 @trials_app.command("campaigns")
-def campaigns_cmd(db: DbOption = _DB) -> None:
+def campaigns_cmd(db: NotebookDbOpt = DEFAULT_DB) -> None:
     """List the campaigns."""
     with _open(db) as nb:
         for c in nb.campaigns():
@@ -181,7 +183,7 @@ def params_add(
     source_trial: Annotated[
         list[str] | None, typer.Option("--source-trial", help="A trial they come from (repeat).")
     ] = None,
-    notes: Annotated[str, typer.Option(help="Free text.")] = "",
+    notes: NotesOpt = "",
     robot: Annotated[
         str | None,
         typer.Option(
@@ -189,7 +191,7 @@ def params_add(
             "calibration suffixes, e.g. jaguar-lite-ratios)."
         ),
     ] = None,
-    db: DbOption = _DB,
+    db: NotebookDbOpt = DEFAULT_DB,
 ) -> None:
     """Add a new version of a robot's parameters (nothing is ever overwritten)."""
     from odolab.core.params import load_params
@@ -207,7 +209,7 @@ def params_add(
 @trials_app.command("params-versions")
 def params_versions_cmd(
     robot: Annotated[str, typer.Argument(help="Robot name, e.g. jaguar-lite.")],
-    db: DbOption = _DB,
+    db: NotebookDbOpt = DEFAULT_DB,
 ) -> None:
     """List every version of a robot's parameters, with provenance."""
     with _open(db) as nb:
@@ -249,7 +251,7 @@ def list_cmd(
     terrain: TerrainFilter = None,
     kind: KindFilter = None,
     status: StatusFilter = None,
-    db: DbOption = _DB,
+    db: NotebookDbOpt = DEFAULT_DB,
 ) -> None:
     """The trials as a table."""
     from rich.table import Table
@@ -287,9 +289,7 @@ def list_cmd(
 
 
 @trials_app.command("show")
-def show_cmd(
-    trial_id: Annotated[str, typer.Argument(help="Trial id.")], db: DbOption = _DB
-) -> None:
+def show_cmd(trial_id: TrialIdArg, db: NotebookDbOpt = DEFAULT_DB) -> None:
     """Everything recorded about one trial."""
     with _open(db) as nb:
         t = nb.get_trial(trial_id)
@@ -387,17 +387,25 @@ def _newest_awaiting(nb: Notebook, db: Path) -> str:
     return waiting[-1].trial_id
 
 
+#: the readings ``trials measure`` and ``trials add`` take
+InitialOpt = Annotated[float | None, typer.Option(help="Compass before (deg).")]
+FinalOpt = Annotated[float | None, typer.Option(help="Compass after (deg).")]
+TurnsOpt = Annotated[int | None, typer.Option(help="Whole turns counted.")]
+XOpt = Annotated[float | None, typer.Option(help="x by meterstick (m).")]
+YOpt = Annotated[float | None, typer.Option(help="y by meterstick (m).")]
+
+
 @trials_app.command("measure")
 def measure_cmd(
     trial_id: Annotated[
         str | None,
         typer.Argument(help="Trial id (default: the newest trial awaiting measurement)."),
     ] = None,
-    initial: Annotated[float | None, typer.Option(help="Compass before (deg).")] = None,
-    final: Annotated[float | None, typer.Option(help="Compass after (deg).")] = None,
-    turns: Annotated[int | None, typer.Option(help="Whole turns counted.")] = None,
-    x: Annotated[float | None, typer.Option(help="x by meterstick (m).")] = None,
-    y: Annotated[float | None, typer.Option(help="y by meterstick (m).")] = None,
+    initial: InitialOpt = None,
+    final: FinalOpt = None,
+    turns: TurnsOpt = None,
+    x: XOpt = None,
+    y: YOpt = None,
     sigma: Annotated[
         float | None,
         typer.Option(help="Uncertainty: of one compass reading (rad) or of x and y (m)."),
@@ -411,7 +419,7 @@ def measure_cmd(
             "sim://, odolab robot sim-server).",
         ),
     ] = False,
-    db: DbOption = _DB,
+    db: NotebookDbOpt = DEFAULT_DB,
 ) -> None:
     """Enter what was measured: compass readings and turns, or x and y (asks what is missing)."""
     from odolab.core.errors import StoreError
@@ -471,14 +479,14 @@ def add_cmd(
     params_version: Annotated[
         int | None, typer.Option(help="Parameter version used (default: the latest).")
     ] = None,
-    initial: Annotated[float | None, typer.Option(help="Compass before (deg).")] = None,
-    final: Annotated[float | None, typer.Option(help="Compass after (deg).")] = None,
-    turns: Annotated[int | None, typer.Option(help="Whole turns counted.")] = None,
-    x: Annotated[float | None, typer.Option(help="x by meterstick (m).")] = None,
-    y: Annotated[float | None, typer.Option(help="y by meterstick (m).")] = None,
-    notes: Annotated[str, typer.Option(help="Free text.")] = "",
+    initial: InitialOpt = None,
+    final: FinalOpt = None,
+    turns: TurnsOpt = None,
+    x: XOpt = None,
+    y: YOpt = None,
+    notes: NotesOpt = "",
     create_campaign: Annotated[bool, typer.Option(help="Create an unknown campaign.")] = False,
-    db: DbOption = _DB,
+    db: NotebookDbOpt = DEFAULT_DB,
 ) -> None:
     """Record a trial typed by hand (and its measurement, when given), for scripts."""
     from odolab.app.trials import AddRequest, add_trial
@@ -499,9 +507,9 @@ def add_cmd(
 
 @trials_app.command("exclude")
 def exclude_cmd(
-    trial_id: Annotated[str, typer.Argument(help="Trial id.")],
+    trial_id: TrialIdArg,
     reason: Annotated[str, typer.Option(help="Why it is left out of the analysis.")],
-    db: DbOption = _DB,
+    db: NotebookDbOpt = DEFAULT_DB,
 ) -> None:
     """Leave a trial out of the analysis (it is kept, with the reason)."""
     with _open(db) as nb:
@@ -510,9 +518,7 @@ def exclude_cmd(
 
 
 @trials_app.command("include")
-def include_cmd(
-    trial_id: Annotated[str, typer.Argument(help="Trial id.")], db: DbOption = _DB
-) -> None:
+def include_cmd(trial_id: TrialIdArg, db: NotebookDbOpt = DEFAULT_DB) -> None:
     """Undo an exclusion."""
     with _open(db) as nb:
         nb.include_trial(trial_id)
@@ -526,7 +532,7 @@ def import_cmd(
         bool, typer.Option(help="CSV: create campaigns the notebook does not know.")
     ] = False,
     batch_size: Annotated[int, typer.Option(help="Trials per transaction.")] = 1000,
-    db: DbOption = _DB,
+    db: NotebookDbOpt = DEFAULT_DB,
 ) -> None:
     """Import trials; the whole file is checked before anything is written."""
     with _open(db, create=True) as nb:
@@ -544,7 +550,7 @@ def export_cmd(
     terrain: TerrainFilter = None,
     kind: KindFilter = None,
     status: StatusFilter = None,
-    db: DbOption = _DB,
+    db: NotebookDbOpt = DEFAULT_DB,
 ) -> None:
     """Export trials as CSV (a spreadsheet, no encoder logs) or JSON (everything)."""
     from odolab.app.exports import ExportRequest, export_trials, format_of

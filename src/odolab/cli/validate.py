@@ -9,7 +9,7 @@ import typer
 
 from odolab.cli._apps import app
 from odolab.cli._output import echo
-from odolab.cli.core import MethodChoice
+from odolab.cli.core import MethodChoice, MethodOpt
 
 if TYPE_CHECKING:
     from odolab.validation import ValidationResult
@@ -67,7 +67,6 @@ WallclockOpt = Annotated[
 FlipImuOpt = Annotated[
     bool, typer.Option("--flip-imu", help="Negate the IMU's heading (phone face down).")
 ]
-MethodOpt = Annotated[MethodChoice, typer.Option(help="Pose step rule.")]
 PlotOpt = Annotated[
     Path | None, typer.Option(help="Write the figure (headings and errors) to this PNG.")
 ]
