@@ -348,14 +348,19 @@ def _measurement(
                 return value
             echo("refused: turns must be 0 or more", err=True)
 
-    from odolab.store.measure import build_measurement, check_reading_names, measurement_for_trial
+    from odolab.store.measure import (
+        Readings,
+        build_measurement,
+        check_reading_names,
+        measurement_for_trial,
+    )
 
     rotation = t.command.kind.turns_in_place
     # do not drop what was typed and then ask for something else
-    check_reading_names(t, initial, final, turns, x, y)
+    check_reading_names(t, Readings(initial, final, turns, x, y))
     given = (initial, final, turns) if rotation else (x, y)
     if not any(v is None for v in given):
-        return measurement_for_trial(t, initial, final, turns, x, y, sigma)
+        return measurement_for_trial(t, Readings(initial, final, turns, x, y, sigma))
     while True:
         if rotation:
             if initial is None:
@@ -370,7 +375,7 @@ def _measurement(
             if y is None:
                 y = typer.prompt("y by meterstick (m, to the left)", type=float)
         try:
-            return build_measurement(t, initial, final, turns, x, y, sigma)
+            return build_measurement(t, Readings(initial, final, turns, x, y, sigma))
         except StoreError as err:
             echo(f"refused: {err}. Please enter the readings again.", err=True)
             initial = final = turns = None

@@ -33,6 +33,7 @@ if TYPE_CHECKING:
     from odolab.store.notebook import Notebook
 
 __all__ = [
+    "Readings",
     "build_measurement",
     "check_reading_names",
     "describe_measurement",
@@ -85,23 +86,31 @@ def refuse_if_measured(t: Trial, replace: bool) -> None:
         )
 
 
-def check_reading_names(
-    t: Trial,
-    initial: object = None,
-    final: object = None,
-    turns: object = None,
-    x: object = None,
-    y: object = None,
-    *,
-    complete: bool = False,
-) -> None:
+@dataclasses.dataclass(frozen=True)
+class Readings:
+    """What the lab's instruments showed after a trial, as entered (any value: the checks say
+    what is wrong with it): a rotation's compass ``initial`` and ``final`` bearings (degrees) and
+    whole ``turns``, or a translation's meterstick ``x`` and ``y`` (m); ``sigma`` the uncertainty
+    of one compass reading (rad) or of x and y (m), None for the default; ``direction``
+    (``"ccw"``, ``"cw"``) the way the turns were counted, None for the command's."""
+
+    initial: object = None
+    final: object = None
+    turns: object = None
+    x: object = None
+    y: object = None
+    sigma: object = None
+    direction: str | None = None
+
+
+def check_reading_names(t: Trial, r: Readings, *, complete: bool = False) -> None:
     """Refuse readings of the wrong kind for ``t`` (and, with ``complete``, missing ones).
 
     Raises:
         StoreError: readings of the other motion kind are given, or (``complete``) one is missing.
     """
     rotation = is_rotation(t)
-    values = {"initial": initial, "final": final, "turns": turns, "x": x, "y": y}
+    values = {"initial": r.initial, "final": r.final, "turns": r.turns, "x": r.x, "y": r.y}
     needs = t.command.kind.readings
     wrong = [v for k, v in values.items() if k not in needs]
     given = [values[k] for k in needs]
@@ -112,77 +121,45 @@ def check_reading_names(
         )
 
 
-def build_measurement(
-    t: Trial,
-    initial: object = None,
-    final: object = None,
-    turns: object = None,
-    x: object = None,
-    y: object = None,
-    sigma: object = None,
-    direction: str | None = None,
-) -> Measurement:
-    """The measurement of ``t`` from readings of the right kind, all given (unprefixed errors).
-
-    ``sigma``: uncertainty of one compass reading (rad) or of x and y (m); None for the default.
-    ``direction`` (``"ccw"``, ``"cw"``): the way the turns were counted; None for the command's.
-    """
+def build_measurement(t: Trial, r: Readings) -> Measurement:
+    """The measurement of ``t`` from readings of the right kind, all given (unprefixed errors)."""
     if is_rotation(t):
+        direction = r.direction
         if direction is None:
             direction = "cw" if t.command.direction == "cw" else None
         return rotation_measurement_from_compass(
-            initial,  # type: ignore[arg-type]
-            final,  # type: ignore[arg-type]
-            turns,  # type: ignore[arg-type]
+            r.initial,  # type: ignore[arg-type]
+            r.final,  # type: ignore[arg-type]
+            r.turns,  # type: ignore[arg-type]
             commanded_angle=t.command.angle,
             direction=direction,  # type: ignore[arg-type]
-            sigma_reading_rad=sigma or COMPASS_SIGMA_RAD,  # type: ignore[arg-type]
+            sigma_reading_rad=r.sigma or COMPASS_SIGMA_RAD,  # type: ignore[arg-type]
             predicted_angle=t.predicted.heading,  # the turn hint follows what odometry saw
         )
     distance = t.command.distance if t.command.kind.needs == "distance" else None
     return translation_measurement(
-        x,  # type: ignore[arg-type]
-        y,  # type: ignore[arg-type]
-        sigma=sigma or METERSTICK_SIGMA_M,  # type: ignore[arg-type]
+        r.x,  # type: ignore[arg-type]
+        r.y,  # type: ignore[arg-type]
+        sigma=r.sigma or METERSTICK_SIGMA_M,  # type: ignore[arg-type]
         commanded_distance=distance,
     )
 
 
-def measurement_for_trial(
-    t: Trial,
-    initial: object = None,
-    final: object = None,
-    turns: object = None,
-    x: object = None,
-    y: object = None,
-    sigma: object = None,
-    direction: str | None = None,
-) -> Measurement:
+def measurement_for_trial(t: Trial, r: Readings) -> Measurement:
     """The measurement of ``t``; every refusal is one sentence starting ``trial ID``.
 
     Raises:
         StoreError: a reading is missing, of the wrong kind, or out of range (the sentence starts
             ``trial ID``).
     """
-    check_reading_names(t, initial, final, turns, x, y, complete=True)
+    check_reading_names(t, r, complete=True)
     try:
-        return build_measurement(t, initial, final, turns, x, y, sigma, direction)
+        return build_measurement(t, r)
     except StoreError as err:
         raise StoreError(f"trial {t.trial_id}: {err}") from err
 
 
-def record_measurement(
-    nb: Notebook,
-    trial_id: str,
-    *,
-    initial: object = None,
-    final: object = None,
-    turns: object = None,
-    x: object = None,
-    y: object = None,
-    sigma: object = None,
-    replace: bool = False,
-) -> Trial:
+def record_measurement(nb: Notebook, trial_id: str, r: Readings, *, replace: bool = False) -> Trial:
     """Check and store the measurement of ``trial_id``; return the trial as stored.
 
     Nothing is written when any check fails (the same checks and sentences as
@@ -190,7 +167,7 @@ def record_measurement(
     """
     t = nb.get_trial(trial_id)
     refuse_if_measured(t, replace)
-    m = measurement_for_trial(t, initial, final, turns, x, y, sigma)
+    m = measurement_for_trial(t, r)
     nb.set_measurement(trial_id, m, replace=replace)
     return nb.get_trial(trial_id)
 
@@ -252,8 +229,7 @@ def virtual_measurement(t: Trial, sigma: object = None) -> Measurement:
             "({{initial}}, {{final}} and {{turns}}, or {{x}} and {{y}})"
         )
     if "turns" in readings:
-        m = measurement_for_trial(
-            t,
+        r = Readings(
             readings["compass_initial_deg"],
             readings["compass_final_deg"],
             int(readings["turns"]),
@@ -261,5 +237,6 @@ def virtual_measurement(t: Trial, sigma: object = None) -> Measurement:
             direction="cw" if readings["clockwise"] else "ccw",
         )
     else:
-        m = measurement_for_trial(t, x=readings["x_m"], y=readings["y_m"], sigma=sigma)
+        r = Readings(x=readings["x_m"], y=readings["y_m"], sigma=sigma)
+    m = measurement_for_trial(t, r)
     return dataclasses.replace(m, instrument=f"virtual {m.instrument}")

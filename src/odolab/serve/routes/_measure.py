@@ -13,8 +13,12 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 from odolab.core.errors import NEUTRAL, StoreError, Wording
+
+if TYPE_CHECKING:
+    from odolab.store.measure import Readings
 
 __all__ = [
     "FIELDS",
@@ -27,6 +31,7 @@ __all__ = [
     "in_words",
     "json_readings",
     "reading_words",
+    "readings_of",
 ]
 
 #: The fields of the form and the API, in the page's words.
@@ -79,6 +84,17 @@ def _sigma_checked(value: float | None, api: bool) -> float | None:
         name = '"sigma"' if api else "σ"
         raise ReadingError(f"{name} is {value:g}; it must be more than 0 ({how})", ("sigma",))
     return value
+
+
+def readings_of(values: Mapping[str, float | None]) -> Readings:
+    """The readings of :func:`form_readings` or :func:`json_readings` (keys :data:`FIELDS`) as
+    :func:`odolab.store.measure.record_measurement` takes them."""
+    from odolab.store.measure import Readings
+
+    return Readings(
+        values["initial"], values["final"], values["turns"], values["x"], values["y"],
+        values["sigma"],
+    )  # fmt: skip
 
 
 def form_readings(form: Mapping[str, object]) -> dict[str, float | None]:

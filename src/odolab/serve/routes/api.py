@@ -12,7 +12,7 @@ from starlette.requests import Request
 from starlette.responses import Response
 
 from odolab.core.errors import OdolabError, StoreError
-from odolab.serve.routes._measure import in_words, json_readings
+from odolab.serve.routes._measure import in_words, json_readings, readings_of
 from odolab.serve.routes._web import (
     KINDS,
     STATUSES,
@@ -139,7 +139,7 @@ async def measure(request: Request) -> Response:
 
     def save(nb: Notebook) -> tuple[int, dict[str, object]]:
         try:
-            saved = record_measurement(nb, trial_id, **readings, replace=replace)
+            saved = record_measurement(nb, trial_id, readings_of(readings), replace=replace)
         except StoreError as err:
             return status_of(err), {"error": in_words(str(err), api=True)}
         return 200, trial_json(saved)

@@ -138,7 +138,7 @@ async def _refused(
 
 
 async def measure(request: Request) -> Response:
-    from odolab.serve.routes._measure import FIELDS, form_readings
+    from odolab.serve.routes._measure import FIELDS, form_readings, readings_of
     from odolab.store.measure import describe_measurement, record_measurement
 
     w = web(request)
@@ -151,7 +151,7 @@ async def measure(request: Request) -> Response:
     values["replace"] = "on" if replace else None
 
     def save(nb: Notebook) -> str:
-        saved = record_measurement(nb, trial_id, **readings, replace=replace)
+        saved = record_measurement(nb, trial_id, readings_of(readings), replace=replace)
         return describe_measurement(saved)
 
     try:
