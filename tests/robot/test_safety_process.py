@@ -27,6 +27,8 @@ import pytest
 
 from odolab.robot.jaguar.protocol import SystemCode, encode_system
 
+from .freeze import refused_after_freeze
+
 #: slow: real-time robot processes (`make test-fast` leaves them out; `make test` runs them)
 pytestmark = [
     pytest.mark.skipif(sys.platform != "linux", reason="needs a shared monotonic clock"),
@@ -376,7 +378,8 @@ def test_a_frozen_host_stops_the_robot_and_fails_the_run(tmp_path: Path) -> None
         _out, err = drv.communicate(timeout=60)
     rows = b.lines()
     assert drv.returncode == 1, err
-    assert "late, more than the watchdog bound 0.5 s" in err and "run failed" in err
+    seen_by = refused_after_freeze(err, freeze)  # the loop's lateness check or the send-by check
+    assert "run failed" in err
     # the driver's stop reached the board at once after the resume (1 s allows for scheduling
     # both processes on a loaded machine; the old loop drove on for 8 s), and nothing after it
     stop, why = b.final_stop()
@@ -385,4 +388,5 @@ def test_a_frozen_host_stops_the_robot_and_fails_the_run(tmp_path: Path) -> None
     doc = json.loads((tmp_path / "run" / "run.json").read_text())
     assert doc["completed"] is False and "LateCycleError" in doc["aborted"]
     assert doc["status"] == "excluded" and "late" in doc["exclusion_reason"]
-    assert doc["stats"]["lateness_max"] >= freeze - 0.1  # the freeze is in the record
+    if seen_by == "loop":  # the freeze is in the loop's record (else in the sentence above)
+        assert doc["stats"]["lateness_max"] >= freeze - 0.1
