@@ -134,9 +134,10 @@ def yaw_quaternion(yaw: float) -> tuple[float, float, float, float]:
 
 def _quats(yaw: NDArray[np.float64]) -> NDArray[np.float64]:
     """:func:`yaw_quaternion` of every yaw, shape (n, 4) (libm's sin and cos, as it)."""
+    half = [0.5 * h for h in yaw.tolist()]
     q = np.zeros((yaw.size, 4))
-    q[:, 2] = [math.sin(0.5 * h) for h in yaw.tolist()]
-    q[:, 3] = [math.cos(0.5 * h) for h in yaw.tolist()]
+    q[:, 2] = [math.sin(a) for a in half]
+    q[:, 3] = [math.cos(a) for a in half]
     return q
 
 

@@ -32,7 +32,7 @@ from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any, TypedDict, Unpack
+from typing import Any
 
 from odolab.core.errors import OdolabError, opt
 from odolab.core.params import PRESETS, RobotParams
@@ -54,7 +54,6 @@ __all__ = [
     "TRUTH_FILE",
     "AbortReport",
     "RobotRun",
-    "SimulatedOptions",
     "check_run_folder",
     "keep_run",
     "rescue_folder",
@@ -497,21 +496,6 @@ def run_motion(
     )  # fmt: skip
 
 
-class SimulatedOptions(TypedDict, total=False):
-    """The keyword-only options :func:`run_motion_simulated` passes on to :func:`run_simulated`
-    (their defaults and meaning there)."""
-
-    command: Command | None
-    plant: Plant | None
-    config: RunConfig | None
-    faults: object | None
-    report_rate: float
-    max_duration: float | None
-    campaign: str
-    on_cycle: Callable[[CycleInfo], None] | None
-    link: str
-
-
 def run_motion_simulated(
     motion: Command | Motion,
     truth: object = None,
@@ -519,7 +503,16 @@ def run_motion_simulated(
     terrain: str = "tile",
     seed: int = 0,
     rate: float = 20.0,
-    **options: Unpack[SimulatedOptions],
+    *,
+    command: Command | None = None,
+    plant: Plant | None = None,
+    config: RunConfig | None = None,
+    faults: object | None = None,
+    report_rate: float = 10.0,
+    max_duration: float | None = 3600.0,
+    campaign: str = "sim",
+    on_cycle: Callable[[CycleInfo], None] | None = None,
+    link: str = "jaguar",
 ) -> tuple[Trial, LoopStats]:
     """Drive a command (or a motion) through the same driver and loop, in simulated time.
 
@@ -530,17 +523,13 @@ def run_motion_simulated(
     (an :class:`IdealPlant` with those true parameters) or None (ideal, nominal); build a
     simulator plant with ``odolab.sim.plants.make_plant``. ``rate`` is used when ``config`` is
     not given. Returns the trial (predicted pose from the loop, true pose from the plant) and
-    the loop statistics (whose timing errors are zero: simulated time is exact). The keyword
-    options (:class:`SimulatedOptions`: ``command``, ``plant``, ``config``, ``faults``,
-    ``report_rate``, ``max_duration``, ``campaign``, ``on_cycle``, ``link``) are
-    :func:`run_simulated`'s.
+    the loop statistics (whose timing errors are zero: simulated time is exact).
     """
-    unexpected = sorted(options.keys() - SimulatedOptions.__optional_keys__)
-    if unexpected:  # as before: run_simulated's save_to and finish are not options here
-        raise TypeError(
-            f"run_motion_simulated() got an unexpected keyword argument {unexpected[0]!r}"
-        )
-    run = run_simulated(motion, truth, nominal, terrain, seed, rate, **options)
+    run = run_simulated(
+        motion, truth, nominal, terrain, seed, rate,
+        command=command, plant=plant, config=config, faults=faults, report_rate=report_rate,
+        max_duration=max_duration, campaign=campaign, on_cycle=on_cycle, link=link,
+    )  # fmt: skip
     return run.trial, run.stats
 
 

@@ -680,18 +680,14 @@ class VirtualRobot:
 
     def advance(self, duration: float) -> None:
         """Integrate ``duration`` seconds at the fixed step (a shorter last step if needed)."""
-        d = float(duration)
-        if not math.isfinite(d) or d < 0:
-            raise SimError(f"advance duration must be a finite number >= 0, got {duration!r}")
-        n = math.floor(d / self.dt + 1e-9)
-        rest = d - n * self.dt
+        d, n, rest = self._steps_of(duration)
         while n > 0:  # in blocks: the draws of one block in memory at a time
             k = min(n, _STEPS_PER_CALL)
             self._stalled = bool(
                 _advance(self._state, self._p, self._vl, self._vr, self.dt, k, self._normals(k))
             )
             n -= k
-        if rest > 1e-12 * self.dt:
+        if rest > 0.0:
             self._stalled = bool(
                 _advance(self._state, self._p, self._vl, self._vr, rest, 1, self._normals(1))
             )
@@ -713,14 +709,9 @@ class VirtualRobot:
             )
         if not (np.isfinite(vl).all() and np.isfinite(vr).all()):
             raise SimError("wheel speeds must be finite")
-        d = float(period)
-        if not math.isfinite(d) or d < 0:
-            raise SimError(f"advance duration must be a finite number >= 0, got {period!r}")
-        n = math.floor(d / self.dt + 1e-9)
-        rest = d - n * self.dt
-        rest = rest if rest > 1e-12 * self.dt else 0.0
+        d, n, rest = self._steps_of(period)
         p = self._p
-        per_step = int(p[_K_L] != 0.0) + int(p[_K_R] != 0.0) + int(p[_K_SCRUB] != 0.0)
+        per_step = self._draws_per_step()
         moving = int(np.count_nonzero(~((p[_CAN_TURN] == 0.0) & (vl * vr < 0.0))))
         total = moving * (n + (1 if rest > 0.0 else 0)) * per_step
         z = self._rng.standard_normal(total) if total else _NO_DRAWS
@@ -744,11 +735,26 @@ class VirtualRobot:
         compiled code is unboxed by Python code (ctypes), and an exception raised there by a
         signal handler (Ctrl-C, the board's SIGTERM) crashed numba (a segfault, 1 board run in
         60). The same Generator gives the same draws, so the motion is unchanged."""
-        p = self._p
         if self._stalled:  # set by set_wheel_speeds with the kernel's rule: it draws nothing
             return _NO_DRAWS
-        per_step = int(p[_K_L] != 0.0) + int(p[_K_R] != 0.0) + int(p[_K_SCRUB] != 0.0)
+        per_step = self._draws_per_step()
         return self._rng.standard_normal(steps * per_step) if per_step else _NO_DRAWS
+
+    def _draws_per_step(self) -> int:
+        """The standard normal draws one moving step uses (left, right, scrub: those whose
+        sigma is set; the kernels' ``_draws_per_step``)."""
+        p = self._p
+        return int(p[_K_L] != 0.0) + int(p[_K_R] != 0.0) + int(p[_K_SCRUB] != 0.0)
+
+    def _steps_of(self, duration: object) -> tuple[float, int, float]:
+        """``duration`` (s) checked, as (duration, whole steps of ``dt``, the shorter last
+        step, 0 when there is none)."""
+        d = float(duration)  # type: ignore[arg-type]
+        if not math.isfinite(d) or d < 0:
+            raise SimError(f"advance duration must be a finite number >= 0, got {duration!r}")
+        n = math.floor(d / self.dt + 1e-9)
+        rest = d - n * self.dt
+        return d, n, rest if rest > 1e-12 * self.dt else 0.0
 
     def wheel_ticks(self) -> tuple[float, float]:
         """Continuous (unwrapped, fractional) wheel positions in counts since construction."""
