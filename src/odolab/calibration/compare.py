@@ -571,6 +571,18 @@ def _check_curve(curve: Sequence[float], run: OdometryRun) -> None:
 
 #: The kinematic models (the per-run risk of the others is counted against the best of them).
 KINEMATIC = ("diff", "extended", "icr")
+#: Two mean errors this close (relative) tie: two fits that reach the same model (the extended
+#: model with its extra terms at zero is the differential drive) differ only by rounding.
+TIE = 1e-6
+
+
+def _best(scores: Sequence[ModelScore], errors: dict[str, NDArray[np.float64]]) -> ModelScore:
+    """The model with the lowest mean segment error; of models that tie with it (``TIE``), the
+    one with the fewest parameters, so that which is best does not hang on the last bit."""
+    mean = {s.model: float(_mean(errors[s.model])) for s in scores}
+    low = min(mean.values())
+    tied = [s for s in scores if mean[s.model] <= low * (1.0 + TIE)] or list(scores)
+    return min(tied, key=lambda s: s.n_params)
 
 
 def _runs_worse(s: ModelScore, best_kin: ModelScore | None) -> tuple[int, int] | None:
@@ -583,8 +595,8 @@ def _runs_worse(s: ModelScore, best_kin: ModelScore | None) -> tuple[int, int] |
         for a, b in zip(s.segment_errors, best_kin.segment_errors, strict=True)
         if len(a)
     ]
-    # (above by more than a millionth: two fits of the same model to rounding tie)
-    return sum(a > b * (1.0 + 1e-6) for a, b in pairs), len(pairs)
+    # (above by more than TIE: two fits of the same model to rounding tie)
+    return sum(a > b * (1.0 + TIE) for a, b in pairs), len(pairs)
 
 
 def _ratio_text(r: Estimate) -> str:
@@ -647,13 +659,9 @@ def _verdicts(
     """Every fitted model's mean segment error, ratio to the best, verdict, BIC against the
     differential drive and per-run risk against the best kinematic model (see the module)."""
     ok = [s for s in scores if s.problem is None]
-    best = min(ok, key=lambda s: float(_mean(errors[s.model])) if n_segments else math.inf)
+    best = _best(ok, errors) if n_segments else ok[0]
     kinematic = [s for s in ok if s.model in KINEMATIC]
-    best_kin = (
-        min(kinematic, key=lambda s: float(_mean(errors[s.model])))
-        if kinematic and n_segments
-        else None
-    )
+    best_kin = _best(kinematic, errors) if kinematic and n_segments else None
     diff = next((s for s in ok if s.model == "diff"), None)
     out: list[ModelScore] = []
     for s in scores:
@@ -748,7 +756,7 @@ def _never_worse(
     kin = [x for x in out if x.problem is None and x.model in KINEMATIC]
     if rec is None or rec.model in KINEMATIC or not kin:
         return recommended, reason
-    best_kin = min(kin, key=lambda s: float(_mean(errors[s.model])))
+    best_kin = _best(kin, errors)
     if rec.runs_worse:
         k, n = rec.runs_worse
         reason += (

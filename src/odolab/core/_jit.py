@@ -3,7 +3,8 @@
 numba comes with the ``fast`` extra (numba and llvmlite are 211 MB of the core's site-packages
 otherwise: docs/architecture.md, "What the core installs"). The kernels are numba-compatible
 Python, so without numba they run unchanged in CPython, the way ``NUMBA_DISABLE_JIT=1`` runs
-them, with the same results, slower on long logs. With numba, every name here is numba's own.
+them, with the same results (to the last bit or two where numba fuses ``a * b + c``), slower on
+long logs. With numba, every name here is numba's own.
 
 Without numba, :func:`njit` leaves a function as it is, except that a kernel called from Python
 (one not marked ``inline="always"``: the batch passes, the simulator's loop, the metrics) says
