@@ -61,6 +61,11 @@ class Board:
                 return {k: int(v) for k, v in zip(words[::2], words[1::2], strict=True)}
         raise AssertionError(f"the board wrote no summary (exit code {self.proc.returncode})")
 
+    def late(self) -> float:
+        """The most the board's thread woke late (s): how long the OS kept the board from
+        running, which its trace's times include (0 on an idle machine). After it stopped."""
+        return self.summary()["late_ms"] / 1000.0
+
     def moving(self) -> bool:
         rows = self.lines()
         return bool(rows) and (rows[-1][1], rows[-1][2]) != (0.0, 0.0)
@@ -184,7 +189,8 @@ def test_ctrl_c_stops_within_one_cycle_and_a_second_host_is_refused(tmp_path: Pa
         _out, err = drv.communicate(timeout=30)
     stop, why = b.final_stop()
     assert why == "command"
-    assert stop - t_int <= P + lateness_max(tmp_path / "run") + SLACK, stop - t_int
+    late = lateness_max(tmp_path / "run") + b.late()  # the host's and the board's
+    assert stop - t_int <= P + late + SLACK, (stop - t_int, late)
     assert drv.returncode == 130 and "robot stopped (its sensor data confirms it)" in err
     assert b.summary()["refused_peers"] == 1
 
@@ -199,7 +205,7 @@ def test_kill_9_of_the_driver_stops_the_board(tmp_path: Path) -> None:
         time.sleep(C + 0.3)
     stop, why = b.final_stop()
     # the kernel closes the dead host's socket: the board stops at once (or by silence)
-    assert stop - t_kill <= C + SLACK, (stop - t_kill, why)
+    assert stop - t_kill <= C + b.late() + SLACK, (stop - t_kill, why, b.late())
     assert why in ("disconnect", "silence-timeout")
 
 
@@ -215,7 +221,7 @@ def test_a_frozen_host_stops_the_robot_by_silence_and_fails_the_run(tmp_path: Pa
         _out, err = drv.communicate(timeout=60)
     rows = b.lines()
     silence = [r for r in rows if r[3] == "silence-timeout"]
-    assert silence and silence[0][0] - t_stop <= C + SLACK, rows[-4:]
+    assert silence and silence[0][0] - t_stop <= C + b.late() + SLACK, (rows[-4:], b.late())
     assert drv.returncode == 1
     refused_after_freeze(err, freeze)  # the loop's lateness check or the send-by check
     # after the resume the driver never drove again (the late-cycle rule)
@@ -231,6 +237,9 @@ def test_lost_link_stops_within_watchdog_plus_one_cycle(tmp_path: Path) -> None:
     rows = b.lines()
     silent = next(r[0] for r in rows if r[3] == "silent")
     stop, why = b.final_stop()
-    late = lateness_max(tmp_path / "run")
+    # the host's lateness and the board's: each process's own record of how late the OS woke
+    # it (0 on an idle machine; 0.5 s once on a starved one, where the stop reached the
+    # board 1.09 s after its silence)
+    late = lateness_max(tmp_path / "run") + b.late()
     assert why == "command" and stop - silent <= W + P + late + SLACK, (stop - silent, late, err)
     assert drv.returncode == 1 and "does not confirm that it stopped" in err

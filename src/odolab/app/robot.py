@@ -336,9 +336,11 @@ class VirtualBoard:
         return int(self.server.call(lambda b: getattr(b.stats, self.activity_count)))
 
     def counts(self) -> str:
-        """The trace's last line: the board's counts."""
+        """The trace's last line: the board's counts, and the most its thread woke late (ms;
+        :attr:`odolab.robot.virtual_board.BoardServer.late_max`)."""
         st = self.board.stats
-        return "# " + " ".join(f"{k} {getattr(st, a)}" for k, a in self.trace_counts) + "\n"
+        counts = " ".join(f"{k} {getattr(st, a)}" for k, a in self.trace_counts)
+        return f"# {counts} late_ms {round(self.server.late_max * 1000)}\n"
 
 
 _UDP_COUNTS = (

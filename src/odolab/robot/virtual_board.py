@@ -85,6 +85,10 @@ class BoardServer(ABC, Generic[_B]):
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self.error: BaseException | None = None
+        #: the most the serving thread woke after the time it asked to (s): how long the OS kept
+        #: the board from running (a starved test machine), so that its timings can be read
+        #: with it (0 on an idle machine)
+        self.late_max = 0.0
 
     def _warm_up(self) -> None:
         """Warm up the plant (the simulator compiles its physics on the first step, which would
@@ -147,7 +151,9 @@ class BoardServer(ABC, Generic[_B]):
                 with self._lock:
                     wait = min(self.board.next_event() - now, 0.01)
                 readable, _, _ = select.select(self._watched(), [], [], max(wait, 0.0))
-                self._exchange(readable, time.perf_counter())
+                woke = time.perf_counter()
+                self.late_max = max(self.late_max, woke - now - max(wait, 0.0))
+                self._exchange(readable, woke)
         except Exception as err:  # keep the thread's failure for whoever checks
             self.error = err
 
