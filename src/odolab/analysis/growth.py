@@ -132,7 +132,9 @@ def fit_growth(d: ArrayLike, residuals: ArrayLike, *, name: str = "growth") -> G
 
     Needs at least 4 residuals at two or more clearly different |d| (ratio >= 1.2).
     """
-    from scipy import optimize, stats
+    from scipy import optimize
+
+    from odolab.core.distributions import chi2_ppf, chi2_sf
 
     da = np.abs(np.asarray(d, dtype=np.float64)).ravel()
     r = np.asarray(residuals, dtype=np.float64).ravel()
@@ -160,7 +162,7 @@ def fit_growth(d: ArrayLike, residuals: ArrayLike, *, name: str = "growth") -> G
     opt = optimize.minimize_scalar(nll, bounds=(lo_b, hi_b), method="bounded")
     p_hat = float(opt.x)
     ll_max = -float(opt.fun)
-    crit = float(stats.chi2.ppf(0.95, 1))
+    crit = chi2_ppf(0.95, 1)
 
     def excess(p: float) -> float:
         return 2.0 * (ll_max + nll(p)) - crit
@@ -179,7 +181,7 @@ def fit_growth(d: ArrayLike, residuals: ArrayLike, *, name: str = "growth") -> G
     tests = {}
     for e in CANDIDATE_EXPONENTS:
         lr = max(0.0, 2.0 * (ll_max + nll(e)))
-        tests[e] = float(stats.chi2.sf(lr, 1))
+        tests[e] = chi2_sf(lr, 1)
     a_hat = math.sqrt(float(np.mean(r**2 / da ** (2.0 * p_hat))))
     return GrowthFit(
         n=int(r.size),

@@ -274,8 +274,9 @@ def _fit_sum(records: list[NoiseRecord]) -> tuple[float, float, tuple[float, flo
 
 def fit_wheel_noise(records: list[NoiseRecord]) -> WheelNoise:
     """Maximum-likelihood ``k_r``, ``k_l`` from residual records (see the module docstring)."""
-    from scipy import optimize, stats
+    from scipy import optimize
 
+    from odolab.core.distributions import chi2_sf
     from odolab.core.regression import approx_hess3
 
     if len(records) < 3:
@@ -308,7 +309,7 @@ def fit_wheel_noise(records: list[NoiseRecord]) -> WheelNoise:
             by_kind[kind] = k_kind
             ll_sep += ll_kind
         lr = max(0.0, 2.0 * (ll_sep - ll_sum))
-        same_p = float(stats.chi2.sf(lr, len(kinds) - 1))
+        same_p = chi2_sf(lr, len(kinds) - 1)
     else:
         by_kind[kinds[0]] = k_sum
     if not identifiable:
@@ -433,7 +434,9 @@ def _scrub_fit(
 ) -> tuple[float, tuple[float, float], float]:
     """ML ``k_scrub >= 0`` of 1-D turn records with the wheels' share fixed; its 95 % profile
     likelihood interval; the p-value of ``k_scrub = 0``."""
-    from scipy import optimize, stats
+    from scipy import optimize
+
+    from odolab.core.distributions import chi2_ppf, chi2_sf
 
     r2 = np.array([float(rec.r[0] ** 2) for rec in turns])
     base = np.array(
@@ -461,7 +464,7 @@ def _scrub_fit(
     ll_hat = max(ll(ks), ll0)
     if ll0 >= ll_hat - 1e-9:
         ks = 0.0
-    cut = ll_hat - 0.5 * float(stats.chi2.ppf(0.95, 1))
+    cut = ll_hat - 0.5 * chi2_ppf(0.95, 1)
 
     def above(k: float) -> float:
         return ll(k) - cut
@@ -472,7 +475,7 @@ def _scrub_fit(
         top *= 2.0
     hi = float(optimize.brentq(above, max(ks, lo_k), top, xtol=1e-14, rtol=1e-10))
     lr = max(0.0, 2.0 * (ll_hat - ll0))
-    return ks, (lo, hi), float(0.5 * stats.chi2.sf(lr, 1))
+    return ks, (lo, hi), 0.5 * chi2_sf(lr, 1)
 
 
 def fit_separated_noise(records: list[NoiseRecord]) -> SeparatedNoise:

@@ -512,7 +512,7 @@ def _first_leg_for_model(c: Condition, nominal: RobotParams) -> tuple[float, flo
 
 
 def _welch(a: np.ndarray, b: np.ndarray) -> tuple[float, float, float]:
-    from scipy import stats
+    from odolab.core.distributions import t_ppf
 
     d = float(a.mean() - b.mean())
     va, vb = a.var(ddof=1) / a.size, b.var(ddof=1) / b.size
@@ -520,17 +520,17 @@ def _welch(a: np.ndarray, b: np.ndarray) -> tuple[float, float, float]:
     if se == 0:
         return d, d, d
     dof = (va + vb) ** 2 / (va**2 / (a.size - 1) + vb**2 / (b.size - 1))
-    q = float(stats.t.ppf(0.975, dof))
+    q = t_ppf(0.975, dof)
     return d, d - q * se, d + q * se
 
 
 def _mean_ci(x: np.ndarray) -> tuple[float, float, float]:
-    from scipy import stats
+    from odolab.core.distributions import t_ppf
 
     m = float(x.mean())
     if x.size < 2:
         return m, math.nan, math.nan
-    h = float(stats.t.ppf(0.975, x.size - 1)) * float(x.std(ddof=1)) / math.sqrt(x.size)
+    h = t_ppf(0.975, x.size - 1) * float(x.std(ddof=1)) / math.sqrt(x.size)
     return m, m - h, m + h
 
 
@@ -625,8 +625,10 @@ def run_experiment(
     if experiment.trend is not None and len(set(trend_x)) > 1:
         from scipy import stats
 
+        from odolab.core.distributions import t_ppf
+
         fit = stats.linregress(trend_x, trend_y)
-        q = float(stats.t.ppf(0.975, len(trend_x) - 2))
+        q = t_ppf(0.975, len(trend_x) - 2)
         unit = {"speed": "m/s", "radius": "m", "decel": "s"}[experiment.trend]
         trend = Trend(experiment.trend, float(fit.slope), float(fit.slope - q * fit.stderr),
                       float(fit.slope + q * fit.stderr), unit)  # fmt: skip

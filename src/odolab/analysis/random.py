@@ -32,15 +32,15 @@ _Z95 = 1.959963984540054
 
 def sd_confidence_interval(sd: float, df: int, level: float = 0.95) -> tuple[float, float]:
     """Chi-square interval for a normal standard deviation ``sd`` estimated with ``df`` dof."""
-    from scipy import stats
+    from odolab.core.distributions import chi2_ppf
 
     if df < 1:
         raise InsufficientDataError(
             f"a standard deviation interval needs at least 1 degree of freedom, got {df}"
         )
     a = 1.0 - level
-    lo = sd * math.sqrt(df / float(stats.chi2.ppf(1.0 - a / 2.0, df)))
-    hi = sd * math.sqrt(df / float(stats.chi2.ppf(a / 2.0, df)))
+    lo = sd * math.sqrt(df / chi2_ppf(1.0 - a / 2.0, df))
+    hi = sd * math.sqrt(df / chi2_ppf(a / 2.0, df))
     return lo, hi
 
 
@@ -67,12 +67,11 @@ class NormalityTest:
 
 
 def _normality(sample: NDArray[np.float64]) -> NormalityTest | None:
-    from scipy import stats
+    from odolab.core.distributions import shapiro_wilk
 
     if sample.size < 3 or float(np.ptp(sample)) == 0.0:
         return None
-    res = stats.shapiro(sample)
-    return NormalityTest("shapiro-wilk", float(res.statistic), float(res.pvalue))
+    return NormalityTest("shapiro-wilk", *shapiro_wilk(sample))
 
 
 @dataclass(frozen=True)
@@ -103,7 +102,7 @@ class RandomError:
 
 def random_error(residuals: ArrayLike, df: int) -> RandomError:
     """Random error from fit residuals (shape (n,)) with ``df`` residual degrees of freedom."""
-    from scipy import stats
+    from odolab.core.distributions import norm_fit
 
     r = np.asarray(residuals, dtype=np.float64).ravel()
     if r.size < 2 or df < 1:
@@ -111,7 +110,7 @@ def random_error(residuals: ArrayLike, df: int) -> RandomError:
             f"random error needs at least 1 residual degree of freedom, got {df} from {r.size}"
         )
     sd = float(np.sqrt(np.sum(r**2) / df))
-    mu, s = stats.norm.fit(r)
+    mu, s = norm_fit(r)
     return RandomError(
         n=int(r.size),
         df=int(df),

@@ -82,8 +82,7 @@ def compare_terrains(
     ``data`` maps terrain -> (predicted, actual), each shape (n_t,); at least two terrains with
     3 or more trials each.
     """
-    from scipy import stats
-
+    from odolab.core.distributions import t_ppf
     from odolab.core.regression import f_test, ols
 
     names = tuple(sorted(t for t, (x, _) in data.items() if np.asarray(x).size >= 3))
@@ -121,7 +120,7 @@ def compare_terrains(
                 best = (i, j, diff)
     i, j, diff = best
     var = cov[k + i, k + i] + cov[k + j, k + j] - 2 * cov[k + i, k + j]
-    tq = float(stats.t.ppf(0.975, res_full.df_resid))
+    tq = t_ppf(0.975, res_full.df_resid)
     half = tq * float(np.sqrt(max(var, 0.0)))
     return TerrainComparison(
         motion=motion,

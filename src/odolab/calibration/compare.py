@@ -221,12 +221,12 @@ def _t_interval(values: NDArray[np.float64]) -> Estimate:
     fewer than two values).
 
     A percentile bootstrap over two runs gave the two values themselves as the "CI"."""
-    from scipy import stats
+    from odolab.core.distributions import t_ppf
 
     mean = float(values.mean())
     if values.size < 2:
         return Estimate(mean, math.nan, math.nan)
-    half = float(stats.t.ppf(0.975, values.size - 1) * values.std(ddof=1) / math.sqrt(values.size))
+    half = t_ppf(0.975, values.size - 1) * float(values.std(ddof=1)) / math.sqrt(values.size)
     return Estimate(mean, max(mean - half, 0.0), mean + half)  # errors are >= 0
 
 

@@ -306,7 +306,7 @@ def umbmark_intervals(
     that. Empty with fewer than 2 runs in a direction (no scatter to go by) or an end past the
     small-error model. Keys: ``left_wheel_radius_ci95``, ``right_wheel_radius_ci95``,
     ``track_width_ci95``, ``ci95_includes``."""
-    from scipy import stats
+    from odolab.core.distributions import t_ppf
 
     n1, n2 = int(cw.shape[0]), int(ccw.shape[0])
     if min(n1, n2) < 2:
@@ -316,7 +316,7 @@ def umbmark_intervals(
     alpha, beta = _alpha_beta(cw, ccw, L)[:2]
     se_a = math.sqrt(s_cw + float(np.var(ccw[:, 0] - ccw[:, 1], ddof=1)) / n2) / (8 * L)
     se_b = math.sqrt(s_cw + float(np.var(ccw[:, 1] - ccw[:, 0], ddof=1)) / n2) / (8 * L)
-    t = float(stats.t.ppf(0.975, min(n1, n2) - 1))
+    t = t_ppf(0.975, min(n1, n2) - 1)
     ends = [(float(alpha) + k * t * se_a, float(beta) + k * t * se_b) for k in (-1.0, 1.0)]
     values = [_corrected(params, a, bb, L) for a, bb in ends]
     centre = _corrected(params, alpha, beta, L)

@@ -64,10 +64,10 @@ class OlsFit:
     def conf_int(self, cov: F64 | None = None, level: float = 0.95) -> F64:
         """Intervals of the parameters, shape (k, 2), on Student's t with ``df_resid``
         degrees of freedom (``cov``: another covariance of the parameters, e.g. robust)."""
-        from scipy import stats
+        from odolab.core.distributions import t_ppf
 
         se = self.bse if cov is None else np.sqrt(np.diag(cov))
-        q = float(stats.t.ppf(0.5 + level / 2, self.df_resid))
+        q = t_ppf(0.5 + level / 2, self.df_resid)
         return np.column_stack([self.params - q * se, self.params + q * se])
 
     def rsquared(self, y: F64, *, centered: bool) -> float:
@@ -101,11 +101,11 @@ def ols(y: F64, x: F64) -> OlsFit:
 def f_test(full: OlsFit, restricted: OlsFit) -> tuple[float, float, int]:
     """F statistic, its p-value and the numerator's degrees of freedom of ``restricted``
     (a nested model) against ``full``."""
-    from scipy import stats
+    from odolab.core.distributions import f_sf
 
     df_diff = restricted.df_resid - full.df_resid
     f = (restricted.ssr - full.ssr) / df_diff / full.ssr * full.df_resid
-    return float(f), float(stats.f.sf(f, df_diff, full.df_resid)), df_diff
+    return float(f), f_sf(f, df_diff, full.df_resid), df_diff
 
 
 def _scores(fit: OlsFit, x: F64) -> F64:

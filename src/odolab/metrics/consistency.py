@@ -375,7 +375,7 @@ def nees_summary(runs: Sequence[RunNees]) -> NeesSummary:
     Raises:
         InsufficientDataError: no piece of any run moved the robot.
     """
-    from scipy.stats import chi2
+    from odolab.core.distributions import chi2_ppf
 
     values = np.concatenate([r.nees for r in runs]) if runs else np.empty(0)
     n = int(values.size)
@@ -383,8 +383,8 @@ def nees_summary(runs: Sequence[RunNees]) -> NeesSummary:
         raise InsufficientDataError("no NEES: no piece of any run moved the robot")
     # a fitted offset takes one degree of freedom from its run's pieces (module doc)
     dof = max(DOF * n - sum(r.dof_removed for r in runs if r.nees.size), 1)
-    lo, hi = (float(chi2.ppf(q, dof) / n) for q in (0.025, 0.975))
-    s_lo, s_hi = (float(chi2.ppf(q, DOF)) for q in (0.025, 0.975))
+    lo, hi = (chi2_ppf(q, dof) / n for q in (0.025, 0.975))
+    s_lo, s_hi = (chi2_ppf(q, DOF) for q in (0.025, 0.975))
     mean = float(values.mean())
     inside = float(np.mean((values >= s_lo) & (values <= s_hi)))
     above = float(np.mean(values > s_hi))
@@ -707,7 +707,9 @@ def _scrub_interval(
 ) -> tuple[float, tuple[float, float]]:
     """``k_scrub`` and its 95 % likelihood interval with the wheels' constants held at theirs
     (0 when no scrub is more likely than the fitted one: a wheeled robot)."""
-    from scipy import optimize, stats
+    from scipy import optimize
+
+    from odolab.core.distributions import chi2_ppf
 
     wheels = values["k_left"] * a[:, 0] + values["k_right"] * a[:, 1]
 
@@ -723,7 +725,7 @@ def _scrub_interval(
     ll_hat = ll(ks)
     if ll(0.0) >= ll_hat:
         ks, ll_hat = 0.0, ll(0.0)
-    cut = ll_hat - 0.5 * float(stats.chi2.ppf(0.95, 1))
+    cut = ll_hat - 0.5 * chi2_ppf(0.95, 1)
     lo = 0.0
     if ks > 0 and ll(0.0) < cut:
         lo = float(optimize.brentq(lambda k: ll(k) - cut, 0.0, ks, xtol=1e-15))

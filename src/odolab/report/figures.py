@@ -210,7 +210,7 @@ def plot_histogram(
     group: GroupSpread, unit: str, ax: Axes | None = None, *, label: str = "error"
 ) -> Axes:
     """Histogram of the errors at one repeated distance/angle with the fitted Gaussian (Fig. 14)."""
-    from scipy import stats
+    from odolab.core.distributions import norm_pdf
 
     ax = _axes(ax)
     e = group.errors
@@ -221,7 +221,7 @@ def plot_histogram(
     xs = np.linspace(e.min() - 2 * group.sd, e.max() + 2 * group.sd, 200)
     ax.plot(
         xs,
-        stats.norm.pdf(xs, group.mean_error, group.sd),
+        norm_pdf(xs, group.mean_error, group.sd),
         color="tab:red",
         label=f"Gaussian: mean {group.mean_error:.3g}, σ {group.sd:.3g} {unit}",
     )
