@@ -48,15 +48,7 @@ def trial_json(t: Trial) -> dict[str, object]:
         "campaign": t.campaign,
         "terrain": t.terrain,
         "kind": c.kind.value,
-        "command": {
-            "kind": c.kind.value,
-            "angle": c.angle,
-            "distance": c.distance,
-            "side": c.side,
-            "direction": c.direction,
-            "speed": c.speed,
-            "text": c.describe(),
-        },
+        "command": {**c.to_dict(), "text": c.describe()},
         "predicted": {"t": p.t, "x": p.x, "y": p.y, "theta": p.theta, "heading": p.heading},
         "measured": None
         if m is None
