@@ -11,12 +11,10 @@ from typing import TYPE_CHECKING
 from starlette.requests import Request
 from starlette.responses import Response
 
+from odolab.app.exports import KINDS, STATUSES, check_filter
 from odolab.core.errors import OdolabError, StoreError
 from odolab.serve.routes._measure import in_words, json_readings, readings_of
 from odolab.serve.routes._web import (
-    KINDS,
-    STATUSES,
-    check_filter,
     error_json,
     json_body,
     selection_of,
