@@ -161,13 +161,9 @@ def _check(request: EvaluationRequest, robot: RobotParams | None) -> None:
                 f"evaluate takes GT EST (two trajectory files), got "
                 f"{count(len(request.paths), 'path')}; use {opt('format')} for runs"
             )
-        if request.chunk_rows is not None and request.chunk_rows < 0:
-            raise OdolabError(
-                f"{opt('chunk_rows')} is {request.chunk_rows}; expected a number of rows >= 1 (or 0)",
-                option="chunk_rows",
-                value=request.chunk_rows,
-                allowed="a number of rows >= 1 (or 0)",
-            )
+        from odolab.app.odometry import check_chunk_rows
+
+        check_chunk_rows(request.chunk_rows)
     elif request.chunk_rows is not None:
         raise OdolabError(
             "{{chunk_rows}} reads two trajectory files (GT EST) in chunks; runs ({{format}}) are "

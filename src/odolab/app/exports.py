@@ -19,7 +19,10 @@ if TYPE_CHECKING:
 
 __all__ = [
     "FORMATS",
+    "KINDS",
+    "STATUSES",
     "ExportRequest",
+    "check_filter",
     "export_bytes",
     "export_trials",
     "format_of",
@@ -28,11 +31,13 @@ __all__ = [
 
 #: The export formats: CSV (a spreadsheet, no encoder logs) and JSON (everything).
 FORMATS = ("csv", "json")
-_STATUSES = tuple(s.value for s in TrialStatus)
-_KINDS = tuple(k.value for k in MotionKind)
+#: The values a trial filter may take (the export's and the web's): statuses and kinds.
+STATUSES = tuple(s.value for s in TrialStatus)
+KINDS = tuple(k.value for k in MotionKind)
 
 
-def _check(name: str, value: str | None, allowed: tuple[str, ...]) -> str | None:
+def check_filter(name: str, value: str | None, allowed: tuple[str, ...]) -> str | None:
+    """A filter's value, None when not given (None or ""), refused when not in ``allowed``."""
     if value is None or value == "":
         return None
     if value not in allowed:
@@ -58,8 +63,8 @@ class ExportRequest:
             self.format,
             self.campaign or None,
             self.terrain or None,
-            _check("kind", self.kind, _KINDS),
-            _check("status", self.status, _STATUSES),
+            check_filter("kind", self.kind, KINDS),
+            check_filter("status", self.status, STATUSES),
         )
 
 

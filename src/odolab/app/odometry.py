@@ -34,6 +34,7 @@ __all__ = [
     "OdometryRequest",
     "ParamsChoice",
     "auto_chunk_rows",
+    "check_chunk_rows",
     "choose_params",
     "integrate_log",
     "many_logs",
@@ -233,6 +234,17 @@ def choose_params(
     )
 
 
+def check_chunk_rows(chunk_rows: int | None) -> None:
+    """Refuse rows per chunk below 0 (None: :func:`auto_chunk_rows`; 0: the file whole)."""
+    if chunk_rows is not None and chunk_rows < 0:
+        raise OdolabError(
+            f"{opt('chunk_rows')} is {chunk_rows}; expected a number of rows >= 1 (or 0)",
+            option="chunk_rows",
+            value=chunk_rows,
+            allowed="a number of rows >= 1 (or 0)",
+        )
+
+
 def auto_chunk_rows(*paths: Path) -> int:
     """Rows per chunk when the user gave none: :data:`DEFAULT_CHUNK_ROWS` when a file is big
     (CSV over :data:`AUTO_CHUNK_BYTES`, Parquet/IPC over :data:`AUTO_CHUNK_ROWS` rows), else 0
@@ -317,13 +329,7 @@ def check_request(
             f"{opt('max_dticks')} with {opt('format')} {lf.value}: a {lf.value} run holds increments, not "
             "counters that wrap; expected it without {{max_dticks}}"
         )
-    if chunk_rows is not None and chunk_rows < 0:
-        raise OdolabError(
-            f"{opt('chunk_rows')} is {chunk_rows}; expected a number of rows >= 1 (or 0)",
-            option="chunk_rows",
-            value=chunk_rows,
-            allowed="a number of rows >= 1 (or 0)",
-        )
+    check_chunk_rows(chunk_rows)
     if covariance and fmt != "csv":
         raise OdolabError(
             f"{opt('covariance')} with {opt('format')} {fmt}: TUM has no covariance columns; expected "

@@ -14,10 +14,12 @@ import sys
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    from collections.abc import Iterable
+
     from rich.console import Console
     from rich.table import Table
 
-__all__ = ["HELP_WIDTH_PIPED", "console", "print_table", "wide_help_when_piped"]
+__all__ = ["HELP_WIDTH_PIPED", "console", "fit_table", "print_table", "wide_help_when_piped"]
 
 #: Width of ``--help`` written to a file or a pipe: rich's tables at its default (80) cut option
 #: names (``--pairs-from-re…``) and split lists of choices; at this width none is cut.
@@ -82,6 +84,23 @@ def wide_help_when_piped() -> None:
 
     wide._odolab = True  # type: ignore[attr-defined]
     rich_utils._get_rich_console = wide
+
+
+def fit_table(
+    title: str, stderr: str, rows: Iterable[tuple[str, float | None, float, float]]
+) -> Table:
+    """A calibration's parameters: name, nominal ("-" when none), calibrated and the standard
+    error (its column headed ``stderr``), one row per (name, nominal, calibrated, error)."""
+    from rich.table import Table
+
+    table = Table(title=title)
+    for col in ("parameter", "nominal", "calibrated", stderr):
+        table.add_column(col, justify="right")
+    for key, nominal, value, err in rows:
+        table.add_row(
+            key, "-" if nominal is None else f"{nominal:.6f}", f"{value:.6f}", f"{err:.2e}"
+        )
+    return table
 
 
 def _natural_width(con: Console, table: Table) -> int:

@@ -584,18 +584,16 @@ def _print_calibration(result: LsqCalibration, output: Path) -> None:
     from rich.table import Table
 
     from odolab.cli._console import console as make_console
-    from odolab.cli._console import print_table
+    from odolab.cli._console import fit_table, print_table
 
     console = make_console()
-    table = Table(
-        title=f"least-squares calibration ({len(result.runs)} runs, "
-        f"{result.segments} segments) -> {output}"
-    )
-    for col in ("parameter", "nominal", "calibrated", "std error"):
-        table.add_column(col, justify="right")
     nominal, fitted = result.nominal_values, result.values
-    for key, err in result.stderr.items():
-        table.add_row(key, f"{nominal[key]:.6f}", f"{fitted[key]:.6f}", f"{err:.2e}")
+    table = fit_table(
+        f"least-squares calibration ({len(result.runs)} runs, {result.segments} segments) -> "
+        f"{output}",
+        "std error",
+        ((key, nominal[key], fitted[key], err) for key, err in result.stderr.items()),
+    )
     print_table(console, table)
     _print_said(console, "warning", result.warnings)
     _print_said(console, "note", result.notes)

@@ -156,23 +156,19 @@ def _check_sensor_outputs(
 
 def _print_sensor(result: SensorCalibration, output: Path) -> None:
     from rich.console import Console
-    from rich.table import Table
+
+    from odolab.cli._console import fit_table
 
     console = Console()
-    table = Table(
-        title=f"odometry + sensor calibration ({result.intervals} intervals, "
-        f"{result.outliers} trimmed) -> {output}"
+    table = fit_table(
+        f"odometry + sensor calibration ({result.intervals} intervals, {result.outliers} "
+        f"trimmed) -> {output}",
+        "std error (CRB)",
+        (
+            (key, getattr(result.nominal, key, None), value, result.stderr[key])
+            for key, value in result.values.items()
+        ),
     )
-    for col in ("parameter", "nominal", "calibrated", "std error (CRB)"):
-        table.add_column(col, justify="right")
-    for key, value in result.values.items():
-        nominal = getattr(result.nominal, key, None)
-        table.add_row(
-            key,
-            f"{nominal:.6f}" if nominal is not None else "-",
-            f"{value:.6f}",
-            f"{result.stderr[key]:.2e}",
-        )
     console.print(table)
     sx, sy, sth = result.noise_sigma
     console.print(

@@ -81,10 +81,9 @@ def check_times(
                 f"{source}: time goes backwards at {what} {line(i)} "
                 f"({t[i]} after {t[i - 1]}); expected non-decreasing times"
             )
-        if advancing and t[-1] == t[0]:  # (non-decreasing: every time is the first)
-            raise LogFormatError(
-                f"{source}: the time is {t[0]:g} s at every {what} from {line(0)} to "
-                f"{line(t.size - 1)}; expected times that advance"
+        if advancing:  # (non-decreasing: the last time is the first only if every one is)
+            check_advanced(
+                float(t[0]), float(t[-1]), t.size, source, line(0), line(t.size - 1), what
             )
 
 

@@ -133,6 +133,19 @@ class Command:
         """The motion's name in run ids and folders: ``explore`` or the kind."""
         return "explore" if self.explore is not None else self.kind.value
 
+    def to_dict(self) -> dict[str, object]:
+        """``kind`` (its name), ``angle``, ``distance``, ``side``, ``direction``, ``speed``: the
+        command as the notebook's ``trials`` row and the JSON API hold it (an exploration's
+        settings are not among them)."""
+        return {
+            "kind": self.kind.value,
+            "angle": self.angle,
+            "distance": self.distance,
+            "side": self.side,
+            "direction": self.direction,
+            "speed": self.speed,
+        }
+
     def describe(self) -> str:
         """Short human text, e.g. 'rotation 20.0 pi', 'translation -2.5 m' or 'explore 60 s'."""
         if self.explore is not None:

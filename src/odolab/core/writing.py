@@ -39,6 +39,7 @@ from odolab.core.errors import OdolabError
 __all__ = [
     "NEW_FILE_MODE",
     "OutputFileError",
+    "given_folder",
     "path_first",
     "replacing_file",
     "replacing_path",
@@ -122,6 +123,22 @@ def strict_json(doc: object, *, indent: int | None = 2, sort_keys: bool = False)
 
 def _cannot(path: Path, what: str, err: OSError, error: type[OdolabError]) -> OdolabError:
     return error(f"{path}: cannot write the {what} ({err.strerror or err})")
+
+
+def given_folder(
+    path: str | Path, *, expected: str, cannot: str, error: type[OdolabError] = OutputFileError
+) -> Path:
+    """The folder the user gave, created (with its parents) if missing; a link to a folder is
+    used as it is. Refused with ``error`` when it is a file ("is a file; expected ``expected``")
+    or cannot be made ("cannot create ``cannot`` (why)")."""
+    folder = Path(path)
+    if folder.exists() and not folder.is_dir():
+        raise error(f"{folder}: is a file; expected {expected}")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise error(f"{folder}: cannot create {cannot} ({err.strerror or err})") from err
+    return folder
 
 
 def sub_folder(

@@ -71,7 +71,6 @@ class Cluster:
     def __post_init__(self) -> None:
         if self.scheduler is not None and not self.scheduler.startswith(("tcp://", "tls://")):
             raise OdolabError(
-                f"{opt('scheduler')} is {self.scheduler!r}; expected an address like tcp://HOST:PORT",
                 option="scheduler",
                 value=self.scheduler,
                 allowed="an address like tcp://HOST:PORT",
@@ -79,7 +78,6 @@ class Cluster:
         w = self.workers
         if w is not None and (isinstance(w, bool) or int(w) != w or w < 1):
             raise OdolabError(
-                f"{opt('workers')} is {self.workers!r}; expected a whole number >= 1",
                 option="workers",
                 value=self.workers,
                 allowed="a whole number >= 1",

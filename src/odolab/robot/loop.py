@@ -55,12 +55,7 @@ def _check_positive(option: str, value: float, unit: str) -> None:
     :class:`RobotConfigError`."""
     if not (math.isfinite(value) and value > 0):
         allowed = f"a positive number of {unit}"
-        raise RobotConfigError(
-            f"{opt(option)} is {value!r}; expected {allowed}",
-            option=option,
-            value=value,
-            allowed=allowed,
-        )
+        raise RobotConfigError(option=option, value=value, allowed=allowed)
 
 
 class Watchdog:

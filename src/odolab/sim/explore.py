@@ -175,17 +175,13 @@ def write_exploration(folder: str | Path, run: Drive, name: str = "explore") -> 
     """Write a recorded run as ``<folder>/<name>.csv`` (``t,dticks_left,dticks_right``) and
     its ground truth as ``<folder>/<name>_gt.csv`` (read back by ``--format csv``)."""
     from odolab.core.trajectory import Trajectory
-    from odolab.core.writing import replacing_path
+    from odolab.core.writing import given_folder, replacing_path
     from odolab.io.tabular import write_columns
     from odolab.io.trajectory_csv import write_trajectory_csv
 
-    out = Path(folder)
-    if out.exists() and not out.is_dir():
-        raise SimError(f"{out}: is a file; expected a folder for the exploration run")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise SimError(f"{out}: cannot create the folder ({err.strerror or err})") from err
+    out = given_folder(
+        folder, expected="a folder for the exploration run", cannot="the folder", error=SimError
+    )
     log, gt = out / f"{name}.csv", out / f"{name}_gt.csv"
     # both through temporary files, renamed only when both are written: a failure leaves an
     # earlier run's pair as it was, never a new log beside an old truth

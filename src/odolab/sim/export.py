@@ -15,6 +15,7 @@ from pathlib import Path
 from odolab.core.errors import SimError
 from odolab.core.text import quote_input, safe_file_name
 from odolab.core.trials import Trial
+from odolab.core.writing import given_folder
 
 __all__ = ["write_encoder_logs"]
 
@@ -41,15 +42,12 @@ def write_encoder_logs(
         directory, trials = trials, directory
     if not isinstance(directory, str | os.PathLike) or isinstance(trials, str | os.PathLike):
         raise TypeError("write_encoder_logs(directory, trials) takes a folder and trials")
-    folder = Path(directory)
-    if folder.exists() and not folder.is_dir():
-        raise SimError(f"{folder}: is a file; expected a folder for the encoder logs")
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise SimError(
-            f"{folder}: cannot create the folder for the encoder logs ({err.strerror or err})"
-        ) from err
+    folder = given_folder(
+        directory,
+        expected="a folder for the encoder logs",
+        cannot="the folder for the encoder logs",
+        error=SimError,
+    )
     names: dict[str, str] = {}
     todo = []
     for t in trials:

@@ -124,6 +124,13 @@ MAX_SIDE_M = 250.0
 SPEED_RANGE_M_S = (0.01, 5.0)
 REPORT_RATE_RANGE_HZ = (0.1, 1_000.0)
 DT_RANGE_S = (1e-4, 1.0)
+#: The numbers of the [protocol] table: key -> (default, allowed range, unit), read in this order.
+_PROTOCOL_NUMBERS: dict[str, tuple[float, tuple[float, float], str]] = {
+    "linear_speed": (0.3, SPEED_RANGE_M_S, " m/s"),
+    "turn_speed": (0.3, SPEED_RANGE_M_S, " m/s"),
+    "report_rate": (20.0, REPORT_RATE_RANGE_HZ, " Hz"),
+    "dt": (0.025, DT_RANGE_S, " s"),
+}
 MAX_TRIAL_SECONDS = 3_600.0
 #: Most encoder reports one run may hold (trials x the longest trial's reports): 2 x 8 bytes
 #: each in the simulator's counters, so about 320 MB at most.
@@ -420,32 +427,16 @@ def parse_protocol(doc: dict[str, object], source: str = "<protocol>") -> Experi
         raise _err(source, "[protocol] key 'campaign'", "expected a non-empty string")
     terrain = head.get("terrain", "tile")
     get_terrain(str(terrain), where=f"{source}: [protocol] key 'terrain'")
-    defaults = {
-        "terrain": terrain,
-        "campaign": campaign,
-        "linear_speed": _number(
-            source,
-            "[protocol] key 'linear_speed'",
-            head.get("linear_speed", 0.3),
-            within=SPEED_RANGE_M_S,
-            unit=" m/s",
-        ),
-        "turn_speed": _number(
-            source,
-            "[protocol] key 'turn_speed'",
-            head.get("turn_speed", 0.3),
-            within=SPEED_RANGE_M_S,
-            unit=" m/s",
-        ),
-    }
-    rate = _number(
-        source,
-        "[protocol] key 'report_rate'",
-        head.get("report_rate", 20.0),
-        within=REPORT_RATE_RANGE_HZ,
-        unit=" Hz",
-    )
-    dt = _number(source, "[protocol] key 'dt'", head.get("dt", 0.025), within=DT_RANGE_S, unit=" s")
+    numbers = {
+        key: _number(source, f"[protocol] key {key!r}", head.get(key, default), within=within,
+                     unit=unit)
+        for key, (default, within, unit) in _PROTOCOL_NUMBERS.items()
+    }  # fmt: skip
+    rate, dt = numbers["report_rate"], numbers["dt"]
+    defaults: dict[str, object] = {
+        "terrain": terrain, "campaign": campaign,
+        "linear_speed": numbers["linear_speed"], "turn_speed": numbers["turn_speed"],
+    }  # fmt: skip
     spr = 1.0 / (rate * dt)
     if abs(spr - round(spr)) > 1e-6 or round(spr) < 1:
         raise _err(

@@ -79,7 +79,6 @@ class TrackOptions:
     def __post_init__(self) -> None:
         if self.corners not in _REFINEMENT:
             raise TrackingError(
-                f"{opt('corners')} is {self.corners!r}; expected one of {', '.join(_REFINEMENT)}",
                 option="corners",
                 value=self.corners,
                 allowed=f"one of {', '.join(_REFINEMENT)}",
@@ -93,7 +92,6 @@ class TrackOptions:
             raise TrackingError(f"full_every is {self.full_every}; expected a whole number >= 1")
         if not (math.isfinite(self.marker_size) and self.marker_size > 0):
             raise TrackingError(
-                f"{opt('marker_size')} is {self.marker_size!r}; expected the black square's side in m",
                 option="marker_size",
                 value=self.marker_size,
                 allowed="the black square's side in m",
@@ -105,7 +103,6 @@ class TrackOptions:
             )
         if not all(math.isfinite(v) for v in self.marker_offset):
             raise TrackingError(
-                f"{opt('marker_offset')} is {self.marker_offset!r}; expected metres",
                 option="marker_offset",
                 value=self.marker_offset,
                 allowed="metres",

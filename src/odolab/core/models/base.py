@@ -13,7 +13,10 @@ This module imports neither numpy nor numba (``odolab --help`` stays instant).
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, ClassVar, NamedTuple, Protocol, runtime_checkable
+
+from odolab.core.errors import ParamsError
 
 if TYPE_CHECKING:
     import numpy as np
@@ -28,6 +31,7 @@ __all__ = [
     "ModelCoefficients",
     "RobotLike",
     "TimedModel",
+    "check_number",
     "is_kinematic_model",
     "model_words",
     "own_covariance",
@@ -193,6 +197,15 @@ class CovarianceModel(KinematicModel, Protocol):
         """The standard deviation (rad per metre) of the heading change of a straight run at
         ``speed`` m/s that the coefficients' uncertainty gives; None when it is not known."""
         ...
+
+
+def check_number(key: str, value: object, kind: str = "") -> None:
+    """Refuse a model's value ``key`` that is not a finite number (a bool is not one), with
+    :class:`ParamsError`; ``kind`` words what it must be a number of (``" of metres"``)."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ParamsError(f"{key} must be a number{kind}, got {value!r}")
+    if not math.isfinite(value):
+        raise ParamsError(f"{key} must be finite, got {value!r}")
 
 
 def is_kinematic_model(value: object) -> bool:

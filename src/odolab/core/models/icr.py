@@ -16,12 +16,11 @@ The model ignores the ``[robot]`` table's track width: its geometry is its own.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import ClassVar
 
 from odolab.core.errors import ParamsError
-from odolab.core.models.base import ModelCoefficients
+from odolab.core.models.base import ModelCoefficients, check_number
 from odolab.core.models.registry import register
 
 __all__ = ["IcrModel"]
@@ -52,10 +51,7 @@ class IcrModel:
     def __post_init__(self) -> None:
         for key in self.KEYS:
             value = getattr(self, key)
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise ParamsError(f"{key} must be a number of metres, got {value!r}")
-            if not math.isfinite(value):
-                raise ParamsError(f"{key} must be finite, got {value!r}")
+            check_number(key, value, " of metres")
             object.__setattr__(self, key, float(value))
         if not self.y_icr_left > 0:
             raise ParamsError(f"y_icr_left must be > 0 m (left of the body), got {self.y_icr_left}")

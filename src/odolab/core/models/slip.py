@@ -46,7 +46,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, ClassVar
 
 from odolab.core.errors import ParamsError
-from odolab.core.models.base import ModelCoefficients
+from odolab.core.models.base import ModelCoefficients, check_number
 from odolab.core.models.registry import register
 from odolab.core.models.slip_terms import (
     _COEF_KEYS,
@@ -162,10 +162,7 @@ class SlipModel:
     def __post_init__(self) -> None:
         for key in self.KEYS:
             value = getattr(self, key)
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise ParamsError(f"{key} must be a number, got {value!r}")
-            if not math.isfinite(value):
-                raise ParamsError(f"{key} must be finite, got {value!r}")
+            check_number(key, value)
             if key in _NOISE_KEYS and value < 0:
                 raise ParamsError(f"{key} must be >= 0 (a noise spectral density), got {value!r}")
             if key in DRIFT_KEYS and value < 0:

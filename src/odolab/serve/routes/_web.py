@@ -26,7 +26,6 @@ from starlette.responses import HTMLResponse, RedirectResponse, Response
 from odolab.app.analysis import AnalysisCache
 from odolab.core.errors import StoreError
 from odolab.core.text import display_value
-from odolab.core.trials import MotionKind, TrialStatus
 from odolab.serve.security import StrictJSONResponse, csrf_ok, csrf_token
 
 if TYPE_CHECKING:
@@ -37,8 +36,6 @@ if TYPE_CHECKING:
 __all__ = ["FormError", "Web", "web"]
 
 _T = TypeVar("_T")
-STATUSES = tuple(s.value for s in TrialStatus)
-KINDS = tuple(k.value for k in MotionKind)
 _SAFE_NAME = re.compile(r"[^A-Za-z0-9._-]+")
 
 
@@ -130,14 +127,6 @@ def templates() -> jinja2.Environment:
     env.globals["signed"] = _measure.HTML_PATTERN
     env.globals["unsigned"] = _measure.HTML_PATTERN_UNSIGNED
     return env
-
-
-def check_filter(name: str, value: str | None, allowed: tuple[str, ...]) -> str | None:
-    if value is None or value == "":
-        return None
-    if value not in allowed:
-        raise StoreError(f"{name} is {value!r}; expected one of {', '.join(allowed)}")
-    return value
 
 
 def safe_upload_name(filename: str | None) -> str:

@@ -11,12 +11,10 @@ from typing import TYPE_CHECKING
 from starlette.requests import Request
 from starlette.responses import Response
 
+from odolab.app.exports import KINDS, STATUSES, check_filter
 from odolab.core.errors import OdolabError, StoreError
 from odolab.serve.routes._measure import in_words, json_readings, readings_of
 from odolab.serve.routes._web import (
-    KINDS,
-    STATUSES,
-    check_filter,
     error_json,
     json_body,
     selection_of,
@@ -48,15 +46,7 @@ def trial_json(t: Trial) -> dict[str, object]:
         "campaign": t.campaign,
         "terrain": t.terrain,
         "kind": c.kind.value,
-        "command": {
-            "kind": c.kind.value,
-            "angle": c.angle,
-            "distance": c.distance,
-            "side": c.side,
-            "direction": c.direction,
-            "speed": c.speed,
-            "text": c.describe(),
-        },
+        "command": {**c.to_dict(), "text": c.describe()},
         "predicted": {"t": p.t, "x": p.x, "y": p.y, "theta": p.theta, "heading": p.heading},
         "measured": None
         if m is None

@@ -7,16 +7,10 @@ from typing import TYPE_CHECKING, TypedDict
 from starlette.requests import Request
 from starlette.responses import Response
 
+from odolab.app.exports import KINDS, STATUSES, check_filter
 from odolab.core.errors import OdolabError, StoreError
 from odolab.core.trials import TrialStatus
-from odolab.serve.routes._web import (
-    KINDS,
-    STATUSES,
-    check_filter,
-    plain,
-    text_field,
-    web,
-)
+from odolab.serve.routes._web import plain, text_field, web
 
 if TYPE_CHECKING:
     from odolab.core.trials import Measurement, Trial
