@@ -26,7 +26,7 @@ CEILINGS = {
     "counter unwrap copies": 1,
     "odometry step copies": 1,
     "import circles": 0,
-    "functions over 80 lines": 8,
+    "functions over 80 lines": 7,
     "Any in code": 103,
 }
 
