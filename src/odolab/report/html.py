@@ -22,6 +22,7 @@ from odolab.core import numfmt
 from odolab.core.errors import OdolabError
 from odolab.core.text import safe_file_name
 from odolab.core.writing import (
+    given_folder,
     replacing_path,
     strict_json,
     strict_value,
@@ -514,13 +515,9 @@ def _evidence_plans(evidence: ModelEvidence | None) -> list[_Plan]:
 
 
 def _report_folder(out_dir: str | Path) -> tuple[Path, Path]:
-    out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise OdolabError(f"{out}: is a file; expected the report folder")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise OdolabError(f"{out}: cannot create the report folder ({err})") from err
+    out = given_folder(
+        out_dir, expected="the report folder", cannot="the report folder", error=OdolabError
+    )
     return out, sub_folder(out, "figures", what="report figures")
 
 
