@@ -21,9 +21,16 @@ import sys
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, TextIO, TypeVar
 
-__all__ = ["HAVE_NUMBA", "get_num_threads", "njit", "parallel_chunksize", "prange"]
+__all__ = [
+    "HAVE_NUMBA",
+    "get_num_threads",
+    "njit",
+    "note_compiling",
+    "parallel_chunksize",
+    "prange",
+]
 
 F = TypeVar("F", bound=Callable[..., object])
 
@@ -78,8 +85,46 @@ def _one_thread() -> int:
     return 1
 
 
+_compiling_noted = False
+
+
+def note_compiling(stream: TextIO | None = None) -> None:
+    """Say :data:`odolab.core.extras.COMPILING_NOTE` once a process, where a person waits at a
+    terminal (``stream``, default stderr, is a TTY); elsewhere (a pipe, a log file, a test's
+    capture) nothing."""
+    global _compiling_noted
+    out = stream if stream is not None else sys.stderr
+    try:
+        tty = out.isatty()
+    except (AttributeError, ValueError):  # a closed or odd stream
+        tty = False
+    if not tty:
+        return
+    with _note_lock:
+        if _compiling_noted:
+            return
+        _compiling_noted = True
+    from odolab.core.extras import COMPILING_NOTE
+
+    out.write(COMPILING_NOTE + "\n")
+    out.flush()
+
+
 if TYPE_CHECKING or HAVE_NUMBA:  # numba's own names (untyped, as the kernels always saw them)
     from numba import get_num_threads, njit, parallel_chunksize, prange
+    from numba.core import event as _event
+
+    class _Compiling(_event.Listener):
+        """numba's "numba:compile" event comes only when a kernel is compiled, not when it is
+        loaded from the cache."""
+
+        def on_start(self, event: object) -> None:
+            note_compiling()
+
+        def on_end(self, event: object) -> None:
+            pass
+
+    _event.register("numba:compile", _Compiling())  # type: ignore[no-untyped-call]
 else:
     njit = _plain_njit
     prange = range

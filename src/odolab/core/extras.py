@@ -18,6 +18,7 @@ from odolab.core.errors import OdolabError
 __all__ = [
     "COMMAND_EXTRAS",
     "COMMAND_PREFERS",
+    "COMPILING_NOTE",
     "EXTRAS",
     "NO_NUMBA_NOTE",
     "MissingExtraError",
@@ -87,6 +88,14 @@ def install_line(extra: str) -> str:
 NO_NUMBA_NOTE = (
     "odolab: numba is not installed, so the kernels run as plain Python (slower on long logs); "
     f"for the compiled kernels: {install_line('fast')}"
+)
+
+#: Said once a process, on stderr when it is a terminal, when numba starts compiling a kernel
+#: that its cache does not hold (odolab.core._jit): a fresh install's first covariance or
+#: simulation is otherwise 10-20 s of silence.
+COMPILING_NOTE = (
+    "odolab: compiling its numerical kernels for this machine, once: the first use of each takes "
+    "seconds (all of them together up to a minute), later runs load them from numba's cache"
 )
 
 
