@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import math
 import subprocess
 import sys
 
@@ -36,6 +37,28 @@ def test_t_ppf_is_scipy_s(q: float, k: float) -> None:
 @given(x=st.floats(-1.0, 100.0), dfn=st.integers(1, 20), dfd=st.integers(1, 200))
 def test_f_sf_is_scipy_s(x: float, dfn: int, dfd: int) -> None:
     assert d.f_sf(x, dfn, dfd) == float(stats.f.sf(x, dfn, dfd))
+
+
+NAN, INF = float("nan"), float("inf")
+
+
+@pytest.mark.parametrize(
+    ("name", "args"),
+    [
+        ("chi2_ppf", (0.975, 0)), ("chi2_ppf", (0.975, NAN)), ("chi2_ppf", (0.0, 3)),
+        ("chi2_ppf", (1.0, 3)), ("chi2_ppf", (NAN, 3)), ("chi2_sf", (NAN, 3)),
+        ("chi2_sf", (INF, 3)), ("chi2_sf", (0.0, 0)), ("chi2_sf", (5.0, 0)),
+        ("chi2_sf", (5.0, INF)), ("t_ppf", (0.975, 0)), ("t_ppf", (0.975, INF)),
+        ("t_ppf", (0.975, NAN)), ("f_sf", (2.0, 1, 0)), ("f_sf", (0.0, 1, 0)),
+        ("f_sf", (-1.0, 2, 5)),
+    ],
+)  # fmt: skip
+def test_the_edges_are_scipy_s(name: str, args: tuple[float, ...]) -> None:
+    """Degrees of freedom of 0, NaN or infinity and probabilities at 0 and 1 as scipy.stats."""
+    dist, fn = name.split("_")
+    want = float(getattr(getattr(stats, dist), fn)(*args))
+    got = getattr(d, name)(*args)
+    assert got == want or (math.isnan(got) and math.isnan(want)), (got, want)
 
 
 def test_norm_pdf_and_fit_are_scipy_s() -> None:

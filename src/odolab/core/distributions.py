@@ -28,9 +28,12 @@ def chi2_ppf(p: float, dof: float) -> float:
 
 
 def chi2_sf(x: float, dof: float) -> float:
-    """P(X > ``x``) for a chi-square ``X`` with ``dof`` degrees of freedom (1 for ``x`` <= 0)."""
+    """P(X > ``x``) for a chi-square ``X`` with ``dof`` degrees of freedom (1 for ``x`` <= 0;
+    NaN for ``dof`` <= 0, as scipy.stats)."""
     from scipy import special
 
+    if not dof > 0:
+        return math.nan
     return 1.0 if x <= 0.0 else float(special.chdtrc(dof, x))
 
 
@@ -42,9 +45,12 @@ def t_ppf(q: float, dof: float) -> float:
 
 
 def f_sf(x: float, dfn: float, dfd: float) -> float:
-    """P(F > ``x``) for an F distribution with (``dfn``, ``dfd``) degrees of freedom."""
+    """P(F > ``x``) for an F distribution with (``dfn``, ``dfd``) degrees of freedom (NaN for
+    degrees of freedom <= 0, as scipy.stats)."""
     from scipy import special
 
+    if not (dfn > 0 and dfd > 0):
+        return math.nan
     return 1.0 if x <= 0.0 else float(special.fdtrc(dfn, dfd, x))
 
 
