@@ -81,7 +81,9 @@ def check_times(
                 f"{source}: time goes backwards at {what} {line(i)} "
                 f"({t[i]} after {t[i - 1]}); expected non-decreasing times"
             )
-        if advancing:  # (non-decreasing: the last time is the first only if every one is)
+        # (non-decreasing: the last time is the first only if every one is). The line numbers
+        # only for the refusal: ``line_of`` scans the file's lines (0.3 s a 100,000-pose TUM)
+        if advancing and t[-1] == t[0]:
             check_advanced(
                 float(t[0]), float(t[-1]), t.size, source, line(0), line(t.size - 1), what
             )
