@@ -963,10 +963,9 @@ def nees_pieces(runs: Sequence[object], params: RobotParams, piece_s: float = 10
 
 def nees_bounds(pieces: int, dof: int = 3) -> tuple[float, float]:
     """Two-sided 95 % bounds of the mean of ``pieces`` NEES values (chi-square, ``dof`` each)."""
-    from odolab.core.distributions import chi2_ppf
+    from odolab.core.distributions import chi2_mean_bounds
 
-    k = dof * pieces
-    return chi2_ppf(0.025, k) / pieces, chi2_ppf(0.975, k) / pieces
+    return chi2_mean_bounds(dof * pieces, pieces)
 
 
 def first_seconds(run: object, seconds: float) -> object:

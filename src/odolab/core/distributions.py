@@ -17,7 +17,16 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["chi2_ppf", "chi2_sf", "f_sf", "norm_fit", "norm_pdf", "shapiro_wilk", "t_ppf"]
+__all__ = [
+    "chi2_mean_bounds",
+    "chi2_ppf",
+    "chi2_sf",
+    "f_sf",
+    "norm_fit",
+    "norm_pdf",
+    "shapiro_wilk",
+    "t_ppf",
+]
 
 
 def chi2_ppf(p: float, dof: float) -> float:
@@ -25,6 +34,12 @@ def chi2_ppf(p: float, dof: float) -> float:
     from scipy import special
 
     return float(2.0 * special.gammaincinv(dof / 2.0, p))
+
+
+def chi2_mean_bounds(dof: float, values: int) -> tuple[float, float]:
+    """Two-sided 95 % bounds of the mean of ``values`` numbers whose sum is chi-square with
+    ``dof`` degrees of freedom (a NEES mean: ``dof`` = 3 a piece, less any the fit took)."""
+    return chi2_ppf(0.025, dof) / values, chi2_ppf(0.975, dof) / values
 
 
 def chi2_sf(x: float, dof: float) -> float:

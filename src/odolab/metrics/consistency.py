@@ -375,7 +375,7 @@ def nees_summary(runs: Sequence[RunNees]) -> NeesSummary:
     Raises:
         InsufficientDataError: no piece of any run moved the robot.
     """
-    from odolab.core.distributions import chi2_ppf
+    from odolab.core.distributions import chi2_mean_bounds
 
     values = np.concatenate([r.nees for r in runs]) if runs else np.empty(0)
     n = int(values.size)
@@ -383,8 +383,8 @@ def nees_summary(runs: Sequence[RunNees]) -> NeesSummary:
         raise InsufficientDataError("no NEES: no piece of any run moved the robot")
     # a fitted offset takes one degree of freedom from its run's pieces (module doc)
     dof = max(DOF * n - sum(r.dof_removed for r in runs if r.nees.size), 1)
-    lo, hi = (chi2_ppf(q, dof) / n for q in (0.025, 0.975))
-    s_lo, s_hi = (chi2_ppf(q, DOF) for q in (0.025, 0.975))
+    lo, hi = chi2_mean_bounds(dof, n)
+    s_lo, s_hi = chi2_mean_bounds(DOF, 1)  # one piece
     mean = float(values.mean())
     inside = float(np.mean((values >= s_lo) & (values <= s_hi)))
     above = float(np.mean(values > s_hi))

@@ -575,11 +575,11 @@ def plot_nees(runs: Sequence[RunNees], ax: Axes | None = None) -> Axes:
     """NEES of every piece (log scale) per run, the single-piece 95 % chi-square band and 3."""
     import matplotlib.pyplot as plt
 
-    from odolab.core.distributions import chi2_ppf
+    from odolab.core.distributions import chi2_mean_bounds
 
     if ax is None:
         _, ax = plt.subplots(figsize=(6.0, 4.0))
-    lo, hi = (chi2_ppf(q, DOF) for q in (0.025, 0.975))
+    lo, hi = chi2_mean_bounds(DOF, 1)  # one piece
     ax.axhspan(lo, hi, color="tab:green", alpha=0.12, label="95 % band of one piece (χ², 3 dof)")
     pieces = sum(int(np.asarray(r.nees).size) for r in runs)
     removed = sum(r.dof_removed for r in runs if np.asarray(r.nees).size)
