@@ -11,10 +11,12 @@ Two parts, ratios not times:
   share of updates off by 0.5 m / 0.2 rad (scan-matcher glitches), held out on the true path:
   the kinematic fits with plain least squares and with the Huber loss, the slip fit with
   Gaussian and Student-t rows.
-* ``--sims``: the independent simulators of ``tests/models/independent_sims.py`` (icr-speed and
-  its constant-slip twin), a 60 s exploration, the truth at 10 Hz with ``--sigma-xy`` /
+* ``--sims``: the independent simulators of ``tests/models/independent_sims.py`` (icr-speed, its
+  constant-slip twin and skid-dynamic, whose body lags its tracks), a 60 s exploration, the truth at 10 Hz with ``--sigma-xy`` /
   ``--sigma-h`` of white noise, per seed and pooled: slip over the best kinematic model, plain
-  and with the truth's noise, and what `calibrate compare` recommends with the default fit;
+  and with the truth's noise (the default: the Kalman filter where the truth's noise is larger
+  than the model's, :func:`odolab.calibration.slipfit.filtered`, as it is here), and what
+  `calibrate compare` recommends with the default fit;
   ``--shrink`` adds the fit shrunk toward the kinematic model by grouped cross-validation
   (``slipfit.SHRINK_GRID_MEASURED``, off by default).
 
@@ -90,6 +92,7 @@ def _fit_slip(read: list[object], nominal: object, flag: bool, shrink: bool) -> 
 def sims(seeds: list[int], sigma_xy: float, sigma_h: float, shrink: bool = False) -> None:
     from tests.models.independent_sims import (
         IcrSpeedSim,
+        SkidDynamicSim,
         constant_slip,
         exploration,
         held_out_runs,
@@ -99,7 +102,12 @@ def sims(seeds: list[int], sigma_xy: float, sigma_h: float, shrink: bool = False
     from odolab.calibration.compare import compare_models
 
     nominal = PRESETS["jaguar-lite"]
-    for name, sim in (("icr-speed", IcrSpeedSim()), ("constant", constant_slip(IcrSpeedSim()))):
+    sims_ = (
+        ("icr-speed", IcrSpeedSim()),
+        ("constant", constant_slip(IcrSpeedSim())),
+        ("skid-dyn", SkidDynamicSim()),
+    )
+    for name, sim in sims_:
         ends: dict[str, list[float]] = {}
         picks = []
         for seed in seeds:

@@ -26,6 +26,7 @@ ALLOWED: dict[str, str] = {
     # model's keys through model.to_dict() / the registry (MODELS[kind]) instead of isinstance
     "calibration/lsq.py": "fits each kind's own parameters (issue 37's)",
     "calibration/slipfit.py": "fits the slip model (issue 37's)",
+    "calibration/slipfilter.py": "the slip fit's Kalman filter, with a noisy truth (issue 37's)",
     "sim/presets.py": "a preset's true robot is a particular model (data, not a branch)",
     "core/slip_uncertainty.py": "the old place of odolab.core.models.slip_covariance: a re-export",
 }

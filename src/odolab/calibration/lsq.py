@@ -700,12 +700,13 @@ def _split_units(
 def _calibrate_slip(
     prepared: list[PreparedRun], nominal: RobotParams, o: LsqOptions, scale: float
 ) -> LsqCalibration:
-    """The slip model by Bayesian linear regression (closed form, no yaw offsets), its
-    segment residuals as every other model's (so its BIC compares)."""
-    from odolab.calibration.slipfit import fit_slip_model, undetermined
+    """The slip model by Bayesian linear regression (closed form, no yaw offsets) or, with a
+    truth noisier than the model, the Kalman filter (:func:`odolab.calibration.slipfit.filtered`),
+    its segment residuals as every other model's (so its BIC compares)."""
+    from odolab.calibration.slipfit import estimator_note, fit_slip_model, undetermined
 
     truth = slip_truth_noise(prepared, o)
-    model, cov, windows, centre, spread = fit_slip_model(
+    model, cov, windows, centre, spread, filter_scale = fit_slip_model(
         prepared, nominal, centre=kinematic_base(prepared, nominal, o.loss), truth=truth
     )
     base = nominal.with_(model=DIFF_DRIVE)
@@ -741,6 +742,7 @@ def _calibrate_slip(
             + "; drift "
             + ", ".join(f"{k} {getattr(model, k):.3g}" for k in DRIFT_KEYS),
             *([truth.describe()] if truth is not None else []),
+            estimator_note(filter_scale),
         ],
     )
 

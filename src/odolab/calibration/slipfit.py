@@ -77,12 +77,15 @@ __all__ = [
     "WINDOW_S",
     "SlipDesign",
     "endpoint_error",
+    "estimator_note",
+    "filtered",
     "first_seconds",
     "fit_slip_model",
     "nees_bounds",
     "nees_pieces",
     "propagate_covariance",
     "slip_design",
+    "steady_cycles",
     "undetermined",
 ]
 
@@ -185,6 +188,29 @@ def _steady(
         seg = slice(a0, b + 1)
         out[k] = np.ptp(vs[seg]) <= STEADY_V and np.ptp(ws[seg]) <= STEADY_W
     return out
+
+
+def steady_cycles(t: FloatArray, v: FloatArray, w: FloatArray) -> NDArray[np.bool_]:
+    """Per cycle: :func:`_steady`'s rule for a window of that one cycle (the Kalman filter's,
+    :mod:`odolab.calibration.slipfilter`)."""
+    from scipy.ndimage import uniform_filter1d
+
+    n = t.size
+    vs = uniform_filter1d(v, SETTLE_CYCLES, mode="nearest")
+    ws = uniform_filter1d(w, SETTLE_CYCLES, mode="nearest")
+    k = np.arange(n)
+    first = np.searchsorted(t, t[np.maximum(k - 1, 0)] - SETTLE_S)
+    reach = int(np.max(k - first)) if n else 0
+    vmax, vmin, wmax, wmin = vs.copy(), vs.copy(), ws.copy(), ws.copy()
+    for o in range(1, reach + 1):
+        idx = k - o
+        ok = idx >= first
+        j = np.maximum(idx, 0)
+        vmax = np.where(ok, np.maximum(vmax, vs[j]), vmax)
+        vmin = np.where(ok, np.minimum(vmin, vs[j]), vmin)
+        wmax = np.where(ok, np.maximum(wmax, ws[j]), wmax)
+        wmin = np.where(ok, np.minimum(wmin, ws[j]), wmin)
+    return np.asarray(((vmax - vmin) <= STEADY_V) & ((wmax - wmin) <= STEADY_W))
 
 
 def slip_design(
@@ -643,12 +669,15 @@ def _fit_mean(
     truth: TruthNoise | None = None,
     shrink: tuple[float, float] | None = None,
     memo: RowsMemo | None = None,
-) -> tuple[SlipModel, FloatArray, int, FloatArray, tuple[float, float]]:
+    scale: float | None = None,
+) -> tuple[SlipModel, FloatArray, int, FloatArray, tuple[float, float], float | None]:
     """The coefficients and their posterior by Bayesian linear regression with automatic
     relevance determination about the prior mean ``base`` (0 unless given), and the windows'
-    noise by expectation-maximisation (see the module): (model, 24 x 24 posterior covariance,
-    number of windows, each coefficient's posterior standard deviation over its weak prior's
-    (1: the runs told nothing of it))."""
+    noise by expectation-maximisation (see the module); where the truth's noise dominates
+    (:func:`filtered`), the coefficients from the Kalman filter at process-noise ``scale``
+    (None: :func:`filtered` decides and the likelihood chooses; 0: the regression): (model,
+    posterior covariance, windows, each coefficient's posterior sd over its weak prior's, the
+    shrinkage, the filter's scale or None)."""
     try:
         d: SlipDesign | None = slip_design(runs, nominal, window_s, steady=True, memo=memo)
     except InsufficientDataError:  # no window in steady state at all
@@ -689,6 +718,11 @@ def _fit_mean(
     cov[2 * k :, 2 * k :] = sig_yaw
     cov = 0.5 * (cov + cov.T)  # an inverse, symmetric to rounding: exactly so
     beta = np.concatenate((mu_xy, mu_yaw))
+    tau = np.concatenate((tau_v, tau_v, tau_w))
+    if scale != 0.0 and truth is not None and (scale or filtered(truth, d, c_xy, c_yaw)):
+        beta, cov, scale = _filter_mean(runs, nominal, m0, tau, c_xy, c_yaw, truth, scale)
+    else:  # the truth is good enough for the regression's rows
+        scale = None
     limit = SlipModel.LIMIT
     values = {
         key: float(np.clip(v, -limit, limit))
@@ -704,9 +738,63 @@ def _fit_mean(
         k_yaw=float(c_yaw[1]),
         posterior=tuple(cov.ravel().tolist()),
     )
-    tau = np.concatenate((tau_v, tau_v, tau_w))
     spread = np.sqrt(np.maximum(np.diag(cov), 0.0)) / tau
-    return model, cov, int(d.y_yaw.size), spread, shrink
+    return model, cov, int(d.y_yaw.size), spread, shrink, scale
+
+
+def filtered(truth: TruthNoise | None, d: SlipDesign, c_xy: FloatArray, c_yaw: FloatArray) -> bool:
+    """Whether the slip coefficients come from the Kalman filter
+    (:mod:`odolab.calibration.slipfilter`) rather than the regression: where the truth's noise
+    variance is larger than the variance the model's own noise (the regression's window noise
+    ``c_xy``, ``c_yaw``: white plus per metre or radian) adds between two of the truth's updates,
+    in position or in heading. Then the regression's rows, which difference the truth, are
+    mostly the truth's noise, and the filter, which takes the truth as a measurement of a hidden
+    pose, uses it as it is. Measured (docs/models.md): the DRIVE Husky's lidar 0.22 (position)
+    and 0.008 (heading) of the model's, noise-free simulated truths 0.04 to 0.16, 2 cm / 0.02
+    rad of added noise 16 to 64, 5 cm / 0.1 rad 11 to 77."""
+    if not _noisy(truth):
+        return False
+    assert truth is not None
+    spacing = truth.spacing if truth.spacing > 0 else float(np.median(d.durations))
+    seconds = max(float(np.sum(d.durations)), 1e-12)
+    speed = float(np.sum(d.travel)) / seconds
+    turn_rate = float(np.sum(d.turn)) / seconds
+    model_xy = (c_xy[0] + c_xy[1] * speed) * spacing
+    model_yaw = (c_yaw[0] + c_yaw[1] * turn_rate) * spacing
+    return bool(truth.xy**2 > model_xy or truth.yaw**2 > model_yaw)
+
+
+def _filter_mean(
+    runs: Sequence[object],
+    nominal: RobotParams,
+    base: FloatArray,
+    tau: FloatArray,
+    c_xy: FloatArray,
+    c_yaw: FloatArray,
+    truth: TruthNoise,
+    scale: float | None,
+) -> tuple[FloatArray, FloatArray, float]:
+    """:func:`odolab.calibration.slipfilter.filter_coefficients` with the regression's window
+    noise as the model's."""
+    from odolab.calibration.slipfilter import filter_coefficients
+
+    noise = np.array([c_xy[0], c_xy[0], c_yaw[0], c_xy[1], c_xy[1], c_yaw[1]])
+    return filter_coefficients(runs, nominal, base, tau, noise, truth, steady_cycles, scale)
+
+
+def estimator_note(scale: float | None) -> str:
+    """The note every face prints of which estimator gave the slip coefficients
+    (:func:`fit_slip_model`'s last value)."""
+    if scale is None:
+        return (
+            "the slip coefficients by regression on windows of the truth (its noise is smaller "
+            "than the model's between two of its updates)"
+        )
+    return (
+        "the slip coefficients by a Kalman filter that takes the truth as a measurement of the "
+        "pose (its noise is larger than the model's between two of its updates; "
+        f"process noise scaled by {scale:.3g}, by likelihood)"
+    )
 
 
 def _noisy(truth: TruthNoise | None) -> bool:
@@ -748,11 +836,12 @@ def fit_slip_model(
     piece_s: Sequence[float] = NOISE_PIECE_S,
     centre: tuple[FloatArray, str] | None = None,
     truth: TruthNoise | None = None,
-) -> tuple[SlipModel, FloatArray, int, str, FloatArray]:
+) -> tuple[SlipModel, FloatArray, int, str, FloatArray, float | None]:
     """The slip model of prepared runs: (model with its posterior, 24 x 24 posterior
     covariance in :attr:`SlipModel.COEF_KEYS` order, number of windows, the kinematic model
     its prior is centred on, each coefficient's posterior standard deviation over its weak
-    prior's: :func:`undetermined`).
+    prior's: :func:`undetermined`, and the Kalman filter's process-noise scale where the
+    coefficients come from the filter (:func:`filtered`; None: from the regression)).
 
     The coefficients come from all the runs, their prior centred on ``centre`` (slip
     coefficients and the model's name: the kinematic model fitted to the same runs,
@@ -772,7 +861,7 @@ def fit_slip_model(
     mean, kind = centre if centre is not None else (np.zeros(3 * len(FEATURES)), "none")
     parts = [_blocks(r, folds) for r in runs] if folds > 1 else []
     cross = bool(parts) and all(len(p) == folds for p in parts)
-    model, cov, windows, spread, shrink = _fit_mean(
+    model, cov, windows, spread, shrink, scale = _fit_mean(
         runs, nominal, window_s, prior_scale, mean, truth
     )
     pieces: list[_Pieces] = []
@@ -781,7 +870,9 @@ def fit_slip_model(
         for f in range(folds):
             train = [p[i] for p in parts for i in range(folds) if i != f]
             try:
-                m = _fit_mean(train, nominal, window_s, prior_scale, mean, truth, shrink, memo)[0]
+                m = _fit_mean(
+                    train, nominal, window_s, prior_scale, mean, truth, shrink, memo, scale or 0.0
+                )[0]
             except InsufficientDataError:
                 pieces = []
                 break
@@ -795,7 +886,7 @@ def fit_slip_model(
     theta = fit_noise(groups, terms_of(model))
     terms: dict[str, float] = {k: float(v) for k, v in zip(TERMS, theta, strict=True)}
     model = replace(model, **terms)  # type: ignore[arg-type]
-    return model, cov, windows, kind, spread
+    return model, cov, windows, kind, spread, scale
 
 
 def undetermined(spread: FloatArray, windows: int, centre: str) -> str | None:

@@ -33,10 +33,12 @@ __all__ = [
     "TruthNoise",
     "estimate_truth_noise",
     "parse_truth_sigma",
+    "real_updates",
     "truth_residuals",
 ]
 
 FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
 #: Median of a chi-square with one degree of freedom.
 CHI2_1_MEDIAN = 0.454936423119572
 #: A row within this share of its size (at least 1 m or 1 rad) of its neighbours' line is a
@@ -90,29 +92,41 @@ def parse_truth_sigma(text: str) -> TruthNoise:
     return TruthNoise(xy, yaw, given=True)
 
 
-def truth_residuals(
-    t: FloatArray, x: FloatArray, y: FloatArray, heading: FloatArray
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Each real interior update's deviation from its neighbours' line, normalised to unit
-    variance per unit noise variance (see the module): (x and y residuals, (2k,); heading
-    residuals, (k,); the spacings between the real updates, s)."""
+def real_updates(t: FloatArray, x: FloatArray, y: FloatArray, heading: FloatArray) -> IntArray:
+    """The indices of the truth's real updates among its rows (see the module): a row that
+    repeats the last value (a held value) is not one, and neither is a row on the straight line
+    through its neighbours to the file's rounding (:data:`RESAMPLED`: a truth resampled onto
+    another clock, the odometry's). The first and last rows are kept."""
     t = np.asarray(t, dtype=np.float64)
     p = np.column_stack((x, y, np.unwrap(np.asarray(heading, dtype=np.float64))))
+    keep = np.arange(t.size)
     if t.size >= 2:  # held values: the same measurement again
         moved = np.concatenate(([True], np.any(np.diff(p, axis=0) != 0, axis=1) & (np.diff(t) > 0)))
-        t, p = t[moved], p[moved]
-    empty = np.zeros(0)
+        keep = keep[moved]
     for _ in range(2):  # rows on their neighbours' line are resampled, not measured
-        if t.size < 3:
-            return empty, empty, np.diff(t)
-        a = (t[1:-1] - t[:-2]) / (t[2:] - t[:-2])
-        r = p[1:-1] - ((1.0 - a)[:, None] * p[:-2] + a[:, None] * p[2:])
-        size = np.maximum(np.abs(p[1:-1]), 1.0)
+        if keep.size < 3:
+            break
+        tk, pk = t[keep], p[keep]
+        a = (tk[1:-1] - tk[:-2]) / (tk[2:] - tk[:-2])
+        r = pk[1:-1] - ((1.0 - a)[:, None] * pk[:-2] + a[:, None] * pk[2:])
+        size = np.maximum(np.abs(pk[1:-1]), 1.0)
         resampled = np.all(np.abs(r) <= RESAMPLED * size, axis=1)
         if not resampled.any():
             break
-        keep = np.concatenate(([True], ~resampled, [True]))
-        t, p = t[keep], p[keep]
+        keep = keep[np.concatenate(([True], ~resampled, [True]))]
+    return keep
+
+
+def truth_residuals(
+    t: FloatArray, x: FloatArray, y: FloatArray, heading: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Each real interior update's (:func:`real_updates`) deviation from its neighbours' line,
+    normalised to unit variance per unit noise variance (see the module): (x and y residuals,
+    (2k,); heading residuals, (k,); the spacings between the real updates, s)."""
+    keep = real_updates(t, x, y, heading)
+    t = np.asarray(t, dtype=np.float64)[keep]
+    p = np.column_stack((x, y, np.unwrap(np.asarray(heading, dtype=np.float64))))[keep]
+    empty = np.zeros(0)
     if t.size < 3:
         return empty, empty, np.diff(t)
     a = (t[1:-1] - t[:-2]) / (t[2:] - t[:-2])
