@@ -39,7 +39,7 @@ from odolab.calibration.truthnoise import TruthNoise, real_updates
 from odolab.core.models.slip import FEATURES, SlipModel
 from odolab.core.params import RobotParams
 
-__all__ = ["SCALES", "UNSTEADY", "filter_coefficients"]
+__all__ = ["SCALES", "UNSTEADY", "RunCycles", "filter_coefficients", "run_cycles"]
 
 FloatArray = NDArray[np.float64]
 #: Which cycles are in steady state, from their times, speeds and turn rates.
@@ -75,31 +75,67 @@ class _Cycles:
         return np.ascontiguousarray(scale * (model + UNSTEADY * self.motion))
 
 
+@dataclass(frozen=True)
+class RunCycles:
+    """One prepared run's cycles as the slip fits read them: stamps, each side's travel ``dsl``,
+    ``dsr`` (m), the commanded forward motion ``ds`` and turn ``dth`` (the first cycle's 0),
+    durations ``dt`` (``tt``: 1 where a cycle has none, ``timed`` where it has), the basis
+    ``phi`` (8, cycles) at the measured speeds (the first cycle's 0, the quadratic terms 0
+    without a duration), the noise terms' multipliers ``mult`` (cycles, 6), and the truth at the
+    stamps (``gh`` unwrapped)."""
+
+    t: FloatArray
+    dsl: FloatArray
+    dsr: FloatArray
+    ds: FloatArray
+    dth: FloatArray
+    dt: FloatArray
+    tt: FloatArray
+    timed: NDArray[np.bool_]
+    phi: FloatArray
+    mult: FloatArray
+    gx: FloatArray
+    gy: FloatArray
+    gh: FloatArray
+
+
+def run_cycles(run: object, nominal: RobotParams) -> RunCycles | None:
+    """:class:`RunCycles` of a prepared run (None: fewer than two samples)."""
+    t = np.asarray(run.t, dtype=np.float64)  # type: ignore[attr-defined]
+    if t.size < 2:
+        return None
+    dsl = np.asarray(run.dticks_left) * nominal.left_metres_per_tick  # type: ignore[attr-defined]
+    dsr = np.asarray(run.dticks_right) * nominal.right_metres_per_tick  # type: ignore[attr-defined]
+    b = nominal.track_width
+    tick = 0.5 * (nominal.left_metres_per_tick + nominal.right_metres_per_tick)
+    dt = np.diff(t, prepend=t[0])
+    ds = 0.5 * (dsl + dsr)
+    dth = (dsr - dsl) / b
+    ds[0] = dth[0] = 0.0
+    timed = dt > 0
+    tt = np.where(timed, dt, 1.0)
+    phi = SlipModel.features(ds / tt, dth / tt)
+    phi[4:, ~timed] = 0.0
+    phi[:, 0] = 0.0
+    mult = SlipModel.noise_multipliers(dsl, dsr, dt, b, tick / b)
+    mult[0] = 0.0
+    return RunCycles(
+        t, dsl, dsr, ds, dth, dt, tt, timed, phi, mult,
+        np.asarray(run.gt_x, dtype=np.float64),  # type: ignore[attr-defined]
+        np.asarray(run.gt_y, dtype=np.float64),  # type: ignore[attr-defined]
+        np.unwrap(np.asarray(run.gt_heading, dtype=np.float64)),  # type: ignore[attr-defined]
+    )  # fmt: skip
+
+
 def _cycles(runs: Sequence[object], nominal: RobotParams, steady: SteadyRule) -> _Cycles:
     parts: list[tuple[FloatArray, ...]] = []
     for run in runs:
-        t = np.asarray(run.t, dtype=np.float64)  # type: ignore[attr-defined]
-        dsl = np.asarray(run.dticks_left) * nominal.left_metres_per_tick  # type: ignore[attr-defined]
-        dsr = np.asarray(run.dticks_right) * nominal.right_metres_per_tick  # type: ignore[attr-defined]
-        gx = np.asarray(run.gt_x, dtype=np.float64)  # type: ignore[attr-defined]
-        gy = np.asarray(run.gt_y, dtype=np.float64)  # type: ignore[attr-defined]
-        gh = np.unwrap(np.asarray(run.gt_heading, dtype=np.float64))  # type: ignore[attr-defined]
-        n = t.size
-        if n < 2:
+        c = run_cycles(run, nominal)
+        if c is None:
             continue
-        b = nominal.track_width
-        dt = np.diff(t, prepend=t[0])
-        ds = 0.5 * (dsl + dsr)
-        dth = (dsr - dsl) / b
-        ds[0] = dth[0] = 0.0
-        timed = dt > 0
-        tt = np.where(timed, dt, 1.0)
-        phi = SlipModel.features(ds / tt, dth / tt)
-        phi[4:, ~timed] = 0.0
-        phi[:, 0] = 0.0
-        tick = 0.5 * (nominal.left_metres_per_tick + nominal.right_metres_per_tick)
-        mult = SlipModel.noise_multipliers(dsl, dsr, dt, b, tick / b)
-        mult[0] = 0.0
+        t, ds, dth, tt, gx, gy, gh = c.t, c.ds, c.dth, c.tt, c.gx, c.gy, c.gh
+        n = t.size
+        phi, mult = c.phi, c.mult
         unsteady = ~steady(t, ds / tt, dth / tt)
         motion = np.column_stack((ds**2, ds**2, dth**2)) * unsteady[:, None]
         start = np.zeros(n, dtype=bool)

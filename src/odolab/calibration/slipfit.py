@@ -58,6 +58,7 @@ from itertools import pairwise
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.calibration.slipfilter import run_cycles
 from odolab.calibration.truthnoise import TruthNoise
 from odolab.core.errors import InsufficientDataError
 from odolab.core.models.slip import FEATURES, SlipModel
@@ -333,26 +334,12 @@ class _RunRows(_Windows):
 
 def _run_rows(run: object, nominal: RobotParams, window_s: float) -> _RunRows | None:
     """The regression rows of one prepared run (None: fewer than two samples)."""
-    t = np.asarray(run.t, dtype=np.float64)  # type: ignore[attr-defined]
-    dsl = np.asarray(run.dticks_left) * nominal.left_metres_per_tick  # type: ignore[attr-defined]
-    dsr = np.asarray(run.dticks_right) * nominal.right_metres_per_tick  # type: ignore[attr-defined]
-    gx = np.asarray(run.gt_x, dtype=np.float64)  # type: ignore[attr-defined]
-    gy = np.asarray(run.gt_y, dtype=np.float64)  # type: ignore[attr-defined]
-    gh = np.unwrap(np.asarray(run.gt_heading, dtype=np.float64))  # type: ignore[attr-defined]
-    n = t.size
-    if n < 2:
+    c = run_cycles(run, nominal)
+    if c is None:
         return None
-    b = nominal.track_width
-    tick = 0.5 * (nominal.left_metres_per_tick + nominal.right_metres_per_tick)
-    dt = np.diff(t, prepend=t[0])
-    ds = 0.5 * (dsl + dsr)
-    dth = (dsr - dsl) / b
-    ds[0] = dth[0] = 0.0
-    timed = dt > 0
-    tt = np.where(timed, dt, 1.0)
-    phi = SlipModel.features(ds / tt, dth / tt)
-    phi[4:, ~timed] = 0.0
-    phi[:, 0] = 0.0
+    t, gx, gy, gh = c.t, c.gx, c.gy, c.gh
+    ds, dth, timed, tt, phi = c.ds, c.dth, c.timed, c.tt, c.phi
+    n = t.size
     big_phi = phi * tt[None, :]  # dt * phi, (8, n)
     stats = {
         "v_sq": float(np.sum((ds / tt)[timed] ** 2)),
@@ -366,8 +353,7 @@ def _run_rows(run: object, nominal: RobotParams, window_s: float) -> _RunRows | 
     ca, sa = np.cos(a), np.sin(a)
     # world-frame running sums: commanded motion, and the regressors of fwd and lat
     cum = _cumulative
-    mult = SlipModel.noise_multipliers(dsl, dsr, dt, b, tick / b)
-    mult[0] = 0.0
+    mult = c.mult
     edges = np.unique(np.searchsorted(t, np.arange(t[0], t[-1] + window_s, window_s)))
     edges = edges[edges < n]
     if edges[-1] != n - 1:
