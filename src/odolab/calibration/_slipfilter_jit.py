@@ -17,7 +17,7 @@ BoolArray = NDArray[np.bool_]
 #: A truth update whose innovation's squared Mahalanobis distance is beyond this (the 99.9 %
 #: quantile of a chi-square with three degrees of freedom) is a glitch (a scan matcher's
 #: misregistration), not a measurement: the filter does not take it, and it counts in the
-#: likelihood as at this distance.
+#: likelihood by Huber's loss (linear in the distance beyond the gate's).
 GATE = 16.266236196238129
 #: The state: the pose (x, y, heading) and the 24 slip coefficients (fwd, lat, yaw; 8 each).
 POSE = 3
@@ -112,7 +112,10 @@ def _update(
     for i in range(POSE):
         for j in range(POSE):
             quad += inn[i] * si[i, j] * inn[j]
-    loglik = -0.5 * (min(quad, GATE) + math.log(np.linalg.det(sm)) + POSE * math.log(2 * math.pi))
+    # Huber's loss on the Mahalanobis distance: beyond the gate it grows linearly, so a filter
+    # too sure of itself to take the truth's updates is not made likely by leaving them out
+    rho = math.sqrt(GATE * quad) - 0.5 * GATE if quad > GATE else 0.5 * quad
+    loglik = -(rho + 0.5 * math.log(np.linalg.det(sm)) + 0.5 * POSE * math.log(2 * math.pi))
     if quad > GATE:
         return loglik
     gain = np.empty((N, POSE))
@@ -125,6 +128,8 @@ def _update(
     for i in range(N):
         for j in range(POSE):
             s[i] += gain[i, j] * inn[j]
+    # Joseph's form, P <- (I - K H) P (I - K H)^T + K R K^T: stays a covariance when the truth
+    # is far more precise than the prediction (the plain form loses its symmetry and sign)
     top = p[:POSE, :].copy()
     for i in range(N):
         for j in range(N):
@@ -132,6 +137,13 @@ def _update(
             for m in range(POSE):
                 acc += gain[i, m] * top[m, j]
             p[i, j] -= acc
+    left = p[:, :POSE].copy()
+    for i in range(N):
+        for j in range(N):
+            acc = 0.0
+            for m in range(POSE):
+                acc += -left[i, m] * gain[j, m] + gain[i, m] * r[m] * gain[j, m]
+            p[i, j] += acc
     for i in range(N):
         for j in range(i + 1, N):
             v = 0.5 * (p[i, j] + p[j, i])

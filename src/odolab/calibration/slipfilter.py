@@ -15,7 +15,9 @@ What the filter ends with is their posterior given every update, with the poses 
 the heading comes from the model's own integration, so the truth's heading noise turns no
 cycle's motion, and the positions tell of the heading coefficients too. An update the filter's
 own prediction rules out (beyond the 99.9 % of its innovation's chi-square,
-:data:`odolab.calibration._slipfilter_jit.GATE`) is a scan matcher's glitch, and is not taken.
+:data:`odolab.calibration._slipfilter_jit.GATE`) is a scan matcher's glitch, and is not taken;
+in the likelihood it counts by Huber's loss on its distance. The covariance is updated in
+Joseph's form, which stays a covariance when the truth is far more precise than the prediction.
 
 The variance a cycle's motion is given: the regression's white and per-metre window noise
 (``q dt + k L``; :meth:`odolab.core.models.slip.SlipModel.noise_multipliers`), plus, out of
@@ -48,7 +50,7 @@ SteadyRule = Callable[[FloatArray, FloatArray, FloatArray], NDArray[np.bool_]]
 #: share times the motion squared).
 UNSTEADY = 1.0
 #: The process noise's scales tried (the best, then the scales a factor of two either side).
-SCALES: tuple[float, ...] = tuple(float(2.0**e) for e in range(-12, 5, 2))
+SCALES: tuple[float, ...] = tuple(float(2.0**e) for e in range(-12, 13, 2))
 #: The least noise taken for the truth (m, rad): a truth without any is a measurement too.
 TRUTH_FLOOR = (1e-4, 1e-4)
 #: The least per-metre (m^2/m) and per-radian (rad^2/rad) noise taken for the model.

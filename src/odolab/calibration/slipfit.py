@@ -102,6 +102,11 @@ STEADY_W = 0.4
 SETTLE_S = 0.3
 #: A fit keeps only the windows in steady state when at least this share of them is (else all)
 STEADY_SHARE = 0.25
+#: A ground truth whose noise is below both of these (m, rad) is as good as exact for the slip
+#: fit (:func:`filtered`): motion capture's, or what the noise estimate reads of a noise-free
+#: truth's own bend.
+EXACT_XY = 1e-3
+EXACT_YAW = 1e-3
 #: The kinematic models the slip model's prior is centred on, in order of preference: the first
 #: that can be fitted to the runs (see :func:`odolab.calibration.lsq.kinematic_base`)
 BASE_MODELS = ("icr", "extended", "diff")
@@ -737,10 +742,14 @@ def filtered(truth: TruthNoise | None, d: SlipDesign, c_xy: FloatArray, c_yaw: F
     mostly the truth's noise, and the filter, which takes the truth as a measurement of a hidden
     pose, uses it as it is. Measured (docs/models.md): the DRIVE Husky's lidar 0.22 (position)
     and 0.008 (heading) of the model's, noise-free simulated truths 0.04 to 0.16, 2 cm / 0.02
-    rad of added noise 16 to 64, 5 cm / 0.1 rad 11 to 77."""
+    rad of added noise 16 to 64, 5 cm / 0.1 rad 11 to 77. A truth better than :data:`EXACT_XY`
+    and :data:`EXACT_YAW` is as good as exact (a perfect simulator's, whose model noise is nil,
+    reads 0.1 to 0.8 mm: its own bend, :mod:`odolab.calibration.truthnoise`)."""
     if not _noisy(truth):
         return False
     assert truth is not None
+    if truth.xy < EXACT_XY and truth.yaw < EXACT_YAW:  # as good as exact
+        return False
     spacing = truth.spacing if truth.spacing > 0 else float(np.median(d.durations))
     seconds = max(float(np.sum(d.durations)), 1e-12)
     speed = float(np.sum(d.travel)) / seconds
