@@ -69,23 +69,10 @@ def _predict(
         jac[1, POSE + K + i] = c * g
         jac[1, POSE + 2 * K + i] = 0.5 * dx * g
         jac[2, POSE + 2 * K + i] = g
-    for i in range(POSE):
-        for j in range(N):
-            acc = 0.0
-            for m in range(N):
-                acc += jac[i, m] * p[m, j]
-            a[i, j] = acc
-    for i in range(POSE):
-        for j in range(POSE, N):
-            p[i, j] = a[i, j]
-            p[j, i] = a[i, j]
-    for i in range(POSE):
-        for j in range(i, POSE):
-            acc = 0.0
-            for m in range(N):
-                acc += a[i, m] * jac[j, m]
-            p[i, j] = acc
-            p[j, i] = acc
+    a[:, :] = jac @ p  # the pose's rows of F p
+    p[:POSE, POSE:] = a[:, POSE:]
+    p[POSE:, :POSE] = a[:, POSE:].T
+    p[:POSE, :POSE] = a @ np.ascontiguousarray(jac.T)
     vf, vl = var[0], var[1]
     p[0, 0] += c * c * vf + sn * sn * vl
     p[0, 1] += c * sn * (vf - vl)
@@ -118,37 +105,15 @@ def _update(
     loglik = -(rho + 0.5 * math.log(np.linalg.det(sm)) + 0.5 * POSE * math.log(2 * math.pi))
     if quad > GATE:
         return loglik
-    gain = np.empty((N, POSE))
-    for i in range(N):
-        for j in range(POSE):
-            acc = 0.0
-            for m in range(POSE):
-                acc += p[i, m] * si[m, j]
-            gain[i, j] = acc
-    for i in range(N):
-        for j in range(POSE):
-            s[i] += gain[i, j] * inn[j]
+    gain = np.ascontiguousarray(p[:, :POSE]) @ si
+    s += gain @ inn
     # Joseph's form, P <- (I - K H) P (I - K H)^T + K R K^T: stays a covariance when the truth
     # is far more precise than the prediction (the plain form loses its symmetry and sign)
-    top = p[:POSE, :].copy()
-    for i in range(N):
-        for j in range(N):
-            acc = 0.0
-            for m in range(POSE):
-                acc += gain[i, m] * top[m, j]
-            p[i, j] -= acc
-    left = p[:, :POSE].copy()
-    for i in range(N):
-        for j in range(N):
-            acc = 0.0
-            for m in range(POSE):
-                acc += -left[i, m] * gain[j, m] + gain[i, m] * r[m] * gain[j, m]
-            p[i, j] += acc
-    for i in range(N):
-        for j in range(i + 1, N):
-            v = 0.5 * (p[i, j] + p[j, i])
-            p[i, j] = v
-            p[j, i] = v
+    p -= gain @ np.ascontiguousarray(p[:POSE, :])
+    left = np.ascontiguousarray(p[:, :POSE])
+    gt = np.ascontiguousarray(gain.T)
+    p += (gain * r) @ gt - left @ gt
+    p[:, :] = 0.5 * (p + p.T)
     return loglik
 
 
