@@ -107,12 +107,12 @@ def test_the_compiled_pass_is_the_plain_filter() -> None:
     r = np.array([0.05**2, 0.05**2, 0.1**2])
     p0 = np.diag(np.full(24, 0.3**2))
     truth[70] += (0.8, -0.6, 0.5)  # a scan matcher's glitch: the gate leaves it out
-    beta, cov, ll, count = filter_pass(
+    beta, cov, ll, count, glitches = filter_pass(
         ds, dth, phi, var, start, meas, truth, r, beta0.copy(), p0.copy()
     )
     b2, c2, l2, gated = _reference(ds, dth, phi, var, start, meas, truth, r, beta0, p0)
     assert gated == [70]
-    assert count == int(meas.sum())
+    assert (count, glitches) == (int(meas.sum()) - 1, 1)
     # equal to rounding (the sums run in another order); bounds far above it
     np.testing.assert_allclose(beta, b2, rtol=0, atol=1e-12)
     np.testing.assert_allclose(cov, c2, rtol=0, atol=1e-12)
@@ -210,7 +210,7 @@ def test_filter_beats_the_regression_with_centimetre_truth_noise() -> None:
         ends["kinematic"].append(
             min(float(np.mean([endpoint_error(r, p) for r in held])) for p in kin)
         )
-    assert all("Kalman filter" in n for n in notes), notes
+    assert all("Kalman filter" in n and "left out as glitches" in n for n in notes), notes
     filt, reg, kin = (sum(ends[k]) for k in ("filter", "regression", "kinematic"))
     # measured (seeds 2, 3): filter 0.864 and 0.964 m, the regression 1.633 and 2.663 m, the
     # best kinematic model 2.426 and 1.444 m: filter / kinematic 0.47 pooled; bound 0.75

@@ -84,9 +84,10 @@ def _predict(
 @njit(cache=True)
 def _update(
     s: FloatArray, p: FloatArray, z: FloatArray, r: FloatArray
-) -> float:  # pragma: no cover
+) -> tuple[float, bool]:  # pragma: no cover
     """Update the state ``s`` and covariance ``p`` with a measurement ``z`` of the pose of
-    variances ``r`` (not beyond :data:`GATE`); return the measurement's log likelihood."""
+    variances ``r`` (not beyond :data:`GATE`); return the measurement's log likelihood and
+    whether it was taken."""
     inn = np.empty(POSE)
     sm = np.empty((POSE, POSE))
     for i in range(POSE):
@@ -104,7 +105,7 @@ def _update(
     rho = math.sqrt(GATE * quad) - 0.5 * GATE if quad > GATE else 0.5 * quad
     loglik = -(rho + 0.5 * math.log(np.linalg.det(sm)) + 0.5 * POSE * math.log(2 * math.pi))
     if quad > GATE:
-        return loglik
+        return loglik, False
     gain = np.ascontiguousarray(p[:, :POSE]) @ si
     s += gain @ inn
     # Joseph's form, P <- (I - K H) P (I - K H)^T + K R K^T: stays a covariance when the truth
@@ -114,7 +115,7 @@ def _update(
     gt = np.ascontiguousarray(gain.T)
     p += (gain * r) @ gt - left @ gt
     p[:, :] = 0.5 * (p + p.T)
-    return loglik
+    return loglik, True
 
 
 @njit(cache=True)
@@ -129,7 +130,7 @@ def filter_pass(
     r: FloatArray,
     beta0: FloatArray,
     p0: FloatArray,
-) -> tuple[FloatArray, FloatArray, float, int]:  # pragma: no cover
+) -> tuple[FloatArray, FloatArray, float, int, int]:  # pragma: no cover
     """One pass of the extended Kalman filter over cycles (see the module of
     :mod:`odolab.calibration.slipfilter`): ``ds``, ``dth`` each cycle's commanded forward motion
     (m) and turn (rad), ``phi`` (cycles, 8) its basis times its duration, ``var`` (cycles, 3) the
@@ -137,7 +138,8 @@ def filter_pass(
     ``start`` where a run starts (the pose is taken from the truth there, the coefficients carry
     over), ``meas`` where the truth ``truth`` (cycles, 3: x, y, unwrapped heading) is a real
     update, of variances ``r`` (3). Returns (the coefficients, their covariance, the log
-    likelihood of the truth's updates, the number of updates)."""
+    likelihood of the truth's updates, the number of updates taken, the number left out as
+    glitches)."""
     s = np.zeros(N)
     p = np.zeros((N, N))
     s[POSE:] = beta0
@@ -146,6 +148,7 @@ def filter_pass(
     a = np.zeros((POSE, N))
     loglik = 0.0
     count = 0
+    gated = 0
     for k in range(ds.shape[0]):
         if start[k]:  # a run's first pose: the truth's, the coefficients carry over
             for i in range(POSE):
@@ -157,6 +160,10 @@ def filter_pass(
             continue
         _predict(s, p, jac, a, ds[k], dth[k], phi[k], var[k])
         if meas[k]:
-            loglik += _update(s, p, truth[k], r)
-            count += 1
-    return s[POSE:].copy(), p[POSE:, POSE:].copy(), loglik, count
+            ll, taken = _update(s, p, truth[k], r)
+            loglik += ll
+            if taken:
+                count += 1
+            else:
+                gated += 1
+    return s[POSE:].copy(), p[POSE:, POSE:].copy(), loglik, count, gated

@@ -41,7 +41,7 @@ from odolab.calibration.truthnoise import TruthNoise, real_updates
 from odolab.core.models.slip import FEATURES, SlipModel
 from odolab.core.params import RobotParams
 
-__all__ = ["SCALES", "UNSTEADY", "RunCycles", "filter_coefficients", "run_cycles"]
+__all__ = ["SCALES", "UNSTEADY", "FilterFit", "RunCycles", "filter_coefficients", "run_cycles"]
 
 FloatArray = NDArray[np.float64]
 #: Which cycles are in steady state, from their times, speeds and turn rates.
@@ -55,6 +55,19 @@ SCALES: tuple[float, ...] = tuple(float(2.0**e) for e in range(-12, 13, 2))
 TRUTH_FLOOR = (1e-4, 1e-4)
 #: The least per-metre (m^2/m) and per-radian (rad^2/rad) noise taken for the model.
 NOISE_FLOOR = 1e-8
+
+
+@dataclass(frozen=True, eq=False)
+class FilterFit:
+    """What the filter found: the coefficients (:attr:`SlipModel.COEF_KEYS` order), their 24 x 24
+    posterior covariance, the model noise's scale, and how many of the truth's updates it took
+    and left out as glitches."""
+
+    beta: FloatArray
+    cov: FloatArray
+    scale: float
+    updates: int
+    glitches: int
 
 
 @dataclass(frozen=True)
@@ -174,14 +187,13 @@ def filter_coefficients(
     truth: TruthNoise,
     steady: SteadyRule,
     scale: float | None = None,
-) -> tuple[FloatArray, FloatArray, float]:
-    """The slip coefficients of prepared runs by the filter (see the module): (coefficients in
-    :attr:`SlipModel.COEF_KEYS` order, their 24 x 24 posterior covariance, the process noise's
-    scale). ``base``, ``tau``: the prior's centre and standard deviations (the regression's weak
-    prior); ``noise``: the model's ``q_fwd, q_lat, q_yaw, k_fwd, k_lat, k_yaw`` (the regression's
-    window noise); ``truth``: the truth's noise; ``steady``: which cycles are in steady state
-    (times, speeds, turn rates; :func:`odolab.calibration.slipfit.steady_cycles`); ``scale``: the noise's scale (None: chosen by
-    the likelihood, :data:`SCALES`)."""
+) -> FilterFit:
+    """The slip coefficients of prepared runs by the filter (see the module). ``base``,
+    ``tau``: the prior's centre and standard deviations (the regression's weak prior);
+    ``noise``: the model's ``q_fwd, q_lat, q_yaw, k_fwd, k_lat, k_yaw`` (the regression's window
+    noise); ``truth``: the truth's noise; ``steady``: which cycles are in steady state (times,
+    speeds, turn rates; :func:`odolab.calibration.slipfit.steady_cycles`); ``scale``: the
+    noise's scale (None: chosen by the likelihood, :data:`SCALES`)."""
     from odolab.calibration._slipfilter_jit import filter_pass
 
     cyc = _cycles(runs, nominal, steady)
@@ -194,21 +206,19 @@ def filter_coefficients(
     p0 = np.diag(np.asarray(tau, dtype=np.float64) ** 2)
     b0 = np.ascontiguousarray(base, dtype=np.float64)
 
-    def run(sc: float) -> tuple[FloatArray, FloatArray, float]:
-        beta, cov, loglik, _ = filter_pass(
+    def run(sc: float) -> FilterFit:
+        beta, cov, loglik, taken, gated = filter_pass(
             cyc.ds, cyc.dth, cyc.phi, cyc.variances(q, sc), cyc.start, cyc.meas, cyc.truth,
             r, b0.copy(), p0.copy(),
         )  # fmt: skip
-        return beta, cov, float(loglik) if np.isfinite(loglik) else -np.inf
+        likely[sc] = float(loglik) if np.isfinite(loglik) else -np.inf
+        return FilterFit(beta, 0.5 * (cov + cov.T), sc, int(taken), int(gated))
 
-    if scale is None:
-        tried = {sc: run(sc) for sc in SCALES}
-        best = max(tried, key=lambda sc: tried[sc][2])
-        for sc in (best / 2.0, best * 2.0):
-            tried[sc] = run(sc)
-        scale = max(tried, key=lambda sc: tried[sc][2])
-        beta, cov, _ = tried[scale]
-    else:
-        beta, cov, _ = run(scale)
-    cov = 0.5 * (cov + cov.T)
-    return beta, cov, scale
+    likely: dict[float, float] = {}
+    if scale is not None:
+        return run(scale)
+    tried = {sc: run(sc) for sc in SCALES}
+    best = max(tried, key=lambda sc: likely[sc])
+    for sc in (best / 2.0, best * 2.0):
+        tried[sc] = run(sc)
+    return tried[max(tried, key=lambda sc: likely[sc])]

@@ -58,7 +58,7 @@ from itertools import pairwise
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.calibration.slipfilter import run_cycles
+from odolab.calibration.slipfilter import FilterFit, run_cycles
 from odolab.calibration.truthnoise import TruthNoise
 from odolab.core.errors import InsufficientDataError
 from odolab.core.models.slip import FEATURES, SlipModel
@@ -661,14 +661,14 @@ def _fit_mean(
     shrink: tuple[float, float] | None = None,
     memo: RowsMemo | None = None,
     scale: float | None = None,
-) -> tuple[SlipModel, FloatArray, int, FloatArray, tuple[float, float], float | None]:
+) -> tuple[SlipModel, FloatArray, int, FloatArray, tuple[float, float], FilterFit | None]:
     """The coefficients and their posterior by Bayesian linear regression with automatic
     relevance determination about the prior mean ``base`` (0 unless given), and the windows'
     noise by expectation-maximisation (see the module); where the truth's noise dominates
     (:func:`filtered`), the coefficients from the Kalman filter at process-noise ``scale``
     (None: :func:`filtered` decides and the likelihood chooses; 0: the regression): (model,
     posterior covariance, windows, each coefficient's posterior sd over its weak prior's, the
-    shrinkage, the filter's scale or None)."""
+    shrinkage, what the filter found or None)."""
     try:
         d: SlipDesign | None = slip_design(runs, nominal, window_s, steady=True, memo=memo)
     except InsufficientDataError:  # no window in steady state at all
@@ -710,10 +710,10 @@ def _fit_mean(
     cov = 0.5 * (cov + cov.T)  # an inverse, symmetric to rounding: exactly so
     beta = np.concatenate((mu_xy, mu_yaw))
     tau = np.concatenate((tau_v, tau_v, tau_w))
+    filter_fit = None
     if scale != 0.0 and truth is not None and (scale or filtered(truth, d, c_xy, c_yaw)):
-        beta, cov, scale = _filter_mean(runs, nominal, m0, tau, c_xy, c_yaw, truth, scale)
-    else:  # the truth is good enough for the regression's rows
-        scale = None
+        filter_fit = _filter_mean(runs, nominal, m0, tau, c_xy, c_yaw, truth, scale)
+        beta, cov = filter_fit.beta, filter_fit.cov
     limit = SlipModel.LIMIT
     values = {
         key: float(np.clip(v, -limit, limit))
@@ -730,7 +730,7 @@ def _fit_mean(
         posterior=tuple(cov.ravel().tolist()),
     )
     spread = np.sqrt(np.maximum(np.diag(cov), 0.0)) / tau
-    return model, cov, int(d.y_yaw.size), spread, shrink, scale
+    return model, cov, int(d.y_yaw.size), spread, shrink, filter_fit
 
 
 def filtered(truth: TruthNoise | None, d: SlipDesign, c_xy: FloatArray, c_yaw: FloatArray) -> bool:
@@ -768,7 +768,7 @@ def _filter_mean(
     c_yaw: FloatArray,
     truth: TruthNoise,
     scale: float | None,
-) -> tuple[FloatArray, FloatArray, float]:
+) -> FilterFit:
     """:func:`odolab.calibration.slipfilter.filter_coefficients` with the regression's window
     noise as the model's."""
     from odolab.calibration.slipfilter import filter_coefficients
@@ -777,10 +777,10 @@ def _filter_mean(
     return filter_coefficients(runs, nominal, base, tau, noise, truth, steady_cycles, scale)
 
 
-def estimator_note(scale: float | None) -> str:
+def estimator_note(fit: FilterFit | None) -> str:
     """The note every face prints of which estimator gave the slip coefficients
     (:func:`fit_slip_model`'s last value)."""
-    if scale is None:
+    if fit is None:
         return (
             "the slip coefficients by regression on windows of the truth (its noise is smaller "
             "than the model's between two of its updates)"
@@ -788,7 +788,8 @@ def estimator_note(scale: float | None) -> str:
     return (
         "the slip coefficients by a Kalman filter that takes the truth as a measurement of the "
         "pose (its noise is larger than the model's between two of its updates; "
-        f"process noise scaled by {scale:.3g}, by likelihood)"
+        f"process noise scaled by {fit.scale:.3g}, by likelihood; {fit.updates} of its "
+        f"updates taken, {fit.glitches} left out as glitches beyond the 99.9 % gate)"
     )
 
 
@@ -831,12 +832,12 @@ def fit_slip_model(
     piece_s: Sequence[float] = NOISE_PIECE_S,
     centre: tuple[FloatArray, str] | None = None,
     truth: TruthNoise | None = None,
-) -> tuple[SlipModel, FloatArray, int, str, FloatArray, float | None]:
+) -> tuple[SlipModel, FloatArray, int, str, FloatArray, FilterFit | None]:
     """The slip model of prepared runs: (model with its posterior, 24 x 24 posterior
     covariance in :attr:`SlipModel.COEF_KEYS` order, number of windows, the kinematic model
     its prior is centred on, each coefficient's posterior standard deviation over its weak
-    prior's: :func:`undetermined`, and the Kalman filter's process-noise scale where the
-    coefficients come from the filter (:func:`filtered`; None: from the regression)).
+    prior's: :func:`undetermined`, and what the Kalman filter found where the coefficients
+    come from it (:func:`filtered`; None: from the regression)).
 
     The coefficients come from all the runs, their prior centred on ``centre`` (slip
     coefficients and the model's name: the kinematic model fitted to the same runs,
@@ -856,7 +857,7 @@ def fit_slip_model(
     mean, kind = centre if centre is not None else (np.zeros(3 * len(FEATURES)), "none")
     parts = [_blocks(r, folds) for r in runs] if folds > 1 else []
     cross = bool(parts) and all(len(p) == folds for p in parts)
-    model, cov, windows, spread, shrink, scale = _fit_mean(
+    model, cov, windows, spread, shrink, found = _fit_mean(
         runs, nominal, window_s, prior_scale, mean, truth
     )
     pieces: list[_Pieces] = []
@@ -866,7 +867,15 @@ def fit_slip_model(
             train = [p[i] for p in parts for i in range(folds) if i != f]
             try:
                 m = _fit_mean(
-                    train, nominal, window_s, prior_scale, mean, truth, shrink, memo, scale or 0.0
+                    train,
+                    nominal,
+                    window_s,
+                    prior_scale,
+                    mean,
+                    truth,
+                    shrink,
+                    memo,
+                    found.scale if found is not None else 0.0,
                 )[0]
             except InsufficientDataError:
                 pieces = []
@@ -881,7 +890,7 @@ def fit_slip_model(
     theta = fit_noise(groups, terms_of(model))
     terms: dict[str, float] = {k: float(v) for k, v in zip(TERMS, theta, strict=True)}
     model = replace(model, **terms)  # type: ignore[arg-type]
-    return model, cov, windows, kind, spread, scale
+    return model, cov, windows, kind, spread, found
 
 
 def undetermined(spread: FloatArray, windows: int, centre: str) -> str | None:
