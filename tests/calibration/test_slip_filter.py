@@ -213,7 +213,10 @@ def test_filter_beats_the_regression_with_centimetre_truth_noise() -> None:
     assert all("Kalman filter" in n and "left out as glitches" in n for n in notes), notes
     filt, reg, kin = (sum(ends[k]) for k in ("filter", "regression", "kinematic"))
     # measured (seeds 2, 3): filter 0.864 and 0.964 m, the regression 1.633 and 2.663 m, the
-    # best kinematic model 2.426 and 1.444 m: filter / kinematic 0.47 pooled; bound 0.75
-    assert filt <= 0.75 * kin, ends
-    # measured filter / regression 0.43 pooled; bound 0.75
+    # best kinematic model 2.426 and 1.444 m: filter / kinematic 0.47 pooled. Over the seed
+    # pairs (1, 2) to (5, 6): 0.24 to 0.76 (per seed 0.18 to 0.90: never above 1); bound 1.0,
+    # better than the kinematic models, 24 % above the largest pair
+    assert filt <= 1.0 * kin, ends
+    # measured filter / regression 0.43 pooled; over the seed pairs (1, 2) to (5, 6) 0.18 to
+    # 0.56; bound 0.75, 25 % above the largest
     assert filt <= 0.75 * reg, ends
