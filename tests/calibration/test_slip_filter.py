@@ -220,3 +220,30 @@ def test_filter_beats_the_regression_with_centimetre_truth_noise() -> None:
     # measured filter / regression 0.43 pooled; over the seed pairs (1, 2) to (5, 6) 0.18 to
     # 0.56; bound 0.75, 25 % above the largest
     assert filt <= 0.75 * reg, ends
+
+
+def test_steady_rule_is_the_plain_one_window_by_window() -> None:
+    """`_steady` (vectorized over windows) and `steady_cycles` give what the rule says of each
+    window taken alone: the smoothed speeds' range over the window and the settling seconds."""
+    from scipy.ndimage import uniform_filter1d
+
+    from odolab.calibration import slipfit
+
+    rng = np.random.default_rng(11)
+    t = np.cumsum(rng.uniform(0.03, 0.07, 400))
+    v = np.repeat(rng.uniform(-1, 1, 20), 20) + 0.02 * rng.standard_normal(400)
+    w = np.repeat(rng.uniform(-1, 1, 20), 20) + 0.05 * rng.standard_normal(400)
+    i = np.sort(rng.integers(0, 390, 60))
+    j = i + rng.integers(1, 10, 60)
+    vs = uniform_filter1d(v, slipfit.SETTLE_CYCLES, mode="nearest")
+    ws = uniform_filter1d(w, slipfit.SETTLE_CYCLES, mode="nearest")
+
+    def plain(a: int, b: int) -> bool:
+        seg = slice(int(np.searchsorted(t, t[a] - slipfit.SETTLE_S)), b + 1)
+        return bool(np.ptp(vs[seg]) <= slipfit.STEADY_V and np.ptp(ws[seg]) <= slipfit.STEADY_W)
+
+    got = slipfit._steady(t, v, w, i, j)
+    assert got.tolist() == [plain(a, b) for a, b in zip(i, j, strict=True)]
+    assert 0 < got.sum() < got.size  # both kinds of window are in the example
+    cycles = slipfit.steady_cycles(t, v, w)
+    assert cycles.tolist() == [plain(max(k - 1, 0), k) for k in range(t.size)]

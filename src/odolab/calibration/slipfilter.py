@@ -143,37 +143,23 @@ def run_cycles(run: object, nominal: RobotParams) -> RunCycles | None:
 
 
 def _cycles(runs: Sequence[object], nominal: RobotParams, steady: SteadyRule) -> _Cycles:
-    parts: list[tuple[FloatArray, ...]] = []
-    for run in runs:
-        c = run_cycles(run, nominal)
-        if c is None:
-            continue
-        t, ds, dth, tt, gx, gy, gh = c.t, c.ds, c.dth, c.tt, c.gx, c.gy, c.gh
-        n = t.size
-        phi, mult = c.phi, c.mult
-        unsteady = ~steady(t, ds / tt, dth / tt)
-        motion = np.column_stack((ds**2, ds**2, dth**2)) * unsteady[:, None]
-        start = np.zeros(n, dtype=bool)
+    """Every run's cycles, one after the other (runs of fewer than two samples left out)."""
+    parts: list[tuple[FloatArray, ...]] = [
+        (np.zeros(0), np.zeros(0), np.zeros((0, len(FEATURES))), np.zeros((0, 6)),
+         np.zeros((0, 3)), np.zeros(0, bool), np.zeros(0, bool), np.zeros((0, 3)))
+    ]  # fmt: skip
+    for c in filter(None, (run_cycles(run, nominal) for run in runs)):
+        unsteady = ~steady(c.t, c.ds / c.tt, c.dth / c.tt)
+        start = np.zeros(c.t.size, dtype=bool)
         start[0] = True
-        meas = np.zeros(n, dtype=bool)
-        meas[real_updates(t, gx, gy, gh)] = True
+        meas = np.zeros(c.t.size, dtype=bool)
+        meas[real_updates(c.t, c.gx, c.gy, c.gh)] = True
         meas[0] = False
-        parts.append(
-            (
-                ds,
-                dth,
-                (phi * tt[None, :]).T,
-                mult,
-                motion,
-                start,
-                meas,
-                np.column_stack((gx, gy, gh)),
-            )
-        )
-    if not parts:
-        z = np.zeros(0)
-        return _Cycles(z, z, np.zeros((0, len(FEATURES))), np.zeros((0, 6)), np.zeros((0, 3)),
-                       np.zeros(0, bool), np.zeros(0, bool), np.zeros((0, 3)))  # fmt: skip
+        parts.append((
+            c.ds, c.dth, (c.phi * c.tt[None, :]).T, c.mult,
+            np.column_stack((c.ds**2, c.ds**2, c.dth**2)) * unsteady[:, None],
+            start, meas, np.column_stack((c.gx, c.gy, c.gh)),
+        ))  # fmt: skip
     cols = list(zip(*parts, strict=True))
     return _Cycles(*(np.ascontiguousarray(np.concatenate(c)) for c in cols))
 

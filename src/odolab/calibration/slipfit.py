@@ -186,37 +186,27 @@ def _steady(
     :data:`STEADY_W` rad/s over the window and the :data:`SETTLE_S` seconds before it."""
     from scipy.ndimage import uniform_filter1d
 
+    if i.size == 0:
+        return np.ones(0, dtype=bool)
     vs = uniform_filter1d(v, SETTLE_CYCLES, mode="nearest")
     ws = uniform_filter1d(w, SETTLE_CYCLES, mode="nearest")
-    out = np.ones(i.size, dtype=bool)
-    for k, (a, b) in enumerate(zip(i, j, strict=True)):
-        a0 = int(np.searchsorted(t, t[a] - SETTLE_S))
-        seg = slice(a0, b + 1)
-        out[k] = np.ptp(vs[seg]) <= STEADY_V and np.ptp(ws[seg]) <= STEADY_W
-    return out
+    first = np.searchsorted(t, t[i] - SETTLE_S)
+    vmax, vmin, wmax, wmin = vs[j], vs[j], ws[j], ws[j]
+    for o in range(1, int(np.max(j - first)) + 1):  # each window's samples, from its end back
+        k = np.maximum(j - o, 0)
+        inside = j - o >= first
+        vmax = np.where(inside, np.maximum(vmax, vs[k]), vmax)
+        vmin = np.where(inside, np.minimum(vmin, vs[k]), vmin)
+        wmax = np.where(inside, np.maximum(wmax, ws[k]), wmax)
+        wmin = np.where(inside, np.minimum(wmin, ws[k]), wmin)
+    return np.asarray(((vmax - vmin) <= STEADY_V) & ((wmax - wmin) <= STEADY_W))
 
 
 def steady_cycles(t: FloatArray, v: FloatArray, w: FloatArray) -> NDArray[np.bool_]:
     """Per cycle: :func:`_steady`'s rule for a window of that one cycle (the Kalman filter's,
     :mod:`odolab.calibration.slipfilter`)."""
-    from scipy.ndimage import uniform_filter1d
-
-    n = t.size
-    vs = uniform_filter1d(v, SETTLE_CYCLES, mode="nearest")
-    ws = uniform_filter1d(w, SETTLE_CYCLES, mode="nearest")
-    k = np.arange(n)
-    first = np.searchsorted(t, t[np.maximum(k - 1, 0)] - SETTLE_S)
-    reach = int(np.max(k - first)) if n else 0
-    vmax, vmin, wmax, wmin = vs.copy(), vs.copy(), ws.copy(), ws.copy()
-    for o in range(1, reach + 1):
-        idx = k - o
-        ok = idx >= first
-        j = np.maximum(idx, 0)
-        vmax = np.where(ok, np.maximum(vmax, vs[j]), vmax)
-        vmin = np.where(ok, np.minimum(vmin, vs[j]), vmin)
-        wmax = np.where(ok, np.maximum(wmax, ws[j]), wmax)
-        wmin = np.where(ok, np.minimum(wmin, ws[j]), wmin)
-    return np.asarray(((vmax - vmin) <= STEADY_V) & ((wmax - wmin) <= STEADY_W))
+    k = np.arange(t.size)
+    return _steady(t, v, w, np.maximum(k - 1, 0), k)
 
 
 def slip_design(
