@@ -59,6 +59,7 @@ from odolab.calibration.lsq import (
     fit_model,
     prepare_run,
 )
+from odolab.calibration.truthnoise import TruthNoise, estimate_truth_noise, truth_residuals
 from odolab.core.errors import CalibrationError, InsufficientDataError, opt
 from odolab.core.params import RobotParams
 from odolab.core.trajectory import Trajectory
@@ -75,10 +76,14 @@ __all__ = [
     "Estimate",
     "ModelComparison",
     "ModelScore",
+    "SegmentTruth",
     "compare_model_files",
     "compare_models",
     "learning_curve",
     "parse_curve",
+    "segment_errors",
+    "segment_truth",
+    "truth_near",
 ]
 
 #: Models from the simplest to the most complex (the recommendation prefers the left). The
@@ -100,6 +105,12 @@ SEGMENT_M = 1.0
 #: ... or this much turning (rad), whichever comes first.
 SEGMENT_RAD = math.pi / 2
 _METRICS = ("endpoint_error", "rpe_rmse", "drift_pct", "drift_deg_per_m")
+#: Where the ground truth's own noise is most of what the held-out segments measure (its
+#: expected share of the best model's mean squared segment error above this), each segment's
+#: end poses are the truth averaged over :data:`SMOOTH_S` either side (:class:`SegmentTruth`).
+NOISE_SHARE = 0.5
+#: Seconds either side of a segment's end over which a noisy truth is averaged.
+SMOOTH_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -134,6 +145,9 @@ class ModelScore:
     segment_error: Estimate | None = None
     #: per held-out run: the RPE (m) of each of its segments (runs in held_out order)
     segment_errors: list[list[float]] = field(default_factory=list)
+    #: the same segments with their end poses the truth averaged over :data:`SMOOTH_S` either
+    #: side (what the decision uses where the truth is noisy: :class:`SegmentTruth`)
+    smoothed_errors: list[list[float]] = field(default_factory=list, repr=False)
     #: "best", "not worse", "worse" or "undecided": this model against the best
     verdict: str = ""
     #: the risk per run: on how many held-out runs (with segments) this model's mean segment
@@ -164,6 +178,53 @@ class ModelScore:
 
 
 @dataclass(frozen=True)
+class SegmentTruth:
+    """The ground truth the held-out segments were scored against.
+
+    A segment's error against a noisy truth carries the truth's noise at both ends: about
+    ``4 xy^2 + 3 (SEGMENT_M yaw)^2`` of squared error (its two end positions, and the start
+    heading turning a metre of path besides the heading error itself), the same for every model.
+    With 5 cm and 0.1 rad that is 0.2 m a segment, and every model's mean error is mostly that
+    noise: their ratios all near 1, and the rule says "not worse" or "undecided" whatever the
+    models do. Where that ``share`` of the best model's mean squared segment error is above
+    :data:`NOISE_SHARE`, each segment's end poses are the truth averaged over :data:`SMOOTH_S`
+    either side instead (``smoothed_s``): the truth's offset from the model's own poses, in the
+    model's frame, averaged (a symmetric window's mean of a drift that grows steadily is its value
+    at the centre), which divides the noise's variance by the updates averaged."""
+
+    noise: TruthNoise
+    #: what the truth's noise adds to a segment's squared error at most (the formula above)
+    #: over the best model's mean squared segment error
+    share: float
+    #: seconds either side over which the truth was averaged (0: each end's own truth pose)
+    smoothed_s: float
+
+    def describe(self) -> str:
+        """One sentence for the output."""
+        what = (
+            f"the ground truth's noise ({self.noise.xy * 1000:.3g} mm, {self.noise.yaw:.3g} rad"
+            f"{', as given' if self.noise.given else ', estimated from its updates'}) adds up "
+            f"to {self.share:.2g} times the best model's mean squared segment error to each "
+            "segment's"
+        )
+        if self.smoothed_s > 0:
+            return (
+                f"{what}, so each segment's end poses are the truth averaged over "
+                f"{self.smoothed_s:g} s either side"
+            )
+        return f"{what}: each segment's end poses are the truth's own"
+
+    def to_dict(self) -> dict[str, object]:
+        return {
+            "noise_xy_m": self.noise.xy,
+            "noise_yaw_rad": self.noise.yaw,
+            "given": self.noise.given,
+            "share": self.share,
+            "smoothed_s": self.smoothed_s,
+        }
+
+
+@dataclass(frozen=True)
 class ModelComparison:
     """Result of :func:`compare_models`: ``recommended`` is a model, or :data:`UNDECIDED`;
     ``best`` the model with the lowest held-out segment RPE; ``segments`` how many held-out
@@ -180,6 +241,9 @@ class ModelComparison:
     #: held-out end-point error against seconds of the first training run (an exploration run):
     #: rows ``{"seconds", "model", "endpoint_error", "problem"}``; empty unless asked for
     learning_curve: list[dict[str, object]] = field(default_factory=list)
+    #: the truth's noise against the segments' errors, and whether it was averaged (None: no
+    #: estimate of it, too few updates or ``truth_noise`` off)
+    truth: SegmentTruth | None = None
 
     @property
     def decided(self) -> bool:
@@ -213,6 +277,7 @@ class ModelComparison:
             "cross_validated": self.cross_validated,
             "models": [s.to_dict() for s in self.scores],
             **({"learning_curve": self.learning_curve} if self.learning_curve else {}),
+            "segment_truth": self.truth.to_dict() if self.truth else None,
         }
 
 
@@ -350,12 +415,23 @@ def _segment_bounds(ref: Trajectory) -> tuple[NDArray[np.int64], NDArray[np.int6
     return np.array(starts, dtype=np.int64), np.array(ends, dtype=np.int64)
 
 
-def segment_errors(run: OdometryRun, params: RobotParams) -> NDArray[np.float64]:
+def segment_errors(
+    run: OdometryRun, params: RobotParams, smooth_s: float = 0.0
+) -> NDArray[np.float64]:
     """The error (m) of ``params``' odometry on each segment of the run (see
     :func:`_segment_bounds`; they depend on the ground truth only, so every model is scored on
     the same ones): ``sqrt(e_t^2 + (SEGMENT_M e_r)^2)``, the relative pose's translation error
     ``e_t`` (m) and its heading error ``e_r`` (rad) weighted as the sideways error it makes over
-    the next :data:`SEGMENT_M` of driving (turns in place count too)."""
+    the next :data:`SEGMENT_M` of driving (turns in place count too). ``smooth_s`` > 0: each
+    segment's end poses are the truth averaged over that many seconds either side
+    (:func:`truth_near`), for a noisy truth (:class:`SegmentTruth`)."""
+    return _segment_errors(run, params, (smooth_s,))[0]
+
+
+def _segment_errors(
+    run: OdometryRun, params: RobotParams, smooth: Sequence[float]
+) -> list[NDArray[np.float64]]:
+    """:func:`segment_errors` for each of ``smooth``, from one odometry of the run."""
     from odolab.metrics.alignment import align
     from odolab.metrics.association import associate
     from odolab.metrics.pose_error import rpe_errors
@@ -366,14 +442,48 @@ def segment_errors(run: OdometryRun, params: RobotParams) -> NDArray[np.float64]
     )
     est, _ = align(ref, est, o.alignment)
     i, j = _segment_bounds(ref)
-    if i.size == 0:
-        return np.zeros(0)
-    et, er = rpe_errors(ref, est, i, j)
-    return np.asarray(np.hypot(et, SEGMENT_M * er), dtype=np.float64)
+    out: list[NDArray[np.float64]] = []
+    for h in smooth:
+        if i.size == 0:
+            out.append(np.zeros(0))
+            continue
+        et, er = rpe_errors(truth_near(ref, est, np.union1d(i, j), h) if h > 0 else ref, est, i, j)
+        out.append(np.asarray(np.hypot(et, SEGMENT_M * er), dtype=np.float64))
+    return out
 
 
-def _score(run: OdometryRun, params: RobotParams) -> tuple[dict[str, float], list[float]]:
-    return _metrics(run, params), segment_errors(run, params).tolist()
+def truth_near(ref: Trajectory, est: Trajectory, at: NDArray[np.int64], half: float) -> Trajectory:
+    """``ref`` with its poses at the indices ``at`` replaced by the truth averaged over ``half``
+    seconds either side (``ref`` and ``est`` on the same stamps).
+
+    What is averaged is the truth's offset from ``est`` in ``est``'s own frame (position) and
+    its heading difference, so the estimate's motion carries each nearby truth pose to the
+    instant: ``est_k^-1 ref_k``. The window is symmetric, shortened at a run's ends (none at the
+    first and last stamp): a drift that grows steadily has its mean at the centre."""
+    from odolab.core.kinematics import wrap_angle
+
+    t = np.asarray(ref.t, dtype=np.float64)
+    c, s = np.cos(est.heading), np.sin(est.heading)
+    ex, ey = ref.x - est.x, ref.y - est.y
+    offsets = (c * ex + s * ey, -s * ex + c * ey, np.unwrap(wrap_angle(ref.heading - est.heading)))
+    reach = np.minimum(half, np.minimum(t[at] - t[0], t[-1] - t[at]))
+    lo = np.searchsorted(t, t[at] - reach, side="left")
+    hi = np.searchsorted(t, t[at] + reach, side="right")
+    lo, hi = np.minimum(lo, at), np.maximum(hi, at + 1)  # (the stamp itself, whatever rounding)
+    sums = [np.concatenate(([0.0], np.cumsum(v))) for v in offsets]
+    dx, dy, dh = ((c_[hi] - c_[lo]) / (hi - lo) for c_ in sums)
+    x, y, h = (np.array(v, dtype=np.float64) for v in (ref.x, ref.y, ref.heading))
+    x[at] = est.x[at] + c[at] * dx - s[at] * dy
+    y[at] = est.y[at] + s[at] * dx + c[at] * dy
+    h[at] = est.heading[at] + dh
+    return Trajectory.from_xyh(t, x, y, h)
+
+
+def _score(
+    run: OdometryRun, params: RobotParams
+) -> tuple[dict[str, float], list[float], list[float]]:
+    raw, smooth = _segment_errors(run, params, (0.0, SMOOTH_S))
+    return _metrics(run, params), raw.tolist(), smooth.tolist()
 
 
 def _check_seed(seed: int) -> None:
@@ -440,7 +550,8 @@ def compare_models(
             f"no model could be fitted to these runs with segments of {o.segment_s:g} s: "
             + "; ".join(f"{', '.join(ms)}: {problem}" for problem, ms in why.items())
         )
-    result = _recommend(scores, train, test_runs, cv, rng, n_boot)
+    noise = held_out_truth_noise(test_runs, o)
+    result = _recommend(scores, train, test_runs, cv, rng, n_boot, noise)
     if curve:
         curve_rows = learning_curve(train[0], test_runs, base, tuple(curve), tuple(order))
         result = replace(result, learning_curve=[dict(r) for r in curve_rows])
@@ -523,7 +634,7 @@ def _score_model(
     fit, problem = _fit(prepared, base, o, model)
     if fit is None:
         return ModelScore(model, len(FIT_MODELS[model].names), None, problem)
-    rows: list[tuple[dict[str, float], list[float]]] = []
+    rows: list[tuple[dict[str, float], list[float], list[float]]] = []
     if fold_of is not None:
         fold_params: dict[int, RobotParams] = {}
         for f in sorted(set(fold_of)):
@@ -539,12 +650,13 @@ def _score_model(
         rows = [_score(r, fit.params) for r in test_runs]
     if problem is not None:
         return ModelScore(model, len(fit.stderr), fit, problem)
-    per_run = {m: [row[m] for row, _ in rows] for m in _METRICS}
+    per_run = {m: [row[m] for row, _, _ in rows] for m in _METRICS}
     held = {m: _t_interval(np.array(v, dtype=np.float64)) for m, v in per_run.items()}
     bic = float(_bic(np.array(fit.run_rss), np.array(fit.run_sizes, float), fit.n_params))
     return ModelScore(
         model, len(fit.stderr), fit, None, per_run, held, bic,
-        segment_errors=[seg for _, seg in rows],
+        segment_errors=[seg for _, seg, _ in rows],
+        smoothed_errors=[seg for _, _, seg in rows],
     )  # fmt: skip
 
 
@@ -610,12 +722,18 @@ def _recommend(
     cv: bool,
     rng: np.random.Generator,
     n_boot: int,
+    noise: TruthNoise | None = None,
 ) -> ModelComparison:
     ok = [s for s in scores if s.problem is None]
     if not ok:
         raise CalibrationError(
             "no model could be fitted to these runs: " + "; ".join(str(s.problem) for s in scores)
         )
+    truth = segment_truth(ok, noise)
+    if truth is not None and truth.smoothed_s > 0:
+        scores = [replace(s, segment_errors=s.smoothed_errors) if s.problem is None else s
+                  for s in scores]  # fmt: skip
+        ok = [s for s in scores if s.problem is None]
     sizes = [len(e) for e in ok[0].segment_errors]
     n_segments = sum(sizes)
     errors = {
@@ -646,7 +764,36 @@ def _recommend(
         cv,
         best=best.model,
         segments=n_segments,
+        truth=truth,
     )
+
+
+def held_out_truth_noise(runs: Sequence[OdometryRun], o: LsqOptions) -> TruthNoise | None:
+    """The noise of the held-out runs' ground truth: the user's (``o.truth_sigma``), else
+    estimated from its own updates (None where ``o.truth_noise`` is off or there are too few)."""
+    if o.truth_sigma is not None:
+        return o.truth_sigma
+    if not o.truth_noise:
+        return None
+    parts = []
+    for r in runs:
+        gt = r.require_ground_truth()
+        parts.append(truth_residuals(gt.t, gt.x, gt.y, gt.heading))
+    return estimate_truth_noise(parts)
+
+
+def segment_truth(ok: Sequence[ModelScore], noise: TruthNoise | None) -> SegmentTruth | None:
+    """Whether the fitted models' held-out segments are scored against the truth averaged near
+    their ends (see :class:`SegmentTruth`): where the truth's noise is more than
+    :data:`NOISE_SHARE` of the best model's mean squared segment error (None: no noise known,
+    or no segments)."""
+    errors = [np.array([e for run in s.segment_errors for e in run], dtype=np.float64) for s in ok]
+    if noise is None or not errors or errors[0].size == 0:
+        return None
+    added = 4.0 * noise.xy**2 + 3.0 * (SEGMENT_M * noise.yaw) ** 2
+    best = min(float(np.mean(e * e)) for e in errors)
+    share = added / best if best > 0 else (math.inf if added > 0 else 0.0)
+    return SegmentTruth(noise, share, SMOOTH_S if share > NOISE_SHARE else 0.0)
 
 
 def _verdicts(

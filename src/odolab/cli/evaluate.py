@@ -454,8 +454,9 @@ TruthSigmaOpt = Annotated[
     str | None,
     typer.Option(
         "--truth-sigma",
-        help="The ground truth's noise XY,YAW (m, rad) for the slip fit, e.g. 0.05,0.1 "
-        "(default: estimated from the truth's own updates; docs/models.md).",
+        help="The ground truth's noise XY,YAW (m, rad) for the slip fit and compare's held-out "
+        "segments, e.g. 0.05,0.1 (default: estimated from the truth's own updates; 0,0: "
+        "none; docs/models.md).",
     ),
 ]
 LossOpt = Annotated[

@@ -189,6 +189,8 @@ def _print_comparison(result: ModelComparison) -> None:
         f"model whose error ratio to the best has its 95 % CI within 1 + {NOT_WORSE:g}",
         highlight=False,
     )
+    if result.truth is not None and result.truth.smoothed_s > 0:
+        console.print(f"note: {result.truth.describe()}", markup=False, highlight=False)
     if result.learning_curve:
         _print_curve(console, result.learning_curve)
     if result.decided:
