@@ -20,9 +20,9 @@ from odolab.calibration.compare import (
     segment_truth,
     truth_near,
 )
-from odolab.calibration.truthnoise import TruthNoise
 from odolab.core.params import PRESETS
 from odolab.core.trajectory import Trajectory
+from odolab.metrics.truthnoise import TruthNoise
 
 NOMINAL = PRESETS["jaguar-lite"]
 MODELS = ("diff", "extended", "icr", "slip")

@@ -11,9 +11,9 @@ import pytest
 from odolab.calibration._slipfilter_jit import GATE, POSE, N, filter_pass
 from odolab.calibration.lsq import LsqOptions, PreparedRun, calibrate_lsq
 from odolab.calibration.slipfit import filtered, slip_design
-from odolab.calibration.truthnoise import TruthNoise, real_updates
 from odolab.core.models.slip import SlipModel
 from odolab.core.params import PRESETS
+from odolab.metrics.truthnoise import TruthNoise, real_updates
 
 NOMINAL = PRESETS["jaguar-lite"]
 KEYS = SlipModel.COEF_KEYS

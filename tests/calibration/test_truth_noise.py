@@ -1,5 +1,5 @@
 """The ground truth's own noise (issue 37): estimated from its updates, and carried by the slip
-fit's row covariance (odolab.calibration.truthnoise, slipfit.truth_covariances)."""
+fit's row covariance (odolab.metrics.truthnoise, slipfit.truth_covariances)."""
 
 from __future__ import annotations
 
@@ -8,14 +8,14 @@ import pytest
 
 from odolab.calibration.lsq import PreparedRun
 from odolab.calibration.slipfit import slip_design, truth_covariances
-from odolab.calibration.truthnoise import (
+from odolab.core.errors import CalibrationError
+from odolab.core.params import PRESETS
+from odolab.metrics.truthnoise import (
     TruthNoise,
     estimate_truth_noise,
     parse_truth_sigma,
     truth_residuals,
 )
-from odolab.core.errors import CalibrationError
-from odolab.core.params import PRESETS
 
 
 def _path(n: int) -> tuple[np.ndarray, ...]:

@@ -44,6 +44,7 @@ if TYPE_CHECKING:
     from odolab.metrics import Evaluation, RunEvaluation
     from odolab.metrics.cluster import Cluster, MapReport, Outcome
     from odolab.metrics.consistency import NeesSummary, RunNees
+    from odolab.metrics.truthnoise import TruthNoise
 
 __all__ = [
     "DEFAULT_DELTA",
@@ -384,9 +385,9 @@ def calibrate_lsq_runs(
     """Fit ``request.model`` to the runs' ground truth; evaluate the held-out runs with the
     nominal and the fitted parameters. A run may not be both fitted and held out."""
     from odolab.calibration.lsq import LsqOptions, calibrate_lsq_files, find_fit_and_held_out
-    from odolab.calibration.truthnoise import parse_truth_sigma
     from odolab.core.params import load_params
     from odolab.io.registry import LogFormat
+    from odolab.metrics.truthnoise import parse_truth_sigma
 
     _check_lsq(request)
     options = LsqOptions(
@@ -435,11 +436,17 @@ class NeesOutcome:
     skip_note: str | None
     pieces_past_first_order: int
     first_order_note: str | None
+    #: the ground truth's noise added to each piece's covariance (None: taken as exact)
+    truth: TruthNoise | None = None
 
     def to_dict(self) -> dict[str, object]:
         """The JSON-ready numbers (``evaluate --nees --json``'s ``nees``)."""
+        t = self.truth
         head = {
             **self.summary.to_dict(),
+            "truth_noise": (
+                {"xy_m": t.xy, "yaw_rad": t.yaw, "given": t.given} if t is not None else None
+            ),
             "pieces_past_first_order": self.pieces_past_first_order,
             "runs_skipped": len(self.skipped),
             "skipped": self.skipped,
@@ -466,11 +473,13 @@ def nees_of_paths(
     segment: float,
     *,
     fit_gt_yaw_offset: bool | None = None,
+    truth_sigma: TruthNoise | None = None,
 ) -> NeesOutcome:
     """NEES of every run at ``paths`` (pieces of ``segment`` s) against its ground truth, with
     ``robot`` (else each run's own parameters). ``fit_gt_yaw_offset``: as
     :func:`odolab.metrics.consistency.run_nees` (None: fit unless the ground truth starts in the
-    odometry's frame).
+    odometry's frame). ``truth_sigma``: the ground truth's noise (None: estimated from its
+    updates; :func:`odolab.metrics.consistency.nees_of_runs`).
 
     Raises:
         ParamsError: a run's parameters have neither a [noise] table nor a slip model.
@@ -502,7 +511,10 @@ def nees_of_paths(
         method,
         segment_s=segment,
         fit_gt_yaw_offset=fit_gt_yaw_offset,
+        truth_sigma=truth_sigma,
     )
     beyond, note = first_order_note(results)
     summary = nees_summary(results)
-    return NeesOutcome(segment, results, summary, slip_models, skipped, skip_note, beyond, note)
+    return NeesOutcome(
+        segment, results, summary, slip_models, skipped, skip_note, beyond, note, results[0].truth
+    )

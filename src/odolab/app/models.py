@@ -410,10 +410,13 @@ def _held_out_nees(params: RobotParams, held_out: Sequence[OdometryRun]) -> dict
     """NEES of a slip fit's predictive covariance on the held-out runs, as `odolab evaluate
     --nees --nees-segment` gives it (pieces of :data:`NEES_PIECE_S`)."""
     from odolab.core.errors import OdolabError
-    from odolab.metrics.consistency import nees_summary, run_nees
+    from odolab.metrics.consistency import nees_summary, run_nees, runs_truth_noise
 
+    truth = runs_truth_noise(held_out)  # (evaluate --nees's default: estimated from the truth)
     try:
-        summary = nees_summary([run_nees(r, params, segment_s=NEES_PIECE_S) for r in held_out])
+        summary = nees_summary(
+            [run_nees(r, params, segment_s=NEES_PIECE_S, truth=truth) for r in held_out]
+        )
     except OdolabError as err:
         return {"piece_s": NEES_PIECE_S, "problem": str(err)}
     return {"piece_s": NEES_PIECE_S, **summary.to_dict()}

@@ -59,13 +59,13 @@ from odolab.calibration.lsq import (
     fit_model,
     prepare_run,
 )
-from odolab.calibration.truthnoise import TruthNoise, estimate_truth_noise, truth_residuals
 from odolab.core.errors import CalibrationError, InsufficientDataError, opt
 from odolab.core.params import RobotParams
 from odolab.core.trajectory import Trajectory
 from odolab.io.registry import LogFormat, read_run
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.metrics.runs import RUN_OPTIONS, Progress, evaluate_run, parallel_map
+from odolab.metrics.truthnoise import TruthNoise, estimate_truth_noise, truth_residuals
 
 __all__ = [
     "DEFAULT_MODELS",

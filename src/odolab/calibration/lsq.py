@@ -37,7 +37,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.calibration.truthnoise import TruthNoise, estimate_truth_noise, truth_residuals
 from odolab.core.errors import CalibrationError, InsufficientDataError, opt
 from odolab.core.kinematics import Method
 from odolab.core.models import DIFF_DRIVE, ExtendedDiffDrive, IcrModel, SlipModel, neutral_values
@@ -49,6 +48,12 @@ from odolab.io.run import OdometryRun, ReadOptions
 from odolab.metrics.association import interpolate_trajectory
 from odolab.metrics.cluster import Cluster
 from odolab.metrics.runs import RUN_OPTIONS, Progress, RunEvaluation, evaluate_run, parallel_map
+from odolab.metrics.truthnoise import (
+    TruthNoise,
+    estimate_truth_noise,
+    truth_residuals,
+    variance_factors,
+)
 
 if TYPE_CHECKING:
     from scipy.optimize import OptimizeResult
@@ -207,7 +212,7 @@ class LsqOptions:
     fit_gt_yaw_offset: bool = True
     model: str = "diff"
     #: the ground truth's noise, as the user gives it; None: estimated from
-    #: the truth's own updates (:mod:`odolab.calibration.truthnoise`) where ``truth_noise``
+    #: the truth's own updates (:mod:`odolab.metrics.truthnoise`) where ``truth_noise``
     truth_sigma: TruthNoise | None = None
     #: whether the slip fit allows for the truth's noise at all
     truth_noise: bool = True
@@ -243,10 +248,13 @@ class PreparedRun:
     frame: str = ""
     #: the ground truth's real updates' deviations from their neighbours (position, heading)
     #: and the spacings between them: what its noise is estimated from
-    #: (:func:`odolab.calibration.truthnoise.truth_residuals`)
+    #: (:func:`odolab.metrics.truthnoise.truth_residuals`)
     truth_xy: FloatArray = field(default_factory=lambda: np.zeros(0))
     truth_yaw: FloatArray = field(default_factory=lambda: np.zeros(0))
     truth_dt: FloatArray = field(default_factory=lambda: np.zeros(0))
+    #: the truth's variance at each stamp per unit variance of a real update (1 at one, 0.5
+    #: halfway between two: :func:`odolab.metrics.truthnoise.variance_factors`)
+    truth_var: FloatArray = field(default_factory=lambda: np.zeros(0))
 
     def truth_parts(self) -> tuple[FloatArray, FloatArray, FloatArray]:
         """(:attr:`truth_xy`, :attr:`truth_yaw`, :attr:`truth_dt`)."""
@@ -285,6 +293,7 @@ def prepare_run(run: OdometryRun, segment_s: float = 2.0) -> PreparedRun:
     if edges.size < 2:
         raise InsufficientDataError(f"{run.source}: too short for one {segment_s:g} s segment")
     txy, tyaw, tdt = truth_residuals(gt.t, gt.x, gt.y, gt.heading)
+    tvar = variance_factors(gt.t, gt.x, gt.y, gt.heading, t)
     return PreparedRun(
         run.name,
         t,
@@ -299,6 +308,7 @@ def prepare_run(run: OdometryRun, segment_s: float = 2.0) -> PreparedRun:
         truth_xy=txy,
         truth_yaw=tyaw,
         truth_dt=tdt,
+        truth_var=tvar,
     )
 
 

@@ -8,7 +8,7 @@ the pose is a hidden state (Martinelli, Tomatis and Siegwart's augmented Kalman 
 the state is the pose (x, y, heading) and the 24 slip coefficients; each cycle moves the pose by
 the slip model's motion at the current coefficients (:mod:`odolab.core.models.slip`, midpoint
 heading), with a variance the model leaves unexplained; each real update of the truth
-(:func:`odolab.calibration.truthnoise.real_updates`) measures the pose with the truth's noise.
+(:func:`odolab.metrics.truthnoise.real_updates`) measures the pose with the truth's noise.
 The coefficients start at the kinematic model the regression's prior is centred on, with the
 regression's weak prior, and carry over from run to run (each run's pose starts at its truth).
 What the filter ends with is their posterior given every update, with the poses marginalised:
@@ -37,9 +37,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.calibration.truthnoise import TruthNoise, real_updates
 from odolab.core.models.slip import FEATURES, SlipModel
 from odolab.core.params import RobotParams
+from odolab.metrics.truthnoise import TruthNoise, real_updates
 
 __all__ = ["SCALES", "UNSTEADY", "FilterFit", "RunCycles", "filter_coefficients", "run_cycles"]
 

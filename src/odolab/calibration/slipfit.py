@@ -39,7 +39,7 @@ likelihood (:func:`fit_noise`). The errors are those of a model fitted without t
 run is cut into :data:`NOISE_FOLDS` parts and each part is predicted by the model fitted on the
 others, so the variance covers the model's own error on new data as well as the noise.
 
-The ground truth is a measurement with noise of its own (:mod:`odolab.calibration.truthnoise`:
+The ground truth is a measurement with noise of its own (:mod:`odolab.metrics.truthnoise`:
 estimated from its real updates, or given): the rows of a window difference the truth at its two
 ends, and neighbouring windows share one end, so the rows' noise is the model's (diagonal) plus
 the truth's (:func:`truth_covariances`, banded), and the regression weighs the rows by the
@@ -59,7 +59,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from odolab.calibration.slipfilter import FilterFit, run_cycles
-from odolab.calibration.truthnoise import TruthNoise
 from odolab.core.errors import InsufficientDataError
 from odolab.core.models.slip import FEATURES, SlipModel
 from odolab.core.params import RobotParams
@@ -72,6 +71,7 @@ from odolab.core.slip_uncertainty import (
     propagate_terms,
     terms_of,
 )
+from odolab.metrics.truthnoise import TruthNoise, material, piece_covariance
 
 __all__ = [
     "UNDETERMINED_SPREAD",
@@ -102,11 +102,6 @@ STEADY_W = 0.4
 SETTLE_S = 0.3
 #: A fit keeps only the windows in steady state when at least this share of them is (else all)
 STEADY_SHARE = 0.25
-#: A ground truth whose noise is below both of these (m, rad) is as good as exact for the slip
-#: fit (:func:`filtered`): motion capture's, or what the noise estimate reads of a noise-free
-#: truth's own bend.
-EXACT_XY = 1e-3
-EXACT_YAW = 1e-3
 #: The kinematic models the slip model's prior is centred on, in order of preference: the first
 #: that can be fitted to the runs (see :func:`odolab.calibration.lsq.kinematic_base`)
 BASE_MODELS = ("icr", "extended", "diff")
@@ -732,13 +727,13 @@ def filtered(truth: TruthNoise | None, d: SlipDesign, c_xy: FloatArray, c_yaw: F
     mostly the truth's noise, and the filter, which takes the truth as a measurement of a hidden
     pose, uses it as it is. Measured (docs/models.md): the DRIVE Husky's lidar 0.22 (position)
     and 0.008 (heading) of the model's, noise-free simulated truths 0.04 to 0.16, 2 cm / 0.02
-    rad of added noise 16 to 64, 5 cm / 0.1 rad 11 to 77. A truth better than :data:`EXACT_XY`
-    and :data:`EXACT_YAW` is as good as exact (a perfect simulator's, whose model noise is nil,
-    reads 0.1 to 0.8 mm: its own bend, :mod:`odolab.calibration.truthnoise`)."""
+    rad of added noise 16 to 64, 5 cm / 0.1 rad 11 to 77. A truth better than
+    :data:`~odolab.metrics.truthnoise.EXACT_XY` and ``EXACT_YAW`` is as good as exact (a perfect simulator's, whose model noise is nil,
+    reads 0.1 to 0.8 mm: its own bend, :mod:`odolab.metrics.truthnoise`)."""
     if not _noisy(truth):
         return False
     assert truth is not None
-    if truth.xy < EXACT_XY and truth.yaw < EXACT_YAW:  # as good as exact
+    if not material(truth):  # as good as exact
         return False
     spacing = truth.spacing if truth.spacing > 0 else float(np.median(d.durations))
     seconds = max(float(np.sum(d.durations)), 1e-12)
@@ -807,6 +802,7 @@ def _blocks(run: object, count: int) -> list[object]:
                 gt_x=np.asarray(run.gt_x)[part],  # type: ignore[attr-defined]
                 gt_y=np.asarray(run.gt_y)[part],  # type: ignore[attr-defined]
                 gt_heading=np.asarray(run.gt_heading)[part],  # type: ignore[attr-defined]
+                truth_var=np.asarray(run.truth_var)[part],  # type: ignore[attr-defined]
             )
         )
     return out
@@ -839,7 +835,7 @@ def fit_slip_model(
     equal duration, and each part is predicted by the model fitted on the others
     (cross-fitting), so the predictive variance covers the model's own error on new data, not
     only the noise it saw; with ``folds`` 1 (or runs too short to cut), on the data it was
-    fitted on. ``truth``: the ground truth's noise (:mod:`odolab.calibration.truthnoise`), in
+    fitted on. ``truth``: the ground truth's noise (:mod:`odolab.metrics.truthnoise`), in
     the regression's row covariance (:func:`truth_covariances`: the rows are weighted by it, so
     the coefficients rest on the stretches the truth's noise weighs least on). The predictive
     variance still covers it: it is fitted to, and judged by (``odolab evaluate --nees``),
@@ -871,9 +867,13 @@ def fit_slip_model(
                 pieces = []
                 break
             for length in piece_s:
-                pieces.append(_piece_errors([p[f] for p in parts], nominal.with_(model=m), length))
+                pieces.append(
+                    _piece_errors([p[f] for p in parts], nominal.with_(model=m), length, truth)
+                )
     if not pieces:
-        pieces = [_piece_errors(runs, nominal.with_(model=model), length) for length in piece_s]
+        pieces = [
+            _piece_errors(runs, nominal.with_(model=model), length, truth) for length in piece_s
+        ]
     groups = [
         _Pieces.join(pieces[i :: len(piece_s)]).take(NOISE_PIECES_MAX) for i in range(len(piece_s))
     ]
@@ -950,9 +950,15 @@ class _Pieces:
         return cov, grad
 
 
-def _piece_errors(runs: Sequence[object], params: RobotParams, piece_s: float) -> _Pieces:
+def _piece_errors(
+    runs: Sequence[object], params: RobotParams, piece_s: float, truth: TruthNoise | None = None
+) -> _Pieces:
     """Every ``piece_s`` piece of prepared runs with motion, started at the ground truth's
-    pose (:class:`_Pieces`)."""
+    pose (:class:`_Pieces`). Where the truth's noise is material
+    (:func:`odolab.metrics.truthnoise.material`), what it adds to each piece's error (at its
+    start and its end: :func:`~odolab.metrics.truthnoise.piece_covariance`) is a known part of
+    the piece's covariance, beside the posterior's: the terms fitted to the pieces are then the
+    model's own, not the truth's."""
     errs, bases, posts, pairs = [], [], [], []
     for run in runs:
         t = np.asarray(run.t, dtype=np.float64)  # type: ignore[attr-defined]
@@ -979,7 +985,14 @@ def _piece_errors(runs: Sequence[object], params: RobotParams, piece_s: float) -
             e[2] = np.angle(np.exp(1j * (gh[b] - end[2])))
             errs.append(e)
             bases.append(prop.basis[-1])
-            posts.append(prop.post[-1])
+            post = prop.post[-1]
+            if material(truth):
+                assert truth is not None
+                f = np.asarray(run.truth_var, dtype=np.float64)  # type: ignore[attr-defined]
+                f = f if f.size == t.size else np.ones(t.size)  # (a run made without it)
+                d = np.array([[end[0] - start[0], end[1] - start[1]]])
+                post = post + piece_covariance(truth, f[a : a + 1], f[b : b + 1], d)[0]
+            posts.append(post)
             pairs.append(prop.end_pairs())
     nt = len(TERMS)
     if not errs:
@@ -1034,15 +1047,25 @@ def fit_noise(groups: Sequence[_Pieces], start: FloatArray) -> FloatArray:
     return np.asarray(np.exp(best.x), dtype=np.float64)
 
 
-def nees_pieces(runs: Sequence[object], params: RobotParams, piece_s: float = 10.0) -> FloatArray:
+def nees_pieces(
+    runs: Sequence[object],
+    params: RobotParams,
+    piece_s: float = 10.0,
+    truth_sigma: TruthNoise | None = None,
+) -> FloatArray:
     """NEES of the end pose of every ``piece_s`` piece of runs with ground truth
     (:class:`odolab.io.run.OdometryRun`), each piece started at the ground truth's pose with zero
     covariance, the ground truth's frame taken as the robot's: `odolab evaluate --nees`'s
     numbers (:func:`odolab.metrics.consistency.run_nees`), pooled; chi-square with 3 degrees of
-    freedom where the covariance is honest."""
-    from odolab.metrics.consistency import run_nees
+    freedom where the covariance is honest. The truth's noise as evaluate takes it:
+    ``truth_sigma``, else estimated from the runs' truth (added where material)."""
+    from odolab.metrics.consistency import run_nees, runs_truth_noise
 
-    out = [run_nees(r, params, segment_s=piece_s, fit_gt_yaw_offset=False).nees for r in runs]  # type: ignore[arg-type]
+    truth = truth_sigma if truth_sigma is not None else runs_truth_noise(runs)  # type: ignore[arg-type]
+    out = [
+        run_nees(r, params, segment_s=piece_s, fit_gt_yaw_offset=False, truth=truth).nees  # type: ignore[arg-type]
+        for r in runs
+    ]
     return np.concatenate(out) if out else np.zeros(0)
 
 

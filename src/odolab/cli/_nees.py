@@ -10,6 +10,7 @@ from odolab.cli.wording import said
 if TYPE_CHECKING:
     from odolab.app.evaluate import NeesOutcome
     from odolab.core.params import RobotParams
+    from odolab.metrics.truthnoise import TruthNoise
 
 __all__ = ["print_nees", "render_nees"]
 
@@ -22,13 +23,17 @@ def print_nees(
     segment: float,
     *,
     fit_gt_yaw_offset: bool | None = None,
+    truth_sigma: TruthNoise | None = None,
 ) -> dict[str, object]:
     """NEES of every run (pieces of ``segment`` s) against its ground truth
     (:func:`odolab.app.evaluate.nees_of_paths`); prints a table and the verdict, returns the
     JSON-ready numbers."""
     from odolab.app.evaluate import nees_of_paths
 
-    outcome = nees_of_paths(paths, fmt, robot, method, segment, fit_gt_yaw_offset=fit_gt_yaw_offset)
+    outcome = nees_of_paths(
+        paths, fmt, robot, method, segment, fit_gt_yaw_offset=fit_gt_yaw_offset,
+        truth_sigma=truth_sigma,
+    )  # fmt: skip
     render_nees(outcome)
     return outcome.to_dict()
 
@@ -71,6 +76,13 @@ def render_nees(outcome: NeesOutcome) -> None:
     for model in outcome.slip_models:
         console.print(
             "note: covariance: " + model.describe_covariance(), markup=False, highlight=False
+        )
+    if outcome.truth is not None:
+        console.print(
+            f"note: {said(outcome.truth.describe())}; its noise at each piece's two ends is "
+            "added to the piece's covariance (--truth-sigma 0,0: taken as exact)",
+            markup=False,
+            highlight=False,
         )
     if outcome.skip_note:
         console.print(f"note: {said(outcome.skip_note)}", markup=False, highlight=False)

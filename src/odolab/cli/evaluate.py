@@ -27,6 +27,7 @@ if TYPE_CHECKING:
     from odolab.core.params import RobotParams
     from odolab.io.run import ReadOptions
     from odolab.metrics.runs import RunEvaluation
+    from odolab.metrics.truthnoise import TruthNoise
 
 __all__: list[str] = []
 
@@ -212,6 +213,7 @@ def evaluate_cmd(
     nees_segment: NeesSegmentOpt = 10.0,
     gt_yaw_offset: EvalGtYawOffsetOpt = None,
     chunk_rows: EvalChunkRowsOpt = None,
+    truth_sigma: TruthSigmaOpt = None,
 ) -> None:
     """APE, RPE (evo's definitions) and drift per distance: of EST against GT, or of runs.
 
@@ -230,6 +232,7 @@ def evaluate_cmd(
         chunk_rows, nees, nees_segment,
     )  # fmt: skip
     robot = load_request_params(request)  # every option checked before any file is read
+    truth = _nees_truth(truth_sigma, nees)
     if fmt is None:
         _evaluate_pair(request, paths, json_out)
         return
@@ -246,8 +249,23 @@ def evaluate_cmd(
             cluster=cluster,
             progress=report,
         )
-    nees_of = (fmt.value, robot, gt_yaw_offset) if nees else None
+    nees_of = (fmt.value, robot, gt_yaw_offset, truth) if nees else None
     _print_run_set(done, paths, results, json_out, nees_of, nees_segment)
+
+
+def _nees_truth(truth_sigma: str | None, nees: bool) -> TruthNoise | None:
+    """``--truth-sigma``: the ground truth's noise for ``--nees`` (None: estimated)."""
+    from odolab.core.errors import OdolabError
+    from odolab.metrics.truthnoise import parse_truth_sigma
+
+    if truth_sigma is None:
+        return None
+    if not nees:
+        raise OdolabError(
+            "--truth-sigma is the ground truth's noise in each NEES piece's covariance; "
+            "expected --nees too"
+        )
+    return parse_truth_sigma(truth_sigma)
 
 
 def _evaluate_pair(request: EvaluationRequest, paths: list[Path], json_out: Path | None) -> None:
@@ -271,7 +289,7 @@ def _print_run_set(
     paths: list[Path],
     results: Path | None,
     json_out: Path | None,
-    nees_of: tuple[str, RobotParams | None, bool | None] | None,
+    nees_of: tuple[str, RobotParams | None, bool | None, TruthNoise | None] | None,
     nees_segment: float,
 ) -> None:
     """Runs: the fleet table (``results``), the table or the fleet summary, the notes, the
@@ -292,10 +310,11 @@ def _print_run_set(
     if nees_of is not None:
         from odolab.cli._nees import print_nees
 
-        fmt, robot, gt_yaw_offset = nees_of
+        fmt, robot, gt_yaw_offset, truth = nees_of
         doc["nees"] = print_nees(
-            paths, fmt, robot, "midpoint", nees_segment, fit_gt_yaw_offset=gt_yaw_offset
-        )
+            paths, fmt, robot, "midpoint", nees_segment, fit_gt_yaw_offset=gt_yaw_offset,
+            truth_sigma=truth,
+        )  # fmt: skip
     _write_json(doc, json_out)
     report_failures(done.outcomes, done.report, results)
 
@@ -454,8 +473,8 @@ TruthSigmaOpt = Annotated[
     str | None,
     typer.Option(
         "--truth-sigma",
-        help="The ground truth's noise XY,YAW (m, rad) for the slip fit and compare's held-out "
-        "segments, e.g. 0.05,0.1 (default: estimated from the truth's own updates; 0,0: "
+        help="The ground truth's noise XY,YAW (m, rad) for the slip fit, compare's held-out "
+        "segments and --nees, e.g. 0.05,0.1 (default: estimated from the truth's own updates; 0,0: "
         "none; docs/models.md).",
     ),
 ]

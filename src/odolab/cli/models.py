@@ -87,9 +87,9 @@ def calibrate_compare_cmd(
     from odolab.app.models import CompareRequest, compare_files
     from odolab.calibration.compare import parse_curve
     from odolab.calibration.lsq import LsqOptions
-    from odolab.calibration.truthnoise import parse_truth_sigma
     from odolab.cli._output import write_output_text
     from odolab.core.params import load_params
+    from odolab.metrics.truthnoise import parse_truth_sigma
 
     chosen = _models(models)
     curve = parse_curve(learning_curve)  # (one check, in the library)

@@ -48,6 +48,14 @@ from odolab.core.uncertainty import (
 )
 from odolab.io.run import OdometryRun
 from odolab.metrics.association import interpolate_trajectory
+from odolab.metrics.truthnoise import (
+    TruthNoise,
+    estimate_truth_noise,
+    material,
+    piece_covariance,
+    truth_residuals,
+    variance_factors,
+)
 
 __all__ = [
     "DOF",
@@ -89,6 +97,8 @@ class RunNees:
     #: (k,) second-order index at each piece's end (odolab.core.uncertainty.second_order_index):
     #: above SECOND_ORDER_LIMIT the first-order covariance understates the spread
     second_order: NDArray[np.float64] | None = None
+    #: the ground truth's noise added to each piece's covariance (None: taken as exact)
+    truth: TruthNoise | None = None
 
     def to_dict(self) -> dict[str, object]:
         """JSON-ready dict."""
@@ -156,6 +166,8 @@ class _Pieces:
     dist: NDArray[np.float64]  #: (k,)
     gt: Trajectory
     second_order: NDArray[np.float64]  #: (k,) second-order index at each piece's end
+    t: NDArray[np.float64]  #: the stamps inside the ground truth's time range
+    bounds: NDArray[np.int64]  #: (k, 2) each piece's first and last stamp (indices of t)
 
 
 def _run_pieces(
@@ -223,7 +235,7 @@ def _run_pieces(
         dx, dy = gt.x[b] - gt.x[a], gt.y[b] - gt.y[a]
         gtr[k] = c * dx + s * dy, -s * dx + c * dy, gt.heading[b] - gt.heading[a]
         dist[k] = float(step[a:b].sum())
-    return _Pieces(odo, gtr, covs, dist, gt_full, rho)
+    return _Pieces(odo, gtr, covs, dist, gt_full, rho, t, np.array(pieces, dtype=np.int64))
 
 
 def run_nees(
@@ -235,16 +247,27 @@ def run_nees(
     segment_s: float = 10.0,
     gt_yaw_offset: float | None = None,
     fit_gt_yaw_offset: bool | None = None,
+    truth: TruthNoise | None = None,
 ) -> RunNees:
     """NEES of ``run``'s odometry with ``params`` over pieces of ``segment_s`` seconds.
 
     ``noise`` defaults to ``params.noise``. ``gt_yaw_offset`` (rad): the robot's forward axis in
     the ground truth's body frame, when known. Otherwise ``fit_gt_yaw_offset`` says whether to
     fit it (True), take 0 (False) or decide (None: fit unless the ground truth starts in the
-    odometry's frame; module doc)."""
+    odometry's frame; module doc). ``truth``: the ground truth's own noise; where it is
+    material (:func:`odolab.metrics.truthnoise.material`) what it adds to each piece's error at
+    its two ends (:func:`~odolab.metrics.truthnoise.piece_covariance`) is added to the piece's
+    covariance (None: the truth taken as exact)."""
     pcs = _run_pieces(run, params, method, segment_s, [noise])
     odo, gtr, covs, dist, gt_full = pcs.odo, pcs.gtr, pcs.covs[0], pcs.dist, pcs.gt
     ok = np.array([np.linalg.det(c) > 0 for c in covs])
+    if material(truth):
+        assert truth is not None
+        f = variance_factors(gt_full.t, gt_full.x, gt_full.y, gt_full.heading, pcs.t)
+        a, b = pcs.bounds[:, 0], pcs.bounds[:, 1]
+        covs = covs + piece_covariance(truth, f[a], f[b], gtr[:, :2])
+    else:
+        truth = None
     inv = np.zeros_like(covs)
     inv[ok] = np.linalg.inv(covs[ok])
     if fit_gt_yaw_offset is None:
@@ -271,6 +294,7 @@ def run_nees(
         dof_removed=removed,
         gt_yaw_offset_se=se,
         second_order=pcs.second_order[keep],
+        truth=truth,
     )
 
 
@@ -322,6 +346,17 @@ def _fit_yaw_offset(
     return float(wrap_angle(np.array([phi]))[0]), (1.0 / math.sqrt(info) if info > 0 else math.inf)
 
 
+def runs_truth_noise(runs: Sequence[OdometryRun]) -> TruthNoise | None:
+    """The noise of the runs' ground truth, estimated from its own updates and pooled
+    (:mod:`odolab.metrics.truthnoise`; None with too few updates)."""
+    parts = []
+    for run in runs:
+        if run.ground_truth is not None:
+            gt = run.ground_truth
+            parts.append(truth_residuals(gt.t, gt.x, gt.y, gt.heading))
+    return estimate_truth_noise(parts)
+
+
 def nees_of_runs(
     runs: Sequence[OdometryRun],
     params_of: Callable[[OdometryRun], RobotParams],
@@ -329,10 +364,13 @@ def nees_of_runs(
     *,
     segment_s: float = 10.0,
     fit_gt_yaw_offset: bool | None = None,
+    truth_sigma: TruthNoise | None = None,
 ) -> tuple[list[RunNees], list[str], str | None]:
     """:func:`run_nees` of every run with ``params_of(run)``, skipping the runs shorter than one
     piece; returns the results, the skipped runs' names and the sentence that says so (None when
-    none was skipped). Every run too short is refused with one sentence.
+    none was skipped). Every run too short is refused with one sentence. The ground truth's
+    noise: ``truth_sigma`` as given, else estimated from the runs' truth (:func:`runs_truth_noise`);
+    each run's result says whether it was allowed for (:attr:`RunNees.truth`).
 
     Raises:
         InsufficientDataError: every run is shorter than one NEES piece.
@@ -340,6 +378,7 @@ def nees_of_runs(
     results: list[RunNees] = []
     skipped: list[str] = []
     longest = 0.0
+    truth = truth_sigma if truth_sigma is not None else runs_truth_noise(runs)
     for run in runs:
         try:
             results.append(
@@ -349,6 +388,7 @@ def nees_of_runs(
                     method,
                     segment_s=segment_s,
                     fit_gt_yaw_offset=fit_gt_yaw_offset,
+                    truth=truth,
                 )
             )
         except ShorterThanPiece:

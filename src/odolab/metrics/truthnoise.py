@@ -30,11 +30,16 @@ from odolab.core.errors import CalibrationError
 
 __all__ = [
     "CHI2_1_MEDIAN",
+    "EXACT_XY",
+    "EXACT_YAW",
     "TruthNoise",
     "estimate_truth_noise",
+    "material",
     "parse_truth_sigma",
+    "piece_covariance",
     "real_updates",
     "truth_residuals",
+    "variance_factors",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -47,6 +52,11 @@ CHI2_1_MEDIAN = 0.454936423119572
 RESAMPLED = 1e-6
 #: Fewer real updates than this (interior ones, over all runs) give no estimate.
 MIN_UPDATES = 10
+#: A ground truth whose noise is below both of these (m, rad) is as good as exact
+#: (:func:`material`): motion capture's, or what the estimate reads of a noise-free truth's own
+#: bend (0.1 to 0.8 mm on the simulators).
+EXACT_XY = 1e-3
+EXACT_YAW = 1e-3
 
 
 @dataclass(frozen=True)
@@ -149,3 +159,69 @@ def estimate_truth_noise(
     xy = float(np.sqrt(np.median(rxy**2) / CHI2_1_MEDIAN))
     yaw = float(np.sqrt(np.median(rh**2) / CHI2_1_MEDIAN))
     return TruthNoise(xy, yaw, spacing=float(np.median(dt)), updates=int(rh.size))
+
+
+def material(noise: TruthNoise | None) -> bool:
+    """Whether the truth's noise is worth allowing for: known, and not as good as exact (above
+    :data:`EXACT_XY` or :data:`EXACT_YAW`)."""
+    return noise is not None and (noise.xy >= EXACT_XY or noise.yaw >= EXACT_YAW)
+
+
+def variance_factors(t_truth: FloatArray, x: FloatArray, y: FloatArray, heading: FloatArray,
+                     t: FloatArray) -> FloatArray:  # fmt: skip
+    """The variance of the truth at the instants ``t`` (linear interpolation of its rows, as
+    :func:`odolab.metrics.association.interpolate_trajectory` takes it), per unit variance of
+    one real update: a real update 1, halfway between two 0.5 (``(1 - a)^2 + a^2``).
+
+    Each row of the truth is a combination of its real updates (:func:`real_updates`): a real
+    one itself, a held one the update it repeats, a resampled one the line between its two real
+    neighbours; an instant between two rows combines theirs, and its variance is the sum of its
+    weights on each real update squared."""
+    tr = np.asarray(t_truth, dtype=np.float64)
+    tq = np.asarray(t, dtype=np.float64)
+    keep = real_updates(tr, x, y, heading)
+    if tr.size < 2 or keep.size == 0:
+        return np.ones(tq.size)
+    tu = tr[keep]
+    # each row: two real updates and the weight on the second
+    j = np.clip(np.searchsorted(tu, tr, side="right") - 1, 0, tu.size - 1)
+    nxt = np.minimum(j + 1, tu.size - 1)
+    span = tu[nxt] - tu[j]
+    frac = np.where(span > 0, (tr - tu[j]) / np.where(span > 0, span, 1.0), 0.0)
+    p = np.column_stack((x, y, heading))
+    held = np.all(p == p[keep][j], axis=1)  # repeats its last real update
+    frac = np.where(held | np.isin(np.arange(tr.size), keep), 0.0, np.clip(frac, 0.0, 1.0))
+    # each instant: between rows r and r + 1, weight w on the second
+    r = np.clip(np.searchsorted(tr, tq, side="right") - 1, 0, tr.size - 2)
+    w = np.clip((tq - tr[r]) / (tr[r + 1] - tr[r]), 0.0, 1.0)
+    idx = np.column_stack((j[r], nxt[r], j[r + 1], nxt[r + 1]))
+    coef = np.column_stack(((1 - w) * (1 - frac[r]), (1 - w) * frac[r],
+                            w * (1 - frac[r + 1]), w * frac[r + 1]))  # fmt: skip
+    same = idx[:, :, None] == idx[:, None, :]
+    return np.asarray(np.einsum("ni,nj,nij->n", coef, coef, same), dtype=np.float64)
+
+
+def piece_covariance(
+    noise: TruthNoise, start: FloatArray, end: FloatArray, d: FloatArray
+) -> FloatArray:
+    """The truth's noise in the error of pieces that start at the truth's pose and end against
+    it (m, 3, 3; x, y, heading; the error's frame is ``d``'s): ``start`` and ``end`` the truth's
+    variance factors there (:func:`variance_factors`), ``d`` (m, 2) each piece's displacement.
+
+    Both end positions add their noise; the start heading turns the whole piece, by
+    ``w = (-d_y, d_x)`` per radian, and enters the heading error too (so the two correlate);
+    the end heading adds its own. With start position and heading noise ``n_a``, ``delta`` and
+    end noise ``n_b``, ``h_b``: ``e_xy = n_b - n_a - delta w``, ``e_h = h_b - delta``."""
+    a = np.asarray(start, dtype=np.float64)
+    b = np.asarray(end, dtype=np.float64)
+    dd = np.asarray(d, dtype=np.float64).reshape(-1, 2)
+    w = np.column_stack((-dd[:, 1], dd[:, 0]))
+    sxy, syaw = noise.xy**2, noise.yaw**2
+    out = np.zeros((dd.shape[0], 3, 3))
+    out[:, :2, :2] = sxy * (a + b)[:, None, None] * np.eye(2) + syaw * a[:, None, None] * (
+        w[:, :, None] * w[:, None, :]
+    )
+    out[:, :2, 2] = syaw * a[:, None] * w
+    out[:, 2, :2] = out[:, :2, 2]
+    out[:, 2, 2] = syaw * (a + b)
+    return out
