@@ -10,7 +10,7 @@ from odolab.cli._apps import calibrate_app
 from odolab.cli._nees import print_nees
 from odolab.cli._output import echo
 from odolab.cli.core import MethodChoice, MethodOpt
-from odolab.cli.evaluate import NeesSegmentOpt, RunsWithTruthArg
+from odolab.cli.evaluate import NeesSegmentOpt, RunsWithTruthArg, TruthSigmaOpt
 from odolab.cli.options import NewParamsOutputOpt, RunFormat
 
 __all__ = ["print_nees"]
@@ -39,6 +39,7 @@ def calibrate_noise_cmd(
     method: MethodOpt = MethodChoice.midpoint,
     segment: NeesSegmentOpt = 10.0,
     gt_yaw_offset: NoiseGtYawOffsetOpt = None,
+    truth_sigma: TruthSigmaOpt = None,
 ) -> None:
     """Fit the \\[noise] table to runs with ground truth: k_left, k_right, k_scrub by maximum
     likelihood over the runs' pieces; judge it on held-out runs."""
@@ -47,14 +48,19 @@ def calibrate_noise_cmd(
     from odolab.core.errors import OdolabError
     from odolab.core.params import load_params, save_params
     from odolab.metrics.consistency import fit_noise
+    from odolab.metrics.truthnoise import parse_truth_sigma
 
     check_not_the_input(output, params)
+    truth = parse_truth_sigma(truth_sigma) if truth_sigma else None
     robot = load_params(params) if params else None
     found = read_runs(runs, fmt.value, robot)
     base = robot or found[0].params
     if base is None:
         raise OdolabError("the runs carry no parameters; give --params")
-    fit = fit_noise(found, base, method.value, segment_s=segment, fit_gt_yaw_offset=gt_yaw_offset)
+    fit = fit_noise(
+        found, base, method.value, segment_s=segment, fit_gt_yaw_offset=gt_yaw_offset,
+        truth_sigma=truth,
+    )  # fmt: skip
     noise = fit.noise
     new = base.with_(noise=noise)
     save_params(
@@ -84,3 +90,9 @@ def calibrate_noise_cmd(
         f"({fit.n_turning} turning) -> {output}; check it on held-out runs: odolab evaluate RUNS "
         f"--format {fmt.value} --params {output} --nees"
     )
+    if fit.truth is not None:
+        echo(
+            f"note: {fit.truth.describe()}; its noise at each piece's two ends is a known part "
+            "of the piece's covariance, so the constants are the wheels' own (--truth-sigma 0,0: "
+            "taken as exact)"
+        )

@@ -261,13 +261,8 @@ def run_nees(
     pcs = _run_pieces(run, params, method, segment_s, [noise])
     odo, gtr, covs, dist, gt_full = pcs.odo, pcs.gtr, pcs.covs[0], pcs.dist, pcs.gt
     ok = np.array([np.linalg.det(c) > 0 for c in covs])
-    if material(truth):
-        assert truth is not None
-        f = variance_factors(gt_full.t, gt_full.x, gt_full.y, gt_full.heading, pcs.t)
-        a, b = pcs.bounds[:, 0], pcs.bounds[:, 1]
-        covs = covs + piece_covariance(truth, f[a], f[b], gtr[:, :2])
-    else:
-        truth = None
+    covs = covs + _truth_term(pcs, truth)
+    truth = truth if material(truth) else None
     inv = np.zeros_like(covs)
     inv[ok] = np.linalg.inv(covs[ok])
     if fit_gt_yaw_offset is None:
@@ -576,6 +571,8 @@ class NoiseFit:
     n_turning: int  #: pieces with commanded turning (they identify k_scrub)
     mean_nees: float  #: of the training pieces with the fitted noise
     expected_mean: float
+    #: the ground truth's noise, a known term of each piece (None: taken as exact)
+    truth: TruthNoise | None = None
 
     def provenance(self) -> dict[str, object]:
         """A TOML-able table: each constant's value, interval and the runs it came from."""
@@ -602,12 +599,19 @@ def _pieces_of(
     segment_s: float,
     start: NoiseParams,
     fit_gt_yaw_offset: bool | None,
+    truth: TruthNoise | None = None,
 ) -> tuple[
-    list[NDArray[np.float64]], list[NDArray[np.float64]], list[str], list[NDArray[np.float64]], int
+    list[NDArray[np.float64]],
+    list[NDArray[np.float64]],
+    list[str],
+    list[NDArray[np.float64]],
+    int,
+    list[NDArray[np.float64]],
 ]:
     """Per run with a usable piece: the pieces' errors, their unit-noise covariances (k, 3, 3,
-    3), the run's name, the pieces' turns; and how many runs had a yaw offset fitted away."""
-    errs, bases, names, turns = [], [], [], []
+    3), the run's name, the pieces' turns; how many runs had a yaw offset fitted away; and per
+    run the ground truth's noise in each piece (k, 3, 3; zeros where ``truth`` is None)."""
+    errs, bases, names, turns, known = [], [], [], [], []
     removed = 0
     for run in runs:
         pcs = _run_pieces(run, params, method, segment_s, [start, *_UNIT_NOISES])
@@ -615,32 +619,48 @@ def _pieces_of(
         ok = np.array([np.linalg.det(c) > 0 for c in scaled])
         if not ok.any():
             continue
+        truth_cov = _truth_term(pcs, truth)
         fit = fit_gt_yaw_offset
         if fit is None:
             fit = not starts_in_odometry_frame(pcs.gt)
         offset = 0.0
         if fit:
-            offset, _ = _fit_yaw_offset(pcs.odo[ok], pcs.gtr[ok], np.linalg.inv(scaled[ok]))
+            offset, _ = _fit_yaw_offset(
+                pcs.odo[ok], pcs.gtr[ok], np.linalg.inv(scaled[ok] + truth_cov[ok])
+            )
             removed += 1
         errs.append(_errors(pcs.odo, pcs.gtr, offset)[ok])
         turns.append(np.abs(pcs.odo[ok, 2]))
         bases.append(np.stack([c[ok] for c in pcs.covs[1:]], axis=1))  # (k, 3, 3, 3)
+        known.append(truth_cov[ok])
         names.append(run.name)
-    return errs, bases, names, turns, removed
+    return errs, bases, names, turns, removed, known
+
+
+def _truth_term(pcs: _Pieces, truth: TruthNoise | None) -> NDArray[np.float64]:
+    """The ground truth's noise in each piece's error (k, 3, 3; zeros where it is not material:
+    :func:`odolab.metrics.truthnoise.piece_covariance`)."""
+    if not material(truth):
+        return np.zeros((pcs.odo.shape[0], 3, 3))
+    assert truth is not None
+    gt = pcs.gt
+    f = variance_factors(gt.t, gt.x, gt.y, gt.heading, pcs.t)
+    a, b = pcs.bounds[:, 0], pcs.bounds[:, 1]
+    return piece_covariance(truth, f[a], f[b], pcs.gtr[:, :2])
 
 
 def _nll(
-    e: NDArray[np.float64], a: NDArray[np.float64], free: list[int]
+    e: NDArray[np.float64], a: NDArray[np.float64], free: list[int], known: NDArray[np.float64]
 ) -> Callable[[NDArray[np.float64]], float]:
     """The negative log-likelihood of the errors ``e`` over the logarithms of the free
-    constants (the others 0)."""
+    constants (the others 0); ``known``: the ground truth's part of each piece's covariance."""
 
     def nll(u: NDArray[np.float64]) -> float:
         if np.any(np.abs(u) > 60):  # e**60: far outside any plausible constant
             return 1e300
         k = np.zeros(3)
         k[free] = np.exp(u)
-        cov = np.einsum("j,kjab->kab", k, a)
+        cov = np.einsum("j,kjab->kab", k, a) + known
         sign, logdet = np.linalg.slogdet(cov)
         if np.any(sign <= 0):
             return 1e300
@@ -680,6 +700,7 @@ def fit_noise(
     *,
     segment_s: float = 10.0,
     fit_gt_yaw_offset: bool | None = None,
+    truth_sigma: TruthNoise | None = None,
 ) -> NoiseFit:
     """``k_left``, ``k_right``, ``k_scrub`` that make the pieces' errors most likely.
 
@@ -689,22 +710,28 @@ def fit_noise(
     (the numerical Hessian, :func:`odolab.core.regression.approx_hess3`). Straight pieces carry the wheels' noise, turning pieces
     the scrub as well; without a turning piece (:data:`TURNING_RAD`) ``k_scrub`` stays unknown
     (written 0 and said).
-    A run's yaw offset, when fitted, is fitted first with the scale fit's noise."""
+    A run's yaw offset, when fitted, is fitted first with the scale fit's noise. The ground
+    truth's noise (``truth_sigma``, else estimated from the runs' truth: :func:`runs_truth_noise`)
+    is a known part of each piece's covariance where it is material, so the constants are the
+    wheels' own (:attr:`NoiseFit.truth`)."""
     if not runs:
         raise InsufficientDataError("no runs to fit the noise to")
     start = fit_noise_scale(
         runs, params, method, segment_s=segment_s, fit_gt_yaw_offset=fit_gt_yaw_offset
     )
-    errs, bases, names, turns, removed = _pieces_of(
-        runs, params, method, segment_s, start, fit_gt_yaw_offset
+    truth = truth_sigma if truth_sigma is not None else runs_truth_noise(runs)
+    truth = truth if material(truth) else None
+    errs, bases, names, turns, removed, knowns = _pieces_of(
+        runs, params, method, segment_s, start, fit_gt_yaw_offset, truth
     )
     e = np.concatenate(errs)
     a = np.concatenate(bases)
+    known = np.concatenate(knowns)
     n = e.shape[0]
     turning = np.concatenate(turns) >= TURNING_RAD
     scrub_known = bool(turning.any())
     free = [0, 1, 2] if scrub_known else [0, 1]
-    u, se = _maximum(_nll(e, a, free), start, free)
+    u, se = _maximum(_nll(e, a, free, known), start, free)
     keys = ("k_left", "k_right", "k_scrub")
     values = dict.fromkeys(keys, 0.0)
     ci: dict[str, tuple[float, float]] = {}
@@ -713,7 +740,7 @@ def fit_noise(
         half = min(_Z95 * float(se[j]), 300.0)  # an unidentified constant: [0, inf) in effect
         ci[keys[idx]] = (math.exp(u[j] - half), math.exp(u[j] + half))
     if scrub_known:  # the scrub may be 0 (wheels): its interval on the linear scale
-        values["k_scrub"], ci["k_scrub"] = _scrub_interval(e, a, values)
+        values["k_scrub"], ci["k_scrub"] = _scrub_interval(e, a, values, known)
     unknown = (
         {}
         if scrub_known
@@ -728,7 +755,7 @@ def fit_noise(
             "pieces"
         ) from err
     k = np.array([values[key] for key in keys])
-    cov = np.einsum("j,kjab->kab", k, a)
+    cov = np.einsum("j,kjab->kab", k, a) + known
     nees = np.einsum("ka,ka->k", e, np.linalg.solve(cov, e[..., None])[..., 0])
     return NoiseFit(
         noise=noise,
@@ -739,11 +766,15 @@ def fit_noise(
         n_turning=int(turning.sum()),
         mean_nees=float(nees.mean()),
         expected_mean=(DOF * n - removed) / n,
+        truth=truth,
     )
 
 
 def _scrub_interval(
-    e: NDArray[np.float64], a: NDArray[np.float64], values: dict[str, float]
+    e: NDArray[np.float64],
+    a: NDArray[np.float64],
+    values: dict[str, float],
+    known: NDArray[np.float64],
 ) -> tuple[float, tuple[float, float]]:
     """``k_scrub`` and its 95 % likelihood interval with the wheels' constants held at theirs
     (0 when no scrub is more likely than the fitted one: a wheeled robot)."""
@@ -751,7 +782,7 @@ def _scrub_interval(
 
     from odolab.core.distributions import chi2_ppf
 
-    wheels = values["k_left"] * a[:, 0] + values["k_right"] * a[:, 1]
+    wheels = values["k_left"] * a[:, 0] + values["k_right"] * a[:, 1] + known
 
     def ll(ks: float) -> float:
         cov = wheels + ks * a[:, 2]
