@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from noisy_truth import at_half_rate, white
 from odolab.calibration.compare import (
     NOISE_SHARE,
     SMOOTH_S,
@@ -54,14 +55,8 @@ def test_truth_near_averages_the_truths_offset_in_the_estimates_frame() -> None:
     for a, b in ((same.x, exact.x), (same.y, exact.y), (same.heading, exact.heading)):
         assert np.max(np.abs(a - b)) < 1e-12
     # white noise of 5 cm / 0.1 rad on the truth: averaged over 1 s either side (41 stamps)
-    rng = np.random.default_rng(3)
     n = est.t.size
-    noisy = Trajectory.from_xyh(
-        est.t,
-        exact.x + 0.05 * rng.standard_normal(n),
-        exact.y + 0.05 * rng.standard_normal(n),
-        exact.heading + 0.1 * rng.standard_normal(n),
-    )
+    noisy = white(exact, 0.05, 0.1, np.random.default_rng(3))
     inner = np.arange(40, n - 40, 10)
     near = truth_near(noisy, est, inner, SMOOTH_S)
     pos = np.hypot(near.x[inner] - exact.x[inner], near.y[inner] - exact.y[inner])
@@ -105,15 +100,7 @@ def _noisy_runs(seed: int) -> tuple[list[object], list[object], list[object]]:
 
     rng = np.random.default_rng(7919 * seed)
     runs = [exploration(IcrSpeedSim(), seed), *held_out_runs(IcrSpeedSim(), seed)]
-    noisy = []
-    for r in runs:
-        keep = np.arange(0, r.t.size, 2)
-
-        def add(v: np.ndarray, sigma: float, r: object = r, keep: np.ndarray = keep) -> np.ndarray:
-            t = r.t  # type: ignore[attr-defined]
-            return np.interp(t, t[keep], v[keep] + sigma * rng.standard_normal(keep.size))
-
-        noisy.append(replace(r, x=add(r.x, 0.05), y=add(r.y, 0.05), heading=add(r.heading, 0.1)))
+    noisy = [at_half_rate(r, 0.05, 0.1, rng) for r in runs]
     return noisy[:1], noisy[1:], runs[1:]  # type: ignore[return-value]
 
 

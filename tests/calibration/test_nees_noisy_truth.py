@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from noisy_truth import at_half_rate
 from odolab.metrics.truthnoise import TruthNoise, material, piece_covariance, variance_factors
 
 
@@ -65,7 +66,6 @@ def _fit_and_nees(seed: int) -> dict[float, np.ndarray]:
     white noise (resampled to 20 Hz), the slip model fitted on the exploration: NEES of the
     held-out runs' 1 s and 3 s pieces as `evaluate --nees` gives them."""
     import tempfile
-    from dataclasses import replace
     from pathlib import Path
 
     from tests.models.independent_sims import IcrSpeedSim, exploration, held_out_runs, write_run
@@ -77,16 +77,7 @@ def _fit_and_nees(seed: int) -> dict[float, np.ndarray]:
 
     rng = np.random.default_rng(104729 * seed)
     runs = [exploration(IcrSpeedSim(), seed), *held_out_runs(IcrSpeedSim(), seed)]
-    noisy = []
-    for r in runs:
-        keep = np.arange(0, r.t.size, 2)
-
-        def add(
-            v: np.ndarray, sigma: float, t: np.ndarray = r.t, k: np.ndarray = keep
-        ) -> np.ndarray:
-            return np.interp(t, t[k], v[k] + sigma * rng.standard_normal(k.size))
-
-        noisy.append(replace(r, x=add(r.x, 0.05), y=add(r.y, 0.05), heading=add(r.heading, 0.1)))
+    noisy = [at_half_rate(r, 0.05, 0.1, rng) for r in runs]
     with tempfile.TemporaryDirectory() as d:
         read = [read_run(write_run(Path(d), r), "csv") for r in noisy]
         fit = calibrate_lsq(read[:1], PRESETS["jaguar-lite"], LsqOptions(model="slip"))

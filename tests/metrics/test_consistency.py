@@ -281,6 +281,7 @@ def test_fit_noise_allows_for_a_noisy_ground_truth() -> None:
 
     from nees_model_runs import MODEL_NOISE, PIECE_S, model_run
 
+    from noisy_truth import white
     from odolab.metrics.consistency import fit_noise
     from odolab.metrics.truthnoise import TruthNoise
 
@@ -288,15 +289,7 @@ def test_fit_noise_allows_for_a_noisy_ground_truth() -> None:
     runs = []
     for seed in range(200, 220):
         r = model_run(seed)
-        gt = r.require_ground_truth()
-        n = gt.t.size
-        noisy = Trajectory.from_xyh(
-            gt.t,
-            gt.x + 0.01 * rng.standard_normal(n),
-            gt.y + 0.01 * rng.standard_normal(n),
-            gt.heading + 0.01 * rng.standard_normal(n),
-        )
-        runs.append(replace(r, ground_truth=noisy))
+        runs.append(replace(r, ground_truth=white(r.require_ground_truth(), 0.01, 0.01, rng)))
     fit = fit_noise(runs, NOMINAL, segment_s=PIECE_S)
     # measured (seed 13): the truth's noise estimated 10.02 mm where 10 mm was added (9.98 at
     # seed 11); bounds 8-12 mm
