@@ -6,6 +6,10 @@ sums over every pair of steps): printed for 3,000, 6,000 and 12,000 cycles (20 H
 minutes) as a ratio to the poses alone. The streaming stepper's cost per cycle is printed at the
 start and after the longest log (it grows with the cycles so far; a 20 Hz loop has 50 ms).
 
+Then the two loops compiled (``slip_covariance.COMPILED``, where numba is installed) against the
+numpy loops that run without numba, in the same run: a whole log of 3,000 cycles, and 300
+pieces of 20 cycles each (``evaluate --nees`` over 1 s pieces: the DRIVE Husky's 314 windows).
+
 Usage: python benchmarks/bench_slip_covariance.py [--repeats R]
 """
 
@@ -18,7 +22,7 @@ import numpy as np
 from _timing import best  # benchmarks/_timing.py (run as python benchmarks/...)
 
 from odolab import PRESETS
-from odolab.core.models import SlipModel
+from odolab.core.models import SlipModel, slip_covariance
 from odolab.core.odometry import integrate_increments
 from odolab.core.params import NoiseParams
 from odolab.core.slip_uncertainty import SlipCovarianceStepper, propagate_covariance
@@ -71,6 +75,30 @@ def main() -> None:
         f"streaming stepper: {1e3 * first:.3f} ms a cycle at the start, {1e3 * last:.3f} ms after "
         f"{biggest} cycles ({last / first:.1f}x; a 20 Hz loop has 50 ms)"
     )
+    if not slip_covariance.HAVE_NUMBA:
+        print("numba is not installed: the numpy loops only")
+        return
+
+    def whole() -> None:
+        propagate_covariance(t[:3000], dl[:3000], dr[:3000], slip)
+
+    def pieces() -> None:
+        for p in range(300):
+            a = 20 * p
+            propagate_covariance(t[a : a + 21], dl[a : a + 21], dr[a : a + 21], slip)
+
+    print("the loops compiled against the numpy loops (seconds, best of the repeats):")
+    for label, work in (("a log of 3,000 cycles", whole), ("300 pieces of 20 cycles", pieces)):
+        times = {}
+        for compiled in (True, False):
+            slip_covariance.COMPILED = compiled
+            work()  # (compiled: the kernels loaded from numba's cache or compiled, not timed)
+            times[compiled] = best(work, args.repeats)
+        slip_covariance.COMPILED = True
+        print(
+            f"  {label}: compiled {times[True]:.3f}, numpy {times[False]:.3f}: "
+            f"{times[False] / times[True]:.1f}x faster"
+        )
 
 
 if __name__ == "__main__":

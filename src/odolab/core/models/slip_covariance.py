@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING, cast
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.core._jit import HAVE_NUMBA
 from odolab.core.errors import InsufficientDataError
 from odolab.core.models.slip_terms import DRIFT_KEYS, FEATURES, KIND, NOISE_KEYS, TURN_CYCLES
 
@@ -71,9 +72,12 @@ FloatArray = NDArray[np.float64]
 #: The slip model's variance terms, in the order of :attr:`SlipPropagation.basis`.
 TERMS: tuple[str, ...] = (*NOISE_KEYS, *DRIFT_KEYS)
 #: the body output (forward, lateral, heading) each white noise term enters through
-_NOISE_OUTPUT = np.array([0, 1, 2, 0, 1, 2])
+_NOISE_OUTPUT = np.array([0, 1, 2, 0, 1, 2], dtype=np.int64)
 #: ... and each drift term
-_DRIFT_OUTPUT = np.array([0, 1, 2, 2])
+_DRIFT_OUTPUT = np.array([0, 1, 2, 2], dtype=np.int64)
+#: Whether the propagation's two loops run compiled (:mod:`._slip_covariance_jit`, where numba
+#: is installed) or as the numpy loops here; the tests run both and hold them equal.
+COMPILED: bool = HAVE_NUMBA
 #: The terms that move the heading (the rest move only the position), :data:`TERMS` indices.
 HEADING_TERMS = np.array([TERMS.index(k) for k in ("q_yaw", "k_yaw", "d_yaw", "d_turn")])
 #: ... and the drift terms among them, :data:`DRIFT_KEYS` indices
@@ -133,6 +137,14 @@ class SlipPropagation:
         half = np.exp(-0.5 * s)
         out = np.zeros((n, 2, 2))
         cross = np.zeros((n, 2))
+        if COMPILED:  # the same loop compiled (its twin below runs without numba)
+            from odolab.core.models._slip_covariance_jit import second_order
+
+            second_order(
+                np.ascontiguousarray(white), np.ascontiguousarray(u), np.ascontiguousarray(v),
+                np.ascontiguousarray(s), half, np.ascontiguousarray(a), out, cross,
+            )  # fmt: skip
+            return out, cross
         acc = np.zeros((2, 2))
         for j in range(n - 1):
             c = white[: j + 1] + u[: j + 1] @ v[j]  # covariance of the steps k <= j with step j
@@ -376,6 +388,21 @@ def propagate_terms(
     coef_heading = np.zeros((n, 3 * k))
     if n:
         poses[0] = start
+    if COMPILED and n:  # the same loop compiled (its twin below, _cycle's, runs without numba)
+        from odolab.core.models._slip_covariance_jit import first_order
+
+        first_order(
+            np.array(start, dtype=np.float64), np.ascontiguousarray(fwd, dtype=np.float64),
+            np.ascontiguousarray(lat, dtype=np.float64),
+            np.ascontiguousarray(dth, dtype=np.float64),
+            np.ascontiguousarray(mult, dtype=np.float64),
+            np.ascontiguousarray(drift, dtype=np.float64), np.ascontiguousarray(big_phi),
+            sigma if sigma is not None else np.zeros((3 * k, 3 * k)), sigma is not None,
+            _NOISE_OUTPUT, _DRIFT_OUTPUT, poses, basis, post, drift_heading, coef_heading,
+        )  # fmt: skip
+        if sigma is None:
+            sigma = np.zeros((3 * k, 3 * k))
+        return SlipPropagation(poses, basis, post, drift_heading, coef_heading, sigma)
     state = (white, jd, jac if sigma is not None else None)
     for i in range(1, n):
         motion = (float(fwd[i]), float(lat[i]), float(dth[i]))
