@@ -18,6 +18,64 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 
+@njit(cache=True, inline="always")
+def _white_step(
+    white: FloatArray, tmp: FloatArray, g: FloatArray, dx: float, dy: float, col: int, mw: float
+) -> None:  # pragma: no cover
+    """One white term's pose covariance ``W`` (3 x 3) through a cycle: ``F W F^T`` (``F`` the
+    identity but ``F[0, 2] = -dy``, ``F[1, 2] = dx``) plus the cycle's variance ``mw`` entering
+    through ``G``'s column ``col``; ``tmp``: scratch."""
+    for a in range(3):
+        for b in range(3):
+            tmp[a, b] = white[a, b]
+    for b in range(3):
+        tmp[0, b] += -dy * white[2, b]
+        tmp[1, b] += dx * white[2, b]
+    for a in range(3):
+        white[a, 0] = tmp[a, 0] - dy * tmp[a, 2]
+        white[a, 1] = tmp[a, 1] + dx * tmp[a, 2]
+        white[a, 2] = tmp[a, 2]
+    for a in range(3):
+        for b in range(3):
+            white[a, b] += mw * g[a, col] * g[b, col]
+
+
+@njit(cache=True, inline="always")
+def _posterior_step(
+    jac: FloatArray,
+    sj: FloatArray,
+    g: FloatArray,
+    dx: float,
+    dy: float,
+    dphi: FloatArray,
+    sigma: FloatArray,
+    post: FloatArray,
+) -> None:  # pragma: no cover
+    """The pose's sensitivity to the coefficients ``jac`` (3 x 24) through a cycle (``F jac``
+    plus ``G``'s columns times ``dphi``, the body motion's by each coefficient), and the
+    posterior's share of the pose covariance ``post = jac sigma jac^T``; ``sj``: scratch."""
+    k = dphi.size
+    for q in range(3 * k):
+        jac[0, q] += -dy * jac[2, q]
+        jac[1, q] += dx * jac[2, q]
+    for j in range(3):
+        for q in range(k):
+            for a in range(3):
+                jac[a, j * k + q] += g[a, j] * dphi[q]
+    for a in range(3):
+        for q in range(3 * k):
+            acc = 0.0
+            for r in range(3 * k):
+                acc += jac[a, r] * sigma[r, q]
+            sj[a, q] = acc
+    for a in range(3):
+        for b in range(3):
+            acc = 0.0
+            for q in range(3 * k):
+                acc += sj[a, q] * jac[b, q]
+            post[a, b] = acc
+
+
 @njit(cache=True)
 def first_order(
     start: FloatArray,
@@ -42,10 +100,9 @@ def first_order(
     ``coef_heading`` (n, 24) from the body motion per cycle and its multipliers."""
     n = fwd.size
     nw = noise_output.size
-    nd = drift_output.size
     k = big_phi.shape[1]
     white = np.zeros((nw, 3, 3))
-    jd = np.zeros((nd, 3))
+    jd = np.zeros((drift_output.size, 3))
     jac = np.zeros((3, 3 * k))
     tmp = np.zeros((3, 3))
     g = np.zeros((3, 3))
@@ -59,63 +116,26 @@ def first_order(
         s = math.sin(m)
         dx = fwd[i] * c - lat[i] * s
         dy = fwd[i] * s + lat[i] * c
-        # F = I with F[0, 2] = -dy, F[1, 2] = dx; G's columns: forward, lateral, heading
+        # G's columns: the forward, lateral and heading motion's effect on the pose
         g[0, 0], g[0, 1], g[0, 2] = c, -s, -0.5 * dy
         g[1, 0], g[1, 1], g[1, 2] = s, c, 0.5 * dx
         g[2, 0], g[2, 1], g[2, 2] = 0.0, 0.0, 1.0
         for w in range(nw):
-            # F W F^T: rows then columns, each row r gets f_r2 * row 2
-            for a in range(3):
-                for b in range(3):
-                    tmp[a, b] = white[w, a, b]
-            for b in range(3):
-                tmp[0, b] += -dy * white[w, 2, b]
-                tmp[1, b] += dx * white[w, 2, b]
-            for a in range(3):
-                white[w, a, 0] = tmp[a, 0] - dy * tmp[a, 2]
-                white[w, a, 1] = tmp[a, 1] + dx * tmp[a, 2]
-                white[w, a, 2] = tmp[a, 2]
-            col = noise_output[w]
-            mw = mult[i, w]
-            for a in range(3):
-                for b in range(3):
-                    white[w, a, b] += mw * g[a, col] * g[b, col]
-                    basis[i, w, a, b] = white[w, a, b]
-        for r in range(nd):
-            j0 = jd[r, 0] - dy * jd[r, 2]
-            j1 = jd[r, 1] + dx * jd[r, 2]
+            _white_step(white[w], tmp, g, dx, dy, noise_output[w], mult[i, w])
+            basis[i, w] = white[w]
+        for r in range(drift_output.size):  # d(pose) / d(drift rate): F jd + drift G's column
             col = drift_output[r]
-            jd[r, 0] = j0 + drift[i, r] * g[0, col]
-            jd[r, 1] = j1 + drift[i, r] * g[1, col]
-            jd[r, 2] = jd[r, 2] + drift[i, r] * g[2, col]
+            j0 = jd[r, 0] - dy * jd[r, 2] + drift[i, r] * g[0, col]
+            j1 = jd[r, 1] + dx * jd[r, 2] + drift[i, r] * g[1, col]
+            jd[r, 0], jd[r, 1] = j0, j1
+            jd[r, 2] += drift[i, r] * g[2, col]
             for a in range(3):
                 for b in range(3):
                     basis[i, nw + r, a, b] = jd[r, a] * jd[r, b]
             drift_heading[i, r] = jd[r, 2]
         if with_sigma:
-            for q in range(3 * k):
-                jac[0, q] += -dy * jac[2, q]
-                jac[1, q] += dx * jac[2, q]
-            for j in range(3):
-                for q in range(k):
-                    d = big_phi[i, q]
-                    for a in range(3):
-                        jac[a, j * k + q] += g[a, j] * d
-            # post = jac sigma jac^T
-            for a in range(3):
-                for q in range(3 * k):
-                    acc = 0.0
-                    for r in range(3 * k):
-                        acc += jac[a, r] * sigma[r, q]
-                    sj[a, q] = acc
-            for a in range(3):
-                for b in range(3):
-                    acc = 0.0
-                    for q in range(3 * k):
-                        acc += sj[a, q] * jac[b, q]
-                    post[i, a, b] = acc
-            for q in range(3 * k):
-                coef_heading[i, q] = jac[2, q]
+            _posterior_step(jac, sj, g, dx, dy, big_phi[i], sigma, post[i])
+            coef_heading[i] = jac[2]
         x += dx
         y += dy
         h += dth[i]
