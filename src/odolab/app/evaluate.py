@@ -395,7 +395,9 @@ def calibrate_lsq_runs(
         fit_gt_yaw_offset=request.fit_gt_yaw_offset,
         model=request.model,
         loss=request.loss,
-        truth_sigma=parse_truth_sigma(request.truth_sigma) if request.truth_sigma else None,
+        truth_sigma=parse_truth_sigma(request.truth_sigma)
+        if request.truth_sigma is not None
+        else None,
     )
     robot = load_params(request.params) if request.params else None
     ro = read_options

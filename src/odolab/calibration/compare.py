@@ -42,7 +42,7 @@ per resample: the CI shows how much the runs disagree, not the whole uncertainty
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -65,7 +65,7 @@ from odolab.core.trajectory import Trajectory
 from odolab.io.registry import LogFormat, read_run
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.metrics.runs import RUN_OPTIONS, Progress, evaluate_run, parallel_map
-from odolab.metrics.truthnoise import TruthNoise, estimate_truth_noise, truth_residuals
+from odolab.metrics.truthnoise import TruthNoise
 
 __all__ = [
     "DEFAULT_MODELS",
@@ -107,9 +107,9 @@ SEGMENT_RAD = math.pi / 2
 _METRICS = ("endpoint_error", "rpe_rmse", "drift_pct", "drift_deg_per_m")
 #: Where the ground truth's own noise is most of what the held-out segments measure (its
 #: expected share of the best model's mean squared segment error above this), each segment's
-#: end poses are the truth averaged over :data:`SMOOTH_S` either side (:class:`SegmentTruth`).
+#: end poses are the truth fitted over :data:`SMOOTH_S` either side (:class:`SegmentTruth`).
 NOISE_SHARE = 0.5
-#: Seconds either side of a segment's end over which a noisy truth is averaged.
+#: Seconds either side of a segment's end over which a noisy truth is fitted (:func:`truth_near`).
 SMOOTH_S = 1.0
 
 
@@ -145,7 +145,7 @@ class ModelScore:
     segment_error: Estimate | None = None
     #: per held-out run: the RPE (m) of each of its segments (runs in held_out order)
     segment_errors: list[list[float]] = field(default_factory=list)
-    #: the same segments with their end poses the truth averaged over :data:`SMOOTH_S` either
+    #: the same segments with their end poses the truth fitted over :data:`SMOOTH_S` either
     #: side (what the decision uses where the truth is noisy: :class:`SegmentTruth`)
     smoothed_errors: list[list[float]] = field(default_factory=list, repr=False)
     #: "best", "not worse", "worse" or "undecided": this model against the best
@@ -187,16 +187,15 @@ class SegmentTruth:
     With 5 cm and 0.1 rad that is 0.2 m a segment, and every model's mean error is mostly that
     noise: their ratios all near 1, and the rule says "not worse" or "undecided" whatever the
     models do. Where that ``share`` of the best model's mean squared segment error is above
-    :data:`NOISE_SHARE`, each segment's end poses are the truth averaged over :data:`SMOOTH_S`
-    either side instead (``smoothed_s``): the truth's offset from the model's own poses, in the
-    model's frame, averaged (a symmetric window's mean of a drift that grows steadily is its value
-    at the centre), which divides the noise's variance by the updates averaged."""
+    :data:`NOISE_SHARE`, each segment's end poses are the truth fitted over :data:`SMOOTH_S`
+    either side instead (``smoothed_s``; :func:`truth_near`), which divides the noise's variance
+    by the updates in the window."""
 
     noise: TruthNoise
     #: what the truth's noise adds to a segment's squared error at most (the formula above)
     #: over the best model's mean squared segment error
     share: float
-    #: seconds either side over which the truth was averaged (0: each end's own truth pose)
+    #: seconds either side over which the truth was fitted (0: each end's own truth pose)
     smoothed_s: float
 
     def describe(self) -> str:
@@ -209,8 +208,8 @@ class SegmentTruth:
         )
         if self.smoothed_s > 0:
             return (
-                f"{what}, so each segment's end poses are the truth averaged over "
-                f"{self.smoothed_s:g} s either side"
+                f"{what}, so each segment's end poses are the truth fitted over "
+                f"{self.smoothed_s:g} s either side (a line in time through its updates)"
             )
         return f"{what}: each segment's end poses are the truth's own"
 
@@ -241,7 +240,7 @@ class ModelComparison:
     #: held-out end-point error against seconds of the first training run (an exploration run):
     #: rows ``{"seconds", "model", "endpoint_error", "problem"}``; empty unless asked for
     learning_curve: list[dict[str, object]] = field(default_factory=list)
-    #: the truth's noise against the segments' errors, and whether it was averaged (None: no
+    #: the truth's noise against the segments' errors, and whether it was fitted near the ends (None: no
     #: estimate of it, too few updates or ``truth_noise`` off)
     truth: SegmentTruth | None = None
 
@@ -423,7 +422,7 @@ def segment_errors(
     the same ones): ``sqrt(e_t^2 + (SEGMENT_M e_r)^2)``, the relative pose's translation error
     ``e_t`` (m) and its heading error ``e_r`` (rad) weighted as the sideways error it makes over
     the next :data:`SEGMENT_M` of driving (turns in place count too). ``smooth_s`` > 0: each
-    segment's end poses are the truth averaged over that many seconds either side
+    segment's end poses are the truth fitted over that many seconds either side
     (:func:`truth_near`), for a noisy truth (:class:`SegmentTruth`)."""
     return _segment_errors(run, params, (smooth_s,))[0]
 
@@ -453,30 +452,61 @@ def _segment_errors(
 
 
 def truth_near(ref: Trajectory, est: Trajectory, at: NDArray[np.int64], half: float) -> Trajectory:
-    """``ref`` with its poses at the indices ``at`` replaced by the truth averaged over ``half``
-    seconds either side (``ref`` and ``est`` on the same stamps).
+    """``ref`` with its poses at the indices ``at`` replaced by the truth estimated from its
+    poses within ``half`` seconds either side (``ref`` and ``est`` on the same stamps).
 
-    What is averaged is the truth's offset from ``est`` in ``est``'s own frame (position) and
-    its heading difference, so the estimate's motion carries each nearby truth pose to the
-    instant: ``est_k^-1 ref_k``. The window is symmetric, shortened at a run's ends (none at the
-    first and last stamp): a drift that grows steadily has its mean at the centre."""
+    Near an instant ``i``, the truth differs from ``est`` by a rigid motion that changes slowly:
+    a heading offset ``phi_k = h_ref_k - h_est_k`` and, about ``est``'s own position at ``i``,
+    a shift ``c_k = p_ref_k - p_est_i - R(phi_k) (p_est_k - p_est_i)``. A model that has drifted
+    by a fixed rotation and shift has the same ``phi`` and ``c`` at every ``k``, turning or
+    not. Each is fitted by a straight line in time over the window and taken at ``t_i`` (the
+    window's mean where the stamps are even), so the truth's noise is averaged over the window's
+    updates; the end pose is then ``p_est_i + c``, ``h_est_i + phi``. The window is symmetric,
+    shortened at a run's ends (none at the first and last stamp)."""
     from odolab.core.kinematics import wrap_angle
 
     t = np.asarray(ref.t, dtype=np.float64)
-    c, s = np.cos(est.heading), np.sin(est.heading)
-    ex, ey = ref.x - est.x, ref.y - est.y
-    offsets = (c * ex + s * ey, -s * ex + c * ey, np.unwrap(wrap_angle(ref.heading - est.heading)))
+    phi = np.unwrap(wrap_angle(ref.heading - est.heading))
+    cos, sin = np.cos(phi), np.sin(phi)
+    # c_k = (p_ref_k - R(phi_k) p_est_k) - p_est_i + R(phi_k) p_est_i: window lines of the
+    # per-stamp parts, combined at each i
+    gx = ref.x - (cos * est.x - sin * est.y)
+    gy = ref.y - (sin * est.x + cos * est.y)
     reach = np.minimum(half, np.minimum(t[at] - t[0], t[-1] - t[at]))
-    lo = np.searchsorted(t, t[at] - reach, side="left")
-    hi = np.searchsorted(t, t[at] + reach, side="right")
-    lo, hi = np.minimum(lo, at), np.maximum(hi, at + 1)  # (the stamp itself, whatever rounding)
-    sums = [np.concatenate(([0.0], np.cumsum(v))) for v in offsets]
-    dx, dy, dh = ((c_[hi] - c_[lo]) / (hi - lo) for c_ in sums)
+    lo = np.minimum(np.searchsorted(t, t[at] - reach, side="left"), at)
+    hi = np.maximum(np.searchsorted(t, t[at] + reach, side="right"), at + 1)
+    fit = _window_lines(t - t[0], lo, hi, t[at] - t[0])
+    dh, mx, my, mc, ms = (fit(v) for v in (phi, gx, gy, cos, sin))
+    ex, ey = est.x[at], est.y[at]
     x, y, h = (np.array(v, dtype=np.float64) for v in (ref.x, ref.y, ref.heading))
-    x[at] = est.x[at] + c[at] * dx - s[at] * dy
-    y[at] = est.y[at] + s[at] * dx + c[at] * dy
+    x[at] = mx + mc * ex - ms * ey
+    y[at] = my + ms * ex + mc * ey
     h[at] = est.heading[at] + dh
     return Trajectory.from_xyh(t, x, y, h)
+
+
+def _window_lines(
+    t: NDArray[np.float64], lo: NDArray[np.int64], hi: NDArray[np.int64], at: NDArray[np.float64]
+) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
+    """For windows ``[lo, hi)`` of the stamps ``t``: a function giving, for a series, each
+    window's least-squares line in time taken at ``at`` (the window's mean where its stamps
+    are symmetric about ``at``; the mean where there is one stamp)."""
+
+    def sums(v: NDArray[np.float64]) -> NDArray[np.float64]:
+        c = np.concatenate(([0.0], np.cumsum(v)))
+        return c[hi] - c[lo]
+
+    n = (hi - lo).astype(np.float64)
+    mt = sums(t) / n
+    var = np.maximum(sums(t * t) / n - mt * mt, 0.0)
+    spread = var > 1e-12 * np.maximum(mt * mt, 1.0)
+
+    def fit(v: NDArray[np.float64]) -> NDArray[np.float64]:
+        mv = sums(v) / n
+        slope = np.where(spread, (sums(t * v) / n - mt * mv) / np.where(spread, var, 1.0), 0.0)
+        return np.asarray(mv + slope * (at - mt), dtype=np.float64)
+
+    return fit
 
 
 def _score(
@@ -771,19 +801,13 @@ def _recommend(
 def held_out_truth_noise(runs: Sequence[OdometryRun], o: LsqOptions) -> TruthNoise | None:
     """The noise of the held-out runs' ground truth: the user's (``o.truth_sigma``), else
     estimated from its own updates (None where ``o.truth_noise`` is off or there are too few)."""
-    if o.truth_sigma is not None:
-        return o.truth_sigma
-    if not o.truth_noise:
-        return None
-    parts = []
-    for r in runs:
-        gt = r.require_ground_truth()
-        parts.append(truth_residuals(gt.t, gt.x, gt.y, gt.heading))
-    return estimate_truth_noise(parts)
+    from odolab.metrics.consistency import runs_truth_noise
+
+    return runs_truth_noise(runs, o.truth_sigma, o.truth_noise)
 
 
 def segment_truth(ok: Sequence[ModelScore], noise: TruthNoise | None) -> SegmentTruth | None:
-    """Whether the fitted models' held-out segments are scored against the truth averaged near
+    """Whether the fitted models' held-out segments are scored against the truth fitted near
     their ends (see :class:`SegmentTruth`): where the truth's noise is more than
     :data:`NOISE_SHARE` of the best model's mean squared segment error (None: no noise known,
     or no segments)."""

@@ -50,7 +50,7 @@ from odolab.metrics.cluster import Cluster
 from odolab.metrics.runs import RUN_OPTIONS, Progress, RunEvaluation, evaluate_run, parallel_map
 from odolab.metrics.truthnoise import (
     TruthNoise,
-    estimate_truth_noise,
+    allowed,
     truth_residuals,
     variance_factors,
 )
@@ -686,6 +686,7 @@ def _units(
                 truth_xy=np.concatenate([r.truth_xy for r in rs]),
                 truth_yaw=np.concatenate([r.truth_yaw for r in rs]),
                 truth_dt=np.concatenate([r.truth_dt for r in rs]),
+                truth_var=np.concatenate([r.truth_var for r in rs]),
             )
         )
     sizes = [[(k, int(prepared[k].starts.size)) for k in members] for members in groups.values()]
@@ -786,13 +787,13 @@ def slip_truth_noise(prepared: Sequence[PreparedRun], o: LsqOptions) -> TruthNoi
     """The ground truth's noise the slip fit allows for: the user's (``o.truth_sigma``), else
     the estimate from the runs' own truth updates (None where ``o.truth_noise`` is off or the
     runs have too few updates to tell)."""
-    if o.truth_sigma is not None:  # the updates' spacing still from the runs
+    noise: TruthNoise | None = allowed(
+        o.truth_sigma, lambda: [r.truth_parts() for r in prepared], o.truth_noise
+    )
+    if o.truth_sigma is not None and noise is not None:  # the updates' spacing from the runs
         dt = np.concatenate([r.truth_dt for r in prepared]) if prepared else np.zeros(0)
-        spacing = float(np.median(dt)) if dt.size else 0.0
-        return replace(o.truth_sigma, spacing=spacing)
-    if not o.truth_noise:
-        return None
-    return estimate_truth_noise([r.truth_parts() for r in prepared])
+        noise = replace(noise, spacing=float(np.median(dt)) if dt.size else 0.0)
+    return noise
 
 
 def _check_identifiable(

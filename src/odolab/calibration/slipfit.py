@@ -1061,7 +1061,7 @@ def nees_pieces(
     ``truth_sigma``, else estimated from the runs' truth (added where material)."""
     from odolab.metrics.consistency import run_nees, runs_truth_noise
 
-    truth = truth_sigma if truth_sigma is not None else runs_truth_noise(runs)  # type: ignore[arg-type]
+    truth = runs_truth_noise(runs, truth_sigma)  # type: ignore[arg-type]
     out = [
         run_nees(r, params, segment_s=piece_s, fit_gt_yaw_offset=False, truth=truth).nees  # type: ignore[arg-type]
         for r in runs

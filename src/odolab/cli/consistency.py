@@ -51,7 +51,7 @@ def calibrate_noise_cmd(
     from odolab.metrics.truthnoise import parse_truth_sigma
 
     check_not_the_input(output, params)
-    truth = parse_truth_sigma(truth_sigma) if truth_sigma else None
+    truth = parse_truth_sigma(truth_sigma) if truth_sigma is not None else None
     robot = load_params(params) if params else None
     found = read_runs(runs, fmt.value, robot)
     base = robot or found[0].params

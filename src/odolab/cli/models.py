@@ -100,7 +100,9 @@ def calibrate_compare_cmd(
             models=tuple(chosen), curve=tuple(curve), seed=seed,
             options=LsqOptions(
                 segment_s=segment, loss=loss,
-                truth_sigma=parse_truth_sigma(truth_sigma) if truth_sigma else None,
+                truth_sigma=(
+                    parse_truth_sigma(truth_sigma) if truth_sigma is not None else None
+                ),
             ),
         )  # fmt: skip
         result = compare_files(

@@ -50,7 +50,7 @@ from odolab.io.run import OdometryRun
 from odolab.metrics.association import interpolate_trajectory
 from odolab.metrics.truthnoise import (
     TruthNoise,
-    estimate_truth_noise,
+    allowed,
     material,
     piece_covariance,
     truth_residuals,
@@ -341,15 +341,22 @@ def _fit_yaw_offset(
     return float(wrap_angle(np.array([phi]))[0]), (1.0 / math.sqrt(info) if info > 0 else math.inf)
 
 
-def runs_truth_noise(runs: Sequence[OdometryRun]) -> TruthNoise | None:
-    """The noise of the runs' ground truth, estimated from its own updates and pooled
-    (:mod:`odolab.metrics.truthnoise`; None with too few updates)."""
-    parts = []
-    for run in runs:
-        if run.ground_truth is not None:
-            gt = run.ground_truth
-            parts.append(truth_residuals(gt.t, gt.x, gt.y, gt.heading))
-    return estimate_truth_noise(parts)
+def runs_truth_noise(
+    runs: Sequence[OdometryRun], given: TruthNoise | None = None, enabled: bool = True
+) -> TruthNoise | None:
+    """The noise of the runs' ground truth to allow for (:func:`odolab.metrics.truthnoise.allowed`):
+    ``given``, else estimated from the runs' own updates, pooled (None with too few updates, or
+    where ``enabled`` is off)."""
+
+    def parts() -> list[tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]]:
+        return [
+            truth_residuals(r.ground_truth.t, r.ground_truth.x, r.ground_truth.y,
+                            r.ground_truth.heading)
+            for r in runs
+            if r.ground_truth is not None
+        ]  # fmt: skip
+
+    return allowed(given, parts, enabled)
 
 
 def nees_of_runs(
@@ -373,7 +380,7 @@ def nees_of_runs(
     results: list[RunNees] = []
     skipped: list[str] = []
     longest = 0.0
-    truth = truth_sigma if truth_sigma is not None else runs_truth_noise(runs)
+    truth = runs_truth_noise(runs, truth_sigma)
     for run in runs:
         try:
             results.append(
@@ -639,14 +646,16 @@ def _pieces_of(
 
 def _truth_term(pcs: _Pieces, truth: TruthNoise | None) -> NDArray[np.float64]:
     """The ground truth's noise in each piece's error (k, 3, 3; zeros where it is not material:
-    :func:`odolab.metrics.truthnoise.piece_covariance`)."""
+    :func:`odolab.metrics.truthnoise.piece_covariance`), in the errors' frame: the odometry's at
+    the piece's start (``_errors`` turns the truth's motion into it by a fitted yaw offset), so
+    the start heading turns the odometry's own displacement."""
     if not material(truth):
         return np.zeros((pcs.odo.shape[0], 3, 3))
     assert truth is not None
     gt = pcs.gt
     f = variance_factors(gt.t, gt.x, gt.y, gt.heading, pcs.t)
     a, b = pcs.bounds[:, 0], pcs.bounds[:, 1]
-    return piece_covariance(truth, f[a], f[b], pcs.gtr[:, :2])
+    return piece_covariance(truth, f[a], f[b], pcs.odo[:, :2])
 
 
 def _nll(
@@ -719,7 +728,7 @@ def fit_noise(
     start = fit_noise_scale(
         runs, params, method, segment_s=segment_s, fit_gt_yaw_offset=fit_gt_yaw_offset
     )
-    truth = truth_sigma if truth_sigma is not None else runs_truth_noise(runs)
+    truth = runs_truth_noise(runs, truth_sigma)
     truth = truth if material(truth) else None
     errs, bases, names, turns, removed, knowns = _pieces_of(
         runs, params, method, segment_s, start, fit_gt_yaw_offset, truth

@@ -15,12 +15,14 @@ that is exactly the linear interpolation of its neighbours (a truth resampled on
 clock) (to the file's rounding, :data:`RESAMPLED`) is not a measurement of its own and is left out, and so is a row that repeats the last
 value (a held value; the window reader already keeps only changes). The robot's own acceleration
 adds ``acc * dt^2 / 4`` to ``r_k``: at 10 Hz and 1 m/s^2, 2.5 mm; so the estimate is an upper
-bound, close for centimetre noise, and a few millimetres on a noise-free truth.
+bound, close for centimetre noise, and a few millimetres on a noise-free truth: such a truth at
+a low rate can pass :data:`EXACT_XY` and be allowed for as noisy (give the noise where it is
+known: ``--truth-sigma``).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,6 +35,7 @@ __all__ = [
     "EXACT_XY",
     "EXACT_YAW",
     "TruthNoise",
+    "allowed",
     "estimate_truth_noise",
     "material",
     "parse_truth_sigma",
@@ -161,6 +164,19 @@ def estimate_truth_noise(
     return TruthNoise(xy, yaw, spacing=float(np.median(dt)), updates=int(rh.size))
 
 
+def allowed(
+    given: TruthNoise | None,
+    parts: Callable[[], Sequence[tuple[FloatArray, FloatArray, FloatArray]]],
+    enabled: bool = True,
+) -> TruthNoise | None:
+    """The ground truth's noise a fit or a judgement allows for (the one rule): the user's
+    ``given``, else estimated from the truth's updates (``parts()``: :func:`truth_residuals` of
+    each run; :func:`estimate_truth_noise`); None where ``enabled`` is off and none is given."""
+    if given is not None:
+        return given
+    return estimate_truth_noise(parts()) if enabled else None
+
+
 def material(noise: TruthNoise | None) -> bool:
     """Whether the truth's noise is worth allowing for: known, and not as good as exact (above
     :data:`EXACT_XY` or :data:`EXACT_YAW`)."""
@@ -191,9 +207,11 @@ def variance_factors(t_truth: FloatArray, x: FloatArray, y: FloatArray, heading:
     p = np.column_stack((x, y, heading))
     held = np.all(p == p[keep][j], axis=1)  # repeats its last real update
     frac = np.where(held | np.isin(np.arange(tr.size), keep), 0.0, np.clip(frac, 0.0, 1.0))
-    # each instant: between rows r and r + 1, weight w on the second
-    r = np.clip(np.searchsorted(tr, tq, side="right") - 1, 0, tr.size - 2)
-    w = np.clip((tq - tr[r]) / (tr[r + 1] - tr[r]), 0.0, 1.0)
+    # each instant: between rows r and r + 1, weight w on the second (as
+    # odolab.metrics.association.interpolate_trajectory brackets and weighs it)
+    r = np.clip(np.searchsorted(tr, tq, side="left"), 1, tr.size - 1) - 1
+    gap = tr[r + 1] - tr[r]
+    w = np.clip(np.where(gap > 0, (tq - tr[r]) / np.where(gap > 0, gap, 1.0), 0.0), 0.0, 1.0)
     idx = np.column_stack((j[r], nxt[r], j[r + 1], nxt[r + 1]))
     coef = np.column_stack(((1 - w) * (1 - frac[r]), (1 - w) * frac[r],
                             w * (1 - frac[r + 1]), w * frac[r + 1]))  # fmt: skip
@@ -207,6 +225,8 @@ def piece_covariance(
     """The truth's noise in the error of pieces that start at the truth's pose and end against
     it (m, 3, 3; x, y, heading; the error's frame is ``d``'s): ``start`` and ``end`` the truth's
     variance factors there (:func:`variance_factors`), ``d`` (m, 2) each piece's displacement.
+    The two ends are taken as independent: a piece shorter than two of the truth's update
+    spacings interpolates both ends from a shared update, which this overstates (up to twice).
 
     Both end positions add their noise; the start heading turns the whole piece, by
     ``w = (-d_y, d_x)`` per radian, and enters the heading error too (so the two correlate);
