@@ -727,14 +727,12 @@ def filtered(truth: TruthNoise | None, d: SlipDesign, c_xy: FloatArray, c_yaw: F
     mostly the truth's noise, and the filter, which takes the truth as a measurement of a hidden
     pose, uses it as it is. Measured (docs/models.md): the DRIVE Husky's lidar 0.22 (position)
     and 0.008 (heading) of the model's, noise-free simulated truths 0.04 to 0.16, 2 cm / 0.02
-    rad of added noise 16 to 64, 5 cm / 0.1 rad 11 to 77. A truth better than
-    :data:`~odolab.metrics.truthnoise.EXACT_XY` and ``EXACT_YAW`` is as good as exact (a perfect simulator's, whose model noise is nil,
-    reads 0.1 to 0.8 mm: its own bend, :mod:`odolab.metrics.truthnoise`)."""
-    if not _noisy(truth):
+    rad of added noise 16 to 64, 5 cm / 0.1 rad 11 to 77. A truth that is not material
+    (:func:`odolab.metrics.truthnoise.material`: below 1 mm and 1 mrad) is as good as exact (a
+    perfect simulator's, whose model noise is nil, reads 0.1 to 0.8 mm: its own bend)."""
+    if not material(truth):  # none, or as good as exact
         return False
     assert truth is not None
-    if not material(truth):  # as good as exact
-        return False
     spacing = truth.spacing if truth.spacing > 0 else float(np.median(d.durations))
     seconds = max(float(np.sum(d.durations)), 1e-12)
     speed = float(np.sum(d.travel)) / seconds
@@ -960,8 +958,11 @@ def _piece_errors(
     the piece's covariance, beside the posterior's: the terms fitted to the pieces are then the
     model's own, not the truth's."""
     errs, bases, posts, pairs = [], [], [], []
+    known = truth if material(truth) else None
     for run in runs:
         t = np.asarray(run.t, dtype=np.float64)  # type: ignore[attr-defined]
+        f = np.asarray(run.truth_var, dtype=np.float64)  # type: ignore[attr-defined]
+        f = f if f.size == t.size else np.ones(t.size)  # (a run made without it: a whole update)
         dsl = np.asarray(run.dticks_left) * params.left_metres_per_tick  # type: ignore[attr-defined]
         dsr = np.asarray(run.dticks_right) * params.right_metres_per_tick  # type: ignore[attr-defined]
         gx = np.asarray(run.gt_x, dtype=np.float64)  # type: ignore[attr-defined]
@@ -986,12 +987,9 @@ def _piece_errors(
             errs.append(e)
             bases.append(prop.basis[-1])
             post = prop.post[-1]
-            if material(truth):
-                assert truth is not None
-                f = np.asarray(run.truth_var, dtype=np.float64)  # type: ignore[attr-defined]
-                f = f if f.size == t.size else np.ones(t.size)  # (a run made without it)
+            if known is not None:
                 d = np.array([[end[0] - start[0], end[1] - start[1]]])
-                post = post + piece_covariance(truth, f[a : a + 1], f[b : b + 1], d)[0]
+                post = post + piece_covariance(known, f[a : a + 1], f[b : b + 1], d)[0]
             posts.append(post)
             pairs.append(prop.end_pairs())
     nt = len(TERMS)
