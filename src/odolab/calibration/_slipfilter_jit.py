@@ -26,11 +26,33 @@ N = POSE + 3 * K
 
 
 @njit(cache=True)
+def _inverse3(m: FloatArray, out: FloatArray) -> float:  # pragma: no cover
+    """``out`` = the inverse of the 3 x 3 matrix ``m`` (by its cofactors); returns its
+    determinant."""
+    c00 = m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1]
+    c01 = m[1, 2] * m[2, 0] - m[1, 0] * m[2, 2]
+    c02 = m[1, 0] * m[2, 1] - m[1, 1] * m[2, 0]
+    det = m[0, 0] * c00 + m[0, 1] * c01 + m[0, 2] * c02
+    inv = 1.0 / det
+    out[0, 0] = c00 * inv
+    out[1, 0] = c01 * inv
+    out[2, 0] = c02 * inv
+    out[0, 1] = (m[0, 2] * m[2, 1] - m[0, 1] * m[2, 2]) * inv
+    out[1, 1] = (m[0, 0] * m[2, 2] - m[0, 2] * m[2, 0]) * inv
+    out[2, 1] = (m[0, 1] * m[2, 0] - m[0, 0] * m[2, 1]) * inv
+    out[0, 2] = (m[0, 1] * m[1, 2] - m[0, 2] * m[1, 1]) * inv
+    out[1, 2] = (m[0, 2] * m[1, 0] - m[0, 0] * m[1, 2]) * inv
+    out[2, 2] = (m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]) * inv
+    return float(det)
+
+
+@njit(cache=True)
 def _predict(
     s: FloatArray,
     p: FloatArray,
     jac: FloatArray,
     a: FloatArray,
+    corner: FloatArray,
     ds: float,
     dth: float,
     phi: FloatArray,
@@ -38,7 +60,8 @@ def _predict(
 ) -> None:  # pragma: no cover
     """Move the state ``s`` by one cycle of the slipping model (midpoint heading) and its
     covariance ``p`` by ``F p F^T + G Q G^T``; ``F`` is the identity but for the pose's three
-    rows (``jac``), so only those rows and columns change (``a``: scratch, 3 x N)."""
+    rows (``jac``), so only those rows and columns change (``a``: scratch, 3 x N; ``corner``:
+    scratch, 3 x 3)."""
     f = ds
     lat = 0.0
     rot = dth
@@ -69,10 +92,13 @@ def _predict(
         jac[1, POSE + K + i] = c * g
         jac[1, POSE + 2 * K + i] = 0.5 * dx * g
         jac[2, POSE + 2 * K + i] = g
-    a[:, :] = jac @ p  # the pose's rows of F p
-    p[:POSE, POSE:] = a[:, POSE:]
-    p[POSE:, :POSE] = a[:, POSE:].T
-    p[:POSE, :POSE] = a @ np.ascontiguousarray(jac.T)
+    # the pose's rows of F p and its corner F p F^T, copied in by np.positive(src, dst): numba
+    # compiles an array assigned into a slice (dst[...] = src) in seconds, a ufunc in a fraction
+    np.dot(jac, p, a)
+    np.dot(a, jac.T, corner)
+    np.positive(a[:, POSE:], p[:POSE, POSE:])
+    np.positive(a[:, POSE:].T, p[POSE:, :POSE])
+    np.positive(corner, p[:POSE, :POSE])
     vf, vl = var[0], var[1]
     p[0, 0] += c * c * vf + sn * sn * vl
     p[0, 1] += c * sn * (vf - vl)
@@ -83,19 +109,30 @@ def _predict(
 
 @njit(cache=True)
 def _update(
-    s: FloatArray, p: FloatArray, z: FloatArray, r: FloatArray
+    s: FloatArray,
+    p: FloatArray,
+    z: FloatArray,
+    r: FloatArray,
+    cols: FloatArray,
+    rows: FloatArray,
+    gain: FloatArray,
+    work: FloatArray,
+    step: FloatArray,
+    big: FloatArray,
 ) -> tuple[float, bool]:  # pragma: no cover
     """Update the state ``s`` and covariance ``p`` with a measurement ``z`` of the pose of
     variances ``r`` (not beyond :data:`GATE`); return the measurement's log likelihood and
-    whether it was taken."""
+    whether it was taken. Scratch: ``cols``, ``gain``, ``work`` (N x 3), ``rows`` (3 x N),
+    ``step`` (N), ``big`` (N x N)."""
     inn = np.empty(POSE)
     sm = np.empty((POSE, POSE))
+    si = np.empty((POSE, POSE))
     for i in range(POSE):
         inn[i] = z[i] - s[i]
         for j in range(POSE):
             sm[i, j] = p[i, j]
         sm[i, i] += r[i]
-    si = np.linalg.inv(sm)
+    det = _inverse3(sm, si)
     quad = 0.0
     for i in range(POSE):
         for j in range(POSE):
@@ -103,18 +140,25 @@ def _update(
     # Huber's loss on the Mahalanobis distance: beyond the gate it grows linearly, so a filter
     # too sure of itself to take the truth's updates is not made likely by leaving them out
     rho = math.sqrt(GATE * quad) - 0.5 * GATE if quad > GATE else 0.5 * quad
-    loglik = -(rho + 0.5 * math.log(np.linalg.det(sm)) + 0.5 * POSE * math.log(2 * math.pi))
+    loglik = -(rho + 0.5 * math.log(det) + 0.5 * POSE * math.log(2 * math.pi))
     if quad > GATE:
         return loglik, False
-    gain = np.ascontiguousarray(p[:, :POSE]) @ si
-    s += gain @ inn
+    np.positive(p[:, :POSE], cols)  # copies (see _predict)
+    np.positive(p[:POSE, :], rows)
+    np.dot(cols, si, gain)
+    np.dot(gain, inn, step)
+    s += step
     # Joseph's form, P <- (I - K H) P (I - K H)^T + K R K^T: stays a covariance when the truth
     # is far more precise than the prediction (the plain form loses its symmetry and sign)
-    p -= gain @ np.ascontiguousarray(p[:POSE, :])
-    left = np.ascontiguousarray(p[:, :POSE])
-    gt = np.ascontiguousarray(gain.T)
-    p += (gain * r) @ gt - left @ gt
-    p[:, :] = 0.5 * (p + p.T)
+    np.dot(gain, rows, big)
+    p -= big
+    np.positive(p[:, :POSE], cols)
+    np.multiply(gain, r, work)
+    work -= cols
+    np.dot(work, gain.T, big)
+    p += big
+    np.add(p, p.T, big)
+    np.multiply(big, 0.5, p)
     return loglik, True
 
 
@@ -142,10 +186,18 @@ def filter_pass(
     glitches)."""
     s = np.zeros(N)
     p = np.zeros((N, N))
-    s[POSE:] = beta0
-    p[POSE:, POSE:] = p0
+    for i in range(N - POSE):
+        s[POSE + i] = beta0[i]
+        for j in range(N - POSE):
+            p[POSE + i, POSE + j] = p0[i, j]
     jac = np.zeros((POSE, N))
     a = np.zeros((POSE, N))
+    corner = np.zeros((POSE, POSE))
+    cols = np.zeros((N, POSE))
+    gain = np.zeros((N, POSE))
+    work = np.zeros((N, POSE))
+    step = np.zeros(N)
+    big = np.zeros((N, N))
     loglik = 0.0
     count = 0
     gated = 0
@@ -158,9 +210,9 @@ def filter_pass(
                     p[j, i] = 0.0
                 p[i, i] = r[i]
             continue
-        _predict(s, p, jac, a, ds[k], dth[k], phi[k], var[k])
+        _predict(s, p, jac, a, corner, ds[k], dth[k], phi[k], var[k])
         if meas[k]:
-            ll, taken = _update(s, p, truth[k], r)
+            ll, taken = _update(s, p, truth[k], r, cols, a, gain, work, step, big)
             loglik += ll
             if taken:
                 count += 1

@@ -122,7 +122,9 @@ def first_order(
         g[2, 0], g[2, 1], g[2, 2] = 0.0, 0.0, 1.0
         for w in range(nw):
             _white_step(white[w], tmp, g, dx, dy, noise_output[w], mult[i, w])
-            basis[i, w] = white[w]
+            for a in range(3):
+                for b in range(3):
+                    basis[i, w, a, b] = white[w, a, b]
         for r in range(drift_output.size):  # d(pose) / d(drift rate): F jd + drift G's column
             col = drift_output[r]
             j0 = jd[r, 0] - dy * jd[r, 2] + drift[i, r] * g[0, col]
@@ -135,7 +137,8 @@ def first_order(
             drift_heading[i, r] = jd[r, 2]
         if with_sigma:
             _posterior_step(jac, sj, g, dx, dy, big_phi[i], sigma, post[i])
-            coef_heading[i] = jac[2]
+            for q in range(3 * k):
+                coef_heading[i, q] = jac[2, q]
         x += dx
         y += dy
         h += dth[i]
