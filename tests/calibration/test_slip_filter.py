@@ -247,3 +247,14 @@ def test_steady_rule_is_the_plain_one_window_by_window() -> None:
     assert 0 < got.sum() < got.size  # both kinds of window are in the example
     cycles = slipfit.steady_cycles(t, v, w)
     assert cycles.tolist() == [plain(max(k - 1, 0), k) for k in range(t.size)]
+
+
+def test_the_pass_refuses_a_prior_of_another_size() -> None:
+    """The prior's 24 coefficients and 24 x 24 covariance are copied element by element (numba
+    compiles a slice assignment slowly), so their sizes are checked, not trusted."""
+    n = 4
+    args = (np.zeros(n), np.zeros(n), np.zeros((n, 8)), np.ones((n, 3)), np.zeros(n, dtype=bool))
+    rest = (np.zeros(n, dtype=bool), np.zeros((n, 3)), np.ones(3))
+    for beta0, p0 in ((np.zeros(23), np.eye(24)), (np.zeros(24), np.eye(25))):
+        with pytest.raises(ValueError, match="24 slip coefficients"):
+            filter_pass(*args, *rest, beta0, p0)

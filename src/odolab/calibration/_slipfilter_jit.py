@@ -184,6 +184,8 @@ def filter_pass(
     update, of variances ``r`` (3). Returns (the coefficients, their covariance, the log
     likelihood of the truth's updates, the number of updates taken, the number left out as
     glitches)."""
+    if beta0.shape[0] != N - POSE or p0.shape[0] != N - POSE or p0.shape[1] != N - POSE:
+        raise ValueError("the prior needs the 24 slip coefficients and their 24 x 24 covariance")
     s = np.zeros(N)
     p = np.zeros((N, N))
     for i in range(N - POSE):
