@@ -17,6 +17,7 @@ from __future__ import annotations
 import contextlib
 import math
 import socket
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol
@@ -154,9 +155,22 @@ class TcpTransport:
             out.append((data, self._now()))
         return out
 
+    #: how long :meth:`close` reads what the board still sends before it closes (seconds)
+    LINGER = 0.5
+
     def close(self) -> None:
+        """Send what is queued and the end of the stream, read what the board still sends until
+        it closes its side (at most :attr:`LINGER` s), then close. Closed at once with its
+        reports unread, the socket would reset the connection, and a board that writes before it
+        reads (the virtual one; a busy one) meets the reset first and drops the link without
+        reading the last lines: the stop and the E-stop."""
         with contextlib.suppress(OSError):
-            self._sock.shutdown(socket.SHUT_RDWR)
+            self._sock.shutdown(socket.SHUT_WR)
+            deadline = time.monotonic() + self.LINGER
+            while (left := deadline - time.monotonic()) > 0:
+                self._sock.settimeout(left)
+                if not self._sock.recv(65536):
+                    break
         self._sock.close()
 
 
