@@ -1,6 +1,7 @@
-"""The report's figures are PNGs of the pixels Matplotlib's ``savefig`` draws, written as opaque
-RGB at zlib level 1 (odolab.report.html._write_png: half the encoding time of savefig's RGBA at
-level 6, and smaller)."""
+"""odolab's figures (the report's, the web pages', the fleet's) are PNGs of the pixels
+Matplotlib's ``savefig`` draws, written as opaque RGB at zlib level 1
+(odolab.core.writing.write_png: half the encoding time of savefig's RGBA at level 6, and
+smaller)."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ import pytest
 from matplotlib.figure import Figure
 from PIL import Image
 
-from odolab.report.html import _write_png
+from odolab.core.writing import write_png
 
 
 def _figure() -> Figure:
@@ -36,7 +37,7 @@ def test_the_png_has_savefigs_pixels_without_the_alpha(tmp_path: Path) -> None:
     drawn = np.asarray(saved)
     assert drawn.shape[2] == 4 and int(drawn[..., 3].min()) == 255  # opaque: alpha says nothing
     out = tmp_path / "fig.png"
-    _write_png(fig, out)
+    write_png(fig, out)
     img = Image.open(out)
     assert img.format == "PNG" and img.mode == "RGB" and img.size == (576, 360)
     assert np.array_equal(np.asarray(img), drawn[..., :3])
@@ -46,3 +47,18 @@ def test_the_png_has_savefigs_pixels_without_the_alpha(tmp_path: Path) -> None:
     level6 = io.BytesIO()
     img.save(level6, format="PNG", compress_level=6)
     assert out.stat().st_size < 1.5 * len(level6.getvalue())
+
+
+def test_at_another_dpi_it_is_savefigs_image_at_that_dpi() -> None:
+    """The web pages draw each figure at their layout's dpi (odolab.serve.plots)."""
+    fig = _figure()
+    buf = io.BytesIO()
+    with mpl.rc_context(mpl.rcParamsDefault):
+        fig.savefig(buf, format="png", dpi=200)
+    drawn = np.asarray(Image.open(buf))
+    out = io.BytesIO()
+    write_png(_figure(), out, dpi=200)
+    img = Image.open(out)
+    assert img.size == (960, 600)
+    assert img.info["dpi"] == pytest.approx((200, 200), abs=0.01)  # (PNG keeps dots per metre)
+    assert np.array_equal(np.asarray(img), drawn[..., :3])

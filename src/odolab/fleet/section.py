@@ -79,12 +79,12 @@ class FleetSection:
 
     def save(self, folder: str | Path) -> Path:
         """Write ``fleet.html`` and the figures as PNG into ``folder``; returns the HTML path."""
-        from odolab.core.writing import replacing_path, write_text_file
+        from odolab.core.writing import replacing_path, write_png, write_text_file
 
         out = Path(folder)
         for name, fig in self.figures.items():
             with replacing_path(out / f"{name}.png", what="fleet figure") as tmp:
-                fig.savefig(tmp, dpi=110, format="png")
+                write_png(fig, tmp, dpi=110)
         page = out / "fleet.html"
         html = "<!doctype html><meta charset='utf-8'><title>fleet</title>\n" + self.html
         return write_text_file(page, html, what="fleet page")

@@ -17,6 +17,8 @@ from typing import TYPE_CHECKING
 
 from matplotlib.figure import Figure
 
+from odolab.core.writing import write_png
+
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
@@ -55,7 +57,7 @@ def layout(name: str | None) -> Layout:
 
 def _png(fig: Figure, lay: Layout) -> bytes:
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=lay.dpi)
+    write_png(fig, buf, dpi=lay.dpi)
     return buf.getvalue()
 
 
