@@ -7,6 +7,7 @@ the text, the tables and the JSON agree by construction.
 from __future__ import annotations
 
 import base64
+import io
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -23,10 +24,10 @@ from odolab.core.errors import OdolabError
 from odolab.core.text import safe_file_name
 from odolab.core.writing import (
     given_folder,
-    replacing_path,
     strict_json,
     strict_value,
     sub_folder,
+    write_bytes_file,
     write_png,
     write_text_file,
 )
@@ -275,9 +276,10 @@ def _render(fig_dir: Path, plans: list[_Plan]) -> list[_Figure]:
             _legend_below(fig, ax, size)
             _fit_margins(fig, ax)
             name = safe_file_name(p.name, what="figure name")  # terrains are user text
-            with replacing_path(fig_dir / f"{name}.png", what="report figure") as tmp:
-                write_png(fig, tmp)
-                b64 = base64.b64encode(tmp.read_bytes()).decode("ascii")
+            png = io.BytesIO()
+            write_png(fig, png)  # encoded once: the file and the page's copy
+            write_bytes_file(fig_dir / f"{name}.png", png.getvalue(), what="report figure")
+            b64 = base64.b64encode(png.getvalue()).decode("ascii")
             done.append(_Figure(name, p.title, p.caption, b64, p.group))
     return done
 
