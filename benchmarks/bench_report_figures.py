@@ -1,10 +1,13 @@
 """The report's figures: the margin fit of ``odolab.report.html`` against matplotlib's constrained
-layout, on the same figures, in the same run.
+layout, and its PNG writer (``odolab.core.writing.write_png``: opaque RGB, zlib level 1) against
+``savefig``'s PNG (RGBA, level 6), on the same figures, in the same run.
 
 Run:  PYTHONPATH=src MPLBACKEND=Agg python benchmarks/bench_report_figures.py [--db lab.db] [REPEATS]
 Without ``--db`` it runs the demo once (about a minute) and uses its notebook.
-Baseline: each figure drawn as before 2026-11-28 (``layout="constrained"``, which lays the
-figure out twice and draws it once more at save time); the ratio is constrained / margin fit.
+Baselines: each figure drawn as before 2026-11-28 (``layout="constrained"``, which lays the
+figure out twice and draws it once more at save time), and as before 2026-11-29's writer (the
+margin fit, then ``savefig``); the ratios are constrained / margin fit and savefig / write_png,
+with the bytes each PNG writer wrote.
 """
 
 from __future__ import annotations
@@ -34,6 +37,26 @@ def _constrained(fig_dir: Path, plans: list[Any]) -> None:
             fig.savefig(fig_dir / f"{p.name}.png", format="png")
 
 
+def _savefig(fig_dir: Path, plans: list[Any]) -> None:
+    """``html._render`` as it was before ``write_png``: the margin fit, then ``savefig``."""
+    import matplotlib as mpl
+    from matplotlib.figure import Figure
+
+    with mpl.rc_context(html._RC):
+        for p in plans:
+            size = (p.size[0] * html._SCALE, p.size[1] * html._SCALE)
+            fig = Figure(figsize=size, dpi=html._DPI)
+            ax = fig.add_subplot()
+            p.draw(ax)
+            html._legend_below(fig, ax, size)
+            html._fit_margins(fig, ax)
+            fig.savefig(fig_dir / f"{p.name}.png", format="png")
+
+
+def _bytes(folder: Path) -> int:
+    return sum(f.stat().st_size for f in folder.glob("*.png"))
+
+
 def main() -> None:
     args = sys.argv[1:]
     tmp = Path(tempfile.mkdtemp(prefix="bench-report-"))
@@ -49,18 +72,25 @@ def main() -> None:
     with Notebook(db) as nb:
         c = report_content(nb)
     plans = html._figure_plan(c.analysis.analysis, c.calibrations, None)
-    out = tmp / "figures"
-    out.mkdir()
-    times: dict[str, float] = {"constrained": float("inf"), "margin fit": float("inf")}
-    for _ in range(repeats):  # interleaved: a noisy moment hits both
-        for name, fn in (("constrained", _constrained), ("margin fit", html._render)):
+    variants = {"constrained": _constrained, "savefig": _savefig, "margin fit": html._render}
+    times = dict.fromkeys(variants, float("inf"))
+    written: dict[str, int] = {}
+    for _ in range(repeats):  # interleaved: a noisy moment hits every variant
+        for name, fn in variants.items():
+            out = tmp / name.replace(" ", "-")
+            out.mkdir(exist_ok=True)
             t0 = time.process_time()
             fn(out, plans)
             times[name] = min(times[name], time.process_time() - t0)
+            written[name] = _bytes(out)
     n = len(plans)
     for name, t in times.items():
         print(f"{name:12s} {t:6.2f} s CPU for {n} figures ({1000 * t / n:.0f} ms a figure)")
     print(f"ratio constrained / margin fit: {times['constrained'] / times['margin fit']:.2f}x")
+    print(
+        f"ratio savefig / write_png: {times['savefig'] / times['margin fit']:.2f}x "
+        f"(PNG bytes {written['savefig']:,} against {written['margin fit']:,})"
+    )
 
 
 if __name__ == "__main__":
