@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import re
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +21,7 @@ from odolab.sim.drives import RecordedDrive, record_drive
 from odolab.sim.physics import TrueParams
 from odolab.tracking import CameraModel, FloorMarker, load_camera, save_camera, write_floor_csv
 from odolab.tracking.camera import TrackingError
+from odolab.tracking.markers import marker_cells
 from odolab.tracking.render import look_at, render_video
 from odolab.tracking.tracker import TrackOptions, _square_fit, track_video
 
@@ -132,9 +134,18 @@ def test_markers_print_and_read_back(tmp_path: Path) -> None:
     img = cv2.imread(str(tmp_path / "marker_17.png"), cv2.IMREAD_GRAYSCALE)
     # the black square is 0.1 m at 150 dpi, the quiet zone one bit (1/6 of it) each side
     assert img.shape[0] == round(0.1 / 0.0254 * 150) + 2 * round(0.1 / 0.0254 * 150 / 6)
-    # the PDF carries the PNG's own pixels, not a copy resampled to the figure's resolution
+    # the PDF draws the marker's cells as vector squares at true size (no raster to resample):
+    # one closed square per black cell, each a sixth of the 0.1 m black square
     pdf = (tmp_path / "marker_17.pdf").read_bytes()
-    assert re.findall(rb"/Width (\d+)", pdf) == [str(img.shape[1]).encode()]
+    assert b"/Subtype /Image" not in pdf
+    pages = [zlib.decompress(m) for m in re.findall(rb"stream\r?\n(.*?)endstream", pdf, re.S)]
+    page = next(p for p in pages if b" re W n" in p)  # the axes' clip, then the marker
+    marker = page.split(b" re W n", 1)[1]
+    squares = re.findall(rb"([\d.]+) ([\d.]+) m\n([\d.]+) ([\d.]+) l\n([\d.]+) ([\d.]+) l", marker)
+    assert len(squares) == int(marker_cells(17).sum())
+    cell_pt = 0.1 / 0.0254 * 72 / 6
+    for x0, _y0, x1, y1, _x2, y2 in (tuple(map(float, q)) for q in squares):
+        assert (abs(x1 - x0), abs(y2 - y1)) == pytest.approx((cell_pt, cell_pt), abs=1e-4)
     det = cv2.aruco.ArucoDetector(cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_4X4_50))
     _, ids, _ = det.detectMarkers(img)
     assert ids is not None and ids.reshape(-1).tolist() == [17]
