@@ -59,6 +59,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from odolab.calibration.slipfilter import FilterFit, run_cycles
+from odolab.core.arrays import FloatArray
 from odolab.core.errors import InsufficientDataError
 from odolab.core.models.slip import FEATURES, SlipModel
 from odolab.core.params import RobotParams
@@ -90,7 +91,6 @@ __all__ = [
     "undetermined",
 ]
 
-FloatArray = NDArray[np.float64]
 #: Length of a regression window (s).
 WINDOW_S = 0.5
 _EM_ITERATIONS = 30
