@@ -17,6 +17,7 @@ from typing import TypeVar
 from odolab.core.errors import OdolabError
 from odolab.core.kinematics import Method
 from odolab.core.params import RobotParams
+from odolab.core.progress import Progress
 from odolab.io.registry import LogFormat, find_runs, read_run
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.metrics.alignment import Alignment
@@ -34,8 +35,6 @@ __all__ = [
     "evaluate_runs",
     "parallel_map",
 ]
-
-Progress = Callable[[int, int, str], None]
 
 #: Defaults for runs: interpolate the ground truth at the odometry stamps, align the start poses,
 #: RPE over 1 m of path.
