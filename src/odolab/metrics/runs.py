@@ -67,9 +67,15 @@ def parallel_map(
     module-level function (it is pickled). With ``workers <= 1`` and no scheduler, or a single
     item, everything runs here, in this process.
     """
-    outcomes = map_outcomes(
-        func, items, cluster=cluster or Cluster(workers=workers), progress=progress, label=label
+    return _results(
+        map_outcomes(
+            func, items, cluster=cluster or Cluster(workers=workers), progress=progress, label=label
+        )
     )
+
+
+def _results(outcomes: list[Outcome[R]]) -> list[R]:
+    """The outcomes' results, in order; raises the first error."""
     for o in outcomes:
         if not o.ok:
             if o.exception is not None:
@@ -164,16 +170,19 @@ def evaluate_run_files(
     progress: Progress | None = None,
     cluster: Cluster | None = None,
 ) -> list[RunEvaluation]:
-    """Evaluate every run found under ``paths`` (see :func:`odolab.io.find_runs`)."""
-    jobs = _jobs(find_runs(paths, fmt), fmt, params, options, read_options, method)
-    return parallel_map(
-        _evaluate_job,
-        jobs,
-        workers=workers,
+    """Evaluate every run found under ``paths`` (see :func:`odolab.io.find_runs`): the
+    :func:`evaluate_runs` of those runs, stopping at the first that fails."""
+    outcomes = evaluate_runs(
+        find_runs(paths, fmt),
+        fmt,
+        params=params,
+        options=options,
+        read_options=read_options,
+        method=method,
+        cluster=cluster or Cluster(workers=workers),
         progress=progress,
-        label=lambda j: str(j.path),
-        cluster=cluster,
     )
+    return _results(outcomes)
 
 
 def evaluate_runs(
