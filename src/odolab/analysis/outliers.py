@@ -10,7 +10,7 @@ random error grows with the rotation). A 2*pi residual that the scatter explains
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -33,15 +33,8 @@ class Outlier:
     reason: str
 
     def to_dict(self) -> dict[str, object]:
-        return {
-            "trial_id": self.trial_id,
-            "motion": self.motion,
-            "terrain": self.terrain,
-            "predicted": self.predicted,
-            "actual": self.actual,
-            "residual": self.residual,
-            "reason": self.reason,
-        }
+        """Every field, by its own name."""
+        return asdict(self)
 
 
 def _robust_residuals(

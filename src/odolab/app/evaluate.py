@@ -129,23 +129,23 @@ def evaluation_options(request: EvaluationRequest) -> EvaluationOptions:
     return replace(base, **changes)
 
 
+def _require_positive(option: str, value: float, allowed: str, spec: str = "") -> None:
+    """Refuse ``option``'s ``value`` unless it is a finite number above 0 (``spec``: the format
+    the message writes the value in; "" is ``str``'s)."""
+    if not (math.isfinite(value) and value > 0):
+        raise OdolabError(
+            f"{opt(option)} is {value:{spec}}; expected {allowed}",
+            option=option,
+            value=value,
+            allowed=allowed,
+        )
+
+
 def _check(request: EvaluationRequest, robot: RobotParams | None) -> None:
     """Every option checked before any file is read: a typo costs nothing."""
-    if not (math.isfinite(request.drift_turn_deg) and request.drift_turn_deg > 0):
-        raise OdolabError(
-            f"{opt('drift_turn')} is {request.drift_turn_deg:g}; expected a positive angle in degrees",
-            option="drift_turn",
-            value=request.drift_turn_deg,
-            allowed="a positive angle in degrees",
-        )
+    _require_positive("drift_turn", request.drift_turn_deg, "a positive angle in degrees", "g")
     if request.nees:
-        if not (math.isfinite(request.nees_segment_s) and request.nees_segment_s > 0):
-            raise OdolabError(
-                f"{opt('nees_segment')} is {request.nees_segment_s}; expected a positive number of seconds",
-                option="nees_segment",
-                value=request.nees_segment_s,
-                allowed="a positive number of seconds",
-            )
+        _require_positive("nees_segment", request.nees_segment_s, "a positive number of seconds")
         if robot is not None and covariance_source(robot) is None:
             raise OdolabError(
                 f"{opt('nees')}: the parameters {request.params} have no [noise] table (k_left, "

@@ -40,6 +40,7 @@ if TYPE_CHECKING:
     from odolab.calibration.compare import ModelComparison
     from odolab.calibration.lsq import LsqOptions
     from odolab.core.params import RobotParams
+    from odolab.core.progress import Progress
     from odolab.io.run import OdometryRun, ReadOptions
     from odolab.sim.explore import ExploreSettings
     from odolab.sim.physics import TrueParams
@@ -113,7 +114,7 @@ def compare_files(
     nominal: RobotParams | None = None,
     read_options: ReadOptions | None = None,
     workers: int | None = None,
-    progress: Callable[[int, int, str], None] | None = None,
+    progress: Progress | None = None,
 ) -> ModelComparison:
     """:func:`compare_runs` of the runs found under ``paths`` (and held out: ``validate``)."""
     if request.n_boot != 2000:  # the files' comparison has the default resampling only

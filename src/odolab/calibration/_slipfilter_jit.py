@@ -10,8 +10,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from odolab.core._jit import njit
+from odolab.core.arrays import FloatArray
 
-FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 
 #: A truth update whose innovation's squared Mahalanobis distance is beyond this (the 99.9 %

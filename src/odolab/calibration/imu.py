@@ -36,6 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from odolab.calibration.ratios import CalibrationResult, check_track_model
+from odolab.core.arrays import FloatArray
 from odolab.core.errors import CalibrationError, ImuLogError
 from odolab.core.numfmt import clean
 from odolab.core.params import RobotParams
@@ -54,7 +55,6 @@ __all__ = [
     "yaw_scale_from_heading",
 ]
 
-FloatArray = NDArray[np.float64]
 Z95 = 1.959963984540054
 
 

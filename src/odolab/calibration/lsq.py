@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.core.arrays import FloatArray
 from odolab.core.errors import CalibrationError, InsufficientDataError, opt
 from odolab.core.kinematics import Method
 from odolab.core.models import DIFF_DRIVE, ExtendedDiffDrive, IcrModel, SlipModel, neutral_values
@@ -78,7 +79,6 @@ __all__ = [
 ]
 
 PARAM_NAMES = ("left_wheel_radius", "right_wheel_radius", "track_width")
-FloatArray = NDArray[np.float64]
 
 #: variance inflation factor above which a parameter counts as not determined by the runs (the
 #: others explain the same motion: the runs lack the motion that tells it apart)

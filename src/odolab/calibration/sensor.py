@@ -50,6 +50,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from odolab.core.arrays import FloatArray, IntArray
 from odolab.core.errors import CalibrationError, InsufficientDataError, opt
 from odolab.core.kinematics import chord_factors, wrap_angle
 from odolab.core.params import RobotParams
@@ -72,8 +73,6 @@ __all__ = [
     "wheel_angles",
 ]
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 PARAM_NAMES = (
     "left_wheel_radius",
     "right_wheel_radius",

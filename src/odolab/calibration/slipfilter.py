@@ -37,13 +37,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.core.arrays import FloatArray
 from odolab.core.models.slip import FEATURES, SlipModel
 from odolab.core.params import RobotParams
 from odolab.metrics.truthnoise import TruthNoise, real_updates
 
 __all__ = ["SCALES", "UNSTEADY", "FilterFit", "RunCycles", "filter_coefficients", "run_cycles"]
 
-FloatArray = NDArray[np.float64]
 #: Which cycles are in steady state, from their times, speeds and turn rates.
 SteadyRule = Callable[[FloatArray, FloatArray, FloatArray], NDArray[np.bool_]]
 #: Out of steady state a cycle's motion varies by this share of its own size (as a variance:

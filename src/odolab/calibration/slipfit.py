@@ -59,6 +59,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from odolab.calibration.slipfilter import FilterFit, run_cycles
+from odolab.core.arrays import FloatArray
 from odolab.core.errors import InsufficientDataError
 from odolab.core.models.slip import FEATURES, SlipModel
 from odolab.core.params import RobotParams
@@ -90,7 +91,6 @@ __all__ = [
     "undetermined",
 ]
 
-FloatArray = NDArray[np.float64]
 #: Length of a regression window (s).
 WINDOW_S = 0.5
 _EM_ITERATIONS = 30
@@ -268,6 +268,19 @@ def slip_design(
 
 #: :func:`slip_design`'s rows of each run, by the run's id and window
 RowsMemo = dict[tuple[int, float], tuple[object, "_RunRows | None"]]
+#: :class:`_RunRows`' arrays of one entry a window (``a_xy`` and ``y_xy`` have two: x, then y)
+_PER_WINDOW = (
+    "a_yaw",
+    "y_yaw",
+    "durations",
+    "travel",
+    "turn",
+    "shift",
+    "start",
+    "stop",
+    "heading",
+    "steady",
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -305,21 +318,8 @@ class _RunRows(_Windows):
     def only(self, keep: NDArray[np.bool_]) -> _RunRows:
         """The windows ``keep`` says, as if the run had been cut into those alone."""
         both = np.concatenate((keep, keep))  # the x rows, then the y rows
-        return replace(
-            self,
-            a_xy=self.a_xy[both],
-            y_xy=self.y_xy[both],
-            a_yaw=self.a_yaw[keep],
-            y_yaw=self.y_yaw[keep],
-            durations=self.durations[keep],
-            travel=self.travel[keep],
-            turn=self.turn[keep],
-            shift=self.shift[keep],
-            start=self.start[keep],
-            stop=self.stop[keep],
-            heading=self.heading[keep],
-            steady=self.steady[keep],
-        )
+        cut = {name: getattr(self, name)[keep] for name in _PER_WINDOW}
+        return replace(self, a_xy=self.a_xy[both], y_xy=self.y_xy[both], **cut)
 
 
 def _run_rows(run: object, nominal: RobotParams, window_s: float) -> _RunRows | None:

@@ -36,6 +36,8 @@ from typing import IO
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.core.arrays import FloatArray as F64
+from odolab.core.arrays import IntArray as I64
 from odolab.core.errors import InsufficientDataError, LogFormatError, opt
 from odolab.core.kinematics import wrap_angle
 from odolab.core.progress import Progress, no_progress
@@ -72,8 +74,6 @@ from odolab.metrics.pose_error import (
 
 __all__ = ["ErrorStats", "evaluate_files", "exact_median_from_file"]
 
-F64 = NDArray[np.float64]
-I64 = NDArray[np.int64]
 Pair = tuple[Trajectory, Trajectory]
 
 

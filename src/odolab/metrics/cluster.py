@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Generic, TypeVar
 
 from odolab.core.errors import OdolabError, opt
+from odolab.core.progress import Progress
 
 if TYPE_CHECKING:
     from distributed import Client, LocalCluster
@@ -39,7 +40,6 @@ __all__ = [
 
 T = TypeVar("T")
 R = TypeVar("R")
-Progress = Callable[[int, int, str], None]
 
 
 #: With no scheduler and no number of workers given, fewer items than this run in this process:

@@ -26,8 +26,8 @@ from dataclasses import asdict, dataclass
 from enum import StrEnum
 
 import numpy as np
-from numpy.typing import NDArray
 
+from odolab.core.arrays import FloatArray, IntArray
 from odolab.core.errors import InsufficientDataError, LogFormatError
 from odolab.core.kinematics import wrap_angle
 from odolab.core.trajectory import Trajectory
@@ -46,9 +46,6 @@ __all__ = [
     "stats_from_errors",
     "turn_distances",
 ]
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 
 class DeltaUnit(StrEnum):

@@ -17,6 +17,7 @@ from typing import TypeVar
 from odolab.core.errors import OdolabError
 from odolab.core.kinematics import Method
 from odolab.core.params import RobotParams
+from odolab.core.progress import Progress
 from odolab.io.registry import LogFormat, find_runs, read_run
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.metrics.alignment import Alignment
@@ -34,8 +35,6 @@ __all__ = [
     "evaluate_runs",
     "parallel_map",
 ]
-
-Progress = Callable[[int, int, str], None]
 
 #: Defaults for runs: interpolate the ground truth at the odometry stamps, align the start poses,
 #: RPE over 1 m of path.
@@ -68,9 +67,15 @@ def parallel_map(
     module-level function (it is pickled). With ``workers <= 1`` and no scheduler, or a single
     item, everything runs here, in this process.
     """
-    outcomes = map_outcomes(
-        func, items, cluster=cluster or Cluster(workers=workers), progress=progress, label=label
+    return _results(
+        map_outcomes(
+            func, items, cluster=cluster or Cluster(workers=workers), progress=progress, label=label
+        )
     )
+
+
+def _results(outcomes: list[Outcome[R]]) -> list[R]:
+    """The outcomes' results, in order; raises the first error."""
     for o in outcomes:
         if not o.ok:
             if o.exception is not None:
@@ -165,16 +170,19 @@ def evaluate_run_files(
     progress: Progress | None = None,
     cluster: Cluster | None = None,
 ) -> list[RunEvaluation]:
-    """Evaluate every run found under ``paths`` (see :func:`odolab.io.find_runs`)."""
-    jobs = _jobs(find_runs(paths, fmt), fmt, params, options, read_options, method)
-    return parallel_map(
-        _evaluate_job,
-        jobs,
-        workers=workers,
+    """Evaluate every run found under ``paths`` (see :func:`odolab.io.find_runs`): the
+    :func:`evaluate_runs` of those runs, stopping at the first that fails."""
+    outcomes = evaluate_runs(
+        find_runs(paths, fmt),
+        fmt,
+        params=params,
+        options=options,
+        read_options=read_options,
+        method=method,
+        cluster=cluster or Cluster(workers=workers),
         progress=progress,
-        label=lambda j: str(j.path),
-        cluster=cluster,
     )
+    return _results(outcomes)
 
 
 def evaluate_runs(

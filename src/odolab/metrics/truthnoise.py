@@ -26,8 +26,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
+from odolab.core.arrays import FloatArray, IntArray
 from odolab.core.errors import CalibrationError
 
 __all__ = [
@@ -45,8 +45,6 @@ __all__ = [
     "variance_factors",
 ]
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 #: Median of a chi-square with one degree of freedom.
 CHI2_1_MEDIAN = 0.454936423119572
 #: A row within this share of its size (at least 1 m or 1 rad) of its neighbours' line is a

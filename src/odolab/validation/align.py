@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage, signal
 
+from odolab.core.arrays import FloatArray
 from odolab.core.errors import ImuLogError, opt
 from odolab.io.sensorlog import ImuLog
 
@@ -34,8 +35,6 @@ __all__ = [
     "rate_on_grid",
     "require_overlap",
 ]
-
-FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

@@ -15,8 +15,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
 import numpy as np
-from numpy.typing import NDArray
 
+from odolab.core.arrays import FloatArray
 from odolab.core.errors import ImuLogError
 from odolab.core.kinematics import Method
 from odolab.core.odometry import integrate
@@ -34,7 +34,6 @@ if TYPE_CHECKING:
 
 __all__ = ["HeadingError", "ValidationResult", "plot_validation", "validate", "validation_figure"]
 
-FloatArray = NDArray[np.float64]
 
 #: Below this peak rate correlation the result carries a warning.
 LOW_CORRELATION = 0.8

@@ -18,9 +18,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 from scipy import interpolate
 
+from odolab.core.arrays import FloatArray
 from odolab.core.defaults import DEFAULT_ROBOT
 from odolab.core.errors import ImuLogError
 from odolab.core.params import PRESETS, RobotParams, save_params
@@ -28,8 +29,6 @@ from odolab.core.trials import EncoderLog
 from odolab.validation.sensorlog import ImuLog, write_sensorlog
 
 __all__ = ["RotationScenario", "rotation_scenario", "simulate_phone_log", "write_demo"]
-
-FloatArray = NDArray[np.float64]
 
 
 def simulate_phone_log(
