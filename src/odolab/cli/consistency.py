@@ -10,24 +10,19 @@ from odolab.cli._apps import calibrate_app
 from odolab.cli._nees import print_nees
 from odolab.cli._output import echo
 from odolab.cli.core import MethodChoice, MethodOpt
-from odolab.cli.evaluate import NeesSegmentOpt, RunsWithTruthArg, TruthSigmaOpt
+from odolab.cli.evaluate import (
+    GtYawOffsetOpt,
+    NeesSegmentOpt,
+    ParamsOpt,
+    RunsWithTruthArg,
+    TruthSigmaOpt,
+)
 from odolab.cli.options import NewParamsOutputOpt, RunFormat
 
 __all__ = ["print_nees"]
 
 
 NoiseFmtOpt = Annotated[RunFormat, typer.Option("--format", "-f", help="Run format.")]
-NoiseParamsOpt = Annotated[
-    str | None, typer.Option("--params", "-p", help="Parameters (default: the runs' own).")
-]
-NoiseGtYawOffsetOpt = Annotated[
-    bool | None,
-    typer.Option(
-        "--gt-yaw-offset/--no-gt-yaw-offset",
-        help="Fit the ground truth's yaw mounting offset per run (default: unless the "
-        "ground truth starts in the odometry's frame).",
-    ),
-]
 
 
 @calibrate_app.command("noise")
@@ -35,10 +30,10 @@ def calibrate_noise_cmd(
     runs: RunsWithTruthArg,
     output: NewParamsOutputOpt,
     fmt: NoiseFmtOpt = (RunFormat.optiodom),
-    params: NoiseParamsOpt = None,
+    params: ParamsOpt = None,
     method: MethodOpt = MethodChoice.midpoint,
     segment: NeesSegmentOpt = 10.0,
-    gt_yaw_offset: NoiseGtYawOffsetOpt = None,
+    gt_yaw_offset: GtYawOffsetOpt = None,
     truth_sigma: TruthSigmaOpt = None,
 ) -> None:
     """Fit the \\[noise] table to runs with ground truth: k_left, k_right, k_scrub by maximum

@@ -13,7 +13,16 @@ import typer
 from odolab.cli._apps import app, calibrate_app
 from odolab.cli._output import echo, markup_text
 from odolab.cli._several import several_values_command
-from odolab.cli.options import NewParamsOutputOpt, RunFormat
+from odolab.cli.options import (
+    BAG_JOINT_TOPIC,
+    BAG_JOINTS,
+    JointsOpt,
+    JointTopicOpt,
+    NewParamsOutputOpt,
+    RunFormat,
+    SchedulerOpt,
+    WorkersOpt,
+)
 from odolab.cli.wording import said
 from odolab.core.writing import strict_json
 
@@ -82,19 +91,7 @@ FormatOpt = Annotated[
 ]
 ParamsOpt = Annotated[
     str | None,
-    typer.Option("--params", "-p", help="Parameters TOML or preset (default: the log's)."),
-]
-WorkersOpt = Annotated[
-    int | None,
-    typer.Option(help="Dask workers for many runs (default: none below 64 runs, else 2)."),
-]
-SchedulerOpt = Annotated[
-    str | None,
-    typer.Option(help="Dask scheduler address tcp://HOST:PORT (default: a local cluster)."),
-]
-JointTopicOpt = Annotated[str, typer.Option(help="Bags: JointState topic.")]
-JointsOpt = Annotated[
-    tuple[str, str], typer.Option(help="Bags: LEFT RIGHT joint names in the JointState.")
+    typer.Option("--params", "-p", help="Parameters TOML or preset (default: the runs' own)."),
 ]
 GtTopicOpt = Annotated[str, typer.Option(help="Bags: ground truth (PoseStamped/Odometry) topic.")]
 
@@ -170,11 +167,12 @@ EvalNeesOpt = Annotated[
     bool, typer.Option("--nees", help="Runs: NEES of the propagated covariance (\\[noise]).")
 ]
 NeesSegmentOpt = Annotated[float, typer.Option(help="Piece length (s) of the NEES.")]
-EvalGtYawOffsetOpt = Annotated[
+#: ``evaluate --nees`` and ``calibrate noise``: the NEES pieces' ground-truth yaw offset
+GtYawOffsetOpt = Annotated[
     bool | None,
     typer.Option(
         "--gt-yaw-offset/--no-gt-yaw-offset",
-        help="--nees: fit the ground truth's yaw mounting offset per run (default: unless "
+        help="NEES: fit the ground truth's yaw mounting offset per run (default: unless "
         "the ground truth starts in the odometry's frame).",
     ),
 ]
@@ -206,12 +204,12 @@ def evaluate_cmd(
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
     results: EvalResultsOpt = None,
-    joint_topic: JointTopicOpt = "/joint_states",
-    joints: JointsOpt = ("left_wheel_joint", "right_wheel_joint"),
+    joint_topic: JointTopicOpt = BAG_JOINT_TOPIC,
+    joints: JointsOpt = BAG_JOINTS,
     gt_topic: GtTopicOpt = "/ground_truth",
     nees: EvalNeesOpt = False,
     nees_segment: NeesSegmentOpt = 10.0,
-    gt_yaw_offset: EvalGtYawOffsetOpt = None,
+    gt_yaw_offset: GtYawOffsetOpt = None,
     chunk_rows: EvalChunkRowsOpt = None,
     truth_sigma: TruthSigmaOpt = None,
 ) -> None:
@@ -499,8 +497,8 @@ def calibrate_lsq_cmd(
     json_out: ReportJsonOpt = None,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
-    joint_topic: JointTopicOpt = "/joint_states",
-    joints: JointsOpt = ("left_wheel_joint", "right_wheel_joint"),
+    joint_topic: JointTopicOpt = BAG_JOINT_TOPIC,
+    joints: JointsOpt = BAG_JOINTS,
     gt_topic: GtTopicOpt = "/ground_truth",
     model: LsqModelOpt = ModelChoice.diff,
     ground_truth: LsqGroundTruthOpt = None,

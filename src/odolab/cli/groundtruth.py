@@ -15,7 +15,16 @@ import typer
 from odolab.app.groundtruth import OptionError, estimate_time_offset
 from odolab.cli._apps import app, calibrate_app, sim_app
 from odolab.cli._output import echo
-from odolab.cli.options import EncodersFormatOpt, NewParamsOutputOpt, RunFormat
+from odolab.cli.options import (
+    BAG_JOINT_TOPIC,
+    BAG_JOINTS,
+    EncodersFormatOpt,
+    JointsOpt,
+    JointTopicOpt,
+    NewParamsOutputOpt,
+    NominalParamsOpt,
+    RunFormat,
+)
 from odolab.cli.wording import said
 from odolab.core.defaults import DEFAULT_CORNERS
 
@@ -49,9 +58,6 @@ def _time_offset(text: str) -> float | None:
 
 
 SensorEncodersOpt = Annotated[Path, typer.Argument(help="Encoder log (any format odolab reads).")]
-SensorParamsOpt = Annotated[
-    str, typer.Option("--params", "-p", help="Nominal parameters TOML or preset.")
-]
 SensorSensorOpt = Annotated[
     Path | None,
     typer.Argument(
@@ -96,14 +102,12 @@ SensorTruthOutOpt = Annotated[
 SensorScanEveryOpt = Annotated[
     int, typer.Option(min=1, help="With --scan-topic: match every N-th scan (fast scanners).")
 ]
-SensorJointTopicOpt = Annotated[str, typer.Option(help="Bag: JointState topic.")]
-SensorJointsOpt = Annotated[tuple[str, str], typer.Option(help="Bag: LEFT RIGHT joint names.")]
 
 
 @calibrate_app.command("sensor")
 def calibrate_sensor_cmd(
     encoders: SensorEncodersOpt,
-    params: SensorParamsOpt,
+    params: NominalParamsOpt,
     output: NewParamsOutputOpt,
     sensor: SensorSensorOpt = None,
     fmt: SensorFmtOpt = None,
@@ -116,11 +120,8 @@ def calibrate_sensor_cmd(
     scan_topic: SensorScanTopicOpt = None,
     truth_out: SensorTruthOutOpt = None,
     scan_every: SensorScanEveryOpt = 1,
-    joint_topic: SensorJointTopicOpt = "/joint_states",
-    joints: SensorJointsOpt = (
-        "left_wheel_joint",
-        "right_wheel_joint",
-    ),
+    joint_topic: JointTopicOpt = BAG_JOINT_TOPIC,
+    joints: JointsOpt = BAG_JOINTS,
 ) -> None:
     """Wheel radii, track and the sensor's pose on the robot (Censi et al. 2013), with standard
     errors (the Cramér-Rao bound at the estimate)."""

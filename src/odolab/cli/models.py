@@ -13,20 +13,25 @@ from odolab.cli._apps import calibrate_app, sim_app
 from odolab.cli._several import several_values_command
 from odolab.cli.evaluate import (
     GtTopicOpt,
-    JointsOpt,
-    JointTopicOpt,
     LossOpt,
     ParamsOpt,
     ReportJsonOpt,
     RunFormatOpt,
     SegmentOpt,
     TruthSigmaOpt,
-    WorkersOpt,
     _progress_bar,
     _read_options,
     run_format,
 )
-from odolab.cli.options import RandomSeedOpt, VirtualTruthOpt
+from odolab.cli.options import (
+    BAG_JOINT_TOPIC,
+    BAG_JOINTS,
+    JointsOpt,
+    JointTopicOpt,
+    RandomSeedOpt,
+    VirtualTruthOpt,
+    WorkersOpt,
+)
 from odolab.core.writing import strict_json
 
 if TYPE_CHECKING:
@@ -77,8 +82,8 @@ def calibrate_compare_cmd(
     seed: CompareSeedOpt = 0,
     json_out: ReportJsonOpt = None,
     workers: WorkersOpt = None,
-    joint_topic: JointTopicOpt = "/joint_states",
-    joints: JointsOpt = ("left_wheel_joint", "right_wheel_joint"),
+    joint_topic: JointTopicOpt = BAG_JOINT_TOPIC,
+    joints: JointsOpt = BAG_JOINTS,
     gt_topic: GtTopicOpt = "/ground_truth",
     truth_sigma: TruthSigmaOpt = None,
     loss: LossOpt = "linear",

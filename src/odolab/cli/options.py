@@ -15,13 +15,20 @@ from typing import Annotated
 import typer
 
 __all__ = [
+    "BAG_JOINTS",
+    "BAG_JOINT_TOPIC",
     "DEFAULT_DB",
     "EncodersFormatOpt",
+    "JointTopicOpt",
+    "JointsOpt",
     "NewParamsOutputOpt",
+    "NominalParamsOpt",
     "NotebookDbOpt",
     "RandomSeedOpt",
     "RunFormat",
+    "SchedulerOpt",
     "VirtualTruthOpt",
+    "WorkersOpt",
 ]
 
 
@@ -51,3 +58,29 @@ EncodersFormatOpt = Annotated[
 #: ``sim explore``, ``sim questions``: the virtual robot's seed and true behaviour
 RandomSeedOpt = Annotated[int, typer.Option(min=0, help="Random seed.")]
 VirtualTruthOpt = Annotated[str, typer.Option(help="True-behaviour preset of the virtual robot.")]
+
+#: ``robot ...``, ``sim run``, ``calibrate sensor``, ``track-photo``: the nominal parameters a run
+#: is driven, simulated or integrated with
+NominalParamsOpt = Annotated[
+    str, typer.Option("--params", "-p", help="Nominal parameters: TOML file or preset name.")
+]
+
+#: ``odometry``, ``evaluate``, ``calibrate lsq``, ``calibrate compare``: many runs on Dask
+WorkersOpt = Annotated[
+    int | None,
+    typer.Option(help="Many runs or logs: Dask workers (default: none below 64, else 2)."),
+]
+SchedulerOpt = Annotated[
+    str | None,
+    typer.Option(
+        help="Many runs or logs: Dask scheduler tcp://HOST:PORT (default: a local cluster)."
+    ),
+]
+
+#: ``evaluate``, ``calibrate lsq``, ``calibrate compare``, ``calibrate sensor``: a bag's wheels
+JointTopicOpt = Annotated[str, typer.Option(help="Bags: JointState topic.")]
+JointsOpt = Annotated[
+    tuple[str, str], typer.Option(help="Bags: LEFT RIGHT joint names in the JointState.")
+]
+BAG_JOINT_TOPIC = "/joint_states"
+BAG_JOINTS = ("left_wheel_joint", "right_wheel_joint")
