@@ -1,4 +1,5 @@
-"""CLI: ``odolab calibrate noise`` and the ``--nees`` part of ``odolab evaluate``."""
+"""CLI: ``odolab calibrate noise`` (the ``--nees`` part of ``odolab evaluate`` is
+:mod:`odolab.cli._nees`)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,6 @@ from typing import Annotated
 import typer
 
 from odolab.cli._apps import calibrate_app
-from odolab.cli._nees import print_nees
 from odolab.cli._output import echo
 from odolab.cli.core import MethodChoice, MethodOpt
 from odolab.cli.evaluate import (
@@ -19,7 +19,7 @@ from odolab.cli.evaluate import (
 )
 from odolab.cli.options import NewParamsOutputOpt, RunFormat
 
-__all__ = ["print_nees"]
+__all__: list[str] = []
 
 
 NoiseFmtOpt = Annotated[RunFormat, typer.Option("--format", "-f", help="Run format.")]
