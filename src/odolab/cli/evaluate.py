@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 from odolab.cli._apps import app, calibrate_app
-from odolab.cli._output import echo, markup_text
+from odolab.cli._output import echo, markup_text, write_json
 from odolab.cli._several import several_values_command
 from odolab.cli.options import (
     BAG_JOINT_TOPIC,
@@ -24,7 +24,6 @@ from odolab.cli.options import (
     WorkersOpt,
 )
 from odolab.cli.wording import said
-from odolab.core.writing import strict_json
 
 if TYPE_CHECKING:
     from collections.abc import Iterable, Sequence
@@ -118,14 +117,6 @@ def _read_options(
         modulus=params.encoder_modulus if params else None,
         params=params,
     )
-
-
-def _write_json(doc: object, path: Path | None) -> None:
-    if path is None:
-        return
-    from odolab.cli._output import write_output_text
-
-    write_output_text(path, strict_json(doc) + "\n", "JSON result")
 
 
 EvalPathsOpt = Annotated[
@@ -277,7 +268,7 @@ def _evaluate_pair(request: EvaluationRequest, paths: list[Path], json_out: Path
             one = evaluate_trajectories(request, progress=report)
     else:
         one = evaluate_trajectories(request)
-    _write_json(one.to_dict(), json_out)
+    write_json(one.to_dict(), json_out)
     _print_table([(paths[1].name, one.evaluation)])
     _print_notes([PLANAR_NOTE, *one.evaluation.notes])
 
@@ -313,7 +304,7 @@ def _print_run_set(
             paths, fmt, robot, "midpoint", nees_segment, fit_gt_yaw_offset=gt_yaw_offset,
             truth_sigma=truth,
         )  # fmt: skip
-    _write_json(doc, json_out)
+    write_json(doc, json_out)
     report_failures(done.outcomes, done.report, results)
 
 
@@ -543,7 +534,7 @@ def calibrate_lsq_cmd(
             progress=report,
         )
     save_params(output, result.calibration.params, provenance=result.calibration.provenance)
-    _write_json(result.to_dict(), json_out)
+    write_json(result.to_dict(), json_out)
     _print_calibration(result.calibration, output)
     _print_run_sets(result.fitted, result.held_out, result.params_source)
 

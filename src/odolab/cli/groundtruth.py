@@ -126,7 +126,7 @@ def calibrate_sensor_cmd(
     """Wheel radii, track and the sensor's pose on the robot (Censi et al. 2013), with standard
     errors (the Cramér-Rao bound at the estimate)."""
     from odolab.app.groundtruth import SensorRequest, calibrate_sensor_log
-    from odolab.cli.evaluate import _write_json
+    from odolab.cli._output import write_json
 
     request = SensorRequest(
         encoders, params, output, sensor, fmt.value if fmt is not None else None,
@@ -136,7 +136,7 @@ def calibrate_sensor_cmd(
     outcome = calibrate_sensor_log(
         request, lambda: _check_sensor_outputs(output, params, json_out, truth_out)
     )
-    _write_json(outcome.result.to_dict(), json_out)
+    write_json(outcome.result.to_dict(), json_out)
     _print_sensor(outcome.result, output)
     if truth_out is not None:
         echo(f"robot path from the sensor -> {truth_out}")

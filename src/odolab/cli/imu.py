@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from odolab.cli._apps import calibrate_app
-from odolab.cli._output import echo
+from odolab.cli._output import echo, write_calibration_json
 from odolab.cli.options import NewParamsOutputOpt
 
 if TYPE_CHECKING:
@@ -150,9 +150,7 @@ def _print_outcome(
 ) -> None:
     """Where the parameters came from, the calibration's lines, and where it was written and
     recorded."""
-    from odolab.cli._output import write_output_text
     from odolab.core.text import safe_terminal
-    from odolab.core.writing import strict_json
 
     cal = outcome.calibration
     echo(outcome.params_from)
@@ -170,6 +168,4 @@ def _print_outcome(
                 else ""
             )
         )
-    if json_out is not None:
-        write_output_text(json_out, strict_json(outcome.to_dict()), "calibration JSON")
-        echo(f"calibration written to {json_out}")
+    write_calibration_json(outcome.to_dict(), json_out)

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 from odolab.cli._apps import app, calibrate_app
-from odolab.cli._output import echo
+from odolab.cli._output import echo, write_calibration_json
 from odolab.cli.options import NewParamsOutputOpt
 
 if TYPE_CHECKING:
@@ -233,16 +233,6 @@ def _from_notebook(
     return outcome
 
 
-def _write_json(path: Path | None, doc: dict[str, object]) -> None:
-    if path is None:
-        return
-    from odolab.cli._output import write_output_text
-    from odolab.core.writing import strict_json
-
-    write_output_text(path, strict_json(doc), "calibration JSON")
-    echo(f"calibration written to {path}")
-
-
 RatiosDistanceRatioOpt = Annotated[
     float | None,
     typer.Option(
@@ -324,7 +314,7 @@ def calibrate_ratios_cmd(
         f"{result.provenance['rotation_ratio']:.4g} -> wheel radius {p.left_wheel_radius:.5g} m, "
         f"track width {p.track_width:.5g} m; written to {path}"
     )
-    _write_json(json_out, doc)
+    write_calibration_json(doc, json_out)
 
 
 UmbmarkErrorsOpt = Annotated[
@@ -394,7 +384,7 @@ def calibrate_umbmark_cmd(
     intervals = result.intervals_sentence()
     if intervals is not None:
         echo(intervals)
-    _write_json(json_out, doc)
+    write_calibration_json(doc, json_out)
 
 
 def _recorded(db: Path, outcome: Any) -> None:

@@ -32,7 +32,6 @@ from odolab.cli.options import (
     VirtualTruthOpt,
     WorkersOpt,
 )
-from odolab.core.writing import strict_json
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -92,7 +91,7 @@ def calibrate_compare_cmd(
     from odolab.app.models import CompareRequest, compare_files
     from odolab.calibration.compare import parse_curve
     from odolab.calibration.lsq import LsqOptions
-    from odolab.cli._output import write_output_text
+    from odolab.cli._output import write_json
     from odolab.core.params import load_params
     from odolab.metrics.truthnoise import parse_truth_sigma
 
@@ -120,8 +119,7 @@ def calibrate_compare_cmd(
             workers=workers,
             progress=report,
         )
-    if json_out is not None:
-        write_output_text(json_out, strict_json(result.to_dict()) + "\n", "JSON result")
+    write_json(result.to_dict(), json_out)
     _print_comparison(result)
 
 
@@ -252,7 +250,7 @@ def sim_questions_cmd(
     from rich.markup import escape
 
     from odolab.analysis.questions import builtin_experiments, load_experiment, run_experiment
-    from odolab.cli._output import write_output_text
+    from odolab.cli._output import write_json
     from odolab.core.errors import SimError
     from odolab.core.params import load_params
     from odolab.sim.presets import TRUTH_PRESETS
@@ -295,6 +293,4 @@ def sim_questions_cmd(
             console.print(f"  -> {escape(e.sentence())}")
         if res.trend is not None:
             console.print(f"  -> {escape(res.trend.sentence())}")
-    if json_out is not None:
-        doc = [r.to_dict() for r in results]
-        write_output_text(json_out, strict_json(doc) + "\n", "JSON result")
+    write_json([r.to_dict() for r in results], json_out)
