@@ -14,8 +14,10 @@ from odolab.cli._apps import app, calibrate_app
 from odolab.cli._output import echo, markup_text, write_json
 from odolab.cli._several import several_values_command
 from odolab.cli.options import (
+    BAG_GT_TOPIC,
     BAG_JOINT_TOPIC,
     BAG_JOINTS,
+    GtTopicOpt,
     JointsOpt,
     JointTopicOpt,
     NewParamsOutputOpt,
@@ -92,7 +94,6 @@ ParamsOpt = Annotated[
     str | None,
     typer.Option("--params", "-p", help="Parameters TOML or preset (default: the runs' own)."),
 ]
-GtTopicOpt = Annotated[str, typer.Option(help="Bags: ground truth (PoseStamped/Odometry) topic.")]
 
 
 def _progress_bar(label: str) -> AbstractContextManager[Callable[[int, int, str], None]]:
@@ -197,7 +198,7 @@ def evaluate_cmd(
     results: EvalResultsOpt = None,
     joint_topic: JointTopicOpt = BAG_JOINT_TOPIC,
     joints: JointsOpt = BAG_JOINTS,
-    gt_topic: GtTopicOpt = "/ground_truth",
+    gt_topic: GtTopicOpt = BAG_GT_TOPIC,
     nees: EvalNeesOpt = False,
     nees_segment: NeesSegmentOpt = 10.0,
     gt_yaw_offset: GtYawOffsetOpt = None,
@@ -490,7 +491,7 @@ def calibrate_lsq_cmd(
     scheduler: SchedulerOpt = None,
     joint_topic: JointTopicOpt = BAG_JOINT_TOPIC,
     joints: JointsOpt = BAG_JOINTS,
-    gt_topic: GtTopicOpt = "/ground_truth",
+    gt_topic: GtTopicOpt = BAG_GT_TOPIC,
     model: LsqModelOpt = ModelChoice.diff,
     ground_truth: LsqGroundTruthOpt = None,
     truth_sigma: TruthSigmaOpt = None,

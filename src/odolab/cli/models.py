@@ -12,7 +12,6 @@ import typer
 from odolab.cli._apps import calibrate_app, sim_app
 from odolab.cli._several import several_values_command
 from odolab.cli.evaluate import (
-    GtTopicOpt,
     LossOpt,
     ParamsOpt,
     ReportJsonOpt,
@@ -24,8 +23,10 @@ from odolab.cli.evaluate import (
     run_format,
 )
 from odolab.cli.options import (
+    BAG_GT_TOPIC,
     BAG_JOINT_TOPIC,
     BAG_JOINTS,
+    GtTopicOpt,
     JointsOpt,
     JointTopicOpt,
     RandomSeedOpt,
@@ -83,7 +84,7 @@ def calibrate_compare_cmd(
     workers: WorkersOpt = None,
     joint_topic: JointTopicOpt = BAG_JOINT_TOPIC,
     joints: JointsOpt = BAG_JOINTS,
-    gt_topic: GtTopicOpt = "/ground_truth",
+    gt_topic: GtTopicOpt = BAG_GT_TOPIC,
     truth_sigma: TruthSigmaOpt = None,
     loss: LossOpt = "linear",
 ) -> None:

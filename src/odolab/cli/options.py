@@ -15,10 +15,12 @@ from typing import Annotated
 import typer
 
 __all__ = [
+    "BAG_GT_TOPIC",
     "BAG_JOINTS",
     "BAG_JOINT_TOPIC",
     "DEFAULT_DB",
     "EncodersFormatOpt",
+    "GtTopicOpt",
     "JointTopicOpt",
     "JointsOpt",
     "NewParamsOutputOpt",
@@ -84,3 +86,6 @@ JointsOpt = Annotated[
 ]
 BAG_JOINT_TOPIC = "/joint_states"
 BAG_JOINTS = ("left_wheel_joint", "right_wheel_joint")
+#: ``evaluate``, ``calibrate lsq``, ``calibrate compare``: a bag's ground truth
+GtTopicOpt = Annotated[str, typer.Option(help="Bags: ground truth (PoseStamped/Odometry) topic.")]
+BAG_GT_TOPIC = "/ground_truth"

@@ -772,7 +772,7 @@ def sim_server_cmd(
     host: BoardHostOpt = "127.0.0.1",
     port: BoardPortOpt = 10001,
     params: NominalParamsOpt = DEFAULT_ROBOT,
-    truth: TruthOpt = "jaguar-lab",
+    truth: TruthOpt = DEFAULT_TRUTH,
     terrain: TerrainOpt = "tile",
     seed: SeedOpt = 0,
     report_rate: BoardReportRateOpt = 10.0,
