@@ -9,7 +9,7 @@ import typer
 
 from odolab.cli._apps import calibrate_app
 from odolab.cli._output import echo, write_calibration_json
-from odolab.cli.options import NewParamsOutputOpt
+from odolab.cli.options import CalibrationJsonOpt, NewParamsOutputOpt
 
 if TYPE_CHECKING:
     from odolab.app.imu import ImuOutcome
@@ -90,9 +90,6 @@ ImuDbOpt = Annotated[
     Path | None,
     typer.Option("--db", help="Record the result as a new parameter version in this notebook."),
 ]
-ImuJsonOutOpt = Annotated[
-    Path | None, typer.Option("--json", help="Also write the calibration as JSON.")
-]
 
 
 @calibrate_app.command("imu")
@@ -113,7 +110,7 @@ def calibrate_imu_cmd(
     bias_sd: ImuBiasSdOpt = 0.005,
     gyro_range: ImuGyroRangeOpt = None,
     db: ImuDbOpt = None,
-    json_out: ImuJsonOutOpt = None,
+    json_out: CalibrationJsonOpt = None,
 ) -> None:
     """The effective track and the radius ratio from a gyro, with 95 % intervals; the gyro's
     bias, scale (with a reference turn) and clock offset (docs/imu.md)."""

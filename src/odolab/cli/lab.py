@@ -10,7 +10,7 @@ import typer
 
 from odolab.cli._apps import app, calibrate_app
 from odolab.cli._output import echo, write_calibration_json
-from odolab.cli.options import NewParamsOutputOpt
+from odolab.cli.options import CalibrationJsonOpt, NewParamsOutputOpt
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -179,10 +179,6 @@ RobotOpt = Annotated[
         help="With --db: the robot to calibrate (default: the one robot of the selected trials).",
     ),
 ]
-JsonOpt = Annotated[
-    Path | None,
-    typer.Option("--json", help="Also write the calibration (what it started from too) as JSON."),
-]
 ParamsOpt = Annotated[
     str | None,
     typer.Option(
@@ -265,7 +261,7 @@ def calibrate_ratios_cmd(
     campaign: CampaignOpt = None,
     exclude_campaign: ExcludeOpt = None,
     robot: RobotOpt = None,
-    json_out: JsonOpt = None,
+    json_out: CalibrationJsonOpt = None,
 ) -> None:
     """New wheel radius = old x distance ratio; new track = old x distance/rotation ratio."""
     from odolab.calibration import ratios
@@ -338,7 +334,7 @@ def calibrate_umbmark_cmd(
     campaign: CampaignOpt = None,
     exclude_campaign: ExcludeOpt = None,
     robot: RobotOpt = None,
-    json_out: JsonOpt = None,
+    json_out: CalibrationJsonOpt = None,
 ) -> None:
     """UMBmark (Borenstein & Feng): E_d, E_b, corrected radii and track, E_max,syst.
 

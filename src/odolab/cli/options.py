@@ -19,6 +19,7 @@ __all__ = [
     "BAG_JOINTS",
     "BAG_JOINT_TOPIC",
     "DEFAULT_DB",
+    "CalibrationJsonOpt",
     "EncodersFormatOpt",
     "GtTopicOpt",
     "JointTopicOpt",
@@ -51,6 +52,11 @@ DEFAULT_DB = Path("odolab.db")
 
 #: ``calibrate ...``: where the calibrated parameters go
 NewParamsOutputOpt = Annotated[Path, typer.Option("--output", "-o", help="New parameters TOML.")]
+#: ``calibrate ratios|umbmark|imu``: the calibration as JSON too (``write_calibration_json``)
+CalibrationJsonOpt = Annotated[
+    Path | None,
+    typer.Option("--json", help="Also write the calibration (what it started from too) as JSON."),
+]
 
 #: ``track``, ``track-photo``: the format of the run's encoder log (--encoders)
 EncodersFormatOpt = Annotated[
