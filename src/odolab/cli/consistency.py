@@ -29,7 +29,7 @@ NoiseFmtOpt = Annotated[RunFormat, typer.Option("--format", "-f", help="Run form
 def calibrate_noise_cmd(
     runs: RunsWithTruthArg,
     output: NewParamsOutputOpt,
-    fmt: NoiseFmtOpt = (RunFormat.optiodom),
+    fmt: NoiseFmtOpt = RunFormat.OPTIODOM,
     params: ParamsOpt = None,
     method: MethodOpt = MethodChoice.midpoint,
     segment: NeesSegmentOpt = 10.0,

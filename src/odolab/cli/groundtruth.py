@@ -249,7 +249,7 @@ def track_cmd(
     dictionary: DictionaryOpt = "DICT_4X4_50",
     encoders: TrackEncodersOpt = None,
     params: TrackParamsOpt = None,
-    fmt: EncodersFormatOpt = RunFormat.csv,
+    fmt: EncodersFormatOpt = RunFormat.CSV,
     max_offset: TrackMaxOffsetOpt = 30.0,
     time_offset: TrackTimeOffsetOpt = "auto",
     max_yaw_rate: TrackMaxYawRateOpt = 180.0,

@@ -8,11 +8,12 @@ nothing heavy: any command module may import it.
 
 from __future__ import annotations
 
-from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
 
 import typer
+
+from odolab.core.defaults import LogFormat
 
 __all__ = [
     "BAG_GT_TOPIC",
@@ -35,13 +36,8 @@ __all__ = [
 ]
 
 
-class RunFormat(StrEnum):
-    """The formats of a recorded run (an encoder log and what came with it)."""
-
-    csv = "csv"
-    optiodom = "optiodom"
-    bag = "bag"
-    drive = "drive"
+#: the formats of a recorded run (an encoder log and what came with it): the readers' own
+RunFormat = LogFormat
 
 
 #: the notebook file of the commands that need one (``trials``, ``notebook``, ``serve``)

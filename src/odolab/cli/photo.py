@@ -88,7 +88,7 @@ def track_photo_cmd(
     led_hz: LedHzOpt = 2.0,
     duty: DutyOpt = 0.5,
     overlay: TrackPhotoOverlayOpt = None,
-    fmt: EncodersFormatOpt = RunFormat.csv,
+    fmt: EncodersFormatOpt = RunFormat.CSV,
 ) -> None:
     """A timed path from one long-exposure photo of an LED flashing at --led-hz on the robot:
     the dashes found, ordered from the robot's start and placed on the encoder log's clock by
