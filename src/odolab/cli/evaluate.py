@@ -427,10 +427,11 @@ def _print_table(rows: list[tuple[str, Any]]) -> None:
     print_table(console(), table)
 
 
-# ``--validate D E F`` (a shell glob) holds out D, E and F; click alone would fit E and F
+#: ``calibrate lsq``, ``calibrate noise``, ``calibrate compare``: the runs a fit is made on
 RunsWithTruthArg = Annotated[
-    list[Path], typer.Argument(help="Runs (files or folders) with ground truth.")
+    list[Path], typer.Argument(help="Training runs (files or folders) with ground truth.")
 ]
+# ``--validate D E F`` (a shell glob) holds out D, E and F; click alone would fit E and F
 LsqValidateOpt = Annotated[
     list[Path] | None,
     typer.Option(

@@ -16,6 +16,7 @@ from odolab.cli.evaluate import (
     ParamsOpt,
     ReportJsonOpt,
     RunFormatOpt,
+    RunsWithTruthArg,
     SegmentOpt,
     TruthSigmaOpt,
     _progress_bar,
@@ -42,9 +43,6 @@ if TYPE_CHECKING:
 __all__: list[str] = []
 
 
-CompareRunsOpt = Annotated[
-    list[Path], typer.Argument(help="Training runs (files or folders) with ground truth.")
-]
 CompareValidateOpt = Annotated[
     list[Path] | None,
     typer.Option(
@@ -72,7 +70,7 @@ CompareSeedOpt = Annotated[int, typer.Option(help="Seed of the bootstrap confide
 
 @calibrate_app.command("compare", cls=several_values_command("--validate"))
 def calibrate_compare_cmd(
-    runs: CompareRunsOpt,
+    runs: RunsWithTruthArg,
     fmt: RunFormatOpt = None,
     params: ParamsOpt = None,
     validate: CompareValidateOpt = None,
