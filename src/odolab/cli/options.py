@@ -63,8 +63,8 @@ EncodersFormatOpt = Annotated[
 RandomSeedOpt = Annotated[int, typer.Option(min=0, help="Random seed.")]
 VirtualTruthOpt = Annotated[str, typer.Option(help="True-behaviour preset of the virtual robot.")]
 
-#: ``robot ...``, ``sim run``, ``calibrate sensor``, ``track-photo``: the nominal parameters a run
-#: is driven, simulated or integrated with
+#: ``robot ...``, ``sim run|explore``, ``calibrate sensor``, ``track-photo``: the nominal
+#: parameters a run is driven, simulated or integrated with
 NominalParamsOpt = Annotated[
     str, typer.Option("--params", "-p", help="Nominal parameters: TOML file or preset name.")
 ]
