@@ -220,7 +220,7 @@ def test_an_implausible_fit_names_the_piece_length(optiodom_dir) -> None:  # typ
 def test_run_names_are_text_not_markup(optiodom_dir, tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
     import shutil
 
-    from odolab.cli.consistency import print_nees
+    from odolab.cli._nees import print_nees
 
     session = sorted((optiodom_dir / "square").iterdir())[1]
     folder = tmp_path / "[red]sq" / session.name  # the run's name: "[red]sq/<session>/run-01"

@@ -1,41 +1,38 @@
-"""The NEES table and verdict that ``odolab evaluate --nees`` prints (:func:`print_nees`)."""
+"""The NEES table and verdict that ``odolab evaluate --nees`` prints (:func:`print_nees`).
+
+It imports the application layer (numpy and the metrics) when it is imported: load it where the
+NEES is wanted, not at a command module's import.
+"""
 
 from __future__ import annotations
 
-from pathlib import Path
-from typing import TYPE_CHECKING
+from collections.abc import Callable
+from typing import ParamSpec
 
+from odolab.app.evaluate import NeesOutcome, nees_of_paths
 from odolab.cli.wording import said
-
-if TYPE_CHECKING:
-    from odolab.app.evaluate import NeesOutcome
-    from odolab.core.params import RobotParams
-    from odolab.metrics.truthnoise import TruthNoise
 
 __all__ = ["print_nees", "render_nees"]
 
+P = ParamSpec("P")
 
-def print_nees(
-    paths: list[Path],
-    fmt: str,
-    robot: RobotParams | None,
-    method: str,
-    segment: float,
-    *,
-    fit_gt_yaw_offset: bool | None = None,
-    truth_sigma: TruthNoise | None = None,
-) -> dict[str, object]:
-    """NEES of every run (pieces of ``segment`` s) against its ground truth
-    (:func:`odolab.app.evaluate.nees_of_paths`); prints a table and the verdict, returns the
+
+def _printed(compute: Callable[P, NeesOutcome]) -> Callable[P, dict[str, object]]:
+    """``compute`` with its arguments, its outcome printed (:func:`render_nees`) and returned as
     JSON-ready numbers."""
-    from odolab.app.evaluate import nees_of_paths
 
-    outcome = nees_of_paths(
-        paths, fmt, robot, method, segment, fit_gt_yaw_offset=fit_gt_yaw_offset,
-        truth_sigma=truth_sigma,
-    )  # fmt: skip
-    render_nees(outcome)
-    return outcome.to_dict()
+    def compute_and_print(*args: P.args, **kwargs: P.kwargs) -> dict[str, object]:
+        outcome = compute(*args, **kwargs)
+        render_nees(outcome)
+        return outcome.to_dict()
+
+    return compute_and_print
+
+
+#: NEES of every run against its ground truth, with the arguments of
+#: :func:`odolab.app.evaluate.nees_of_paths`; prints a table and the verdict, returns the
+#: JSON-ready numbers
+print_nees = _printed(nees_of_paths)
 
 
 def render_nees(outcome: NeesOutcome) -> None:

@@ -8,7 +8,16 @@ from pathlib import Path
 from odolab.core.errors import OdolabError
 from odolab.core.text import safe_terminal
 
-__all__ = ["OutputError", "check_output_path", "echo", "markup_text", "term", "write_output_text"]
+__all__ = [
+    "OutputError",
+    "check_output_path",
+    "echo",
+    "markup_text",
+    "term",
+    "write_calibration_json",
+    "write_json",
+    "write_output_text",
+]
 
 
 def term(text: object) -> str:
@@ -72,3 +81,22 @@ def write_output_text(path: Path, text: str, what: str) -> None:
 
     check_output_path(path, what)
     write_text_file(path, said(text), what=what, error=OutputError)
+
+
+def write_json(doc: object, path: Path | None) -> None:
+    """A command's ``--json``: ``doc`` as strict JSON and a newline at ``path``; nothing
+    without a path."""
+    if path is not None:
+        from odolab.core.writing import strict_json
+
+        write_output_text(path, strict_json(doc) + "\n", "JSON result")
+
+
+def write_calibration_json(doc: object, path: Path | None) -> None:
+    """A ``calibrate ...`` command's ``--json``: ``doc`` as strict JSON at ``path``, and a line
+    saying so; nothing without a path."""
+    if path is not None:
+        from odolab.core.writing import strict_json
+
+        write_output_text(path, strict_json(doc), "calibration JSON")
+        echo(f"calibration written to {path}")

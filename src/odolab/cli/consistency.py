@@ -1,4 +1,5 @@
-"""CLI: ``odolab calibrate noise`` and the ``--nees`` part of ``odolab evaluate``."""
+"""CLI: ``odolab calibrate noise`` (the ``--nees`` part of ``odolab evaluate`` is
+:mod:`odolab.cli._nees`)."""
 
 from __future__ import annotations
 
@@ -7,38 +8,32 @@ from typing import Annotated
 import typer
 
 from odolab.cli._apps import calibrate_app
-from odolab.cli._nees import print_nees
 from odolab.cli._output import echo
 from odolab.cli.core import MethodChoice, MethodOpt
-from odolab.cli.evaluate import NeesSegmentOpt, RunsWithTruthArg, TruthSigmaOpt
+from odolab.cli.evaluate import (
+    GtYawOffsetOpt,
+    NeesSegmentOpt,
+    ParamsOpt,
+    RunsWithTruthArg,
+    TruthSigmaOpt,
+)
 from odolab.cli.options import NewParamsOutputOpt, RunFormat
 
-__all__ = ["print_nees"]
+__all__: list[str] = []
 
 
 NoiseFmtOpt = Annotated[RunFormat, typer.Option("--format", "-f", help="Run format.")]
-NoiseParamsOpt = Annotated[
-    str | None, typer.Option("--params", "-p", help="Parameters (default: the runs' own).")
-]
-NoiseGtYawOffsetOpt = Annotated[
-    bool | None,
-    typer.Option(
-        "--gt-yaw-offset/--no-gt-yaw-offset",
-        help="Fit the ground truth's yaw mounting offset per run (default: unless the "
-        "ground truth starts in the odometry's frame).",
-    ),
-]
 
 
 @calibrate_app.command("noise")
 def calibrate_noise_cmd(
     runs: RunsWithTruthArg,
     output: NewParamsOutputOpt,
-    fmt: NoiseFmtOpt = (RunFormat.optiodom),
-    params: NoiseParamsOpt = None,
+    fmt: NoiseFmtOpt = RunFormat.OPTIODOM,
+    params: ParamsOpt = None,
     method: MethodOpt = MethodChoice.midpoint,
     segment: NeesSegmentOpt = 10.0,
-    gt_yaw_offset: NoiseGtYawOffsetOpt = None,
+    gt_yaw_offset: GtYawOffsetOpt = None,
     truth_sigma: TruthSigmaOpt = None,
 ) -> None:
     """Fit the \\[noise] table to runs with ground truth: k_left, k_right, k_scrub by maximum

@@ -11,6 +11,7 @@ import typer
 from odolab.app.odometry import DEFAULT_CHUNK_ROWS
 from odolab.cli._apps import app, params_app
 from odolab.cli._output import echo
+from odolab.cli.options import SchedulerOpt, WorkersOpt
 from odolab.core.defaults import DEFAULT_ROBOT, LogFormat
 
 __all__: list[str] = []
@@ -93,14 +94,6 @@ OdoChunkRowsOpt = Annotated[
         "default: chunks of 1,000,000 rows for logs over 64 MiB)."
     ),
 ]
-OdoWorkersOpt = Annotated[
-    int | None,
-    typer.Option(help="Many logs: Dask workers (default: none below 64 logs, else 2)."),
-]
-OdoSchedulerOpt = Annotated[
-    str | None,
-    typer.Option(help="Many logs: Dask scheduler tcp://HOST:PORT (default: a local cluster)."),
-]
 OdoCovarianceOpt = Annotated[
     bool,
     typer.Option(
@@ -122,8 +115,8 @@ def odometry_cmd(
     start: OdoStartOpt = None,
     max_dticks: OdoMaxDticksOpt = None,
     chunk_rows: OdoChunkRowsOpt = None,
-    workers: OdoWorkersOpt = None,
-    scheduler: OdoSchedulerOpt = None,
+    workers: WorkersOpt = None,
+    scheduler: SchedulerOpt = None,
     covariance: OdoCovarianceOpt = False,
 ) -> None:
     """Integrate an encoder log into a trajectory (one pose per input row), chunk by chunk.

@@ -11,11 +11,21 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 from odolab.cli._apps import app, calibrate_app
-from odolab.cli._output import echo, markup_text
+from odolab.cli._output import echo, markup_text, write_json
 from odolab.cli._several import several_values_command
-from odolab.cli.options import NewParamsOutputOpt, RunFormat
+from odolab.cli.options import (
+    BAG_GT_TOPIC,
+    BAG_JOINT_TOPIC,
+    BAG_JOINTS,
+    GtTopicOpt,
+    JointsOpt,
+    JointTopicOpt,
+    NewParamsOutputOpt,
+    RunFormat,
+    SchedulerOpt,
+    WorkersOpt,
+)
 from odolab.cli.wording import said
-from odolab.core.writing import strict_json
 
 if TYPE_CHECKING:
     from collections.abc import Iterable, Sequence
@@ -82,21 +92,8 @@ FormatOpt = Annotated[
 ]
 ParamsOpt = Annotated[
     str | None,
-    typer.Option("--params", "-p", help="Parameters TOML or preset (default: the log's)."),
+    typer.Option("--params", "-p", help="Parameters TOML or preset (default: the runs' own)."),
 ]
-WorkersOpt = Annotated[
-    int | None,
-    typer.Option(help="Dask workers for many runs (default: none below 64 runs, else 2)."),
-]
-SchedulerOpt = Annotated[
-    str | None,
-    typer.Option(help="Dask scheduler address tcp://HOST:PORT (default: a local cluster)."),
-]
-JointTopicOpt = Annotated[str, typer.Option(help="Bags: JointState topic.")]
-JointsOpt = Annotated[
-    tuple[str, str], typer.Option(help="Bags: LEFT RIGHT joint names in the JointState.")
-]
-GtTopicOpt = Annotated[str, typer.Option(help="Bags: ground truth (PoseStamped/Odometry) topic.")]
 
 
 def _progress_bar(label: str) -> AbstractContextManager[Callable[[int, int, str], None]]:
@@ -121,14 +118,6 @@ def _read_options(
         modulus=params.encoder_modulus if params else None,
         params=params,
     )
-
-
-def _write_json(doc: object, path: Path | None) -> None:
-    if path is None:
-        return
-    from odolab.cli._output import write_output_text
-
-    write_output_text(path, strict_json(doc) + "\n", "JSON result")
 
 
 EvalPathsOpt = Annotated[
@@ -170,11 +159,12 @@ EvalNeesOpt = Annotated[
     bool, typer.Option("--nees", help="Runs: NEES of the propagated covariance (\\[noise]).")
 ]
 NeesSegmentOpt = Annotated[float, typer.Option(help="Piece length (s) of the NEES.")]
-EvalGtYawOffsetOpt = Annotated[
+#: ``evaluate --nees`` and ``calibrate noise``: the NEES pieces' ground-truth yaw offset
+GtYawOffsetOpt = Annotated[
     bool | None,
     typer.Option(
         "--gt-yaw-offset/--no-gt-yaw-offset",
-        help="--nees: fit the ground truth's yaw mounting offset per run (default: unless "
+        help="NEES: fit the ground truth's yaw mounting offset per run (default: unless "
         "the ground truth starts in the odometry's frame).",
     ),
 ]
@@ -206,12 +196,12 @@ def evaluate_cmd(
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
     results: EvalResultsOpt = None,
-    joint_topic: JointTopicOpt = "/joint_states",
-    joints: JointsOpt = ("left_wheel_joint", "right_wheel_joint"),
-    gt_topic: GtTopicOpt = "/ground_truth",
+    joint_topic: JointTopicOpt = BAG_JOINT_TOPIC,
+    joints: JointsOpt = BAG_JOINTS,
+    gt_topic: GtTopicOpt = BAG_GT_TOPIC,
     nees: EvalNeesOpt = False,
     nees_segment: NeesSegmentOpt = 10.0,
-    gt_yaw_offset: EvalGtYawOffsetOpt = None,
+    gt_yaw_offset: GtYawOffsetOpt = None,
     chunk_rows: EvalChunkRowsOpt = None,
     truth_sigma: TruthSigmaOpt = None,
 ) -> None:
@@ -279,7 +269,7 @@ def _evaluate_pair(request: EvaluationRequest, paths: list[Path], json_out: Path
             one = evaluate_trajectories(request, progress=report)
     else:
         one = evaluate_trajectories(request)
-    _write_json(one.to_dict(), json_out)
+    write_json(one.to_dict(), json_out)
     _print_table([(paths[1].name, one.evaluation)])
     _print_notes([PLANAR_NOTE, *one.evaluation.notes])
 
@@ -315,7 +305,7 @@ def _print_run_set(
             paths, fmt, robot, "midpoint", nees_segment, fit_gt_yaw_offset=gt_yaw_offset,
             truth_sigma=truth,
         )  # fmt: skip
-    _write_json(doc, json_out)
+    write_json(doc, json_out)
     report_failures(done.outcomes, done.report, results)
 
 
@@ -437,10 +427,11 @@ def _print_table(rows: list[tuple[str, Any]]) -> None:
     print_table(console(), table)
 
 
-# ``--validate D E F`` (a shell glob) holds out D, E and F; click alone would fit E and F
+#: ``calibrate lsq``, ``calibrate noise``, ``calibrate compare``: the runs a fit is made on
 RunsWithTruthArg = Annotated[
-    list[Path], typer.Argument(help="Runs (files or folders) with ground truth.")
+    list[Path], typer.Argument(help="Training runs (files or folders) with ground truth.")
 ]
+# ``--validate D E F`` (a shell glob) holds out D, E and F; click alone would fit E and F
 LsqValidateOpt = Annotated[
     list[Path] | None,
     typer.Option(
@@ -499,9 +490,9 @@ def calibrate_lsq_cmd(
     json_out: ReportJsonOpt = None,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
-    joint_topic: JointTopicOpt = "/joint_states",
-    joints: JointsOpt = ("left_wheel_joint", "right_wheel_joint"),
-    gt_topic: GtTopicOpt = "/ground_truth",
+    joint_topic: JointTopicOpt = BAG_JOINT_TOPIC,
+    joints: JointsOpt = BAG_JOINTS,
+    gt_topic: GtTopicOpt = BAG_GT_TOPIC,
     model: LsqModelOpt = ModelChoice.diff,
     ground_truth: LsqGroundTruthOpt = None,
     truth_sigma: TruthSigmaOpt = None,
@@ -545,7 +536,7 @@ def calibrate_lsq_cmd(
             progress=report,
         )
     save_params(output, result.calibration.params, provenance=result.calibration.provenance)
-    _write_json(result.to_dict(), json_out)
+    write_json(result.to_dict(), json_out)
     _print_calibration(result.calibration, output)
     _print_run_sets(result.fitted, result.held_out, result.params_source)
 

@@ -15,7 +15,16 @@ import typer
 from odolab.app.groundtruth import OptionError, estimate_time_offset
 from odolab.cli._apps import app, calibrate_app, sim_app
 from odolab.cli._output import echo
-from odolab.cli.options import EncodersFormatOpt, NewParamsOutputOpt, RunFormat
+from odolab.cli.options import (
+    BAG_JOINT_TOPIC,
+    BAG_JOINTS,
+    EncodersFormatOpt,
+    JointsOpt,
+    JointTopicOpt,
+    NewParamsOutputOpt,
+    NominalParamsOpt,
+    RunFormat,
+)
 from odolab.cli.wording import said
 from odolab.core.defaults import DEFAULT_CORNERS
 
@@ -49,9 +58,6 @@ def _time_offset(text: str) -> float | None:
 
 
 SensorEncodersOpt = Annotated[Path, typer.Argument(help="Encoder log (any format odolab reads).")]
-SensorParamsOpt = Annotated[
-    str, typer.Option("--params", "-p", help="Nominal parameters TOML or preset.")
-]
 SensorSensorOpt = Annotated[
     Path | None,
     typer.Argument(
@@ -96,14 +102,12 @@ SensorTruthOutOpt = Annotated[
 SensorScanEveryOpt = Annotated[
     int, typer.Option(min=1, help="With --scan-topic: match every N-th scan (fast scanners).")
 ]
-SensorJointTopicOpt = Annotated[str, typer.Option(help="Bag: JointState topic.")]
-SensorJointsOpt = Annotated[tuple[str, str], typer.Option(help="Bag: LEFT RIGHT joint names.")]
 
 
 @calibrate_app.command("sensor")
 def calibrate_sensor_cmd(
     encoders: SensorEncodersOpt,
-    params: SensorParamsOpt,
+    params: NominalParamsOpt,
     output: NewParamsOutputOpt,
     sensor: SensorSensorOpt = None,
     fmt: SensorFmtOpt = None,
@@ -116,16 +120,13 @@ def calibrate_sensor_cmd(
     scan_topic: SensorScanTopicOpt = None,
     truth_out: SensorTruthOutOpt = None,
     scan_every: SensorScanEveryOpt = 1,
-    joint_topic: SensorJointTopicOpt = "/joint_states",
-    joints: SensorJointsOpt = (
-        "left_wheel_joint",
-        "right_wheel_joint",
-    ),
+    joint_topic: JointTopicOpt = BAG_JOINT_TOPIC,
+    joints: JointsOpt = BAG_JOINTS,
 ) -> None:
     """Wheel radii, track and the sensor's pose on the robot (Censi et al. 2013), with standard
     errors (the Cramér-Rao bound at the estimate)."""
     from odolab.app.groundtruth import SensorRequest, calibrate_sensor_log
-    from odolab.cli.evaluate import _write_json
+    from odolab.cli._output import write_json
 
     request = SensorRequest(
         encoders, params, output, sensor, fmt.value if fmt is not None else None,
@@ -135,7 +136,7 @@ def calibrate_sensor_cmd(
     outcome = calibrate_sensor_log(
         request, lambda: _check_sensor_outputs(output, params, json_out, truth_out)
     )
-    _write_json(outcome.result.to_dict(), json_out)
+    write_json(outcome.result.to_dict(), json_out)
     _print_sensor(outcome.result, output)
     if truth_out is not None:
         echo(f"robot path from the sensor -> {truth_out}")
@@ -248,7 +249,7 @@ def track_cmd(
     dictionary: DictionaryOpt = "DICT_4X4_50",
     encoders: TrackEncodersOpt = None,
     params: TrackParamsOpt = None,
-    fmt: EncodersFormatOpt = RunFormat.csv,
+    fmt: EncodersFormatOpt = RunFormat.CSV,
     max_offset: TrackMaxOffsetOpt = 30.0,
     time_offset: TrackTimeOffsetOpt = "auto",
     max_yaw_rate: TrackMaxYawRateOpt = 180.0,

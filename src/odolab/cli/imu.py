@@ -8,8 +8,8 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from odolab.cli._apps import calibrate_app
-from odolab.cli._output import echo
-from odolab.cli.options import NewParamsOutputOpt
+from odolab.cli._output import echo, write_calibration_json
+from odolab.cli.options import CalibrationJsonOpt, NewParamsOutputOpt
 
 if TYPE_CHECKING:
     from odolab.app.imu import ImuOutcome
@@ -90,9 +90,6 @@ ImuDbOpt = Annotated[
     Path | None,
     typer.Option("--db", help="Record the result as a new parameter version in this notebook."),
 ]
-ImuJsonOutOpt = Annotated[
-    Path | None, typer.Option("--json", help="Also write the calibration as JSON.")
-]
 
 
 @calibrate_app.command("imu")
@@ -113,7 +110,7 @@ def calibrate_imu_cmd(
     bias_sd: ImuBiasSdOpt = 0.005,
     gyro_range: ImuGyroRangeOpt = None,
     db: ImuDbOpt = None,
-    json_out: ImuJsonOutOpt = None,
+    json_out: CalibrationJsonOpt = None,
 ) -> None:
     """The effective track and the radius ratio from a gyro, with 95 % intervals; the gyro's
     bias, scale (with a reference turn) and clock offset (docs/imu.md)."""
@@ -150,9 +147,7 @@ def _print_outcome(
 ) -> None:
     """Where the parameters came from, the calibration's lines, and where it was written and
     recorded."""
-    from odolab.cli._output import write_output_text
     from odolab.core.text import safe_terminal
-    from odolab.core.writing import strict_json
 
     cal = outcome.calibration
     echo(outcome.params_from)
@@ -170,6 +165,4 @@ def _print_outcome(
                 else ""
             )
         )
-    if json_out is not None:
-        write_output_text(json_out, strict_json(outcome.to_dict()), "calibration JSON")
-        echo(f"calibration written to {json_out}")
+    write_calibration_json(outcome.to_dict(), json_out)

@@ -9,8 +9,8 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 from odolab.cli._apps import app, calibrate_app
-from odolab.cli._output import echo
-from odolab.cli.options import NewParamsOutputOpt
+from odolab.cli._output import echo, write_calibration_json
+from odolab.cli.options import CalibrationJsonOpt, NewParamsOutputOpt
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -179,10 +179,6 @@ RobotOpt = Annotated[
         help="With --db: the robot to calibrate (default: the one robot of the selected trials).",
     ),
 ]
-JsonOpt = Annotated[
-    Path | None,
-    typer.Option("--json", help="Also write the calibration (what it started from too) as JSON."),
-]
 ParamsOpt = Annotated[
     str | None,
     typer.Option(
@@ -233,16 +229,6 @@ def _from_notebook(
     return outcome
 
 
-def _write_json(path: Path | None, doc: dict[str, object]) -> None:
-    if path is None:
-        return
-    from odolab.cli._output import write_output_text
-    from odolab.core.writing import strict_json
-
-    write_output_text(path, strict_json(doc), "calibration JSON")
-    echo(f"calibration written to {path}")
-
-
 RatiosDistanceRatioOpt = Annotated[
     float | None,
     typer.Option(
@@ -275,7 +261,7 @@ def calibrate_ratios_cmd(
     campaign: CampaignOpt = None,
     exclude_campaign: ExcludeOpt = None,
     robot: RobotOpt = None,
-    json_out: JsonOpt = None,
+    json_out: CalibrationJsonOpt = None,
 ) -> None:
     """New wheel radius = old x distance ratio; new track = old x distance/rotation ratio."""
     from odolab.calibration import ratios
@@ -324,7 +310,7 @@ def calibrate_ratios_cmd(
         f"{result.provenance['rotation_ratio']:.4g} -> wheel radius {p.left_wheel_radius:.5g} m, "
         f"track width {p.track_width:.5g} m; written to {path}"
     )
-    _write_json(json_out, doc)
+    write_calibration_json(doc, json_out)
 
 
 UmbmarkErrorsOpt = Annotated[
@@ -348,7 +334,7 @@ def calibrate_umbmark_cmd(
     campaign: CampaignOpt = None,
     exclude_campaign: ExcludeOpt = None,
     robot: RobotOpt = None,
-    json_out: JsonOpt = None,
+    json_out: CalibrationJsonOpt = None,
 ) -> None:
     """UMBmark (Borenstein & Feng): E_d, E_b, corrected radii and track, E_max,syst.
 
@@ -394,7 +380,7 @@ def calibrate_umbmark_cmd(
     intervals = result.intervals_sentence()
     if intervals is not None:
         echo(intervals)
-    _write_json(json_out, doc)
+    write_calibration_json(doc, json_out)
 
 
 def _recorded(db: Path, outcome: Any) -> None:

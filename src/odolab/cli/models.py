@@ -12,22 +12,28 @@ import typer
 from odolab.cli._apps import calibrate_app, sim_app
 from odolab.cli._several import several_values_command
 from odolab.cli.evaluate import (
-    GtTopicOpt,
-    JointsOpt,
-    JointTopicOpt,
     LossOpt,
     ParamsOpt,
     ReportJsonOpt,
     RunFormatOpt,
+    RunsWithTruthArg,
     SegmentOpt,
     TruthSigmaOpt,
-    WorkersOpt,
     _progress_bar,
     _read_options,
     run_format,
 )
-from odolab.cli.options import RandomSeedOpt, VirtualTruthOpt
-from odolab.core.writing import strict_json
+from odolab.cli.options import (
+    BAG_GT_TOPIC,
+    BAG_JOINT_TOPIC,
+    BAG_JOINTS,
+    GtTopicOpt,
+    JointsOpt,
+    JointTopicOpt,
+    RandomSeedOpt,
+    VirtualTruthOpt,
+    WorkersOpt,
+)
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -37,9 +43,6 @@ if TYPE_CHECKING:
 __all__: list[str] = []
 
 
-CompareRunsOpt = Annotated[
-    list[Path], typer.Argument(help="Training runs (files or folders) with ground truth.")
-]
 CompareValidateOpt = Annotated[
     list[Path] | None,
     typer.Option(
@@ -67,7 +70,7 @@ CompareSeedOpt = Annotated[int, typer.Option(help="Seed of the bootstrap confide
 
 @calibrate_app.command("compare", cls=several_values_command("--validate"))
 def calibrate_compare_cmd(
-    runs: CompareRunsOpt,
+    runs: RunsWithTruthArg,
     fmt: RunFormatOpt = None,
     params: ParamsOpt = None,
     validate: CompareValidateOpt = None,
@@ -77,9 +80,9 @@ def calibrate_compare_cmd(
     seed: CompareSeedOpt = 0,
     json_out: ReportJsonOpt = None,
     workers: WorkersOpt = None,
-    joint_topic: JointTopicOpt = "/joint_states",
-    joints: JointsOpt = ("left_wheel_joint", "right_wheel_joint"),
-    gt_topic: GtTopicOpt = "/ground_truth",
+    joint_topic: JointTopicOpt = BAG_JOINT_TOPIC,
+    joints: JointsOpt = BAG_JOINTS,
+    gt_topic: GtTopicOpt = BAG_GT_TOPIC,
     truth_sigma: TruthSigmaOpt = None,
     loss: LossOpt = "linear",
 ) -> None:
@@ -87,7 +90,7 @@ def calibrate_compare_cmd(
     from odolab.app.models import CompareRequest, compare_files
     from odolab.calibration.compare import parse_curve
     from odolab.calibration.lsq import LsqOptions
-    from odolab.cli._output import write_output_text
+    from odolab.cli._output import write_json
     from odolab.core.params import load_params
     from odolab.metrics.truthnoise import parse_truth_sigma
 
@@ -115,8 +118,7 @@ def calibrate_compare_cmd(
             workers=workers,
             progress=report,
         )
-    if json_out is not None:
-        write_output_text(json_out, strict_json(result.to_dict()) + "\n", "JSON result")
+    write_json(result.to_dict(), json_out)
     _print_comparison(result)
 
 
@@ -247,7 +249,7 @@ def sim_questions_cmd(
     from rich.markup import escape
 
     from odolab.analysis.questions import builtin_experiments, load_experiment, run_experiment
-    from odolab.cli._output import write_output_text
+    from odolab.cli._output import write_json
     from odolab.core.errors import SimError
     from odolab.core.params import load_params
     from odolab.sim.presets import TRUTH_PRESETS
@@ -290,6 +292,4 @@ def sim_questions_cmd(
             console.print(f"  -> {escape(e.sentence())}")
         if res.trend is not None:
             console.print(f"  -> {escape(res.trend.sentence())}")
-    if json_out is not None:
-        doc = [r.to_dict() for r in results]
-        write_output_text(json_out, strict_json(doc) + "\n", "JSON result")
+    write_json([r.to_dict() for r in results], json_out)

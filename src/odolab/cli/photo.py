@@ -12,7 +12,7 @@ import typer
 from odolab.app.sim import SIM_PHOTO_TRUTH, sim_photo_legs
 from odolab.cli._apps import app, sim_app
 from odolab.cli._output import echo
-from odolab.cli.options import EncodersFormatOpt, RunFormat
+from odolab.cli.options import EncodersFormatOpt, NominalParamsOpt, RunFormat
 
 __all__ = ["SIM_PHOTO_TRUTH", "sim_photo_legs"]
 
@@ -70,7 +70,6 @@ TrackPhotoFloorPointsOpt = Annotated[
 TrackPhotoEncodersOpt = Annotated[
     Path, typer.Option(help="The run's encoder log (its clock is used).")
 ]
-TrackPhotoParamsOpt = Annotated[str, typer.Option("--params", "-p", help="Nominal parameters.")]
 TrackPhotoOutputOpt = Annotated[
     Path, typer.Option("--output", "-o", help="Path CSV t,x,y,quality.")
 ]
@@ -84,12 +83,12 @@ def track_photo_cmd(
     photo: TrackPhotoPhotoOpt,
     floor_points: TrackPhotoFloorPointsOpt,
     encoders: TrackPhotoEncodersOpt,
-    params: TrackPhotoParamsOpt,
+    params: NominalParamsOpt,
     output: TrackPhotoOutputOpt,
     led_hz: LedHzOpt = 2.0,
     duty: DutyOpt = 0.5,
     overlay: TrackPhotoOverlayOpt = None,
-    fmt: EncodersFormatOpt = RunFormat.csv,
+    fmt: EncodersFormatOpt = RunFormat.CSV,
 ) -> None:
     """A timed path from one long-exposure photo of an LED flashing at --led-hz on the robot:
     the dashes found, ordered from the robot's start and placed on the encoder log's clock by

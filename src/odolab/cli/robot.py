@@ -23,8 +23,9 @@ import typer
 from odolab.app.robot import FOXGLOVE_PORT
 from odolab.cli._apps import robot_app
 from odolab.cli._output import echo, term
+from odolab.cli.options import NominalParamsOpt
 from odolab.cli.wording import flag
-from odolab.core.defaults import DEFAULT_TRUTH
+from odolab.core.defaults import DEFAULT_ROBOT, DEFAULT_TRUTH
 
 if TYPE_CHECKING:
     from odolab.app.robot import RobotPlan
@@ -57,9 +58,6 @@ RobotOpt = Annotated[
     ),
 ]
 RateOpt = Annotated[float, typer.Option("--rate", help="Control loop rate, Hz (5..1000).")]
-ParamsOpt = Annotated[
-    str, typer.Option("--params", "-p", help="Nominal parameters: TOML file or preset name.")
-]
 ModeOpt = Annotated[
     ModeChoice, typer.Option("--mode", help="Drive commands: PWM (type 6) or velocity (type 27).")
 ]
@@ -501,7 +499,7 @@ def _config(
 _SHARED_OPTIONS: tuple[tuple[str, Any, Any], ...] = (
     ("robot", RobotOpt, None),
     ("rate", RateOpt, 20.0),
-    ("params", ParamsOpt, "jaguar-lite"),
+    ("params", NominalParamsOpt, DEFAULT_ROBOT),
     ("mode", ModeOpt, ModeChoice.pwm),
     ("decel", DecelOpt, 0.0),
     ("watchdog", WatchdogOpt, 0.5),
@@ -773,8 +771,8 @@ BoardIdleExitOpt = Annotated[
 def sim_server_cmd(
     host: BoardHostOpt = "127.0.0.1",
     port: BoardPortOpt = 10001,
-    params: ParamsOpt = "jaguar-lite",
-    truth: TruthOpt = "jaguar-lab",
+    params: NominalParamsOpt = DEFAULT_ROBOT,
+    truth: TruthOpt = DEFAULT_TRUTH,
     terrain: TerrainOpt = "tile",
     seed: SeedOpt = 0,
     report_rate: BoardReportRateOpt = 10.0,

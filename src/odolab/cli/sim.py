@@ -10,7 +10,7 @@ import typer
 
 from odolab.cli._apps import sim_app
 from odolab.cli._output import echo
-from odolab.cli.options import RandomSeedOpt, VirtualTruthOpt
+from odolab.cli.options import NominalParamsOpt, RandomSeedOpt, VirtualTruthOpt
 from odolab.core.defaults import DEFAULT_ROBOT, DEFAULT_TRUTH
 
 __all__: list[str] = []
@@ -52,9 +52,6 @@ RunTruthOpt = Annotated[
         help="True-behaviour preset of the virtual robot: "
         "jaguar-lab, jaguar-lab-track, jaguar-lab-tracked (an ICR vehicle) or ideal."
     ),
-]
-NominalParamsOpt = Annotated[
-    str, typer.Option("--params", "-p", help="Nominal parameters (TOML file or preset).")
 ]
 RunEncoderDirOpt = Annotated[
     Path | None,

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from odolab.cli._apps import app
-from odolab.cli._output import echo
+from odolab.cli._output import echo, write_json
 from odolab.cli.core import MethodChoice, MethodOpt
 
 if TYPE_CHECKING:
@@ -126,11 +126,7 @@ def _write_outputs(result: ValidationResult, plot: Path | None, json_out: Path |
         with replacing_path(plot, what="figure", error=OutputError) as tmp:
             fig.savefig(tmp, dpi=120, format=plot.suffix.lstrip(".").lower() or "png")
         plt.close(fig)
-    if json_out is not None:
-        from odolab.cli._output import write_output_text
-        from odolab.core.writing import strict_json
-
-        write_output_text(json_out, strict_json(result.to_dict()) + "\n", "JSON result")
+    write_json(result.to_dict(), json_out)
 
 
 def _print_result(result: ValidationResult) -> None:
