@@ -69,6 +69,15 @@ def _check_k(k_left: float, k_right: float, track_width: float) -> None:
         raise OdolabError(f"track_width must be a positive number (m), got {track_width!r}")
 
 
+def _check_paired(dl: F64, dr: F64, error: type[OdolabError], pair: str, what: str) -> None:
+    """Refuse with ``error`` arrays that are not 1-D of the same length (the sentence names
+    ``pair``) or not finite (it names ``what``)."""
+    if dl.shape != dr.shape or dl.ndim != 1:
+        raise error(f"{pair} must be 1-D arrays of the same length")
+    if not (np.isfinite(dl).all() and np.isfinite(dr).all()):
+        raise error(f"{what} must be finite numbers")
+
+
 def pose_covariance(
     ds_left: ArrayLike,
     ds_right: ArrayLike,
@@ -86,10 +95,7 @@ def pose_covariance(
     """
     dl = np.asarray(ds_left, dtype=np.float64)
     dr = np.asarray(ds_right, dtype=np.float64)
-    if dl.shape != dr.shape or dl.ndim != 1:
-        raise OdolabError("ds_left and ds_right must be 1-D arrays of the same length")
-    if not (np.isfinite(dl).all() and np.isfinite(dr).all()):
-        raise OdolabError("wheel displacements must be finite numbers")
+    _check_paired(dl, dr, OdolabError, "ds_left and ds_right", "wheel displacements")
     _check_k(k_left, k_right, track_width)
     b = float(track_width)
     n = dl.size
@@ -572,10 +578,7 @@ def propagate_covariance(
     recursion."""
     dl = np.ascontiguousarray(dticks_left, dtype=np.float64)
     dr = np.ascontiguousarray(dticks_right, dtype=np.float64)
-    if dl.shape != dr.shape or dl.ndim != 1:
-        raise LogFormatError("left and right increments must be 1-D arrays of the same length")
-    if not (np.isfinite(dl).all() and np.isfinite(dr).all()):
-        raise LogFormatError("counter increments must be finite numbers")
+    _check_paired(dl, dr, LogFormatError, "left and right increments", "counter increments")
     k = noise_of(params, noise)
     out, heading = _start(dl.size, cov0, heading0)
     coef = np.array(params.coefficients, dtype=np.float64)
