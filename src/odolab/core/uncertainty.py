@@ -32,15 +32,14 @@ from numpy.typing import ArrayLike, NDArray
 from odolab.core import _jit as numba  # numba's functions, or plain Python without the fast extra
 from odolab.core._fastmath import SINCOS_LIMIT, sincos, sincos_poly
 from odolab.core._jit import njit, prange
+from odolab.core.arrays import FloatArray as F64
+from odolab.core.arrays import FloatArray as F64_2D
+from odolab.core.arrays import IntArray as I64
 from odolab.core.encoders import as_tick_array, default_max_dticks, unwrap_diff
 from odolab.core.errors import EncoderJumpError, LogFormatError, OdolabError, ParamsError
 from odolab.core.kinematics import Method, body_motion, chord, chord_derivative
 from odolab.core.params import NoiseParams, RobotParams
 from odolab.core.trajectory import Trajectory
-
-F64 = NDArray[np.float64]
-F64_2D = NDArray[np.float64]
-I64 = NDArray[np.int64]
 
 __all__ = [
     "COV_COLUMNS",

@@ -24,6 +24,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.core.arrays import FloatArray as F64
+from odolab.core.arrays import IntArray as I64
 from odolab.core.errors import EncoderJumpError, LogFormatError
 from odolab.core.kinematics import Method
 from odolab.core.params import RobotParams
@@ -64,8 +66,6 @@ __all__ = [
 DEFAULT_CHUNK_ROWS = 1_000_000
 TRAJECTORY_COLUMNS = ("t", "x", "y", "theta", "heading")
 
-F64 = NDArray[np.float64]
-I64 = NDArray[np.int64]
 Progress = Callable[[int, int, str], None]
 
 

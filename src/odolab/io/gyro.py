@@ -27,8 +27,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from numpy.typing import NDArray
 
+from odolab.core.arrays import FloatArray
 from odolab.core.errors import ImuLogError, LogFormatError
 from odolab.core.trajectory import Trajectory
 from odolab.core.trials import EncoderLog
@@ -55,7 +55,6 @@ __all__ = [
     "read_gyro_run",
 ]
 
-FloatArray = NDArray[np.float64]
 
 #: The plain gyro CSV's columns: time (s) and yaw rate (rad/s).
 GYRO_COLUMNS = ("t", "wz")

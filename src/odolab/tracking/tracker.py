@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.core.arrays import FloatArray
 from odolab.core.defaults import DEFAULT_CORNERS
 from odolab.core.errors import opt
 from odolab.core.trajectory import Trajectory
@@ -59,7 +60,6 @@ __all__ = [
     "track_video",
 ]
 
-FloatArray = NDArray[np.float64]
 Progress = Callable[[int, int], None]
 
 
