@@ -15,9 +15,9 @@ from odolab.core._encoders_jit import unwrap_diff
 from odolab.core._fastmath import SINCOS_LIMIT, sincos_poly
 from odolab.core._jit import njit, prange
 from odolab.core._kinematics_jit import body_motion, chord, wrap
+from odolab.core.arrays import FloatArray as F64
+from odolab.core.arrays import IntArray as I64
 
-F64 = NDArray[np.float64]
-I64 = NDArray[np.int64]
 Coef = tuple[float, float, float, float, float, float]
 Counts = tuple[int, int, float, float]  # modulus, largest step, metres per count left, right
 _INT_MAX = 2**62  # beyond any counter difference; a bound that a comparison never passes

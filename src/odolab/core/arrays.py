@@ -1,13 +1,17 @@
-"""The array types odolab annotates with, spelled once: every module imports them from here."""
+"""The numpy array types of odolab's annotations: one name for the arrays of each dtype.
+
+``FloatArray`` is ``NDArray[np.float64]`` (any shape), ``IntArray`` ``NDArray[np.int64]`` and
+``BoolArray`` ``NDArray[np.bool_]``. Modules import them from here rather than each spelling its
+own alias (some under a short local name: ``from odolab.core.arrays import FloatArray as F64``).
+"""
 
 from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["FloatArray", "IntArray"]
+__all__ = ["BoolArray", "FloatArray", "IntArray"]
 
-#: an array of float64 (any shape)
 FloatArray = NDArray[np.float64]
-#: an array of int64 (any shape)
 IntArray = NDArray[np.int64]
+BoolArray = NDArray[np.bool_]

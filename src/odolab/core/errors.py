@@ -17,7 +17,7 @@ marks, and the face that shows them words them with :meth:`Wording.say`.
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 
 __all__ = [
     "NEUTRAL",
@@ -35,6 +35,7 @@ __all__ = [
     "SimError",
     "StoreError",
     "Wording",
+    "check_table_keys",
     "opt",
 ]
 
@@ -282,3 +283,24 @@ class InvalidTrialError(StoreError):
     def __init__(self, message: str, field: str | None = None) -> None:
         super().__init__(message)
         self.field = field
+
+
+def check_table_keys(
+    data: Mapping[str, object],
+    allowed: Collection[str],
+    required: Collection[str],
+    source: str,
+    table: str,
+    *,
+    expected: str,
+    error: type[OdolabError] = ParamsError,
+) -> None:
+    """Refuse ``table`` (``"[noise]"``) of the file ``source`` with ``error``: its first key not
+    in ``allowed`` (the sentence ends "expected " and ``expected``), else the first key of
+    ``required`` that it lacks."""
+    unknown = sorted(set(data) - set(allowed))
+    if unknown:
+        raise error(f"{source}: unknown key {unknown[0]!r} in {table}; expected {expected}")
+    missing = [k for k in required if k not in data]
+    if missing:
+        raise error(f"{source}: missing key {missing[0]!r} in {table}")

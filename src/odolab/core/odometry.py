@@ -21,6 +21,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from odolab.core.arrays import FloatArray as F64
+from odolab.core.arrays import IntArray as I64
 from odolab.core.encoders import EncoderUnwrapper, as_tick_array, counter_delta, default_max_dticks
 from odolab.core.errors import EncoderJumpError, LogFormatError, OdolabError
 from odolab.core.kinematics import Method, chord_factors, wrap_angle
@@ -40,8 +42,6 @@ __all__ = [
     "warm_up",
 ]
 
-F64 = NDArray[np.float64]
-I64 = NDArray[np.int64]
 _NO_LIMIT = -1
 
 

@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import Any, overload
 
 from odolab.core.defaults import DEFAULT_ROBOT
-from odolab.core.errors import ParamsError
+from odolab.core.errors import ParamsError, check_table_keys
 from odolab.core.models import (
     DIFF_DRIVE,
     MODELS,
@@ -114,14 +114,9 @@ def noise_from_mapping(data: object, *, source: str = "parameters") -> NoisePara
     """Build :class:`NoiseParams` from a ``[noise]`` table, naming ``source`` in any error."""
     if not isinstance(data, dict):
         raise ParamsError(f"{source}: [noise] must be a table, got {type(data).__name__}")
-    unknown = sorted(set(data) - set(_NOISE_KEYS))
-    if unknown:
-        raise ParamsError(
-            f"{source}: unknown key {unknown[0]!r} in [noise]; expected {', '.join(_NOISE_KEYS)}"
-        )
-    missing = [k for k in _NOISE_KEYS[:2] if k not in data]
-    if missing:
-        raise ParamsError(f"{source}: missing key {missing[0]!r} in [noise]")
+    check_table_keys(
+        data, _NOISE_KEYS, _NOISE_KEYS[:2], source, "[noise]", expected=", ".join(_NOISE_KEYS)
+    )
     try:
         return NoiseParams(**data)
     except ParamsError as err:
@@ -294,14 +289,9 @@ def params_from_mapping(
 ) -> RobotParams:
     """Build :class:`RobotParams` from a ``[robot]`` mapping (and optional ``[model]`` and
     ``[noise]`` ones), naming ``source`` in any error."""
-    unknown = sorted(set(data) - set(_FIELDS))
-    if unknown:
-        raise ParamsError(
-            f"{source}: unknown key {unknown[0]!r} in [robot]; expected one of {', '.join(_FIELDS)}"
-        )
-    missing = [k for k in _REQUIRED if k not in data]
-    if missing:
-        raise ParamsError(f"{source}: missing key {missing[0]!r} in [robot]")
+    check_table_keys(
+        data, _FIELDS, _REQUIRED, source, "[robot]", expected=f"one of {', '.join(_FIELDS)}"
+    )
     kinematic = DIFF_DRIVE if model is None else model_from_mapping(model, source=source)
     random = None if noise is None else noise_from_mapping(noise, source=source)
     try:

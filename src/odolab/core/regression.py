@@ -17,6 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.core.arrays import FloatArray as F64
+
 __all__ = [
     "OlsFit",
     "approx_hess3",
@@ -27,7 +29,6 @@ __all__ = [
     "panel_lags",
 ]
 
-F64 = NDArray[np.float64]
 
 #: statsmodels' HuberT tuning constant (95 % efficiency at the normal).
 HUBER_T = 1.345

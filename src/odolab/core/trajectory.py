@@ -100,6 +100,13 @@ def check_advanced(
         )
 
 
+def _first(bad: NDArray[np.bool_], line_of: Callable[[int], int] | None) -> tuple[int, int]:
+    """The index of the first True of ``bad`` (one is) and the line (``line_of``) or index
+    that names it in a message."""
+    i = int(np.argmax(bad))
+    return i, line_of(i) if line_of is not None else i
+
+
 def check_positions(
     x: NDArray[np.float64],
     y: NDArray[np.float64],
@@ -113,8 +120,7 @@ def check_positions(
     for name, v in (("x", x), ("y", y)):
         bad = ~(np.abs(v) <= MAX_COORDINATE_M)  # (NaN too)
         if bad.any():
-            i = int(np.argmax(bad))
-            where = line_of(i) if line_of is not None else i
+            i, where = _first(bad, line_of)
             raise LogFormatError(
                 f"{source}: {what} {where}, position {name} is {v[i]:g} m; expected a number "
                 f"of metres from {-MAX_COORDINATE_M:g} to {MAX_COORDINATE_M:g}"
@@ -140,8 +146,7 @@ def yaw_from_quaternions(
     length = np.hypot(np.hypot(x, y), np.hypot(z, w))  # (no overflow at 1e200)
     off = ~((length >= 0.5) & (length <= 1.5))  # (NaN, inf too)
     if off.any():
-        i = int(np.argmax(off))
-        where = line_of(i) if line_of is not None else i
+        i, where = _first(off, line_of)
         raise LogFormatError(
             f"{source}: {what} {where}, the quaternion qx qy qz qw = {x[i]:g} {y[i]:g} {z[i]:g} "
             f"{w[i]:g} has length {length[i]:.3g}; expected a unit quaternion (length 1), "

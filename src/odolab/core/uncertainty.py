@@ -32,15 +32,14 @@ from numpy.typing import ArrayLike, NDArray
 from odolab.core import _jit as numba  # numba's functions, or plain Python without the fast extra
 from odolab.core._fastmath import SINCOS_LIMIT, sincos, sincos_poly
 from odolab.core._jit import njit, prange
+from odolab.core.arrays import FloatArray as F64
+from odolab.core.arrays import FloatArray as F64_2D
+from odolab.core.arrays import IntArray as I64
 from odolab.core.encoders import as_tick_array, default_max_dticks, unwrap_diff
 from odolab.core.errors import EncoderJumpError, LogFormatError, OdolabError, ParamsError
 from odolab.core.kinematics import Method, body_motion, chord, chord_derivative
 from odolab.core.params import NoiseParams, RobotParams
 from odolab.core.trajectory import Trajectory
-
-F64 = NDArray[np.float64]
-F64_2D = NDArray[np.float64]
-I64 = NDArray[np.int64]
 
 __all__ = [
     "COV_COLUMNS",
@@ -69,6 +68,15 @@ def _check_k(k_left: float, k_right: float, track_width: float) -> None:
         raise OdolabError(f"track_width must be a positive number (m), got {track_width!r}")
 
 
+def _check_paired(dl: F64, dr: F64, error: type[OdolabError], pair: str, what: str) -> None:
+    """Refuse with ``error`` arrays that are not 1-D of the same length (the sentence names
+    ``pair``) or not finite (it names ``what``)."""
+    if dl.shape != dr.shape or dl.ndim != 1:
+        raise error(f"{pair} must be 1-D arrays of the same length")
+    if not (np.isfinite(dl).all() and np.isfinite(dr).all()):
+        raise error(f"{what} must be finite numbers")
+
+
 def pose_covariance(
     ds_left: ArrayLike,
     ds_right: ArrayLike,
@@ -86,10 +94,7 @@ def pose_covariance(
     """
     dl = np.asarray(ds_left, dtype=np.float64)
     dr = np.asarray(ds_right, dtype=np.float64)
-    if dl.shape != dr.shape or dl.ndim != 1:
-        raise OdolabError("ds_left and ds_right must be 1-D arrays of the same length")
-    if not (np.isfinite(dl).all() and np.isfinite(dr).all()):
-        raise OdolabError("wheel displacements must be finite numbers")
+    _check_paired(dl, dr, OdolabError, "ds_left and ds_right", "wheel displacements")
     _check_k(k_left, k_right, track_width)
     b = float(track_width)
     n = dl.size
@@ -572,10 +577,7 @@ def propagate_covariance(
     recursion."""
     dl = np.ascontiguousarray(dticks_left, dtype=np.float64)
     dr = np.ascontiguousarray(dticks_right, dtype=np.float64)
-    if dl.shape != dr.shape or dl.ndim != 1:
-        raise LogFormatError("left and right increments must be 1-D arrays of the same length")
-    if not (np.isfinite(dl).all() and np.isfinite(dr).all()):
-        raise LogFormatError("counter increments must be finite numbers")
+    _check_paired(dl, dr, LogFormatError, "left and right increments", "counter increments")
     k = noise_of(params, noise)
     out, heading = _start(dl.size, cov0, heading0)
     coef = np.array(params.coefficients, dtype=np.float64)

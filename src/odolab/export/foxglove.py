@@ -21,6 +21,7 @@ from __future__ import annotations
 import ipaddress
 import math
 
+from odolab.core.closing import Closing
 from odolab.core.errors import OdolabError, opt
 from odolab.core.trajectory import Pose
 
@@ -65,7 +66,7 @@ def check_loopback(host: str) -> str:
     return host
 
 
-class FoxgloveLive:
+class FoxgloveLive(Closing):
     """Publish a live run to Foxglove (see the module docstring). Use as a context manager."""
 
     def __init__(self, host: str = "127.0.0.1", port: int = 8765) -> None:
@@ -143,9 +144,3 @@ class FoxgloveLive:
     def close(self) -> None:
         """Stop the server."""
         self._server.stop()
-
-    def __enter__(self) -> FoxgloveLive:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()

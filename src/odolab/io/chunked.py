@@ -17,16 +17,19 @@ line numbers of a CSV are counted only when there is an error to report.
 from __future__ import annotations
 
 import re
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.core.arrays import FloatArray as F64
+from odolab.core.arrays import IntArray as I64
 from odolab.core.errors import EncoderJumpError, LogFormatError
 from odolab.core.kinematics import Method
 from odolab.core.params import RobotParams
+from odolab.core.progress import Progress
 from odolab.core.trajectory import Pose, Trajectory, check_advanced, check_times
 from odolab.core.writing import replacing_path
 from odolab.io._table import as_float64, data_line_numbers
@@ -63,10 +66,6 @@ __all__ = [
 #: Rows per chunk when none is given: about 100 MB of working memory.
 DEFAULT_CHUNK_ROWS = 1_000_000
 TRAJECTORY_COLUMNS = ("t", "x", "y", "theta", "heading")
-
-F64 = NDArray[np.float64]
-I64 = NDArray[np.int64]
-Progress = Callable[[int, int, str], None]
 
 
 @dataclass(frozen=True)

@@ -27,13 +27,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from numpy.typing import NDArray
 
+from odolab.core.arrays import FloatArray
 from odolab.core.errors import ImuLogError, LogFormatError
 from odolab.core.trajectory import Trajectory
 from odolab.core.trials import EncoderLog
 from odolab.io.csv_run import ground_truth_beside
 from odolab.io.encoder_csv import read_encoder_csv
+from odolab.io.rosbag import is_bag
 from odolab.io.run import ReadOptions
 from odolab.io.sensorlog import ImuLog, read_sensorlog
 from odolab.io.tabular import is_csv_with, read_columns, read_header
@@ -55,7 +56,6 @@ __all__ = [
     "read_gyro_run",
 ]
 
-FloatArray = NDArray[np.float64]
 
 #: The plain gyro CSV's columns: time (s) and yaw rate (rad/s).
 GYRO_COLUMNS = ("t", "wz")
@@ -197,13 +197,6 @@ def _segment_from_log(
     )
 
 
-_BAG_SUFFIXES = (".bag", ".mcap", ".db3")
-
-
-def _is_bag(p: Path) -> bool:
-    return p.suffix.lower() in _BAG_SUFFIXES or (p.is_dir() and (p / "metadata.yaml").is_file())
-
-
 def read_bag_gyro_run(
     path: str | Path,
     *,
@@ -251,7 +244,7 @@ def read_gyro_run(
         LogFormatError: a folder has no encoders.csv, or a log cannot be read.
     """
     p = Path(path)
-    if imu is None and _is_bag(p):
+    if imu is None and is_bag(p):
         return read_bag_gyro_run(p, ticks_per_rev=ticks_per_rev, imu_topic=imu_topic)
     if p.is_dir():
         if not (p / "encoders.csv").is_file():

@@ -18,7 +18,7 @@ from odolab.core.defaults import LogFormat
 from odolab.core.errors import LogFormatError  # (defined there: the CLI names them at no cost)
 from odolab.io.csv_run import CsvRunReader
 from odolab.io.optiodom import OptiOdomReader, is_optiodom_run
-from odolab.io.rosbag import RosbagReader
+from odolab.io.rosbag import RosbagReader, is_bag
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.io.trajectory_csv import read_trajectory
 from odolab.io.windows import WindowTableReader, is_window_table
@@ -74,15 +74,12 @@ def read_run(
     return READERS[LogFormat(fmt)].read(Path(path), options or ReadOptions())
 
 
-_BAG_SUFFIXES = (".bag", ".mcap", ".db3")
-
-
 def _format_of(p: Path) -> LogFormat | None:
     """The format of the runs at ``p`` (a file or a folder), None when it holds none."""
     if is_window_table(p):
         return LogFormat.DRIVE
     if p.is_file():
-        if p.suffix.lower() in _BAG_SUFFIXES:
+        if is_bag(p):
             return LogFormat.BAG
         return LogFormat.OPTIODOM if is_optiodom_run(p) else LogFormat.CSV
     if not p.is_dir():
@@ -93,8 +90,7 @@ def _format_of(p: Path) -> LogFormat | None:
         return LogFormat.OPTIODOM
     if any(not q.stem.endswith("_gt") for q in p.glob("*.csv")):
         return LogFormat.CSV
-    if any(q.suffix.lower() in _BAG_SUFFIXES or (q / "metadata.yaml").is_file()
-           for q in p.iterdir()):  # fmt: skip
+    if any(is_bag(q) for q in p.iterdir()):
         return LogFormat.BAG
     return None
 

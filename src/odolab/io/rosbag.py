@@ -43,9 +43,11 @@ if TYPE_CHECKING:
     from rosbags.highlevel import AnyReader
 
 __all__ = [
+    "BAG_SUFFIXES",
     "IMU_TYPE",
     "RosbagReader",
     "bag_topics",
+    "is_bag",
     "read_bag",
     "read_bag_gyro",
     "read_bag_trajectory",
@@ -64,6 +66,14 @@ DEFAULT_JOINT_TOPIC = ReadOptions.joint_topic
 DEFAULT_GROUND_TRUTH_TOPIC = ReadOptions.ground_truth_topic
 ODOMETRY_TOPIC = "/odom"  #: where a bag without joint states is looked for wheel odometry
 AMCL_TOPIC = "/amcl_pose"  #: the reference of a Nav2 bag without a ground-truth topic
+#: The suffixes of a bag file: ROS 1, MCAP, a ROS 2 SQLite bag's database.
+BAG_SUFFIXES = (".bag", ".mcap", ".db3")
+
+
+def is_bag(p: Path) -> bool:
+    """Whether ``p`` is a bag: a file with one of :data:`BAG_SUFFIXES`, or a ROS 2 bag folder
+    (one that holds ``metadata.yaml``)."""
+    return p.suffix.lower() in BAG_SUFFIXES or (p.is_dir() and (p / "metadata.yaml").is_file())
 
 
 def _why(err: BaseException) -> str:

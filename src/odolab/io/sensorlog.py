@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from odolab.core.arrays import FloatArray
 from odolab.core.errors import ImuLogError
 from odolab.core.kinematics import wrap_angle
 from odolab.core.trajectory import MAX_TIME_S
@@ -43,7 +44,6 @@ __all__ = [
     "write_sensorlog",
 ]
 
-FloatArray = NDArray[np.float64]
 
 #: Default wall-clock start of a written log (the format's own example time).
 DEFAULT_START = datetime(2013, 10, 3, 14, 5, 11, 532000, tzinfo=timezone(timedelta(hours=-7)))

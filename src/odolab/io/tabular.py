@@ -45,7 +45,6 @@ __all__ = [
 ]
 
 TableFormat = Literal["csv", "parquet", "ipc"]
-F64 = NDArray[np.float64]
 
 if TYPE_CHECKING:
     import polars as pl

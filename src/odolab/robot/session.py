@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import bisect
 import contextlib
+import functools
 import math
 import os
 import tempfile
@@ -32,7 +33,7 @@ from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import Any, ParamSpec
 
 from odolab.core.errors import OdolabError, opt
 from odolab.core.params import PRESETS, RobotParams
@@ -70,6 +71,8 @@ RUN_FILES = ("encoders.csv", "predicted.csv", "run.json")
 TRUTH_FILE = "encoders_gt.csv"
 #: Files a run writes when it has them (the 2014 Jaguar's gyro, a true path), guarded the same way.
 OPTIONAL_RUN_FILES = ("imu.csv", TRUTH_FILE)
+
+_P = ParamSpec("_P")
 
 
 @dataclass(frozen=True, eq=False)
@@ -496,43 +499,6 @@ def run_motion(
     )  # fmt: skip
 
 
-def run_motion_simulated(
-    motion: Command | Motion,
-    truth: object = None,
-    nominal: RobotParams | None = None,
-    terrain: str = "tile",
-    seed: int = 0,
-    rate: float = 20.0,
-    *,
-    command: Command | None = None,
-    plant: Plant | None = None,
-    config: RunConfig | None = None,
-    faults: object | None = None,
-    report_rate: float = 10.0,
-    max_duration: float | None = 3600.0,
-    campaign: str = "sim",
-    on_cycle: Callable[[CycleInfo], None] | None = None,
-    link: str = "jaguar",
-) -> tuple[Trial, LoopStats]:
-    """Drive a command (or a motion) through the same driver and loop, in simulated time.
-
-    The virtual board of ``link`` (``"jaguar"``: the UDP Jaguar's, ``"jaguar2014"``: the 2014
-    Jaguar's; :data:`odolab.robot.registry.IN_PROCESS`) over ``plant`` is wired to its driver
-    in-process; a :class:`SimClock`
-    jumps from deadline to deadline. Without a plant, ``truth`` must be a :class:`RobotParams`
-    (an :class:`IdealPlant` with those true parameters) or None (ideal, nominal); build a
-    simulator plant with ``odolab.sim.plants.make_plant``. ``rate`` is used when ``config`` is
-    not given. Returns the trial (predicted pose from the loop, true pose from the plant) and
-    the loop statistics (whose timing errors are zero: simulated time is exact).
-    """
-    run = run_simulated(
-        motion, truth, nominal, terrain, seed, rate,
-        command=command, plant=plant, config=config, faults=faults, report_rate=report_rate,
-        max_duration=max_duration, campaign=campaign, on_cycle=on_cycle, link=link,
-    )  # fmt: skip
-    return run.trial, run.stats
-
-
 def run_simulated(
     motion: Command | Motion,
     truth: object = None,
@@ -553,8 +519,19 @@ def run_simulated(
     save_to: str | Path | None = None,
     finish: Finish | None = None,
 ) -> RobotRun:
-    """:func:`run_motion_simulated`, returning the whole :class:`RobotRun` (log, statistics,
-    ``finish``'s additions) and, with ``save_to``, saved there as :func:`run_motion` saves."""
+    """Drive a command (or a motion) through the same driver and loop, in simulated time.
+
+    The virtual board of ``link`` (``"jaguar"``: the UDP Jaguar's, ``"jaguar2014"``: the 2014
+    Jaguar's; :data:`odolab.robot.registry.IN_PROCESS`) over ``plant`` is wired to its driver
+    in-process; a :class:`SimClock`
+    jumps from deadline to deadline. Without a plant, ``truth`` must be a :class:`RobotParams`
+    (an :class:`IdealPlant` with those true parameters) or None (ideal, nominal); build a
+    simulator plant with ``odolab.sim.plants.make_plant``. ``rate`` is used when ``config`` is
+    not given. Returns the whole :class:`RobotRun`: the trial (predicted pose from the loop, true
+    pose from the plant), the log, the loop statistics (whose timing errors are zero: simulated
+    time is exact) and ``finish``'s additions; with ``save_to``, saved there as
+    :func:`run_motion` saves. :func:`run_motion_simulated` returns its trial and statistics.
+    """
     if save_to is not None:
         check_run_folder(save_to)
     nominal = nominal or PRESETS["jaguar-lite"]
@@ -583,6 +560,30 @@ def run_simulated(
         terrain=terrain, campaign=campaign, max_duration=max_duration, on_cycle=on_cycle,
         on_event=None, realtime=False, save_to=save_to, on_abort=None, finish=finish,
     )  # fmt: skip
+
+
+def _trial_and_stats(
+    run: Callable[_P, RobotRun], name: str, doc: str
+) -> Callable[_P, tuple[Trial, LoopStats]]:
+    """``run`` (same arguments) returning only its run's trial and loop statistics."""
+
+    @functools.wraps(run)
+    def trial_and_stats(*args: _P.args, **kwargs: _P.kwargs) -> tuple[Trial, LoopStats]:
+        done = run(*args, **kwargs)
+        return done.trial, done.stats
+
+    trial_and_stats.__name__ = trial_and_stats.__qualname__ = name
+    trial_and_stats.__doc__ = doc
+    return trial_and_stats
+
+
+run_motion_simulated = _trial_and_stats(
+    run_simulated,
+    "run_motion_simulated",
+    """:func:`run_simulated` (the same arguments), returning ``(trial, stats)``: the trial
+    (predicted pose from the loop, true pose from the plant) and the loop statistics (whose
+    timing errors are zero: simulated time is exact).""",
+)
 
 
 def _first_existing(path: Path) -> Path:

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.core.arrays import FloatArray
 from odolab.core.params import PRESETS, RobotParams
 from odolab.core.trials import EncoderLog
 from odolab.core.writing import write_text_file
@@ -26,8 +27,6 @@ from odolab.io.encoder_csv import write_encoder_csv
 from odolab.io.gyro import GyroRun, GyroSegment
 
 __all__ = ["GyroDrive", "simulate_gyro_drive", "write_gyro_drive"]
-
-FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True, eq=False)

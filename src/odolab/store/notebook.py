@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from odolab.core.closing import Closing
 from odolab.core.errors import StoreError, opt
 from odolab.core.params import RobotParams
 from odolab.core.progress import Progress, no_progress
@@ -137,7 +138,7 @@ def _measurement_from_row(r: sqlite3.Row) -> Measurement:
     )
 
 
-class Notebook:
+class Notebook(Closing):
     """The lab notebook in the SQLite file ``path`` (created and migrated on open).
 
     Use as a context manager, or call :meth:`close`. One ``Notebook`` per thread.
@@ -172,12 +173,6 @@ class Notebook:
     def close(self) -> None:
         """Close the connection (committed data is safe whatever happens next)."""
         self._conn.close()
-
-    def __enter__(self) -> Notebook:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
 
     def _error(self, err: sqlite3.Error, doing: str) -> StoreError:
         """``err`` as one sentence (a damaged file: with the integrity check and recovery)."""

@@ -47,17 +47,35 @@ _TABLES = {
 
 _KINDS = "('rotation','translation','pivot','square','free')"
 _STATUSES = "('awaiting','measured','excluded')"
-
-#: Version 1, kept so that tests can write a v1 notebook and migrate it.
-SCHEMA_V1 = f"""
-CREATE TABLE campaigns (
+#: The campaigns table, the same in every version.
+_CAMPAIGNS = """CREATE TABLE campaigns (
     name TEXT PRIMARY KEY,
     kind TEXT NOT NULL CHECK (kind IN ('rotation','translation','square','free')),
     terrain TEXT NOT NULL,
     date TEXT,
     operator TEXT NOT NULL DEFAULT '',
     notes TEXT NOT NULL DEFAULT ''
-);
+)"""
+#: The columns of a trial row that every version has: what was asked and predicted (before the
+#: parameters it was predicted with), then what was measured, the true pose and the status.
+_TRIAL_HEAD = f"""    trial_id TEXT PRIMARY KEY,
+    campaign TEXT NOT NULL REFERENCES campaigns(name),
+    terrain TEXT NOT NULL,
+    kind TEXT NOT NULL CHECK (kind IN {_KINDS}),
+    angle REAL, distance REAL, side REAL, direction TEXT, speed REAL,
+    predicted_t REAL NOT NULL, predicted_x REAL NOT NULL, predicted_y REAL NOT NULL,
+    predicted_theta REAL NOT NULL, predicted_heading REAL NOT NULL,"""
+_TRIAL_OUTCOME = f"""    instrument TEXT,
+    measured_rotation REAL, measured_x REAL, measured_y REAL,
+    sigma_rotation REAL, sigma_xy REAL,
+    raw TEXT NOT NULL DEFAULT '{{}}',
+    true_t REAL, true_x REAL, true_y REAL, true_theta REAL, true_heading REAL,
+    status TEXT NOT NULL CHECK (status IN {_STATUSES}),
+    exclusion_reason TEXT,"""
+
+#: Version 1, kept so that tests can write a v1 notebook and migrate it.
+SCHEMA_V1 = f"""
+{_CAMPAIGNS};
 CREATE TABLE params_sets (
     id INTEGER PRIMARY KEY AUTOINCREMENT,
     robot TEXT NOT NULL,
@@ -69,21 +87,9 @@ CREATE TABLE params_sets (
     created TEXT NOT NULL
 );
 CREATE TABLE trials (
-    trial_id TEXT PRIMARY KEY,
-    campaign TEXT NOT NULL REFERENCES campaigns(name),
-    terrain TEXT NOT NULL,
-    kind TEXT NOT NULL CHECK (kind IN {_KINDS}),
-    angle REAL, distance REAL, side REAL, direction TEXT, speed REAL,
-    predicted_t REAL NOT NULL, predicted_x REAL NOT NULL, predicted_y REAL NOT NULL,
-    predicted_theta REAL NOT NULL, predicted_heading REAL NOT NULL,
+{_TRIAL_HEAD}
     params_id INTEGER NOT NULL REFERENCES params_sets(id),
-    instrument TEXT,
-    measured_rotation REAL, measured_x REAL, measured_y REAL,
-    sigma_rotation REAL, sigma_xy REAL,
-    raw TEXT NOT NULL DEFAULT '{{}}',
-    true_t REAL, true_x REAL, true_y REAL, true_theta REAL, true_heading REAL,
-    status TEXT NOT NULL CHECK (status IN {_STATUSES}),
-    exclusion_reason TEXT,
+{_TRIAL_OUTCOME}
     notes TEXT NOT NULL DEFAULT ''
 );
 """
@@ -112,22 +118,10 @@ BEGIN SELECT RAISE(ABORT, 'parameter versions are never changed; add a new versi
 CREATE TRIGGER params_versions_no_delete BEFORE DELETE ON params_versions
 BEGIN SELECT RAISE(ABORT, 'parameter versions are never deleted'); END;
 CREATE TABLE trials_v2 (
-    trial_id TEXT PRIMARY KEY,
-    campaign TEXT NOT NULL REFERENCES campaigns(name),
-    terrain TEXT NOT NULL,
-    kind TEXT NOT NULL CHECK (kind IN {_KINDS}),
-    angle REAL, distance REAL, side REAL, direction TEXT, speed REAL,
-    predicted_t REAL NOT NULL, predicted_x REAL NOT NULL, predicted_y REAL NOT NULL,
-    predicted_theta REAL NOT NULL, predicted_heading REAL NOT NULL,
+{_TRIAL_HEAD}
     robot TEXT NOT NULL,
     params_version INTEGER NOT NULL,
-    instrument TEXT,
-    measured_rotation REAL, measured_x REAL, measured_y REAL,
-    sigma_rotation REAL, sigma_xy REAL,
-    raw TEXT NOT NULL DEFAULT '{{}}',
-    true_t REAL, true_x REAL, true_y REAL, true_theta REAL, true_heading REAL,
-    status TEXT NOT NULL CHECK (status IN {_STATUSES}),
-    exclusion_reason TEXT,
+{_TRIAL_OUTCOME}
     notes TEXT NOT NULL DEFAULT '',
     created TEXT NOT NULL,
     updated TEXT NOT NULL,
@@ -164,16 +158,7 @@ CREATE INDEX measurement_history_trial ON measurement_history(trial_id);
 
 
 def _create_v2(conn: sqlite3.Connection) -> None:
-    conn.execute(
-        """CREATE TABLE campaigns (
-            name TEXT PRIMARY KEY,
-            kind TEXT NOT NULL CHECK (kind IN ('rotation','translation','square','free')),
-            terrain TEXT NOT NULL,
-            date TEXT,
-            operator TEXT NOT NULL DEFAULT '',
-            notes TEXT NOT NULL DEFAULT ''
-        )"""
-    )
+    conn.execute(_CAMPAIGNS)
     _run_script(conn, _V2_TABLES)
     conn.execute("ALTER TABLE trials_v2 RENAME TO trials")
     _run_script(conn, _V2_INDEXES)

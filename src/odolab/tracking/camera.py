@@ -31,7 +31,7 @@ import numpy as np
 import tomli_w
 from numpy.typing import NDArray
 
-from odolab.core.errors import LogFormatError
+from odolab.core.errors import LogFormatError, check_table_keys
 
 __all__ = [
     "CameraModel",
@@ -115,15 +115,16 @@ def load_camera(path: str | Path) -> CameraModel:
     cam = doc.get("camera")
     if not isinstance(cam, dict):
         raise TrackingError(f"{p}: missing the [camera] table; expected fx, fy, cx, cy, ...")
-    unknown = sorted(set(cam) - set(_REQUIRED) - set(_DISTORTION))
-    if unknown:
-        raise TrackingError(
-            f"{p}: unknown key {unknown[0]!r} in [camera]; expected "
-            f"{', '.join(_REQUIRED + _DISTORTION)}"
-        )
-    missing = [k for k in _REQUIRED if k not in cam]
-    if missing:
-        raise TrackingError(f"{p}: missing key {missing[0]!r} in [camera]")
+    allowed = _REQUIRED + _DISTORTION
+    check_table_keys(
+        cam,
+        allowed,
+        _REQUIRED,
+        str(p),
+        "[camera]",
+        expected=", ".join(allowed),
+        error=TrackingError,
+    )
     try:
         return CameraModel(**cam)
     except TrackingError as err:

@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.core.arrays import FloatArray
 from odolab.core.trajectory import Trajectory
 from odolab.tracking.camera import TrackingError
 
@@ -59,8 +60,6 @@ __all__ = [
     "track_photo",
     "write_photo_csv",
 ]
-
-FloatArray = NDArray[np.float64]
 
 
 class PhotoError(TrackingError):

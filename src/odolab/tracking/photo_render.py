@@ -20,13 +20,12 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.core.arrays import FloatArray
 from odolab.core.trajectory import Trajectory
 from odolab.tracking.camera import TrackingError
 from odolab.tracking.render import SceneCamera
 
 __all__ = ["led_on", "render_photo", "tilted_camera"]
-
-FloatArray = NDArray[np.float64]
 
 
 def tilted_camera(

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.core.arrays import FloatArray
 from odolab.core.trajectory import Trajectory
 from odolab.tracking.camera import CameraModel, FloorMarker, TrackingError
 from odolab.tracking.markers import marker_image
@@ -30,8 +31,6 @@ if TYPE_CHECKING:
     import cv2
 
 __all__ = ["SceneCamera", "look_at", "render_video"]
-
-FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

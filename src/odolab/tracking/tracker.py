@@ -29,13 +29,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.core.arrays import FloatArray
 from odolab.core.defaults import DEFAULT_CORNERS
 from odolab.core.errors import opt
 from odolab.core.trajectory import Trajectory
@@ -59,7 +60,6 @@ __all__ = [
     "track_video",
 ]
 
-FloatArray = NDArray[np.float64]
 Progress = Callable[[int, int], None]
 
 
@@ -272,20 +272,7 @@ def bridge_gaps(
             segment[gap.index :] -= 1
         else:
             kept.append(gap)
-    fixed = TrackResult(
-        t=result.t,
-        x=result.x,
-        y=result.y,
-        heading=heading,
-        quality=result.quality,
-        frames=result.frames,
-        skipped=result.skipped,
-        camera_pose=result.camera_pose,
-        fps=result.fps,
-        floor_seen=result.floor_seen,
-        segment=segment,
-        gaps=tuple(kept),
-    )
+    fixed = replace(result, heading=heading, segment=segment, gaps=tuple(kept))
     return fixed, bridges
 
 

@@ -10,12 +10,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import NDArray
 
 from odolab.core._jit import njit
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
+from odolab.core.arrays import FloatArray, IntArray
 
 
 @njit(cache=True, inline="always")

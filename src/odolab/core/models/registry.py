@@ -13,7 +13,7 @@ import dataclasses
 import math
 from typing import Any, TypeVar
 
-from odolab.core.errors import ParamsError
+from odolab.core.errors import ParamsError, check_table_keys
 from odolab.core.models.base import KinematicModel
 
 __all__ = ["MODELS", "model_from_mapping", "neutral_values", "register", "unregister"]
@@ -70,15 +70,10 @@ def model_from_mapping(data: dict[str, Any], *, source: str = "parameters") -> K
     if "posterior" in data:
         extra["posterior"] = _posterior(data["posterior"], cls, kind, source)
     allowed = tuple(getattr(cls, "KEYS", ()))
-    unknown = sorted(set(keys) - set(allowed))
-    if unknown:
-        expected = ", ".join(allowed) if allowed else "no other keys"
-        raise ParamsError(
-            f"{source}: unknown key {unknown[0]!r} in [model] of kind {kind!r}; expected {expected}"
-        )
-    missing = [k for k in allowed if k not in keys and k not in _defaults(cls)]
-    if missing:
-        raise ParamsError(f"{source}: missing key {missing[0]!r} in [model] of kind {kind!r}")
+    check_table_keys(
+        keys, allowed, [k for k in allowed if k not in _defaults(cls)], source,
+        f"[model] of kind {kind!r}", expected=", ".join(allowed) if allowed else "no other keys",
+    )  # fmt: skip
     for key, value in keys.items():
         if (
             isinstance(value, bool)

@@ -41,9 +41,9 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, cast
 
 import numpy as np
-from numpy.typing import NDArray
 
 from odolab.core._jit import HAVE_NUMBA
+from odolab.core.arrays import FloatArray
 from odolab.core.errors import InsufficientDataError
 from odolab.core.models.slip_terms import DRIFT_KEYS, FEATURES, KIND, NOISE_KEYS, TURN_CYCLES
 
@@ -68,7 +68,6 @@ __all__ = [
     "terms_of",
 ]
 
-FloatArray = NDArray[np.float64]
 #: The slip model's variance terms, in the order of :attr:`SlipPropagation.basis`.
 TERMS: tuple[str, ...] = (*NOISE_KEYS, *DRIFT_KEYS)
 #: the body output (forward, lateral, heading) each white noise term enters through

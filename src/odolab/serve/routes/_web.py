@@ -6,11 +6,12 @@ A route takes it from ``request.app.state.web`` (:func:`web`).
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import hmac
 import math
 import re
-from collections.abc import Callable, Mapping
+from collections.abc import Awaitable, Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, TypedDict, TypeVar
@@ -300,6 +301,25 @@ def web(request: Request) -> Web:
     """The application's shared state, from a request."""
     state: Web = request.app.state.web
     return state
+
+
+#: A route that takes a posted form: the request, the application's state and the checked form.
+FormRoute = Callable[[Request, Web, Mapping[str, object]], Awaitable[Response]]
+
+
+def posted(route: FormRoute) -> Callable[[Request], Awaitable[Response]]:
+    """The route (a POST) given its checked form (:meth:`Web.form`); a form that is refused
+    gets the error page instead (:meth:`Web.form_or_page`)."""
+
+    @functools.wraps(route)
+    async def with_form(request: Request) -> Response:
+        w = web(request)
+        form = await w.form_or_page(request)
+        if isinstance(form, Response):
+            return form
+        return await route(request, w, form)
+
+    return with_form
 
 
 def text_field(form: Mapping[str, object], name: str) -> str | None:

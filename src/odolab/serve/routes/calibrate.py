@@ -10,11 +10,14 @@ from starlette.responses import RedirectResponse, Response
 
 from odolab.analysis.selection import Wording as SelectionWording
 from odolab.core.errors import OdolabError
-from odolab.serve.routes._web import text_field, web, web_text
+from odolab.serve.routes._web import posted, text_field, web, web_text
 from odolab.serve.wording import CALIBRATE_WORDS
 
 if TYPE_CHECKING:
+    from collections.abc import Mapping
+
     from odolab.app.calibration import CalibrationOutcome, CalibrationRequest
+    from odolab.serve.routes._web import Web
     from odolab.store import Notebook, ParamsVersion
 
 __all__ = ["page", "post"]
@@ -74,13 +77,10 @@ def _run(nb: Notebook, req: CalibrationRequest) -> _Done:
         return {**ctx, "result": None, "error": text}
 
 
-async def post(request: Request) -> Response:
+@posted
+async def post(request: Request, w: Web, form: Mapping[str, object]) -> Response:
     from odolab.app.calibration import CalibrationRequest
 
-    w = web(request)
-    form = await w.form_or_page(request)
-    if isinstance(form, Response):
-        return form
     req = CalibrationRequest(
         str(form.get("method", "")),
         robot=text_field(form, "robot"),

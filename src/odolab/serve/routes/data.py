@@ -11,9 +11,12 @@ from starlette.requests import Request
 from starlette.responses import Response
 
 from odolab.core.errors import OdolabError, StoreError
-from odolab.serve.routes._web import plain, safe_upload_name, web
+from odolab.serve.routes._web import plain, posted, safe_upload_name, web
 
 if TYPE_CHECKING:
+    from collections.abc import Mapping
+
+    from odolab.serve.routes._web import Web
     from odolab.store import Notebook
 
 __all__ = ["export", "page", "upload"]
@@ -30,11 +33,8 @@ async def page(request: Request) -> Response:
     return w.page(request, "data.html.j2", message=message, error=None, campaign_names=names)
 
 
-async def upload(request: Request) -> Response:
-    w = web(request)
-    form = await w.form_or_page(request)
-    if isinstance(form, Response):
-        return form
+@posted
+async def upload(request: Request, w: Web, form: Mapping[str, object]) -> Response:
     file = form.get("file")
     create_campaigns = form.get("create_campaigns") == "on"
     names = await w.run(_names)

@@ -10,10 +10,13 @@ from starlette.responses import Response
 from odolab.app.exports import KINDS, STATUSES, check_filter
 from odolab.core.errors import OdolabError, StoreError
 from odolab.core.trials import TrialStatus
-from odolab.serve.routes._web import plain, text_field, web
+from odolab.serve.routes._web import plain, posted, text_field, web
 
 if TYPE_CHECKING:
+    from collections.abc import Mapping
+
     from odolab.core.trials import Measurement, Trial
+    from odolab.serve.routes._web import Web
     from odolab.store import Notebook
 
 __all__ = ["awaiting_first", "index", "trial_context", "trial_page"]
@@ -131,14 +134,11 @@ async def _refused(
     )  # fmt: skip
 
 
-async def measure(request: Request) -> Response:
+@posted
+async def measure(request: Request, w: Web, form: Mapping[str, object]) -> Response:
     from odolab.serve.routes._measure import FIELDS, form_readings, readings_of
     from odolab.store.measure import describe_measurement, record_measurement
 
-    w = web(request)
-    form = await w.form_or_page(request)
-    if isinstance(form, Response):
-        return form
     trial_id = str(form.get("id", ""))
     values = {k: text_field(form, k) for k in FIELDS}
     replace = form.get("replace") == "on"
@@ -156,11 +156,8 @@ async def measure(request: Request) -> Response:
     return w.trial_saved(trial_id, f"measured: {text}")
 
 
-async def exclude(request: Request) -> Response:
-    w = web(request)
-    form = await w.form_or_page(request)
-    if isinstance(form, Response):
-        return form
+@posted
+async def exclude(request: Request, w: Web, form: Mapping[str, object]) -> Response:
     trial_id = str(form.get("id", ""))
     include = request.url.path.endswith("/include")
     reason = str(form.get("reason", ""))
