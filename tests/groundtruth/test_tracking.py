@@ -135,17 +135,30 @@ def test_markers_print_and_read_back(tmp_path: Path) -> None:
     # the black square is 0.1 m at 150 dpi, the quiet zone one bit (1/6 of it) each side
     assert img.shape[0] == round(0.1 / 0.0254 * 150) + 2 * round(0.1 / 0.0254 * 150 / 6)
     # the PDF draws the marker's cells as vector squares at true size (no raster to resample):
-    # one closed square per black cell, each a sixth of the 0.1 m black square
+    # one closed square per black cell, each a sixth of the 0.1 m black square, at its cell's
+    # place (row 0 at the top, as in the PNG; the quiet zone one cell wide all round)
     pdf = (tmp_path / "marker_17.pdf").read_bytes()
     assert b"/Subtype /Image" not in pdf
     pages = [zlib.decompress(m) for m in re.findall(rb"stream\r?\n(.*?)endstream", pdf, re.S)]
     page = next(p for p in pages if b" re W n" in p)  # the axes' clip, then the marker
-    marker = page.split(b" re W n", 1)[1]
-    squares = re.findall(rb"([\d.]+) ([\d.]+) m\n([\d.]+) ([\d.]+) l\n([\d.]+) ([\d.]+) l", marker)
-    assert len(squares) == int(marker_cells(17).sum())
+    clip, marker = page.split(b" re W n", 1)
+    ax_x, ax_y, ax_w, ax_h = map(float, clip.rsplit(b"q ", 1)[1].split())
+    number = rb"(-?[\d.]+)"
+    squares = re.findall(
+        rb" ".join([number] * 2) + rb" m\n" + rb" l\n".join([rb" ".join([number] * 2)] * 3), marker
+    )
+    cells = marker_cells(17)
     cell_pt = 0.1 / 0.0254 * 72 / 6
-    for x0, _y0, x1, y1, _x2, y2 in (tuple(map(float, q)) for q in squares):
-        assert (abs(x1 - x0), abs(y2 - y1)) == pytest.approx((cell_pt, cell_pt), abs=1e-4)
+    assert ax_w == pytest.approx(cell_pt * (cells.shape[0] + 2)) and ax_h == pytest.approx(ax_w)
+    drawn = set()
+    for q in squares:
+        xs, ys = [float(v) for v in q[0::2]], [float(v) for v in q[1::2]]
+        assert (max(xs) - min(xs), max(ys) - min(ys)) == pytest.approx((cell_pt, cell_pt))
+        col = round((min(xs) - ax_x) / cell_pt) - 1
+        row = round((ax_y + ax_h - max(ys)) / cell_pt) - 1
+        drawn.add((row, col))
+    assert len(squares) == len(drawn) == int(cells.sum())
+    assert drawn == {(int(r), int(c)) for r, c in zip(*np.nonzero(cells), strict=True)}
     det = cv2.aruco.ArucoDetector(cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_4X4_50))
     _, ids, _ = det.detectMarkers(img)
     assert ids is not None and ids.reshape(-1).tolist() == [17]

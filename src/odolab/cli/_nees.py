@@ -21,12 +21,15 @@ def _printed(compute: Callable[P, NeesOutcome]) -> Callable[P, dict[str, object]
     """``compute`` with its arguments, its outcome printed (:func:`render_nees`) and returned as
     JSON-ready numbers."""
 
-    def compute_and_print(*args: P.args, **kwargs: P.kwargs) -> dict[str, object]:
+    def print_nees(*args: P.args, **kwargs: P.kwargs) -> dict[str, object]:
+        """NEES of every run against its ground truth (the arguments of
+        :func:`odolab.app.evaluate.nees_of_paths`): prints a table and the verdict, returns the
+        JSON-ready numbers."""
         outcome = compute(*args, **kwargs)
         render_nees(outcome)
         return outcome.to_dict()
 
-    return compute_and_print
+    return print_nees
 
 
 #: NEES of every run against its ground truth, with the arguments of

@@ -30,6 +30,7 @@ from odolab.cli.options import (
     GtTopicOpt,
     JointsOpt,
     JointTopicOpt,
+    NominalParamsOpt,
     RandomSeedOpt,
     VirtualTruthOpt,
     WorkersOpt,
@@ -239,7 +240,7 @@ QuestionsJsonOutOpt = Annotated[Path | None, typer.Option("--json", help="Write 
 def sim_questions_cmd(
     experiments: QuestionsExperimentsOpt = None,
     truth: VirtualTruthOpt = "jaguar-lab-tracked",
-    params: ParamsOpt = None,
+    params: NominalParamsOpt = "jaguar-lite",
     seed: RandomSeedOpt = 0,
     repeats: QuestionsRepeatsOpt = None,
     json_out: QuestionsJsonOutOpt = None,
@@ -258,7 +259,7 @@ def sim_questions_cmd(
         raise SimError(
             f"--truth: unknown preset {truth!r}; expected one of {', '.join(TRUTH_PRESETS)}"
         )
-    nominal = load_params(params or "jaguar-lite")
+    nominal = load_params(params)
     loaded = [load_experiment(e) for e in (experiments or sorted(builtin_experiments()))]
     console = Console()
     results = []

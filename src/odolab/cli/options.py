@@ -72,7 +72,9 @@ NominalParamsOpt = Annotated[
 #: ``odometry``, ``evaluate``, ``calibrate lsq``, ``calibrate compare``: many runs on Dask
 WorkersOpt = Annotated[
     int | None,
-    typer.Option(help="Many runs or logs: Dask workers (default: none below 64, else 2)."),
+    typer.Option(
+        help="Many runs or logs: Dask workers (default: none below 64 runs or logs, else 2)."
+    ),
 ]
 SchedulerOpt = Annotated[
     str | None,

@@ -171,7 +171,7 @@ def evaluate_run_files(
     cluster: Cluster | None = None,
 ) -> list[RunEvaluation]:
     """Evaluate every run found under ``paths`` (see :func:`odolab.io.find_runs`): the
-    :func:`evaluate_runs` of those runs, stopping at the first that fails."""
+    :func:`evaluate_runs` of those runs (every run is evaluated), then the first failure raised."""
     outcomes = evaluate_runs(
         find_runs(paths, fmt),
         fmt,

@@ -25,6 +25,7 @@ from __future__ import annotations
 import bisect
 import contextlib
 import functools
+import inspect
 import math
 import os
 import tempfile
@@ -574,6 +575,10 @@ def _trial_and_stats(
 
     trial_and_stats.__name__ = trial_and_stats.__qualname__ = name
     trial_and_stats.__doc__ = doc
+    # run's parameters, this function's return (wraps alone would show run's RobotRun)
+    trial_and_stats.__dict__["__signature__"] = inspect.signature(run).replace(
+        return_annotation="tuple[Trial, LoopStats]"
+    )
     return trial_and_stats
 
 
