@@ -4,6 +4,8 @@
 - :data:`DEFAULT_TRUTH`: the virtual robot's true behaviour (:data:`odolab.sim.presets.TRUTH_PRESETS`).
 - :data:`DEFAULT_CORNERS`: how ``odolab track`` refines marker corners
   (:data:`odolab.tracking.tracker.CORNER_METHODS`).
+- :data:`DEFAULT_CHUNK_ROWS`: rows per chunk when a log is integrated in chunks and no size is
+  given (:mod:`odolab.io.chunked`, :mod:`odolab.app.odometry`).
 - :class:`LogFormat`: the formats of recorded runs, the keys of :data:`odolab.io.registry.READERS`
   (here so that the command line names them without importing the readers).
 """
@@ -12,7 +14,7 @@ from __future__ import annotations
 
 from enum import StrEnum
 
-__all__ = ["DEFAULT_CORNERS", "DEFAULT_ROBOT", "DEFAULT_TRUTH", "LogFormat"]
+__all__ = ["DEFAULT_CHUNK_ROWS", "DEFAULT_CORNERS", "DEFAULT_ROBOT", "DEFAULT_TRUTH", "LogFormat"]
 
 #: The nominal preset every command uses unless told otherwise (the lab's Jaguar Lite).
 DEFAULT_ROBOT = "jaguar-lite"
@@ -21,6 +23,8 @@ DEFAULT_TRUTH = "jaguar-lab"
 #: The marker-corner refinement the tracker uses unless told otherwise: lines fitted to the
 #: edges, steady under motion blur (docs/ground-truth.md).
 DEFAULT_CORNERS = "contour"
+#: Rows per chunk when none is given: about 100 MB of working memory.
+DEFAULT_CHUNK_ROWS = 1_000_000
 
 
 class LogFormat(StrEnum):
