@@ -8,13 +8,27 @@
   given (:mod:`odolab.io.chunked`, :mod:`odolab.app.odometry`).
 - :class:`LogFormat`: the formats of recorded runs, the keys of :data:`odolab.io.registry.READERS`
   (here so that the command line names them without importing the readers).
+- :class:`DeltaUnit`, :class:`Alignment`, :class:`SyncMethod`: the metrics' choices (re-exported
+  by :mod:`odolab.metrics.pose_error`, :mod:`odolab.metrics.alignment` and
+  :mod:`odolab.metrics.association`), and :class:`TrialStatus` (re-exported by
+  :mod:`odolab.core.trials`): here for the same reason, their modules load numpy.
 """
 
 from __future__ import annotations
 
 from enum import StrEnum
 
-__all__ = ["DEFAULT_CHUNK_ROWS", "DEFAULT_CORNERS", "DEFAULT_ROBOT", "DEFAULT_TRUTH", "LogFormat"]
+__all__ = [
+    "DEFAULT_CHUNK_ROWS",
+    "DEFAULT_CORNERS",
+    "DEFAULT_ROBOT",
+    "DEFAULT_TRUTH",
+    "Alignment",
+    "DeltaUnit",
+    "LogFormat",
+    "SyncMethod",
+    "TrialStatus",
+]
 
 #: The nominal preset every command uses unless told otherwise (the lab's Jaguar Lite).
 DEFAULT_ROBOT = "jaguar-lite"
@@ -34,3 +48,36 @@ class LogFormat(StrEnum):
     OPTIODOM = "optiodom"
     BAG = "bag"
     DRIVE = "drive"
+
+
+class DeltaUnit(StrEnum):
+    """Unit of the RPE step: poses (frames), path length (metres) or angle turned (degrees,
+    radians)."""
+
+    FRAMES = "frames"
+    METRES = "m"
+    DEGREES = "deg"
+    RADIANS = "rad"
+
+
+class Alignment(StrEnum):
+    """How the estimate is moved onto the reference before APE."""
+
+    NONE = "none"
+    ORIGIN = "origin"
+    SE2 = "se2"
+
+
+class SyncMethod(StrEnum):
+    """How two trajectories are paired in time."""
+
+    NEAREST = "nearest"
+    INTERPOLATE = "interpolate"
+
+
+class TrialStatus(StrEnum):
+    """Where a trial is in its life."""
+
+    AWAITING = "awaiting"  #: driven, not yet measured
+    MEASURED = "measured"
+    EXCLUDED = "excluded"  #: kept, but left out of the analysis (with a reason)
