@@ -2,6 +2,9 @@
 
 - :data:`DEFAULT_ROBOT`: the nominal parameter preset (:data:`odolab.core.params.PRESETS`).
 - :data:`DEFAULT_TRUTH`: the virtual robot's true behaviour (:data:`odolab.sim.presets.TRUTH_PRESETS`).
+- :data:`DEFAULT_TERRAIN`, :data:`DEFAULT_SEED`, :data:`DEFAULT_MAX_WHEEL_SPEED`: a robot run's
+  virtual plant and its speeds (``odolab robot ...``, ``robot sim-server``;
+  :class:`odolab.robot.config.RunConfig`, :data:`odolab.robot.registry.VIRTUAL_ONLY`).
 - :data:`DEFAULT_CORNERS`: how ``odolab track`` refines marker corners
   (:data:`odolab.tracking.tracker.CORNER_METHODS`).
 - :data:`DEFAULT_CHUNK_ROWS`: rows per chunk when a log is integrated in chunks and no size is
@@ -21,7 +24,10 @@ from enum import StrEnum
 __all__ = [
     "DEFAULT_CHUNK_ROWS",
     "DEFAULT_CORNERS",
+    "DEFAULT_MAX_WHEEL_SPEED",
     "DEFAULT_ROBOT",
+    "DEFAULT_SEED",
+    "DEFAULT_TERRAIN",
     "DEFAULT_TRUTH",
     "Alignment",
     "DeltaUnit",
@@ -34,6 +40,11 @@ __all__ = [
 DEFAULT_ROBOT = "jaguar-lite"
 #: The true robot every simulation uses unless told otherwise: derived from the lab report.
 DEFAULT_TRUTH = "jaguar-lab"
+#: The virtual robot's terrain and random seed unless told otherwise: the lab's floor, seed 0.
+DEFAULT_TERRAIN = "tile"
+DEFAULT_SEED = 0
+#: A robot run's wheel speed (m/s) at full PWM, and its speed clip, unless told otherwise.
+DEFAULT_MAX_WHEEL_SPEED = 1.0
 #: The marker-corner refinement the tracker uses unless told otherwise: lines fitted to the
 #: edges, steady under motion blur (docs/ground-truth.md).
 DEFAULT_CORNERS = "contour"
