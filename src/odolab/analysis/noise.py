@@ -39,6 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.core.distributions import Z95
 from odolab.core.errors import InsufficientDataError
 from odolab.core.motion import MotionKind
 
@@ -54,8 +55,6 @@ __all__ = [
     "record_rotation",
     "record_translation",
 ]
-
-_Z95 = 1.959963984540054
 
 
 @dataclass(frozen=True, eq=False)
@@ -239,7 +238,7 @@ class WheelNoise:
 def _wald95(u: float, se: float) -> tuple[float, float]:
     """95 % Wald interval of ``exp(u)`` from the log-scale standard error ``se``; a bound past
     what a float holds (a constant the trials barely bound) is 0 or inf, not an OverflowError."""
-    half = _Z95 * se
+    half = Z95 * se
     lo, hi = u - half, u + half
     return (
         math.exp(lo) if lo > -745.0 else 0.0,

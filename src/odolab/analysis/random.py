@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from odolab.core.distributions import Z95
 from odolab.core.errors import InsufficientDataError
 
 __all__ = [
@@ -26,8 +27,6 @@ __all__ = [
     "random_error",
     "sd_confidence_interval",
 ]
-
-_Z95 = 1.959963984540054
 
 
 def sd_confidence_interval(sd: float, df: int, level: float = 0.95) -> tuple[float, float]:
@@ -118,7 +117,7 @@ def random_error(residuals: ArrayLike, df: int) -> RandomError:
         sd_ci95=sd_confidence_interval(sd, df),
         gauss_mean=float(mu),
         gauss_sd=float(s),
-        interval95=(float(mu - _Z95 * s), float(mu + _Z95 * s)),
+        interval95=(float(mu - Z95 * s), float(mu + Z95 * s)),
         normality=_normality(r),
     )
 
@@ -187,7 +186,7 @@ def group_spreads(
                 mean_error=mean,
                 sd=sd,
                 sd_ci95=sd_confidence_interval(sd, int(g.size) - 1),
-                interval95=(mean - _Z95 * sd, mean + _Z95 * sd),
+                interval95=(mean - Z95 * sd, mean + Z95 * sd),
                 normality=_normality(g),
                 errors=g,
             )

@@ -107,6 +107,14 @@ def _offset_sentence(text: str, source: str, max_offset: float) -> str:
     return text
 
 
+def _check_max_offset(max_offset: float) -> None:
+    """The clock-offset search's bound (``track`` and ``calibrate sensor``): seconds, > 0."""
+    if not (math.isfinite(max_offset) and max_offset > 0):
+        raise OptionError(
+            f"{opt('max_offset')} is {max_offset!r}; expected a positive number of seconds"
+        )
+
+
 # -- calibrate sensor -----------------------------------------------------------------------
 
 
@@ -190,10 +198,7 @@ def calibrate_sensor_log(
         raise OptionError(
             f"{opt('interval')} is {req.interval!r}; expected a number of seconds >= 0"
         )
-    if not (math.isfinite(req.max_offset) and req.max_offset > 0):
-        raise OptionError(
-            f"{opt('max_offset')} is {req.max_offset!r}; expected a positive number of seconds"
-        )
+    _check_max_offset(req.max_offset)
     options = SensorOptions(max_outliers=req.max_outliers)
     nominal = load_params(req.params)
     check_outputs()
@@ -272,10 +277,7 @@ def _check_track(req: TrackRequest) -> None:
         )
     if req.encoders is not None and req.params is None:
         raise OptionError("{{encoders}} needs {{params}} (the robot's nominal parameters)")
-    if not (math.isfinite(req.max_offset) and req.max_offset > 0):
-        raise OptionError(
-            f"{opt('max_offset')} is {req.max_offset!r}; expected a positive number of seconds"
-        )
+    _check_max_offset(req.max_offset)
     if req.time_offset is not None and req.encoders is None:
         raise OptionError("{{time_offset}} needs {{encoders}} (the log whose clock it is)")
 

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
 
-from odolab.core.defaults import DEFAULT_ROBOT, LogFormat
+from odolab.core.defaults import DEFAULT_CHUNK_ROWS, DEFAULT_ROBOT, LogFormat
 from odolab.core.errors import OdolabError, ParamsError, opt
 from odolab.core.models import own_covariance
 from odolab.core.params import covariance_source
@@ -44,7 +44,6 @@ __all__ = [
 #: Logs larger than this are integrated in chunks unless chunk_rows says otherwise.
 AUTO_CHUNK_BYTES = 64 * 1024 * 1024
 AUTO_CHUNK_ROWS = 3_000_000  #: the same for Parquet and IPC logs, by their row count
-DEFAULT_CHUNK_ROWS = 1_000_000
 #: the file beside a robot run's encoders.csv that names its parameters (odolab robot ... -o)
 RUN_JSON = "run.json"
 

@@ -19,6 +19,13 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from odolab.core.defaults import (
+    DEFAULT_MAX_WHEEL_SPEED,
+    DEFAULT_ROBOT,
+    DEFAULT_SEED,
+    DEFAULT_TERRAIN,
+    DEFAULT_TRUTH,
+)
 from odolab.core.errors import NEUTRAL, Wording, opt
 
 if TYPE_CHECKING:
@@ -302,12 +309,12 @@ class BoardRequest:
 
     host: str = "127.0.0.1"
     port: int = 10001
-    params: str = "jaguar-lite"
-    truth: str = "jaguar-lab"
-    terrain: str = "tile"
-    seed: int = 0
+    params: str = DEFAULT_ROBOT
+    truth: str = DEFAULT_TRUTH
+    terrain: str = DEFAULT_TERRAIN
+    seed: int = DEFAULT_SEED
     report_rate: float = 10.0
-    max_wheel_speed: float = 1.0
+    max_wheel_speed: float = DEFAULT_MAX_WHEEL_SPEED
     command_timeout: float = 0.5
     drop: float = 0.0
     jitter: float = 0.0

@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 
 from odolab.calibration.ratios import CalibrationResult, check_track_model
 from odolab.core.arrays import FloatArray
+from odolab.core.distributions import Z95
 from odolab.core.errors import CalibrationError, ImuLogError
 from odolab.core.numfmt import clean
 from odolab.core.params import RobotParams
@@ -54,8 +55,6 @@ __all__ = [
     "reference_from_heading",
     "yaw_scale_from_heading",
 ]
-
-Z95 = 1.959963984540054
 
 
 @dataclass(frozen=True)

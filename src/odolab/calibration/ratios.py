@@ -25,6 +25,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from odolab.core.distributions import Z95
 from odolab.core.errors import CalibrationError, opt
 from odolab.core.numfmt import clean
 from odolab.core.params import NoiseParams, RobotParams, save_params
@@ -42,8 +43,6 @@ __all__ = [
     "ratios_from_analysis",
     "with_noise",
 ]
-
-_Z95 = 1.959963984540054
 
 
 @dataclass(frozen=True)
@@ -85,7 +84,7 @@ def _rel_se(ci: tuple[float, float] | None, value: float) -> float | None:
     if ci is None:
         return None
     lo, hi = ci
-    return (hi - lo) / (2 * _Z95) / value
+    return (hi - lo) / (2 * Z95) / value
 
 
 def check_track_model(params: RobotParams, method: str) -> None:
@@ -145,11 +144,11 @@ def ratios(
         prov["rotation_ratio_ci95"] = list(rotation_ratio_ci95)
     if sd is not None:
         r = new.left_wheel_radius
-        prov["wheel_radius_ci95"] = [r * math.exp(-_Z95 * sd), r * math.exp(_Z95 * sd)]
+        prov["wheel_radius_ci95"] = [r * math.exp(-Z95 * sd), r * math.exp(Z95 * sd)]
         if sr is not None:
             s = math.hypot(sd, sr)
             b = new.track_width
-            prov["track_width_ci95"] = [b * math.exp(-_Z95 * s), b * math.exp(_Z95 * s)]
+            prov["track_width_ci95"] = [b * math.exp(-Z95 * s), b * math.exp(Z95 * s)]
     return CalibrationResult("ratios", new, params, prov)
 
 

@@ -47,12 +47,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from odolab.calibration.ratios import (
-    _Z95,
     CalibrationResult,
     _now,
     check_track_model,
     with_noise,
 )
+from odolab.core.distributions import Z95
 from odolab.core.errors import CalibrationError, LogFormatError
 from odolab.core.params import RobotParams
 from odolab.core.text import quote_input
@@ -280,7 +280,7 @@ def scale_sd_from(result: CalibrationResult) -> float | None:
     lo, hi = float(ci[0]), float(ci[1])
     if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi):
         return None
-    return math.log(hi / lo) / (2 * _Z95)
+    return math.log(hi / lo) / (2 * Z95)
 
 
 def umbmark_intervals(
@@ -332,7 +332,7 @@ def umbmark_intervals(
         "ci95_includes": (
             "the squares' scatter only, the starting parameters' scale taken as exact"
             if sd is None
-            else f"the squares' scatter and the ratios calibration's scale (±{100 * _Z95 * sd:.2g}"
+            else f"the squares' scatter and the ratios calibration's scale (±{100 * Z95 * sd:.2g}"
             " % at 95 %), in quadrature"
         )
     }
@@ -342,8 +342,8 @@ def umbmark_intervals(
         if not (math.isfinite(lo) and math.isfinite(hi) and lo > 0 and lo <= mid <= hi):
             return wide
         if sd is not None:  # log half-widths, each side, with the scale's added
-            lo = mid * math.exp(-math.hypot(math.log(mid / lo), _Z95 * sd))
-            hi = mid * math.exp(math.hypot(math.log(hi / mid), _Z95 * sd))
+            lo = mid * math.exp(-math.hypot(math.log(mid / lo), Z95 * sd))
+            hi = mid * math.exp(math.hypot(math.log(hi / mid), Z95 * sd))
         out[f"{key}_ci95"] = [lo, hi]
     return out
 

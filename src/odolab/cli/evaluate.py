@@ -26,6 +26,7 @@ from odolab.cli.options import (
     WorkersOpt,
 )
 from odolab.cli.wording import said
+from odolab.core.defaults import Alignment, DeltaUnit, SyncMethod
 
 if TYPE_CHECKING:
     from collections.abc import Iterable, Sequence
@@ -59,24 +60,6 @@ def run_format(fmt: RunFormat | None, paths: list[Path]) -> RunFormat:
     found, why = detect_format(paths)
     echo(f"format: {found.value}, detected: {why} (--format chooses another)")
     return RunFormat(found.value)
-
-
-class DeltaUnitChoice(StrEnum):
-    frames = "frames"
-    m = "m"
-    deg = "deg"
-    rad = "rad"
-
-
-class AlignChoice(StrEnum):
-    none = "none"
-    origin = "origin"
-    se2 = "se2"
-
-
-class SyncChoice(StrEnum):
-    nearest = "nearest"
-    interpolate = "interpolate"
 
 
 class ModelChoice(StrEnum):
@@ -126,7 +109,7 @@ EvalPathsOpt = Annotated[
 ]
 EvalDeltaOpt = Annotated[float | None, typer.Option(help="RPE step (default 1 frame; runs 1 m).")]
 EvalDeltaUnitOpt = Annotated[
-    DeltaUnitChoice | None,
+    DeltaUnit | None,
     typer.Option(
         "--delta-unit",
         help="Unit of --delta: frames, m, or the angle turned in deg or rad (evo's d, r: "
@@ -138,10 +121,10 @@ EvalPairsFromReferenceOpt = Annotated[
     bool | None, typer.Option(help="Choose RPE pairs on the reference (evo: on the estimate).")
 ]
 EvalAlignOpt = Annotated[
-    AlignChoice | None, typer.Option(help="Alignment (default none; runs origin).")
+    Alignment | None, typer.Option(help="Alignment (default none; runs origin).")
 ]
 EvalSyncOpt = Annotated[
-    SyncChoice | None, typer.Option(help="Association (default nearest; runs interpolate).")
+    SyncMethod | None, typer.Option(help="Association (default nearest; runs interpolate).")
 ]
 EvalMaxDiffOpt = Annotated[
     float | None, typer.Option(help="Largest stamp difference to associate (s).")

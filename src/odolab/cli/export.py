@@ -12,6 +12,16 @@ from odolab.cli._apps import export_app
 from odolab.cli._output import echo
 from odolab.cli.core import MethodChoice, MethodOpt
 from odolab.cli.options import RunFormat
+from odolab.export.ros2_controller import (
+    DEFAULT_CONTROLLER,
+    DEFAULT_DISTRO,
+    DEFAULT_HORIZON,
+    DEFAULT_LEFT_WHEELS,
+    DEFAULT_RATE,
+    DEFAULT_RIGHT_WHEELS,
+    DEFAULT_SPEED,
+    DEFAULT_WINDOW,
+)
 
 __all__: list[str] = []
 
@@ -21,6 +31,10 @@ class RosDistro(StrEnum):
     jazzy = "jazzy"
     kilted = "kilted"
     rolling = "rolling"
+
+
+#: the library's default distribution, as the option's choice
+_DEFAULT_DISTRO = RosDistro(DEFAULT_DISTRO)
 
 
 Ros2ParamsOpt = Annotated[str, typer.Argument(help="Calibrated parameters TOML (or a preset).")]
@@ -66,12 +80,12 @@ def ros2_controller_cmd(
     params: Ros2ParamsOpt,
     output: Ros2OutputOpt,
     nominal: Ros2NominalOpt = None,
-    controller_name: Ros2ControllerNameOpt = "diff_drive_controller",
-    speed: Ros2SpeedOpt = 0.5,
-    rate: Ros2RateOpt = 50.0,
-    window: Ros2WindowOpt = 10,
-    ros_distro: Ros2RosDistroOpt = RosDistro.jazzy,
-    horizon: Ros2HorizonOpt = 1.0,
+    controller_name: Ros2ControllerNameOpt = DEFAULT_CONTROLLER,
+    speed: Ros2SpeedOpt = DEFAULT_SPEED,
+    rate: Ros2RateOpt = DEFAULT_RATE,
+    window: Ros2WindowOpt = DEFAULT_WINDOW,
+    ros_distro: Ros2RosDistroOpt = _DEFAULT_DISTRO,
+    horizon: Ros2HorizonOpt = DEFAULT_HORIZON,
     left_wheels: Ros2LeftWheelsOpt = None,
     right_wheels: Ros2RightWheelsOpt = None,
 ) -> None:
@@ -87,8 +101,8 @@ def ros2_controller_cmd(
     provenance = None
     if params not in PRESETS or Path(params).exists():
         provenance = tomllib.loads(Path(params).read_text(encoding="utf-8")).get("provenance")
-    left = tuple(left_wheels or ["left_wheel_joint"])
-    right = tuple(right_wheels or ["right_wheel_joint"])
+    left = tuple(left_wheels) if left_wheels else DEFAULT_LEFT_WHEELS
+    right = tuple(right_wheels) if right_wheels else DEFAULT_RIGHT_WHEELS
     text = diff_drive_controller_yaml(
         robot,
         nominal=load_params(nominal) if nominal else None,

@@ -153,6 +153,7 @@ def _print_comparison(result: ModelComparison) -> None:
     from odolab.calibration.compare import NOT_WORSE
     from odolab.cli._console import console as make_console
     from odolab.cli._console import print_table
+    from odolab.core.numfmt import coefficients_with_se
 
     console = make_console()  # piped: lines as long as their content, never cut
     how = "cross-validated" if result.cross_validated else "held out"
@@ -185,9 +186,7 @@ def _print_comparison(result: ModelComparison) -> None:
     for s in result.scores:
         if s.fit is None:
             continue
-        values = ", ".join(
-            f"{k} = {v:.6g} ± {s.fit.stderr[k]:.2g}" for k, v in s.fit.values.items()
-        )
+        values = coefficients_with_se(s.fit.values, s.fit.stderr)
         console.print(f"{s.model}: {values}")
     console.print(
         "decided on the held-out segments (1 m of path or 90 deg of turn each): the simplest "

@@ -25,7 +25,13 @@ from odolab.cli._apps import robot_app
 from odolab.cli._output import echo, term
 from odolab.cli.options import NominalParamsOpt
 from odolab.cli.wording import flag
-from odolab.core.defaults import DEFAULT_ROBOT, DEFAULT_TRUTH
+from odolab.core.defaults import (
+    DEFAULT_MAX_WHEEL_SPEED,
+    DEFAULT_ROBOT,
+    DEFAULT_SEED,
+    DEFAULT_TERRAIN,
+    DEFAULT_TRUTH,
+)
 
 if TYPE_CHECKING:
     from odolab.app.robot import RobotPlan
@@ -509,15 +515,15 @@ _SHARED_OPTIONS: tuple[tuple[str, Any, Any], ...] = (
     ("out", OutOpt, None),
     ("db", DbOpt, None),
     ("truth", TruthOpt, DEFAULT_TRUTH),
-    ("terrain", TerrainOpt, "tile"),
-    ("seed", SeedOpt, 0),
+    ("terrain", TerrainOpt, DEFAULT_TERRAIN),
+    ("seed", SeedOpt, DEFAULT_SEED),
     ("left_channel", LeftChOpt, 0),
     ("right_channel", RightChOpt, 1),
     ("left_encoder_sign", LeftSignOpt, 1),
     ("right_encoder_sign", RightSignOpt, 1),
     ("left_motor_sign", LeftMotorOpt, 1),
     ("right_motor_sign", RightMotorOpt, 1),
-    ("max_wheel_speed", MaxSpeedOpt, 1.0),
+    ("max_wheel_speed", MaxSpeedOpt, DEFAULT_MAX_WHEEL_SPEED),
     ("quiet", QuietOpt, False),
     ("realtime", RealtimeOpt, True),
     ("foxglove", FoxgloveOpt, False),
@@ -773,10 +779,10 @@ def sim_server_cmd(
     port: BoardPortOpt = 10001,
     params: NominalParamsOpt = DEFAULT_ROBOT,
     truth: TruthOpt = DEFAULT_TRUTH,
-    terrain: TerrainOpt = "tile",
-    seed: SeedOpt = 0,
+    terrain: TerrainOpt = DEFAULT_TERRAIN,
+    seed: SeedOpt = DEFAULT_SEED,
     report_rate: BoardReportRateOpt = 10.0,
-    max_wheel_speed: MaxSpeedOpt = 1.0,
+    max_wheel_speed: MaxSpeedOpt = DEFAULT_MAX_WHEEL_SPEED,
     command_timeout: BoardCommandTimeoutOpt = 0.5,
     drop: BoardDropOpt = 0.0,
     jitter: BoardJitterOpt = 0.0,

@@ -12,7 +12,8 @@ import typer
 from odolab.cli._apps import app, trials_app
 from odolab.cli._output import echo, term
 from odolab.cli.options import DEFAULT_DB, NotebookDbOpt
-from odolab.core.defaults import DEFAULT_ROBOT
+from odolab.core.defaults import DEFAULT_ROBOT, TrialStatus
+from odolab.core.motion import MotionKind
 
 if TYPE_CHECKING:
     from odolab.core.params import RobotParams
@@ -33,25 +34,11 @@ NotesOpt = Annotated[str, typer.Option(help="Free text.")]
 TrialIdArg = Annotated[str, typer.Argument(help="Trial id.")]
 
 
-class KindChoice(StrEnum):
-    rotation = "rotation"
-    translation = "translation"
-    pivot = "pivot"
-    square = "square"
-    free = "free"
-
-
 class CampaignKind(StrEnum):
     rotation = "rotation"
     translation = "translation"
     square = "square"
     free = "free"
-
-
-class StatusChoice(StrEnum):
-    awaiting = "awaiting"
-    measured = "measured"
-    excluded = "excluded"
 
 
 def _open(db: Path, *, create: bool = False, check: bool = True) -> Notebook:
@@ -241,8 +228,8 @@ def _model_words(p: RobotParams) -> str:
 #: the filters ``trials list`` and ``trials export`` share
 CampaignFilter = Annotated[str | None, typer.Option(help="Only this campaign.")]
 TerrainFilter = Annotated[str | None, typer.Option(help="Only this terrain.")]
-KindFilter = Annotated[KindChoice | None, typer.Option(help="Only this kind.")]
-StatusFilter = Annotated[StatusChoice | None, typer.Option(help="Only this status.")]
+KindFilter = Annotated[MotionKind | None, typer.Option(help="Only this kind.")]
+StatusFilter = Annotated[TrialStatus | None, typer.Option(help="Only this status.")]
 
 
 @trials_app.command("list")
@@ -466,7 +453,7 @@ def measure_cmd(
 def add_cmd(
     trial_id: Annotated[str, typer.Option("--id", help="New trial id.")],
     campaign: Annotated[str, typer.Option(help="Campaign (must exist unless --create-campaign).")],
-    kind: Annotated[KindChoice, typer.Option(help="What was commanded.")],
+    kind: Annotated[MotionKind, typer.Option(help="What was commanded.")],
     predicted_heading: Annotated[
         float, typer.Option(help="Odometry's final heading, unwrapped (rad).")
     ] = 0.0,

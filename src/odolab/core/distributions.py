@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
+    "Z95",
     "chi2_mean_bounds",
     "chi2_ppf",
     "chi2_sf",
@@ -27,6 +28,10 @@ __all__ = [
     "shapiro_wilk",
     "t_ppf",
 ]
+
+#: The standard normal's 0.975 quantile: a 95 % two-sided interval is the estimate +- Z95 standard
+#: errors (``scipy.special.ndtri(0.975)``, as ``scipy.stats.norm.ppf(0.975)``).
+Z95 = 1.959963984540054
 
 
 def chi2_ppf(p: float, dof: float) -> float:

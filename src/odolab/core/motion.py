@@ -23,12 +23,13 @@ scales with the wheels' radius over the track width; a straight run is measured 
 from __future__ import annotations
 
 from enum import StrEnum
-from typing import Self
-
-import numpy as np
-from numpy.typing import NDArray
+from typing import TYPE_CHECKING, Self
 
 from odolab.core.errors import InsufficientDataError, OdolabError
+
+if TYPE_CHECKING:  # numpy is imported where a noise record is made: the words stay light (CLI)
+    import numpy as np
+    from numpy.typing import NDArray
 
 __all__ = ["DriveShape", "Motion", "MotionKind", "MotionWordError"]
 
@@ -121,6 +122,8 @@ class MotionKind(_Words):
         ``|h| b``; a straight run of ``d`` gives residuals (x, y) with ``var x = k d / 4``,
         ``var y = k d**3 / (3 b**2)``, ``cov = sgn (k_r - k_l) d**2 / (4 b)``.
         :class:`~odolab.core.errors.InsufficientDataError` for a square or a free motion."""
+        import numpy as np
+
         b = track_width
         if self is MotionKind.ROTATION:
             a = np.array([[abs(amount) / (2.0 * b)]])

@@ -19,7 +19,7 @@ Every function returns text; none prints. Non-finite values are written ``nan``,
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -28,6 +28,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "clean",
+    "coefficients_with_se",
     "count",
     "csv_lines",
     "decimals_for",
@@ -104,6 +105,19 @@ def with_uncertainty(x: float, u: float, *, show: bool = False) -> str:
     d = decimals_for(u)
     text = _fixed(x, d)
     return f"{text} ± {_fixed(u, d)}" if show else text
+
+
+def coefficients_with_se(
+    values: Mapping[str, float],
+    stderr: Mapping[str, float],
+    *,
+    name: Callable[[str], str] = str,
+    plus_minus: str = "±",
+) -> str:
+    """A fit's coefficients, each with its standard error: ``k = v ± se`` (the value to 6
+    significant digits, the error to 2), joined by ``", "``. Each face brings its own escaping:
+    ``name`` writes a coefficient's name, ``plus_minus`` is the sign (HTML: ``&plusmn;``)."""
+    return ", ".join(f"{name(k)} = {v:.6g} {plus_minus} {stderr[k]:.2g}" for k, v in values.items())
 
 
 def interval(lo: float, hi: float, decimals: int | None = None) -> str:

@@ -19,6 +19,7 @@ from enum import StrEnum
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.core.defaults import TrialStatus  # its home is odolab.core.defaults; re-exported here
 from odolab.core.errors import InvalidTrialError, StoreError
 from odolab.core.motion import MotionKind  # its home is odolab.core.motion; re-exported here
 from odolab.core.params import RobotParams
@@ -46,14 +47,6 @@ __all__ = [
     "trial_field",
     "validate_trial",
 ]
-
-
-class TrialStatus(StrEnum):
-    """Where a trial is in its life."""
-
-    AWAITING = "awaiting"  #: driven, not yet measured
-    MEASURED = "measured"
-    EXCLUDED = "excluded"  #: kept, but left out of the analysis (with a reason)
 
 
 #: How an exploration draws its commands: uniformly over what the robot can do, or three in four

@@ -53,7 +53,14 @@ from odolab.core.params import RobotParams, covariance_source
 from odolab.core.text import safe_terminal
 
 __all__ = [
+    "DEFAULT_CONTROLLER",
     "DEFAULT_DISTRO",
+    "DEFAULT_HORIZON",
+    "DEFAULT_LEFT_WHEELS",
+    "DEFAULT_RATE",
+    "DEFAULT_RIGHT_WHEELS",
+    "DEFAULT_SPEED",
+    "DEFAULT_WINDOW",
     "DISTRO_KEYS",
     "LIMITS",
     "ROS_DISTROS",
@@ -109,6 +116,16 @@ ROS_DISTROS = tuple(DISTRO_KEYS)
 DEFAULT_DISTRO = "jazzy"
 #: The controller's ``velocity_rolling_window_size`` default (every distribution).
 DEFAULT_WINDOW = 10
+#: The controller's name (the YAML's top key) unless told otherwise.
+DEFAULT_CONTROLLER = "diff_drive_controller"
+#: The speed (m/s) the covariance is stated at, the controller's update rate (Hz) and the
+#: straight path (m) the pose covariance is stated after, unless told otherwise.
+DEFAULT_SPEED = 0.5
+DEFAULT_RATE = 50.0
+DEFAULT_HORIZON = 1.0
+#: The wheel joints' names unless told otherwise (one wheel a side).
+DEFAULT_LEFT_WHEELS = ("left_wheel_joint",)
+DEFAULT_RIGHT_WHEELS = ("right_wheel_joint",)
 #: Largest ``speed`` (m/s), ``rate`` (Hz) and ``horizon`` (m) accepted: far beyond any
 #: wheeled robot, small enough that every covariance term stays a finite number.
 LIMITS = {"speed": 100.0, "rate": 100_000.0, "horizon": 100_000.0}
@@ -295,9 +312,9 @@ def controller_numbers(
     params: RobotParams,
     *,
     nominal: RobotParams | None = None,
-    speed: float = 0.5,
-    rate: float = 50.0,
-    horizon: float = 1.0,
+    speed: float = DEFAULT_SPEED,
+    rate: float = DEFAULT_RATE,
+    horizon: float = DEFAULT_HORIZON,
     window: int = DEFAULT_WINDOW,
 ) -> ControllerExport:
     """What :func:`diff_drive_controller_yaml` writes, as numbers. ``rate``: the controller's
@@ -421,14 +438,14 @@ def diff_drive_controller_yaml(
     params: RobotParams,
     *,
     nominal: RobotParams | None = None,
-    controller: str = "diff_drive_controller",
-    speed: float = 0.5,
-    rate: float = 50.0,
-    horizon: float = 1.0,
+    controller: str = DEFAULT_CONTROLLER,
+    speed: float = DEFAULT_SPEED,
+    rate: float = DEFAULT_RATE,
+    horizon: float = DEFAULT_HORIZON,
     window: int = DEFAULT_WINDOW,
     distro: str = DEFAULT_DISTRO,
-    left_wheel_names: tuple[str, ...] = ("left_wheel_joint",),
-    right_wheel_names: tuple[str, ...] = ("right_wheel_joint",),
+    left_wheel_names: tuple[str, ...] = DEFAULT_LEFT_WHEELS,
+    right_wheel_names: tuple[str, ...] = DEFAULT_RIGHT_WHEELS,
     provenance: dict[str, object] | None = None,
     words: Wording = NEUTRAL,
 ) -> str:

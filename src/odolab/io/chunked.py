@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 
 from odolab.core.arrays import FloatArray as F64
 from odolab.core.arrays import IntArray as I64
+from odolab.core.defaults import DEFAULT_CHUNK_ROWS
 from odolab.core.errors import EncoderJumpError, LogFormatError
 from odolab.core.kinematics import Method
 from odolab.core.params import RobotParams
@@ -63,8 +64,6 @@ __all__ = [
     "run_odometry_job",
 ]
 
-#: Rows per chunk when none is given: about 100 MB of working memory.
-DEFAULT_CHUNK_ROWS = 1_000_000
 TRAJECTORY_COLUMNS = ("t", "x", "y", "theta", "heading")
 
 

@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import math
-from enum import StrEnum
 from typing import NamedTuple
 
 import numpy as np
 
+from odolab.core.defaults import Alignment  # its home is odolab.core.defaults; re-exported here
 from odolab.core.errors import InsufficientDataError
 from odolab.core.trajectory import Trajectory
 
@@ -20,14 +20,6 @@ __all__ = [
     "rigid_from_points",
     "transform_trajectory",
 ]
-
-
-class Alignment(StrEnum):
-    """How the estimate is moved onto the reference before APE."""
-
-    NONE = "none"
-    ORIGIN = "origin"
-    SE2 = "se2"
 
 
 class Rigid2D(NamedTuple):

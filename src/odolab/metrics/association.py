@@ -9,22 +9,14 @@ nearest pose.
 
 from __future__ import annotations
 
-from enum import StrEnum
-
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.core.defaults import SyncMethod  # its home is odolab.core.defaults; re-exported here
 from odolab.core.errors import InsufficientDataError, LogFormatError
 from odolab.core.trajectory import Trajectory
 
 __all__ = ["SyncMethod", "associate", "interpolate_trajectory", "matching_time_indices"]
-
-
-class SyncMethod(StrEnum):
-    """How two trajectories are paired in time."""
-
-    NEAREST = "nearest"
-    INTERPOLATE = "interpolate"
 
 
 def matching_time_indices(

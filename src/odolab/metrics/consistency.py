@@ -35,6 +35,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.core.distributions import Z95
 from odolab.core.errors import InsufficientDataError, OdolabError, ParamsError, opt
 from odolab.core.kinematics import Method, wrap_angle
 from odolab.core.models import own_covariance
@@ -562,7 +563,6 @@ _UNIT_NOISES = (
     NoiseParams(0.0, 1.0, 0.0),
     NoiseParams(0.0, 0.0, 1.0),
 )
-_Z95 = 1.959963984540054
 
 
 @dataclass(frozen=True)
@@ -746,7 +746,7 @@ def fit_noise(
     ci: dict[str, tuple[float, float]] = {}
     for j, idx in enumerate(free):
         values[keys[idx]] = math.exp(u[j])
-        half = min(_Z95 * float(se[j]), 300.0)  # an unidentified constant: [0, inf) in effect
+        half = min(Z95 * float(se[j]), 300.0)  # an unidentified constant: [0, inf) in effect
         ci[keys[idx]] = (math.exp(u[j] - half), math.exp(u[j] + half))
     if scrub_known:  # the scrub may be 0 (wheels): its interval on the linear scale
         values["k_scrub"], ci["k_scrub"] = _scrub_interval(e, a, values, known)

@@ -23,11 +23,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
-from enum import StrEnum
 
 import numpy as np
 
 from odolab.core.arrays import FloatArray, IntArray
+from odolab.core.defaults import DeltaUnit  # its home is odolab.core.defaults; re-exported here
 from odolab.core.errors import InsufficientDataError, LogFormatError
 from odolab.core.kinematics import wrap_angle
 from odolab.core.trajectory import Trajectory
@@ -46,16 +46,6 @@ __all__ = [
     "stats_from_errors",
     "turn_distances",
 ]
-
-
-class DeltaUnit(StrEnum):
-    """Unit of the RPE step: poses (frames), path length (metres) or angle turned (degrees,
-    radians)."""
-
-    FRAMES = "frames"
-    METRES = "m"
-    DEGREES = "deg"
-    RADIANS = "rad"
 
 
 #: The units that choose pairs by the angle turned.

@@ -100,8 +100,8 @@ def model_comparison_html(result: ModelComparison) -> str:
     for s in result.scores:
         if s.fit is None:
             continue
-        values = ", ".join(
-            f"{escape(k)} = {v:.6g} &plusmn; {s.fit.stderr[k]:.2g}" for k, v in s.fit.values.items()
+        values = numfmt.coefficients_with_se(
+            s.fit.values, s.fit.stderr, name=escape, plus_minus="&plusmn;"
         )
         params.append(f"<li><b>{escape(s.model)}</b>: {values}</li>")
     return (

@@ -15,6 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, fields
 from enum import StrEnum
 
+from odolab.core.defaults import DEFAULT_MAX_WHEEL_SPEED
 from odolab.core.errors import OPTION_NAMES, opt
 from odolab.core.params import RobotParams
 from odolab.core.trials import EXPLORE_DISTRIBUTIONS, Command, Exploration, MotionKind
@@ -122,7 +123,7 @@ class RunConfig:
 
     rate: float = 20.0
     mode: CommandMode = CommandMode.PWM
-    max_wheel_speed: float = 1.0
+    max_wheel_speed: float = DEFAULT_MAX_WHEEL_SPEED
     watchdog: float = 0.5
     link_timeout: float = 5.0
     stall_timeout: float = 3.0

@@ -31,6 +31,7 @@ from typing import Literal
 
 import numpy as np
 
+from odolab.core.distributions import Z95
 from odolab.core.errors import OdolabError
 
 __all__ = [
@@ -137,9 +138,6 @@ def robot_sense_sentence(finding: SenseFinding) -> str:
         "({{left_encoder_sign}}/{{right_encoder_sign}}) or on the wrong channel, or counts per "
         "revolution or track width in {{params}} far from this robot's"
     )
-
-
-_Z95 = 1.959963984540054
 
 
 @dataclass(frozen=True)
@@ -287,7 +285,7 @@ class DriftMonitor:
         # the bias's own uncertainty moves k by sd_b * sum(dodo dt) / sum(dodo^2)
         var = sigma2 / s_oo + (self.bias_sd * s_ot / s_oo) ** 2
         se = math.sqrt(var)
-        ci = (k - _Z95 * se, k + _Z95 * se)
+        ci = (k - Z95 * se, k + Z95 * se)
         self.state = DriftState(t, k, ci, self._turned)
         lo, hi = self.expected
         outside = k - self.z_flag * se > hi or k + self.z_flag * se < lo

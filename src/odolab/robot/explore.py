@@ -38,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from odolab.core.defaults import DEFAULT_SEED, DEFAULT_TERRAIN
 from odolab.core.errors import NEUTRAL, Wording, opt
 from odolab.core.params import RobotParams
 from odolab.core.trajectory import Pose, Trajectory
@@ -345,8 +346,8 @@ class ExplorePlan:
         robot: str,
         params: RobotParams,
         plant: PlantFactory | None = None,
-        seed: int = 0,
-        terrain: str = "tile",
+        seed: int = DEFAULT_SEED,
+        terrain: str = DEFAULT_TERRAIN,
         on_cycle: Callable[[CycleInfo], None] | None = None,
         on_event: Callable[[float, str], None] | None = None,
         realtime: bool = False,
@@ -385,8 +386,8 @@ class ExplorePlan:
         *,
         params: RobotParams,
         config: RunConfig | None = None,
-        terrain: str = "tile",
-        seed: int = 0,
+        terrain: str = DEFAULT_TERRAIN,
+        seed: int = DEFAULT_SEED,
         report_rate: float = 10.0,
         save_to: str | Path | None = None,
         on_cycle: Callable[[CycleInfo], None] | None = None,

@@ -19,7 +19,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields
 from urllib.parse import urlparse
 
-from odolab.core.defaults import DEFAULT_TRUTH
+from odolab.core.defaults import DEFAULT_SEED, DEFAULT_TERRAIN, DEFAULT_TRUTH
 from odolab.core.errors import opt
 from odolab.core.params import RobotParams
 from odolab.robot.clock import Clock, SimClock
@@ -190,8 +190,8 @@ def _check_host(url: str) -> None:
 #: (a user who means the simulator must not drive the robot instead).
 VIRTUAL_ONLY: dict[str, object] = {
     "truth": DEFAULT_TRUTH,
-    "terrain": "tile",
-    "seed": 0,
+    "terrain": DEFAULT_TERRAIN,
+    "seed": DEFAULT_SEED,
     "command_timeout": next(f.default for f in fields(RunConfig) if f.name == "command_timeout"),
 }
 

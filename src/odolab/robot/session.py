@@ -36,6 +36,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any, ParamSpec
 
+from odolab.core.defaults import DEFAULT_SEED, DEFAULT_TERRAIN
 from odolab.core.errors import OdolabError, opt
 from odolab.core.params import PRESETS, RobotParams
 from odolab.core.trajectory import Pose, Trajectory
@@ -459,9 +460,9 @@ def run_motion(
     motion: Motion | None = None,
     plant: PlantFactory | None = None,
     faults: object | None = None,
-    seed: int = 0,
+    seed: int = DEFAULT_SEED,
     report_rate: float = 10.0,
-    terrain: str = "tile",
+    terrain: str = DEFAULT_TERRAIN,
     campaign: str = "robot",
     max_duration: float | None = None,
     clock: Clock | None = None,
@@ -504,8 +505,8 @@ def run_simulated(
     motion: Command | Motion,
     truth: object = None,
     nominal: RobotParams | None = None,
-    terrain: str = "tile",
-    seed: int = 0,
+    terrain: str = DEFAULT_TERRAIN,
+    seed: int = DEFAULT_SEED,
     rate: float = 20.0,
     *,
     command: Command | None = None,
