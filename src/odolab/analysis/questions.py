@@ -50,6 +50,7 @@ from typing import Any
 
 import numpy as np
 
+from odolab.core.defaults import DEFAULT_TERRAIN
 from odolab.core.errors import SimError
 from odolab.core.motion import DriveShape
 from odolab.core.odometry import integrate_increments
@@ -101,7 +102,7 @@ class Condition:
 
     label: str
     motion: DriveShape
-    terrain: str = "tile"
+    terrain: str = DEFAULT_TERRAIN
     speed: float = 0.3
     angle: float = 0.0  #: rad
     radius: float = 0.0
@@ -376,7 +377,7 @@ def _condition(source: str, index: int, c: object, speed: float) -> Condition:
     if motion not in _MOTIONS:
         raise _err(source, f"{where} key 'motion'",
                    f"expected one of {', '.join(_MOTIONS)}, got {motion!r}")  # fmt: skip
-    terrain = str(c.get("terrain", "tile"))
+    terrain = str(c.get("terrain", DEFAULT_TERRAIN))
     get_terrain(terrain, where=f"{source}: {where} key 'terrain'")
     kw: dict[str, Any] = {
         "terrain": terrain,

@@ -15,12 +15,15 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from odolab.analysis.core import LabAnalysis
+from odolab.core.defaults import DEFAULT_TERRAIN
 from odolab.core.motion import Motion
 
 __all__ = ["growth_text", "pooled_y_sigmas", "table1"]
 
 
-def pooled_y_sigmas(rows: Sequence[dict[str, Any]], terrain: str = "tile") -> dict[float, float]:
+def pooled_y_sigmas(
+    rows: Sequence[dict[str, Any]], terrain: str = DEFAULT_TERRAIN
+) -> dict[float, float]:
     """sigma of the y error at each repeated distance, pooled over forward and reverse runs.
 
     From Table I rows (:func:`table1`): the pooled variance is the degrees-of-freedom weighted

@@ -34,6 +34,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from odolab.calibration.compare import DEFAULT_MODELS
+from odolab.core.defaults import DEFAULT_TERRAIN
 from odolab.core.errors import opt
 
 if TYPE_CHECKING:
@@ -348,7 +349,7 @@ def slip_comparison(
     held_out: Sequence[OdometryRun],
     *,
     seed: int,
-    terrain: str = "tile",
+    terrain: str = DEFAULT_TERRAIN,
     questions: Sequence[Any] = (),
     folder: Path | None = None,
     base: Path | None = None,

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from odolab.core.defaults import DEFAULT_ROBOT, DEFAULT_TRUTH
+from odolab.core.defaults import DEFAULT_ROBOT, DEFAULT_TERRAIN, DEFAULT_TRUTH
 from odolab.core.errors import opt
 
 if TYPE_CHECKING:
@@ -140,7 +140,7 @@ class ExploreRequest:
     max_turn_rate: float | None = None
     fence: float = 4.0
     distribution: str = "uniform"
-    terrain: str = "tile"
+    terrain: str = DEFAULT_TERRAIN
     truth: str = "jaguar-lab-tracked"
     params: str = DEFAULT_ROBOT
     seed: int = 0

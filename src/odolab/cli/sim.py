@@ -11,7 +11,7 @@ import typer
 from odolab.cli._apps import sim_app
 from odolab.cli._output import echo
 from odolab.cli.options import NominalParamsOpt, RandomSeedOpt, VirtualTruthOpt
-from odolab.core.defaults import DEFAULT_ROBOT, DEFAULT_TRUTH
+from odolab.core.defaults import DEFAULT_ROBOT, DEFAULT_TERRAIN, DEFAULT_TRUTH
 
 __all__: list[str] = []
 
@@ -137,7 +137,7 @@ def sim_explore(
     distribution: Annotated[
         str, typer.Option(help="How commands are drawn: uniform, or edges (mostly fast).")
     ] = "uniform",
-    terrain: Annotated[str, typer.Option(help="tile, concrete or grass.")] = "tile",
+    terrain: Annotated[str, typer.Option(help="tile, concrete or grass.")] = DEFAULT_TERRAIN,
     truth: VirtualTruthOpt = "jaguar-lab-tracked",
     params: NominalParamsOpt = DEFAULT_ROBOT,
     seed: RandomSeedOpt = 0,

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.core.defaults import DEFAULT_TERRAIN
 from odolab.core.errors import SimError
 from odolab.core.params import RobotParams
 from odolab.core.trajectory import Trajectory
@@ -110,7 +111,7 @@ def drive(
     nominal: RobotParams,
     legs: Sequence[Leg],
     *,
-    terrain: str | Terrain = "tile",
+    terrain: str | Terrain = DEFAULT_TERRAIN,
     report_rate: float = 20.0,
     dt: float = 0.005,
     seed: int = 0,
@@ -229,7 +230,7 @@ def record_drive(
     rate: float = 20.0,
     seed: int = 0,
     dt: float = 0.001,
-    terrain: str = "tile",
+    terrain: str = DEFAULT_TERRAIN,
 ) -> RecordedDrive:
     """Drive ``legs`` (:class:`Leg` or ``(left, right, seconds)``) with the virtual robot; sample
     the counts and true poses at ``rate`` Hz. A leg's ``ramp`` eases in as in :func:`drive`."""

@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from odolab.core.defaults import DEFAULT_TERRAIN
 from odolab.core.errors import SimError
 from odolab.core.kinematics import wrap_angle
 from odolab.core.models import DIFF_DRIVE
@@ -103,7 +104,7 @@ def explore(
     nominal: RobotParams,
     settings: ExploreSettings | None = None,
     *,
-    terrain: str = "tile",
+    terrain: str = DEFAULT_TERRAIN,
     seed: int = 0,
     dt: float = 0.005,
 ) -> Drive:

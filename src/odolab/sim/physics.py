@@ -49,6 +49,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from odolab.core._jit import njit
+from odolab.core.defaults import DEFAULT_TERRAIN
 from odolab.core.errors import SimError
 from odolab.core.kinematics import body_motion, step_pose
 from odolab.core.models import DIFF_DRIVE, KinematicModel, is_kinematic_model
@@ -607,7 +608,7 @@ class VirtualRobot:
         self,
         truth: TrueParams,
         nominal: RobotParams,
-        terrain: str | Terrain = "tile",
+        terrain: str | Terrain = DEFAULT_TERRAIN,
         *,
         seed: int = 0,
         dt: float = 0.001,

@@ -7,6 +7,7 @@ structurally, so the robot stack never imports the simulator (the CLI and the la
 
 from __future__ import annotations
 
+from odolab.core.defaults import DEFAULT_SEED, DEFAULT_TERRAIN
 from odolab.core.errors import SimError
 from odolab.core.params import RobotParams
 from odolab.sim.physics import TrueParams, VirtualRobot
@@ -16,7 +17,11 @@ __all__ = ["make_plant"]
 
 
 def make_plant(
-    truth: str | TrueParams, nominal: RobotParams, terrain: str = "tile", *, seed: int = 0
+    truth: str | TrueParams,
+    nominal: RobotParams,
+    terrain: str = DEFAULT_TERRAIN,
+    *,
+    seed: int = DEFAULT_SEED,
 ) -> VirtualRobot:
     """The simulated robot for ``truth`` (a name in ``TRUTH_PRESETS`` or a ``TrueParams``)."""
     if isinstance(truth, str):

@@ -51,6 +51,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from odolab.core.defaults import DEFAULT_TERRAIN
 from odolab.core.errors import SimError
 from odolab.core.kinematics import wrap_angle
 from odolab.core.odometry import integrate
@@ -425,7 +426,7 @@ def parse_protocol(doc: dict[str, object], source: str = "<protocol>") -> Experi
     campaign = head.get("campaign", name)
     if not isinstance(campaign, str) or not campaign:
         raise _err(source, "[protocol] key 'campaign'", "expected a non-empty string")
-    terrain = head.get("terrain", "tile")
+    terrain = head.get("terrain", DEFAULT_TERRAIN)
     get_terrain(str(terrain), where=f"{source}: [protocol] key 'terrain'")
     numbers = {
         key: _number(source, f"[protocol] key {key!r}", head.get(key, default), within=within,
