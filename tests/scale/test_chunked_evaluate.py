@@ -211,7 +211,7 @@ def test_memory_is_bounded_by_the_chunk(tmp_path: Path) -> None:
     # chunks of 1,000 rows: the files of 20,000 and 200,000 rows are 20 and 200 chunks. With
     # chunks of 200 (1,000 chunks) it took 10.4 s of CPU under tracemalloc against 2.8 s, for the
     # same peaks (3.78 MB at 200,000 rows, the readers' blocks); what a chunk could leak and pass
-    # grows with the chunk: about 7.6 kB a chunk here (the bound's 1.5 MB of room over 200 chunks)
+    # grows with the chunk: about 7.8 kB a chunk here (the bound's 1.5 MB of room over 200 chunks)
     chunk = 1000
     peaks = []
     o = EvaluationOptions(

@@ -15,19 +15,18 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from odolab.analysis.core import LabAnalysis
-from odolab.core.defaults import DEFAULT_TERRAIN
 from odolab.core.motion import Motion
 
 __all__ = ["growth_text", "pooled_y_sigmas", "table1"]
 
 
-def pooled_y_sigmas(
-    rows: Sequence[dict[str, Any]], terrain: str = DEFAULT_TERRAIN
-) -> dict[float, float]:
+def pooled_y_sigmas(rows: Sequence[dict[str, Any]], terrain: str = "tile") -> dict[float, float]:
     """sigma of the y error at each repeated distance, pooled over forward and reverse runs.
 
     From Table I rows (:func:`table1`): the pooled variance is the degrees-of-freedom weighted
     mean of the two directions' group variances (how the lab quotes one sigma for both).
+    ``terrain``: the lab report's own floor unless told otherwise (the report sets these beside
+    the lab's tile sigmas), not the simulator's default terrain.
     """
     acc: dict[float, list[float]] = {}
     for r in rows:

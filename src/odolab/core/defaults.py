@@ -1,10 +1,11 @@
-"""Named defaults used across odolab (imports nothing, so the CLI can use them at no cost).
+"""Named defaults used across odolab (only ``enum`` imported, so the CLI can use them at no cost).
 
 - :data:`DEFAULT_ROBOT`: the nominal parameter preset (:data:`odolab.core.params.PRESETS`).
 - :data:`DEFAULT_TRUTH`: the virtual robot's true behaviour (:data:`odolab.sim.presets.TRUTH_PRESETS`).
-- :data:`DEFAULT_TERRAIN`, :data:`DEFAULT_SEED`, :data:`DEFAULT_MAX_WHEEL_SPEED`: a robot run's
-  virtual plant and its speeds (``odolab robot ...``, ``robot sim-server``;
-  :class:`odolab.robot.config.RunConfig`, :data:`odolab.robot.registry.VIRTUAL_ONLY`).
+- :data:`DEFAULT_TERRAIN`, :data:`DEFAULT_SEED`: the virtual robot's terrain and random seed
+  (a robot run's virtual plant, ``robot sim-server``, the simulator's drives and exploration,
+  the open questions); :data:`DEFAULT_MAX_WHEEL_SPEED`: a robot run's speeds
+  (:class:`odolab.robot.config.RunConfig`, :data:`odolab.robot.registry.VIRTUAL_ONLY`).
 - :data:`DEFAULT_CORNERS`: how ``odolab track`` refines marker corners
   (:data:`odolab.tracking.tracker.CORNER_METHODS`).
 - :data:`DEFAULT_CHUNK_ROWS`: rows per chunk when a log is integrated in chunks and no size is
