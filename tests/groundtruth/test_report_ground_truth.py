@@ -113,7 +113,8 @@ def test_bad_files_are_one_sentence(tmp_path: Path, text: str, needle: str) -> N
 
 def test_report_has_the_section(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     db = tmp_path / "lab.sqlite"
-    assert main(["sim", "run", "rotation", "--db", str(db)]) == 0
+    trials = str(tmp_path / "trials.csv")  # not the default, the working folder's trials.csv
+    assert main(["sim", "run", "rotation", "--db", str(db), "-o", trials]) == 0
     track, cal = tmp_path / "run_gt.csv", tmp_path / "cal.json"
     track.write_text(TRACK)
     cal.write_text(json.dumps(SENSOR))

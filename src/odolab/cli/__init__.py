@@ -164,9 +164,7 @@ def _command_path(app: typer.Typer, args: Sequence[str]) -> str:
     words = ["odolab"]
     if app is None:
         return words[0]
-    import typer
-
-    command: Any = typer.main.get_command(app)
+    command: Any = built(app)
     for word in args:
         sub = getattr(command, "commands", {}).get(word)
         if sub is None:
@@ -174,6 +172,38 @@ def _command_path(app: typer.Typer, args: Sequence[str]) -> str:
         words.append(word)
         command = sub
     return " ".join(words)
+
+
+#: The click command typer makes of an app, by the app and the number of commands and groups
+#: registered in it (a command module imported later adds some: then it is made anew).
+_BUILT: dict[tuple[int, int], Any] = {}
+
+
+def _registered(app: Any) -> int:
+    """How many commands, groups and callbacks ``app`` and its groups hold."""
+    n = len(app.registered_commands) + (app.registered_callback is not None)
+    for group in app.registered_groups:
+        n += 1 + _registered(group.typer_instance)
+    return n
+
+
+def built(app: typer.Typer) -> Any:
+    """The click command of ``app``, made once per set of registered commands.
+
+    Calling a typer app makes its click command anew each time, from every command function's
+    signature and type hints: 60-90 ms with all of odolab's commands loaded. ``odolab`` runs it
+    once, but a process that calls :func:`main` again (a notebook, a script, the test suite)
+    paid it on every call. A click command keeps no state between calls: each call parses into
+    a new context. The app's ``pretty_exceptions_enable`` is off, so typer's own call added
+    nothing else."""
+    import typer.main
+
+    key = (id(app), _registered(app))
+    command = _BUILT.get(key)
+    if command is None:
+        _BUILT.clear()
+        command = _BUILT[key] = typer.main.get_command(app)
+    return command
 
 
 #: Modules a data command imports anyway, loaded before it runs, in :func:`_start_up`.
@@ -277,7 +307,9 @@ def main(argv: list[str] | None = None) -> int:
                 for name in preloaded(args):
                     importlib.import_module(name)
         # (the program's own arguments as None: click expands wildcards itself on Windows)
-        code = app(args=None if argv is None else args, prog_name="odolab", standalone_mode=False)
+        code = built(app)(
+            args=None if argv is None else args, prog_name="odolab", standalone_mode=False
+        )
     except _click().exceptions.UsageError as err:
         if type(err).__name__ == "NoArgsIsHelpError":  # `odolab`, `odolab calibrate`: the help
             err.ctx.get_help()
