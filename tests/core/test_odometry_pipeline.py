@@ -130,3 +130,24 @@ def test_counter_steps_past_int32_take_the_careful_loop(monkeypatch: pytest.Monk
     for name in ("x", "y", "heading"):
         np.testing.assert_allclose(getattr(compiled, name), getattr(plain, name), rtol=1e-13)
     assert abs(compiled.heading[n // 2] - compiled.heading[n // 2 - 1]) > 1e3  # the step is in
+
+
+@pytest.mark.skipif(not _jit.HAVE_NUMBA, reason="the kernels are compiled only with numba")
+def test_writable_read_only_and_strided_times_share_one_compiled_pass() -> None:
+    """A polars or pyarrow column is read-only and a column of a 2-D array strided: each was a
+    signature of its own, compiled anew (2-2.5 s) the first time (issue 36)."""
+    from odolab.core._odometry_kernels import _steps_from_ticks
+
+    p = PRESETS["jaguar-lite"]
+    n = 4 * od.NUMPY_MAX_SAMPLES
+    t = 0.05 * np.arange(n)
+    ticks = np.cumsum(np.ones(n, dtype=np.int64))
+    read_only = t.copy()
+    read_only.flags.writeable = False
+    strided = np.stack([t, t], axis=1)[:, 0]
+    poses = [integrate(tt, ticks, ticks, p, parallel=1) for tt in (t, read_only, strided)]
+    assert len(_steps_from_ticks.signatures) == 1  # type: ignore[attr-defined]
+    for other in poses[1:]:
+        np.testing.assert_array_equal(other.x, poses[0].x)
+        np.testing.assert_array_equal(other.t, t)
+    assert t.flags.writeable  # the caller's array is left as it was

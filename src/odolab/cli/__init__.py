@@ -16,7 +16,7 @@ import os
 import sys
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 #: Settings of the native libraries, for a command that runs seconds, not hours. Each is set
 #: before the library loads; a value the user set wins (docs/scale.md measures each):
@@ -174,20 +174,27 @@ def _command_path(app: typer.Typer, args: Sequence[str]) -> str:
     return " ".join(words)
 
 
+class _Command(Protocol):
+    """What :func:`main` calls of a click command."""
+
+    def __call__(self, *, args: list[str] | None, prog_name: str, standalone_mode: bool) -> object:
+        """Parse ``args`` in a new context and run the command they name."""
+
+
 #: The click command typer makes of an app, by the app and the number of commands and groups
 #: registered in it (a command module imported later adds some: then it is made anew).
-_BUILT: dict[tuple[int, int], Any] = {}
+_BUILT: dict[tuple[int, int], _Command] = {}
 
 
-def _registered(app: Any) -> int:
+def _registered(app: typer.Typer) -> int:
     """How many commands, groups and callbacks ``app`` and its groups hold."""
     n = len(app.registered_commands) + (app.registered_callback is not None)
     for group in app.registered_groups:
-        n += 1 + _registered(group.typer_instance)
+        n += 1 + (0 if group.typer_instance is None else _registered(group.typer_instance))
     return n
 
 
-def built(app: typer.Typer) -> Any:
+def built(app: typer.Typer) -> _Command:
     """The click command of ``app``, made once per set of registered commands.
 
     Calling a typer app makes its click command anew each time, from every command function's

@@ -238,6 +238,16 @@ def _start_pose(start: tuple[float, float, float] | None) -> tuple[float, float,
     return x0, y0, h0
 
 
+def _one_layout(a: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``a`` as the compiled passes take their times: contiguous and read-only (a view of ``a``
+    where it is contiguous, else a contiguous copy). numba compiles a pass once for each layout
+    and write flag it meets: a writable array, a read-only one (a column polars or pyarrow lent)
+    and a strided one were three compilations of each pass, 2-2.5 s each the first time."""
+    view = np.ascontiguousarray(a).view()
+    view.flags.writeable = False
+    return view
+
+
 def _times(t: ArrayLike, n: int, source: str) -> NDArray[np.float64]:
     tt = np.array(t, dtype=np.float64)  # a copy: the trajectory owns its arrays
     if tt.ndim != 1 or tt.size != n:
@@ -302,7 +312,7 @@ def _integrate(
     right = as_tick_array(right_ticks, "right_ticks")
     if left.size != right.size:
         raise LogFormatError(f"{source}: left has {left.size} samples, right has {right.size}")
-    tin = np.asarray(t, dtype=np.float64)
+    tin = _one_layout(np.asarray(t, dtype=np.float64))
     if tin.ndim != 1 or tin.size != left.size:
         raise LogFormatError(f"{source}: t has {tin.size} samples but the ticks have {left.size}")
     _check_max_dticks(max_dticks)
