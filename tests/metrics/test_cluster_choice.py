@@ -1,6 +1,8 @@
 """Where many runs are computed when the user says nothing (no scheduler, no --workers): in the
 command's process below IN_PROCESS_BELOW runs (a local cluster's start would take longer than
-they do), a local Dask cluster from there on; the output says which and why."""
+they do); from there on the first PROBE_ITEMS are timed here, and a local Dask cluster takes the
+rest only where all of them would take LOCAL_CLUSTER_PAYS_S or more here; the output says which
+and why."""
 
 from __future__ import annotations
 
@@ -9,7 +11,15 @@ from pathlib import Path
 import pytest
 
 from odolab.cli import main
-from odolab.metrics.cluster import DEFAULT_WORKERS, IN_PROCESS_BELOW, Cluster, map_outcomes
+from odolab.metrics.cluster import (
+    DEFAULT_WORKERS,
+    IN_PROCESS_BELOW,
+    LOCAL_CLUSTER_PAYS_S,
+    PROBE_ITEMS,
+    Cluster,
+    MapReport,
+    map_outcomes,
+)
 
 
 def _square(x: int) -> int:
@@ -55,3 +65,69 @@ def test_evaluate_says_where_it_chose_to_compute(
     out = capsys.readouterr().out
     assert "note: computed in this process (3 runs, fewer than 64" in out
     assert "--workers 2 starts one" in out
+
+
+def test_many_quick_items_stay_here_after_the_first_are_timed(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import odolab.metrics.cluster as cl
+
+    def no_dask(_cluster: Cluster) -> None:
+        raise AssertionError("a local cluster was started for quick items")
+
+    monkeypatch.setattr(cl, "_client", no_dask)
+    report, seen = MapReport(""), []
+    items = list(range(IN_PROCESS_BELOW + 36))
+    outcomes = map_outcomes(
+        _square, items, report=report, progress=lambda k, n, _: seen.append((k, n))
+    )
+    assert [o.result for o in outcomes] == [x * x for x in items]
+    assert seen == [(k, len(items)) for k in range(1, len(items) + 1)]
+    assert report.chosen
+    assert (
+        report.where.startswith(f"this process (100 runs: the first {PROBE_ITEMS} took ")
+        and " ms each here (median), all of them about " in report.where
+    )
+    assert f"less than the {LOCAL_CLUSTER_PAYS_S:g} s from which a local Dask cluster pays" in (
+        report.where
+    )
+
+
+def test_slow_items_go_to_a_local_cluster_after_the_first_are_timed(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import odolab.metrics.cluster as cl
+
+    started: list[Cluster] = []
+
+    class NoCluster(Exception):
+        pass
+
+    def cluster_started(cluster: Cluster) -> None:
+        started.append(cluster)
+        raise NoCluster  # (the cluster itself: tests/scale)
+
+    monkeypatch.setattr(cl, "_client", cluster_started)
+    monkeypatch.setattr(cl, "LOCAL_CLUSTER_PAYS_S", 0.0)  # every item is slow enough
+    report, ran = MapReport(""), []
+
+    def square_here(x: int) -> int:
+        ran.append(x)
+        return x * x
+
+    with pytest.raises(NoCluster):
+        map_outcomes(square_here, list(range(IN_PROCESS_BELOW)), report=report)
+    assert ran == list(range(PROBE_ITEMS)) and len(started) == 1
+    assert report.where.startswith(
+        f"local Dask cluster, {DEFAULT_WORKERS} worker processes (64 runs: the first 8 took "
+    )
+    assert " ms each here (median), all of them about " in report.where
+    assert report.where.endswith("{{workers}} 1 keeps them in this process)")
+
+
+def test_the_rule_estimates_all_the_items_from_the_first() -> None:
+    # the median item stands for all of them, not the first, which loads what a process loads once
+    stay, why = Cluster().after_probe(1000, [2.0, 0.05, 0.04, 0.06, 0.05])  # 50 s
+    assert not stay and "took 50 ms each here (median), all of them about 50 s" in why
+    stay, why = Cluster().after_probe(1000, [2.0, 0.01, 0.01, 0.01])  # 10 s
+    assert stay and "took 10 ms each here (median), all of them about 10 s" in why

@@ -7,13 +7,16 @@ worker that dies mid-run loses only time: the scheduler runs its tasks again els
 
 ``Cluster(workers=1)`` (or a single item) runs everything here, in this process, with no Dask;
 so does ``Cluster()`` (no scheduler, no number of workers) for fewer than
-:data:`IN_PROCESS_BELOW` items, and the report says so (:meth:`Cluster.where`).
+:data:`IN_PROCESS_BELOW` items, and for more where the first :data:`PROBE_ITEMS` say that all
+of them take less than :data:`LOCAL_CLUSTER_PAYS_S` here; the report says which and why
+(:meth:`Cluster.where`, :meth:`Cluster.after_probe`).
 """
 
 from __future__ import annotations
 
 import logging
 import os
+import statistics
 import time
 import traceback
 from collections.abc import Callable, Iterator, Sequence
@@ -31,6 +34,8 @@ if TYPE_CHECKING:
 __all__ = [
     "DEFAULT_WORKERS",
     "IN_PROCESS_BELOW",
+    "LOCAL_CLUSTER_PAYS_S",
+    "PROBE_ITEMS",
     "Cluster",
     "MapReport",
     "Outcome",
@@ -47,6 +52,16 @@ R = TypeVar("R")
 #: than they do (docs/scale.md: 118-141 runs/s in the command's process against 61-85 on a local
 #: cluster of 2, its start included, for 2,000 runs on 2 cores).
 IN_PROCESS_BELOW = 64
+#: With no scheduler and no number of workers given and :data:`IN_PROCESS_BELOW` items or more,
+#: this many run here first, timed; the rest run here too where all of them would take less
+#: than :data:`LOCAL_CLUSTER_PAYS_S` here (:meth:`Cluster.after_probe`).
+PROBE_ITEMS = 8
+#: Seconds of work in this process from which a local cluster of :data:`DEFAULT_WORKERS` is
+#: started for the rest. On this 2-core machine the command's process was still faster for 2,000
+#: runs (14-17 s of work against 23-33 s on the cluster, its start included: docs/scale.md), and
+#: the DRIVE Husky's 603 two-second windows took 13 s of CPU here against 23 s with the cluster
+#: (tests/io/test_husky_worked_example.py); a cluster pays where the work is longer than this.
+LOCAL_CLUSTER_PAYS_S = 30.0
 #: Worker processes of a local cluster when none are given.
 DEFAULT_WORKERS = 2
 
@@ -60,7 +75,9 @@ class Cluster:
     ``workers`` processes with one thread each, bound to 127.0.0.1, reached only with TLS and a
     certificate made for it (:func:`local_cluster`), and stops it afterwards. ``workers <= 1``
     with no scheduler: in this process. ``workers`` None (the default): in this process for
-    fewer than :data:`IN_PROCESS_BELOW` items, else a local cluster of :data:`DEFAULT_WORKERS`.
+    fewer than :data:`IN_PROCESS_BELOW` items, and for more where they take less than
+    :data:`LOCAL_CLUSTER_PAYS_S` here (timed on the first :data:`PROBE_ITEMS`), else a local
+    cluster of :data:`DEFAULT_WORKERS`.
     ``timeout``: seconds to wait for the scheduler to answer.
     """
 
@@ -107,6 +124,26 @@ class Cluster:
     def chooses(self, count: int) -> bool:
         """Whether odolab chooses where ``count`` items run (no scheduler, no workers given)."""
         return self.scheduler is None and self.workers is None and count > 1
+
+    def after_probe(self, count: int, seconds: Sequence[float]) -> tuple[bool, str]:
+        """Whether ``count`` items run here after the first took ``seconds`` each here (the rule
+        of :data:`LOCAL_CLUSTER_PAYS_S`), and where they run, in words, with why. The median
+        item stands for all: the first pays what a process loads once (a reader, the kernels)."""
+        each = statistics.median(seconds) if seconds else 0.0
+        estimate = each * count
+        timed = (
+            f"{count} runs: the first {len(seconds)} took {each * 1e3:.2g} ms each here (median), "
+            "all of them about "
+        )
+        if estimate < LOCAL_CLUSTER_PAYS_S:
+            return True, (
+                f"this process ({timed}{estimate:.2g} s, less than the {LOCAL_CLUSTER_PAYS_S:g} s "
+                f"from which a local Dask cluster pays; {opt('workers')} 2 starts one)"
+            )
+        return False, (
+            f"{self.describe()} ({timed}{estimate:.3g} s, {LOCAL_CLUSTER_PAYS_S:g} s or more; "
+            f"{opt('workers')} 1 keeps them in this process)"
+        )
 
     def where(self, count: int) -> str:
         """Where ``count`` items run, in words, with the reason when odolab chose it."""
@@ -292,12 +329,23 @@ def map_outcomes(
     rep.chosen = c.chooses(total)
     labels = [label(x) for x in items]
     t0 = time.perf_counter()
-    if c.here_for(total):
-        out: list[Outcome[R]] = []
-        for k, (item, name) in enumerate(zip(items, labels, strict=True), start=1):
-            out.append(_run_one(func, item, name))
+    out: list[Outcome[R]] = []
+    took: list[float] = []
+
+    def here(upto: int) -> None:
+        for k in range(len(out), upto):
+            start = time.perf_counter()
+            out.append(_run_one(func, items[k], labels[k]))
+            took.append(time.perf_counter() - start)
             if progress is not None:
-                progress(k, total, name)
+                progress(k + 1, total, labels[k])
+
+    stay = c.here_for(total)
+    if not stay and c.chooses(total):  # odolab's choice: a few here first, timed
+        here(min(PROBE_ITEMS, total))
+        stay, rep.where = c.after_probe(total, took)
+    if stay:
+        here(total)
         rep.seconds = time.perf_counter() - t0
         return out
     from distributed import as_completed
@@ -307,8 +355,9 @@ def map_outcomes(
         rep.workers_seen |= start_workers
         # a few items per task: Dask's per-task cost (~ms) stays small beside the work; still
         # several tasks per worker, so a lost worker's share is small and spread when recomputed
-        size = batch or max(1, min(32, total // (4 * max(1, len(start_workers)))))
-        spans = [(k, min(k + size, total)) for k in range(0, total, size)]
+        first = len(out)  # the items timed here (odolab's choice) are done
+        size = batch or max(1, min(32, (total - first) // (4 * max(1, len(start_workers)))))
+        spans = [(k, min(k + size, total)) for k in range(first, total, size)]
         futures = client.map(
             _run_batch,
             [func] * len(spans),
@@ -318,8 +367,8 @@ def map_outcomes(
             key=[f"odolab-{os.getpid()}-{id(items)}-{a}" for a, _ in spans],
         )
         index = {f.key: j for j, f in enumerate(futures)}
-        results: list[Outcome[R] | None] = [None] * total
-        done = 0
+        results: list[Outcome[R] | None] = [*out, *([None] * (total - first))]
+        done = first
         for fut in as_completed(futures):
             a, b = spans[index[fut.key]]
             try:
