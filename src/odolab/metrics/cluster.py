@@ -346,16 +346,31 @@ def map_outcomes(
         stay, rep.where = c.after_probe(total, took)
     if stay:
         here(total)
-        rep.seconds = time.perf_counter() - t0
-        return out
+    else:
+        out = _on_cluster(c, func, items, labels, out, progress, rep, batch)
+    rep.seconds = time.perf_counter() - t0
+    return out
+
+
+def _on_cluster(
+    c: Cluster,
+    func: Callable[[T], R],
+    items: Sequence[T],
+    labels: list[str],
+    done_here: list[Outcome[R]],
+    progress: Progress | None,
+    rep: MapReport,
+    batch: int | None,
+) -> list[Outcome[R]]:
+    """:func:`map_outcomes`' items after ``done_here`` (the first, run here) on ``c``."""
     from distributed import as_completed
 
+    total, first = len(items), len(done_here)
     with _client(c) as client:
         start_workers = set(client.scheduler_info().get("workers", {}))
         rep.workers_seen |= start_workers
         # a few items per task: Dask's per-task cost (~ms) stays small beside the work; still
         # several tasks per worker, so a lost worker's share is small and spread when recomputed
-        first = len(out)  # the items timed here (odolab's choice) are done
         size = batch or max(1, min(32, (total - first) // (4 * max(1, len(start_workers)))))
         spans = [(k, min(k + size, total)) for k in range(first, total, size)]
         futures = client.map(
@@ -367,7 +382,7 @@ def map_outcomes(
             key=[f"odolab-{os.getpid()}-{id(items)}-{a}" for a, _ in spans],
         )
         index = {f.key: j for j, f in enumerate(futures)}
-        results: list[Outcome[R] | None] = [*out, *([None] * (total - first))]
+        results: list[Outcome[R] | None] = [*done_here, *([None] * (total - first))]
         done = first
         for fut in as_completed(futures):
             a, b = spans[index[fut.key]]
@@ -385,5 +400,4 @@ def map_outcomes(
         now = set(client.scheduler_info().get("workers", {}))
         rep.workers_seen |= {o.worker for o in results if o is not None and o.worker}
         rep.lost_workers = sorted(rep.workers_seen - now)
-    rep.seconds = time.perf_counter() - t0
     return [o for o in results if o is not None]
