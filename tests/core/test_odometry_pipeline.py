@@ -133,7 +133,7 @@ def test_counter_steps_past_int32_take_the_careful_loop(monkeypatch: pytest.Monk
 
 
 @pytest.mark.skipif(not _jit.HAVE_NUMBA, reason="the kernels are compiled only with numba")
-def test_writable_read_only_and_strided_times_share_one_compiled_pass() -> None:
+def test_writable_read_only_and_strided_arrays_share_one_compiled_pass() -> None:
     """A polars or pyarrow column is read-only and a column of a 2-D array strided: each was a
     signature of its own, compiled anew (2-2.5 s) the first time (issue 36)."""
     from odolab.core._odometry_kernels import _steps_from_ticks
@@ -142,12 +142,19 @@ def test_writable_read_only_and_strided_times_share_one_compiled_pass() -> None:
     n = 4 * od.NUMPY_MAX_SAMPLES
     t = 0.05 * np.arange(n)
     ticks = np.cumsum(np.ones(n, dtype=np.int64))
-    read_only = t.copy()
-    read_only.flags.writeable = False
-    strided = np.stack([t, t], axis=1)[:, 0]
-    poses = [integrate(tt, ticks, ticks, p, parallel=1) for tt in (t, read_only, strided)]
+
+    def kinds(a: np.ndarray) -> list[np.ndarray]:  # type: ignore[type-arg]
+        read_only = a.copy()
+        read_only.flags.writeable = False
+        return [a, read_only, np.stack([a, a], axis=1)[:, 0]]
+
+    poses = [integrate(tt, lt, rt, p, parallel=1) for tt in kinds(t) for lt in kinds(ticks)
+             for rt in kinds(ticks)[::-1]]  # fmt: skip
     assert len(_steps_from_ticks.signatures) == 1  # type: ignore[attr-defined]
+    assert len(poses) == 27
     for other in poses[1:]:
         np.testing.assert_array_equal(other.x, poses[0].x)
         np.testing.assert_array_equal(other.t, t)
-    assert t.flags.writeable  # the caller's array is left as it was
+    assert t.flags.writeable and ticks.flags.writeable  # the caller's arrays are left as they were
+    with pytest.raises(OdolabError, match="t has 1 samples"):
+        integrate(5.0, [0], [0], p)  # a number is no series of times

@@ -6,6 +6,8 @@ and why."""
 
 from __future__ import annotations
 
+import itertools
+import time
 from pathlib import Path
 
 import pytest
@@ -33,8 +35,11 @@ def test_the_default_runs_few_items_here_and_many_on_a_local_cluster() -> None:
     assert auto.chooses(2) and not auto.chooses(1)
     assert auto.where(3).startswith("this process (3 runs, fewer than 64")
     assert "{{workers}} 2 starts one" in auto.where(3)
-    many = auto.where(IN_PROCESS_BELOW)
-    assert many.startswith(f"local Dask cluster, {DEFAULT_WORKERS} worker processes (64 runs")
+    many = auto.where(IN_PROCESS_BELOW)  # until the first are timed (map_outcomes)
+    assert many == (
+        "this process or a local Dask cluster (64 runs, 64 or more: the first 8, timed here, "
+        "decide)"
+    )
     # what the user gave is kept, and then nothing is explained
     assert Cluster(workers=2).here_for(1) and not Cluster(workers=2).here_for(3)
     assert not Cluster(workers=2).chooses(3) and Cluster(workers=2).where(3).startswith("local")
@@ -128,6 +133,81 @@ def test_slow_items_go_to_a_local_cluster_after_the_first_are_timed(
 def test_the_rule_estimates_all_the_items_from_the_first() -> None:
     # the median item stands for all of them, not the first, which loads what a process loads once
     stay, why = Cluster().after_probe(1000, [2.0, 0.05, 0.04, 0.06, 0.05])  # 50 s
-    assert not stay and "took 50 ms each here (median), all of them about 50 s" in why
+    assert not stay and "took 50 ms each here (median), all of them about 50.0 s" in why
     stay, why = Cluster().after_probe(1000, [2.0, 0.01, 0.01, 0.01])  # 10 s
-    assert stay and "took 10 ms each here (median), all of them about 10 s" in why
+    assert stay and "took 10 ms each here (median), all of them about 10.0 s" in why
+    assert Cluster().after_probe(64, [0.25] * 8) == (
+        True,
+        "this process (64 runs: the first 8 took 0.25 s each here (median), all of them about "
+        "16.0 s, less than the 30 s from which a local Dask cluster pays; {{workers}} 2 starts "
+        "one)",
+    )
+    assert "all of them about 2,000 s" in Cluster().after_probe(2000, [1.0])[1]
+
+
+def _square_or_refuse(x: int) -> int:
+    if x == 3:
+        raise ValueError("three is refused")
+    return x * x
+
+
+def test_the_cluster_takes_the_items_after_the_timed_ones_in_order(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The first items' outcomes (computed here) and the cluster's are one list, in order, and
+    the progress counts on from the first items (an in-process Dask cluster stands for the
+    local one: tests/scale start real ones)."""
+    from contextlib import contextmanager
+
+    import odolab.metrics.cluster as cl
+
+    @contextmanager
+    def in_process(_cluster: Cluster):  # type: ignore[no-untyped-def]
+        from distributed import Client
+
+        with Client(
+            processes=False, n_workers=2, threads_per_worker=1, dashboard_address=None
+        ) as client:
+            yield client
+
+    monkeypatch.setattr(cl, "_client", in_process)
+    monkeypatch.setattr(cl, "LOCAL_CLUSTER_PAYS_S", 0.0)
+    report, seen = MapReport(""), []
+    items = list(range(70))
+    out = map_outcomes(
+        _square_or_refuse, items, report=report, progress=lambda k, n, _: seen.append((k, n))
+    )
+    assert [o.label for o in out] == [str(x) for x in items]
+    assert [o.result for o in out if o.ok] == [x * x for x in items if x != 3]
+    assert out[3].error == "3: ValueError: three is refused"
+    assert seen[:PROBE_ITEMS] == [(k, 70) for k in range(1, PROBE_ITEMS + 1)]
+    assert seen[-1] == (70, 70) and all(a[0] < b[0] for a, b in itertools.pairwise(seen))
+    assert report.where.startswith("local Dask cluster") and not report.lost_workers
+
+
+def _refuse_the_first_four(x: int) -> int:
+    if x < 4:
+        raise ValueError("refused at once")
+    time.sleep(0.05)
+    return x
+
+
+def test_items_refused_at_once_do_not_stand_for_the_others(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Of the first 8, 4 are refused in microseconds and 4 take 0.05 s: the median of all 8
+    (about 0.025 s: 64 x 0.025 = 1.6 s) would keep 64 runs here against a 2 s threshold; the
+    median of those that ran (0.05 s or more: 3.2 s) sends them to the cluster."""
+    import odolab.metrics.cluster as cl
+
+    class NoCluster(Exception):
+        pass
+
+    def cluster_started(_cluster: Cluster) -> None:
+        raise NoCluster
+
+    monkeypatch.setattr(cl, "_client", cluster_started)
+    monkeypatch.setattr(cl, "LOCAL_CLUSTER_PAYS_S", 2.0)
+    report = MapReport("")
+    with pytest.raises(NoCluster):
+        map_outcomes(_refuse_the_first_four, list(range(64)), report=report)
+    assert "(64 runs: the first 8 took " in report.where
+    assert " each here (median of the 4 that ran), all of them about " in report.where

@@ -183,7 +183,7 @@ class _Command(Protocol):
 
 #: The click command typer makes of an app, by the app and the number of commands and groups
 #: registered in it (a command module imported later adds some: then it is made anew).
-_BUILT: dict[tuple[int, int], _Command] = {}
+_BUILT: dict[tuple[int, int], tuple[typer.Typer, _Command]] = {}
 
 
 def _registered(app: typer.Typer) -> int:
@@ -206,10 +206,12 @@ def built(app: typer.Typer) -> _Command:
     import typer.main
 
     key = (id(app), _registered(app))
-    command = _BUILT.get(key)
-    if command is None:
-        _BUILT.clear()
-        command = _BUILT[key] = typer.main.get_command(app)
+    kept = _BUILT.get(key)
+    if kept is not None and kept[0] is app:  # (the app itself: an id is reused once freed)
+        return kept[1]
+    _BUILT.clear()
+    command = typer.main.get_command(app)
+    _BUILT[key] = (app, command)
     return command
 
 

@@ -73,7 +73,10 @@ NominalParamsOpt = Annotated[
 WorkersOpt = Annotated[
     int | None,
     typer.Option(
-        help="Many runs or logs: Dask workers (default: none below 64 runs or logs, else 2)."
+        help=(
+            "Many runs or logs: Dask workers (default: none below 64 runs or logs, nor where the "
+            "first 8 say all take under 30 s here; else 2)."
+        )
     ),
 ]
 SchedulerOpt = Annotated[

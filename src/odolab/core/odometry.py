@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 import threading
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -43,6 +43,7 @@ __all__ = [
 ]
 
 _NO_LIMIT = -1
+A = TypeVar("A", np.float64, np.int64)
 
 
 def _check_max_dticks(max_dticks: int | None) -> None:
@@ -238,8 +239,8 @@ def _start_pose(start: tuple[float, float, float] | None) -> tuple[float, float,
     return x0, y0, h0
 
 
-def _one_layout(a: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``a`` as the compiled passes take their times: contiguous and read-only (a view of ``a``
+def _one_layout(a: NDArray[A]) -> NDArray[A]:
+    """``a`` as the compiled passes take their arrays: contiguous and read-only (a view of ``a``
     where it is contiguous, else a contiguous copy). numba compiles a pass once for each layout
     and write flag it meets: a writable array, a read-only one (a column polars or pyarrow lent)
     and a strided one were three compilations of each pass, 2-2.5 s each the first time."""
@@ -308,13 +309,14 @@ def _integrate(
     """:func:`integrate`; ``compiled`` None: the compiled passes for long logs (see
     :func:`_use_kernels`), True: always (:func:`warm_up`), False: never (tests)."""
     m = Method(method)
-    left = as_tick_array(left_ticks, "left_ticks")
-    right = as_tick_array(right_ticks, "right_ticks")
+    left = _one_layout(as_tick_array(left_ticks, "left_ticks"))
+    right = _one_layout(as_tick_array(right_ticks, "right_ticks"))
     if left.size != right.size:
         raise LogFormatError(f"{source}: left has {left.size} samples, right has {right.size}")
-    tin = _one_layout(np.asarray(t, dtype=np.float64))
+    tin = np.asarray(t, dtype=np.float64)
     if tin.ndim != 1 or tin.size != left.size:
         raise LogFormatError(f"{source}: t has {tin.size} samples but the ticks have {left.size}")
+    tin = _one_layout(tin)
     _check_max_dticks(max_dticks)
     if max_dticks is None:
         max_dticks = default_max_dticks(params.encoder_modulus)

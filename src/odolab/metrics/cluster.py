@@ -106,7 +106,9 @@ class Cluster:
         return self.scheduler is None and self.workers is not None and self.workers <= 1
 
     def here_for(self, count: int) -> bool:
-        """Whether ``count`` items run in this process (the rule of the class's doc)."""
+        """Whether ``count`` items run in this process before any is timed: where odolab chooses
+        (:meth:`chooses`) and this is False, the first items' time decides
+        (:meth:`after_probe`)."""
         if self.scheduler is not None:
             return False
         if self.workers is None:
@@ -125,23 +127,29 @@ class Cluster:
         """Whether odolab chooses where ``count`` items run (no scheduler, no workers given)."""
         return self.scheduler is None and self.workers is None and count > 1
 
-    def after_probe(self, count: int, seconds: Sequence[float]) -> tuple[bool, str]:
+    def after_probe(
+        self, count: int, seconds: Sequence[float], probed: int | None = None
+    ) -> tuple[bool, str]:
         """Whether ``count`` items run here after the first took ``seconds`` each here (the rule
         of :data:`LOCAL_CLUSTER_PAYS_S`), and where they run, in words, with why. The median
-        item stands for all: the first pays what a process loads once (a reader, the kernels)."""
+        item stands for all: the first pays what a process loads once (a reader, the kernels).
+        ``seconds``: of the ``probed`` first items (default: as many), those that ran (a refused
+        file takes no time)."""
         each = statistics.median(seconds) if seconds else 0.0
         estimate = each * count
+        probed = len(seconds) if probed is None else probed
+        ran = "" if probed == len(seconds) else f" of the {len(seconds)} that ran"
         timed = (
-            f"{count} runs: the first {len(seconds)} took {each * 1e3:.2g} ms each here (median), "
-            "all of them about "
+            f"{count} runs: the first {probed} took {_duration(each)} each here (median{ran}), "
+            f"all of them about {_duration(estimate)}"
         )
         if estimate < LOCAL_CLUSTER_PAYS_S:
             return True, (
-                f"this process ({timed}{estimate:.2g} s, less than the {LOCAL_CLUSTER_PAYS_S:g} s "
-                f"from which a local Dask cluster pays; {opt('workers')} 2 starts one)"
+                f"this process ({timed}, less than the {LOCAL_CLUSTER_PAYS_S:g} s from which a "
+                f"local Dask cluster pays; {opt('workers')} 2 starts one)"
             )
         return False, (
-            f"{self.describe()} ({timed}{estimate:.3g} s, {LOCAL_CLUSTER_PAYS_S:g} s or more; "
+            f"{self.describe()} ({timed}, {LOCAL_CLUSTER_PAYS_S:g} s or more; "
             f"{opt('workers')} 1 keeps them in this process)"
         )
 
@@ -155,9 +163,20 @@ class Cluster:
                 f"cluster would take longer to start than they take; {opt('workers')} 2 starts one)"
             )
         return (
-            f"{self.describe()} ({count} runs, {IN_PROCESS_BELOW} or more; {opt('workers')} 1 "
-            "keeps them in this process)"
+            f"this process or a local Dask cluster ({count} runs, {IN_PROCESS_BELOW} or more: "
+            f"the first {PROBE_ITEMS}, timed here, decide)"
         )
+
+
+def _duration(seconds: float) -> str:
+    """``seconds`` for a sentence: 1.1 ms, 0.25 s, 29.6 s, 2,000 s."""
+    if seconds < 0.1:
+        return f"{seconds * 1e3:.2g} ms"
+    if seconds < 10:
+        return f"{seconds:.2g} s"
+    if seconds < 100:
+        return f"{seconds:.1f} s"
+    return f"{seconds:,.0f} s"
 
 
 @dataclass(frozen=True)
@@ -343,7 +362,8 @@ def map_outcomes(
     stay = c.here_for(total)
     if not stay and c.chooses(total):  # odolab's choice: a few here first, timed
         here(min(PROBE_ITEMS, total))
-        stay, rep.where = c.after_probe(total, took)
+        worked = [s for s, o in zip(took, out, strict=True) if o.ok]
+        stay, rep.where = c.after_probe(total, worked or took, len(took))
     if stay:
         here(total)
     else:
