@@ -105,6 +105,16 @@ def test_husky_even_steps_fitted_odd_steps_held_out(tmp_path: Path) -> None:
     assert round(models["icr"]["values"]["y_icr_left"], 1) == 0.6
     assert round(-models["icr"]["values"]["y_icr_right"], 1) == 0.7
 
+    # where odolab chose to compute the 603 windows, said by each command (none started a
+    # local Dask cluster: a window takes about a millisecond)
+    flat = " ".join(printed.split())
+    for said in (
+        "note: the runs read in this process (603 runs: the first 8 took ",
+        "note: the fitted runs read in this process (289 runs: the first 8 took ",
+        "note: computed in this process (314 runs: the first 8 took ",
+    ):
+        assert said in flat, said
+
     # calibrate lsq wrote the slip model the page evaluates, allowing for the lidar's noise
     # as estimated from its updates (the page's note)
     assert (tmp_path / "husky-slip.toml").is_file()

@@ -217,3 +217,23 @@ def test_items_refused_at_once_do_not_stand_for_the_others(monkeypatch: pytest.M
         "of the 4 that ran), all of them about T, T or more; {{workers}} 1 keeps them in this "
         "process)"
     )
+
+
+def test_parallel_map_hands_the_choice_to_its_caller_to_say() -> None:
+    """calibrate lsq and compare read their runs through parallel_map: where odolab chose
+    where they ran, the caller gets the note to print; where the user chose, nothing."""
+    from odolab.metrics.runs import parallel_map
+
+    where: list[str] = []
+    assert parallel_map(_square, list(range(100)), where=where) == [x * x for x in range(100)]
+    assert [_timeless(w) for w in where] == [
+        "this process (100 runs: the first 8 took T each here (median), all of them about T, "
+        "less than the T from which a local Dask cluster pays; {{workers}} 2 starts one)"
+    ]
+    said: list[str] = []
+    parallel_map(_square, list(range(100)), workers=1, where=said)
+    parallel_map(_square, [1, 2], where=said)
+    assert said == [  # workers=1: the user's choice, unsaid; two runs: odolab's, said
+        "this process (2 runs, fewer than 64: a local Dask cluster would take longer to start "
+        "than they take; {{workers}} 2 starts one)"
+    ]

@@ -351,6 +351,8 @@ class LsqResult:
     fitted: list[Path] = field(default_factory=list)
     held_out: list[Path] = field(default_factory=list)
     params_source: str = ""
+    #: where odolab chose to read and evaluate the runs, and why (none where the user said)
+    computed: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, object]:
         """JSON-ready dict: the calibration's, with ``fitted`` and ``held_out`` run files."""
@@ -406,6 +408,7 @@ def calibrate_lsq_runs(
     fitted, held = find_fit_and_held_out(
         request.runs, request.held_out, LogFormat(request.fmt), roles=("calibration", "validation")
     )
+    computed: list[str] = []
     result = calibrate_lsq_files(
         fitted,
         request.fmt,
@@ -416,13 +419,14 @@ def calibrate_lsq_runs(
         workers=workers,
         progress=progress,
         cluster=cluster,
+        where=computed,
     )
     source = (
         f"nominal parameters: {request.params}"
         if request.params
         else "nominal parameters: the first run's own (from its log or metadata)"
     )
-    return LsqResult(result, fitted, held, source)
+    return LsqResult(result, fitted, held, source, computed)
 
 
 @dataclass

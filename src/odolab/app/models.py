@@ -116,8 +116,10 @@ def compare_files(
     read_options: ReadOptions | None = None,
     workers: int | None = None,
     progress: Progress | None = None,
+    where: list[str] | None = None,
 ) -> ModelComparison:
-    """:func:`compare_runs` of the runs found under ``paths`` (and held out: ``validate``)."""
+    """:func:`compare_runs` of the runs found under ``paths`` (and held out: ``validate``);
+    ``where`` (when given) gets where odolab chose to read them, and why."""
     if request.n_boot != 2000:  # the files' comparison has the default resampling only
         from odolab.core.errors import CalibrationError
 
@@ -129,7 +131,7 @@ def compare_files(
     return compare_model_files(
         paths, fmt, validate=validate, nominal=nominal, models=request.models,
         options=request.options, read_options=read_options, workers=workers,
-        progress=progress, seed=request.seed, curve=request.curve,
+        progress=progress, seed=request.seed, curve=request.curve, where=where,
     )  # fmt: skip
 
 

@@ -996,16 +996,22 @@ def compare_model_files(
     progress: Progress | None = None,
     seed: int = 0,
     curve: Sequence[float] = (),
+    where: list[str] | None = None,
 ) -> ModelComparison:
-    """:func:`compare_models` on every run found under ``paths`` (and ``validate``)."""
+    """:func:`compare_models` on every run found under ``paths`` (and ``validate``). ``where``
+    (when given) gets where odolab chose to read them, and why
+    (:func:`odolab.metrics.runs.parallel_map`)."""
     _check_seed(seed)  # before any file is read
     f = LogFormat(fmt)
     ro = read_options or ReadOptions()
     train_paths, held_paths = find_fit_and_held_out(paths, validate, f)
     jobs = [_ReadJob(p, f, ro) for p in [*train_paths, *held_paths]]
+    chosen: list[str] = []
     runs = parallel_map(
-        _read, jobs, workers=workers, progress=progress, label=lambda j: str(j.path)
+        _read, jobs, workers=workers, progress=progress, label=lambda j: str(j.path), where=chosen
     )
+    if where is not None:
+        where.extend(f"the runs read in {w}" for w in chosen)
     train, held = runs[: len(train_paths)], runs[len(train_paths) :]
     return compare_models(
         train, held, nominal, models=models, options=options, seed=seed, curve=curve

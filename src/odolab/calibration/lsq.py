@@ -936,12 +936,14 @@ def calibrate_lsq_files(
     workers: int | None = None,
     progress: Progress | None = None,
     cluster: Cluster | None = None,
+    where: list[str] | None = None,
 ) -> LsqCalibration:
     """Calibrate on every run under ``paths``; then compare nominal vs calibrated on ``validate``.
 
     ``nominal`` defaults to the first run's own parameters (OptiOdom metadata). Reading and
     validation run in ``workers`` processes (a local Dask cluster) or on ``cluster``;
-    ``progress(done, total, name)`` is called per run.
+    ``progress(done, total, name)`` is called per run. ``where`` (when given) gets where odolab
+    chose to read and to evaluate them, and why (:func:`odolab.metrics.runs.parallel_map`).
     """
     o = options or LsqOptions()
     ro = read_options or ReadOptions()
@@ -955,6 +957,7 @@ def calibrate_lsq_files(
         report = progress
         return lambda done, _total, name: report(done + offset, total, name)
 
+    chosen: list[str] = []
     loaded = parallel_map(
         _read_and_prepare,
         [_ReadJob(p, f, ro, o.segment_s) for p in train],
@@ -962,7 +965,10 @@ def calibrate_lsq_files(
         progress=shifted(0),
         label=lambda j: str(j.path),
         cluster=cluster,
+        where=chosen,
     )
+    if where is not None:
+        where.extend(f"the fitted runs read in {w}" for w in chosen)
     base = nominal or loaded[0][0].params
     if base is None:
         raise CalibrationError(
@@ -971,6 +977,7 @@ def calibrate_lsq_files(
     result = calibrate_lsq([prep for _, prep in loaded], base, o)
     if not held:
         return result
+    chosen = []
     comparisons = parallel_map(
         _compare_job,
         [_CompareJob(p, f, ro, base, result.params) for p in held],
@@ -978,5 +985,8 @@ def calibrate_lsq_files(
         progress=shifted(len(train)),
         label=lambda j: str(j.path),
         cluster=cluster,
+        where=chosen,
     )
+    if where is not None:
+        where.extend(f"the held-out runs evaluated in {w}" for w in chosen)
     return LsqCalibration(**{**result.__dict__, "validation": comparisons})

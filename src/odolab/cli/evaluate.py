@@ -522,6 +522,7 @@ def calibrate_lsq_cmd(
     write_json(result.to_dict(), json_out)
     _print_calibration(result.calibration, output)
     _print_run_sets(result.fitted, result.held_out, result.params_source)
+    _print_notes(result.computed)
 
 
 def _run_list(paths: list[Path]) -> str:

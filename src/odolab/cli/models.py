@@ -19,6 +19,7 @@ from odolab.cli.evaluate import (
     RunsWithTruthArg,
     SegmentOpt,
     TruthSigmaOpt,
+    _print_notes,
     _progress_bar,
     _read_options,
     run_format,
@@ -99,6 +100,7 @@ def calibrate_compare_cmd(
     curve = parse_curve(learning_curve)  # (one check, in the library)
     robot = load_params(params) if params else None
     ro = _read_options(robot, joint_topic, joints, gt_topic)
+    computed: list[str] = []
     with _progress_bar("compare") as report:
         request = CompareRequest(
             models=tuple(chosen), curve=tuple(curve), seed=seed,
@@ -118,9 +120,11 @@ def calibrate_compare_cmd(
             read_options=ro,
             workers=workers,
             progress=report,
+            where=computed,
         )
     write_json(result.to_dict(), json_out)
     _print_comparison(result)
+    _print_notes(computed)
 
 
 def _models(models: str) -> list[str]:

@@ -60,18 +60,24 @@ def parallel_map(
     progress: Progress | None = None,
     label: Callable[[T], str] = str,
     cluster: Cluster | None = None,
+    where: list[str] | None = None,
 ) -> list[R]:
     """``[func(x) for x in items]`` on Dask (in order), reporting progress; raises the first error.
 
     ``cluster`` defaults to a local cluster of ``workers`` processes. ``func`` must be a
     module-level function (it is pickled). With ``workers <= 1`` and no scheduler, or a single
-    item, everything runs here, in this process.
+    item, everything runs here, in this process. Where odolab chose where they ran (no
+    scheduler, no number of workers), ``where`` (when given) gets that choice and its reason
+    (:attr:`MapReport.where`), for the faces to say.
     """
-    return _results(
-        map_outcomes(
-            func, items, cluster=cluster or Cluster(workers=workers), progress=progress, label=label
-        )
-    )
+    report = MapReport("")
+    outcomes = map_outcomes(
+        func, items, cluster=cluster or Cluster(workers=workers), progress=progress, label=label,
+        report=report,
+    )  # fmt: skip
+    if where is not None and report.chosen:
+        where.append(report.where)
+    return _results(outcomes)
 
 
 def _results(outcomes: list[Outcome[R]]) -> list[R]:
