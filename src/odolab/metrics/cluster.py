@@ -60,7 +60,8 @@ PROBE_ITEMS = 8
 #: started for the rest. On this 2-core machine the command's process was still faster for 2,000
 #: runs (14-17 s of work against 23-33 s on the cluster, its start included: docs/scale.md), and
 #: the DRIVE Husky's 603 two-second windows took 13 s of CPU here against 23 s with the cluster
-#: (tests/io/test_husky_worked_example.py); a cluster pays where the work is longer than this.
+#: (tests/io/test_husky_worked_example.py). Where the work is longer (not measured here), the
+#: cluster's start is under a tenth of it and its two workers share the rest.
 LOCAL_CLUSTER_PAYS_S = 30.0
 #: Worker processes of a local cluster when none are given.
 DEFAULT_WORKERS = 2
