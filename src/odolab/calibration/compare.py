@@ -1006,12 +1006,10 @@ def compare_model_files(
     ro = read_options or ReadOptions()
     train_paths, held_paths = find_fit_and_held_out(paths, validate, f)
     jobs = [_ReadJob(p, f, ro) for p in [*train_paths, *held_paths]]
-    chosen: list[str] = []
     runs = parallel_map(
-        _read, jobs, workers=workers, progress=progress, label=lambda j: str(j.path), where=chosen
-    )
-    if where is not None:
-        where.extend(f"the runs read in {w}" for w in chosen)
+        _read, jobs, workers=workers, progress=progress, label=lambda j: str(j.path),
+        where=where, what="the runs read",
+    )  # fmt: skip
     train, held = runs[: len(train_paths)], runs[len(train_paths) :]
     return compare_models(
         train, held, nominal, models=models, options=options, seed=seed, curve=curve

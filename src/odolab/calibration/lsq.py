@@ -957,7 +957,6 @@ def calibrate_lsq_files(
         report = progress
         return lambda done, _total, name: report(done + offset, total, name)
 
-    chosen: list[str] = []
     loaded = parallel_map(
         _read_and_prepare,
         [_ReadJob(p, f, ro, o.segment_s) for p in train],
@@ -965,10 +964,9 @@ def calibrate_lsq_files(
         progress=shifted(0),
         label=lambda j: str(j.path),
         cluster=cluster,
-        where=chosen,
+        where=where,
+        what="the fitted runs read",
     )
-    if where is not None:
-        where.extend(f"the fitted runs read in {w}" for w in chosen)
     base = nominal or loaded[0][0].params
     if base is None:
         raise CalibrationError(
@@ -977,7 +975,6 @@ def calibrate_lsq_files(
     result = calibrate_lsq([prep for _, prep in loaded], base, o)
     if not held:
         return result
-    chosen = []
     comparisons = parallel_map(
         _compare_job,
         [_CompareJob(p, f, ro, base, result.params) for p in held],
@@ -985,8 +982,7 @@ def calibrate_lsq_files(
         progress=shifted(len(train)),
         label=lambda j: str(j.path),
         cluster=cluster,
-        where=chosen,
+        where=where,
+        what="the held-out runs evaluated",
     )
-    if where is not None:
-        where.extend(f"the held-out runs evaluated in {w}" for w in chosen)
     return LsqCalibration(**{**result.__dict__, "validation": comparisons})

@@ -61,14 +61,16 @@ def parallel_map(
     label: Callable[[T], str] = str,
     cluster: Cluster | None = None,
     where: list[str] | None = None,
+    what: str | None = None,
 ) -> list[R]:
     """``[func(x) for x in items]`` on Dask (in order), reporting progress; raises the first error.
 
     ``cluster`` defaults to a local cluster of ``workers`` processes. ``func`` must be a
     module-level function (it is pickled). With ``workers <= 1`` and no scheduler, or a single
     item, everything runs here, in this process. Where odolab chose where they ran (no
-    scheduler, no number of workers), ``where`` (when given) gets that choice and its reason
-    (:attr:`MapReport.where`), for the faces to say.
+    scheduler, no number of workers), ``where`` (when given) gets that choice with its reason
+    (:attr:`MapReport.where`), after ``"{what} in "`` when ``what`` is given, for the faces to
+    say.
     """
     report = MapReport("")
     outcomes = map_outcomes(
@@ -76,7 +78,7 @@ def parallel_map(
         report=report,
     )  # fmt: skip
     if where is not None and report.chosen:
-        where.append(report.where)
+        where.append(report.where if what is None else f"{what} in {report.where}")
     return _results(outcomes)
 
 
