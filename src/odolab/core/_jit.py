@@ -19,9 +19,10 @@ import functools
 import importlib.util
 import sys
 import threading
+import types
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from typing import TYPE_CHECKING, TextIO, TypeVar
+from typing import TYPE_CHECKING, TextIO, TypeVar, cast
 
 __all__ = [
     "HAVE_NUMBA",
@@ -30,6 +31,7 @@ __all__ = [
     "note_compiling",
     "parallel_chunksize",
     "prange",
+    "twin",
 ]
 
 F = TypeVar("F", bound=Callable[..., object])
@@ -74,6 +76,25 @@ def _plain_njit(*args: object, **options: object) -> object:
         return _plain(args[0], None)
     inline = options.get("inline")
     return lambda func: _plain(func, inline)
+
+
+def twin(func: F, namespace: dict[str, object]) -> F:
+    """``njit(cache=True, inline="always")`` of a copy of the plain kernel ``func`` whose global names are looked up
+    in ``namespace``, which gets the twin under ``func``'s name.
+
+    A plain module's kernels call each other by name (:mod:`odolab.core._step_kernels`), and a
+    compiled kernel can only call compiled ones: the twins share a namespace made from the plain
+    module's and see each other there (numba reads a name when it first compiles, so the order
+    they are made in does not matter). The plain functions stay as they are."""
+    copy = types.FunctionType(
+        func.__code__, namespace, func.__name__, func.__defaults__, func.__closure__
+    )
+    copy.__qualname__ = func.__qualname__  # numba's cache files are named by these
+    copy.__module__ = func.__module__
+    copy.__doc__ = func.__doc__
+    compiled = cast(F, njit(cache=True, inline="always")(copy))
+    namespace[func.__name__] = compiled
+    return compiled
 
 
 @contextmanager

@@ -14,10 +14,12 @@ the exact circular arc (constant body velocity over the cycle). One small-angle 
 :data:`SMALL_ANGLE`, decides when the series ``1 - u^2/6`` replaces ``sin(u)/u``.
 
 :func:`body_motion` and :func:`step_pose` are numba-compiled and inlined into the batch kernels
-(:mod:`odolab.core.odometry`, :mod:`odolab.sim.physics`); called from Python (streaming odometry, the
-virtual board) they run the same compiled code, so every user agrees to rounding. The compiled
-functions live in :mod:`odolab.core._kinematics_jit` and are loaded on first use of their names here
-(``from odolab.core.kinematics import step_pose``), so importing this module does not import numba.
+(:mod:`odolab.core.odometry`, :mod:`odolab.sim.physics`). Their source is plain Python,
+:mod:`odolab.core._step_kernels`, and one cycle at a time (streaming odometry, the virtual board,
+:func:`pose_step`) runs that source as Python: the same operations, the same numbers, and no numba
+in a process that drives a robot. The compiled functions live in :mod:`odolab.core._kinematics_jit`
+and are loaded on first use of their names here (``from odolab.core.kinematics import
+step_pose``), so importing this module does not import numba.
 
 The maths has one plain statement each, here: the step :func:`odometry_step` (its chord
 :func:`chord_factors`) and the wrap :func:`wrap_angle`, in numpy; the compiled :func:`step_pose`,
@@ -105,7 +107,7 @@ def body_motion_from_wheel_displacements(
 
 def chord_factor(dtheta: float, method: Method | str) -> float:
     """Ratio chord/arc length for one step: 1 for midpoint, ``sin(u)/u`` (u = dtheta/2) for arc."""
-    from odolab.core._kinematics_jit import chord
+    from odolab.core._step_kernels import chord
 
     return float(chord(float(dtheta), Method(method) is Method.ARC))
 
@@ -161,7 +163,7 @@ def pose_step(
 
     ``ds`` is the forward motion of the body, ``lateral`` its sideways motion (models with a
     lateral ICR offset), ``dtheta`` its heading change; all for one cycle."""
-    from odolab.core._kinematics_jit import step_pose
+    from odolab.core._step_kernels import step_pose
 
     nx, ny, nh = step_pose(
         float(x), float(y), float(heading), float(ds), float(lateral), float(dtheta),

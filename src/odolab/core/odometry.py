@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, TypeVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from odolab.core import _step_kernels
 from odolab.core.arrays import FloatArray as F64
 from odolab.core.arrays import IntArray as I64
 from odolab.core.encoders import EncoderUnwrapper, as_tick_array, counter_delta, default_max_dticks
@@ -524,13 +525,9 @@ class Odometry:
         self._kl = params.left_metres_per_tick
         self._kr = params.right_metres_per_tick
         self._coef = params.coefficients
-        from odolab.core._kinematics_jit import (
-            body_motion,
-            step_pose,
-        )  # numba: loaded here, not on import
-
-        self._body_motion = body_motion
-        self._step_pose = step_pose
+        # the compiled passes' own source, run as Python: no numba in a control loop's process
+        self._body_motion = _step_kernels.body_motion
+        self._step_pose = _step_kernels.step_pose
         self._slip = timed_model(params.model)
         own = own_covariance(params.model)
         self._own_cov = own is not None
@@ -559,12 +556,13 @@ class Odometry:
             self._cov.reset()
 
     def warm_up(self) -> None:
-        """Load (or compile) the compiled step this odometry calls, now, on a throwaway copy.
+        """Load (or compile) what this odometry's cycles call, now, on a throwaway copy.
 
-        The first :meth:`update` that moves calls numba's dispatchers (:func:`body_motion`,
-        :func:`step_pose`, the covariance step), which load or compile their machine code on that
-        first call: 0.3 s to several seconds. A control loop calls this before its first command
-        so that no cycle pays it. This odometry's own state is untouched."""
+        The pose step runs as plain Python (:mod:`odolab.core._step_kernels`, the source of the
+        batch passes' compiled twins) and loads nothing; the covariance's step is numba's, and a
+        dispatcher loads or compiles its machine code on its first call: 0.3 s to several
+        seconds. A control loop calls this before its first command so that no cycle pays for
+        a first call. This odometry's own state is untouched."""
         twin = Odometry(
             self.params, self.method, max_dticks=self.max_dticks, covariance=self._cov is not None
         )

@@ -14,7 +14,8 @@ import math
 from collections.abc import Callable, Sequence
 from typing import Any, Protocol
 
-from odolab.core.kinematics import body_motion, step_pose, wrap_angle
+from odolab.core._step_kernels import body_motion, step_pose
+from odolab.core.kinematics import wrap_angle
 from odolab.core.params import RobotParams
 from odolab.core.trajectory import Pose
 from odolab.robot.errors import PlantError

@@ -1,6 +1,8 @@
 """The virtual Jaguar: robot physics, terrains, instruments and the lab's experiment protocols.
 
-- :mod:`odolab.sim.physics`: :class:`TrueParams`, :class:`VirtualRobot`, the batch kernel.
+- :mod:`odolab.sim.truth`: :class:`TrueParams` (the robot's true behaviour).
+- :mod:`odolab.sim.physics`: :class:`VirtualRobot`, the batch kernel (numba: loaded on first use
+  of ``VirtualRobot`` here, so that naming a truth or a terrain does not load it).
 - :mod:`odolab.sim.terrains`: ``tile``, ``concrete``, ``grass``.
 - :mod:`odolab.sim.presets`: ``TRUTH_PRESETS`` (``ideal``, ``jaguar-lab``, ``jaguar-lab-track``,
   ``jaguar-lab-tracked``: an ICR vehicle, docs/models.md), ``derive_jaguar_lab``,
@@ -15,7 +17,21 @@ See docs/sim.md.
 
 from __future__ import annotations
 
-from odolab.sim.physics import TrueParams, VirtualRobot
+from typing import TYPE_CHECKING
+
 from odolab.sim.terrains import TERRAINS, Terrain, get_terrain
+from odolab.sim.truth import TrueParams
+
+if TYPE_CHECKING:
+    from odolab.sim.physics import VirtualRobot
 
 __all__ = ["TERRAINS", "Terrain", "TrueParams", "VirtualRobot", "get_terrain"]
+
+
+def __getattr__(name: str) -> object:
+    """:class:`VirtualRobot`, loaded on first use (the compiled physics imports numba)."""
+    if name == "VirtualRobot":
+        from odolab.sim.physics import VirtualRobot
+
+        return VirtualRobot
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -41,7 +41,7 @@ from numpy.typing import NDArray
 from odolab.core.kinematics import chord_factors
 from odolab.core.models import IcrModel
 from odolab.core.params import PRESETS, RobotParams
-from odolab.sim.physics import TrueParams
+from odolab.sim.truth import TrueParams
 
 __all__ = [
     "LAB_REPORT_SEED",
