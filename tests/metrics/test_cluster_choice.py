@@ -237,3 +237,72 @@ def test_parallel_map_hands_the_choice_to_its_caller_to_say() -> None:
         "this process (2 runs, fewer than 64: a local Dask cluster would take longer to start "
         "than they take; {{workers}} 2 starts one)"
     ]
+
+
+def test_one_block_starts_one_local_cluster_for_all_its_maps(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """``calibrate lsq`` maps its fitted runs, then its held-out ones: inside
+    one_local_cluster they share the cluster the first map started, which stops at the block's
+    end; outside, each map starts and stops its own (an in-process Dask cluster stands for the
+    local one, counted)."""
+    from contextlib import contextmanager
+
+    import odolab.metrics.cluster as cl
+
+    started: list[int] = []
+    running: list[int] = []
+
+    @contextmanager
+    def counted(workers: int):  # type: ignore[no-untyped-def]
+        from distributed import LocalCluster
+
+        started.append(workers)
+        running.append(workers)
+        with LocalCluster(
+            processes=False, n_workers=workers, threads_per_worker=1, dashboard_address=None
+        ) as local:
+            yield local
+        running.remove(workers)
+
+    monkeypatch.setattr(cl, "local_cluster", counted)
+    two = Cluster(workers=2)
+    with cl.one_local_cluster():
+        first = map_outcomes(_square, [1, 2, 3], cluster=two)
+        here = map_outcomes(_square, [5, 6], cluster=Cluster(workers=1))  # no cluster at all
+        second = map_outcomes(_square, [4, 5], cluster=two)
+        assert started == [2] and running == [2]  # one start; still up between the maps
+    assert running == []  # stopped with the block
+    assert [o.result for o in first + here + second] == [1, 4, 9, 25, 36, 16, 25]
+    map_outcomes(_square, [1, 2], cluster=two)
+    map_outcomes(_square, [1, 2], cluster=two)
+    assert started == [2, 2, 2] and running == []  # outside a block: one a map
+
+
+def test_calibrate_lsq_files_starts_one_local_cluster(
+    monkeypatch: pytest.MonkeyPatch, optiodom_dir: Path
+) -> None:
+    """The fitted runs and the held-out ones on the same local cluster (it started two)."""
+    from contextlib import contextmanager
+
+    import odolab.metrics.cluster as cl
+    from odolab.calibration.lsq import calibrate_lsq_files
+
+    started: list[int] = []
+
+    @contextmanager
+    def counted(workers: int):  # type: ignore[no-untyped-def]
+        from distributed import LocalCluster
+
+        started.append(workers)
+        with LocalCluster(
+            processes=False, n_workers=workers, threads_per_worker=1, dashboard_address=None
+        ) as local:
+            yield local
+
+    monkeypatch.setattr(cl, "local_cluster", counted)
+    square = sorted((optiodom_dir / "square").iterdir())[:3]
+    held = sorted((optiodom_dir / "circular").iterdir())[:2]
+    cal = calibrate_lsq_files(square, "optiodom", validate=held, workers=2)
+    assert cal.runs and len(cal.validation) >= 2  # both maps ran (runs are the logs' segments)
+    assert started == [2]

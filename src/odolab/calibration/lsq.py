@@ -47,7 +47,7 @@ from odolab.core.params import RobotParams, plausible_range
 from odolab.io.registry import LogFormat, find_runs, read_run
 from odolab.io.run import OdometryRun, ReadOptions
 from odolab.metrics.association import interpolate_trajectory
-from odolab.metrics.cluster import Cluster
+from odolab.metrics.cluster import Cluster, one_local_cluster
 from odolab.metrics.runs import RUN_OPTIONS, Progress, RunEvaluation, evaluate_run, parallel_map
 from odolab.metrics.truthnoise import (
     TruthNoise,
@@ -945,6 +945,25 @@ def calibrate_lsq_files(
     ``progress(done, total, name)`` is called per run. ``where`` (when given) gets where odolab
     chose to read and to evaluate them, and why (:func:`odolab.metrics.runs.parallel_map`).
     """
+    with one_local_cluster():  # the fitted and the held-out runs: one local cluster, if any
+        return _calibrate_lsq_files(
+            paths, fmt, nominal, validate, options, read_options, workers, progress, cluster, where
+        )
+
+
+def _calibrate_lsq_files(
+    paths: Sequence[str | Path],
+    fmt: LogFormat | str,
+    nominal: RobotParams | None,
+    validate: Sequence[str | Path],
+    options: LsqOptions | None,
+    read_options: ReadOptions | None,
+    workers: int | None,
+    progress: Progress | None,
+    cluster: Cluster | None,
+    where: list[str] | None,
+) -> LsqCalibration:
+    """:func:`calibrate_lsq_files`' work."""
     o = options or LsqOptions()
     ro = read_options or ReadOptions()
     f = LogFormat(fmt)

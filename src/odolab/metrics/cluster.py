@@ -10,6 +10,9 @@ so does ``Cluster()`` (no scheduler, no number of workers) for fewer than
 :data:`IN_PROCESS_BELOW` items, and for more where the first :data:`PROBE_ITEMS` say that all
 of them take less than :data:`LOCAL_CLUSTER_PAYS_S` here; the report says which and why
 (:meth:`Cluster.where`, :meth:`Cluster.after_probe`).
+
+Inside :func:`one_local_cluster`, the maps that start a local cluster share one: a command that
+maps twice (``calibrate lsq``: the fitted runs, then the held-out ones) starts it once.
 """
 
 from __future__ import annotations
@@ -20,7 +23,8 @@ import statistics
 import time
 import traceback
 from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Generic, TypeVar
 
@@ -41,6 +45,7 @@ __all__ = [
     "Outcome",
     "local_cluster",
     "map_outcomes",
+    "one_local_cluster",
 ]
 
 T = TypeVar("T")
@@ -270,8 +275,43 @@ def _client(cluster: Cluster) -> Iterator[Client]:
         with client:
             yield client
         return
-    with local_cluster(cluster.workers or DEFAULT_WORKERS) as local, Client(local) as client:
+    workers = cluster.workers or DEFAULT_WORKERS
+    kept = _KEPT.get()
+    if kept is None:
+        with local_cluster(workers) as local, Client(local) as client:
+            yield client
+        return
+    shared = kept.clusters.get(workers)
+    if shared is None:  # the first map of the block that needs one starts it; the block stops it
+        shared = kept.clusters[workers] = kept.stack.enter_context(local_cluster(workers))
+    with Client(shared) as client:
         yield client
+
+
+@dataclass
+class _Kept:
+    """The local clusters of a :func:`one_local_cluster` block, by their number of workers."""
+
+    stack: ExitStack
+    clusters: dict[int, LocalCluster] = field(default_factory=dict)
+
+
+_KEPT: ContextVar[_Kept | None] = ContextVar("odolab_kept_local_cluster", default=None)
+
+
+@contextmanager
+def one_local_cluster() -> Iterator[None]:
+    """Within the block, every map that would start a local Dask cluster of the same size uses
+    one: the first that needs it starts it, and the block's end stops it (no map that stays in
+    this process or goes to a scheduler starts anything). Each start costs 2-3 s and its worker
+    processes' imports; ``calibrate lsq`` paid it twice, for its fitted and its held-out runs."""
+    kept = _Kept(ExitStack())
+    token = _KEPT.set(kept)
+    try:
+        with kept.stack:
+            yield
+    finally:
+        _KEPT.reset(token)
 
 
 def _security() -> Security:
