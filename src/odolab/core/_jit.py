@@ -79,8 +79,9 @@ def _plain_njit(*args: object, **options: object) -> object:
 
 
 def twin(func: F, namespace: dict[str, object]) -> F:
-    """``njit(cache=True, inline="always")`` of a copy of the plain kernel ``func`` whose global names are looked up
-    in ``namespace``, which gets the twin under ``func``'s name.
+    """The compiled twin of the plain kernel ``func``: ``njit(cache=True, inline="always")`` of a
+    copy of it whose global names are looked up in ``namespace``, which gets the twin under
+    ``func``'s name.
 
     A plain module's kernels call each other by name (:mod:`odolab.core._step_kernels`), and a
     compiled kernel can only call compiled ones: the twins share a namespace made from the plain
