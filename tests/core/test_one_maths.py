@@ -102,3 +102,36 @@ def test_the_plain_kernels_give_their_compiled_twins_numbers() -> None:
     assert not hasattr(plain.step_pose, "signatures")  # the source itself, not a dispatcher
     twin_source = getattr(step_pose, "py_func", step_pose)  # without numba, the copy itself
     assert twin_source.__code__ is plain.step_pose.__code__  # the twin's code is the source
+
+
+def test_the_python_callers_give_the_compiled_nan_on_infinite_angles() -> None:
+    """math's sin and cos raise on infinity where numba's give NaN: pose_step and chord_factor
+    run the plain kernels and still answer as the compiled ones do."""
+    from odolab.core.kinematics import chord_factor, pose_step
+
+    inf = math.inf
+    for arc, method in ((False, "midpoint"), (True, "arc")):
+        for args in ((0.0, 0.0, 0.0, 1.0, 0.0, inf), (0.0, 0.0, inf, 1.0, 0.0, 0.1)):
+            want = step_pose(*args, arc)
+            x, y, h, fwd, lat, d = args
+            got = pose_step(x, y, h, fwd, d, method, lat)
+            assert [str(v) for v in got] == [str(v) for v in want], (got, want)
+        assert str(chord_factor(inf, method)) == str(chord(inf, arc))
+        assert str(chord_factor(math.nan, method)) == str(chord(math.nan, arc))
+
+
+def test_streaming_refuses_a_non_finite_increment_as_the_batch_does() -> None:
+    import pytest
+
+    from odolab.core.errors import LogFormatError
+    from odolab.core.odometry import Odometry
+    from odolab.core.params import PRESETS
+
+    odo = Odometry(PRESETS["jaguar-lite"])
+    odo.update_increments(0.0, 0, 0)
+    before = odo.update_increments(0.05, 10.0, 12.0)
+    for bad in (math.nan, math.inf, -math.inf):
+        with pytest.raises(LogFormatError, match=r"dticks_right is .* expected a finite number"):
+            odo.update_increments(0.1, 5.0, bad)
+    assert odo.pose == before and odo.cycles == 1  # unchanged: NaN would have poisoned the rest
+    assert odo.update_increments(0.1, 5.0, 5.0).x > before.x

@@ -3,8 +3,10 @@ that importing :mod:`odolab.core.kinematics` does not import numba: reach them t
 ``odolab.core.kinematics`` (``from odolab.core.kinematics import step_pose``), which loads this on first use.
 
 Each is numba's compilation of the plain kernel of the same name in
-:mod:`odolab.core._step_kernels` (its twin: the same source, nothing written twice), which the
-batch passes and the simulator inline (``inline="always"``; numba's cache keeps their machine code).
+:mod:`odolab.core._step_kernels` (its twin: the same source), which the covariance, the
+simulator and the batch passes' general step inline (``inline="always"``; numba's cache keeps
+their machine code). The batch's fast path for the linear models fuses the same operations by
+hand (:func:`odolab.core._odometry_kernels._model_steps`), tested equal to rounding.
 """
 
 from __future__ import annotations

@@ -4,8 +4,10 @@
 source: :func:`odolab.core._jit.twin`), and the batch passes and the simulator inline those; the
 streaming odometry (:class:`odolab.core.odometry.Odometry`, one cycle at a time) and the virtual
 board's plant call them here, as Python: a cycle costs a few microseconds, and a process that
-drives a robot does not load numba (1-2 s of start-up). Floats only, and only what numba compiles
-the same way (``math``, no numpy), so both ways give the same numbers (tests/core/test_one_maths.py).
+drives a robot over a link (without a covariance) does not load numba (its import and its kernels' load: 0.5-1 s of CPU). Floats
+only, and only what numba compiles the same way (``math``, no numpy), so both ways give the same
+numbers for finite inputs (tests/core/test_one_maths.py); on an infinite angle ``math`` raises
+where numba gives NaN, and the Python callers check their inputs first.
 """
 
 from __future__ import annotations

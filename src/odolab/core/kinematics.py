@@ -17,7 +17,7 @@ the exact circular arc (constant body velocity over the cycle). One small-angle 
 (:mod:`odolab.core.odometry`, :mod:`odolab.sim.physics`). Their source is plain Python,
 :mod:`odolab.core._step_kernels`, and one cycle at a time (streaming odometry, the virtual board,
 :func:`pose_step`) runs that source as Python: the same operations, the same numbers, and no numba
-in a process that drives a robot. The compiled functions live in :mod:`odolab.core._kinematics_jit`
+in a process that drives a robot over a link without a covariance. The compiled functions live in :mod:`odolab.core._kinematics_jit`
 and are loaded on first use of their names here (``from odolab.core.kinematics import
 step_pose``), so importing this module does not import numba.
 
@@ -109,7 +109,10 @@ def chord_factor(dtheta: float, method: Method | str) -> float:
     """Ratio chord/arc length for one step: 1 for midpoint, ``sin(u)/u`` (u = dtheta/2) for arc."""
     from odolab.core._step_kernels import chord
 
-    return float(chord(float(dtheta), Method(method) is Method.ARC))
+    d, arc = float(dtheta), Method(method) is Method.ARC
+    if arc and not math.isfinite(d):  # NaN, as numpy and the compiled chord give (math raises)
+        return math.nan
+    return float(chord(d, arc))
 
 
 def chord_factors(dtheta: FloatOrArray, arc: bool = True) -> NDArray[np.float64]:
@@ -165,10 +168,13 @@ def pose_step(
     lateral ICR offset), ``dtheta`` its heading change; all for one cycle."""
     from odolab.core._step_kernels import step_pose
 
-    nx, ny, nh = step_pose(
-        float(x), float(y), float(heading), float(ds), float(lateral), float(dtheta),
-        Method(method) is Method.ARC,
-    )  # fmt: skip
+    args = (float(x), float(y), float(heading), float(ds), float(lateral), float(dtheta))
+    arc = Method(method) is Method.ARC
+    if not all(math.isfinite(v) for v in args):  # NaN or inf out, as the compiled step gives
+        with np.errstate(invalid="ignore"):  # (math's sin and cos raise on infinity)
+            ax, ay, ah = odometry_step(*args, arc)
+        return float(ax), float(ay), float(ah)
+    nx, ny, nh = step_pose(*args, arc)
     return float(nx), float(ny), float(nh)
 
 

@@ -525,7 +525,7 @@ class Odometry:
         self._kl = params.left_metres_per_tick
         self._kr = params.right_metres_per_tick
         self._coef = params.coefficients
-        # the compiled passes' own source, run as Python: no numba in a control loop's process
+        # the compiled passes' own source, run as Python: no numba for a control loop's pose
         self._body_motion = _step_kernels.body_motion
         self._step_pose = _step_kernels.step_pose
         self._slip = timed_model(params.model)
@@ -608,11 +608,20 @@ class Odometry:
         return self._advance(tf, dl, dr)
 
     def update_increments(self, t: float, dticks_left: float, dticks_right: float) -> Pose:
-        """One control cycle from counter increments since the last cycle."""
+        """One control cycle from counter increments since the last cycle.
+
+        A non-finite increment is refused (:class:`LogFormatError`, the odometry unchanged), as
+        :func:`integrate_increments` refuses it in a log: a NaN would make every later pose NaN."""
         tf = self._check_time(t)
+        dl, dr = float(dticks_left), float(dticks_right)
+        for name, value in (("dticks_left", dl), ("dticks_right", dr)):
+            if not math.isfinite(value):
+                raise LogFormatError(
+                    f"{name} is {value!r} at t = {tf:g} s, expected a finite number of counts"
+                )
         if self._t is None:
             return self._advance(tf, 0.0, 0.0)
-        return self._advance(tf, float(dticks_left), float(dticks_right))
+        return self._advance(tf, dl, dr)
 
     def _advance(self, t: float, dl: float, dr: float) -> Pose:
         first = self._t is None

@@ -303,8 +303,11 @@ _KEPT: ContextVar[_Kept | None] = ContextVar("odolab_kept_local_cluster", defaul
 def one_local_cluster() -> Iterator[None]:
     """Within the block, every map that would start a local Dask cluster of the same size uses
     one: the first that needs it starts it, and the block's end stops it (no map that stays in
-    this process or goes to a scheduler starts anything). Each start costs 2-3 s and its worker
-    processes' imports; ``calibrate lsq`` paid it twice, for its fitted and its held-out runs."""
+    this process or goes to a scheduler starts anything); meanwhile, between the maps, it stays
+    up idle. Each start costs 2-3 s and its worker processes' imports; ``calibrate lsq`` paid it
+    twice, for its fitted and its held-out runs. Maps of another size start their own, which
+    also stops at the end. One block to a thread (the clusters are not shared between
+    threads)."""
     kept = _Kept(ExitStack())
     token = _KEPT.set(kept)
     try:
