@@ -29,14 +29,17 @@ WORKERS ?= $(shell $(PYTHON) -c "import os; print(len(os.sched_getaffinity(0)) +
 TESTENV := MPLBACKEND=Agg OPENBLAS_NUM_THREADS=1 PYTHONDONTWRITEBYTECODE=
 
 # every test, in a new random order each run (pytest-randomly prints the seed: rerun an order with
-# `-p randomly --randomly-seed=N`), then the 20 slowest; docs/testing.md has the timings
+# `-p randomly --randomly-seed=N`), then the 20 slowest; docs/testing.md has the timings. An idle
+# worker takes tests queued for a busy one (`--dist worksteal`): with xdist's default `load`, the
+# last worker ran alone for 8-78 s after the others had finished (three fresh-clone runs)
+DIST := --dist worksteal
 test: $(STAMP)
-	$(TESTENV) $(BIN)/python -m pytest -n $(WORKERS) -q --durations=20
+	$(TESTENV) $(BIN)/python -m pytest -n $(WORKERS) $(DIST) -q --durations=20
 
 # while developing: leaves out the tests marked slow (documented commands, real-time robot runs,
 # the demos in chromium, the independent simulators); `make test` and CI run everything
 test-fast: $(STAMP)
-	$(TESTENV) $(BIN)/python -m pytest -n $(WORKERS) -q -m "not slow"
+	$(TESTENV) $(BIN)/python -m pytest -n $(WORKERS) $(DIST) -q -m "not slow"
 
 # the statistical tests twice, in two random orders, two hash seeds and two xdist distributions:
 # every asserted number must come out the same (tests/determinism.py)
