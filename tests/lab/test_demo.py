@@ -189,7 +189,7 @@ def test_odolab_db_environment_variable_stands_for_db(
     # no ratios given: with ODOLAB_DB set they come from the notebook's fits
     assert main(["calibrate", "ratios", "-p", "jaguar-lite", "-o", "new.toml"]) == 0
     assert "recorded in env.db as jaguar-lite parameters version 2" in capsys.readouterr().out
-    assert main(["report", "--out", "rep"]) == 0
+    assert main(["report", "--out", "rep", "--no-figures"]) == 0  # the notebook's, not figures
     text = capsys.readouterr().out
     assert "using 77 measured trials" in text
     assert (tmp_path / "env.db").exists() and not (tmp_path / "odolab.db").exists()
@@ -326,7 +326,8 @@ def test_every_face_gives_the_demos_table1_and_ratios_calibration(lab, tmp_path:
                                           "method": "ratios", "robot": "jaguar-lite"})  # fmt: skip
         assert page_calibration(form.text) == demo
     # odolab report: its Table I and its ratios calibration
-    assert main(["report", "--db", str(db), "--out", str(tmp_path / "rep")]) == 0
+    # (its numbers: the figures, drawn by the demo and test_cli_chain_over_one_notebook, left out)
+    assert main(["report", "--db", str(db), "--out", str(tmp_path / "rep"), "--no-figures"]) == 0
     res = json.loads((tmp_path / "rep" / "results.json").read_text())
     assert table_of(res["table1"]) == table
     assert geometry(res["calibration"]["ratios"]["params"]) == demo

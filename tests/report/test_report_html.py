@@ -19,15 +19,18 @@ from odolab.report import figures as F
 from odolab.report import table1_rich, write_report
 
 
-@pytest.fixture(scope="module")
-def report(tmp_path_factory: pytest.TempPathFactory, analysis: LabAnalysis) -> Path:
-    out = tmp_path_factory.mktemp("report")
-    cals = {
+def _calibrations(analysis: LabAnalysis) -> dict[str, object]:
+    return {
         "ratios": ratios_from_analysis(analysis),
         "umbmark": umbmark(
             [[-0.11, -0.12], [-0.1, -0.1]], [[-0.05, 0.05]], 4.0, analysis.params
         ).with_after([[0.01, 0.0], [-0.01, 0.0]], [[0.0, 0.005]]),
     }
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory: pytest.TempPathFactory, analysis: LabAnalysis) -> Path:
+    out = tmp_path_factory.mktemp("report")
 
     def imu(ax):
         ax.plot([0, 1], [0, 1], label="IMU")
@@ -37,8 +40,9 @@ def report(tmp_path_factory: pytest.TempPathFactory, analysis: LabAnalysis) -> P
         return ax
 
     return write_report(
-        out, analysis, cals, {"rmse_heading_old": 0.5}, validation_figure=imu, extra={"k": 1}
-    )
+        out, analysis, _calibrations(analysis), {"rmse_heading_old": 0.5},
+        validation_figure=imu, extra={"k": 1},
+    )  # fmt: skip
 
 
 def test_files_and_results_json(report: Path) -> None:
@@ -236,3 +240,44 @@ def test_report_from_square_runs_only(tmp_path: Path) -> None:
     assert list(res["figures"]) == ["umbmark_umbmark"]
     assert res["calibration"]["umbmark"]["e_b"] > 1.0
     assert "UMBmark" in path.read_text()
+
+
+def test_a_report_without_figures_has_every_number(
+    tmp_path: Path, analysis: LabAnalysis, report: Path
+) -> None:
+    """``figures=False`` (``odolab report --no-figures``) draws nothing: no figures folder, no
+    image, a note at the page's top; the tables and results.json are the full report's (the
+    module's, from the same inputs)."""
+    bare = write_report(tmp_path / "bare", analysis, _calibrations(analysis),
+                        {"rmse_heading_old": 0.5}, extra={"k": 1}, figures=False)  # fmt: skip
+    whole = report
+    assert not (bare.parent / "figures").exists() and (whole.parent / "figures").is_dir()
+    page = bare.read_text()
+    assert "<img" not in page and 'id="figures-left-out"' in page
+    assert 'id="figures-left-out"' not in whole.read_text()
+
+    def numbers(path: Path) -> dict[str, object]:
+        doc = json.loads((path.parent / "results.json").read_text())
+        doc.pop("generated")
+        for c in doc["calibration"].values():
+            c["provenance"].pop("created")
+        return doc
+
+    a, b = numbers(bare), numbers(whole)
+    assert a.pop("figures") == {} and b.pop("figures")
+    assert a == b
+
+    def tables(text: str) -> list[str]:  # the calibrations' "made" times masked
+        found = re.findall(r"<table.*?</table>", text, flags=re.S)
+        return [re.sub(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ", "T", t) for t in found]
+
+    assert tables(page) == tables(whole.read_text())
+
+
+def test_cli_report_no_figures_says_so(tmp_path: Path, lab, monkeypatch, capsys) -> None:
+    _fake_store(monkeypatch, lab[:38])
+    db = tmp_path / "lab.db"
+    db.write_bytes(b"")
+    assert main(["report", "--db", str(db), "--out", str(tmp_path / "rep"), "--no-figures"]) == 0
+    assert "results.json beside it; figures left out" in capsys.readouterr().out
+    assert not (tmp_path / "rep" / "figures").exists()

@@ -57,12 +57,14 @@ __all__ = [
 @dataclass(frozen=True)
 class ReportRequest:
     """Which trials (``selection``), the parameters to calibrate when the user names them
-    (``params``, ``params_source``), and ground-truth files to summarise."""
+    (``params``, ``params_source``), ground-truth files to summarise, and whether to draw the
+    figures (``figures``: most of a report's time)."""
 
     selection: SelectionRequest = field(default_factory=lambda: EVERY_CAMPAIGN)
     params: RobotParams | None = None
     params_source: str | None = None
     ground_truth: tuple[Path, ...] = ()
+    figures: bool = True
 
 
 @dataclass
@@ -208,6 +210,7 @@ def write_notebook_report(
         c.calibrations,
         reference=c.reference,
         extra=c.extra,
+        figures=request.figures,
     )
     return ReportOutcome(path, c)
 

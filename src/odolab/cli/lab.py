@@ -142,6 +142,14 @@ def report_cmd(
         ),
     ] = None,
     robot: SelectRobotOpt = None,
+    figures: Annotated[
+        bool,
+        typer.Option(
+            "--figures/--no-figures",
+            help="Draw the figures (most of the time a report takes); --no-figures writes the "
+            "page's tables and results.json alone.",
+        ),
+    ] = True,
 ) -> None:
     """Write the lab report (HTML with figures, PNGs, results.json) and print Table I."""
     from odolab.app.report import ReportRequest, write_notebook_report
@@ -157,6 +165,7 @@ def report_cmd(
         load_params(params) if params else None,
         f"--params {params}" if params else None,
         tuple(ground_truth or ()),
+        figures,
     )
     with open_notebook(db) as nb:
         outcome = write_notebook_report(nb, out, request)
@@ -169,7 +178,12 @@ def report_cmd(
     print_table(con, table1_rich(content.analysis.table1))
     for s in content.analysis.analysis.skipped:
         con.print(f"[yellow]not enough data:[/] {markup_text(s)}")
-    con.print(f"report: {markup_text(outcome.path)}  (figures and results.json beside it)")
+    beside = (
+        "figures and results.json beside it"
+        if figures
+        else "results.json beside it; figures left out"
+    )
+    con.print(f"report: {markup_text(outcome.path)}  ({beside})")
 
 
 RobotOpt = Annotated[

@@ -517,11 +517,11 @@ def _evidence_plans(evidence: ModelEvidence | None) -> list[_Plan]:
     return plans
 
 
-def _report_folder(out_dir: str | Path) -> tuple[Path, Path]:
+def _report_folder(out_dir: str | Path, figures: bool = True) -> tuple[Path, Path | None]:
     out = given_folder(
         out_dir, expected="the report folder", cannot="the report folder", error=OdolabError
     )
-    return out, sub_folder(out, "figures", what="report figures")
+    return out, sub_folder(out, "figures", what="report figures") if figures else None
 
 
 def _page(
@@ -530,6 +530,7 @@ def _page(
     calibrations: Mapping[str, Calibration],
     figs: list[_Figure],
     reference: Mapping[tuple[str, str], Any] | None,
+    figures_left_out: bool = False,
 ) -> str:
     import jinja2
 
@@ -565,6 +566,7 @@ def _page(
         fits=fits_rows(analysis),
         calibrations=cal_views,
         figures=figs,
+        figures_left_out=figures_left_out,
         fmt=fmt,
         p_value=numfmt.p_value,
         with_ci=numfmt.with_ci,
@@ -610,6 +612,7 @@ def write_report(
     reference: Mapping[tuple[str, str], Any] | None = None,
     evidence: ModelEvidence | None = None,
     progress: Progress | None = None,
+    figures: bool = True,
 ) -> Path:
     """Write ``report.html``, ``figures/*.png`` and ``results.json`` to ``out_dir``.
 
@@ -619,21 +622,26 @@ def write_report(
     Table I to set beside this one (:data:`odolab.analysis.reference.LAB_REPORT_TABLE1`);
     ``evidence`` the comparison of kinematic models and the NEES of runs with ground truth
     (:class:`odolab.report.models_section.ModelEvidence`), each shown when present.
-    Returns the HTML path.
+    ``figures=False`` draws none (most of a report's time): the page says so at its top, and
+    its tables and ``results.json`` hold the same numbers. Returns the HTML path.
     """
     say = progress or (lambda _: None)
     calibrations = dict(calibrations or {})
-    out, fig_dir = _report_folder(out_dir)
+    out, fig_dir = _report_folder(out_dir, figures)
     results = build_results(analysis, calibrations, validation, extra, evidence)
-    plans = _figure_plan(analysis, calibrations, validation_figure, extra_figures, evidence)
-    say(f"drawing {len(plans)} figures")
-    figs = _render(fig_dir, plans)
+    figs: list[_Figure] = []
+    if fig_dir is not None:
+        plans = _figure_plan(analysis, calibrations, validation_figure, extra_figures, evidence)
+        say(f"drawing {len(plans)} figures")
+        figs = _render(fig_dir, plans)
+    else:
+        say("figures left out")
     results["figures"] = {f.name: f"figures/{f.name}.png" for f in figs}
     # through a temporary file in ``out``: a link planted at either name is replaced, not followed
     write_text_file(out / "results.json", strict_json(_numbers_only(results)),
                     what="report results")  # fmt: skip
     path = out / "report.html"
-    page = _page(results, analysis, calibrations, figs, reference)
+    page = _page(results, analysis, calibrations, figs, reference, fig_dir is None)
     write_text_file(path, page, what="report")
     say(f"report written to {path}")
     return path
