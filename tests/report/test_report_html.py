@@ -281,3 +281,10 @@ def test_cli_report_no_figures_says_so(tmp_path: Path, lab, monkeypatch, capsys)
     assert main(["report", "--db", str(db), "--out", str(tmp_path / "rep"), "--no-figures"]) == 0
     assert "results.json beside it; figures left out" in capsys.readouterr().out
     assert not (tmp_path / "rep" / "figures").exists()
+
+
+def test_a_report_without_figures_has_no_empty_figure_list(
+    tmp_path: Path, analysis: LabAnalysis
+) -> None:
+    page = write_report(tmp_path, analysis, figures=False).read_text()
+    assert "(0 figures)" not in page and "<figure" not in page

@@ -16,10 +16,11 @@ the exact circular arc (constant body velocity over the cycle). One small-angle 
 :func:`body_motion` and :func:`step_pose` are numba-compiled and inlined into the batch kernels
 (:mod:`odolab.core.odometry`, :mod:`odolab.sim.physics`). Their source is plain Python,
 :mod:`odolab.core._step_kernels`, and one cycle at a time (streaming odometry, the virtual board,
-:func:`pose_step`) runs that source as Python: the same operations, the same numbers, and no numba
-in a process that drives a robot over a link without a covariance. The compiled functions live in :mod:`odolab.core._kinematics_jit`
-and are loaded on first use of their names here (``from odolab.core.kinematics import
-step_pose``), so importing this module does not import numba.
+:func:`pose_step`) runs that source as Python: the same operations, the same numbers, and no
+numba in a process that drives a robot over a link without a covariance. The compiled functions
+live in :mod:`odolab.core._kinematics_jit` and are loaded on first use of their names here
+(``from odolab.core.kinematics import step_pose``), so importing this module does not import
+numba.
 
 The maths has one plain statement each, here: the step :func:`odometry_step` (its chord
 :func:`chord_factors`) and the wrap :func:`wrap_angle`, in numpy; the compiled :func:`step_pose`,
