@@ -525,9 +525,6 @@ class Odometry:
         self._kl = params.left_metres_per_tick
         self._kr = params.right_metres_per_tick
         self._coef = params.coefficients
-        # the compiled passes' own source, run as Python: no numba for a control loop's pose
-        self._body_motion = _step_kernels.body_motion
-        self._step_pose = _step_kernels.step_pose
         self._slip = timed_model(params.model)
         own = own_covariance(params.model)
         self._own_cov = own is not None
@@ -636,10 +633,11 @@ class Odometry:
                 else:
                     self._cov.step(self._h, dsl, dsr)  # type: ignore[call-arg]
             if self._slip is None:
-                fwd, side, dth = self._body_motion(*self._coef, dsl, dsr)
+                # the compiled passes' own source, run as Python: no numba for a cycle's pose
+                fwd, side, dth = _step_kernels.body_motion(*self._coef, dsl, dsr)
             else:
                 fwd, side, dth = self._slip.body_motion(dsl, dsr, dt, self.params.track_width)
-            self._x, self._y, self._h = self._step_pose(
+            self._x, self._y, self._h = _step_kernels.step_pose(
                 self._x, self._y, self._h, fwd, side, dth, self._arc
             )
             self.cycles += 1
