@@ -7,7 +7,9 @@ Without ``--db`` it runs the demo once (about a minute) and uses its notebook.
 Baselines: each figure drawn as before 2026-11-28 (``layout="constrained"``, which lays the
 figure out twice and draws it once more at save time), and as before 2026-11-29's writer (the
 margin fit, then ``savefig``); the ratios are constrained / margin fit and savefig / write_png,
-with the bytes each PNG writer wrote.
+with the bytes each PNG writer wrote. Last, the whole report of the notebook
+(``write_notebook_report``) with its figures against ``--no-figures`` (``ReportRequest(figures=
+False)``), interleaved in the same run: the ratio is what leaving the figures out saves.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from odolab.app.report import report_content
+from odolab.app.report import ReportRequest, report_content, write_notebook_report
 from odolab.report import html
 from odolab.store import Notebook
 
@@ -90,6 +92,19 @@ def main() -> None:
     print(
         f"ratio savefig / write_png: {times['savefig'] / times['margin fit']:.2f}x "
         f"(PNG bytes {written['savefig']:,} against {written['margin fit']:,})"
+    )
+    whole = {"with figures": True, "--no-figures": False}
+    spent = dict.fromkeys(whole, float("inf"))
+    for _ in range(repeats):
+        for name, figures in whole.items():
+            t0 = time.process_time()
+            with Notebook(db) as nb:
+                write_notebook_report(nb, tmp / name, ReportRequest(figures=figures))
+            spent[name] = min(spent[name], time.process_time() - t0)
+    for name, t in spent.items():
+        print(f"whole report, {name:13s} {t:6.2f} s CPU")
+    print(
+        f"ratio with figures / --no-figures: {spent['with figures'] / spent['--no-figures']:.2f}x"
     )
 
 
