@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from odolab.core.text import (
     MAX_NAME_CHARS,
     UnsafeNameError,
+    figure_text,
     quote_input,
     safe_file_name,
     safe_html,
@@ -103,3 +104,41 @@ def test_echoed_input_is_capped_and_quoted() -> None:
     assert len(q) < 500 and "\x00" not in q and "1000000 characters" in q
     assert quote_input(1e308) == "1e+308"
     assert quote_input(None) == "None"
+
+
+@pytest.mark.parametrize(
+    ("text", "drawn"),
+    [
+        ("tile", "tile"),
+        (r"$\foo$ floor", r"$\foo$ floor"),  # mathtext's parse error stopped a whole report
+        ("$x$", "$x$"),  # not italics: as typed
+        (r"a\$b", r"a\$b"),
+        ("red\x1b[31m", "red\\x1b[31m"),
+        ("n" * 10_000, "n" * 20 + "…" + "n" * 11),
+        ("run-2026-11-28-long-campaign-name-a", "run-2026-11-28-long-…aign-name-a"),
+    ],
+)
+def test_figure_text_is_drawn_as_written_and_fits(text: str, drawn: str) -> None:
+    """What matplotlib draws from figure_text(text): the text itself, never mathtext, controls
+    as escapes, at most 32 characters with the start and the end of a long name."""
+    from matplotlib import cbook
+    from matplotlib.figure import Figure
+
+    shown = figure_text(text)
+    assert not cbook.is_math_text(shown)
+    assert shown.replace(r"\$", "$") == drawn  # what a non-math Text draws
+    assert len(drawn) <= 32
+    fig = Figure(figsize=(3, 2))
+    fig.add_subplot().set_title(shown)
+    fig.canvas.draw()  # type: ignore[no-untyped-call]  # draws: no parse error
+
+
+@given(st.text(max_size=200))
+def test_no_text_becomes_mathtext_in_a_figure(text: str) -> None:
+    from matplotlib import cbook
+
+    shown = figure_text(text)
+    assert not cbook.is_math_text(shown)
+    assert len(shown.replace(r"\$", "$")) <= 32
+    if len(text) <= 32 and text.isprintable():
+        assert shown.replace(r"\$", "$") == text

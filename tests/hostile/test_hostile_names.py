@@ -144,6 +144,39 @@ def test_a_markup_like_terrain_does_not_break_analyze(
     assert "[/]x[bold]" in capsys.readouterr().out.replace("\n", "")
 
 
+#: text that matplotlib would parse as mathtext: `$\foo$` is a parse error when drawn
+MATH = r"$\foo$ and $x^{2}$"
+
+
+def test_names_that_look_like_mathtext_are_drawn_as_written(tmp_path: Path) -> None:
+    """Before: a terrain named ``$\\foo$`` ended `odolab report` in matplotlib's ValueError
+    (a traceback), and ``$x^{2}$`` was drawn as a formula. Terrains and robot names are drawn
+    as typed, in the report's figures and the fleet's."""
+    from odolab.fleet.section import fleet_section
+
+    rng = np.random.default_rng(1)
+    params = PRESETS["jaguar-lite"].with_(name=MATH)
+    trials = [
+        dataclasses.replace(t, terrain=MATH, params=params)
+        for t in rotation_trials(rng, repeats_at_20pi=4)
+    ]
+    db = tmp_path / "lab.db"
+    with Notebook(db) as nb:
+        nb.add_trials(trials)
+    out = tmp_path / "report"
+    assert main(["report", "--db", str(db), "--out", str(out)]) == 0
+    assert len(list((out / "figures").glob("*.png"))) >= 3
+    rows: dict[str, list[object]] = {
+        "robot": [MATH] * 4 + ["robot-02"] * 4,
+        "date": ["2026-11-01", "2026-11-02", "2026-11-03", "2026-11-04"] * 2,
+        "drift_pct": [1.0, 1.1, 1.2, 1.3, 1.0, 1.0, 1.1, 1.0],
+        "run": [f"r{i}" for i in range(8)],
+        "error": [""] * 8,
+    }
+    fleet_section(rows).save(tmp_path / "fleet")  # type: ignore[arg-type]
+    assert (tmp_path / "fleet" / "fleet_drift_per_day.png").stat().st_size > 10_000
+
+
 def test_an_error_message_never_carries_escape_sequences(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

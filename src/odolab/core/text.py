@@ -14,6 +14,9 @@ could do harm, it goes through one of these functions:
   ``\\x1b``-style escapes instead of being obeyed by the terminal.
 - :func:`safe_html`: text escaped for HTML (``<``, ``>``, ``&``, quotes), as a ``Markup``.
 - :func:`shorten` and :func:`quote_input`: any input echoed in a message is capped in length.
+- :func:`figure_text`: text drawn in a figure (a title, a legend, a tick label): never read as
+  matplotlib's mathtext (a terrain named ``$\\foo$`` stopped a whole report with a parse error),
+  controls shown as escapes, and cut in the middle to what a figure's width holds.
 - :func:`inert_csv_cell` and :func:`read_csv_cell`: a text cell of a CSV written for people
   (a trials export, a fleet table) that a spreadsheet would run as a formula (it starts with
   ``=``, ``+``, ``-``, ``@``, a tab or a carriage return: the OWASP rule) gets a leading ``'``,
@@ -36,6 +39,7 @@ __all__ = [
     "MAX_NAME_CHARS",
     "UnsafeNameError",
     "display_value",
+    "figure_text",
     "inert_csv_cell",
     "quote_input",
     "read_csv_cell",
@@ -51,6 +55,9 @@ __all__ = [
 MAX_NAME_CHARS = 60
 #: Longest piece of user input echoed in a message (characters).
 MAX_ECHO_CHARS = 80
+#: Most characters of a user's name a figure shows: the report's 4.5 in figures hold about 50
+#: characters a line at 10-11 pt, and a title or legend line has words of its own around the name.
+MAX_FIGURE_CHARS = 32
 
 #: Characters other than letters and digits that a file name may keep.
 _NAME_PUNCTUATION = frozenset("-_.+=@,")
@@ -77,6 +84,24 @@ def shorten(text: str, limit: int = MAX_ECHO_CHARS) -> str:
     if len(text) <= limit:
         return text
     return f"{text[:limit]}... ({len(text)} characters)"
+
+
+def figure_text(text: object, limit: int = MAX_FIGURE_CHARS) -> str:
+    """``text`` (a terrain, a parameter set's, a robot's or a run's name) as a figure draws it.
+
+    Every ``$`` is escaped, so matplotlib draws the text as it is and never parses it as
+    mathtext (``$\\foo$`` is a parse error at drawing time, ``$x$`` would come out in italics);
+    controls and invisible characters are shown as :func:`safe_terminal` shows them; and a text
+    longer than ``limit`` characters keeps its start and its end around a ``…`` (names often
+    differ at the end: ``run-2026-11-28-a``, ``...-b``). A longer name ran off both sides of the
+    figure and squeezed its plot (and drew all its glyphs: a 10,000-character terrain took 7 s
+    of a report); the page's headings and tables show it whole."""
+    shown = safe_terminal(text)
+    if len(shown) > limit:
+        head = max(1, (limit - 1) * 2 // 3)
+        tail = max(0, limit - 1 - head)
+        shown = shown[:head] + "…" + (shown[-tail:] if tail else "")
+    return shown.replace("$", r"\$")
 
 
 def safe_terminal(text: object, *, limit: int | None = None, unicode_escapes: bool = False) -> str:

@@ -21,6 +21,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from odolab.core.text import figure_text
+
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
@@ -146,7 +148,8 @@ def _figures(columns: dict[str, list[Cell]], verdicts: list[RobotVerdict]) -> di
         days = sorted({str(d) for d in dates[sel]})
         means = [float(np.mean(drift[sel & (dates == d)])) for d in days]
         bold = v.robot in flagged
-        label = f"{v.robot} (recalibrate)" if bold else v.robot
+        name = figure_text(v.robot)
+        label = f"{name} (recalibrate)" if bold else name
         ax.plot(
             [pos[d] for d in days],
             means,

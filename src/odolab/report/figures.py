@@ -18,6 +18,7 @@ from odolab.analysis.core import LabAnalysis, MotionAnalysis
 from odolab.analysis.random import GroupSpread
 from odolab.core.motion import Motion
 from odolab.core.params import RobotParams
+from odolab.core.text import figure_text
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -116,7 +117,7 @@ def _title(m: MotionAnalysis) -> str:
         "y_forward": "y drift, forward",
         "y_reverse": "y drift, reverse",
     }
-    return f"{names[m.motion]} ({m.terrain})"
+    return f"{names[m.motion]} ({figure_text(m.terrain)})"
 
 
 def ratio_fit_label(m: MotionAnalysis) -> str:
@@ -302,7 +303,7 @@ def plot_terrains(analysis: LabAnalysis, motion: str = "x", ax: Axes | None = No
             xs,
             m.fit.predict(xs),
             color=c,
-            label=f"{m.terrain}: slope {m.fit.slope:.4f} [{lo:.4f}, {hi:.4f}]",
+            label=f"{figure_text(m.terrain)}: slope {m.fit.slope:.4f} [{lo:.4f}, {hi:.4f}]",
         )
     return _finish(ax, kind, f"{motion} on each terrain")
 
@@ -341,7 +342,7 @@ def plot_terrain_slopes(analysis: LabAnalysis, motion: str = "x", ax: Axes | Non
         color="tab:purple" if both else "tab:blue",
         label="ratio (through origin), 95% CI" if both else "slope, 95% CI",
     )
-    ax.set_yticks(y, [m.terrain for m in ms])
+    ax.set_yticks(y, [figure_text(m.terrain) for m in ms])
     ax.set_ylim(-0.6, len(ms) - 0.4)
     test = next((t for t in analysis.terrain_tests if t.motion == motion), None)
     if test is not None:
@@ -398,10 +399,11 @@ def plot_error_ellipses(analysis: LabAnalysis, terrain: str, ax: Axes | None = N
                 )
     ax.set_xlabel("x error, predicted - actual (m)")
     ax.set_ylabel("y error, predicted - actual (m)")
+    where = figure_text(terrain)
     ax.set_title(
-        f"End-point errors and 95% ellipses ({terrain})"
+        f"End-point errors and 95% ellipses ({where})"
         if drawn
-        else f"End-point errors, one trial per distance ({terrain})"
+        else f"End-point errors, one trial per distance ({where})"
     )
     ax.grid(alpha=0.3)
     ax.axhline(0, color="gray", lw=0.8)
@@ -439,7 +441,9 @@ def plot_calibration_effect(
     f = m.fit
     span = np.array([min(0.0, float(f.x.min())), max(0.0, float(f.x.max()))])
     ax.plot(span, span, color="tab:green", lw=1.2, label="ideal")
-    ax.scatter(f.x, f.y, s=14, color="tab:red", label=f"old {old.name}: ratio {m.ratio:.3f}")
+    ax.scatter(
+        f.x, f.y, s=14, color="tab:red", label=f"old {figure_text(old.name)}: ratio {m.ratio:.3f}"
+    )
     markers = ["o", "s", "^", "D"]
     for i, (name, p) in enumerate(new.items()):
         px = _scale_prediction(m.motion, f.x, old, p)
@@ -451,7 +455,7 @@ def plot_calibration_effect(
             marker=markers[i % len(markers)],
             facecolors="none",
             edgecolors=f"C{i}",
-            label=f"new ({name}): ratio {slope:.3f}",
+            label=f"new ({figure_text(name)}): ratio {slope:.3f}",
         )
     return _finish(ax, m.motion, f"Old vs new parameters: {_title(m)}")
 

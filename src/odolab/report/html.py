@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import base64
 import io
+import textwrap
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -221,6 +222,7 @@ _RC: dict[str, float] = {
 _SCALE = 0.75
 _DPI = 160
 _LEGEND_WRAP = 44  #: characters of a legend line (a 4.5 in figure holds about 50 at 10 pt)
+_TITLE_WRAP = 50  #: characters of a title line (at 11 pt)
 
 
 def _legend_below(fig: Figure, ax: Axes, size: tuple[float, float]) -> None:
@@ -273,6 +275,9 @@ def _render(fig_dir: Path, plans: list[_Plan]) -> list[_Figure]:
             fig = Figure(figsize=size, dpi=_DPI)
             ax = fig.add_subplot()
             p.draw(ax)
+            title = ax.get_title()
+            if len(title) > _TITLE_WRAP:  # a user's name in it (cut by figure_text) can make it long
+                ax.set_title(textwrap.fill(title, _TITLE_WRAP))
             _legend_below(fig, ax, size)
             _fit_margins(fig, ax)
             name = safe_file_name(p.name, what="figure name")  # terrains are user text

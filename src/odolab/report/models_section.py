@@ -30,6 +30,7 @@ from odolab.analysis.questions import ExperimentResult
 from odolab.calibration.compare import UNDECIDED, Estimate, ModelComparison
 from odolab.core import numfmt
 from odolab.core.errors import NEUTRAL
+from odolab.core.text import figure_text
 from odolab.metrics.consistency import DOF, RunNees, first_order_note, nees_summary
 from odolab.report.view import Cell
 
@@ -595,7 +596,7 @@ def plot_nees(runs: Sequence[RunNees], ax: Axes | None = None) -> Axes:
         jitter = np.linspace(-0.25, 0.25, v.size) if v.size > 1 else np.zeros(v.size)
         ax.plot(i + jitter, v, "o", ms=3, color="tab:blue", alpha=0.7)
     ax.set_yscale("log")
-    ax.set_xticks(range(len(runs)), [r.name for r in runs], fontsize=8)
+    ax.set_xticks(range(len(runs)), [figure_text(r.name) for r in runs], fontsize=8)
     ax.set_xlabel("run")
     ax.set_ylabel("NEES of one piece")
     ax.legend()

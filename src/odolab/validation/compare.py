@@ -21,6 +21,7 @@ from odolab.core.errors import ImuLogError
 from odolab.core.kinematics import Method
 from odolab.core.odometry import integrate
 from odolab.core.params import RobotParams
+from odolab.core.text import figure_text
 from odolab.core.trajectory import Trajectory
 from odolab.core.trials import EncoderLog
 from odolab.validation.align import ClockAlignment, check_search, find_clock_offset
@@ -310,9 +311,20 @@ def plot_validation(
     if kind == "heading":
         ax.plot(t, result.imu_heading, color="black", lw=2.0, label="IMU (phone)")
         ax.plot(
-            t, old.heading, color="tab:red", lw=1.3, ls="--", label=f"old model ({old.params.name})"
+            t,
+            old.heading,
+            color="tab:red",
+            lw=1.3,
+            ls="--",
+            label=f"old model ({figure_text(old.params.name)})",
         )
-        ax.plot(t, new.heading, color="tab:blue", lw=1.3, label=f"new model ({new.params.name})")
+        ax.plot(
+            t,
+            new.heading,
+            color="tab:blue",
+            lw=1.3,
+            label=f"new model ({figure_text(new.params.name)})",
+        )
         ax.set_ylabel("heading change (rad)")
         ax.set_title("Heading: old vs new model vs IMU")
     elif kind == "error":
