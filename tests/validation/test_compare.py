@@ -144,6 +144,21 @@ def test_plots_have_labels_units_and_legends(scenario, tmp_path: Path) -> None: 
         plot_validation(r, kind="nope")  # type: ignore[arg-type]
 
 
+def test_parameter_set_names_are_drawn_as_written(scenario, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    """A parameter set named like mathtext (``$\\foo$`` made matplotlib raise at drawing
+    time) is drawn as typed in `validate --plot`'s figure."""
+    import matplotlib.pyplot as plt
+
+    phone = simulate_phone_log(scenario.true_t, scenario.true_heading, clock_offset=2.0, seed=9)
+    old = PRESETS["jaguar-lite"].with_(name=r"$\foo$ old")
+    r = validate(scenario.encoder_log, phone, old, scenario.new)
+    fig = validation_figure(r)
+    fig.savefig(tmp_path / "fig21.png", dpi=40)  # before: ValueError, Unknown symbol: \foo
+    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert labels[1] == r"old model (\$\foo\$ old)"  # drawn as "$\foo$ old"
+    plt.close("all")
+
+
 def test_face_down_phone_is_detected_and_flip_fixes_it(scenario) -> None:  # type: ignore[no-untyped-def]
     phone = simulate_phone_log(scenario.true_t, scenario.true_heading, clock_offset=1.5, seed=3)
     down = phone.flipped()
