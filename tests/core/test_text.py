@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import hashlib
+import warnings
 from pathlib import Path
 
 import pytest
@@ -116,6 +117,8 @@ def test_echoed_input_is_capped_and_quoted() -> None:
         ("red\x1b[31m", "red\\x1b[31m"),
         ("n" * 10_000, "n" * 20 + "…" + "n" * 11),
         ("run-2026-11-28-long-campaign-name-a", "run-2026-11-28-long-…aign-name-a"),
+        ("Gelände σ", "Gelände σ"),
+        ("草地 🌱 tile", "□□ □ tile"),  # no glyph in DejaVu Sans: the box, not a warning
     ],
 )
 def test_figure_text_is_drawn_as_written_and_fits(text: str, drawn: str) -> None:
@@ -130,7 +133,9 @@ def test_figure_text_is_drawn_as_written_and_fits(text: str, drawn: str) -> None
     assert len(drawn) <= 32
     fig = Figure(figsize=(3, 2))
     fig.add_subplot().set_title(shown)
-    fig.canvas.draw()  # type: ignore[no-untyped-call]  # draws: no parse error
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # matplotlib warned once a missing glyph
+        fig.canvas.draw()  # type: ignore[no-untyped-call]  # draws: no parse error
 
 
 @given(st.text(max_size=200))
@@ -140,5 +145,24 @@ def test_no_text_becomes_mathtext_in_a_figure(text: str) -> None:
     shown = figure_text(text)
     assert not cbook.is_math_text(shown)
     assert len(shown.replace(r"\$", "$")) <= 32
-    if len(text) <= 32 and text.isprintable():
-        assert shown.replace(r"\$", "$") == text
+    if len(text) <= 32 and text.isprintable():  # as typed, but for the font's missing glyphs
+        drawn = shown.replace(r"\$", "$")
+        assert len(drawn) == len(text)
+        assert all(d in (c, "□") for d, c in zip(drawn, text, strict=True))
+        assert all(d == c for d, c in zip(drawn, text, strict=True) if c.isascii())
+
+
+def test_figure_text_without_matplotlib_keeps_every_character(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The core without the report extra: no font to ask, nothing replaced, nothing raised."""
+    import sys
+
+    from odolab.core import text
+
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # as if not installed
+    text._figure_font_chars.cache_clear()
+    try:
+        assert figure_text("草地 🌱") == "草地 🌱"
+    finally:
+        text._figure_font_chars.cache_clear()

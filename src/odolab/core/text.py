@@ -25,6 +25,7 @@ could do harm, it goes through one of these functions:
 
 from __future__ import annotations
 
+import functools
 import unicodedata
 from typing import TYPE_CHECKING
 
@@ -95,13 +96,42 @@ def figure_text(text: object, limit: int = MAX_FIGURE_CHARS) -> str:
     longer than ``limit`` characters keeps its start and its end around a ``…`` (names often
     differ at the end: ``run-2026-11-28-a``, ``...-b``). A longer name ran off both sides of the
     figure and squeezed its plot (and drew all its glyphs: a 10,000-character terrain took 7 s
-    of a report); the page's headings and tables show it whole."""
+    of a report); the page's headings and tables show it whole. A character the figures' font
+    has no glyph for (``草``, ``🌱`` in matplotlib's DejaVu Sans) is drawn as the box matplotlib
+    would draw, ``□``, without matplotlib's warning (one a character, printed with its own
+    source line, at every report)."""
     shown = safe_terminal(text)
+    if not shown.isascii():  # the default font (DejaVu Sans) draws every ASCII character
+        drawable = _figure_font_chars()
+        shown = "".join(c if ord(c) in drawable else "□" for c in shown)
     if len(shown) > limit:
         head = max(1, (limit - 1) * 2 // 3)
         tail = max(0, limit - 1 - head)
         shown = shown[:head] + "…" + (shown[-tail:] if tail else "")
     return shown.replace("$", r"\$")
+
+
+@functools.cache
+def _figure_font_chars() -> frozenset[int]:
+    """The code points the figures' font draws: the first font matplotlib finds for its
+    settings (``font.family``; DejaVu Sans by default). matplotlib is imported here, for a name
+    that is not ASCII only; without it (no ``report`` extra) nothing is drawn and every
+    character passes."""
+    try:
+        from matplotlib import font_manager, ft2font
+
+        path = font_manager.findfont(font_manager.FontProperties())
+        return frozenset(ft2font.FT2Font(path).get_charmap())
+    except ImportError:
+        return _EVERY_CHARACTER
+
+
+class _Everything(frozenset[int]):
+    def __contains__(self, item: object) -> bool:
+        return True
+
+
+_EVERY_CHARACTER = _Everything()
 
 
 def safe_terminal(text: object, *, limit: int | None = None, unicode_escapes: bool = False) -> str:
