@@ -275,10 +275,9 @@ def _render(fig_dir: Path, plans: list[_Plan]) -> list[_Figure]:
             fig = Figure(figsize=size, dpi=_DPI)
             ax = fig.add_subplot()
             p.draw(ax)
+            # a user's name (cut by figure_text) can make a title longer than the figure
             title = ax.get_title()
-            if (
-                len(title) > _TITLE_WRAP
-            ):  # a user's name in it (cut by figure_text) can make it long
+            if len(title) > _TITLE_WRAP and "\n" not in title:
                 ax.set_title(textwrap.fill(title, _TITLE_WRAP))
             _legend_below(fig, ax, size)
             _fit_margins(fig, ax)
