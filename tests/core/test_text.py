@@ -131,11 +131,13 @@ def test_figure_text_is_drawn_as_written_and_fits(text: str, drawn: str) -> None
     assert not cbook.is_math_text(shown)
     assert shown.replace(r"\$", "$") == drawn  # what a non-math Text draws
     assert len(drawn) <= 32
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
     fig = Figure(figsize=(3, 2))
     fig.add_subplot().set_title(shown)
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # matplotlib warned once a missing glyph
-        fig.canvas.draw()  # type: ignore[no-untyped-call]  # draws: no parse error
+        FigureCanvasAgg(fig).draw()  # type: ignore[no-untyped-call]  # no parse error
 
 
 @given(st.text(max_size=200))
@@ -161,8 +163,23 @@ def test_figure_text_without_matplotlib_keeps_every_character(
     from odolab.core import text
 
     monkeypatch.setitem(sys.modules, "matplotlib", None)  # as if not installed
-    text._figure_font_chars.cache_clear()
-    try:
-        assert figure_text("草地 🌱") == "草地 🌱"
-    finally:
-        text._figure_font_chars.cache_clear()
+    assert text._figure_font_chars() is None
+    assert figure_text("草地 🌱") == "草地 🌱"
+
+
+def test_figure_text_asks_every_font_of_the_fallback_chain() -> None:
+    """A family that is not installed is passed over as matplotlib passes over it; the
+    setting in force is the one asked (the answer is kept for each setting)."""
+    import matplotlib as mpl
+
+    with mpl.rc_context({"font.family": ["No Such Font Anywhere", "DejaVu Sans"]}):
+        assert figure_text("Gelände 草") == "Gelände □"
+    with mpl.rc_context({"font.family": ["No Such Font Anywhere"]}):  # matplotlib's default
+        assert figure_text("Gelände 草") == "Gelände □"
+
+
+@pytest.mark.parametrize(("limit", "want"), [(1, "…"), (2, "…j"), (3, "a…j"), (4, "ab…j")])
+def test_figure_text_keeps_to_any_limit(limit: int, want: str) -> None:
+    assert figure_text("abcdefghij", limit) == want
+    with pytest.raises(ValueError, match="limit"):
+        figure_text("abc", 0)

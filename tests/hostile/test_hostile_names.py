@@ -166,12 +166,12 @@ def test_names_that_look_like_mathtext_are_drawn_as_written(tmp_path: Path) -> N
     out = tmp_path / "report"
     assert main(["report", "--db", str(db), "--out", str(out)]) == 0
     assert len(list((out / "figures").glob("*.png"))) >= 3
-    rows: dict[str, list[object]] = {
-        "robot": [MATH] * 4 + ["robot-02"] * 4,
-        "date": ["2026-11-01", "2026-11-02", "2026-11-03", "2026-11-04"] * 2,
-        "drift_pct": [1.0, 1.1, 1.2, 1.3, 1.0, 1.0, 1.1, 1.0],
-        "run": [f"r{i}" for i in range(8)],
-        "error": [""] * 8,
+    rows: dict[str, list[object]] = {  # a fleet table read back: its dates are any text
+        "robot": [MATH] * 4 + ["robot-02"] * 5,
+        "date": ["2026-11-01", "2026-11-02", "2026-11-03", "2026-11-04"] * 2 + [MATH],
+        "drift_pct": [1.0, 1.1, 1.2, 1.3, 1.0, 1.0, 1.1, 1.0, 1.0],
+        "run": [f"r{i}" for i in range(9)],
+        "error": [""] * 9,
     }
     fleet_section(rows).save(tmp_path / "fleet")  # type: ignore[arg-type]
     assert (tmp_path / "fleet" / "fleet_drift_per_day.png").stat().st_size > 10_000

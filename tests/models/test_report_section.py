@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -41,6 +42,15 @@ def test_section_html_and_figures(tmp_path: Path) -> None:
     ax.figure.savefig(tmp_path / "models.png")
     fig = plot_questions([q])
     fig.savefig(tmp_path / "questions.png")
+    # a question and conditions from a user's file are drawn as typed: `$\foo$` was
+    # matplotlib's parse error (a traceback) before odolab.core.text.figure_text
+    typed = q.experiment.__class__(**{**q.experiment.__dict__, "question": r"Does $\foo$ slip?"})
+    conditions = [
+        dataclasses.replace(c, condition=dataclasses.replace(c.condition, label=r"$\foo$"))
+        for c in q.conditions
+    ]
+    mq = q.__class__(**{**q.__dict__, "experiment": typed, "conditions": conditions})
+    plot_questions([mq]).savefig(tmp_path / "typed.png")
     plt.close("all")
     assert (tmp_path / "questions.png").stat().st_size > 1000
     assert np.isfinite(cmp.score("icr").held_out["endpoint_error"].value)

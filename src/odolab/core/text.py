@@ -27,7 +27,8 @@ from __future__ import annotations
 
 import functools
 import unicodedata
-from typing import TYPE_CHECKING
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, cast
 
 from odolab.core.errors import OdolabError
 
@@ -100,38 +101,61 @@ def figure_text(text: object, limit: int = MAX_FIGURE_CHARS) -> str:
     has no glyph for (``草``, ``🌱`` in matplotlib's DejaVu Sans) is drawn as the box matplotlib
     would draw, ``□``, without matplotlib's warning (one a character, printed with its own
     source line, at every report)."""
+    if limit < 1:
+        raise ValueError(f"figure_text's limit is {limit!r}; expected 1 character or more")
     shown = safe_terminal(text)
     if not shown.isascii():  # the default font (DejaVu Sans) draws every ASCII character
         drawable = _figure_font_chars()
-        shown = "".join(c if ord(c) in drawable else "□" for c in shown)
+        if drawable is not None:
+            shown = "".join(c if ord(c) in drawable else "□" for c in shown)
     if len(shown) > limit:
-        head = max(1, (limit - 1) * 2 // 3)
+        head = max(0, (limit - 1) * 2 // 3) if limit > 1 else 0
         tail = max(0, limit - 1 - head)
         shown = shown[:head] + "…" + (shown[-tail:] if tail else "")
     return shown.replace("$", r"\$")
 
 
+def _figure_font_chars() -> frozenset[int] | None:
+    """The code points the figures' fonts draw: the union of the fonts matplotlib finds for
+    each family of ``font.family`` (its fallback chain; DejaVu Sans alone by default), kept for
+    each setting. None where that cannot be told (no matplotlib: the core without the
+    ``report`` extra; a font file that cannot be read): every character passes, and matplotlib
+    says what it cannot draw as before. matplotlib is imported here, for a name that is not
+    ASCII only."""
+    try:
+        import matplotlib as mpl
+    except ImportError:
+        return None
+    settings = cast("Mapping[str, Sequence[str]]", mpl.rcParams)  # keys made from the families
+    families = tuple(settings["font.family"])
+    generic = {f: tuple(settings.get(f"font.{f}", ())) for f in families}
+    return _font_chars(families, tuple(sorted(generic.items())))
+
+
 @functools.cache
-def _figure_font_chars() -> frozenset[int]:
-    """The code points the figures' font draws: the first font matplotlib finds for its
-    settings (``font.family``; DejaVu Sans by default). matplotlib is imported here, for a name
-    that is not ASCII only; without it (no ``report`` extra) nothing is drawn and every
-    character passes."""
+def _font_chars(
+    families: tuple[str, ...], generic: tuple[tuple[str, tuple[str, ...]], ...]
+) -> frozenset[int] | None:
+    """:func:`_figure_font_chars` for one setting (``generic``: the lists the generic family
+    names stand for, part of the key only)."""
     try:
         from matplotlib import font_manager, ft2font
 
-        path = font_manager.findfont(font_manager.FontProperties())
-        return frozenset(ft2font.FT2Font(path).get_charmap())
-    except ImportError:
-        return _EVERY_CHARACTER
-
-
-class _Everything(frozenset[int]):
-    def __contains__(self, item: object) -> bool:
-        return True
-
-
-_EVERY_CHARACTER = _Everything()
+        paths = []
+        for family in families:
+            try:
+                prop = font_manager.FontProperties(family=[family])
+                paths.append(font_manager.findfont(prop, fallback_to_default=False))
+            except ValueError:  # not installed: matplotlib passes over it too
+                continue
+        if not paths:
+            paths.append(font_manager.findfont(font_manager.FontProperties()))
+        chars: set[int] = set()
+        for path in dict.fromkeys(paths):
+            chars.update(ft2font.FT2Font(path).get_charmap())
+        return frozenset(chars)
+    except Exception:  # an unreadable font: let matplotlib draw and say it
+        return None
 
 
 def safe_terminal(text: object, *, limit: int | None = None, unicode_escapes: bool = False) -> str:

@@ -84,7 +84,8 @@ def legend_outside(
     if not labels:
         return 0
     if wrap is not None:
-        labels = [textwrap.fill(t, wrap) for t in labels]
+        # a word longer than a line stays whole: a cut would part an escaped "\$"
+        labels = [textwrap.fill(t, wrap, break_long_words=False) for t in labels]
     if ncol is None:  # as many as fit the figure's width (a character is about 0.55 em)
         fig = ax.get_figure(root=True)
         width_pt = 72.0 * (fig.get_figwidth() if fig is not None else 6.0)

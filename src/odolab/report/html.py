@@ -278,7 +278,7 @@ def _render(fig_dir: Path, plans: list[_Plan]) -> list[_Figure]:
             # a user's name (cut by figure_text) can make a title longer than the figure
             title = ax.get_title()
             if len(title) > _TITLE_WRAP and "\n" not in title:
-                ax.set_title(textwrap.fill(title, _TITLE_WRAP))
+                ax.set_title(textwrap.fill(title, _TITLE_WRAP, break_long_words=False))
             _legend_below(fig, ax, size)
             _fit_margins(fig, ax)
             name = safe_file_name(p.name, what="figure name")  # terrains are user text

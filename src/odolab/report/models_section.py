@@ -236,9 +236,11 @@ def plot_questions(results: Sequence[ExperimentResult]) -> Figure:
             else:
                 ax.text(i, 0.0, "stalled", ha="center", va="bottom", color="tab:red")
         ax.axhline(0.0, color="0.7", lw=0.8)
-        ax.set_xticks(range(len(res.conditions)), [c.label for c in res.conditions], fontsize=8)
+        labels = [figure_text(c.label) for c in res.conditions]  # a user's TOML wrote them
+        ax.set_xticks(range(len(res.conditions)), labels, fontsize=8)
         ax.set_ylabel("slip (%)")
-        ax.set_title(textwrap.fill(res.experiment.question, 90), fontsize=9)
+        question = figure_text(res.experiment.question, limit=270)
+        ax.set_title(textwrap.fill(question, 90, break_long_words=False), fontsize=9)
     fig.tight_layout()
     return fig
 
