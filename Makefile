@@ -17,10 +17,11 @@ $(STAMP): $(BIN)/python pyproject.toml
 demo: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/odolab demo
 
-# one test process more than the cores: the real-time robot runs and the browsers wait more than
-# they compute, and a third process on 2 cores fills that wait (8 min 56 s against 10 min 13 s,
-# docs/testing.md)
-WORKERS ?= $(shell $(PYTHON) -c "import os; print(len(os.sched_getaffinity(0)) + 1)" 2>/dev/null || echo 3)
+# two test processes more than the cores: the real-time robot runs and the browsers wait more than
+# they compute, and the extra processes fill that wait (on 2 cores: 3 workers 8 min 56 s against
+# 2 workers' 10 min 13 s; 4 workers 0.526 s of wall a second of CPU against 3 workers' 0.541-0.557,
+# three runs each way alternated: docs/testing.md)
+WORKERS ?= $(shell $(PYTHON) -c "import os; print(len(os.sched_getaffinity(0)) + 2)" 2>/dev/null || echo 4)
 
 # PYTHONDONTWRITEBYTECODE is emptied for the tests: where the environment sets it (this project's
 # machines do), every test process and every `odolab` a test starts compiled odolab's source
