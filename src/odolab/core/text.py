@@ -38,6 +38,7 @@ if TYPE_CHECKING:
 __all__ = [
     "CSV_FORMULA_STARTS",
     "MAX_ECHO_CHARS",
+    "MAX_FIGURE_CHARS",
     "MAX_NAME_CHARS",
     "UnsafeNameError",
     "display_value",
@@ -109,7 +110,7 @@ def figure_text(text: object, limit: int = MAX_FIGURE_CHARS) -> str:
         if drawable is not None:
             shown = "".join(c if ord(c) in drawable else "□" for c in shown)
     if len(shown) > limit:
-        head = max(0, (limit - 1) * 2 // 3) if limit > 1 else 0
+        head = (limit - 1) * 2 // 3
         tail = max(0, limit - 1 - head)
         shown = shown[:head] + "…" + (shown[-tail:] if tail else "")
     return shown.replace("$", r"\$")
