@@ -206,7 +206,7 @@ def test_the_control_cycle_kernel_takes_no_generator() -> None:
     SIGTERM) crashed numba: the board process segfaulted once in 60 runs of the safety suite."""
     from numba.core import types
 
-    from odolab.sim import physics
+    from odolab.sim import _physics_jit as physics  # the compiled physics (VirtualRobot's default)
 
     robot = VirtualRobot(TRUTH_PRESETS["jaguar-lab"], NOM, "tile", seed=3)
     robot.set_wheel_speeds(0.4, 0.5)
@@ -243,7 +243,7 @@ def test_ctrl_c_and_sigterm_wait_for_the_batch_kernel(monkeypatch: pytest.Monkey
     signal handler would crash numba: the signal acts when the kernel has returned."""
     import signal
 
-    from odolab.sim import physics
+    from odolab.sim import _physics_jit as physics  # where simulate_batch finds its kernel
 
     real = physics._batch
     order: list[str] = []

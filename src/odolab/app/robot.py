@@ -392,7 +392,7 @@ def virtual_board(
         command_timeout=req.command_timeout,
     )
     faults = Faults(drop=req.drop, jitter=req.jitter, silent_after=req.silent_after)
-    plant = make_plant(req.truth, nominal, req.terrain, seed=req.seed)
+    plant = make_plant(req.truth, nominal, req.terrain, seed=req.seed, compiled=False)  # real time
     jaguar = VirtualJaguar(plant, board, faults=faults, seed=req.seed, on_speeds=on_speeds)
     server = VirtualJaguarServer(jaguar, req.host, req.port)
     h, p = server.address
@@ -421,7 +421,7 @@ def _board_2014(
         variant=req.variant,
         silent_after=req.silent_after,
     )
-    plant = make_plant(req.truth, nominal, req.terrain, seed=req.seed)
+    plant = make_plant(req.truth, nominal, req.terrain, seed=req.seed, compiled=False)  # real time
     board = VirtualJaguar2014(plant, config, on_speeds=on_speeds)
     server = VirtualJaguar2014Server(board, req.host, req.port)
     h, p = server.address

@@ -78,10 +78,11 @@ def _plain_njit(*args: object, **options: object) -> object:
     return lambda func: _plain(func, inline)
 
 
-def twin(func: F, namespace: dict[str, object]) -> F:
+def twin(func: F, namespace: dict[str, object], *, inline: bool = True) -> F:
     """The compiled twin of the plain kernel ``func``: ``njit(cache=True, inline="always")`` of a
     copy of it whose global names are looked up in ``namespace``, which gets the twin under
-    ``func``'s name.
+    ``func``'s name (``inline=False``: a kernel of its own, ``njit(cache=True)``, for a loop
+    that Python calls).
 
     A plain module's kernels call each other by name (:mod:`odolab.core._step_kernels`), and a
     compiled kernel can only call compiled ones: the twins share a namespace made from the plain
@@ -93,7 +94,8 @@ def twin(func: F, namespace: dict[str, object]) -> F:
     copy.__qualname__ = func.__qualname__  # numba's cache files are named by these
     copy.__module__ = func.__module__
     copy.__doc__ = func.__doc__
-    compiled = cast(F, njit(cache=True, inline="always")(copy))
+    made = njit(cache=True, inline="always") if inline else njit(cache=True)
+    compiled = cast(F, made(copy))
     namespace[func.__name__] = compiled
     return compiled
 

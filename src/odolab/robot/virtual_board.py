@@ -91,8 +91,9 @@ class BoardServer(ABC, Generic[_B]):
         self.late_max = 0.0
 
     def _warm_up(self) -> None:
-        """Warm up the plant (the simulator compiles its physics on the first step, which would
-        otherwise stall the first reports): one millisecond with the wheels still."""
+        """Warm up the plant (a compiled simulator loads or compiles its physics on the first
+        step, which would otherwise stall the first reports; `odolab robot sim-server`'s runs
+        its step as Python and has nothing to load): one millisecond with the wheels still."""
         self.board.plant.advance(1e-3)
 
     def _open(self, host: str, port: int) -> socket.socket:

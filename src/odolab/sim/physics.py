@@ -32,7 +32,10 @@ effective track width of a run differs from ``track_width`` by a factor ``1 + N(
 
 :class:`VirtualRobot` steps one robot in time (for the live control loop and the virtual Jaguar
 server). :func:`simulate_batch` runs many scripted trials at once (compiled loop over trials and
-steps, one random generator) with the very same step function.
+steps, one random generator) with the very same step function. The step is written once, as
+plain Python (:mod:`odolab.sim._physics_kernels`); numba compiles it
+(:mod:`odolab.sim._physics_jit`, imported on first use), and a robot made with
+``compiled=False`` (the real-time ``odolab robot sim-server`` board) runs the source itself.
 """
 
 from __future__ import annotations
@@ -43,15 +46,14 @@ import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from types import ModuleType
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from odolab.core._jit import njit
 from odolab.core.defaults import DEFAULT_TERRAIN
 from odolab.core.errors import SimError
-from odolab.core.kinematics import body_motion, step_pose
 from odolab.core.params import RobotParams
 from odolab.core.trajectory import Pose
 from odolab.sim.terrains import Terrain, get_terrain
@@ -107,248 +109,6 @@ def kernel_params(truth: TrueParams, nominal: RobotParams, terrain: Terrain) -> 
     return p
 
 
-# --------------------------------------------------------------------------- compiled physics
-
-
-@njit(cache=True, inline="always")
-def _denominator(p, dnl, dnr):  # type: ignore[no-untyped-def]  # pragma: no cover - compiled
-    """The true model's turning denominator for commanded wheel motions dnl, dnr (turn slip)."""
-    if p[19] == 0.0:
-        return p[4]
-    total = abs(dnl) + abs(dnr)
-    s = abs(dnr - dnl) / total if total > 0.0 else 1.0
-    return p[4] * (1.0 - p[19] * (1.0 - s))
-
-
-@njit(cache=True, inline="always")
-def _move(x, y, h, dsl, dsr, p, dth_noise, den):  # type: ignore[no-untyped-def]  # pragma: no cover
-    """The body's exact arc for true wheel displacements dsl, dsr through the true model."""
-    fwd, side, dth = body_motion(p[14], p[15], p[16], p[17], den, p[18], dsl, dsr)
-    dth += dth_noise
-    side = p[18] * dth
-    return step_pose(x, y, h, fwd, side, dth, True)
-
-
-@njit(cache=True, inline="always")
-def _step(x, y, h, dnl, dnr, dt, p, zl, zr, zs):  # type: ignore[no-untyped-def]  # pragma: no cover
-    """One physics step: nominal wheel surface displacements dnl, dnr (m) -> new true pose."""
-    rl = p[0] if dnl >= 0.0 else p[1]
-    rr = p[2] if dnr >= 0.0 else p[3]
-    if p[9] != 0.0 and dt > 0.0:
-        rl *= max(0.0, 1.0 - p[9] * abs(dnl) / dt)
-        rr *= max(0.0, 1.0 - p[9] * abs(dnr) / dt)
-    dsl = dnl * rl
-    dsr = dnr * rr
-    if p[6] != 0.0:
-        dsl += math.sqrt(p[6] * abs(dsl)) * zl
-    if p[7] != 0.0:
-        dsr += math.sqrt(p[7] * abs(dsr)) * zr
-    noise = 0.0
-    if p[8] != 0.0:
-        noise = math.sqrt(p[8] * abs(dnr - dnl) / p[5]) * zs
-    return _move(x, y, h, dsl, dsr, p, noise, _denominator(p, dnl, dnr))
-
-
-@njit(cache=True, inline="always")
-def _slide(x, y, h, vl, vr, p):  # type: ignore[no-untyped-def]  # pragma: no cover - compiled
-    """Abrupt stop from wheel speeds vl, vr (m/s): each side slides on by stop_slide * v^2."""
-    if p[10] == 0.0:
-        return x, y, h
-    dsl = math.copysign(p[10] * vl * vl, vl)
-    dsr = math.copysign(p[10] * vr * vr, vr)
-    return _move(x, y, h, dsl, dsr, p, 0.0, _denominator(p, vl, vr))
-
-
-@njit(cache=True)
-def _advance(state, p, vl, vr, dt, nsteps, z):  # type: ignore[no-untyped-def]  # pragma: no cover
-    """Advance a single robot nsteps at dt with wheel speeds vl, vr (m/s).
-
-    state = [x, y, h, wheel_l_ticks, wheel_r_ticks]; ``z``: the steps' standard normal draws,
-    in order (left, right, slip of each step; only those whose sigma in ``p`` is not zero).
-    Returns True when stalled (then nothing moves and no draw is used)."""
-    stalled = p[11] == 0.0 and vl * vr < 0.0
-    if stalled:
-        return True
-    dnl = vl * dt
-    dnr = vr * dt
-    tl = dnl / p[12]
-    tr = dnr / p[13]
-    x = state[0]
-    y = state[1]
-    h = state[2]
-    j = 0
-    for _ in range(nsteps):
-        zl = 0.0
-        zr = 0.0
-        zs = 0.0
-        if p[6] != 0.0:
-            zl = z[j]
-            j += 1
-        if p[7] != 0.0:
-            zr = z[j]
-            j += 1
-        if p[8] != 0.0:
-            zs = z[j]
-            j += 1
-        x, y, h = _step(x, y, h, dnl, dnr, dt, p, zl, zr, zs)
-        state[3] += tl
-        state[4] += tr
-    state[0] = x
-    state[1] = y
-    state[2] = h
-    return False
-
-
-@njit(cache=True)
-def _run_schedule(state, p, left, right, vl0, vr0, stalled0, period, dt, nsteps, rest, z, t0, out):  # type: ignore[no-untyped-def]  # pragma: no cover
-    """:meth:`VirtualRobot.run_schedule`'s loop: for each report k, the wheel speeds
-    ``left[k]``, ``right[k]`` set as :meth:`~VirtualRobot.set_wheel_speeds` sets them (an abrupt
-    stop slides), ``period`` advanced as :meth:`~VirtualRobot.advance` advances it (``nsteps``
-    steps of ``dt``, then one of ``rest`` when it is not 0) with the draws ``z`` in order, and
-    (time, wheel ticks left and right, x, y, unwrapped heading) written to ``out[k]``. The
-    same operations in the same order as those methods, so the same numbers."""
-    vl_prev = vl0
-    vr_prev = vr0
-    stalled = stalled0
-    t = t0
-    j = 0
-    for k in range(left.shape[0]):
-        vl = left[k]
-        vr = right[k]
-        if vl == 0.0 and vr == 0.0 and (vl_prev != 0.0 or vr_prev != 0.0) and not stalled:
-            x, y, h = _slide(state[0], state[1], state[2], vl_prev, vr_prev, p)
-            state[0] = x
-            state[1] = y
-            state[2] = h
-        vl_prev = vl
-        vr_prev = vr
-        stalled = p[11] == 0.0 and vl * vr < 0.0
-        if nsteps > 0:
-            stalled = _advance(state, p, vl, vr, dt, nsteps, z[j:])
-            if not stalled:
-                j += nsteps * _draws_per_step(p)
-        if rest > 0.0:
-            stalled = _advance(state, p, vl, vr, rest, 1, z[j:])
-            if not stalled:
-                j += _draws_per_step(p)
-        t += period
-        out[k, 0] = t
-        out[k, 1] = state[3]
-        out[k, 2] = state[4]
-        out[k, 3] = state[0]
-        out[k, 4] = state[1]
-        out[k, 5] = state[2]
-    return stalled
-
-
-@njit(cache=True, inline="always")
-def _draws_per_step(p):  # type: ignore[no-untyped-def]  # pragma: no cover - compiled
-    """The standard normal draws one step uses (left, right, scrub: those whose sigma is set)."""
-    return int(p[6] != 0.0) + int(p[7] != 0.0) + int(p[8] != 0.0)
-
-
-@njit(cache=True, inline="always")
-def _toward(pos: float, step: float, target: float) -> tuple[float, bool]:  # pragma: no cover
-    """A wheel's count after one step toward ``target``, and whether it stopped there."""
-    n = pos + step
-    if (step > 0.0 and n >= target) or (step < 0.0 and n <= target):
-        return target, True
-    return n, False
-
-
-@njit(cache=True, inline="always")
-def _report(  # type: ignore[no-untyped-def]  # pragma: no cover - compiled
-    out_l, out_r, i: int, k: int, pl: float, pr: float
-) -> int:
-    """Record the next report of trial ``i`` (the counts rounded); its index."""
-    k += 1
-    out_l[i, k] = math.floor(pl + 0.5)
-    out_r[i, k] = math.floor(pr + 0.5)
-    return k
-
-
-@njit(cache=True)
-def _batch(  # type: ignore[no-untyped-def]  # pragma: no cover - compiled
-    P,
-    seg_l,
-    seg_r,
-    seg_vl,
-    seg_vr,
-    nseg,
-    h0,
-    spr,
-    dt,
-    stall_reports,
-    rng,
-    out_l,
-    out_r,
-    out_len,
-    out_pose,
-    out_stalled,
-):
-    """Scripted trials, one after the other, same step as :func:`_advance`.
-
-    Segment j of trial i turns the wheels by seg_l/seg_r ticks (integers, signed) at seg_vl/seg_vr
-    (m/s, signs as the ticks); the wheel stops exactly on its target count (the motor controller
-    stops by encoder). Every segment starts on a report instant; after its last wheel stops the
-    robot slides (abrupt stop) and stands still until the next report instant."""
-    n = P.shape[0]
-    for i in range(n):
-        p = P[i]
-        x = 0.0
-        y = 0.0
-        h = h0[i]
-        pl = 0.0
-        pr = 0.0
-        k = 0
-        out_l[i, 0] = 0
-        out_r[i, 0] = 0
-        phase = 0
-        stalled = False
-        for j in range(nseg[i]):
-            vl = seg_vl[i, j]
-            vr = seg_vr[i, j]
-            if p[11] == 0.0 and vl * vr < 0.0:
-                for _ in range(stall_reports):
-                    k = _report(out_l, out_r, i, k, pl, pr)
-                stalled = True
-                break
-            target_l = pl + seg_l[i, j]
-            target_r = pr + seg_r[i, j]
-            sl = vl * dt / p[12]
-            sr = vr * dt / p[13]
-            done_l = seg_l[i, j] == 0 or sl == 0.0
-            done_r = seg_r[i, j] == 0 or sr == 0.0
-            while not (done_l and done_r):
-                dl = 0.0
-                dr = 0.0
-                if not done_l:
-                    nl, done_l = _toward(pl, sl, target_l)
-                    dl = nl - pl
-                    pl = nl
-                if not done_r:
-                    nr, done_r = _toward(pr, sr, target_r)
-                    dr = nr - pr
-                    pr = nr
-                zl = rng.standard_normal() if p[6] != 0.0 else 0.0
-                zr = rng.standard_normal() if p[7] != 0.0 else 0.0
-                zs = rng.standard_normal() if p[8] != 0.0 else 0.0
-                x, y, h = _step(x, y, h, dl * p[12], dr * p[13], dt, p, zl, zr, zs)
-                phase += 1
-                if phase == spr:
-                    phase = 0
-                    k = _report(out_l, out_r, i, k, pl, pr)
-            x, y, h = _slide(x, y, h, vl, vr, p)
-            if phase != 0:
-                phase = 0
-                k = _report(out_l, out_r, i, k, pl, pr)
-        out_len[i] = k + 1
-        out_pose[i, 0] = x
-        out_pose[i, 1] = y
-        out_pose[i, 2] = h
-        out_stalled[i] = stalled
-
-
 # --------------------------------------------------------------------------- batch API
 
 
@@ -371,6 +131,13 @@ class BatchResult:
     stalled: NDArray[np.bool_]
     track_width: NDArray[np.float64]
     report_rate: float
+
+
+def _physics_jit() -> ModuleType:
+    """The compiled physics (:mod:`odolab.sim._physics_jit`; importing it imports numba)."""
+    from odolab.sim import _physics_jit
+
+    return _physics_jit
 
 
 #: The signals whose handlers :func:`_signals_held` holds back.
@@ -472,6 +239,8 @@ def simulate_batch(
     out_len = np.zeros(n, dtype=np.int64)
     out_pose = np.zeros((n, 3))
     out_stalled = np.zeros(n, dtype=np.bool_)
+    from odolab.sim._physics_jit import _batch
+
     with _signals_held():
         _batch(
             P, seg_l, seg_r, vl, vr, nseg, h0, spr, float(dt), stall_reports, rng,
@@ -503,6 +272,7 @@ class VirtualRobot:
         *,
         seed: int = 0,
         dt: float = 0.001,
+        compiled: bool = True,
     ) -> None:
         if not (isinstance(dt, int | float) and math.isfinite(dt) and dt > 0):
             raise SimError(f"physics step dt must be a positive number of seconds, got {dt!r}")
@@ -521,7 +291,18 @@ class VirtualRobot:
         self._vr = 0.0
         self._time = 0.0
         self._stalled = False
+        self.compiled = compiled
         self.reset()
+
+    def _kernels(self) -> ModuleType:
+        """The step's kernels: numba's (:mod:`odolab.sim._physics_jit`, loaded on first use), or
+        with ``compiled=False`` their plain-Python source (:mod:`odolab.sim._physics_kernels`:
+        the same numbers; for a robot stepped in real time, whose process then loads no numba)."""
+        if self.compiled:
+            return _physics_jit()
+        from odolab.sim import _physics_kernels
+
+        return _physics_kernels
 
     def reset(
         self, start: tuple[float, float, float] = (0.0, 0.0, 0.0), *, misalign: bool = True
@@ -563,7 +344,7 @@ class VirtualRobot:
         if not (math.isfinite(vl) and math.isfinite(vr)):
             raise SimError(f"wheel speeds must be finite, got {left!r}, {right!r}")
         if vl == 0.0 and vr == 0.0 and (self._vl != 0.0 or self._vr != 0.0) and not self._stalled:
-            x, y, h = _slide(
+            x, y, h = self._kernels()._slide(
                 self._state[0], self._state[1], self._state[2], self._vl, self._vr, self._p
             )
             self._state[0:3] = (x, y, h)
@@ -573,15 +354,16 @@ class VirtualRobot:
     def advance(self, duration: float) -> None:
         """Integrate ``duration`` seconds at the fixed step (a shorter last step if needed)."""
         d, n, rest = self._steps_of(duration)
+        advance = self._kernels()._advance
         while n > 0:  # in blocks: the draws of one block in memory at a time
             k = min(n, _STEPS_PER_CALL)
             self._stalled = bool(
-                _advance(self._state, self._p, self._vl, self._vr, self.dt, k, self._normals(k))
+                advance(self._state, self._p, self._vl, self._vr, self.dt, k, self._normals(k))
             )
             n -= k
         if rest > 0.0:
             self._stalled = bool(
-                _advance(self._state, self._p, self._vl, self._vr, rest, 1, self._normals(1))
+                advance(self._state, self._p, self._vl, self._vr, rest, 1, self._normals(1))
             )
         self._time += d
 
@@ -611,7 +393,7 @@ class VirtualRobot:
         if vl.size == 0:
             return out
         self._stalled = bool(
-            _run_schedule(
+            _physics_jit()._run_schedule(
                 self._state, p, vl, vr, self._vl, self._vr, self._stalled, d, self.dt, n, rest,
                 z, self._time, out,
             )

@@ -22,8 +22,11 @@ def make_plant(
     terrain: str = DEFAULT_TERRAIN,
     *,
     seed: int = DEFAULT_SEED,
+    compiled: bool = True,
 ) -> VirtualRobot:
-    """The simulated robot for ``truth`` (a name in ``TRUTH_PRESETS`` or a ``TrueParams``)."""
+    """The simulated robot for ``truth`` (a name in ``TRUTH_PRESETS`` or a ``TrueParams``);
+    ``compiled=False``: its physics step as plain Python (the same numbers; for a board that
+    runs in real time, whose process then loads no numba)."""
     if isinstance(truth, str):
         if truth not in TRUTH_PRESETS:
             raise SimError(
@@ -32,4 +35,4 @@ def make_plant(
         truth = TRUTH_PRESETS[truth]
     if not isinstance(truth, TrueParams):
         raise SimError(f"truth must be a preset name or TrueParams, got {type(truth).__name__}")
-    return VirtualRobot(truth, nominal, terrain, seed=seed)
+    return VirtualRobot(truth, nominal, terrain, seed=seed, compiled=compiled)
