@@ -169,7 +169,7 @@ def test_the_cluster_takes_the_items_after_the_timed_ones_in_order(
         from distributed import Client
 
         with Client(
-            processes=False, n_workers=2, threads_per_worker=1, dashboard_address=None
+            processes=False, n_workers=2, threads_per_worker=1, dashboard_address="127.0.0.1:0"
         ) as client:
             yield client
 
@@ -260,7 +260,10 @@ def test_one_block_starts_one_local_cluster_for_all_its_maps(
         started.append(workers)
         running.append(workers)
         with LocalCluster(
-            processes=False, n_workers=workers, threads_per_worker=1, dashboard_address=None
+            processes=False,
+            n_workers=workers,
+            threads_per_worker=1,
+            dashboard_address="127.0.0.1:0",
         ) as local:
             yield local
         running.remove(workers)
@@ -296,7 +299,10 @@ def test_calibrate_lsq_files_starts_one_local_cluster(
 
         started.append(workers)
         with LocalCluster(
-            processes=False, n_workers=workers, threads_per_worker=1, dashboard_address=None
+            processes=False,
+            n_workers=workers,
+            threads_per_worker=1,
+            dashboard_address="127.0.0.1:0",
         ) as local:
             yield local
 
