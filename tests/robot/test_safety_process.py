@@ -396,5 +396,10 @@ def test_a_frozen_host_stops_the_robot_and_fails_the_run(tmp_path: Path) -> None
     doc = json.loads((tmp_path / "run" / "run.json").read_text())
     assert doc["completed"] is False and "LateCycleError" in doc["aborted"]
     assert doc["status"] == "excluded" and "late" in doc["exclusion_reason"]
-    if seen_by == "loop":  # the freeze is in the loop's record (else in the sentence above)
-        assert doc["stats"]["lateness_max"] >= freeze - 0.1
+    if seen_by == "loop":
+        # the loop's check at a cycle's top records that cycle's lateness (the freeze); its second
+        # check, just before the motion command, sees a freeze that fell after the top, and then
+        # the sentence alone says it (its seconds checked above, tests/robot/freeze.py) while the
+        # record holds no cycle late beyond the watchdog bound (0.5 s)
+        recorded = doc["stats"]["lateness_max"]
+        assert recorded >= freeze - 0.1 or recorded < 0.5, recorded
