@@ -5,7 +5,8 @@ source: :func:`odolab.core._jit.twin`) for the scripted batches and the schedule
 :mod:`odolab.sim.physics`; a :class:`~odolab.sim.physics.VirtualRobot` made with
 ``compiled=False`` (the ``odolab robot sim-server`` board, which runs in real time: a 50 ms
 cycle's 50 steps take about half a millisecond as Python) calls them here, and its process does
-not load numba (its import and its kernels' load: about half a second of CPU). The same
+not load numba (a server serving one drive: 0.59 s of CPU against 1.87 s with numba's physics,
+benchmarks/bench_sim_server_process.py). The same
 operations in the same order, so both ways give the same numbers (tests/sim/test_plain_physics.py).
 The kernels take the parameter vector of :func:`odolab.sim.physics.kernel_params`.
 """
