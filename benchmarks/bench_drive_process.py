@@ -15,12 +15,13 @@ from __future__ import annotations
 import argparse
 import os
 import resource
-import statistics
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
+
+from _timing import alternated, print_ratio
 
 #: The baseline's start: numba and the compiled step loaded (and called) before the CLI runs.
 BEFORE = (
@@ -57,24 +58,15 @@ def main() -> None:
     try:
         time.sleep(3.0)  # the server's start
         runs = {"drive now": NOW, "drive with numba's step (before)": BEFORE}
-        for name, code in runs.items():  # numba's cache filled, the bytecode written
-            _drive(code, args.port, tmp / f"warm-{len(name)}")
-        cpu: dict[str, list[float]] = {name: [] for name in runs}
-        for k in range(args.rounds):
-            for name, code in runs.items():
-                cpu[name].append(_drive(code, args.port, tmp / f"{k}-{len(name)}"))
+        cpu = alternated(
+            list(runs),
+            lambda name, tag: _drive(runs[name], args.port, tmp / f"{tag}-{len(name)}"),
+            args.rounds,
+        )
     finally:
         server.terminate()
         server.wait(timeout=10)
-    for name, values in cpu.items():
-        print(f"{name:34s} {statistics.median(values):.3f} s CPU (median of {args.rounds})")
-    ratios = [
-        b / a
-        for a, b in zip(cpu["drive now"], cpu["drive with numba's step (before)"], strict=True)
-    ]
-    print(
-        f"ratio before / now: {statistics.median(ratios):.2f}x (rounds {min(ratios):.2f}-{max(ratios):.2f})"
-    )
+    print_ratio(cpu, "drive now", "drive with numba's step (before)", width=34)
 
 
 if __name__ == "__main__":

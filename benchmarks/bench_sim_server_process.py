@@ -16,12 +16,13 @@ from __future__ import annotations
 import argparse
 import os
 import resource
-import statistics
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
+
+from _timing import alternated, print_ratio
 
 NOW = "import sys; from odolab.cli import main; sys.exit(main(sys.argv[1:]))"
 #: The baseline: the board's robot made with the compiled physics, as before.
@@ -61,19 +62,12 @@ def main() -> None:
     args = ap.parse_args()
     tmp = Path(tempfile.mkdtemp(prefix="bench-sim-server-"))
     runs = {"sim-server now": NOW, "sim-server with numba's physics (before)": BEFORE}
-    for name, code in runs.items():  # numba's cache filled, the bytecode written
-        _serve_one_drive(code, args.port, tmp / f"warm-{len(name)}")
-    cpu: dict[str, list[float]] = {name: [] for name in runs}
-    for k in range(args.rounds):
-        for name, code in runs.items():
-            cpu[name].append(_serve_one_drive(code, args.port, tmp / f"{k}-{len(name)}"))
-    for name, values in cpu.items():
-        print(f"{name:42s} {statistics.median(values):.3f} s CPU (median of {args.rounds})")
-    now, before = cpu["sim-server now"], cpu["sim-server with numba's physics (before)"]
-    ratios = [b / a for a, b in zip(now, before, strict=True)]
-    print(
-        f"ratio before / now: {statistics.median(ratios):.2f}x (rounds {min(ratios):.2f}-{max(ratios):.2f})"
+    cpu = alternated(
+        list(runs),
+        lambda name, tag: _serve_one_drive(runs[name], args.port, tmp / f"{tag}-{len(name)}"),
+        args.rounds,
     )
+    print_ratio(cpu, "sim-server now", "sim-server with numba's physics (before)")
 
 
 if __name__ == "__main__":

@@ -9,7 +9,10 @@ from __future__ import annotations
 import itertools
 import re
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -23,6 +26,18 @@ from odolab.metrics.cluster import (
     MapReport,
     map_outcomes,
 )
+
+
+@contextmanager
+def _in_process_cluster(workers: int) -> Iterator[Any]:
+    """An in-process Dask cluster standing for the local one, its web server on a free loopback
+    port (``dashboard_address=None`` gives distributed's default, 8787 on every interface)."""
+    from distributed import LocalCluster
+
+    with LocalCluster(
+        processes=False, n_workers=workers, threads_per_worker=1, dashboard_address="127.0.0.1:0"
+    ) as local:
+        yield local
 
 
 def _timeless(where: str) -> str:
@@ -160,8 +175,6 @@ def test_the_cluster_takes_the_items_after_the_timed_ones_in_order(
     """The first items' outcomes (computed here) and the cluster's are one list, in order, and
     the progress counts on from the first items (an in-process Dask cluster stands for the
     local one: tests/scale start real ones)."""
-    from contextlib import contextmanager
-
     import odolab.metrics.cluster as cl
 
     @contextmanager
@@ -246,8 +259,6 @@ def test_one_block_starts_one_local_cluster_for_all_its_maps(
     one_local_cluster they share the cluster the first map started, which stops at the block's
     end; outside, each map starts and stops its own (an in-process Dask cluster stands for the
     local one, counted)."""
-    from contextlib import contextmanager
-
     import odolab.metrics.cluster as cl
 
     started: list[int] = []
@@ -255,16 +266,9 @@ def test_one_block_starts_one_local_cluster_for_all_its_maps(
 
     @contextmanager
     def counted(workers: int):  # type: ignore[no-untyped-def]
-        from distributed import LocalCluster
-
         started.append(workers)
         running.append(workers)
-        with LocalCluster(
-            processes=False,
-            n_workers=workers,
-            threads_per_worker=1,
-            dashboard_address="127.0.0.1:0",
-        ) as local:
+        with _in_process_cluster(workers) as local:
             yield local
         running.remove(workers)
 
@@ -286,8 +290,6 @@ def test_calibrate_lsq_files_starts_one_local_cluster(
     monkeypatch: pytest.MonkeyPatch, optiodom_dir: Path
 ) -> None:
     """The fitted runs and the held-out ones on the same local cluster (it started two)."""
-    from contextlib import contextmanager
-
     import odolab.metrics.cluster as cl
     from odolab.calibration.lsq import calibrate_lsq_files
 
@@ -295,15 +297,8 @@ def test_calibrate_lsq_files_starts_one_local_cluster(
 
     @contextmanager
     def counted(workers: int):  # type: ignore[no-untyped-def]
-        from distributed import LocalCluster
-
         started.append(workers)
-        with LocalCluster(
-            processes=False,
-            n_workers=workers,
-            threads_per_worker=1,
-            dashboard_address="127.0.0.1:0",
-        ) as local:
+        with _in_process_cluster(workers) as local:
             yield local
 
     monkeypatch.setattr(cl, "local_cluster", counted)
