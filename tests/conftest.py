@@ -12,8 +12,9 @@ from hypothesis import HealthCheck, settings
 from fixture_cache import cached, demo_builder
 from shared_data import data_dir, require
 
-#: the suite's own rules: no skips in CI, and the opt-in bound measurements (tests/bounds.py)
-pytest_plugins = ["suite_plugin"]
+#: the suite's own rules (no skips in CI, the opt-in bound measurements: tests/bounds.py), and the
+#: asserts of the test modules rewritten once before xdist starts its workers (a fresh clone)
+pytest_plugins = ["suite_plugin", "rewrite_warmup"]
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 #: One BLAS thread per test process: xdist already runs a process per core, and OpenBLAS's own

@@ -5,10 +5,10 @@ covariances, the Huber line and the numerical Hessian, to 1e-9 relative."""
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
-import statsmodels.api as sm
 from numpy.typing import NDArray
 
 from odolab.core.regression import (
@@ -24,6 +24,14 @@ from odolab.core.regression import (
 RTOL = 1e-9
 
 
+def _ols(y: Any, x: Any) -> Any:
+    """statsmodels' OLS, imported when a test runs: statsmodels.api takes 1.2-1.4 s to import,
+    which every xdist worker paid at collection for the few tests here."""
+    from statsmodels.regression.linear_model import OLS
+
+    return OLS(y, x)
+
+
 def _line(seed: int, n: int = 40) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     rng = np.random.default_rng(seed)
     x = rng.uniform(0.5, 20.0, n)
@@ -36,7 +44,7 @@ def test_ols_line_with_intervals_and_r2(seed: int) -> None:
     x, y = _line(seed)
     for design, centered in ((np.column_stack([np.ones_like(x), x]), True), (x[:, None], False)):
         ours = ols(y, design)
-        ref = sm.OLS(y, design).fit()
+        ref = _ols(y, design).fit()
         np.testing.assert_allclose(ours.params, ref.params, rtol=RTOL)
         np.testing.assert_allclose(ours.bse, ref.bse, rtol=RTOL)
         np.testing.assert_allclose(ours.conf_int(), ref.conf_int(alpha=0.05), rtol=RTOL)
@@ -54,7 +62,7 @@ def test_f_test_of_nested_models() -> None:
     full = np.column_stack([(t == j) for j in range(3)] + [x * (t == j) for j in range(3)])
     reduced = np.column_stack([(t == j) for j in range(3)] + [x])
     ours = f_test(ols(y, full.astype(float)), ols(y, reduced.astype(float)))
-    ref = sm.OLS(y, full.astype(float)).fit().compare_f_test(sm.OLS(y, reduced.astype(float)).fit())
+    ref = _ols(y, full.astype(float)).fit().compare_f_test(_ols(y, reduced.astype(float)).fit())
     np.testing.assert_allclose(ours, ref, rtol=RTOL)
 
 
@@ -65,11 +73,11 @@ def test_cluster_and_panel_covariances() -> None:
     groups = np.repeat(np.arange(24), 5)
     y = x @ np.array([0.3, -1.2, 0.5]) + rng.normal(size=n) + np.repeat(rng.normal(size=24), 5)
     fit = ols(y, x)
-    ref = sm.OLS(y, x).fit(cov_type="cluster", cov_kwds={"groups": groups})
+    ref = _ols(y, x).fit(cov_type="cluster", cov_kwds={"groups": groups})
     np.testing.assert_allclose(cluster_cov(fit, x, groups), ref.cov_params(), rtol=RTOL)
     segs = np.repeat(np.arange(6), 20)
     for lags in (0, 2, 5):
-        ref = sm.OLS(y, x).fit(cov_type="hac-panel", cov_kwds={"groups": segs, "maxlags": lags})
+        ref = _ols(y, x).fit(cov_type="hac-panel", cov_kwds={"groups": segs, "maxlags": lags})
         np.testing.assert_allclose(
             newey_west_panel_cov(fit, x, segs, lags), ref.cov_params(), rtol=RTOL
         )
