@@ -245,6 +245,23 @@ def test_out_with_a_folder_in_place_of_a_run_file_is_refused(
         listener.recv(2048)
 
 
+def test_quiet_runs_in_one_process_leave_no_thread_behind(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--quiet`` says events from a printer thread; each run ends its own (a process that
+    drives many runs, as a notebook or a test does, kept one thread a run)."""
+    import threading
+
+    def printers() -> int:
+        return sum(t.name == "odolab-events" for t in threading.enumerate())
+
+    before = printers()
+    for k in range(3):
+        assert cli(tmp_path / f"run{k}", "sim://") == 0
+    capsys.readouterr()
+    assert printers() == before
+
+
 def test_an_earlier_run_is_never_overwritten(
     tmp_path: Path, listener: socket.socket, capsys: pytest.CaptureFixture[str]
 ) -> None:

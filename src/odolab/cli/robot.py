@@ -194,28 +194,28 @@ class _LiveTable:
 
 class _EventPrinter:
     """Prints lines on stderr from its own thread, so that the control loop never waits on
-    the terminal; :meth:`flush` waits until every line given so far is out."""
+    the terminal; :meth:`close` waits until every line given so far is out and ends the
+    thread (a process that drives many runs keeps no thread per run)."""
 
     def __init__(self) -> None:
         import queue
         import threading
 
-        self._lines: queue.Queue[str] = queue.Queue()
-        threading.Thread(target=self._work, name="odolab-events", daemon=True).start()
+        self._lines: queue.Queue[str | None] = queue.Queue()
+        self._thread = threading.Thread(target=self._work, name="odolab-events", daemon=True)
+        self._thread.start()
 
     def put(self, line: str) -> None:
         self._lines.put(line)
 
     def _work(self) -> None:
-        while True:
-            line = self._lines.get()
-            try:
-                echo(line, err=True)
-            finally:
-                self._lines.task_done()
+        while (line := self._lines.get()) is not None:
+            echo(line, err=True)
 
-    def flush(self) -> None:
-        self._lines.join()
+    def close(self) -> None:
+        """Every line given so far printed, then the thread ended."""
+        self._lines.put(None)
+        self._thread.join()
 
 
 def measure_virtual_command(trial_id: str, db: Path | str | None) -> str:
@@ -362,7 +362,8 @@ class _Views:
     def stop(self) -> None:
         """The live view stopped and every event said (once)."""
         if self.printer is not None:
-            self.printer.flush()
+            self.printer.close()
+            self.printer = None
         if self.live is not None:
             self.live.stop()
             self.live = None
