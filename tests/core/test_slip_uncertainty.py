@@ -144,6 +144,36 @@ def test_the_fits_end_of_piece_form_is_the_cycle_by_cycle_one_with_its_derivativ
         assert np.allclose((xyh2 - xyh) / step, d_xyh[:, c], rtol=1e-4, atol=1e-6), TERMS[c]
 
 
+def test_the_fits_repeated_evaluations_equal_fresh_ones_in_every_thread() -> None:
+    """end_second_order keeps its large arrays on the pairs between a fit's calls: a call
+    gives, to the bit, what the same call on fresh pairs gives, whatever was evaluated
+    before it, and threads sharing the pairs do not disturb each other."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    model = SlipModel(yaw_w=-0.1, q_fwd=1e-4, q_yaw=2e-3, k_yaw=0.15, d_yaw=1e-3, d_turn=2e-3)
+    t, dl, dr = (x[50:120].copy() for x in _drive())
+    dl[0] = dr[0] = 0.0
+    prop = propagate_terms(
+        t, dl * NOMINAL.left_metres_per_tick, dr * NOMINAL.right_metres_per_tick,
+        NOMINAL.with_(model=model), (0.0, 0.0, 0.0),
+    )  # fmt: skip
+    shared = EndPairs.join([prop.end_pairs(), prop.end_pairs()])
+    thetas = [terms_of(model) * f for f in (1.0, 30.0, 1e-3, 1e4, 1.0)]
+
+    def fresh(theta: np.ndarray) -> tuple[np.ndarray, ...]:
+        return end_second_order(theta, EndPairs.join([prop.end_pairs(), prop.end_pairs()]))
+
+    expected = [fresh(th) for th in thetas]
+    for th, want in zip(thetas, expected, strict=True):
+        got = end_second_order(th, shared)
+        assert all(np.array_equal(a, b, equal_nan=True) for a, b in zip(got, want, strict=True))
+    with ThreadPoolExecutor(4) as pool:
+        rounds = list(pool.map(lambda k: [end_second_order(th, shared) for th in thetas], range(8)))
+    for got_all in rounds:
+        for got, want in zip(got_all, expected, strict=True):
+            assert all(np.array_equal(a, b, equal_nan=True) for a, b in zip(got, want, strict=True))
+
+
 def test_drift_grows_like_the_distance_and_white_noise_like_its_root() -> None:
     t = np.arange(0.0, 10.0 + 1e-9, 0.05)
     d = np.full(t.size, np.round(0.5 * 0.05 / NOMINAL.left_metres_per_tick))

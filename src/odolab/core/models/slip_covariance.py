@@ -36,8 +36,10 @@ once, with its derivatives by the terms (fitting them, :mod:`odolab.calibration.
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING, cast
 
 import numpy as np
@@ -202,6 +204,28 @@ class EndPairs:
     ce: FloatArray
     ce0: FloatArray
 
+    @cached_property
+    def cc_by_term(self) -> FloatArray:
+        """``cc`` with the heading term first, (m, 4, K, K), contiguous: what
+        :func:`end_second_order` weighs by each term at every call of a fit."""
+        return np.ascontiguousarray(self.cc.transpose(0, 3, 1, 2))
+
+    @cached_property
+    def _work(self) -> threading.local:
+        """:func:`end_second_order`'s arrays, made once for these pairs (a fit evaluates them
+        some hundred times): a fresh array of a few MB costs more in page faults than the
+        arithmetic done in it. One set a thread."""
+        return threading.local()
+
+    def work(self, name: str, shape: tuple[int, ...]) -> FloatArray:
+        """The calling thread's array ``name`` of ``shape`` for :func:`end_second_order`
+        (its content is whatever the last call left)."""
+        arrays: dict[str, FloatArray] = self._work.__dict__
+        out = arrays.get(name)
+        if out is None or out.shape != shape:
+            out = arrays[name] = np.empty(shape)
+        return out
+
     @staticmethod
     def join(parts: Sequence[EndPairs]) -> EndPairs:
         k = max((p.steps.shape[1] for p in parts), default=0)
@@ -231,17 +255,28 @@ def end_second_order(
     th = theta[HEADING_TERMS]
     a = pairs.steps
     ap = np.stack((-a[..., 1], a[..., 0]), axis=-1)
-    cct = pairs.cc.transpose(0, 3, 1, 2)  # (m, 4, K, K), a view
-    c = np.einsum("h,mhkj->mkj", th, cct) + pairs.c0
+    cct = pairs.cc_by_term  # (m, 4, K, K)
+    kk = (a.shape[0], a.shape[1], a.shape[1])
+    # the (m, K, K) and (m, 4, K, K) arrays are the pairs' own, reused from call to call (the
+    # arithmetic is the same, operation for operation, as with new arrays: the same bits)
+    c = np.einsum("h,mhkj->mkj", th, pairs.cc.transpose(0, 3, 1, 2), out=pairs.work("c", kk))
+    c += pairs.c0
     s = np.einsum("mkk->mk", c)
     ds = np.einsum("mkkh->mkh", pairs.cc)
     half = np.exp(-0.5 * s)
     # heading_moments, with its two exponentials kept for the derivatives
-    mm = -0.5 * (s[:, :, None] + s[:, None, :])
-    up, down = np.exp(mm + c), np.exp(mm - c)
-    p, q = 0.5 * (up + down), 0.5 * (up - down)
-    f = p - half[:, :, None] - half[:, None, :] + 1.0
-    g = q - c
+    mm = np.add(s[:, :, None], s[:, None, :], out=pairs.work("mm", kk))
+    mm *= -0.5
+    up = np.exp(np.add(mm, c, out=pairs.work("up", kk)), out=pairs.work("up", kk))
+    down = np.exp(np.subtract(mm, c, out=mm), out=mm)
+    p = np.add(up, down, out=pairs.work("p", kk))
+    p *= 0.5
+    q = np.subtract(up, down, out=up)
+    q *= 0.5
+    f = np.subtract(p, half[:, :, None], out=down)  # p - half_k - half_j + 1
+    f -= half[:, None, :]
+    f += 1.0
+    g = np.subtract(q, c, out=c)
     at, apt = a.transpose(0, 2, 1), ap.transpose(0, 2, 1)  # (m, 2, K)
     xy = at @ f @ a + apt @ g @ ap
     ce = np.einsum("h,mkh->mk", th, pairs.ce) + pairs.ce0
@@ -252,8 +287,10 @@ def end_second_order(
     # products is made (4.5x faster at 60 steps than forming df and dg)
     pa, qap = p @ a, q @ ap  # (m, K, 2); p and q are symmetric
     t_m = np.einsum("mkh,mki,mkl->mhil", ds, a, pa) + np.einsum("mkh,mki,mkl->mhil", ds, ap, qap)
-    t_c = at[:, None] @ ((q[:, None] * cct) @ a[:, None])
-    t_c += apt[:, None] @ (((p - 1.0)[:, None] * cct) @ ap[:, None])
+    w = np.multiply(q[:, None], cct, out=pairs.work("w", cct.shape))
+    t_c = at[:, None] @ (w @ a[:, None])
+    p -= 1.0
+    t_c += apt[:, None] @ (np.multiply(p[:, None], cct, out=w) @ ap[:, None])
     u = np.einsum("mk,mkh,mki->mhi", half, ds, a)
     t_h = 0.5 * u[..., :, None] * a.sum(axis=1)[:, None, None, :]
     d_heading = t_c + _plus_transpose(t_h - 0.5 * t_m)
