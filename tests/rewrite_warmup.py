@@ -20,6 +20,7 @@ from __future__ import annotations
 import fnmatch
 import os
 import sys
+import threading
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -72,6 +73,8 @@ def warm(config: pytest.Config, files: list[Path], processes: int) -> int:
     if state is None:  # asserts not rewritten at all (--assert=plain)
         return 0
     processes = max(1, min(processes, len(files)))
+    if threading.active_count() > 1:  # a fork copies one thread: another's lock would hang it
+        processes = 1
     children = []
     for k in range(1, processes):
         pid = os.fork()

@@ -88,6 +88,21 @@ def test_the_suite_s_modules_are_found(pytestconfig: pytest.Config) -> None:
     assert all(p.name.startswith("test_") or p.name == "conftest.py" for p in found), here
 
 
+@pytest.mark.usefixtures("writing")
+def test_with_other_threads_running_it_does_not_fork(
+    tmp_path: Path, pytestconfig: pytest.Config, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A process with threads is not forked (a fork copies only the calling thread, and a lock
+    another thread held would never be released in the child): it rewrites every module."""
+    import threading
+
+    files = _modules(tmp_path, 3)
+    monkeypatch.setattr(threading, "active_count", lambda: 2)
+    monkeypatch.setattr(os, "fork", lambda: pytest.fail("forked"))
+    assert warm(pytestconfig, files, 3) == 3
+    assert all(rewrite._read_pyc(f, _pyc(f)) is not None for f in files)
+
+
 FORKED = """
 import sys
 import types
