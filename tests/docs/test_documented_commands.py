@@ -157,7 +157,7 @@ SKIP: dict[tuple[str, str], str] = {
 }
 
 #: documents whose lines run in their own shell and process (see the module's docstring)
-SUBPROCESS_DOCS = {"README.md", "docs/robot.md", "docs/scale.md"}
+SUBPROCESS_DOCS = {"README.md", "docs/robot.md"}
 
 #: (document, start of the command line) -> what is typed at its questions
 STDIN: dict[tuple[str, str], str] = {
