@@ -162,6 +162,24 @@ def test_bad_effect_and_missing_file(tmp_path: Path) -> None:
         load_experiment(bad)
 
 
+def test_an_experiment_file_is_read_as_a_protocol_file_is(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """One reader for both kinds of file (odolab.sim.protocols.read_toml): the same size cap,
+    the same sentences, the kind's own word in them."""
+    from odolab.sim.protocols import MAX_TOML_BYTES, load_protocol
+
+    big = tmp_path / "big.toml"
+    big.write_text("# " + "x" * MAX_TOML_BYTES + "\n")
+    for load, what in ((load_experiment, "experiment"), (load_protocol, "protocol")):
+        with pytest.raises(
+            SimError, match=rf"big\.toml: 1,000,003 bytes; a {what} TOML is at most"
+        ):
+            load(big)
+        with pytest.raises(SimError, match=rf"missing\.toml: cannot read the {what} \("):
+            load(tmp_path / "missing.toml")
+        with pytest.raises(SimError, match=rf"nope: no such {what} file or built-in {what}"):
+            load("nope")
+
+
 def test_effects_that_are_not_a_list_get_one_sentence() -> None:
     doc = {
         "experiment": {"name": "t", "repeats": 2},

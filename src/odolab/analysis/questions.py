@@ -41,10 +41,8 @@ is a least-squares line through every repeat with the slope's 95 % CI.
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -64,6 +62,9 @@ from odolab.sim.protocols import (
     MAX_SIDE_M,
     MAX_TRIAL_SECONDS,
     SPEED_RANGE_M_S,
+    read_toml,
+    toml_error,
+    toml_number,
 )
 from odolab.sim.terrains import get_terrain
 
@@ -249,35 +250,13 @@ class ExperimentResult:
 # --------------------------------------------------------------------------- parsing
 
 
-def _err(source: str, where: str, message: str) -> SimError:
-    return SimError(f"{source}: {where}: {message}")
-
-
-def _num(
-    source: str,
-    where: str,
-    value: object,
-    *,
-    positive: bool = False,
-    most: float = math.inf,
-    unit: str = "",
-) -> float:
-    """A finite number (> 0 with ``positive``) of magnitude at most ``most`` (in ``unit``)."""
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise _err(source, where, f"expected a finite number, got {value!r}")
-    if positive and value <= 0:
-        raise _err(source, where, f"expected a number > 0, got {value!r}")
-    if abs(value) > most:
-        either = "" if positive else " either way"
-        raise _err(source, where, f"expected at most {most:g} {unit}{either}, got {value!r}")
-    return float(value)
-
-
 def _speed(source: str, where: str, value: object) -> float:
     lo, hi = SPEED_RANGE_M_S
-    v = _num(source, where, value)
+    v = toml_number(source, where, value, positive=False)
     if not lo <= v <= hi:
-        raise _err(source, where, f"expected a wheel speed from {lo:g} to {hi:g} m/s, got {v!r}")
+        raise toml_error(
+            source, where, f"expected a wheel speed from {lo:g} to {hi:g} m/s, got {v!r}"
+        )
     return v
 
 
@@ -290,7 +269,7 @@ def _text(source: str, where: str, value: object) -> str:
     """``value`` as text that a terminal, a JSON file and a report all show as it is."""
     text = str(value)
     if safe_terminal(text) != text:
-        raise _err(source, where,
+        raise toml_error(source, where,
                    f"{quote_input(text)} has a control or invisible character; expected "
                    "plain text on one line")  # fmt: skip
     return text
@@ -299,7 +278,7 @@ def _text(source: str, where: str, value: object) -> str:
 def _keys(source: str, where: str, table: dict[str, object], allowed: set[str]) -> None:
     extra = sorted(set(table) - allowed)
     if extra:
-        raise _err(source, f"{where} key {extra[0]!r}",
+        raise toml_error(source, f"{where} key {extra[0]!r}",
                    f"unknown; expected one of {', '.join(sorted(allowed))}")  # fmt: skip
 
 
@@ -308,55 +287,57 @@ def parse_experiment(doc: dict[str, object], source: str = "<experiment>") -> Ex
     _keys(source, "top level", doc, {"experiment", "conditions", "effects"})
     head = doc.get("experiment")
     if not isinstance(head, dict):
-        raise _err(source, "[experiment]", "missing; expected a table with name and question")
+        raise toml_error(source, "[experiment]", "missing; expected a table with name and question")
     _keys(source, "[experiment]", head, _EXPERIMENT_KEYS)
     name = _text(source, "[experiment] key 'name'", head.get("name", Path(source).stem))
     question = _text(source, "[experiment] key 'question'", head.get("question", ""))
     repeats = head.get("repeats", 100)
     if isinstance(repeats, bool) or not isinstance(repeats, int) or not 2 <= repeats <= 100_000:
-        raise _err(source, "[experiment] key 'repeats'",
+        raise toml_error(source, "[experiment] key 'repeats'",
                    f"expected an integer from 2 to 100000, got {repeats!r}")  # fmt: skip
     speed = _speed(source, "[experiment] key 'speed'", head.get("speed", 0.3))
     trend = head.get("trend")
     if trend not in (None, "speed", "radius", "decel"):
-        raise _err(source, "[experiment] key 'trend'",
+        raise toml_error(source, "[experiment] key 'trend'",
                    f"expected speed, radius or decel, got {trend!r}")  # fmt: skip
     raw = doc.get("conditions")
     if raw is not None and not isinstance(raw, list):
-        raise _err(source, "[[conditions]]", f"expected an array of tables, got {_kind(raw)}")
+        raise toml_error(source, "[[conditions]]", f"expected an array of tables, got {_kind(raw)}")
     if not raw:
-        raise _err(source, "[[conditions]]", "missing; expected at least one condition")
+        raise toml_error(source, "[[conditions]]", "missing; expected at least one condition")
     conditions = [_condition(source, i, c, speed) for i, c in enumerate(raw)]
     labels = [c.label for c in conditions]
     if trend is not None:
         values = {float(getattr(c, trend)) for c in conditions}
         if len(values) < 2:
-            raise _err(source, "[experiment] key 'trend'",
+            raise toml_error(source, "[experiment] key 'trend'",
                        f"{trend} is {values.pop():g} in every condition; expected conditions "
                        f"that differ in {trend}")  # fmt: skip
     dup = sorted({x for x in labels if labels.count(x) > 1})
     if dup:
-        raise _err(source, "[[conditions]] key 'label'", f"{dup[0]!r} is used twice")
+        raise toml_error(source, "[[conditions]] key 'label'", f"{dup[0]!r} is used twice")
     effects = []
     raw_effects = doc.get("effects", [])
     if not isinstance(raw_effects, list):
-        raise _err(source, "[[effects]]", f"expected an array of tables, got {_kind(raw_effects)}")
+        raise toml_error(
+            source, "[[effects]]", f"expected an array of tables, got {_kind(raw_effects)}"
+        )
     for i, e in enumerate(raw_effects):
         where = f"[[effects]] #{i + 1}"
         if not isinstance(e, dict):
-            raise _err(source, where, "expected a table with a and b")
+            raise toml_error(source, where, "expected a table with a and b")
         _keys(source, where, e, {"a", "b"})
         for key in ("a", "b"):
             if e.get(key) not in labels:
-                raise _err(source, f"{where} key {key!r}",
+                raise toml_error(source, f"{where} key {key!r}",
                            f"expected a condition label, got {e.get(key)!r}")  # fmt: skip
         effects.append((str(e["a"]), str(e["b"])))
     alternate = head.get("alternate", False)
     if not isinstance(alternate, bool):
-        raise _err(
+        raise toml_error(
             source, "[experiment] key 'alternate'", f"expected true or false, got {alternate!r}"
         )
-    sig = {k: _num(source, f"[experiment] key {k!r}", head[k], positive=True)
+    sig = {k: toml_number(source, f"[experiment] key {k!r}", head[k], positive=True)
            for k in ("compass_sigma", "meterstick_sigma", "tape_sigma") if k in head}  # fmt: skip
     return Experiment(
         name, question, tuple(conditions), tuple(effects), repeats,
@@ -367,15 +348,15 @@ def parse_experiment(doc: dict[str, object], source: str = "<experiment>") -> Ex
 def _condition(source: str, index: int, c: object, speed: float) -> Condition:
     where = f"[[conditions]] #{index + 1}"
     if not isinstance(c, dict):
-        raise _err(source, where, "expected a table")
+        raise toml_error(source, where, "expected a table")
     _keys(source, where, c, _CONDITION_KEYS)
     label = c.get("label")
     if not isinstance(label, str) or not label:
-        raise _err(source, f"{where} key 'label'", "missing; expected a non-empty name")
+        raise toml_error(source, f"{where} key 'label'", "missing; expected a non-empty name")
     _text(source, f"{where} key 'label'", label)
     motion = c.get("motion")
     if motion not in _MOTIONS:
-        raise _err(source, f"{where} key 'motion'",
+        raise toml_error(source, f"{where} key 'motion'",
                    f"expected one of {', '.join(_MOTIONS)}, got {motion!r}")  # fmt: skip
     terrain = str(c.get("terrain", DEFAULT_TERRAIN))
     get_terrain(terrain, where=f"{source}: {where} key 'terrain'")
@@ -387,41 +368,55 @@ def _condition(source: str, index: int, c: object, speed: float) -> Condition:
     needs = shape.needs
     for key in needs:
         if key not in c:
-            raise _err(source, f"{where} key {key!r}", f"missing; a {motion} needs it")
+            raise toml_error(source, f"{where} key {key!r}", f"missing; a {motion} needs it")
     for key in ("angle_deg", "radius", "held", "distance"):
         if key in c and key not in shape.takes:
-            raise _err(source, f"{where} key {key!r}", f"does not apply to a {motion}")
+            raise toml_error(source, f"{where} key {key!r}", f"does not apply to a {motion}")
     if "angle_deg" in c:
         most = math.degrees(MAX_ANGLE_RAD)
-        angle = _num(source, f"{where} key 'angle_deg'", c["angle_deg"], most=most, unit="degrees")
+        angle = toml_number(
+            source,
+            f"{where} key 'angle_deg'",
+            c["angle_deg"],
+            most=most,
+            unit="degrees",
+            positive=False,
+        )
         if angle == 0:
-            raise _err(source, f"{where} key 'angle_deg'", "expected a non-zero angle")
+            raise toml_error(source, f"{where} key 'angle_deg'", "expected a non-zero angle")
         kw["angle"] = math.radians(angle)
     if "radius" in c:
-        kw["radius"] = _num(
+        kw["radius"] = toml_number(
             source, f"{where} key 'radius'", c["radius"], positive=True, most=MAX_SIDE_M, unit="m"
         )
     if "distance" in c:
-        kw["distance"] = _num(
-            source, f"{where} key 'distance'", c["distance"], most=MAX_DISTANCE_M, unit="m"
+        kw["distance"] = toml_number(
+            source,
+            f"{where} key 'distance'",
+            c["distance"],
+            most=MAX_DISTANCE_M,
+            unit="m",
+            positive=False,
         )
         if kw["distance"] == 0:
-            raise _err(source, f"{where} key 'distance'", "expected a non-zero distance")
+            raise toml_error(source, f"{where} key 'distance'", "expected a non-zero distance")
     if "held" in c:
         if c["held"] not in ("left", "right"):
-            raise _err(source, f"{where} key 'held'", f"expected left or right, got {c['held']!r}")
+            raise toml_error(
+                source, f"{where} key 'held'", f"expected left or right, got {c['held']!r}"
+            )
         kw["held"] = c["held"]
     stop = c.get("stop", "abrupt")
     if stop not in ("abrupt", "gradual"):
-        raise _err(source, f"{where} key 'stop'", f"expected abrupt or gradual, got {stop!r}")
+        raise toml_error(source, f"{where} key 'stop'", f"expected abrupt or gradual, got {stop!r}")
     kw["stop"] = stop
     if stop == "gradual":
-        kw["decel"] = _num(
+        kw["decel"] = toml_number(
             source, f"{where} key 'decel'", c.get("decel", 0.5), positive=True,
             most=MAX_TRIAL_SECONDS, unit="s",
         )  # fmt: skip
     elif "decel" in c:
-        raise _err(source, f"{where} key 'decel'", 'applies only to stop = "gradual"')
+        raise toml_error(source, f"{where} key 'decel'", 'applies only to stop = "gradual"')
     return Condition(label, shape, **kw)
 
 
@@ -433,25 +428,10 @@ def builtin_experiments() -> dict[str, str]:
 
 
 def load_experiment(name_or_path: str | Path) -> Experiment:
-    """A built-in experiment by name or an experiment TOML file."""
-    path = Path(str(name_or_path))
-    if path.suffix == ".toml" or path.exists():
-        source = str(path)
-        try:
-            text = path.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError) as err:
-            raise SimError(f"{path}: cannot read the experiment ({err})") from err
-    else:
-        entry = resources.files("odolab").joinpath(f"data/experiments/{name_or_path}.toml")
-        if not entry.is_file():
-            raise SimError(f"{name_or_path}: no such experiment file or built-in experiment; "
-                           f"built-ins are {', '.join(builtin_experiments())}")  # fmt: skip
-        source = f"{name_or_path}.toml"
-        text = entry.read_text(encoding="utf-8")
-    try:
-        doc = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        raise SimError(f"{source}: not valid TOML ({err})") from err
+    """A built-in experiment by name or an experiment TOML file (:func:`odolab.sim.protocols.read_toml`)."""
+    doc, source = read_toml(
+        name_or_path, folder="experiments", what="experiment", builtins=builtin_experiments
+    )
     return parse_experiment(doc, source)
 
 

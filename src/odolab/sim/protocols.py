@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -77,8 +77,11 @@ __all__ = [
     "builtin_protocols",
     "load_protocol",
     "parse_protocol",
+    "read_toml",
     "run_protocol",
     "segments_for",
+    "toml_error",
+    "toml_number",
     "true_final_poses",
 ]
 
@@ -178,7 +181,9 @@ Protocol = ExperimentProtocol
 # --------------------------------------------------------------------------- parsing
 
 
-def _err(source: str, where: str, message: str) -> SimError:
+def toml_error(source: str, where: str, message: str) -> SimError:
+    """The error for a value of the TOML file ``source`` at ``where`` (a table or key): the
+    file, the place and the message, in one sentence (protocols and experiment files)."""
     return SimError(f"{source}: {where}: {message}")
 
 
@@ -186,28 +191,36 @@ def _check_keys(source: str, where: str, table: dict[str, object], allowed: set[
     """Refuse the first key of ``table`` that is not in ``allowed``, naming it."""
     unknown = sorted(set(table) - allowed)
     if unknown:
-        raise _err(
+        raise toml_error(
             source,
             f"{where} key {unknown[0]!r}",
             f"unknown key; expected {', '.join(sorted(allowed))}",
         )
 
 
-def _number(
+def toml_number(
     source: str,
     where: str,
     value: object,
     *,
     positive: bool = True,
     within: tuple[float, float] | None = None,
+    most: float = math.inf,
     unit: str = "",
 ) -> float:
+    """``value`` from the TOML file ``source`` at ``where`` as a float: a finite number (no
+    bool, no text), > 0 with ``positive``, inside ``within`` (inclusive) and of magnitude at
+    most ``most`` (in ``unit``) where given; else :func:`toml_error` with what was expected.
+    The one check of a number in a protocol or an experiment file."""
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise _err(source, where, f"expected a number, got {quote_input(value)}")
+        raise toml_error(source, where, f"expected a finite number, got {quote_input(value)}")
     if positive and value <= 0:
-        raise _err(source, where, f"expected a number > 0, got {value!r}")
+        raise toml_error(source, where, f"expected a number > 0, got {value!r}")
+    if abs(value) > most:
+        either = "" if positive else " either way"
+        raise toml_error(source, where, f"expected at most {most:g} {unit}{either}, got {value!r}")
     if within is not None and not within[0] <= value <= within[1]:
-        raise _err(
+        raise toml_error(
             source,
             where,
             f"{value:g}{unit} is outside the allowed {within[0]:g} to {within[1]:g}{unit}",
@@ -225,15 +238,15 @@ def _values(source: str, where: str, value: object, *, maximum: float, unit: str
     if isinstance(value, dict):
         extra = sorted(set(value) - {"from", "to", "step"})
         if extra or not {"from", "to", "step"} <= set(value):
-            raise _err(source, where, "a range must have exactly the keys from, to, step")
-        lo = _number(source, f"{where}.from", value["from"], within=limit, unit=unit)
-        hi = _number(source, f"{where}.to", value["to"], within=limit, unit=unit)
-        step = _number(source, f"{where}.step", value["step"])
+            raise toml_error(source, where, "a range must have exactly the keys from, to, step")
+        lo = toml_number(source, f"{where}.from", value["from"], within=limit, unit=unit)
+        hi = toml_number(source, f"{where}.to", value["to"], within=limit, unit=unit)
+        step = toml_number(source, f"{where}.step", value["step"])
         if hi < lo:
-            raise _err(source, where, f"range goes down (from {lo} to {hi})")
+            raise toml_error(source, where, f"range goes down (from {lo} to {hi})")
         count = math.floor((hi - lo) / step + 1e-9) + 1
         if count > MAX_VALUES:
-            raise _err(
+            raise toml_error(
                 source,
                 where,
                 f"the range from {lo:g} to {hi:g} in steps of {step:g} has {count} values; "
@@ -242,19 +255,19 @@ def _values(source: str, where: str, value: object, *, maximum: float, unit: str
         return [lo + i * step for i in range(count)]
     if isinstance(value, list):
         if not value:
-            raise _err(source, where, "expected at least one value")
+            raise toml_error(source, where, "expected at least one value")
         if len(value) > MAX_VALUES:
-            raise _err(source, where, f"{len(value)} values; expected at most {MAX_VALUES}")
+            raise toml_error(source, where, f"{len(value)} values; expected at most {MAX_VALUES}")
         return [
-            _number(source, f"{where}[{i}]", v, within=limit, unit=unit)
+            toml_number(source, f"{where}[{i}]", v, within=limit, unit=unit)
             for i, v in enumerate(value)
         ]
-    return [_number(source, where, value, within=limit, unit=unit)]
+    return [toml_number(source, where, value, within=limit, unit=unit)]
 
 
 def _text(source: str, where: str, value: object, choices: Sequence[str]) -> str:
     if not isinstance(value, str) or value not in choices:
-        raise _err(source, where, f"got {value!r}; expected one of {', '.join(choices)}")
+        raise toml_error(source, where, f"got {value!r}; expected one of {', '.join(choices)}")
     return value
 
 
@@ -277,11 +290,13 @@ def _commands(
     }[motion]
     for key in ("angle", "angle_pi", "distance", "side", "held"):
         if key in spec and key not in allowed:
-            raise _err(source, f"{where} key {key!r}", f"does not apply to a {motion}")
+            raise toml_error(source, f"{where} key {key!r}", f"does not apply to a {motion}")
     commands: list[Command] = []
     if kind in (MotionKind.ROTATION, MotionKind.PIVOT):
         if ("angle" in spec) == ("angle_pi" in spec):
-            raise _err(source, f"{where} key 'angle'", "give exactly one of angle or angle_pi")
+            raise toml_error(
+                source, f"{where} key 'angle'", "give exactly one of angle or angle_pi"
+            )
         key = "angle" if "angle" in spec else "angle_pi"
         scale = 1.0 if key == "angle" else math.pi
         held = None
@@ -294,14 +309,14 @@ def _commands(
             )
     elif kind is MotionKind.TRANSLATION:
         if "distance" not in spec:
-            raise _err(source, f"{where} key 'distance'", "missing")
+            raise toml_error(source, f"{where} key 'distance'", "missing")
         for d in _values(
             source, f"{where} key 'distance'", spec["distance"], maximum=MAX_DISTANCE_M, unit=" m"
         ):
             commands.append(Command(kind, distance=sign * d, speed=speed))
     else:
         if "side" not in spec:
-            raise _err(source, f"{where} key 'side'", "missing")
+            raise toml_error(source, f"{where} key 'side'", "missing")
         for s in _values(
             source, f"{where} key 'side'", spec["side"], maximum=MAX_SIDE_M, unit=" m"
         ):
@@ -314,28 +329,28 @@ def _parse_set(
 ) -> list[TrialSpec]:
     where = f"[[trials]] #{index + 1}"
     if not isinstance(spec, dict):
-        raise _err(source, where, "expected a table")
+        raise toml_error(source, where, "expected a table")
     _check_keys(source, where, spec, _SET_KEYS)
     if "motion" not in spec:
-        raise _err(source, f"{where} key 'motion'", "missing")
+        raise toml_error(source, f"{where} key 'motion'", "missing")
     motion = _text(source, f"{where} key 'motion'", spec["motion"], _MOTIONS)
     kind = MotionKind(motion)
     terrain = spec.get("terrain", defaults["terrain"])
     get_terrain(str(terrain), where=f"{source}: {where} key 'terrain'")
     if not isinstance(terrain, str):
-        raise _err(source, f"{where} key 'terrain'", f"expected a name, got {terrain!r}")
+        raise toml_error(source, f"{where} key 'terrain'", f"expected a name, got {terrain!r}")
     campaign = spec.get("campaign", defaults["campaign"])
     if not isinstance(campaign, str) or not campaign:
-        raise _err(source, f"{where} key 'campaign'", "expected a non-empty string")
+        raise toml_error(source, f"{where} key 'campaign'", "expected a non-empty string")
     repeats = spec.get("repeats", 1)
     if isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1:
-        raise _err(
+        raise toml_error(
             source,
             f"{where} key 'repeats'",
             f"expected an integer >= 1, got {quote_input(repeats)}",
         )
     if repeats > MAX_REPEATS:
-        raise _err(
+        raise toml_error(
             source, f"{where} key 'repeats'", f"{repeats} repeats; expected at most {MAX_REPEATS}"
         )
     choices = _DIRECTIONS[motion]
@@ -346,7 +361,7 @@ def _parse_set(
     default_speed = (
         defaults["linear_speed"] if kind is MotionKind.TRANSLATION else defaults["turn_speed"]
     )
-    speed = _number(
+    speed = toml_number(
         source,
         f"{where} key 'speed'",
         spec.get("speed", default_speed),
@@ -356,7 +371,7 @@ def _parse_set(
 
     commands = _commands(source, where, spec, motion, sign, direction, speed)
     if len(commands) * repeats > MAX_TRIALS:
-        raise _err(
+        raise toml_error(
             source,
             f"{where} key 'repeats'",
             f"{len(commands)} values x {repeats} repeats = {len(commands) * repeats} trials; "
@@ -369,11 +384,13 @@ def _instruments(source: str, doc: dict[str, object]) -> Instruments:
     """The [instruments] table (defaults for what it leaves out)."""
     inst = doc.get("instruments", {})
     if not isinstance(inst, dict):
-        raise _err(source, "[instruments]", "expected a table")
+        raise toml_error(source, "[instruments]", "expected a table")
     _check_keys(source, "[instruments]", inst, _INSTRUMENT_KEYS)
 
     def inum(key: str, default: float) -> float:
-        return _number(source, f"[instruments] key {key!r}", inst.get(key, default), positive=False)
+        return toml_number(
+            source, f"[instruments] key {key!r}", inst.get(key, default), positive=False
+        )
 
     try:
         instruments = Instruments(
@@ -386,7 +403,7 @@ def _instruments(source: str, doc: dict[str, object]) -> Instruments:
             tape=Meterstick(sigma=inum("tape_sigma", 0.005)),
         )
     except SimError as err:
-        raise _err(source, "[instruments]", str(err)) from err
+        raise toml_error(source, "[instruments]", str(err)) from err
     return instruments
 
 
@@ -396,12 +413,12 @@ def _trial_specs(
     """Every [[trials]] table's trials, in order."""
     sets = doc.get("trials")
     if not isinstance(sets, list) or not sets:
-        raise _err(source, "[[trials]]", "expected at least one [[trials]] table")
+        raise toml_error(source, "[[trials]]", "expected at least one [[trials]] table")
     trials: list[TrialSpec] = []
     for i, spec in enumerate(sets):
         trials.extend(_parse_set(source, i, spec, defaults))
         if len(trials) > MAX_TRIALS:
-            raise _err(
+            raise toml_error(
                 source,
                 f"[[trials]] #{i + 1}",
                 f"the protocol has {len(trials)} trials up to here; expected at most {MAX_TRIALS}",
@@ -413,23 +430,23 @@ def parse_protocol(doc: dict[str, object], source: str = "<protocol>") -> Experi
     """Build an :class:`ExperimentProtocol` from a parsed TOML document; errors name ``source`` and the key."""
     extra = sorted(set(doc) - {"protocol", "instruments", "trials"})
     if extra:
-        raise _err(
+        raise toml_error(
             source,
             f"key {extra[0]!r}",
             "unknown table; expected [protocol], [instruments], [[trials]]",
         )
     head = doc.get("protocol")
     if not isinstance(head, dict):
-        raise _err(source, "[protocol]", "missing table")
+        raise toml_error(source, "[protocol]", "missing table")
     _check_keys(source, "[protocol]", head, _PROTOCOL_KEYS)
     name = head.get("name", Path(source).stem)
     campaign = head.get("campaign", name)
     if not isinstance(campaign, str) or not campaign:
-        raise _err(source, "[protocol] key 'campaign'", "expected a non-empty string")
+        raise toml_error(source, "[protocol] key 'campaign'", "expected a non-empty string")
     terrain = head.get("terrain", DEFAULT_TERRAIN)
     get_terrain(str(terrain), where=f"{source}: [protocol] key 'terrain'")
     numbers = {
-        key: _number(source, f"[protocol] key {key!r}", head.get(key, default), within=within,
+        key: toml_number(source, f"[protocol] key {key!r}", head.get(key, default), within=within,
                      unit=unit)
         for key, (default, within, unit) in _PROTOCOL_NUMBERS.items()
     }  # fmt: skip
@@ -440,7 +457,7 @@ def parse_protocol(doc: dict[str, object], source: str = "<protocol>") -> Experi
     }  # fmt: skip
     spr = 1.0 / (rate * dt)
     if abs(spr - round(spr)) > 1e-6 or round(spr) < 1:
-        raise _err(
+        raise toml_error(
             source, "[protocol] key 'dt'", f"{dt} s does not divide the report period 1/{rate} s"
         )
     instruments = _instruments(source, doc)
@@ -475,34 +492,56 @@ def builtin_protocols() -> dict[str, str]:
     return builtin_index("protocols", "protocol", "description")
 
 
-def load_protocol(name_or_path: str | Path) -> ExperimentProtocol:
-    """A built-in protocol by name (see :func:`builtin_protocols`) or a protocol TOML file."""
+#: The largest protocol or experiment file read (bytes): a larger one is not a hand-written TOML.
+MAX_TOML_BYTES = 1_000_000
+
+
+def read_toml(
+    name_or_path: str | Path, *, folder: str, what: str, builtins: Callable[[], Iterable[str]]
+) -> tuple[dict[str, object], str]:
+    """The TOML document of a file, or of the built-in ``odolab/data/FOLDER/NAME.toml`` by name,
+    and the name the errors give it. A name that ends in ``.toml`` or is an existing path is a
+    file (at most :data:`MAX_TOML_BYTES`); anything else names a built-in. ``what`` ("protocol",
+    "experiment") and ``builtins`` (their names) word the errors: one rule for both kinds.
+
+    Raises:
+        SimError: the file cannot be read, is too large or is not TOML, or no built-in has
+            that name.
+    """
     key = str(name_or_path)
     path = Path(key)
-    if path.exists():
+    if path.suffix == ".toml" or path.exists():
         source = str(path)
         try:
-            if path.stat().st_size > 1_000_000:
+            size = path.stat().st_size
+            if size > MAX_TOML_BYTES:
                 raise SimError(
-                    f"{path}: {path.stat().st_size:,} bytes; a protocol TOML is at most "
-                    "1,000,000 bytes (is it the right file?)"
+                    f"{path}: {size:,} bytes; a {what} TOML is at most {MAX_TOML_BYTES:,} bytes "
+                    "(is it the right file?)"
                 )
             text = path.read_text(encoding="utf-8")
         except (OSError, UnicodeDecodeError) as err:
-            raise SimError(f"{path}: cannot read ({err})") from err
+            raise SimError(f"{path}: cannot read the {what} ({err})") from err
     else:
-        entry = resources.files("odolab").joinpath(f"data/protocols/{key}.toml")
+        entry = resources.files("odolab").joinpath(f"data/{folder}/{key}.toml")
         if not entry.is_file():
             raise SimError(
-                f"{key}: no such protocol file or built-in protocol; built-ins are "
-                f"{', '.join(builtin_protocols())}"
+                f"{key}: no such {what} file or built-in {what}; built-ins are "
+                f"{', '.join(builtins())}"
             )
         source = f"{key}.toml"
         text = entry.read_text(encoding="utf-8")
     try:
-        doc = tomllib.loads(text)
+        return tomllib.loads(text), source
     except tomllib.TOMLDecodeError as err:
         raise SimError(f"{source}: not valid TOML ({err})") from err
+
+
+def load_protocol(name_or_path: str | Path) -> ExperimentProtocol:
+    """A built-in protocol by name (see :func:`builtin_protocols`) or a protocol TOML file."""
+    doc, source = read_toml(
+        name_or_path, folder="protocols", what="protocol", builtins=builtin_protocols
+    )
     return parse_protocol(doc, source)
 
 
