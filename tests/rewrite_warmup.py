@@ -10,18 +10,21 @@ writes pytest's own cache files; the workers then read them, as on any second ru
 
 It only fills pytest's cache, with pytest's own functions and the run's own configuration (so a
 run with ``enable_assertion_pass_hook`` writes what that run would), and changes nothing a test
-sees: a module whose cache file is already valid is left alone, a module that fails to parse is
-left for pytest to report, and anything unexpected (another pytest's private names) turns the
-warm-up off. ``PYTHONDONTWRITEBYTECODE`` turns it off, as it turns off pytest's own writing.
+sees: it looks only in the folders pytest would enter (not a virtual environment, not a hidden
+or ``norecursedirs`` folder), a module whose cache file is already valid is left alone, and a
+module that fails to parse or whose rewriting warns (an assert that is always true) is left
+for the worker to rewrite and report; anything unexpected (another pytest's private names)
+turns the warm-up off. ``PYTHONDONTWRITEBYTECODE`` turns it off, as it turns off pytest's own writing.
 """
 
 from __future__ import annotations
 
 import fnmatch
 import os
+import signal
 import sys
 import threading
-from collections.abc import Iterable
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -41,18 +44,45 @@ def _is_controller(config: pytest.Config) -> bool:
 
 def modules_to_rewrite(config: pytest.Config) -> list[Path]:
     """The files pytest would rewrite below the run's arguments: its test modules (the
-    ``python_files`` patterns) and every ``conftest.py``."""
+    ``python_files`` patterns) and every ``conftest.py``, in the folders pytest would enter
+    (not hidden ones, not ``norecursedirs``, not a virtual environment, not ``--ignore``d)."""
     patterns = config.getini("python_files") or ["test_*.py", "*_test.py"]
+    skip_dirs = config.getini("norecursedirs") or []
+    ignored = {Path(p).absolute() for p in (config.getoption("ignore", None) or [])}
+    ignored_globs = config.getoption("ignore_glob", None) or []
+
+    def wanted(f: Path) -> bool:
+        return f.name == "conftest.py" or any(fnmatch.fnmatch(f.name, p) for p in patterns)
+
+    def entered(d: Path) -> bool:
+        return not (
+            d.name.startswith(".")
+            or d.name == "__pycache__"
+            or any(fnmatch.fnmatch(d.name, p) for p in skip_dirs)
+            or (d / "pyvenv.cfg").exists()  # a virtual environment, as pytest tells one
+            or d.absolute() in ignored
+            or any(fnmatch.fnmatch(str(d), g) for g in ignored_globs)
+        )
+
+    def entered_file(f: Path) -> bool:
+        return f not in ignored and not any(fnmatch.fnmatch(str(f), g) for g in ignored_globs)
+
     found: set[Path] = set()
     for arg in config.args:
         path = Path(arg.split("::")[0])
-        path = path if path.is_absolute() else config.invocation_params.dir / path
-        files: Iterable[Path] = path.rglob("*.py") if path.is_dir() else [path]
-        for f in files:
-            if "__pycache__" in f.parts or not f.is_file():
-                continue
-            if f.name == "conftest.py" or any(fnmatch.fnmatch(f.name, p) for p in patterns):
-                found.add(f.resolve())
+        path = (path if path.is_absolute() else config.invocation_params.dir / path).absolute()
+        if path.is_file():
+            found.add(path)
+            continue
+        if not path.is_dir():
+            continue
+        for root, dirs, files in os.walk(path):
+            here = Path(root)
+            dirs[:] = [d for d in dirs if entered(here / d)]
+            for name in files:
+                f = here / name
+                if name.endswith(".py") and wanted(f) and entered_file(f):
+                    found.add(f)
     return sorted(found)
 
 
@@ -79,12 +109,13 @@ def warm(config: pytest.Config, files: list[Path], processes: int) -> int:
     for k in range(1, processes):
         pid = os.fork()
         if pid == 0:  # a child: its share, then out without running the parent's exit handlers
-            code = 0
+            code = 1
             try:
+                signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
                 _rewrite_share(rewrite, state, config, files[k::processes])
-            except BaseException:
-                code = 1
-            os._exit(code)
+                code = 0
+            finally:
+                os._exit(code)
         children.append(pid)
     try:
         return _rewrite_share(rewrite, state, config, files[0::processes])
@@ -104,9 +135,13 @@ def _rewrite_share(rewrite: Any, state: Any, config: pytest.Config, files: list[
             continue
         try:
             cache_dir.mkdir(parents=True, exist_ok=True)
-            source_hash, co = rewrite._rewrite_test(fn, config)
+            with warnings.catch_warnings(record=True) as said:
+                warnings.simplefilter("always")
+                source_hash, co = rewrite._rewrite_test(fn, config)
         except (OSError, SyntaxError, ValueError):
             continue  # pytest meets it again at import and reports it there
+        if said:  # (an assert that is always true): left for the worker, whose run reports it
+            continue
         if rewrite._write_pyc(state, co, source_hash, pyc):
             done += 1
     return done

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 from _pytest.assertion import rewrite
 
-from rewrite_warmup import modules_to_rewrite, warm
+from rewrite_warmup import warm
 
 TESTS = Path(__file__).resolve().parents[1]
 
@@ -81,13 +81,6 @@ def test_no_byte_code_writing_writes_nothing(
     assert not _pyc(f).parent.exists()
 
 
-def test_the_suite_s_modules_are_found(pytestconfig: pytest.Config) -> None:
-    found = set(modules_to_rewrite(pytestconfig))
-    assert Path(__file__).resolve() in found or not pytestconfig.args  # (run by node id)
-    here = [p for p in found if p.parent == Path(__file__).resolve().parent]
-    assert all(p.name.startswith("test_") or p.name == "conftest.py" for p in found), here
-
-
 @pytest.mark.usefixtures("writing")
 def test_with_other_threads_running_it_does_not_fork(
     tmp_path: Path, pytestconfig: pytest.Config, monkeypatch: pytest.MonkeyPatch
@@ -101,6 +94,18 @@ def test_with_other_threads_running_it_does_not_fork(
     monkeypatch.setattr(os, "fork", lambda: pytest.fail("forked"))
     assert warm(pytestconfig, files, 3) == 3
     assert all(rewrite._read_pyc(f, _pyc(f)) is not None for f in files)
+
+
+@pytest.mark.usefixtures("writing")
+def test_a_module_whose_rewriting_warns_is_left_for_the_worker(
+    tmp_path: Path, pytestconfig: pytest.Config
+) -> None:
+    """pytest warns of an assert that is always true (a tuple) when it rewrites the module; a
+    worker that finds the module cached would never say it, so the warm-up leaves it."""
+    f = tmp_path / "test_tuple.py"
+    f.write_text('def test_():\n    assert (1 == 2, "always true")\n', encoding="utf-8")
+    assert warm(pytestconfig, [f], 1) == 0
+    assert not _pyc(f).exists()
 
 
 FORKED = """
@@ -131,3 +136,72 @@ def test_the_processes_share_the_modules(tmp_path: Path) -> None:
     assert proc.returncode == 0, proc.stderr
     assert "written 2" in proc.stdout  # this process's share: modules 0 and 3
     assert all(rewrite._read_pyc(f, _pyc(f)) is not None for f in files)
+
+
+FOUND = """
+import sys
+from pathlib import Path
+from _pytest.config import Config
+from rewrite_warmup import modules_to_rewrite
+root = Path(sys.argv[1])
+config = Config.fromdictargs({}, ["-p", "no:cacheprovider", "--ignore", str(root / "skipped"), str(root)])
+for f in modules_to_rewrite(config):
+    print(f.relative_to(root))
+"""
+
+
+def test_only_the_folders_pytest_enters_are_searched(tmp_path: Path) -> None:
+    """`pytest -n 4 .` in a checkout with its venv: the venv's own test files (numpy's, scipy's:
+    thousands) are not rewritten, nor hidden, ``norecursedirs`` or ``--ignore``d folders."""
+    for rel in (
+        "tests/test_a.py", "tests/conftest.py", "tests/helper.py", "tests/sub/test_b.py",
+        "env/lib/test_venv.py", ".hidden/test_h.py", "build/test_build.py",
+        "node_modules/test_n.py", "skipped/test_s.py",
+    ):  # fmt: skip
+        f = tmp_path / rel
+        f.parent.mkdir(parents=True, exist_ok=True)
+        f.write_text("def test_():\n    assert True\n", encoding="utf-8")
+    (tmp_path / "env" / "pyvenv.cfg").write_text("home = /usr/bin\n", encoding="utf-8")
+    env = {**os.environ, "PYTHONPATH": str(TESTS)}
+    proc = subprocess.run(
+        [sys.executable, "-c", FOUND, str(tmp_path)],
+        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.split() == ["tests/conftest.py", "tests/sub/test_b.py", "tests/test_a.py"]
+
+
+WORKER_CONFTEST = """
+import os
+from pathlib import Path
+from _pytest.assertion.rewrite import PYC_TAIL
+
+
+def pytest_configure(config):
+    if hasattr(config, "workerinput"):  # a worker, before it collects: the cache is there
+        here = Path(__file__).parent
+        cached = (here / "__pycache__" / ("test_one" + PYC_TAIL)).exists()
+        (here / f"seen-{config.workerinput['workerid']}").write_text(str(cached))
+"""
+
+
+def test_xdist_s_controller_fills_the_cache_before_its_workers_start(tmp_path: Path) -> None:
+    """The wiring: under ``-n 2`` the controller (and only it) rewrites, before any worker."""
+    (tmp_path / "conftest.py").write_text(WORKER_CONFTEST, encoding="utf-8")
+    _modules(tmp_path, 1)
+    (tmp_path / "test_m0.py").rename(tmp_path / "test_one.py")
+    env = {**os.environ, "PYTHONPATH": str(TESTS), "PYTHONDONTWRITEBYTECODE": ""}
+    cmd = [sys.executable, "-m", "pytest", "-n", "2", "-p", "rewrite_warmup", "-q"]
+    cmd += [
+        "-p",
+        "no:cacheprovider",
+        "-p",
+        "no:randomly",
+        "--rootdir",
+        str(tmp_path),
+        str(tmp_path),
+    ]
+    proc = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    seen = sorted(p.read_text() for p in tmp_path.glob("seen-*"))
+    assert seen == ["True", "True"]

@@ -172,6 +172,14 @@ def test_the_fits_repeated_evaluations_equal_fresh_ones_in_every_thread() -> Non
     for got_all in rounds:
         for got, want in zip(got_all, expected, strict=True):
             assert all(np.array_equal(a, b, equal_nan=True) for a, b in zip(got, want, strict=True))
+    import copy
+    import pickle
+
+    for again in (pickle.loads(pickle.dumps(shared)), copy.deepcopy(shared)):  # after use
+        got = end_second_order(thetas[0], again)  # (a copy's arrays may be laid out otherwise,
+        # and einsum's order of summation follows the layout: equal to the last bits only)
+        for a, b in zip(got, expected[0], strict=True):
+            assert np.allclose(a, b, rtol=1e-12, atol=0.0)
 
 
 def test_drift_grows_like_the_distance_and_white_noise_like_its_root() -> None:

@@ -258,6 +258,9 @@ def test_quiet_runs_in_one_process_leave_no_thread_behind(
     before = printers()
     for k in range(3):
         assert cli(tmp_path / f"run{k}", "sim://") == 0
+    (tmp_path / "afile").write_text("x")
+    for k in range(2):  # refused before driving: a folder below a file
+        assert cli(tmp_path / "afile" / f"run{k}", "sim://") == 1
     capsys.readouterr()
     assert printers() == before
 

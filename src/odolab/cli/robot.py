@@ -308,15 +308,16 @@ def _run(
         command, config, robot, params, truth, terrain, seed, foxglove, foxglove_port, source, CLI
     )
     plan = plan_run(request, lambda line: echo(said(line), err=True))
-    views = _Views(plan, quiet)
     # every output precondition before the robot moves: the notebook opens and is one (create,
     # migrate), the run folder can be created and written and holds no earlier run
     folder = out if out is not None else default_folder(plan.command)
     notebook = open_outputs(folder, db)
+    views = _Views(plan, quiet)  # (its printer thread ends with the run, however it ends)
     try:
         views.foxglove = _FoxgloveView(plan.nominal, foxglove_port) if foxglove else None
         _drive(plan, views, folder=folder, notebook=notebook, db=db, realtime=realtime)
     finally:
+        views.stop()
         if notebook is not None:
             notebook.close()
 

@@ -217,6 +217,10 @@ class EndPairs:
         arithmetic done in it. One set a thread."""
         return threading.local()
 
+    def __getstate__(self) -> dict[str, object]:
+        """Pickled and deep-copied without the arrays of :meth:`work` (made again on use)."""
+        return {k: v for k, v in self.__dict__.items() if k != "_work"}
+
     def work(self, name: str, shape: tuple[int, ...]) -> FloatArray:
         """The calling thread's array ``name`` of ``shape`` for :func:`end_second_order`
         (its content is whatever the last call left)."""
