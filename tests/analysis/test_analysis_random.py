@@ -6,13 +6,14 @@ import math
 
 import numpy as np
 import pytest
-from scipy import stats
 
 from odolab.analysis import group_spreads, random_error, sd_confidence_interval
 from odolab.core.errors import InsufficientDataError
 
 
 def test_sd_interval_matches_chi_square_by_hand() -> None:
+    from scipy import stats  # (0.7-0.95 s to import: when a test needs it)
+
     lo, hi = sd_confidence_interval(2.94, 17)
     assert lo == pytest.approx(2.94 * math.sqrt(17 / stats.chi2.ppf(0.975, 17)))
     assert hi == pytest.approx(2.94 * math.sqrt(17 / stats.chi2.ppf(0.025, 17)))
@@ -32,6 +33,8 @@ def test_sd_interval_covers_truth_95_percent_of_seeds() -> None:
 
 
 def test_random_error_uses_residual_dof_and_shapiro() -> None:
+    from scipy import stats  # (0.7-0.95 s to import: when a test needs it)
+
     r = np.random.default_rng(5).normal(0, 0.03, 20)
     r -= r.mean()
     res = random_error(r, df=18)

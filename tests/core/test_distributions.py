@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
-from scipy import stats
 
 from odolab.core import distributions as d
 
@@ -21,21 +20,29 @@ dofs = st.floats(0.5, 500.0)
 
 @given(p=probs, k=dofs)
 def test_chi2_ppf_is_scipy_s(p: float, k: float) -> None:
+    from scipy import stats  # (0.7-0.95 s to import: when a test needs it)
+
     assert d.chi2_ppf(p, k) == float(stats.chi2.ppf(p, k))
 
 
 @given(x=st.floats(-1.0, 2000.0), k=dofs)
 def test_chi2_sf_is_scipy_s(x: float, k: float) -> None:
+    from scipy import stats  # (0.7-0.95 s to import: when a test needs it)
+
     assert d.chi2_sf(x, k) == float(stats.chi2.sf(x, k))
 
 
 @given(q=probs, k=st.floats(1.0, 500.0))
 def test_t_ppf_is_scipy_s(q: float, k: float) -> None:
+    from scipy import stats  # (0.7-0.95 s to import: when a test needs it)
+
     assert d.t_ppf(q, k) == float(stats.t.ppf(q, k))
 
 
 @given(x=st.floats(-1.0, 100.0), dfn=st.integers(1, 20), dfd=st.integers(1, 200))
 def test_f_sf_is_scipy_s(x: float, dfn: int, dfd: int) -> None:
+    from scipy import stats  # (0.7-0.95 s to import: when a test needs it)
+
     assert d.f_sf(x, dfn, dfd) == float(stats.f.sf(x, dfn, dfd))
 
 
@@ -55,6 +62,8 @@ NAN, INF = float("nan"), float("inf")
 )  # fmt: skip
 def test_the_edges_are_scipy_s(name: str, args: tuple[float, ...]) -> None:
     """Degrees of freedom of 0, NaN or infinity and probabilities at 0 and 1 as scipy.stats."""
+    from scipy import stats  # (0.7-0.95 s to import: when a test needs it)
+
     dist, fn = name.split("_")
     want = float(getattr(getattr(stats, dist), fn)(*args))
     got = getattr(d, name)(*args)
@@ -62,6 +71,8 @@ def test_the_edges_are_scipy_s(name: str, args: tuple[float, ...]) -> None:
 
 
 def test_norm_pdf_and_fit_are_scipy_s() -> None:
+    from scipy import stats  # (0.7-0.95 s to import: when a test needs it)
+
     rng = np.random.default_rng(5)
     data = rng.normal(0.3, 2.0, 101)
     assert d.norm_fit(data) == tuple(float(v) for v in stats.norm.fit(data))
@@ -95,6 +106,8 @@ def test_the_quantiles_do_not_import_scipy_stats(what: str) -> None:
 @pytest.mark.parametrize("n", [3, 4, 5, 6, 7, 11, 12, 13, 20, 50, 200, 1000])
 def test_shapiro_wilk_is_scipy_s(n: int) -> None:
     """Royston's AS R94 in double precision against scipy's (single precision inside)."""
+    from scipy import stats  # (0.7-0.95 s to import: when a test needs it)
+
     rng = np.random.default_rng(n)
     worst_w = worst_p = 0.0
     for sample in (rng.normal(size=n), rng.exponential(size=n), rng.uniform(size=n) ** 3):

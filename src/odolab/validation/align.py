@@ -21,7 +21,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import ndimage, signal
 
 from odolab.core.arrays import FloatArray
 from odolab.core.errors import ImuLogError, opt
@@ -158,6 +157,8 @@ def _rates_on_grids(
         known[(grid_b > g0) & (grid_b < g1)] = 0.0
     masked = bool((known == 0.0).any())
     if smooth > 0:  # the same zero-phase (symmetric) low-pass on both: no shift, less noise
+        from scipy import ndimage
+
         a = ndimage.gaussian_filter1d(a, smooth / h, mode="nearest")
         if masked:  # from the known samples only (normalised convolution)
             weight = ndimage.gaussian_filter1d(known, smooth / h, mode="nearest")
@@ -181,6 +182,8 @@ def _energies(
     r0 = np.maximum(0, lags)
     r1 = np.minimum(na, lags + nb)
     if masked:  # the robot's energy only where the sensor's rate is known, lag by lag
+        from scipy import signal
+
         energy_a = np.asarray(signal.correlate(a * a, known, mode="full", method="auto"))
         energy = np.maximum(energy_a, 0.0) * (cb[r1 - lags] - cb[r0 - lags])
     else:
@@ -272,6 +275,8 @@ def find_clock_offset(
         )
     # c[k] = sum_j a[j + k - (nb - 1)] * b[j]; lag L = k - (nb - 1) grid steps means phone
     # sample j sits at robot grid index j + L, i.e. offset = (imu.t0 - robot.t0) - L*h
+    from scipy import signal  # (0.8 s to import, scipy.stats with it: when clocks are aligned)
+
     c = signal.correlate(a, b, mode="full", method="auto") / norm
     lags = np.arange(-(nb - 1), na)
     offsets = (float(imu.t[0]) - float(robot_t[0])) - lags * h
