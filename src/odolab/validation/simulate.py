@@ -19,7 +19,6 @@ from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy import interpolate
 
 from odolab.core.arrays import FloatArray
 from odolab.core.defaults import DEFAULT_ROBOT
@@ -66,6 +65,8 @@ def simulate_phone_log(
     step = 1.0 / rate_hz
     t_robot = t[0] + step * np.arange(math.floor((t[-1] - t[0]) / step) + 1)
     # the truth between its samples: a cubic spline (exact for cubics; smooth rate)
+    from scipy import interpolate  # (0.5 s to import: when a phone log is simulated)
+
     spline = interpolate.CubicSpline(t, h)
     true_rate = np.asarray(spline(t_robot, 1), dtype=np.float64)
     noise = gyro_noise * rng.standard_normal(t_robot.size)
