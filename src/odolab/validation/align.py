@@ -172,6 +172,14 @@ def _rates_on_grids(
     return a, b, known, masked
 
 
+def _correlate(a: FloatArray, b: FloatArray) -> FloatArray:
+    """``scipy.signal.correlate(a, b, "full")``; scipy.signal (0.8 s to import, scipy.stats with
+    it) is imported here, when clocks are aligned, not with the module."""
+    from scipy import signal
+
+    return np.asarray(signal.correlate(a, b, mode="full", method="auto"), dtype=np.float64)
+
+
 def _energies(
     a: FloatArray, b: FloatArray, known: FloatArray, masked: bool, lags: NDArray[np.int64]
 ) -> FloatArray:
@@ -182,9 +190,7 @@ def _energies(
     r0 = np.maximum(0, lags)
     r1 = np.minimum(na, lags + nb)
     if masked:  # the robot's energy only where the sensor's rate is known, lag by lag
-        from scipy import signal
-
-        energy_a = np.asarray(signal.correlate(a * a, known, mode="full", method="auto"))
+        energy_a = _correlate(a * a, known)
         energy = np.maximum(energy_a, 0.0) * (cb[r1 - lags] - cb[r0 - lags])
     else:
         energy = (ca[r1] - ca[r0]) * (cb[r1 - lags] - cb[r0 - lags])
@@ -275,9 +281,7 @@ def find_clock_offset(
         )
     # c[k] = sum_j a[j + k - (nb - 1)] * b[j]; lag L = k - (nb - 1) grid steps means phone
     # sample j sits at robot grid index j + L, i.e. offset = (imu.t0 - robot.t0) - L*h
-    from scipy import signal  # (0.8 s to import, scipy.stats with it: when clocks are aligned)
-
-    c = signal.correlate(a, b, mode="full", method="auto") / norm
+    c = _correlate(a, b) / norm
     lags = np.arange(-(nb - 1), na)
     offsets = (float(imu.t[0]) - float(robot_t[0])) - lags * h
     # overlap (s) of each lag, to keep only offsets that leave enough common time
