@@ -55,7 +55,7 @@ from odolab.core.defaults import DEFAULT_TERRAIN
 from odolab.core.errors import SimError
 from odolab.core.kinematics import wrap_angle
 from odolab.core.odometry import integrate
-from odolab.core.params import RobotParams
+from odolab.core.params import MAX_TOML_BYTES, RobotParams
 from odolab.core.progress import Progress, no_progress
 from odolab.core.text import quote_input
 from odolab.core.trajectory import Pose
@@ -492,16 +492,12 @@ def builtin_protocols() -> dict[str, str]:
     return builtin_index("protocols", "protocol", "description")
 
 
-#: The largest protocol or experiment file read (bytes): a larger one is not a hand-written TOML.
-MAX_TOML_BYTES = 1_000_000
-
-
 def read_toml(
     name_or_path: str | Path, *, folder: str, what: str, builtins: Callable[[], Iterable[str]]
 ) -> tuple[dict[str, object], str]:
     """The TOML document of a file, or of the built-in ``odolab/data/FOLDER/NAME.toml`` by name,
     and the name the errors give it. A name that ends in ``.toml`` or is an existing path is a
-    file (at most :data:`MAX_TOML_BYTES`); anything else names a built-in. ``what`` ("protocol",
+    file (at most :data:`odolab.core.params.MAX_TOML_BYTES`, a parameters file's cap); anything else names a built-in. ``what`` ("protocol",
     "experiment") and ``builtins`` (their names) word the errors: one rule for both kinds.
 
     Raises:

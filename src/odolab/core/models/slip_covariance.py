@@ -271,7 +271,8 @@ def end_second_order(
     # heading_moments, with its two exponentials kept for the derivatives
     mm = np.add(s[:, :, None], s[:, None, :], out=pairs.work("mm", kk))
     mm *= -0.5
-    up = np.exp(np.add(mm, c, out=pairs.work("up", kk)), out=pairs.work("up", kk))
+    up = np.add(mm, c, out=pairs.work("up", kk))
+    np.exp(up, out=up)
     down = np.exp(np.subtract(mm, c, out=mm), out=mm)
     p = np.add(up, down, out=pairs.work("p", kk))
     p *= 0.5
