@@ -10,13 +10,20 @@ Then the two loops compiled (``slip_covariance.COMPILED``, where numba is instal
 numpy loops that run without numba, in the same run: a whole log of 3,000 cycles, and 300
 pieces of 20 cycles each (``evaluate --nees`` over 1 s pieces: the DRIVE Husky's 314 windows).
 
-Usage: python benchmarks/bench_slip_covariance.py [--repeats R]
+With ``--before OLD/src``, last: the slip fit's end-of-piece share (``end_second_order``, which
+the noise-term fit calls some hundred times on the same pieces) of this tree against OLD's
+(its ``odolab/core/models/slip_covariance.py`` loaded beside this one), on the same pieces at
+the shapes of 1 s and 3 s pieces at 20 Hz, the calls alternated; the fastest of 40 calls each
+(a single call is short: the fastest is the one least disturbed by the machine's load).
+
+Usage: python benchmarks/bench_slip_covariance.py [--repeats R] [--before OLD/src]
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
 import numpy as np
 from _timing import best  # benchmarks/_timing.py (run as python benchmarks/...)
@@ -25,13 +32,63 @@ from odolab import PRESETS
 from odolab.core.models import SlipModel, slip_covariance
 from odolab.core.odometry import integrate_increments
 from odolab.core.params import NoiseParams
-from odolab.core.slip_uncertainty import SlipCovarianceStepper, propagate_covariance
+from odolab.core.slip_uncertainty import (
+    TERMS,
+    EndPairs,
+    SlipCovarianceStepper,
+    end_second_order,
+    propagate_covariance,
+)
 from odolab.core.uncertainty import covariance_from_ticks
+
+
+def _end_pairs(before: Path) -> None:
+    """``end_second_order`` of this tree against ``before``'s, on the same pieces."""
+    import importlib.util
+    import sys
+
+    spec = importlib.util.spec_from_file_location(
+        "before_slip_covariance", before / "odolab" / "core" / "models" / "slip_covariance.py"
+    )
+    if spec is None or spec.loader is None:
+        raise SystemExit(f"{before}: no odolab/core/models/slip_covariance.py there")
+    old = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = old  # (its dataclasses look their module up)
+    spec.loader.exec_module(old)
+    rng = np.random.default_rng(0)
+    theta = rng.uniform(0.1, 2.0, len(TERMS))
+    print("end_second_order (ms a call, fastest of 40): this tree | before | before / this")
+    for m, k in ((18, 61), (58, 21)):
+        base = rng.uniform(0.0, 1e-4, (m, k, k, 4))
+        c0 = rng.uniform(0.0, 1e-5, (m, k, k))
+        arrays = (
+            rng.normal(0.0, 0.05, (m, k, 2)), 0.5 * (base + base.transpose(0, 2, 1, 3)),
+            0.5 * (c0 + c0.transpose(0, 2, 1)), rng.uniform(0.0, 1e-4, (m, k, 4)),
+            rng.uniform(0.0, 1e-5, (m, k)),
+        )  # fmt: skip
+        now, then = EndPairs(*arrays), old.EndPairs(*arrays)
+        got, want = end_second_order(theta, now), old.end_second_order(theta, then)
+        same = all(np.array_equal(a, b) for a, b in zip(got, want, strict=True))
+        times: dict[str, list[float]] = {"now": [], "before": []}
+        for _ in range(40):
+            for name, fn, pairs in (
+                ("now", end_second_order, now),
+                ("before", old.end_second_order, then),
+            ):
+                t0 = time.perf_counter()
+                fn(theta, pairs)
+                times[name].append(time.perf_counter() - t0)
+        a, b = min(times["now"]), min(times["before"])
+        print(
+            f"  {m} pieces of {k} steps: {1e3 * a:.2f} | {1e3 * b:.2f} | {b / a:.2f}x "
+            f"({'the same bits' if same else 'RESULTS DIFFER'})"
+        )
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=2)
+    ap.add_argument("--before", type=Path, default=None, help="another odolab tree's src/")
     args = ap.parse_args()
     nominal = PRESETS["jaguar-lite"]
     sigma = np.eye(24) * 1e-4
@@ -75,6 +132,8 @@ def main() -> None:
         f"streaming stepper: {1e3 * first:.3f} ms a cycle at the start, {1e3 * last:.3f} ms after "
         f"{biggest} cycles ({last / first:.1f}x; a 20 Hz loop has 50 ms)"
     )
+    if args.before is not None:
+        _end_pairs(args.before)
     if not slip_covariance.HAVE_NUMBA:
         print("numba is not installed: the numpy loops only")
         return

@@ -213,8 +213,8 @@ class EndPairs:
     @cached_property
     def _work(self) -> threading.local:
         """:func:`end_second_order`'s arrays, made once for these pairs (a fit evaluates them
-        some hundred times): a fresh array of a few MB costs more in page faults than the
-        arithmetic done in it. One set a thread."""
+        some hundred times): making arrays of a few MB anew at every call cost about as much
+        as the arithmetic done in them. One set a thread."""
         return threading.local()
 
     def __getstate__(self) -> dict[str, object]:
